@@ -1,0 +1,46 @@
+#pragma once
+// A record: a contiguous stretch of the sample clock, cut by the processing thread from the
+// acquisition stream (seed §3.2.2: 10 s records at 100 kHz). Value type only: no I/O.
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gearwatch {
+
+inline constexpr int kMaxShafts = 4;
+
+/// How a record ended. A record containing a gap is never analysed as if continuous:
+/// it is cut at the gap (analysed if still long enough) or rejected.
+enum class RecordEnd : std::uint8_t {
+  complete = 0,     ///< the configured length was reached
+  cut_at_gap = 1,   ///< a gap ended it early; the samples before the gap are kept
+  stream_end = 2,   ///< the stream changed or the source ended; kept if long enough
+};
+
+const char* to_string(RecordEnd end) noexcept;
+
+struct Record {
+  std::int64_t stream_key = 0;        ///< database id of the stream (0 when not stored)
+  std::uint16_t stream_id = 0;        ///< protocol stream id (header frame)
+  double sample_rate_hz = 0.0;
+  std::uint64_t start_index = 0;      ///< unwrapped sample index of the first sample
+  RecordEnd end = RecordEnd::complete;
+  /// One vector per configured channel, physical units (m/s²), all the same length.
+  std::vector<std::vector<float>> channels;
+  std::vector<int> channel_numbers;   ///< protocol channel number c of each vector above
+  /// Tacho edge positions per shaft, in samples relative to start_index (fractional).
+  std::array<std::vector<double>, kMaxShafts> tacho_edges;
+  double torque_nm = std::numeric_limits<double>::quiet_NaN();
+  double speed_hz = std::numeric_limits<double>::quiet_NaN();
+  /// Input-shaft revolutions since the pair was installed, at the first sample (life counter
+  /// plus revolutions counted from the tacho since the last life-counter frame).
+  std::optional<double> input_revolutions;
+
+  std::size_t sample_count() const noexcept { return channels.empty() ? 0 : channels.front().size(); }
+  double duration_s() const noexcept { return sample_rate_hz > 0 ? sample_count() / sample_rate_hz : 0.0; }
+};
+
+}  // namespace gearwatch

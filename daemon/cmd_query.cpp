@@ -1,0 +1,7 @@
+#include "commands.hpp"
+
+namespace gearwatch::cli {
+
+void register_query(CLI::App& app) { (void)app; }
+
+}  // namespace gearwatch::cli

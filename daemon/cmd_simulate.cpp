@@ -1,0 +1,7 @@
+#include "commands.hpp"
+
+namespace gearwatch::cli {
+
+void register_simulate(CLI::App& app) { (void)app; }
+
+}  // namespace gearwatch::cli

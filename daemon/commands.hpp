@@ -1,0 +1,21 @@
+#pragma once
+// Subcommand registration. Each subcommand lives in its own cmd_<name>.cpp and adds itself
+// to the application here; main.cpp only calls these in order.
+#include <CLI/CLI.hpp>
+
+namespace gearwatch::cli {
+
+/// Thrown by a subcommand to end with a one-line reason and a non-zero exit status.
+struct CommandError : std::runtime_error {
+  explicit CommandError(const std::string& what, int status = 1) : std::runtime_error(what), exit_status(status) {}
+  int exit_status;
+};
+
+void register_run(CLI::App& app);
+void register_replay(CLI::App& app);
+void register_simulate(CLI::App& app);
+void register_query(CLI::App& app);
+void register_inspect(CLI::App& app);
+void register_twin(CLI::App& app);
+
+}  // namespace gearwatch::cli
