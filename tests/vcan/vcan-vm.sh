@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# vcan-vm.sh — run a script against a real Linux vcan interface, also on a machine whose own
+# kernel has no CAN support (no AF_CAN, no vcan module): it boots Debian's stock kernel under
+# qemu's software emulation, loads can, can-raw, can-dev and vcan, creates vcan0 and vcan1
+# (CAN FD capable, mtu 72) and runs the given script inside with /bin/sh.
+#
+# Usage: tests/vcan/vcan-vm.sh PAYLOAD_DIR SCRIPT [TIMEOUT_S]
+#   PAYLOAD_DIR  copied to /payload inside the VM (binaries, data, scripts). The shared
+#                libraries of every executable in it are copied in too, at their host paths.
+#   SCRIPT       path INSIDE the VM of the script to run, e.g. /payload/inside.sh
+#   TIMEOUT_S    wall-clock limit for the whole VM run (default 240)
+# The VM's console is this script's stdout. The inner script's exit status is printed by the
+# VM as "VCAN-VM-EXIT <rc>" and returned; 125 means the VM did not get that far.
+#
+# Environment:
+#   GEARWATCH_VCAN_CACHE  where the kernel and its CAN modules are kept
+#                         (default ${XDG_CACHE_HOME:-$HOME/.cache}/gearwatch-vcan)
+#   GEARWATCH_VCAN_SMP    virtual CPUs (default 2)   GEARWATCH_VCAN_MEM  MiB (default 2048)
+#
+# Needs the Debian packages qemu-system-x86, busybox-static, cpio and xz-utils; they are
+# installed with apt-get when missing (as root). The kernel package is fetched with
+# `apt-get download` (not installed) and unpacked into the cache once.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+payload=${1:?usage: vcan-vm.sh PAYLOAD_DIR SCRIPT [TIMEOUT_S]}
+script=${2:?usage: vcan-vm.sh PAYLOAD_DIR SCRIPT [TIMEOUT_S]}
+limit=${3:-240}
+cache=${GEARWATCH_VCAN_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/gearwatch-vcan}
+[ -d "$payload" ] || { echo "vcan-vm: payload folder '$payload' does not exist" >&2; exit 2; }
+
+"$here/install-deps.sh"
+mkdir -p "$cache"
+
+# 1. Debian's kernel and its CAN modules, unpacked once per kernel version.
+if [ ! -f "$cache/vmlinuz" ] || [ ! -f "$cache/mods/vcan.ko" ]; then
+  pkg=$(apt-cache depends linux-image-amd64 2>/dev/null |
+        sed -n 's/.*Depends: \(linux-image-[0-9][^ ]*\).*/\1/p' | head -1)
+  if [ -z "$pkg" ]; then
+    apt-get update -qq
+    pkg=$(apt-cache depends linux-image-amd64 | sed -n 's/.*Depends: \(linux-image-[0-9][^ ]*\).*/\1/p' | head -1)
+  fi
+  [ -n "$pkg" ] || { echo "vcan-vm: cannot find Debian's kernel package (apt-cache depends linux-image-amd64)" >&2; exit 2; }
+  echo "vcan-vm: fetching $pkg into $cache" >&2
+  rm -rf "$cache/root" "$cache/mods" "$cache/vmlinuz"
+  (cd "$cache" && apt-get download "$pkg" >/dev/null && dpkg-deb -x "$pkg"_*.deb root && rm -f "$pkg"_*.deb)
+  cp "$cache"/root/boot/vmlinuz-* "$cache/vmlinuz.tmp"
+  mkdir -p "$cache/mods"
+  for m in net/can/can.ko net/can/can-raw.ko drivers/net/can/dev/can-dev.ko drivers/net/can/vcan.ko; do
+    f=$(ls "$cache"/root/lib/modules/*/kernel/$m* 2>/dev/null | head -1)
+    [ -n "$f" ] || { echo "vcan-vm: the kernel package has no $m" >&2; exit 2; }
+    case $f in
+      *.xz) xz -dc "$f" >"$cache/mods/$(basename "${f%.xz}")" ;;
+      *) cp "$f" "$cache/mods/" ;;
+    esac
+  done
+  rm -rf "$cache/root"
+  mv "$cache/vmlinuz.tmp" "$cache/vmlinuz"   # last: its presence marks a complete cache
+fi
+
+# 2. initramfs: busybox, the modules, the payload and its libraries, and the init script.
+work=$(mktemp -d)
+out=$(mktemp)
+trap 'rm -rf "$work" "$work.cpio.gz" "$out"' EXIT
+mkdir -p "$work"/{bin,sbin,proc,sys,dev,tmp,etc,lib/can}
+cp /bin/busybox "$work/bin/"
+cp "$cache"/mods/*.ko "$work/lib/can/"
+cp -a "$payload" "$work/payload"
+find "$work/payload" -type f -perm -u+x | while read -r f; do
+  for lib in $(ldd "$f" 2>/dev/null | grep -o '/[^ ]*' || true); do
+    [ -e "$work$lib" ] || { mkdir -p "$work$(dirname "$lib")"; cp -L "$lib" "$work$lib"; }
+  done
+done
+cp "$here/vm-init.sh" "$work/init"
+chmod +x "$work/init"
+printf '%s\n' "$script" >"$work/etc/vcan-vm-script"
+(cd "$work" && find . | cpio -o -H newc 2>/dev/null | gzip -1 >"$work.cpio.gz")
+
+# 3. Boot. Software emulation (TCG): it needs no KVM and behaves the same on any x86-64 host.
+timeout "$limit" qemu-system-x86_64 -accel tcg -cpu max -smp "${GEARWATCH_VCAN_SMP:-2}" \
+  -m "${GEARWATCH_VCAN_MEM:-2048}" -kernel "$cache/vmlinuz" -initrd "$work.cpio.gz" \
+  -append "console=ttyS0 quiet panic=-1" -nographic -no-reboot -display none </dev/null |
+  tee "$out" || true
+rc=$(sed -n 's/.*VCAN-VM-EXIT \([0-9][0-9]*\).*/\1/p' "$out" | tail -1)
+[ -n "$rc" ] || { echo "vcan-vm: the VM did not finish the script within ${limit}s" >&2; exit 125; }
+exit "$rc"
