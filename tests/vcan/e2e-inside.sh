@@ -1,0 +1,91 @@
+# e2e-inside.sh — the end-to-end test's steps, run INSIDE the test VM by busybox sh
+# (run-vcan-test.sh builds the payload: gearwatch, canplayer, sqlite3, cap.log, vcan.toml, iface-map).
+#  1. `gearwatch run` listens on vcan0 and writes /tmp/run.db;
+#  2. canplayer replays the capture onto vcan0 in real time (its timestamps pace it);
+#  3. SIGTERM: the daemon stops acquisition, drains its ring, commits, exits 0;
+#  4. `gearwatch replay` processes the same capture from the file into /tmp/replay.db;
+#  5. both databases must hold the same records (start, sample count, end reason) and the live
+#     run must have lost nothing (kernel drops, ring overflows, gaps, malformed frames).
+# Prints "VCAN E2E: PASS ..." or "VCAN E2E: FAIL: <reason>" and exits 0 / 1.
+P=/payload
+DRAIN_LIMIT_S=${DRAIN_LIMIT_S:-120}
+[ -f $P/limits ] && . $P/limits
+map=$(cat $P/iface-map)
+now() { date +%s; }
+t_start=$(now)
+fail() {
+  echo "VCAN E2E: FAIL: $*"
+  for f in /tmp/run.log /tmp/replay.log; do
+    [ -s $f ] && { echo "---- last lines of $f"; tail -n 40 $f; }
+  done
+  exit 1
+}
+step() { echo "vcan-e2e [+$(( $(now) - t_start )) s] $*"; }
+
+# 1. the daemon, live on vcan0
+step "starting gearwatch run on vcan0"
+$P/gearwatch run --config $P/vcan.toml 2>/tmp/run.log &
+daemon=$!
+waited=0
+until grep -q "listening on vcan0" /tmp/run.log 2>/dev/null; do
+  kill -0 $daemon 2>/dev/null || { wait $daemon; fail "gearwatch run exited (status $?) before listening on vcan0"; }
+  waited=$((waited + 1))
+  [ $waited -le 300 ] || fail "gearwatch run did not report 'listening on vcan0' within 30 s"
+  sleep 0.1
+done
+step "daemon listening"
+
+# 2. the capture, replayed onto vcan0 at its recorded pace
+frames=$(wc -l <$P/cap.log)
+step "canplayer: $frames frames, $map"
+t0=$(now)
+$P/canplayer -I $P/cap.log $map || fail "canplayer failed (status $?)"
+play_s=$(( $(now) - t0 ))
+step "canplayer done in ${play_s} s"
+kill -0 $daemon 2>/dev/null || { wait $daemon; fail "gearwatch run died during the replay (status $?)"; }
+
+# 3. orderly stop: drain and commit
+t0=$(now)
+kill -TERM $daemon
+( sleep $DRAIN_LIMIT_S; kill -KILL $daemon 2>/dev/null ) &
+guard=$!
+wait $daemon
+run_status=$?
+kill $guard 2>/dev/null
+drain_s=$(( $(now) - t0 ))
+step "gearwatch run exited with status $run_status after SIGTERM (${drain_s} s to drain and commit)"
+[ $run_status -eq 0 ] || fail "gearwatch run exited with status $run_status after SIGTERM (137 = killed after ${DRAIN_LIMIT_S} s)"
+
+# 4. the reference: the same capture from the file
+t0=$(now)
+$P/gearwatch replay $P/cap.log --db /tmp/replay.db --config $P/vcan.toml 2>/tmp/replay.log >/tmp/replay.out ||
+  fail "gearwatch replay failed (status $?)"
+step "gearwatch replay done in $(( $(now) - t0 )) s"
+
+# 5. compare
+q="SELECT start_index, sample_count, end_reason FROM records ORDER BY start_index"
+$P/sqlite3 -separator ' | ' /tmp/run.db "$q" >/tmp/run.rows 2>/tmp/run.sqlerr || fail "sqlite3 on run.db: $(cat /tmp/run.sqlerr)"
+$P/sqlite3 -separator ' | ' /tmp/replay.db "$q" >/tmp/replay.rows 2>/tmp/replay.sqlerr || fail "sqlite3 on replay.db: $(cat /tmp/replay.sqlerr)"
+health_q="SELECT COALESCE(SUM(kernel_drops + ring_overflows + gaps + malformed_frames), -1) FROM acquisition_health"
+losses=$($P/sqlite3 /tmp/run.db "$health_q" 2>/tmp/health.sqlerr) || fail "sqlite3 acquisition_health: $(cat /tmp/health.sqlerr)"
+echo "---- live run (gearwatch run on vcan0): start_index | sample_count | end_reason"
+cat /tmp/run.rows
+echo "---- file replay (gearwatch replay): start_index | sample_count | end_reason"
+cat /tmp/replay.rows
+echo "---- live run acquisition_health (every snapshot)"
+$P/sqlite3 -header -separator ' | ' /tmp/run.db "SELECT * FROM acquisition_health" 2>&1 | tail -n 12
+n_run=$(wc -l </tmp/run.rows)
+n_replay=$(wc -l </tmp/replay.rows)
+samples_run=$(awk -F' [|] ' '{s += $2} END {print s + 0}' /tmp/run.rows)
+samples_replay=$(awk -F' [|] ' '{s += $2} END {print s + 0}' /tmp/replay.rows)
+echo "records: live $n_run, replay $n_replay; samples in records: live $samples_run, replay $samples_replay; live losses: $losses"
+
+[ "$n_replay" -gt 0 ] || fail "the replay produced no records: nothing to compare"
+cmp -s /tmp/run.rows /tmp/replay.rows || {
+  echo "---- difference (replay -> live)"
+  diff /tmp/replay.rows /tmp/run.rows
+  fail "the live run's records differ from the replay's ($n_run vs $n_replay records)"
+}
+[ "$losses" = "0" ] || fail "the live run lost data: kernel_drops + ring_overflows + gaps + malformed_frames = $losses"
+echo "VCAN E2E: PASS: $n_run records identical (live vcan0 vs file replay), $samples_run samples, zero losses; canplayer ${play_s} s, drain ${drain_s} s, total $(( $(now) - t_start )) s in the VM"
+exit 0

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# run-vcan-test.sh — end-to-end test over a real vcan interface: a simulated rig capture
+# (100 kHz x 2 vibration channels + tacho, CAN FD) is played onto vcan0 by can-utils' canplayer
+# while `gearwatch run` listens; the database it writes must hold the same records as
+# `gearwatch replay` of the same capture, with zero losses. Runs in the qemu test VM
+# (vcan-vm.sh), so it works on hosts whose kernel has no CAN.
+#
+# Usage: tests/vcan/run-vcan-test.sh PATH/TO/gearwatch
+# Exit 0 = pass; the last line is a one-line summary ("VCAN E2E: PASS ..." / "... FAIL ...").
+# Environment:
+#   GEARWATCH_VCAN_DURATION  seconds of signal to simulate (default 22)
+#   GEARWATCH_VCAN_DRAIN_S   how long the daemon may take to drain after SIGTERM (default 120)
+#   and those of vcan-vm.sh (GEARWATCH_VCAN_CACHE, GEARWATCH_VCAN_SMP, GEARWATCH_VCAN_MEM).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+gearwatch=${1:?usage: run-vcan-test.sh PATH/TO/gearwatch}
+duration=${GEARWATCH_VCAN_DURATION:-22}
+[ -x "$gearwatch" ] || { echo "VCAN E2E: FAIL: '$gearwatch' is not an executable"; exit 2; }
+"$here/install-deps.sh"
+
+start=$(date +%s)
+payload=$(mktemp -d)
+trap 'rm -rf "$payload"' EXIT
+
+# The capture is made on the host (native speed); the VM only plays it.
+if ! "$gearwatch" simulate --out "$payload/cap.log" --duration "$duration" --speed 10 --torque 20 --fd \
+     >"$payload/simulate.out" 2>&1; then
+  cat "$payload/simulate.out"
+  echo "VCAN E2E: FAIL: gearwatch simulate could not make the capture"
+  exit 1
+fi
+# canplayer maps interfaces by name: send the capture's interface (first field after the time) as vcan0.
+iface=$(awk 'NF >= 3 && $1 ~ /^\(/ { print $2; exit }' "$payload/cap.log")
+[ -n "$iface" ] || { echo "VCAN E2E: FAIL: the capture has no candump -L lines"; exit 1; }
+echo "vcan0=$iface" >"$payload/iface-map"
+echo "DRAIN_LIMIT_S=${GEARWATCH_VCAN_DRAIN_S:-120}" >"$payload/limits"
+echo "vcan-e2e: capture of ${duration} s: $(wc -l <"$payload/cap.log") frames, $(du -h "$payload/cap.log" | cut -f1), interface $iface"
+
+cp "$gearwatch" "$payload/gearwatch"
+cp "$(command -v canplayer)" "$payload/canplayer"
+cp "$(command -v sqlite3)" "$payload/sqlite3"
+cp "$here/vcan.toml" "$here/e2e-inside.sh" "$payload/"
+
+set +e
+"$here/vcan-vm.sh" "$payload" /payload/e2e-inside.sh $(( duration + 240 ))
+rc=$?
+set -e
+if [ "$rc" -eq 0 ]; then
+  echo "VCAN E2E: PASS ($(( $(date +%s) - start )) s in all, VM boot included)"
+else
+  echo "VCAN E2E: FAIL: exit status $rc ($(( $(date +%s) - start )) s in all; see the lines above)"
+fi
+exit "$rc"
