@@ -1,0 +1,135 @@
+#pragma once
+// The 21-DOF lumped model of the rig (seed Eqs. 5.1–5.7): assembled matrices, the linearised
+// (mean mesh stiffness) system, and the time-varying equations of motion as an odeint system.
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "gearwatch/twin/gearbox_parameters.hpp"
+#include "gearwatch/twin/gear_geometry.hpp"
+#include "gearwatch/twin/mesh_stiffness.hpp"
+#include "gearwatch/twin/transmission_error.hpp"
+
+namespace gearwatch::twin {
+
+inline constexpr int kDofCount = 21;
+using Vector21 = Eigen::Matrix<double, kDofCount, 1>;
+using Matrix21 = Eigen::Matrix<double, kDofCount, kDofCount>;
+
+/// Indices into x of Eq. 5.2.
+enum Dof : int {
+  theta1 = 0, theta2, theta3, theta5, theta7, theta8, theta10, theta12, theta13,
+  y4, y5, y6, y9, y10, y11,
+  x4, x5, x6, x9, x10, x11
+};
+const char* dof_name(int dof);
+
+/// A spring between two DOFs (b = -1: to ground), with the name of its parameter.
+struct SpringElement {
+  std::string name;
+  int a = 0;
+  int b = -1;
+  double stiffness = 0;
+};
+
+/// Structural springs of Eqs. 5.6–5.7 (the mesh is separate).
+std::vector<SpringElement> spring_elements(const GearboxParameters& p);
+
+/// δ = gᵀx (Eq. 5.3 without the GTE): the mesh's direction in DOF space. The mesh force enters the
+/// equations as −g F (Eq. 5.5), so the mesh adds k_m g gᵀ to the stiffness.
+Vector21 mesh_direction(const GearGeometry& geometry);
+
+/// The assembled linear parts. Structural damping is modal: C = M Φ diag(2 ζ ω) Φᵀ M over the modes
+/// of the structure without the mesh (its two rigid-body modes get none), so damping never acts on
+/// the nominal rotation. The mesh adds k_m(t) g gᵀ and c_m(t) g gᵀ.
+struct GearboxMatrices {
+  Vector21 mass;                 ///< diagonal of M
+  Matrix21 stiffness;            ///< structural K (no mesh)
+  Matrix21 damping;              ///< structural C (no mesh)
+  Vector21 mesh;                 ///< g
+  double mean_mesh_stiffness = 0;
+  double mesh_damping_time_constant = 0;  ///< μ of Eq. 5.13
+  /// K + k̄ g gᵀ: the linearised stiffness used for modal analysis and static equilibrium.
+  Matrix21 linearised_stiffness() const { return stiffness + mean_mesh_stiffness * mesh * mesh.transpose(); }
+};
+
+/// Builds M, K, C, g (validates the parameters; throws TwinParameterError).
+GearboxMatrices assemble(const GearboxParameters& p, const GearMeshStiffness& mesh_stiffness);
+GearboxMatrices assemble(const GearboxParameters& p);
+
+/// State of the integrator: [q; q̇], q = x minus the nominal rigid rotation at constant speed.
+using State = std::array<double, 2 * kDofCount>;
+
+/// An external harmonic load f sin(2π f_hz t) (used for FRF checks and excitation studies).
+struct HarmonicLoad {
+  Vector21 amplitude = Vector21::Zero();
+  double frequency_hz = 0;
+};
+
+/// Mesh model used by the equations of motion.
+enum class MeshModel {
+  time_varying,       ///< per-pair stiffness from the potential-energy table, contact loss allowed
+  constant_mean,      ///< k̄ always, no contact loss (the linearised system; used for checks)
+};
+
+/// The equations of motion M q̈ + C q̇ + K q = f − g F_mesh as an odeint system(x, dxdt, t).
+/// Coordinates are deviations from the nominal rotation θ_in = Ω t, θ_out = Ω t r_b1/r_b2, so the
+/// state stays small and bounded; the mesh phase follows the actual pinion angle Ω t + q5.
+/// Mesh force per pair in contact (Eqs. 5.3–5.4 applied per pair):
+///   F_i = k_i (δ + e_i) + μ k_i (δ̇ + ė_i) while δ + e_i > 0, else 0 (contact loss).
+class GearboxDynamics {
+ public:
+  GearboxDynamics(const GearboxMatrices& matrices, std::shared_ptr<const GearMeshStiffness> mesh_stiffness,
+                  std::shared_ptr<const GeometricTransmissionError> gte, double input_speed_hz,
+                  double input_torque_nm, MeshModel model = MeshModel::time_varying);
+
+  void operator()(const State& x, State& dxdt, double t) const;
+
+  /// Mesh quantities at (x, t).
+  struct MeshState {
+    double phase = 0;                ///< mesh phase ∈ [0,1)
+    long long cycle = 0;             ///< mesh cycles since t = 0
+    int pairs = 0;
+    double positions[3] = {0, 0, 0};
+    double pair_force[3] = {0, 0, 0};
+    double stiffness = 0;            ///< Σ k_i of the pairs in contact
+    double force = 0;                ///< total dynamic mesh force (N)
+    double deflection = 0;           ///< δ = gᵀq (m): the dynamic transmission error
+    double gte = 0;                  ///< kinematic GTE of the pairs in contact
+  };
+  MeshState mesh_state(const State& x, double t) const;
+
+  /// Static equilibrium of the linearised system under the operating torque (q1 = 0 fixes the
+  /// rigid-body rotation). Returns a state with zero velocities.
+  State static_equilibrium() const;
+
+  /// Total mechanical energy for the constant-mesh, undamped, unforced case (checks).
+  double linear_energy(const State& x) const;
+
+  void set_harmonic_load(const HarmonicLoad& load) { harmonic_ = load; }
+  const GearboxMatrices& matrices() const { return m_; }
+  double input_speed_hz() const { return speed_hz_; }
+  double mesh_frequency_hz() const;
+  double brake_torque_nm() const { return brake_torque_; }
+
+ private:
+  double mesh_force(const Eigen::Ref<const Vector21>& q, const Eigen::Ref<const Vector21>& v, double t,
+                    MeshState* out) const;
+  GearboxMatrices m_;
+  Vector21 inverse_mass_;
+  std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
+  std::shared_ptr<const GeometricTransmissionError> gte_;
+  double speed_hz_;
+  double omega_;
+  double input_torque_;
+  double brake_torque_;
+  MeshModel model_;
+  HarmonicLoad harmonic_;
+  Vector21 external_;
+  double base_pitch_angle_;          ///< pinion rotation per mesh period 2π/z1
+};
+
+}  // namespace gearwatch::twin

@@ -1,0 +1,95 @@
+#pragma once
+// Steady-state simulation of the 21-DOF model (seed §5.2.3, §5.3): Boost.Odeint dopri5 with dense
+// output sampled at the acquisition rate, with step checks that stop a divergent run.
+#include <cstddef>
+#include <vector>
+
+#include "gearwatch/twin/gearbox_model.hpp"
+#include "gearwatch/twin/gearbox_parameters.hpp"
+#include "gearwatch/twin/transmission_error.hpp"
+
+namespace gearwatch::twin {
+
+struct OperatingPoint {
+  double input_speed_hz = 10.0;   ///< pinion (input) shaft speed
+  double input_torque_nm = 20.0;  ///< motor torque; the brake holds it times the ratio
+};
+
+struct SimulationOptions {
+  double sample_rate_hz = 100000.0;
+  double settle_s = 0.05;               ///< simulated, not output, before the first sample
+  double relative_tolerance = 1e-6;
+  double absolute_tolerance = 1e-12;    ///< the state mixes rad and m; 1e-12 resolves 1e-9 m vibration
+  int max_steps_per_sample = 2000;      ///< odeint max_step_checker between two output samples
+  double deflection_limit_m = 1e-3;     ///< |δ| beyond this is divergence (teeth are ~4 mm high)
+  MeshModel mesh_model = MeshModel::time_varying;
+};
+
+/// The dynamic force carried by one tooth pair over its pass along the line of action (root of the
+/// pinion → tip), with the Hertz pressure (seed Fig. 5.18; input to the wear models).
+struct ContactForceProfile {
+  std::vector<double> position_m;         ///< s on the line of action
+  std::vector<double> pinion_fraction;    ///< 0 = pinion start of active profile .. 1 = tip
+  std::vector<double> force_n;
+  std::vector<double> max_pressure_pa;
+  std::vector<double> half_width_m;
+};
+
+struct SimulationResult {
+  double sample_rate_hz = 0;
+  std::vector<double> time_s;
+  std::vector<double> casing_acceleration;   ///< ÿ6 (m/s²)
+  std::vector<double> mesh_force_n;          ///< total dynamic mesh force
+  std::vector<double> mesh_stiffness_n_m;    ///< Σ k_i of the pairs in contact
+  std::vector<double> transmission_error_m;  ///< δ = gᵀq (dynamic TE along the line of action)
+  std::vector<double> gte_m;                 ///< kinematic GTE of the pairs in contact
+  std::vector<int> pairs_in_contact;
+  /// Input-shaft tacho: one edge per revolution, in samples from the first sample (fractional).
+  std::vector<double> tacho_edges;
+  ContactForceProfile contact_profile;       ///< the first full tooth-pair pass after settling
+  double brake_torque_nm = 0;
+  std::size_t rhs_evaluations = 0;
+};
+
+/// Simulates `duration_s` of steady running after `settle_s`, starting from the static equilibrium
+/// of the linearised model. Throws TwinParameterError (bad input) or TwinDivergenceError.
+SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                          double duration_s, const SimulationOptions& options = {});
+
+/// For rig simulators: the simulated casing acceleration y6 (m/s²) at `sample_rate_hz` and the
+/// input-shaft tacho edges (one per revolution, in samples), for a given wear state.
+struct CasingSignal {
+  double sample_rate_hz = 0;
+  std::vector<float> acceleration;
+  std::vector<double> tacho_edges;
+};
+CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
+                                    const OperatingPoint& op, double duration_s, double sample_rate_hz);
+
+/// Integrates an arbitrary GearboxDynamics from `state` at t0, calling observer(state, t) at
+/// t0 + i/rate for i = 0..count-1; dopri5 with dense output and the divergence checks above.
+/// Returns the number of right-hand-side evaluations.
+template <class Observer>
+std::size_t integrate_sampled(const GearboxDynamics& dynamics, State& state, double t0, double rate, std::size_t count,
+                              const SimulationOptions& options, Observer&& observer);
+
+/// RMS of a signal after a 4th-order Butterworth low-pass (two biquads, bilinear transform): the
+/// seed's 0–2 kHz band RMS of y6 used to tune the mesh (§5.3).
+double lowpass_rms(const std::vector<double>& signal, double sample_rate_hz, double cutoff_hz);
+
+/// Fine-tunes mesh_stiffness_scale (inside [low, high]) so that lowpass_rms of the simulated y6 at
+/// `op` equals target_rms (bisection on the monotone branch; the seed adjusted it by hand).
+struct MeshTuningResult {
+  double mesh_stiffness_scale = 1;
+  double simulated_rms = 0;
+  double target_rms = 0;
+  int simulations = 0;
+  bool reached = false;             ///< |sim − target| ≤ 1 % of target
+};
+MeshTuningResult tune_mesh_to_rms(const GearboxParameters& p, const OperatingPoint& op, double target_rms,
+                                  double duration_s, double cutoff_hz = 2000.0, double low = 0.5, double high = 1.5,
+                                  double sample_rate_hz = 100000.0);
+
+}  // namespace gearwatch::twin
+
+#include "gearwatch/twin/simulation_impl.hpp"

@@ -1,0 +1,176 @@
+#include "gearwatch/twin/simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <numbers>
+
+namespace gearwatch::twin {
+
+SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                          double duration_s, const SimulationOptions& options) {
+  p.validate();
+  if (!std::isfinite(duration_s) || duration_s <= 0) throw TwinParameterError("simulation duration must be positive");
+  if (!std::isfinite(op.input_speed_hz) || op.input_speed_hz <= 0) throw TwinParameterError("input speed must be positive");
+  if (!(options.settle_s >= 0)) throw TwinParameterError("settle time must be non-negative");
+  if (!(options.sample_rate_hz > 0)) throw TwinParameterError("sample rate must be positive");
+  const double samples_d = std::ceil(duration_s * options.sample_rate_hz);
+  if (samples_d > 2e9) throw TwinParameterError("simulation too long for one run");
+  const GearGeometry geometry = GearGeometry::from_spec(p.gears);
+  MeshStiffnessOptions mo;
+  mo.scale = p.mesh_stiffness_scale;
+  mo.engagement_ramp_fraction = p.engagement_ramp_fraction;
+  auto mesh = std::make_shared<const GearMeshStiffness>(geometry, mo);
+  auto gte = std::make_shared<const GeometricTransmissionError>(geometry, deviation);
+  const GearboxMatrices matrices = assemble(p, *mesh);
+  const GearboxDynamics dynamics(matrices, mesh, gte, op.input_speed_hz, op.input_torque_nm, options.mesh_model);
+
+  SimulationResult result;
+  result.sample_rate_hz = options.sample_rate_hz;
+  result.brake_torque_nm = dynamics.brake_torque_nm();
+  State state = dynamics.static_equilibrium();
+  // Settle: integrate without recording (coarse output grid, same checks).
+  if (options.settle_s > 0) {
+    const double settle_rate = std::max(options.sample_rate_hz / 10.0, 1000.0);
+    const auto settle_count = static_cast<std::size_t>(std::ceil(options.settle_s * settle_rate)) + 1;
+    result.rhs_evaluations += integrate_sampled(dynamics, state, 0.0, settle_rate, settle_count, options, [](const State&, double) {});
+  }
+  const double t0 = options.settle_s > 0 ? std::ceil(options.settle_s * std::max(options.sample_rate_hz / 10.0, 1000.0)) /
+                                               std::max(options.sample_rate_hz / 10.0, 1000.0)
+                                         : 0.0;
+  const auto count = static_cast<std::size_t>(samples_d);
+  result.time_s.reserve(count);
+  result.casing_acceleration.reserve(count);
+  result.mesh_force_n.reserve(count);
+  result.mesh_stiffness_n_m.reserve(count);
+  result.transmission_error_m.reserve(count);
+  result.gte_m.reserve(count);
+  result.pairs_in_contact.reserve(count);
+  std::vector<double> input_angle_deviation;
+  input_angle_deviation.reserve(count);
+  // Follow one tooth pair over a full pass: the pair that enters in the first full cycle.
+  long long tracked_cycle = -1;
+  bool profile_done = false;
+  State dxdt{};
+  result.rhs_evaluations += integrate_sampled(dynamics, state, t0, options.sample_rate_hz, count, options, [&](const State& x, double t) {
+    dynamics(x, dxdt, t);
+    const auto ms = dynamics.mesh_state(x, t);
+    result.time_s.push_back(t - t0);
+    result.casing_acceleration.push_back(dxdt[kDofCount + y6]);
+    result.mesh_force_n.push_back(ms.force);
+    result.mesh_stiffness_n_m.push_back(ms.stiffness);
+    result.transmission_error_m.push_back(ms.deflection);
+    result.gte_m.push_back(ms.gte);
+    result.pairs_in_contact.push_back(ms.pairs);
+    input_angle_deviation.push_back(x[theta1]);
+    if (!profile_done) {
+      if (tracked_cycle < 0 && ms.phase < 0.5) tracked_cycle = ms.cycle + 1;  // the next pair to enter
+      if (tracked_cycle >= 0) {
+        const long long j = tracked_cycle <= ms.cycle ? ms.cycle - tracked_cycle : -1;
+        if (j >= 0 && j < ms.pairs) {
+          auto& prof = result.contact_profile;
+          const double s = ms.positions[j];
+          const HertzContact h = hertz_contact(geometry, s, ms.pair_force[j]);
+          prof.position_m.push_back(s);
+          prof.pinion_fraction.push_back(geometry.profile_fraction_pinion(s));
+          prof.force_n.push_back(ms.pair_force[j]);
+          prof.max_pressure_pa.push_back(h.max_pressure_pa);
+          prof.half_width_m.push_back(h.half_width_m);
+        } else if (j >= ms.pairs) {
+          profile_done = true;
+        }
+      }
+    }
+  });
+  // Tacho: the input shaft angle Ω t + q1 passes 2π k; edges at fractional sample positions.
+  const double omega = 2.0 * std::numbers::pi * op.input_speed_hz;
+  for (std::size_t i = 1; i < count; ++i) {
+    const double a0 = omega * (t0 + (static_cast<double>(i) - 1.0) / options.sample_rate_hz) + input_angle_deviation[i - 1];
+    const double a1 = omega * (t0 + static_cast<double>(i) / options.sample_rate_hz) + input_angle_deviation[i];
+    const double k = std::ceil(a0 / (2.0 * std::numbers::pi));
+    const double edge = 2.0 * std::numbers::pi * k;
+    if (edge >= a0 && edge < a1) result.tacho_edges.push_back(static_cast<double>(i) - 1.0 + (edge - a0) / (a1 - a0));
+  }
+  return result;
+}
+
+CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
+                                    const OperatingPoint& op, double duration_s, double sample_rate_hz) {
+  SimulationOptions options;
+  options.sample_rate_hz = sample_rate_hz;
+  const SimulationResult r = simulate(p, deviation, op, duration_s, options);
+  CasingSignal s;
+  s.sample_rate_hz = sample_rate_hz;
+  s.acceleration.assign(r.casing_acceleration.begin(), r.casing_acceleration.end());
+  s.tacho_edges = r.tacho_edges;
+  return s;
+}
+
+double lowpass_rms(const std::vector<double>& signal, double sample_rate_hz, double cutoff_hz) {
+  if (signal.empty()) throw TwinParameterError("lowpass_rms: empty signal");
+  if (!(sample_rate_hz > 0) || !(cutoff_hz > 0) || cutoff_hz >= 0.5 * sample_rate_hz)
+    throw TwinParameterError("lowpass_rms: cutoff must lie in (0, fs/2)");
+  // 4th-order Butterworth as two biquads (Q = 0.5412, 1.3066), bilinear transform with prewarping.
+  const double k = std::tan(std::numbers::pi * cutoff_hz / sample_rate_hz);
+  double mean = 0;
+  for (double v : signal) mean += v;
+  mean /= static_cast<double>(signal.size());
+  std::vector<double> y(signal.size());
+  for (std::size_t i = 0; i < signal.size(); ++i) y[i] = signal[i] - mean;  // RMS of the fluctuation
+  for (double q : {0.541196100146197, 1.306562964876377}) {
+    const double norm = 1.0 / (1.0 + k / q + k * k);
+    const double b0 = k * k * norm, b1 = 2 * b0, b2 = b0;
+    const double a1 = 2.0 * (k * k - 1.0) * norm, a2 = (1.0 - k / q + k * k) * norm;
+    double z1 = 0, z2 = 0;
+    for (double& v : y) {
+      const double out = b0 * v + z1;
+      z1 = b1 * v - a1 * out + z2;
+      z2 = b2 * v - a2 * out;
+      v = out;
+    }
+  }
+  double sum = 0;
+  for (double v : y) sum += v * v;
+  return std::sqrt(sum / static_cast<double>(y.size()));
+}
+
+MeshTuningResult tune_mesh_to_rms(const GearboxParameters& p, const OperatingPoint& op, double target_rms,
+                                  double duration_s, double cutoff_hz, double low, double high, double sample_rate_hz) {
+  if (!(target_rms > 0) || !std::isfinite(target_rms)) throw TwinParameterError("target RMS must be positive");
+  if (!(low > 0) || !(high > low)) throw TwinParameterError("mesh scale search range is empty");
+  MeshTuningResult r;
+  r.target_rms = target_rms;
+  SimulationOptions options;
+  options.sample_rate_hz = sample_rate_hz;
+  auto rms_at = [&](double scale) {
+    GearboxParameters q = p;
+    q.mesh_stiffness_scale = scale;
+    ++r.simulations;
+    const SimulationResult s = simulate(q, {}, op, duration_s, options);
+    return lowpass_rms(s.casing_acceleration, sample_rate_hz, cutoff_hz);
+  };
+  double f_lo = rms_at(low) - target_rms, f_hi = rms_at(high) - target_rms;
+  if (f_lo * f_hi > 0) {  // target outside what the range can produce: take the closer end
+    r.mesh_stiffness_scale = std::abs(f_lo) < std::abs(f_hi) ? low : high;
+    r.simulated_rms = target_rms + std::min(std::abs(f_lo), std::abs(f_hi)) * (std::abs(f_lo) < std::abs(f_hi) ? (f_lo > 0 ? 1 : -1) : (f_hi > 0 ? 1 : -1));
+    return r;
+  }
+  double a = low, b = high;
+  for (int i = 0; i < 30; ++i) {
+    const double m = 0.5 * (a + b);
+    const double fm = rms_at(m) - target_rms;
+    r.mesh_stiffness_scale = m;
+    r.simulated_rms = fm + target_rms;
+    if (std::abs(fm) <= 0.002 * target_rms) break;
+    if ((fm > 0) == (f_lo > 0)) {
+      a = m;
+      f_lo = fm;
+    } else {
+      b = m;
+    }
+  }
+  r.reached = std::abs(r.simulated_rms - target_rms) <= 0.01 * target_rms;
+  return r;
+}
+
+}  // namespace gearwatch::twin
