@@ -1,0 +1,56 @@
+#pragma once
+// Squared-envelope spectrum (SES) and ICS2 (seed Eq. 4.3 / 7.2):
+//   ICS2 = sum_{h=1..H} max_{n in A_h} SES[n]^2 / SES[0]^2,  A_h = h*GMF +- tolerance bins.
+// Signals are angle-domain (a whole number R of shaft revolutions), so SES bin n is the cyclic
+// order n / R of that shaft and speed changes do not smear the gear-mesh cyclic frequency.
+#include <cstddef>
+#include <span>
+
+#include "gearwatch/dsp/fft.hpp"
+
+namespace gearwatch::dsp {
+
+struct Ics2Parameters {
+  double cyclic_order = 19.0;   ///< the gear-mesh order of the shaft the signal is resampled on
+  int harmonics = 3;            ///< H
+  int tolerance_bins = 3;       ///< half-width of A_h in cyclic-resolution bins
+};
+
+struct Ics2Result {
+  double value = 0.0;
+  int harmonics_used = 0;       ///< harmonics whose whole A_h lies below the SES Nyquist
+};
+
+/// ICS2 from SES magnitudes (bins 0..size-1, bin spacing 1/bins_per_order orders). Harmonics whose
+/// window reaches past the last bin are not counted (reported in harmonics_used).
+/// Returns value 0 when SES[0] is 0 (an all-zero signal has no cyclostationarity).
+Ics2Result ics2_from_ses(std::span<const double> ses_magnitude, double bins_per_order, const Ics2Parameters& p);
+
+/// Squared envelopes and their spectra with reusable plans and scratch (no allocation once the
+/// largest size has been seen).
+class SquaredEnvelopeAnalyzer {
+ public:
+  explicit SquaredEnvelopeAnalyzer(FftPlanCache& plans) : plans_(&plans) {}
+
+  /// ICS2 of the part of a real signal between spectrum bins [first_bin, last_bin] (inclusive),
+  /// given the signal's r2c spectrum (signal_size/2+1 bins) and the revolutions it spans.
+  /// The band is moved to baseband as an analytic signal on the smallest grid R*2^p that holds
+  /// it without aliasing its squared envelope, so narrow bands cost little.
+  Ics2Result band_ics2(std::span<const Complex> spectrum, std::size_t signal_size, std::size_t revolutions,
+                       std::size_t first_bin, std::size_t last_bin, const Ics2Parameters& p);
+
+  /// ICS2 of a complex (one-sided, e.g. filter-bank) signal whose length spans `revolutions`:
+  /// SES of |c|^2.
+  Ics2Result complex_ics2(std::span<const Complex> c, double revolutions, const Ics2Parameters& p);
+
+  /// SES magnitude |DFT(e)|/n of a squared envelope e (bins 0..n/2), for tests and plots.
+  std::span<const double> ses(std::span<const double> squared_envelope);
+
+ private:
+  FftPlanCache* plans_;
+  ComplexBuffer baseband_, analytic_, ses_spectrum_;
+  RealBuffer envelope_;
+  std::vector<double> ses_magnitude_;
+};
+
+}  // namespace gearwatch::dsp

@@ -1,0 +1,110 @@
+#pragma once
+// FFTW3 (double) wrappers. Plans are created once per size, through one process-wide mutex
+// (FFTW's planner is not thread-safe), and executed with the new-array interface on buffers the
+// caller owns, so one plan serves any number of records without allocating.
+#include <complex>
+#include <cstddef>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <vector>
+
+namespace gearwatch::dsp {
+
+using Complex = std::complex<double>;
+
+/// The lock every fftw_plan_* / fftw_destroy_plan call in the process must hold.
+std::mutex& fftw_planner_mutex();
+
+/// Allocator returning fftw_malloc'd (SIMD-aligned) memory: buffers made with it may be given
+/// to any plan below.
+template <class T>
+struct FftwAllocator {
+  using value_type = T;
+  FftwAllocator() = default;
+  template <class U>
+  FftwAllocator(const FftwAllocator<U>&) noexcept {}
+  T* allocate(std::size_t n);
+  void deallocate(T* p, std::size_t) noexcept;
+  template <class U>
+  bool operator==(const FftwAllocator<U>&) const noexcept { return true; }
+};
+
+void* fftw_aligned_alloc(std::size_t bytes);
+void fftw_aligned_free(void* p) noexcept;
+
+template <class T>
+T* FftwAllocator<T>::allocate(std::size_t n) {
+  return static_cast<T*>(fftw_aligned_alloc(n * sizeof(T)));
+}
+template <class T>
+void FftwAllocator<T>::deallocate(T* p, std::size_t) noexcept {
+  fftw_aligned_free(p);
+}
+
+using RealBuffer = std::vector<double, FftwAllocator<double>>;
+using ComplexBuffer = std::vector<Complex, FftwAllocator<Complex>>;
+
+/// Real-to-complex forward and complex-to-real inverse transform of one size (unnormalised, as
+/// FFTW: inverse(forward(x)) = n·x). Movable, not copyable.
+class RealFft {
+ public:
+  explicit RealFft(std::size_t n);
+  ~RealFft();
+  RealFft(RealFft&& other) noexcept;
+  RealFft& operator=(RealFft&& other) noexcept;
+  RealFft(const RealFft&) = delete;
+  RealFft& operator=(const RealFft&) = delete;
+
+  std::size_t size() const noexcept { return n_; }
+  std::size_t spectrum_size() const noexcept { return n_ / 2 + 1; }
+  /// in: size() samples; out: spectrum_size() bins. Both SIMD-aligned (RealBuffer/ComplexBuffer
+  /// or an offset that keeps the alignment), else std::invalid_argument. Input is preserved.
+  void forward(std::span<const double> in, std::span<Complex> out) const;
+  /// in: spectrum_size() bins (destroyed: FFTW's c2r overwrites its input); out: size() samples.
+  void inverse(std::span<Complex> in, std::span<double> out) const;
+
+ private:
+  std::size_t n_ = 0;
+  void* forward_plan_ = nullptr;
+  void* inverse_plan_ = nullptr;
+};
+
+/// Complex-to-complex transform of one size, out-of-place; sign -1 forward, +1 backward.
+class ComplexFft {
+ public:
+  explicit ComplexFft(std::size_t n);
+  ~ComplexFft();
+  ComplexFft(ComplexFft&& other) noexcept;
+  ComplexFft& operator=(ComplexFft&& other) noexcept;
+  ComplexFft(const ComplexFft&) = delete;
+  ComplexFft& operator=(const ComplexFft&) = delete;
+
+  std::size_t size() const noexcept { return n_; }
+  /// in and out must not overlap (out-of-place plans) and be aligned.
+  void forward(std::span<const Complex> in, std::span<Complex> out) const;
+  void backward(std::span<const Complex> in, std::span<Complex> out) const;
+
+ private:
+  std::size_t n_ = 0;
+  void* forward_plan_ = nullptr;
+  void* backward_plan_ = nullptr;
+};
+
+/// Plans keyed by size, created on first use and kept: after the first record of a given length
+/// no plan is created and nothing is allocated. Not thread-safe itself (one per analyzer).
+class FftPlanCache {
+ public:
+  const RealFft& real(std::size_t n);
+  const ComplexFft& complex(std::size_t n);
+
+ private:
+  std::map<std::size_t, std::unique_ptr<RealFft>> real_;
+  std::map<std::size_t, std::unique_ptr<ComplexFft>> complex_;
+};
+
+/// Smallest power of two >= n (n >= 1).
+std::size_t next_power_of_two(std::size_t n);
+
+}  // namespace gearwatch::dsp

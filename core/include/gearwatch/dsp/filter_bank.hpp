@@ -1,0 +1,124 @@
+#pragma once
+// The 1/3-binary tree filter bank of Antoni's fast kurtogram (MSSP 21 (2007) 108-124), with the
+// band criterion pluggable: kurtosis reproduces the kurtogram (checked against an independent
+// implementation), ICS2 is the seed's band selection (§4.3.2). Conventions (filters, decimation
+// phases, transient trimming, row/column layout) follow the reference's README exactly; see
+// docs/dsp.md.
+#include <array>
+#include <cstddef>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "gearwatch/dsp/envelope.hpp"
+#include "gearwatch/dsp/fft.hpp"
+
+namespace gearwatch::dsp {
+
+/// One band of the tree as seen by a criterion.
+struct FilterBankNode {
+  int row = 0;                 ///< 0 whole signal; 2k-1 binary depth k; 2k ternary split of depth k-1
+  double level = 0.0;          ///< k, or k + log2(3) - 1 for ternary rows
+  int band_index = 0;          ///< in increasing frequency within the row
+  int band_count = 1;
+  int decimation = 1;          ///< input samples per node sample
+  bool real = false;           ///< only row 0: the raw (mean-removed) real signal
+  std::span<const Complex> samples;  ///< after the transient trim (real parts only when `real`)
+};
+
+class BandCriterion {
+ public:
+  virtual ~BandCriterion() = default;
+  virtual const char* name() const noexcept = 0;
+  virtual double evaluate(const FilterBankNode& node) = 0;
+};
+
+/// Antoni's kurt2: K = mean|c|^4 / (mean|c|^2)^2 - 2 (- 3 for a real signal), after removing the
+/// complex mean; 0 for an all-zero or sub-epsilon-power segment.
+class KurtosisCriterion final : public BandCriterion {
+ public:
+  const char* name() const noexcept override { return "kurtosis"; }
+  double evaluate(const FilterBankNode& node) override;
+};
+
+/// ICS2 of the band's squared envelope, on the largest whole-revolution stretch of the trimmed
+/// node (for a ternary node a multiple of 3 revolutions, so the gear-mesh order stays on a bin).
+/// Harmonics above a node's cyclic Nyquist are not counted.
+class Ics2Criterion final : public BandCriterion {
+ public:
+  Ics2Criterion(SquaredEnvelopeAnalyzer& envelope, FftPlanCache& plans, std::size_t samples_per_rev,
+                Ics2Parameters parameters)
+      : envelope_(&envelope), plans_(&plans), samples_per_rev_(samples_per_rev), parameters_(parameters) {}
+  const char* name() const noexcept override { return "ics2"; }
+  double evaluate(const FilterBankNode& node) override;
+
+ private:
+  SquaredEnvelopeAnalyzer* envelope_;
+  FftPlanCache* plans_;
+  std::size_t samples_per_rev_;
+  Ics2Parameters parameters_;
+  RealBuffer real_;
+  ComplexBuffer spectrum_;
+};
+
+/// The criterion over all bands: rows x columns as in the reference kurtogram
+/// (2*levels rows, 3*2^levels columns, each band's value repeated over its columns).
+struct BandMap {
+  int levels = 0;
+  std::string criterion;
+  std::vector<double> values;  ///< row-major
+  std::size_t rows() const noexcept { return static_cast<std::size_t>(2 * levels); }
+  std::size_t columns() const noexcept { return static_cast<std::size_t>(3) << levels; }
+  double at(std::size_t row, std::size_t column) const { return values[row * columns() + column]; }
+
+  struct Optimum {
+    int row = 0;
+    std::size_t first_column = 0;
+    double level = 0.0;
+    double centre_fraction = 0.0;     ///< band centre / sample rate
+    double bandwidth_fraction = 0.0;  ///< bandwidth / sample rate
+    double value = 0.0;
+  };
+  /// First maximum in row-major order (the reference's convention).
+  Optimum optimum() const;
+};
+
+/// Level of a row: 0, 1, 1.585, 2, 2.585, ...
+double filter_bank_row_level(int row);
+
+class OneThirdBinaryFilterBank {
+ public:
+  OneThirdBinaryFilterBank();
+
+  /// Decomposes x to `levels` binary depths (ternary splits down to depth levels-2) and evaluates
+  /// every criterion on every band; maps[i] receives criteria[i]'s map. Reuses its buffers.
+  /// Throws std::invalid_argument when levels < 1 or x is too short for the deepest level.
+  void analyse(std::span<const double> x, int levels, std::span<BandCriterion* const> criteria,
+               std::span<BandMap> maps);
+
+  /// The filters as built (reference: filters.csv): binary low (17 taps), binary high (16),
+  /// ternary 1..3 (25 each).
+  std::span<const Complex> low() const noexcept { return low_; }
+  std::span<const Complex> high() const noexcept { return high_; }
+  std::span<const Complex> ternary(int i) const { return ternary_.at(static_cast<std::size_t>(i)); }
+
+ private:
+  void visit(int depth, int band, std::span<const Complex> node, std::size_t depth_length);
+  void evaluate(int row, int band, int band_count, int decimation, bool real, std::span<const Complex> trimmed);
+  void ternary_split(int depth, int band, std::span<const Complex> node);
+
+  std::vector<Complex> low_, high_;
+  std::array<std::vector<Complex>, 3> ternary_;
+  int levels_ = 0;
+  std::span<BandCriterion* const> criteria_;
+  std::span<BandMap> maps_;
+  ComplexBuffer root_;
+  std::vector<ComplexBuffer> low_children_, high_children_;
+  ComplexBuffer ternary_scratch_;
+};
+
+/// scipy.signal.firwin(taps, cutoff) for a low-pass with the default Hamming window and unit DC
+/// gain (cutoff relative to Nyquist) = MATLAB fir1(taps-1, cutoff).
+std::vector<double> firwin_lowpass(int taps, double cutoff);
+
+}  // namespace gearwatch::dsp

@@ -1,0 +1,89 @@
+#pragma once
+// Computed order tracking: tacho edges -> shaft angle -> angular resampling of a record to a fixed
+// number of samples per revolution, with a band-limited (Kaiser-windowed sinc) interpolator.
+#include <cstddef>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace gearwatch::dsp {
+
+/// Why a tacho edge list cannot give a shaft angle (empty string = usable).
+struct TachoCheck {
+  std::string reason;   ///< "", "no_tacho", "tacho_irregular", "too_few_edges"
+  bool ok() const noexcept { return reason.empty(); }
+};
+
+/// Shaft angle as a function of time, from tacho edges. The edge times are interpolated as a
+/// natural cubic spline of *time versus angle* (edges are equally spaced in angle), so the sample
+/// time of any angle is one spline evaluation; the inverse (angle of a time) is never needed.
+/// Angle 0 is the first edge. Reusable: assign() keeps capacity, so no allocation per record
+/// once it has seen the longest edge list.
+class ShaftAngle {
+ public:
+  /// edges: sample positions (fractional), strictly increasing; edges_per_rev of the tacho shaft;
+  /// analysed_revs_per_tacho_rev converts tacho-shaft revolutions into revolutions of the shaft
+  /// the angle is expressed in (1 when the tacho is on that shaft).
+  /// Returns the reason when the edges are unusable: fewer than one revolution, non-finite or
+  /// non-increasing positions, or an edge interval outside [0.5, 1.5] x the median interval
+  /// (a missed or spurious edge; ±5 % speed fluctuation and slow drift stay well inside).
+  TachoCheck assign(std::span<const double> edges, int edges_per_rev, double analysed_revs_per_tacho_rev);
+
+  /// Revolutions covered from the first to the last edge.
+  double total_revolutions() const noexcept { return total_revs_; }
+  /// Sample position of the given angle (revolutions since the first edge), 0 <= revs <= total.
+  double time_at(double revs) const;
+  /// Speed (revolutions per second) averaged over each whole revolution.
+  void speed_per_revolution(double sample_rate_hz, std::vector<double>& out) const;
+
+ private:
+  std::vector<double> times_;        // knot values (sample positions)
+  std::vector<double> second_deriv_; // spline second derivatives at the knots
+  std::vector<double> scratch_;
+  double knot_spacing_ = 1.0;        // revolutions between knots
+  double total_revs_ = 0.0;
+  friend class AngularResampler;
+};
+
+/// Band-limited interpolation of a uniformly sampled signal at arbitrary positions: a Kaiser-windowed
+/// sinc with `zero_crossings` lobes each side, tabulated at `phases` fractional offsets with linear
+/// interpolation between adjacent phase rows. When the output is sparser than the input the
+/// cutoff is lowered (anti-aliasing) and the kernel widened accordingly.
+class BandLimitedInterpolator {
+ public:
+  explicit BandLimitedInterpolator(int zero_crossings = 16, int phases = 512, double kaiser_beta = 8.0);
+  /// cutoff: fraction of the input Nyquist frequency kept, in (0, 1]. Rebuilds the table only
+  /// when it changes.
+  void set_cutoff(double cutoff);
+  double cutoff() const noexcept { return cutoff_; }
+  int taps() const noexcept { return taps_; }
+  /// Value at fractional sample position t; samples outside [0, n) count as zero.
+  double operator()(std::span<const float> x, double t) const;
+
+ private:
+  int zero_crossings_;
+  int phases_;
+  double beta_;
+  double cutoff_ = 0.0;
+  int taps_ = 0;
+  std::vector<double> table_;   // (phases_ + 1) rows x taps_
+};
+
+/// Resamples a record to a fixed number of samples per revolution of the analysed shaft.
+class AngularResampler {
+ public:
+  /// Writes revolutions * samples_per_rev samples of x at angles j / samples_per_rev (j = 0..) of
+  /// the resampled shaft, measured from the first tacho edge. One revolution of the resampled
+  /// shaft is `angle_revs_per_rev` revolutions of the ShaftAngle's shaft (1 for that shaft itself,
+  /// z_gear/z_pinion to resample onto the output shaft with an input-shaft angle). The
+  /// interpolator's cutoff is set from the largest output sample spacing (in input samples) so
+  /// the resampled signal is not aliased.
+  void resample(std::span<const float> x, const ShaftAngle& angle, std::size_t samples_per_rev,
+                std::size_t revolutions, std::span<double> out, double angle_revs_per_rev = 1.0);
+  const BandLimitedInterpolator& interpolator() const noexcept { return interpolator_; }
+
+ private:
+  BandLimitedInterpolator interpolator_;
+};
+
+}  // namespace gearwatch::dsp

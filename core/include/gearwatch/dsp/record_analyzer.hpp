@@ -1,0 +1,123 @@
+#pragma once
+// Per-record indicator computation (issue 3): order tracking, TSA of both shafts, residual,
+// RMS_SA, GMF harmonics, squared-envelope ICS2 (full band, fixed carrier bands, 1/3-binary tree
+// band selection), spectral coherence at the gear-mesh order with mean carrier frequencies, and
+// the classical indicators. The daemon's processing thread owns one RecordAnalyzer per rig.
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gearwatch/dsp/envelope.hpp"
+#include "gearwatch/dsp/fft.hpp"
+#include "gearwatch/dsp/filter_bank.hpp"
+#include "gearwatch/dsp/order_tracking.hpp"
+#include "gearwatch/dsp/spectral_coherence.hpp"
+#include "gearwatch/dsp/tsa.hpp"
+#include "gearwatch/dsp/wear_mechanism.hpp"
+#include "gearwatch/record.hpp"
+#include "gearwatch/rig.hpp"
+
+namespace gearwatch::dsp {
+
+struct FrequencyBand {
+  double low_hz = 0.0;
+  double high_hz = 0.0;
+};
+
+/// Defaults are the seed's values where it gives them (§4.4 bands, §7.2 N = 2, Fig. 4.13
+/// ranges, ±3 cyclic bins); the config file overrides them.
+struct SignalProcessingSettings {
+  /// Order-tracking resolution. 0 = automatic: per record, the smallest power of two with
+  /// samples_per_revolution x (slowest revolution's speed) >= sample rate, so no part of the
+  /// acquired band is lost. A fixed value must be a power of two in [64, 2^20].
+  int samples_per_revolution = 0;
+  int rms_sa_harmonics = 2;           ///< N of Eq. 7.1 (seed: 2 mild, 6 severe profile change)
+  int stored_gmf_harmonics = 10;
+  int ics2_harmonics = 3;             ///< H of Eq. 4.3 (the seed does not state it)
+  int ics2_tolerance_bins = 3;
+  FrequencyBand pitting_band{2000.0, 13000.0};
+  FrequencyBand abrasion_band{20000.0, 37000.0};
+  int filter_bank_levels = 6;
+  bool kurtogram_band_selection = true;   ///< also report the kurtosis-selected band
+  std::vector<FrequencyBand> mean_carrier_ranges{{0.0, 30000.0}, {0.0, 50000.0}};
+  double min_revolutions_for_tsa = 5.0;   ///< per shaft
+  double max_clipped_fraction = 1.0e-4;   ///< samples at +-full scale tolerated
+  double trend_significance = 0.05;       ///< wear-mechanism trend tests
+
+  /// Throws std::invalid_argument naming the setting when it is unusable for any record
+  /// (non-power-of-two resolution, N > stored harmonics, inverted or negative bands, ...).
+  /// A band above the Nyquist frequency is NOT an error here: Nyquist depends on the record (its
+  /// rate and, in the angle domain, its speed), so such a band marks that indicator skipped
+  /// ("band_above_nyquist") at analysis time.
+  void validate(const RigSpec& rig) const;
+};
+
+struct IndicatorValue {
+  std::string name;
+  double value = 0.0;
+};
+struct SkippedIndicator {
+  std::string name;
+  std::string reason;   ///< e.g. "no_tacho", "non_finite_samples" (full list in docs/dsp.md)
+};
+struct BandSelection {
+  std::string criterion;    ///< "ics2" or "kurtosis"
+  double level = 0.0;
+  double centre_hz = 0.0;
+  double bandwidth_hz = 0.0;
+  double value = 0.0;
+};
+
+struct ChannelAnalysis {
+  std::vector<IndicatorValue> indicators;   ///< stable snake_case names, see docs/dsp.md
+  std::vector<SkippedIndicator> skipped;
+  std::vector<BandSelection> band_selections;
+  double tsa_averages_input = 0;
+  double tsa_averages_output = 0;
+  std::vector<double> speed_profile_hz;     ///< input-shaft speed per whole revolution
+  std::size_t samples_per_revolution = 0;   ///< order-tracking resolution used (0 = none)
+  double mean_speed_hz = 0.0;               ///< input shaft, from the tacho (0 = none)
+
+  std::optional<double> value(const std::string& name) const;
+  /// Reason the indicator was skipped, or nullptr.
+  const SkippedIndicator* skip_reason(const std::string& name) const;
+};
+
+class RecordAnalyzer {
+ public:
+  /// Validates the settings against the rig (std::invalid_argument).
+  RecordAnalyzer(const RigSpec& rig, const SignalProcessingSettings& settings);
+  /// Never throws on bad data: every indicator is either in `indicators` or in `skipped` with a
+  /// reason. Throws only std::out_of_range for a channel index the record does not have.
+  ChannelAnalysis analyze(const Record& record, std::size_t channel_index);
+
+  const SignalProcessingSettings& settings() const noexcept { return settings_; }
+  /// Every indicator name analyze() can produce, in output order.
+  std::vector<std::string> indicator_names() const;
+
+ private:
+  struct Context;
+  void analyze_order_domain(const Record& record, std::span<const float> x, ChannelAnalysis& out);
+
+  RigSpec rig_;
+  SignalProcessingSettings settings_;
+  FftPlanCache plans_;
+  ShaftAngle angle_;
+  AngularResampler resampler_;
+  SynchronousSeparation separation_;
+  SquaredEnvelopeAnalyzer envelope_;
+  OneThirdBinaryFilterBank filter_bank_;
+  CyclicCoherenceEstimator coherence_;
+  KurtosisCriterion kurtosis_criterion_;
+  RealBuffer input_angle_, output_angle_, residual_;
+  std::vector<double> speed_scratch_;
+  ComplexBuffer residual_spectrum_;
+  std::vector<double> gmf_amplitudes_;
+  std::vector<BandMap> band_maps_;
+};
+
+/// Name of the mean-carrier indicator for a range: "mean_carrier_hz_<low>_<high>" (whole Hz).
+std::string mean_carrier_indicator_name(const FrequencyBand& range);
+
+}  // namespace gearwatch::dsp

@@ -1,0 +1,58 @@
+#pragma once
+// Wear-mechanism identification over a record history (seed §4.4): a monotonic (increasing)
+// ICS2 trend in the low carrier band and not the high band -> fatigue pitting; high and not low
+// -> abrasive wear; both -> both; neither -> none; too short a history -> undetermined.
+// Trends are tested with Mann-Kendall (tie-corrected variance, normal approximation, two-sided);
+// Spearman's rho is reported alongside. Jumps of the ICS2-selected carrier band are flagged.
+#include <span>
+#include <string>
+#include <vector>
+
+namespace gearwatch::dsp {
+
+struct SignalProcessingSettings;
+
+struct WearHistoryPoint {
+  double cycles = 0.0;              ///< input-shaft revolutions (or any monotonic life measure)
+  double ics2_low = 0.0;            ///< ICS2 in the pitting (low) carrier band; NaN = not available
+  double ics2_high = 0.0;           ///< ICS2 in the abrasion (high) carrier band; NaN = not available
+  double selected_centre_hz = 0.0;  ///< centre of the ICS2-selected band; NaN = not available
+};
+
+enum class WearMechanism { none, fatigue_pitting, abrasive_wear, both, undetermined };
+const char* to_string(WearMechanism mechanism) noexcept;
+
+struct TrendTest {
+  std::size_t points = 0;
+  double mann_kendall_s = 0.0;
+  double mann_kendall_z = 0.0;
+  double p_value = 1.0;             ///< two-sided
+  double spearman_rho = 0.0;
+  bool increasing = false;          ///< significant at the configured level with S > 0
+  bool decreasing = false;          ///< significant with S < 0 (reported, not a wear signature)
+};
+
+/// Mann-Kendall and Spearman on (x, y) pairs, ordered by x; pairs with a non-finite y are dropped.
+TrendTest trend_test(std::span<const double> x, std::span<const double> y, double significance);
+
+/// Smallest number of points at which a perfectly monotonic series can reach `significance`.
+std::size_t minimum_points_for_trend(double significance);
+
+struct BandJump {
+  double cycles = 0.0;       ///< at the later point
+  double from_hz = 0.0;
+  double to_hz = 0.0;
+};
+
+struct WearMechanismVerdict {
+  WearMechanism mechanism = WearMechanism::undetermined;
+  TrendTest low_band, high_band;
+  std::vector<BandJump> band_jumps;   ///< selected centre moved by an octave or more
+  std::string evidence;               ///< one line: statistics, p-values, jumps
+};
+
+/// Uses settings.trend_significance. Points are sorted by cycles internally.
+WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
+                                             const SignalProcessingSettings& settings);
+
+}  // namespace gearwatch::dsp

@@ -1,0 +1,77 @@
+#include "gearwatch/dsp/envelope.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace gearwatch::dsp {
+
+Ics2Result ics2_from_ses(std::span<const double> ses, double bins_per_order, const Ics2Parameters& p) {
+  if (p.harmonics < 1 || p.tolerance_bins < 0 || !(p.cyclic_order > 0.0) || !(bins_per_order > 0.0))
+    throw std::invalid_argument("ics2_from_ses: bad parameters");
+  Ics2Result result;
+  if (ses.empty() || !(ses[0] > 0.0)) return result;
+  const double dc2 = ses[0] * ses[0];
+  double sum = 0.0;
+  for (int h = 1; h <= p.harmonics; ++h) {
+    const auto centre = static_cast<long>(std::lround(h * p.cyclic_order * bins_per_order));
+    const long lo = centre - p.tolerance_bins, hi = centre + p.tolerance_bins;
+    if (lo < 1 || hi >= static_cast<long>(ses.size())) break;
+    double peak = 0.0;
+    for (long n = lo; n <= hi; ++n) peak = std::max(peak, ses[static_cast<std::size_t>(n)]);
+    sum += peak * peak;
+    result.harmonics_used = h;
+  }
+  result.value = sum / dc2;
+  return result;
+}
+
+Ics2Result SquaredEnvelopeAnalyzer::band_ics2(std::span<const Complex> spectrum, std::size_t signal_size,
+                                              std::size_t revolutions, std::size_t first_bin,
+                                              std::size_t last_bin, const Ics2Parameters& p) {
+  if (revolutions == 0 || first_bin > last_bin || last_bin >= spectrum.size() || 2 * last_bin > signal_size)
+    throw std::invalid_argument("band_ics2: band outside the spectrum");
+  const std::size_t band_bins = last_bin - first_bin + 1;
+  // |z|^2 of a band B bins wide has cyclic content up to B-1 bins; the grid must hold 2B bins
+  // and the highest A_h window so neither aliases.
+  const auto highest =
+      static_cast<std::size_t>(std::ceil(p.harmonics * p.cyclic_order * static_cast<double>(revolutions))) +
+      static_cast<std::size_t>(p.tolerance_bins) + 1;
+  const std::size_t needed = std::max(2 * band_bins, 2 * highest + 2);
+  std::size_t grid = revolutions;
+  while (grid < needed) grid *= 2;
+  const ComplexFft& inverse = plans_->complex(grid);
+  baseband_.assign(grid, Complex{});
+  for (std::size_t k = 0; k < band_bins && k < grid; ++k) baseband_[k] = spectrum[first_bin + k];
+  analytic_.resize(grid);
+  inverse.backward(baseband_, analytic_);
+  envelope_.resize(grid);
+  for (std::size_t i = 0; i < grid; ++i) envelope_[i] = std::norm(analytic_[i]);
+  const auto magnitude = ses(envelope_);
+  return ics2_from_ses(magnitude, static_cast<double>(revolutions), p);
+}
+
+Ics2Result SquaredEnvelopeAnalyzer::complex_ics2(std::span<const Complex> c, double revolutions,
+                                                 const Ics2Parameters& p) {
+  if (c.size() < 2) return {};
+  envelope_.resize(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) envelope_[i] = std::norm(c[i]);
+  const auto magnitude = ses(envelope_);
+  return ics2_from_ses(magnitude, revolutions, p);
+}
+
+std::span<const double> SquaredEnvelopeAnalyzer::ses(std::span<const double> squared_envelope) {
+  const std::size_t n = squared_envelope.size();
+  const RealFft& fft = plans_->real(n);
+  ses_spectrum_.resize(fft.spectrum_size());
+  if (squared_envelope.data() != envelope_.data()) {
+    envelope_.assign(squared_envelope.begin(), squared_envelope.end());
+  }
+  fft.forward(std::span<const double>(envelope_.data(), n), ses_spectrum_);
+  ses_magnitude_.resize(fft.spectrum_size());
+  const double scale = 1.0 / static_cast<double>(n);
+  for (std::size_t k = 0; k < ses_magnitude_.size(); ++k) ses_magnitude_[k] = std::abs(ses_spectrum_[k]) * scale;
+  return ses_magnitude_;
+}
+
+}  // namespace gearwatch::dsp

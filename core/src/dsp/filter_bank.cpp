@@ -1,0 +1,234 @@
+#include "gearwatch/dsp/filter_bank.hpp"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+
+namespace gearwatch::dsp {
+
+std::vector<double> firwin_lowpass(int taps, double cutoff) {
+  std::vector<double> h(static_cast<std::size_t>(taps));
+  const double centre = 0.5 * (taps - 1);
+  double sum = 0.0;
+  for (int n = 0; n < taps; ++n) {
+    const double m = n - centre;
+    const double x = cutoff * m;
+    const double sinc = x == 0.0 ? 1.0 : std::sin(std::numbers::pi * x) / (std::numbers::pi * x);
+    const double hamming = 0.54 - 0.46 * std::cos(2.0 * std::numbers::pi * n / (taps - 1));
+    h[static_cast<std::size_t>(n)] = cutoff * sinc * hamming;
+    sum += h[static_cast<std::size_t>(n)];
+  }
+  for (double& v : h) v /= sum;
+  return h;
+}
+
+double filter_bank_row_level(int row) {
+  if (row == 0) return 0.0;
+  if (row % 2 == 1) return (row + 1) / 2;
+  return row / 2 + std::log2(3.0) - 1.0;
+}
+
+namespace {
+
+// out[m] = sum_i taps[i] * c[factor*m + phase - i] (causal filter, zero initial state, keeping
+// every factor-th output from `phase`): MATLAB filter() followed by x(phase+1:factor:end).
+void decimating_fir(std::span<const Complex> c, std::span<const Complex> taps, std::size_t factor,
+                    std::size_t phase, std::span<Complex> out) {
+  const std::size_t nt = taps.size();
+  const auto* cp = reinterpret_cast<const double*>(c.data());
+  const auto* tp = reinterpret_cast<const double*>(taps.data());
+  for (std::size_t m = 0; m < out.size(); ++m) {
+    const std::size_t last = factor * m + phase;  // newest input sample used
+    double re = 0.0, im = 0.0;
+    if (last + 1 >= nt) {
+      const double* x = cp + 2 * (last + 1 - nt);  // oldest sample, multiplied by taps[nt-1]
+      for (std::size_t i = 0; i < nt; ++i) {
+        const double tr = tp[2 * (nt - 1 - i)], ti = tp[2 * (nt - 1 - i) + 1];
+        const double xr = x[2 * i], xi = x[2 * i + 1];
+        re += tr * xr - ti * xi;
+        im += tr * xi + ti * xr;
+      }
+    } else {
+      for (std::size_t i = 0; i <= last; ++i) {
+        const Complex v = taps[i] * c[last - i];
+        re += v.real();
+        im += v.imag();
+      }
+    }
+    out[m] = Complex(re, im);
+  }
+}
+
+}  // namespace
+
+OneThirdBinaryFilterBank::OneThirdBinaryFilterBank() {
+  using std::numbers::pi;
+  const auto p = firwin_lowpass(17, 0.4);
+  low_.resize(17);
+  for (int n = 0; n < 17; ++n) low_[static_cast<std::size_t>(n)] = p[static_cast<std::size_t>(n)] * std::polar(1.0, 2.0 * pi * n / 8.0);
+  // g[k] = h[(-1-k) mod 16] * (-1)^(k+1) (reference README), k = 0..15.
+  high_.resize(16);
+  for (int k = 0; k < 16; ++k) {
+    const int index = ((-1 - k) % 16 + 16) % 16;
+    high_[static_cast<std::size_t>(k)] = low_[static_cast<std::size_t>(index)] * ((k + 1) % 2 == 0 ? 1.0 : -1.0);
+  }
+  const auto q = firwin_lowpass(25, 0.4 * 2.0 / 3.0);
+  for (auto& t : ternary_) t.resize(25);
+  for (int n = 0; n < 25; ++n) {
+    const Complex h1 = q[static_cast<std::size_t>(n)] * std::polar(1.0, 2.0 * pi * n / 12.0);
+    ternary_[0][static_cast<std::size_t>(n)] = h1;
+    ternary_[1][static_cast<std::size_t>(n)] = h1 * std::polar(1.0, 2.0 * pi * n / 6.0);
+    ternary_[2][static_cast<std::size_t>(n)] = h1 * std::polar(1.0, 2.0 * pi * n / 3.0);
+  }
+}
+
+BandMap::Optimum BandMap::optimum() const {
+  Optimum best;
+  best.value = -std::numeric_limits<double>::infinity();
+  for (std::size_t r = 0; r < rows(); ++r)
+    for (std::size_t c = 0; c < columns(); ++c)
+      if (at(r, c) > best.value) {
+        best.value = at(r, c);
+        best.row = static_cast<int>(r);
+        best.first_column = c;
+      }
+  best.level = filter_bank_row_level(best.row);
+  best.bandwidth_fraction = std::pow(2.0, -(best.level + 1.0));
+  best.centre_fraction = static_cast<double>(best.first_column) / static_cast<double>(columns() * 2) +
+                         std::pow(2.0, -(best.level + 2.0));
+  return best;
+}
+
+void OneThirdBinaryFilterBank::analyse(std::span<const double> x, int levels, std::span<BandCriterion* const> criteria,
+                                       std::span<BandMap> maps) {
+  if (levels < 1 || levels > 16) throw std::invalid_argument("filter bank: levels must be 1..16");
+  if (maps.size() < criteria.size()) throw std::invalid_argument("filter bank: one map per criterion");
+  // The deepest binary node must keep samples after its 16-sample trim.
+  if (x.size() < (static_cast<std::size_t>(32) << levels))
+    throw std::invalid_argument("filter bank: signal too short for " + std::to_string(levels) + " levels");
+  levels_ = levels;
+  criteria_ = criteria;
+  maps_ = maps;
+  const std::size_t columns = static_cast<std::size_t>(3) << levels;
+  for (std::size_t i = 0; i < criteria.size(); ++i) {
+    maps[i].levels = levels;
+    maps[i].criterion = criteria[i]->name();
+    maps[i].values.assign(static_cast<std::size_t>(2 * levels) * columns, 0.0);
+  }
+  const double mean = std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size());
+  root_.resize(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) root_[i] = Complex(x[i] - mean, 0.0);
+  low_children_.resize(static_cast<std::size_t>(levels) + 1);
+  high_children_.resize(static_cast<std::size_t>(levels) + 1);
+  std::size_t length = x.size();
+  for (int d = 1; d <= levels; ++d) {
+    length /= 2;
+    low_children_[static_cast<std::size_t>(d)].resize(length);
+    high_children_[static_cast<std::size_t>(d)].resize(length);
+  }
+  ternary_scratch_.resize(x.size() / 3);
+
+  evaluate(0, 0, 1, 1, true, root_);
+  visit(0, 0, root_, x.size());
+}
+
+void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int decimation, bool real,
+                                        std::span<const Complex> trimmed) {
+  FilterBankNode node;
+  node.row = row;
+  node.level = filter_bank_row_level(row);
+  node.band_index = band;
+  node.band_count = band_count;
+  node.decimation = decimation;
+  node.real = real;
+  node.samples = trimmed;
+  const std::size_t columns = static_cast<std::size_t>(3) << levels_;
+  const std::size_t span = columns / static_cast<std::size_t>(band_count);
+  for (std::size_t i = 0; i < criteria_.size(); ++i) {
+    const double value = criteria_[i]->evaluate(node);
+    double* out = &maps_[i].values[static_cast<std::size_t>(row) * columns + static_cast<std::size_t>(band) * span];
+    std::fill(out, out + span, value);
+  }
+}
+
+void OneThirdBinaryFilterBank::ternary_split(int depth, int band, std::span<const Complex> node) {
+  const std::size_t out_length = node.size() / 3;
+  const int row = 2 * (depth + 1);
+  const int band_count = 3 << depth;
+  const int decimation = 3 << depth;
+  std::span<Complex> out(ternary_scratch_.data(), out_length);
+  for (int t = 0; t < 3; ++t) {
+    decimating_fir(node, ternary_[static_cast<std::size_t>(t)], 3, 2, out);
+    const std::size_t trim = std::min<std::size_t>(16, out_length);  // len(h) - 1, as the reference
+    evaluate(row, 3 * band + t, band_count, decimation, false, std::span<const Complex>(out).subspan(trim));
+  }
+}
+
+void OneThirdBinaryFilterBank::visit(int depth, int band, std::span<const Complex> node, std::size_t) {
+  if (depth >= levels_) return;
+  const auto child_depth = static_cast<std::size_t>(depth + 1);
+  auto& a = low_children_[child_depth];
+  auto& d = high_children_[child_depth];
+  const std::size_t half = node.size() / 2;
+  std::span<Complex> a_span(a.data(), half), d_span(d.data(), half);
+  decimating_fir(node, low_, 2, 1, a_span);
+  decimating_fir(node, high_, 2, 1, d_span);
+  for (std::size_t m = 0; m < half; m += 2) d_span[m] = -d_span[m];  // (-1)^(m+1): back to baseband
+  const int row = 2 * depth + 1;
+  const int band_count = 2 << depth;
+  const int decimation = 2 << depth;
+  evaluate(row, 2 * band, band_count, decimation, false, std::span<const Complex>(a_span).subspan(std::min<std::size_t>(16, half)));
+  evaluate(row, 2 * band + 1, band_count, decimation, false, std::span<const Complex>(d_span).subspan(std::min<std::size_t>(15, half)));
+  if (depth <= levels_ - 2) ternary_split(depth, band, node);
+  visit(depth + 1, 2 * band, a_span, half);
+  visit(depth + 1, 2 * band + 1, d_span, half);
+}
+
+double KurtosisCriterion::evaluate(const FilterBankNode& node) {
+  const auto c = node.samples;
+  if (c.empty()) return 0.0;
+  Complex mean{};
+  bool all_zero = true;
+  for (const Complex& v : c) {
+    mean += v;
+    if (v != Complex{}) all_zero = false;
+  }
+  if (all_zero) return 0.0;
+  mean /= static_cast<double>(c.size());
+  double m2 = 0.0, m4 = 0.0;
+  for (const Complex& v : c) {
+    const double p = std::norm(v - mean);
+    m2 += p;
+    m4 += p * p;
+  }
+  m2 /= static_cast<double>(c.size());
+  m4 /= static_cast<double>(c.size());
+  if (m2 < std::numeric_limits<double>::epsilon()) return 0.0;
+  return m4 / (m2 * m2) - (node.real ? 3.0 : 2.0);
+}
+
+double Ics2Criterion::evaluate(const FilterBankNode& node) {
+  const auto spr = static_cast<std::size_t>(samples_per_rev_);
+  const auto decimation = static_cast<std::size_t>(node.decimation);
+  // The shortest stretch with a whole number of node samples and of revolutions.
+  const std::size_t g = std::gcd(spr, decimation);
+  const std::size_t unit = spr / g;                  // node samples in decimation/g revolutions
+  const double revs_per_unit = static_cast<double>(decimation / g);
+  const std::size_t units = node.samples.size() / unit;
+  if (units == 0) return 0.0;
+  const std::size_t n = units * unit;
+  const double revolutions = static_cast<double>(units) * revs_per_unit;
+  if (node.real) {
+    const RealFft& fft = plans_->real(n);
+    real_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) real_[i] = node.samples[i].real();
+    spectrum_.resize(fft.spectrum_size());
+    fft.forward(real_, spectrum_);
+    return envelope_->band_ics2(spectrum_, n, static_cast<std::size_t>(revolutions), 1, n / 2 - 1, parameters_).value;
+  }
+  return envelope_->complex_ics2(node.samples.subspan(0, n), revolutions, parameters_).value;
+}
+
+}  // namespace gearwatch::dsp

@@ -1,0 +1,174 @@
+#include "gearwatch/dsp/order_tracking.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace gearwatch::dsp {
+
+TachoCheck ShaftAngle::assign(std::span<const double> edges, int edges_per_rev,
+                              double analysed_revs_per_tacho_rev) {
+  total_revs_ = 0.0;
+  times_.clear();
+  if (edges.empty()) return {"no_tacho"};
+  if (edges_per_rev < 1 || !(analysed_revs_per_tacho_rev > 0.0)) return {"tacho_irregular"};
+  if (edges.size() < static_cast<std::size_t>(edges_per_rev) + 1) return {"too_few_edges"};
+  scratch_.resize(edges.size() - 1);
+  for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
+    const double d = edges[i + 1] - edges[i];
+    if (!std::isfinite(edges[i]) || !std::isfinite(edges[i + 1]) || !(d > 0.0)) return {"tacho_irregular"};
+    scratch_[i] = d;
+  }
+  auto mid = scratch_.begin() + static_cast<std::ptrdiff_t>(scratch_.size() / 2);
+  std::nth_element(scratch_.begin(), mid, scratch_.end());
+  const double median = *mid;
+  for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
+    const double d = edges[i + 1] - edges[i];
+    if (d < 0.5 * median || d > 1.5 * median) return {"tacho_irregular"};
+  }
+
+  // Natural cubic spline through (i*h, edges[i]) with uniform knot spacing h: the tridiagonal
+  // system M[i-1] + 4 M[i] + M[i+1] = 6 (y[i-1] - 2 y[i] + y[i+1]) / h^2, M[0] = M[n-1] = 0.
+  const std::size_t n = edges.size();
+  knot_spacing_ = analysed_revs_per_tacho_rev / edges_per_rev;
+  total_revs_ = knot_spacing_ * static_cast<double>(n - 1);
+  times_.assign(edges.begin(), edges.end());
+  second_deriv_.assign(n, 0.0);
+  if (n >= 3) {
+    const double h2 = knot_spacing_ * knot_spacing_;
+    scratch_.assign(n, 0.0);  // modified super-diagonal (Thomas algorithm)
+    std::vector<double>& c = scratch_;
+    std::vector<double>& m = second_deriv_;
+    // forward sweep over the interior unknowns 1..n-2
+    for (std::size_t i = 1; i + 1 < n; ++i) {
+      const double rhs = 6.0 * (times_[i - 1] - 2.0 * times_[i] + times_[i + 1]) / h2;
+      const double denom = 4.0 - (i > 1 ? c[i - 1] : 0.0);
+      c[i] = 1.0 / denom;
+      m[i] = (rhs - (i > 1 ? m[i - 1] : 0.0)) / denom;
+    }
+    for (std::size_t i = n - 2; i >= 2; --i) m[i - 1] -= c[i - 1] * m[i];
+  }
+  return {};
+}
+
+double ShaftAngle::time_at(double revs) const {
+  if (times_.empty()) throw std::logic_error("ShaftAngle::time_at before a successful assign()");
+  const double u = revs / knot_spacing_;
+  std::size_t i = u <= 0.0 ? 0 : static_cast<std::size_t>(u);
+  if (i >= times_.size() - 1) i = times_.size() - 2;
+  const double h = knot_spacing_;
+  const double b = (u - static_cast<double>(i));  // fraction within the interval
+  const double a = 1.0 - b;
+  return a * times_[i] + b * times_[i + 1] +
+         ((a * a * a - a) * second_deriv_[i] + (b * b * b - b) * second_deriv_[i + 1]) * h * h / 6.0;
+}
+
+void ShaftAngle::speed_per_revolution(double sample_rate_hz, std::vector<double>& out) const {
+  out.clear();
+  const auto revs = static_cast<std::size_t>(std::floor(total_revs_ + 1e-9));
+  double previous = time_at(0.0);
+  for (std::size_t r = 1; r <= revs; ++r) {
+    const double t = time_at(static_cast<double>(r));
+    out.push_back(sample_rate_hz / (t - previous));
+    previous = t;
+  }
+}
+
+namespace {
+double bessel_i0(double x) {
+  // Power series; converges fast for the arguments used here (beta <= ~20).
+  double sum = 1.0, term = 1.0;
+  const double q = x * x / 4.0;
+  for (int k = 1; k < 60; ++k) {
+    term *= q / (static_cast<double>(k) * k);
+    sum += term;
+    if (term < 1e-17 * sum) break;
+  }
+  return sum;
+}
+}  // namespace
+
+BandLimitedInterpolator::BandLimitedInterpolator(int zero_crossings, int phases, double kaiser_beta)
+    : zero_crossings_(zero_crossings), phases_(phases), beta_(kaiser_beta) {
+  if (zero_crossings < 2 || phases < 2) throw std::invalid_argument("BandLimitedInterpolator: bad size");
+  set_cutoff(1.0);
+}
+
+void BandLimitedInterpolator::set_cutoff(double cutoff) {
+  if (!(cutoff > 0.0 && cutoff <= 1.0)) throw std::invalid_argument("BandLimitedInterpolator: cutoff in (0,1]");
+  if (cutoff == cutoff_) return;
+  cutoff_ = cutoff;
+  const int half = static_cast<int>(std::ceil(zero_crossings_ / cutoff));
+  taps_ = 2 * half;
+  table_.assign(static_cast<std::size_t>(phases_ + 1) * taps_, 0.0);
+  const double i0_beta = bessel_i0(beta_);
+  for (int p = 0; p <= phases_; ++p) {
+    const double frac = static_cast<double>(p) / phases_;
+    double* row = &table_[static_cast<std::size_t>(p) * taps_];
+    double sum = 0.0;
+    for (int m = 0; m < taps_; ++m) {
+      // tap m multiplies sample floor(t) - half + 1 + m, at distance u from t
+      const double u = frac + half - 1 - m;
+      const double v = cutoff * u;
+      const double sinc = std::abs(v) < 1e-12 ? 1.0 : std::sin(std::numbers::pi * v) / (std::numbers::pi * v);
+      const double r = u / half;
+      const double window = std::abs(r) >= 1.0 ? 0.0 : bessel_i0(beta_ * std::sqrt(1.0 - r * r)) / i0_beta;
+      row[m] = cutoff * sinc * window;
+      sum += row[m];
+    }
+    // Unit DC gain at every phase: removes the small phase-dependent ripple of the truncated kernel.
+    for (int m = 0; m < taps_; ++m) row[m] /= sum;
+  }
+}
+
+double BandLimitedInterpolator::operator()(std::span<const float> x, double t) const {
+  const double floor_t = std::floor(t);
+  const auto base = static_cast<std::ptrdiff_t>(floor_t);
+  const double phase_pos = (t - floor_t) * phases_;
+  auto p = static_cast<int>(phase_pos);
+  if (p >= phases_) p = phases_ - 1;
+  const double w = phase_pos - p;
+  const double* row0 = &table_[static_cast<std::size_t>(p) * taps_];
+  const double* row1 = row0 + taps_;
+  const std::ptrdiff_t first = base - taps_ / 2 + 1;
+  const auto n = static_cast<std::ptrdiff_t>(x.size());
+  double acc0 = 0.0, acc1 = 0.0;
+  if (first >= 0 && first + taps_ <= n) {
+    const float* xs = x.data() + first;
+    for (int m = 0; m < taps_; ++m) {
+      acc0 += row0[m] * xs[m];
+      acc1 += row1[m] * xs[m];
+    }
+  } else {
+    for (int m = 0; m < taps_; ++m) {
+      const std::ptrdiff_t k = first + m;
+      if (k < 0 || k >= n) continue;
+      acc0 += row0[m] * x[static_cast<std::size_t>(k)];
+      acc1 += row1[m] * x[static_cast<std::size_t>(k)];
+    }
+  }
+  return acc0 + w * (acc1 - acc0);
+}
+
+void AngularResampler::resample(std::span<const float> x, const ShaftAngle& angle, std::size_t samples_per_rev,
+                                std::size_t revolutions, std::span<double> out, double angle_revs_per_rev) {
+  const std::size_t count = samples_per_rev * revolutions;
+  if (out.size() < count) throw std::invalid_argument("AngularResampler: output too small");
+  if (!(angle_revs_per_rev > 0.0)) throw std::invalid_argument("AngularResampler: bad revolution scale");
+  if (static_cast<double>(revolutions) * angle_revs_per_rev > angle.total_revolutions() + 1e-9)
+    throw std::invalid_argument("AngularResampler: more revolutions than the tacho covers");
+  // Largest output spacing in input samples = slowest revolution / samples_per_rev.
+  double slowest = 0.0;
+  for (std::size_t r = 0; r < revolutions; ++r)
+    slowest = std::max(slowest, angle.time_at(static_cast<double>(r + 1) * angle_revs_per_rev) -
+                                    angle.time_at(static_cast<double>(r) * angle_revs_per_rev));
+  const double spacing = slowest / static_cast<double>(samples_per_rev);
+  // Quantised so that records at nearly the same speed reuse the table.
+  const double cutoff = spacing <= 1.0 ? 1.0 : std::floor(64.0 / spacing) / 64.0;
+  interpolator_.set_cutoff(std::max(cutoff, 1.0 / 64.0));
+  const double step = angle_revs_per_rev / static_cast<double>(samples_per_rev);
+  for (std::size_t j = 0; j < count; ++j) out[j] = interpolator_(x, angle.time_at(static_cast<double>(j) * step));
+}
+
+}  // namespace gearwatch::dsp

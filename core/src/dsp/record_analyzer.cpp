@@ -1,0 +1,357 @@
+#include "gearwatch/dsp/record_analyzer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <stdexcept>
+#include <unordered_set>
+
+namespace gearwatch::dsp {
+
+namespace {
+
+bool is_power_of_two(long v) { return v > 0 && (v & (v - 1)) == 0; }
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("signal processing settings: " + what);
+}
+
+void check_band(const FrequencyBand& b, const std::string& name) {
+  require(std::isfinite(b.low_hz) && std::isfinite(b.high_hz) && b.low_hz >= 0.0 && b.high_hz > b.low_hz,
+          name + " must satisfy 0 <= low_hz < high_hz");
+}
+
+// Names of indicators computed from the input-shaft TSA and from the residual.
+std::vector<std::string> tsa_names(const SignalProcessingSettings& s) {
+  std::vector<std::string> names{"gmf1_amplitude"};
+  for (int h = 1; h <= s.stored_gmf_harmonics; ++h) names.push_back("gmf_harmonic_" + std::to_string(h));
+  names.emplace_back("rms_sa");
+  return names;
+}
+
+std::vector<std::string> residual_names(const SignalProcessingSettings& s) {
+  std::vector<std::string> names{"rms_residual",  "kurtosis_residual",  "ics2_full_band",
+                                 "ics2_low_band", "ics2_high_band",     "ics2_selected_band"};
+  if (s.kurtogram_band_selection) names.emplace_back("kurtosis_selected_band");
+  names.insert(names.end(), {"sc_gmf_max", "sc_gmf_mean", "sc_gmf_peak_carrier_hz"});
+  for (const auto& r : s.mean_carrier_ranges) names.push_back(mean_carrier_indicator_name(r));
+  return names;
+}
+
+std::vector<std::string> speed_names() { return {"speed_mean_hz", "speed_fluctuation"}; }
+
+struct Moments {
+  double rms = 0.0;
+  double kurtosis = 0.0;  // m4 / m2^2 about the mean (3 for a Gaussian signal)
+};
+
+template <class T>
+Moments moments(std::span<const T> x) {
+  Moments m;
+  if (x.empty()) return m;
+  const double n = static_cast<double>(x.size());
+  double sum = 0.0, sum2 = 0.0;
+  for (T v : x) {
+    sum += v;
+    sum2 += static_cast<double>(v) * v;
+  }
+  const double mean = sum / n;
+  double c2 = 0.0, c4 = 0.0;
+  for (T v : x) {
+    const double d = static_cast<double>(v) - mean;
+    const double d2 = d * d;
+    c2 += d2;
+    c4 += d2 * d2;
+  }
+  c2 /= n;
+  c4 /= n;
+  m.rms = std::sqrt(sum2 / n);
+  m.kurtosis = c2 > 0.0 ? c4 / (c2 * c2) : 0.0;
+  return m;
+}
+
+}  // namespace
+
+std::string mean_carrier_indicator_name(const FrequencyBand& range) {
+  return "mean_carrier_hz_" + std::to_string(std::llround(range.low_hz)) + "_" +
+         std::to_string(std::llround(range.high_hz));
+}
+
+void SignalProcessingSettings::validate(const RigSpec& rig) const {
+  require(samples_per_revolution == 0 ||
+              (is_power_of_two(samples_per_revolution) && samples_per_revolution >= 64 &&
+               samples_per_revolution <= (1 << 20)),
+          "samples_per_revolution must be 0 (auto) or a power of two in [64, 1048576]");
+  require(stored_gmf_harmonics >= 1 && stored_gmf_harmonics <= 100, "stored_gmf_harmonics must be in [1, 100]");
+  require(rms_sa_harmonics >= 1 && rms_sa_harmonics <= stored_gmf_harmonics,
+          "rms_sa_harmonics must be in [1, stored_gmf_harmonics]");
+  require(ics2_harmonics >= 1 && ics2_harmonics <= 50, "ics2_harmonics must be in [1, 50]");
+  require(ics2_tolerance_bins >= 0 && ics2_tolerance_bins <= 50, "ics2_tolerance_bins must be in [0, 50]");
+  check_band(pitting_band, "pitting_band");
+  check_band(abrasion_band, "abrasion_band");
+  require(filter_bank_levels >= 1 && filter_bank_levels <= 10, "filter_bank_levels must be in [1, 10]");
+  std::unordered_set<std::string> names;
+  for (const auto& r : mean_carrier_ranges) {
+    check_band(r, "mean_carrier_ranges");
+    require(names.insert(mean_carrier_indicator_name(r)).second, "mean_carrier_ranges has a duplicate range");
+  }
+  require(std::isfinite(min_revolutions_for_tsa) && min_revolutions_for_tsa >= 2.0,
+          "min_revolutions_for_tsa must be >= 2");
+  require(max_clipped_fraction >= 0.0 && max_clipped_fraction <= 1.0, "max_clipped_fraction must be in [0, 1]");
+  require(trend_significance > 0.0 && trend_significance <= 0.5, "trend_significance must be in (0, 0.5]");
+  require(rig.gears.pinion_teeth >= 1 && rig.gears.gear_teeth >= 1, "rig tooth counts must be positive");
+  require(rig.sample_rate_hz > 0.0, "rig sample rate must be positive");
+  require(rig.min_speed_hz > 0.0 && rig.max_speed_hz > rig.min_speed_hz, "rig speed range must satisfy 0 < min < max");
+}
+
+std::optional<double> ChannelAnalysis::value(const std::string& name) const {
+  for (const auto& i : indicators)
+    if (i.name == name) return i.value;
+  return std::nullopt;
+}
+
+const SkippedIndicator* ChannelAnalysis::skip_reason(const std::string& name) const {
+  for (const auto& s : skipped)
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+RecordAnalyzer::RecordAnalyzer(const RigSpec& rig, const SignalProcessingSettings& settings)
+    : rig_(rig), settings_(settings), envelope_(plans_), coherence_(plans_) {
+  settings_.validate(rig_);
+}
+
+std::vector<std::string> RecordAnalyzer::indicator_names() const {
+  std::vector<std::string> names{"rms_raw", "kurtosis_raw"};
+  for (auto& n : speed_names()) names.push_back(n);
+  for (auto& n : tsa_names(settings_)) names.push_back(n);
+  for (auto& n : residual_names(settings_)) names.push_back(n);
+  return names;
+}
+
+ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channel_index) {
+  if (channel_index >= record.channels.size())
+    throw std::out_of_range("RecordAnalyzer::analyze: record has no channel " + std::to_string(channel_index));
+  ChannelAnalysis out;
+  const auto all = indicator_names();
+  auto skip_all = [&](const std::string& reason) {
+    for (const auto& n : all) out.skipped.push_back({n, reason});
+  };
+  const std::span<const float> x(record.channels[channel_index]);
+  if (x.empty()) {
+    skip_all("empty_record");
+    return out;
+  }
+  if (!(record.sample_rate_hz > 0.0) || !std::isfinite(record.sample_rate_hz)) {
+    skip_all("bad_sample_rate");
+    return out;
+  }
+  if (!std::all_of(x.begin(), x.end(), [](float v) { return std::isfinite(v); })) {
+    skip_all("non_finite_samples");
+    return out;
+  }
+  // Clipping: samples at the converter's full scale (32767 steps of the channel's scaling).
+  const ChannelSpec* spec = nullptr;
+  if (channel_index < record.channel_numbers.size())
+    for (const auto& c : rig_.channels)
+      if (c.number == record.channel_numbers[channel_index]) spec = &c;
+  if (spec == nullptr && channel_index < rig_.channels.size()) spec = &rig_.channels[channel_index];
+  if (spec != nullptr && spec->scale_m_s2_per_lsb > 0.0) {
+    // Half a step below full scale: a float sample of a clipped i16 lands on it exactly.
+    const double full_scale = (32767.0 - 0.5) * spec->scale_m_s2_per_lsb;
+    const auto clipped = static_cast<double>(
+        std::count_if(x.begin(), x.end(), [&](float v) { return std::abs(static_cast<double>(v)) >= full_scale; }));
+    if (clipped > settings_.max_clipped_fraction * static_cast<double>(x.size())) {
+      skip_all("clipped_samples");
+      return out;
+    }
+  }
+  const Moments raw = moments(x);
+  out.indicators.push_back({"rms_raw", raw.rms});
+  out.indicators.push_back({"kurtosis_raw", raw.kurtosis});
+
+  std::string failure;
+  try {
+    analyze_order_domain(record, x, out);
+  } catch (const std::exception& e) {
+    failure = std::string("analysis_error: ") + e.what();
+  }
+  // Every indicator ends up either computed or skipped with a reason.
+  std::unordered_set<std::string> seen;
+  for (const auto& i : out.indicators) seen.insert(i.name);
+  for (const auto& s : out.skipped) seen.insert(s.name);
+  for (const auto& n : all)
+    if (!seen.count(n)) out.skipped.push_back({n, failure.empty() ? "not_computed" : failure});
+  return out;
+}
+
+void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const float> x, ChannelAnalysis& out) {
+  const double fs = record.sample_rate_hz;
+  auto skip = [&](const std::vector<std::string>& names, const std::string& reason) {
+    for (const auto& n : names) out.skipped.push_back({n, reason});
+  };
+  auto add = [&](const std::string& name, double value) {
+    if (std::isfinite(value))
+      out.indicators.push_back({name, value});
+    else
+      out.skipped.push_back({name, "non_finite_result"});
+  };
+  std::vector<std::string> order_names = speed_names();
+  for (auto& n : tsa_names(settings_)) order_names.push_back(n);
+  const auto residual_group = residual_names(settings_);
+  for (auto& n : residual_group) order_names.push_back(n);
+
+  // Tacho: the input shaft's own if it has edges, else any other shaft's scaled by its ratio.
+  const TachoSpec* tacho = nullptr;
+  for (const auto& t : rig_.tachos) {
+    if (t.shaft < 0 || t.shaft >= kMaxShafts || record.tacho_edges[static_cast<std::size_t>(t.shaft)].empty()) continue;
+    if (tacho == nullptr || (t.ratio_to_input == 1.0 && tacho->ratio_to_input != 1.0)) tacho = &t;
+  }
+  if (tacho == nullptr) {
+    skip(order_names, "no_tacho");
+    return;
+  }
+  const TachoCheck check = angle_.assign(record.tacho_edges[static_cast<std::size_t>(tacho->shaft)],
+                                         tacho->edges_per_rev, 1.0 / tacho->ratio_to_input);
+  if (!check.ok()) {
+    skip(order_names, check.reason);
+    return;
+  }
+  angle_.speed_per_revolution(fs, out.speed_profile_hz);
+  const double total_revs = angle_.total_revolutions();
+  const double duration = angle_.time_at(total_revs) - angle_.time_at(0.0);
+  const double mean_speed = total_revs * fs / duration;
+  double slowest = mean_speed, fastest = mean_speed;
+  for (double v : out.speed_profile_hz) {
+    slowest = std::min(slowest, v);
+    fastest = std::max(fastest, v);
+  }
+  if (slowest < rig_.min_speed_hz || fastest > rig_.max_speed_hz) {
+    skip(order_names, "speed_out_of_range");
+    return;
+  }
+  out.mean_speed_hz = mean_speed;
+  add("speed_mean_hz", mean_speed);
+  add("speed_fluctuation", (fastest - slowest) / mean_speed);
+
+  std::size_t spr = static_cast<std::size_t>(settings_.samples_per_revolution);
+  if (spr == 0) spr = std::clamp<std::size_t>(next_power_of_two(static_cast<std::size_t>(std::ceil(fs / slowest))), 64, 1u << 20);
+  out.samples_per_revolution = spr;
+  const int z1 = rig_.gears.pinion_teeth, z2 = rig_.gears.gear_teeth;
+  const auto input_revs = static_cast<std::size_t>(std::floor(total_revs + 1e-9));
+  const auto output_revs = static_cast<std::size_t>(std::floor(total_revs * z1 / z2 + 1e-9));
+  if (static_cast<double>(input_revs) < settings_.min_revolutions_for_tsa) {
+    skip(tsa_names(settings_), "too_few_revolutions");
+    skip(residual_group, "too_few_revolutions");
+    return;
+  }
+
+  // Order tracking onto both shafts and the synchronous separation.
+  const std::size_t length = input_revs * spr;
+  input_angle_.resize(length);
+  resampler_.resample(x, angle_, spr, input_revs, input_angle_);
+  output_angle_.resize(output_revs * spr);
+  if (output_revs > 0)
+    resampler_.resample(x, angle_, spr, output_revs, output_angle_, static_cast<double>(z2) / z1);
+  residual_.resize(length);
+  const auto separation = separation_.separate(input_angle_, output_angle_, spr, z1, z2, plans_, residual_);
+  out.tsa_averages_input = static_cast<double>(separation.input_averages);
+  out.tsa_averages_output = static_cast<double>(separation.output_averages);
+
+  synchronous_harmonic_amplitudes(separation_.input_tsa(), z1, static_cast<std::size_t>(settings_.stored_gmf_harmonics),
+                                  plans_, gmf_amplitudes_);
+  if (std::isfinite(gmf_amplitudes_[0])) add("gmf1_amplitude", gmf_amplitudes_[0]);
+  else out.skipped.push_back({"gmf1_amplitude", "above_nyquist"});
+  for (std::size_t h = 0; h < gmf_amplitudes_.size(); ++h) {
+    const std::string name = "gmf_harmonic_" + std::to_string(h + 1);
+    if (std::isfinite(gmf_amplitudes_[h])) add(name, gmf_amplitudes_[h]);
+    else out.skipped.push_back({name, "above_nyquist"});
+  }
+  try {
+    add("rms_sa", rms_sa(gmf_amplitudes_, static_cast<std::size_t>(settings_.rms_sa_harmonics)));
+  } catch (const std::invalid_argument&) {
+    out.skipped.push_back({"rms_sa", "above_nyquist"});
+  }
+
+  if (static_cast<double>(output_revs) < settings_.min_revolutions_for_tsa) {
+    skip(residual_group, "too_few_revolutions");
+    return;
+  }
+  const std::span<const double> residual(residual_.data(), length);
+  const Moments res = moments(residual);
+  add("rms_residual", res.rms);
+  add("kurtosis_residual", res.kurtosis);
+
+  // Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier bands.
+  const Ics2Parameters ics2{static_cast<double>(z1), settings_.ics2_harmonics, settings_.ics2_tolerance_bins};
+  const RealFft& fft = plans_.real(length);
+  residual_spectrum_.resize(fft.spectrum_size());
+  fft.forward(residual, residual_spectrum_);
+  const double nyquist_hz = std::min(fs / 2.0, static_cast<double>(spr) / 2.0 * slowest);
+  const double bins_per_hz = static_cast<double>(input_revs) / mean_speed;
+  const std::size_t last_bin = length / 2 - 1;
+  add("ics2_full_band", envelope_.band_ics2(residual_spectrum_, length, input_revs, 1, last_bin, ics2).value);
+  auto band_ics2 = [&](const FrequencyBand& band, const std::string& name) {
+    if (band.high_hz > nyquist_hz + 1e-9) {
+      out.skipped.push_back({name, "band_above_nyquist"});
+      return;
+    }
+    const auto first = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(band.low_hz * bins_per_hz)));
+    const auto last = std::min(last_bin, static_cast<std::size_t>(std::floor(band.high_hz * bins_per_hz)));
+    if (first > last) {
+      out.skipped.push_back({name, "band_empty"});
+      return;
+    }
+    add(name, envelope_.band_ics2(residual_spectrum_, length, input_revs, first, last, ics2).value);
+  };
+  band_ics2(settings_.pitting_band, "ics2_low_band");
+  band_ics2(settings_.abrasion_band, "ics2_high_band");
+
+  // Band selection over the 1/3-binary tree (ICS2, and kurtosis for comparison).
+  Ics2Criterion ics2_criterion(envelope_, plans_, spr, ics2);
+  std::vector<BandCriterion*> criteria{&ics2_criterion};
+  if (settings_.kurtogram_band_selection) criteria.push_back(&kurtosis_criterion_);
+  band_maps_.resize(criteria.size());
+  const double equivalent_rate = static_cast<double>(spr) * mean_speed;  // angle-domain samples per second
+  try {
+    filter_bank_.analyse(residual, settings_.filter_bank_levels, criteria, band_maps_);
+    for (std::size_t i = 0; i < criteria.size(); ++i) {
+      const auto best = band_maps_[i].optimum();
+      out.band_selections.push_back({band_maps_[i].criterion, best.level, best.centre_fraction * equivalent_rate,
+                                     best.bandwidth_fraction * equivalent_rate, best.value});
+      add(i == 0 ? "ics2_selected_band" : "kurtosis_selected_band", best.value);
+    }
+  } catch (const std::invalid_argument& e) {
+    skip({"ics2_selected_band"}, std::string("filter_bank: ") + e.what());
+    if (settings_.kurtogram_band_selection) skip({"kurtosis_selected_band"}, std::string("filter_bank: ") + e.what());
+  }
+
+  // Spectral coherence at the gear-mesh order and mean carrier frequencies (Fig. 4.13).
+  coherence_.estimate(residual, spr, z1);
+  const auto gamma = coherence_.coherence();
+  const auto nyquist_bin = std::min(gamma.size() - 1, static_cast<std::size_t>(std::floor(nyquist_hz / mean_speed)));
+  double peak = 0.0, sum = 0.0;
+  std::size_t peak_bin = static_cast<std::size_t>(z1), count = 0;
+  for (std::size_t k = static_cast<std::size_t>(z1); k <= nyquist_bin; ++k) {
+    sum += gamma[k];
+    ++count;
+    if (gamma[k] > peak) {
+      peak = gamma[k];
+      peak_bin = k;
+    }
+  }
+  add("sc_gmf_max", peak);
+  add("sc_gmf_mean", count > 0 ? sum / static_cast<double>(count) : std::nan(""));
+  add("sc_gmf_peak_carrier_hz", static_cast<double>(peak_bin) * mean_speed);
+  for (const auto& range : settings_.mean_carrier_ranges) {
+    const std::string name = mean_carrier_indicator_name(range);
+    if (range.high_hz > nyquist_hz + 1e-9) {
+      out.skipped.push_back({name, "band_above_nyquist"});
+      continue;
+    }
+    add(name, coherence_.mean_carrier_order(range.low_hz / mean_speed, range.high_hz / mean_speed) * mean_speed);
+  }
+}
+
+}  // namespace gearwatch::dsp

@@ -1,0 +1,166 @@
+#include "gearwatch/dsp/wear_mechanism.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <stdexcept>
+
+#include "gearwatch/dsp/record_analyzer.hpp"
+
+namespace gearwatch::dsp {
+
+const char* to_string(WearMechanism mechanism) noexcept {
+  switch (mechanism) {
+    case WearMechanism::none: return "none";
+    case WearMechanism::fatigue_pitting: return "fatigue pitting";
+    case WearMechanism::abrasive_wear: return "abrasive wear";
+    case WearMechanism::both: return "both";
+    case WearMechanism::undetermined: return "undetermined";
+  }
+  return "undetermined";
+}
+
+namespace {
+
+// Average ranks (1-based), ties share their mean rank.
+std::vector<double> ranks(const std::vector<double>& v) {
+  std::vector<std::size_t> order(v.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return v[a] < v[b]; });
+  std::vector<double> r(v.size());
+  for (std::size_t i = 0; i < order.size();) {
+    std::size_t j = i;
+    while (j + 1 < order.size() && v[order[j + 1]] == v[order[i]]) ++j;
+    const double mean_rank = 0.5 * static_cast<double>(i + j) + 1.0;
+    for (std::size_t k = i; k <= j; ++k) r[order[k]] = mean_rank;
+    i = j + 1;
+  }
+  return r;
+}
+
+double two_sided_p(double z) { return std::erfc(std::abs(z) / std::sqrt(2.0)); }
+
+}  // namespace
+
+TrendTest trend_test(std::span<const double> x, std::span<const double> y, double significance) {
+  if (x.size() != y.size()) throw std::invalid_argument("trend_test: x and y differ in length");
+  std::vector<std::pair<double, double>> pairs;
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (std::isfinite(x[i]) && std::isfinite(y[i])) pairs.emplace_back(x[i], y[i]);
+  std::stable_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  TrendTest t;
+  t.points = pairs.size();
+  const std::size_t n = pairs.size();
+  if (n < 3) return t;
+  double s = 0.0;
+  for (std::size_t i = 0; i + 1 < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const double d = pairs[j].second - pairs[i].second;
+      s += (d > 0) - (d < 0);
+    }
+  // Tie correction of Var(S): sum over tie groups of t(t-1)(2t+5).
+  std::vector<double> values(n);
+  for (std::size_t i = 0; i < n; ++i) values[i] = pairs[i].second;
+  std::vector<double> sorted = values;
+  std::sort(sorted.begin(), sorted.end());
+  double tie_term = 0.0;
+  for (std::size_t i = 0; i < n;) {
+    std::size_t j = i;
+    while (j + 1 < n && sorted[j + 1] == sorted[i]) ++j;
+    const double g = static_cast<double>(j - i + 1);
+    tie_term += g * (g - 1) * (2 * g + 5);
+    i = j + 1;
+  }
+  const double nn = static_cast<double>(n);
+  const double variance = (nn * (nn - 1) * (2 * nn + 5) - tie_term) / 18.0;
+  t.mann_kendall_s = s;
+  if (variance > 0) t.mann_kendall_z = s > 0 ? (s - 1) / std::sqrt(variance) : s < 0 ? (s + 1) / std::sqrt(variance) : 0.0;
+  t.p_value = two_sided_p(t.mann_kendall_z);
+  // Spearman: Pearson correlation of the ranks (x ranks are 1..n after sorting, ties in x kept).
+  std::vector<double> xs(n);
+  for (std::size_t i = 0; i < n; ++i) xs[i] = pairs[i].first;
+  const auto rx = ranks(xs), ry = ranks(values);
+  const double mean = (nn + 1) / 2;
+  double sxy = 0, sxx = 0, syy = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sxy += (rx[i] - mean) * (ry[i] - mean);
+    sxx += (rx[i] - mean) * (rx[i] - mean);
+    syy += (ry[i] - mean) * (ry[i] - mean);
+  }
+  t.spearman_rho = (sxx > 0 && syy > 0) ? sxy / std::sqrt(sxx * syy) : 0.0;
+  const bool significant = t.p_value < significance;
+  t.increasing = significant && s > 0;
+  t.decreasing = significant && s < 0;
+  return t;
+}
+
+std::size_t minimum_points_for_trend(double significance) {
+  for (std::size_t n = 3; n < 1000; ++n) {
+    const double nn = static_cast<double>(n);
+    const double s = nn * (nn - 1) / 2;
+    const double z = (s - 1) / std::sqrt(nn * (nn - 1) * (2 * nn + 5) / 18.0);
+    if (two_sided_p(z) < significance) return n;
+  }
+  return 1000;
+}
+
+WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
+                                             const SignalProcessingSettings& settings) {
+  const double alpha = settings.trend_significance;
+  std::vector<WearHistoryPoint> points(history.begin(), history.end());
+  std::stable_sort(points.begin(), points.end(), [](const auto& a, const auto& b) { return a.cycles < b.cycles; });
+  std::vector<double> cycles, low, high;
+  for (const auto& p : points) {
+    cycles.push_back(p.cycles);
+    low.push_back(p.ics2_low);
+    high.push_back(p.ics2_high);
+  }
+  WearMechanismVerdict v;
+  v.low_band = trend_test(cycles, low, alpha);
+  v.high_band = trend_test(cycles, high, alpha);
+
+  // Band jumps: consecutive finite centres an octave or more apart (seed Figs 4.8, 4.15: the
+  // selected band moves between the low and high carrier ranges when the mechanism changes).
+  double previous = std::nan("");
+  for (const auto& p : points) {
+    if (!std::isfinite(p.selected_centre_hz) || p.selected_centre_hz <= 0) continue;
+    if (std::isfinite(previous) && std::abs(std::log2(p.selected_centre_hz / previous)) >= 1.0)
+      v.band_jumps.push_back({p.cycles, previous, p.selected_centre_hz});
+    previous = p.selected_centre_hz;
+  }
+
+  const std::size_t needed = minimum_points_for_trend(alpha);
+  if (v.low_band.points < needed && v.high_band.points < needed) {
+    v.mechanism = WearMechanism::undetermined;
+  } else if (v.low_band.increasing && v.high_band.increasing) {
+    v.mechanism = WearMechanism::both;
+  } else if (v.low_band.increasing) {
+    v.mechanism = WearMechanism::fatigue_pitting;
+  } else if (v.high_band.increasing) {
+    v.mechanism = WearMechanism::abrasive_wear;
+  } else if (v.low_band.points < needed || v.high_band.points < needed) {
+    v.mechanism = WearMechanism::undetermined;  // one band has no verdict and the other no trend
+  } else {
+    v.mechanism = WearMechanism::none;
+  }
+
+  char buffer[512];
+  std::snprintf(buffer, sizeof buffer,
+                "low band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f%s; high band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f%s; "
+                "alpha=%.3g (needs >= %zu points); band jumps: %zu",
+                v.low_band.points, v.low_band.mann_kendall_s, v.low_band.mann_kendall_z, v.low_band.p_value,
+                v.low_band.spearman_rho, v.low_band.increasing ? " increasing" : v.low_band.decreasing ? " decreasing" : "",
+                v.high_band.points, v.high_band.mann_kendall_s, v.high_band.mann_kendall_z, v.high_band.p_value,
+                v.high_band.spearman_rho,
+                v.high_band.increasing ? " increasing" : v.high_band.decreasing ? " decreasing" : "", alpha, needed,
+                v.band_jumps.size());
+  v.evidence = buffer;
+  for (const auto& j : v.band_jumps) {
+    std::snprintf(buffer, sizeof buffer, "; jump at %.6g cycles %.0f Hz -> %.0f Hz", j.cycles, j.from_hz, j.to_hz);
+    v.evidence += buffer;
+  }
+  return v;
+}
+
+}  // namespace gearwatch::dsp
