@@ -1,7 +1,83 @@
-#include "commands.hpp"
+// `gearwatch query alerts|indicators|health|updates|inspections --db FILE [--since T]`.
+#include "cli_common.hpp"
 
 namespace gearwatch::cli {
 
-void register_query(CLI::App& app) { (void)app; }
+namespace {
+
+bool has_table(storage::Database& db, const std::string& name) {
+  storage::Statement s(db, "SELECT 1 FROM sqlite_master WHERE name = ?");
+  s.bind(1, name);
+  return s.step();
+}
+
+}  // namespace
+
+void register_query(CLI::App& app) {
+  struct Options {
+    std::string what, db, since, format, name;
+    int limit = 0;
+  };
+  auto opt = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("query", "Staff queries on the database");
+  cmd->add_option("what", opt->what, "alerts | indicators | health | updates | inspections | records | gaps | rejected")
+      ->required()
+      ->check(CLI::IsMember({"alerts", "indicators", "health", "updates", "inspections", "records", "gaps", "rejected"}));
+  cmd->add_option("--db", opt->db, "SQLite database")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--since", opt->since, "Only rows at or after this UTC time (ISO 8601, e.g. 2026-11-01 or 2026-11-01T08:00)");
+  cmd->add_option("--name", opt->name, "indicators: only this indicator name");
+  cmd->add_option("--limit", opt->limit, "At most this many rows (newest first when set)")->check(CLI::PositiveNumber);
+  add_format_option(cmd, opt->format);
+  cmd->callback([opt] {
+    try {
+      storage::Database db(opt->db, storage::Database::Mode::read_only);
+      std::string sql, time_col;
+      std::vector<std::string> bind;
+      if (opt->what == "alerts") {
+        sql = "SELECT id, created_at, severity, kind, record_id, message FROM alerts";
+        time_col = "created_at";
+      } else if (opt->what == "indicators") {
+        sql = "SELECT record_id, created_at, cycles, speed_hz, torque_nm, channel, name, value FROM indicators";
+        time_col = "created_at";
+      } else if (opt->what == "health") {
+        sql = "SELECT * FROM acquisition_health";
+        time_col = "taken_at";
+      } else if (opt->what == "inspections") {
+        sql = "SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note FROM inspections";
+        time_col = "entered_at";
+      } else if (opt->what == "records") {
+        sql = "SELECT * FROM record_status";
+        time_col = "created_at";
+      } else if (opt->what == "gaps") {
+        sql = "SELECT g.id, g.detected_at, s.run_id, s.stream_id, g.channel, g.first_missing_index, g.missing_samples, g.cause"
+              " FROM gap_events g JOIN streams s ON s.id = g.stream_key";
+        time_col = "detected_at";
+      } else if (opt->what == "rejected") {
+        sql = "SELECT id, received_at, run_id, kind, reason, frame FROM rejected_frames";
+        time_col = "received_at";
+      } else {  // updates
+        if (!has_table(db, "k_updates"))
+          throw CommandError("this database has no k_updates: the wear-model updating (digital twin II) is not in this gearwatch version yet");
+        sql = "SELECT * FROM k_updates";
+        time_col = "created_at";
+      }
+      std::vector<std::string> where;
+      if (!opt->since.empty()) {
+        where.push_back(time_col + " >= ?");
+        bind.push_back(opt->since);
+      }
+      if (!opt->name.empty()) {
+        if (opt->what != "indicators") throw CommandError("--name applies to `query indicators` only");
+        where.push_back("name = ?");
+        bind.push_back(opt->name);
+      }
+      for (std::size_t i = 0; i < where.size(); ++i) sql += (i ? " AND " : " WHERE ") + where[i];
+      if (opt->limit > 0) sql = "SELECT * FROM (" + sql + " ORDER BY " + time_col + " DESC LIMIT " + std::to_string(opt->limit) + ") ORDER BY " + time_col;
+      print_query(db, sql, bind, opt->format);
+    } catch (const storage::SqliteError& e) {
+      throw CommandError(e.what());
+    }
+  });
+}
 
 }  // namespace gearwatch::cli

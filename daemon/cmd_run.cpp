@@ -1,7 +1,36 @@
-#include "commands.hpp"
+// `gearwatch run --config FILE`: the daemon (systemd runs this).
+#include <spdlog/spdlog.h>
+
+#include "cli_common.hpp"
+#include "logging.hpp"
+#include "pipeline.hpp"
 
 namespace gearwatch::cli {
 
-void register_run(CLI::App& app) { (void)app; }
+void register_run(CLI::App& app) {
+  struct Options {
+    std::string config, db;
+  };
+  auto opt = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("run", "Run the monitoring daemon (acquisition, processing, storage)");
+  cmd->add_option("--config", opt->config, "Configuration file (TOML)")->required();
+  cmd->add_option("--db", opt->db, "Override storage.database");
+  cmd->callback([opt] {
+    auto cfg = load_config_or_defaults(opt->config);
+    if (!opt->db.empty()) cfg.storage.database = opt->db;
+    const bool journald = cfg.logging.sink == "journald" || (cfg.logging.sink == "auto" && logging::running_under_journald());
+    logging::setup(journald ? logging::Sink::journald : logging::Sink::stderr_only, cfg.logging.level);
+    spdlog::info("gearwatch starting: config {}, database {}", opt->config, cfg.storage.database);
+    daemon::PipelineResult r;
+    try {
+      r = daemon::run_pipeline(cfg, daemon::PipelineMode::live);
+    } catch (const std::exception& e) {
+      throw CommandError(e.what());
+    }
+    spdlog::info("gearwatch stopped: {} records ({} analysed), {} frames, {} samples, {} lost", r.records,
+                 r.records_analysed, r.frames, r.samples, r.losses);
+    if (r.exit_status != 0) throw CommandError("stopped with an error: " + (r.end_reason.empty() ? "storage failure" : r.end_reason), r.exit_status);
+  });
+}
 
 }  // namespace gearwatch::cli

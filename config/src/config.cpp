@@ -1,1 +1,261 @@
-// placeholder until the module's first source lands
+#include "gearwatch/config/config.hpp"
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+namespace gearwatch::config {
+namespace {
+
+// Reads one TOML table, remembers which keys were used and refuses the others, so a typo
+// ("lenght_s") is an error instead of a silently ignored setting.
+class TableReader {
+ public:
+  TableReader(const toml::table* table, std::string prefix, const std::string& file)
+      : table_(table), prefix_(std::move(prefix)), file_(file) {}
+
+  [[noreturn]] void fail(const toml::node* node, const std::string& key, const std::string& why) const {
+    std::ostringstream msg;
+    msg << file_;
+    if (node) msg << ":" << node->source().begin.line;
+    else if (table_) msg << ":" << table_->source().begin.line;
+    msg << ": key '" << prefix_ << key << "': " << why;
+    throw ConfigError(msg.str());
+  }
+
+  const toml::node* node(const std::string& key) {
+    used_.insert(key);
+    return table_ ? table_->get(key) : nullptr;
+  }
+
+  void number(const std::string& key, double& out, double lo, double hi) {
+    const toml::node* n = node(key);
+    if (!n) return;
+    double v;
+    if (auto i = n->value_exact<std::int64_t>()) v = static_cast<double>(*i);
+    else if (auto d = n->value_exact<double>()) v = *d;
+    else fail(n, key, "expected a number");
+    if (!(v >= lo && v <= hi)) {
+      std::ostringstream why;
+      why << "value " << v << " is outside [" << lo << ", " << hi << "]";
+      fail(n, key, why.str());
+    }
+    out = v;
+  }
+
+  template <typename Int>
+  void integer(const std::string& key, Int& out, std::int64_t lo, std::int64_t hi) {
+    const toml::node* n = node(key);
+    if (!n) return;
+    auto i = n->value_exact<std::int64_t>();
+    if (!i) fail(n, key, "expected an integer");
+    if (*i < lo || *i > hi) fail(n, key, "value " + std::to_string(*i) + " is outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    out = static_cast<Int>(*i);
+  }
+
+  void string(const std::string& key, std::string& out, bool allow_empty = false) {
+    const toml::node* n = node(key);
+    if (!n) return;
+    auto s = n->value_exact<std::string>();
+    if (!s) fail(n, key, "expected a string");
+    if (!allow_empty && s->empty()) fail(n, key, "must not be empty");
+    out = *s;
+  }
+
+  void reject_unknown() const {
+    if (!table_) return;
+    for (const auto& [k, v] : *table_) {
+      const std::string key{k.str()};
+      if (!used_.count(key)) fail(&v, key, "unknown key");
+    }
+  }
+
+ private:
+  const toml::table* table_;
+  std::string prefix_;
+  const std::string& file_;
+  std::set<std::string> used_;
+};
+
+const toml::table* sub_table(const toml::table& root, const std::string& name, const std::string& file) {
+  const toml::node* n = root.get(name);
+  if (!n) return nullptr;
+  if (!n->is_table()) {
+    throw ConfigError(file + ":" + std::to_string(n->source().begin.line) + ": key '" + name + "': expected a table [" + name + "]");
+  }
+  return n->as_table();
+}
+
+const toml::array* array_of_tables(const toml::table& root, const std::string& name, const std::string& file) {
+  const toml::node* n = root.get(name);
+  if (!n) return nullptr;
+  if (!n->is_array_of_tables()) {
+    throw ConfigError(file + ":" + std::to_string(n->source().begin.line) + ": key '" + name + "': expected [[" + name + "]] tables");
+  }
+  return n->as_array();
+}
+
+GearwatchConfig from_table(const toml::table& root, const std::string& file) {
+  GearwatchConfig cfg;
+  cfg.source_path = file;
+  static const std::set<std::string> known{"rig", "gears", "channels", "tachos", "records", "protocol",
+                                           "acquisition", "storage", "logging", "daemon", "processing", "twin"};
+  for (const auto& [k, v] : root) {
+    if (!known.count(std::string{k.str()})) {
+      throw ConfigError(file + ":" + std::to_string(v.source().begin.line) + ": key '" + std::string{k.str()} + "': unknown table or key");
+    }
+  }
+
+  {
+    TableReader t(sub_table(root, "rig", file), "rig.", file);
+    t.number("sample_rate_hz", cfg.rig.sample_rate_hz, 100.0, 10e6);
+    t.number("min_speed_hz", cfg.rig.min_speed_hz, 0.0, 1000.0);
+    t.number("max_speed_hz", cfg.rig.max_speed_hz, 0.0, 1000.0);
+    if (cfg.rig.max_speed_hz <= cfg.rig.min_speed_hz) t.fail(t.node("max_speed_hz"), "max_speed_hz", "must be above min_speed_hz");
+    t.reject_unknown();
+  }
+  {
+    TableReader t(sub_table(root, "gears", file), "gears.", file);
+    auto& g = cfg.rig.gears;
+    t.integer("pinion_teeth", g.pinion_teeth, 5, 500);
+    t.integer("gear_teeth", g.gear_teeth, 5, 1000);
+    double module_mm = g.module_m * 1e3, face_mm = g.face_width_m * 1e3, e_gpa = g.youngs_modulus_pa / 1e9;
+    t.number("module_mm", module_mm, 0.1, 100.0);
+    t.number("pressure_angle_deg", g.pressure_angle_deg, 10.0, 35.0);
+    t.number("face_width_mm", face_mm, 0.5, 2000.0);
+    t.number("youngs_modulus_gpa", e_gpa, 1.0, 1000.0);
+    t.number("poisson_ratio", g.poisson_ratio, 0.0, 0.5);
+    t.number("density_kg_m3", g.density_kg_m3, 100.0, 30000.0);
+    g.module_m = module_mm * 1e-3;
+    g.face_width_m = face_mm * 1e-3;
+    g.youngs_modulus_pa = e_gpa * 1e9;
+    t.reject_unknown();
+  }
+  if (const auto* arr = array_of_tables(root, "channels", file)) {
+    cfg.rig.channels.clear();
+    std::set<int> seen;
+    for (const auto& node : *arr) {
+      const auto* tbl = node.as_table();
+      TableReader t(tbl, "channels.", file);
+      ChannelSpec ch;
+      if (!tbl->get("number")) t.fail(tbl, "number", "every [[channels]] entry needs a number (0..7)");
+      t.integer("number", ch.number, 0, 7);
+      t.string("name", ch.name);
+      t.number("scale", ch.scale_m_s2_per_lsb, 1e-12, 1e6);
+      if (!seen.insert(ch.number).second) t.fail(tbl->get("number"), "number", "channel " + std::to_string(ch.number) + " configured twice");
+      t.reject_unknown();
+      cfg.rig.channels.push_back(ch);
+    }
+    if (cfg.rig.channels.empty()) throw ConfigError(file + ": key 'channels': at least one [[channels]] entry is needed");
+  }
+  if (const auto* arr = array_of_tables(root, "tachos", file)) {
+    cfg.rig.tachos.clear();
+    std::set<int> seen;
+    for (const auto& node : *arr) {
+      const auto* tbl = node.as_table();
+      TableReader t(tbl, "tachos.", file);
+      TachoSpec tacho;
+      if (!tbl->get("shaft")) t.fail(tbl, "shaft", "every [[tachos]] entry needs a shaft (0..3)");
+      t.integer("shaft", tacho.shaft, 0, 3);
+      t.string("name", tacho.name);
+      t.integer("edges_per_rev", tacho.edges_per_rev, 1, 100000);
+      t.number("ratio_to_input", tacho.ratio_to_input, 1e-6, 1e6);
+      if (!seen.insert(tacho.shaft).second) t.fail(tbl->get("shaft"), "shaft", "shaft " + std::to_string(tacho.shaft) + " configured twice");
+      t.reject_unknown();
+      cfg.rig.tachos.push_back(tacho);
+    }
+  }
+  {
+    TableReader t(sub_table(root, "records", file), "records.", file);
+    auto& s = cfg.rig.schedule;
+    t.number("length_s", s.length_s, 0.01, 3600.0);
+    t.number("interval_s", s.interval_s, 0.01, 30.0 * 86400.0);
+    t.number("min_length_s", s.min_length_s, 0.0, 3600.0);
+    if (s.interval_s < s.length_s) t.fail(t.node("interval_s"), "interval_s", "must be at least length_s (records do not overlap)");
+    if (s.min_length_s > s.length_s) t.fail(t.node("min_length_s"), "min_length_s", "must not exceed length_s");
+    t.reject_unknown();
+  }
+  {
+    TableReader t(sub_table(root, "protocol", file), "protocol.", file);
+    auto& p = cfg.protocol;
+    t.integer("vibration_base_id", p.vibration_base_id, 0, 0x7FF - 7);
+    t.integer("tacho_base_id", p.tacho_base_id, 0, 0x7FF - 3);
+    t.integer("stream_header_id", p.stream_header_id, 0, 0x7FF);
+    t.integer("operating_condition_id", p.operating_condition_id, 0, 0x7FF);
+    t.integer("life_counter_id", p.life_counter_id, 0, 0x7FF);
+    t.reject_unknown();
+  }
+  {
+    TableReader t(sub_table(root, "acquisition", file), "acquisition.", file);
+    auto& a = cfg.acquisition;
+    std::string source = a.source == SourceKind::socketcan ? "socketcan" : "candump";
+    t.string("source", source);
+    if (source == "socketcan") a.source = SourceKind::socketcan;
+    else if (source == "candump") a.source = SourceKind::candump;
+    else t.fail(t.node("source"), "source", "expected \"socketcan\" or \"candump\", got \"" + source + "\"");
+    t.string("interface", a.interface);
+    t.string("capture", a.capture, true);
+    t.integer("ring_capacity_samples", a.ring_capacity_samples, 1024, std::int64_t{1} << 32);
+    t.integer("receive_buffer_bytes", a.receive_buffer_bytes, 4096, std::int64_t{1} << 31);
+    t.integer("reopen_initial_ms", a.reopen_initial_ms, 1, 600000);
+    t.integer("reopen_max_ms", a.reopen_max_ms, 1, 3600000);
+    if (a.source == SourceKind::candump && a.capture.empty()) t.fail(t.node("capture"), "capture", "source = \"candump\" needs a capture file");
+    t.reject_unknown();
+  }
+  {
+    TableReader t(sub_table(root, "storage", file), "storage.", file);
+    auto& s = cfg.storage;
+    t.string("database", s.database);
+    t.integer("busy_timeout_ms", s.busy_timeout_ms, 0, 600000);
+    t.integer("queue_capacity", s.queue_capacity, 1, 1000000);
+    t.integer("retry_initial_ms", s.retry_initial_ms, 1, 600000);
+    t.integer("retry_max_ms", s.retry_max_ms, 1, 3600000);
+    t.reject_unknown();
+  }
+  {
+    TableReader t(sub_table(root, "logging", file), "logging.", file);
+    auto& l = cfg.logging;
+    t.string("level", l.level);
+    static const std::set<std::string> levels{"trace", "debug", "info", "warning", "warn", "error", "critical", "off"};
+    if (!levels.count(l.level)) t.fail(t.node("level"), "level", "expected one of trace, debug, info, warn, error, critical, off");
+    t.string("sink", l.sink);
+    if (l.sink != "auto" && l.sink != "journald" && l.sink != "stderr") t.fail(t.node("sink"), "sink", "expected auto, journald or stderr");
+    t.number("rate_limit_s", l.rate_limit_s, 0.0, 86400.0);
+    t.reject_unknown();
+  }
+  {
+    TableReader t(sub_table(root, "daemon", file), "daemon.", file);
+    t.number("health_interval_s", cfg.daemon.health_interval_s, 0.1, 86400.0);
+    t.number("watchdog_margin", cfg.daemon.watchdog_margin, 0.05, 0.95);
+    t.reject_unknown();
+  }
+  // [processing] and [twin] are read by their own modules (processing_config, twin_config).
+  if (cfg.rig.tachos.empty()) throw ConfigError(file + ": key 'tachos': at least one [[tachos]] entry is needed");
+  return cfg;
+}
+
+}  // namespace
+
+GearwatchConfig parse_config(const std::string& text, const std::string& name) {
+  try {
+    toml::table root = toml::parse(text, name);
+    return from_table(root, name);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream msg;
+    msg << name << ":" << e.source().begin.line << ": " << e.description();
+    throw ConfigError(msg.str());
+  }
+}
+
+GearwatchConfig load_config(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError(path + ": cannot open config file");
+  std::ostringstream buf;
+  buf << in.rdbuf();
+  if (in.bad()) throw ConfigError(path + ": read error");
+  return parse_config(buf.str(), path);
+}
+
+}  // namespace gearwatch::config

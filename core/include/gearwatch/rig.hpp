@@ -44,7 +44,7 @@ struct RecordSchedule {
 struct RigSpec {
   GearPairSpec gears;
   double sample_rate_hz = 100000.0;
-  std::vector<ChannelSpec> channels{ChannelSpec{}};
+  std::vector<ChannelSpec> channels{ChannelSpec{0, "casing_y", 0.01}, ChannelSpec{1, "casing_x", 0.01}};
   std::vector<TachoSpec> tachos{TachoSpec{}};
   RecordSchedule schedule;
   double min_speed_hz = 0.5;          ///< records outside [min,max] input speed are not analysed

@@ -1,0 +1,113 @@
+#pragma once
+// Cuts records out of the decoded event stream (processing thread): a record of length L starts
+// every interval I on the sample clock (seed §3.2.2). A record never spans a gap: it is cut at
+// the gap (kept if at least min_length long, otherwise rejected) and the schedule continues.
+// Deterministic: the same event sequence always gives the same records, which is what lets a
+// live run and a replay of its capture produce identical databases.
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gearwatch/acquisition/events.hpp"
+#include "gearwatch/record.hpp"
+#include "gearwatch/rig.hpp"
+
+namespace gearwatch::acquisition {
+
+struct StreamInfo {
+  std::uint16_t stream_id = 0;
+  std::uint32_t sample_rate_hz = 0;
+  std::uint8_t channel_count = 0;
+  std::uint64_t sequence = 0;       ///< 1 for the first stream of this run, then 2, 3...
+};
+
+enum class GapCause : std::uint8_t { protocol = 0, ring_overflow = 1 };
+const char* to_string(GapCause cause) noexcept;
+
+struct GapInfo {
+  int channel = 0;                  ///< protocol channel number
+  std::uint64_t first_missing = 0;  ///< unwrapped sample index
+  std::uint64_t missing = 0;        ///< samples
+  GapCause cause = GapCause::protocol;
+};
+
+struct LifeCounterReset {
+  std::uint64_t index = 0;
+  std::uint64_t previous_revolutions = 0;
+  std::uint64_t revolutions = 0;
+};
+
+struct AssemblerCounters {
+  std::uint64_t records_complete = 0;
+  std::uint64_t records_cut = 0;      ///< cut at a gap or stream end, analysed
+  std::uint64_t records_rejected = 0; ///< shorter than min_length: stored, not analysed
+  std::uint64_t ring_gaps = 0;        ///< discontinuities caused by ring overflow
+  std::uint64_t ring_gap_samples = 0;
+};
+
+class RecordAssembler {
+ public:
+  struct Callbacks {
+    /// A finished record. `analysable` is false when it is shorter than min_length.
+    std::function<void(Record&&, bool analysable)> on_record;
+    std::function<void(const StreamInfo&)> on_stream;
+    std::function<void(const GapInfo&)> on_gap;
+    std::function<void(const LifeCounterReset&)> on_life_counter_reset;
+  };
+
+  RecordAssembler(const RigSpec& rig, Callbacks callbacks);
+
+  void consume(const AcquisitionEvent& event);
+  /// End of input (replay EOF or shutdown): the record in progress ends as `stream_end`.
+  void finish();
+
+  const AssemblerCounters& counters() const noexcept { return counters_; }
+
+ private:
+  struct Open {
+    bool active = false;
+    std::uint64_t start = 0;
+    std::size_t cut = 0;                      ///< valid length limit (L, or the first gap)
+    std::vector<std::vector<float>> buffers;  ///< one per configured channel
+    float torque = 0, speed = 0;
+    bool have_condition = false;
+    std::optional<double> revolutions;
+  };
+
+  void on_stream_start(const AcquisitionEvent& e);
+  void on_samples(const AcquisitionEvent& e);
+  void place_samples(std::size_t slot, const AcquisitionEvent& e, std::size_t offset);
+  void flush_pending();
+  void open_record(std::uint64_t start);
+  void finalize(RecordEnd end);
+  std::size_t filled_min() const noexcept;
+
+  RigSpec rig_;
+  Callbacks callbacks_;
+  AssemblerCounters counters_;
+  std::array<int, 8> slot_of_channel_{};
+  std::array<double, 8> scale_of_slot_{};
+  int input_tacho_shaft_ = -1;
+  int input_edges_per_rev_ = 1;
+
+  StreamInfo stream_;
+  bool in_stream_ = false;
+  std::size_t length_ = 0, interval_ = 0, min_length_ = 0, slack_ = 0;
+  std::optional<std::uint64_t> next_start_;
+  std::array<std::optional<std::uint64_t>, 8> next_seen_{};
+  std::array<std::deque<double>, kMaxShafts> edges_{};
+  std::array<std::vector<AcquisitionEvent>, 8> pending_{};  ///< samples past the open record, per slot
+  Open open_;
+
+  float torque_ = 0, speed_ = 0;
+  bool have_condition_ = false;
+  std::optional<std::uint64_t> life_revolutions_;
+  std::optional<std::uint64_t> life_index_;
+  std::uint64_t edges_since_life_ = 0;
+};
+
+}  // namespace gearwatch::acquisition

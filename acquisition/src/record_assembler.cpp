@@ -1,0 +1,245 @@
+#include "gearwatch/acquisition/record_assembler.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace gearwatch::acquisition {
+
+const char* to_string(GapCause cause) noexcept {
+  return cause == GapCause::ring_overflow ? "ring_overflow" : "protocol";
+}
+
+RecordAssembler::RecordAssembler(const RigSpec& rig, Callbacks callbacks) : rig_(rig), callbacks_(std::move(callbacks)) {
+  slot_of_channel_.fill(-1);
+  for (std::size_t i = 0; i < rig_.channels.size(); ++i) {
+    slot_of_channel_.at(static_cast<std::size_t>(rig_.channels[i].number)) = static_cast<int>(i);
+    scale_of_slot_.at(i) = rig_.channels[i].scale_m_s2_per_lsb;
+  }
+  for (const auto& t : rig_.tachos) {
+    if (t.ratio_to_input == 1.0 && input_tacho_shaft_ < 0) {
+      input_tacho_shaft_ = t.shaft;
+      input_edges_per_rev_ = std::max(1, t.edges_per_rev);
+    }
+  }
+}
+
+void RecordAssembler::consume(const AcquisitionEvent& e) {
+  switch (e.kind) {
+    case EventKind::stream_start:
+      on_stream_start(e);
+      break;
+    case EventKind::samples:
+      on_samples(e);
+      break;
+    case EventKind::tacho_edge: {
+      if (e.channel >= kMaxShafts) break;
+      auto& q = edges_[e.channel];
+      q.push_back(static_cast<double>(e.index) + e.fraction);
+      // Keep only what a record can still need: edges from the record in progress on.
+      const double keep_from = static_cast<double>(open_.active ? open_.start : next_start_.value_or(0));
+      while (!q.empty() && q.front() < keep_from && q.size() > 1) q.pop_front();
+      // The odometer already includes a revolution completed at its own index.
+      if (e.channel == input_tacho_shaft_ && (!life_index_ || static_cast<double>(e.index) + e.fraction > static_cast<double>(*life_index_)))
+        ++edges_since_life_;
+      break;
+    }
+    case EventKind::condition:
+      torque_ = e.condition.torque_nm;
+      speed_ = e.condition.speed_hz;
+      have_condition_ = true;
+      break;
+    case EventKind::life_counter:
+      life_revolutions_ = e.life.revolutions;
+      life_index_ = e.index;
+      edges_since_life_ = 0;
+      break;
+    case EventKind::life_counter_reset:
+      if (callbacks_.on_life_counter_reset)
+        callbacks_.on_life_counter_reset({e.index, e.life.previous_revolutions, e.life.revolutions});
+      break;
+    case EventKind::gap: {
+      const int slot = e.channel < 8 ? slot_of_channel_[e.channel] : -1;
+      if (slot >= 0) next_seen_[static_cast<std::size_t>(slot)] = e.index + e.missing;
+      if (callbacks_.on_gap) callbacks_.on_gap({e.channel, e.index, e.missing, GapCause::protocol});
+      break;
+    }
+  }
+}
+
+void RecordAssembler::on_stream_start(const AcquisitionEvent& e) {
+  if (open_.active) finalize(RecordEnd::stream_end);
+  in_stream_ = true;
+  stream_.stream_id = e.stream_id;
+  stream_.sample_rate_hz = e.sample_rate_hz;
+  stream_.channel_count = e.channel_count;
+  ++stream_.sequence;
+  const double fs = e.sample_rate_hz;
+  length_ = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(rig_.schedule.length_s * fs)));
+  interval_ = std::max(length_, static_cast<std::size_t>(std::llround(rig_.schedule.interval_s * fs)));
+  min_length_ = static_cast<std::size_t>(std::llround(rig_.schedule.min_length_s * fs));
+  slack_ = static_cast<std::size_t>(fs);  // a channel more than 1 s behind the others has stopped
+  next_start_.reset();
+  next_seen_.fill(std::nullopt);
+  for (auto& p : pending_) p.clear();
+  for (auto& q : edges_) q.clear();
+  have_condition_ = false;
+  if (callbacks_.on_stream) callbacks_.on_stream(stream_);
+}
+
+void RecordAssembler::open_record(std::uint64_t start) {
+  open_.active = true;
+  open_.start = start;
+  open_.cut = length_;
+  open_.buffers.resize(rig_.channels.size());
+  for (auto& b : open_.buffers) {
+    b.clear();
+    b.reserve(length_);
+  }
+  open_.torque = torque_;
+  open_.speed = speed_;
+  open_.have_condition = have_condition_;
+  open_.revolutions.reset();
+  if (life_revolutions_) {
+    // Edges already received past the record's first sample are not yet revolutions at its start.
+    std::uint64_t ahead = 0;
+    if (input_tacho_shaft_ >= 0)
+      for (double edge : edges_[static_cast<std::size_t>(input_tacho_shaft_)])
+        if (edge > static_cast<double>(start)) ++ahead;
+    const std::uint64_t counted = edges_since_life_ > ahead ? edges_since_life_ - ahead : 0;
+    open_.revolutions = static_cast<double>(*life_revolutions_) +
+                        static_cast<double>(counted) / static_cast<double>(input_edges_per_rev_);
+  }
+}
+
+std::size_t RecordAssembler::filled_min() const noexcept {
+  std::size_t m = std::numeric_limits<std::size_t>::max();
+  for (const auto& b : open_.buffers) m = std::min(m, b.size());
+  return m;
+}
+
+void RecordAssembler::on_samples(const AcquisitionEvent& e) {
+  if (!in_stream_ || e.channel >= 8) return;
+  const int slot = slot_of_channel_[e.channel];
+  if (slot < 0 || e.count == 0) return;
+  const auto s = static_cast<std::size_t>(slot);
+
+  // Continuity as seen after the ring: a jump the decoder did not announce was lost in the ring.
+  if (next_seen_[s] && e.index > *next_seen_[s]) {
+    const std::uint64_t missing = e.index - *next_seen_[s];
+    ++counters_.ring_gaps;
+    counters_.ring_gap_samples += missing;
+    if (callbacks_.on_gap) callbacks_.on_gap({e.channel, *next_seen_[s], missing, GapCause::ring_overflow});
+  }
+  next_seen_[s] = e.index + e.count;
+  place_samples(s, e, 0);
+}
+
+void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, std::size_t offset) {
+  const std::uint64_t first = e.index;
+  const std::size_t count = e.count;
+  while (offset < count) {
+    const std::uint64_t idx = first + offset;
+    if (!open_.active) {
+      if (!next_start_) next_start_ = idx;
+      if (idx + (count - offset) <= *next_start_) return;  // before the next scheduled record
+      // Start at the schedule, or later when the samples at the scheduled start are missing.
+      open_record(std::max(*next_start_, idx));
+    }
+    auto& buf = open_.buffers[s];
+    const std::uint64_t expected = open_.start + buf.size();
+    const std::size_t target = std::min(open_.cut, length_);
+    if (buf.size() >= target) {
+      // This channel is ahead of the others: keep the rest for the next record.
+      AcquisitionEvent rest = e;
+      rest.index = idx;
+      rest.count = static_cast<std::uint8_t>(count - offset);
+      std::copy(e.samples.begin() + static_cast<std::ptrdiff_t>(offset), e.samples.begin() + static_cast<std::ptrdiff_t>(count),
+                rest.samples.begin());
+      pending_[s].push_back(rest);
+      if (idx > open_.start + target + slack_) {
+        // Another channel fell silent: the record ends where the slowest channel stopped.
+        open_.cut = std::min(open_.cut, filled_min());
+        finalize(RecordEnd::cut_at_gap);
+        flush_pending();
+      }
+      return;
+    }
+    if (idx < expected) {  // overlaps what this record already holds (a re-anchored start)
+      offset += static_cast<std::size_t>(std::min<std::uint64_t>(expected - idx, count - offset));
+      continue;
+    }
+    if (idx > expected) {
+      bool empty = true;
+      for (const auto& b : open_.buffers) empty = empty && b.empty();
+      if (empty) {
+        open_.start = idx;  // nothing collected yet: the record simply starts after the hole
+      } else {
+        open_.cut = std::min(open_.cut, buf.size());
+        continue;  // re-evaluate against the shortened target
+      }
+    }
+    const std::size_t take = std::min(target - buf.size(), count - offset);
+    const double scale = scale_of_slot_[s];
+    for (std::size_t i = 0; i < take; ++i) buf.push_back(static_cast<float>(e.samples[offset + i] * scale));
+    offset += take;
+    if (filled_min() >= std::min(open_.cut, length_)) {
+      finalize(open_.cut < length_ ? RecordEnd::cut_at_gap : RecordEnd::complete);
+      flush_pending();
+    }
+  }
+}
+
+void RecordAssembler::flush_pending() {
+  for (std::size_t s = 0; s < pending_.size(); ++s) {
+    if (pending_[s].empty()) continue;
+    std::vector<AcquisitionEvent> held;
+    held.swap(pending_[s]);
+    for (const auto& ev : held) place_samples(s, ev, 0);
+  }
+}
+
+void RecordAssembler::finalize(RecordEnd end) {
+  const std::size_t n = std::min({open_.cut, length_, filled_min()});
+  if (end == RecordEnd::complete && n < length_) end = RecordEnd::stream_end;
+  Record r;
+  r.stream_id = stream_.stream_id;
+  r.sample_rate_hz = stream_.sample_rate_hz;
+  r.start_index = open_.start;
+  r.end = end;
+  r.channels = std::move(open_.buffers);
+  for (auto& c : r.channels) c.resize(n);
+  for (const auto& ch : rig_.channels) r.channel_numbers.push_back(ch.number);
+  const double lo = static_cast<double>(open_.start);
+  const double hi = lo + static_cast<double>(n);
+  for (int shaft = 0; shaft < kMaxShafts; ++shaft) {
+    for (double edge : edges_[static_cast<std::size_t>(shaft)])
+      if (edge >= lo && edge < hi) r.tacho_edges[static_cast<std::size_t>(shaft)].push_back(edge - lo);
+  }
+  if (open_.have_condition) {
+    r.torque_nm = open_.torque;
+    r.speed_hz = open_.speed;
+  }
+  r.input_revolutions = open_.revolutions;
+  if (!r.input_revolutions && life_revolutions_ && life_index_ && *life_index_ >= open_.start && input_tacho_shaft_ >= 0) {
+    // The first odometer reading came inside the record: count back to the record's start.
+    std::uint64_t between = 0;
+    for (double edge : edges_[static_cast<std::size_t>(input_tacho_shaft_)])
+      if (edge > lo && edge <= static_cast<double>(*life_index_)) ++between;
+    r.input_revolutions = static_cast<double>(*life_revolutions_) - static_cast<double>(between) / input_edges_per_rev_;
+  }
+  const bool analysable = n >= min_length_ && n > 0;
+  if (!analysable) ++counters_.records_rejected;
+  else if (end == RecordEnd::complete) ++counters_.records_complete;
+  else ++counters_.records_cut;
+  next_start_ = open_.start + interval_;
+  open_.active = false;
+  open_.buffers.clear();
+  if (callbacks_.on_record) callbacks_.on_record(std::move(r), analysable);
+}
+
+void RecordAssembler::finish() {
+  if (open_.active) finalize(RecordEnd::stream_end);
+}
+
+}  // namespace gearwatch::acquisition

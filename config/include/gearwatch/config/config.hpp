@@ -1,0 +1,72 @@
+#pragma once
+// The daemon's configuration file (TOML). Every key has a default for the seed's rig, so an
+// empty file is valid; docs/config.md lists the keys. A bad file is refused as a whole with
+// ConfigError naming the file, line and key, before anything starts.
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "gearwatch/rig.hpp"
+
+namespace gearwatch::config {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct ProtocolSettings {
+  std::uint32_t vibration_base_id = 0x100;
+  std::uint32_t tacho_base_id = 0x180;
+  std::uint32_t stream_header_id = 0x1F0;
+  std::uint32_t operating_condition_id = 0x1F1;
+  std::uint32_t life_counter_id = 0x1F2;
+};
+
+enum class SourceKind { socketcan, candump };
+
+struct AcquisitionSettings {
+  SourceKind source = SourceKind::socketcan;
+  std::string interface = "can0";
+  std::string capture;                              ///< candump log when source = candump
+  std::uint64_t ring_capacity_samples = 1u << 23;   ///< ~42 s of 2 channels at 100 kHz
+  std::uint64_t receive_buffer_bytes = 8u << 20;
+  std::uint32_t reopen_initial_ms = 100;
+  std::uint32_t reopen_max_ms = 5000;
+};
+
+struct StorageSettings {
+  std::string database = "gearwatch.db";
+  std::uint32_t busy_timeout_ms = 5000;
+  std::uint32_t queue_capacity = 256;              ///< messages between processing and the writer
+  std::uint32_t retry_initial_ms = 200;            ///< backoff when the disk is full or the db locked
+  std::uint32_t retry_max_ms = 30000;
+};
+
+struct LoggingSettings {
+  std::string level = "info";
+  std::string sink = "auto";                       ///< auto | journald | stderr
+  double rate_limit_s = 10.0;                      ///< one line per kind of bad input per interval
+};
+
+struct DaemonSettings {
+  double health_interval_s = 60.0;                 ///< acquisition_health snapshot period
+  double watchdog_margin = 0.5;                    ///< ping at this fraction of WatchdogSec
+};
+
+struct GearwatchConfig {
+  RigSpec rig;
+  ProtocolSettings protocol;
+  AcquisitionSettings acquisition;
+  StorageSettings storage;
+  LoggingSettings logging;
+  DaemonSettings daemon;
+  std::string source_path;                          ///< the file it came from ("" for defaults)
+};
+
+/// Reads and validates a config file. Throws ConfigError ("FILE:LINE: key 'a.b': reason").
+GearwatchConfig load_config(const std::string& path);
+/// Same, from text (for tests and embedded defaults); `name` is used in messages.
+GearwatchConfig parse_config(const std::string& text, const std::string& name);
+
+}  // namespace gearwatch::config

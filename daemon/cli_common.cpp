@@ -1,0 +1,101 @@
+#include "cli_common.hpp"
+
+#include <cstdio>
+#include <iostream>
+
+#include <nlohmann/json.hpp>
+
+namespace gearwatch::cli {
+
+config::GearwatchConfig load_config_or_defaults(const std::string& path) {
+  try {
+    if (path.empty()) return config::parse_config("", "(built-in defaults)");
+    return config::load_config(path);
+  } catch (const config::ConfigError& e) {
+    throw CommandError(e.what());
+  }
+}
+
+void add_format_option(CLI::App* cmd, std::string& format, const std::string& default_format) {
+  format = default_format;
+  cmd->add_option("--format", format, "Output format")->check(CLI::IsMember({"table", "csv", "json"}));
+}
+
+namespace {
+
+std::string csv_escape(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"') out += "\"\"";
+    else out += c;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+std::size_t print_query(storage::Database& db, const std::string& sql, const std::vector<std::string>& bindings,
+                        const std::string& format) {
+  storage::Statement st(db, sql);
+  for (std::size_t i = 0; i < bindings.size(); ++i) st.bind(static_cast<int>(i + 1), bindings[i]);
+  const int ncol = st.column_count();
+  std::vector<std::string> names;
+  for (int c = 0; c < ncol; ++c) names.push_back(st.column_name(c));
+  std::vector<std::vector<std::string>> rows;
+  nlohmann::json json_rows = nlohmann::json::array();
+  while (st.step()) {
+    std::vector<std::string> row;
+    nlohmann::json obj = nlohmann::json::object();
+    for (int c = 0; c < ncol; ++c) {
+      const std::string type = st.column_type(c);
+      if (type == "null") {
+        row.emplace_back("");
+        obj[names[static_cast<std::size_t>(c)]] = nullptr;
+      } else if (type == "integer") {
+        row.push_back(std::to_string(st.get_int(c)));
+        obj[names[static_cast<std::size_t>(c)]] = st.get_int(c);
+      } else if (type == "real") {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%.6g", st.get_double(c));
+        row.emplace_back(buf);
+        obj[names[static_cast<std::size_t>(c)]] = st.get_double(c);
+      } else {
+        row.push_back(st.get_text(c));
+        obj[names[static_cast<std::size_t>(c)]] = st.get_text(c);
+      }
+    }
+    if (format == "json") json_rows.push_back(std::move(obj));
+    else rows.push_back(std::move(row));
+  }
+  if (format == "json") {
+    std::cout << json_rows.dump(1) << "\n";
+    return json_rows.size();
+  }
+  if (format == "csv") {
+    for (int c = 0; c < ncol; ++c) std::cout << (c ? "," : "") << csv_escape(names[static_cast<std::size_t>(c)]);
+    std::cout << "\n";
+    for (const auto& r : rows) {
+      for (int c = 0; c < ncol; ++c) std::cout << (c ? "," : "") << csv_escape(r[static_cast<std::size_t>(c)]);
+      std::cout << "\n";
+    }
+    return rows.size();
+  }
+  std::vector<std::size_t> width(static_cast<std::size_t>(ncol));
+  for (int c = 0; c < ncol; ++c) width[static_cast<std::size_t>(c)] = names[static_cast<std::size_t>(c)].size();
+  for (const auto& r : rows)
+    for (int c = 0; c < ncol; ++c) width[static_cast<std::size_t>(c)] = std::max(width[static_cast<std::size_t>(c)], r[static_cast<std::size_t>(c)].size());
+  auto print_row = [&](const std::vector<std::string>& r) {
+    for (int c = 0; c < ncol; ++c) {
+      const auto& v = r[static_cast<std::size_t>(c)];
+      std::cout << (c ? "  " : "") << v << std::string(width[static_cast<std::size_t>(c)] - v.size(), ' ');
+    }
+    std::cout << "\n";
+  };
+  print_row(names);
+  for (const auto& r : rows) print_row(r);
+  if (rows.empty()) std::cout << "(no rows)\n";
+  return rows.size();
+}
+
+}  // namespace gearwatch::cli

@@ -1,0 +1,332 @@
+#include "pipeline.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <spdlog/spdlog.h>
+#include <systemd/sd-daemon.h>
+
+#include "gearwatch/acquisition/candump_log.hpp"
+#include "gearwatch/acquisition/candump_source.hpp"
+#include "gearwatch/acquisition/protocol_decoder.hpp"
+#include "gearwatch/acquisition/record_assembler.hpp"
+#include "gearwatch/acquisition/socketcan.hpp"
+#include "gearwatch/acquisition/spsc_ring.hpp"
+#include "gearwatch/storage/writer.hpp"
+#include "record_processing.hpp"
+
+namespace gearwatch::daemon {
+namespace {
+
+namespace acq = gearwatch::acquisition;
+using Clock = std::chrono::steady_clock;
+
+// Bad frames and lines from the acquisition thread, on their way to the rejected_frames table.
+// Bounded: past the per-run cap only the counters grow (a flooding bus must not fill the disk).
+class RejectedFrameBox {
+ public:
+  static constexpr std::size_t kStoreCap = 10000;
+  void put(storage::RejectedFrame f) {
+    std::lock_guard lock(mutex_);
+    if (stored_ >= kStoreCap) return;
+    ++stored_;
+    box_.push_back(std::move(f));
+  }
+  std::deque<storage::RejectedFrame> take() {
+    std::lock_guard lock(mutex_);
+    std::deque<storage::RejectedFrame> out;
+    out.swap(box_);
+    return out;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::deque<storage::RejectedFrame> box_;
+  std::size_t stored_ = 0;
+};
+
+// One log line per kind of bad input per interval, with the count held back.
+class BadInputLog {
+ public:
+  explicit BadInputLog(double interval_s)
+      : interval_(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(interval_s))) {}
+  void warn(const std::string& kind, const std::string& message) {
+    auto it = limiters_.find(kind);
+    if (it == limiters_.end()) it = limiters_.emplace(kind, acq::LogRateLimiter(interval_)).first;
+    std::uint64_t suppressed = 0;
+    if (it->second.allow(Clock::now(), suppressed)) {
+      if (suppressed) spdlog::warn("{}: {} ({} more like it since the last report)", kind, message, suppressed);
+      else spdlog::warn("{}: {}", kind, message);
+    }
+  }
+
+ private:
+  Clock::duration interval_;
+  std::map<std::string, acq::LogRateLimiter> limiters_;
+};
+
+std::uint8_t channel_mask(const RigSpec& rig) {
+  std::uint8_t m = 0;
+  for (const auto& c : rig.channels) m |= static_cast<std::uint8_t>(1u << c.number);
+  return m;
+}
+
+std::uint8_t shaft_mask(const RigSpec& rig) {
+  std::uint8_t m = 0;
+  for (const auto& t : rig.tachos) m |= static_cast<std::uint8_t>(1u << t.shaft);
+  return m;
+}
+
+std::string rejected_kind(const std::string& reason) {
+  if (reason.find("repeated or out-of-order") != std::string::npos) return "duplicate_frame";
+  if (reason.find("tacho edge not after") != std::string::npos) return "tacho_out_of_order";
+  if (reason.find("life counter went backwards") != std::string::npos) return "life_counter_reset";
+  if (reason.find("protocol version") != std::string::npos) return "unsupported_version";
+  if (reason.find("not a protocol frame") != std::string::npos) return "unknown_frame";
+  return "malformed_frame";
+}
+
+}  // namespace
+
+PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode mode) {
+  const bool from_file = mode == PipelineMode::replay || config.acquisition.source == config::SourceKind::candump;
+  const std::string source_name = from_file ? config.acquisition.capture : config.acquisition.interface;
+
+  // --- storage first: an unusable database stops us before anything is acquired
+  std::atomic<bool> fatal_storage{false};
+  storage::WriterOptions wopt;
+  wopt.database = config.storage.database;
+  wopt.busy_timeout_ms = static_cast<int>(config.storage.busy_timeout_ms);
+  wopt.queue_capacity = config.storage.queue_capacity;
+  wopt.retry_initial_ms = static_cast<int>(config.storage.retry_initial_ms);
+  wopt.retry_max_ms = static_cast<int>(config.storage.retry_max_ms);
+  storage::StorageWriter writer(wopt, [&](const std::string&) { fatal_storage = true; });
+  writer.start();
+  writer.submit(storage::RunStarted{mode == PipelineMode::replay ? "replay" : "run", source_name, config.source_path});
+
+  // --- acquisition objects (used on the acquisition thread only, counters readable anywhere)
+  const std::size_t ring_events =
+      std::max<std::size_t>(1024, config.acquisition.ring_capacity_samples / acq::kMaxSamplesPerEvent);
+  acq::SpscRing<acq::AcquisitionEvent> ring(ring_events);
+  std::atomic<bool> acquisition_done{false};
+  std::atomic<bool> stopping{false};
+  RejectedFrameBox rejected;
+  BadInputLog bad_input_log(config.logging.rate_limit_s);
+  const bool wait_when_full = from_file;
+
+  acq::ProtocolDecoder decoder(
+      acq::ProtocolIds{config.protocol.vibration_base_id, config.protocol.tacho_base_id, config.protocol.stream_header_id,
+                       config.protocol.operating_condition_id, config.protocol.life_counter_id},
+      channel_mask(config.rig), shaft_mask(config.rig), [&](const acq::AcquisitionEvent& e) {
+        if (ring.try_push(e)) return;
+        if (!wait_when_full) return;  // live: dropped and counted by the ring
+        // A file can wait: hand the event over as soon as processing makes room.
+        while (!stopping.load(std::memory_order_relaxed)) {
+          std::this_thread::sleep_for(std::chrono::microseconds(200));
+          if (ring.try_push(e)) return;
+        }
+      });
+
+  boost::asio::io_context io;
+  std::unique_ptr<acq::FrameSource> source;
+  std::string frame_text;
+  if (from_file) {
+    source = std::make_unique<acq::CandumpFileSource>(
+        io, source_name, [&](std::size_t line_no, const std::string& line, const std::string& reason) {
+          bad_input_log.warn("malformed_line", source_name + ":" + std::to_string(line_no) + ": " + reason);
+          rejected.put({"malformed_line", reason, line.substr(0, 300)});
+        });
+  } else {
+    acq::SocketCanOptions sopt;
+    sopt.receive_buffer_bytes = config.acquisition.receive_buffer_bytes;
+    sopt.reopen_initial = std::chrono::milliseconds(config.acquisition.reopen_initial_ms);
+    sopt.reopen_maximum = std::chrono::milliseconds(config.acquisition.reopen_max_ms);
+    source = std::make_unique<acq::SocketCanSource>(io, source_name, sopt);
+  }
+  std::string end_reason;
+  auto on_frame = [&](const acq::CanFrame& frame) {
+    if (auto reason = decoder.decode(frame)) {
+      const std::string kind = rejected_kind(*reason);
+      bad_input_log.warn(kind, *reason);
+      acq::format_candump_line(frame, from_file ? "log" : source_name, frame_text);
+      rejected.put({kind, *reason, frame_text});
+    }
+  };
+
+  boost::asio::signal_set signals(io, SIGTERM, SIGINT);
+  boost::asio::steady_timer watchdog(io);
+  std::atomic<std::int64_t> processing_heartbeat{Clock::now().time_since_epoch().count()};
+  std::uint64_t watchdog_usec = 0;
+  const bool use_watchdog = mode == PipelineMode::live && sd_watchdog_enabled(0, &watchdog_usec) > 0;
+
+  auto stop_all = [&](const std::string& why) {
+    if (stopping.exchange(true)) return;
+    if (!why.empty()) end_reason = why;
+    sd_notify(0, "STOPPING=1");
+    source->stop();
+    signals.cancel();
+    watchdog.cancel();
+  };
+  signals.async_wait([&](const boost::system::error_code& ec, int signo) {
+    if (ec) return;
+    spdlog::info("signal {}: stopping acquisition, draining, committing", signo);
+    stop_all("");
+  });
+  std::function<void()> arm_watchdog = [&] {
+    watchdog.expires_after(std::chrono::microseconds(static_cast<long>(watchdog_usec * config.daemon.watchdog_margin)));
+    watchdog.async_wait([&](const boost::system::error_code& ec) {
+      if (ec) return;
+      // Ping only while processing is alive too: a stuck processing thread must trip systemd.
+      const auto beat = Clock::time_point(Clock::duration(processing_heartbeat.load()));
+      if (Clock::now() - beat < std::chrono::microseconds(watchdog_usec)) sd_notify(0, "WATCHDOG=1");
+      else spdlog::error("processing thread has not made progress for a watchdog period; not pinging");
+      arm_watchdog();
+    });
+  };
+  if (use_watchdog) arm_watchdog();
+
+  // --- processing thread
+  RecordProcessor processor(config);
+  std::uint64_t current_sequence = 0;
+  std::atomic<std::uint64_t> records_total{0}, records_analysed{0};
+  acq::AssemblerCounters assembler_snapshot;
+  std::mutex assembler_snapshot_mutex;
+  acq::RecordAssembler assembler(
+      config.rig,
+      acq::RecordAssembler::Callbacks{
+          [&](Record&& r, bool analysable) {
+            writer.submit(processor.process(r, analysable, current_sequence));
+            ++records_total;
+            if (analysable) ++records_analysed;
+          },
+          [&](const acq::StreamInfo& s) {
+            current_sequence = s.sequence;
+            spdlog::info("stream {} started: {} Hz, {} channels announced", s.stream_id, s.sample_rate_hz, s.channel_count);
+            writer.submit(storage::StreamStarted{s.sequence, s.stream_id, s.sample_rate_hz, s.channel_count});
+          },
+          [&](const acq::GapInfo& g) {
+            bad_input_log.warn("gap", "channel " + std::to_string(g.channel) + ": " + std::to_string(g.missing) +
+                                          " samples missing from index " + std::to_string(g.first_missing) + " (" +
+                                          acq::to_string(g.cause) + ")");
+            writer.submit(storage::GapEvent{current_sequence, g.channel, g.first_missing, g.missing, acq::to_string(g.cause)});
+          },
+          [&](const acq::LifeCounterReset& l) {
+            writer.submit(storage::LifeCounterEvent{current_sequence, l.index, l.previous_revolutions, l.revolutions});
+          }});
+
+  auto health = [&](bool final) {
+    const auto& d = decoder.counters();
+    const auto& h = source->health();
+    acq::AssemblerCounters a;
+    {
+      std::lock_guard lock(assembler_snapshot_mutex);
+      a = assembler_snapshot;
+    }
+    const auto& w = writer.counters();
+    auto v = [](const std::atomic<std::uint64_t>& x) { return x.load(std::memory_order_relaxed); };
+    storage::HealthSnapshot s;
+    s.final = final;
+    s.counters = {{"frames", v(d.frames)},
+                  {"samples", v(d.samples)},
+                  {"kernel_drops", v(h.kernel_drops)},
+                  {"ring_overflows", ring.overflows()},
+                  {"ring_high_water", ring.high_water()},
+                  {"malformed_frames", v(d.malformed_frames)},
+                  {"malformed_lines", v(h.malformed_lines)},
+                  {"unknown_ids", v(d.unknown_ids)},
+                  {"unconfigured_channel_frames", v(d.unconfigured_channel_frames)},
+                  {"frames_before_header", v(d.frames_before_header)},
+                  {"gaps", v(d.gaps)},
+                  {"gap_samples", v(d.gap_samples)},
+                  {"ring_gaps", a.ring_gaps},
+                  {"duplicates", v(d.duplicates)},
+                  {"tacho_edges", v(d.tacho_edges)},
+                  {"tacho_out_of_order", v(d.tacho_out_of_order)},
+                  {"stream_changes", v(d.stream_changes)},
+                  {"life_counter_resets", v(d.life_counter_resets)},
+                  {"unsupported_version", v(d.unsupported_version)},
+                  {"read_errors", v(h.read_errors)},
+                  {"reopens", v(h.reopens)},
+                  {"records_complete", a.records_complete},
+                  {"records_cut", a.records_cut},
+                  {"records_rejected", a.records_rejected},
+                  {"storage_retries", v(w.retries)},
+                  {"storage_queue_waits", v(w.queue_waits)}};
+    return s;
+  };
+
+  std::thread processing([&] {
+    acq::AcquisitionEvent e;
+    auto next_health = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                          std::chrono::duration<double>(config.daemon.health_interval_s));
+    for (;;) {
+      bool got = false;
+      for (int i = 0; i < 4096 && ring.try_pop(e); ++i) {
+        assembler.consume(e);
+        got = true;
+      }
+      processing_heartbeat.store(Clock::now().time_since_epoch().count());
+      {
+        std::lock_guard lock(assembler_snapshot_mutex);
+        assembler_snapshot = assembler.counters();
+      }
+      for (auto& f : rejected.take()) writer.submit(std::move(f));
+      if (Clock::now() >= next_health) {
+        writer.submit(health(false));
+        next_health += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.daemon.health_interval_s));
+      }
+      if (!got) {
+        if (acquisition_done.load(std::memory_order_acquire) && ring.size() == 0) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      }
+    }
+    assembler.finish();
+    {
+      std::lock_guard lock(assembler_snapshot_mutex);
+      assembler_snapshot = assembler.counters();
+    }
+    for (auto& f : rejected.take()) writer.submit(std::move(f));
+  });
+
+  // --- acquisition thread
+  std::thread acquisition([&] {
+    source->start(on_frame, [&](const std::string& reason) {
+      if (!reason.empty() && reason != "stopped") {
+        spdlog::error("source ended: {}", reason);
+        end_reason = reason;
+      }
+      stop_all(reason == "stopped" ? "" : reason);
+    });
+    if (!from_file) spdlog::info("listening on {}", source_name);
+    sd_notify(0, "READY=1");
+    io.run();
+    acquisition_done.store(true, std::memory_order_release);
+  });
+
+  // Reverse order of start: acquisition, processing, then the writer (which drains).
+  acquisition.join();
+  processing.join();
+  writer.submit(health(true));
+  writer.submit(storage::RunEnded{end_reason});
+  writer.stop();
+
+  PipelineResult result;
+  result.end_reason = end_reason;
+  result.records = records_total;
+  result.records_analysed = records_analysed;
+  result.frames = decoder.counters().frames;
+  result.samples = decoder.counters().samples;
+  result.losses = source->health().kernel_drops + ring.overflows() + decoder.counters().gap_samples;
+  result.run_id = writer.counters().run_id;
+  if (fatal_storage || writer.counters().lost_at_exit > 0) result.exit_status = 3;
+  else if (!end_reason.empty() && end_reason != "stopped") result.exit_status = 2;
+  return result;
+}
+
+}  // namespace gearwatch::daemon

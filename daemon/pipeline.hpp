@@ -1,0 +1,32 @@
+#pragma once
+// The daemon's wiring: acquisition thread (Asio: frame source, protocol decoder, signals,
+// watchdog) -> SPSC ring -> processing thread (record assembly, indicators) -> storage writer
+// thread (SQLite). Used by `gearwatch run` (live, SocketCAN or a log) and `gearwatch replay`.
+//
+// Overflow policies: a live source never waits — when the ring is full the event is dropped and
+// counted (ring_overflows; the processing side records the hole as a gap with cause
+// ring_overflow). A file source waits for room, so a replay loses nothing. The writer's queue
+// makes processing wait (storage_queue_waits).
+// Shutdown: SIGTERM/SIGINT stop the source; the acquisition io_context then runs out of work;
+// processing drains the ring and ends the open record; the writer commits everything; threads
+// are joined in reverse order of start.
+#include <string>
+
+#include "gearwatch/config/config.hpp"
+
+namespace gearwatch::daemon {
+
+enum class PipelineMode { live, replay };
+
+struct PipelineResult {
+  int exit_status = 0;
+  std::string end_reason;
+  std::uint64_t records = 0, records_analysed = 0, frames = 0, samples = 0;
+  std::uint64_t losses = 0;  ///< kernel drops + ring overflows + gap samples
+  std::uint64_t run_id = 0;
+};
+
+/// Runs until the source ends (replay), a signal arrives, or a fatal storage error.
+PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode mode);
+
+}  // namespace gearwatch::daemon

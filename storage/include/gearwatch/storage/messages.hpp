@@ -1,0 +1,89 @@
+#pragma once
+// What the processing thread asks the writer to store. Plain values.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
+
+namespace gearwatch::storage {
+
+struct RunStarted {
+  std::string kind;         ///< "run" or "replay"
+  std::string source;       ///< interface name or capture path
+  std::string config_path;
+};
+
+struct RunEnded {
+  std::string reason;       ///< "" for a normal end
+};
+
+struct StreamStarted {
+  std::uint64_t sequence = 0;
+  std::uint16_t stream_id = 0;
+  std::uint32_t sample_rate_hz = 0;
+  std::uint8_t channel_count = 0;
+};
+
+struct BandSelectionRow {
+  std::string criterion;
+  double level = 0, centre_hz = 0, bandwidth_hz = 0, value = 0;
+};
+
+struct ChannelResult {
+  int channel = 0;
+  std::vector<std::pair<std::string, double>> values;
+  std::vector<std::pair<std::string, std::string>> skipped;   ///< indicator name, reason
+  std::vector<BandSelectionRow> bands;
+};
+
+struct RecordResult {
+  std::uint64_t stream_sequence = 0;
+  std::uint64_t start_index = 0;
+  std::uint64_t sample_count = 0;
+  double duration_s = 0;
+  std::string end_reason;                 ///< complete | cut_at_gap | stream_end
+  bool analysed = false;
+  std::string reject_reason;              ///< why not analysed ("" when analysed)
+  double torque_nm = 0, speed_hz = 0;     ///< NaN when unknown (stored as NULL)
+  std::optional<double> input_revolutions;
+  std::vector<ChannelResult> channels;
+  /// Alerts raised from this record (stored with its id).
+  std::vector<std::pair<std::string, std::string>> alerts;   ///< kind, message (severity warning)
+};
+
+struct GapEvent {
+  std::uint64_t stream_sequence = 0;
+  int channel = 0;
+  std::uint64_t first_missing_index = 0, missing_samples = 0;
+  std::string cause;
+};
+
+struct LifeCounterEvent {
+  std::uint64_t stream_sequence = 0;
+  std::uint64_t sample_index = 0, previous_revolutions = 0, revolutions = 0;
+};
+
+struct RejectedFrame {
+  std::string kind;       ///< e.g. malformed_frame, duplicate, malformed_line
+  std::string reason;
+  std::string frame;      ///< the frame as a candump line, or the raw log line
+};
+
+struct Alert {
+  std::string severity;   ///< info | warning | alarm
+  std::string kind;
+  std::string message;
+};
+
+/// Counter values at one moment; column names in health_snapshots.
+struct HealthSnapshot {
+  bool final = false;
+  std::vector<std::pair<std::string, std::uint64_t>> counters;
+};
+
+using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, GapEvent, LifeCounterEvent,
+                             RejectedFrame, Alert, HealthSnapshot>;
+
+}  // namespace gearwatch::storage

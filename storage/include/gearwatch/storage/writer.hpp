@@ -1,0 +1,79 @@
+#pragma once
+// The single writer: one thread owns the only writing connection and commits what the
+// processing thread submits, in batched transactions.
+//
+// Overflow policy: the queue is bounded; submit() waits when it is full (counted in
+// queue_waits), so a stalled disk slows processing down instead of dropping results — the
+// acquisition ring in front of processing absorbs and counts what cannot wait.
+// Errors: a transient SQLite error (database locked, disk full, I/O error) rolls the batch
+// back, keeps it in memory, logs once per interval and retries with backoff; nothing submitted
+// is dropped while the process lives. A permanent error (corrupt file, schema mismatch) goes to
+// the error handler, which the daemon uses to stop.
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "gearwatch/storage/messages.hpp"
+
+namespace gearwatch::storage {
+
+struct WriterOptions {
+  std::string database;
+  int busy_timeout_ms = 5000;
+  std::size_t queue_capacity = 256;
+  std::size_t max_batch = 512;          ///< messages per transaction
+  int retry_initial_ms = 200;
+  int retry_max_ms = 30000;
+  double give_up_after_stop_s = 60.0;   ///< after stop(), retries end after this long
+};
+
+struct WriterCounters {
+  std::atomic<std::uint64_t> messages_committed{0};
+  std::atomic<std::uint64_t> transactions{0};
+  std::atomic<std::uint64_t> retries{0};       ///< transient failures retried
+  std::atomic<std::uint64_t> queue_waits{0};   ///< submit() calls that had to wait
+  std::atomic<std::uint64_t> lost_at_exit{0};  ///< messages still unwritten when retries were given up
+  std::atomic<std::uint64_t> run_id{0};
+};
+
+class StorageWriter {
+ public:
+  using ErrorHandler = std::function<void(const std::string&)>;
+
+  explicit StorageWriter(WriterOptions options, ErrorHandler on_fatal = {});
+  ~StorageWriter();
+  StorageWriter(const StorageWriter&) = delete;
+  StorageWriter& operator=(const StorageWriter&) = delete;
+
+  /// Opens the database on the writer thread and migrates it; throws SqliteError (from the
+  /// caller's thread) when that fails, so a daemon with an unusable database never starts.
+  void start();
+  /// Queues a message; waits while the queue is full. Callable from one or more threads.
+  void submit(Message message);
+  /// Sends the terminate message and joins: returns when everything submitted is committed
+  /// (or the retry deadline after stop has passed; then lost_at_exit says how much).
+  void stop();
+
+  const WriterCounters& counters() const noexcept { return counters_; }
+  std::size_t queued() const;
+
+ private:
+  void run();
+  bool write_batch(class Database& db, std::deque<Message>& batch);
+
+  WriterOptions options_;
+  ErrorHandler on_fatal_;
+  WriterCounters counters_;
+  mutable std::mutex mutex_;
+  std::condition_variable not_empty_, not_full_;
+  std::deque<Message> queue_;
+  bool terminate_ = false;
+  std::thread thread_;
+};
+
+}  // namespace gearwatch::storage

@@ -1,0 +1,169 @@
+#include "gearwatch/storage/schema.hpp"
+
+#include <array>
+#include <string>
+
+namespace gearwatch::storage {
+namespace {
+
+// Each entry moves the schema from version i to i+1. Never edit a released step: add one.
+constexpr std::array<const char*, 1> kMigrations{
+    // 0 -> 1: acquisition, records, indicators, staff views.
+    R"SQL(
+CREATE TABLE runs (
+  id INTEGER PRIMARY KEY,
+  kind TEXT NOT NULL CHECK (kind IN ('run', 'replay')),
+  source TEXT NOT NULL,
+  config_path TEXT,
+  started_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  ended_at TEXT,
+  end_reason TEXT
+);
+CREATE TABLE streams (
+  id INTEGER PRIMARY KEY,
+  run_id INTEGER NOT NULL REFERENCES runs(id),
+  sequence INTEGER NOT NULL,
+  stream_id INTEGER NOT NULL,
+  sample_rate_hz INTEGER NOT NULL,
+  channel_count INTEGER NOT NULL,
+  started_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  UNIQUE (run_id, sequence)
+);
+CREATE TABLE records (
+  id INTEGER PRIMARY KEY,
+  stream_key INTEGER NOT NULL REFERENCES streams(id),
+  start_index INTEGER NOT NULL,
+  sample_count INTEGER NOT NULL,
+  duration_s REAL NOT NULL,
+  end_reason TEXT NOT NULL CHECK (end_reason IN ('complete', 'cut_at_gap', 'stream_end')),
+  analysed INTEGER NOT NULL,
+  reject_reason TEXT,
+  torque_nm REAL,
+  speed_hz REAL,
+  input_revolutions REAL,
+  created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
+);
+CREATE INDEX records_by_stream ON records(stream_key, start_index);
+CREATE TABLE indicator_values (
+  record_id INTEGER NOT NULL REFERENCES records(id),
+  channel INTEGER NOT NULL,
+  name TEXT NOT NULL,
+  value REAL,
+  PRIMARY KEY (record_id, channel, name)
+) WITHOUT ROWID;
+CREATE INDEX indicator_values_by_name ON indicator_values(name, record_id);
+CREATE TABLE indicator_skips (
+  record_id INTEGER NOT NULL REFERENCES records(id),
+  channel INTEGER NOT NULL,
+  name TEXT NOT NULL,
+  reason TEXT NOT NULL,
+  PRIMARY KEY (record_id, channel, name)
+) WITHOUT ROWID;
+CREATE TABLE band_selections (
+  record_id INTEGER NOT NULL REFERENCES records(id),
+  channel INTEGER NOT NULL,
+  criterion TEXT NOT NULL,
+  level REAL NOT NULL,
+  centre_hz REAL NOT NULL,
+  bandwidth_hz REAL NOT NULL,
+  value REAL,
+  PRIMARY KEY (record_id, channel, criterion)
+) WITHOUT ROWID;
+CREATE TABLE gap_events (
+  id INTEGER PRIMARY KEY,
+  stream_key INTEGER NOT NULL REFERENCES streams(id),
+  channel INTEGER NOT NULL,
+  first_missing_index INTEGER NOT NULL,
+  missing_samples INTEGER NOT NULL,
+  cause TEXT NOT NULL,
+  detected_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
+);
+CREATE TABLE life_counter_events (
+  id INTEGER PRIMARY KEY,
+  stream_key INTEGER NOT NULL REFERENCES streams(id),
+  sample_index INTEGER NOT NULL,
+  previous_revolutions INTEGER NOT NULL,
+  revolutions INTEGER NOT NULL,
+  detected_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
+);
+CREATE TABLE rejected_frames (
+  id INTEGER PRIMARY KEY,
+  run_id INTEGER NOT NULL REFERENCES runs(id),
+  kind TEXT NOT NULL,
+  reason TEXT NOT NULL,
+  frame TEXT NOT NULL,
+  received_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
+);
+CREATE TABLE health_snapshots (
+  id INTEGER PRIMARY KEY,
+  run_id INTEGER NOT NULL REFERENCES runs(id),
+  taken_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  final INTEGER NOT NULL DEFAULT 0,
+  frames INTEGER NOT NULL, samples INTEGER NOT NULL,
+  kernel_drops INTEGER NOT NULL, ring_overflows INTEGER NOT NULL, ring_high_water INTEGER NOT NULL,
+  malformed_frames INTEGER NOT NULL, malformed_lines INTEGER NOT NULL, unknown_ids INTEGER NOT NULL,
+  unconfigured_channel_frames INTEGER NOT NULL, frames_before_header INTEGER NOT NULL,
+  gaps INTEGER NOT NULL, gap_samples INTEGER NOT NULL, ring_gaps INTEGER NOT NULL,
+  duplicates INTEGER NOT NULL, tacho_edges INTEGER NOT NULL, tacho_out_of_order INTEGER NOT NULL,
+  stream_changes INTEGER NOT NULL, life_counter_resets INTEGER NOT NULL, unsupported_version INTEGER NOT NULL,
+  read_errors INTEGER NOT NULL, reopens INTEGER NOT NULL,
+  records_complete INTEGER NOT NULL, records_cut INTEGER NOT NULL, records_rejected INTEGER NOT NULL,
+  storage_retries INTEGER NOT NULL, storage_queue_waits INTEGER NOT NULL
+);
+CREATE TABLE alerts (
+  id INTEGER PRIMARY KEY,
+  created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  record_id INTEGER REFERENCES records(id),
+  severity TEXT NOT NULL CHECK (severity IN ('info', 'warning', 'alarm')),
+  kind TEXT NOT NULL,
+  message TEXT NOT NULL
+);
+CREATE TABLE inspections (
+  id INTEGER PRIMARY KEY,
+  entered_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  cycles REAL NOT NULL,
+  pitted_area_fraction REAL,
+  wear_depth_m REAL,
+  note TEXT
+);
+
+-- Staff views: stable column names (docs/storage.md).
+CREATE VIEW indicators AS
+  SELECT r.id AS record_id, s.run_id, s.stream_id, r.start_index, r.created_at,
+         r.input_revolutions AS cycles, r.speed_hz, r.torque_nm,
+         v.channel, v.name, v.value
+  FROM indicator_values v JOIN records r ON r.id = v.record_id JOIN streams s ON s.id = r.stream_key;
+CREATE VIEW acquisition_health AS
+  SELECT h.*, r.kind AS run_kind, r.source, r.started_at AS run_started_at, r.ended_at AS run_ended_at
+  FROM health_snapshots h JOIN runs r ON r.id = h.run_id
+  WHERE h.id = (SELECT max(id) FROM health_snapshots x WHERE x.run_id = h.run_id);
+CREATE VIEW record_status AS
+  SELECT r.id AS record_id, s.run_id, s.stream_id, r.start_index, r.sample_count, r.duration_s,
+         r.end_reason, r.analysed, r.reject_reason, r.created_at,
+         (SELECT group_concat(k.name || ': ' || k.reason, '; ') FROM indicator_skips k WHERE k.record_id = r.id) AS skipped
+  FROM records r JOIN streams s ON s.id = r.stream_key;
+)SQL",
+};
+
+}  // namespace
+
+int current_schema_version() noexcept { return static_cast<int>(kMigrations.size()); }
+
+void open_and_migrate(Database& db) {
+  db.exec("PRAGMA journal_mode = WAL");
+  db.exec("PRAGMA synchronous = FULL");
+  db.exec("PRAGMA foreign_keys = ON");
+  const int have = db.user_version();
+  if (have > current_schema_version()) {
+    throw SqliteError(0, db.path() + ": schema version " + std::to_string(have) +
+                             " is newer than this gearwatch understands (" + std::to_string(current_schema_version()) + ")");
+  }
+  for (int v = have; v < current_schema_version(); ++v) {
+    Transaction tx(db);
+    db.exec(kMigrations[static_cast<std::size_t>(v)]);
+    db.set_user_version(v + 1);
+    tx.commit();
+  }
+}
+
+}  // namespace gearwatch::storage

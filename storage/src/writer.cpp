@@ -1,0 +1,235 @@
+#include "gearwatch/storage/writer.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <future>
+#include <map>
+
+#include <spdlog/spdlog.h>
+
+#include "gearwatch/storage/schema.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+
+namespace gearwatch::storage {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// State derived from committed rows. Work on a copy inside a transaction and keep it only
+// when the transaction commits, so a rolled-back batch leaves no stale ids behind.
+struct WriterState {
+  std::int64_t run_id = 0;
+  std::map<std::uint64_t, std::int64_t> stream_keys;  // stream sequence -> streams.id
+};
+
+class BatchWriter {
+ public:
+  BatchWriter(Database& db, WriterState& state) : db_(db), state_(state) {}
+
+  void write(const RunStarted& m) {
+    Statement s(db_, "INSERT INTO runs(kind, source, config_path) VALUES (?, ?, ?)");
+    s.bind(1, m.kind).bind(2, m.source).bind(3, m.config_path).run();
+    state_.run_id = db_.last_insert_rowid();
+    state_.stream_keys.clear();
+  }
+  void write(const RunEnded& m) {
+    Statement s(db_, "UPDATE runs SET ended_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), end_reason = ? WHERE id = ?");
+    s.bind(1, m.reason).bind(2, state_.run_id).run();
+  }
+  void write(const StreamStarted& m) {
+    Statement s(db_, "INSERT INTO streams(run_id, sequence, stream_id, sample_rate_hz, channel_count) VALUES (?, ?, ?, ?, ?)");
+    s.bind(1, run()).bind(2, m.sequence).bind(3, static_cast<std::int64_t>(m.stream_id))
+        .bind(4, static_cast<std::int64_t>(m.sample_rate_hz)).bind(5, static_cast<std::int64_t>(m.channel_count)).run();
+    state_.stream_keys[m.sequence] = db_.last_insert_rowid();
+  }
+  void write(const RecordResult& m) {
+    Statement s(db_,
+                "INSERT INTO records(stream_key, start_index, sample_count, duration_s, end_reason, analysed, reject_reason,"
+                " torque_nm, speed_hz, input_revolutions) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+    s.bind(1, stream(m.stream_sequence)).bind(2, m.start_index).bind(3, m.sample_count).bind(4, m.duration_s)
+        .bind(5, m.end_reason).bind(6, m.analysed ? 1 : 0);
+    if (m.reject_reason.empty()) s.bind_null(7);
+    else s.bind(7, m.reject_reason);
+    s.bind(8, m.torque_nm).bind(9, m.speed_hz).bind(10, m.input_revolutions).run();
+    const std::int64_t record_id = db_.last_insert_rowid();
+    Statement value(db_, "INSERT OR REPLACE INTO indicator_values(record_id, channel, name, value) VALUES (?, ?, ?, ?)");
+    Statement skip(db_, "INSERT OR REPLACE INTO indicator_skips(record_id, channel, name, reason) VALUES (?, ?, ?, ?)");
+    Statement band(db_, "INSERT OR REPLACE INTO band_selections(record_id, channel, criterion, level, centre_hz, bandwidth_hz, value)"
+                        " VALUES (?, ?, ?, ?, ?, ?, ?)");
+    for (const auto& ch : m.channels) {
+      for (const auto& [name, v] : ch.values) value.bind(1, record_id).bind(2, ch.channel).bind(3, name).bind(4, v).run();
+      for (const auto& [name, why] : ch.skipped) skip.bind(1, record_id).bind(2, ch.channel).bind(3, name).bind(4, why).run();
+      for (const auto& b : ch.bands)
+        band.bind(1, record_id).bind(2, ch.channel).bind(3, b.criterion).bind(4, b.level).bind(5, b.centre_hz)
+            .bind(6, b.bandwidth_hz).bind(7, b.value).run();
+    }
+    if (!m.alerts.empty()) {
+      Statement a(db_, "INSERT INTO alerts(record_id, severity, kind, message) VALUES (?, 'warning', ?, ?)");
+      for (const auto& [kind, msg] : m.alerts) a.bind(1, record_id).bind(2, kind).bind(3, msg).run();
+    }
+  }
+  void write(const GapEvent& m) {
+    Statement s(db_, "INSERT INTO gap_events(stream_key, channel, first_missing_index, missing_samples, cause) VALUES (?, ?, ?, ?, ?)");
+    s.bind(1, stream(m.stream_sequence)).bind(2, m.channel).bind(3, m.first_missing_index).bind(4, m.missing_samples)
+        .bind(5, m.cause).run();
+  }
+  void write(const LifeCounterEvent& m) {
+    Statement s(db_, "INSERT INTO life_counter_events(stream_key, sample_index, previous_revolutions, revolutions) VALUES (?, ?, ?, ?)");
+    s.bind(1, stream(m.stream_sequence)).bind(2, m.sample_index).bind(3, m.previous_revolutions).bind(4, m.revolutions).run();
+    Statement a(db_, "INSERT INTO alerts(severity, kind, message) VALUES ('warning', 'life_counter_reset', ?)");
+    a.bind(1, "life counter went backwards from " + std::to_string(m.previous_revolutions) + " to " +
+                  std::to_string(m.revolutions) + " revolutions: new gear pair or front-end fault; history not merged")
+        .run();
+  }
+  void write(const RejectedFrame& m) {
+    Statement s(db_, "INSERT INTO rejected_frames(run_id, kind, reason, frame) VALUES (?, ?, ?, ?)");
+    s.bind(1, run()).bind(2, m.kind).bind(3, m.reason).bind(4, m.frame).run();
+  }
+  void write(const Alert& m) {
+    Statement s(db_, "INSERT INTO alerts(severity, kind, message) VALUES (?, ?, ?)");
+    s.bind(1, m.severity).bind(2, m.kind).bind(3, m.message).run();
+  }
+  void write(const HealthSnapshot& m) {
+    std::string cols = "run_id, final";
+    std::string qs = "?, ?";
+    for (const auto& [name, v] : m.counters) {
+      cols += ", " + name;
+      qs += ", ?";
+    }
+    Statement s(db_, "INSERT INTO health_snapshots(" + cols + ") VALUES (" + qs + ")");
+    s.bind(1, run()).bind(2, m.final ? 1 : 0);
+    int i = 3;
+    for (const auto& [name, v] : m.counters) s.bind(i++, v);
+    s.run();
+  }
+
+ private:
+  std::int64_t run() const {
+    if (state_.run_id == 0) throw SqliteError(0, "message before RunStarted");
+    return state_.run_id;
+  }
+  std::int64_t stream(std::uint64_t sequence) const {
+    const auto it = state_.stream_keys.find(sequence);
+    if (it == state_.stream_keys.end()) throw SqliteError(0, "record for unknown stream " + std::to_string(sequence));
+    return it->second;
+  }
+  Database& db_;
+  WriterState& state_;
+};
+
+}  // namespace
+
+StorageWriter::StorageWriter(WriterOptions options, ErrorHandler on_fatal)
+    : options_(std::move(options)), on_fatal_(std::move(on_fatal)) {}
+
+StorageWriter::~StorageWriter() {
+  if (thread_.joinable()) stop();
+}
+
+void StorageWriter::start() {
+  std::promise<void> opened;
+  auto ready = opened.get_future();
+  thread_ = std::thread([this, p = std::move(opened)]() mutable {
+    std::unique_ptr<Database> db;
+    try {
+      db = std::make_unique<Database>(options_.database, Database::Mode::read_write_create, options_.busy_timeout_ms);
+      open_and_migrate(*db);
+    } catch (...) {
+      p.set_exception(std::current_exception());
+      return;
+    }
+    p.set_value();
+    WriterState state;
+    std::deque<Message> batch;
+    auto backoff = std::chrono::milliseconds(options_.retry_initial_ms);
+    Clock::time_point last_log{};
+    std::optional<Clock::time_point> stop_deadline;
+    for (;;) {
+      {
+        std::unique_lock lock(mutex_);
+        if (batch.empty()) {
+          not_empty_.wait(lock, [&] { return !queue_.empty() || terminate_; });
+          if (queue_.empty() && terminate_) return;
+        }
+        while (!queue_.empty() && batch.size() < options_.max_batch) {
+          batch.push_back(std::move(queue_.front()));
+          queue_.pop_front();
+        }
+        if (terminate_ && !stop_deadline)
+          stop_deadline = Clock::now() + std::chrono::milliseconds(static_cast<long>(options_.give_up_after_stop_s * 1000));
+      }
+      not_full_.notify_all();
+      WriterState trial = state;
+      try {
+        Transaction tx(*db);
+        BatchWriter writer(*db, trial);
+        for (const auto& m : batch) std::visit([&](const auto& msg) { writer.write(msg); }, m);
+        tx.commit();
+        state = std::move(trial);
+        counters_.messages_committed.fetch_add(batch.size(), std::memory_order_relaxed);
+        counters_.transactions.fetch_add(1, std::memory_order_relaxed);
+        counters_.run_id.store(static_cast<std::uint64_t>(state.run_id), std::memory_order_relaxed);
+        batch.clear();
+        backoff = std::chrono::milliseconds(options_.retry_initial_ms);
+      } catch (const SqliteError& e) {
+        if (!e.transient()) {
+          spdlog::critical("storage: {} — {} messages not written", e.what(), batch.size());
+          counters_.lost_at_exit.fetch_add(batch.size(), std::memory_order_relaxed);
+          batch.clear();
+          if (on_fatal_) on_fatal_(e.what());
+          continue;
+        }
+        counters_.retries.fetch_add(1, std::memory_order_relaxed);
+        const auto now = Clock::now();
+        if (now - last_log > std::chrono::seconds(10)) {
+          spdlog::error("storage: {} — keeping {} messages in memory, retrying in {} ms", e.what(), batch.size(),
+                        backoff.count());
+          last_log = now;
+        }
+        if (stop_deadline && now > *stop_deadline) {
+          std::lock_guard lock(mutex_);
+          const auto lost = batch.size() + queue_.size();
+          spdlog::critical("storage: giving up after stop: {} messages could not be written ({})", lost, e.what());
+          counters_.lost_at_exit.fetch_add(lost, std::memory_order_relaxed);
+          return;
+        }
+        std::this_thread::sleep_for(backoff);
+        backoff = std::min(backoff * 2, std::chrono::milliseconds(options_.retry_max_ms));
+      }
+    }
+  });
+  try {
+    ready.get();
+  } catch (...) {
+    thread_.join();
+    throw;
+  }
+}
+
+void StorageWriter::submit(Message message) {
+  std::unique_lock lock(mutex_);
+  if (queue_.size() >= options_.queue_capacity) {
+    counters_.queue_waits.fetch_add(1, std::memory_order_relaxed);
+    not_full_.wait(lock, [&] { return queue_.size() < options_.queue_capacity || terminate_; });
+  }
+  queue_.push_back(std::move(message));
+  lock.unlock();
+  not_empty_.notify_one();
+}
+
+void StorageWriter::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    terminate_ = true;
+  }
+  not_empty_.notify_all();
+  not_full_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+std::size_t StorageWriter::queued() const {
+  std::lock_guard lock(mutex_);
+  return queue_.size();
+}
+
+}  // namespace gearwatch::storage
