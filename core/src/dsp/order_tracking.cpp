@@ -28,8 +28,12 @@ TachoCheck ShaftAngle::assign(std::span<const double> edges, int edges_per_rev,
     if (d < 0.5 * median || d > 1.5 * median) return {"tacho_irregular"};
   }
 
-  // Natural cubic spline through (i*h, edges[i]) with uniform knot spacing h: the tridiagonal
-  // system M[i-1] + 4 M[i] + M[i+1] = 6 (y[i-1] - 2 y[i] + y[i+1]) / h^2, M[0] = M[n-1] = 0.
+  // Cubic spline through (i*h, edges[i]) with uniform knot spacing h and not-a-knot ends (the
+  // third derivative is continuous at the second and last-but-one knots). Natural ends (zero
+  // curvature) would be wrong whenever the speed drifts or fluctuates and cost ~1e-4 of the
+  // energy of a mesh order in leakage; not-a-knot is exact for any cubic time-angle law.
+  // Interior rows: M[i-1] + 4 M[i] + M[i+1] = 6 (y[i-1] - 2 y[i] + y[i+1]) / h^2. With
+  // M[0] = 2 M[1] - M[2] and M[n-1] = 2 M[n-2] - M[n-3] the first and last rows become 6 M = rhs.
   const std::size_t n = edges.size();
   knot_spacing_ = analysed_revs_per_tacho_rev / edges_per_rev;
   total_revs_ = knot_spacing_ * static_cast<double>(n - 1);
@@ -37,17 +41,25 @@ TachoCheck ShaftAngle::assign(std::span<const double> edges, int edges_per_rev,
   second_deriv_.assign(n, 0.0);
   if (n >= 3) {
     const double h2 = knot_spacing_ * knot_spacing_;
-    scratch_.assign(n, 0.0);  // modified super-diagonal (Thomas algorithm)
+    const bool not_a_knot = n >= 4;  // with 3 knots fall back to natural ends
+    scratch_.assign(n, 0.0);          // modified super-diagonal (Thomas algorithm)
     std::vector<double>& c = scratch_;
     std::vector<double>& m = second_deriv_;
-    // forward sweep over the interior unknowns 1..n-2
     for (std::size_t i = 1; i + 1 < n; ++i) {
       const double rhs = 6.0 * (times_[i - 1] - 2.0 * times_[i] + times_[i + 1]) / h2;
-      const double denom = 4.0 - (i > 1 ? c[i - 1] : 0.0);
-      c[i] = 1.0 / denom;
-      m[i] = (rhs - (i > 1 ? m[i - 1] : 0.0)) / denom;
+      const bool first = i == 1, last = i + 2 == n;
+      const double lower = (first || (last && not_a_knot)) ? 0.0 : 1.0;
+      const double diag = not_a_knot && (first || last) ? 6.0 : 4.0;
+      const double upper = (last || (first && not_a_knot)) ? 0.0 : 1.0;
+      const double denom = diag - lower * (first ? 0.0 : c[i - 1]);
+      c[i] = upper / denom;
+      m[i] = (rhs - lower * (first ? 0.0 : m[i - 1])) / denom;
     }
     for (std::size_t i = n - 2; i >= 2; --i) m[i - 1] -= c[i - 1] * m[i];
+    if (not_a_knot) {
+      m[0] = 2.0 * m[1] - m[2];
+      m[n - 1] = 2.0 * m[n - 2] - m[n - 3];
+    }
   }
   return {};
 }

@@ -15,7 +15,7 @@ struct TachoCheck {
 };
 
 /// Shaft angle as a function of time, from tacho edges. The edge times are interpolated as a
-/// natural cubic spline of *time versus angle* (edges are equally spaced in angle), so the sample
+/// not-a-knot cubic spline of *time versus angle* (edges are equally spaced in angle), so the sample
 /// time of any angle is one spline evaluation; the inverse (angle of a time) is never needed.
 /// Angle 0 is the first edge. Reusable: assign() keeps capacity, so no allocation per record
 /// once it has seen the longest edge list.
