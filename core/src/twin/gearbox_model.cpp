@@ -189,12 +189,19 @@ GearboxDynamics::MeshState GearboxDynamics::mesh_state(const State& x, double t)
 
 State GearboxDynamics::static_equilibrium() const {
   const Matrix21 k = m_.linearised_stiffness();
-  // Fix q1 = 0 (the rigid-body rotation); the loads are balanced so the reduced system is consistent.
-  const Eigen::Matrix<double, kDofCount - 1, kDofCount - 1> reduced = k.bottomRightCorner<kDofCount - 1, kDofCount - 1>();
-  const Eigen::Matrix<double, kDofCount - 1, 1> rhs = external_.tail<kDofCount - 1>();
-  const Eigen::Matrix<double, kDofCount - 1, 1> sol = reduced.ldlt().solve(rhs);
+  // Fix q5 = 0 (the rigid-body rotation) so that the mesh phase of the static state is exactly
+  // Ω t; the loads are balanced so the reduced system is consistent.
+  constexpr int n = kDofCount - 1;
+  Eigen::Matrix<double, n, n> reduced;
+  Eigen::Matrix<double, n, 1> rhs;
+  auto full = [](int i) { return i < theta5 ? i : i + 1; };
+  for (int i = 0; i < n; ++i) {
+    rhs[i] = external_[full(i)];
+    for (int j = 0; j < n; ++j) reduced(i, j) = k(full(i), full(j));
+  }
+  const Eigen::Matrix<double, n, 1> sol = reduced.ldlt().solve(rhs);
   State s{};
-  for (int i = 1; i < kDofCount; ++i) s[static_cast<std::size_t>(i)] = sol[i - 1];
+  for (int i = 0; i < n; ++i) s[static_cast<std::size_t>(full(i))] = sol[i];
   return s;
 }
 

@@ -129,9 +129,11 @@ double lowpass_rms(const std::vector<double>& signal, double sample_rate_hz, dou
       v = out;
     }
   }
+  // Skip the filter's start-up transient: 5/fc (the slowest pole pair, Q = 1.31, decays by e^-12).
+  const std::size_t skip = std::min(y.size() / 2, static_cast<std::size_t>(std::ceil(5.0 * sample_rate_hz / cutoff_hz)));
   double sum = 0;
-  for (double v : y) sum += v * v;
-  return std::sqrt(sum / static_cast<double>(y.size()));
+  for (std::size_t i = skip; i < y.size(); ++i) sum += y[i] * y[i];
+  return std::sqrt(sum / static_cast<double>(y.size() - skip));
 }
 
 MeshTuningResult tune_mesh_to_rms(const GearboxParameters& p, const OperatingPoint& op, double target_rms,

@@ -102,8 +102,8 @@ class GearboxDynamics {
   };
   MeshState mesh_state(const State& x, double t) const;
 
-  /// Static equilibrium of the linearised system under the operating torque (q1 = 0 fixes the
-  /// rigid-body rotation). Returns a state with zero velocities.
+  /// Static equilibrium of the linearised system under the operating torque (q5 = 0 fixes the
+  /// rigid-body rotation, so the pinion's mesh phase starts at exactly 0). Returns a state with zero velocities.
   State static_equilibrium() const;
 
   /// Total mechanical energy for the constant-mesh, undamped, unforced case (checks).

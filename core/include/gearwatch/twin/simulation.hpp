@@ -74,7 +74,8 @@ std::size_t integrate_sampled(const GearboxDynamics& dynamics, State& state, dou
                               const SimulationOptions& options, Observer&& observer);
 
 /// RMS of a signal after a 4th-order Butterworth low-pass (two biquads, bilinear transform): the
-/// seed's 0–2 kHz band RMS of y6 used to tune the mesh (§5.3).
+/// seed's 0–2 kHz band RMS of y6 used to tune the mesh (§5.3). The mean is removed first and the
+/// first 5/cutoff seconds (filter start-up) are left out of the RMS.
 double lowpass_rms(const std::vector<double>& signal, double sample_rate_hz, double cutoff_hz);
 
 /// Fine-tunes mesh_stiffness_scale (inside [low, high]) so that lowpass_rms of the simulated y6 at
