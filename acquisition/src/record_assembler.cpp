@@ -157,7 +157,11 @@ void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, st
       std::copy(e.samples.begin() + static_cast<std::ptrdiff_t>(offset), e.samples.begin() + static_cast<std::ptrdiff_t>(count),
                 rest.samples.begin());
       pending_[s].push_back(rest);
-      if (idx > open_.start + target + slack_) {
+      if (filled_min() >= target) {
+        // Every channel has reached the (possibly gap-shortened) end.
+        finalize(open_.cut < length_ ? RecordEnd::cut_at_gap : RecordEnd::complete);
+        flush_pending();
+      } else if (idx > open_.start + target + slack_) {
         // Another channel fell silent: the record ends where the slowest channel stopped.
         open_.cut = std::min(open_.cut, filled_min());
         finalize(RecordEnd::cut_at_gap);

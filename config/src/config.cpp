@@ -1,5 +1,6 @@
 #include "gearwatch/config/config.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -172,7 +173,8 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     auto& s = cfg.rig.schedule;
     t.number("length_s", s.length_s, 0.01, 3600.0);
     t.number("interval_s", s.interval_s, 0.01, 30.0 * 86400.0);
-    t.number("min_length_s", s.min_length_s, 0.0, 3600.0);
+    if (t.node("min_length_s")) t.number("min_length_s", s.min_length_s, 0.0, 3600.0);
+    else s.min_length_s = std::min(s.min_length_s, s.length_s);  // the default never exceeds a short length
     if (s.interval_s < s.length_s) t.fail(t.node("interval_s"), "interval_s", "must be at least length_s (records do not overlap)");
     if (s.min_length_s > s.length_s) t.fail(t.node("min_length_s"), "min_length_s", "must not exceed length_s");
     t.reject_unknown();

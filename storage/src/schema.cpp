@@ -99,18 +99,18 @@ CREATE TABLE health_snapshots (
   run_id INTEGER NOT NULL REFERENCES runs(id),
   taken_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
   final INTEGER NOT NULL DEFAULT 0,
-  frames INTEGER NOT NULL, samples INTEGER NOT NULL,
-  kernel_drops INTEGER NOT NULL, ring_overflows INTEGER NOT NULL, ring_high_water INTEGER NOT NULL,
-  malformed_frames INTEGER NOT NULL, malformed_lines INTEGER NOT NULL, unknown_ids INTEGER NOT NULL,
-  unconfigured_channel_frames INTEGER NOT NULL, frames_before_header INTEGER NOT NULL,
-  gaps INTEGER NOT NULL, gap_samples INTEGER NOT NULL, ring_gaps INTEGER NOT NULL,
-  duplicates INTEGER NOT NULL, tacho_edges INTEGER NOT NULL, tacho_out_of_order INTEGER NOT NULL,
-  stream_changes INTEGER NOT NULL, life_counter_resets INTEGER NOT NULL, unsupported_version INTEGER NOT NULL,
-  read_errors INTEGER NOT NULL, reopens INTEGER NOT NULL,
-  records_complete INTEGER NOT NULL, records_cut INTEGER NOT NULL, records_rejected INTEGER NOT NULL,
-  storage_retries INTEGER NOT NULL, storage_queue_waits INTEGER NOT NULL
+  frames INTEGER NOT NULL DEFAULT 0, samples INTEGER NOT NULL DEFAULT 0,
+  kernel_drops INTEGER NOT NULL DEFAULT 0, ring_overflows INTEGER NOT NULL DEFAULT 0, ring_high_water INTEGER NOT NULL DEFAULT 0,
+  malformed_frames INTEGER NOT NULL DEFAULT 0, malformed_lines INTEGER NOT NULL DEFAULT 0, unknown_ids INTEGER NOT NULL DEFAULT 0,
+  unconfigured_channel_frames INTEGER NOT NULL DEFAULT 0, frames_before_header INTEGER NOT NULL DEFAULT 0,
+  gaps INTEGER NOT NULL DEFAULT 0, gap_samples INTEGER NOT NULL DEFAULT 0, ring_gaps INTEGER NOT NULL DEFAULT 0,
+  duplicates INTEGER NOT NULL DEFAULT 0, tacho_edges INTEGER NOT NULL DEFAULT 0, tacho_out_of_order INTEGER NOT NULL DEFAULT 0,
+  stream_changes INTEGER NOT NULL DEFAULT 0, life_counter_resets INTEGER NOT NULL DEFAULT 0, unsupported_version INTEGER NOT NULL DEFAULT 0,
+  read_errors INTEGER NOT NULL DEFAULT 0, reopens INTEGER NOT NULL DEFAULT 0,
+  records_complete INTEGER NOT NULL DEFAULT 0, records_cut INTEGER NOT NULL DEFAULT 0, records_rejected INTEGER NOT NULL DEFAULT 0,
+  storage_retries INTEGER NOT NULL DEFAULT 0, storage_queue_waits INTEGER NOT NULL DEFAULT 0
 );
-CREATE TABLE alerts (
+CREATE TABLE alert_events (
   id INTEGER PRIMARY KEY,
   created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
   record_id INTEGER REFERENCES records(id),
@@ -133,6 +133,8 @@ CREATE VIEW indicators AS
          r.input_revolutions AS cycles, r.speed_hz, r.torque_nm,
          v.channel, v.name, v.value
   FROM indicator_values v JOIN records r ON r.id = v.record_id JOIN streams s ON s.id = r.stream_key;
+CREATE VIEW alerts AS
+  SELECT id, created_at, severity, kind, record_id, message FROM alert_events;
 CREATE VIEW acquisition_health AS
   SELECT h.*, r.kind AS run_kind, r.source, r.started_at AS run_started_at, r.ended_at AS run_ended_at
   FROM health_snapshots h JOIN runs r ON r.id = h.run_id

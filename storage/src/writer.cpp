@@ -64,7 +64,7 @@ class BatchWriter {
             .bind(6, b.bandwidth_hz).bind(7, b.value).run();
     }
     if (!m.alerts.empty()) {
-      Statement a(db_, "INSERT INTO alerts(record_id, severity, kind, message) VALUES (?, 'warning', ?, ?)");
+      Statement a(db_, "INSERT INTO alert_events(record_id, severity, kind, message) VALUES (?, 'warning', ?, ?)");
       for (const auto& [kind, msg] : m.alerts) a.bind(1, record_id).bind(2, kind).bind(3, msg).run();
     }
   }
@@ -76,7 +76,7 @@ class BatchWriter {
   void write(const LifeCounterEvent& m) {
     Statement s(db_, "INSERT INTO life_counter_events(stream_key, sample_index, previous_revolutions, revolutions) VALUES (?, ?, ?, ?)");
     s.bind(1, stream(m.stream_sequence)).bind(2, m.sample_index).bind(3, m.previous_revolutions).bind(4, m.revolutions).run();
-    Statement a(db_, "INSERT INTO alerts(severity, kind, message) VALUES ('warning', 'life_counter_reset', ?)");
+    Statement a(db_, "INSERT INTO alert_events(severity, kind, message) VALUES ('warning', 'life_counter_reset', ?)");
     a.bind(1, "life counter went backwards from " + std::to_string(m.previous_revolutions) + " to " +
                   std::to_string(m.revolutions) + " revolutions: new gear pair or front-end fault; history not merged")
         .run();
@@ -86,7 +86,7 @@ class BatchWriter {
     s.bind(1, run()).bind(2, m.kind).bind(3, m.reason).bind(4, m.frame).run();
   }
   void write(const Alert& m) {
-    Statement s(db_, "INSERT INTO alerts(severity, kind, message) VALUES (?, ?, ?)");
+    Statement s(db_, "INSERT INTO alert_events(severity, kind, message) VALUES (?, ?, ?)");
     s.bind(1, m.severity).bind(2, m.kind).bind(3, m.message).run();
   }
   void write(const HealthSnapshot& m) {
@@ -173,10 +173,33 @@ void StorageWriter::start() {
         backoff = std::chrono::milliseconds(options_.retry_initial_ms);
       } catch (const SqliteError& e) {
         if (!e.transient()) {
-          spdlog::critical("storage: {} — {} messages not written", e.what(), batch.size());
+          // One bad message must not take its batch with it: write them one by one and drop
+          // only what fails on its own.
+          if (batch.size() > 1) {
+            std::size_t dropped = 0;
+            for (auto& m : batch) {
+              WriterState single = state;
+              try {
+                Transaction tx(*db);
+                BatchWriter writer(*db, single);
+                std::visit([&](const auto& msg) { writer.write(msg); }, m);
+                tx.commit();
+                state = std::move(single);
+                counters_.messages_committed.fetch_add(1, std::memory_order_relaxed);
+              } catch (const SqliteError& one) {
+                ++dropped;
+                spdlog::error("storage: message dropped: {}", one.what());
+              }
+            }
+            counters_.lost_at_exit.fetch_add(dropped, std::memory_order_relaxed);
+            counters_.run_id.store(static_cast<std::uint64_t>(state.run_id), std::memory_order_relaxed);
+            batch.clear();
+            continue;
+          }
+          spdlog::critical("storage: {} — message not written", e.what());
           counters_.lost_at_exit.fetch_add(batch.size(), std::memory_order_relaxed);
           batch.clear();
-          if (on_fatal_) on_fatal_(e.what());
+          if (on_fatal_ && e.code() != 0 && (e.code() & 0xFF) != 19 /* SQLITE_CONSTRAINT */) on_fatal_(e.what());
           continue;
         }
         counters_.retries.fetch_add(1, std::memory_order_relaxed);

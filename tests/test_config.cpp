@@ -1,0 +1,110 @@
+#include "gearwatch/config/config.hpp"
+
+#include <fstream>
+
+#include <catch2/catch.hpp>
+
+using namespace gearwatch::config;
+
+namespace {
+std::string error_of(const std::string& text) {
+  try {
+    parse_config(text, "test.toml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE("config: an empty file gives the seed rig's defaults", "[config]") {
+  const auto c = parse_config("", "empty.toml");
+  CHECK(c.rig.gears.pinion_teeth == 19);
+  CHECK(c.rig.gears.gear_teeth == 52);  // §3.2.1; Table 5.1's "20" is a typesetting slip
+  CHECK(c.rig.gears.module_m == 2e-3);
+  CHECK(c.rig.gears.pressure_angle_deg == 20.0);
+  CHECK(c.rig.gears.face_width_m == 20e-3);
+  CHECK(c.rig.gears.youngs_modulus_pa == 205e9);
+  CHECK(c.rig.gears.poisson_ratio == 0.29);
+  CHECK(c.rig.sample_rate_hz == 100000.0);
+  CHECK(c.rig.schedule.length_s == 10.0);  // seed §3.2.2: 10 s records
+  CHECK(c.rig.channels.size() == 2);
+  CHECK(c.rig.tachos.size() == 1);
+  CHECK(c.protocol.vibration_base_id == 0x100);
+  CHECK(c.protocol.life_counter_id == 0x1F2);
+  CHECK(c.acquisition.source == SourceKind::socketcan);
+}
+
+TEST_CASE("config: values are read with their units", "[config]") {
+  const auto c = parse_config(R"(
+[gears]
+module_mm = 3
+face_width_mm = 25.5
+youngs_modulus_gpa = 210
+[[channels]]
+number = 3
+name = "bearing"
+scale = 0.002
+[[tachos]]
+shaft = 1
+edges_per_rev = 60
+ratio_to_input = 0.365
+[records]
+length_s = 4
+interval_s = 300
+[acquisition]
+source = "candump"
+capture = "x.log"
+[protocol]
+vibration_base_id = 0x200
+)",
+                              "t.toml");
+  CHECK(c.rig.gears.module_m == Approx(3e-3));
+  CHECK(c.rig.gears.face_width_m == Approx(25.5e-3));
+  CHECK(c.rig.gears.youngs_modulus_pa == Approx(210e9));
+  REQUIRE(c.rig.channels.size() == 1);
+  CHECK(c.rig.channels[0].number == 3);
+  CHECK(c.rig.channels[0].scale_m_s2_per_lsb == 0.002);
+  CHECK(c.rig.tachos[0].edges_per_rev == 60);
+  CHECK(c.rig.tachos[0].ratio_to_input == 0.365);
+  CHECK(c.rig.schedule.interval_s == 300);
+  CHECK(c.acquisition.source == SourceKind::candump);
+  CHECK(c.protocol.vibration_base_id == 0x200);
+}
+
+TEST_CASE("config: a bad file names the file, the line and the key", "[config]") {
+  CHECK(error_of("[records]\nlength_s = 10\nlenght_s = 5\n") == "test.toml:3: key 'records.lenght_s': unknown key");
+  CHECK(error_of("\n[records]\nlength_s = \"ten\"\n") == "test.toml:3: key 'records.length_s': expected a number");
+  CHECK(error_of("[rig]\nsample_rate_hz = -5\n") == "test.toml:2: key 'rig.sample_rate_hz': value -5 is outside [100, 1e+07]");
+  CHECK(error_of("[records]\nlength_s = 10\ninterval_s = 5\n") ==
+        "test.toml:3: key 'records.interval_s': must be at least length_s (records do not overlap)");
+  CHECK(error_of("[[channels]]\nnumber = 0\n[[channels]]\nnumber = 0\n") ==
+        "test.toml:4: key 'channels.number': channel 0 configured twice");
+  CHECK(error_of("[[channels]]\nnumber = 9\n") == "test.toml:2: key 'channels.number': value 9 is outside [0, 7]");
+  CHECK(error_of("[acquisition]\nsource = \"serial\"\n") ==
+        "test.toml:2: key 'acquisition.source': expected \"socketcan\" or \"candump\", got \"serial\"");
+  CHECK(error_of("[storag]\ndatabase = \"x\"\n") == "test.toml:1: key 'storag': unknown table or key");
+  CHECK(error_of("[gears]\npinion_teeth = 19.5\n") == "test.toml:2: key 'gears.pinion_teeth': expected an integer");
+  // TOML syntax errors keep the parser's description and line.
+  const std::string syntax = error_of("[records]\nlength_s = = 3\n");
+  CHECK(syntax.rfind("test.toml:2: ", 0) == 0);
+}
+
+TEST_CASE("config: a missing file is an error naming it", "[config]") {
+  try {
+    load_config("does-not-exist.toml");
+    FAIL("no error");
+  } catch (const ConfigError& e) {
+    CHECK(std::string(e.what()) == "does-not-exist.toml: cannot open config file");
+  }
+}
+
+TEST_CASE("config: the shipped configuration files parse", "[config]") {
+  for (const char* rel : {"/config/gearwatch.example.toml", "/systemd/gearwatch.toml"}) {
+    const std::string path = std::string(GEARWATCH_SOURCE_DIR) + rel;
+    INFO(path);
+    const auto c = load_config(path);
+    CHECK(c.rig.gears.pinion_teeth == 19);
+    CHECK(c.rig.gears.gear_teeth == 52);
+  }
+}

@@ -1,0 +1,160 @@
+#include "pipeline.hpp"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <catch2/catch.hpp>
+
+#include "capture_writer.hpp"
+#include "gearwatch/acquisition/candump_log.hpp"
+#include "gearwatch/acquisition/protocol_encoder.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+#include "logging.hpp"
+
+using namespace gearwatch;
+namespace fs = std::filesystem;
+namespace acq = gearwatch::acquisition;
+
+namespace {
+
+fs::path fresh_dir(const std::string& name) {
+  auto dir = fs::temp_directory_path() / ("gearwatch-test-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::int64_t scalar(const std::string& db_path, const std::string& sql) {
+  storage::Database db(db_path, storage::Database::Mode::read_only);
+  storage::Statement s(db, sql);
+  REQUIRE(s.step());
+  return s.get_int(0);
+}
+
+config::GearwatchConfig replay_config(const fs::path& capture, const fs::path& db) {
+  auto cfg = config::parse_config("[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.2\n", "test");
+  cfg.acquisition.source = config::SourceKind::candump;
+  cfg.acquisition.capture = capture.string();
+  cfg.storage.database = db.string();
+  cfg.logging.rate_limit_s = 0.0;
+  return cfg;
+}
+
+}  // namespace
+
+TEST_CASE("pipeline: a clean capture replays into exactly its records, losing nothing", "[pipeline]") {
+  logging::setup(logging::Sink::stderr_only, "error");
+  const auto dir = fresh_dir("clean");
+  daemon::CaptureSettings cs;
+  cs.duration_s = 3.5;
+  cs.signal.sample_rate_hz = 20000;
+  const auto summary = daemon::write_synthetic_capture(cs, (dir / "cap.log").string());
+  const auto cfg = replay_config(dir / "cap.log", dir / "a.db");
+  const auto r = daemon::run_pipeline(cfg, daemon::PipelineMode::replay);
+  CHECK(r.exit_status == 0);
+  CHECK(r.frames == summary.frames);
+  CHECK(r.samples == 2 * 70000);
+  CHECK(r.losses == 0);
+  CHECK(r.records == 4);  // 3 complete 1 s records + the final 0.5 s
+  const auto db = (dir / "a.db").string();
+  CHECK(scalar(db, "SELECT count(*) FROM records WHERE end_reason = 'complete' AND sample_count = 20000") == 3);
+  CHECK(scalar(db, "SELECT sample_count FROM records WHERE end_reason = 'stream_end'") == 10000);
+  CHECK(scalar(db, "SELECT frames FROM acquisition_health") == static_cast<std::int64_t>(summary.frames));
+  CHECK(scalar(db, "SELECT kernel_drops + ring_overflows + gaps + malformed_frames + malformed_lines FROM acquisition_health") == 0);
+  // Input speed from the tacho: 10 Hz exactly (edges are placed exactly by the generator).
+  storage::Database rd(db, storage::Database::Mode::read_only);
+  storage::Statement s(rd, "SELECT value FROM indicators WHERE name = 'input_speed_hz' AND channel = 0");
+  int n = 0;
+  while (s.step()) {
+    CHECK(s.get_double(0) == Approx(10.0).epsilon(1e-9));
+    ++n;
+  }
+  CHECK(n == 4);
+  // A second replay continues the history in the same database.
+  const auto r2 = daemon::run_pipeline(cfg, daemon::PipelineMode::replay);
+  CHECK(r2.run_id == r.run_id + 1);
+  CHECK(scalar(db, "SELECT count(*) FROM records") == 8);
+  CHECK(scalar(db, "SELECT count(*) FROM acquisition_health") == 2);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("pipeline: every kind of bad input is counted, stored, and processing goes on", "[pipeline]") {
+  logging::setup(logging::Sink::stderr_only, "off");
+  const auto dir = fresh_dir("bad");
+  const acq::ProtocolIds ids;
+  std::ofstream out(dir / "bad.log");
+  std::string line;
+  double t = 1700000000.0;
+  auto emit = [&](const acq::CanFrame& f0) {
+    auto f = f0;
+    f.timestamp_s = t;
+    t += 1e-4;
+    acq::format_candump_line(f, "can0", line);
+    out << line << "\n";
+  };
+  const std::vector<std::int16_t> block(30, 100);
+  emit(acq::make_stream_header(ids, 10000, 2, 7));
+  emit(acq::make_life_counter(ids, 5000));
+  for (std::uint32_t i = 0; i < 30000; i += 30) {
+    if (i == 6000) {  // channel 1 loses one frame: a gap of 30 samples
+      emit(acq::make_vibration_frame(ids, 0, i, block, true));
+      continue;
+    }
+    emit(acq::make_vibration_frame(ids, 0, i, block, true));
+    emit(acq::make_vibration_frame(ids, 1, i, block, true));
+    if (i == 3000) emit(acq::make_vibration_frame(ids, 1, i, block, true));  // duplicate
+    if (i == 9000) {
+      out << "(1700000001.000000) can0 100##100000\n";     // truncated line: odd hex digits
+      out << "this is not a candump line\n";                 // garbage
+      acq::CanFrame unknown;
+      unknown.id = 0x555;
+      unknown.len = 2;
+      emit(unknown);                                          // unknown id
+      acq::CanFrame malformed;
+      malformed.id = 0x100;
+      malformed.len = 5;                                      // odd sample bytes
+      emit(malformed);
+    }
+  }
+  emit(acq::make_life_counter(ids, 10));                      // odometer backwards: a new gear pair?
+  emit(acq::make_stream_header(ids, 10000, 2, 8));            // stream restart
+  for (std::uint32_t i = 0; i < 15000; i += 30) {
+    emit(acq::make_vibration_frame(ids, 0, i, block, true));
+    emit(acq::make_vibration_frame(ids, 1, i, block, true));
+  }
+  out.close();
+
+  const auto cfg = replay_config(dir / "bad.log", dir / "a.db");
+  const auto r = daemon::run_pipeline(cfg, daemon::PipelineMode::replay);
+  CHECK(r.exit_status == 0);
+  const auto db = (dir / "a.db").string();
+  auto health = [&](const std::string& col) { return scalar(db, "SELECT " + col + " FROM acquisition_health"); };
+  CHECK(health("malformed_lines") == 2);
+  CHECK(health("malformed_frames") == 1);
+  CHECK(health("unknown_ids") == 1);
+  CHECK(health("duplicates") == 1);
+  CHECK(health("gaps") == 1);
+  CHECK(health("gap_samples") == 30);
+  CHECK(health("stream_changes") == 1);
+  CHECK(health("life_counter_resets") == 1);
+  CHECK(health("ring_gaps") == 0);
+  // Stored: the bad lines and frames themselves, the gap, the reset (with an alert).
+  CHECK(scalar(db, "SELECT count(*) FROM rejected_frames WHERE kind = 'malformed_line'") == 2);
+  CHECK(scalar(db, "SELECT count(*) FROM rejected_frames WHERE kind = 'malformed_frame'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM rejected_frames WHERE kind = 'duplicate_frame'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM rejected_frames WHERE kind = 'life_counter_reset'") == 1);
+  CHECK(scalar(db, "SELECT first_missing_index FROM gap_events") == 6000);
+  CHECK(scalar(db, "SELECT missing_samples FROM gap_events") == 30);
+  CHECK(scalar(db, "SELECT count(*) FROM life_counter_events WHERE previous_revolutions = 5000 AND revolutions = 10") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'life_counter_reset'") == 1);
+  // Records: stream 7 is 3 s at 10 kHz in 1 s records; the first is cut at the gap (index 6000),
+  // the next two start on schedule. Stream 8 gives one 1 s record and a 0.5 s end.
+  CHECK(scalar(db, "SELECT count(*) FROM streams") == 2);
+  CHECK(scalar(db, "SELECT count(*) FROM records") == 5);
+  CHECK(scalar(db, "SELECT sample_count FROM records WHERE end_reason = 'cut_at_gap'") == 6000);
+  CHECK(scalar(db, "SELECT start_index FROM records WHERE end_reason = 'cut_at_gap'") == 0);
+  CHECK(scalar(db, "SELECT count(*) FROM records WHERE end_reason = 'complete'") == 3);
+  fs::remove_all(dir);
+}
