@@ -38,8 +38,7 @@ Ics2Result SquaredEnvelopeAnalyzer::band_ics2(std::span<const Complex> spectrum,
       static_cast<std::size_t>(std::ceil(p.harmonics * p.cyclic_order * static_cast<double>(revolutions))) +
       static_cast<std::size_t>(p.tolerance_bins) + 1;
   const std::size_t needed = std::max(2 * band_bins, 2 * highest + 2);
-  std::size_t grid = revolutions;
-  while (grid < needed) grid *= 2;
+  const std::size_t grid = revolutions * next_smooth_size((needed + revolutions - 1) / revolutions);
   const ComplexFft& inverse = plans_->complex(grid);
   baseband_.assign(grid, Complex{});
   for (std::size_t k = 0; k < band_bins && k < grid; ++k) baseband_[k] = spectrum[first_bin + k];
@@ -47,6 +46,26 @@ Ics2Result SquaredEnvelopeAnalyzer::band_ics2(std::span<const Complex> spectrum,
   inverse.backward(baseband_, analytic_);
   envelope_.resize(grid);
   for (std::size_t i = 0; i < grid; ++i) envelope_[i] = std::norm(analytic_[i]);
+  const auto magnitude = ses(envelope_);
+  return ics2_from_ses(magnitude, static_cast<double>(revolutions), p);
+}
+
+Ics2Result SquaredEnvelopeAnalyzer::full_band_ics2(std::span<const Complex> spectrum, std::size_t n,
+                                                   std::size_t revolutions, const Ics2Parameters& p) {
+  if (revolutions == 0 || n < 4 || spectrum.size() < n / 2 + 1)
+    throw std::invalid_argument("full_band_ics2: bad sizes");
+  const RealFft& fft = plans_->real(n);
+  // In-phase part without DC/Nyquist, and the quadrature (Hilbert) part: X[k] -> -j X[k].
+  baseband_.assign(fft.spectrum_size(), Complex{});
+  for (std::size_t k = 1; 2 * k < n; ++k) baseband_[k] = spectrum[k];
+  in_phase_.resize(n);
+  fft.inverse(baseband_, in_phase_);
+  baseband_.assign(fft.spectrum_size(), Complex{});
+  for (std::size_t k = 1; 2 * k < n; ++k) baseband_[k] = Complex(spectrum[k].imag(), -spectrum[k].real());
+  quadrature_.resize(n);
+  fft.inverse(baseband_, quadrature_);
+  envelope_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) envelope_[i] = in_phase_[i] * in_phase_[i] + quadrature_[i] * quadrature_[i];
   const auto magnitude = ses(envelope_);
   return ics2_from_ses(magnitude, static_cast<double>(revolutions), p);
 }
@@ -70,7 +89,10 @@ std::span<const double> SquaredEnvelopeAnalyzer::ses(std::span<const double> squ
   fft.forward(std::span<const double>(envelope_.data(), n), ses_spectrum_);
   ses_magnitude_.resize(fft.spectrum_size());
   const double scale = 1.0 / static_cast<double>(n);
-  for (std::size_t k = 0; k < ses_magnitude_.size(); ++k) ses_magnitude_[k] = std::abs(ses_spectrum_[k]) * scale;
+  // sqrt(norm) rather than abs: std::abs(complex) calls hypot, which is several times slower and
+  // whose overflow protection is not needed at these magnitudes.
+  for (std::size_t k = 0; k < ses_magnitude_.size(); ++k)
+    ses_magnitude_[k] = std::sqrt(std::norm(ses_spectrum_[k])) * scale;
   return ses_magnitude_;
 }
 

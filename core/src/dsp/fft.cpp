@@ -169,4 +169,23 @@ std::size_t next_power_of_two(std::size_t n) {
   return p;
 }
 
+bool is_smooth_size(std::size_t n) {
+  if (n == 0) return false;
+  for (std::size_t f : {2u, 3u, 5u, 7u})
+    while (n % f == 0) n /= f;
+  return n == 1;
+}
+
+std::size_t previous_smooth_size(std::size_t n) {
+  if (n <= 1) return 1;
+  while (!is_smooth_size(n)) --n;
+  return n;
+}
+
+std::size_t next_smooth_size(std::size_t n) {
+  if (n <= 1) return 1;
+  while (!is_smooth_size(n)) ++n;
+  return n;
+}
+
 }  // namespace gearwatch::dsp

@@ -1,5 +1,6 @@
 #include "gearwatch/dsp/filter_bank.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -34,30 +35,61 @@ namespace {
 
 // out[m] = sum_i taps[i] * c[factor*m + phase - i] (causal filter, zero initial state, keeping
 // every factor-th output from `phase`): MATLAB filter() followed by x(phase+1:factor:end).
-void decimating_fir(std::span<const Complex> c, std::span<const Complex> taps, std::size_t factor,
-                    std::size_t phase, std::span<Complex> out) {
-  const std::size_t nt = taps.size();
-  const auto* cp = reinterpret_cast<const double*>(c.data());
-  const auto* tp = reinterpret_cast<const double*>(taps.data());
-  for (std::size_t m = 0; m < out.size(); ++m) {
+// Several filters of at most kMaxTaps taps run over the same input in one pass (each input
+// sample is loaded once). The reductions are written with explicit two-lane vectors because the
+// compiler may not reorder floating-point sums on its own; complex products are formed as
+// x * (re, re) and x * (im, im) accumulated separately and combined once per output.
+using v2d = double __attribute__((vector_size(16)));
+constexpr std::size_t kMaxTaps = 25;
+
+template <std::size_t Filters>
+struct FusedTaps {
+  std::size_t taps = 0;                       // common length (shorter filters zero-padded at the end)
+  v2d re[Filters][kMaxTaps], im[Filters][kMaxTaps];  // indexed by input offset from the oldest sample
+};
+
+template <std::size_t Filters>
+FusedTaps<Filters> fuse(const std::array<std::span<const Complex>, Filters>& filters) {
+  FusedTaps<Filters> f{};
+  for (const auto& h : filters) f.taps = std::max(f.taps, h.size());
+  for (std::size_t k = 0; k < Filters; ++k)
+    for (std::size_t i = 0; i < f.taps; ++i) {
+      const std::size_t tap = f.taps - 1 - i;  // input offset i (oldest first) meets tap taps-1-i
+      const Complex t = tap < filters[k].size() ? filters[k][tap] : Complex{};
+      f.re[k][i] = v2d{t.real(), t.real()};
+      f.im[k][i] = v2d{t.imag(), t.imag()};
+    }
+  return f;
+}
+
+template <std::size_t Filters>
+void decimating_fir(std::span<const Complex> c, const FusedTaps<Filters>& f,
+                    const std::array<std::span<const Complex>, Filters>& filters, std::size_t factor,
+                    std::size_t phase, const std::array<Complex*, Filters>& out, std::size_t out_length) {
+  const std::size_t nt = f.taps;
+  for (std::size_t m = 0; m < out_length; ++m) {
     const std::size_t last = factor * m + phase;  // newest input sample used
-    double re = 0.0, im = 0.0;
-    if (last + 1 >= nt) {
-      const double* x = cp + 2 * (last + 1 - nt);  // oldest sample, multiplied by taps[nt-1]
-      for (std::size_t i = 0; i < nt; ++i) {
-        const double tr = tp[2 * (nt - 1 - i)], ti = tp[2 * (nt - 1 - i) + 1];
-        const double xr = x[2 * i], xi = x[2 * i + 1];
-        re += tr * xr - ti * xi;
-        im += tr * xi + ti * xr;
+    if (last + 1 < nt) {  // start-up: part of the filter still sees the zero initial state
+      for (std::size_t k = 0; k < Filters; ++k) {
+        Complex acc{};
+        for (std::size_t i = 0; i <= last && i < filters[k].size(); ++i) acc += filters[k][i] * c[last - i];
+        out[k][m] = acc;
       }
-    } else {
-      for (std::size_t i = 0; i <= last; ++i) {
-        const Complex v = taps[i] * c[last - i];
-        re += v.real();
-        im += v.imag();
+      continue;
+    }
+    const Complex* x = c.data() + (last + 1 - nt);
+    v2d acc_re[Filters], acc_im[Filters];
+    for (std::size_t k = 0; k < Filters; ++k) acc_re[k] = acc_im[k] = v2d{0.0, 0.0};
+    for (std::size_t i = 0; i < nt; ++i) {
+      v2d xv;
+      __builtin_memcpy(&xv, x + i, sizeof xv);
+      for (std::size_t k = 0; k < Filters; ++k) {
+        acc_re[k] += xv * f.re[k][i];
+        acc_im[k] += xv * f.im[k][i];
       }
     }
-    out[m] = Complex(re, im);
+    for (std::size_t k = 0; k < Filters; ++k)
+      out[k][m] = Complex(acc_re[k][0] - acc_im[k][1], acc_re[k][1] + acc_im[k][0]);
   }
 }
 
@@ -84,12 +116,19 @@ OneThirdBinaryFilterBank::OneThirdBinaryFilterBank() {
   }
 }
 
-BandMap::Optimum BandMap::optimum() const {
+double BandMap::band_high_fraction(std::size_t row, std::size_t column) const {
+  const std::size_t k = (row + 1) / 2;
+  const std::size_t bands = row == 0 ? 1 : row % 2 == 1 ? (std::size_t{1} << k) : 3 * (std::size_t{1} << (k - 1));
+  const std::size_t band = column / (columns() / bands);
+  return static_cast<double>(band + 1) / static_cast<double>(2 * bands);
+}
+
+BandMap::Optimum BandMap::optimum(double max_high_fraction) const {
   Optimum best;
   best.value = -std::numeric_limits<double>::infinity();
   for (std::size_t r = 0; r < rows(); ++r)
     for (std::size_t c = 0; c < columns(); ++c)
-      if (at(r, c) > best.value) {
+      if (at(r, c) > best.value && band_high_fraction(r, c) <= max_high_fraction + 1e-12) {
         best.value = at(r, c);
         best.row = static_cast<int>(r);
         best.first_column = c;
@@ -128,7 +167,7 @@ void OneThirdBinaryFilterBank::analyse(std::span<const double> x, int levels, st
     low_children_[static_cast<std::size_t>(d)].resize(length);
     high_children_[static_cast<std::size_t>(d)].resize(length);
   }
-  ternary_scratch_.resize(x.size() / 3);
+  ternary_scratch_.resize(x.size() / 3 * 3);
 
   evaluate(0, 0, 1, 1, true, root_);
   visit(0, 0, root_, x.size());
@@ -158,11 +197,15 @@ void OneThirdBinaryFilterBank::ternary_split(int depth, int band, std::span<cons
   const int row = 2 * (depth + 1);
   const int band_count = 3 << depth;
   const int decimation = 3 << depth;
-  std::span<Complex> out(ternary_scratch_.data(), out_length);
+  const std::array<std::span<const Complex>, 3> filters{ternary_[0], ternary_[1], ternary_[2]};
+  static const auto fused = fuse<3>(filters);
+  const std::array<Complex*, 3> out{ternary_scratch_.data(), ternary_scratch_.data() + out_length,
+                                    ternary_scratch_.data() + 2 * out_length};
+  decimating_fir<3>(node, fused, filters, 3, 2, out, out_length);
   for (int t = 0; t < 3; ++t) {
-    decimating_fir(node, ternary_[static_cast<std::size_t>(t)], 3, 2, out);
     const std::size_t trim = std::min<std::size_t>(16, out_length);  // len(h) - 1, as the reference
-    evaluate(row, 3 * band + t, band_count, decimation, false, std::span<const Complex>(out).subspan(trim));
+    evaluate(row, 3 * band + t, band_count, decimation, false,
+             std::span<const Complex>(out[static_cast<std::size_t>(t)], out_length).subspan(trim));
   }
 }
 
@@ -173,8 +216,9 @@ void OneThirdBinaryFilterBank::visit(int depth, int band, std::span<const Comple
   auto& d = high_children_[child_depth];
   const std::size_t half = node.size() / 2;
   std::span<Complex> a_span(a.data(), half), d_span(d.data(), half);
-  decimating_fir(node, low_, 2, 1, a_span);
-  decimating_fir(node, high_, 2, 1, d_span);
+  const std::array<std::span<const Complex>, 2> filters{low_, high_};
+  static const auto fused = fuse<2>(filters);
+  decimating_fir<2>(node, fused, filters, 2, 1, {a.data(), d.data()}, half);
   for (std::size_t m = 0; m < half; m += 2) d_span[m] = -d_span[m];  // (-1)^(m+1): back to baseband
   const int row = 2 * depth + 1;
   const int band_count = 2 << depth;
@@ -216,17 +260,21 @@ double Ics2Criterion::evaluate(const FilterBankNode& node) {
   const std::size_t g = std::gcd(spr, decimation);
   const std::size_t unit = spr / g;                  // node samples in decimation/g revolutions
   const double revs_per_unit = static_cast<double>(decimation / g);
-  const std::size_t units = node.samples.size() / unit;
+  // A smooth count keeps the transform fast (a large prime factor would make it many times slower);
+  // it drops at most a few percent of the node.
+  const std::size_t available = node.samples.size() / unit;
+  const std::size_t units = available == 0 ? 0 : previous_smooth_size(available);
   if (units == 0) return 0.0;
   const std::size_t n = units * unit;
   const double revolutions = static_cast<double>(units) * revs_per_unit;
+  if (node.real && whole_signal_value_) return *whole_signal_value_;
   if (node.real) {
     const RealFft& fft = plans_->real(n);
     real_.resize(n);
     for (std::size_t i = 0; i < n; ++i) real_[i] = node.samples[i].real();
     spectrum_.resize(fft.spectrum_size());
     fft.forward(real_, spectrum_);
-    return envelope_->band_ics2(spectrum_, n, static_cast<std::size_t>(revolutions), 1, n / 2 - 1, parameters_).value;
+    return envelope_->full_band_ics2(spectrum_, n, static_cast<std::size_t>(revolutions), parameters_).value;
   }
   return envelope_->complex_ics2(node.samples.subspan(0, n), revolutions, parameters_).value;
 }

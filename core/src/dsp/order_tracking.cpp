@@ -111,13 +111,14 @@ void BandLimitedInterpolator::set_cutoff(double cutoff) {
   if (!(cutoff > 0.0 && cutoff <= 1.0)) throw std::invalid_argument("BandLimitedInterpolator: cutoff in (0,1]");
   if (cutoff == cutoff_) return;
   cutoff_ = cutoff;
-  const int half = static_cast<int>(std::ceil(zero_crossings_ / cutoff));
+  int half = static_cast<int>(std::ceil(zero_crossings_ / cutoff));
+  half += half % 2;  // taps_ a multiple of 4 for the four-lane loop (extra taps are window zeros)
   taps_ = 2 * half;
   table_.assign(static_cast<std::size_t>(phases_ + 1) * taps_, 0.0);
   const double i0_beta = bessel_i0(beta_);
   for (int p = 0; p <= phases_; ++p) {
     const double frac = static_cast<double>(p) / phases_;
-    double* row = &table_[static_cast<std::size_t>(p) * taps_];
+    std::vector<double> row(static_cast<std::size_t>(taps_));
     double sum = 0.0;
     for (int m = 0; m < taps_; ++m) {
       // tap m multiplies sample floor(t) - half + 1 + m, at distance u from t
@@ -130,7 +131,8 @@ void BandLimitedInterpolator::set_cutoff(double cutoff) {
       sum += row[m];
     }
     // Unit DC gain at every phase: removes the small phase-dependent ripple of the truncated kernel.
-    for (int m = 0; m < taps_; ++m) row[m] /= sum;
+    for (int m = 0; m < taps_; ++m)
+      table_[static_cast<std::size_t>(p) * taps_ + static_cast<std::size_t>(m)] = static_cast<float>(row[m] / sum);
   }
 }
 
@@ -141,17 +143,25 @@ double BandLimitedInterpolator::operator()(std::span<const float> x, double t) c
   auto p = static_cast<int>(phase_pos);
   if (p >= phases_) p = phases_ - 1;
   const double w = phase_pos - p;
-  const double* row0 = &table_[static_cast<std::size_t>(p) * taps_];
-  const double* row1 = row0 + taps_;
+  const float* row0 = &table_[static_cast<std::size_t>(p) * taps_];
+  const float* row1 = row0 + taps_;
   const std::ptrdiff_t first = base - taps_ / 2 + 1;
   const auto n = static_cast<std::ptrdiff_t>(x.size());
   double acc0 = 0.0, acc1 = 0.0;
   if (first >= 0 && first + taps_ <= n) {
+    using v4f = float __attribute__((vector_size(16)));
     const float* xs = x.data() + first;
-    for (int m = 0; m < taps_; ++m) {
-      acc0 += row0[m] * xs[m];
-      acc1 += row1[m] * xs[m];
+    v4f a0{0, 0, 0, 0}, a1{0, 0, 0, 0};
+    for (int m = 0; m < taps_; m += 4) {
+      v4f xv, r0, r1;
+      __builtin_memcpy(&xv, xs + m, sizeof xv);
+      __builtin_memcpy(&r0, row0 + m, sizeof r0);
+      __builtin_memcpy(&r1, row1 + m, sizeof r1);
+      a0 += r0 * xv;
+      a1 += r1 * xv;
     }
+    acc0 = static_cast<double>(a0[0]) + a0[1] + a0[2] + a0[3];
+    acc1 = static_cast<double>(a1[0]) + a1[1] + a1[2] + a1[3];
   } else {
     for (int m = 0; m < taps_; ++m) {
       const std::ptrdiff_t k = first + m;

@@ -11,8 +11,6 @@ namespace gearwatch::dsp {
 
 namespace {
 
-bool is_power_of_two(long v) { return v > 0 && (v & (v - 1)) == 0; }
-
 void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("signal processing settings: " + what);
 }
@@ -80,9 +78,9 @@ std::string mean_carrier_indicator_name(const FrequencyBand& range) {
 
 void SignalProcessingSettings::validate(const RigSpec& rig) const {
   require(samples_per_revolution == 0 ||
-              (is_power_of_two(samples_per_revolution) && samples_per_revolution >= 64 &&
-               samples_per_revolution <= (1 << 20)),
-          "samples_per_revolution must be 0 (auto) or a power of two in [64, 1048576]");
+              (is_smooth_size(static_cast<std::size_t>(std::max(samples_per_revolution, 1))) &&
+               samples_per_revolution >= 64 && samples_per_revolution <= (1 << 20)),
+          "samples_per_revolution must be 0 (auto) or a 2^a 3^b 5^c number in [64, 1048576]");
   require(stored_gmf_harmonics >= 1 && stored_gmf_harmonics <= 100, "stored_gmf_harmonics must be in [1, 100]");
   require(rms_sa_harmonics >= 1 && rms_sa_harmonics <= stored_gmf_harmonics,
           "rms_sa_harmonics must be in [1, stored_gmf_harmonics]");
@@ -236,7 +234,7 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   add("speed_fluctuation", (fastest - slowest) / mean_speed);
 
   std::size_t spr = static_cast<std::size_t>(settings_.samples_per_revolution);
-  if (spr == 0) spr = std::clamp<std::size_t>(next_power_of_two(static_cast<std::size_t>(std::ceil(fs / slowest))), 64, 1u << 20);
+  if (spr == 0) spr = std::clamp<std::size_t>(next_smooth_size(static_cast<std::size_t>(std::ceil(fs / slowest))), 64, 1u << 20);
   out.samples_per_revolution = spr;
   const int z1 = rig_.gears.pinion_teeth, z2 = rig_.gears.gear_teeth;
   const auto input_revs = static_cast<std::size_t>(std::floor(total_revs + 1e-9));
@@ -278,20 +276,26 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
     skip(residual_group, "too_few_revolutions");
     return;
   }
-  const std::span<const double> residual(residual_.data(), length);
-  const Moments res = moments(residual);
+  const Moments res = moments(std::span<const double>(residual_.data(), length));
   add("rms_residual", res.rms);
   add("kurtosis_residual", res.kurtosis);
+  // The spectral indicators use the first R' revolutions, R' the largest 7-smooth count <= R, so
+  // every transform size factors into small primes (a prime R such as 97 would make FFTW's
+  // transforms several times slower); at most a few percent of the record is left out.
+  const std::size_t spectral_revs = previous_smooth_size(input_revs);
+  const std::size_t spectral_length = spectral_revs * spr;
+  const std::span<const double> residual(residual_.data(), spectral_length);
 
   // Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier bands.
   const Ics2Parameters ics2{static_cast<double>(z1), settings_.ics2_harmonics, settings_.ics2_tolerance_bins};
-  const RealFft& fft = plans_.real(length);
+  const RealFft& fft = plans_.real(spectral_length);
   residual_spectrum_.resize(fft.spectrum_size());
   fft.forward(residual, residual_spectrum_);
   const double nyquist_hz = std::min(fs / 2.0, static_cast<double>(spr) / 2.0 * slowest);
-  const double bins_per_hz = static_cast<double>(input_revs) / mean_speed;
-  const std::size_t last_bin = length / 2 - 1;
-  add("ics2_full_band", envelope_.band_ics2(residual_spectrum_, length, input_revs, 1, last_bin, ics2).value);
+  const double bins_per_hz = static_cast<double>(spectral_revs) / mean_speed;
+  const std::size_t last_bin = spectral_length / 2 - 1;
+  const double full_band = envelope_.full_band_ics2(residual_spectrum_, spectral_length, spectral_revs, ics2).value;
+  add("ics2_full_band", full_band);
   auto band_ics2 = [&](const FrequencyBand& band, const std::string& name) {
     if (band.high_hz > nyquist_hz + 1e-9) {
       out.skipped.push_back({name, "band_above_nyquist"});
@@ -303,13 +307,14 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
       out.skipped.push_back({name, "band_empty"});
       return;
     }
-    add(name, envelope_.band_ics2(residual_spectrum_, length, input_revs, first, last, ics2).value);
+    add(name, envelope_.band_ics2(residual_spectrum_, spectral_length, spectral_revs, first, last, ics2).value);
   };
   band_ics2(settings_.pitting_band, "ics2_low_band");
   band_ics2(settings_.abrasion_band, "ics2_high_band");
 
   // Band selection over the 1/3-binary tree (ICS2, and kurtosis for comparison).
   Ics2Criterion ics2_criterion(envelope_, plans_, spr, ics2);
+  ics2_criterion.set_whole_signal_value(full_band);
   std::vector<BandCriterion*> criteria{&ics2_criterion};
   if (settings_.kurtogram_band_selection) criteria.push_back(&kurtosis_criterion_);
   band_maps_.resize(criteria.size());
@@ -317,7 +322,7 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   try {
     filter_bank_.analyse(residual, settings_.filter_bank_levels, criteria, band_maps_);
     for (std::size_t i = 0; i < criteria.size(); ++i) {
-      const auto best = band_maps_[i].optimum();
+      const auto best = band_maps_[i].optimum(nyquist_hz / equivalent_rate);
       out.band_selections.push_back({band_maps_[i].criterion, best.level, best.centre_fraction * equivalent_rate,
                                      best.bandwidth_fraction * equivalent_rate, best.value});
       add(i == 0 ? "ics2_selected_band" : "kurtosis_selected_band", best.value);

@@ -34,10 +34,16 @@ class SquaredEnvelopeAnalyzer {
 
   /// ICS2 of the part of a real signal between spectrum bins [first_bin, last_bin] (inclusive),
   /// given the signal's r2c spectrum (signal_size/2+1 bins) and the revolutions it spans.
-  /// The band is moved to baseband as an analytic signal on the smallest grid R*2^p that holds
-  /// it without aliasing its squared envelope, so narrow bands cost little.
+  /// The band is moved to baseband as an analytic signal on the smallest grid R*m (m 5-smooth)
+  /// that holds it without aliasing its squared envelope, so narrow bands cost little.
   Ics2Result band_ics2(std::span<const Complex> spectrum, std::size_t signal_size, std::size_t revolutions,
                        std::size_t first_bin, std::size_t last_bin, const Ics2Parameters& p);
+
+  /// ICS2 of the whole band of a real signal (its r2c spectrum given), via the Hilbert transform:
+  /// |x + jH(x)|^2 = x^2 + H(x)^2 with one c2r and one r2c transform instead of a complex one.
+  /// Equals band_ics2 over bins 1..n/2-1 (DC and Nyquist bins excluded from the analytic signal).
+  Ics2Result full_band_ics2(std::span<const Complex> spectrum, std::size_t signal_size, std::size_t revolutions,
+                            const Ics2Parameters& p);
 
   /// ICS2 of a complex (one-sided, e.g. filter-bank) signal whose length spans `revolutions`:
   /// SES of |c|^2.
@@ -49,7 +55,7 @@ class SquaredEnvelopeAnalyzer {
  private:
   FftPlanCache* plans_;
   ComplexBuffer baseband_, analytic_, ses_spectrum_;
-  RealBuffer envelope_;
+  RealBuffer envelope_, quadrature_, in_phase_;
   std::vector<double> ses_magnitude_;
 };
 

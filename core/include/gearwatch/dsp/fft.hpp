@@ -106,5 +106,11 @@ class FftPlanCache {
 
 /// Smallest power of two >= n (n >= 1).
 std::size_t next_power_of_two(std::size_t n);
+/// Smallest 2^a 3^b 5^c 7^d >= n (n >= 1): sizes FFTW transforms fast (FFTW falls back to slow
+/// generic algorithms for large prime factors).
+std::size_t next_smooth_size(std::size_t n);
+/// Largest 2^a 3^b 5^c 7^d <= n (n >= 1).
+std::size_t previous_smooth_size(std::size_t n);
+bool is_smooth_size(std::size_t n);
 
 }  // namespace gearwatch::dsp

@@ -5,6 +5,7 @@
 // phases, transient trimming, row/column layout) follow the reference's README exactly; see
 // docs/dsp.md.
 #include <array>
+#include <optional>
 #include <cstddef>
 #include <span>
 #include <string>
@@ -51,8 +52,12 @@ class Ics2Criterion final : public BandCriterion {
       : envelope_(&envelope), plans_(&plans), samples_per_rev_(samples_per_rev), parameters_(parameters) {}
   const char* name() const noexcept override { return "ics2"; }
   double evaluate(const FilterBankNode& node) override;
+  /// Row 0 (the whole real signal) is the full-band ICS2 its caller usually has already; giving
+  /// it here skips recomputing it (three transforms of the whole record).
+  void set_whole_signal_value(double value) { whole_signal_value_ = value; }
 
  private:
+  std::optional<double> whole_signal_value_;
   SquaredEnvelopeAnalyzer* envelope_;
   FftPlanCache* plans_;
   std::size_t samples_per_rev_;
@@ -79,8 +84,13 @@ struct BandMap {
     double bandwidth_fraction = 0.0;  ///< bandwidth / sample rate
     double value = 0.0;
   };
-  /// First maximum in row-major order (the reference's convention).
-  Optimum optimum() const;
+  /// First maximum in row-major order (the reference's convention), among the bands whose upper
+  /// edge is at most max_high_fraction of the sample rate (an angle-domain signal may be sampled
+  /// faster than the acquisition: bands above the acquisition's Nyquist hold only interpolation
+  /// residue and must not be selected).
+  Optimum optimum(double max_high_fraction = 0.5) const;
+  /// Upper edge (fraction of the sample rate) of the band at (row, column).
+  double band_high_fraction(std::size_t row, std::size_t column) const;
 };
 
 /// Level of a row: 0, 1, 1.585, 2, 2.585, ...

@@ -48,7 +48,10 @@ class ShaftAngle {
 /// Band-limited interpolation of a uniformly sampled signal at arbitrary positions: a Kaiser-windowed
 /// sinc with `zero_crossings` lobes each side, tabulated at `phases` fractional offsets with linear
 /// interpolation between adjacent phase rows. When the output is sparser than the input the
-/// cutoff is lowered (anti-aliasing) and the kernel widened accordingly.
+/// cutoff is lowered (anti-aliasing) and the kernel widened accordingly. The table and the
+/// products are single precision (the samples are float already; the sum of <= 200 products
+/// keeps ~1e-6 relative accuracy, well under the kernel's 1e-4 pass-band ripple), accumulated in
+/// four lanes.
 class BandLimitedInterpolator {
  public:
   explicit BandLimitedInterpolator(int zero_crossings = 16, int phases = 512, double kaiser_beta = 8.0);
@@ -66,7 +69,7 @@ class BandLimitedInterpolator {
   double beta_;
   double cutoff_ = 0.0;
   int taps_ = 0;
-  std::vector<double> table_;   // (phases_ + 1) rows x taps_
+  std::vector<float> table_;    // (phases_ + 1) rows x taps_ (taps_ a multiple of 4)
 };
 
 /// Resamples a record to a fixed number of samples per revolution of the analysed shaft.

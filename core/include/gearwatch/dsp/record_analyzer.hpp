@@ -28,9 +28,10 @@ struct FrequencyBand {
 /// Defaults are the seed's values where it gives them (§4.4 bands, §7.2 N = 2, Fig. 4.13
 /// ranges, ±3 cyclic bins); the config file overrides them.
 struct SignalProcessingSettings {
-  /// Order-tracking resolution. 0 = automatic: per record, the smallest power of two with
+  /// Order-tracking resolution. 0 = automatic: per record, the smallest 2^a 3^b 5^c with
   /// samples_per_revolution x (slowest revolution's speed) >= sample rate, so no part of the
-  /// acquired band is lost. A fixed value must be a power of two in [64, 2^20].
+  /// acquired band is lost and FFT sizes stay fast. A fixed value must be such a number in
+  /// [64, 2^20] (a power of two is fine).
   int samples_per_revolution = 0;
   int rms_sa_harmonics = 2;           ///< N of Eq. 7.1 (seed: 2 mild, 6 severe profile change)
   int stored_gmf_harmonics = 10;
