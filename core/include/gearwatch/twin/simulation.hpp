@@ -94,3 +94,18 @@ MeshTuningResult tune_mesh_to_rms(const GearboxParameters& p, const OperatingPoi
 }  // namespace gearwatch::twin
 
 #include "gearwatch/twin/simulation_impl.hpp"
+
+namespace gearwatch::dsp {
+struct SignalProcessingSettings;
+}
+
+namespace gearwatch::twin {
+
+/// RMS_SA(N) (Eq. 7.1) of the simulated casing acceleration, computed by the measurement code:
+/// the simulated y6 and input tacho are packed into a gearwatch::Record and passed to
+/// dsp::RecordAnalyzer, which returns its "rms_sa" indicator (N from `settings`). Throws
+/// TwinParameterError when the analyzer skips it (the reason is in the message).
+double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings);
+
+}  // namespace gearwatch::twin
