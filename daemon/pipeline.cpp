@@ -191,8 +191,8 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   };
   if (use_watchdog) arm_watchdog();
 
-  // --- processing thread
-  RecordProcessor processor(config);
+  // --- processing thread; the wear history of the installed gear pair continues from the database
+  RecordProcessor processor(config, load_wear_history(config.storage.database));
   std::uint64_t current_sequence = 0;
   std::atomic<std::uint64_t> records_total{0}, records_analysed{0};
   acq::AssemblerCounters assembler_snapshot;
@@ -217,6 +217,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
             writer.submit(storage::GapEvent{current_sequence, g.channel, g.first_missing, g.missing, acq::to_string(g.cause)});
           },
           [&](const acq::LifeCounterReset& l) {
+            processor.reset_history();  // a new gear pair, or a fault: never merge histories
             writer.submit(storage::LifeCounterEvent{current_sequence, l.index, l.previous_revolutions, l.revolutions});
           }});
 

@@ -108,3 +108,29 @@ TEST_CASE("config: the shipped configuration files parse", "[config]") {
     CHECK(c.rig.gears.gear_teeth == 52);
   }
 }
+
+TEST_CASE("config: [processing] sets the signal-processing settings", "[config]") {
+  const auto c = parse_config(R"(
+[processing]
+rms_sa_harmonics = 6
+pitting_band_hz = [2500, 12000]
+abrasion_band_hz = [21000, 36000]
+mean_carrier_ranges_hz = [[0, 20000], [1000, 45000]]
+filter_bank_levels = 5
+trend_significance = 0.01
+)",
+                              "p.toml");
+  CHECK(c.processing.rms_sa_harmonics == 6);  // the seed's choice for severe profile change (§7.4.2)
+  CHECK(c.processing.pitting_band.low_hz == 2500);
+  CHECK(c.processing.abrasion_band.high_hz == 36000);
+  REQUIRE(c.processing.mean_carrier_ranges.size() == 2);
+  CHECK(c.processing.mean_carrier_ranges[1].low_hz == 1000);
+  CHECK(c.processing.filter_bank_levels == 5);
+  CHECK(c.processing.trend_significance == 0.01);
+  const auto d = parse_config("", "d.toml");
+  CHECK(d.processing.pitting_band.low_hz == 2000);   // seed §4.4
+  CHECK(d.processing.abrasion_band.low_hz == 20000);
+  CHECK(error_of("[processing]\npitting_band_hz = [13000, 2000]\n") ==
+        "test.toml:2: key 'processing.pitting_band_hz': needs 0 <= low_hz < high_hz");
+  CHECK(error_of("[processing]\nabrasion_band_hz = 3\n") == "test.toml:2: key 'processing.abrasion_band_hz': expected [low_hz, high_hz]");
+}

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -12,6 +13,7 @@
 #include "gearwatch/acquisition/protocol_encoder.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "logging.hpp"
+#include "record_processing.hpp"
 
 using namespace gearwatch;
 namespace fs = std::filesystem;
@@ -156,5 +158,63 @@ TEST_CASE("pipeline: every kind of bad input is counted, stored, and processing 
   CHECK(scalar(db, "SELECT sample_count FROM records WHERE end_reason = 'cut_at_gap'") == 6000);
   CHECK(scalar(db, "SELECT start_index FROM records WHERE end_reason = 'cut_at_gap'") == 0);
   CHECK(scalar(db, "SELECT count(*) FROM records WHERE end_reason = 'complete'") == 3);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("pipeline: indicators of a replayed capture recover the rig signal's known content", "[pipeline]") {
+  logging::setup(logging::Sink::stderr_only, "error");
+  const auto dir = fresh_dir("content");
+  daemon::CaptureSettings cs;  // 100 kHz, 10 Hz, 20 N·m: GMF harmonics 5·(1, .5, .3, .2, .1) m/s² on channel 0
+  cs.duration_s = 6.0;
+  daemon::write_synthetic_capture(cs, (dir / "cap.log").string());
+  auto cfg = replay_config(dir / "cap.log", dir / "a.db");
+  cfg.rig.schedule = {5.0, 5.0, 2.0};
+  REQUIRE(daemon::run_pipeline(cfg, daemon::PipelineMode::replay).exit_status == 0);
+  const auto db = (dir / "a.db").string();
+  auto value = [&](int channel, const std::string& name) {
+    storage::Database rd(db, storage::Database::Mode::read_only);
+    storage::Statement s(rd, "SELECT value FROM indicators WHERE record_id = 1 AND channel = ? AND name = ?");
+    s.bind(1, channel).bind(2, name);
+    REQUIRE(s.step());
+    return s.get_double(0);
+  };
+  // The generator's amplitudes are exact; the TSA over 49 revolutions leaves the broadband
+  // noise (0.5 m/s² RMS + the 1 m/s² resonance) at about 1.1/sqrt(49·5e5/2)... far below 1 %.
+  const double weights[] = {1.0, 0.5, 0.3, 0.2, 0.1};
+  for (int h = 1; h <= 5; ++h) {
+    INFO("harmonic " << h);
+    CHECK(value(0, "gmf_harmonic_" + std::to_string(h)) == Approx(5.0 * weights[h - 1]).epsilon(0.01));
+    CHECK(value(1, "gmf_harmonic_" + std::to_string(h)) == Approx(5.0 * weights[h - 1] / 1.5).epsilon(0.01));
+  }
+  CHECK(value(0, "input_speed_hz") == Approx(10.0).epsilon(1e-9));
+  // RMS_SA(N = 2), seed Eq. 7.1: sqrt(A_GM1² + A_GM2²) = sqrt(5² + 2.5²) = 5.590.
+  CHECK(value(0, "rms_sa") == Approx(std::sqrt(25.0 + 6.25)).epsilon(0.01));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("pipeline: the wear history continues across replays into one database", "[pipeline]") {
+  logging::setup(logging::Sink::stderr_only, "error");
+  const auto dir = fresh_dir("history");
+  daemon::CaptureSettings cs;
+  cs.duration_s = 4.0;
+  cs.signal.sample_rate_hz = 20000;
+  daemon::write_synthetic_capture(cs, (dir / "a.log").string());
+  cs.start_revolutions = 100000;
+  cs.signal.seed = 2;
+  daemon::write_synthetic_capture(cs, (dir / "b.log").string());
+  auto cfg = replay_config(dir / "a.log", dir / "h.db");
+  cfg.rig.schedule = {2.0, 2.0, 1.0};  // 2 s: 7.3 output-shaft revolutions, enough for its TSA
+  cfg.processing.pitting_band = {1000.0, 4000.0};  // both carrier bands below this rate's Nyquist
+  cfg.processing.abrasion_band = {5000.0, 9000.0};
+  cfg.processing.mean_carrier_ranges = {{0.0, 10000.0}};
+  REQUIRE(daemon::run_pipeline(cfg, daemon::PipelineMode::replay).exit_status == 0);
+  cfg.acquisition.capture = (dir / "b.log").string();
+  REQUIRE(daemon::run_pipeline(cfg, daemon::PipelineMode::replay).exit_status == 0);
+  const auto db = (dir / "h.db").string();
+  // 2 records per capture; the 4th assessment of channel 0 sees all four points.
+  CHECK(scalar(db, "SELECT count(*) FROM wear_mechanism WHERE channel = 0") == 4);
+  CHECK(scalar(db, "SELECT max(points) FROM wear_mechanism WHERE channel = 0") == 4);
+  CHECK(daemon::load_wear_history(db).at(0).size() == 4);
+  CHECK(daemon::load_wear_history(db).at(0).back().cycles == Approx(100020.0));
   fs::remove_all(dir);
 }

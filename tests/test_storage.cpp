@@ -45,7 +45,7 @@ RecordResult make_record(std::uint64_t start, int values) {
   r.input_revolutions = static_cast<double>(start) / 100.0;
   ChannelResult ch;
   ch.channel = 0;
-  for (int i = 0; i < values; ++i) ch.values.emplace_back("v" + std::to_string(i), i * 0.5);
+  for (int i = 0; i < values; ++i) ch.values.emplace_back(std::string("value_") += std::to_string(i), i * 0.5);
   ch.skipped.emplace_back("ics2_high_band", "band_above_nyquist");
   r.channels.push_back(ch);
   return r;

@@ -233,7 +233,58 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.number("watchdog_margin", cfg.daemon.watchdog_margin, 0.05, 0.95);
     t.reject_unknown();
   }
-  // [processing] and [twin] are read by their own modules (processing_config, twin_config).
+  {
+    const toml::table* tbl = sub_table(root, "processing", file);
+    TableReader t(tbl, "processing.", file);
+    auto& p = cfg.processing;
+    t.integer("samples_per_revolution", p.samples_per_revolution, 0, 1 << 20);
+    t.integer("rms_sa_harmonics", p.rms_sa_harmonics, 1, 100);
+    t.integer("stored_gmf_harmonics", p.stored_gmf_harmonics, 1, 100);
+    t.integer("ics2_harmonics", p.ics2_harmonics, 1, 100);
+    t.integer("ics2_tolerance_bins", p.ics2_tolerance_bins, 0, 100);
+    auto band = [&](const std::string& key, dsp::FrequencyBand& b) {
+      const toml::node* n = t.node(key);
+      if (!n) return;
+      const toml::array* a = n->as_array();
+      if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number())
+        t.fail(n, key, "expected [low_hz, high_hz]");
+      b.low_hz = (*a)[0].value<double>().value();
+      b.high_hz = (*a)[1].value<double>().value();
+      if (!(b.low_hz >= 0 && b.high_hz > b.low_hz)) t.fail(n, key, "needs 0 <= low_hz < high_hz");
+    };
+    band("pitting_band_hz", p.pitting_band);
+    band("abrasion_band_hz", p.abrasion_band);
+    t.integer("filter_bank_levels", p.filter_bank_levels, 1, 12);
+    if (const toml::node* n = t.node("kurtogram_band_selection")) {
+      auto b = n->value_exact<bool>();
+      if (!b) t.fail(n, "kurtogram_band_selection", "expected true or false");
+      p.kurtogram_band_selection = *b;
+    }
+    if (const toml::node* n = t.node("mean_carrier_ranges_hz")) {
+      const toml::array* a = n->as_array();
+      if (!a || a->empty()) t.fail(n, "mean_carrier_ranges_hz", "expected a list of [low_hz, high_hz] pairs");
+      p.mean_carrier_ranges.clear();
+      for (const auto& item : *a) {
+        const toml::array* pair = item.as_array();
+        if (!pair || pair->size() != 2 || !(*pair)[0].is_number() || !(*pair)[1].is_number())
+          t.fail(&item, "mean_carrier_ranges_hz", "expected [low_hz, high_hz] pairs");
+        dsp::FrequencyBand b{(*pair)[0].value<double>().value(), (*pair)[1].value<double>().value()};
+        if (!(b.low_hz >= 0 && b.high_hz > b.low_hz)) t.fail(&item, "mean_carrier_ranges_hz", "needs 0 <= low_hz < high_hz");
+        p.mean_carrier_ranges.push_back(b);
+      }
+    }
+    t.number("min_revolutions_for_tsa", p.min_revolutions_for_tsa, 1.0, 1e6);
+    t.number("max_clipped_fraction", p.max_clipped_fraction, 0.0, 1.0);
+    t.number("trend_significance", p.trend_significance, 1e-6, 0.5);
+    t.reject_unknown();
+    try {
+      p.validate(cfg.rig);
+    } catch (const std::invalid_argument& e) {
+      throw ConfigError(file + (tbl ? ":" + std::to_string(tbl->source().begin.line) : std::string{}) +
+                        ": [processing]: " + e.what());
+    }
+  }
+  // [twin] is read by the twin's own loader (twin_config).
   if (cfg.rig.tachos.empty()) throw ConfigError(file + ": key 'tachos': at least one [[tachos]] entry is needed");
   return cfg;
 }

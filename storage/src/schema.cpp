@@ -7,7 +7,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 1> kMigrations{
+constexpr std::array<const char*, 2> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -144,6 +144,23 @@ CREATE VIEW record_status AS
          r.end_reason, r.analysed, r.reject_reason, r.created_at,
          (SELECT group_concat(k.name || ': ' || k.reason, '; ') FROM indicator_skips k WHERE k.record_id = r.id) AS skipped
   FROM records r JOIN streams s ON s.id = r.stream_key;
+)SQL",
+    // 1 -> 2: wear-mechanism identification over the record history (seed §4.4).
+    R"SQL(
+CREATE TABLE wear_mechanism_assessments (
+  record_id INTEGER NOT NULL REFERENCES records(id),
+  channel INTEGER NOT NULL,
+  mechanism TEXT NOT NULL CHECK (mechanism IN ('none', 'fatigue_pitting', 'abrasive_wear', 'both', 'undetermined')),
+  points INTEGER NOT NULL,
+  low_band_p REAL, high_band_p REAL, low_band_rho REAL, high_band_rho REAL,
+  band_jumps INTEGER NOT NULL,
+  evidence TEXT NOT NULL,
+  PRIMARY KEY (record_id, channel)
+) WITHOUT ROWID;
+CREATE VIEW wear_mechanism AS
+  SELECT a.record_id, r.created_at, r.input_revolutions AS cycles, a.channel, a.mechanism, a.points,
+         a.low_band_p, a.high_band_p, a.low_band_rho, a.high_band_rho, a.band_jumps, a.evidence
+  FROM wear_mechanism_assessments a JOIN records r ON r.id = a.record_id;
 )SQL",
 };
 

@@ -63,6 +63,14 @@ class BatchWriter {
         band.bind(1, record_id).bind(2, ch.channel).bind(3, b.criterion).bind(4, b.level).bind(5, b.centre_hz)
             .bind(6, b.bandwidth_hz).bind(7, b.value).run();
     }
+    if (!m.assessments.empty()) {
+      Statement a(db_, "INSERT OR REPLACE INTO wear_mechanism_assessments(record_id, channel, mechanism, points, low_band_p,"
+                       " high_band_p, low_band_rho, high_band_rho, band_jumps, evidence) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+      for (const auto& w : m.assessments)
+        a.bind(1, record_id).bind(2, w.channel).bind(3, w.mechanism).bind(4, w.points).bind(5, w.low_band_p)
+            .bind(6, w.high_band_p).bind(7, w.low_band_rho).bind(8, w.high_band_rho).bind(9, w.band_jumps)
+            .bind(10, w.evidence).run();
+    }
     if (!m.alerts.empty()) {
       Statement a(db_, "INSERT INTO alert_events(record_id, severity, kind, message) VALUES (?, 'warning', ?, ?)");
       for (const auto& [kind, msg] : m.alerts) a.bind(1, record_id).bind(2, kind).bind(3, msg).run();

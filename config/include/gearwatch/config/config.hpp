@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/rig.hpp"
 
 namespace gearwatch::config {
@@ -56,6 +57,7 @@ struct DaemonSettings {
 
 struct GearwatchConfig {
   RigSpec rig;
+  dsp::SignalProcessingSettings processing;
   ProtocolSettings protocol;
   AcquisitionSettings acquisition;
   StorageSettings storage;

@@ -38,6 +38,15 @@ struct ChannelResult {
   std::vector<BandSelectionRow> bands;
 };
 
+struct WearAssessment {
+  int channel = 0;
+  std::string mechanism;                  ///< none | fatigue_pitting | abrasive_wear | both | undetermined
+  std::uint64_t points = 0;
+  double low_band_p = 1, high_band_p = 1, low_band_rho = 0, high_band_rho = 0;
+  std::uint64_t band_jumps = 0;
+  std::string evidence;
+};
+
 struct RecordResult {
   std::uint64_t stream_sequence = 0;
   std::uint64_t start_index = 0;
@@ -49,6 +58,7 @@ struct RecordResult {
   double torque_nm = 0, speed_hz = 0;     ///< NaN when unknown (stored as NULL)
   std::optional<double> input_revolutions;
   std::vector<ChannelResult> channels;
+  std::vector<WearAssessment> assessments;
   /// Alerts raised from this record (stored with its id).
   std::vector<std::pair<std::string, std::string>> alerts;   ///< kind, message (severity warning)
 };

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# install-deps.sh — installs gearwatch's build and test dependencies from Debian's packages
+# when they are missing. Idempotent; needs root (or sudo) only when something is missing.
+#   tools/install-deps.sh          build dependencies
+#   tools/install-deps.sh --test   plus what the tests need (the vcan VM: qemu, busybox, can-utils)
+set -euo pipefail
+packages=(build-essential cmake ninja-build pkg-config git ca-certificates
+          libeigen3-dev libboost-dev libfftw3-dev libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev
+          libsystemd-dev libcli11-dev libtomlplusplus-dev nlohmann-json3-dev catch2)
+[ "${1:-}" = "--test" ] && packages+=(can-utils qemu-system-x86 busybox-static cpio xz-utils)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "install-deps: missing packages: ${missing[*]} (run as root)" >&2; exit 2; }
+  sudo=sudo
+fi
+echo "install-deps: installing ${missing[*]}" >&2
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
