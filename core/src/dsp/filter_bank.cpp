@@ -39,58 +39,98 @@ namespace {
 // sample is loaded once). The reductions are written with explicit two-lane vectors because the
 // compiler may not reorder floating-point sums on its own; complex products are formed as
 // x * (re, re) and x * (im, im) accumulated separately and combined once per output.
-using v2d = double __attribute__((vector_size(16)));
-constexpr std::size_t kMaxTaps = 25;
+using v4d = double __attribute__((vector_size(32)));
+constexpr std::size_t kMaxTaps = 26;  // even: taps are consumed two complex samples at a time
 
 template <std::size_t Filters>
 struct FusedTaps {
-  std::size_t taps = 0;                       // common length (shorter filters zero-padded at the end)
-  v2d re[Filters][kMaxTaps], im[Filters][kMaxTaps];  // indexed by input offset from the oldest sample
+  std::size_t taps = 0;  // common even length (shorter filters zero-padded at the oldest end)
+  // Pair p holds taps for input offsets 2p and 2p+1 (oldest first): (re, re, re', re') etc.
+  v4d re[Filters][kMaxTaps / 2], im[Filters][kMaxTaps / 2];
 };
 
 template <std::size_t Filters>
 FusedTaps<Filters> fuse(const std::array<std::span<const Complex>, Filters>& filters) {
   FusedTaps<Filters> f{};
   for (const auto& h : filters) f.taps = std::max(f.taps, h.size());
+  f.taps += f.taps % 2;
   for (std::size_t k = 0; k < Filters; ++k)
-    for (std::size_t i = 0; i < f.taps; ++i) {
-      const std::size_t tap = f.taps - 1 - i;  // input offset i (oldest first) meets tap taps-1-i
-      const Complex t = tap < filters[k].size() ? filters[k][tap] : Complex{};
-      f.re[k][i] = v2d{t.real(), t.real()};
-      f.im[k][i] = v2d{t.imag(), t.imag()};
+    for (std::size_t i = 0; i < f.taps; i += 2) {
+      auto tap = [&](std::size_t offset) {  // input offset (oldest first) meets tap taps-1-offset
+        const std::size_t t = f.taps - 1 - offset;
+        return t < filters[k].size() ? filters[k][t] : Complex{};
+      };
+      const Complex t0 = tap(i), t1 = tap(i + 1);
+      f.re[k][i / 2] = v4d{t0.real(), t0.real(), t1.real(), t1.real()};
+      f.im[k][i / 2] = v4d{t0.imag(), t0.imag(), t1.imag(), t1.imag()};
     }
   return f;
 }
 
+// The vector loop for the steady-state outputs [first, end). Compiled twice (AVX2 and the
+// baseline) and chosen at run time: the arithmetic and its order are the same in both, so
+// results do not depend on the machine.
+template <std::size_t Filters>
+__attribute__((always_inline)) inline void fir_body(const Complex* c, const FusedTaps<Filters>& f, std::size_t factor,
+                                                    std::size_t phase, Complex* const* out, std::size_t first,
+                                                    std::size_t end) {
+  const std::size_t pairs = f.taps / 2;
+  for (std::size_t m = first; m < end; ++m) {
+    const double* x = reinterpret_cast<const double*>(c + (factor * m + phase + 1 - f.taps));
+    v4d acc_re[Filters], acc_im[Filters];
+    for (std::size_t k = 0; k < Filters; ++k) acc_re[k] = acc_im[k] = v4d{0.0, 0.0, 0.0, 0.0};
+    for (std::size_t p = 0; p < pairs; ++p) {
+      v4d xv;
+      __builtin_memcpy(&xv, x + 4 * p, sizeof xv);
+      for (std::size_t k = 0; k < Filters; ++k) {
+        acc_re[k] += xv * f.re[k][p];
+        acc_im[k] += xv * f.im[k][p];
+      }
+    }
+    for (std::size_t k = 0; k < Filters; ++k) {
+      const double rr = acc_re[k][0] + acc_re[k][2], ri = acc_re[k][1] + acc_re[k][3];
+      const double ir = acc_im[k][0] + acc_im[k][2], ii = acc_im[k][1] + acc_im[k][3];
+      out[k][m] = Complex(rr - ii, ri + ir);
+    }
+  }
+}
+
+__attribute__((target_clones("avx2", "default"))) void fir_body_2(const Complex* c, const FusedTaps<2>& f,
+                                                                   std::size_t factor, std::size_t phase,
+                                                                   Complex* const* out, std::size_t first,
+                                                                   std::size_t end) {
+  fir_body<2>(c, f, factor, phase, out, first, end);
+}
+
+__attribute__((target_clones("avx2", "default"))) void fir_body_3(const Complex* c, const FusedTaps<3>& f,
+                                                                   std::size_t factor, std::size_t phase,
+                                                                   Complex* const* out, std::size_t first,
+                                                                   std::size_t end) {
+  fir_body<3>(c, f, factor, phase, out, first, end);
+}
+
+// out[k][m] = sum_i filters[k][i] * c[factor*m + phase - i] (causal filter, zero initial state,
+// keeping every factor-th output from `phase`): MATLAB filter() followed by x(phase+1:factor:end).
+// The filters run fused over the same input (each sample loaded once). The reductions are
+// written with explicit vectors because the compiler may not reorder floating-point sums itself;
+// complex products are accumulated as x * (re, re) and x * (im, im) and combined per output.
 template <std::size_t Filters>
 void decimating_fir(std::span<const Complex> c, const FusedTaps<Filters>& f,
                     const std::array<std::span<const Complex>, Filters>& filters, std::size_t factor,
                     std::size_t phase, const std::array<Complex*, Filters>& out, std::size_t out_length) {
-  const std::size_t nt = f.taps;
-  for (std::size_t m = 0; m < out_length; ++m) {
-    const std::size_t last = factor * m + phase;  // newest input sample used
-    if (last + 1 < nt) {  // start-up: part of the filter still sees the zero initial state
-      for (std::size_t k = 0; k < Filters; ++k) {
-        Complex acc{};
-        for (std::size_t i = 0; i <= last && i < filters[k].size(); ++i) acc += filters[k][i] * c[last - i];
-        out[k][m] = acc;
-      }
-      continue;
+  // Start-up outputs: part of the (padded) filter still sees the zero initial state.
+  std::size_t first = 0;
+  while (first < out_length && factor * first + phase + 1 < f.taps) {
+    const std::size_t last = factor * first + phase;
+    for (std::size_t k = 0; k < Filters; ++k) {
+      Complex acc{};
+      for (std::size_t i = 0; i <= last && i < filters[k].size(); ++i) acc += filters[k][i] * c[last - i];
+      out[k][first] = acc;
     }
-    const Complex* x = c.data() + (last + 1 - nt);
-    v2d acc_re[Filters], acc_im[Filters];
-    for (std::size_t k = 0; k < Filters; ++k) acc_re[k] = acc_im[k] = v2d{0.0, 0.0};
-    for (std::size_t i = 0; i < nt; ++i) {
-      v2d xv;
-      __builtin_memcpy(&xv, x + i, sizeof xv);
-      for (std::size_t k = 0; k < Filters; ++k) {
-        acc_re[k] += xv * f.re[k][i];
-        acc_im[k] += xv * f.im[k][i];
-      }
-    }
-    for (std::size_t k = 0; k < Filters; ++k)
-      out[k][m] = Complex(acc_re[k][0] - acc_im[k][1], acc_re[k][1] + acc_im[k][0]);
+    ++first;
   }
+  if constexpr (Filters == 2) fir_body_2(c.data(), f, factor, phase, out.data(), first, out_length);
+  else fir_body_3(c.data(), f, factor, phase, out.data(), first, out_length);
 }
 
 }  // namespace
