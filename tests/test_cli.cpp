@@ -11,6 +11,8 @@
 #include <thread>
 
 #include <catch2/catch.hpp>
+
+#include "temp_dir.hpp"
 #include <nlohmann/json.hpp>
 
 namespace fs = std::filesystem;
@@ -40,12 +42,6 @@ Result run(const std::string& args) {
   return r;
 }
 
-fs::path fresh_dir(const std::string& name) {
-  auto dir = fs::temp_directory_path() / ("gearwatch-cli-" + name + "-" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 }  // namespace
 
@@ -59,18 +55,17 @@ TEST_CASE("cli: every subcommand has --help and exits 0", "[cli]") {
 }
 
 TEST_CASE("cli: a bad config stops `run` before anything starts, with file, line and key", "[cli]") {
-  const auto dir = fresh_dir("badcfg");
+  const gearwatch::testing::TempDir dir("badcfg");
   std::ofstream(dir / "bad.toml") << "[records]\nlength_s = 10\ninterval_s = \"often\"\n";
   const auto r = run("run --config " + (dir / "bad.toml").string());
   CHECK(r.status != 0);
   CHECK(r.err == "gearwatch: " + (dir / "bad.toml").string() + ":3: key 'records.interval_s': expected a number\n");
   CHECK(r.out.empty());
   CHECK_FALSE(fs::exists(dir / "gearwatch.db"));
-  fs::remove_all(dir);
 }
 
 TEST_CASE("cli: simulate, replay, query and inspect work together", "[cli]") {
-  const auto dir = fresh_dir("flow");
+  const gearwatch::testing::TempDir dir("flow");
   const auto cap = (dir / "cap.log").string(), db = (dir / "a.db").string();
   auto sim = run("simulate --out " + cap + " --duration 2.5 --speed 12 --torque 15 --sample-rate 20000");
   REQUIRE(sim.status == 0);
@@ -101,11 +96,10 @@ TEST_CASE("cli: simulate, replay, query and inspect work together", "[cli]") {
   CHECK(qi[0]["note"] == "tooth 3 pitted");
   CHECK(run("inspect --db " + db + " --cycles 5").status != 0);            // nothing to record
   CHECK(run("query alerts --db " + (dir / "none.db").string()).status != 0);  // no such database
-  fs::remove_all(dir);
 }
 
 TEST_CASE("cli: SIGTERM stops `run` cleanly: drained, committed, exit 0", "[cli]") {
-  const auto dir = fresh_dir("sigterm");
+  const gearwatch::testing::TempDir dir("sigterm");
   const auto cap = (dir / "cap.log").string(), db = (dir / "a.db").string();
   REQUIRE(run("simulate --out " + cap + " --duration 30 --sample-rate 50000").status == 0);
   std::ofstream(dir / "run.toml") << "[acquisition]\nsource = \"candump\"\ncapture = \"" << cap
@@ -140,5 +134,4 @@ TEST_CASE("cli: SIGTERM stops `run` cleanly: drained, committed, exit 0", "[cli]
   CHECK(accepted > 0);
   CHECK(accepted - in_records >= 0);
   CHECK(accepted - in_records < 30);  // at most one frame held back for a record never started
-  fs::remove_all(dir);
 }

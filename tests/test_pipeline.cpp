@@ -8,6 +8,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "temp_dir.hpp"
+
 #include "capture_writer.hpp"
 #include "gearwatch/acquisition/candump_log.hpp"
 #include "gearwatch/acquisition/protocol_encoder.hpp"
@@ -21,12 +23,6 @@ namespace acq = gearwatch::acquisition;
 
 namespace {
 
-fs::path fresh_dir(const std::string& name) {
-  auto dir = fs::temp_directory_path() / ("gearwatch-test-" + name + "-" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 std::int64_t scalar(const std::string& db_path, const std::string& sql) {
   storage::Database db(db_path, storage::Database::Mode::read_only);
@@ -48,7 +44,7 @@ config::GearwatchConfig replay_config(const fs::path& capture, const fs::path& d
 
 TEST_CASE("pipeline: a clean capture replays into exactly its records, losing nothing", "[pipeline]") {
   logging::setup(logging::Sink::stderr_only, "error");
-  const auto dir = fresh_dir("clean");
+  const gearwatch::testing::TempDir dir("clean");
   daemon::CaptureSettings cs;
   cs.duration_s = 3.5;
   cs.signal.sample_rate_hz = 20000;
@@ -79,12 +75,11 @@ TEST_CASE("pipeline: a clean capture replays into exactly its records, losing no
   CHECK(r2.run_id == r.run_id + 1);
   CHECK(scalar(db, "SELECT count(*) FROM records") == 8);
   CHECK(scalar(db, "SELECT count(*) FROM acquisition_health") == 2);
-  fs::remove_all(dir);
 }
 
 TEST_CASE("pipeline: every kind of bad input is counted, stored, and processing goes on", "[pipeline]") {
   logging::setup(logging::Sink::stderr_only, "off");
-  const auto dir = fresh_dir("bad");
+  const gearwatch::testing::TempDir dir("bad");
   const acq::ProtocolIds ids;
   std::ofstream out(dir / "bad.log");
   std::string line;
@@ -158,12 +153,11 @@ TEST_CASE("pipeline: every kind of bad input is counted, stored, and processing 
   CHECK(scalar(db, "SELECT sample_count FROM records WHERE end_reason = 'cut_at_gap'") == 6000);
   CHECK(scalar(db, "SELECT start_index FROM records WHERE end_reason = 'cut_at_gap'") == 0);
   CHECK(scalar(db, "SELECT count(*) FROM records WHERE end_reason = 'complete'") == 3);
-  fs::remove_all(dir);
 }
 
 TEST_CASE("pipeline: indicators of a replayed capture recover the rig signal's known content", "[pipeline]") {
   logging::setup(logging::Sink::stderr_only, "error");
-  const auto dir = fresh_dir("content");
+  const gearwatch::testing::TempDir dir("content");
   daemon::CaptureSettings cs;  // 100 kHz, 10 Hz, 20 N·m: GMF harmonics 5·(1, .5, .3, .2, .1) m/s² on channel 0
   cs.duration_s = 6.0;
   daemon::write_synthetic_capture(cs, (dir / "cap.log").string());
@@ -189,12 +183,11 @@ TEST_CASE("pipeline: indicators of a replayed capture recover the rig signal's k
   CHECK(value(0, "input_speed_hz") == Approx(10.0).epsilon(1e-9));
   // RMS_SA(N = 2), seed Eq. 7.1: sqrt(A_GM1² + A_GM2²) = sqrt(5² + 2.5²) = 5.590.
   CHECK(value(0, "rms_sa") == Approx(std::sqrt(25.0 + 6.25)).epsilon(0.01));
-  fs::remove_all(dir);
 }
 
 TEST_CASE("pipeline: the wear history continues across replays into one database", "[pipeline]") {
   logging::setup(logging::Sink::stderr_only, "error");
-  const auto dir = fresh_dir("history");
+  const gearwatch::testing::TempDir dir("history");
   daemon::CaptureSettings cs;
   cs.duration_s = 4.0;
   cs.signal.sample_rate_hz = 20000;
@@ -216,5 +209,4 @@ TEST_CASE("pipeline: the wear history continues across replays into one database
   CHECK(scalar(db, "SELECT max(points) FROM wear_mechanism WHERE channel = 0") == 4);
   CHECK(daemon::load_wear_history(db).at(0).size() == 4);
   CHECK(daemon::load_wear_history(db).at(0).back().cycles == Approx(100020.0));
-  fs::remove_all(dir);
 }

@@ -11,6 +11,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "temp_dir.hpp"
+
 #include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 
@@ -19,12 +21,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-fs::path fresh_dir(const std::string& name) {
-  auto dir = fs::temp_directory_path() / ("gearwatch-test-" + name + "-" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 std::int64_t count(Database& db, const std::string& sql) {
   Statement s(db, sql);
@@ -59,7 +55,7 @@ void submit_run(StorageWriter& w) {
 }  // namespace
 
 TEST_CASE("storage: a new database is migrated to the current schema with its views", "[storage]") {
-  const auto dir = fresh_dir("schema");
+  const gearwatch::testing::TempDir dir("schema");
   const auto path = (dir / "a.db").string();
   {
     Database db(path);
@@ -81,11 +77,10 @@ TEST_CASE("storage: a new database is migrated to the current schema with its vi
     db.set_user_version(current_schema_version() + 1);
     CHECK_THROWS_AS(open_and_migrate(db), SqliteError);  // never touch a newer schema
   }
-  fs::remove_all(dir);
 }
 
 TEST_CASE("storage: a transaction rolls back unless committed", "[storage]") {
-  const auto dir = fresh_dir("tx");
+  const gearwatch::testing::TempDir dir("tx");
   Database db((dir / "a.db").string());
   open_and_migrate(db);
   {
@@ -99,11 +94,10 @@ TEST_CASE("storage: a transaction rolls back unless committed", "[storage]") {
     tx.commit();
   }
   CHECK(count(db, "SELECT count(*) FROM inspections") == 1);
-  fs::remove_all(dir);
 }
 
 TEST_CASE("storage: the writer commits everything submitted, in batches", "[storage]") {
-  const auto dir = fresh_dir("writer");
+  const gearwatch::testing::TempDir dir("writer");
   const auto path = (dir / "a.db").string();
   WriterOptions o;
   o.database = path;
@@ -122,11 +116,10 @@ TEST_CASE("storage: the writer commits everything submitted, in batches", "[stor
   CHECK(count(db, "SELECT count(*) FROM indicator_skips") == 300);
   CHECK(count(db, "SELECT cycles * 100 FROM indicators WHERE record_id = 300 LIMIT 1") == 299000);
   CHECK(count(db, "SELECT frames FROM acquisition_health") == 42);
-  fs::remove_all(dir);
 }
 
 TEST_CASE("storage: a locked database delays the writer but loses nothing", "[storage]") {
-  const auto dir = fresh_dir("locked");
+  const gearwatch::testing::TempDir dir("locked");
   const auto path = (dir / "a.db").string();
   {
     Database db(path);
@@ -150,7 +143,6 @@ TEST_CASE("storage: a locked database delays the writer but loses nothing", "[st
   CHECK(w.counters().messages_committed == 22);
   Database db(path, Database::Mode::read_only);
   CHECK(count(db, "SELECT count(*) FROM records") == 20);
-  fs::remove_all(dir);
 }
 
 TEST_CASE("storage: a full disk delays the writer but loses nothing", "[storage]") {
@@ -160,8 +152,12 @@ TEST_CASE("storage: a full disk delays the writer but loses nothing", "[storage]
     WARN("not root: full-disk test not run");
     return;
   }
-  const auto dir = fresh_dir("full");
-  REQUIRE(::mount("tmpfs", dir.c_str(), "tmpfs", 0, "size=1m") == 0);
+  const gearwatch::testing::TempDir dir("full");
+  REQUIRE(::mount("tmpfs", dir.path().c_str(), "tmpfs", 0, "size=1m") == 0);
+  struct Unmount {
+    const fs::path& at;
+    ~Unmount() { ::umount(at.c_str()); }  // before the TempDir goes, even when a check fails
+  } unmount{dir.path()};
   const auto path = (dir / "a.db").string();
   const auto filler = dir / "filler";
   WriterOptions o;
@@ -193,8 +189,6 @@ TEST_CASE("storage: a full disk delays the writer but loses nothing", "[storage]
     CHECK(count(db, "SELECT count(*) FROM records") == 201);
     CHECK(count(db, "SELECT count(*) FROM indicator_values") == 3 + 200 * 40);
   }
-  ::umount(dir.c_str());
-  fs::remove_all(dir);
 }
 
 TEST_CASE("storage: an unusable database path is an error at start", "[storage]") {
