@@ -479,6 +479,41 @@ TEST_CASE("kernel drops in a full receive buffer are counted exactly", "[socketc
   CHECK(mismatched == 0);
 }
 
+TEST_CASE("stop() delivers the frames already queued and counts the drops no frame reported", "[socketcan][vcan]") {
+  if (!vcan_available("vcan0")) return;
+  RawSender sender("vcan0");
+  {
+    boost::asio::io_context io;
+    SocketCanSource source(io, "vcan0");
+    std::vector<CanFrame> received;
+    std::vector<std::string> ends;
+    source.start([&](const CanFrame& f) { received.push_back(f); },
+                 [&](const std::string& reason) { ends.push_back(reason); });
+    REQUIRE(source.is_open());
+    for (int i = 0; i < 50; ++i) sender.send_classic(0x300, 2, static_cast<std::uint8_t>(i));
+    source.stop();  // the io_context never ran: only stop() can deliver them
+    REQUIRE(received.size() == 50);
+    CHECK(received[49].data[0] == 49);
+    CHECK(ends.size() == 1);
+    CHECK(source.health().kernel_drops == 0);
+  }
+  {
+    boost::asio::io_context io;
+    SocketCanOptions options;
+    options.receive_buffer_bytes = 4096;
+    SocketCanSource source(io, "vcan0", options);
+    std::size_t received = 0;
+    source.start([&](const CanFrame&) { ++received; }, [](const std::string&) {});
+    REQUIRE(source.is_open());
+    const int burst = 2000;
+    for (int i = 0; i < burst; ++i) sender.send_fd(0x100, 64, 0, 0);
+    source.stop();  // no frame after the overflow: the drops are read with SO_MEMINFO
+    INFO("kept " << received << ", kernel_drops " << source.health().kernel_drops);
+    CHECK(received > 0);
+    CHECK(received + source.health().kernel_drops == static_cast<std::uint64_t>(burst));
+  }
+}
+
 TEST_CASE("an interface that goes down and comes back is reopened with backoff", "[socketcan][vcan]") {
   if (!vcan_available("vcan0")) return;
   boost::asio::io_context io;

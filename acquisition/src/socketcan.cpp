@@ -14,6 +14,7 @@
 #include <sys/ioctl.h>
 #include <sys/time.h>
 #include <sys/uio.h>
+#include <linux/sock_diag.h>
 
 #include <boost/asio/post.hpp>
 #include <spdlog/spdlog.h>
@@ -244,11 +245,20 @@ void SocketCanSource::start(FrameHandler on_frame, EndHandler on_end) {
 
 void SocketCanSource::stop() {
   if (!running_) return;
+  if (socket_.is_open() && !receiving_) {
+    // Deliver what the kernel already holds. Bounded: each queued frame costs the receive
+    // buffer at least ~512 bytes of its doubled size, so the buffer holds fewer frames than
+    // this, and a sender that keeps flooding cannot hold the stop up for long.
+    const std::size_t bound = options_.receive_buffer_bytes / 256 + options_.frames_per_syscall;
+    std::error_code ignored;
+    if (receive_frames(bound, ignored) == ReceiveEnd::stopped) return;  // the handler stopped us
+  }
   finish({});
 }
 
 void SocketCanSource::finish(const std::string& reason) {
   running_ = false;
+  account_unreported_drops();
   reopen_timer_.cancel();
   boost::system::error_code ignored;
   socket_.close(ignored);
@@ -334,27 +344,51 @@ void SocketCanSource::on_readable(const boost::system::error_code& ec) {
     handle_failure("wait failed", std::error_code(ec.value(), std::generic_category()));
     return;
   }
-  std::error_code failure;
-  if (!drain(failure)) handle_failure("read failed", failure);
+  drain();
 }
 
-bool SocketCanSource::drain(std::error_code& failure) {
+void SocketCanSource::drain() {
+  std::error_code failure;
+  switch (receive_frames(options_.max_frames_per_wakeup, failure)) {
+    case ReceiveEnd::would_block:
+      arm_read();
+      break;
+    case ReceiveEnd::budget_spent: {
+      // Frames are probably still queued: continue after other handlers had a turn (a wait
+      // here could miss them, see arm_read()).
+      std::weak_ptr<char> alive = alive_;
+      boost::asio::post(io_, [this, alive] {
+        if (alive.lock() && running_) drain();
+      });
+      break;
+    }
+    case ReceiveEnd::failed:
+      handle_failure("read failed", failure);
+      break;
+    case ReceiveEnd::stopped:
+      break;
+  }
+}
+
+SocketCanSource::ReceiveEnd SocketCanSource::receive_frames(std::size_t budget, std::error_code& failure) {
   const int fd = socket_.native_handle();
+  receiving_ = true;
+  struct ClearFlag {
+    bool& flag;
+    ~ClearFlag() { flag = false; }
+  } clear_flag{receiving_};
   std::size_t delivered = 0;
   CanFrame frame;
-  while (delivered < options_.max_frames_per_wakeup) {
-    const auto batch = static_cast<unsigned>(std::min(options_.frames_per_syscall, options_.max_frames_per_wakeup - delivered));
+  while (delivered < budget) {
+    const auto batch = static_cast<unsigned>(std::min(options_.frames_per_syscall, budget - delivered));
     for (unsigned i = 0; i < batch; ++i) messages_[i].msg_hdr.msg_controllen = sizeof(ReceiveSlot::control);
     const int received = ::recvmmsg(fd, messages_.data(), batch, MSG_DONTWAIT, nullptr);
     if (received < 0) {
       const int err = errno;
       if (err == EINTR) continue;
-      if (err == EAGAIN || err == EWOULDBLOCK) {
-        arm_read();
-        return true;
-      }
+      if (err == EAGAIN || err == EWOULDBLOCK) return ReceiveEnd::would_block;
       failure = std::error_code(err, std::generic_category());
-      return false;
+      return ReceiveEnd::failed;
     }
     std::uint64_t new_drops = 0;
     for (int i = 0; i < received; ++i) {
@@ -375,30 +409,44 @@ bool SocketCanSource::drain(std::error_code& failure) {
       }
       health_.frames.fetch_add(1, std::memory_order_relaxed);
       on_frame_(frame);
-      if (!running_) return true;  // stopped from inside the handler: the socket is closed
+      if (!running_) {  // stopped from inside the handler: the socket is closed
+        add_kernel_drops(new_drops);
+        return ReceiveEnd::stopped;
+      }
     }
-    if (new_drops != 0) {
-      health_.kernel_drops.fetch_add(new_drops, std::memory_order_relaxed);
-      std::uint64_t suppressed = 0;
-      if (error_log_limiter_.allow(LogRateLimiter::clock::now(), suppressed))
-        spdlog::warn("socketcan {}: the kernel dropped {} frame(s), receive buffer full (total {}; {} similar "
-                     "message(s) suppressed)", interface_, new_drops, health_.kernel_drops.load(), suppressed);
-    }
+    add_kernel_drops(new_drops);
     delivered += static_cast<std::size_t>(received);
   }
-  // Budget spent with frames possibly still queued: continue after other handlers had a turn
-  // (a wait here could miss them, see arm_read()).
-  std::weak_ptr<char> alive = alive_;
-  boost::asio::post(io_, [this, alive] {
-    if (!alive.lock() || !running_) return;
-    std::error_code failure;
-    if (!drain(failure)) handle_failure("read failed", failure);
-  });
-  return true;
+  return ReceiveEnd::budget_spent;
+}
+
+void SocketCanSource::add_kernel_drops(std::uint64_t drops) {
+  if (drops == 0) return;
+  health_.kernel_drops.fetch_add(drops, std::memory_order_relaxed);
+  std::uint64_t suppressed = 0;
+  if (error_log_limiter_.allow(LogRateLimiter::clock::now(), suppressed))
+    spdlog::warn("socketcan {}: the kernel dropped {} frame(s), receive buffer full (total {}; {} similar "
+                 "message(s) suppressed)", interface_, drops, health_.kernel_drops.load(), suppressed);
+}
+
+void SocketCanSource::account_unreported_drops() noexcept {
+  if (!socket_.is_open()) return;
+  // SO_MEMINFO exposes the same cumulative counter SO_RXQ_OVFL attaches to frames; it catches
+  // the drops after the last frame that was queued, which no control message will ever report.
+  std::uint32_t meminfo[SK_MEMINFO_VARS] = {};
+  ::socklen_t size = sizeof(meminfo);
+  if (::getsockopt(socket_.native_handle(), SOL_SOCKET, SO_MEMINFO, meminfo, &size) != 0 ||
+      size < (SK_MEMINFO_DROPS + 1) * sizeof(std::uint32_t))
+    return;
+  try {
+    add_kernel_drops(drop_tracker_.observe(meminfo[SK_MEMINFO_DROPS]));
+  } catch (...) {  // only the log line can throw; the count is already added
+  }
 }
 
 void SocketCanSource::handle_failure(const std::string& what, const std::error_code& ec) {
   health_.read_errors.fetch_add(1, std::memory_order_relaxed);
+  account_unreported_drops();  // the counter dies with the socket
   boost::system::error_code ignored;
   socket_.close(ignored);
   granted_rcvbuf_ = 0;

@@ -9,7 +9,11 @@
 # Exit 0 = pass; the last line is a one-line summary ("VCAN E2E: PASS ..." / "... FAIL ...").
 # Environment:
 #   GEARWATCH_VCAN_DURATION  seconds of signal to simulate (default 22)
-#   GEARWATCH_VCAN_DRAIN_S   how long the daemon may take to drain after SIGTERM (default 120)
+#   GEARWATCH_VCAN_DRAIN_S   how long the daemon may take to drain after SIGTERM (default 200;
+#                            processing is ~30x slower under emulation and works through the
+#                            ring's backlog after the capture ends)
+#   GEARWATCH_VCAN_REPLAY_IN_VM=1  make the reference replay inside the VM too (slower: ~90 s
+#                            more) instead of on the host
 #   and those of vcan-vm.sh (GEARWATCH_VCAN_CACHE, GEARWATCH_VCAN_SMP, GEARWATCH_VCAN_MEM).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -33,16 +37,27 @@ fi
 iface=$(awk 'NF >= 3 && $1 ~ /^\(/ { print $2; exit }' "$payload/cap.log")
 [ -n "$iface" ] || { echo "VCAN E2E: FAIL: the capture has no candump -L lines"; exit 1; }
 echo "vcan0=$iface" >"$payload/iface-map"
-echo "DRAIN_LIMIT_S=${GEARWATCH_VCAN_DRAIN_S:-120}" >"$payload/limits"
+echo "DRAIN_LIMIT_S=${GEARWATCH_VCAN_DRAIN_S:-200}" >"$payload/limits"
 echo "vcan-e2e: capture of ${duration} s: $(wc -l <"$payload/cap.log") frames, $(du -h "$payload/cap.log" | cut -f1), interface $iface"
 
+# The reference database: `gearwatch replay` of the same capture, at native speed.
+if [ "${GEARWATCH_VCAN_REPLAY_IN_VM:-0}" != 1 ]; then
+  if ! "$gearwatch" replay "$payload/cap.log" --db "$payload/replay.db" --config "$here/vcan.toml" \
+       >"$payload/replay.out" 2>&1; then
+    tail -n 20 "$payload/replay.out"
+    echo "VCAN E2E: FAIL: gearwatch replay of the capture failed on the host"
+    exit 1
+  fi
+  echo "vcan-e2e: reference: $(tail -n 1 "$payload/replay.out")"
+  rm -f "$payload/replay.out"
+fi
 cp "$gearwatch" "$payload/gearwatch"
 cp "$(command -v canplayer)" "$payload/canplayer"
 cp "$(command -v sqlite3)" "$payload/sqlite3"
 cp "$here/vcan.toml" "$here/e2e-inside.sh" "$payload/"
 
 set +e
-"$here/vcan-vm.sh" "$payload" /payload/e2e-inside.sh $(( duration + 240 ))
+"$here/vcan-vm.sh" "$payload" /payload/e2e-inside.sh $(( duration + 300 ))
 rc=$?
 set -e
 if [ "$rc" -eq 0 ]; then

@@ -228,8 +228,12 @@ class SocketCanSource final : public FrameSource {
   /// Opens the socket and starts reading. If the interface is missing or down, keeps retrying
   /// with backoff (the daemon may start before the interface exists).
   void start(FrameHandler on_frame, EndHandler on_end) override;
-  /// Cancels the read and any pending reopen and closes the socket, so io_context::run()
-  /// returns once nothing else is queued; calls the EndHandler with an empty reason.
+  /// First delivers the frames the kernel has already queued on the socket (bounded by what
+  /// the receive buffer can hold) and accounts the drops no frame has reported yet (SO_MEMINFO),
+  /// so nothing received before the stop is lost uncounted. Then cancels the read and any
+  /// pending reopen and closes the socket, so io_context::run() returns once nothing else is
+  /// queued, and calls the EndHandler with an empty reason. When called from inside the frame
+  /// handler it skips the final delivery.
   void stop() override;
   const SourceHealth& health() const override { return health_; }
   std::string describe() const override;
@@ -242,10 +246,16 @@ class SocketCanSource final : public FrameSource {
  private:
   enum class OpenResult { opened, retry, fatal };
   OpenResult open_socket(std::string& reason);
+  enum class ReceiveEnd { would_block, budget_spent, failed, stopped };
   void arm_read();
   void on_readable(const boost::system::error_code& ec);
-  /// Reads until EAGAIN or the per-wake-up limit; returns false if the socket failed.
-  bool drain(std::error_code& failure);
+  /// One wake-up's work: receive up to the budget, then wait, continue later, or recover.
+  void drain();
+  /// Receives and delivers up to `budget` frames.
+  ReceiveEnd receive_frames(std::size_t budget, std::error_code& failure);
+  /// Adds the drops the kernel counted but no received frame has reported yet.
+  void account_unreported_drops() noexcept;
+  void add_kernel_drops(std::uint64_t drops);
   void handle_failure(const std::string& what, const std::error_code& ec);
   void schedule_reopen();
   void try_reopen();
@@ -264,6 +274,7 @@ class SocketCanSource final : public FrameSource {
   EndHandler on_end_;
   bool running_ = false;
   bool recovering_ = false;            ///< between a failure and the first frame after reopening
+  bool receiving_ = false;             ///< inside receive_frames (so inside the frame handler)
   std::uint64_t failures_in_episode_ = 0;
   std::size_t granted_rcvbuf_ = 0;
 
