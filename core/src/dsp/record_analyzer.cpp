@@ -251,7 +251,7 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   resampler_.resample(x, angle_, spr, input_revs, input_angle_);
   output_angle_.resize(output_revs * spr);
   if (output_revs > 0)
-    resampler_.resample(x, angle_, spr, output_revs, output_angle_, static_cast<double>(z2) / z1);
+    output_resampler_.resample(x, angle_, spr, output_revs, output_angle_, static_cast<double>(z2) / z1);
   residual_.resize(length);
   const auto separation = separation_.separate(input_angle_, output_angle_, spr, z1, z2, plans_, residual_);
   out.tsa_averages_input = static_cast<double>(separation.input_averages);

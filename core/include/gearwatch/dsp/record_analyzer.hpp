@@ -105,7 +105,8 @@ class RecordAnalyzer {
   SignalProcessingSettings settings_;
   FftPlanCache plans_;
   ShaftAngle angle_;
-  AngularResampler resampler_;
+  AngularResampler resampler_;          // input shaft
+  AngularResampler output_resampler_;   // output shaft (its own cutoff: no table rebuild per record)
   SynchronousSeparation separation_;
   SquaredEnvelopeAnalyzer envelope_;
   OneThirdBinaryFilterBank filter_bank_;
