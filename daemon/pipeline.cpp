@@ -1,6 +1,11 @@
 #include "pipeline.hpp"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <cerrno>
+#include <cstring>
 #include <chrono>
 #include <deque>
 #include <mutex>
@@ -263,6 +268,11 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   };
 
   std::thread processing([&] {
+    // Acquisition must never wait for the CPU behind indicator computation: processing runs at a
+    // lower priority (a thread's nice value on Linux); the ring absorbs the difference.
+    if (config.daemon.processing_nice > 0 &&
+        ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), config.daemon.processing_nice) != 0)
+      spdlog::warn("could not lower the processing thread's priority: {}", std::strerror(errno));
     acq::AcquisitionEvent e;
     auto next_health = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                           std::chrono::duration<double>(config.daemon.health_interval_s));
@@ -304,7 +314,6 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
       }
       stop_all(reason == "stopped" ? "" : reason);
     });
-    if (!from_file) spdlog::info("listening on {}", source_name);
     sd_notify(0, "READY=1");
     io.run();
     acquisition_done.store(true, std::memory_order_release);

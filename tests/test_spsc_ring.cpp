@@ -45,3 +45,15 @@ TEST_CASE("ring: two threads pass ten million items in order without loss", "[ri
   CHECK(in_order);
   CHECK(sum == kItems * (kItems - 1) / 2);
 }
+
+TEST_CASE("ring: the high-water mark is the real fill, not the number of pushes", "[ring]") {
+  SpscRing<int> ring(1024);
+  int v = 0;
+  for (int i = 0; i < 10000; ++i) {
+    REQUIRE(ring.try_push(i));
+    if (i % 3 == 2)  // the consumer keeps the fill at 1..3 items
+      while (ring.try_pop(v)) {
+      }
+  }
+  CHECK(ring.high_water() == 3);
+}

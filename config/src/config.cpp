@@ -200,7 +200,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.string("interface", a.interface);
     t.string("capture", a.capture, true);
     t.integer("ring_capacity_samples", a.ring_capacity_samples, 1024, std::int64_t{1} << 32);
-    t.integer("receive_buffer_bytes", a.receive_buffer_bytes, 4096, std::int64_t{1} << 31);
+    t.integer("receive_buffer_bytes", a.receive_buffer_bytes, 4096, std::int64_t{1} << 30);  // the kernel's own cap
     t.integer("reopen_initial_ms", a.reopen_initial_ms, 1, 600000);
     t.integer("reopen_max_ms", a.reopen_max_ms, 1, 3600000);
     if (a.source == SourceKind::candump && a.capture.empty()) t.fail(t.node("capture"), "capture", "source = \"candump\" needs a capture file");
@@ -231,6 +231,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     TableReader t(sub_table(root, "daemon", file), "daemon.", file);
     t.number("health_interval_s", cfg.daemon.health_interval_s, 0.1, 86400.0);
     t.number("watchdog_margin", cfg.daemon.watchdog_margin, 0.05, 0.95);
+    t.integer("processing_nice", cfg.daemon.processing_nice, 0, 19);
     t.reject_unknown();
   }
   {

@@ -42,7 +42,9 @@ class SpscRing {
     }
     slots_[head & mask_] = item;
     head_.store(head + 1, std::memory_order_release);
-    const std::size_t fill = head + 1 - tail_cache_;
+    // The cached tail is only refreshed when the ring looks full, so it would overstate the fill;
+    // read the consumer's real position (a relaxed load: an upper bound by at most a few items).
+    const std::size_t fill = head + 1 - tail_.load(std::memory_order_relaxed);
     if (fill > high_water_.load(std::memory_order_relaxed)) high_water_.store(fill, std::memory_order_relaxed);
     return true;
   }
@@ -65,7 +67,7 @@ class SpscRing {
   }
   /// Pushes refused because the ring was full.
   std::uint64_t overflows() const noexcept { return overflows_.load(std::memory_order_relaxed); }
-  /// Highest fill level seen by the producer (an upper bound: it uses a cached tail).
+  /// Highest fill level seen by the producer after a push.
   std::size_t high_water() const noexcept { return high_water_.load(std::memory_order_relaxed); }
 
  private:

@@ -53,6 +53,7 @@ struct LoggingSettings {
 struct DaemonSettings {
   double health_interval_s = 60.0;                 ///< acquisition_health snapshot period
   double watchdog_margin = 0.5;                    ///< ping at this fraction of WatchdogSec
+  int processing_nice = 10;                        ///< nice value of the processing thread (0 = unchanged)
 };
 
 struct GearwatchConfig {
