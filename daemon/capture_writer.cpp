@@ -1,5 +1,6 @@
 #include "capture_writer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -9,16 +10,85 @@
 #include "gearwatch/acquisition/protocol_encoder.hpp"
 
 namespace gearwatch::daemon {
+namespace {
+
+class SyntheticCaptureSignal final : public CaptureSignal {
+ public:
+  explicit SyntheticCaptureSignal(const SyntheticRigSettings& s) : settings_(s), rig_(s) {}
+  int channels() const override { return settings_.channels; }
+  double sample_rate_hz() const override { return settings_.sample_rate_hz; }
+  double input_revolutions_at(double t) const override { return rig_.input_revolutions_at(t); }
+  void generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) override {
+    rig_.generate(first, count, out);
+  }
+  std::vector<double> tacho_edges(double from, double to, int epr) const override { return rig_.tacho_edges(from, to, epr); }
+
+ private:
+  SyntheticRigSettings settings_;
+  SyntheticRig rig_;
+};
+
+class SampledCaptureSignal final : public CaptureSignal {
+ public:
+  SampledCaptureSignal(double fs, std::vector<float> x, std::vector<double> edges)
+      : fs_(fs), x_(std::move(x)), edges_(std::move(edges)) {}
+  int channels() const override { return 1; }
+  double sample_rate_hz() const override { return fs_; }
+  double input_revolutions_at(double t) const override {
+    // Whole revolutions completed by sample t·fs, plus the fraction of the one under way.
+    const double pos = t * fs_;
+    const auto it = std::upper_bound(edges_.begin(), edges_.end(), pos);
+    const auto k = static_cast<std::size_t>(it - edges_.begin());
+    if (k == 0 || k == edges_.size()) return static_cast<double>(k);
+    return static_cast<double>(k - 1) + (pos - edges_[k - 1]) / (edges_[k] - edges_[k - 1]);
+  }
+  void generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) override {
+    out.resize(1);
+    out[0].resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::uint64_t k = first + i;
+      out[0][i] = k < x_.size() ? x_[k] : 0.0;
+    }
+  }
+  std::vector<double> tacho_edges(double from, double to, int epr) const override {
+    if (epr != 1) throw std::runtime_error("a sampled signal carries one tacho edge per revolution only");
+    std::vector<double> out;
+    for (double e : edges_)
+      if (e >= from && e < to) out.push_back(e);
+    return out;
+  }
+
+ private:
+  double fs_;
+  std::vector<float> x_;
+  std::vector<double> edges_;
+};
+
+}  // namespace
+
+std::unique_ptr<CaptureSignal> synthetic_capture_signal(const SyntheticRigSettings& settings) {
+  return std::make_unique<SyntheticCaptureSignal>(settings);
+}
+
+std::unique_ptr<CaptureSignal> sampled_capture_signal(double sample_rate_hz, std::vector<float> acceleration,
+                                                      std::vector<double> input_edges) {
+  return std::make_unique<SampledCaptureSignal>(sample_rate_hz, std::move(acceleration), std::move(input_edges));
+}
 
 CaptureSummary write_synthetic_capture(const CaptureSettings& cs, const std::string& path) {
+  auto signal = synthetic_capture_signal(cs.signal);
+  return write_capture(cs, *signal, path);
+}
+
+CaptureSummary write_capture(const CaptureSettings& cs, CaptureSignal& rig, const std::string& path) {
   namespace acq = gearwatch::acquisition;
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "wb"), &std::fclose);
   if (!file) throw std::runtime_error("cannot write " + path);
   std::vector<char> buffer(1 << 20);
   std::setvbuf(file.get(), buffer.data(), _IOFBF, buffer.size());
 
-  SyntheticRig rig(cs.signal);
-  const double fs = cs.signal.sample_rate_hz;
+  const double fs = rig.sample_rate_hz();
+  const int channel_count = rig.channels();
   const auto total = static_cast<std::uint64_t>(std::llround(cs.duration_s * fs));
   const std::size_t per_frame = cs.fd ? 30 : 2;
   const auto per_second = static_cast<std::uint64_t>(fs);
@@ -41,7 +111,7 @@ CaptureSummary write_synthetic_capture(const CaptureSettings& cs, const std::str
     const auto index32 = static_cast<std::uint32_t>(cs.first_index + i);
     if (i >= next_meta) {
       // Header, operating condition and life counter at the start and once a second.
-      emit(acq::make_stream_header(cs.ids, static_cast<std::uint32_t>(fs), static_cast<std::uint8_t>(cs.signal.channels),
+      emit(acq::make_stream_header(cs.ids, static_cast<std::uint32_t>(fs), static_cast<std::uint8_t>(channel_count),
                                    cs.stream_id),
            i);
       auto cond = acq::make_operating_condition(cs.ids, static_cast<float>(cs.signal.torque_nm),
@@ -59,7 +129,7 @@ CaptureSummary write_synthetic_capture(const CaptureSettings& cs, const std::str
       ++summary.tacho_edges;
     }
     rig.generate(i, n, block);
-    for (int c = 0; c < cs.signal.channels; ++c) {
+    for (int c = 0; c < channel_count; ++c) {
       for (std::size_t k = 0; k < n; ++k) {
         double q = std::round(block[static_cast<std::size_t>(c)][k] / cs.scale_m_s2_per_lsb);
         if (std::fabs(q) > full_scale) {

@@ -1,15 +1,40 @@
 #pragma once
-// Writes a protocol-v1 capture (candump -L log) of the synthetic rig: `gearwatch simulate`.
+// Writes a protocol-v1 capture (candump -L log): `gearwatch simulate`. The signal comes from a
+// CaptureSignal: the synthetic rig (known content) or the digital twin's casing acceleration.
 #include <cstdint>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "gearwatch/acquisition/protocol_decoder.hpp"
 #include "gearwatch/synthetic_rig.hpp"
 
 namespace gearwatch::daemon {
 
+/// What a capture is made of: accelerations on the sample clock and the input shaft's angle.
+class CaptureSignal {
+ public:
+  virtual ~CaptureSignal() = default;
+  virtual int channels() const = 0;
+  virtual double sample_rate_hz() const = 0;
+  /// Input-shaft revolutions at time t (s) since sample 0: the odometer and the tacho follow it.
+  virtual double input_revolutions_at(double t) const = 0;
+  /// Fills out[c][i] (m/s²) for samples [first, first + count); called for consecutive blocks.
+  virtual void generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) = 0;
+  /// Tacho edge positions (fractional samples) in [from, to), `edges_per_rev` per revolution.
+  virtual std::vector<double> tacho_edges(double from, double to, int edges_per_rev) const = 0;
+};
+
+/// The synthetic rig of known content (core/synthetic_rig.hpp).
+std::unique_ptr<CaptureSignal> synthetic_capture_signal(const SyntheticRigSettings& settings);
+
+/// A precomputed single-channel signal with its input-shaft edges (one per revolution), e.g. the
+/// twin's casing acceleration y6. Edges per revolution other than 1 are refused.
+std::unique_ptr<CaptureSignal> sampled_capture_signal(double sample_rate_hz, std::vector<float> acceleration,
+                                                      std::vector<double> input_edges);
+
 struct CaptureSettings {
-  SyntheticRigSettings signal;
+  SyntheticRigSettings signal;           ///< speed, torque, rate, channels (and the synthetic content)
   double duration_s = 10.0;
   bool fd = true;
   std::uint16_t stream_id = 1;
@@ -27,6 +52,8 @@ struct CaptureSummary {
 };
 
 /// Throws std::runtime_error when the file cannot be written (the message names it).
+CaptureSummary write_capture(const CaptureSettings& settings, CaptureSignal& signal, const std::string& path);
+/// write_capture with the synthetic rig described by settings.signal.
 CaptureSummary write_synthetic_capture(const CaptureSettings& settings, const std::string& path);
 
 }  // namespace gearwatch::daemon

@@ -3,6 +3,8 @@
 
 #include "capture_writer.hpp"
 #include "cli_common.hpp"
+#include "gearwatch/config/twin_config.hpp"
+#include "gearwatch/twin/simulation.hpp"
 
 namespace gearwatch::cli {
 
@@ -11,6 +13,7 @@ void register_simulate(CLI::App& app) {
     std::string out, config;
     daemon::CaptureSettings cs;
     bool classic = false, fd = false;
+    std::string physics = "synthetic";
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("simulate", "Write a synthetic rig capture (protocol v1, candump -L log)");
@@ -28,7 +31,12 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--stream-id", opt->cs.stream_id, "Stream id in the header")->capture_default_str();
   cmd->add_option("--first-index", opt->cs.first_index, "Sample index of the first sample (u32)")->capture_default_str();
   cmd->add_option("--interface", opt->cs.interface, "Interface name written in the log")->capture_default_str();
-  cmd->add_option("--config", opt->config, "Take channel scaling and tacho edges/rev from this config");
+  cmd->add_option("--config", opt->config, "Take channel scaling, tacho edges/rev and the twin's [twin] parameters from this config");
+  cmd->add_option("--physics", opt->physics,
+                  "synthetic: gear-mesh harmonics, modulated resonance and noise of known amplitudes; "
+                  "twin: the 21-DOF twin's casing acceleration y6 (one channel, no wear)")
+      ->check(CLI::IsMember({"synthetic", "twin"}))
+      ->capture_default_str();
   cmd->callback([opt] {
     auto cs = opt->cs;
     cs.fd = !opt->classic;
@@ -44,7 +52,20 @@ void register_simulate(CLI::App& app) {
       std::cerr << "gearwatch: note: classic CAN carries ~10 kHz per channel at most; this capture is for bench replay only\n";
     daemon::CaptureSummary s;
     try {
-      s = daemon::write_synthetic_capture(cs, opt->out);
+      if (opt->physics == "twin") {
+        if (cs.edges_per_rev != 1) throw CommandError("--physics twin gives one tacho edge per revolution: set edges_per_rev = 1");
+        const auto params = opt->config.empty() ? twin::GearboxParameters{} : config::load_twin_parameters(opt->config);
+        auto y6 = twin::simulate_casing_signal(params, twin::ToothProfileDeviation{},
+                                               twin::OperatingPoint{cs.signal.speed_hz, cs.signal.torque_nm}, cs.duration_s,
+                                               cs.signal.sample_rate_hz);
+        cs.signal.channels = 1;
+        auto signal = daemon::sampled_capture_signal(y6.sample_rate_hz, std::move(y6.acceleration), std::move(y6.tacho_edges));
+        s = daemon::write_capture(cs, *signal, opt->out);
+      } else {
+        s = daemon::write_synthetic_capture(cs, opt->out);
+      }
+    } catch (const CommandError&) {
+      throw;
     } catch (const std::exception& e) {
       throw CommandError(e.what());
     }
