@@ -3,6 +3,7 @@
 
 #include "capture_writer.hpp"
 #include "cli_common.hpp"
+#include "decoder_setup.hpp"
 #include "gearwatch/config/twin_config.hpp"
 #include "gearwatch/twin/simulation.hpp"
 
@@ -45,8 +46,7 @@ void register_simulate(CLI::App& app) {
       cs.scale_m_s2_per_lsb = cfg.rig.channels.front().scale_m_s2_per_lsb;
       cs.edges_per_rev = cfg.rig.tachos.front().edges_per_rev;
       cs.signal.pinion_teeth = cfg.rig.gears.pinion_teeth;
-      cs.ids = {cfg.protocol.vibration_base_id, cfg.protocol.tacho_base_id, cfg.protocol.stream_header_id,
-                cfg.protocol.operating_condition_id, cfg.protocol.life_counter_id};
+      cs.ids = daemon::protocol_ids(cfg);
     }
     if (!cs.fd && cs.signal.sample_rate_hz * cs.signal.channels > 20000)
       std::cerr << "gearwatch: note: classic CAN carries ~10 kHz per channel at most; this capture is for bench replay only\n";

@@ -11,6 +11,7 @@
 
 #include "cli_common.hpp"
 #include "commands.hpp"
+#include "decoder_setup.hpp"
 #include "gearwatch/acquisition/candump_log.hpp"
 #include "gearwatch/acquisition/protocol_decoder.hpp"
 #include "gearwatch/acquisition/record_assembler.hpp"
@@ -176,20 +177,7 @@ Record first_record(const std::string& capture, const config::GearwatchConfig& c
                                              if (ok && !found) found = std::move(r);
                                            },
                                            {}, {}, {}});
-  acq::ProtocolDecoder decoder(
-      acq::ProtocolIds{cfg.protocol.vibration_base_id, cfg.protocol.tacho_base_id, cfg.protocol.stream_header_id,
-                       cfg.protocol.operating_condition_id, cfg.protocol.life_counter_id},
-      [&] {
-        std::uint8_t m = 0;
-        for (const auto& c : cfg.rig.channels) m |= static_cast<std::uint8_t>(1u << c.number);
-        return m;
-      }(),
-      [&] {
-        std::uint8_t m = 0;
-        for (const auto& t : cfg.rig.tachos) m |= static_cast<std::uint8_t>(1u << t.shaft);
-        return m;
-      }(),
-      [&](const acq::AcquisitionEvent& e) { assembler.consume(e); });
+  acq::ProtocolDecoder decoder = daemon::make_decoder(cfg, [&](const acq::AcquisitionEvent& e) { assembler.consume(e); });
   std::ifstream in(capture, std::ios::binary);
   if (!in) throw CommandError("cannot open capture " + capture);
   std::string line, reason;

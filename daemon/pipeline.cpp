@@ -24,6 +24,7 @@
 #include "gearwatch/acquisition/socketcan.hpp"
 #include "gearwatch/acquisition/spsc_ring.hpp"
 #include "gearwatch/storage/writer.hpp"
+#include "decoder_setup.hpp"
 #include "record_processing.hpp"
 
 namespace gearwatch::daemon {
@@ -76,18 +77,6 @@ class BadInputLog {
   std::map<std::string, acq::LogRateLimiter> limiters_;
 };
 
-std::uint8_t channel_mask(const RigSpec& rig) {
-  std::uint8_t m = 0;
-  for (const auto& c : rig.channels) m |= static_cast<std::uint8_t>(1u << c.number);
-  return m;
-}
-
-std::uint8_t shaft_mask(const RigSpec& rig) {
-  std::uint8_t m = 0;
-  for (const auto& t : rig.tachos) m |= static_cast<std::uint8_t>(1u << t.shaft);
-  return m;
-}
-
 std::string rejected_kind(const std::string& reason) {
   if (reason.find("repeated or out-of-order") != std::string::npos) return "duplicate_frame";
   if (reason.find("tacho edge not after") != std::string::npos) return "tacho_out_of_order";
@@ -125,18 +114,15 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   BadInputLog bad_input_log(config.logging.rate_limit_s);
   const bool wait_when_full = from_file;
 
-  acq::ProtocolDecoder decoder(
-      acq::ProtocolIds{config.protocol.vibration_base_id, config.protocol.tacho_base_id, config.protocol.stream_header_id,
-                       config.protocol.operating_condition_id, config.protocol.life_counter_id},
-      channel_mask(config.rig), shaft_mask(config.rig), [&](const acq::AcquisitionEvent& e) {
-        if (ring.try_push(e)) return;
-        if (!wait_when_full) return;  // live: dropped and counted by the ring
-        // A file can wait: hand the event over as soon as processing makes room.
-        while (!stopping.load(std::memory_order_relaxed)) {
-          std::this_thread::sleep_for(std::chrono::microseconds(200));
-          if (ring.try_push(e)) return;
-        }
-      });
+  acq::ProtocolDecoder decoder = make_decoder(config, [&](const acq::AcquisitionEvent& e) {
+    if (ring.try_push(e)) return;
+    if (!wait_when_full) return;  // live: dropped and counted by the ring
+    // A file can wait: hand the event over as soon as processing makes room.
+    while (!stopping.load(std::memory_order_relaxed)) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      if (ring.try_push(e)) return;
+    }
+  });
 
   boost::asio::io_context io;
   std::unique_ptr<acq::FrameSource> source;
