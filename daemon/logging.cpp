@@ -3,6 +3,7 @@
 #include <cstdlib>
 
 #include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 #include <spdlog/sinks/systemd_sink.h>
 
 namespace gearwatch::logging {

@@ -1,14 +1,7 @@
 #pragma once
 // Logging set-up: stderr for interactive commands, journald for the daemon under systemd.
-// RateLimitedLog keeps a flood of identical bad-input messages to one line per interval,
-// with a count of how many were suppressed.
-#include <chrono>
-#include <cstdint>
-#include <mutex>
+// (Bad input is rate-limited where it is logged: daemon/pipeline.cpp's BadInputLog.)
 #include <string>
-#include <unordered_map>
-
-#include <spdlog/spdlog.h>
 
 namespace gearwatch::logging {
 

@@ -224,3 +224,24 @@ TEST_CASE("storage: readers query while the writer commits (WAL)", "[storage]") 
   CHECK(count(reader, "SELECT count(*) FROM records") == 51);  // and sees the new rows afterwards
   w.stop();
 }
+
+TEST_CASE("storage: a message that can never be written is dropped alone, not with its batch", "[storage]") {
+  const gearwatch::testing::TempDir dir("poison");
+  const auto path = (dir / "a.db").string();
+  WriterOptions o;
+  o.database = path;
+  StorageWriter w(o);
+  w.start();
+  submit_run(w);
+  for (int i = 0; i < 40; ++i) {
+    RecordResult r = make_record(static_cast<std::uint64_t>(i), 2);
+    if (i == 17) r.stream_sequence = 99;  // a stream that was never started
+    w.submit(std::move(r));
+  }
+  w.stop();
+  CHECK(w.counters().lost_at_exit == 1);
+  CHECK(w.counters().messages_committed == 41);
+  Database db(path, Database::Mode::read_only);
+  CHECK(count(db, "SELECT count(*) FROM records") == 39);
+  CHECK(count(db, "SELECT count(*) FROM records WHERE start_index = 17") == 0);
+}

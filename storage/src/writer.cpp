@@ -93,10 +93,6 @@ class BatchWriter {
     Statement s(db_, "INSERT INTO rejected_frames(run_id, kind, reason, frame) VALUES (?, ?, ?, ?)");
     s.bind(1, run()).bind(2, m.kind).bind(3, m.reason).bind(4, m.frame).run();
   }
-  void write(const Alert& m) {
-    Statement s(db_, "INSERT INTO alert_events(severity, kind, message) VALUES (?, ?, ?)");
-    s.bind(1, m.severity).bind(2, m.kind).bind(3, m.message).run();
-  }
   void write(const HealthSnapshot& m) {
     std::string cols = "run_id, final";
     std::string qs = "?, ?";
@@ -167,49 +163,48 @@ void StorageWriter::start() {
           stop_deadline = Clock::now() + std::chrono::milliseconds(static_cast<long>(options_.give_up_after_stop_s * 1000));
       }
       not_full_.notify_all();
-      WriterState trial = state;
-      try {
+      // Commits batch[from, to) in one transaction; the derived state is kept only on commit.
+      auto commit_range = [&](std::size_t from, std::size_t to) {
+        WriterState trial = state;
         Transaction tx(*db);
         BatchWriter writer(*db, trial);
-        for (const auto& m : batch) std::visit([&](const auto& msg) { writer.write(msg); }, m);
+        for (std::size_t i = from; i < to; ++i) std::visit([&](const auto& msg) { writer.write(msg); }, batch[i]);
         tx.commit();
         state = std::move(trial);
-        counters_.messages_committed.fetch_add(batch.size(), std::memory_order_relaxed);
+        counters_.messages_committed.fetch_add(to - from, std::memory_order_relaxed);
         counters_.transactions.fetch_add(1, std::memory_order_relaxed);
         counters_.run_id.store(static_cast<std::uint64_t>(state.run_id), std::memory_order_relaxed);
+      };
+      std::size_t done = 0;  // messages of the batch committed or dropped so far
+      try {
+        try {
+          commit_range(0, batch.size());
+          done = batch.size();
+        } catch (const SqliteError& e) {
+          if (e.transient()) throw;
+          if (batch.size() == 1) {
+            spdlog::critical("storage: {} — message not written", e.what());
+            counters_.lost_at_exit.fetch_add(1, std::memory_order_relaxed);
+            if (on_fatal_ && e.code() != 0 && (e.code() & 0xFF) != 19 /* SQLITE_CONSTRAINT */) on_fatal_(e.what());
+            done = 1;
+          } else {
+            // One bad message must not take its batch with it: write them one by one and drop
+            // only what fails on its own (a transient failure still goes to the retry below).
+            for (; done < batch.size(); ++done) {
+              try {
+                commit_range(done, done + 1);
+              } catch (const SqliteError& one) {
+                if (one.transient()) throw;
+                spdlog::error("storage: message dropped: {}", one.what());
+                counters_.lost_at_exit.fetch_add(1, std::memory_order_relaxed);
+              }
+            }
+          }
+        }
         batch.clear();
         backoff = std::chrono::milliseconds(options_.retry_initial_ms);
       } catch (const SqliteError& e) {
-        if (!e.transient()) {
-          // One bad message must not take its batch with it: write them one by one and drop
-          // only what fails on its own.
-          if (batch.size() > 1) {
-            std::size_t dropped = 0;
-            for (auto& m : batch) {
-              WriterState single = state;
-              try {
-                Transaction tx(*db);
-                BatchWriter writer(*db, single);
-                std::visit([&](const auto& msg) { writer.write(msg); }, m);
-                tx.commit();
-                state = std::move(single);
-                counters_.messages_committed.fetch_add(1, std::memory_order_relaxed);
-              } catch (const SqliteError& one) {
-                ++dropped;
-                spdlog::error("storage: message dropped: {}", one.what());
-              }
-            }
-            counters_.lost_at_exit.fetch_add(dropped, std::memory_order_relaxed);
-            counters_.run_id.store(static_cast<std::uint64_t>(state.run_id), std::memory_order_relaxed);
-            batch.clear();
-            continue;
-          }
-          spdlog::critical("storage: {} — message not written", e.what());
-          counters_.lost_at_exit.fetch_add(batch.size(), std::memory_order_relaxed);
-          batch.clear();
-          if (on_fatal_ && e.code() != 0 && (e.code() & 0xFF) != 19 /* SQLITE_CONSTRAINT */) on_fatal_(e.what());
-          continue;
-        }
+        batch.erase(batch.begin(), batch.begin() + static_cast<std::ptrdiff_t>(done));
         counters_.retries.fetch_add(1, std::memory_order_relaxed);
         const auto now = Clock::now();
         if (now - last_log > std::chrono::seconds(10)) {

@@ -81,12 +81,6 @@ struct RejectedFrame {
   std::string frame;      ///< the frame as a candump line, or the raw log line
 };
 
-struct Alert {
-  std::string severity;   ///< info | warning | alarm
-  std::string kind;
-  std::string message;
-};
-
 /// Counter values at one moment; column names in health_snapshots.
 struct HealthSnapshot {
   bool final = false;
@@ -94,6 +88,6 @@ struct HealthSnapshot {
 };
 
 using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, GapEvent, LifeCounterEvent,
-                             RejectedFrame, Alert, HealthSnapshot>;
+                             RejectedFrame, HealthSnapshot>;
 
 }  // namespace gearwatch::storage
