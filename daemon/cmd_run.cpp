@@ -27,8 +27,8 @@ void register_run(CLI::App& app) {
     } catch (const std::exception& e) {
       throw CommandError(e.what());
     }
-    spdlog::info("gearwatch stopped: {} records ({} analysed), {} frames, {} samples, {} lost", r.records,
-                 r.records_analysed, r.frames, r.samples, r.losses);
+    spdlog::info("gearwatch stopped: {} records ({} analysed), {} frames, {} samples, {} samples lost, {} frames dropped by the kernel",
+                 r.records, r.records_analysed, r.frames, r.samples, r.lost_samples, r.kernel_dropped_frames);
     if (r.exit_status != 0) throw CommandError("stopped with an error: " + (r.end_reason.empty() ? "storage failure" : r.end_reason), r.exit_status);
   });
 }

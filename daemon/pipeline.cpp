@@ -318,7 +318,8 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   result.records_analysed = records_analysed;
   result.frames = decoder.counters().frames;
   result.samples = decoder.counters().samples;
-  result.losses = source->health().kernel_drops + ring.overflows() + decoder.counters().gap_samples;
+  result.lost_samples = decoder.counters().gap_samples + assembler_snapshot.ring_gap_samples;
+  result.kernel_dropped_frames = source->health().kernel_drops;
   result.run_id = writer.counters().run_id;
   if (fatal_storage || writer.counters().lost_at_exit > 0) result.exit_status = 3;
   else if (!end_reason.empty() && end_reason != "stopped") result.exit_status = 2;

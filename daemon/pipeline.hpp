@@ -22,7 +22,10 @@ struct PipelineResult {
   int exit_status = 0;
   std::string end_reason;
   std::uint64_t records = 0, records_analysed = 0, frames = 0, samples = 0;
-  std::uint64_t losses = 0;  ///< kernel drops + ring overflows + gap samples
+  /// Samples that never reached a record slot: gaps in the protocol (a frame dropped by the
+  /// kernel or the front-end shows up here) plus holes left by ring overflows.
+  std::uint64_t lost_samples = 0;
+  std::uint64_t kernel_dropped_frames = 0;  ///< SO_RXQ_OVFL: frames the kernel discarded
   std::uint64_t run_id = 0;
 };
 

@@ -54,7 +54,8 @@ TEST_CASE("pipeline: a clean capture replays into exactly its records, losing no
   CHECK(r.exit_status == 0);
   CHECK(r.frames == summary.frames);
   CHECK(r.samples == 2 * 70000);
-  CHECK(r.losses == 0);
+  CHECK(r.lost_samples == 0);
+  CHECK(r.kernel_dropped_frames == 0);
   CHECK(r.records == 4);  // 3 complete 1 s records + the final 0.5 s
   const auto db = (dir / "a.db").string();
   CHECK(scalar(db, "SELECT count(*) FROM records WHERE end_reason = 'complete' AND sample_count = 20000") == 3);
@@ -209,4 +210,25 @@ TEST_CASE("pipeline: the wear history continues across replays into one database
   CHECK(scalar(db, "SELECT max(points) FROM wear_mechanism WHERE channel = 0") == 4);
   CHECK(daemon::load_wear_history(db).at(0).size() == 4);
   CHECK(daemon::load_wear_history(db).at(0).back().cycles == Approx(100020.0));
+}
+
+TEST_CASE("pipeline: lost samples are the samples missing from the stream, in samples", "[pipeline]") {
+  logging::setup(logging::Sink::stderr_only, "off");
+  const gearwatch::testing::TempDir dir("lost");
+  const acq::ProtocolIds ids;
+  std::ofstream out(dir / "lost.log");
+  std::string line;
+  auto emit = [&](const acq::CanFrame& f) {
+    acq::format_candump_line(f, "can0", line);
+    out << line << "\n";
+  };
+  const std::vector<std::int16_t> block(30, 7);
+  emit(acq::make_stream_header(ids, 10000, 2, 1));
+  for (std::uint32_t i = 0; i < 20000; i += 30)
+    for (int ch = 0; ch < 2; ++ch)
+      if (!(ch == 0 && i >= 900 && i < 1200)) emit(acq::make_vibration_frame(ids, ch, i, block, true));  // 10 frames lost
+  out.close();
+  const auto r = daemon::run_pipeline(replay_config(dir / "lost.log", dir / "a.db"), daemon::PipelineMode::replay);
+  CHECK(r.lost_samples == 300);  // 10 frames of 30 samples, on channel 0
+  CHECK(r.kernel_dropped_frames == 0);
 }
