@@ -52,10 +52,8 @@ class SampledCaptureSignal final : public CaptureSignal {
   }
   std::vector<double> tacho_edges(double from, double to, int epr) const override {
     if (epr != 1) throw std::runtime_error("a sampled signal carries one tacho edge per revolution only");
-    std::vector<double> out;
-    for (double e : edges_)
-      if (e >= from && e < to) out.push_back(e);
-    return out;
+    // Called once per frame-sized block: find the few edges by bisection, not a scan of all.
+    return {std::lower_bound(edges_.begin(), edges_.end(), from), std::lower_bound(edges_.begin(), edges_.end(), to)};
   }
 
  private:

@@ -243,18 +243,16 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.integer("stored_gmf_harmonics", p.stored_gmf_harmonics, 1, 100);
     t.integer("ics2_harmonics", p.ics2_harmonics, 1, 100);
     t.integer("ics2_tolerance_bins", p.ics2_tolerance_bins, 0, 100);
-    auto band = [&](const std::string& key, dsp::FrequencyBand& b) {
-      const toml::node* n = t.node(key);
-      if (!n) return;
-      const toml::array* a = n->as_array();
-      if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number())
-        t.fail(n, key, "expected [low_hz, high_hz]");
-      b.low_hz = (*a)[0].value<double>().value();
-      b.high_hz = (*a)[1].value<double>().value();
-      if (!(b.low_hz >= 0 && b.high_hz > b.low_hz)) t.fail(n, key, "needs 0 <= low_hz < high_hz");
+    // A band is written [low_hz, high_hz]; errors point at the node's line.
+    auto read_band = [&](const toml::node& n, const std::string& key, const char* expected) {
+      const toml::array* a = n.as_array();
+      if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number()) t.fail(&n, key, expected);
+      const dsp::FrequencyBand b{(*a)[0].value<double>().value(), (*a)[1].value<double>().value()};
+      if (!(b.low_hz >= 0 && b.high_hz > b.low_hz)) t.fail(&n, key, "needs 0 <= low_hz < high_hz");
+      return b;
     };
-    band("pitting_band_hz", p.pitting_band);
-    band("abrasion_band_hz", p.abrasion_band);
+    if (const toml::node* n = t.node("pitting_band_hz")) p.pitting_band = read_band(*n, "pitting_band_hz", "expected [low_hz, high_hz]");
+    if (const toml::node* n = t.node("abrasion_band_hz")) p.abrasion_band = read_band(*n, "abrasion_band_hz", "expected [low_hz, high_hz]");
     t.integer("filter_bank_levels", p.filter_bank_levels, 1, 12);
     if (const toml::node* n = t.node("kurtogram_band_selection")) {
       auto b = n->value_exact<bool>();
@@ -265,14 +263,8 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
       const toml::array* a = n->as_array();
       if (!a || a->empty()) t.fail(n, "mean_carrier_ranges_hz", "expected a list of [low_hz, high_hz] pairs");
       p.mean_carrier_ranges.clear();
-      for (const auto& item : *a) {
-        const toml::array* pair = item.as_array();
-        if (!pair || pair->size() != 2 || !(*pair)[0].is_number() || !(*pair)[1].is_number())
-          t.fail(&item, "mean_carrier_ranges_hz", "expected [low_hz, high_hz] pairs");
-        dsp::FrequencyBand b{(*pair)[0].value<double>().value(), (*pair)[1].value<double>().value()};
-        if (!(b.low_hz >= 0 && b.high_hz > b.low_hz)) t.fail(&item, "mean_carrier_ranges_hz", "needs 0 <= low_hz < high_hz");
-        p.mean_carrier_ranges.push_back(b);
-      }
+      for (const auto& item : *a)
+        p.mean_carrier_ranges.push_back(read_band(item, "mean_carrier_ranges_hz", "expected [low_hz, high_hz] pairs"));
     }
     t.number("min_revolutions_for_tsa", p.min_revolutions_for_tsa, 1.0, 1e6);
     t.number("max_clipped_fraction", p.max_clipped_fraction, 0.0, 1.0);
