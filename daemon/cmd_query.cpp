@@ -1,4 +1,6 @@
 // `gearwatch query alerts|indicators|health|updates|inspections --db FILE [--since T]`.
+#include <map>
+
 #include "cli_common.hpp"
 
 namespace gearwatch::cli {
@@ -31,36 +33,31 @@ void register_query(CLI::App& app) {
   cmd->callback([opt] {
     try {
       storage::Database db(opt->db, storage::Database::Mode::read_only);
-      std::string sql, time_col;
+      // What each query reads, and the column --since filters on.
+      struct Source {
+        const char* sql;
+        const char* time_col;
+      };
+      static const std::map<std::string, Source> sources{
+          {"alerts", {"SELECT id, created_at, severity, kind, record_id, message FROM alerts", "created_at"}},
+          {"indicators",
+           {"SELECT record_id, created_at, cycles, speed_hz, torque_nm, channel, name, value FROM indicators", "created_at"}},
+          {"health", {"SELECT * FROM acquisition_health", "taken_at"}},
+          {"inspections", {"SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note FROM inspections", "entered_at"}},
+          {"records", {"SELECT * FROM record_status", "created_at"}},
+          {"gaps",
+           {"SELECT g.id, g.detected_at, s.run_id, s.stream_id, g.channel, g.first_missing_index, g.missing_samples, g.cause"
+            " FROM gap_events g JOIN streams s ON s.id = g.stream_key",
+            "detected_at"}},
+          {"rejected", {"SELECT id, received_at, run_id, kind, reason, frame FROM rejected_frames", "received_at"}},
+          {"updates", {"SELECT * FROM k_updates", "created_at"}},
+      };
+      if (opt->what == "updates" && !has_table(db, "k_updates"))
+        throw CommandError("this database has no k_updates: the wear-model updating (digital twin II) is not in this gearwatch version yet");
+      const Source& source = sources.at(opt->what);
+      std::string sql = source.sql;
+      const std::string time_col = source.time_col;
       std::vector<std::string> bind;
-      if (opt->what == "alerts") {
-        sql = "SELECT id, created_at, severity, kind, record_id, message FROM alerts";
-        time_col = "created_at";
-      } else if (opt->what == "indicators") {
-        sql = "SELECT record_id, created_at, cycles, speed_hz, torque_nm, channel, name, value FROM indicators";
-        time_col = "created_at";
-      } else if (opt->what == "health") {
-        sql = "SELECT * FROM acquisition_health";
-        time_col = "taken_at";
-      } else if (opt->what == "inspections") {
-        sql = "SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note FROM inspections";
-        time_col = "entered_at";
-      } else if (opt->what == "records") {
-        sql = "SELECT * FROM record_status";
-        time_col = "created_at";
-      } else if (opt->what == "gaps") {
-        sql = "SELECT g.id, g.detected_at, s.run_id, s.stream_id, g.channel, g.first_missing_index, g.missing_samples, g.cause"
-              " FROM gap_events g JOIN streams s ON s.id = g.stream_key";
-        time_col = "detected_at";
-      } else if (opt->what == "rejected") {
-        sql = "SELECT id, received_at, run_id, kind, reason, frame FROM rejected_frames";
-        time_col = "received_at";
-      } else {  // updates
-        if (!has_table(db, "k_updates"))
-          throw CommandError("this database has no k_updates: the wear-model updating (digital twin II) is not in this gearwatch version yet");
-        sql = "SELECT * FROM k_updates";
-        time_col = "created_at";
-      }
       std::vector<std::string> where;
       if (!opt->since.empty()) {
         where.push_back(time_col + " >= ?");
