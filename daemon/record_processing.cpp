@@ -65,6 +65,8 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
       auto& h = history_[channel];
       h.push_back({*record.input_revolutions, value_or_nan(a, "ics2_low_band"), value_or_nan(a, "ics2_high_band"),
                    selected_centre(a)});
+      const auto window = static_cast<std::size_t>(config_.processing.trend_window_records);
+      if (h.size() > window) h.erase(h.begin(), h.end() - static_cast<std::ptrdiff_t>(window));
       const auto verdict = dsp::identify_wear_mechanism(h, config_.processing);
       storage::WearAssessment w;
       w.channel = channel;

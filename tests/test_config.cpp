@@ -107,6 +107,35 @@ TEST_CASE("config: the shipped configuration files parse", "[config]") {
     CHECK(c.rig.gears.pinion_teeth == 19);
     CHECK(c.rig.gears.gear_teeth == 52);
   }
+  // The example says "an empty file gives exactly these values": check that it does.
+  const auto example = load_config(std::string(GEARWATCH_SOURCE_DIR) + "/config/gearwatch.example.toml");
+  const auto empty = parse_config("", "empty");
+  CHECK(example.rig.sample_rate_hz == empty.rig.sample_rate_hz);
+  CHECK(example.rig.schedule.length_s == empty.rig.schedule.length_s);
+  CHECK(example.rig.schedule.interval_s == empty.rig.schedule.interval_s);
+  CHECK(example.rig.schedule.min_length_s == empty.rig.schedule.min_length_s);
+  CHECK(example.rig.channels.size() == empty.rig.channels.size());
+  CHECK(example.acquisition.ring_capacity_samples == empty.acquisition.ring_capacity_samples);
+  CHECK(example.storage.queue_capacity == empty.storage.queue_capacity);
+  CHECK(example.daemon.processing_nice == empty.daemon.processing_nice);
+  const auto& p = example.processing;
+  const auto& d = empty.processing;
+  CHECK(p.samples_per_revolution == d.samples_per_revolution);
+  CHECK(p.rms_sa_harmonics == d.rms_sa_harmonics);
+  CHECK(p.stored_gmf_harmonics == d.stored_gmf_harmonics);
+  CHECK(p.ics2_harmonics == d.ics2_harmonics);
+  CHECK(p.ics2_tolerance_bins == d.ics2_tolerance_bins);
+  CHECK(p.pitting_band.low_hz == d.pitting_band.low_hz);
+  CHECK(p.pitting_band.high_hz == d.pitting_band.high_hz);
+  CHECK(p.abrasion_band.low_hz == d.abrasion_band.low_hz);
+  CHECK(p.abrasion_band.high_hz == d.abrasion_band.high_hz);
+  CHECK(p.filter_bank_levels == d.filter_bank_levels);
+  CHECK(p.kurtogram_band_selection == d.kurtogram_band_selection);
+  CHECK(p.mean_carrier_ranges.size() == d.mean_carrier_ranges.size());
+  CHECK(p.min_revolutions_for_tsa == d.min_revolutions_for_tsa);
+  CHECK(p.max_clipped_fraction == d.max_clipped_fraction);
+  CHECK(p.trend_significance == d.trend_significance);
+  CHECK(p.trend_window_records == d.trend_window_records);
 }
 
 TEST_CASE("config: [processing] sets the signal-processing settings", "[config]") {

@@ -210,6 +210,10 @@ TEST_CASE("pipeline: the wear history continues across replays into one database
   CHECK(scalar(db, "SELECT max(points) FROM wear_mechanism WHERE channel = 0") == 4);
   CHECK(daemon::load_wear_history(db).at(0).size() == 4);
   CHECK(daemon::load_wear_history(db).at(0).back().cycles == Approx(100020.0));
+  // With a window of 3 records the trend test sees only the newest three.
+  cfg.processing.trend_window_records = 3;
+  REQUIRE(daemon::run_pipeline(cfg, daemon::PipelineMode::replay).exit_status == 0);
+  CHECK(scalar(db, "SELECT max(points) FROM wear_mechanism WHERE channel = 0 AND record_id > 4") == 3);
 }
 
 TEST_CASE("pipeline: lost samples are the samples missing from the stream, in samples", "[pipeline]") {

@@ -98,6 +98,7 @@ void SignalProcessingSettings::validate(const RigSpec& rig) const {
           "min_revolutions_for_tsa must be >= 2");
   require(max_clipped_fraction >= 0.0 && max_clipped_fraction <= 1.0, "max_clipped_fraction must be in [0, 1]");
   require(trend_significance > 0.0 && trend_significance <= 0.5, "trend_significance must be in (0, 0.5]");
+  require(trend_window_records >= 3, "trend_window_records must be at least 3");
   require(rig.gears.pinion_teeth >= 1 && rig.gears.gear_teeth >= 1, "rig tooth counts must be positive");
   require(rig.sample_rate_hz > 0.0, "rig sample rate must be positive");
   require(rig.min_speed_hz > 0.0 && rig.max_speed_hz > rig.min_speed_hz, "rig speed range must satisfy 0 < min < max");

@@ -45,6 +45,10 @@ struct SignalProcessingSettings {
   double min_revolutions_for_tsa = 5.0;   ///< per shaft
   double max_clipped_fraction = 1.0e-4;   ///< samples at +-full scale tolerated
   double trend_significance = 0.05;       ///< wear-mechanism trend tests
+  /// The trend tests use the most recent records only: Mann-Kendall is O(n²), and a daemon
+  /// recording every 10 min for years must not slow down with age (the seed's lubricated test
+  /// had ~540 records over 3.25 M cycles).
+  int trend_window_records = 500;
 
   /// Throws std::invalid_argument naming the setting when it is unusable for any record
   /// (non-power-of-two resolution, N > stored harmonics, inverted or negative bands, ...).
