@@ -22,9 +22,9 @@ void register_query(CLI::App& app) {
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("query", "Staff queries on the database");
-  cmd->add_option("what", opt->what, "alerts | indicators | health | updates | inspections | records | gaps | rejected")
+  cmd->add_option("what", opt->what, "alerts | active | indicators | health | updates | inspections | records | gaps | rejected")
       ->required()
-      ->check(CLI::IsMember({"alerts", "indicators", "health", "updates", "inspections", "records", "gaps", "rejected"}));
+      ->check(CLI::IsMember({"alerts", "active", "indicators", "health", "updates", "inspections", "records", "gaps", "rejected"}));
   cmd->add_option("--db", opt->db, "SQLite database")->required()->check(CLI::ExistingFile);
   cmd->add_option("--since", opt->since, "Only rows at or after this UTC time (ISO 8601, e.g. 2026-11-01 or 2026-11-01T08:00)");
   cmd->add_option("--name", opt->name, "indicators: only this indicator name");
@@ -39,7 +39,8 @@ void register_query(CLI::App& app) {
         const char* time_col;
       };
       static const std::map<std::string, Source> sources{
-          {"alerts", {"SELECT id, created_at, severity, kind, record_id, message FROM alerts", "created_at"}},
+          {"alerts", {"SELECT id, created_at, severity, kind, channel, transition, value, record_id, message FROM alerts", "created_at"}},
+          {"active", {"SELECT kind, channel, value, raised_at, updated_at FROM active_alerts", "updated_at"}},
           {"indicators",
            {"SELECT record_id, created_at, cycles, speed_hz, torque_nm, channel, name, value FROM indicators", "created_at"}},
           {"health", {"SELECT * FROM acquisition_health", "taken_at"}},

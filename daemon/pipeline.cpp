@@ -183,7 +183,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   if (use_watchdog) arm_watchdog();
 
   // --- processing thread; the wear history of the installed gear pair continues from the database
-  RecordProcessor processor(config, load_wear_history(config.storage.database));
+  RecordProcessor processor(config, load_wear_history(config.storage.database), load_alert_states(config.storage.database));
   std::uint64_t current_sequence = 0;
   std::atomic<std::uint64_t> records_total{0}, records_analysed{0};
   acq::AssemblerCounters assembler_snapshot;
@@ -208,8 +208,8 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
             writer.submit(storage::GapEvent{current_sequence, g.channel, g.first_missing, g.missing, acq::to_string(g.cause)});
           },
           [&](const acq::LifeCounterReset& l) {
-            processor.reset_history();  // a new gear pair, or a fault: never merge histories
             writer.submit(storage::LifeCounterEvent{current_sequence, l.index, l.previous_revolutions, l.revolutions});
+            writer.submit(processor.life_counter_reset(l.previous_revolutions, l.revolutions));
           }});
 
   auto health = [&](bool final) {
@@ -249,6 +249,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
                   {"records_cut", a.records_cut},
                   {"records_rejected", a.records_rejected},
                   {"storage_retries", v(w.retries)},
+                  {"storage_rows_rejected", v(w.rows_rejected)},
                   {"storage_queue_waits", v(w.queue_waits)}};
     return s;
   };

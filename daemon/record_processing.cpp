@@ -1,6 +1,7 @@
 #include "record_processing.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "gearwatch/storage/sqlite.hpp"
@@ -18,15 +19,112 @@ double selected_centre(const dsp::ChannelAnalysis& a) {
   return kNaN;
 }
 
+double selected_value(const dsp::ChannelAnalysis& a) {
+  for (const auto& b : a.band_selections)
+    if (b.criterion == "ics2") return b.value;
+  return kNaN;
+}
+
+std::string skip_token(const dsp::SkippedIndicator& s) { return s.reason; }
+std::string skip_detail(const dsp::SkippedIndicator&) { return {}; }
+
 }  // namespace
 
-RecordProcessor::RecordProcessor(const config::GearwatchConfig& config, WearHistory history)
-    : config_(config), analyzer_(config.rig, config.processing), history_(std::move(history)) {}
+RecordProcessor::RecordProcessor(const config::GearwatchConfig& config, WearHistory history, AlertStates alerts)
+    : config_(config), analyzer_(config.rig, config.processing), history_(std::move(history)), alerts_(std::move(alerts)) {}
 
-void RecordProcessor::reset_history() {
-  history_.clear();
-  last_mechanism_.clear();
-  last_jumps_.clear();
+storage::AlertUpdate RecordProcessor::life_counter_reset(std::uint64_t previous_revolutions, std::uint64_t revolutions) {
+  history_.clear();  // a new gear pair, or a fault: never merge histories
+  storage::AlertUpdate u;
+  u.alerts = alerts_.clear_all(AlertKind::wear_mechanism, "life counter reset: the wear verdict belonged to the previous gear pair");
+  for (auto& [key, state] : alerts_.states())
+    if (key.kind == AlertKind::carrier_band_jump) alerts_.mutable_state(key).marker = 0.0;
+  u.alerts.push_back(alerts_.occurrence(
+      AlertKey{AlertKind::life_counter_reset, -1}, std::to_string(revolutions),
+      "life counter went backwards from " + std::to_string(previous_revolutions) + " to " + std::to_string(revolutions) +
+          " revolutions: new gear pair or front-end fault; history not merged"));
+  u.alert_states = alerts_.take_changed();
+  return u;
+}
+
+storage::AlertUpdate RecordProcessor::sensor_presence(int channel, bool present, const std::string& how,
+                                                      const std::string& message) {
+  storage::AlertUpdate u;
+  // Presence events are definite (the stream header, or frames stopping past the slack): no
+  // hysteresis beyond the assembler's own.
+  if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_missing, channel}, !present, how, message, AlertHysteresis{1, 1}))
+    u.alerts.push_back(std::move(*e));
+  u.alert_states = alerts_.take_changed();
+  return u;
+}
+
+void RecordProcessor::observe_channel_alerts(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out) {
+  const AlertHysteresis sensor{1, config_.alerts.sensor_clear_after_records};
+  bool flat_line = false, clipped = false;
+  for (const auto& s : a.skipped) {
+    const std::string reason = skip_token(s);
+    flat_line = flat_line || reason == "flat_line";
+    clipped = clipped || reason == "clipped_samples";
+  }
+  const std::string ch = "channel " + std::to_string(channel);
+  if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_flat_line, channel}, flat_line, "flat_line",
+                               flat_line ? ch + ": the signal is constant — dead sensor, cable or front-end channel"
+                                         : ch + ": the signal varies again",
+                               sensor))
+    out.alerts.push_back(std::move(*e));
+  if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_saturated, channel}, clipped, "clipped_samples",
+                               clipped ? ch + ": more than processing.max_clipped_fraction of the samples at full scale"
+                                       : ch + ": no longer saturated",
+                               sensor))
+    out.alerts.push_back(std::move(*e));
+  // A channel that delivers a record is present, whatever the stream said before.
+  if (const auto* st = alerts_.state(AlertKey{AlertKind::sensor_missing, channel}); st && st->active)
+    if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_missing, channel}, false, "", ch + ": delivers samples again",
+                                 AlertHysteresis{1, 1}))
+      out.alerts.push_back(std::move(*e));
+}
+
+void RecordProcessor::assess_wear(int channel, double cycles, const dsp::ChannelAnalysis& a, storage::RecordResult& out) {
+  auto& h = history_[channel];
+  h.push_back({cycles, value_or_nan(a, "ics2_low_band"), value_or_nan(a, "ics2_high_band"), selected_centre(a),
+               selected_value(a)});
+  const auto window = static_cast<std::size_t>(config_.processing.trend_window_records);
+  if (h.size() > window) h.erase(h.begin(), h.end() - static_cast<std::ptrdiff_t>(window));
+  const auto verdict = dsp::identify_wear_mechanism(h, config_.processing);
+  storage::WearAssessment w;
+  w.channel = channel;
+  w.mechanism = verdict.mechanism;
+  w.points = verdict.low_band.points;
+  w.low_band_p = verdict.low_band.p_value;
+  w.high_band_p = verdict.high_band.p_value;
+  w.low_band_rho = verdict.low_band.spearman_rho;
+  w.high_band_rho = verdict.high_band.spearman_rho;
+  w.band_jumps = verdict.band_jumps.size();
+  w.evidence = verdict.evidence;
+
+  const std::string ch = "channel " + std::to_string(channel);
+  const bool wear = dsp::is_wear(verdict.mechanism);
+  const std::string token = dsp::to_string(verdict.mechanism);
+  if (auto e = alerts_.observe(AlertKey{AlertKind::wear_mechanism, channel}, wear, token,
+                               wear ? ch + ": " + token + " identified — " + verdict.evidence
+                                    : ch + ": no wear trend any more (" + token + ") — " + verdict.evidence,
+                               AlertHysteresis{1, config_.alerts.wear_clear_after_records}))
+    out.alerts.push_back(std::move(*e));
+  // Band jumps are occurrences; the marker remembers the last one reported, so neither a later
+  // record nor a restarted process reports it again.
+  if (!verdict.band_jumps.empty()) {
+    const auto& j = verdict.band_jumps.back();
+    auto& state = alerts_.mutable_state(AlertKey{AlertKind::carrier_band_jump, channel});
+    if (j.cycles > state.marker) {
+      state.marker = j.cycles;
+      char text[256];
+      std::snprintf(text, sizeof text, ": ICS2-selected carrier band moved from %.0f Hz to %.0f Hz at %.6g cycles (ICS2 %.3g -> %.3g)",
+                    j.from_hz, j.to_hz, j.cycles, j.from_ics2, j.to_ics2);
+      out.alerts.push_back(alerts_.occurrence(AlertKey{AlertKind::carrier_band_jump, channel},
+                                              std::to_string(static_cast<long>(j.to_hz)), ch + text));
+    }
+  }
+  out.assessments.push_back(std::move(w));
 }
 
 storage::RecordResult RecordProcessor::process(const Record& record, bool analysable, std::uint64_t stream_sequence) {
@@ -35,7 +133,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
   out.start_index = record.start_index;
   out.sample_count = record.sample_count();
   out.duration_s = record.duration_s();
-  out.end_reason = to_string(record.end);
+  out.end_reason = record.end;
   out.analysed = analysable;
   out.torque_nm = record.torque_nm;
   out.speed_hz = record.speed_hz;
@@ -57,47 +155,15 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
       ch.values.emplace_back("tsa_averages_output", a.tsa_averages_output);
       ch.values.emplace_back("samples_per_revolution", static_cast<double>(a.samples_per_revolution));
     }
-    for (const auto& s : a.skipped) ch.skipped.emplace_back(s.name, s.reason);
+    for (const auto& s : a.skipped) ch.skipped.push_back({s.name, skip_token(s), skip_detail(s)});
     for (const auto& b : a.band_selections) ch.bands.push_back({b.criterion, b.level, b.centre_hz, b.bandwidth_hz, b.value});
-
+    observe_channel_alerts(channel, a, out);
     // Wear mechanism over the history of this gear pair (needs a place in its life).
-    if (record.input_revolutions) {
-      auto& h = history_[channel];
-      h.push_back({*record.input_revolutions, value_or_nan(a, "ics2_low_band"), value_or_nan(a, "ics2_high_band"),
-                   selected_centre(a)});
-      const auto window = static_cast<std::size_t>(config_.processing.trend_window_records);
-      if (h.size() > window) h.erase(h.begin(), h.end() - static_cast<std::ptrdiff_t>(window));
-      const auto verdict = dsp::identify_wear_mechanism(h, config_.processing);
-      storage::WearAssessment w;
-      w.channel = channel;
-      w.mechanism = dsp::to_string(verdict.mechanism);
-      w.points = verdict.low_band.points;
-      w.low_band_p = verdict.low_band.p_value;
-      w.high_band_p = verdict.high_band.p_value;
-      w.low_band_rho = verdict.low_band.spearman_rho;
-      w.high_band_rho = verdict.high_band.spearman_rho;
-      w.band_jumps = verdict.band_jumps.size();
-      w.evidence = verdict.evidence;
-      const bool wear = verdict.mechanism == dsp::WearMechanism::fatigue_pitting ||
-                        verdict.mechanism == dsp::WearMechanism::abrasive_wear || verdict.mechanism == dsp::WearMechanism::both;
-      auto& last = last_mechanism_[channel];
-      if (wear && last != w.mechanism)
-        out.alerts.emplace_back("wear_mechanism", "channel " + std::to_string(channel) + ": " + w.mechanism + " identified — " + verdict.evidence);
-      last = w.mechanism;
-      auto& jumps = last_jumps_[channel];
-      if (verdict.band_jumps.size() > jumps && !verdict.band_jumps.empty()) {
-        const auto& j = verdict.band_jumps.back();
-        out.alerts.emplace_back("carrier_band_jump", "channel " + std::to_string(channel) + ": ICS2-selected carrier band moved from " +
-                                                         std::to_string(static_cast<long>(j.from_hz)) + " Hz to " +
-                                                         std::to_string(static_cast<long>(j.to_hz)) + " Hz");
-      }
-      jumps = verdict.band_jumps.size();
-      out.assessments.push_back(std::move(w));
-    } else {
-      ch.skipped.emplace_back("wear_mechanism", "no_life_counter");
-    }
+    if (record.input_revolutions) assess_wear(channel, *record.input_revolutions, a, out);
+    else ch.skipped.push_back({"wear_mechanism", "no_life_counter", ""});
     out.channels.push_back(std::move(ch));
   }
+  out.alert_states = alerts_.take_changed();
   return out;
 }
 
@@ -105,19 +171,39 @@ WearHistory load_wear_history(const std::string& database_path) {
   WearHistory history;
   storage::Database db(database_path, storage::Database::Mode::read_only);
   storage::Statement st(db, R"SQL(
-    SELECT r.input_revolutions, lo.channel, lo.value, hi.value,
-           (SELECT b.centre_hz FROM band_selections b WHERE b.record_id = r.id AND b.channel = lo.channel AND b.criterion = 'ics2')
+    SELECT r.input_revolutions, lo.channel, lo.value, hi.value, b.centre_hz, b.value
     FROM records r
     JOIN indicator_values lo ON lo.record_id = r.id AND lo.name = 'ics2_low_band'
     LEFT JOIN indicator_values hi ON hi.record_id = r.id AND hi.channel = lo.channel AND hi.name = 'ics2_high_band'
+    LEFT JOIN band_selections b ON b.record_id = r.id AND b.channel = lo.channel AND b.criterion = 'ics2'
     WHERE r.analysed = 1 AND r.input_revolutions IS NOT NULL
       AND r.created_at >= coalesce((SELECT max(detected_at) FROM life_counter_events), '')
     ORDER BY r.id)SQL");
   while (st.step()) {
     auto col = [&](int i) { return st.is_null(i) ? kNaN : st.get_double(i); };
-    history[static_cast<int>(st.get_int(1))].push_back({st.get_double(0), col(2), col(3), col(4)});
+    history[static_cast<int>(st.get_int(1))].push_back({st.get_double(0), col(2), col(3), col(4), col(5)});
   }
   return history;
+}
+
+AlertStates load_alert_states(const std::string& database_path) {
+  AlertStates states;
+  std::map<std::string, AlertKind> kinds;
+  for (auto k : kAllAlertKinds) kinds[to_string(k)] = k;
+  storage::Database db(database_path, storage::Database::Mode::read_only);
+  storage::Statement st(db, "SELECT kind, channel, active, value, consecutive_present, consecutive_absent, marker FROM alert_state");
+  while (st.step()) {
+    const auto kind = kinds.find(st.get_text(0));
+    if (kind == kinds.end()) continue;  // written by a newer build: not ours to judge
+    AlertState s;
+    s.active = st.get_int(2) != 0;
+    s.value = st.is_null(3) ? "" : st.get_text(3);
+    s.consecutive_present = static_cast<int>(st.get_int(4));
+    s.consecutive_absent = static_cast<int>(st.get_int(5));
+    s.marker = st.get_double(6);
+    states[AlertKey{kind->second, static_cast<int>(st.get_int(1))}] = s;
+  }
+  return states;
 }
 
 }  // namespace gearwatch::daemon

@@ -1,11 +1,13 @@
 #pragma once
 // Turns an assembled record into what is stored for it: the indicators of every channel
-// (dsp::RecordAnalyzer) and the wear-mechanism assessment over the gear pair's history (§4.4).
+// (dsp::RecordAnalyzer), the wear-mechanism assessment over the gear pair's history (§4.4), and
+// the alerts these raise or clear (AlertTracker, state reloaded from the database at start).
 // Runs on the processing thread; owns the analyzer's FFT plans and scratch.
 #include <map>
 #include <string>
 #include <vector>
 
+#include "gearwatch/alerts.hpp"
 #include "gearwatch/config/config.hpp"
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
@@ -16,26 +18,37 @@ namespace gearwatch::daemon {
 
 /// Per protocol channel: the (cycles, ICS2 low, ICS2 high, selected band) history.
 using WearHistory = std::map<int, std::vector<dsp::WearHistoryPoint>>;
+using AlertStates = std::map<AlertKey, AlertState>;
 
 class RecordProcessor {
  public:
-  explicit RecordProcessor(const config::GearwatchConfig& config, WearHistory history = {});
+  explicit RecordProcessor(const config::GearwatchConfig& config, WearHistory history = {}, AlertStates alerts = {});
   /// Never throws on bad data: problems become skipped indicators with a reason.
   storage::RecordResult process(const Record& record, bool analysable, std::uint64_t stream_sequence);
-  /// A new gear pair (the life counter went backwards): its history starts empty.
-  void reset_history();
+  /// A new gear pair (the life counter went backwards): its history starts empty, the old
+  /// pair's wear alerts clear, and the reset itself is an alert event.
+  storage::AlertUpdate life_counter_reset(std::uint64_t previous_revolutions, std::uint64_t revolutions);
+  /// A configured channel the stream does not carry, or whose frames stopped (present = false),
+  /// or that came back (present = true). `how` says which ("missing_from_stream", "stopped").
+  storage::AlertUpdate sensor_presence(int channel, bool present, const std::string& how, const std::string& message);
   const WearHistory& history() const noexcept { return history_; }
+  const AlertTracker& alerts() const noexcept { return alerts_; }
 
  private:
+  void observe_channel_alerts(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
+  void assess_wear(int channel, double cycles, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
+
   config::GearwatchConfig config_;
   dsp::RecordAnalyzer analyzer_;
   WearHistory history_;
-  std::map<int, std::string> last_mechanism_;
-  std::map<int, std::size_t> last_jumps_;
+  AlertTracker alerts_;
 };
 
 /// The wear history of the gear pair now installed, from an existing database: analysed
 /// records with a cycle count since the last life-counter reset. Empty for a new database.
 WearHistory load_wear_history(const std::string& database_path);
+
+/// The alert states stored by earlier runs (table alert_state). Empty for a new database.
+AlertStates load_alert_states(const std::string& database_path);
 
 }  // namespace gearwatch::daemon

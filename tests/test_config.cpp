@@ -136,6 +136,10 @@ TEST_CASE("config: the shipped configuration files parse", "[config]") {
   CHECK(p.max_clipped_fraction == d.max_clipped_fraction);
   CHECK(p.trend_significance == d.trend_significance);
   CHECK(p.trend_window_records == d.trend_window_records);
+  CHECK(p.band_jump_persistence_records == d.band_jump_persistence_records);
+  CHECK(p.band_jump_sigma == d.band_jump_sigma);
+  CHECK(example.alerts.wear_clear_after_records == empty.alerts.wear_clear_after_records);
+  CHECK(example.alerts.sensor_clear_after_records == empty.alerts.sensor_clear_after_records);
 }
 
 TEST_CASE("config: [processing] sets the signal-processing settings", "[config]") {

@@ -58,12 +58,12 @@ TEST_CASE("Wear mechanism from synthetic ICS2 histories", "[dsp][wear_mechanism]
   CHECK(pitting.mechanism == WearMechanism::fatigue_pitting);
   CHECK(pitting.low_band.increasing);
   CHECK_FALSE(pitting.high_band.increasing);
-  CHECK(std::string(to_string(pitting.mechanism)) == "fatigue pitting");
+  CHECK(std::string(to_string(pitting.mechanism)) == "fatigue_pitting");
   CHECK(pitting.evidence.find("low band: n=15") != std::string::npos);
 
   auto abrasion = identify_wear_mechanism(history(0.0, 0.005), settings);
   CHECK(abrasion.mechanism == WearMechanism::abrasive_wear);
-  CHECK(std::string(to_string(abrasion.mechanism)) == "abrasive wear");
+  CHECK(std::string(to_string(abrasion.mechanism)) == "abrasive_wear");
 
   auto both = identify_wear_mechanism(history(0.005, 0.005), settings);
   CHECK(both.mechanism == WearMechanism::both);
@@ -86,16 +86,61 @@ TEST_CASE("Wear mechanism from synthetic ICS2 histories", "[dsp][wear_mechanism]
   CHECK(identify_wear_mechanism({}, settings).mechanism == WearMechanism::undetermined);
 }
 
-TEST_CASE("Selected-band jumps are flagged at octave changes", "[dsp][wear_mechanism]") {
-  SignalProcessingSettings settings;
-  std::vector<WearHistoryPoint> h;
-  const double centres[] = {30000, 31000, 29000, 8000, 8500, std::nan(""), 9000, 25000};
-  for (int i = 0; i < 8; ++i) h.push_back({double(i), 0.01, 0.01, centres[i]});
-  const auto v = identify_wear_mechanism(h, settings);
-  REQUIRE(v.band_jumps.size() == 2);
-  CHECK(v.band_jumps[0].cycles == 3);
-  CHECK(v.band_jumps[0].from_hz == 29000);
+TEST_CASE("Mechanism tokens are the stored snake_case values, each once", "[dsp][wear_mechanism]") {
+  std::vector<std::string> tokens;
+  for (auto m : kAllWearMechanisms) tokens.emplace_back(to_string(m));
+  CHECK(tokens == std::vector<std::string>{"none", "fatigue_pitting", "abrasive_wear", "both", "undetermined"});
+  CHECK(is_wear(WearMechanism::fatigue_pitting));
+  CHECK(is_wear(WearMechanism::abrasive_wear));
+  CHECK(is_wear(WearMechanism::both));
+  CHECK_FALSE(is_wear(WearMechanism::none));
+  CHECK_FALSE(is_wear(WearMechanism::undetermined));
+}
+
+TEST_CASE("A band jump is reported only when the new band lasts and its ICS2 rises beyond the old scatter",
+          "[dsp][wear_mechanism]") {
+  SignalProcessingSettings settings;  // persistence 2 records, 3 sigma
+  auto point = [](double cycles, double centre, double ics2) {
+    WearHistoryPoint p{cycles, 0.01, 0.01, centre};
+    p.selected_ics2 = ics2;
+    return p;
+  };
+  // Established band at ~30 kHz: ICS2 0.010, 0.012, 0.011, 0.009: mean 0.0105, sample standard
+  // deviation sqrt(0.00000500/3) = 0.0012910. The new band (8 kHz) holds 0.050 and 0.060 for two
+  // records: mean 0.055 > 0.0105 + 3 x 0.0012910 = 0.014373 -> one jump at the first of them.
+  std::vector<WearHistoryPoint> h{point(0, 30000, 0.010), point(1, 31000, 0.012), point(2, 29000, 0.011),
+                                  point(3, 30500, 0.009), point(4, 8000, 0.050),  point(5, 8500, 0.060),
+                                  point(6, 9000, 0.058)};
+  auto v = identify_wear_mechanism(h, settings);
+  REQUIRE(v.band_jumps.size() == 1);
+  CHECK(v.band_jumps[0].cycles == 4);
+  CHECK(v.band_jumps[0].from_hz == 30000);
   CHECK(v.band_jumps[0].to_hz == 8000);
-  CHECK(v.band_jumps[1].cycles == 7);  // 9000 -> 25000 (NaN point skipped)
-  CHECK(v.evidence.find("jump at 3 cycles 29000 Hz -> 8000 Hz") != std::string::npos);
+  CHECK(v.band_jumps[0].from_ics2 == Approx(0.0105).epsilon(1e-12));
+  CHECK(v.band_jumps[0].to_ics2 == Approx(0.055).epsilon(1e-12));
+  CHECK(v.evidence.find("band jumps: 1") != std::string::npos);
+
+  // The same move seen for one record only: not yet a jump (it may be an excursion).
+  h.resize(5);
+  CHECK(identify_wear_mechanism(h, settings).band_jumps.empty());
+
+  // The new band lasts but its ICS2 is within the old band's scatter: the band is re-established
+  // silently (a healthy gearbox's selected band wanders between equally noisy bands).
+  std::vector<WearHistoryPoint> wander{point(0, 3559, 0.010), point(1, 3600, 0.012), point(2, 3500, 0.011),
+                                       point(3, 8305, 0.012), point(4, 8200, 0.011), point(5, 3559, 0.010),
+                                       point(6, 3600, 0.011), point(7, 8305, 0.013), point(8, 3559, 0.012)};
+  CHECK(identify_wear_mechanism(wander, settings).band_jumps.empty());
+
+  // Fewer than 3 records in the established band: no scatter to judge against, no jump.
+  std::vector<WearHistoryPoint> young{point(0, 30000, 0.010), point(1, 30000, 0.011), point(2, 8000, 0.5),
+                                      point(3, 8000, 0.5)};
+  CHECK(identify_wear_mechanism(young, settings).band_jumps.empty());
+
+  // Records without a selected band (NaN) are passed over.
+  std::vector<WearHistoryPoint> gaps{point(0, 30000, 0.010), point(1, std::nan(""), 0.011), point(2, 30000, 0.011),
+                                     point(3, 30000, 0.012), point(4, 30000, 0.009), point(5, 8000, 0.05),
+                                     point(6, 8000, std::nan("")), point(7, 8000, 0.06)};
+  v = identify_wear_mechanism(gaps, settings);
+  REQUIRE(v.band_jumps.size() == 1);
+  CHECK(v.band_jumps[0].cycles == 5);
 }

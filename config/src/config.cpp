@@ -102,7 +102,8 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
   GearwatchConfig cfg;
   cfg.source_path = file;
   static const std::set<std::string> known{"rig", "gears", "channels", "tachos", "records", "protocol",
-                                           "acquisition", "storage", "logging", "daemon", "processing", "twin"};
+                                           "acquisition", "storage", "logging", "daemon", "processing", "twin",
+                                           "alerts"};
   for (const auto& [k, v] : root) {
     if (!known.count(std::string{k.str()})) {
       throw ConfigError(file + ":" + std::to_string(v.source().begin.line) + ": key '" + std::string{k.str()} + "': unknown table or key");
@@ -235,6 +236,12 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.reject_unknown();
   }
   {
+    TableReader t(sub_table(root, "alerts", file), "alerts.", file);
+    t.integer("wear_clear_after_records", cfg.alerts.wear_clear_after_records, 1, 100000);
+    t.integer("sensor_clear_after_records", cfg.alerts.sensor_clear_after_records, 1, 100000);
+    t.reject_unknown();
+  }
+  {
     const toml::table* tbl = sub_table(root, "processing", file);
     TableReader t(tbl, "processing.", file);
     auto& p = cfg.processing;
@@ -270,6 +277,8 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.number("max_clipped_fraction", p.max_clipped_fraction, 0.0, 1.0);
     t.number("trend_significance", p.trend_significance, 1e-6, 0.5);
     t.integer("trend_window_records", p.trend_window_records, 3, 1000000);
+    t.integer("band_jump_persistence_records", p.band_jump_persistence_records, 1, 1000);
+    t.number("band_jump_sigma", p.band_jump_sigma, 0.0, 1000.0);
     t.reject_unknown();
     try {
       p.validate(cfg.rig);

@@ -3,11 +3,15 @@
 #include <array>
 #include <string>
 
+#include "gearwatch/alerts.hpp"
+#include "gearwatch/dsp/wear_mechanism.hpp"
+#include "gearwatch/record.hpp"
+
 namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 2> kMigrations{
+constexpr std::array<const char*, 3> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -162,13 +166,96 @@ CREATE VIEW wear_mechanism AS
          a.low_band_p, a.high_band_p, a.low_band_rho, a.high_band_rho, a.band_jumps, a.evidence
   FROM wear_mechanism_assessments a JOIN records r ON r.id = a.record_id;
 )SQL",
+    // 2 -> 3: one vocabulary for every enumerated value (filled from the enums at each writable
+    // open, checked by triggers), alert transitions and their persistent state, skip details.
+    R"SQL(
+CREATE TABLE vocabulary (
+  domain TEXT NOT NULL,
+  token TEXT NOT NULL,
+  PRIMARY KEY (domain, token)
+) WITHOUT ROWID;
+ALTER TABLE alert_events ADD COLUMN channel INTEGER;
+ALTER TABLE alert_events ADD COLUMN transition TEXT NOT NULL DEFAULT 'event';
+ALTER TABLE alert_events ADD COLUMN value TEXT;
+ALTER TABLE indicator_skips ADD COLUMN detail TEXT;
+ALTER TABLE health_snapshots ADD COLUMN storage_rows_rejected INTEGER NOT NULL DEFAULT 0;
+CREATE TABLE alert_state (
+  kind TEXT NOT NULL,
+  channel INTEGER NOT NULL,
+  active INTEGER NOT NULL,
+  value TEXT,
+  consecutive_present INTEGER NOT NULL,
+  consecutive_absent INTEGER NOT NULL,
+  marker REAL NOT NULL DEFAULT 0,
+  updated_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  PRIMARY KEY (kind, channel)
+) WITHOUT ROWID;
+CREATE TRIGGER alert_events_kind_in_vocabulary BEFORE INSERT ON alert_events
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'alert_kind')
+   AND NEW.kind NOT IN (SELECT token FROM vocabulary WHERE domain = 'alert_kind')
+BEGIN SELECT RAISE(ABORT, 'alert_events.kind: value not in vocabulary domain alert_kind'); END;
+CREATE TRIGGER alert_events_severity_in_vocabulary BEFORE INSERT ON alert_events
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'alert_severity')
+   AND NEW.severity NOT IN (SELECT token FROM vocabulary WHERE domain = 'alert_severity')
+BEGIN SELECT RAISE(ABORT, 'alert_events.severity: value not in vocabulary domain alert_severity'); END;
+CREATE TRIGGER alert_events_transition_in_vocabulary BEFORE INSERT ON alert_events
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'alert_transition')
+   AND NEW.transition NOT IN (SELECT token FROM vocabulary WHERE domain = 'alert_transition')
+BEGIN SELECT RAISE(ABORT, 'alert_events.transition: value not in vocabulary domain alert_transition'); END;
+CREATE TRIGGER alert_state_kind_in_vocabulary BEFORE INSERT ON alert_state
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'alert_kind')
+   AND NEW.kind NOT IN (SELECT token FROM vocabulary WHERE domain = 'alert_kind')
+BEGIN SELECT RAISE(ABORT, 'alert_state.kind: value not in vocabulary domain alert_kind'); END;
+CREATE TRIGGER indicator_skips_reason_in_vocabulary BEFORE INSERT ON indicator_skips
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'skip_reason')
+   AND NEW.reason NOT IN (SELECT token FROM vocabulary WHERE domain = 'skip_reason')
+BEGIN SELECT RAISE(ABORT, 'indicator_skips.reason: value not in vocabulary domain skip_reason'); END;
+CREATE TRIGGER rejected_frames_kind_in_vocabulary BEFORE INSERT ON rejected_frames
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'rejected_frame_kind')
+   AND NEW.kind NOT IN (SELECT token FROM vocabulary WHERE domain = 'rejected_frame_kind')
+BEGIN SELECT RAISE(ABORT, 'rejected_frames.kind: value not in vocabulary domain rejected_frame_kind'); END;
+CREATE TRIGGER gap_events_cause_in_vocabulary BEFORE INSERT ON gap_events
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'gap_cause')
+   AND NEW.cause NOT IN (SELECT token FROM vocabulary WHERE domain = 'gap_cause')
+BEGIN SELECT RAISE(ABORT, 'gap_events.cause: value not in vocabulary domain gap_cause'); END;
+DROP VIEW alerts;
+CREATE VIEW alerts AS
+  SELECT id, created_at, severity, kind, channel, transition, value, record_id, message FROM alert_events;
+CREATE VIEW active_alerts AS
+  SELECT s.kind, CASE WHEN s.channel < 0 THEN NULL ELSE s.channel END AS channel, s.value,
+         (SELECT max(e.created_at) FROM alert_events e
+           WHERE e.kind = s.kind AND coalesce(e.channel, -1) = s.channel AND e.transition = 'raised') AS raised_at,
+         s.updated_at
+  FROM alert_state s WHERE s.active = 1;
+DROP VIEW record_status;
+CREATE VIEW record_status AS
+  SELECT r.id AS record_id, s.run_id, s.stream_id, r.start_index, r.sample_count, r.duration_s,
+         r.end_reason, r.analysed, r.reject_reason, r.created_at,
+         (SELECT group_concat(k.channel || ' ' || k.name || ': ' || k.reason || coalesce(' (' || k.detail || ')', ''), '; ')
+            FROM indicator_skips k WHERE k.record_id = r.id) AS skipped
+  FROM records r JOIN streams s ON s.id = r.stream_key;
+)SQL",
 };
 
 }  // namespace
 
 int current_schema_version() noexcept { return static_cast<int>(kMigrations.size()); }
 
-void open_and_migrate(Database& db) {
+Vocabulary core_vocabulary() {
+  Vocabulary v;
+  auto add = [&](const char* domain, const auto& all) {
+    auto& tokens = v[domain];
+    for (auto value : all) tokens.emplace_back(to_string(value));
+  };
+  add("record_end_reason", kAllRecordEnds);
+  add("wear_mechanism", dsp::kAllWearMechanisms);
+  add("alert_kind", kAllAlertKinds);
+  add("alert_severity", kAllAlertSeverities);
+  add("alert_transition", kAllAlertTransitions);
+  return v;
+}
+
+void open_and_migrate(Database& db, const Vocabulary& extra) {
   db.exec("PRAGMA journal_mode = WAL");
   db.exec("PRAGMA synchronous = FULL");
   db.exec("PRAGMA foreign_keys = ON");
@@ -183,6 +270,16 @@ void open_and_migrate(Database& db) {
     db.set_user_version(v + 1);
     tx.commit();
   }
+  // The vocabulary is this build's: rewritten at every writable open, so the database accepts
+  // exactly the values this binary can produce.
+  Vocabulary vocabulary = core_vocabulary();
+  for (const auto& [domain, tokens] : extra) vocabulary[domain] = tokens;
+  Transaction tx(db);
+  db.exec("DELETE FROM vocabulary");
+  Statement insert(db, "INSERT OR IGNORE INTO vocabulary(domain, token) VALUES (?, ?)");
+  for (const auto& [domain, tokens] : vocabulary)
+    for (const auto& token : tokens) insert.bind(1, domain).bind(2, token).run();
+  tx.commit();
 }
 
 }  // namespace gearwatch::storage

@@ -171,4 +171,22 @@ void Transaction::commit() {
   done_ = true;
 }
 
+Savepoint::Savepoint(Database& db) : db_(db) { db_.exec("SAVEPOINT part"); }
+
+Savepoint::~Savepoint() {
+  if (!done_) {
+    try {
+      db_.exec("ROLLBACK TO part");
+      db_.exec("RELEASE part");
+    } catch (...) {
+      // The enclosing transaction is gone (e.g. after SQLITE_FULL); its own rollback handles it.
+    }
+  }
+}
+
+void Savepoint::release() {
+  db_.exec("RELEASE part");
+  done_ = true;
+}
+
 }  // namespace gearwatch::storage

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <future>
 #include <map>
+#include <optional>
 
 #include <spdlog/spdlog.h>
 
@@ -22,9 +23,25 @@ struct WriterState {
   std::map<std::uint64_t, std::int64_t> stream_keys;  // stream sequence -> streams.id
 };
 
+// Writes `part` in a savepoint; a constraint failure (a bug in what was submitted) drops that
+// part alone, logged with what it was. Transient errors go up: the whole batch is retried.
+template <class Part>
+void write_part(Database& db, WriterCounters& counters, const char* what, const std::string& context, Part&& part) {
+  Savepoint sp(db);
+  try {
+    part();
+    sp.release();
+  } catch (const SqliteError& e) {
+    if (e.transient()) throw;
+    const auto n = counters.rows_rejected.fetch_add(1, std::memory_order_relaxed) + 1;
+    if (n <= 10 || n % 1000 == 0)
+      spdlog::critical("storage: {} of {} refused ({} refused so far), the rest is stored: {}", what, context, n, e.what());
+  }
+}
+
 class BatchWriter {
  public:
-  BatchWriter(Database& db, WriterState& state) : db_(db), state_(state) {}
+  BatchWriter(Database& db, WriterState& state, WriterCounters& counters) : db_(db), state_(state), counters_(counters) {}
 
   void write(const RunStarted& m) {
     Statement s(db_, "INSERT INTO runs(kind, source, config_path) VALUES (?, ?, ?)");
@@ -47,35 +64,44 @@ class BatchWriter {
                 "INSERT INTO records(stream_key, start_index, sample_count, duration_s, end_reason, analysed, reject_reason,"
                 " torque_nm, speed_hz, input_revolutions) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
     s.bind(1, stream(m.stream_sequence)).bind(2, m.start_index).bind(3, m.sample_count).bind(4, m.duration_s)
-        .bind(5, m.end_reason).bind(6, m.analysed ? 1 : 0);
+        .bind(5, to_string(m.end_reason)).bind(6, m.analysed ? 1 : 0);
     if (m.reject_reason.empty()) s.bind_null(7);
     else s.bind(7, m.reject_reason);
     s.bind(8, m.torque_nm).bind(9, m.speed_hz).bind(10, m.input_revolutions).run();
     const std::int64_t record_id = db_.last_insert_rowid();
     Statement value(db_, "INSERT OR REPLACE INTO indicator_values(record_id, channel, name, value) VALUES (?, ?, ?, ?)");
-    Statement skip(db_, "INSERT OR REPLACE INTO indicator_skips(record_id, channel, name, reason) VALUES (?, ?, ?, ?)");
     Statement band(db_, "INSERT OR REPLACE INTO band_selections(record_id, channel, criterion, level, centre_hz, bandwidth_hz, value)"
                         " VALUES (?, ?, ?, ?, ?, ?, ?)");
     for (const auto& ch : m.channels) {
       for (const auto& [name, v] : ch.values) value.bind(1, record_id).bind(2, ch.channel).bind(3, name).bind(4, v).run();
-      for (const auto& [name, why] : ch.skipped) skip.bind(1, record_id).bind(2, ch.channel).bind(3, name).bind(4, why).run();
       for (const auto& b : ch.bands)
         band.bind(1, record_id).bind(2, ch.channel).bind(3, b.criterion).bind(4, b.level).bind(5, b.centre_hz)
             .bind(6, b.bandwidth_hz).bind(7, b.value).run();
     }
-    if (!m.assessments.empty()) {
-      Statement a(db_, "INSERT OR REPLACE INTO wear_mechanism_assessments(record_id, channel, mechanism, points, low_band_p,"
-                       " high_band_p, low_band_rho, high_band_rho, band_jumps, evidence) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
-      for (const auto& w : m.assessments)
-        a.bind(1, record_id).bind(2, w.channel).bind(3, w.mechanism).bind(4, w.points).bind(5, w.low_band_p)
-            .bind(6, w.high_band_p).bind(7, w.low_band_rho).bind(8, w.high_band_rho).bind(9, w.band_jumps)
-            .bind(10, w.evidence).run();
-    }
-    if (!m.alerts.empty()) {
-      Statement a(db_, "INSERT INTO alert_events(record_id, severity, kind, message) VALUES (?, 'warning', ?, ?)");
-      for (const auto& [kind, msg] : m.alerts) a.bind(1, record_id).bind(2, kind).bind(3, msg).run();
-    }
+    const std::string context = "record " + std::to_string(record_id) + " (stream " + std::to_string(m.stream_sequence) +
+                                ", index " + std::to_string(m.start_index) + ")";
+    for (const auto& ch : m.channels)
+      for (const auto& k : ch.skipped)
+        write_part(db_, counters_, "skip reason", context + " channel " + std::to_string(ch.channel) + " " + k.name + ": " + k.reason,
+                   [&] {
+                     Statement skip(db_, "INSERT OR REPLACE INTO indicator_skips(record_id, channel, name, reason, detail) VALUES (?, ?, ?, ?, ?)");
+                     skip.bind(1, record_id).bind(2, ch.channel).bind(3, k.name).bind(4, k.reason);
+                     if (k.detail.empty()) skip.bind_null(5);
+                     else skip.bind(5, k.detail);
+                     skip.run();
+                   });
+    for (const auto& w : m.assessments)
+      write_part(db_, counters_, "wear assessment", context + " channel " + std::to_string(w.channel) + ": " + dsp::to_string(w.mechanism),
+                 [&] {
+                   Statement a(db_, "INSERT OR REPLACE INTO wear_mechanism_assessments(record_id, channel, mechanism, points, low_band_p,"
+                                    " high_band_p, low_band_rho, high_band_rho, band_jumps, evidence) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                   a.bind(1, record_id).bind(2, w.channel).bind(3, dsp::to_string(w.mechanism)).bind(4, w.points).bind(5, w.low_band_p)
+                       .bind(6, w.high_band_p).bind(7, w.low_band_rho).bind(8, w.high_band_rho).bind(9, w.band_jumps)
+                       .bind(10, w.evidence).run();
+                 });
+    write_alerts(m.alerts, m.alert_states, record_id, context);
   }
+  void write(const AlertUpdate& m) { write_alerts(m.alerts, m.alert_states, std::nullopt, "alert update"); }
   void write(const GapEvent& m) {
     Statement s(db_, "INSERT INTO gap_events(stream_key, channel, first_missing_index, missing_samples, cause) VALUES (?, ?, ?, ?, ?)");
     s.bind(1, stream(m.stream_sequence)).bind(2, m.channel).bind(3, m.first_missing_index).bind(4, m.missing_samples)
@@ -84,10 +110,6 @@ class BatchWriter {
   void write(const LifeCounterEvent& m) {
     Statement s(db_, "INSERT INTO life_counter_events(stream_key, sample_index, previous_revolutions, revolutions) VALUES (?, ?, ?, ?)");
     s.bind(1, stream(m.stream_sequence)).bind(2, m.sample_index).bind(3, m.previous_revolutions).bind(4, m.revolutions).run();
-    Statement a(db_, "INSERT INTO alert_events(severity, kind, message) VALUES ('warning', 'life_counter_reset', ?)");
-    a.bind(1, "life counter went backwards from " + std::to_string(m.previous_revolutions) + " to " +
-                  std::to_string(m.revolutions) + " revolutions: new gear pair or front-end fault; history not merged")
-        .run();
   }
   void write(const RejectedFrame& m) {
     Statement s(db_, "INSERT INTO rejected_frames(run_id, kind, reason, frame) VALUES (?, ?, ?, ?)");
@@ -108,6 +130,29 @@ class BatchWriter {
   }
 
  private:
+  void write_alerts(const std::vector<AlertEvent>& alerts, const std::vector<std::pair<AlertKey, AlertState>>& states,
+                    std::optional<std::int64_t> record_id, const std::string& context) {
+    for (const auto& e : alerts)
+      write_part(db_, counters_, "alert", context + ": " + to_string(e.key.kind) + " " + to_string(e.transition) + " " + e.value, [&] {
+        Statement a(db_, "INSERT INTO alert_events(record_id, severity, kind, channel, transition, value, message)"
+                         " VALUES (?, ?, ?, ?, ?, ?, ?)");
+        a.bind(1, record_id).bind(2, to_string(e.severity)).bind(3, to_string(e.key.kind));
+        if (e.key.channel < 0) a.bind_null(4);
+        else a.bind(4, e.key.channel);
+        a.bind(5, to_string(e.transition));
+        if (e.value.empty()) a.bind_null(6);
+        else a.bind(6, e.value);
+        a.bind(7, e.message).run();
+      });
+    for (const auto& [key, st] : states)
+      write_part(db_, counters_, "alert state", context + ": " + to_string(key.kind), [&] {
+        Statement a(db_, "INSERT OR REPLACE INTO alert_state(kind, channel, active, value, consecutive_present, consecutive_absent,"
+                         " marker) VALUES (?, ?, ?, ?, ?, ?, ?)");
+        a.bind(1, to_string(key.kind)).bind(2, key.channel).bind(3, st.active ? 1 : 0).bind(4, st.value)
+            .bind(5, st.consecutive_present).bind(6, st.consecutive_absent).bind(7, st.marker).run();
+      });
+  }
+
   std::int64_t run() const {
     if (state_.run_id == 0) throw SqliteError(0, "message before RunStarted");
     return state_.run_id;
@@ -119,6 +164,7 @@ class BatchWriter {
   }
   Database& db_;
   WriterState& state_;
+  WriterCounters& counters_;
 };
 
 }  // namespace
@@ -137,7 +183,7 @@ void StorageWriter::start() {
     std::unique_ptr<Database> db;
     try {
       db = std::make_unique<Database>(options_.database, Database::Mode::read_write_create, options_.busy_timeout_ms);
-      open_and_migrate(*db);
+      open_and_migrate(*db, options_.vocabulary);
     } catch (...) {
       p.set_exception(std::current_exception());
       return;
@@ -167,7 +213,7 @@ void StorageWriter::start() {
       auto commit_range = [&](std::size_t from, std::size_t to) {
         WriterState trial = state;
         Transaction tx(*db);
-        BatchWriter writer(*db, trial);
+        BatchWriter writer(*db, trial, counters_);
         for (std::size_t i = from; i < to; ++i) std::visit([&](const auto& msg) { writer.write(msg); }, batch[i]);
         tx.commit();
         state = std::move(trial);

@@ -21,6 +21,7 @@ enum class RecordEnd : std::uint8_t {
 };
 
 const char* to_string(RecordEnd end) noexcept;
+inline constexpr std::array kAllRecordEnds{RecordEnd::complete, RecordEnd::cut_at_gap, RecordEnd::stream_end};
 
 struct Record {
   std::int64_t stream_key = 0;        ///< database id of the stream (0 when not stored)

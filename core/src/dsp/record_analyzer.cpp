@@ -99,6 +99,8 @@ void SignalProcessingSettings::validate(const RigSpec& rig) const {
   require(max_clipped_fraction >= 0.0 && max_clipped_fraction <= 1.0, "max_clipped_fraction must be in [0, 1]");
   require(trend_significance > 0.0 && trend_significance <= 0.5, "trend_significance must be in (0, 0.5]");
   require(trend_window_records >= 3, "trend_window_records must be at least 3");
+  require(band_jump_persistence_records >= 1, "band_jump_persistence_records must be at least 1");
+  require(std::isfinite(band_jump_sigma) && band_jump_sigma >= 0.0, "band_jump_sigma must be >= 0");
   require(rig.gears.pinion_teeth >= 1 && rig.gears.gear_teeth >= 1, "rig tooth counts must be positive");
   require(rig.sample_rate_hz > 0.0, "rig sample rate must be positive");
   require(rig.min_speed_hz > 0.0 && rig.max_speed_hz > rig.min_speed_hz, "rig speed range must satisfy 0 < min < max");

@@ -13,8 +13,8 @@ namespace gearwatch::dsp {
 const char* to_string(WearMechanism mechanism) noexcept {
   switch (mechanism) {
     case WearMechanism::none: return "none";
-    case WearMechanism::fatigue_pitting: return "fatigue pitting";
-    case WearMechanism::abrasive_wear: return "abrasive wear";
+    case WearMechanism::fatigue_pitting: return "fatigue_pitting";
+    case WearMechanism::abrasive_wear: return "abrasive_wear";
     case WearMechanism::both: return "both";
     case WearMechanism::undetermined: return "undetermined";
   }
@@ -40,6 +40,61 @@ std::vector<double> ranks(const std::vector<double>& v) {
 }
 
 double two_sided_p(double z) { return std::erfc(std::abs(z) / std::sqrt(2.0)); }
+
+bool within_octave(double a, double b) { return std::abs(std::log2(a / b)) < 1.0; }
+
+double mean_of(const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size()); }
+
+double standard_deviation(const std::vector<double>& v) {
+  const double m = mean_of(v);
+  double s2 = 0.0;
+  for (double x : v) s2 += (x - m) * (x - m);
+  return std::sqrt(s2 / static_cast<double>(v.size() - 1));
+}
+
+// See BandJump. `points` are sorted by cycles.
+std::vector<BandJump> significant_band_jumps(const std::vector<WearHistoryPoint>& points,
+                                             const SignalProcessingSettings& settings) {
+  const auto persistence = static_cast<std::size_t>(std::max(1, settings.band_jump_persistence_records));
+  constexpr std::size_t kScatterWindow = 20;  // the established band's recent records only
+  std::vector<const WearHistoryPoint*> usable;
+  for (const auto& p : points)
+    if (std::isfinite(p.selected_centre_hz) && p.selected_centre_hz > 0 && std::isfinite(p.selected_ics2))
+      usable.push_back(&p);
+  std::vector<BandJump> jumps;
+  if (usable.empty()) return jumps;
+  double established = usable.front()->selected_centre_hz;
+  std::vector<double> established_ics2{usable.front()->selected_ics2};
+  for (std::size_t i = 1; i < usable.size(); ++i) {
+    const auto& p = *usable[i];
+    if (within_octave(p.selected_centre_hz, established)) {
+      established_ics2.push_back(p.selected_ics2);
+      if (established_ics2.size() > kScatterWindow) established_ics2.erase(established_ics2.begin());
+      continue;
+    }
+    // A candidate: does the new band last?
+    if (i + persistence > usable.size()) break;  // not enough records yet to judge
+    std::vector<double> candidate_ics2;
+    bool lasts = true;
+    for (std::size_t k = i; k < i + persistence; ++k) {
+      if (!within_octave(usable[k]->selected_centre_hz, p.selected_centre_hz)) {
+        lasts = false;
+        break;
+      }
+      candidate_ics2.push_back(usable[k]->selected_ics2);
+    }
+    if (!lasts) continue;  // a one-record excursion: the established band stays
+    const double from_mean = mean_of(established_ics2);
+    const double to_mean = mean_of(candidate_ics2);
+    if (established_ics2.size() >= 3 &&
+        to_mean > from_mean + settings.band_jump_sigma * standard_deviation(established_ics2))
+      jumps.push_back({p.cycles, established, p.selected_centre_hz, from_mean, to_mean});
+    established = p.selected_centre_hz;
+    established_ics2 = candidate_ics2;
+    i += persistence - 1;
+  }
+  return jumps;
+}
 
 }  // namespace
 
@@ -120,15 +175,7 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
   v.low_band = trend_test(cycles, low, alpha);
   v.high_band = trend_test(cycles, high, alpha);
 
-  // Band jumps: consecutive finite centres an octave or more apart (seed Figs 4.8, 4.15: the
-  // selected band moves between the low and high carrier ranges when the mechanism changes).
-  double previous = std::nan("");
-  for (const auto& p : points) {
-    if (!std::isfinite(p.selected_centre_hz) || p.selected_centre_hz <= 0) continue;
-    if (std::isfinite(previous) && std::abs(std::log2(p.selected_centre_hz / previous)) >= 1.0)
-      v.band_jumps.push_back({p.cycles, previous, p.selected_centre_hz});
-    previous = p.selected_centre_hz;
-  }
+  v.band_jumps = significant_band_jumps(points, settings);
 
   const std::size_t needed = minimum_points_for_trend(alpha);
   if (v.low_band.points < needed && v.high_band.points < needed) {

@@ -56,6 +56,14 @@ struct DaemonSettings {
   int processing_nice = 10;                        ///< nice value of the processing thread (0 = unchanged)
 };
 
+/// Hysteresis of the alerts (docs/daemon.md "Alerts"): consecutive records a condition must be
+/// absent before its alert clears. Raising is immediate: the wear verdict already integrates a
+/// significant trend over many records, and a dead sensor must be reported at once.
+struct AlertSettings {
+  int wear_clear_after_records = 3;
+  int sensor_clear_after_records = 1;
+};
+
 struct GearwatchConfig {
   RigSpec rig;
   dsp::SignalProcessingSettings processing;
@@ -64,6 +72,7 @@ struct GearwatchConfig {
   StorageSettings storage;
   LoggingSettings logging;
   DaemonSettings daemon;
+  AlertSettings alerts;
   std::string source_path;                          ///< the file it came from ("" for defaults)
 };
 

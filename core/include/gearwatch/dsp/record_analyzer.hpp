@@ -49,6 +49,10 @@ struct SignalProcessingSettings {
   /// recording every 10 min for years must not slow down with age (the seed's lubricated test
   /// had ~540 records over 3.25 M cycles).
   int trend_window_records = 500;
+  /// Band jumps (see dsp::BandJump): records the new band must last, and how many standard
+  /// deviations of the established band's ICS2 the new band's mean must exceed.
+  int band_jump_persistence_records = 2;
+  double band_jump_sigma = 3.0;
 
   /// Throws std::invalid_argument naming the setting when it is unusable for any record
   /// (non-power-of-two resolution, N > stored harmonics, inverted or negative bands, ...).

@@ -4,6 +4,8 @@
 // -> abrasive wear; both -> both; neither -> none; too short a history -> undetermined.
 // Trends are tested with Mann-Kendall (tie-corrected variance, normal approximation, two-sided);
 // Spearman's rho is reported alongside. Jumps of the ICS2-selected carrier band are flagged.
+#include <array>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -17,10 +19,19 @@ struct WearHistoryPoint {
   double ics2_low = 0.0;            ///< ICS2 in the pitting (low) carrier band; NaN = not available
   double ics2_high = 0.0;           ///< ICS2 in the abrasion (high) carrier band; NaN = not available
   double selected_centre_hz = 0.0;  ///< centre of the ICS2-selected band; NaN = not available
+  double selected_ics2 = std::numeric_limits<double>::quiet_NaN();  ///< ICS2 in that band; NaN = not available
 };
 
 enum class WearMechanism { none, fatigue_pitting, abrasive_wear, both, undetermined };
+/// The stored tokens: none, fatigue_pitting, abrasive_wear, both, undetermined.
 const char* to_string(WearMechanism mechanism) noexcept;
+inline constexpr std::array kAllWearMechanisms{WearMechanism::none, WearMechanism::fatigue_pitting,
+                                               WearMechanism::abrasive_wear, WearMechanism::both,
+                                               WearMechanism::undetermined};
+/// True for the verdicts that mean wear is under way.
+constexpr bool is_wear(WearMechanism m) noexcept {
+  return m == WearMechanism::fatigue_pitting || m == WearMechanism::abrasive_wear || m == WearMechanism::both;
+}
 
 struct TrendTest {
   std::size_t points = 0;
@@ -38,16 +49,25 @@ TrendTest trend_test(std::span<const double> x, std::span<const double> y, doubl
 /// Smallest number of points at which a perfectly monotonic series can reach `significance`.
 std::size_t minimum_points_for_trend(double significance);
 
+/// A significant, lasting move of the ICS2-selected carrier band (seed Figs 4.8, 4.15): the new
+/// centre is an octave or more from the established one, stays within an octave of itself for
+/// settings.band_jump_persistence_records records, and its mean ICS2 over them exceeds the
+/// established band's mean by more than settings.band_jump_sigma times that band's
+/// record-to-record scatter (standard deviation; at least 3 earlier records are needed to judge).
+/// A move that persists without the ICS2 rise re-establishes the band silently: on a healthy
+/// gearbox the selected band wanders between bands of equal, noise-level ICS2.
 struct BandJump {
-  double cycles = 0.0;       ///< at the later point
+  double cycles = 0.0;       ///< at the first record in the new band
   double from_hz = 0.0;
   double to_hz = 0.0;
+  double from_ics2 = 0.0;    ///< mean ICS2 of the established band
+  double to_ics2 = 0.0;      ///< mean ICS2 over the persistence records in the new band
 };
 
 struct WearMechanismVerdict {
   WearMechanism mechanism = WearMechanism::undetermined;
   TrendTest low_band, high_band;
-  std::vector<BandJump> band_jumps;   ///< selected centre moved by an octave or more
+  std::vector<BandJump> band_jumps;   ///< significant moves of the selected band (see BandJump)
   std::string evidence;               ///< one line: statistics, p-values, jumps
 };
 

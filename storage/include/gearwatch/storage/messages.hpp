@@ -7,6 +7,10 @@
 #include <variant>
 #include <vector>
 
+#include "gearwatch/alerts.hpp"
+#include "gearwatch/dsp/wear_mechanism.hpp"
+#include "gearwatch/record.hpp"
+
 namespace gearwatch::storage {
 
 struct RunStarted {
@@ -31,16 +35,22 @@ struct BandSelectionRow {
   double level = 0, centre_hz = 0, bandwidth_hz = 0, value = 0;
 };
 
+struct SkippedRow {
+  std::string name;     ///< indicator
+  std::string reason;   ///< a skip_reason token
+  std::string detail;   ///< free text ("" = none)
+};
+
 struct ChannelResult {
   int channel = 0;
   std::vector<std::pair<std::string, double>> values;
-  std::vector<std::pair<std::string, std::string>> skipped;   ///< indicator name, reason
+  std::vector<SkippedRow> skipped;
   std::vector<BandSelectionRow> bands;
 };
 
 struct WearAssessment {
   int channel = 0;
-  std::string mechanism;                  ///< none | fatigue_pitting | abrasive_wear | both | undetermined
+  dsp::WearMechanism mechanism = dsp::WearMechanism::undetermined;
   std::uint64_t points = 0;
   double low_band_p = 1, high_band_p = 1, low_band_rho = 0, high_band_rho = 0;
   std::uint64_t band_jumps = 0;
@@ -52,15 +62,23 @@ struct RecordResult {
   std::uint64_t start_index = 0;
   std::uint64_t sample_count = 0;
   double duration_s = 0;
-  std::string end_reason;                 ///< complete | cut_at_gap | stream_end
+  RecordEnd end_reason = RecordEnd::complete;
   bool analysed = false;
   std::string reject_reason;              ///< why not analysed ("" when analysed)
   double torque_nm = 0, speed_hz = 0;     ///< NaN when unknown (stored as NULL)
   std::optional<double> input_revolutions;
   std::vector<ChannelResult> channels;
   std::vector<WearAssessment> assessments;
-  /// Alerts raised from this record (stored with its id).
-  std::vector<std::pair<std::string, std::string>> alerts;   ///< kind, message (severity warning)
+  /// Alert transitions caused by this record (stored with its id) and the alert states they
+  /// leave behind (stored in the same transaction, so a restart resumes exactly here).
+  std::vector<AlertEvent> alerts;
+  std::vector<std::pair<AlertKey, AlertState>> alert_states;
+};
+
+/// Alert transitions not tied to a record (a sensor missing from the stream, a counter reset).
+struct AlertUpdate {
+  std::vector<AlertEvent> alerts;
+  std::vector<std::pair<AlertKey, AlertState>> alert_states;
 };
 
 struct GapEvent {
@@ -87,7 +105,7 @@ struct HealthSnapshot {
   std::vector<std::pair<std::string, std::uint64_t>> counters;
 };
 
-using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, GapEvent, LifeCounterEvent,
-                             RejectedFrame, HealthSnapshot>;
+using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, AlertUpdate, GapEvent,
+                             LifeCounterEvent, RejectedFrame, HealthSnapshot>;
 
 }  // namespace gearwatch::storage

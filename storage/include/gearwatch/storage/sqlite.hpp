@@ -100,4 +100,19 @@ class Transaction {
   bool done_ = false;
 };
 
+/// A nested part of a transaction (SAVEPOINT): rolled back to its start in the destructor
+/// unless released, so one failing part of a message does not take the rest with it.
+class Savepoint {
+ public:
+  explicit Savepoint(Database& db);
+  ~Savepoint();
+  Savepoint(const Savepoint&) = delete;
+  Savepoint& operator=(const Savepoint&) = delete;
+  void release();
+
+ private:
+  Database& db_;
+  bool done_ = false;
+};
+
 }  // namespace gearwatch::storage

@@ -8,7 +8,11 @@
 // Errors: a transient SQLite error (database locked, disk full, I/O error) rolls the batch
 // back, keeps it in memory, logs once per interval and retries with backoff; nothing submitted
 // is dropped while the process lives. A permanent error (corrupt file, schema mismatch) goes to
-// the error handler, which the daemon uses to stop.
+// the error handler, which the daemon uses to stop. A constraint failure is a bug in what was
+// submitted, never a reason to stop: the optional parts of a record (skips, wear assessments,
+// alerts) are each written in their own savepoint, so a refused part is logged with its content,
+// counted (rows_rejected) and dropped alone while the record and its indicators are stored; a
+// refused whole message is logged, counted in lost_at_exit, and the writer goes on.
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -19,6 +23,7 @@
 #include <thread>
 
 #include "gearwatch/storage/messages.hpp"
+#include "gearwatch/storage/schema.hpp"
 
 namespace gearwatch::storage {
 
@@ -30,6 +35,7 @@ struct WriterOptions {
   int retry_initial_ms = 200;
   int retry_max_ms = 30000;
   double give_up_after_stop_s = 60.0;   ///< after stop(), retries end after this long
+  Vocabulary vocabulary;                ///< domains beyond core's (see open_and_migrate)
 };
 
 struct WriterCounters {
@@ -37,7 +43,8 @@ struct WriterCounters {
   std::atomic<std::uint64_t> transactions{0};
   std::atomic<std::uint64_t> retries{0};       ///< transient failures retried
   std::atomic<std::uint64_t> queue_waits{0};   ///< submit() calls that had to wait
-  std::atomic<std::uint64_t> lost_at_exit{0};  ///< messages still unwritten when retries were given up
+  std::atomic<std::uint64_t> lost_at_exit{0};  ///< messages not written (refused, or retries given up)
+  std::atomic<std::uint64_t> rows_rejected{0}; ///< parts of records refused by a constraint (a bug)
   std::atomic<std::uint64_t> run_id{0};
 };
 

@@ -1,0 +1,110 @@
+#include "gearwatch/alerts.hpp"
+
+#include <algorithm>
+
+namespace gearwatch {
+
+const char* to_string(AlertKind kind) noexcept {
+  switch (kind) {
+    case AlertKind::wear_mechanism: return "wear_mechanism";
+    case AlertKind::carrier_band_jump: return "carrier_band_jump";
+    case AlertKind::sensor_missing: return "sensor_missing";
+    case AlertKind::sensor_flat_line: return "sensor_flat_line";
+    case AlertKind::sensor_saturated: return "sensor_saturated";
+    case AlertKind::life_counter_reset: return "life_counter_reset";
+  }
+  return "unknown";
+}
+
+const char* to_string(AlertSeverity severity) noexcept {
+  switch (severity) {
+    case AlertSeverity::info: return "info";
+    case AlertSeverity::warning: return "warning";
+    case AlertSeverity::alarm: return "alarm";
+  }
+  return "unknown";
+}
+
+const char* to_string(AlertTransition transition) noexcept {
+  switch (transition) {
+    case AlertTransition::raised: return "raised";
+    case AlertTransition::cleared: return "cleared";
+    case AlertTransition::event: return "event";
+  }
+  return "unknown";
+}
+
+AlertSeverity severity_of(AlertKind kind) noexcept {
+  switch (kind) {
+    case AlertKind::wear_mechanism: return AlertSeverity::warning;
+    case AlertKind::carrier_band_jump: return AlertSeverity::warning;
+    // A dead sensor blinds the monitoring of that channel: staff must act.
+    case AlertKind::sensor_missing: return AlertSeverity::alarm;
+    case AlertKind::sensor_flat_line: return AlertSeverity::alarm;
+    case AlertKind::sensor_saturated: return AlertSeverity::warning;
+    case AlertKind::life_counter_reset: return AlertSeverity::warning;
+  }
+  return AlertSeverity::warning;
+}
+
+AlertTracker::AlertTracker(std::map<AlertKey, AlertState> states) : states_(states), stored_(std::move(states)) {}
+
+std::optional<AlertEvent> AlertTracker::observe(AlertKey key, bool present, const std::string& value,
+                                                const std::string& message, AlertHysteresis hysteresis) {
+  AlertState& s = states_[key];
+  AlertEvent e{key, severity_of(key.kind), AlertTransition::raised, value, message};
+  if (present) {
+    ++s.consecutive_present;
+    s.consecutive_absent = 0;
+    if (s.active) {
+      if (s.value == value) return std::nullopt;
+      s.value = value;  // still raised, but what is present changed: staff must hear of it
+      return e;
+    }
+    if (s.consecutive_present < std::max(1, hysteresis.raise_after)) return std::nullopt;
+    s.active = true;
+    s.value = value;
+    return e;
+  }
+  ++s.consecutive_absent;
+  s.consecutive_present = 0;
+  if (!s.active || s.consecutive_absent < std::max(1, hysteresis.clear_after)) return std::nullopt;
+  s.active = false;
+  e.transition = AlertTransition::cleared;
+  e.severity = AlertSeverity::info;
+  e.value = s.value;
+  s.value.clear();
+  return e;
+}
+
+AlertEvent AlertTracker::occurrence(AlertKey key, const std::string& value, const std::string& message) {
+  states_[key];  // known key, so a later take_changed() carries its marker
+  return AlertEvent{key, severity_of(key.kind), AlertTransition::event, value, message};
+}
+
+std::vector<AlertEvent> AlertTracker::clear_all(AlertKind kind, const std::string& message) {
+  std::vector<AlertEvent> out;
+  for (auto& [key, s] : states_) {
+    if (key.kind != kind) continue;
+    if (s.active) out.push_back(AlertEvent{key, AlertSeverity::info, AlertTransition::cleared, s.value, message});
+    s = AlertState{};
+  }
+  return out;
+}
+
+const AlertState* AlertTracker::state(AlertKey key) const {
+  const auto it = states_.find(key);
+  return it == states_.end() ? nullptr : &it->second;
+}
+
+std::vector<std::pair<AlertKey, AlertState>> AlertTracker::take_changed() {
+  std::vector<std::pair<AlertKey, AlertState>> out;
+  for (const auto& [key, s] : states_) {
+    const auto it = stored_.find(key);
+    if (it == stored_.end() || !(it->second == s)) out.emplace_back(key, s);
+  }
+  for (const auto& [key, s] : out) stored_[key] = s;
+  return out;
+}
+
+}  // namespace gearwatch
