@@ -140,3 +140,120 @@ TEST_CASE("end to end: a healthy campaign raises no warning", "[e2e][wear]") {
   CHECK(scalar(db, "SELECT count(*) FROM wear_mechanism WHERE mechanism IN ('fatigue_pitting', 'abrasive_wear', 'both')") == 0);
   CHECK(query(db, "active").empty());
 }
+
+namespace {
+
+// Two accelerometers configured (the default), short records every 2 s.
+fs::path two_channel_config(const fs::path& dir) {
+  const auto path = dir / "two.toml";
+  std::ofstream(path) << "[records]\nlength_s = 2.0\ninterval_s = 2.0\nmin_length_s = 1.0\n";
+  return path;
+}
+
+std::string clean_signal(int seed) {
+  return " --speed 10 --torque 20 --seed " + std::to_string(seed) +
+         " --gmf-harmonics 5,2.5 --white-noise 1.0 --am-noise 3000:9000:1.0:0.5";
+}
+
+}  // namespace
+
+TEST_CASE("end to end: a configured accelerometer the stream does not carry is an alarm, not a blind gearbox",
+          "[e2e][sensor]") {
+  const gearwatch::testing::TempDir dir("e2e-missing");
+  const auto config = two_channel_config(dir.path());
+  const auto db = dir / "plant.db";
+  // The header announces one channel and only 0x100 frames come: channel 1's cable is broken.
+  generate("--out " + (dir / "a.log").string() + " --duration 6.1 --channels 0 --header-channels 1 --start-revs 1000" +
+           clean_signal(1));
+  replay(dir / "a.log", db, config);
+  CHECK(scalar(db, "SELECT count(*) FROM records WHERE analysed = 1 AND sample_count = 200000") == 3);
+  CHECK(scalar(db, "SELECT count(DISTINCT record_id) FROM indicators WHERE channel = 0 AND name = 'rms_sa'") == 3);
+  CHECK(scalar(db, "SELECT count(*) FROM indicators WHERE channel = 1") == 0);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_missing' AND channel = 1 AND transition = 'raised'"
+                   " AND value = 'missing_from_stream' AND severity = 'alarm'") == 1);
+  // A second replay of the same broken stream (a restart): still raised, not raised again.
+  replay(dir / "a.log", db, config);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_missing'") == 1);
+  // The cable is mended: both channels analysed, the alarm clears.
+  generate("--out " + (dir / "b.log").string() + " --duration 4.1 --channels 0,1 --start-revs 5000" + clean_signal(2));
+  replay(dir / "b.log", db, config);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_missing' AND channel = 1 AND transition = 'cleared'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM active_alerts") == 0);
+  CHECK(scalar(db, "SELECT count(DISTINCT record_id) FROM indicators WHERE channel = 1 AND name = 'rms_sa'") == 2);
+}
+
+TEST_CASE("end to end: a channel whose frames stop is cut out; the other keeps its records", "[e2e][sensor]") {
+  const gearwatch::testing::TempDir dir("e2e-stopped");
+  const auto config = two_channel_config(dir.path());
+  const auto db = dir / "plant.db";
+  generate("--out " + (dir / "a.log").string() + " --duration 8.1 --channels 0,1 --stop-channel 1:3.0 --start-revs 1000" +
+           clean_signal(3));
+  replay(dir / "a.log", db, config);
+  // Four 2 s records, every one complete and analysed; channel 1 is in the first only.
+  CHECK(scalar(db, "SELECT count(*) FROM records WHERE analysed = 1 AND end_reason = 'complete' AND sample_count = 200000") == 4);
+  CHECK(scalar(db, "SELECT count(DISTINCT record_id) FROM indicators WHERE channel = 0 AND name = 'rms_sa'") == 4);
+  CHECK(scalar(db, "SELECT count(DISTINCT record_id) FROM indicators WHERE channel = 1 AND name = 'rms_sa'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_missing' AND channel = 1 AND transition = 'raised'"
+                   " AND value = 'stopped'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM active_alerts WHERE kind = 'sensor_missing' AND channel = 1") == 1);
+}
+
+TEST_CASE("end to end: a flat-lined or saturated sensor is an alert with its channel, cleared when it recovers",
+          "[e2e][sensor]") {
+  const gearwatch::testing::TempDir dir("e2e-flat");
+  const auto config = two_channel_config(dir.path());
+  const auto db = dir / "plant.db";
+  generate("--out " + (dir / "a.log").string() + " --duration 6.1 --channels 0,1 --flat-channel 1:0 --saturate-channel 0:0.01" +
+           " --start-revs 1000" + clean_signal(4));
+  replay(dir / "a.log", db, config);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_flat_line' AND channel = 1 AND transition = 'raised'"
+                   " AND severity = 'alarm'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_saturated' AND channel = 0 AND transition = 'raised'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind IN ('sensor_flat_line', 'sensor_saturated') AND channel = 1 - channel") == 0);
+  generate("--out " + (dir / "b.log").string() + " --duration 2.1 --channels 0,1 --start-revs 9000" + clean_signal(5));
+  replay(dir / "b.log", db, config);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_flat_line' AND transition = 'cleared'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_saturated' AND transition = 'cleared'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM active_alerts") == 0);
+}
+
+TEST_CASE("end to end: cycles keep advancing across a stream change", "[e2e][acquisition]") {
+  const gearwatch::testing::TempDir dir("e2e-streams");
+  const auto config = two_channel_config(dir.path());
+  const auto db = dir / "plant.db";
+  // Stream 1 from 0 s, stream 7 from 4 s (new index origin); 10 rev/s, life counter from 5000.
+  generate("--out " + (dir / "a.log").string() + " --duration 10.1 --channels 0,1 --start-revs 5000" +
+           " --second-stream 4.0:7:300000" + clean_signal(6));
+  replay(dir / "a.log", db, config);
+  gearwatch::storage::Database d(db.string(), gearwatch::storage::Database::Mode::read_only);
+  gearwatch::storage::Statement s(d, "SELECT s.stream_id, r.start_index, r.input_revolutions FROM records r"
+                                     " JOIN streams s ON s.id = r.stream_key WHERE r.analysed = 1 ORDER BY r.id");
+  std::vector<double> cycles;
+  while (s.step()) {
+    const double t = s.get_int(0) == 7 ? 4.0 + (s.get_int(1) - 300000) / 1e5 : s.get_int(1) / 1e5;
+    INFO("stream " << s.get_int(0) << " index " << s.get_int(1));
+    // Revolutions at the record's first sample: life counter start + 10 rev/s x t, to one edge.
+    CHECK(std::abs(s.get_double(2) - (5000 + 10.0 * t)) <= 1.0);
+    cycles.push_back(s.get_double(2));
+  }
+  REQUIRE(cycles.size() == 5);  // 0-2, 2-4 | 4-6, 6-8, 8-10
+  for (std::size_t i = 1; i < cycles.size(); ++i) CHECK(cycles[i] > cycles[i - 1]);
+}
+
+TEST_CASE("end to end: a record rejected at a gap is restarted after it, not ten minutes later", "[e2e][acquisition]") {
+  const gearwatch::testing::TempDir dir("e2e-gap");
+  const auto config = dir / "gap.toml";
+  std::ofstream(config) << "[records]\nlength_s = 2.0\ninterval_s = 600.0\nmin_length_s = 1.8\n";
+  const auto db = dir / "plant.db";
+  // A 90-sample gap 1.5 s into the first record (the generator drops whole frames: 90 = 3 x 30).
+  generate("--out " + (dir / "a.log").string() + " --duration 5.0 --channels 0,1 --start-revs 1000 --gap 1.5:90" +
+           clean_signal(7));
+  replay(dir / "a.log", db, config);
+  CHECK(scalar(db, "SELECT count(*) FROM records") == 2);
+  CHECK(scalar(db, "SELECT sample_count FROM records WHERE id = 1") == 150000);
+  CHECK(scalar(db, "SELECT analysed FROM records WHERE id = 1") == 0);
+  // The next record starts right after the gap and is a complete, analysed 2 s record.
+  CHECK(scalar(db, "SELECT start_index FROM records WHERE id = 2") == 150090);
+  CHECK(scalar(db, "SELECT sample_count FROM records WHERE id = 2") == 200000);
+  CHECK(scalar(db, "SELECT analysed FROM records WHERE id = 2") == 1);
+}
