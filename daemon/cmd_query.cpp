@@ -1,4 +1,5 @@
-// `gearwatch query alerts|indicators|health|updates|inspections --db FILE [--since T]`.
+// `gearwatch query alerts|active|indicators|health|updates|inspections|records|gaps|rejected --db FILE
+//  [--since T] [--until T] [--channel C] [--name N] [--limit N] [--format table|csv|json]`.
 #include <map>
 
 #include "cli_common.hpp"
@@ -17,8 +18,9 @@ bool has_table(storage::Database& db, const std::string& name) {
 
 void register_query(CLI::App& app) {
   struct Options {
-    std::string what, db, since, format, name;
+    std::string what, db, since, until, format, name;
     int limit = 0;
+    int channel = -1;
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("query", "Staff queries on the database");
@@ -27,6 +29,8 @@ void register_query(CLI::App& app) {
       ->check(CLI::IsMember({"alerts", "active", "indicators", "health", "updates", "inspections", "records", "gaps", "rejected"}));
   cmd->add_option("--db", opt->db, "SQLite database")->required()->check(CLI::ExistingFile);
   cmd->add_option("--since", opt->since, "Only rows at or after this UTC time (ISO 8601, e.g. 2026-11-01 or 2026-11-01T08:00)");
+  cmd->add_option("--until", opt->until, "Only rows before this UTC time (same forms as --since)");
+  cmd->add_option("--channel", opt->channel, "alerts, active, indicators, gaps: only this channel")->check(CLI::Range(0, 255));
   cmd->add_option("--name", opt->name, "indicators: only this indicator name");
   cmd->add_option("--limit", opt->limit, "At most this many rows (newest first when set)")->check(CLI::PositiveNumber);
   add_format_option(cmd, opt->format);
@@ -37,19 +41,20 @@ void register_query(CLI::App& app) {
       struct Source {
         const char* sql;
         const char* time_col;
+        const char* channel_col = nullptr;  ///< nullptr: the rows are not per channel
       };
       static const std::map<std::string, Source> sources{
-          {"alerts", {"SELECT id, created_at, severity, kind, channel, transition, value, record_id, message FROM alerts", "created_at"}},
-          {"active", {"SELECT kind, channel, value, raised_at, updated_at FROM active_alerts", "updated_at"}},
+          {"alerts", {"SELECT id, created_at, severity, kind, channel, transition, value, record_id, message FROM alerts", "created_at", "channel"}},
+          {"active", {"SELECT kind, channel, value, raised_at, updated_at FROM active_alerts", "updated_at", "channel"}},
           {"indicators",
-           {"SELECT record_id, created_at, cycles, speed_hz, torque_nm, channel, name, value FROM indicators", "created_at"}},
+           {"SELECT record_id, created_at, cycles, speed_hz, torque_nm, channel, name, value FROM indicators", "created_at", "channel"}},
           {"health", {"SELECT * FROM acquisition_health", "taken_at"}},
           {"inspections", {"SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note FROM inspections", "entered_at"}},
           {"records", {"SELECT * FROM record_status", "created_at"}},
           {"gaps",
            {"SELECT g.id, g.detected_at, s.run_id, s.stream_id, g.channel, g.first_missing_index, g.missing_samples, g.cause"
             " FROM gap_events g JOIN streams s ON s.id = g.stream_key",
-            "detected_at"}},
+            "detected_at", "channel"}},
           {"rejected", {"SELECT id, received_at, run_id, kind, reason, frame FROM rejected_frames", "received_at"}},
           {"updates", {"SELECT * FROM k_updates", "created_at"}},
       };
@@ -63,6 +68,14 @@ void register_query(CLI::App& app) {
       if (!opt->since.empty()) {
         where.push_back(time_col + " >= ?");
         bind.push_back(opt->since);
+      }
+      if (!opt->until.empty()) {
+        where.push_back(time_col + " < ?");
+        bind.push_back(opt->until);
+      }
+      if (opt->channel >= 0) {
+        if (!source.channel_col) throw CommandError("--channel applies to alerts, active, indicators and gaps only");
+        where.push_back(std::string(source.channel_col) + " = " + std::to_string(opt->channel));
       }
       if (!opt->name.empty()) {
         if (opt->what != "indicators") throw CommandError("--name applies to `query indicators` only");

@@ -180,6 +180,17 @@ TEST_CASE("end to end: a configured accelerometer the stream does not carry is a
   CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'sensor_missing' AND channel = 1 AND transition = 'cleared'") == 1);
   CHECK(scalar(db, "SELECT count(*) FROM active_alerts") == 0);
   CHECK(scalar(db, "SELECT count(DISTINCT record_id) FROM indicators WHERE channel = 1 AND name = 'rms_sa'") == 2);
+  // Staff filters: by channel and time window.
+  const auto ch1 = query(db, "alerts --channel 1");
+  REQUIRE(ch1.size() == 2);
+  CHECK(ch1[0].at("transition") == "raised");
+  CHECK(ch1[1].at("transition") == "cleared");
+  CHECK(query(db, "alerts --channel 0").empty());
+  CHECK(query(db, "alerts --until 2000-01-01").empty());
+  CHECK(query(db, "alerts --since 2000-01-01 --until 9999-01-01").size() == 2);
+  const auto wrong = run_command(std::string(GEARWATCH_BINARY) + " query records --channel 0 --db " + db.string());
+  CHECK(wrong.status != 0);
+  CHECK(wrong.err.find("--channel applies to") != std::string::npos);
 }
 
 TEST_CASE("end to end: a channel whose frames stop is cut out; the other keeps its records", "[e2e][sensor]") {
