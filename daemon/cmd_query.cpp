@@ -44,8 +44,8 @@ void register_query(CLI::App& app) {
         const char* channel_col = nullptr;  ///< nullptr: the rows are not per channel
       };
       static const std::map<std::string, Source> sources{
-          {"alerts", {"SELECT id, created_at, severity, kind, channel, transition, value, record_id, message FROM alerts", "created_at", "channel"}},
-          {"active", {"SELECT kind, channel, value, raised_at, updated_at FROM active_alerts", "updated_at", "channel"}},
+          {"alerts", {"SELECT id, created_at, severity, kind, channel, subject, transition, value, record_id, message FROM alerts", "created_at", "channel"}},
+          {"active", {"SELECT kind, channel, subject, value, raised_at, updated_at FROM active_alerts", "updated_at", "channel"}},
           {"indicators",
            {"SELECT record_id, created_at, cycles, speed_hz, torque_nm, channel, name, value FROM indicators", "created_at", "channel"}},
           {"health", {"SELECT * FROM acquisition_health", "taken_at"}},

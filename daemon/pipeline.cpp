@@ -183,7 +183,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   if (use_watchdog) arm_watchdog();
 
   // --- processing thread; the wear history of the installed gear pair continues from the database
-  RecordProcessor processor(config, load_wear_history(config.storage.database), load_alert_states(config.storage.database));
+  RecordProcessor processor(config, load_processor_memory(config.storage.database, config.alerts));
   std::uint64_t current_sequence = 0;
   std::atomic<std::uint64_t> records_total{0}, records_analysed{0};
   acq::AssemblerCounters assembler_snapshot;

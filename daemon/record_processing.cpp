@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <set>
 
 #include "gearwatch/storage/sqlite.hpp"
 
@@ -30,13 +31,49 @@ std::string skip_detail(const dsp::SkippedIndicator&) { return {}; }
 
 }  // namespace
 
-RecordProcessor::RecordProcessor(const config::GearwatchConfig& config, WearHistory history, AlertStates alerts)
-    : config_(config), analyzer_(config.rig, config.processing), history_(std::move(history)), alerts_(std::move(alerts)) {}
+RecordProcessor::RecordProcessor(const config::GearwatchConfig& config, ProcessorMemory memory)
+    : config_(config),
+      analyzer_(config.rig, config.processing),
+      history_(std::move(memory.wear_history)),
+      alerts_(std::move(memory.alerts)),
+      baselines_(std::move(memory.baselines)) {}
+
+void RecordProcessor::check_thresholds(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out) {
+  const auto& cfg = config_.alerts;
+  const auto n = static_cast<std::size_t>(cfg.baseline_records);
+  for (const auto& name : cfg.watched_indicators) {
+    const auto v = a.value(name);
+    if (!v || !std::isfinite(*v)) continue;
+    auto& base = baselines_[{channel, name}];
+    if (base.size() < n) {
+      base.push_back(*v);
+      continue;
+    }
+    double mean = 0.0, m2 = 0.0;
+    for (double x : base) mean += x;
+    mean /= static_cast<double>(n);
+    for (double x : base) m2 += (x - mean) * (x - mean);
+    // A baseline of identical values has no scatter: a relative floor keeps it from alerting on
+    // the last digit.
+    const double sd = std::max(std::sqrt(m2 / static_cast<double>(n - 1)), 1e-3 * std::abs(mean));
+    const double limit = mean + cfg.threshold_sigma * sd;
+    const bool above = *v > limit;
+    char text[256];
+    std::snprintf(text, sizeof text, "channel %d: %s = %.4g, %s its baseline %.4g ± %.3g (first %zu records) + %.3g sd = %.4g",
+                  channel, name.c_str(), *v, above ? "above" : "back below", mean, sd, n, cfg.threshold_sigma, limit);
+    if (auto e = alerts_.observe(AlertKey{AlertKind::indicator_threshold, channel, name}, above, name, text,
+                                 AlertHysteresis{cfg.threshold_raise_after_records, cfg.threshold_clear_after_records}))
+      out.alerts.push_back(std::move(*e));
+  }
+}
 
 storage::AlertUpdate RecordProcessor::life_counter_reset(std::uint64_t previous_revolutions, std::uint64_t revolutions) {
   history_.clear();  // a new gear pair, or a fault: never merge histories
+  baselines_.clear();
   storage::AlertUpdate u;
   u.alerts = alerts_.clear_all(AlertKind::wear_mechanism, "life counter reset: the wear verdict belonged to the previous gear pair");
+  for (auto& e : alerts_.clear_all(AlertKind::indicator_threshold, "life counter reset: a new baseline is taken"))
+    u.alerts.push_back(std::move(e));
   for (auto& [key, state] : alerts_.states())
     if (key.kind == AlertKind::carrier_band_jump) alerts_.mutable_state(key).marker = 0.0;
   u.alerts.push_back(alerts_.occurrence(
@@ -158,6 +195,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
     for (const auto& s : a.skipped) ch.skipped.push_back({s.name, skip_token(s), skip_detail(s)});
     for (const auto& b : a.band_selections) ch.bands.push_back({b.criterion, b.level, b.centre_hz, b.bandwidth_hz, b.value});
     observe_channel_alerts(channel, a, out);
+    check_thresholds(channel, a, out);
     // Wear mechanism over the history of this gear pair (needs a place in its life).
     if (record.input_revolutions) assess_wear(channel, *record.input_revolutions, a, out);
     else ch.skipped.push_back({"wear_mechanism", "no_life_counter", ""});
@@ -191,7 +229,8 @@ AlertStates load_alert_states(const std::string& database_path) {
   std::map<std::string, AlertKind> kinds;
   for (auto k : kAllAlertKinds) kinds[to_string(k)] = k;
   storage::Database db(database_path, storage::Database::Mode::read_only);
-  storage::Statement st(db, "SELECT kind, channel, active, value, consecutive_present, consecutive_absent, marker FROM alert_state");
+  storage::Statement st(db, "SELECT kind, channel, active, value, consecutive_present, consecutive_absent, marker, subject"
+                            " FROM alert_state");
   while (st.step()) {
     const auto kind = kinds.find(st.get_text(0));
     if (kind == kinds.end()) continue;  // written by a newer build: not ours to judge
@@ -201,9 +240,32 @@ AlertStates load_alert_states(const std::string& database_path) {
     s.consecutive_present = static_cast<int>(st.get_int(4));
     s.consecutive_absent = static_cast<int>(st.get_int(5));
     s.marker = st.get_double(6);
-    states[AlertKey{kind->second, static_cast<int>(st.get_int(1))}] = s;
+    states[AlertKey{kind->second, static_cast<int>(st.get_int(1)), st.get_text(7)}] = s;
   }
   return states;
+}
+
+IndicatorBaselines load_baselines(const std::string& database_path, const config::AlertSettings& settings) {
+  IndicatorBaselines baselines;
+  storage::Database db(database_path, storage::Database::Mode::read_only);
+  storage::Statement st(db, R"SQL(
+    SELECT v.channel, v.name, v.value FROM indicator_values v JOIN records r ON r.id = v.record_id
+    WHERE r.analysed = 1 AND v.value IS NOT NULL
+      AND r.created_at >= coalesce((SELECT max(detected_at) FROM life_counter_events), '')
+    ORDER BY r.id)SQL");
+  const std::set<std::string> watched(settings.watched_indicators.begin(), settings.watched_indicators.end());
+  const auto n = static_cast<std::size_t>(settings.baseline_records);
+  while (st.step()) {
+    const std::string name = st.get_text(1);
+    if (!watched.count(name)) continue;
+    auto& base = baselines[{static_cast<int>(st.get_int(0)), name}];
+    if (base.size() < n) base.push_back(st.get_double(2));
+  }
+  return baselines;
+}
+
+ProcessorMemory load_processor_memory(const std::string& database_path, const config::AlertSettings& settings) {
+  return {load_wear_history(database_path), load_alert_states(database_path), load_baselines(database_path, settings)};
 }
 
 }  // namespace gearwatch::daemon

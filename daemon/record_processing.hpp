@@ -19,10 +19,19 @@ namespace gearwatch::daemon {
 /// Per protocol channel: the (cycles, ICS2 low, ICS2 high, selected band) history.
 using WearHistory = std::map<int, std::vector<dsp::WearHistoryPoint>>;
 using AlertStates = std::map<AlertKey, AlertState>;
+/// Per (channel, indicator): the gear pair's first alerts.baseline_records values.
+using IndicatorBaselines = std::map<std::pair<int, std::string>, std::vector<double>>;
+
+/// What processing remembers across restarts, read back from the database at start.
+struct ProcessorMemory {
+  WearHistory wear_history;
+  AlertStates alerts;
+  IndicatorBaselines baselines;
+};
 
 class RecordProcessor {
  public:
-  explicit RecordProcessor(const config::GearwatchConfig& config, WearHistory history = {}, AlertStates alerts = {});
+  explicit RecordProcessor(const config::GearwatchConfig& config, ProcessorMemory memory = {});
   /// Never throws on bad data: problems become skipped indicators with a reason.
   storage::RecordResult process(const Record& record, bool analysable, std::uint64_t stream_sequence);
   /// A new gear pair (the life counter went backwards): its history starts empty, the old
@@ -37,11 +46,13 @@ class RecordProcessor {
  private:
   void observe_channel_alerts(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
   void assess_wear(int channel, double cycles, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
+  void check_thresholds(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
 
   config::GearwatchConfig config_;
   dsp::RecordAnalyzer analyzer_;
   WearHistory history_;
   AlertTracker alerts_;
+  IndicatorBaselines baselines_;
 };
 
 /// The wear history of the gear pair now installed, from an existing database: analysed
@@ -50,5 +61,11 @@ WearHistory load_wear_history(const std::string& database_path);
 
 /// The alert states stored by earlier runs (table alert_state). Empty for a new database.
 AlertStates load_alert_states(const std::string& database_path);
+
+/// The watched indicators' first values since the last life-counter reset.
+IndicatorBaselines load_baselines(const std::string& database_path, const config::AlertSettings& settings);
+
+/// All of the above.
+ProcessorMemory load_processor_memory(const std::string& database_path, const config::AlertSettings& settings);
 
 }  // namespace gearwatch::daemon

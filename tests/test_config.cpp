@@ -140,6 +140,11 @@ TEST_CASE("config: the shipped configuration files parse", "[config]") {
   CHECK(p.band_jump_sigma == d.band_jump_sigma);
   CHECK(example.alerts.wear_clear_after_records == empty.alerts.wear_clear_after_records);
   CHECK(example.alerts.sensor_clear_after_records == empty.alerts.sensor_clear_after_records);
+  CHECK(example.alerts.baseline_records == empty.alerts.baseline_records);
+  CHECK(example.alerts.threshold_sigma == empty.alerts.threshold_sigma);
+  CHECK(example.alerts.threshold_raise_after_records == empty.alerts.threshold_raise_after_records);
+  CHECK(example.alerts.threshold_clear_after_records == empty.alerts.threshold_clear_after_records);
+  CHECK(example.alerts.watched_indicators == empty.alerts.watched_indicators);
 }
 
 TEST_CASE("config: [processing] sets the signal-processing settings", "[config]") {

@@ -239,6 +239,20 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     TableReader t(sub_table(root, "alerts", file), "alerts.", file);
     t.integer("wear_clear_after_records", cfg.alerts.wear_clear_after_records, 1, 100000);
     t.integer("sensor_clear_after_records", cfg.alerts.sensor_clear_after_records, 1, 100000);
+    t.integer("baseline_records", cfg.alerts.baseline_records, 3, 100000);
+    t.number("threshold_sigma", cfg.alerts.threshold_sigma, 1.0, 1000.0);
+    t.integer("threshold_raise_after_records", cfg.alerts.threshold_raise_after_records, 1, 100000);
+    t.integer("threshold_clear_after_records", cfg.alerts.threshold_clear_after_records, 1, 100000);
+    if (const toml::node* n = t.node("watched_indicators")) {
+      const toml::array* a = n->as_array();
+      if (!a) t.fail(n, "watched_indicators", "expected a list of indicator names");
+      cfg.alerts.watched_indicators.clear();
+      for (const auto& item : *a) {
+        const auto name = item.value<std::string>();
+        if (!name || name->empty()) t.fail(&item, "watched_indicators", "expected indicator names (strings)");
+        cfg.alerts.watched_indicators.push_back(*name);
+      }
+    }
     t.reject_unknown();
   }
   {

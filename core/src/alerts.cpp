@@ -12,6 +12,7 @@ const char* to_string(AlertKind kind) noexcept {
     case AlertKind::sensor_flat_line: return "sensor_flat_line";
     case AlertKind::sensor_saturated: return "sensor_saturated";
     case AlertKind::life_counter_reset: return "life_counter_reset";
+    case AlertKind::indicator_threshold: return "indicator_threshold";
   }
   return "unknown";
 }
@@ -43,6 +44,7 @@ AlertSeverity severity_of(AlertKind kind) noexcept {
     case AlertKind::sensor_flat_line: return AlertSeverity::alarm;
     case AlertKind::sensor_saturated: return AlertSeverity::warning;
     case AlertKind::life_counter_reset: return AlertSeverity::warning;
+    case AlertKind::indicator_threshold: return AlertSeverity::warning;
   }
   return AlertSeverity::warning;
 }

@@ -177,6 +177,7 @@ CREATE TABLE vocabulary (
 ALTER TABLE alert_events ADD COLUMN channel INTEGER;
 ALTER TABLE alert_events ADD COLUMN transition TEXT NOT NULL DEFAULT 'event';
 ALTER TABLE alert_events ADD COLUMN value TEXT;
+ALTER TABLE alert_events ADD COLUMN subject TEXT;
 ALTER TABLE indicator_skips ADD COLUMN detail TEXT;
 ALTER TABLE health_snapshots ADD COLUMN storage_rows_rejected INTEGER NOT NULL DEFAULT 0;
 CREATE TABLE alert_state (
@@ -187,8 +188,9 @@ CREATE TABLE alert_state (
   consecutive_present INTEGER NOT NULL,
   consecutive_absent INTEGER NOT NULL,
   marker REAL NOT NULL DEFAULT 0,
+  subject TEXT NOT NULL DEFAULT '',
   updated_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
-  PRIMARY KEY (kind, channel)
+  PRIMARY KEY (kind, channel, subject)
 ) WITHOUT ROWID;
 CREATE TRIGGER alert_events_kind_in_vocabulary BEFORE INSERT ON alert_events
   WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'alert_kind')
@@ -220,11 +222,13 @@ CREATE TRIGGER gap_events_cause_in_vocabulary BEFORE INSERT ON gap_events
 BEGIN SELECT RAISE(ABORT, 'gap_events.cause: value not in vocabulary domain gap_cause'); END;
 DROP VIEW alerts;
 CREATE VIEW alerts AS
-  SELECT id, created_at, severity, kind, channel, transition, value, record_id, message FROM alert_events;
+  SELECT id, created_at, severity, kind, channel, subject, transition, value, record_id, message FROM alert_events;
 CREATE VIEW active_alerts AS
-  SELECT s.kind, CASE WHEN s.channel < 0 THEN NULL ELSE s.channel END AS channel, s.value,
+  SELECT s.kind, CASE WHEN s.channel < 0 THEN NULL ELSE s.channel END AS channel,
+         nullif(s.subject, '') AS subject, s.value,
          (SELECT max(e.created_at) FROM alert_events e
-           WHERE e.kind = s.kind AND coalesce(e.channel, -1) = s.channel AND e.transition = 'raised') AS raised_at,
+           WHERE e.kind = s.kind AND coalesce(e.channel, -1) = s.channel AND coalesce(e.subject, '') = s.subject
+             AND e.transition = 'raised') AS raised_at,
          s.updated_at
   FROM alert_state s WHERE s.active = 1;
 DROP VIEW record_status;

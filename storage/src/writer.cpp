@@ -134,22 +134,25 @@ class BatchWriter {
                     std::optional<std::int64_t> record_id, const std::string& context) {
     for (const auto& e : alerts)
       write_part(db_, counters_, "alert", context + ": " + to_string(e.key.kind) + " " + to_string(e.transition) + " " + e.value, [&] {
-        Statement a(db_, "INSERT INTO alert_events(record_id, severity, kind, channel, transition, value, message)"
-                         " VALUES (?, ?, ?, ?, ?, ?, ?)");
+        Statement a(db_, "INSERT INTO alert_events(record_id, severity, kind, channel, transition, value, message, subject)"
+                         " VALUES (?, ?, ?, ?, ?, ?, ?, ?)");
         a.bind(1, record_id).bind(2, to_string(e.severity)).bind(3, to_string(e.key.kind));
         if (e.key.channel < 0) a.bind_null(4);
         else a.bind(4, e.key.channel);
         a.bind(5, to_string(e.transition));
         if (e.value.empty()) a.bind_null(6);
         else a.bind(6, e.value);
-        a.bind(7, e.message).run();
+        a.bind(7, e.message);
+        if (e.key.subject.empty()) a.bind_null(8);
+        else a.bind(8, e.key.subject);
+        a.run();
       });
     for (const auto& [key, st] : states)
       write_part(db_, counters_, "alert state", context + ": " + to_string(key.kind), [&] {
-        Statement a(db_, "INSERT OR REPLACE INTO alert_state(kind, channel, active, value, consecutive_present, consecutive_absent,"
-                         " marker) VALUES (?, ?, ?, ?, ?, ?, ?)");
-        a.bind(1, to_string(key.kind)).bind(2, key.channel).bind(3, st.active ? 1 : 0).bind(4, st.value)
-            .bind(5, st.consecutive_present).bind(6, st.consecutive_absent).bind(7, st.marker).run();
+        Statement a(db_, "INSERT OR REPLACE INTO alert_state(kind, channel, subject, active, value, consecutive_present,"
+                         " consecutive_absent, marker) VALUES (?, ?, ?, ?, ?, ?, ?, ?)");
+        a.bind(1, to_string(key.kind)).bind(2, key.channel).bind(3, key.subject).bind(4, st.active ? 1 : 0).bind(5, st.value)
+            .bind(6, st.consecutive_present).bind(7, st.consecutive_absent).bind(8, st.marker).run();
       });
   }
 

@@ -3,7 +3,7 @@
 // to_string and a list of every value, from which storage builds its vocabulary), and the state
 // machine that decides when an alert is raised or cleared.
 //
-// An alert is keyed by (kind, channel). Conditions are observed once per record (or per
+// An alert is keyed by (kind, channel, subject). Conditions are observed once per record (or per
 // acquisition event); hysteresis keeps a flickering condition from raising an alert at every
 // record: a condition must hold for `raise_after` consecutive observations to raise and be
 // absent for `clear_after` consecutive observations to clear. While raised, a change of value
@@ -15,6 +15,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace gearwatch {
@@ -26,10 +27,12 @@ enum class AlertKind : std::uint8_t {
   sensor_flat_line,    ///< a channel's signal is constant (dead sensor or cable)
   sensor_saturated,    ///< more than max_clipped_fraction of a channel's samples at full scale
   life_counter_reset,  ///< the odometer went backwards: new gear pair or front-end fault
+  indicator_threshold, ///< an indicator above its per-gearbox baseline; subject = the indicator
 };
 inline constexpr std::array kAllAlertKinds{AlertKind::wear_mechanism,   AlertKind::carrier_band_jump,
                                            AlertKind::sensor_missing,   AlertKind::sensor_flat_line,
-                                           AlertKind::sensor_saturated, AlertKind::life_counter_reset};
+                                           AlertKind::sensor_saturated, AlertKind::life_counter_reset,
+                                           AlertKind::indicator_threshold};
 const char* to_string(AlertKind kind) noexcept;
 
 enum class AlertSeverity : std::uint8_t { info, warning, alarm };
@@ -46,10 +49,14 @@ inline constexpr std::array kAllAlertTransitions{AlertTransition::raised, AlertT
                                                  AlertTransition::event};
 const char* to_string(AlertTransition transition) noexcept;
 
-/// channel = -1 for alerts about the gearbox as a whole.
+/// channel = -1 for alerts about the gearbox as a whole; `subject` tells apart alerts of one
+/// kind and channel (e.g. the indicator of a threshold alert), "" when there is one.
 struct AlertKey {
+  AlertKey() = default;
+  AlertKey(AlertKind k, int c, std::string s = {}) : kind(k), channel(c), subject(std::move(s)) {}
   AlertKind kind = AlertKind::wear_mechanism;
   int channel = -1;
+  std::string subject;
   auto operator<=>(const AlertKey&) const = default;
 };
 

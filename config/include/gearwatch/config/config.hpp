@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/rig.hpp"
@@ -62,6 +63,15 @@ struct DaemonSettings {
 struct AlertSettings {
   int wear_clear_after_records = 3;
   int sensor_clear_after_records = 1;
+  /// Indicator thresholds against the gearbox's own baseline: the first `baseline_records`
+  /// analysed records of the gear pair give each watched indicator's mean and standard
+  /// deviation; a value above mean + threshold_sigma x sd for threshold_raise_after records in a
+  /// row raises `indicator_threshold`, threshold_clear_after records below clear it.
+  int baseline_records = 10;
+  double threshold_sigma = 6.0;
+  int threshold_raise_after_records = 2;
+  int threshold_clear_after_records = 3;
+  std::vector<std::string> watched_indicators{"rms_raw", "kurtosis_raw", "rms_sa", "ics2_low_band", "ics2_high_band"};
 };
 
 struct GearwatchConfig {
