@@ -10,7 +10,8 @@
 #   SCRIPT       path INSIDE the VM of the script to run, e.g. /payload/inside.sh
 #   TIMEOUT_S    wall-clock limit for the whole VM run (default 240)
 # The VM's console is this script's stdout. The inner script's exit status is printed by the
-# VM as "VCAN-VM-EXIT <rc>" and returned; 125 means the VM did not get that far.
+# VM as "VCAN-VM-EXIT <rc>" and returned; 126 means the VM could not load the CAN modules or
+# create vcan0/vcan1 (the script did not run), 125 that the VM did not get that far.
 #
 # Environment:
 #   GEARWATCH_VCAN_CACHE  where the kernel and its CAN modules are kept
