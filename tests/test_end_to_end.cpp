@@ -268,3 +268,30 @@ TEST_CASE("end to end: a record rejected at a gap is restarted after it, not ten
   CHECK(scalar(db, "SELECT sample_count FROM records WHERE id = 2") == 200000);
   CHECK(scalar(db, "SELECT analysed FROM records WHERE id = 2") == 1);
 }
+
+TEST_CASE("end to end: an indicator far above the gear pair's own baseline is an alert, with hysteresis",
+          "[e2e][alerts]") {
+  const gearwatch::testing::TempDir dir("e2e-threshold");
+  const auto config = dir / "threshold.toml";
+  std::ofstream(config) << "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
+                           "[records]\nlength_s = 2.0\ninterval_s = 600.0\nmin_length_s = 1.0\n"
+                           "[alerts]\nbaseline_records = 5\nwatched_indicators = [\"rms_raw\"]\n";
+  const auto db = dir / "plant.db";
+  // Records 1-5: the baseline (broadband noise 2 m/s²); 6-8: noise 10 m/s², rms_raw about five
+  // times the baseline (far beyond 6 sd of it); 9-11: back to normal.
+  for (int k = 0; k < 11; ++k) {
+    const double noise = (k >= 5 && k < 8) ? 10.0 : 2.0;
+    const auto capture = dir / ("r" + std::to_string(k) + ".log");
+    generate("--out " + capture.string() + " --duration 2.2 --channels 0 --start-revs " + std::to_string(100000 * k) +
+             " --speed 10 --torque 20 --seed " + std::to_string(300 + k) + " --gmf-harmonics 5,2.5 --white-noise " +
+             std::to_string(noise));
+    replay(capture, db, config);
+  }
+  // Raised on the second record above the limit (threshold_raise_after_records = 2) = record 7,
+  // cleared on the third record back below it (threshold_clear_after_records = 3) = record 11.
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'indicator_threshold'") == 2);
+  CHECK(scalar(db, "SELECT record_id FROM alerts WHERE kind = 'indicator_threshold' AND transition = 'raised'"
+                   " AND subject = 'rms_raw' AND channel = 0") == 7);
+  CHECK(scalar(db, "SELECT record_id FROM alerts WHERE kind = 'indicator_threshold' AND transition = 'cleared'") == 11);
+  CHECK(query(db, "active").empty());
+}
