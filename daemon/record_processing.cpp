@@ -57,7 +57,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
       ch.values.emplace_back("tsa_averages_output", a.tsa_averages_output);
       ch.values.emplace_back("samples_per_revolution", static_cast<double>(a.samples_per_revolution));
     }
-    for (const auto& s : a.skipped) ch.skipped.emplace_back(s.name, s.reason);
+    for (const auto& s : a.skipped) ch.skipped.emplace_back(s.name, dsp::to_string(s.reason));
     for (const auto& b : a.band_selections) ch.bands.push_back({b.criterion, b.level, b.centre_hz, b.bandwidth_hz, b.value});
 
     // Wear mechanism over the history of this gear pair (needs a place in its life).

@@ -79,7 +79,7 @@ TEST_CASE("Record analyzer: known indicators on a synthetic gearbox record", "[d
   settings.mean_carrier_ranges = {{0, 25000}};
   RecordAnalyzer analyzer(make_rig(p.fs), settings);
   const ChannelAnalysis a = analyzer.analyze(record, 0);
-  for (const auto& s : a.skipped) INFO("skipped " << s.name << ": " << s.reason);
+  for (const auto& s : a.skipped) INFO("skipped " << s.name << ": " << to_string(s.reason));
   REQUIRE(a.skipped.empty());
 
   // Every documented name is produced exactly once.
@@ -149,7 +149,7 @@ TEST_CASE("Record analyzer: bad input gives reasons, never a crash", "[dsp][reco
   RecordAnalyzer analyzer(rig, SignalProcessingSettings{});
   auto reason = [](const ChannelAnalysis& a, const std::string& name) {
     const auto* s = a.skip_reason(name);
-    return s ? s->reason : std::string("<computed>");
+    return s ? std::string(to_string(s->reason)) : std::string("<computed>");
   };
 
   SECTION("defaults at 50 kHz: bands and ranges above 25 kHz are skipped as above Nyquist") {
