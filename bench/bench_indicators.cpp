@@ -129,7 +129,7 @@ int main() {
               std::max(ratio_wall, ratio_cpu) <= 40.0 ? "met" : "NOT met");
   std::printf("indicators: %zu computed, %zu skipped\n", first.indicators.size(), first.skipped.size());
   for (const auto& i : first.indicators) std::printf("  %-28s %.6g\n", i.name.c_str(), i.value);
-  for (const auto& s : first.skipped) std::printf("  skipped %-20s %s\n", s.name.c_str(), s.reason.c_str());
+  for (const auto& s : first.skipped) std::printf("  skipped %-20s %s %s\n", s.name.c_str(), to_string(s.reason), s.detail.c_str());
   for (const auto& b : first.band_selections)
     std::printf("  band (%s): level %.3f centre %.0f Hz bandwidth %.0f Hz value %.4g\n", b.criterion.c_str(), b.level,
                 b.centre_hz, b.bandwidth_hz, b.value);

@@ -26,8 +26,8 @@ double selected_value(const dsp::ChannelAnalysis& a) {
   return kNaN;
 }
 
-std::string skip_token(const dsp::SkippedIndicator& s) { return s.reason; }
-std::string skip_detail(const dsp::SkippedIndicator&) { return {}; }
+std::string skip_token(const dsp::SkippedIndicator& s) { return dsp::to_string(s.reason); }
+std::string skip_detail(const dsp::SkippedIndicator& s) { return s.detail; }
 
 }  // namespace
 
@@ -99,17 +99,16 @@ void RecordProcessor::observe_channel_alerts(int channel, const dsp::ChannelAnal
   const AlertHysteresis sensor{1, config_.alerts.sensor_clear_after_records};
   bool flat_line = false, clipped = false;
   for (const auto& s : a.skipped) {
-    const std::string reason = skip_token(s);
-    flat_line = flat_line || reason == "flat_line";
-    clipped = clipped || reason == "clipped_samples";
+    flat_line = flat_line || s.reason == dsp::SkipReason::flat_line;
+    clipped = clipped || s.reason == dsp::SkipReason::clipped_samples;
   }
   const std::string ch = "channel " + std::to_string(channel);
-  if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_flat_line, channel}, flat_line, "flat_line",
+  if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_flat_line, channel}, flat_line, dsp::to_string(dsp::SkipReason::flat_line),
                                flat_line ? ch + ": the signal is constant — dead sensor, cable or front-end channel"
                                          : ch + ": the signal varies again",
                                sensor))
     out.alerts.push_back(std::move(*e));
-  if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_saturated, channel}, clipped, "clipped_samples",
+  if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_saturated, channel}, clipped, dsp::to_string(dsp::SkipReason::clipped_samples),
                                clipped ? ch + ": more than processing.max_clipped_fraction of the samples at full scale"
                                        : ch + ": no longer saturated",
                                sensor))
@@ -198,7 +197,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
     check_thresholds(channel, a, out);
     // Wear mechanism over the history of this gear pair (needs a place in its life).
     if (record.input_revolutions) assess_wear(channel, *record.input_revolutions, a, out);
-    else ch.skipped.push_back({"wear_mechanism", "no_life_counter", ""});
+    else ch.skipped.push_back({"wear_mechanism", dsp::to_string(dsp::SkipReason::no_life_counter), ""});
     out.channels.push_back(std::move(ch));
   }
   out.alert_states = alerts_.take_changed();

@@ -138,6 +138,9 @@ TEST_CASE("config: the shipped configuration files parse", "[config]") {
   CHECK(p.trend_window_records == d.trend_window_records);
   CHECK(p.band_jump_persistence_records == d.band_jump_persistence_records);
   CHECK(p.band_jump_sigma == d.band_jump_sigma);
+  CHECK(p.flat_line_max_std_lsb == d.flat_line_max_std_lsb);
+  CHECK(p.residual_rms_floor == d.residual_rms_floor);
+  CHECK(p.band_energy_floor_db == d.band_energy_floor_db);
   CHECK(example.alerts.wear_clear_after_records == empty.alerts.wear_clear_after_records);
   CHECK(example.alerts.sensor_clear_after_records == empty.alerts.sensor_clear_after_records);
   CHECK(example.alerts.baseline_records == empty.alerts.baseline_records);

@@ -219,3 +219,100 @@ TEST_CASE("ICS2 band selection finds a modulated resonance burst in its band", "
   CHECK(best.value < 0.472 * 1.1);
   CHECK(best.value > 0.1);
 }
+
+TEST_CASE("Band power criterion: a sinusoid's power through the node's filter", "[dsp][filter_bank]") {
+  // A cos(2 pi f n) through the complex level-1 low filter h: c = (A/2)(H(f) e^{j..} + H(-f) e^{-j..}),
+  // so 2 mean|c|^2 = (A^2/2)(|H(f)|^2 + |H(-f)|^2) (the cross term averages out). H is the DTFT
+  // of the taps, computed directly here.
+  const std::size_t n = 65536;
+  const double amplitude = 3.0;
+  OneThirdBinaryFilterBank bank;
+  auto response = [&](std::span<const Complex> taps, double f) {
+    Complex h{};
+    for (std::size_t k = 0; k < taps.size(); ++k) h += taps[k] * std::polar(1.0, -2 * std::numbers::pi * f * double(k));
+    return std::norm(h);
+  };
+  for (double f : {0.05, 0.1, 0.2, 0.3}) {
+    std::vector<double> x(n);
+    for (std::size_t i = 0; i < n; ++i) x[i] = amplitude * std::cos(2 * std::numbers::pi * f * double(i));
+    BandPowerCriterion power;
+    BandCriterion* criteria[] = {&power};
+    std::vector<BandMap> maps(1);
+    bank.analyse(x, 2, criteria, maps);
+    const double expected_low = amplitude * amplitude / 2 * (response(bank.low(), f) + response(bank.low(), -f));
+    const double expected_high = amplitude * amplitude / 2 * (response(bank.high(), f) + response(bank.high(), -f));
+    INFO("f = " << f);
+    CHECK(maps[0].at(0, 0) == Approx(amplitude * amplitude / 2).epsilon(1e-4));
+    // Row 1 column 0 is the low band, the last column the high band. The 1/N leftover of the
+    // cross term and the mean removal allow 1e-3 relative (or 1e-6 of the total power).
+    CHECK(maps[0].at(1, 0) == Approx(expected_low).epsilon(1e-3).margin(1e-6 * amplitude * amplitude));
+    CHECK(maps[0].at(1, maps[0].columns() - 1) == Approx(expected_high).epsilon(1e-3).margin(1e-6 * amplitude * amplitude));
+  }
+}
+
+TEST_CASE("Band selection ignores bands below the power floor and says when none is left", "[dsp][filter_bank]") {
+  // Angle domain, 1024 samples/rev, 128 revolutions. A strong carrier: noise in [0.04, 0.11] fs
+  // amplitude-modulated at order 19 with a = 0.5 (ICS2 0.2006 in closed form, up to ~0.24 at its
+  // edges). A weak band, 47 dB below it: noise in [0.35, 0.45] fs fully modulated (a = 1, ICS2
+  // 0.472), still above the carrier's leakage through the filters (-55 dB and less that far).
+  // Without a floor the weak band wins; with the -40 dB floor the carrier does.
+  const std::size_t spr = 1024, revs = 128, n = spr * revs;
+  FftPlanCache plans;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal;
+  auto band_noise = [&](double lo, double hi) {
+    const RealFft& fft = plans.real(n);
+    ComplexBuffer spectrum(fft.spectrum_size());
+    for (std::size_t k = 0; k < spectrum.size(); ++k) {
+      const double f = double(k) / double(n);
+      spectrum[k] = f >= lo && f <= hi ? Complex(normal(rng), normal(rng)) : Complex{};
+    }
+    RealBuffer x(n);
+    fft.inverse(spectrum, x);
+    double p = 0;
+    for (double v : x) p += v * v;
+    for (double& v : x) v /= std::sqrt(p / double(n));
+    return x;
+  };
+  const RealBuffer carrier = band_noise(0.04, 0.11), weak = band_noise(0.35, 0.45);
+  const double weak_gain = std::pow(10.0, -47.0 / 20.0);
+  std::vector<double> x(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double mesh = std::cos(2 * std::numbers::pi * 19 * double(i) / double(spr));
+    x[i] = (1 + 0.5 * mesh) * carrier[i] + weak_gain * (1 + mesh) * weak[i];
+  }
+  SquaredEnvelopeAnalyzer envelope(plans);
+  Ics2Criterion ics2(envelope, plans, spr, Ics2Parameters{19.0, 3, 3});
+  BandPowerCriterion power;
+  BandCriterion* criteria[] = {&ics2, &power};
+  std::vector<BandMap> maps(2);
+  OneThirdBinaryFilterBank bank;
+  bank.analyse(x, 6, criteria, maps);
+
+  const auto unfloored = maps[0].optimum();
+  const double unfloored_centre = unfloored.centre_fraction;
+  INFO("no floor: centre " << unfloored_centre << " ICS2 " << unfloored.value);
+  CHECK(unfloored.found);
+  CHECK(unfloored_centre > 0.3);
+  CHECK(unfloored.value > 0.35);
+
+  const auto floored = maps[0].optimum(0.5, &maps[1], std::pow(10.0, -40.0 / 10.0));
+  const double low = floored.centre_fraction - floored.bandwidth_fraction / 2;
+  const double high = floored.centre_fraction + floored.bandwidth_fraction / 2;
+  WARN("power floor -40 dB: selected [" << low << ", " << high << "] fs, ICS2 " << floored.value
+                                        << " (without floor: centre " << unfloored_centre << ", " << unfloored.value << ")");
+  CHECK(floored.found);
+  CHECK(high > 0.04 - floored.bandwidth_fraction);  // within one bandwidth of the carrier
+  CHECK(low < 0.11 + floored.bandwidth_fraction);
+  CHECK(floored.value > 0.2006 * 0.9);
+  CHECK(floored.value < 0.30);
+  const double selected_power = maps[1].at(std::size_t(floored.row), floored.first_column);
+  CHECK(selected_power >= 1e-4 * maps[1].at(0, 0));
+
+  // A floor above the whole signal's power leaves nothing.
+  CHECK_FALSE(maps[0].optimum(0.5, &maps[1], 2.0).found);
+  // A power map of another layout is a programming error.
+  BandMap other = maps[1];
+  other.levels = 5;
+  CHECK_THROWS_AS(maps[0].optimum(0.5, &other, 0.0), std::invalid_argument);
+}

@@ -79,7 +79,7 @@ TEST_CASE("Record analyzer: known indicators on a synthetic gearbox record", "[d
   settings.mean_carrier_ranges = {{0, 25000}};
   RecordAnalyzer analyzer(make_rig(p.fs), settings);
   const ChannelAnalysis a = analyzer.analyze(record, 0);
-  for (const auto& s : a.skipped) INFO("skipped " << s.name << ": " << s.reason);
+  for (const auto& s : a.skipped) INFO("skipped " << s.name << ": " << to_string(s.reason));
   REQUIRE(a.skipped.empty());
 
   // Every documented name is produced exactly once.
@@ -149,7 +149,7 @@ TEST_CASE("Record analyzer: bad input gives reasons, never a crash", "[dsp][reco
   RecordAnalyzer analyzer(rig, SignalProcessingSettings{});
   auto reason = [](const ChannelAnalysis& a, const std::string& name) {
     const auto* s = a.skip_reason(name);
-    return s ? s->reason : std::string("<computed>");
+    return s ? std::string(to_string(s->reason)) : std::string("<computed>");
   };
 
   SECTION("defaults at 50 kHz: bands and ranges above 25 kHz are skipped as above Nyquist") {
@@ -257,4 +257,206 @@ TEST_CASE("Signal-processing settings are validated with the setting's name", "[
   s = {};
   s.min_revolutions_for_tsa = 1;
   CHECK_THROWS_AS(RecordAnalyzer(rig, s), std::invalid_argument);
+}
+
+namespace {
+
+// The capture of the ICS2 defect: one accelerometer, input shaft at a constant 10 Hz, 100 kHz,
+// Gaussian noise band-limited (brick wall) to 4-11 kHz and amplitude-modulated at the mesh
+// frequency (19 x 10 Hz) with depth a = 0.5, std 3000 LSB of the 0.01 m/s2 channel scale, then
+// int16 quantisation and nothing else. Above ~11.2 kHz the record holds only quantisation noise,
+// 85 dB below it.
+Record am_noise_capture(unsigned seed) {
+  const double fs = 100000.0, f0 = 10.0, a = 0.5, lsb = 0.01;
+  const std::size_t n = 1000000;
+  FftPlanCache plans;
+  const RealFft& fft = plans.real(n);
+  ComplexBuffer spectrum(fft.spectrum_size());
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal;
+  for (std::size_t k = 0; k < spectrum.size(); ++k) {
+    const double f = double(k) * fs / double(n);
+    spectrum[k] = f >= 4000.0 && f <= 11000.0 ? Complex(normal(rng), normal(rng)) : Complex{};
+  }
+  RealBuffer x(n);
+  fft.inverse(spectrum, x);
+  double power = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] *= 1.0 + a * std::cos(2 * kPi * 19.0 * f0 * double(i) / fs);
+    power += x[i] * x[i];
+  }
+  const double scale = 3000.0 / std::sqrt(power / double(n));
+  Record r;
+  r.sample_rate_hz = fs;
+  r.channels.assign(1, std::vector<float>(n));
+  r.channel_numbers = {0};
+  for (std::size_t i = 0; i < n; ++i) r.channels[0][i] = float(double(std::lround(x[i] * scale)) * lsb);
+  for (int k = 0;; ++k) {
+    const double t = (k + 0.3) / f0 * fs;
+    if (t > double(n - 1)) break;
+    r.tacho_edges[0].push_back(t);
+  }
+  return r;
+}
+
+std::string reason_of(const ChannelAnalysis& a, const std::string& name) {
+  const auto* s = a.skip_reason(name);
+  return s ? std::string(to_string(s->reason)) : std::string("<computed>");
+}
+
+}  // namespace
+
+TEST_CASE("Record analyzer: no end-discontinuity clicks in bands 85 dB below an AM-noise record",
+          "[dsp][record_analyzer]") {
+  // Closed form of ICS2 (H >= 2) for AM noise: (a^2 + a^4/16) / (1 + a^2/2)^2 = 0.2006 at a = 0.5
+  // (test_envelope.cpp derives it). Its estimation std here is sigma = 2 sqrt(g / (B L)) / a with
+  // g = 1.40 (a = 0.5), B = 7.4 kHz / 100.8 kHz (angle-domain rate of 10080 samples/rev at 10 Hz),
+  // L = 98 revolutions x 10080 = 987840 samples: sigma = 1.8 %; 4 sigma allowed.
+  const double a = 0.5;
+  const double closed_form = (a * a + std::pow(a, 4) / 16.0) / std::pow(1.0 + a * a / 2.0, 2);
+  const double sigma = 2 * std::sqrt(1.40 / (7.4 / 100.8 * 987840.0)) / a;
+  const Record record = am_noise_capture(7);
+
+  SECTION("default floors: the quantisation-only high band is below the energy floor") {
+    RecordAnalyzer analyzer(make_rig(100000.0), SignalProcessingSettings{});
+    const auto r = analyzer.analyze(record, 0);
+    REQUIRE(r.samples_per_revolution == 10080);
+    CHECK(*r.value("ics2_low_band") == Approx(closed_form).epsilon(4 * sigma));
+    CHECK(*r.value("ics2_full_band") == Approx(closed_form).epsilon(4 * sigma));
+    // 20-37 kHz holds quantisation noise only: (0.01/sqrt(12))^2 x 17/50 against 30^2 m2/s4,
+    // -85 dB, far below the -40 dB floor. Before the fix it read 2.79.
+    CHECK(reason_of(r, "ics2_high_band") == "band_below_floor");
+    // The selected band reads the carrier's modulation: 0.2006 inside it, and at most
+    // (1/4) / (1 + a^2/2) = 0.222 on the first harmonic in a band on the carrier's edge (there
+    // one sideband has no partner and a band's slope can rebalance the other pair), plus the
+    // estimation noise of a narrow band. Before the fix: 2.04 in 12.6-13.7 kHz, on a click.
+    REQUIRE(r.band_selections.size() == 2);
+    const auto& sel = r.band_selections[0];
+    INFO("selected " << sel.centre_hz - sel.bandwidth_hz / 2 << "-" << sel.centre_hz + sel.bandwidth_hz / 2
+                     << " Hz, ICS2 " << sel.value);
+    CHECK(sel.value > closed_form * (1 - 4 * sigma));
+    CHECK(sel.value < 0.30);
+    // The tree's filters pass ~1.6x their nominal band with a transition about one band wide, so
+    // a band holding the carrier's energy lies within one bandwidth of 3.81-11.19 kHz (the
+    // 4-11 kHz noise with its +-190 Hz sidebands).
+    CHECK(sel.centre_hz - sel.bandwidth_hz / 2 < 11190.0 + sel.bandwidth_hz);
+    CHECK(sel.centre_hz + sel.bandwidth_hz / 2 > 3810.0 - sel.bandwidth_hz);
+  }
+  SECTION("floor off: the white band reads white-noise ICS2 and no tree band reads a click") {
+    SignalProcessingSettings settings;
+    settings.band_energy_floor_db = -300.0;
+    RecordAnalyzer analyzer(make_rig(100000.0), settings);
+    const auto r = analyzer.analyze(record, 0);
+    CHECK(*r.value("ics2_low_band") == Approx(closed_form).epsilon(4 * sigma));
+    // Stationary noise: each SES bin in the 3 windows of +-3 bins has relative power
+    // 1/(B L) = 1 / (17/100.8 x 987840) = 6.0e-6; the max of 7 exponentials is below
+    // ln(7000) = 8.9 times that with probability 0.999, so ICS2 < 3 x 8.9 x 6.0e-6 = 1.6e-4.
+    // An impulse (the click before the fix) reads H = 3; the fix measured 3.2e-5.
+    const double high = *r.value("ics2_high_band");
+    WARN("AM-noise capture, floor off: ICS2 high band " << high << ", selected " << *r.value("ics2_selected_band"));
+    CHECK(high < 1.6e-4);
+    // Every tree band is eligible now, the quantisation-only ones included: the largest reading
+    // anywhere is still the carrier's modulation (its leakage through the filters' -55 dB
+    // stopband dominates those bands), not a click (before the fix: 2.04).
+    CHECK(*r.value("ics2_selected_band") < 0.30);
+  }
+}
+
+TEST_CASE("Record analyzer: a residual at the numerical floor gives residual_below_floor", "[dsp][record_analyzer]") {
+  // Noise-free casing signal: mesh orders 19 and 38 and the output shaft's first order, int16.
+  // Both TSAs take all of it; what is left is quantisation (0.0029 m/s2) and interpolation residue.
+  const double fs = 100000.0, f0 = 10.0, lsb = 0.01;
+  const std::size_t n = 1000000;
+  Record r;
+  r.sample_rate_hz = fs;
+  r.channels.assign(1, std::vector<float>(n));
+  r.channel_numbers = {0};
+  for (std::size_t i = 0; i < n; ++i) {
+    const double theta = f0 * double(i) / fs;
+    const double v = 3000 * std::cos(2 * kPi * 19 * theta) + 1000 * std::cos(2 * kPi * 38 * theta) +
+                     500 * std::cos(2 * kPi * theta * 19.0 / 52.0);
+    r.channels[0][i] = float(double(std::lround(v)) * lsb);
+  }
+  for (int k = 0;; ++k) {
+    const double t = (k + 0.3) / f0 * fs;
+    if (t > double(n - 1)) break;
+    r.tacho_edges[0].push_back(t);
+  }
+  RecordAnalyzer analyzer(make_rig(fs), SignalProcessingSettings{});
+  const auto a = analyzer.analyze(r, 0);
+  const double raw_std = std::sqrt((3000.0 * 3000 + 1000.0 * 1000 + 500.0 * 500) / 2) * lsb;
+  const double ratio = *a.value("rms_residual") / raw_std;
+  WARN("noise-free casing signal: residual RMS / raw RMS = " << ratio);
+  CHECK(ratio < 0.005);
+  for (const char* name : {"ics2_full_band", "ics2_low_band", "ics2_high_band", "ics2_selected_band",
+                           "kurtosis_selected_band", "sc_gmf_max", "mean_carrier_hz_0_30000"})
+    CHECK(reason_of(a, name) == "residual_below_floor");
+  CHECK(a.band_selections.empty());
+  CHECK(*a.value("rms_sa") == Approx(std::sqrt(30.0 * 30.0 + 10.0 * 10.0)).epsilon(1e-3));
+  // The floor is what skips them: with it at 0 the same record gives numbers.
+  SignalProcessingSettings no_floor;
+  no_floor.residual_rms_floor = 0.0;
+  RecordAnalyzer unfloored(make_rig(fs), no_floor);
+  CHECK(unfloored.analyze(r, 0).value("ics2_low_band").has_value());
+}
+
+TEST_CASE("Record analyzer: a flat channel gives flat_line, a live one does not", "[dsp][record_analyzer]") {
+  SyntheticRig p;
+  p.duration = 2.0;
+  const RigSpec rig = make_rig(p.fs);
+  const double lsb = rig.channels[0].scale_m_s2_per_lsb;
+  RecordAnalyzer analyzer(rig, SignalProcessingSettings{});
+  Record r = make_record(p);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal;
+  SECTION("all samples equal") {
+    std::fill(r.channels[0].begin(), r.channels[0].end(), float(123 * lsb));
+    const auto a = analyzer.analyze(r, 0);
+    CHECK(a.indicators.empty());
+    for (const auto& name : analyzer.indicator_names()) CHECK(reason_of(a, name) == "flat_line");
+  }
+  SECTION("toggling by one LSB: standard deviation 0.5 LSB, at the default floor") {
+    for (std::size_t i = 0; i < r.channels[0].size(); ++i) r.channels[0][i] = float(double(i % 2) * lsb);
+    CHECK(reason_of(analyzer.analyze(r, 0), "rms_raw") == "flat_line");
+  }
+  SECTION("quantised noise of 2 LSB standard deviation is live") {
+    for (auto& v : r.channels[0]) v = float(double(std::lround(2.0 * normal(rng))) * lsb);
+    const auto a = analyzer.analyze(r, 0);
+    CHECK(*a.value("rms_raw") == Approx(2.0 * lsb).epsilon(0.05));
+  }
+  SECTION("without a channel scale only an exactly constant channel is flat") {
+    RigSpec unscaled = rig;
+    unscaled.channels.clear();
+    RecordAnalyzer a(unscaled, SignalProcessingSettings{});
+    for (std::size_t i = 0; i < r.channels[0].size(); ++i) r.channels[0][i] = float(double(i % 2) * lsb);
+    CHECK(a.analyze(r, 0).value("rms_raw").has_value());
+    std::fill(r.channels[0].begin(), r.channels[0].end(), 0.0f);
+    CHECK(reason_of(a.analyze(r, 0), "rms_raw") == "flat_line");
+  }
+}
+
+TEST_CASE("Skip reasons: every enum value listed once, distinct snake_case tokens", "[dsp][record_analyzer]") {
+  // The enumerators are consecutive from 0: the list must hold exactly 0..size-1, and the value
+  // one past it is no enumerator (to_string's fallback).
+  std::set<int> values;
+  std::set<std::string> tokens;
+  for (SkipReason r : kAllSkipReasons) {
+    CHECK(values.insert(int(r)).second);
+    const std::string token = to_string(r);
+    CHECK(tokens.insert(token).second);
+    CHECK(!token.empty());
+    CHECK(token.front() != '_');
+    CHECK(token.back() != '_');
+    for (char c : token) CHECK(((c >= 'a' && c <= 'z') || c == '_'));
+    CHECK(parse_skip_reason(token) == r);
+  }
+  CHECK(*values.begin() == 0);
+  CHECK(*values.rbegin() == int(kAllSkipReasons.size()) - 1);
+  CHECK(std::string(to_string(static_cast<SkipReason>(kAllSkipReasons.size()))) == "unknown");
+  CHECK(!parse_skip_reason("filter_bank: too short").has_value());
+  // Tokens already stored by earlier versions keep their spelling.
+  for (const char* stored : {"empty_record", "bad_sample_rate", "non_finite_samples", "clipped_samples", "no_tacho",
+                             "too_few_edges", "tacho_irregular", "speed_out_of_range", "too_few_revolutions",
+                             "above_nyquist", "band_above_nyquist", "band_empty", "non_finite_result", "not_computed"})
+    CHECK(parse_skip_reason(stored).has_value());
 }

@@ -14,6 +14,7 @@
 
 #include "temp_dir.hpp"
 
+#include "gearwatch/dsp/skip_reason.hpp"
 #include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 
@@ -294,6 +295,7 @@ TEST_CASE("storage: every enumerated value has one source of truth: the enum", "
   CHECK(vocabulary(db, "alert_kind") == sorted_tokens(gearwatch::kAllAlertKinds));
   CHECK(vocabulary(db, "alert_severity") == sorted_tokens(gearwatch::kAllAlertSeverities));
   CHECK(vocabulary(db, "alert_transition") == sorted_tokens(gearwatch::kAllAlertTransitions));
+  CHECK(vocabulary(db, "skip_reason") == sorted_tokens(gearwatch::dsp::kAllSkipReasons));
   CHECK(vocabulary(db, "gap_cause") == std::vector<std::string>{"protocol", "ring_overflow"});
   // ...and the CHECK lists of older schema versions say the same, in the enum's order.
   std::vector<std::string> mechanisms, ends;

@@ -289,6 +289,9 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     }
     t.number("min_revolutions_for_tsa", p.min_revolutions_for_tsa, 1.0, 1e6);
     t.number("max_clipped_fraction", p.max_clipped_fraction, 0.0, 1.0);
+    t.number("flat_line_max_std_lsb", p.flat_line_max_std_lsb, 0.0, 1000.0);
+    t.number("residual_rms_floor", p.residual_rms_floor, 0.0, 0.999);
+    t.number("band_energy_floor_db", p.band_energy_floor_db, -300.0, 0.0);
     t.number("trend_significance", p.trend_significance, 1e-6, 0.5);
     t.integer("trend_window_records", p.trend_window_records, 3, 1000000);
     t.integer("band_jump_persistence_records", p.band_jump_persistence_records, 1, 1000);

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "gearwatch/alerts.hpp"
+#include "gearwatch/dsp/skip_reason.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
 #include "gearwatch/record.hpp"
 
@@ -256,6 +257,7 @@ Vocabulary core_vocabulary() {
   add("alert_kind", kAllAlertKinds);
   add("alert_severity", kAllAlertSeverities);
   add("alert_transition", kAllAlertTransitions);
+  add("skip_reason", dsp::kAllSkipReasons);
   return v;
 }
 

@@ -2,9 +2,28 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 namespace gearwatch::dsp {
+
+double tukey_weight(std::size_t i, std::size_t n, double fraction) noexcept {
+  const double ramp = 0.5 * fraction * static_cast<double>(n);
+  const double from_end = std::min(static_cast<double>(i), static_cast<double>(n - 1 - i)) + 0.5;
+  if (!(from_end < ramp)) return 1.0;
+  return 0.5 * (1.0 - std::cos(std::numbers::pi * from_end / ramp));
+}
+
+void apply_tukey_taper(std::span<double> x, double fraction) noexcept {
+  const std::size_t n = x.size();
+  const auto ramp = static_cast<std::size_t>(std::ceil(0.5 * fraction * static_cast<double>(n)));
+  for (std::size_t i = 0; i < ramp && i < n - 1 - i; ++i) {
+    const double w = tukey_weight(i, n, fraction);
+    x[i] *= w;
+    x[n - 1 - i] *= w;
+  }
+  if (n % 2 == 1 && ramp > n / 2) x[n / 2] *= tukey_weight(n / 2, n, fraction);
+}
 
 Ics2Result ics2_from_ses(std::span<const double> ses, double bins_per_order, const Ics2Parameters& p) {
   if (p.harmonics < 1 || p.tolerance_bins < 0 || !(p.cyclic_order > 0.0) || !(bins_per_order > 0.0))

@@ -163,12 +163,17 @@ double BandMap::band_high_fraction(std::size_t row, std::size_t column) const {
   return static_cast<double>(band + 1) / static_cast<double>(2 * bands);
 }
 
-BandMap::Optimum BandMap::optimum(double max_high_fraction) const {
+BandMap::Optimum BandMap::optimum(double max_high_fraction, const BandMap* power, double min_power_fraction) const {
+  if (power != nullptr && (power->levels != levels || power->values.size() != values.size()))
+    throw std::invalid_argument("BandMap::optimum: power map of another layout");
+  const double min_power = power != nullptr ? min_power_fraction * power->at(0, 0) : 0.0;
   Optimum best;
   best.value = -std::numeric_limits<double>::infinity();
   for (std::size_t r = 0; r < rows(); ++r)
     for (std::size_t c = 0; c < columns(); ++c)
-      if (at(r, c) > best.value && band_high_fraction(r, c) <= max_high_fraction + 1e-12) {
+      if (at(r, c) > best.value && band_high_fraction(r, c) <= max_high_fraction + 1e-12 &&
+          (power == nullptr || (power->at(r, c) >= min_power && power->at(r, c) > 0.0))) {
+        best.found = true;
         best.value = at(r, c);
         best.row = static_cast<int>(r);
         best.first_column = c;
@@ -293,6 +298,13 @@ double KurtosisCriterion::evaluate(const FilterBankNode& node) {
   return m4 / (m2 * m2) - (node.real ? 3.0 : 2.0);
 }
 
+double BandPowerCriterion::evaluate(const FilterBankNode& node) {
+  if (node.samples.empty()) return 0.0;
+  double sum = 0.0;
+  for (const Complex& v : node.samples) sum += std::norm(v);
+  return (node.real ? 1.0 : 2.0) * sum / static_cast<double>(node.samples.size());
+}
+
 double Ics2Criterion::evaluate(const FilterBankNode& node) {
   const auto spr = static_cast<std::size_t>(samples_per_rev_);
   const auto decimation = static_cast<std::size_t>(node.decimation);
@@ -312,6 +324,7 @@ double Ics2Criterion::evaluate(const FilterBankNode& node) {
     const RealFft& fft = plans_->real(n);
     real_.resize(n);
     for (std::size_t i = 0; i < n; ++i) real_[i] = node.samples[i].real();
+    apply_tukey_taper(real_, kEnvelopeTaperFraction);
     spectrum_.resize(fft.spectrum_size());
     fft.forward(real_, spectrum_);
     return envelope_->full_band_ics2(spectrum_, n, static_cast<std::size_t>(revolutions), parameters_).value;

@@ -11,13 +11,13 @@ TachoCheck ShaftAngle::assign(std::span<const double> edges, int edges_per_rev,
                               double analysed_revs_per_tacho_rev) {
   total_revs_ = 0.0;
   times_.clear();
-  if (edges.empty()) return {"no_tacho"};
-  if (edges_per_rev < 1 || !(analysed_revs_per_tacho_rev > 0.0)) return {"tacho_irregular"};
-  if (edges.size() < static_cast<std::size_t>(edges_per_rev) + 1) return {"too_few_edges"};
+  if (edges.empty()) return TachoCheck(SkipReason::no_tacho);
+  if (edges_per_rev < 1 || !(analysed_revs_per_tacho_rev > 0.0)) return TachoCheck(SkipReason::tacho_irregular);
+  if (edges.size() < static_cast<std::size_t>(edges_per_rev) + 1) return TachoCheck(SkipReason::too_few_edges);
   scratch_.resize(edges.size() - 1);
   for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
     const double d = edges[i + 1] - edges[i];
-    if (!std::isfinite(edges[i]) || !std::isfinite(edges[i + 1]) || !(d > 0.0)) return {"tacho_irregular"};
+    if (!std::isfinite(edges[i]) || !std::isfinite(edges[i + 1]) || !(d > 0.0)) return TachoCheck(SkipReason::tacho_irregular);
     scratch_[i] = d;
   }
   auto mid = scratch_.begin() + static_cast<std::ptrdiff_t>(scratch_.size() / 2);
@@ -25,7 +25,7 @@ TachoCheck ShaftAngle::assign(std::span<const double> edges, int edges_per_rev,
   const double median = *mid;
   for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
     const double d = edges[i + 1] - edges[i];
-    if (d < 0.5 * median || d > 1.5 * median) return {"tacho_irregular"};
+    if (d < 0.5 * median || d > 1.5 * median) return TachoCheck(SkipReason::tacho_irregular);
   }
 
   // Cubic spline through (i*h, edges[i]) with uniform knot spacing h and not-a-knot ends (the

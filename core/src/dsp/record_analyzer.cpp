@@ -41,6 +41,7 @@ std::vector<std::string> speed_names() { return {"speed_mean_hz", "speed_fluctua
 
 struct Moments {
   double rms = 0.0;
+  double std_dev = 0.0;   // about the mean
   double kurtosis = 0.0;  // m4 / m2^2 about the mean (3 for a Gaussian signal)
 };
 
@@ -65,6 +66,7 @@ Moments moments(std::span<const T> x) {
   c2 /= n;
   c4 /= n;
   m.rms = std::sqrt(sum2 / n);
+  m.std_dev = std::sqrt(c2);
   m.kurtosis = c2 > 0.0 ? c4 / (c2 * c2) : 0.0;
   return m;
 }
@@ -97,6 +99,9 @@ void SignalProcessingSettings::validate(const RigSpec& rig) const {
   require(std::isfinite(min_revolutions_for_tsa) && min_revolutions_for_tsa >= 2.0,
           "min_revolutions_for_tsa must be >= 2");
   require(max_clipped_fraction >= 0.0 && max_clipped_fraction <= 1.0, "max_clipped_fraction must be in [0, 1]");
+  require(flat_line_max_std_lsb >= 0.0 && flat_line_max_std_lsb <= 1000.0, "flat_line_max_std_lsb must be in [0, 1000]");
+  require(residual_rms_floor >= 0.0 && residual_rms_floor < 1.0, "residual_rms_floor must be in [0, 1)");
+  require(band_energy_floor_db >= -300.0 && band_energy_floor_db <= 0.0, "band_energy_floor_db must be in [-300, 0]");
   require(trend_significance > 0.0 && trend_significance <= 0.5, "trend_significance must be in (0, 0.5]");
   require(trend_window_records >= 3, "trend_window_records must be at least 3");
   require(band_jump_persistence_records >= 1, "band_jump_persistence_records must be at least 1");
@@ -136,20 +141,20 @@ ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channe
     throw std::out_of_range("RecordAnalyzer::analyze: record has no channel " + std::to_string(channel_index));
   ChannelAnalysis out;
   const auto all = indicator_names();
-  auto skip_all = [&](const std::string& reason) {
-    for (const auto& n : all) out.skipped.push_back({n, reason});
+  auto skip_all = [&](SkipReason reason) {
+    for (const auto& n : all) out.skipped.push_back({n, reason, {}});
   };
   const std::span<const float> x(record.channels[channel_index]);
   if (x.empty()) {
-    skip_all("empty_record");
+    skip_all(SkipReason::empty_record);
     return out;
   }
   if (!(record.sample_rate_hz > 0.0) || !std::isfinite(record.sample_rate_hz)) {
-    skip_all("bad_sample_rate");
+    skip_all(SkipReason::bad_sample_rate);
     return out;
   }
   if (!std::all_of(x.begin(), x.end(), [](float v) { return std::isfinite(v); })) {
-    skip_all("non_finite_samples");
+    skip_all(SkipReason::non_finite_samples);
     return out;
   }
   // Clipping: samples at the converter's full scale (32767 steps of the channel's scaling).
@@ -164,39 +169,47 @@ ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channe
     const auto clipped = static_cast<double>(
         std::count_if(x.begin(), x.end(), [&](float v) { return std::abs(static_cast<double>(v)) >= full_scale; }));
     if (clipped > settings_.max_clipped_fraction * static_cast<double>(x.size())) {
-      skip_all("clipped_samples");
+      skip_all(SkipReason::clipped_samples);
       return out;
     }
   }
   const Moments raw = moments(x);
+  // Flat line: at most flat_line_max_std_lsb LSB of spread (exactly constant without a scale).
+  const double lsb = spec != nullptr && spec->scale_m_s2_per_lsb > 0.0 ? spec->scale_m_s2_per_lsb : 0.0;
+  if (raw.std_dev <= settings_.flat_line_max_std_lsb * lsb) {
+    skip_all(SkipReason::flat_line);
+    return out;
+  }
   out.indicators.push_back({"rms_raw", raw.rms});
   out.indicators.push_back({"kurtosis_raw", raw.kurtosis});
 
   std::string failure;
   try {
-    analyze_order_domain(record, x, out);
+    analyze_order_domain(record, x, raw.std_dev, out);
   } catch (const std::exception& e) {
-    failure = std::string("analysis_error: ") + e.what();
+    failure = e.what();
   }
   // Every indicator ends up either computed or skipped with a reason.
   std::unordered_set<std::string> seen;
   for (const auto& i : out.indicators) seen.insert(i.name);
   for (const auto& s : out.skipped) seen.insert(s.name);
   for (const auto& n : all)
-    if (!seen.count(n)) out.skipped.push_back({n, failure.empty() ? "not_computed" : failure});
+    if (!seen.count(n))
+      out.skipped.push_back({n, failure.empty() ? SkipReason::not_computed : SkipReason::analysis_error, failure});
   return out;
 }
 
-void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const float> x, ChannelAnalysis& out) {
+void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const float> x, double raw_std_dev,
+                                          ChannelAnalysis& out) {
   const double fs = record.sample_rate_hz;
-  auto skip = [&](const std::vector<std::string>& names, const std::string& reason) {
-    for (const auto& n : names) out.skipped.push_back({n, reason});
+  auto skip = [&](const std::vector<std::string>& names, SkipReason reason, const std::string& detail = {}) {
+    for (const auto& n : names) out.skipped.push_back({n, reason, detail});
   };
   auto add = [&](const std::string& name, double value) {
     if (std::isfinite(value))
       out.indicators.push_back({name, value});
     else
-      out.skipped.push_back({name, "non_finite_result"});
+      out.skipped.push_back({name, SkipReason::non_finite_result, {}});
   };
   std::vector<std::string> order_names = speed_names();
   for (auto& n : tsa_names(settings_)) order_names.push_back(n);
@@ -210,13 +223,13 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
     if (tacho == nullptr || (t.ratio_to_input == 1.0 && tacho->ratio_to_input != 1.0)) tacho = &t;
   }
   if (tacho == nullptr) {
-    skip(order_names, "no_tacho");
+    skip(order_names, SkipReason::no_tacho);
     return;
   }
   const TachoCheck check = angle_.assign(record.tacho_edges[static_cast<std::size_t>(tacho->shaft)],
                                          tacho->edges_per_rev, 1.0 / tacho->ratio_to_input);
   if (!check.ok()) {
-    skip(order_names, check.reason);
+    skip(order_names, *check.failure);
     return;
   }
   angle_.speed_per_revolution(fs, out.speed_profile_hz);
@@ -229,7 +242,7 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
     fastest = std::max(fastest, v);
   }
   if (slowest < rig_.min_speed_hz || fastest > rig_.max_speed_hz) {
-    skip(order_names, "speed_out_of_range");
+    skip(order_names, SkipReason::speed_out_of_range);
     return;
   }
   out.mean_speed_hz = mean_speed;
@@ -243,8 +256,8 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   const auto input_revs = static_cast<std::size_t>(std::floor(total_revs + 1e-9));
   const auto output_revs = static_cast<std::size_t>(std::floor(total_revs * z1 / z2 + 1e-9));
   if (static_cast<double>(input_revs) < settings_.min_revolutions_for_tsa) {
-    skip(tsa_names(settings_), "too_few_revolutions");
-    skip(residual_group, "too_few_revolutions");
+    skip(tsa_names(settings_), SkipReason::too_few_revolutions);
+    skip(residual_group, SkipReason::too_few_revolutions);
     return;
   }
 
@@ -263,25 +276,34 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   synchronous_harmonic_amplitudes(separation_.input_tsa(), z1, static_cast<std::size_t>(settings_.stored_gmf_harmonics),
                                   plans_, gmf_amplitudes_);
   if (std::isfinite(gmf_amplitudes_[0])) add("gmf1_amplitude", gmf_amplitudes_[0]);
-  else out.skipped.push_back({"gmf1_amplitude", "above_nyquist"});
+  else out.skipped.push_back({"gmf1_amplitude", SkipReason::above_nyquist, {}});
   for (std::size_t h = 0; h < gmf_amplitudes_.size(); ++h) {
     const std::string name = "gmf_harmonic_" + std::to_string(h + 1);
     if (std::isfinite(gmf_amplitudes_[h])) add(name, gmf_amplitudes_[h]);
-    else out.skipped.push_back({name, "above_nyquist"});
+    else out.skipped.push_back({name, SkipReason::above_nyquist, {}});
   }
   try {
     add("rms_sa", rms_sa(gmf_amplitudes_, static_cast<std::size_t>(settings_.rms_sa_harmonics)));
   } catch (const std::invalid_argument&) {
-    out.skipped.push_back({"rms_sa", "above_nyquist"});
+    out.skipped.push_back({"rms_sa", SkipReason::above_nyquist, {}});
   }
 
   if (static_cast<double>(output_revs) < settings_.min_revolutions_for_tsa) {
-    skip(residual_group, "too_few_revolutions");
+    skip(residual_group, SkipReason::too_few_revolutions);
     return;
   }
   const Moments res = moments(std::span<const double>(residual_.data(), length));
   add("rms_residual", res.rms);
   add("kurtosis_residual", res.kurtosis);
+  // A residual at the level of quantisation and order-tracking error has no structure worth a
+  // number: ICS2 of such residue reads anything from 0.3 to 1.3 on a noise-free gear signal.
+  if (res.rms < settings_.residual_rms_floor * raw_std_dev) {
+    std::vector<std::string> structure;
+    for (const auto& n : residual_group)
+      if (n != "rms_residual" && n != "kurtosis_residual") structure.push_back(n);
+    skip(structure, SkipReason::residual_below_floor);
+    return;
+  }
   // The spectral indicators use the first R' revolutions, R' the largest 7-smooth count <= R, so
   // every transform size factors into small primes (a prime R such as 97 would make FFTW's
   // transforms several times slower); at most a few percent of the record is left out.
@@ -289,25 +311,38 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   const std::size_t spectral_length = spectral_revs * spr;
   const std::span<const double> residual(residual_.data(), spectral_length);
 
-  // Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier bands.
+  // Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier
+  // bands, band-passed by FFT on a tapered copy of the stretch (kEnvelopeTaperFraction: the
+  // stretch does not join end to start, and the step would be a broadband click).
   const Ics2Parameters ics2{static_cast<double>(z1), settings_.ics2_harmonics, settings_.ics2_tolerance_bins};
   const RealFft& fft = plans_.real(spectral_length);
+  tapered_residual_.assign(residual.begin(), residual.end());
+  apply_tukey_taper(tapered_residual_, kEnvelopeTaperFraction);
   residual_spectrum_.resize(fft.spectrum_size());
-  fft.forward(residual, residual_spectrum_);
+  fft.forward(tapered_residual_, residual_spectrum_);
   const double nyquist_hz = std::min(fs / 2.0, static_cast<double>(spr) / 2.0 * slowest);
   const double bins_per_hz = static_cast<double>(spectral_revs) / mean_speed;
   const std::size_t last_bin = spectral_length / 2 - 1;
+  double total_energy = 0.0;  // one-sided, DC and Nyquist bins excluded like the envelopes
+  for (std::size_t k = 1; k <= last_bin; ++k) total_energy += std::norm(residual_spectrum_[k]);
+  const double min_band_fraction = std::pow(10.0, settings_.band_energy_floor_db / 10.0);
   const double full_band = envelope_.full_band_ics2(residual_spectrum_, spectral_length, spectral_revs, ics2).value;
   add("ics2_full_band", full_band);
   auto band_ics2 = [&](const FrequencyBand& band, const std::string& name) {
     if (band.high_hz > nyquist_hz + 1e-9) {
-      out.skipped.push_back({name, "band_above_nyquist"});
+      out.skipped.push_back({name, SkipReason::band_above_nyquist, {}});
       return;
     }
     const auto first = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(band.low_hz * bins_per_hz)));
     const auto last = std::min(last_bin, static_cast<std::size_t>(std::floor(band.high_hz * bins_per_hz)));
     if (first > last) {
-      out.skipped.push_back({name, "band_empty"});
+      out.skipped.push_back({name, SkipReason::band_empty, {}});
+      return;
+    }
+    double band_energy = 0.0;
+    for (std::size_t k = first; k <= last; ++k) band_energy += std::norm(residual_spectrum_[k]);
+    if (!(band_energy > 0.0) || band_energy < min_band_fraction * total_energy) {
+      out.skipped.push_back({name, SkipReason::band_below_floor, {}});
       return;
     }
     add(name, envelope_.band_ics2(residual_spectrum_, spectral_length, spectral_revs, first, last, ics2).value);
@@ -315,24 +350,30 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   band_ics2(settings_.pitting_band, "ics2_low_band");
   band_ics2(settings_.abrasion_band, "ics2_high_band");
 
-  // Band selection over the 1/3-binary tree (ICS2, and kurtosis for comparison).
+  // Band selection over the 1/3-binary tree (ICS2, and kurtosis for comparison), among the bands
+  // above the energy floor. The tree's filters are linear, so it runs on the untapered stretch.
   Ics2Criterion ics2_criterion(envelope_, plans_, spr, ics2);
   ics2_criterion.set_whole_signal_value(full_band);
-  std::vector<BandCriterion*> criteria{&ics2_criterion};
+  std::vector<BandCriterion*> criteria{&power_criterion_, &ics2_criterion};
   if (settings_.kurtogram_band_selection) criteria.push_back(&kurtosis_criterion_);
   band_maps_.resize(criteria.size());
   const double equivalent_rate = static_cast<double>(spr) * mean_speed;  // angle-domain samples per second
+  std::vector<std::string> selection_names{"ics2_selected_band"};
+  if (settings_.kurtogram_band_selection) selection_names.emplace_back("kurtosis_selected_band");
   try {
     filter_bank_.analyse(residual, settings_.filter_bank_levels, criteria, band_maps_);
-    for (std::size_t i = 0; i < criteria.size(); ++i) {
-      const auto best = band_maps_[i].optimum(nyquist_hz / equivalent_rate);
+    for (std::size_t i = 1; i < criteria.size(); ++i) {
+      const auto best = band_maps_[i].optimum(nyquist_hz / equivalent_rate, &band_maps_[0], min_band_fraction);
+      if (!best.found) {
+        skip({selection_names[i - 1]}, SkipReason::all_bands_below_floor);
+        continue;
+      }
       out.band_selections.push_back({band_maps_[i].criterion, best.level, best.centre_fraction * equivalent_rate,
                                      best.bandwidth_fraction * equivalent_rate, best.value});
-      add(i == 0 ? "ics2_selected_band" : "kurtosis_selected_band", best.value);
+      add(selection_names[i - 1], best.value);
     }
   } catch (const std::invalid_argument& e) {
-    skip({"ics2_selected_band"}, std::string("filter_bank: ") + e.what());
-    if (settings_.kurtogram_band_selection) skip({"kurtosis_selected_band"}, std::string("filter_bank: ") + e.what());
+    skip(selection_names, SkipReason::filter_bank_error, e.what());
   }
 
   // Spectral coherence at the gear-mesh order and mean carrier frequencies (Fig. 4.13).
@@ -355,7 +396,7 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   for (const auto& range : settings_.mean_carrier_ranges) {
     const std::string name = mean_carrier_indicator_name(range);
     if (range.high_hz > nyquist_hz + 1e-9) {
-      out.skipped.push_back({name, "band_above_nyquist"});
+      out.skipped.push_back({name, SkipReason::band_above_nyquist, {}});
       continue;
     }
     add(name, coherence_.mean_carrier_order(range.low_hz / mean_speed, range.high_hz / mean_speed) * mean_speed);

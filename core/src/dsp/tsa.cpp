@@ -1,10 +1,13 @@
 #include "gearwatch/dsp/tsa.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
+
+#include "gearwatch/dsp/envelope.hpp"
 
 namespace gearwatch::dsp {
 
@@ -51,6 +54,29 @@ double rms_sa(std::span<const double> gmf_amplitudes, std::size_t harmonics) {
   return std::sqrt(sum);
 }
 
+std::size_t SynchronousSeparation::tapered_average(std::span<const double> x, std::size_t period,
+                                                   std::span<double> out) {
+  const std::size_t periods = time_synchronous_average(x, period, out);
+  if (periods == 0 || !(end_taper_fraction_ > 0.0)) return periods;
+  // Only the ramps differ from the plain mean: correct the sums there instead of weighting every
+  // sample.
+  const std::size_t n = periods * period;
+  const auto ramp = std::min(n / 2, static_cast<std::size_t>(std::ceil(0.5 * end_taper_fraction_ * static_cast<double>(n))));
+  weight_sum_.assign(period, static_cast<double>(periods));
+  for (std::size_t k = 0; k < period; ++k) out[k] *= static_cast<double>(periods);
+  auto reweight = [&](std::size_t j) {
+    const double w = tukey_weight(j, n, end_taper_fraction_);
+    out[j % period] -= (1.0 - w) * x[j];
+    weight_sum_[j % period] -= 1.0 - w;
+  };
+  for (std::size_t j = 0; j < ramp; ++j) {
+    reweight(j);
+    if (n - 1 - j != j) reweight(n - 1 - j);
+  }
+  for (std::size_t k = 0; k < period; ++k) out[k] /= weight_sum_[k];
+  return periods;
+}
+
 SynchronousSeparation::Result SynchronousSeparation::separate(std::span<const double> input_angle,
                                                               std::span<const double> output_angle,
                                                               std::size_t samples_per_rev, int pinion_teeth,
@@ -62,8 +88,8 @@ SynchronousSeparation::Result SynchronousSeparation::separate(std::span<const do
   input_tsa_.resize(spr);
   output_tsa_.resize(spr);
   Result result;
-  result.input_averages = time_synchronous_average(input_angle, spr, input_tsa_);
-  result.output_averages = time_synchronous_average(output_angle, spr, output_tsa_);
+  result.input_averages = tapered_average(input_angle, spr, input_tsa_);
+  result.output_averages = tapered_average(output_angle, spr, output_tsa_);
 
   const auto g = static_cast<std::size_t>(std::gcd(pinion_teeth, gear_teeth));
   const std::size_t shared_period = static_cast<std::size_t>(gear_teeth) / g;  // output orders shared

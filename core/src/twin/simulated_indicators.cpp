@@ -22,7 +22,7 @@ double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation&
   const dsp::ChannelAnalysis analysis = analyzer.analyze(record, 0);
   if (const auto v = analysis.value("rms_sa")) return *v;
   const dsp::SkippedIndicator* why = analysis.skip_reason("rms_sa");
-  throw TwinParameterError(std::string("simulated RMS_SA not available: ") + (why ? why->reason : "not computed"));
+  throw TwinParameterError(std::string("simulated RMS_SA not available: ") + (why ? dsp::to_string(why->reason) : "not computed"));
 }
 
 }  // namespace gearwatch::twin

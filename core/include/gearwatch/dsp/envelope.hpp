@@ -10,6 +10,20 @@
 
 namespace gearwatch::dsp {
 
+/// Fraction of a stretch tapered (half at each end) before its FFT band-pass. A stretch of R'
+/// revolutions cut from a longer record does not join end to start, and the FFT's periodic
+/// extension turns that step into a broadband click; in a band 60 dB below the record the click
+/// carries most of the band's energy and its squared envelope is an impulse (ICS2 -> H). 2 %
+/// removes it and changes the ICS2 of stationary content by < 0.1 % (docs/dsp.md).
+inline constexpr double kEnvelopeTaperFraction = 0.02;
+
+/// Tukey weight of sample i of n: raised-cosine ramps over fraction/2 of n at each end, 1
+/// between (fraction 0: all 1). Symmetric, never exactly 0.
+double tukey_weight(std::size_t i, std::size_t n, double fraction) noexcept;
+
+/// x[i] *= tukey_weight(i, x.size(), fraction).
+void apply_tukey_taper(std::span<double> x, double fraction) noexcept;
+
 struct Ics2Parameters {
   double cyclic_order = 19.0;   ///< the gear-mesh order of the shaft the signal is resampled on
   int harmonics = 3;            ///< H

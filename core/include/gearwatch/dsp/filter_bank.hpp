@@ -42,9 +42,21 @@ class KurtosisCriterion final : public BandCriterion {
   double evaluate(const FilterBankNode& node) override;
 };
 
+/// Power of the real signal within the band: mean x^2 for row 0 (mean removed by the bank),
+/// 2 mean|c|^2 for a complex node (its filters have unit pass-band gain and keep only the
+/// positive frequencies, half of a real signal's power). Used to keep band selection away from
+/// bands too weak to be trusted.
+class BandPowerCriterion final : public BandCriterion {
+ public:
+  const char* name() const noexcept override { return "power"; }
+  double evaluate(const FilterBankNode& node) override;
+};
+
 /// ICS2 of the band's squared envelope, on the largest whole-revolution stretch of the trimmed
 /// node (for a ternary node a multiple of 3 revolutions, so the gear-mesh order stays on a bin).
-/// Harmonics above a node's cyclic Nyquist are not counted.
+/// Harmonics above a node's cyclic Nyquist are not counted. Row 0 (the real signal) is band-passed
+/// by FFT and so tapered first (kEnvelopeTaperFraction); the complex nodes come from linear
+/// (not circular) filters and need no taper.
 class Ics2Criterion final : public BandCriterion {
  public:
   Ics2Criterion(SquaredEnvelopeAnalyzer& envelope, FftPlanCache& plans, std::size_t samples_per_rev,
@@ -77,6 +89,7 @@ struct BandMap {
   double at(std::size_t row, std::size_t column) const { return values[row * columns() + column]; }
 
   struct Optimum {
+    bool found = false;               ///< false when no band is eligible
     int row = 0;
     std::size_t first_column = 0;
     double level = 0.0;
@@ -88,7 +101,9 @@ struct BandMap {
   /// edge is at most max_high_fraction of the sample rate (an angle-domain signal may be sampled
   /// faster than the acquisition: bands above the acquisition's Nyquist hold only interpolation
   /// residue and must not be selected).
-  Optimum optimum(double max_high_fraction = 0.5) const;
+  /// With `power` (a BandPowerCriterion map of the same bank), bands whose power is below
+  /// min_power_fraction x power.at(0, 0) (the whole signal's) are not eligible either.
+  Optimum optimum(double max_high_fraction = 0.5, const BandMap* power = nullptr, double min_power_fraction = 0.0) const;
   /// Upper edge (fraction of the sample rate) of the band at (row, column).
   double band_high_fraction(std::size_t row, std::size_t column) const;
 };

@@ -2,16 +2,22 @@
 // Computed order tracking: tacho edges -> shaft angle -> angular resampling of a record to a fixed
 // number of samples per revolution, with a band-limited (Kaiser-windowed sinc) interpolator.
 #include <cstddef>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "gearwatch/dsp/skip_reason.hpp"
+
 namespace gearwatch::dsp {
 
-/// Why a tacho edge list cannot give a shaft angle (empty string = usable).
+/// Why a tacho edge list cannot give a shaft angle (no failure = usable).
 struct TachoCheck {
-  std::string reason;   ///< "", "no_tacho", "tacho_irregular", "too_few_edges"
-  bool ok() const noexcept { return reason.empty(); }
+  std::optional<SkipReason> failure;   ///< no_tacho, too_few_edges or tacho_irregular
+  std::string reason;                  ///< to_string(*failure), or "" when usable
+  TachoCheck() = default;
+  explicit TachoCheck(SkipReason r) : failure(r), reason(to_string(r)) {}
+  bool ok() const noexcept { return !failure.has_value(); }
 };
 
 /// Shaft angle as a function of time, from tacho edges. The edge times are interpolated as a

@@ -12,6 +12,7 @@
 #include "gearwatch/dsp/fft.hpp"
 #include "gearwatch/dsp/filter_bank.hpp"
 #include "gearwatch/dsp/order_tracking.hpp"
+#include "gearwatch/dsp/skip_reason.hpp"
 #include "gearwatch/dsp/spectral_coherence.hpp"
 #include "gearwatch/dsp/tsa.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
@@ -44,6 +45,20 @@ struct SignalProcessingSettings {
   std::vector<FrequencyBand> mean_carrier_ranges{{0.0, 30000.0}, {0.0, 50000.0}};
   double min_revolutions_for_tsa = 5.0;   ///< per shaft
   double max_clipped_fraction = 1.0e-4;   ///< samples at +-full scale tolerated
+  /// A channel whose standard deviation is at most this many LSB of its scale is a flat line
+  /// (a dead or disconnected sensor): skipped "flat_line". 0 = only an exactly constant channel;
+  /// a channel without a configured scale is flat only when exactly constant.
+  double flat_line_max_std_lsb = 0.5;
+  /// Residual RMS below this fraction of the raw RMS (about its mean, so a DC offset does not
+  /// count) is numerical residue (quantisation,
+  /// interpolation, order-tracking error: ~1e-4 to 1e-3 of the raw RMS), not signal: the
+  /// residual-structure indicators (ICS2, band selection, spectral coherence) are skipped
+  /// "residual_below_floor".
+  double residual_rms_floor = 0.005;
+  /// Bands whose energy is below this many dB of the analysed residual's total energy are not
+  /// trusted: a fixed band is skipped "band_below_floor" and tree bands are not selectable
+  /// (the tree's 17/25-tap filters leak about -55 dB, so a weaker band may hold only leakage).
+  double band_energy_floor_db = -40.0;
   double trend_significance = 0.05;       ///< wear-mechanism trend tests
   /// The trend tests use the most recent records only: Mann-Kendall is O(n²), and a daemon
   /// recording every 10 min for years must not slow down with age (the seed's lubricated test
@@ -68,7 +83,8 @@ struct IndicatorValue {
 };
 struct SkippedIndicator {
   std::string name;
-  std::string reason;   ///< e.g. "no_tacho", "non_finite_samples" (full list in docs/dsp.md)
+  SkipReason reason = SkipReason::not_computed;   ///< stored as to_string(reason); see docs/dsp.md
+  std::string detail;   ///< free text for some reasons (e.g. the filter bank's message), else empty
 };
 struct BandSelection {
   std::string criterion;    ///< "ics2" or "kurtosis"
@@ -107,7 +123,7 @@ class RecordAnalyzer {
 
  private:
   struct Context;
-  void analyze_order_domain(const Record& record, std::span<const float> x, ChannelAnalysis& out);
+  void analyze_order_domain(const Record& record, std::span<const float> x, double raw_std_dev, ChannelAnalysis& out);
 
   RigSpec rig_;
   SignalProcessingSettings settings_;
@@ -120,7 +136,8 @@ class RecordAnalyzer {
   OneThirdBinaryFilterBank filter_bank_;
   CyclicCoherenceEstimator coherence_;
   KurtosisCriterion kurtosis_criterion_;
-  RealBuffer input_angle_, output_angle_, residual_;
+  BandPowerCriterion power_criterion_;
+  RealBuffer input_angle_, output_angle_, residual_, tapered_residual_;
   std::vector<double> speed_scratch_;
   ComplexBuffer residual_spectrum_;
   std::vector<double> gmf_amplitudes_;

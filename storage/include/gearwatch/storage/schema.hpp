@@ -21,12 +21,12 @@ int current_schema_version() noexcept;
 using Vocabulary = std::map<std::string, std::vector<std::string>>;
 
 /// The domains of core's enums: record_end_reason, wear_mechanism, alert_kind, alert_severity,
-/// alert_transition.
+/// alert_transition, skip_reason.
 Vocabulary core_vocabulary();
 
 /// Sets WAL mode and synchronous=FULL (a committed transaction survives a crash or power
 /// loss), migrates, and writes the vocabulary (core's plus `extra`: the domains of the layers
-/// above core, e.g. rejected_frame_kind, gap_cause, skip_reason). A domain absent from the
+/// above core: rejected_frame_kind, gap_cause). A domain absent from the
 /// vocabulary is not checked. Throws SqliteError if the file is newer than this build knows.
 void open_and_migrate(Database& db, const Vocabulary& extra = {});
 
