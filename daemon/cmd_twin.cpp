@@ -273,6 +273,7 @@ void register_twin(CLI::App& app) {
   tune->add_option("--torque", to->torque, "Input torque (N m) when the capture has no condition frame");
   tune->add_option("--format", to->format, "table | json")->check(CLI::IsMember({"table", "json"}));
   tune->callback([to] { run_tune_mesh(*to); });
+  register_twin_wear(twin);
 }
 
 }  // namespace gearwatch::cli
