@@ -316,6 +316,8 @@ void register_twin(CLI::App& app) {
                                    "the source of core/src/twin/calibrated_values.cpp");
   cal->add_option("--out", co->out, "Write the source to this file instead of stdout");
   cal->callback([co] { run_calibrate(*co); });
+
+  register_twin_wear(twin);
 }
 
 }  // namespace gearwatch::cli

@@ -17,5 +17,7 @@ void register_simulate(CLI::App& app);
 void register_query(CLI::App& app);
 void register_inspect(CLI::App& app);
 void register_twin(CLI::App& app);
+/// `twin wear`, added to the `twin` subcommand by register_twin (cmd_twin_wear.cpp).
+void register_twin_wear(CLI::App* twin);
 
 }  // namespace gearwatch::cli

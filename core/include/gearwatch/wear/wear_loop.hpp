@@ -1,0 +1,111 @@
+#pragma once
+// The "blue loop" of seed Fig. 7.1 (open loop, no measurements): worn profile → GTE → contact force
+// of the pair → Archard wear increment and pitting increment → new worn profile, every ΔN cycles.
+// ΔN adapts: a step whose wear changes the pair's force anywhere on the pass by more than a
+// tolerance (fraction of the static force) is retried with half the cycles; quiet steps double it.
+#include <string>
+#include <vector>
+
+#include "gearwatch/twin/gearbox_parameters.hpp"
+#include "gearwatch/twin/mesh_stiffness.hpp"
+#include "gearwatch/twin/simulation.hpp"
+#include "gearwatch/twin/transmission_error.hpp"
+#include "gearwatch/wear/archard_wear.hpp"
+#include "gearwatch/wear/pitting_model.hpp"
+
+namespace gearwatch::wear {
+
+/// Where the pair's force over its pass comes from.
+enum class ForceModel {
+  quasi_static,   ///< load sharing from the mesh stiffness and the worn GTE (no dynamics; ~ms per step)
+  dynamic,        ///< the 21-DOF twin's dynamic contact force (one simulated pass; ~0.1–0.3 s per step)
+};
+
+struct WearLoopOptions {
+  double k_wear_si = 0;                 ///< Archard K in SI (m²/N); k_wear_si_from_seed() converts the seed's figures
+  double k_pitting = 0;                 ///< Lundberg–Palmgren K (SI, see pitting_model.hpp); 0 = no pitting
+  PittingMaterial material;
+  twin::OperatingPoint operating_point;
+  ForceModel force_model = ForceModel::quasi_static;
+  twin::SimulationOptions simulation;   ///< for ForceModel::dynamic
+  int profile_points = 101;             ///< root → tip samples per flank (also the GTE tables)
+  double initial_step_cycles = 100;
+  double max_step_cycles = 1e5;
+  double min_step_cycles = 1;
+  double force_tolerance = 0.05;        ///< max |ΔF| on the pass per step, as a fraction of T/r_b1
+  double depth_limit_m = 0.5e-3;        ///< the loop stops when a flank is worn this deep
+  /// Throws TwinParameterError naming the first bad value.
+  void validate() const;
+};
+
+/// The wear state of the pair (every tooth alike), root → tip at uniform profile fractions.
+struct WearState {
+  double cycles = 0;                    ///< pinion revolutions
+  std::vector<double> pinion_depth_m;
+  std::vector<double> gear_depth_m;
+  std::vector<double> pinion_pitting;   ///< pitting density D per pinion profile point, in [0, 1]
+};
+
+/// The worn profiles as the twin's profile deviation (material removed, root → tip), for the GTE.
+twin::ToothProfileDeviation to_profile_deviation(const WearState& state);
+
+/// Mean depths and the pinion's share (the seed reports about 73 %), mean pitting density.
+struct WearSummary {
+  double cycles = 0;
+  double pinion_mean_depth_m = 0;
+  double gear_mean_depth_m = 0;
+  double combined_mean_depth_m = 0;     ///< pinion + gear: the mean profile change the mesh sees
+  double pinion_share = 0;              ///< pinion / combined
+  double mean_pitting_density = 0;      ///< over the pinion's active profile
+  double max_pitting_density = 0;
+  double max_pitting_fraction = 0;      ///< profile fraction (0 root .. 1 tip) of the maximum
+};
+WearSummary summarise(const WearState& state);
+
+/// Combined depth along the line of action, indexed by the pinion's profile fraction (root → tip):
+/// pinion depth at u plus the gear depth of the flank point it touches (gear fraction 1 − u).
+std::vector<double> combined_profile(const WearState& state);
+
+struct StepReport {
+  double step_cycles = 0;
+  double force_change = 0;              ///< max |ΔF| / (T/r_b1) over the pass
+  int rejected = 0;                     ///< halvings before the step was accepted
+};
+
+class BlueLoop {
+ public:
+  /// An unworn pair. Throws TwinParameterError on bad parameters or options.
+  BlueLoop(twin::GearboxParameters params, WearLoopOptions options);
+
+  const WearState& state() const { return state_; }
+  const PassLoad& current_load() const { return load_; }
+  const twin::GearGeometry& geometry() const { return geometry_; }
+  /// Steps taken, rejected trials and force evaluations so far.
+  int steps() const { return steps_; }
+  int rejections() const { return rejections_; }
+  int force_evaluations() const { return force_evaluations_; }
+
+  /// New wear coefficients from now on (the purple loop's updates, Eqs. 7.13–7.17); validated.
+  void set_coefficients(double k_wear_si, double k_pitting);
+  const WearLoopOptions& options() const { return options_; }
+
+  /// One adaptive step, not past `until_cycles`.
+  StepReport step(double until_cycles);
+  /// Steps until `cycles` or until a flank reaches depth_limit_m. Returns false in the latter case
+  /// (state() then holds the last state inside the limit).
+  bool run_until(double cycles);
+
+ private:
+  PassLoad load_for(const WearState& s);
+  std::vector<double> pass_positions() const;
+  twin::GearboxParameters params_;
+  WearLoopOptions options_;
+  twin::GearGeometry geometry_;
+  twin::GearMeshStiffness mesh_;
+  WearState state_;
+  PassLoad load_;
+  double next_step_;
+  int steps_ = 0, rejections_ = 0, force_evaluations_ = 0;
+};
+
+}  // namespace gearwatch::wear
