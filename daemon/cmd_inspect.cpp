@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "cli_common.hpp"
+#include "vocabulary.hpp"
 #include "gearwatch/storage/schema.hpp"
 
 namespace gearwatch::cli {
@@ -24,7 +25,7 @@ void register_inspect(CLI::App& app) {
     if (!opt->pitted_area && !opt->wear_depth) throw CommandError("give --pitted-area and/or --wear-depth");
     try {
       storage::Database db(opt->db);
-      storage::open_and_migrate(db);
+      storage::open_and_migrate(db, daemon::acquisition_vocabulary());
       storage::Statement s(db, "INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note) VALUES (?, ?, ?, ?)");
       s.bind(1, opt->cycles).bind(2, opt->pitted_area).bind(3, opt->wear_depth);
       if (opt->note.empty()) s.bind_null(4);

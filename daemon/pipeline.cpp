@@ -26,6 +26,7 @@
 #include "gearwatch/storage/writer.hpp"
 #include "decoder_setup.hpp"
 #include "record_processing.hpp"
+#include "vocabulary.hpp"
 
 namespace gearwatch::daemon {
 namespace {
@@ -77,14 +78,6 @@ class BadInputLog {
   std::map<std::string, acq::LogRateLimiter> limiters_;
 };
 
-std::string rejected_kind(const std::string& reason) {
-  if (reason.find("repeated or out-of-order") != std::string::npos) return "duplicate_frame";
-  if (reason.find("tacho edge not after") != std::string::npos) return "tacho_out_of_order";
-  if (reason.find("life counter went backwards") != std::string::npos) return "life_counter_reset";
-  if (reason.find("protocol version") != std::string::npos) return "unsupported_version";
-  if (reason.find("not a protocol frame") != std::string::npos) return "unknown_frame";
-  return "malformed_frame";
-}
 
 }  // namespace
 
@@ -100,6 +93,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   wopt.queue_capacity = config.storage.queue_capacity;
   wopt.retry_initial_ms = static_cast<int>(config.storage.retry_initial_ms);
   wopt.retry_max_ms = static_cast<int>(config.storage.retry_max_ms);
+  wopt.vocabulary = acquisition_vocabulary();
   storage::StorageWriter writer(wopt, [&](const std::string&) { fatal_storage = true; });
   writer.start();
   writer.submit(storage::RunStarted{mode == PipelineMode::replay ? "replay" : "run", source_name, config.source_path});
@@ -130,8 +124,9 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   if (from_file) {
     source = std::make_unique<acq::CandumpFileSource>(
         io, source_name, [&](std::size_t line_no, const std::string& line, const std::string& reason) {
-          bad_input_log.warn("malformed_line", source_name + ":" + std::to_string(line_no) + ": " + reason);
-          rejected.put({"malformed_line", reason, line.substr(0, 300)});
+          const char* kind = acq::to_string(acq::RejectKind::malformed_line);
+          bad_input_log.warn(kind, source_name + ":" + std::to_string(line_no) + ": " + reason);
+          rejected.put({kind, reason, line.substr(0, 300)});
         });
   } else {
     acq::SocketCanOptions sopt;
@@ -142,11 +137,11 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   }
   std::string end_reason;
   auto on_frame = [&](const acq::CanFrame& frame) {
-    if (auto reason = decoder.decode(frame)) {
-      const std::string kind = rejected_kind(*reason);
-      bad_input_log.warn(kind, *reason);
+    if (auto rejection = decoder.decode(frame)) {
+      const char* kind = acq::to_string(rejection->kind);
+      bad_input_log.warn(kind, rejection->reason);
       acq::format_candump_line(frame, from_file ? "log" : source_name, frame_text);
-      rejected.put({kind, *reason, frame_text});
+      rejected.put({kind, std::move(rejection->reason), frame_text});
     }
   };
 

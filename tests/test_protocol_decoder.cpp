@@ -215,3 +215,58 @@ TEST_CASE("decoder: operating condition and a life counter that goes backwards",
       CHECK(e.life.revolutions == 5);
     }
 }
+
+TEST_CASE("decoder: every rejection says its kind; kinds are distinct stored tokens", "[decoder]") {
+  Harness h;
+  h.header();
+  auto kind_of = [&](const CanFrame& f) {
+    const auto r = h.decoder.decode(f);
+    REQUIRE(r);
+    CHECK_FALSE(r->reason.empty());
+    return r->kind;
+  };
+  CanFrame bad_samples;
+  bad_samples.id = 0x100;
+  bad_samples.len = 3;
+  CHECK(kind_of(bad_samples) == RejectKind::malformed_frame);
+  CanFrame bad_tacho;
+  bad_tacho.id = 0x180;
+  bad_tacho.len = 6;
+  CHECK(kind_of(bad_tacho) == RejectKind::malformed_frame);
+  CanFrame extended;
+  extended.id = 0x100;
+  extended.extended = true;
+  CHECK(kind_of(extended) == RejectKind::unknown_frame);
+  REQUIRE_FALSE(h.samples(0, 300));
+  const auto dup = h.samples(0, 300);
+  REQUIRE(dup);
+  CHECK(dup->kind == RejectKind::duplicate_frame);
+  REQUIRE_FALSE(h.decoder.decode(make_tacho_frame(h.ids, 0, 500.5)));
+  CHECK(kind_of(make_tacho_frame(h.ids, 0, 400.0)) == RejectKind::tacho_out_of_order);
+  REQUIRE_FALSE(h.decoder.decode(make_life_counter(h.ids, 1000)));
+  CHECK(kind_of(make_life_counter(h.ids, 10)) == RejectKind::life_counter_reset);
+  CHECK(kind_of(make_stream_header(h.ids, 100000, 2, 1, 2)) == RejectKind::unsupported_version);
+
+  std::vector<std::string> tokens;
+  for (auto k : kAllRejectKinds) tokens.emplace_back(to_string(k));
+  CHECK(tokens == std::vector<std::string>{"malformed_frame", "unknown_frame", "duplicate_frame", "tacho_out_of_order",
+                                           "life_counter_reset", "unsupported_version", "malformed_line"});
+}
+
+TEST_CASE("decoder: after a stream change, frames placed at 'the latest index' belong to the new stream",
+          "[decoder]") {
+  Harness h;
+  h.header(1);
+  for (std::uint32_t i = 0; i < 400000; i += 30000) REQUIRE_FALSE(h.samples(0, i));
+  REQUIRE_FALSE(h.decoder.decode(make_life_counter(h.ids, 5000)));
+  CHECK(h.events.back().index == 390029);  // the latest sample index of stream 1
+  // Stream 7 restarts its clock at 0; its first life-counter frame comes before its samples.
+  h.header(7);
+  REQUIRE_FALSE(h.decoder.decode(make_life_counter(h.ids, 5040)));
+  REQUIRE(h.events.back().kind == EventKind::life_counter);
+  CHECK(h.events.back().index == 0);  // the new stream's start, not index 390029 of the old one
+  REQUIRE_FALSE(h.samples(0, 0));
+  REQUIRE_FALSE(h.samples(0, 30));
+  REQUIRE_FALSE(h.decoder.decode(make_life_counter(h.ids, 5041)));
+  CHECK(h.events.back().index == 59);
+}

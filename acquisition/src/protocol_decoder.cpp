@@ -23,7 +23,22 @@ float read_f32(const std::uint8_t* p) noexcept {
   return f;
 }
 
+FrameRejection reject(RejectKind kind, std::string reason) { return {kind, std::move(reason)}; }
+
 }  // namespace
+
+const char* to_string(RejectKind kind) noexcept {
+  switch (kind) {
+    case RejectKind::malformed_frame: return "malformed_frame";
+    case RejectKind::unknown_frame: return "unknown_frame";
+    case RejectKind::duplicate_frame: return "duplicate_frame";
+    case RejectKind::tacho_out_of_order: return "tacho_out_of_order";
+    case RejectKind::life_counter_reset: return "life_counter_reset";
+    case RejectKind::unsupported_version: return "unsupported_version";
+    case RejectKind::malformed_line: return "malformed_line";
+  }
+  return "unknown";
+}
 
 ProtocolDecoder::ProtocolDecoder(ProtocolIds ids, std::uint8_t channel_mask, std::uint8_t shaft_mask, EventSink sink)
     : ids_(ids), channel_mask_(channel_mask), shaft_mask_(shaft_mask), sink_(std::move(sink)) {}
@@ -45,7 +60,7 @@ RejectReason ProtocolDecoder::decode(const CanFrame& frame) {
   counters_.frames.fetch_add(1, std::memory_order_relaxed);
   if (frame.extended || frame.remote || frame.error) {
     counters_.unknown_ids.fetch_add(1, std::memory_order_relaxed);
-    return std::string{"not a protocol frame (extended, remote or error frame)"};
+    return reject(RejectKind::unknown_frame, "not a protocol frame (extended, remote or error frame)");
   }
   const std::uint32_t id = frame.id;
   if (id >= ids_.vibration_base && id < ids_.vibration_base + 8) return on_samples(frame, id - ids_.vibration_base);
@@ -60,7 +75,8 @@ RejectReason ProtocolDecoder::decode(const CanFrame& frame) {
 RejectReason ProtocolDecoder::on_samples(const CanFrame& frame, unsigned channel) {
   if (frame.len < 4 || (frame.len - 4) % 2 != 0) {
     counters_.malformed_frames.fetch_add(1, std::memory_order_relaxed);
-    return "vibration frame of " + std::to_string(frame.len) + " bytes does not fit u32 index + i16 samples";
+    return reject(RejectKind::malformed_frame,
+                  "vibration frame of " + std::to_string(frame.len) + " bytes does not fit u32 index + i16 samples");
   }
   const unsigned n = (frame.len - 4u) / 2u;
   if (!(channel_mask_ & (1u << channel))) {
@@ -78,8 +94,9 @@ RejectReason ProtocolDecoder::on_samples(const CanFrame& frame, unsigned channel
   if (next) {
     if (first < *next) {
       counters_.duplicates.fetch_add(1, std::memory_order_relaxed);
-      return "channel " + std::to_string(channel) + ": repeated or out-of-order frame at index " +
-             std::to_string(first) + " (expected " + std::to_string(*next) + "), dropped";
+      return reject(RejectKind::duplicate_frame, "channel " + std::to_string(channel) +
+                                                     ": repeated or out-of-order frame at index " + std::to_string(first) +
+                                                     " (expected " + std::to_string(*next) + "), dropped");
     }
     if (first > *next) {
       const std::uint64_t missing = first - *next;
@@ -109,7 +126,7 @@ RejectReason ProtocolDecoder::on_samples(const CanFrame& frame, unsigned channel
 RejectReason ProtocolDecoder::on_tacho(const CanFrame& frame, unsigned shaft) {
   if (frame.len != 8) {
     counters_.malformed_frames.fetch_add(1, std::memory_order_relaxed);
-    return "tacho frame of " + std::to_string(frame.len) + " bytes (must be 8)";
+    return reject(RejectKind::malformed_frame, "tacho frame of " + std::to_string(frame.len) + " bytes (must be 8)");
   }
   if (!(shaft_mask_ & (1u << shaft))) {
     counters_.unconfigured_channel_frames.fetch_add(1, std::memory_order_relaxed);
@@ -125,7 +142,7 @@ RejectReason ProtocolDecoder::on_tacho(const CanFrame& frame, unsigned shaft) {
   auto& last = last_edge_[shaft];
   if (last && position <= *last) {
     counters_.tacho_out_of_order.fetch_add(1, std::memory_order_relaxed);
-    return "shaft " + std::to_string(shaft) + ": tacho edge not after the previous one, dropped";
+    return reject(RejectKind::tacho_out_of_order, "shaft " + std::to_string(shaft) + ": tacho edge not after the previous one, dropped");
   }
   last = position;
   counters_.tacho_edges.fetch_add(1, std::memory_order_relaxed);
@@ -141,7 +158,7 @@ RejectReason ProtocolDecoder::on_tacho(const CanFrame& frame, unsigned shaft) {
 RejectReason ProtocolDecoder::on_header(const CanFrame& frame) {
   if (frame.len != 8) {
     counters_.malformed_frames.fetch_add(1, std::memory_order_relaxed);
-    return "stream header of " + std::to_string(frame.len) + " bytes (must be 8)";
+    return reject(RejectKind::malformed_frame, "stream header of " + std::to_string(frame.len) + " bytes (must be 8)");
   }
   const auto rate = read_le<std::uint32_t>(frame.data.data());
   const std::uint8_t channels = frame.data[4];
@@ -149,11 +166,12 @@ RejectReason ProtocolDecoder::on_header(const CanFrame& frame) {
   const auto stream = read_le<std::uint16_t>(frame.data.data() + 6);
   if (version != 1) {
     counters_.unsupported_version.fetch_add(1, std::memory_order_relaxed);
-    return "stream header with protocol version " + std::to_string(version) + " (this receiver speaks 1)";
+    return reject(RejectKind::unsupported_version,
+                  "stream header with protocol version " + std::to_string(version) + " (this receiver speaks 1)");
   }
   if (rate == 0) {
     counters_.malformed_frames.fetch_add(1, std::memory_order_relaxed);
-    return std::string{"stream header with sample rate 0"};
+    return reject(RejectKind::malformed_frame, "stream header with sample rate 0");
   }
   if (in_stream_ && stream == stream_id_ && rate == sample_rate_hz_) return std::nullopt;  // periodic repeat
   if (in_stream_) counters_.stream_changes.fetch_add(1, std::memory_order_relaxed);
@@ -162,7 +180,11 @@ RejectReason ProtocolDecoder::on_header(const CanFrame& frame) {
   sample_rate_hz_ = rate;
   next_index_.fill(std::nullopt);
   last_edge_.fill(std::nullopt);
-  have_reference_ = false;  // a new stream's clock need not continue the old one
+  // A new stream's clock need not continue the old one. Until its first sample frame, frames
+  // placed at "the latest index" (life counter, condition without index) belong at its start:
+  // index 0 is not after any of its samples, never the old stream's latest index.
+  have_reference_ = false;
+  reference_index_ = 0;
   AcquisitionEvent start;
   start.kind = EventKind::stream_start;
   start.stream_id = stream;
@@ -175,7 +197,8 @@ RejectReason ProtocolDecoder::on_header(const CanFrame& frame) {
 RejectReason ProtocolDecoder::on_condition(const CanFrame& frame) {
   if (frame.len != 8 && frame.len != 12) {
     counters_.malformed_frames.fetch_add(1, std::memory_order_relaxed);
-    return "operating-condition frame of " + std::to_string(frame.len) + " bytes (must be 8 or 12)";
+    return reject(RejectKind::malformed_frame,
+                  "operating-condition frame of " + std::to_string(frame.len) + " bytes (must be 8 or 12)");
   }
   if (!in_stream_) {
     counters_.frames_before_header.fetch_add(1, std::memory_order_relaxed);
@@ -193,7 +216,7 @@ RejectReason ProtocolDecoder::on_condition(const CanFrame& frame) {
 RejectReason ProtocolDecoder::on_life_counter(const CanFrame& frame) {
   if (frame.len != 8) {
     counters_.malformed_frames.fetch_add(1, std::memory_order_relaxed);
-    return "life-counter frame of " + std::to_string(frame.len) + " bytes (must be 8)";
+    return reject(RejectKind::malformed_frame, "life-counter frame of " + std::to_string(frame.len) + " bytes (must be 8)");
   }
   if (!in_stream_) {
     counters_.frames_before_header.fetch_add(1, std::memory_order_relaxed);
@@ -209,8 +232,9 @@ RejectReason ProtocolDecoder::on_life_counter(const CanFrame& frame) {
     reset.life.revolutions = revs;
     reset.life.previous_revolutions = *last_life_counter_;
     sink_(reset);
-    reason = "life counter went backwards from " + std::to_string(*last_life_counter_) + " to " +
-             std::to_string(revs) + " revolutions: gear change or front-end fault, recorded";
+    reason = reject(RejectKind::life_counter_reset, "life counter went backwards from " + std::to_string(*last_life_counter_) +
+                                                        " to " + std::to_string(revs) +
+                                                        " revolutions: gear change or front-end fault, recorded");
   }
   last_life_counter_ = revs;
   AcquisitionEvent life;

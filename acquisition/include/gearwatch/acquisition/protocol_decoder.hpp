@@ -41,8 +41,29 @@ struct DecoderCounters {
   std::atomic<std::uint64_t> unsupported_version{0}; ///< headers with protocol_version != 1
 };
 
-/// Why a frame was rejected, for the rate-limited log line (nullopt when accepted).
-using RejectReason = std::optional<std::string>;
+/// What kind of bad input a frame (or a capture line) was; stored as rejected_frames.kind.
+enum class RejectKind : std::uint8_t {
+  malformed_frame,      ///< payload does not fit its layout
+  unknown_frame,        ///< extended, remote or error frame
+  duplicate_frame,      ///< repeated or out-of-order sample frame
+  tacho_out_of_order,   ///< tacho edge not after the previous one
+  life_counter_reset,   ///< odometer went backwards (the frame is used: reported, not dropped)
+  unsupported_version,  ///< stream header of another protocol version
+  malformed_line,       ///< a capture-file line that is not a candump frame
+};
+inline constexpr std::array kAllRejectKinds{RejectKind::malformed_frame,     RejectKind::unknown_frame,
+                                            RejectKind::duplicate_frame,     RejectKind::tacho_out_of_order,
+                                            RejectKind::life_counter_reset,  RejectKind::unsupported_version,
+                                            RejectKind::malformed_line};
+const char* to_string(RejectKind kind) noexcept;
+
+struct FrameRejection {
+  RejectKind kind = RejectKind::malformed_frame;
+  std::string reason;   ///< one line for the rate-limited log and the rejected_frames table
+};
+
+/// Why a frame was rejected (nullopt when accepted).
+using RejectReason = std::optional<FrameRejection>;
 
 class ProtocolDecoder {
  public:

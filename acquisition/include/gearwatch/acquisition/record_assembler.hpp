@@ -26,6 +26,7 @@ struct StreamInfo {
 };
 
 enum class GapCause : std::uint8_t { protocol = 0, ring_overflow = 1 };
+inline constexpr std::array kAllGapCauses{GapCause::protocol, GapCause::ring_overflow};
 const char* to_string(GapCause cause) noexcept;
 
 struct GapInfo {
