@@ -205,6 +205,24 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
           [&](const acq::LifeCounterReset& l) {
             writer.submit(storage::LifeCounterEvent{current_sequence, l.index, l.previous_revolutions, l.revolutions});
             writer.submit(processor.life_counter_reset(l.previous_revolutions, l.revolutions));
+          },
+          [&](const acq::ChannelStatusChange& c) {
+            const bool present = c.status == acq::ChannelStatus::resumed;
+            std::string message = "channel " + std::to_string(c.channel) + ": ";
+            switch (c.status) {
+              case acq::ChannelStatus::missing_from_stream:
+                message += "configured but not in the stream (the header announces fewer channels) — left out of the records";
+                break;
+              case acq::ChannelStatus::stopped:
+                message += "frames stopped at sample " + std::to_string(c.index) + " — cut out of the records until they come back";
+                break;
+              case acq::ChannelStatus::resumed:
+                message += "frames back at sample " + std::to_string(c.index) + " — in the records again from the next one";
+                break;
+            }
+            bad_input_log.warn("sensor", message);
+            auto update = processor.sensor_presence(c.channel, present, acq::to_string(c.status), message);
+            if (!update.alerts.empty() || !update.alert_states.empty()) writer.submit(std::move(update));
           }});
 
   auto health = [&](bool final) {
@@ -243,6 +261,8 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
                   {"records_complete", a.records_complete},
                   {"records_cut", a.records_cut},
                   {"records_rejected", a.records_rejected},
+                  {"records_restarted_after_gap", a.records_restarted_after_gap},
+                  {"channels_stopped", a.channels_stopped},
                   {"storage_retries", v(w.retries)},
                   {"storage_rows_rejected", v(w.rows_rejected)},
                   {"storage_queue_waits", v(w.queue_waits)}};

@@ -10,6 +10,15 @@ const char* to_string(GapCause cause) noexcept {
   return cause == GapCause::ring_overflow ? "ring_overflow" : "protocol";
 }
 
+const char* to_string(ChannelStatus status) noexcept {
+  switch (status) {
+    case ChannelStatus::missing_from_stream: return "missing_from_stream";
+    case ChannelStatus::stopped: return "stopped";
+    case ChannelStatus::resumed: return "resumed";
+  }
+  return "unknown";
+}
+
 RecordAssembler::RecordAssembler(const RigSpec& rig, Callbacks callbacks) : rig_(rig), callbacks_(std::move(callbacks)) {
   slot_of_channel_.fill(-1);
   for (std::size_t i = 0; i < rig_.channels.size(); ++i) {
@@ -61,6 +70,7 @@ void RecordAssembler::consume(const AcquisitionEvent& e) {
     case EventKind::gap: {
       const int slot = e.channel < 8 ? slot_of_channel_[e.channel] : -1;
       if (slot >= 0) next_seen_[static_cast<std::size_t>(slot)] = e.index + e.missing;
+      gap_end_ = std::max(gap_end_, e.index + e.missing);
       if (callbacks_.on_gap) callbacks_.on_gap({e.channel, e.index, e.missing, GapCause::protocol});
       break;
     }
@@ -80,11 +90,29 @@ void RecordAssembler::on_stream_start(const AcquisitionEvent& e) {
   min_length_ = static_cast<std::size_t>(std::llround(rig_.schedule.min_length_s * fs));
   slack_ = static_cast<std::size_t>(fs);  // a channel more than 1 s behind the others has stopped
   next_start_.reset();
+  scheduled_start_.reset();
+  gap_end_ = 0;
   next_seen_.fill(std::nullopt);
   for (auto& p : pending_) p.clear();
   for (auto& q : edges_) q.clear();
   have_condition_ = false;
+  // The odometer reading and the edges counted since it carry over: the shaft did not stop
+  // turning because the front-end restarted its stream. The new stream's clock is unrelated to
+  // the old one, so every edge of it counts from here (until the next life-counter frame).
+  life_index_.reset();
   if (callbacks_.on_stream) callbacks_.on_stream(stream_);
+  // Honour the header: configured channels beyond its channel count are not in this stream.
+  for (std::size_t slot = 0; slot < rig_.channels.size(); ++slot) {
+    const bool announced = rig_.channels[slot].number < static_cast<int>(e.channel_count);
+    slot_state_[slot] = SlotState::active;
+    if (!announced) set_slot_state(slot, SlotState::absent, ChannelStatus::missing_from_stream, 0);
+  }
+}
+
+void RecordAssembler::set_slot_state(std::size_t slot, SlotState state, ChannelStatus status, std::uint64_t index) {
+  slot_state_[slot] = state;
+  if (status == ChannelStatus::stopped) ++counters_.channels_stopped;
+  if (callbacks_.on_channel_status) callbacks_.on_channel_status({rig_.channels[slot].number, status, index});
 }
 
 void RecordAssembler::open_record(std::uint64_t start) {
@@ -96,6 +124,10 @@ void RecordAssembler::open_record(std::uint64_t start) {
     b.clear();
     b.reserve(length_);
   }
+  open_.regular_next = scheduled_start_ ? *scheduled_start_ : start + interval_;
+  // A channel whose frames came back joins now, at a record boundary, never in mid-record.
+  for (std::size_t slot = 0; slot < rig_.channels.size(); ++slot)
+    if (slot_state_[slot] == SlotState::rejoining) slot_state_[slot] = SlotState::active;
   open_.torque = torque_;
   open_.speed = speed_;
   open_.have_condition = have_condition_;
@@ -114,8 +146,13 @@ void RecordAssembler::open_record(std::uint64_t start) {
 
 std::size_t RecordAssembler::filled_min() const noexcept {
   std::size_t m = std::numeric_limits<std::size_t>::max();
-  for (const auto& b : open_.buffers) m = std::min(m, b.size());
-  return m;
+  bool any = false;
+  for (std::size_t slot = 0; slot < open_.buffers.size(); ++slot) {
+    if (slot_state_[slot] != SlotState::active) continue;
+    m = std::min(m, open_.buffers[slot].size());
+    any = true;
+  }
+  return any ? m : 0;
 }
 
 void RecordAssembler::on_samples(const AcquisitionEvent& e) {
@@ -130,8 +167,14 @@ void RecordAssembler::on_samples(const AcquisitionEvent& e) {
     ++counters_.ring_gaps;
     counters_.ring_gap_samples += missing;
     if (callbacks_.on_gap) callbacks_.on_gap({e.channel, *next_seen_[s], missing, GapCause::ring_overflow});
+    gap_end_ = std::max(gap_end_, e.index);
   }
   next_seen_[s] = e.index + e.count;
+  if (slot_state_[s] == SlotState::absent) set_slot_state(s, SlotState::rejoining, ChannelStatus::resumed, e.index);
+  if (slot_state_[s] == SlotState::rejoining && open_.active) {
+    pending_[s].push_back(e);  // for the next record; what falls before its start is dropped there
+    return;
+  }
   place_samples(s, e, 0);
 }
 
@@ -144,7 +187,17 @@ void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, st
       if (!next_start_) next_start_ = idx;
       if (idx + (count - offset) <= *next_start_) return;  // before the next scheduled record
       // Start at the schedule, or later when the samples at the scheduled start are missing.
-      open_record(std::max(*next_start_, idx));
+      std::uint64_t start = std::max(*next_start_, idx);
+      if (scheduled_start_ && start + length_ > *scheduled_start_) {
+        // The restart after a gap no longer fits a whole record before the schedule: keep to it.
+        next_start_ = scheduled_start_;
+        scheduled_start_.reset();
+        if (idx + (count - offset) <= *next_start_) return;
+        start = std::max(*next_start_, idx);
+      } else if (scheduled_start_) {
+        ++counters_.records_restarted_after_gap;
+      }
+      open_record(start);
     }
     auto& buf = open_.buffers[s];
     const std::uint64_t expected = open_.start + buf.size();
@@ -162,9 +215,13 @@ void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, st
         finalize(open_.cut < length_ ? RecordEnd::cut_at_gap : RecordEnd::complete);
         flush_pending();
       } else if (idx > open_.start + target + slack_) {
-        // Another channel fell silent: the record ends where the slowest channel stopped.
-        open_.cut = std::min(open_.cut, filled_min());
-        finalize(RecordEnd::cut_at_gap);
+        // Another channel fell silent for longer than the slack: it is cut out of the record
+        // (and of the next ones until its frames come back); the channels that deliver keep
+        // their record.
+        for (std::size_t k = 0; k < open_.buffers.size(); ++k)
+          if (slot_state_[k] == SlotState::active && open_.buffers[k].size() < target)
+            set_slot_state(k, SlotState::absent, ChannelStatus::stopped, open_.start + open_.buffers[k].size());
+        finalize(open_.cut < length_ ? RecordEnd::cut_at_gap : RecordEnd::complete);
         flush_pending();
       }
       return;
@@ -175,7 +232,8 @@ void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, st
     }
     if (idx > expected) {
       bool empty = true;
-      for (const auto& b : open_.buffers) empty = empty && b.empty();
+      for (std::size_t k = 0; k < open_.buffers.size(); ++k)
+        empty = empty && (slot_state_[k] != SlotState::active || open_.buffers[k].empty());
       if (empty) {
         open_.start = idx;  // nothing collected yet: the record simply starts after the hole
       } else {
@@ -205,15 +263,22 @@ void RecordAssembler::flush_pending() {
 
 void RecordAssembler::finalize(RecordEnd end) {
   const std::size_t n = std::min({open_.cut, length_, filled_min()});
+  // Samples already handed to this record past n are dropped with it: a restart can only begin
+  // where every channel still has its samples.
+  std::size_t consumed = n;
+  for (const auto& b : open_.buffers) consumed = std::max(consumed, b.size());
   if (end == RecordEnd::complete && n < length_) end = RecordEnd::stream_end;
   Record r;
   r.stream_id = stream_.stream_id;
   r.sample_rate_hz = stream_.sample_rate_hz;
   r.start_index = open_.start;
   r.end = end;
-  r.channels = std::move(open_.buffers);
-  for (auto& c : r.channels) c.resize(n);
-  for (const auto& ch : rig_.channels) r.channel_numbers.push_back(ch.number);
+  for (std::size_t slot = 0; slot < open_.buffers.size(); ++slot) {
+    if (slot_state_[slot] != SlotState::active) continue;  // absent from the stream, or stopped
+    r.channels.push_back(std::move(open_.buffers[slot]));
+    r.channels.back().resize(n);
+    r.channel_numbers.push_back(rig_.channels[slot].number);
+  }
   const double lo = static_cast<double>(open_.start);
   const double hi = lo + static_cast<double>(n);
   for (int shaft = 0; shaft < kMaxShafts; ++shaft) {
@@ -236,7 +301,17 @@ void RecordAssembler::finalize(RecordEnd end) {
   if (!analysable) ++counters_.records_rejected;
   else if (end == RecordEnd::complete) ++counters_.records_complete;
   else ++counters_.records_cut;
-  next_start_ = open_.start + interval_;
+  next_start_ = open_.regular_next;
+  scheduled_start_.reset();
+  if (!analysable && end == RecordEnd::cut_at_gap) {
+    // A too-short record cut at a gap would cost a whole interval of monitoring: start again
+    // right after the gap when a full record fits before the schedule's next start.
+    const std::uint64_t restart = std::max(open_.start + consumed, gap_end_);
+    if (restart + length_ <= open_.regular_next) {
+      next_start_ = restart;
+      scheduled_start_ = open_.regular_next;
+    }
+  }
   open_.active = false;
   open_.buffers.clear();
   if (callbacks_.on_record) callbacks_.on_record(std::move(r), analysable);

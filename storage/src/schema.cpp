@@ -181,6 +181,8 @@ ALTER TABLE alert_events ADD COLUMN value TEXT;
 ALTER TABLE alert_events ADD COLUMN subject TEXT;
 ALTER TABLE indicator_skips ADD COLUMN detail TEXT;
 ALTER TABLE health_snapshots ADD COLUMN storage_rows_rejected INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN records_restarted_after_gap INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN channels_stopped INTEGER NOT NULL DEFAULT 0;
 CREATE TABLE alert_state (
   kind TEXT NOT NULL,
   channel INTEGER NOT NULL,

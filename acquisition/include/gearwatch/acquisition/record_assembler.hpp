@@ -1,7 +1,12 @@
 #pragma once
 // Cuts records out of the decoded event stream (processing thread): a record of length L starts
 // every interval I on the sample clock (seed §3.2.2). A record never spans a gap: it is cut at
-// the gap (kept if at least min_length long, otherwise rejected) and the schedule continues.
+// the gap (kept if at least min_length long, otherwise rejected). After a rejected one, a new
+// record starts right after the gap when a full L fits before the next scheduled start; else the
+// schedule continues. A configured channel that the stream does not announce, or whose frames
+// stop for more than the slack (1 s), is left out of the records (reported through
+// on_channel_status) while the other channels' records go on; it rejoins at the next record
+// after its frames come back.
 // Deterministic: the same event sequence always gives the same records, which is what lets a
 // live run and a replay of its capture produce identical databases.
 #include <array>
@@ -42,12 +47,30 @@ struct LifeCounterReset {
   std::uint64_t revolutions = 0;
 };
 
+/// A configured channel's presence in the stream changed.
+enum class ChannelStatus : std::uint8_t {
+  missing_from_stream,  ///< the stream header announces fewer channels than this channel's number
+  stopped,              ///< its frames stopped: more than the slack (1 s) behind the other channels
+  resumed,              ///< its frames came back; it is in records again from the next one
+};
+inline constexpr std::array kAllChannelStatuses{ChannelStatus::missing_from_stream, ChannelStatus::stopped,
+                                                ChannelStatus::resumed};
+const char* to_string(ChannelStatus status) noexcept;
+
+struct ChannelStatusChange {
+  int channel = 0;                  ///< protocol channel number
+  ChannelStatus status = ChannelStatus::stopped;
+  std::uint64_t index = 0;          ///< sample index where it was noticed (stream start, last sample held, first sample back)
+};
+
 struct AssemblerCounters {
   std::uint64_t records_complete = 0;
   std::uint64_t records_cut = 0;      ///< cut at a gap or stream end, analysed
   std::uint64_t records_rejected = 0; ///< shorter than min_length: stored, not analysed
   std::uint64_t ring_gaps = 0;        ///< discontinuities caused by ring overflow
   std::uint64_t ring_gap_samples = 0;
+  std::uint64_t records_restarted_after_gap = 0;  ///< records started right after a gap that cut a too-short one
+  std::uint64_t channels_stopped = 0;             ///< channels cut out of records because their frames stopped
 };
 
 class RecordAssembler {
@@ -58,6 +81,7 @@ class RecordAssembler {
     std::function<void(const StreamInfo&)> on_stream;
     std::function<void(const GapInfo&)> on_gap;
     std::function<void(const LifeCounterReset&)> on_life_counter_reset;
+    std::function<void(const ChannelStatusChange&)> on_channel_status;
   };
 
   RecordAssembler(const RigSpec& rig, Callbacks callbacks);
@@ -77,7 +101,9 @@ class RecordAssembler {
     float torque = 0, speed = 0;
     bool have_condition = false;
     std::optional<double> revolutions;
+    std::uint64_t regular_next = 0;           ///< the schedule's next start after this record
   };
+  enum class SlotState : std::uint8_t { active, absent, rejoining };
 
   void on_stream_start(const AcquisitionEvent& e);
   void on_samples(const AcquisitionEvent& e);
@@ -86,6 +112,7 @@ class RecordAssembler {
   void open_record(std::uint64_t start);
   void finalize(RecordEnd end);
   std::size_t filled_min() const noexcept;
+  void set_slot_state(std::size_t slot, SlotState state, ChannelStatus status, std::uint64_t index);
 
   RigSpec rig_;
   Callbacks callbacks_;
@@ -99,6 +126,9 @@ class RecordAssembler {
   bool in_stream_ = false;
   std::size_t length_ = 0, interval_ = 0, min_length_ = 0, slack_ = 0;
   std::optional<std::uint64_t> next_start_;
+  std::optional<std::uint64_t> scheduled_start_;  ///< the schedule's start while a restart after a gap is pending
+  std::uint64_t gap_end_ = 0;                     ///< first index after the latest gap (any channel)
+  std::array<SlotState, 8> slot_state_{};
   std::array<std::optional<std::uint64_t>, 8> next_seen_{};
   std::array<std::deque<double>, kMaxShafts> edges_{};
   std::array<std::vector<AcquisitionEvent>, 8> pending_{};  ///< samples past the open record, per slot
