@@ -17,5 +17,6 @@ void register_simulate(CLI::App& app);
 void register_query(CLI::App& app);
 void register_inspect(CLI::App& app);
 void register_twin(CLI::App& app);
+void register_report(CLI::App& app);
 
 }  // namespace gearwatch::cli
