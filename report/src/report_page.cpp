@@ -111,7 +111,10 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
   {
     Statement any(db, "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
     any.step();
-    if (any.get_int(0) == 0) return d;  // a new, empty file: nothing measured yet
+    if (any.get_int(0) == 0) {  // a new, empty file: nothing measured yet
+      for (const auto& name : model_table_names()) d.model_tables.push_back({name, false, {}, {}, 0});
+      return d;
+    }
   }
   if (!has_object(db, "records")) throw std::runtime_error(database_label + " is not a gearwatch database (it has no records table)");
 

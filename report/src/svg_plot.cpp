@@ -92,6 +92,7 @@ LinearTicks linear_ticks(double lo, double hi, int target) {
   const long long k_last = static_cast<long long>(std::floor(hi / t.step + 1e-9));
   for (long long k = k_first; k <= k_last; ++k) t.values.push_back(scaled(k, mantissa, exponent));
   t.decimals = std::max(0, -exponent);
+  t.step_exponent = exponent;
   double largest = 0;
   for (const double v : t.values) largest = std::max(largest, std::abs(v));
   if (largest >= 1e4) {
@@ -113,7 +114,7 @@ std::vector<double> log_ticks(double lo, double hi, int max_ticks) {
 
 std::string format_linear_tick(double value, const LinearTicks& ticks) {
   static const char* const suffix[] = {"", "k", "M", "G"};
-  const int decimals = std::max(0, ticks.decimals - 3 * ticks.thousands);
+  const int decimals = std::max(0, 3 * ticks.thousands - ticks.step_exponent);
   const double shown = value / power_of_ten(3 * ticks.thousands);
   // Zero is written "0" whatever the step, and never "-0.0".
   if (std::abs(shown) < 0.5 * std::pow(10.0, -decimals)) return "0";

@@ -25,6 +25,7 @@ struct LinearTicks {
   std::vector<double> values;
   double step = 0;        ///< distance between ticks
   int decimals = 0;       ///< digits after the point that write every tick exactly
+  int step_exponent = 0;  ///< step = {1, 2, 5} x 10^step_exponent
   int thousands = 0;      ///< labels in units of 1000^thousands (k, M, G) when ticks reach 10 000
 };
 LinearTicks linear_ticks(double lo, double hi, int target = 5);
