@@ -299,7 +299,7 @@ TEST_CASE("report: end to end on replayed captures (plots, points, gaps, alerts,
   CHECK(with_model.find("predictions: not available in this database.") != std::string::npos);
 }
 
-TEST_CASE("report: bad input gets a one-line error and a non-zero exit; an empty database a page that says so", "[report][cli]") {
+TEST_CASE("report: bad input gets a one-line error and a non-zero exit, an empty database a page that says so", "[report][cli]") {
   const gearwatch::testing::TempDir dir("report-bad");
   auto one_line = [](const std::string& err) { return !err.empty() && err.back() == '\n' && count_of(err, "\n") == 1; };
 
