@@ -1,0 +1,143 @@
+#pragma once
+// The maintenance report: one self-contained HTML page (inline CSS and SVG, no scripts, no
+// network) with the gearbox's state from the database (docs/report.md). Loading and rendering
+// are separate so the page can be rendered from hand-made data.
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gearwatch/report/svg_plot.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+
+namespace gearwatch::report {
+
+/// One record of the gear pair on display, in record order.
+struct RecordRow {
+  std::int64_t id = 0;
+  std::optional<double> cycles;  ///< input revolutions at the record (NULL without a life counter)
+  std::string created_at;
+  bool analysed = false;
+};
+
+struct AlertRow {
+  std::int64_t id = 0;
+  std::string created_at, severity, kind;
+  std::optional<std::int64_t> channel;
+  std::string subject, transition, value;
+  std::optional<std::int64_t> record_id;
+  std::string message;
+};
+
+struct ActiveAlertRow {
+  std::string kind;
+  std::optional<std::int64_t> channel;
+  std::string subject, value, raised_at, updated_at;
+  std::string severity;  ///< of its newest `raised` transition (active_alerts has no severity)
+  std::string message;   ///< of that transition
+};
+
+struct WearVerdictRow {
+  std::int64_t channel = 0;
+  std::int64_t record_id = 0;
+  std::string mechanism;
+  std::int64_t points = 0;
+  std::string created_at;
+  std::optional<double> cycles;
+  std::string evidence;
+};
+
+struct HealthRow {
+  std::int64_t run_id = 0;
+  std::string run_kind, source, run_started_at, run_ended_at, taken_at;
+  bool final = false;
+  std::int64_t frames = 0, samples = 0;
+  std::int64_t lost_samples = 0;  ///< gap_samples + samples of ring-overflow gaps
+  std::int64_t kernel_drops = 0;
+  std::int64_t rejected_frames = 0;  ///< sum of the rejected_breakdown counters
+  std::vector<std::pair<std::string, std::int64_t>> rejected_breakdown;
+  std::int64_t records_rejected = 0, storage_rows_rejected = 0;
+};
+
+struct InspectionRow {
+  std::int64_t id = 0;
+  std::string entered_at;
+  double cycles = 0;
+  std::optional<double> pitted_area_fraction, wear_depth_m;
+  std::string note;
+};
+
+/// A table the schema does not define yet (the twin's k_updates, predictions): listed as it is.
+struct GenericTable {
+  std::string name;
+  bool present = false;
+  std::vector<std::string> columns;
+  std::vector<std::vector<std::string>> rows;  ///< at most kMaxGenericRows, newest (highest rowid) first
+  std::int64_t total_rows = 0;
+};
+
+struct ReportData {
+  std::string database;
+  std::string generated_at;  ///< UTC, ISO 8601
+  int schema_version = 0;
+
+  std::int64_t total_records = 0;      ///< in the whole database
+  int gear_pair_number = 1;            ///< 1 + the times the cycle count went backwards
+  std::vector<RecordRow> records;      ///< of the current gear pair, by id
+  std::optional<std::string> gear_pair_started_at;  ///< created_at of its first record
+
+  std::vector<std::int64_t> channels;  ///< channels with indicator values in the current gear pair
+  std::vector<std::string> indicator_names;  ///< every indicator name stored for them
+  /// (channel, indicator name) -> record id -> value (only non-NULL values).
+  std::map<std::pair<std::int64_t, std::string>, std::map<std::int64_t, double>> values;
+
+  std::vector<WearVerdictRow> verdicts;   ///< newest per channel
+  std::vector<ActiveAlertRow> active_alerts;
+  std::vector<AlertRow> alerts;           ///< newest first, at most kMaxAlertRows
+  std::int64_t total_alerts = 0;
+  std::vector<AlertRow> gear_pair_alerts; ///< every transition of the current gear pair, oldest first (event lines)
+  std::vector<HealthRow> health;          ///< newest snapshot per run, newest run first
+  std::vector<InspectionRow> inspections; ///< all, by cycles
+  std::vector<GenericTable> model_tables; ///< k_updates, predictions
+};
+
+inline constexpr std::size_t kMaxAlertRows = 500;
+inline constexpr std::size_t kMaxGenericRows = 200;
+
+/// The twin's tables the page shows when a database has them.
+inline const std::vector<std::string>& model_table_names() {
+  static const std::vector<std::string> names{"k_updates", "predictions"};
+  return names;
+}
+
+/// Reads everything the page shows in one read transaction (one consistent snapshot; in WAL
+/// mode it never blocks the writer). A database without any table is read as empty; one that
+/// has tables but no `records` is refused (std::runtime_error).
+ReportData load_report_data(storage::Database& db, const std::string& database_label, const std::string& generated_at);
+
+/// A trend plot family: one SVG per channel, a series per indicator.
+struct PlotFamily {
+  std::string id;        ///< used in element ids: "ics2", "rms_sa", ...
+  std::string title;
+  std::string y_label;   ///< quantity and unit
+  bool allow_log;
+  std::vector<std::pair<std::string, std::string>> series;  ///< (indicator name, legend label)
+};
+
+/// The families for the indicators of `data`, in page order: ICS2 (low, high, selected band),
+/// RMS_SA, rms_raw, kurtosis_raw, mean carrier frequency (every mean_carrier_hz_* stored).
+std::vector<PlotFamily> plot_families(const ReportData& data);
+
+/// The plot of one family and channel (x: input revolutions of the current gear pair; a point per
+/// record with cycles, NaN where the record has no value), with alert transitions and inspections
+/// as event lines. nullopt when the channel has no value of any of the family's indicators.
+std::optional<SvgPlot> make_trend_plot(const ReportData& data, const PlotFamily& family, std::int64_t channel);
+
+/// The whole page.
+std::string render_report_html(const ReportData& data);
+
+/// UTC now, ISO 8601 with seconds ("2026-11-23T07:23:42Z").
+std::string utc_now_iso8601();
+
+}  // namespace gearwatch::report

@@ -1,0 +1,679 @@
+#include "gearwatch/report/report_page.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <limits>
+#include <set>
+#include <stdexcept>
+
+namespace gearwatch::report {
+namespace {
+
+using storage::Database;
+using storage::Statement;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A deferred read transaction: the whole page is one snapshot of the database, and in WAL mode
+// a reader holds no lock the writer waits for (BEGIN IMMEDIATE, as Transaction does, would).
+class ReadSnapshot {
+ public:
+  explicit ReadSnapshot(Database& db) : db_(db) { db_.exec("BEGIN"); }
+  ~ReadSnapshot() {
+    try {
+      db_.exec("COMMIT");
+    } catch (...) {  // nothing was written: ending the read cannot lose anything
+    }
+  }
+  ReadSnapshot(const ReadSnapshot&) = delete;
+  ReadSnapshot& operator=(const ReadSnapshot&) = delete;
+
+ private:
+  Database& db_;
+};
+
+bool has_object(Database& db, const std::string& name) {
+  Statement s(db, "SELECT 1 FROM sqlite_master WHERE name = ? AND type IN ('table', 'view')");
+  s.bind(1, name);
+  return s.step();
+}
+
+std::optional<std::int64_t> opt_int(const Statement& s, int col) {
+  if (s.is_null(col)) return std::nullopt;
+  return s.get_int(col);
+}
+std::optional<double> opt_double(const Statement& s, int col) {
+  if (s.is_null(col)) return std::nullopt;
+  return s.get_double(col);
+}
+
+std::string format_number(double v, int significant = 4) {
+  if (!std::isfinite(v)) return "—";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", significant, v);
+  return buf;
+}
+
+// Cycle counts are integers in practice; keep them whole and grouped for reading.
+std::string format_cycles(double cycles) {
+  if (!std::isfinite(cycles)) return "—";
+  if (std::abs(cycles) >= 1e15 || cycles != std::floor(cycles)) return format_number(cycles, 8);
+  std::string digits = std::to_string(static_cast<long long>(cycles));
+  std::string out;
+  const std::size_t first = digits[0] == '-' ? 1 : 0;
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    if (i > first && (digits.size() - i) % 3 == 0) out += "\u2009";  // thin space
+    out += digits[i];
+  }
+  return out;
+}
+
+std::string cell_text(const Statement& s, int col) {
+  const std::string type = s.column_type(col);
+  if (type == "null") return "—";
+  if (type == "real") return format_number(s.get_double(col), 6);
+  if (type == "blob") return "(binary)";
+  return s.get_text(col);
+}
+
+// The alert, severity and event colours; the page's stylesheet uses the same ones.
+const char* severity_colour(const std::string& severity) {
+  if (severity == "alarm") return "#d32f2f";
+  if (severity == "warning") return "#ef6c00";
+  return "#546e7a";
+}
+constexpr const char* kClearedColour = "#9e9e9e";
+constexpr const char* kInspectionColour = "#2e7d32";
+const char* const kSeriesColours[] = {"#1f5fbf", "#00897b", "#8e44ad", "#795548"};
+
+std::string channel_text(const std::optional<std::int64_t>& channel) { return channel ? std::to_string(*channel) : "—"; }
+
+}  // namespace
+
+std::string utc_now_iso8601() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+ReportData load_report_data(Database& db, const std::string& database_label, const std::string& generated_at) {
+  ReportData d;
+  d.database = database_label;
+  d.generated_at = generated_at;
+  d.schema_version = db.user_version();
+  ReadSnapshot snapshot(db);
+
+  {
+    Statement any(db, "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
+    any.step();
+    if (any.get_int(0) == 0) {  // a new, empty file: nothing measured yet
+      for (const auto& name : model_table_names()) d.model_tables.push_back({name, false, {}, {}, 0});
+      return d;
+    }
+  }
+  if (!has_object(db, "records")) throw std::runtime_error(database_label + " is not a gearwatch database (it has no records table)");
+
+  // Records by id; a cycle count going backwards is a life-counter reset: a new gear pair.
+  {
+    std::vector<RecordRow> all;
+    Statement s(db, "SELECT id, input_revolutions, created_at, analysed FROM records ORDER BY id");
+    while (s.step()) all.push_back({s.get_int(0), opt_double(s, 1), s.get_text(2), s.get_int(3) != 0});
+    d.total_records = static_cast<std::int64_t>(all.size());
+    std::size_t pair_start = 0;
+    std::optional<double> previous;
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      if (!all[i].cycles) continue;
+      if (previous && *all[i].cycles < *previous) {
+        pair_start = i;
+        ++d.gear_pair_number;
+      }
+      previous = all[i].cycles;
+    }
+    d.records.assign(all.begin() + static_cast<std::ptrdiff_t>(pair_start), all.end());
+    if (!d.records.empty()) d.gear_pair_started_at = d.records.front().created_at;
+  }
+  const std::int64_t first_record = d.records.empty() ? std::numeric_limits<std::int64_t>::max() : d.records.front().id;
+
+  // Only the indicators the plots show: a long history has tens of other values per record.
+  if (has_object(db, "indicators")) {
+    Statement s(db,
+                "SELECT record_id, channel, name, value FROM indicators WHERE record_id >= ? AND value IS NOT NULL"
+                " AND (name IN ('ics2_low_band', 'ics2_high_band', 'ics2_selected_band', 'rms_sa', 'rms_raw', 'kurtosis_raw')"
+                "      OR name LIKE 'mean\\_carrier\\_hz\\_%' ESCAPE '\\')");
+    s.bind(1, first_record);
+    std::set<std::int64_t> channels;
+    std::set<std::string> names;
+    while (s.step()) {
+      const std::int64_t channel = s.get_int(1);
+      const std::string name = s.get_text(2);
+      d.values[{channel, name}][s.get_int(0)] = s.get_double(3);
+      channels.insert(channel);
+      names.insert(name);
+    }
+    d.channels.assign(channels.begin(), channels.end());
+    d.indicator_names.assign(names.begin(), names.end());
+  }
+
+  if (has_object(db, "wear_mechanism")) {
+    Statement s(db,
+                "SELECT channel, record_id, mechanism, points, created_at, cycles, evidence FROM wear_mechanism w"
+                " WHERE record_id = (SELECT max(record_id) FROM wear_mechanism x WHERE x.channel = w.channel) ORDER BY channel");
+    while (s.step())
+      d.verdicts.push_back({s.get_int(0), s.get_int(1), s.get_text(2), s.get_int(3), s.get_text(4), opt_double(s, 5), s.get_text(6)});
+  }
+
+  const bool alerts_have_transitions = has_object(db, "active_alerts");  // schema 3: channel, subject, transition
+  if (has_object(db, "alerts")) {
+    const std::string columns = alerts_have_transitions
+                                    ? "id, created_at, severity, kind, channel, subject, transition, value, record_id, message"
+                                    : "id, created_at, severity, kind, NULL, NULL, 'event', NULL, record_id, message";
+    Statement count(db, "SELECT count(*) FROM alerts");
+    count.step();
+    d.total_alerts = count.get_int(0);
+    Statement s(db, "SELECT " + columns + " FROM alerts ORDER BY id DESC LIMIT " + std::to_string(kMaxAlertRows));
+    while (s.step())
+      d.alerts.push_back({s.get_int(0), s.get_text(1), s.get_text(2), s.get_text(3), opt_int(s, 4), s.get_text(5), s.get_text(6),
+                          s.get_text(7), opt_int(s, 8), s.get_text(9)});
+  }
+  if (alerts_have_transitions) {
+    Statement s(db,
+                "SELECT kind, channel, subject, value, raised_at, updated_at,"
+                " (SELECT severity FROM alerts a WHERE a.kind = x.kind AND coalesce(a.channel, -1) = coalesce(x.channel, -1)"
+                "   AND coalesce(a.subject, '') = coalesce(x.subject, '') AND a.transition = 'raised' ORDER BY a.id DESC LIMIT 1),"
+                " (SELECT message FROM alerts a WHERE a.kind = x.kind AND coalesce(a.channel, -1) = coalesce(x.channel, -1)"
+                "   AND coalesce(a.subject, '') = coalesce(x.subject, '') AND a.transition = 'raised' ORDER BY a.id DESC LIMIT 1)"
+                " FROM active_alerts x ORDER BY kind, channel, subject");
+    while (s.step())
+      d.active_alerts.push_back(
+          {s.get_text(0), opt_int(s, 1), s.get_text(2), s.get_text(3), s.get_text(4), s.get_text(5), s.get_text(6), s.get_text(7)});
+  }
+
+  if (has_object(db, "acquisition_health")) {
+    // By column name, so a snapshot with more counters (a newer schema) still reads.
+    const bool ring_gap_column = [&] {
+      Statement c(db, "SELECT 1 FROM pragma_table_info('acquisition_health') WHERE name = 'ring_gap_samples'");
+      return c.step();
+    }();
+    const std::string ring_lost = ring_gap_column
+                                      ? "ring_gap_samples"
+                                      : "(SELECT coalesce(sum(g.missing_samples), 0) FROM gap_events g JOIN streams st ON st.id = g.stream_key"
+                                        " WHERE st.run_id = h.run_id AND g.cause = 'ring_overflow')";
+    Statement s(db, "SELECT h.*, " + ring_lost + " AS report_ring_lost FROM acquisition_health h ORDER BY run_id DESC");
+    std::map<std::string, int> col;
+    for (int i = 0; i < s.column_count(); ++i) col[s.column_name(i)] = i;
+    auto integer = [&](const char* name) -> std::int64_t {
+      const auto it = col.find(name);
+      return it == col.end() || s.is_null(it->second) ? 0 : s.get_int(it->second);
+    };
+    auto text = [&](const char* name) -> std::string {
+      const auto it = col.find(name);
+      return it == col.end() ? std::string{} : s.get_text(it->second);
+    };
+    while (s.step()) {
+      HealthRow h;
+      h.run_id = integer("run_id");
+      h.run_kind = text("run_kind");
+      h.source = text("source");
+      h.run_started_at = text("run_started_at");
+      h.run_ended_at = text("run_ended_at");
+      h.taken_at = text("taken_at");
+      h.final = integer("final") != 0;
+      h.frames = integer("frames");
+      h.samples = integer("samples");
+      h.lost_samples = integer("gap_samples") + integer("report_ring_lost");
+      h.kernel_drops = integer("kernel_drops");
+      for (const char* name : {"malformed_frames", "malformed_lines", "unknown_ids", "unconfigured_channel_frames", "frames_before_header",
+                               "unsupported_version", "duplicates"}) {
+        const std::int64_t n = integer(name);
+        h.rejected_breakdown.emplace_back(name, n);
+        h.rejected_frames += n;
+      }
+      h.records_rejected = integer("records_rejected");
+      h.storage_rows_rejected = integer("storage_rows_rejected");
+      d.health.push_back(std::move(h));
+    }
+  }
+
+  if (has_object(db, "inspections")) {
+    Statement s(db, "SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note FROM inspections ORDER BY cycles, id");
+    while (s.step())
+      d.inspections.push_back({s.get_int(0), s.get_text(1), s.get_double(2), opt_double(s, 3), opt_double(s, 4), s.get_text(5)});
+  }
+
+  // The twin's tables are not in the schema yet: shown as stored when a database has them.
+  for (const auto& name : model_table_names()) {
+    GenericTable t;
+    t.name = name;
+    t.present = has_object(db, name);
+    if (t.present) {
+      Statement count(db, "SELECT count(*) FROM \"" + name + "\"");
+      count.step();
+      t.total_rows = count.get_int(0);
+      // rowid order is insertion order; a view or WITHOUT ROWID table is listed as it comes.
+      const bool has_rowid = [&] {
+        try {
+          Statement probe(db, "SELECT rowid FROM \"" + name + "\" LIMIT 0");
+          return true;
+        } catch (const storage::SqliteError&) {
+          return false;
+        }
+      }();
+      Statement s(db, "SELECT * FROM \"" + name + "\"" + (has_rowid ? " ORDER BY rowid DESC" : "") + " LIMIT " +
+                          std::to_string(kMaxGenericRows));
+      for (int i = 0; i < s.column_count(); ++i) t.columns.push_back(s.column_name(i));
+      while (s.step()) {
+        std::vector<std::string> row;
+        for (int i = 0; i < s.column_count(); ++i) row.push_back(cell_text(s, i));
+        t.rows.push_back(std::move(row));
+      }
+    }
+    d.model_tables.push_back(std::move(t));
+  }
+
+  // Alert transitions of the current gear pair, for the plots' event lines (the table above
+  // holds only the newest rows of the whole history).
+  if (alerts_have_transitions && !d.records.empty()) {
+    Statement s(db,
+                "SELECT id, created_at, severity, kind, channel, subject, transition, value, record_id, message FROM alerts"
+                " WHERE record_id >= ? OR (record_id IS NULL AND created_at >= ?) ORDER BY id");
+    s.bind(1, first_record).bind(2, *d.gear_pair_started_at);
+    while (s.step())
+      d.gear_pair_alerts.push_back({s.get_int(0), s.get_text(1), s.get_text(2), s.get_text(3), opt_int(s, 4), s.get_text(5), s.get_text(6),
+                                    s.get_text(7), opt_int(s, 8), s.get_text(9)});
+  }
+  return d;
+}
+
+std::vector<PlotFamily> plot_families(const ReportData& data) {
+  std::vector<PlotFamily> families{
+      {"ics2", "ICS2 (cyclostationarity of the residual)", "ICS2 (–)", true,
+       {{"ics2_low_band", "low band (pitting)"}, {"ics2_high_band", "high band (abrasion)"}, {"ics2_selected_band", "selected band"}}},
+      {"rms_sa", "RMS_SA (mesh harmonics)", "RMS_SA (m/s²)", false, {{"rms_sa", ""}}},
+      {"rms_raw", "RMS of the raw signal", "RMS (m/s²)", false, {{"rms_raw", ""}}},
+      {"kurtosis_raw", "Kurtosis of the raw signal", "kurtosis (–)", false, {{"kurtosis_raw", ""}}},
+  };
+  PlotFamily carrier{"mean_carrier", "Mean carrier frequency", "frequency (Hz)", false, {}};
+  const std::string prefix = "mean_carrier_hz_";
+  for (const auto& name : data.indicator_names) {
+    if (name.rfind(prefix, 0) != 0) continue;
+    // mean_carrier_hz_<lo>_<hi> -> "<lo>–<hi> Hz"
+    std::string range = name.substr(prefix.size());
+    const auto sep = range.find('_');
+    if (sep != std::string::npos) range = range.substr(0, sep) + "–" + range.substr(sep + 1);
+    carrier.series.emplace_back(name, range + " Hz");
+  }
+  families.push_back(std::move(carrier));
+  return families;
+}
+
+namespace {
+
+/// Where an alert sits on the cycle axis: its record's cycles, or (an alert without a record,
+/// e.g. a sensor that stopped) those of the newest record made before it.
+std::optional<double> alert_cycles(const ReportData& data, const AlertRow& a, const std::map<std::int64_t, const RecordRow*>& by_id) {
+  if (a.record_id) {
+    const auto it = by_id.find(*a.record_id);
+    if (it != by_id.end()) return it->second->cycles;
+    return std::nullopt;
+  }
+  std::optional<double> cycles;
+  for (const auto& r : data.records)
+    if (r.created_at <= a.created_at && r.cycles) cycles = r.cycles;
+  return cycles;
+}
+
+std::string alert_title(const AlertRow& a) {
+  std::string t = a.transition + " " + a.severity + ": " + a.kind;
+  if (!a.subject.empty()) t += " (" + a.subject + ")";
+  t += " at " + a.created_at;
+  if (a.record_id) t += ", record " + std::to_string(*a.record_id);
+  if (!a.message.empty()) t += " — " + a.message;
+  return t;
+}
+
+bool inspection_in_gear_pair(const ReportData& data, const InspectionRow& i) {
+  // Inspection cycles count on the gear pair of their time; earlier pairs' would be misplaced.
+  return data.gear_pair_number == 1 || (data.gear_pair_started_at && i.entered_at >= *data.gear_pair_started_at);
+}
+
+std::string inspection_title(const InspectionRow& i) {
+  std::string t = "inspection " + std::to_string(i.id) + " at " + format_cycles(i.cycles) + " input revolutions";
+  if (i.pitted_area_fraction) t += ", pitted area " + format_number(*i.pitted_area_fraction * 100, 3) + " %";
+  if (i.wear_depth_m) t += ", wear depth " + format_number(*i.wear_depth_m * 1e6, 3) + " µm";
+  if (!i.note.empty()) t += " — " + i.note;
+  return t;
+}
+
+}  // namespace
+
+std::optional<SvgPlot> make_trend_plot(const ReportData& data, const PlotFamily& family, std::int64_t channel) {
+  std::vector<PlotSeries> series;
+  std::vector<double> xs, ys;
+  std::size_t colour = 0;
+  for (const auto& [name, label] : family.series) {
+    const auto found = data.values.find({channel, name});
+    if (found == data.values.end() || found->second.empty()) continue;
+    PlotSeries s{name, label, kSeriesColours[colour++ % std::size(kSeriesColours)], {}};
+    for (const auto& r : data.records) {
+      if (!r.cycles) continue;
+      const auto v = found->second.find(r.id);
+      PlotPoint p{*r.cycles, v == found->second.end() ? kNaN : v->second, {}};
+      if (v != found->second.end()) {
+        p.title = "record " + std::to_string(r.id) + " · " + r.created_at + " · " + format_cycles(*r.cycles) + " input revolutions · " +
+                  name + " = " + format_number(v->second, 5);
+        ys.push_back(v->second);
+      }
+      xs.push_back(*r.cycles);
+      s.points.push_back(std::move(p));
+    }
+    series.push_back(std::move(s));
+  }
+  if (series.empty() || ys.empty()) return std::nullopt;
+
+  std::map<std::int64_t, const RecordRow*> by_id;
+  for (const auto& r : data.records) by_id[r.id] = &r;
+  std::vector<EventLine> events;
+  for (const auto& a : data.gear_pair_alerts) {
+    if (a.channel && *a.channel != channel) continue;
+    const auto x = alert_cycles(data, a, by_id);
+    if (!x) continue;
+    EventLine e{*x, "", "", alert_title(a)};
+    if (a.transition == "raised") {
+      e.css_class = "raised-" + a.severity;
+      e.colour = severity_colour(a.severity);
+    } else if (a.transition == "cleared") {
+      e.css_class = "cleared";
+      e.colour = kClearedColour;
+    } else {
+      e.css_class = "event";
+      e.colour = severity_colour(a.severity);
+    }
+    events.push_back(std::move(e));
+  }
+  for (const auto& i : data.inspections) {
+    if (!inspection_in_gear_pair(data, i)) continue;
+    events.push_back({i.cycles, "inspection", kInspectionColour, inspection_title(i)});
+  }
+  for (const auto& e : events) xs.push_back(e.x);
+
+  SvgPlot plot(family.title + " — channel " + std::to_string(channel), fit_axis(xs, "input revolutions", false),
+               fit_axis(ys, family.y_label, family.allow_log));
+  for (auto& e : events) plot.add_event(std::move(e));
+  for (auto& s : series) plot.add_series(std::move(s));
+  return plot;
+}
+
+namespace {
+
+constexpr const char* kStyle = R"CSS(
+:root { color-scheme: light; }
+body { font: 14px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; margin: 0; color: #212121; background: #fafafa; }
+main { max-width: 1260px; margin: 0 auto; padding: 16px 20px 40px; }
+h1 { font-size: 22px; margin: 0 0 8px; }
+h2 { font-size: 18px; margin: 28px 0 8px; border-bottom: 2px solid #cfd8dc; padding-bottom: 4px; }
+h3 { font-size: 15px; margin: 18px 0 6px; }
+header.summary { background: #fff; border: 1px solid #cfd8dc; border-radius: 6px; padding: 14px 18px; }
+dl.facts { display: grid; grid-template-columns: max-content 1fr; gap: 2px 14px; margin: 0 0 10px; }
+dl.facts dt { color: #546e7a; }
+dl.facts dd { margin: 0; overflow-wrap: anywhere; }
+.badges { display: flex; flex-wrap: wrap; gap: 8px; margin: 4px 0 10px; }
+.badge { border-radius: 4px; padding: 4px 10px; border: 1px solid; background: #fff; }
+.verdict-none { border-color: #2e7d32; color: #1b5e20; background: #e8f5e9; }
+.verdict-undetermined { border-color: #90a4ae; color: #37474f; background: #eceff1; }
+.verdict-fatigue_pitting, .verdict-abrasive_wear, .verdict-both { border-color: #ef6c00; color: #8a3b00; background: #fff3e0; font-weight: 600; }
+ul.active { list-style: none; padding: 0; margin: 4px 0 0; }
+ul.active li { border-left: 6px solid; padding: 4px 10px; margin: 4px 0; background: #fff; }
+ul.active li.sev-alarm { border-left-color: #d32f2f; background: #ffebee; }
+ul.active li.sev-warning { border-left-color: #ef6c00; background: #fff3e0; }
+ul.active li.sev-info { border-left-color: #546e7a; }
+table.alerts tr.sev-alarm td:first-child { border-left-color: #d32f2f; }
+table.alerts tr.sev-warning td:first-child { border-left-color: #ef6c00; }
+table.alerts tr.sev-info td:first-child { border-left-color: #90a4ae; }
+td.time { white-space: nowrap; }
+.ok { color: #1b5e20; }
+.notice { background: #fff8e1; border: 1px solid #ffca28; padding: 8px 12px; border-radius: 4px; }
+.muted { color: #607d8b; }
+.plots { display: flex; flex-wrap: wrap; gap: 12px; }
+figure { margin: 0; background: #fff; border: 1px solid #e0e0e0; border-radius: 4px; padding: 4px; }
+figcaption { font-size: 12px; color: #607d8b; padding: 0 6px 4px; max-width: 590px; }
+svg.plot { display: block; font-family: inherit; }
+svg.plot .frame { fill: #fff; stroke: #90a4ae; }
+svg.plot .grid { stroke: #eceff1; }
+svg.plot .tick { font-size: 11px; fill: #455a64; }
+svg.plot .axis-label { font-size: 12px; fill: #37474f; }
+svg.plot .plot-title { font-size: 13px; font-weight: 600; fill: #263238; }
+svg.plot text.legend { font-size: 11px; fill: #37474f; }
+svg.plot polyline { stroke-width: 1.6; }
+svg.plot circle.pt { stroke: none; }
+svg.plot line.ev { stroke-width: 1.6; }
+svg.plot line.ev.cleared { stroke-dasharray: 4 3; }
+svg.plot line.ev.event { stroke-dasharray: 1 3; stroke-width: 2; }
+svg.plot line.ev.inspection { stroke-dasharray: 8 3; }
+.key { display: flex; flex-wrap: wrap; gap: 14px; font-size: 12px; color: #455a64; margin: 4px 0 8px; }
+.key span.sw { display: inline-block; width: 18px; height: 0; border-top: 2px solid; vertical-align: middle; margin-right: 4px; }
+table { border-collapse: collapse; background: #fff; font-size: 13px; }
+th, td { border: 1px solid #e0e0e0; padding: 3px 8px; text-align: left; vertical-align: top; }
+th { background: #eceff1; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.bad { color: #b71c1c; font-weight: 600; }
+table.alerts td:first-child { border-left: 6px solid #e0e0e0; }
+tr.trans-cleared td { color: #616161; }
+.scroll { overflow-x: auto; }
+)CSS";
+
+std::string td(const std::string& text, const char* cls = nullptr) {
+  return cls ? "<td class=\"" + std::string(cls) + "\">" + html_escape(text) + "</td>" : "<td>" + html_escape(text) + "</td>";
+}
+std::string td_num(std::int64_t v, bool bad_if_nonzero = false) {
+  return td(std::to_string(v), bad_if_nonzero && v != 0 ? "num bad" : "num");
+}
+
+void render_header(const ReportData& d, std::string& h) {
+  h += "<header class=\"summary\">\n<h1>Gearbox condition report</h1>\n<dl class=\"facts\">\n";
+  h += "<dt>Database</dt><dd>" + html_escape(d.database) + " <span class=\"muted\">(schema version " + std::to_string(d.schema_version) +
+       ")</span></dd>\n";
+  h += "<dt>Generated</dt><dd>" + html_escape(d.generated_at) + "</dd>\n";
+  h += "<dt>Gear pair</dt><dd>";
+  if (d.records.empty()) {
+    h += "no records yet";
+  } else {
+    const RecordRow* newest_with_cycles = nullptr;
+    for (const auto& r : d.records)
+      if (r.cycles) newest_with_cycles = &r;
+    h += "#" + std::to_string(d.gear_pair_number) + " since the database began";
+    if (newest_with_cycles)
+      h += " — <strong>" + html_escape(format_cycles(*newest_with_cycles->cycles)) + " input revolutions</strong> now (record " +
+           std::to_string(newest_with_cycles->id) + ", " + html_escape(newest_with_cycles->created_at) + ")";
+    else
+      h += " — no cycle count (no life counter in the stream)";
+  }
+  h += "</dd>\n";
+  std::size_t analysed = 0;
+  for (const auto& r : d.records) analysed += r.analysed ? 1 : 0;
+  h += "<dt>Records</dt><dd>" + std::to_string(d.records.size()) + " of this gear pair (" + std::to_string(analysed) + " analysed); " +
+       std::to_string(d.total_records) + " in the database</dd>\n</dl>\n";
+
+  h += "<h3>Wear mechanism (newest verdict per channel)</h3>\n<div class=\"badges\">";
+  if (d.verdicts.empty()) h += "<span class=\"muted\">no verdict yet</span>";
+  for (const auto& v : d.verdicts) {
+    h += "<span class=\"badge verdict-" + html_escape(v.mechanism) + "\" title=\"" + html_escape(v.evidence) + "\">Channel " +
+         std::to_string(v.channel) + ": <strong>" + html_escape(v.mechanism) + "</strong> <span class=\"muted\">(" +
+         std::to_string(v.points) + " points, record " + std::to_string(v.record_id) +
+         (v.cycles ? ", " + html_escape(format_cycles(*v.cycles)) + " rev" : std::string{}) + ")</span></span>";
+  }
+  h += "</div>\n<h3>Active alerts</h3>\n";
+  if (d.active_alerts.empty()) {
+    h += "<p class=\"ok\">No alert is raised.</p>\n";
+  } else {
+    h += "<ul class=\"active\">\n";
+    for (const auto& a : d.active_alerts) {
+      const std::string severity = a.severity.empty() ? "warning" : a.severity;
+      h += "<li class=\"sev-" + html_escape(severity) + "\"><strong>" + html_escape(severity) + "</strong> " + html_escape(a.kind);
+      if (a.channel) h += ", channel " + std::to_string(*a.channel);
+      if (!a.subject.empty()) h += " (" + html_escape(a.subject) + ")";
+      if (!a.message.empty()) h += ": " + html_escape(a.message);
+      else if (!a.value.empty() && a.value != a.subject) h += ": " + html_escape(a.value);
+      h += " <span class=\"muted\">raised " + html_escape(a.raised_at) + ", updated " + html_escape(a.updated_at) + "</span></li>\n";
+    }
+    h += "</ul>\n";
+  }
+  h += "</header>\n";
+}
+
+void render_trends(const ReportData& d, std::string& h) {
+  h += "<section id=\"trends\">\n<h2>Trends over the gear pair's life</h2>\n";
+  if (d.records.empty()) {
+    h += "<p class=\"notice\">This database has no records yet: nothing to plot.</p>\n</section>\n";
+    return;
+  }
+  if (d.gear_pair_number > 1)
+    h += "<p class=\"muted\">" + std::to_string(d.total_records - static_cast<std::int64_t>(d.records.size())) +
+         " records of earlier gear pairs are not plotted.</p>\n";
+  std::size_t without_cycles = 0;
+  for (const auto& r : d.records) without_cycles += r.cycles ? 0 : 1;
+  if (without_cycles)
+    h += "<p class=\"notice\">" + std::to_string(without_cycles) + " records have no cycle count and cannot be placed on the plots.</p>\n";
+  h += "<div class=\"key\"><span><span class=\"sw\" style=\"border-color:#d32f2f\"></span>alarm raised</span>"
+       "<span><span class=\"sw\" style=\"border-color:#ef6c00\"></span>warning raised</span>"
+       "<span><span class=\"sw\" style=\"border-color:#9e9e9e;border-top-style:dashed\"></span>cleared</span>"
+       "<span><span class=\"sw\" style=\"border-color:#ef6c00;border-top-style:dotted\"></span>one-off event</span>"
+       "<span><span class=\"sw\" style=\"border-color:#2e7d32;border-top-style:dashed\"></span>inspection</span>"
+       "<span>Gaps in a line: records not analysed or indicators skipped. Hover a point for its record and time.</span></div>\n";
+  if (d.channels.empty()) h += "<p class=\"notice\">No record of this gear pair has indicator values yet.</p>\n";
+  const auto families = plot_families(d);
+  for (const auto channel : d.channels) {
+    h += "<h3>Channel " + std::to_string(channel) + "</h3>\n<div class=\"plots\">\n";
+    for (const auto& f : families) {
+      const auto plot = make_trend_plot(d, f, channel);
+      if (!plot) continue;
+      std::size_t values = 0;
+      for (const auto& [name, label] : f.series) {
+        const auto it = d.values.find({channel, name});
+        if (it != d.values.end()) values = std::max(values, it->second.size());
+      }
+      h += "<figure>" + plot->render("plot-" + f.id + "-ch" + std::to_string(channel)) + "<figcaption>" + std::to_string(values) +
+           " records with values";
+      if (plot->y_axis().scale == AxisScale::log) h += "; log scale: the values span more than two decades";
+      if (const auto n = plot->unplottable_points()) h += "; " + std::to_string(n) + " values ≤ 0 not shown on the log scale";
+      h += ".</figcaption></figure>\n";
+    }
+    h += "</div>\n";
+  }
+  h += "</section>\n";
+}
+
+void render_alert_table(const ReportData& d, std::string& h) {
+  h += "<section id=\"alert-history\">\n<h2>Alert history</h2>\n";
+  if (d.alerts.empty()) {
+    h += "<p>No alert has been recorded.</p>\n</section>\n";
+    return;
+  }
+  if (static_cast<std::int64_t>(d.alerts.size()) < d.total_alerts)
+    h += "<p class=\"muted\">The " + std::to_string(d.alerts.size()) + " newest of " + std::to_string(d.total_alerts) +
+         " (all: <code>gearwatch query alerts</code>).</p>\n";
+  h += "<div class=\"scroll\"><table class=\"alerts\">\n<thead><tr><th>time (UTC)</th><th>severity</th><th>kind</th><th>channel</th>"
+       "<th>subject</th><th>transition</th><th>value</th><th>record</th><th>message</th></tr></thead>\n<tbody>\n";
+  for (const auto& a : d.alerts) {
+    h += "<tr class=\"alert-row sev-" + html_escape(a.severity) + " trans-" + html_escape(a.transition) + "\">";
+    h += td(a.created_at, "time") + td(a.severity) + td(a.kind) +
+         td(channel_text(a.channel), "num") + td(a.subject) + td(a.transition) + td(a.value) +
+         td(a.record_id ? std::to_string(*a.record_id) : "—", "num") + td(a.message) + "</tr>\n";
+  }
+  h += "</tbody></table></div>\n</section>\n";
+}
+
+void render_health_table(const ReportData& d, std::string& h) {
+  h += "<section id=\"health\">\n<h2>Acquisition health (newest snapshot per run)</h2>\n";
+  if (d.health.empty()) {
+    h += "<p>No health snapshot yet.</p>\n</section>\n";
+    return;
+  }
+  h += "<div class=\"scroll\"><table class=\"health\">\n<thead><tr><th>run</th><th>kind</th><th>source</th><th>started</th><th>ended</th>"
+       "<th>snapshot</th><th>frames</th><th>samples</th><th>lost samples</th><th>kernel drops</th><th>rejected frames</th>"
+       "<th>records rejected</th><th>storage rows rejected</th></tr></thead>\n<tbody>\n";
+  for (const auto& r : d.health) {
+    std::string breakdown;
+    for (const auto& [name, n] : r.rejected_breakdown) breakdown += (breakdown.empty() ? "" : ", ") + name + " " + std::to_string(n);
+    h += "<tr class=\"health-row\">" + td_num(r.run_id) + td(r.run_kind) + td(r.source) + td(r.run_started_at, "time") +
+         td(r.run_ended_at.empty() ? "running" : r.run_ended_at, "time") + td(r.taken_at + (r.final ? " (final)" : ""), "time") + td_num(r.frames) +
+         td_num(r.samples) + td_num(r.lost_samples, true) + td_num(r.kernel_drops, true) + "<td class=\"num" +
+         (r.rejected_frames ? " bad" : "") + "\" title=\"" + html_escape(breakdown) + "\">" + std::to_string(r.rejected_frames) + "</td>" +
+         td_num(r.records_rejected, true) + td_num(r.storage_rows_rejected, true) + "</tr>\n";
+  }
+  h += "</tbody></table></div>\n<p class=\"muted\">Lost samples = gap_samples + samples lost to ring overflow; rejected frames = malformed "
+       "frames and lines, unknown ids, unconfigured channels, frames before the stream header, unsupported versions and duplicates "
+       "(hover for the split).</p>\n</section>\n";
+}
+
+void render_inspections(const ReportData& d, std::string& h) {
+  h += "<section id=\"inspections\">\n<h2>Inspections</h2>\n";
+  if (d.inspections.empty()) {
+    h += "<p>No inspection recorded (<code>gearwatch inspect</code>).</p>\n</section>\n";
+    return;
+  }
+  h += "<table class=\"inspections\">\n<thead><tr><th>entered (UTC)</th><th>input revolutions</th><th>pitted area</th>"
+       "<th>wear depth</th><th>note</th></tr></thead>\n<tbody>\n";
+  for (const auto& i : d.inspections) {
+    h += "<tr class=\"inspection-row\">" + td(i.entered_at, "time") + td(format_cycles(i.cycles), "num") +
+         td(i.pitted_area_fraction ? format_number(*i.pitted_area_fraction * 100, 3) + " %" : "—", "num") +
+         td(i.wear_depth_m ? format_number(*i.wear_depth_m * 1e6, 3) + " µm" : "—", "num") + td(i.note) + "</tr>\n";
+  }
+  h += "</tbody></table>\n</section>\n";
+}
+
+void render_model(const ReportData& d, std::string& h) {
+  h += "<section id=\"model\">\n<h2>Digital twin: wear model</h2>\n"
+       "<p class=\"muted\">RMS_SA measured against the twin, wear depth and pitting density with their forecasts, and the "
+       "stiffness (K) updates come from the wear model's tables; they are listed here as stored.</p>\n";
+  for (const auto& t : d.model_tables) {
+    h += "<h3 id=\"model-" + html_escape(t.name) + "\">" + html_escape(t.name) + "</h3>\n";
+    if (!t.present) {
+      h += "<p class=\"model-missing\">" + html_escape(t.name) + ": not available in this database.</p>\n";
+      continue;
+    }
+    if (t.rows.empty()) {
+      h += "<p>" + html_escape(t.name) + ": no rows yet.</p>\n";
+      continue;
+    }
+    if (static_cast<std::int64_t>(t.rows.size()) < t.total_rows)
+      h += "<p class=\"muted\">The " + std::to_string(t.rows.size()) + " newest of " + std::to_string(t.total_rows) + " rows.</p>\n";
+    h += "<div class=\"scroll\"><table class=\"model\"><thead><tr>";
+    for (const auto& c : t.columns) h += "<th>" + html_escape(c) + "</th>";
+    h += "</tr></thead>\n<tbody>\n";
+    for (const auto& row : t.rows) {
+      h += "<tr>";
+      for (const auto& cell : row) h += td(cell);
+      h += "</tr>\n";
+    }
+    h += "</tbody></table></div>\n";
+  }
+  h += "</section>\n";
+}
+
+}  // namespace
+
+std::string render_report_html(const ReportData& d) {
+  std::string h;
+  h.reserve(1 << 16);
+  h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+  // The page loads nothing: the policy makes a browser refuse any request it might contain.
+  h += "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; style-src 'unsafe-inline'; img-src data:\">\n";
+  h += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
+  h += "<title>Gearbox condition — " + html_escape(d.database) + "</title>\n<style>" + std::string(kStyle) + "</style>\n</head>\n<body>\n<main>\n";
+  render_header(d, h);
+  if (d.total_records == 0) h += "<p class=\"notice\" id=\"no-records\">This database has no records: nothing has been measured yet.</p>\n";
+  render_trends(d, h);
+  render_alert_table(d, h);
+  render_health_table(d, h);
+  render_inspections(d, h);
+  render_model(d, h);
+  h += "<footer class=\"muted\"><p>gearwatch report · where each number comes from: docs/report.md</p></footer>\n</main>\n</body>\n</html>\n";
+  return h;
+}
+
+}  // namespace gearwatch::report
