@@ -19,5 +19,7 @@ void register_inspect(CLI::App& app);
 void register_twin(CLI::App& app);
 /// `twin wear`, added to the `twin` subcommand by register_twin (cmd_twin_wear.cpp).
 void register_twin_wear(CLI::App* twin);
+/// `twin state` (cmd_twin_state.cpp).
+void register_twin_state(CLI::App* twin);
 
 }  // namespace gearwatch::cli
