@@ -374,7 +374,11 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
       std::snprintf(text, sizeof text, "%s limit %.4g %s: %s cycles left (%s to %s with the spread of recent K updates) at %.3g Hz, %.3g N m; alert below %.4g",
                     what, lf.limit * scale, unit, cycles_text(lf.cycles_left).c_str(), cycles_text(lf.cycles_left_low).c_str(),
                     cycles_text(lf.cycles_left_high).c_str(), r.forecast.speed_hz, r.forecast.torque_nm, threshold);
-      if (auto e = alerts_.observe(AlertKey{AlertKind::remaining_life, -1, subject}, near, cycles_text(lf.cycles_left), text, h))
+      // The value is the limit, not the cycles left: those change at every record, and a changed
+      // value would be raised again each time.
+      char value[48];
+      std::snprintf(value, sizeof value, "%.4g %s", lf.limit * scale, unit);
+      if (auto e = alerts_.observe(AlertKey{AlertKind::remaining_life, -1, subject}, near, value, text, h))
         msg.alerts.push_back(std::move(*e));
     };
     observe_limit("wear_depth", r.forecast.wear, "wear depth", 1e3, "mm");

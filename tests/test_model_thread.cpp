@@ -268,3 +268,39 @@ TEST_CASE("model thread: the model's enumerated values are the database's vocabu
   db.exec("INSERT INTO k_update_log(run_id, gear_pair, cycles, kind, triggered_by, outcome, old_value, new_value,"
           " applies_from_cycles, iterations, evidence) VALUES (1, 0, 1, 'k_wear', 'rms_sa_mismatch', 'converged', 1, 2, 0, 1, '')");
 }
+
+TEST_CASE("model thread: remaining life below the configured cycles is an alarm, with hysteresis, cleared by a new pair",
+          "[model][daemon][alerts]") {
+  const gearwatch::testing::TempDir dir("model-alert");
+  const auto db = dir / "a.db";
+  // The seed's dry K at 5 N m wears to the 0.314 mm limit in about 28 000 cycles (docs/model.md):
+  // far inside 50 000, so the alarm is due, after two records in a row.
+  auto cfg = config::parse_config("[model]\ninitial_k_wear = 1.65e-6\nforecast_horizon_cycles = 100000.0\n"
+                                  "remaining_life_alert_cycles = 50000.0\n",
+                                  "test");
+  cfg.storage.database = db.string();
+  storage::StorageWriter writer(storage::WriterOptions{db.string()});
+  writer.start();
+  daemon::ModelThread model(cfg, writer, true);
+  model.start();
+  for (double cycles : {1000.0, 2000.0, 3000.0, 500.0}) {
+    daemon::ModelInput in;
+    in.observation = {0, cycles, 10, 5, std::nullopt, std::nullopt};
+    model.submit(in);
+  }
+  model.stop();
+  writer.stop();
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life'") == 2);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life' AND transition = 'raised' AND subject = 'wear_depth'"
+                   " AND severity = 'alarm'") == 1);
+  // The condition held at all three records of the first pair: raised once (the hysteresis
+  // needs two in a row), its value the limit, the cycles left in the message.
+  CHECK(scalar(db, "SELECT count(*) FROM predictions WHERE gear_pair = 0 AND wear_cycles_left < 50000") == 3);
+  CHECK(text(db, "SELECT value FROM alerts WHERE transition = 'raised'") == "0.3142 mm");
+  CHECK(text(db, "SELECT message FROM alerts WHERE transition = 'raised'").find("cycles left") != std::string::npos);
+  // The life counter went back: a new gear pair clears it.
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life' AND transition = 'cleared'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM active_alerts") == 0);
+  CHECK(scalar(db, "SELECT max(gear_pair) FROM model_state") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life' AND subject = 'pitting_density'") == 0);
+}
