@@ -1,5 +1,8 @@
 // `gearwatch inspect --db FILE --cycles N [--pitted-area F] [--wear-depth M] [--note T]`:
-// staff record what an inspection found; the model uses it to scale its pitting coefficient.
+// staff record what an inspection found. The model (docs/model.md) calibrates K_pitting and the
+// ICS2 <-> pitting-density scale from pitted areas, and shows wear depths against its prediction.
+#include <cmath>
+#include <cstdio>
 #include <iostream>
 
 #include "cli_common.hpp"
@@ -7,6 +10,14 @@
 #include "gearwatch/storage/schema.hpp"
 
 namespace gearwatch::cli {
+
+namespace {
+std::string number(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.10g", v);
+  return b;
+}
+}  // namespace
 
 void register_inspect(CLI::App& app) {
   struct Options {
@@ -17,19 +28,42 @@ void register_inspect(CLI::App& app) {
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("inspect", "Record an inspection (pitted area, wear depth) at a cycle count");
   cmd->add_option("--db", opt->db, "SQLite database")->required();
-  cmd->add_option("--cycles", opt->cycles, "Input-shaft revolutions at the inspection")->required()->check(CLI::NonNegativeNumber);
-  cmd->add_option("--pitted-area", opt->pitted_area, "Pitted area as a fraction of the flank area (0..1)")->check(CLI::Range(0.0, 1.0));
-  cmd->add_option("--wear-depth", opt->wear_depth, "Mean wear depth in metres (e.g. 12e-6)")->check(CLI::Range(0.0, 0.01));
+  cmd->add_option("--cycles", opt->cycles, "Input-shaft revolutions at the inspection")->required();
+  cmd->add_option("--pitted-area", opt->pitted_area, "Pitted area as a fraction of the flank area (0..1)");
+  cmd->add_option("--wear-depth", opt->wear_depth, "Mean wear depth in metres (e.g. 12e-6)");
   cmd->add_option("--note", opt->note, "Free text");
   cmd->callback([opt] {
     if (!opt->pitted_area && !opt->wear_depth) throw CommandError("give --pitted-area and/or --wear-depth");
+    if (!std::isfinite(opt->cycles) || opt->cycles < 0) throw CommandError("--cycles must be a finite, non-negative number");
+    if (opt->pitted_area && !(*opt->pitted_area >= 0 && *opt->pitted_area <= 1))
+      throw CommandError("--pitted-area is a fraction of the flank area: " + number(*opt->pitted_area) + " is outside [0, 1]");
+    if (opt->wear_depth && !(*opt->wear_depth >= 0 && *opt->wear_depth <= 0.01))
+      throw CommandError("--wear-depth is in metres: " + number(*opt->wear_depth) + " is outside [0, 0.01] (negative, or not a wear depth)");
     try {
       storage::Database db(opt->db);
       storage::open_and_migrate(db, daemon::acquisition_vocabulary());
-      storage::Statement s(db, "INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note) VALUES (?, ?, ?, ?)");
+      // The gear pair now installed: its records since the last life-counter reset.
+      double reset_at = 0;
+      std::int64_t gear_pair = 0;
+      {
+        storage::Statement st(db, "SELECT count(*), (SELECT revolutions FROM life_counter_events ORDER BY id DESC LIMIT 1) FROM life_counter_events");
+        st.step();
+        gear_pair = st.get_int(0);
+        if (!st.is_null(1)) reset_at = st.get_double(1);
+      }
+      storage::Statement newest(db, "SELECT input_revolutions FROM records WHERE input_revolutions IS NOT NULL ORDER BY id DESC LIMIT 1");
+      const double newest_cycles = newest.step() ? newest.get_double(0) : 0.0;
+      if (opt->cycles > newest_cycles)
+        throw CommandError("--cycles " + number(opt->cycles) + " is beyond the newest record (" + number(newest_cycles) +
+                           " cycles): an inspection cannot be in the future of the data");
+      if (gear_pair > 0 && opt->cycles < reset_at)
+        throw CommandError("--cycles " + number(opt->cycles) + " is before the last life-counter reset (" + number(reset_at) +
+                           " cycles): that was the previous gear pair");
+      storage::Statement s(db, "INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note, gear_pair) VALUES (?, ?, ?, ?, ?)");
       s.bind(1, opt->cycles).bind(2, opt->pitted_area).bind(3, opt->wear_depth);
       if (opt->note.empty()) s.bind_null(4);
       else s.bind(4, opt->note);
+      s.bind(5, gear_pair);
       s.run();
       std::cout << "inspection " << db.last_insert_rowid() << " recorded at " << opt->cycles << " cycles\n";
     } catch (const storage::SqliteError& e) {

@@ -1,4 +1,4 @@
-// `gearwatch query alerts|active|indicators|health|updates|inspections|records|gaps|rejected --db FILE
+// `gearwatch query alerts|active|indicators|health|updates|predictions|inspections|records|gaps|rejected --db FILE
 //  [--since T] [--until T] [--channel C] [--name N] [--limit N] [--format table|csv|json]`.
 #include <map>
 
@@ -24,9 +24,9 @@ void register_query(CLI::App& app) {
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("query", "Staff queries on the database");
-  cmd->add_option("what", opt->what, "alerts | active | indicators | health | updates | inspections | records | gaps | rejected")
+  cmd->add_option("what", opt->what, "alerts | active | indicators | health | updates | predictions | inspections | records | gaps | rejected")
       ->required()
-      ->check(CLI::IsMember({"alerts", "active", "indicators", "health", "updates", "inspections", "records", "gaps", "rejected"}));
+      ->check(CLI::IsMember({"alerts", "active", "indicators", "health", "updates", "predictions", "inspections", "records", "gaps", "rejected"}));
   cmd->add_option("--db", opt->db, "SQLite database")->required()->check(CLI::ExistingFile);
   cmd->add_option("--since", opt->since, "Only rows at or after this UTC time (ISO 8601, e.g. 2026-11-01 or 2026-11-01T08:00)");
   cmd->add_option("--until", opt->until, "Only rows before this UTC time (same forms as --since)");
@@ -56,10 +56,21 @@ void register_query(CLI::App& app) {
             " FROM gap_events g JOIN streams s ON s.id = g.stream_key",
             "detected_at", "channel"}},
           {"rejected", {"SELECT id, received_at, run_id, kind, reason, frame FROM rejected_frames", "received_at"}},
-          {"updates", {"SELECT * FROM k_updates", "created_at"}},
+          {"updates",
+           {"SELECT id, created_at, gear_pair, cycles, kind, triggered_by, outcome, old_value, new_value, applies_from_cycles,"
+            " iterations, measured, simulated_before, simulated_after, correlation_before, correlation_after, record_id, evidence"
+            " FROM k_updates",
+            "created_at"}},
+          {"predictions",
+           {"SELECT run_id, created_at, record_id, gear_pair, cycles, speed_hz, torque_nm, k_wear, k_pitting, rms_sa_measured,"
+            " rms_sa_simulated, ics2_low, ics2_density_estimate, wear_mean_m, wear_max_m, pitting_mean, pitting_max, wear_limit_m,"
+            " wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit, pitting_cycles_left,"
+            " pitting_cycles_left_low, pitting_cycles_left_high, issues, detail FROM predictions",
+            "created_at"}},
       };
-      if (opt->what == "updates" && !has_table(db, "k_updates"))
-        throw CommandError("this database has no k_updates: the wear-model updating (digital twin II) is not in this gearwatch version yet");
+      if ((opt->what == "updates" && !has_table(db, "k_updates")) || (opt->what == "predictions" && !has_table(db, "predictions")))
+        throw CommandError("this database has no " + std::string(opt->what == "updates" ? "k_updates" : "predictions") +
+                           " view yet: it was written by an older gearwatch (schema before version 4); open it once with this one");
       const Source& source = sources.at(opt->what);
       std::string sql = source.sql;
       const std::string time_col = source.time_col;

@@ -318,6 +318,7 @@ void register_twin(CLI::App& app) {
   cal->callback([co] { run_calibrate(*co); });
 
   register_twin_wear(twin);
+  register_twin_state(twin);
 }
 
 }  // namespace gearwatch::cli

@@ -20,5 +20,7 @@ void register_twin(CLI::App& app);
 /// `twin wear`, added to the `twin` subcommand by register_twin (cmd_twin_wear.cpp).
 void register_twin_wear(CLI::App* twin);
 void register_report(CLI::App& app);
+/// `twin state` (cmd_twin_state.cpp).
+void register_twin_state(CLI::App* twin);
 
 }  // namespace gearwatch::cli

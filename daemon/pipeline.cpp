@@ -25,6 +25,7 @@
 #include "gearwatch/acquisition/spsc_ring.hpp"
 #include "gearwatch/storage/writer.hpp"
 #include "decoder_setup.hpp"
+#include "model_thread.hpp"
 #include "record_processing.hpp"
 #include "vocabulary.hpp"
 
@@ -177,6 +178,13 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   };
   if (use_watchdog) arm_watchdog();
 
+  // --- model thread (digital twin updating); a replay is lossless, live it coalesces when behind
+  std::unique_ptr<ModelThread> model;
+  if (config.model.enabled) {
+    model = std::make_unique<ModelThread>(config, writer, mode == PipelineMode::replay);
+    model->start();
+  }
+
   // --- processing thread; the wear history of the installed gear pair continues from the database
   RecordProcessor processor(config, load_processor_memory(config.storage.database, config.alerts));
   std::uint64_t current_sequence = 0;
@@ -187,7 +195,11 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
       config.rig,
       acq::RecordAssembler::Callbacks{
           [&](Record&& r, bool analysable) {
-            writer.submit(processor.process(r, analysable, current_sequence));
+            storage::RecordResult result = processor.process(r, analysable, current_sequence);
+            std::optional<ModelInput> model_in;
+            if (model && analysable) model_in = model_input(result, config);
+            writer.submit(std::move(result));  // first: the model's row refers to the stored record
+            if (model_in) model->submit(std::move(*model_in));
             ++records_total;
             if (analysable) ++records_analysed;
           },
@@ -324,6 +336,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   // Reverse order of start: acquisition, processing, then the writer (which drains).
   acquisition.join();
   processing.join();
+  if (model) model->stop();  // drains what it holds
   writer.submit(health(true));
   writer.submit(storage::RunEnded{end_reason});
   writer.stop();

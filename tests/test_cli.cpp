@@ -67,7 +67,7 @@ TEST_CASE("cli: a bad config stops `run` before anything starts, with file, line
 TEST_CASE("cli: simulate, replay, query and inspect work together", "[cli]") {
   const gearwatch::testing::TempDir dir("flow");
   const auto cap = (dir / "cap.log").string(), db = (dir / "a.db").string();
-  auto sim = run("simulate --out " + cap + " --duration 2.5 --speed 12 --torque 15 --sample-rate 20000");
+  auto sim = run("simulate --out " + cap + " --duration 2.5 --speed 12 --torque 15 --sample-rate 20000 --start-revs 120000");
   REQUIRE(sim.status == 0);
   CHECK(sim.out.find("50000 samples x 2 channels") != std::string::npos);
   auto rep = run("replay " + cap + " --db " + db + " --format json");

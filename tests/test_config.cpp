@@ -148,6 +148,43 @@ TEST_CASE("config: the shipped configuration files parse", "[config]") {
   CHECK(example.alerts.threshold_raise_after_records == empty.alerts.threshold_raise_after_records);
   CHECK(example.alerts.threshold_clear_after_records == empty.alerts.threshold_clear_after_records);
   CHECK(example.alerts.watched_indicators == empty.alerts.watched_indicators);
+  const auto& m = example.model;
+  const auto& md = empty.model;
+  CHECK(m.enabled == md.enabled);
+  CHECK(m.channel == md.channel);
+  CHECK(m.initial_k_wear == md.initial_k_wear);
+  CHECK(m.initial_k_pitting == md.initial_k_pitting);
+  CHECK(m.update_threshold == md.update_threshold);
+  CHECK(m.convergence_tolerance == md.convergence_tolerance);
+  CHECK(m.max_wear_iterations == md.max_wear_iterations);
+  CHECK(m.correlation_threshold == md.correlation_threshold);
+  CHECK(m.pitting_interval_cycles == md.pitting_interval_cycles);
+  CHECK(m.simulation_revolutions == md.simulation_revolutions);
+  CHECK(m.min_torque_nm == md.min_torque_nm);
+  CHECK(m.max_torque_nm == md.max_torque_nm);
+  CHECK(m.wear_limit_fraction == md.wear_limit_fraction);
+  CHECK(m.pitting_limit == md.pitting_limit);
+  CHECK(m.forecast_horizon_cycles == md.forecast_horizon_cycles);
+  CHECK(m.remaining_life_alert_cycles == md.remaining_life_alert_cycles);
+  CHECK(m.remaining_life_raise_after_records == md.remaining_life_raise_after_records);
+  CHECK(m.remaining_life_clear_after_records == md.remaining_life_clear_after_records);
+  CHECK(m.queue_capacity == md.queue_capacity);
+  CHECK(m.force_model == md.force_model);
+}
+
+TEST_CASE("config: [model] keys, and the errors that name them", "[config][model]") {
+  const auto c = parse_config("[model]\nupdate_threshold = 0.08\npitting_limit = 0.2\nchannel = 1\nforce_model = \"dynamic\"\n", "m.toml");
+  CHECK(c.model.update_threshold == 0.08);
+  CHECK(c.model.pitting_limit == 0.2);
+  CHECK(c.model.channel == 1);
+  CHECK(c.model.force_model == "dynamic");
+  CHECK_THROWS_WITH(parse_config("[model]\nchannel = 5\n", "m.toml"),
+                    Catch::Contains("key 'model.channel'") && Catch::Contains("not a configured"));
+  CHECK_THROWS_WITH(parse_config("[model]\nconvergence_tolerance = 0.1\n", "m.toml"),
+                    Catch::Contains("model.convergence_tolerance") && Catch::Contains("update_threshold"));
+  CHECK_THROWS_WITH(parse_config("[model]\nwear_limit_fraction = 0.5\n", "m.toml"), Catch::Contains("model.wear_limit_fraction"));
+  CHECK_THROWS_WITH(parse_config("[model]\nforce_model = \"fast\"\n", "m.toml"), Catch::Contains("model.force_model"));
+  CHECK_THROWS_WITH(parse_config("[model]\nupdate_treshold = 0.05\n", "m.toml"), Catch::Contains("unknown key"));
 }
 
 TEST_CASE("config: [processing] sets the signal-processing settings", "[config]") {

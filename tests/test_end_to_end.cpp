@@ -21,6 +21,10 @@ using gearwatch::testing::run_command;
 
 namespace {
 
+// These verdicts do not involve the digital twin; its model thread (seconds per record) has its
+// own tests (test_model_thread.cpp).
+const char* const kNoModel = "[model]\nenabled = false\n";
+
 const std::string kGenerator = std::string(GEARWATCH_PYTHON) + " " + GEARWATCH_SOURCE_DIR + "/tests/capture_gen/rig_capture.py";
 
 void generate(const std::string& args) {
@@ -54,7 +58,7 @@ nlohmann::json query(const fs::path& db, const std::string& what) {
 fs::path campaign_config(const fs::path& dir) {
   const auto path = dir / "campaign.toml";
   std::ofstream(path) << "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
-                         "[records]\nlength_s = 2.0\ninterval_s = 600.0\nmin_length_s = 1.0\n";
+                         "[records]\nlength_s = 2.0\ninterval_s = 600.0\nmin_length_s = 1.0\n" << kNoModel;
   return path;
 }
 
@@ -146,7 +150,7 @@ namespace {
 // Two accelerometers configured (the default), short records every 2 s.
 fs::path two_channel_config(const fs::path& dir) {
   const auto path = dir / "two.toml";
-  std::ofstream(path) << "[records]\nlength_s = 2.0\ninterval_s = 2.0\nmin_length_s = 1.0\n";
+  std::ofstream(path) << "[records]\nlength_s = 2.0\ninterval_s = 2.0\nmin_length_s = 1.0\n" << kNoModel;
   return path;
 }
 
@@ -254,7 +258,7 @@ TEST_CASE("end to end: cycles keep advancing across a stream change", "[e2e][acq
 TEST_CASE("end to end: a record rejected at a gap is restarted after it, not ten minutes later", "[e2e][acquisition]") {
   const gearwatch::testing::TempDir dir("e2e-gap");
   const auto config = dir / "gap.toml";
-  std::ofstream(config) << "[records]\nlength_s = 2.0\ninterval_s = 600.0\nmin_length_s = 1.8\n";
+  std::ofstream(config) << "[records]\nlength_s = 2.0\ninterval_s = 600.0\nmin_length_s = 1.8\n" << kNoModel;
   const auto db = dir / "plant.db";
   // A 90-sample gap 1.5 s into the first record (the generator drops whole frames: 90 = 3 x 30).
   generate("--out " + (dir / "a.log").string() + " --duration 5.0 --channels 0,1 --start-revs 1000 --gap 1.5:90" +
@@ -275,7 +279,7 @@ TEST_CASE("end to end: an indicator far above the gear pair's own baseline is an
   const auto config = dir / "threshold.toml";
   std::ofstream(config) << "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
                            "[records]\nlength_s = 2.0\ninterval_s = 600.0\nmin_length_s = 1.0\n"
-                           "[alerts]\nbaseline_records = 5\nwatched_indicators = [\"rms_raw\"]\n";
+                           "[alerts]\nbaseline_records = 5\nwatched_indicators = [\"rms_raw\"]\n" << kNoModel;
   const auto db = dir / "plant.db";
   // Records 1-5: the baseline (broadband noise 2 m/s²); 6-8: noise 10 m/s², rms_raw about five
   // times the baseline (far beyond 6 sd of it); 9-11: back to normal.

@@ -32,7 +32,8 @@ std::int64_t scalar(const std::string& db_path, const std::string& sql) {
 }
 
 config::GearwatchConfig replay_config(const fs::path& capture, const fs::path& db) {
-  auto cfg = config::parse_config("[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.2\n", "test");
+  // The model thread has its own tests (test_model_thread.cpp); these are about the pipeline.
+  auto cfg = config::parse_config("[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.2\n[model]\nenabled = false\n", "test");
   cfg.acquisition.source = config::SourceKind::candump;
   cfg.acquisition.capture = capture.string();
   cfg.storage.database = db.string();

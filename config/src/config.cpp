@@ -103,7 +103,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
   cfg.source_path = file;
   static const std::set<std::string> known{"rig", "gears", "channels", "tachos", "records", "protocol",
                                            "acquisition", "storage", "logging", "daemon", "processing", "twin",
-                                           "alerts"};
+                                           "alerts", "model"};
   for (const auto& [k, v] : root) {
     if (!known.count(std::string{k.str()})) {
       throw ConfigError(file + ":" + std::to_string(v.source().begin.line) + ": key '" + std::string{k.str()} + "': unknown table or key");
@@ -303,6 +303,45 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
       throw ConfigError(file + (tbl ? ":" + std::to_string(tbl->source().begin.line) : std::string{}) +
                         ": [processing]: " + e.what());
     }
+  }
+  {
+    TableReader t(sub_table(root, "model", file), "model.", file);
+    auto& m = cfg.model;
+    if (const toml::node* n = t.node("enabled")) {
+      auto b = n->value_exact<bool>();
+      if (!b) t.fail(n, "enabled", "expected true or false");
+      m.enabled = *b;
+    }
+    t.integer("channel", m.channel, -1, 7);
+    if (m.channel >= 0 && std::none_of(cfg.rig.channels.begin(), cfg.rig.channels.end(),
+                                       [&](const ChannelSpec& c) { return c.number == m.channel; }))
+      t.fail(t.node("channel"), "channel", "channel " + std::to_string(m.channel) + " is not a configured [[channels]] entry");
+    t.number("initial_k_wear", m.initial_k_wear, 1e-16, 1e-3);
+    t.number("initial_k_pitting", m.initial_k_pitting, 0.0, 1e300);
+    t.number("update_threshold", m.update_threshold, 1e-4, 0.9);
+    t.number("convergence_tolerance", m.convergence_tolerance, 1e-5, 0.9);
+    if (m.convergence_tolerance > m.update_threshold)
+      t.fail(t.node("convergence_tolerance"), "convergence_tolerance", "must not exceed update_threshold");
+    t.integer("max_wear_iterations", m.max_wear_iterations, 1, 100);
+    t.number("correlation_threshold", m.correlation_threshold, 0.01, 0.9999);
+    t.number("pitting_interval_cycles", m.pitting_interval_cycles, 1.0, 1e10);
+    t.number("simulation_revolutions", m.simulation_revolutions, 2.0, 1000.0);
+    if (m.simulation_revolutions < cfg.processing.min_revolutions_for_tsa)
+      t.fail(t.node("simulation_revolutions"), "simulation_revolutions", "must be at least processing.min_revolutions_for_tsa");
+    t.number("min_torque_nm", m.min_torque_nm, 1e-3, 1e5);
+    t.number("max_torque_nm", m.max_torque_nm, 1e-3, 1e5);
+    if (m.max_torque_nm <= m.min_torque_nm) t.fail(t.node("max_torque_nm"), "max_torque_nm", "must be above min_torque_nm");
+    t.number("wear_limit_fraction", m.wear_limit_fraction, 1e-4, 0.15);
+    t.number("pitting_limit", m.pitting_limit, 1e-4, 0.99);
+    t.number("forecast_horizon_cycles", m.forecast_horizon_cycles, 1.0, 1e11);
+    t.number("remaining_life_alert_cycles", m.remaining_life_alert_cycles, 0.0, 1e11);
+    t.integer("remaining_life_raise_after_records", m.remaining_life_raise_after_records, 1, 100000);
+    t.integer("remaining_life_clear_after_records", m.remaining_life_clear_after_records, 1, 100000);
+    t.integer("queue_capacity", m.queue_capacity, 1, 10000);
+    t.string("force_model", m.force_model);
+    if (m.force_model != "quasi-static" && m.force_model != "dynamic")
+      t.fail(t.node("force_model"), "force_model", "expected \"quasi-static\" or \"dynamic\"");
+    t.reject_unknown();
   }
   // [twin] is read by the twin's own loader (twin_config).
   if (cfg.rig.tachos.empty()) throw ConfigError(file + ": key 'tachos': at least one [[tachos]] entry is needed");

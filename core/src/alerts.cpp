@@ -13,6 +13,7 @@ const char* to_string(AlertKind kind) noexcept {
     case AlertKind::sensor_saturated: return "sensor_saturated";
     case AlertKind::life_counter_reset: return "life_counter_reset";
     case AlertKind::indicator_threshold: return "indicator_threshold";
+    case AlertKind::remaining_life: return "remaining_life";
   }
   return "unknown";
 }
@@ -45,6 +46,8 @@ AlertSeverity severity_of(AlertKind kind) noexcept {
     case AlertKind::sensor_saturated: return AlertSeverity::warning;
     case AlertKind::life_counter_reset: return AlertSeverity::warning;
     case AlertKind::indicator_threshold: return AlertSeverity::warning;
+    // The gear pair is forecast to reach a scrap limit soon: replacement must be planned.
+    case AlertKind::remaining_life: return AlertSeverity::alarm;
   }
   return AlertSeverity::warning;
 }

@@ -7,12 +7,13 @@
 #include "gearwatch/dsp/skip_reason.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
 #include "gearwatch/record.hpp"
+#include "gearwatch/wear/updating.hpp"
 
 namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 3> kMigrations{
+constexpr std::array<const char*, 4> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -242,6 +243,97 @@ CREATE VIEW record_status AS
             FROM indicator_skips k WHERE k.record_id = r.id) AS skipped
   FROM records r JOIN streams s ON s.id = r.stream_key;
 )SQL",
+    // 3 -> 4: the digital twin's state, every K update, and the model's runs with predictions.
+    R"SQL(
+CREATE TABLE model_state (
+  gear_pair INTEGER PRIMARY KEY,
+  updated_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  record_id INTEGER REFERENCES records(id),
+  cycles REAL NOT NULL,
+  k_wear REAL NOT NULL,
+  k_pitting REAL NOT NULL,
+  state TEXT NOT NULL
+);
+CREATE TABLE model_runs (
+  id INTEGER PRIMARY KEY,
+  created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  record_id INTEGER REFERENCES records(id),
+  gear_pair INTEGER NOT NULL,
+  cycles REAL, speed_hz REAL, torque_nm REAL,
+  advanced INTEGER NOT NULL,
+  detail TEXT,
+  skipped_records INTEGER NOT NULL DEFAULT 0,
+  skipped_record_ids TEXT,
+  rms_sa_measured REAL, rms_sa_simulated REAL, ics2_low REAL, ics2_density_estimate REAL,
+  k_wear REAL, k_pitting REAL,
+  wear_mean_m REAL, wear_max_m REAL, pinion_wear_mean_m REAL, gear_wear_mean_m REAL,
+  pitting_mean REAL, pitting_max REAL, pitting_max_fraction REAL,
+  forecast_speed_hz REAL, forecast_torque_nm REAL,
+  wear_limit_m REAL, wear_cycles_left REAL, wear_cycles_left_low REAL, wear_cycles_left_high REAL,
+  pitting_limit REAL, pitting_cycles_left REAL, pitting_cycles_left_low REAL, pitting_cycles_left_high REAL,
+  forecast_failure TEXT,
+  profile TEXT,
+  forecast_curve TEXT
+);
+CREATE INDEX model_runs_by_pair ON model_runs(gear_pair, id);
+CREATE TABLE model_run_issues (
+  run_id INTEGER NOT NULL REFERENCES model_runs(id),
+  issue TEXT NOT NULL,
+  PRIMARY KEY (run_id, issue)
+) WITHOUT ROWID;
+CREATE TABLE k_update_log (
+  id INTEGER PRIMARY KEY,
+  created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  run_id INTEGER NOT NULL REFERENCES model_runs(id),
+  gear_pair INTEGER NOT NULL,
+  cycles REAL NOT NULL,
+  kind TEXT NOT NULL,
+  triggered_by TEXT NOT NULL,
+  outcome TEXT NOT NULL,
+  old_value REAL NOT NULL,
+  new_value REAL NOT NULL,
+  applies_from_cycles REAL NOT NULL,
+  iterations INTEGER NOT NULL,
+  measured REAL, simulated_before REAL, simulated_after REAL,
+  correlation_before REAL, correlation_after REAL,
+  evidence TEXT NOT NULL
+);
+ALTER TABLE inspections ADD COLUMN gear_pair INTEGER;
+CREATE TRIGGER model_run_issues_issue_in_vocabulary BEFORE INSERT ON model_run_issues
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'model_issue')
+   AND NEW.issue NOT IN (SELECT token FROM vocabulary WHERE domain = 'model_issue')
+BEGIN SELECT RAISE(ABORT, 'model_run_issues.issue: value not in vocabulary domain model_issue'); END;
+CREATE TRIGGER k_update_log_kind_in_vocabulary BEFORE INSERT ON k_update_log
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'model_update_kind')
+   AND NEW.kind NOT IN (SELECT token FROM vocabulary WHERE domain = 'model_update_kind')
+BEGIN SELECT RAISE(ABORT, 'k_update_log.kind: value not in vocabulary domain model_update_kind'); END;
+CREATE TRIGGER k_update_log_triggered_by_in_vocabulary BEFORE INSERT ON k_update_log
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'model_update_trigger')
+   AND NEW.triggered_by NOT IN (SELECT token FROM vocabulary WHERE domain = 'model_update_trigger')
+BEGIN SELECT RAISE(ABORT, 'k_update_log.triggered_by: value not in vocabulary domain model_update_trigger'); END;
+CREATE TRIGGER k_update_log_outcome_in_vocabulary BEFORE INSERT ON k_update_log
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'model_update_outcome')
+   AND NEW.outcome NOT IN (SELECT token FROM vocabulary WHERE domain = 'model_update_outcome')
+BEGIN SELECT RAISE(ABORT, 'k_update_log.outcome: value not in vocabulary domain model_update_outcome'); END;
+CREATE VIEW k_updates AS
+  SELECT u.id, u.created_at, u.gear_pair, u.cycles, u.kind, u.triggered_by, u.outcome, u.old_value, u.new_value,
+         u.applies_from_cycles, u.iterations, u.measured, u.simulated_before, u.simulated_after,
+         u.correlation_before, u.correlation_after, r.record_id, u.evidence
+  FROM k_update_log u JOIN model_runs r ON r.id = u.run_id;
+CREATE VIEW predictions AS
+  SELECT m.id AS run_id, m.created_at, m.record_id, m.gear_pair, m.cycles, m.speed_hz, m.torque_nm,
+         m.k_wear, m.k_pitting, m.rms_sa_measured, m.rms_sa_simulated, m.ics2_low, m.ics2_density_estimate,
+         m.wear_mean_m, m.wear_max_m, m.pitting_mean, m.pitting_max,
+         m.wear_limit_m, m.wear_cycles_left, m.wear_cycles_left_low, m.wear_cycles_left_high,
+         m.pitting_limit, m.pitting_cycles_left, m.pitting_cycles_left_low, m.pitting_cycles_left_high,
+         m.forecast_speed_hz, m.forecast_torque_nm, m.forecast_failure,
+         (SELECT group_concat(i.issue, ',') FROM model_run_issues i WHERE i.run_id = m.id) AS issues, m.detail
+  FROM model_runs m WHERE m.advanced = 1;
+CREATE VIEW model_skips AS
+  SELECT m.id AS run_id, m.created_at, m.record_id, m.gear_pair, m.cycles, m.skipped_records, m.skipped_record_ids,
+         (SELECT group_concat(i.issue, ',') FROM model_run_issues i WHERE i.run_id = m.id) AS issues, m.detail
+  FROM model_runs m WHERE m.advanced = 0 OR m.skipped_records > 0;
+)SQL",
 };
 
 }  // namespace
@@ -260,6 +352,10 @@ Vocabulary core_vocabulary() {
   add("alert_severity", kAllAlertSeverities);
   add("alert_transition", kAllAlertTransitions);
   add("skip_reason", dsp::kAllSkipReasons);
+  add("model_update_kind", wear::kAllUpdateKinds);
+  add("model_update_trigger", wear::kAllUpdateTriggers);
+  add("model_update_outcome", wear::kAllUpdateOutcomes);
+  add("model_issue", wear::kAllModelIssues);
   return v;
 }
 

@@ -101,6 +101,73 @@ class BatchWriter {
                  });
     write_alerts(m.alerts, m.alert_states, record_id, context);
   }
+  void write(const ModelRunResult& m) {
+    std::optional<std::int64_t> record_id;
+    if (m.has_record) {
+      const auto key = state_.stream_keys.find(m.stream_sequence);
+      if (key != state_.stream_keys.end()) {
+        Statement find(db_, "SELECT id FROM records WHERE stream_key = ? AND start_index = ? ORDER BY id DESC LIMIT 1");
+        find.bind(1, key->second).bind(2, m.start_index);
+        if (find.step()) record_id = find.get_int(0);
+      }
+    }
+    const wear::ModelRunReport& r = m.report;
+    const wear::Forecast& f = r.forecast;
+    const bool advanced = r.advanced;
+    auto opt = [&](bool ok, double v) { return ok ? std::optional<double>(v) : std::nullopt; };
+    Statement s(db_,
+                "INSERT INTO model_runs(record_id, gear_pair, cycles, speed_hz, torque_nm, advanced, skipped_records, skipped_record_ids,"
+                " rms_sa_measured, rms_sa_simulated, ics2_low, ics2_density_estimate, k_wear, k_pitting, wear_mean_m, wear_max_m,"
+                " pinion_wear_mean_m, gear_wear_mean_m, pitting_mean, pitting_max, pitting_max_fraction, forecast_speed_hz,"
+                " forecast_torque_nm, wear_limit_m, wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit,"
+                " pitting_cycles_left, pitting_cycles_left_low, pitting_cycles_left_high, forecast_failure, profile, forecast_curve, detail)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+    s.bind(1, record_id).bind(2, m.gear_pair).bind(3, r.observation.cycles).bind(4, r.observation.speed_hz)
+        .bind(5, r.observation.torque_nm).bind(6, advanced ? 1 : 0).bind(7, m.skipped_records);
+    if (m.skipped_record_ids.empty()) s.bind_null(8);
+    else s.bind(8, m.skipped_record_ids);
+    s.bind(9, r.observation.rms_sa).bind(10, r.rms_sa_simulated).bind(11, r.observation.ics2_low).bind(12, r.ics2_density_estimate)
+        .bind(13, r.k_wear_si).bind(14, r.k_pitting).bind(15, r.summary.combined_mean_depth_m).bind(16, r.max_depth_m)
+        .bind(17, r.summary.pinion_mean_depth_m).bind(18, r.summary.gear_mean_depth_m).bind(19, r.summary.mean_pitting_density)
+        .bind(20, r.summary.max_pitting_density).bind(21, r.summary.max_pitting_fraction)
+        .bind(22, opt(f.valid, f.speed_hz)).bind(23, opt(f.valid, f.torque_nm)).bind(24, opt(f.valid, f.wear.limit))
+        .bind(25, f.wear.cycles_left).bind(26, f.wear.cycles_left_low).bind(27, f.wear.cycles_left_high)
+        .bind(28, opt(f.valid, f.pitting.limit)).bind(29, f.pitting.cycles_left).bind(30, f.pitting.cycles_left_low)
+        .bind(31, f.pitting.cycles_left_high);
+    if (f.failure.empty()) s.bind_null(32);
+    else s.bind(32, f.failure);
+    if (m.profile_json.empty()) s.bind_null(33);
+    else s.bind(33, m.profile_json);
+    if (m.forecast_json.empty()) s.bind_null(34);
+    else s.bind(34, m.forecast_json);
+    if (r.detail.empty()) s.bind_null(35);
+    else s.bind(35, r.detail);
+    s.run();
+    const std::int64_t run_id = db_.last_insert_rowid();
+    if (m.store_state) {
+      Statement st(db_, "INSERT OR REPLACE INTO model_state(gear_pair, updated_at, record_id, cycles, k_wear, k_pitting, state)"
+                        " VALUES (?, strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), ?, ?, ?, ?, ?)");
+      st.bind(1, m.gear_pair).bind(2, record_id).bind(3, r.summary.cycles).bind(4, r.k_wear_si).bind(5, r.k_pitting)
+          .bind(6, m.state_json).run();
+    }
+    const std::string context = "model run " + std::to_string(run_id) + " at " + std::to_string(r.observation.cycles) + " cycles";
+    for (const auto issue : r.issues)
+      write_part(db_, counters_, "model issue", context + ": " + wear::to_string(issue), [&] {
+        Statement i(db_, "INSERT OR IGNORE INTO model_run_issues(run_id, issue) VALUES (?, ?)");
+        i.bind(1, run_id).bind(2, wear::to_string(issue)).run();
+      });
+    for (const auto& u : r.updates)
+      write_part(db_, counters_, "K update", context + ": " + wear::to_string(u.kind) + " " + wear::to_string(u.outcome), [&] {
+        Statement k(db_, "INSERT INTO k_update_log(run_id, gear_pair, cycles, kind, triggered_by, outcome, old_value, new_value,"
+                         " applies_from_cycles, iterations, measured, simulated_before, simulated_after, correlation_before,"
+                         " correlation_after, evidence) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+        k.bind(1, run_id).bind(2, m.gear_pair).bind(3, u.cycles).bind(4, wear::to_string(u.kind)).bind(5, wear::to_string(u.trigger))
+            .bind(6, wear::to_string(u.outcome)).bind(7, u.old_value).bind(8, u.new_value).bind(9, u.applies_from_cycles)
+            .bind(10, u.iterations).bind(11, u.measured).bind(12, u.simulated_before).bind(13, u.simulated_after)
+            .bind(14, u.correlation_before).bind(15, u.correlation_after).bind(16, u.evidence).run();
+      });
+    write_alerts(m.alerts, m.alert_states, record_id, context);
+  }
   void write(const AlertUpdate& m) { write_alerts(m.alerts, m.alert_states, std::nullopt, "alert update"); }
   void write(const GapEvent& m) {
     Statement s(db_, "INSERT INTO gap_events(stream_key, channel, first_missing_index, missing_samples, cause) VALUES (?, ?, ?, ?, ?)");

@@ -28,11 +28,12 @@ enum class AlertKind : std::uint8_t {
   sensor_saturated,    ///< more than max_clipped_fraction of a channel's samples at full scale
   life_counter_reset,  ///< the odometer went backwards: new gear pair or front-end fault
   indicator_threshold, ///< an indicator above its per-gearbox baseline; subject = the indicator
+  remaining_life,      ///< the model's remaining life to a limit below the configured cycles; subject = the limit
 };
 inline constexpr std::array kAllAlertKinds{AlertKind::wear_mechanism,   AlertKind::carrier_band_jump,
                                            AlertKind::sensor_missing,   AlertKind::sensor_flat_line,
                                            AlertKind::sensor_saturated, AlertKind::life_counter_reset,
-                                           AlertKind::indicator_threshold};
+                                           AlertKind::indicator_threshold, AlertKind::remaining_life};
 const char* to_string(AlertKind kind) noexcept;
 
 enum class AlertSeverity : std::uint8_t { info, warning, alarm };

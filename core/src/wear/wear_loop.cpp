@@ -108,6 +108,48 @@ void BlueLoop::set_coefficients(double k_wear_si, double k_pitting) {
   options_ = updated;
 }
 
+void BlueLoop::set_operating_point(const twin::OperatingPoint& op) {
+  WearLoopOptions updated = options_;
+  updated.operating_point = op;
+  updated.validate();
+  options_ = updated;
+  load_ = load_for(state_);
+}
+
+void BlueLoop::restore(const WearState& state, double next_step_cycles) {
+  const auto n = static_cast<std::size_t>(options_.profile_points);
+  require(state.pinion_depth_m.size() == n && state.gear_depth_m.size() == n && state.pinion_pitting.size() == n,
+          "restored state must have profile_points entries per table");
+  require(std::isfinite(state.cycles) && state.cycles >= 0, "restored cycles must be finite and ≥ 0");
+  for (std::size_t j = 0; j < n; ++j)
+    require(std::isfinite(state.pinion_depth_m[j]) && std::isfinite(state.gear_depth_m[j]) &&
+                std::isfinite(state.pinion_pitting[j]) && state.pinion_pitting[j] >= 0 && state.pinion_pitting[j] <= 1,
+            "restored profiles must be finite (pitting density in [0, 1])");
+  require(std::isfinite(next_step_cycles) && next_step_cycles >= options_.min_step_cycles &&
+              next_step_cycles <= options_.max_step_cycles,
+          "restored step must lie between the minimum and maximum step");
+  state_ = state;
+  next_step_ = next_step_cycles;
+  load_ = load_for(state_);
+}
+
+std::vector<double> BlueLoop::pitting_rates(double k_pitting) const {
+  const auto n = static_cast<std::size_t>(options_.profile_points);
+  std::vector<double> rate(n, 0.0);
+  if (!(k_pitting > 0)) return rate;
+  const twin::GearGeometry& g = geometry_;
+  for (std::size_t j = 0; j < n; ++j) {
+    const double u = static_cast<double>(j) / static_cast<double>(n - 1);
+    const double s = g.contact_start + u * g.active_length();
+    const double rho1 = s, rho2 = g.line_of_action_length - s;
+    const double reduced = rho1 * rho2 / (rho1 + rho2);
+    const double width = g.spec.face_width_m * std::max(kMinWidthFactor, 1.0 - sample(state_.pinion_pitting, u));  // Eq. 7.12
+    const LineContact c = line_contact(std::max(0.0, load_.force_at(s)) / width, reduced, g.effective_modulus);
+    rate[j] = survival_rate(k_pitting, lundberg_palmgren_terms(c.max_pressure_pa, c.half_width_m, reduced), options_.material);
+  }
+  return rate;
+}
+
 PassLoad BlueLoop::load_for(const WearState& s) {
   ++force_evaluations_;
   const twin::ToothProfileDeviation deviation = to_profile_deviation(s);
@@ -140,19 +182,7 @@ StepReport BlueLoop::step(double until_cycles) {
   const twin::GearGeometry& g = geometry_;
   const PassWear per_pass = pass_wear(g, load_, options_.k_wear_si, options_.profile_points,
                                       [&](double s) { return width_factor(g.profile_fraction_pinion(s)); });
-  std::vector<double> rate(n, 0.0);
-  if (options_.k_pitting > 0) {
-    for (std::size_t j = 0; j < n; ++j) {
-      const double u = static_cast<double>(j) / static_cast<double>(n - 1);
-      const double s = g.contact_start + u * g.active_length();
-      const double rho1 = s, rho2 = g.line_of_action_length - s;
-      const double reduced = rho1 * rho2 / (rho1 + rho2);
-      const double width = g.spec.face_width_m * width_factor(u);  // Eq. 7.12
-      const LineContact c = line_contact(std::max(0.0, load_.force_at(s)) / width, reduced, g.effective_modulus);
-      rate[j] = survival_rate(options_.k_pitting, lundberg_palmgren_terms(c.max_pressure_pa, c.half_width_m, reduced),
-                              options_.material);
-    }
-  }
+  const std::vector<double> rate = pitting_rates(options_.k_pitting);
 
   const std::vector<double> positions = pass_positions();
   double dn = std::min(next_step_, remaining);

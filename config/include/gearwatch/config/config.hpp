@@ -74,6 +74,29 @@ struct AlertSettings {
   std::vector<std::string> watched_indicators{"rms_raw", "kurtosis_raw", "rms_sa", "ics2_low_band", "ics2_high_band"};
 };
 
+/// The digital twin's updating and prediction (docs/model.md): the model thread of the daemon.
+struct ModelConfig {
+  bool enabled = true;
+  int channel = -1;                                 ///< accelerometer feeding the model; -1 = the first configured
+  double initial_k_wear = 3.55e-10;                 ///< seed's unit (read as MPa⁻¹, docs/wear.md); §7.4.1's first calibration
+  double initial_k_pitting = 0.0;                   ///< SI (docs/wear.md); two pitted-area inspections calibrate it
+  double update_threshold = 0.05;                   ///< |RMS_SA sim − meas| / meas that triggers a K_wear update
+  double convergence_tolerance = 0.01;              ///< an update iterates until within this
+  int max_wear_iterations = 8;
+  double correlation_threshold = 0.95;              ///< §7.3.3
+  double pitting_interval_cycles = 50000.0;         ///< ΔN between the pitting points of §7.3.3
+  double simulation_revolutions = 6.0;              ///< input revolutions of the twin's signal per RMS_SA
+  double min_torque_nm = 0.5, max_torque_nm = 1000.0;
+  double wear_limit_fraction = 0.10;                ///< deepest flank point, of the pitch-circle tooth thickness π m / 2
+  double pitting_limit = 0.17;                      ///< mean pitting density (seed §7.4.1: scrap at ~17 %)
+  double forecast_horizon_cycles = 2.0e7;
+  double remaining_life_alert_cycles = 500000.0;    ///< remaining_life alert when a limit is closer than this
+  int remaining_life_raise_after_records = 2;
+  int remaining_life_clear_after_records = 3;
+  std::uint32_t queue_capacity = 4;                 ///< records waiting for the model thread (live: coalesced beyond)
+  std::string force_model = "quasi-static";         ///< quasi-static | dynamic (docs/wear.md)
+};
+
 struct GearwatchConfig {
   RigSpec rig;
   dsp::SignalProcessingSettings processing;
@@ -83,6 +106,7 @@ struct GearwatchConfig {
   LoggingSettings logging;
   DaemonSettings daemon;
   AlertSettings alerts;
+  ModelConfig model;
   std::string source_path;                          ///< the file it came from ("" for defaults)
 };
 

@@ -87,6 +87,18 @@ class BlueLoop {
 
   /// New wear coefficients from now on (the purple loop's updates, Eqs. 7.13–7.17); validated.
   void set_coefficients(double k_wear_si, double k_pitting);
+  /// A new operating point from now on (the daemon follows the measured speed and torque); the
+  /// pass force is recomputed. Validated like the options.
+  void set_operating_point(const twin::OperatingPoint& op);
+  /// Continues from a stored state (a restart, or a re-run from an earlier state): the state, the
+  /// step the controller would try next, and the force of that state. The profile tables must
+  /// have `profile_points` entries; throws TwinParameterError otherwise.
+  void restore(const WearState& state, double next_step_cycles);
+  /// The Lundberg–Palmgren exponent rate A = K τ0^c V / z0^h (ln(1/S) = A N^m) per pinion profile
+  /// point, at the current force and pitted width (Eq. 7.12), for a given K_pitting.
+  std::vector<double> pitting_rates(double k_pitting) const;
+  /// The step the controller tries next (part of what restore() needs to continue exactly).
+  double next_step_cycles() const { return next_step_; }
   const WearLoopOptions& options() const { return options_; }
 
   /// One adaptive step, not past `until_cycles`.

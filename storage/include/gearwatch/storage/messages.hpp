@@ -10,6 +10,7 @@
 #include "gearwatch/alerts.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
 #include "gearwatch/record.hpp"
+#include "gearwatch/wear/updating.hpp"
 
 namespace gearwatch::storage {
 
@@ -105,7 +106,25 @@ struct HealthSnapshot {
   std::vector<std::pair<std::string, std::uint64_t>> counters;
 };
 
+/// What the model thread made of one record (or of a record it had to skip), with the state it
+/// leaves behind: all written in one transaction, so a restart continues exactly here.
+struct ModelRunResult {
+  std::uint64_t stream_sequence = 0;      ///< identify the record (its id is looked up)
+  std::uint64_t start_index = 0;
+  bool has_record = true;
+  std::int64_t gear_pair = 0;
+  wear::ModelRunReport report;
+  std::uint64_t skipped_records = 0;      ///< records coalesced away before this one
+  std::string skipped_record_ids;         ///< "stream:start_index" of each, comma-separated
+  std::string profile_json;               ///< root -> tip profiles of the state after this run
+  std::string forecast_json;              ///< the forecast curve
+  bool store_state = false;               ///< write model_state (the state changed)
+  std::string state_json;
+  std::vector<AlertEvent> alerts;
+  std::vector<std::pair<AlertKey, AlertState>> alert_states;
+};
+
 using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, AlertUpdate, GapEvent,
-                             LifeCounterEvent, RejectedFrame, HealthSnapshot>;
+                             LifeCounterEvent, RejectedFrame, HealthSnapshot, ModelRunResult>;
 
 }  // namespace gearwatch::storage

@@ -21,7 +21,8 @@ int current_schema_version() noexcept;
 using Vocabulary = std::map<std::string, std::vector<std::string>>;
 
 /// The domains of core's enums: record_end_reason, wear_mechanism, alert_kind, alert_severity,
-/// alert_transition, skip_reason.
+/// alert_transition, skip_reason, and the model's model_update_kind, model_update_trigger,
+/// model_update_outcome, model_issue (gearwatch/wear/updating.hpp).
 Vocabulary core_vocabulary();
 
 /// Sets WAL mode and synchronous=FULL (a committed transaction survives a crash or power

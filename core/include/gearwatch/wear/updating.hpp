@@ -1,0 +1,285 @@
+#pragma once
+// The purple loop of seed Fig. 7.1 (§7.3.3): the twin's wear coefficients updated from measured
+// vibration, around the blue loop (wear_loop.hpp), with forecasts and remaining life.
+//
+// - K_wear (Eqs. 7.13–7.14): when |RMS_SA,sim − RMS_SA,meas| / RMS_SA,meas exceeds a threshold,
+//   K_wear ← K_wear · RMS_SA,meas / RMS_SA,sim, re-running the blue loop from the state at which
+//   the current K_wear was accepted (the last K_wear update, or the start of the gear pair's life)
+//   to the record, until the error is within a tolerance or the bounded iterations run out.
+//   RMS_SA,sim comes from the twin's casing signal analysed by the measurement code.
+// - K_pitting (§7.3.3 steps 1–4): two pitted-area inspections calibrate K_pitting and the
+//   ICS2 ↔ pitting-density scale; then at every pitting point (every `pitting_interval_cycles`)
+//   the Pearson correlation C of the last three (ICS2 low band, predicted density) pairs
+//   (Eq. 7.15) is checked; below 0.95, K_pitting maximises C (Eqs. 7.16–7.17) by a bracketed
+//   golden-section search on log K; when 0.95 cannot be reached K_pitting is set to 0.
+// - Forecasts: the blue loop run ahead on a copy at the recent operating conditions, with the
+//   cycles left to a wear-depth and a pitting-density limit, and an interval from the spread of
+//   recent K updates.
+// No I/O and no threads: the daemon's model thread feeds it records and stores what it returns.
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gearwatch/twin/gearbox_parameters.hpp"
+#include "gearwatch/twin/simulation.hpp"
+#include "gearwatch/wear/wear_loop.hpp"
+
+namespace gearwatch {
+struct RigSpec;
+}
+namespace gearwatch::dsp {
+struct SignalProcessingSettings;
+}
+
+namespace gearwatch::wear {
+
+/// Which coefficient an update changed.
+enum class UpdateKind : std::uint8_t { k_wear, k_pitting };
+inline constexpr std::array kAllUpdateKinds{UpdateKind::k_wear, UpdateKind::k_pitting};
+const char* to_string(UpdateKind kind) noexcept;
+
+/// What started an update.
+enum class UpdateTrigger : std::uint8_t {
+  rms_sa_mismatch,              ///< |RMS_SA sim − meas| / meas above the threshold (Eqs. 7.13–7.14)
+  inspection_calibration,       ///< two pitted-area inspections (§7.3.3 step 2)
+  correlation_below_threshold,  ///< Pearson C of the last three (ICS2, density) pairs below 0.95 (steps 3–4)
+};
+inline constexpr std::array kAllUpdateTriggers{UpdateTrigger::rms_sa_mismatch, UpdateTrigger::inspection_calibration,
+                                               UpdateTrigger::correlation_below_threshold};
+const char* to_string(UpdateTrigger trigger) noexcept;
+
+/// How it ended.
+enum class UpdateOutcome : std::uint8_t {
+  converged,          ///< within the tolerance / correlation threshold reached / inspections matched
+  iteration_limit,    ///< K_wear: the bounded iterations ran out; the best K found is kept
+  not_monotone,       ///< K_wear: an iteration moved away from the measurement; the best K found is kept
+  bound_reached,      ///< K hit its configured bound (or the inspections cannot be matched)
+  set_to_zero,        ///< K_pitting: the correlation threshold cannot be reached (§7.3.3, after step 4)
+  simulation_failed,  ///< the twin's simulation diverged or could not be analysed: K unchanged
+};
+inline constexpr std::array kAllUpdateOutcomes{UpdateOutcome::converged,     UpdateOutcome::iteration_limit,
+                                               UpdateOutcome::not_monotone,  UpdateOutcome::bound_reached,
+                                               UpdateOutcome::set_to_zero,   UpdateOutcome::simulation_failed};
+const char* to_string(UpdateOutcome outcome) noexcept;
+
+/// Why a record could not be used, in whole or in part.
+enum class ModelIssue : std::uint8_t {
+  missing_cycles,                ///< no life counter: the record has no place in the pair's life (skipped)
+  missing_operating_point,       ///< speed or torque unknown or not finite (skipped)
+  operating_point_out_of_range,  ///< speed or torque outside the model's range (skipped)
+  cycles_not_increasing,         ///< not after the model's last record (skipped)
+  missing_rms_sa,                ///< no usable RMS_SA: advanced, K_wear not checked
+  missing_ics2,                  ///< no usable ICS2 low band: advanced, no pitting point
+  simulation_failed,             ///< the twin's simulation diverged or was not analysable: advanced, K_wear not checked
+  depth_limit_reached,           ///< the blue loop reached its depth limit: state held there
+  coalesced,                     ///< the model thread was behind: this record was replaced by a newer one (never handled)
+};
+inline constexpr std::array kAllModelIssues{
+    ModelIssue::missing_cycles,    ModelIssue::missing_operating_point, ModelIssue::operating_point_out_of_range,
+    ModelIssue::cycles_not_increasing, ModelIssue::missing_rms_sa,   ModelIssue::missing_ics2,
+    ModelIssue::simulation_failed, ModelIssue::depth_limit_reached,     ModelIssue::coalesced};
+const char* to_string(ModelIssue issue) noexcept;
+
+/// RMS_SA(N) of the twin's casing signal for a wear state at an operating point. Throws what the
+/// twin throws (TwinDivergenceError, TwinParameterError) when there is no value.
+using RmsSaSimulator = std::function<double(const WearState&, const twin::OperatingPoint&)>;
+
+/// The measurement code on the twin's signal: y6 for `revolutions` input revolutions (after the
+/// twin's settling) at the rig's sample rate, as a float Record with exact tacho edges, through
+/// dsp::RecordAnalyzer with `settings` (its rms_sa_harmonics is the N of Eq. 7.1). The channel has
+/// no i16 scale: a simulated signal is never clipped.
+RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const RigSpec& rig,
+                                     const dsp::SignalProcessingSettings& settings, double revolutions);
+
+struct ModelSettings {
+  WearLoopOptions loop;                    ///< K values here are the initial ones (SI); operating point ignored
+  bool update_k_wear = true;
+  bool update_k_pitting = true;
+  double rms_threshold = 0.05;             ///< relative RMS_SA error that triggers a K_wear update (seed: 5 %)
+  double convergence_tolerance = 0.01;     ///< an update iterates until this (≤ threshold), so it does not sit at the edge
+  int max_wear_iterations = 8;
+  double k_wear_min_si = 1e-22, k_wear_max_si = 1e-9;
+  double correlation_threshold = 0.95;     ///< §7.3.3
+  double pitting_interval_cycles = 50000;  ///< ΔN between pitting points (the seed's j)
+  int max_pitting_evaluations = 40;        ///< blue-loop re-runs per K_pitting search
+  double min_torque_nm = 0.5, max_torque_nm = 1000.0;
+  double min_speed_hz = 0.5, max_speed_hz = 60.0;
+  double wear_limit_m = 0.314e-3;          ///< deepest flank point; default 10 % of the pitch-circle tooth thickness
+  double pitting_limit = 0.17;             ///< mean pitting density (the seed's scrap level, §7.4.1)
+  double forecast_horizon_cycles = 2e7;
+  int forecast_points = 10;                ///< forecast curve samples up to the horizon
+  int spread_updates = 4;                  ///< recent K values whose spread gives the forecast interval
+  int operating_window_records = 10;       ///< records averaged for the forecast's operating point
+  std::size_t max_intervals = 256;         ///< record intervals kept for re-runs (oldest merged beyond)
+  /// Throws TwinParameterError naming the first bad value.
+  void validate() const;
+};
+
+/// One analysed record as the model sees it.
+struct ModelObservation {
+  std::int64_t record_id = 0;
+  double cycles = 0;                       ///< NaN when the record has no life counter
+  double speed_hz = 0, torque_nm = 0;
+  std::optional<double> rms_sa;            ///< measured RMS_SA(N)
+  std::optional<double> ics2_low;          ///< measured ICS2 in the low (pitting) band
+};
+
+/// An inspection entered by staff.
+struct Inspection {
+  std::int64_t id = 0;
+  double cycles = 0;
+  std::optional<double> pitted_area;       ///< fraction of the flank area
+  std::optional<double> wear_depth_m;
+};
+
+/// A blue-loop state with the step its controller tries next (enough to continue exactly).
+struct LoopSnapshot {
+  WearState state;
+  double next_step_cycles = 0;
+};
+
+/// A stretch of the pair's life between two records: (previous end, end_cycles] ran at this
+/// operating point with these coefficients. Re-runs replay them.
+struct LifeInterval {
+  double end_cycles = 0;
+  double speed_hz = 0, torque_nm = 0;
+  double k_wear_si = 0, k_pitting = 0;
+};
+
+struct PittingPoint {
+  double cycles = 0;
+  double ics2 = 0;
+  double density = 0;                      ///< mean predicted (or inspected) pitting density
+};
+
+/// Everything the model remembers; the daemon stores it and gives it back at start.
+struct ModelMemory {
+  bool started = false;                    ///< false: no record yet (the loop starts unworn at 0 cycles)
+  LoopSnapshot current, wear_anchor, pitting_anchor;
+  double k_wear_si = 0, k_pitting = 0;
+  std::vector<LifeInterval> intervals;     ///< since the older anchor
+  std::vector<PittingPoint> pitting_points;   ///< the last three
+  bool pitting_calibrated = false;
+  std::int64_t calibration_inspection_id = 0; ///< the newer inspection of the last calibration
+  bool ics2_scale_valid = false;
+  double ics2_scale_ics2 = 0, ics2_scale_density = 0, ics2_scale_slope = 0;  ///< D = density + slope (ICS2 − ics2)
+  std::vector<double> recent_k_wear, recent_k_pitting;   ///< the last spread_updates values set by updates (not the initial guess)
+  std::vector<std::array<double, 2>> recent_operating_points;  ///< (speed, torque) of the last records
+  /// (cycles, ICS2 low) of the pair's records: ICS2 at an inspection's cycles. The daemon rebuilds
+  /// it from the model's stored runs rather than storing it in the state.
+  std::vector<std::array<double, 2>> ics2_series;
+  std::uint64_t records_used = 0, k_wear_updates = 0, k_pitting_updates = 0;
+};
+
+struct KUpdate {
+  UpdateKind kind = UpdateKind::k_wear;
+  UpdateTrigger trigger = UpdateTrigger::rms_sa_mismatch;
+  UpdateOutcome outcome = UpdateOutcome::converged;
+  double cycles = 0;
+  double old_value = 0, new_value = 0;
+  double applies_from_cycles = 0;          ///< the re-run start: the new K holds from here
+  int iterations = 0;                      ///< K_wear iterations / K_pitting blue-loop evaluations
+  /// K_wear: measured RMS_SA, simulated before and after. K_pitting: the correlation before and
+  /// after (calibration: the inspected densities, and the ICS2 at their cycles when known).
+  double measured = 0, simulated_before = 0, simulated_after = 0;
+  double correlation_before = 0, correlation_after = 0;
+  std::string evidence;                    ///< one line: the numbers and, when it did not converge, why
+};
+
+struct LimitForecast {
+  double limit = 0;
+  std::optional<double> cycles_left;        ///< nullopt: not within the horizon
+  std::optional<double> cycles_left_low;    ///< with the faster end of the K spread
+  std::optional<double> cycles_left_high;   ///< with the slower end (nullopt: beyond the horizon)
+};
+
+struct ForecastPoint {
+  double cycles = 0;
+  double max_depth_m = 0, mean_depth_m = 0, mean_pitting = 0;
+};
+
+struct Forecast {
+  bool valid = false;
+  std::string failure;                     ///< why not (e.g. the loop stopped at its depth limit)
+  double speed_hz = 0, torque_nm = 0;      ///< the recent operating point used
+  double k_wear_low = 0, k_wear_high = 0, k_pitting_low = 0, k_pitting_high = 0;
+  LimitForecast wear, pitting;
+  std::vector<ForecastPoint> curve;        ///< at the nominal K
+};
+
+struct ModelRunReport {
+  bool advanced = false;                   ///< false: the record was skipped (issues say why)
+  std::vector<ModelIssue> issues;
+  std::string detail;                      ///< one line per issue, for people
+  ModelObservation observation;
+  std::optional<double> rms_sa_simulated;  ///< after any update
+  std::optional<double> ics2_density_estimate;   ///< the ICS2 through the inspection scale
+  WearSummary summary;
+  double max_depth_m = 0;
+  std::vector<double> combined_depth_m;    ///< root → tip along the pinion's profile
+  double k_wear_si = 0, k_pitting = 0;
+  std::vector<KUpdate> updates;
+  Forecast forecast;
+  bool new_gear_pair = false;              ///< the cycles went backwards: a new pair's state began
+};
+
+/// Pearson's correlation coefficient of two triples (Eq. 7.15); NaN when either has no spread.
+double pearson3(const std::array<double, 3>& x, const std::array<double, 3>& y);
+
+/// Maximises f on [lo, hi] by golden-section search (f unimodal there), to a bracket of `tolerance`
+/// or `max_evaluations`. Returns the best x evaluated and f(x).
+struct LineSearchResult {
+  double x = 0, value = 0;
+  int evaluations = 0;
+};
+LineSearchResult golden_section_maximise(const std::function<double(double)>& f, double lo, double hi, double tolerance,
+                                         int max_evaluations);
+
+class TwinModel {
+ public:
+  /// Throws TwinParameterError on bad settings or a memory that does not fit them.
+  TwinModel(twin::GearboxParameters params, ModelSettings settings, RmsSaSimulator simulator, ModelMemory memory = {});
+
+  /// One record: advances the blue loop to its cycles at its speed and torque, uses the
+  /// inspections of this gear pair (any order; those after the record's cycles wait), applies the
+  /// purple loop and forecasts. Never throws on bad data: it says what it could not do.
+  ModelRunReport observe(const ModelObservation& observation, const std::vector<Inspection>& inspections);
+
+  /// A new gear pair: unworn, initial coefficients, no history.
+  void start_new_pair();
+
+  const ModelMemory& memory() const noexcept { return memory_; }
+  const ModelSettings& settings() const noexcept { return settings_; }
+  const twin::GearboxParameters& parameters() const noexcept { return params_; }
+  /// Forecast from the current state (what observe() adds to its report).
+  Forecast forecast() const;
+
+ private:
+  BlueLoop loop_at(const LoopSnapshot& from) const;
+  /// Replays the stored intervals after `from` up to `until`, with optional overrides of K_wear
+  /// or K_pitting for cycles > override_from. Returns false if the depth limit stopped it.
+  /// Snapshots at the anchors' cycles replace them when `recapture` is set.
+  struct Override {
+    std::optional<double> k_wear, k_pitting;
+    double from_cycles = 0;
+  };
+  bool rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot& out, bool recapture_anchors);
+  void check_k_wear(const ModelObservation& obs, ModelRunReport& report);
+  void calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report);
+  void check_pitting(const ModelObservation& obs, ModelRunReport& report);
+  double ics2_at(double cycles) const;
+  void remember_k(std::vector<double>& recent, double k) const;
+  void prune_intervals();
+  void apply_k(bool wear, double value, double from_cycles);
+
+  twin::GearboxParameters params_;
+  ModelSettings settings_;
+  RmsSaSimulator simulator_;
+  ModelMemory memory_;
+  BlueLoop loop_;
+};
+
+}  // namespace gearwatch::wear

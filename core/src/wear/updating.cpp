@@ -1,0 +1,840 @@
+#include "gearwatch/wear/updating.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+#include "gearwatch/dsp/record_analyzer.hpp"
+#include "gearwatch/rig.hpp"
+#include "gearwatch/twin/errors.hpp"
+
+namespace gearwatch::wear {
+
+const char* to_string(UpdateKind kind) noexcept {
+  switch (kind) {
+    case UpdateKind::k_wear: return "k_wear";
+    case UpdateKind::k_pitting: return "k_pitting";
+  }
+  return "unknown";
+}
+
+const char* to_string(UpdateTrigger trigger) noexcept {
+  switch (trigger) {
+    case UpdateTrigger::rms_sa_mismatch: return "rms_sa_mismatch";
+    case UpdateTrigger::inspection_calibration: return "inspection_calibration";
+    case UpdateTrigger::correlation_below_threshold: return "correlation_below_threshold";
+  }
+  return "unknown";
+}
+
+const char* to_string(UpdateOutcome outcome) noexcept {
+  switch (outcome) {
+    case UpdateOutcome::converged: return "converged";
+    case UpdateOutcome::iteration_limit: return "iteration_limit";
+    case UpdateOutcome::not_monotone: return "not_monotone";
+    case UpdateOutcome::bound_reached: return "bound_reached";
+    case UpdateOutcome::set_to_zero: return "set_to_zero";
+    case UpdateOutcome::simulation_failed: return "simulation_failed";
+  }
+  return "unknown";
+}
+
+const char* to_string(ModelIssue issue) noexcept {
+  switch (issue) {
+    case ModelIssue::missing_cycles: return "missing_cycles";
+    case ModelIssue::missing_operating_point: return "missing_operating_point";
+    case ModelIssue::operating_point_out_of_range: return "operating_point_out_of_range";
+    case ModelIssue::cycles_not_increasing: return "cycles_not_increasing";
+    case ModelIssue::missing_rms_sa: return "missing_rms_sa";
+    case ModelIssue::missing_ics2: return "missing_ics2";
+    case ModelIssue::simulation_failed: return "simulation_failed";
+    case ModelIssue::depth_limit_reached: return "depth_limit_reached";
+    case ModelIssue::coalesced: return "coalesced";
+  }
+  return "unknown";
+}
+
+namespace {
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw twin::TwinParameterError("model: " + what);
+}
+
+std::string fmt(const char* f, double a) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, a);
+  return b;
+}
+
+double mean_of(const std::vector<double>& v) {
+  return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+}
+
+double max_depth(const WearState& s) {
+  double m = 0;
+  for (double d : s.pinion_depth_m) m = std::max(m, d);
+  for (double d : s.gear_depth_m) m = std::max(m, d);
+  return m;
+}
+
+void add_issue(ModelRunReport& r, ModelIssue issue, const std::string& text) {
+  r.issues.push_back(issue);
+  if (!r.detail.empty()) r.detail += "; ";
+  r.detail += std::string(to_string(issue)) + ": " + text;
+}
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+}  // namespace
+
+RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const RigSpec& rig,
+                                     const dsp::SignalProcessingSettings& settings, double revolutions) {
+  RigSpec sim_rig = rig;
+  // One float channel without an i16 scale: the analyzer then has no full scale to call clipped.
+  const int number = rig.channels.empty() ? 0 : rig.channels.front().number;
+  sim_rig.channels = {ChannelSpec{number, "twin_y6", 0.0}};
+  require(std::isfinite(revolutions) && revolutions >= settings.min_revolutions_for_tsa,
+          "simulated revolutions must be at least processing.min_revolutions_for_tsa");
+  return [params = std::move(params), sim_rig, settings, revolutions](const WearState& state, const twin::OperatingPoint& op) {
+    // A few samples beyond the last whole revolution, so the final tacho edge falls inside.
+    const double duration = (revolutions + 0.05) / op.input_speed_hz;
+    return twin::simulated_rms_sa(params, to_profile_deviation(state), op, duration, sim_rig, settings);
+  };
+}
+
+void ModelSettings::validate() const {
+  loop.validate();
+  require(std::isfinite(rms_threshold) && rms_threshold > 0 && rms_threshold < 1, "rms threshold must lie in (0, 1)");
+  require(std::isfinite(convergence_tolerance) && convergence_tolerance > 0 && convergence_tolerance <= rms_threshold,
+          "convergence tolerance must lie in (0, threshold]");
+  require(max_wear_iterations >= 1 && max_wear_iterations <= 100, "K_wear iterations must lie in [1, 100]");
+  require(std::isfinite(k_wear_min_si) && k_wear_min_si > 0 && k_wear_max_si > k_wear_min_si && std::isfinite(k_wear_max_si),
+          "K_wear bounds must satisfy 0 < min < max");
+  require(std::isfinite(correlation_threshold) && correlation_threshold > 0 && correlation_threshold < 1,
+          "correlation threshold must lie in (0, 1)");
+  require(std::isfinite(pitting_interval_cycles) && pitting_interval_cycles > 0, "pitting interval must be positive");
+  require(max_pitting_evaluations >= 8 && max_pitting_evaluations <= 1000, "pitting evaluations must lie in [8, 1000]");
+  require(std::isfinite(min_torque_nm) && min_torque_nm > 0 && max_torque_nm > min_torque_nm && std::isfinite(max_torque_nm),
+          "torque range must satisfy 0 < min < max");
+  require(std::isfinite(min_speed_hz) && min_speed_hz > 0 && max_speed_hz > min_speed_hz && std::isfinite(max_speed_hz),
+          "speed range must satisfy 0 < min < max");
+  require(std::isfinite(wear_limit_m) && wear_limit_m > 0 && wear_limit_m < loop.depth_limit_m,
+          "wear-depth limit must lie in (0, the blue loop's depth limit)");
+  require(std::isfinite(pitting_limit) && pitting_limit > 0 && pitting_limit < 1, "pitting limit must lie in (0, 1)");
+  require(std::isfinite(forecast_horizon_cycles) && forecast_horizon_cycles > 0, "forecast horizon must be positive");
+  require(forecast_points >= 1 && forecast_points <= 1000, "forecast points must lie in [1, 1000]");
+  require(spread_updates >= 1 && spread_updates <= 1000, "spread updates must lie in [1, 1000]");
+  require(operating_window_records >= 1 && operating_window_records <= 100000, "operating window must lie in [1, 100000]");
+  require(max_intervals >= 4, "at least 4 intervals must be kept");
+}
+
+double pearson3(const std::array<double, 3>& x, const std::array<double, 3>& y) {
+  const double mx = (x[0] + x[1] + x[2]) / 3.0, my = (y[0] + y[1] + y[2]) / 3.0;
+  double sxy = 0, sxx = 0, syy = 0;
+  for (int i = 0; i < 3; ++i) {
+    sxy += (x[i] - mx) * (y[i] - my);
+    sxx += (x[i] - mx) * (x[i] - mx);
+    syy += (y[i] - my) * (y[i] - my);
+  }
+  // No spread (to rounding) in either triple: the correlation is undefined.
+  const double scale_x = std::max({std::abs(x[0]), std::abs(x[1]), std::abs(x[2])});
+  const double scale_y = std::max({std::abs(y[0]), std::abs(y[1]), std::abs(y[2])});
+  if (!(sxx > 1e-24 * scale_x * scale_x) || !(syy > 1e-24 * scale_y * scale_y)) return kNaN;
+  return sxy / std::sqrt(sxx * syy);
+}
+
+LineSearchResult golden_section_maximise(const std::function<double(double)>& f, double lo, double hi, double tolerance,
+                                         int max_evaluations) {
+  const double invphi = (std::sqrt(5.0) - 1.0) / 2.0;
+  LineSearchResult best{lo, -std::numeric_limits<double>::infinity(), 0};
+  auto eval = [&](double x) {
+    double v = f(x);
+    if (!std::isfinite(v)) v = -std::numeric_limits<double>::infinity();
+    ++best.evaluations;
+    if (v > best.value) {
+      best.value = v;
+      best.x = x;
+    }
+    return v;
+  };
+  double a = lo, b = hi;
+  double c = b - invphi * (b - a), d = a + invphi * (b - a);
+  double fc = eval(c), fd = eval(d);
+  while (b - a > tolerance && best.evaluations < max_evaluations) {
+    if (fc >= fd) {
+      b = d;
+      d = c;
+      fd = fc;
+      c = b - invphi * (b - a);
+      fc = eval(c);
+    } else {
+      a = c;
+      c = d;
+      fc = fd;
+      d = a + invphi * (b - a);
+      fd = eval(d);
+    }
+  }
+  return best;
+}
+
+namespace {
+WearLoopOptions loop_options(const ModelSettings& s) { return s.loop; }
+
+LoopSnapshot unworn_snapshot(const ModelSettings& s) {
+  LoopSnapshot snap;
+  const auto n = static_cast<std::size_t>(s.loop.profile_points);
+  snap.state.pinion_depth_m.assign(n, 0.0);
+  snap.state.gear_depth_m.assign(n, 0.0);
+  snap.state.pinion_pitting.assign(n, 0.0);
+  snap.next_step_cycles = s.loop.initial_step_cycles;
+  return snap;
+}
+}  // namespace
+
+TwinModel::TwinModel(twin::GearboxParameters params, ModelSettings settings, RmsSaSimulator simulator, ModelMemory memory)
+    : params_(std::move(params)),
+      settings_((settings.validate(), std::move(settings))),
+      simulator_(std::move(simulator)),
+      memory_(std::move(memory)),
+      loop_(params_, loop_options(settings_)) {
+  if (!memory_.started) {
+    start_new_pair();
+  } else {
+    loop_ = loop_at(memory_.current);
+  }
+}
+
+void TwinModel::start_new_pair() {
+  ModelMemory fresh;
+  fresh.current = unworn_snapshot(settings_);
+  fresh.wear_anchor = fresh.current;
+  fresh.pitting_anchor = fresh.current;
+  fresh.k_wear_si = settings_.loop.k_wear_si;
+  fresh.k_pitting = settings_.loop.k_pitting;
+  memory_ = std::move(fresh);
+  loop_ = loop_at(memory_.current);
+}
+
+BlueLoop TwinModel::loop_at(const LoopSnapshot& from) const {
+  BlueLoop loop(params_, loop_options(settings_));
+  loop.restore(from.state, std::clamp(from.next_step_cycles, settings_.loop.min_step_cycles, settings_.loop.max_step_cycles));
+  return loop;
+}
+
+bool TwinModel::rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot& out, bool recapture_anchors) {
+  BlueLoop loop = loop_at(from);
+  double last_speed = -1, last_torque = -1;
+  bool ok = true;
+  auto capture = [&](LoopSnapshot& anchor) {
+    if (recapture_anchors && anchor.state.cycles > from.state.cycles && loop.state().cycles == anchor.state.cycles)
+      anchor = LoopSnapshot{loop.state(), loop.next_step_cycles()};
+  };
+  for (const LifeInterval& in : memory_.intervals) {
+    if (in.end_cycles <= from.state.cycles) continue;
+    if (in.speed_hz != last_speed || in.torque_nm != last_torque) {
+      loop.set_operating_point({in.speed_hz, in.torque_nm});
+      last_speed = in.speed_hz;
+      last_torque = in.torque_nm;
+    }
+    const bool overridden = in.end_cycles > o.from_cycles;
+    loop.set_coefficients(overridden && o.k_wear ? *o.k_wear : in.k_wear_si,
+                          overridden && o.k_pitting ? *o.k_pitting : in.k_pitting);
+    if (!loop.run_until(in.end_cycles)) {
+      ok = false;
+      break;
+    }
+    capture(memory_.wear_anchor);
+    capture(memory_.pitting_anchor);
+  }
+  out = LoopSnapshot{loop.state(), loop.next_step_cycles()};
+  return ok;
+}
+
+void TwinModel::apply_k(bool wear, double value, double from_cycles) {
+  for (LifeInterval& in : memory_.intervals)
+    if (in.end_cycles > from_cycles) (wear ? in.k_wear_si : in.k_pitting) = value;
+  (wear ? memory_.k_wear_si : memory_.k_pitting) = value;
+  remember_k(wear ? memory_.recent_k_wear : memory_.recent_k_pitting, value);
+}
+
+void TwinModel::remember_k(std::vector<double>& recent, double k) const {
+  recent.push_back(k);
+  const auto n = static_cast<std::size_t>(settings_.spread_updates);
+  if (recent.size() > n) recent.erase(recent.begin(), recent.end() - static_cast<std::ptrdiff_t>(n));
+}
+
+void TwinModel::prune_intervals() {
+  const double oldest = std::min(memory_.wear_anchor.state.cycles, memory_.pitting_anchor.state.cycles);
+  auto& iv = memory_.intervals;
+  iv.erase(std::remove_if(iv.begin(), iv.end(), [&](const LifeInterval& in) { return in.end_cycles <= oldest; }), iv.end());
+  // Beyond the cap, neighbours with the same coefficients become one interval at their
+  // cycle-weighted operating point (a re-run then takes one stretch instead of two).
+  while (iv.size() > settings_.max_intervals) {
+    bool merged = false;
+    double start = oldest;
+    for (std::size_t i = 0; i + 1 < iv.size(); ++i) {
+      LifeInterval& a = iv[i];
+      const LifeInterval& b = iv[i + 1];
+      if (a.k_wear_si == b.k_wear_si && a.k_pitting == b.k_pitting) {
+        const double wa = a.end_cycles - start, wb = b.end_cycles - a.end_cycles;
+        a.speed_hz = (a.speed_hz * wa + b.speed_hz * wb) / (wa + wb);
+        a.torque_nm = (a.torque_nm * wa + b.torque_nm * wb) / (wa + wb);
+        a.end_cycles = b.end_cycles;
+        iv.erase(iv.begin() + static_cast<std::ptrdiff_t>(i + 1));
+        merged = true;
+        break;
+      }
+      start = a.end_cycles;
+    }
+    if (!merged) break;
+  }
+}
+
+double TwinModel::ics2_at(double cycles) const {
+  const auto& s = memory_.ics2_series;
+  if (s.empty()) return kNaN;
+  if (cycles <= s.front()[0]) return s.front()[1];
+  if (cycles >= s.back()[0]) return s.back()[1];
+  const auto it = std::lower_bound(s.begin(), s.end(), cycles, [](const std::array<double, 2>& p, double c) { return p[0] < c; });
+  const auto& hi = *it;
+  const auto& lo = *(it - 1);
+  if (hi[0] == lo[0]) return hi[1];
+  return lo[1] + (cycles - lo[0]) / (hi[0] - lo[0]) * (hi[1] - lo[1]);
+}
+
+ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector<Inspection>& inspections) {
+  ModelRunReport report;
+  report.observation = obs;
+  auto finish = [&] {
+    const WearState& s = memory_.current.state;
+    report.summary = summarise(s);
+    report.max_depth_m = max_depth(s);
+    report.combined_depth_m = combined_profile(s);
+    report.k_wear_si = memory_.k_wear_si;
+    report.k_pitting = memory_.k_pitting;
+    if (obs.ics2_low && memory_.ics2_scale_valid)
+      report.ics2_density_estimate =
+          memory_.ics2_scale_density + memory_.ics2_scale_slope * (*obs.ics2_low - memory_.ics2_scale_ics2);
+  };
+  // --- can this record be used at all?
+  if (!std::isfinite(obs.cycles) || obs.cycles < 0) {
+    add_issue(report, ModelIssue::missing_cycles, "the record has no life-counter position");
+    finish();
+    return report;
+  }
+  if (!std::isfinite(obs.speed_hz) || !std::isfinite(obs.torque_nm)) {
+    add_issue(report, ModelIssue::missing_operating_point, "speed or torque unknown");
+    finish();
+    return report;
+  }
+  if (obs.speed_hz < settings_.min_speed_hz || obs.speed_hz > settings_.max_speed_hz || obs.torque_nm < settings_.min_torque_nm ||
+      obs.torque_nm > settings_.max_torque_nm) {
+    char b[200];
+    std::snprintf(b, sizeof b, "%.4g Hz, %.4g N m outside the model's [%.4g, %.4g] Hz, [%.4g, %.4g] N m", obs.speed_hz, obs.torque_nm,
+                  settings_.min_speed_hz, settings_.max_speed_hz, settings_.min_torque_nm, settings_.max_torque_nm);
+    add_issue(report, ModelIssue::operating_point_out_of_range, b);
+    finish();
+    return report;
+  }
+  if (memory_.started && obs.cycles < memory_.current.state.cycles) {
+    // The life counter went backwards: a new gear pair (or a front-end fault; never merged).
+    start_new_pair();
+    report.new_gear_pair = true;
+  } else if (memory_.started && obs.cycles == memory_.current.state.cycles) {
+    add_issue(report, ModelIssue::cycles_not_increasing, "at the cycles of the model's previous record");
+    finish();
+    return report;
+  }
+  memory_.started = true;
+  ++memory_.records_used;
+  report.advanced = true;
+  const twin::OperatingPoint op{obs.speed_hz, obs.torque_nm};
+  memory_.recent_operating_points.push_back({obs.speed_hz, obs.torque_nm});
+  const auto window = static_cast<std::size_t>(settings_.operating_window_records);
+  if (memory_.recent_operating_points.size() > window)
+    memory_.recent_operating_points.erase(memory_.recent_operating_points.begin(),
+                                          memory_.recent_operating_points.end() - static_cast<std::ptrdiff_t>(window));
+  if (obs.ics2_low && std::isfinite(*obs.ics2_low)) memory_.ics2_series.push_back({obs.cycles, *obs.ics2_low});
+
+  // --- blue loop to the record, at its speed and torque, with the current coefficients
+  memory_.intervals.push_back({obs.cycles, obs.speed_hz, obs.torque_nm, memory_.k_wear_si, memory_.k_pitting});
+  loop_.set_operating_point(op);
+  loop_.set_coefficients(memory_.k_wear_si, memory_.k_pitting);
+  bool within_limit = loop_.run_until(obs.cycles);
+  memory_.current = LoopSnapshot{loop_.state(), loop_.next_step_cycles()};
+  if (!within_limit) {
+    add_issue(report, ModelIssue::depth_limit_reached,
+              "the blue loop stopped at " + fmt("%.6g", loop_.state().cycles) + " cycles, before a flank passes " +
+                  fmt("%.3g", settings_.loop.depth_limit_m * 1e3) + " mm; the state is held there");
+    // Keep the intervals consistent with the state the loop reached.
+    memory_.intervals.back().end_cycles = loop_.state().cycles;
+  }
+
+  // --- purple loop: K_pitting first (its re-run starts at the last pitting point), then K_wear
+  if (within_limit) {
+    if (settings_.update_k_pitting) calibrate_pitting(inspections, obs.cycles, report);
+    if (settings_.update_k_pitting) check_pitting(obs, report);
+    if (!obs.ics2_low || !std::isfinite(*obs.ics2_low))
+      add_issue(report, ModelIssue::missing_ics2, "no ICS2 in the low band: no pitting point from this record");
+    check_k_wear(obs, report);
+  }
+  prune_intervals();
+  report.forecast = forecast();
+  finish();
+  return report;
+}
+
+void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report) {
+  if (!obs.rms_sa || !std::isfinite(*obs.rms_sa) || *obs.rms_sa <= 0) {
+    add_issue(report, ModelIssue::missing_rms_sa, "no positive RMS_SA: K_wear not checked");
+    return;
+  }
+  const double measured = *obs.rms_sa;
+  const twin::OperatingPoint op{obs.speed_hz, obs.torque_nm};
+  double simulated = 0;
+  try {
+    simulated = simulator_(memory_.current.state, op);
+    if (!std::isfinite(simulated) || simulated <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
+  } catch (const std::exception& e) {
+    add_issue(report, ModelIssue::simulation_failed, std::string("K_wear not checked: ") + e.what());
+    return;
+  }
+  report.rms_sa_simulated = simulated;
+  const double error = (simulated - measured) / measured;
+  if (!settings_.update_k_wear || std::abs(error) <= settings_.rms_threshold) return;
+
+  KUpdate u;
+  u.kind = UpdateKind::k_wear;
+  u.trigger = UpdateTrigger::rms_sa_mismatch;
+  u.cycles = obs.cycles;
+  u.old_value = memory_.k_wear_si;
+  u.applies_from_cycles = memory_.wear_anchor.state.cycles;
+  u.measured = measured;
+  u.simulated_before = simulated;
+  const LoopSnapshot anchor = memory_.wear_anchor;
+  const ModelMemory saved = memory_;  // a failed re-run must not leave recaptured anchors behind
+
+  struct Trial {
+    double k, sim, error;
+    LoopSnapshot state;
+    ModelMemory memory;
+  };
+  std::optional<Trial> best;
+  double k = memory_.k_wear_si, sim = simulated, last_error = error;
+  std::string why;
+  u.outcome = UpdateOutcome::iteration_limit;
+  for (int it = 1; it <= settings_.max_wear_iterations; ++it) {
+    // Eqs. 7.13–7.14: K ← K / G, G = RMS_SA,sim / RMS_SA,meas.
+    double next = std::clamp(k * measured / sim, settings_.k_wear_min_si, settings_.k_wear_max_si);
+    if (k <= 0) next = settings_.k_wear_min_si;
+    if (next == k) {
+      u.outcome = UpdateOutcome::bound_reached;
+      why = "K_wear at its bound " + fmt("%.4g", k);
+      break;
+    }
+    k = next;
+    u.iterations = it;
+    memory_ = saved;
+    LoopSnapshot trial;
+    if (!rerun(anchor, Override{k, std::nullopt, anchor.state.cycles}, trial, true)) {
+      u.outcome = UpdateOutcome::bound_reached;
+      why = "with K_wear = " + fmt("%.4g", k) + " a flank passes the depth limit before the record";
+      break;
+    }
+    try {
+      sim = simulator_(trial.state, op);
+      if (!std::isfinite(sim) || sim <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
+    } catch (const std::exception& e) {
+      u.outcome = UpdateOutcome::simulation_failed;
+      why = std::string("simulation failed at K_wear = ") + fmt("%.4g", k) + ": " + e.what();
+      break;
+    }
+    const double err = (sim - measured) / measured;
+    if (!best || std::abs(err) < std::abs(best->error)) best = Trial{k, sim, err, trial, memory_};
+    if (std::abs(err) <= settings_.convergence_tolerance) {
+      u.outcome = UpdateOutcome::converged;
+      break;
+    }
+    if (std::abs(err) >= std::abs(last_error)) {
+      u.outcome = UpdateOutcome::not_monotone;
+      why = "the error grew from " + fmt("%.3g", 100 * last_error) + " % to " + fmt("%.3g", 100 * err) +
+            " %: RMS_SA does not rise with K_wear here";
+      break;
+    }
+    last_error = err;
+  }
+  if (u.outcome == UpdateOutcome::iteration_limit)
+    why = "no convergence to " + fmt("%.3g", 100 * settings_.convergence_tolerance) + " % in " +
+          std::to_string(settings_.max_wear_iterations) + " iterations";
+  // Keep the best K found if it improved on the old one; otherwise nothing changes.
+  if (best && std::abs(best->error) < std::abs(error)) {
+    memory_ = std::move(best->memory);
+    memory_.current = best->state;
+    apply_k(true, best->k, anchor.state.cycles);
+    memory_.wear_anchor = memory_.current;
+    loop_ = loop_at(memory_.current);
+    ++memory_.k_wear_updates;
+    u.new_value = best->k;
+    u.simulated_after = best->sim;
+    report.rms_sa_simulated = best->sim;
+  } else {
+    memory_ = saved;
+    u.new_value = u.old_value;
+    u.simulated_after = simulated;
+    if (u.outcome == UpdateOutcome::converged) u.outcome = UpdateOutcome::not_monotone;
+  }
+  char b[400];
+  std::snprintf(b, sizeof b, "RMS_SA measured %.5g, simulated %.5g (%+.2f %%) -> %.5g (%+.2f %%) after %d iteration(s), K_wear %.5g -> %.5g m^2/N",
+                measured, simulated, 100 * error, u.simulated_after, 100 * (u.simulated_after - measured) / measured, u.iterations,
+                u.old_value, u.new_value);
+  u.evidence = b;
+  if (!why.empty()) u.evidence += "; " + why;
+  report.updates.push_back(std::move(u));
+}
+
+void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report) {
+  std::vector<Inspection> pitted;
+  for (const Inspection& i : inspections)
+    if (i.pitted_area && std::isfinite(*i.pitted_area) && *i.pitted_area >= 0 && *i.pitted_area <= 1 && std::isfinite(i.cycles) &&
+        i.cycles >= 0 && i.cycles <= cycles)
+      pitted.push_back(i);
+  std::sort(pitted.begin(), pitted.end(), [](const Inspection& a, const Inspection& b) {
+    return a.cycles != b.cycles ? a.cycles < b.cycles : a.id < b.id;
+  });
+  // The two newest inspections at distinct cycles.
+  if (pitted.size() < 2) return;
+  const Inspection second = pitted.back();
+  std::optional<Inspection> first;
+  for (auto it = pitted.rbegin() + 1; it != pitted.rend(); ++it)
+    if (it->cycles < second.cycles) {
+      first = *it;
+      break;
+    }
+  if (!first) return;
+  const std::int64_t key = std::max(first->id, second.id);
+  if (memory_.pitting_calibrated && key <= memory_.calibration_inspection_id) return;
+
+  const double n0 = first->cycles, n1 = second.cycles, a0 = *first->pitted_area, a1 = *second.pitted_area;
+  KUpdate u;
+  u.kind = UpdateKind::k_pitting;
+  u.trigger = UpdateTrigger::inspection_calibration;
+  u.cycles = cycles;
+  u.old_value = memory_.k_pitting;
+  u.applies_from_cycles = cycles;
+  u.measured = a1;
+  const twin::OperatingPoint op{memory_.recent_operating_points.back()[0], memory_.recent_operating_points.back()[1]};
+
+  // Eq. 7.11 accumulates from the start of the pair's life (absolute N), so a candidate K is run
+  // from 0 cycles, unpitted, on the current worn profile (held: K_wear = 0 in calibration runs).
+  // At N0 its pitting profile is rescaled to the inspected mean (shape from the model, level from
+  // the inspection); N0 -> N1 then decides K: the model must pit A1 by the second inspection.
+  LoopSnapshot start = memory_.current;
+  start.state.cycles = 0;
+  std::fill(start.state.pinion_pitting.begin(), start.state.pinion_pitting.end(), 0.0);
+  start.next_step_cycles = settings_.loop.initial_step_cycles;
+  int evaluations = 0;
+  auto run_to = [&](double k, double until, BlueLoop* keep) {
+    BlueLoop loop = loop_at(start);
+    loop.set_operating_point(op);
+    loop.set_coefficients(0.0, k);
+    loop.run_until(n0);
+    WearState at_n0 = loop.state();
+    const double m0 = mean_of(at_n0.pinion_pitting);
+    for (double& d : at_n0.pinion_pitting) d = m0 > 0 ? std::min(1.0, d * a0 / m0) : a0;
+    loop.restore(at_n0, loop.next_step_cycles());
+    loop.run_until(until);
+    ++evaluations;
+    const double d = mean_of(loop.state().pinion_pitting);
+    if (keep) *keep = std::move(loop);
+    return d;
+  };
+  double k_new = 0;
+  std::string why;
+  u.outcome = UpdateOutcome::converged;
+  if (!(a1 > a0)) {
+    u.outcome = UpdateOutcome::set_to_zero;
+    why = "the inspections show no pitting growth (" + fmt("%.4g", a0) + " then " + fmt("%.4g", a1) + ")";
+  } else {
+    // The scale of K: the K at which the most loaded point reaches A N1^m = 1.
+    BlueLoop probe = loop_at(start);
+    probe.set_operating_point(op);
+    const std::vector<double> unit = probe.pitting_rates(1.0);
+    const double top = *std::max_element(unit.begin(), unit.end());
+    if (!(top > 0) || !std::isfinite(top)) {
+      u.outcome = UpdateOutcome::bound_reached;
+      why = "no contact pressure to pit under";
+    } else {
+      const double k_scale = 1.0 / (top * std::pow(n1, settings_.loop.material.m));
+      // Bisection on ln K between "no pitting" and the scale (raised while still short).
+      double lo = std::log(k_scale) - 30.0, hi = std::log(k_scale);
+      double d_hi = run_to(std::exp(hi), n1, nullptr);
+      for (int up = 0; up < 3 && d_hi < a1; ++up) {
+        hi += std::log(10.0);
+        d_hi = run_to(std::exp(hi), n1, nullptr);
+      }
+      if (d_hi < a1) {
+        u.outcome = UpdateOutcome::bound_reached;
+        why = "the model cannot pit " + fmt("%.4g", a1) + " by the second inspection (at most " + fmt("%.4g", d_hi) + ")";
+        k_new = std::exp(hi);
+      } else {
+        while (hi - lo > 1e-4 && evaluations < 80) {
+          const double mid = 0.5 * (lo + hi);
+          if (run_to(std::exp(mid), n1, nullptr) < a1) lo = mid;
+          else hi = mid;
+        }
+        k_new = std::exp(0.5 * (lo + hi));
+      }
+    }
+  }
+  // The state: the calibrated run continued to now gives the current pitting profile.
+  BlueLoop calibrated = loop_at(start);
+  u.simulated_after = run_to(k_new, n1, &calibrated);
+  calibrated.run_until(cycles);
+  memory_.current.state.pinion_pitting = calibrated.state().pinion_pitting;
+  loop_ = loop_at(memory_.current);
+  memory_.current = LoopSnapshot{loop_.state(), loop_.next_step_cycles()};
+  apply_k(false, k_new, cycles);
+  // Calibration accepts the whole state: both anchors move here.
+  memory_.wear_anchor = memory_.current;
+  memory_.pitting_anchor = memory_.current;
+  memory_.pitting_calibrated = true;
+  memory_.calibration_inspection_id = key;
+  ++memory_.k_pitting_updates;
+  const double i0 = ics2_at(n0), i1 = ics2_at(n1);
+  memory_.pitting_points.clear();
+  memory_.ics2_scale_valid = std::isfinite(i0) && std::isfinite(i1) && i1 > i0 && a1 > a0;
+  if (std::isfinite(i0) && std::isfinite(i1)) memory_.pitting_points = {{n0, i0, a0}, {n1, i1, a1}};
+  if (memory_.ics2_scale_valid) {
+    memory_.ics2_scale_ics2 = i0;
+    memory_.ics2_scale_density = a0;
+    memory_.ics2_scale_slope = (a1 - a0) / (i1 - i0);
+  } else {
+    if (!why.empty()) why += "; ";
+    why += "no ICS2 <-> density scale (ICS2 " + fmt("%.4g", i0) + " at the first inspection, " + fmt("%.4g", i1) +
+           " at the second: it must rise)";
+  }
+  u.new_value = k_new;
+  u.iterations = evaluations;
+  u.simulated_before = a0;
+  u.correlation_before = i0;
+  u.correlation_after = i1;
+  char b[400];
+  std::snprintf(b, sizeof b, "inspections: pitted area %.4g at %.6g cycles, %.4g at %.6g cycles (ICS2 %.4g, %.4g); model %.4g at the second; K_pitting %.5g -> %.5g",
+                a0, n0, a1, n1, i0, i1, u.simulated_after, u.old_value, u.new_value);
+  u.evidence = b;
+  if (!why.empty()) u.evidence += "; " + why;
+  report.updates.push_back(std::move(u));
+}
+
+void TwinModel::check_pitting(const ModelObservation& obs, ModelRunReport& report) {
+  if (!memory_.pitting_calibrated || !obs.ics2_low || !std::isfinite(*obs.ics2_low)) return;
+  auto& points = memory_.pitting_points;
+  if (!points.empty() && obs.cycles < points.back().cycles + settings_.pitting_interval_cycles) return;
+  const LoopSnapshot anchor = memory_.pitting_anchor;
+  if (!(obs.cycles > anchor.state.cycles)) return;
+  const double ics2 = *obs.ics2_low;
+  const double density_now = mean_of(memory_.current.state.pinion_pitting);
+  auto push_point = [&](double density) {
+    points.push_back({obs.cycles, ics2, density});
+    if (points.size() > 3) points.erase(points.begin(), points.end() - 3);
+    memory_.pitting_anchor = memory_.current;
+  };
+  if (points.size() < 2) {
+    push_point(density_now);
+    return;
+  }
+  const std::array<double, 3> y{points[points.size() - 2].ics2, points.back().ics2, ics2};
+  auto corr = [&](double d) { return pearson3({points[points.size() - 2].density, points.back().density, d}, y); };
+  const double c_now = corr(density_now);
+  if (std::isfinite(c_now) && c_now >= settings_.correlation_threshold) {
+    push_point(density_now);
+    return;
+  }
+  // Eqs. 7.16–7.17: K_pitting maximising C, re-running from the last pitting point.
+  const ModelMemory saved = memory_;
+  int evaluations = 0;
+  auto density_with = [&](double k, LoopSnapshot* out) {
+    memory_ = saved;
+    LoopSnapshot s;
+    rerun(anchor, Override{std::nullopt, k, anchor.state.cycles}, s, false);
+    ++evaluations;
+    if (out) *out = s;
+    return mean_of(s.state.pinion_pitting);
+  };
+  double k_ref = memory_.k_pitting;
+  for (auto it = memory_.recent_k_pitting.rbegin(); !(k_ref > 0) && it != memory_.recent_k_pitting.rend(); ++it) k_ref = *it;
+  const double c_zero = corr(density_with(0.0, nullptr));
+  double best_k = 0, best_c = std::isfinite(c_zero) ? c_zero : -2.0;
+  if (k_ref > 0) {
+    auto f = [&](double x) {
+      const double c = corr(density_with(std::exp(x), nullptr));
+      return std::isfinite(c) ? c : -2.0;
+    };
+    // Bracket the maximum on ln K: walk uphill from the current K by decades.
+    const double step = std::log(10.0);
+    double x0 = std::log(k_ref), f0 = f(x0);
+    double xl = x0 - step, fl = f(xl), xr = x0 + step, fr = f(xr);
+    const int budget = settings_.max_pitting_evaluations;
+    while (evaluations < budget / 2 && (fl > f0 || fr > f0)) {
+      if (fr > f0 && fr >= fl) {
+        xl = x0, fl = f0, x0 = xr, f0 = fr, xr = x0 + step, fr = f(xr);
+      } else {
+        xr = x0, fr = f0, x0 = xl, f0 = fl, xl = x0 - step, fl = f(xl);
+      }
+    }
+    for (auto [x, v] : {std::pair{xl, fl}, std::pair{x0, f0}, std::pair{xr, fr}})
+      if (v > best_c) best_c = v, best_k = std::exp(x);
+    const LineSearchResult r = golden_section_maximise(f, xl, xr, 1e-3, std::max(4, budget - evaluations));
+    if (r.value > best_c) best_c = r.value, best_k = std::exp(r.x);
+  }
+  KUpdate u;
+  u.kind = UpdateKind::k_pitting;
+  u.trigger = UpdateTrigger::correlation_below_threshold;
+  u.cycles = obs.cycles;
+  u.old_value = saved.k_pitting;
+  u.applies_from_cycles = anchor.state.cycles;
+  u.correlation_before = std::isfinite(c_now) ? c_now : 0.0;
+  u.measured = ics2;
+  u.simulated_before = density_now;
+  std::string why;
+  if (best_c >= settings_.correlation_threshold && best_k > 0) {
+    u.outcome = UpdateOutcome::converged;
+  } else {
+    u.outcome = UpdateOutcome::set_to_zero;
+    char b[300];
+    std::snprintf(b, sizeof b, "the best correlation %.4f (K_pitting %.4g) stays below %.2f", best_c, best_k,
+                  settings_.correlation_threshold);
+    why = b;
+    if (ics2 < points.back().ics2) why += ": ICS2 fell while the model's pitting density cannot decrease";
+    best_k = 0;
+  }
+  if (best_k == 0 && saved.k_pitting == 0) {
+    // Already 0 (§7.3.3: it stays 0 while the threshold cannot be reached): nothing changes.
+    memory_ = saved;
+    push_point(density_now);
+    return;
+  }
+  LoopSnapshot chosen;
+  const double density_new = density_with(best_k, &chosen);
+  memory_ = saved;
+  // Re-run for real (anchors inside the stretch are recaptured this time).
+  LoopSnapshot final_state;
+  rerun(anchor, Override{std::nullopt, best_k, anchor.state.cycles}, final_state, true);
+  memory_.current = final_state;
+  loop_ = loop_at(memory_.current);
+  apply_k(false, best_k, anchor.state.cycles);
+  ++memory_.k_pitting_updates;
+  u.new_value = best_k;
+  u.simulated_after = density_new;
+  u.correlation_after = corr(density_new);
+  if (!std::isfinite(u.correlation_after)) u.correlation_after = 0.0;
+  u.iterations = evaluations;
+  char b[400];
+  std::snprintf(b, sizeof b, "C of (ICS2 %.4g, %.4g, %.4g) and density (%.4g, %.4g, %.4g -> %.4g): %.4f -> %.4f; K_pitting %.5g -> %.5g",
+                y[0], y[1], y[2], points[points.size() - 2].density, points.back().density, density_now, density_new,
+                u.correlation_before, u.correlation_after, u.old_value, u.new_value);
+  u.evidence = b;
+  if (!why.empty()) u.evidence += "; " + why;
+  push_point(density_new);
+  report.updates.push_back(std::move(u));
+}
+
+Forecast TwinModel::forecast() const {
+  Forecast f;
+  if (!memory_.started || memory_.recent_operating_points.empty()) {
+    f.failure = "no record yet";
+    return f;
+  }
+  double speed = 0, torque = 0;
+  for (const auto& p : memory_.recent_operating_points) speed += p[0], torque += p[1];
+  speed /= static_cast<double>(memory_.recent_operating_points.size());
+  torque /= static_cast<double>(memory_.recent_operating_points.size());
+  f.speed_hz = speed;
+  f.torque_nm = torque;
+  auto spread = [](const std::vector<double>& recent, double k) {
+    double s = 0;
+    if (k > 0)
+      for (double v : recent)
+        if (v > 0) s = std::max(s, std::abs(std::log(v / k)));
+    return s;
+  };
+  const double sw = spread(memory_.recent_k_wear, memory_.k_wear_si), sp = spread(memory_.recent_k_pitting, memory_.k_pitting);
+  f.k_wear_low = memory_.k_wear_si * std::exp(-sw);
+  f.k_wear_high = memory_.k_wear_si * std::exp(sw);
+  f.k_pitting_low = memory_.k_pitting * std::exp(-sp);
+  f.k_pitting_high = memory_.k_pitting * std::exp(sp);
+  f.wear.limit = settings_.wear_limit_m;
+  f.pitting.limit = settings_.pitting_limit;
+
+  const double start = memory_.current.state.cycles;
+  const double horizon = settings_.forecast_horizon_cycles;
+  // Coarser steps than the monitoring loop: the force tolerance still bounds each one.
+  WearLoopOptions o = settings_.loop;
+  o.max_step_cycles = std::max(o.max_step_cycles, horizon / (4.0 * settings_.forecast_points));
+  // docs/wear.md: a 0.2 force tolerance changes the dry pair's depth by 0.04 %, at a fraction of the steps.
+  o.force_tolerance = std::max(o.force_tolerance, 0.2);
+  o.operating_point = {speed, torque};
+  struct Crossing {
+    std::optional<double> wear, pitting;
+  };
+  auto run = [&](double kw, double kp, std::vector<ForecastPoint>* curve) {
+    Crossing c;
+    BlueLoop loop(params_, o);
+    loop.restore(memory_.current.state, std::clamp(memory_.current.next_step_cycles, o.min_step_cycles, o.max_step_cycles));
+    loop.set_coefficients(kw, kp);
+    double prev_cycles = start, prev_depth = max_depth(loop.state()), prev_pit = mean_of(loop.state().pinion_pitting);
+    auto check = [&] {
+      const double cyc = loop.state().cycles, d = max_depth(loop.state()), p = mean_of(loop.state().pinion_pitting);
+      auto cross = [&](std::optional<double>& out, double before, double after, double limit) {
+        if (out || after < limit) return;
+        const double frac = after > before ? (limit - before) / (after - before) : 0.0;
+        out = std::max(0.0, prev_cycles + std::clamp(frac, 0.0, 1.0) * (cyc - prev_cycles) - start);
+      };
+      cross(c.wear, prev_depth, d, settings_.wear_limit_m);
+      cross(c.pitting, prev_pit, p, settings_.pitting_limit);
+      prev_cycles = cyc, prev_depth = d, prev_pit = p;
+    };
+    if (prev_depth >= settings_.wear_limit_m) c.wear = 0.0;
+    if (prev_pit >= settings_.pitting_limit) c.pitting = 0.0;
+    for (int k = 1; k <= settings_.forecast_points; ++k) {
+      const double target = start + horizon * k / settings_.forecast_points;
+      bool stopped = false;
+      while (loop.state().cycles < target) {
+        if (loop.step(target).step_cycles <= 0) {
+          stopped = true;
+          break;
+        }
+        check();
+        // Past both limits (or past the wear limit when nothing pits) the run has told its story.
+        if (c.wear && (c.pitting || !(kp > 0))) break;
+      }
+      if (curve) {
+        const WearSummary s = summarise(loop.state());
+        curve->push_back({loop.state().cycles, max_depth(loop.state()), s.combined_mean_depth_m, s.mean_pitting_density});
+      }
+      if (stopped || (c.wear && (c.pitting || !(kp > 0)))) break;
+    }
+    return c;
+  };
+  try {
+    const Crossing nominal = run(memory_.k_wear_si, memory_.k_pitting, &f.curve);
+    const Crossing fast = sw > 0 || sp > 0 ? run(f.k_wear_high, f.k_pitting_high, nullptr) : nominal;
+    const Crossing slow = sw > 0 || sp > 0 ? run(f.k_wear_low, f.k_pitting_low, nullptr) : nominal;
+    f.wear.cycles_left = nominal.wear;
+    f.wear.cycles_left_low = fast.wear;
+    f.wear.cycles_left_high = slow.wear;
+    f.pitting.cycles_left = nominal.pitting;
+    f.pitting.cycles_left_low = fast.pitting;
+    f.pitting.cycles_left_high = slow.pitting;
+    f.valid = true;
+  } catch (const std::exception& e) {
+    f.failure = e.what();
+  }
+  return f;
+}
+
+}  // namespace gearwatch::wear

@@ -1,0 +1,188 @@
+// `gearwatch twin state --db FILE [--format table|json]`: what the model thread knows now (docs/model.md):
+// K_wear, K_pitting, wear depth (mean and root -> tip), pitting density (mean and distribution), the
+// update history, the latest prediction, and wear-depth inspections against the prediction.
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_common.hpp"
+#include "model_thread.hpp"
+
+namespace gearwatch::cli {
+namespace {
+
+using nlohmann::json;
+
+json column_value(const storage::Statement& st, int i) {
+  if (st.is_null(i)) return nullptr;
+  const std::string type = st.column_type(i);
+  if (type == "integer") return st.get_int(i);
+  if (type == "real") return st.get_double(i);
+  return st.get_text(i);
+}
+
+json rows(storage::Database& db, const std::string& sql, std::int64_t pair) {
+  storage::Statement st(db, sql);
+  st.bind(1, pair);
+  json out = json::array();
+  while (st.step()) {
+    json row = json::object();
+    for (int i = 0; i < st.column_count(); ++i) row[st.column_name(i)] = column_value(st, i);
+    out.push_back(std::move(row));
+  }
+  return out;
+}
+
+std::string num(const json& v, const char* f = "%.4g", double scale = 1.0) {
+  if (!v.is_number()) return "-";
+  char b[48];
+  std::snprintf(b, sizeof b, f, v.get<double>() * scale);
+  return b;
+}
+
+}  // namespace
+
+void register_twin_state(CLI::App* twin) {
+  struct Options {
+    std::string db, format = "table";
+  };
+  auto opt = std::make_shared<Options>();
+  auto* cmd = twin->add_subcommand("state", "The model's current K values, wear, pitting, updates and predictions");
+  cmd->add_option("--db", opt->db, "SQLite database")->required()->check(CLI::ExistingFile);
+  add_format_option(cmd, opt->format);
+  cmd->callback([opt] {
+    if (opt->format == "csv") throw CommandError("twin state: --format is table or json");
+    json out;
+    try {
+      storage::Database db(opt->db, storage::Database::Mode::read_only);
+      storage::Statement has(db, "SELECT 1 FROM sqlite_master WHERE name = 'model_state'");
+      if (!has.step()) throw CommandError("twin state: this database has no model state (written before schema version 4)");
+      storage::Statement st(db, "SELECT gear_pair, updated_at, state FROM model_state ORDER BY gear_pair DESC LIMIT 1");
+      if (!st.step()) throw CommandError("twin state: the model has not handled a record yet");
+      const std::int64_t pair = st.get_int(0);
+      wear::ModelMemory m;
+      try {
+        m = daemon::memory_from_json(st.get_text(2));
+      } catch (const std::exception& e) {
+        throw CommandError(std::string("twin state: ") + e.what());
+      }
+      const wear::WearState& s = m.current.state;
+      const wear::WearSummary sum = wear::summarise(s);
+      const std::vector<double> combined = wear::combined_profile(s);
+      double max_depth = 0;
+      for (double d : s.pinion_depth_m) max_depth = std::max(max_depth, d);
+      for (double d : s.gear_depth_m) max_depth = std::max(max_depth, d);
+      json fraction = json::array();
+      for (std::size_t j = 0; j < s.pinion_depth_m.size(); ++j)
+        fraction.push_back(s.pinion_depth_m.size() > 1 ? static_cast<double>(j) / static_cast<double>(s.pinion_depth_m.size() - 1) : 0.0);
+      out = {{"gear_pair", pair},
+             {"updated_at", st.get_text(1)},
+             {"cycles", s.cycles},
+             {"k_wear_si", m.k_wear_si},
+             {"k_wear_seed_unit", wear::k_wear_seed_from_si(m.k_wear_si)},
+             {"k_pitting", m.k_pitting},
+             {"k_wear_updates", m.k_wear_updates},
+             {"k_pitting_updates", m.k_pitting_updates},
+             {"pitting_calibrated", m.pitting_calibrated},
+             {"wear", {{"pinion_mean_m", sum.pinion_mean_depth_m}, {"gear_mean_m", sum.gear_mean_depth_m},
+                       {"combined_mean_m", sum.combined_mean_depth_m}, {"max_m", max_depth}, {"pinion_share", sum.pinion_share},
+                       {"profile_fraction", fraction}, {"combined_depth_m", combined}, {"pinion_depth_m", s.pinion_depth_m},
+                       {"gear_depth_m", s.gear_depth_m}}},
+             {"pitting", {{"mean", sum.mean_pitting_density}, {"max", sum.max_pitting_density},
+                          {"max_profile_fraction", sum.max_pitting_fraction}, {"pinion_pitting", s.pinion_pitting}}}};
+      if (m.ics2_scale_valid)
+        out["ics2_scale"] = {{"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density}, {"slope", m.ics2_scale_slope}};
+      out["updates"] = rows(db, "SELECT id, created_at, cycles, kind, triggered_by, outcome, old_value, new_value, applies_from_cycles,"
+                                " iterations, measured, simulated_before, simulated_after, correlation_before, correlation_after, evidence"
+                                " FROM k_updates WHERE gear_pair = ? ORDER BY id", pair);
+      json latest = rows(db, "SELECT * FROM predictions WHERE gear_pair = ? ORDER BY run_id DESC LIMIT 1", pair);
+      if (!latest.empty()) {
+        storage::Statement curve(db, "SELECT forecast_curve FROM model_runs WHERE id = ?");
+        curve.bind(1, latest[0]["run_id"].get<std::int64_t>());
+        if (curve.step() && !curve.is_null(0)) latest[0]["forecast_curve"] = json::parse(curve.get_text(0));
+        out["prediction"] = latest[0];
+      } else {
+        out["prediction"] = nullptr;
+      }
+      // Wear-depth inspections against the model's mean depth at their cycles (between the two
+      // runs around them; the model's depth is linear enough between neighbouring records).
+      json inspections = rows(db, "SELECT id, cycles, wear_depth_m, pitted_area_fraction, note FROM inspections"
+                                  " WHERE coalesce(gear_pair, 0) = ? ORDER BY cycles", pair);
+      for (auto& i : inspections) {
+        const double c = i["cycles"].get<double>();
+        storage::Statement near(db, "SELECT cycles, wear_mean_m, pitting_mean FROM predictions WHERE gear_pair = ? AND cycles IS NOT NULL"
+                                    " ORDER BY abs(cycles - ?) LIMIT 2");
+        near.bind(1, pair).bind(2, c);
+        std::vector<std::array<double, 3>> pts;
+        while (near.step()) pts.push_back({near.get_double(0), near.get_double(1), near.get_double(2)});
+        if (pts.empty()) continue;
+        auto at = [&](int k) {
+          if (pts.size() < 2 || pts[0][0] == pts[1][0]) return pts[0][k];
+          const double t = (c - pts[0][0]) / (pts[1][0] - pts[0][0]);
+          return pts[0][k] + std::clamp(t, 0.0, 1.0) * (pts[1][k] - pts[0][k]);
+        };
+        i["predicted_wear_mean_m"] = at(1);
+        i["predicted_pitting_mean"] = at(2);
+        if (i["wear_depth_m"].is_number() && i["wear_depth_m"].get<double>() > 0)
+          i["wear_error_pct"] = 100.0 * (at(1) / i["wear_depth_m"].get<double>() - 1.0);
+      }
+      out["inspections"] = inspections;
+    } catch (const storage::SqliteError& e) {
+      throw CommandError(std::string("twin state: ") + e.what());
+    }
+    if (opt->format == "json") {
+      std::cout << out.dump(1) << "\n";
+      return;
+    }
+    std::printf("gear pair %lld at %.6g cycles (state of %s)\n", static_cast<long long>(out["gear_pair"].get<std::int64_t>()),
+                out["cycles"].get<double>(), out["updated_at"].get<std::string>().c_str());
+    std::printf("K_wear    %.5g m^2/N (%.5g in the seed's unit), %llu updates\n", out["k_wear_si"].get<double>(),
+                out["k_wear_seed_unit"].get<double>(), static_cast<unsigned long long>(out["k_wear_updates"].get<std::uint64_t>()));
+    std::printf("K_pitting %.5g (%s), %llu updates\n", out["k_pitting"].get<double>(),
+                out["pitting_calibrated"].get<bool>() ? "calibrated from inspections" : "not calibrated: needs two pitted-area inspections",
+                static_cast<unsigned long long>(out["k_pitting_updates"].get<std::uint64_t>()));
+    const json& w = out["wear"];
+    const json& p = out["pitting"];
+    std::printf("wear depth: combined mean %s um (pinion %s, gear %s), deepest %s um\n", num(w["combined_mean_m"], "%.3f", 1e6).c_str(),
+                num(w["pinion_mean_m"], "%.3f", 1e6).c_str(), num(w["gear_mean_m"], "%.3f", 1e6).c_str(), num(w["max_m"], "%.3f", 1e6).c_str());
+    std::printf("pitting density: mean %s %%, max %s %% at profile fraction %s\n", num(p["mean"], "%.3f", 100).c_str(),
+                num(p["max"], "%.3f", 100).c_str(), num(p["max_profile_fraction"], "%.2f").c_str());
+    std::printf("\n%-9s %14s %14s %14s %10s\n", "fraction", "combined_um", "pinion_um", "gear_um", "pitting_%");
+    const auto n = w["combined_depth_m"].size();
+    for (int k = 0; k <= 10 && n > 1; ++k) {
+      const auto j = static_cast<std::size_t>(std::lround(k / 10.0 * static_cast<double>(n - 1)));
+      std::printf("%-9.2f %14.3f %14.3f %14.3f %10.3f\n", k / 10.0, w["combined_depth_m"][j].get<double>() * 1e6,
+                  w["pinion_depth_m"][j].get<double>() * 1e6, w["gear_depth_m"][j].get<double>() * 1e6,
+                  p["pinion_pitting"][j].get<double>() * 100);
+    }
+    std::printf("\nupdates (%zu):\n", out["updates"].size());
+    for (const auto& u : out["updates"])
+      std::printf("  %s at %s cycles: %s %s %s -> %s (%s)\n", u["created_at"].get<std::string>().c_str(), num(u["cycles"], "%.6g").c_str(),
+                  u["kind"].get<std::string>().c_str(), u["outcome"].get<std::string>().c_str(), num(u["old_value"], "%.5g").c_str(),
+                  num(u["new_value"], "%.5g").c_str(), u["evidence"].get<std::string>().c_str());
+    if (out["prediction"].is_object()) {
+      const json& pr = out["prediction"];
+      std::printf("\nprediction at %s cycles (%s Hz, %s N m):\n", num(pr["cycles"], "%.6g").c_str(), num(pr["forecast_speed_hz"]).c_str(),
+                  num(pr["forecast_torque_nm"]).c_str());
+      std::printf("  wear depth %s mm limit: %s cycles left [%s, %s]\n", num(pr["wear_limit_m"], "%.3f", 1e3).c_str(),
+                  num(pr["wear_cycles_left"], "%.4g").c_str(), num(pr["wear_cycles_left_low"], "%.4g").c_str(),
+                  num(pr["wear_cycles_left_high"], "%.4g").c_str());
+      std::printf("  pitting density %s %% limit: %s cycles left [%s, %s]\n", num(pr["pitting_limit"], "%.3g", 100).c_str(),
+                  num(pr["pitting_cycles_left"], "%.4g").c_str(), num(pr["pitting_cycles_left_low"], "%.4g").c_str(),
+                  num(pr["pitting_cycles_left_high"], "%.4g").c_str());
+      std::printf("  (- = not within the forecast horizon)\n");
+    }
+    if (!out["inspections"].empty()) {
+      std::printf("\ninspections against the prediction:\n");
+      for (const auto& i : out["inspections"])
+        std::printf("  at %s cycles: wear %s um (model %s um, %s %%), pitted area %s %% (model %s %%)\n", num(i["cycles"], "%.6g").c_str(),
+                    num(i["wear_depth_m"], "%.3f", 1e6).c_str(), num(i.value("predicted_wear_mean_m", json()), "%.3f", 1e6).c_str(),
+                    num(i.value("wear_error_pct", json()), "%+.1f").c_str(), num(i["pitted_area_fraction"], "%.3f", 100).c_str(),
+                    num(i.value("predicted_pitting_mean", json()), "%.3f", 100).c_str());
+    }
+  });
+}
+
+}  // namespace gearwatch::cli

@@ -1,0 +1,395 @@
+#include "model_thread.hpp"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <map>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "gearwatch/config/twin_config.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/twin/errors.hpp"
+
+namespace gearwatch::daemon {
+namespace {
+
+using nlohmann::json;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+int model_channel(const config::GearwatchConfig& c) {
+  if (c.model.channel >= 0) return c.model.channel;
+  return c.rig.channels.empty() ? 0 : c.rig.channels.front().number;
+}
+
+json snapshot_json(const wear::LoopSnapshot& s) {
+  return {{"cycles", s.state.cycles},
+          {"next_step_cycles", s.next_step_cycles},
+          {"pinion_depth_m", s.state.pinion_depth_m},
+          {"gear_depth_m", s.state.gear_depth_m},
+          {"pinion_pitting", s.state.pinion_pitting}};
+}
+
+wear::LoopSnapshot snapshot_from(const json& j) {
+  wear::LoopSnapshot s;
+  s.state.cycles = j.at("cycles").get<double>();
+  s.next_step_cycles = j.at("next_step_cycles").get<double>();
+  s.state.pinion_depth_m = j.at("pinion_depth_m").get<std::vector<double>>();
+  s.state.gear_depth_m = j.at("gear_depth_m").get<std::vector<double>>();
+  s.state.pinion_pitting = j.at("pinion_pitting").get<std::vector<double>>();
+  return s;
+}
+
+// Root -> tip at 11 points (the twin wear table's rows): what a prediction row keeps of the profile.
+std::string profile_json(const wear::ModelRunReport& r, const wear::ModelMemory& m) {
+  const auto& pit = m.current.state.pinion_pitting;
+  const auto& comb = r.combined_depth_m;
+  if (comb.size() < 2 || pit.size() != comb.size()) return {};
+  json fraction = json::array(), depth = json::array(), pitting = json::array();
+  for (int k = 0; k <= 10; ++k) {
+    const auto i = static_cast<std::size_t>(std::lround(k / 10.0 * static_cast<double>(comb.size() - 1)));
+    fraction.push_back(k / 10.0);
+    depth.push_back(comb[i]);
+    pitting.push_back(pit[i]);
+  }
+  return json{{"profile_fraction", fraction}, {"combined_depth_m", depth}, {"pinion_pitting", pitting}}.dump();
+}
+
+std::string forecast_json(const wear::Forecast& f) {
+  if (!f.valid) return {};
+  json curve = json::array();
+  for (const auto& p : f.curve)
+    curve.push_back({{"cycles", p.cycles}, {"max_depth_m", p.max_depth_m}, {"mean_depth_m", p.mean_depth_m}, {"mean_pitting", p.mean_pitting}});
+  return curve.dump();
+}
+
+std::string cycles_text(const std::optional<double>& c) {
+  if (!c) return "beyond the horizon";
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", *c);
+  return b;
+}
+
+}  // namespace
+
+ModelInput model_input(const storage::RecordResult& record, const config::GearwatchConfig& config) {
+  ModelInput in;
+  in.stream_sequence = record.stream_sequence;
+  in.start_index = record.start_index;
+  auto& o = in.observation;
+  o.cycles = record.input_revolutions.value_or(kNaN);
+  o.speed_hz = record.speed_hz;
+  o.torque_nm = record.torque_nm;
+  const int channel = model_channel(config);
+  for (const auto& ch : record.channels) {
+    if (ch.channel != channel) continue;
+    for (const auto& [name, v] : ch.values) {
+      if (name == "rms_sa") o.rms_sa = v;
+      else if (name == "ics2_low_band") o.ics2_low = v;
+      else if (name == "input_speed_hz" && !std::isfinite(o.speed_hz)) o.speed_hz = v;
+    }
+  }
+  return in;
+}
+
+wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
+  const auto& m = config.model;
+  wear::ModelSettings s;
+  s.loop.k_wear_si = wear::k_wear_si_from_seed(m.initial_k_wear);
+  s.loop.k_pitting = m.initial_k_pitting;
+  s.loop.force_model = m.force_model == "dynamic" ? wear::ForceModel::dynamic : wear::ForceModel::quasi_static;
+  s.loop.simulation.sample_rate_hz = config.rig.sample_rate_hz;
+  s.rms_threshold = m.update_threshold;
+  s.convergence_tolerance = m.convergence_tolerance;
+  s.max_wear_iterations = m.max_wear_iterations;
+  s.correlation_threshold = m.correlation_threshold;
+  s.pitting_interval_cycles = m.pitting_interval_cycles;
+  s.min_torque_nm = m.min_torque_nm;
+  s.max_torque_nm = m.max_torque_nm;
+  s.min_speed_hz = config.rig.min_speed_hz;
+  s.max_speed_hz = config.rig.max_speed_hz;
+  // Tooth thickness on the pitch circle: π m / 2.
+  s.wear_limit_m = m.wear_limit_fraction * 3.14159265358979323846 * config.rig.gears.module_m / 2.0;
+  s.pitting_limit = m.pitting_limit;
+  s.forecast_horizon_cycles = m.forecast_horizon_cycles;
+  return s;
+}
+
+std::string memory_to_json(const wear::ModelMemory& m) {
+  json intervals = json::array();
+  for (const auto& i : m.intervals) intervals.push_back({i.end_cycles, i.speed_hz, i.torque_nm, i.k_wear_si, i.k_pitting});
+  json points = json::array();
+  for (const auto& p : m.pitting_points) points.push_back({p.cycles, p.ics2, p.density});
+  json ops = json::array();
+  for (const auto& p : m.recent_operating_points) ops.push_back({p[0], p[1]});
+  const json j{{"format", 1},
+               {"started", m.started},
+               {"current", snapshot_json(m.current)},
+               {"wear_anchor", snapshot_json(m.wear_anchor)},
+               {"pitting_anchor", snapshot_json(m.pitting_anchor)},
+               {"k_wear_si", m.k_wear_si},
+               {"k_pitting", m.k_pitting},
+               {"intervals", intervals},
+               {"pitting_points", points},
+               {"pitting_calibrated", m.pitting_calibrated},
+               {"calibration_inspection_id", m.calibration_inspection_id},
+               {"ics2_scale", {{"valid", m.ics2_scale_valid}, {"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density},
+                               {"slope", m.ics2_scale_slope}}},
+               {"recent_k_wear", m.recent_k_wear},
+               {"recent_k_pitting", m.recent_k_pitting},
+               {"recent_operating_points", ops},
+               {"records_used", m.records_used},
+               {"k_wear_updates", m.k_wear_updates},
+               {"k_pitting_updates", m.k_pitting_updates}};
+  return j.dump();
+}
+
+wear::ModelMemory memory_from_json(const std::string& text) {
+  try {
+    const json j = json::parse(text);
+    if (j.at("format").get<int>() != 1) throw std::runtime_error("unknown state format " + j.at("format").dump());
+    wear::ModelMemory m;
+    m.started = j.at("started").get<bool>();
+    m.current = snapshot_from(j.at("current"));
+    m.wear_anchor = snapshot_from(j.at("wear_anchor"));
+    m.pitting_anchor = snapshot_from(j.at("pitting_anchor"));
+    m.k_wear_si = j.at("k_wear_si").get<double>();
+    m.k_pitting = j.at("k_pitting").get<double>();
+    for (const auto& i : j.at("intervals"))
+      m.intervals.push_back({i.at(0).get<double>(), i.at(1).get<double>(), i.at(2).get<double>(), i.at(3).get<double>(), i.at(4).get<double>()});
+    for (const auto& p : j.at("pitting_points")) m.pitting_points.push_back({p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>()});
+    m.pitting_calibrated = j.at("pitting_calibrated").get<bool>();
+    m.calibration_inspection_id = j.at("calibration_inspection_id").get<std::int64_t>();
+    const json& sc = j.at("ics2_scale");
+    m.ics2_scale_valid = sc.at("valid").get<bool>();
+    m.ics2_scale_ics2 = sc.at("ics2").get<double>();
+    m.ics2_scale_density = sc.at("density").get<double>();
+    m.ics2_scale_slope = sc.at("slope").get<double>();
+    m.recent_k_wear = j.at("recent_k_wear").get<std::vector<double>>();
+    m.recent_k_pitting = j.at("recent_k_pitting").get<std::vector<double>>();
+    for (const auto& p : j.at("recent_operating_points")) m.recent_operating_points.push_back({p.at(0).get<double>(), p.at(1).get<double>()});
+    m.records_used = j.at("records_used").get<std::uint64_t>();
+    m.k_wear_updates = j.at("k_wear_updates").get<std::uint64_t>();
+    m.k_pitting_updates = j.at("k_pitting_updates").get<std::uint64_t>();
+    return m;
+  } catch (const json::exception& e) {
+    throw std::runtime_error(std::string("model state is not readable: ") + e.what());
+  }
+}
+
+StoredModel load_model(const std::string& database_path) {
+  StoredModel out;
+  storage::Database db(database_path, storage::Database::Mode::read_only);
+  {
+    storage::Statement st(db, "SELECT gear_pair, state FROM model_state ORDER BY gear_pair DESC LIMIT 1");
+    if (st.step()) {
+      out.gear_pair = st.get_int(0);
+      try {
+        out.memory = memory_from_json(st.get_text(1));
+        out.found = true;
+      } catch (const std::exception& e) {
+        out.problem = e.what();
+      }
+    } else {
+      storage::Statement resets(db, "SELECT count(*) FROM life_counter_events");
+      resets.step();
+      out.gear_pair = resets.get_int(0);
+    }
+  }
+  if (out.found) {
+    // The ICS2 series is not in the state (it only grows): the stored runs hold it, exactly.
+    storage::Statement st(db, "SELECT cycles, ics2_low FROM model_runs WHERE gear_pair = ? AND advanced = 1"
+                              " AND cycles IS NOT NULL AND ics2_low IS NOT NULL ORDER BY id");
+    st.bind(1, out.gear_pair);
+    while (st.step()) out.memory.ics2_series.push_back({st.get_double(0), st.get_double(1)});
+  }
+  storage::Statement al(db, "SELECT channel, active, value, consecutive_present, consecutive_absent, marker, subject"
+                            " FROM alert_state WHERE kind = ?");
+  al.bind(1, to_string(AlertKind::remaining_life));
+  while (al.step()) {
+    AlertState s;
+    s.active = al.get_int(1) != 0;
+    s.value = al.is_null(2) ? "" : al.get_text(2);
+    s.consecutive_present = static_cast<int>(al.get_int(3));
+    s.consecutive_absent = static_cast<int>(al.get_int(4));
+    s.marker = al.get_double(5);
+    out.alerts[AlertKey{AlertKind::remaining_life, static_cast<int>(al.get_int(0)), al.get_text(6)}] = s;
+  }
+  return out;
+}
+
+ModelThread::ModelThread(const config::GearwatchConfig& config, storage::StorageWriter& writer, bool lossless)
+    : config_(config), writer_(writer), lossless_(lossless) {}
+
+ModelThread::~ModelThread() {
+  if (thread_.joinable()) stop();
+}
+
+void ModelThread::start() {
+  // The [twin] table of the configuration file, when there is one (tests and defaults have none).
+  std::error_code ec;
+  const twin::GearboxParameters params = std::filesystem::is_regular_file(config_.source_path, ec)
+                                             ? config::load_twin_parameters(config_.source_path)
+                                             : twin::GearboxParameters{};
+  const wear::ModelSettings settings = model_settings(config_);
+  const wear::RmsSaSimulator simulator =
+      wear::twin_rms_sa_simulator(params, config_.rig, config_.processing, config_.model.simulation_revolutions);
+  StoredModel stored = load_model(config_.storage.database);
+  gear_pair_ = stored.gear_pair;
+  alerts_ = AlertTracker(std::move(stored.alerts));
+  if (!stored.problem.empty())
+    spdlog::error("model: the stored state of gear pair {} cannot be used ({}); starting from an unworn pair", gear_pair_, stored.problem);
+  try {
+    model_ = std::make_unique<wear::TwinModel>(params, settings, simulator, stored.found ? stored.memory : wear::ModelMemory{});
+  } catch (const twin::TwinParameterError& e) {
+    if (!stored.found) throw;
+    spdlog::error("model: the stored state of gear pair {} does not fit this configuration ({}); starting from an unworn pair",
+                  gear_pair_, e.what());
+    model_ = std::make_unique<wear::TwinModel>(params, settings, simulator);
+  }
+  if (stored.found)
+    spdlog::info("model: gear pair {} continues at {:.6g} cycles (K_wear {:.4g} m²/N, K_pitting {:.4g})", gear_pair_,
+                 model_->memory().current.state.cycles, model_->memory().k_wear_si, model_->memory().k_pitting);
+  thread_ = std::thread([this] { run(); });
+}
+
+void ModelThread::submit(ModelInput input) {
+  std::unique_lock lock(mutex_);
+  ++counters_.received;
+  const std::size_t capacity = config_.model.queue_capacity;
+  if (queue_.size() >= capacity) {
+    if (lossless_) {
+      not_full_.wait(lock, [&] { return queue_.size() < capacity || terminate_; });
+    } else {
+      // Behind: coalesce to the newest record; the dropped ones are named in the next stored run.
+      for (const auto& q : queue_) {
+        ++pending_skipped_;
+        if (!pending_skipped_ids_.empty()) pending_skipped_ids_ += ",";
+        pending_skipped_ids_ += std::to_string(q.stream_sequence) + ":" + std::to_string(q.start_index);
+      }
+      const auto dropped = counters_.coalesced.fetch_add(queue_.size()) + queue_.size();
+      if (dropped == queue_.size() || dropped % 100 < queue_.size())
+        spdlog::warn("model: behind the records; {} coalesced to the newest so far", dropped);
+      queue_.clear();
+    }
+  }
+  queue_.push_back(std::move(input));
+  if (queue_.size() > counters_.queue_high_water) counters_.queue_high_water = queue_.size();
+  lock.unlock();
+  not_empty_.notify_one();
+}
+
+void ModelThread::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    terminate_ = true;
+  }
+  not_empty_.notify_all();
+  not_full_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  spdlog::info("model: {} records received, {} handled, {} coalesced, {} failed", counters_.received.load(),
+               counters_.handled.load(), counters_.coalesced.load(), counters_.failures.load());
+}
+
+void ModelThread::run() {
+  // The model is the least urgent work in the daemon: it must never take the CPU from acquisition.
+  if (config_.daemon.processing_nice > 0 && ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), 19) != 0)
+    spdlog::warn("model: could not lower the model thread's priority");
+  for (;;) {
+    ModelInput in;
+    std::uint64_t skipped = 0;
+    std::string skipped_ids;
+    {
+      std::unique_lock lock(mutex_);
+      not_empty_.wait(lock, [&] { return !queue_.empty() || terminate_; });
+      if (queue_.empty()) break;  // terminate, drained
+      in = std::move(queue_.front());
+      queue_.pop_front();
+      skipped = pending_skipped_;
+      skipped_ids.swap(pending_skipped_ids_);
+      pending_skipped_ = 0;
+    }
+    not_full_.notify_all();
+    handle(in, skipped, skipped_ids);
+  }
+}
+
+void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids) {
+  std::vector<wear::Inspection> inspections;
+  try {
+    storage::Database db(config_.storage.database, storage::Database::Mode::read_only);
+    storage::Statement st(db, "SELECT id, cycles, pitted_area_fraction, wear_depth_m FROM inspections WHERE coalesce(gear_pair, 0) = ?");
+    st.bind(1, gear_pair_);
+    while (st.step()) {
+      wear::Inspection i;
+      i.id = st.get_int(0);
+      i.cycles = st.get_double(1);
+      if (!st.is_null(2)) i.pitted_area = st.get_double(2);
+      if (!st.is_null(3)) i.wear_depth_m = st.get_double(3);
+      inspections.push_back(i);
+    }
+  } catch (const storage::SqliteError& e) {
+    spdlog::warn("model: inspections not read this time: {}", e.what());
+  }
+
+  storage::ModelRunResult msg;
+  msg.stream_sequence = input.stream_sequence;
+  msg.start_index = input.start_index;
+  msg.skipped_records = skipped;
+  msg.skipped_record_ids = skipped_ids;
+  try {
+    msg.report = model_->observe(input.observation, inspections);
+  } catch (const std::exception& e) {
+    // observe() does not throw on bad data; anything else is logged and stored, and the model goes on.
+    const auto n = ++counters_.failures;
+    if (n <= 10 || n % 1000 == 0) spdlog::error("model: record at {} cycles not handled ({} so far): {}", input.observation.cycles, n, e.what());
+    msg.report = wear::ModelRunReport{};
+    msg.report.observation = input.observation;
+    msg.report.detail = std::string("not handled: ") + e.what();
+  }
+  ++counters_.handled;
+  const wear::ModelRunReport& r = msg.report;
+  for (const auto issue : r.issues) {
+    const auto n = ++issue_counts_[issue];  // each kind logged once, then every 1000th
+    if (n == 1 || n % 1000 == 0) spdlog::warn("model: {} (record at {:.6g} cycles; {} so far): {}", wear::to_string(issue), input.observation.cycles, n, r.detail);
+  }
+  for (const auto& u : r.updates)
+    spdlog::info("model: {} {} ({}): {}", wear::to_string(u.kind), wear::to_string(u.outcome), wear::to_string(u.trigger), u.evidence);
+  if (r.new_gear_pair) {
+    ++gear_pair_;
+    msg.alerts = alerts_.clear_all(AlertKind::remaining_life, "new gear pair: the remaining life belonged to the previous pair");
+  }
+  msg.gear_pair = gear_pair_;
+  if (r.advanced && r.forecast.valid) {
+    const AlertHysteresis h{config_.model.remaining_life_raise_after_records, config_.model.remaining_life_clear_after_records};
+    const double threshold = config_.model.remaining_life_alert_cycles;
+    auto observe_limit = [&](const char* subject, const wear::LimitForecast& lf, const char* what, double scale, const char* unit) {
+      const bool near = lf.cycles_left && *lf.cycles_left < threshold;
+      char text[400];
+      std::snprintf(text, sizeof text, "%s limit %.4g %s: %s cycles left (%s to %s with the spread of recent K updates) at %.3g Hz, %.3g N m; alert below %.4g",
+                    what, lf.limit * scale, unit, cycles_text(lf.cycles_left).c_str(), cycles_text(lf.cycles_left_low).c_str(),
+                    cycles_text(lf.cycles_left_high).c_str(), r.forecast.speed_hz, r.forecast.torque_nm, threshold);
+      // The value is the limit, not the cycles left: those change at every record, and a changed
+      // value would be raised again each time.
+      char value[48];
+      std::snprintf(value, sizeof value, "%.4g %s", lf.limit * scale, unit);
+      if (auto e = alerts_.observe(AlertKey{AlertKind::remaining_life, -1, subject}, near, value, text, h))
+        msg.alerts.push_back(std::move(*e));
+    };
+    observe_limit("wear_depth", r.forecast.wear, "wear depth", 1e3, "mm");
+    observe_limit("pitting_density", r.forecast.pitting, "pitting density", 100.0, "%");
+  }
+  msg.alert_states = alerts_.take_changed();
+  msg.profile_json = profile_json(r, model_->memory());
+  msg.forecast_json = forecast_json(r.forecast);
+  msg.store_state = r.advanced || r.new_gear_pair;
+  if (msg.store_state) msg.state_json = memory_to_json(model_->memory());
+  writer_.submit(std::move(msg));
+}
+
+}  // namespace gearwatch::daemon

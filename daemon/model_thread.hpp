@@ -1,0 +1,109 @@
+#pragma once
+// The model thread (docs/model.md): takes each analysed record from the processing thread,
+// advances the twin's blue loop to it, applies the purple loop (K_wear from RMS_SA, K_pitting from
+// ICS2 and inspections), forecasts the remaining life, raises remaining_life alerts, and hands
+// everything (with its whole state) to the storage writer. The state is reloaded at start.
+//
+// Overflow policy: the queue holds `model.queue_capacity` records. Live, submit() never waits:
+// when the queue is full it is coalesced to the newest record — the older ones are dropped,
+// counted, and named in the next stored run (skipped_records, skipped_record_ids), since the
+// model works on the latest state. A replay is lossless and deterministic: submit() waits for
+// room (as a file source waits for the ring), so one long replay and one file per process give
+// the same state. stop() is the terminate message: the queue is drained, then the thread ends.
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "gearwatch/alerts.hpp"
+#include "gearwatch/config/config.hpp"
+#include "gearwatch/storage/messages.hpp"
+#include "gearwatch/storage/writer.hpp"
+#include "gearwatch/wear/updating.hpp"
+
+namespace gearwatch::daemon {
+
+/// One analysed record as the model needs it.
+struct ModelInput {
+  std::uint64_t stream_sequence = 0;
+  std::uint64_t start_index = 0;
+  wear::ModelObservation observation;
+};
+
+/// The model's inputs from a processed record: cycles (NaN without a life counter), the
+/// front-end's speed (else the tacho's mean speed) and torque, and the RMS_SA and low-band ICS2
+/// of the model's channel (absent when skipped).
+ModelInput model_input(const storage::RecordResult& record, const config::GearwatchConfig& config);
+
+/// The model's settings from the configuration (the rig's gears, speed range and the [model] table).
+wear::ModelSettings model_settings(const config::GearwatchConfig& config);
+
+/// What the model remembers, as stored in model_state.state (JSON; every double exactly).
+std::string memory_to_json(const wear::ModelMemory& memory);
+/// Throws std::runtime_error when the text is not such a state.
+wear::ModelMemory memory_from_json(const std::string& text);
+
+/// The model's state as stored: gear pair, memory (ICS2 series rebuilt from model_runs) and the
+/// remaining_life alert states.
+struct StoredModel {
+  std::int64_t gear_pair = 0;
+  bool found = false;
+  wear::ModelMemory memory;
+  std::map<AlertKey, AlertState> alerts;
+  std::string problem;   ///< why a stored state could not be used ("" = fine)
+};
+StoredModel load_model(const std::string& database_path);
+
+struct ModelCounters {
+  std::atomic<std::uint64_t> received{0};
+  std::atomic<std::uint64_t> handled{0};
+  std::atomic<std::uint64_t> coalesced{0};     ///< records dropped because the model was behind (live)
+  std::atomic<std::uint64_t> failures{0};      ///< records whose handling threw (logged, stored as not advanced)
+  std::atomic<std::uint64_t> queue_high_water{0};
+};
+
+class ModelThread {
+ public:
+  /// `lossless`: submit() waits for room instead of coalescing (replay).
+  ModelThread(const config::GearwatchConfig& config, storage::StorageWriter& writer, bool lossless);
+  ~ModelThread();
+  ModelThread(const ModelThread&) = delete;
+  ModelThread& operator=(const ModelThread&) = delete;
+
+  /// Loads the stored state and starts the thread; throws (with the reason) when the twin's
+  /// parameters or the model settings are unusable.
+  void start();
+  /// Never waits when live (see the overflow policy); waits for room when lossless.
+  void submit(ModelInput input);
+  /// Terminate: drains what is queued, then joins.
+  void stop();
+  const ModelCounters& counters() const noexcept { return counters_; }
+
+ private:
+  void run();
+  void handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids);
+
+  config::GearwatchConfig config_;
+  storage::StorageWriter& writer_;
+  bool lossless_;
+  ModelCounters counters_;
+  std::unique_ptr<wear::TwinModel> model_;
+  std::int64_t gear_pair_ = 0;
+  AlertTracker alerts_;
+  std::mutex mutex_;
+  std::condition_variable not_empty_, not_full_;
+  std::deque<ModelInput> queue_;
+  std::uint64_t pending_skipped_ = 0;
+  std::string pending_skipped_ids_;
+  std::map<wear::ModelIssue, std::uint64_t> issue_counts_;
+  bool terminate_ = false;
+  std::thread thread_;
+};
+
+}  // namespace gearwatch::daemon

@@ -1,0 +1,306 @@
+// The model thread in the daemon: its state round-trips through the database exactly, a campaign
+// replayed one file per process ends in the same state as one long replay, the queue coalesces
+// when behind (live) and loses nothing in a replay, bad input is stored with its reason, and the
+// CLI shows it (`twin state`, `query updates|predictions`, `inspect`).
+#include "model_thread.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include "command_runner.hpp"
+#include "gearwatch/storage/schema.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+#include "temp_dir.hpp"
+
+namespace fs = std::filesystem;
+using namespace gearwatch;
+using gearwatch::testing::run_command;
+
+namespace {
+
+struct Cli {
+  int status;
+  std::string out, err;
+};
+Cli gw(const std::string& args) {
+  const auto r = run_command(std::string(GEARWATCH_BINARY) + " " + args);
+  return {r.status, r.out, r.err};
+}
+
+double scalar(const fs::path& db, const std::string& sql) {
+  storage::Database d(db.string(), storage::Database::Mode::read_only);
+  storage::Statement s(d, sql);
+  REQUIRE(s.step());
+  return s.is_null(0) ? std::nan("") : s.get_double(0);
+}
+
+std::string text(const fs::path& db, const std::string& sql) {
+  storage::Database d(db.string(), storage::Database::Mode::read_only);
+  storage::Statement s(d, sql);
+  REQUIRE(s.step());
+  return s.is_null(0) ? std::string("NULL") : s.get_text(0);
+}
+
+// Every column of every row, doubles printed to the last bit.
+std::string dump(const fs::path& db, const std::string& sql) {
+  storage::Database d(db.string(), storage::Database::Mode::read_only);
+  storage::Statement s(d, sql);
+  std::ostringstream out;
+  out.precision(17);
+  while (s.step()) {
+    for (int i = 0; i < s.column_count(); ++i) {
+      if (s.is_null(i)) out << "NULL";
+      else if (s.column_type(i) == "real") out << s.get_double(i);
+      else out << s.get_text(i);
+      out << "|";
+    }
+    out << "\n";
+  }
+  return out.str();
+}
+
+// 40 kHz, so the 2-13 kHz pitting band is analysed; 1 s records; a short forecast horizon.
+fs::path model_config(const fs::path& dir, const std::string& extra = "") {
+  const auto path = dir / "model.toml";
+  std::ofstream(path) << "[rig]\nsample_rate_hz = 40000\n[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
+                         "[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.5\n"
+                         "[model]\nforecast_horizon_cycles = 100000.0\n"
+                      << extra;
+  return path;
+}
+
+// Capture k of a campaign: 2 s (two records) at 20 Hz (7 output-shaft revolutions per record, so the
+// residual indicators are computed), torque changing from file to file, the life counter and
+// sample index continuing where the previous file ended.
+void capture(const fs::path& out, int k) {
+  std::ostringstream a;
+  a << "simulate --out " << out.string() << " --duration 2.0 --speed 20 --torque " << 12 + 4 * k
+    << " --sample-rate 40000 --channels 1 --seed " << 7 + k << " --stream-id " << 1 + k << " --first-index " << 80000 * k
+    << " --start-revs " << 40 * k;
+  const auto r = gw(a.str());
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+}
+
+}  // namespace
+
+TEST_CASE("model thread: the stored state round-trips every double exactly", "[model][daemon]") {
+  wear::ModelSettings s;
+  s.loop.profile_points = 11;
+  s.forecast_horizon_cycles = 1000;
+  wear::TwinModel model(twin::GearboxParameters{}, s, [](const wear::WearState&, const twin::OperatingPoint&) { return 1.0; });
+  model.observe({0, 1234.5, 10.3, 20.1, std::nullopt, 0.1 + 0.2}, {});
+  wear::ModelMemory m = model.memory();
+  m.pitting_points = {{1.0 / 3.0, 1e-300, 0.1 + 0.2}, {2.0 / 3.0, 5e-324, 1.0 - 1e-16}};
+  m.recent_k_wear = {1.65e-12, std::nextafter(1.65e-12, 1.0)};
+  m.calibration_inspection_id = 123456789012345;
+  const wear::ModelMemory back = daemon::memory_from_json(daemon::memory_to_json(m));
+  CHECK(daemon::memory_to_json(back) == daemon::memory_to_json(m));
+  CHECK(back.current.state.pinion_depth_m == m.current.state.pinion_depth_m);
+  CHECK(back.current.state.cycles == m.current.state.cycles);
+  CHECK(back.current.next_step_cycles == m.current.next_step_cycles);
+  CHECK(back.pitting_points[0].ics2 == 1e-300);
+  CHECK(back.pitting_points[1].ics2 == 5e-324);
+  CHECK(back.pitting_points[0].density == 0.1 + 0.2);
+  CHECK(back.recent_k_wear[1] == std::nextafter(1.65e-12, 1.0));
+  CHECK(back.intervals.size() == m.intervals.size());
+  CHECK(back.intervals[0].torque_nm == 20.1);
+  CHECK(back.calibration_inspection_id == 123456789012345);
+  CHECK_THROWS_WITH(daemon::memory_from_json("{\"format\": 1}"), Catch::Contains("model state is not readable"));
+  CHECK_THROWS_WITH(daemon::memory_from_json("{\"format\": 2}"), Catch::Contains("unknown state format"));
+}
+
+TEST_CASE("model thread: a campaign replayed one file per process ends in the state of one long replay",
+          "[model][daemon][restart]") {
+  const gearwatch::testing::TempDir dir("model-restart");
+  const auto config = model_config(dir.path());
+  std::ofstream long_capture(dir / "long.log");
+  for (int k = 0; k < 3; ++k) {
+    const auto file = dir / ("part" + std::to_string(k) + ".log");
+    capture(file, k);
+    long_capture << std::ifstream(file).rdbuf();
+  }
+  long_capture.close();
+  const auto split = dir / "split.db", whole = dir / "whole.db";
+  for (int k = 0; k < 3; ++k) {
+    const auto r = gw("replay " + (dir / ("part" + std::to_string(k) + ".log")).string() + " --db " + split.string() + " --config " + config.string());
+    INFO(r.err);
+    REQUIRE(r.status == 0);
+  }
+  const auto r = gw("replay " + (dir / "long.log").string() + " --db " + whole.string() + " --config " + config.string());
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  REQUIRE(scalar(whole, "SELECT count(*) FROM model_runs WHERE advanced = 1") == 6);
+  CHECK(scalar(split, "SELECT count(*) FROM model_runs WHERE advanced = 1") == 6);
+  // The model learnt something (K_wear calibrated at the first record) and kept its history.
+  CHECK(scalar(whole, "SELECT count(*) FROM k_updates WHERE kind = 'k_wear'") >= 1);
+  CHECK(scalar(whole, "SELECT count(*) FROM predictions WHERE ics2_low IS NOT NULL") == 6);
+  // Exactly the same state, K history and predictions, to the last bit.
+  CHECK(text(split, "SELECT state FROM model_state") == text(whole, "SELECT state FROM model_state"));
+  const std::string updates = "SELECT cycles, kind, triggered_by, outcome, old_value, new_value, applies_from_cycles, iterations,"
+                              " measured, simulated_before, simulated_after, evidence FROM k_updates ORDER BY id";
+  CHECK(dump(split, updates) == dump(whole, updates));
+  const std::string predictions = "SELECT cycles, speed_hz, torque_nm, k_wear, k_pitting, rms_sa_measured, rms_sa_simulated, ics2_low,"
+                                  " wear_mean_m, wear_max_m, pitting_mean, wear_cycles_left, wear_cycles_left_low,"
+                                  " wear_cycles_left_high, issues FROM predictions ORDER BY run_id";
+  CHECK(dump(split, predictions) == dump(whole, predictions));
+}
+
+TEST_CASE("model thread: live it coalesces to the newest record when behind; a replay loses nothing", "[model][daemon]") {
+  const gearwatch::testing::TempDir dir("model-queue");
+  for (const bool lossless : {false, true}) {
+    const auto db = dir / (lossless ? "lossless.db" : "live.db");
+    auto cfg = config::parse_config("[model]\nqueue_capacity = 2\nforecast_horizon_cycles = 1000.0\n", "test");
+    cfg.storage.database = db.string();
+    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}});
+    writer.start();
+    daemon::ModelThread model(cfg, writer, lossless);
+    model.start();
+    const int n = 40;
+    for (int i = 1; i <= n; ++i) {
+      daemon::ModelInput in;
+      in.stream_sequence = 0;
+      in.start_index = static_cast<std::uint64_t>(i);
+      in.observation = {0, 1000.0 * i, 10, 20, std::nullopt, std::nullopt};
+      model.submit(in);   // live: never waits
+    }
+    model.stop();
+    writer.stop();
+    const auto& c = model.counters();
+    CHECK(c.received == n);
+    CHECK(c.handled + c.coalesced == n);
+    CHECK(c.queue_high_water <= 2);
+    CHECK(scalar(db, "SELECT count(*) FROM model_runs") == static_cast<double>(c.handled));
+    CHECK(scalar(db, "SELECT coalesce(sum(skipped_records), 0) FROM model_runs") == static_cast<double>(c.coalesced));
+    // The newest record is never the one dropped: the model ends at its cycles.
+    CHECK(scalar(db, "SELECT max(cycles) FROM model_runs") == 1000.0 * n);
+    CHECK(scalar(db, "SELECT cycles FROM model_state") == 1000.0 * n);
+    if (lossless) {
+      CHECK(c.coalesced == 0);
+    } else {
+      CHECK(c.coalesced > 0);   // each record takes milliseconds; 40 submissions take microseconds
+      // The skipped ones are named "stream:start_index" in the run that replaced them.
+      const std::string ids = text(db, "SELECT skipped_record_ids FROM model_runs WHERE skipped_records > 0 ORDER BY id LIMIT 1");
+      CHECK(ids.find("0:") == 0);
+    }
+  }
+}
+
+TEST_CASE("model thread: bad input is stored with its reason, nothing is NaN, the replay goes on", "[model][daemon]") {
+  const gearwatch::testing::TempDir dir("model-bad");
+  // Torque 12 N m against a model range that ends at 10: every record skipped with the reason.
+  const auto config = model_config(dir.path(), "max_torque_nm = 10.0\n");
+  capture(dir / "a.log", 0);   // 12 N m
+  const auto db = dir / "a.db";
+  auto r = gw("replay " + (dir / "a.log").string() + " --db " + db.string() + " --config " + config.string());
+  REQUIRE(r.status == 0);
+  CHECK(scalar(db, "SELECT count(*) FROM model_runs WHERE advanced = 0") == 2);
+  CHECK(scalar(db, "SELECT count(*) FROM model_skips WHERE issues = 'operating_point_out_of_range'") == 2);
+  CHECK(text(db, "SELECT detail FROM model_runs LIMIT 1").find("outside the model's") != std::string::npos);
+  // 20 kHz: the 2-13 kHz band is above Nyquist, ICS2 low band skipped; the model advances without it.
+  const auto db2 = dir / "b.db";
+  const auto config2 = dir / "b.toml";
+  std::ofstream(config2) << "[rig]\nsample_rate_hz = 20000\n[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
+                            "[records]\nlength_s = 1.0\ninterval_s = 1.0\n[model]\nforecast_horizon_cycles = 100000.0\n";
+  REQUIRE(gw("simulate --out " + (dir / "b.log").string() + " --duration 2.0 --speed 20 --torque 15 --sample-rate 20000 --channels 1"
+             " --start-revs 1000").status == 0);
+  r = gw("replay " + (dir / "b.log").string() + " --db " + db2.string() + " --config " + config2.string());
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  CHECK(scalar(db2, "SELECT count(*) FROM predictions WHERE issues = 'missing_ics2'") == 2);
+  CHECK(scalar(db2, "SELECT count(*) FROM predictions WHERE wear_mean_m IS NULL OR k_wear IS NULL OR rms_sa_simulated IS NULL") == 0);
+  // No NaN anywhere: SQLite keeps NaN as NULL, and no stored text carries one.
+  CHECK(scalar(db2, "SELECT count(*) FROM model_state WHERE state LIKE '%nan%' OR state LIKE '%null%'") == 0);
+  // Impossible inspections are refused with one line; a possible one is stored for this gear pair.
+  for (const std::string bad : {"--cycles 1020 --pitted-area 1.5", "--cycles 1020 --pitted-area -0.1", "--cycles 1020 --wear-depth -1e-6",
+                                "--cycles 99999999 --pitted-area 0.1", "--cycles -5 --pitted-area 0.1", "--cycles nan --pitted-area 0.1"}) {
+    const auto ins = gw("inspect --db " + db2.string() + " " + bad);
+    INFO(bad << ": " << ins.err);
+    CHECK(ins.status != 0);
+    CHECK(ins.err.rfind("gearwatch: ", 0) == 0);
+    CHECK(std::count(ins.err.begin(), ins.err.end(), '\n') == 1);
+  }
+  CHECK(gw("inspect --db " + db2.string() + " --cycles 99999999 --pitted-area 0.1").err.find("beyond the newest record") != std::string::npos);
+  const auto ok = gw("inspect --db " + db2.string() + " --cycles 1000 --wear-depth 2e-6");
+  CHECK(ok.status == 0);
+  CHECK(scalar(db2, "SELECT count(*) FROM inspections") == 1);
+  // twin state shows it against the prediction; query reads the views.
+  const auto st = gw("twin state --db " + db2.string() + " --format json");
+  INFO(st.err);
+  REQUIRE(st.status == 0);
+  const auto j = nlohmann::json::parse(st.out);
+  CHECK(j["cycles"].get<double>() == scalar(db2, "SELECT max(cycles) FROM model_runs"));
+  CHECK(j["k_wear_si"].get<double>() == scalar(db2, "SELECT k_wear FROM model_state"));
+  CHECK(j["wear"]["combined_depth_m"].size() == 101);
+  REQUIRE(j["inspections"].size() == 1);
+  CHECK(j["inspections"][0]["predicted_wear_mean_m"].get<double>() == scalar(db2, "SELECT wear_mean_m FROM predictions ORDER BY abs(cycles - 1000) LIMIT 1"));
+  const auto preds = gw("query predictions --db " + db2.string() + " --format json");
+  REQUIRE(preds.status == 0);
+  CHECK(nlohmann::json::parse(preds.out).size() == 2);
+  const auto ups = gw("query updates --db " + db2.string() + " --format json");
+  REQUIRE(ups.status == 0);
+  CHECK(nlohmann::json::parse(ups.out).size() == scalar(db2, "SELECT count(*) FROM k_update_log"));
+}
+
+TEST_CASE("model thread: the model's enumerated values are the database's vocabulary", "[model][daemon][vocabulary]") {
+  const gearwatch::testing::TempDir dir("model-vocab");
+  storage::Database db((dir / "v.db").string());
+  storage::open_and_migrate(db);
+  for (const auto& [domain, n] : {std::pair{"model_update_kind", wear::kAllUpdateKinds.size()},
+                                  {"model_update_trigger", wear::kAllUpdateTriggers.size()},
+                                  {"model_update_outcome", wear::kAllUpdateOutcomes.size()},
+                                  {"model_issue", wear::kAllModelIssues.size()}}) {
+    storage::Statement s(db, "SELECT count(*) FROM vocabulary WHERE domain = ?");
+    s.bind(1, domain);
+    REQUIRE(s.step());
+    CHECK(static_cast<std::size_t>(s.get_int(0)) == n);
+  }
+  db.exec("INSERT INTO model_runs(gear_pair, advanced) VALUES (0, 0)");
+  CHECK_THROWS_WITH(db.exec("INSERT INTO model_run_issues(run_id, issue) VALUES (1, 'tired')"), Catch::Contains("model_issue"));
+  CHECK_THROWS_WITH(db.exec("INSERT INTO k_update_log(run_id, gear_pair, cycles, kind, triggered_by, outcome, old_value, new_value,"
+                            " applies_from_cycles, iterations, evidence) VALUES (1, 0, 1, 'k_wear', 'whim', 'converged', 1, 2, 0, 1, '')"),
+                    Catch::Contains("model_update_trigger"));
+  db.exec("INSERT INTO k_update_log(run_id, gear_pair, cycles, kind, triggered_by, outcome, old_value, new_value,"
+          " applies_from_cycles, iterations, evidence) VALUES (1, 0, 1, 'k_wear', 'rms_sa_mismatch', 'converged', 1, 2, 0, 1, '')");
+}
+
+TEST_CASE("model thread: remaining life below the configured cycles is an alarm, with hysteresis, cleared by a new pair",
+          "[model][daemon][alerts]") {
+  const gearwatch::testing::TempDir dir("model-alert");
+  const auto db = dir / "a.db";
+  // The seed's dry K at 5 N m wears to the 0.314 mm limit in about 28 000 cycles (docs/model.md):
+  // far inside 50 000, so the alarm is due, after two records in a row.
+  auto cfg = config::parse_config("[model]\ninitial_k_wear = 1.65e-6\nforecast_horizon_cycles = 100000.0\n"
+                                  "remaining_life_alert_cycles = 50000.0\n",
+                                  "test");
+  cfg.storage.database = db.string();
+  storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}});
+  writer.start();
+  daemon::ModelThread model(cfg, writer, true);
+  model.start();
+  for (double cycles : {1000.0, 2000.0, 3000.0, 500.0}) {
+    daemon::ModelInput in;
+    in.observation = {0, cycles, 10, 5, std::nullopt, std::nullopt};
+    model.submit(in);
+  }
+  model.stop();
+  writer.stop();
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life'") == 2);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life' AND transition = 'raised' AND subject = 'wear_depth'"
+                   " AND severity = 'alarm'") == 1);
+  // The condition held at all three records of the first pair: raised once (the hysteresis
+  // needs two in a row), its value the limit, the cycles left in the message.
+  CHECK(scalar(db, "SELECT count(*) FROM predictions WHERE gear_pair = 0 AND wear_cycles_left < 50000") == 3);
+  CHECK(text(db, "SELECT value FROM alerts WHERE transition = 'raised'") == "0.3142 mm");
+  CHECK(text(db, "SELECT message FROM alerts WHERE transition = 'raised'").find("cycles left") != std::string::npos);
+  // The life counter went back: a new gear pair clears it.
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life' AND transition = 'cleared'") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM active_alerts") == 0);
+  CHECK(scalar(db, "SELECT max(gear_pair) FROM model_state") == 1);
+  CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life' AND subject = 'pitting_density'") == 0);
+}

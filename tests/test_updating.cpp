@@ -1,0 +1,346 @@
+// The purple loop (seed §7.3.3) against known answers. There is no rig simulator yet, so the truth
+// is the twin itself: a blue loop run with coefficients that change at known cycles, its RMS_SA
+// from the same measurement code (twin's casing signal -> dsp::RecordAnalyzer), and an ICS2 that
+// is linear in its pitting density (the Ch. 4 finding the seed's scale rests on). The model starts
+// from wrong coefficients and must find the truth's.
+#include "gearwatch/wear/updating.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "gearwatch/dsp/record_analyzer.hpp"
+#include "gearwatch/rig.hpp"
+#include "gearwatch/twin/errors.hpp"
+
+using namespace gearwatch;
+using namespace gearwatch::wear;
+
+namespace {
+
+ModelObservation observation(double cycles, double speed, double torque, std::optional<double> rms = {},
+                             std::optional<double> ics2 = {}) {
+  ModelObservation o;
+  o.cycles = cycles;
+  o.speed_hz = speed;
+  o.torque_nm = torque;
+  o.rms_sa = rms;
+  o.ics2_low = ics2;
+  return o;
+}
+
+double depth_mean(const WearState& s) { return summarise(s).combined_mean_depth_m; }
+
+}  // namespace
+
+TEST_CASE("updating: enums have distinct tokens and complete lists", "[model][updating]") {
+  std::set<std::string> a, b, c, d;
+  for (auto v : kAllUpdateKinds) a.insert(to_string(v));
+  for (auto v : kAllUpdateTriggers) b.insert(to_string(v));
+  for (auto v : kAllUpdateOutcomes) c.insert(to_string(v));
+  for (auto v : kAllModelIssues) d.insert(to_string(v));
+  CHECK(a.size() == kAllUpdateKinds.size());
+  CHECK(b.size() == kAllUpdateTriggers.size());
+  CHECK(c.size() == kAllUpdateOutcomes.size());
+  CHECK(d.size() == kAllModelIssues.size());
+  CHECK_FALSE(a.count("unknown"));
+  CHECK_FALSE(d.count("unknown"));
+}
+
+TEST_CASE("updating: Pearson's C of three pairs (Eq. 7.15) and the golden-section search", "[model][updating]") {
+  // x = (0, 1, 2), y = (0, 1, 3): C = 3 / (sqrt(2) sqrt(42/9)).
+  CHECK(pearson3({0, 1, 2}, {0, 1, 3}) == Approx(3.0 / (std::sqrt(2.0) * std::sqrt(42.0 / 9.0))).epsilon(1e-14));
+  CHECK(pearson3({5, 6, 7}, {10, 8, 6}) == Approx(-1.0).epsilon(1e-14));
+  CHECK(std::isnan(pearson3({1, 1, 1}, {1, 2, 3})));   // no spread: undefined, never "correlated"
+  const auto r = golden_section_maximise([](double x) { return -(x - 1.3) * (x - 1.3); }, -10.0, 10.0, 1e-6, 200);
+  CHECK(r.x == Approx(1.3).margin(1e-6));
+  // Each evaluation shrinks the bracket by 0.618: 20 / 0.618^n < 1e-6 needs n = 35 (+2 to start).
+  CHECK(r.evaluations <= 40);
+}
+
+TEST_CASE("updating: Eq. 7.13 iterates K <- K meas/sim exactly, and says why when it does not converge",
+          "[model][updating]") {
+  // With a negligible K the load never changes, so the depth is exactly c·K (c from the per-pass
+  // wear) and a simulator RMS = a + b·depth makes the iteration a known recursion.
+  ModelSettings s;
+  s.loop.k_wear_si = 1e-22;
+  s.loop.profile_points = 21;
+  s.k_wear_min_si = 1e-30;
+  s.update_k_pitting = false;
+  s.forecast_horizon_cycles = 1000;
+  s.max_wear_iterations = 6;
+  s.convergence_tolerance = 1e-6;
+  const double a = 1.0, b = 1e12;  // RMS = 1 + 1e12·depth (depth in m)
+  int calls = 0;
+  auto sim = [&](const WearState& st, const twin::OperatingPoint&) {
+    ++calls;
+    return a + b * depth_mean(st);
+  };
+  TwinModel model(twin::GearboxParameters{}, s, sim);
+  // The depth per unit K after 1e5 cycles, from a reference loop.
+  WearLoopOptions ref = s.loop;
+  ref.operating_point = {10, 20};
+  BlueLoop probe(twin::GearboxParameters{}, ref);
+  REQUIRE(probe.run_until(1e5));
+  const double c = depth_mean(probe.state()) / s.loop.k_wear_si;
+  const double measured = 2.5;  // needs depth 1.5e-12: K = 1.5e-12 / c
+  const ModelRunReport r = model.observe(observation(1e5, 10, 20, measured), {});
+  REQUIRE(r.updates.size() == 1);
+  const KUpdate& u = r.updates[0];
+  // The recursion, independently: K_{n+1} = K_n · m / (a + b c K_n).
+  double k = s.loop.k_wear_si;
+  for (int i = 0; i < u.iterations; ++i) k = k * measured / (a + b * c * k);
+  // Linear to ~1e-7: picometre wear moves the load sharing by about depth / deflection.
+  CHECK(u.new_value == Approx(k).epsilon(1e-6));
+  CHECK(u.old_value == s.loop.k_wear_si);
+  CHECK(u.measured == measured);
+  CHECK(u.simulated_before == Approx(a + b * c * s.loop.k_wear_si).epsilon(1e-9));
+  CHECK(u.simulated_after == Approx(a + b * c * k).epsilon(1e-6));
+  // The fixed point is K* = (m − a)/(b c); from a K ten times too small the recursion closes in
+  // slowly (factor a/m = 0.4 only near K*): 6 iterations do not reach 1e-6.
+  CHECK(u.outcome == UpdateOutcome::iteration_limit);
+  CHECK(u.iterations == 6);
+  CHECK(u.evidence.find("no convergence") != std::string::npos);
+  CHECK(u.new_value < 1.5 / (b * c));
+  CHECK(std::abs(u.simulated_after - measured) < std::abs(u.simulated_before - measured));
+  CHECK(r.k_wear_si == u.new_value);   // the best K found is kept
+  CHECK(calls == 1 + 6);
+}
+
+TEST_CASE("updating: a simulation that does not follow K, or diverges, leaves K alone with the reason",
+          "[model][updating]") {
+  ModelSettings s;
+  s.loop.k_wear_si = 1e-20;
+  s.loop.profile_points = 21;
+  s.update_k_pitting = false;
+  s.forecast_horizon_cycles = 1000;
+  SECTION("RMS_SA independent of the wear: not monotone") {
+    TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 2.0; });
+    const auto r = model.observe(observation(5000, 10, 20, 3.0), {});
+    REQUIRE(r.updates.size() == 1);
+    CHECK(r.updates[0].outcome == UpdateOutcome::not_monotone);
+    CHECK(r.updates[0].new_value == s.loop.k_wear_si);
+    CHECK(r.k_wear_si == s.loop.k_wear_si);
+    CHECK(r.updates[0].evidence.find("does not rise with K_wear") != std::string::npos);
+  }
+  SECTION("the twin diverges at the first comparison: advanced, K not checked") {
+    TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double {
+      throw twin::TwinDivergenceError("|delta| beyond 1 mm at t = 0.01 s");
+    });
+    const auto r = model.observe(observation(5000, 10, 20, 3.0), {});
+    CHECK(r.advanced);
+    CHECK(r.updates.empty());
+    CHECK(std::count(r.issues.begin(), r.issues.end(), ModelIssue::simulation_failed) == 1);
+    CHECK(r.detail.find("beyond 1 mm") != std::string::npos);
+    CHECK_FALSE(r.rms_sa_simulated.has_value());
+    CHECK(r.summary.cycles == 5000);
+  }
+  SECTION("the twin diverges inside the iteration: the update stops, K unchanged") {
+    int calls = 0;
+    TwinModel model(twin::GearboxParameters{}, s, [&](const WearState&, const twin::OperatingPoint&) -> double {
+      if (++calls > 1) throw twin::TwinDivergenceError("non-finite state");
+      return 1.0;
+    });
+    const auto r = model.observe(observation(5000, 10, 20, 3.0), {});
+    REQUIRE(r.updates.size() == 1);
+    CHECK(r.updates[0].outcome == UpdateOutcome::simulation_failed);
+    CHECK(r.updates[0].evidence.find("non-finite state") != std::string::npos);
+    CHECK(r.k_wear_si == s.loop.k_wear_si);
+    CHECK(std::isfinite(r.summary.combined_mean_depth_m));
+  }
+}
+
+TEST_CASE("updating: records the model cannot use are skipped with their reason", "[model][updating]") {
+  ModelSettings s;
+  s.loop.profile_points = 21;
+  s.forecast_horizon_cycles = 1000;
+  s.max_torque_nm = 200;
+  int calls = 0;
+  TwinModel model(twin::GearboxParameters{}, s, [&](const WearState&, const twin::OperatingPoint&) { return ++calls, 1.0; });
+  auto only = [](const ModelRunReport& r, ModelIssue i) { return r.issues.size() == 1 && r.issues[0] == i; };
+  CHECK(only(model.observe(observation(std::nan(""), 10, 20, 1.0), {}), ModelIssue::missing_cycles));
+  CHECK(only(model.observe(observation(1000, std::nan(""), 20, 1.0), {}), ModelIssue::missing_operating_point));
+  CHECK(only(model.observe(observation(1000, 10, 500, 1.0), {}), ModelIssue::operating_point_out_of_range));
+  CHECK(only(model.observe(observation(1000, 90, 20, 1.0), {}), ModelIssue::operating_point_out_of_range));
+  CHECK(only(model.observe(observation(1000, 10, -3, 1.0), {}), ModelIssue::operating_point_out_of_range));
+  CHECK(calls == 0);
+  CHECK_FALSE(model.memory().started);
+  const auto ok = model.observe(observation(1000, 10, 20, std::nullopt, 0.3), {});
+  CHECK(ok.advanced);
+  CHECK(only(ok, ModelIssue::missing_rms_sa));
+  CHECK(only(model.observe(observation(1000, 10, 20, 1.0, 0.3), {}), ModelIssue::cycles_not_increasing));
+  const auto nan_rms = model.observe(observation(2000, 10, 20, std::nan(""), std::nan("")), {});
+  CHECK(nan_rms.advanced);
+  CHECK(nan_rms.issues.size() == 2);
+  // Cycles going backwards: a new gear pair, unworn.
+  const auto fresh = model.observe(observation(500, 10, 20, std::nullopt, 0.3), {});
+  CHECK(fresh.new_gear_pair);
+  CHECK(fresh.summary.cycles == 500);
+  CHECK(model.memory().intervals.size() == 1);
+}
+
+TEST_CASE("updating: K_wear recovered after each known change of the truth's wear rate, depth within 5 %",
+          "[model][updating][slow]") {
+  // The seed's dry test (§7.4.2): 10 Hz, 5 N·m, RMS_SA(N = 6), K_wear 1.65 then 2.19 (seed units,
+  // i.e. 1.65e-12 and 2.19e-12 m²/N here), the change at 3000 cycles; a record every 1000 cycles.
+  const twin::GearboxParameters params;
+  dsp::SignalProcessingSettings dsp_settings;
+  dsp_settings.rms_sa_harmonics = 6;
+  const RmsSaSimulator sim = twin_rms_sa_simulator(params, RigSpec{}, dsp_settings, 6.0);
+  const double k1 = 1.65e-12, k2 = 2.19e-12, change = 3000;
+  ModelSettings s;
+  s.loop.k_wear_si = 1.0e-12;  // wrong at the start: the first record calibrates it (the seed's first update)
+  s.update_k_pitting = false;
+  s.forecast_horizon_cycles = 2000;
+  TwinModel model(params, s, sim);
+  WearLoopOptions truth_options = s.loop;
+  truth_options.k_wear_si = k1;
+  truth_options.operating_point = {10, 5};
+  BlueLoop truth(params, truth_options);
+  int updates = 0, updates_after_change = 0;
+  double k_before_change = 0;
+  for (int i = 1; i <= 7; ++i) {
+    const double cycles = 1000.0 * i;
+    if (cycles > change && truth.options().k_wear_si == k1) {
+      REQUIRE(truth.run_until(change));
+      truth.set_coefficients(k2, 0);
+    }
+    REQUIRE(truth.run_until(cycles));
+    const double measured = sim(truth.state(), {10, 5});
+    const ModelRunReport r = model.observe(observation(cycles, 10, 5, measured), {});
+    INFO("record at " << cycles << " cycles: " << r.detail);
+    REQUIRE(r.advanced);
+    for (const auto& u : r.updates) {
+      INFO(u.evidence);
+      CHECK(u.outcome == UpdateOutcome::converged);
+      CHECK(std::abs(u.simulated_after - measured) / measured <= s.convergence_tolerance);
+      ++updates;
+      if (cycles > change) ++updates_after_change;
+    }
+    if (cycles <= change) k_before_change = r.k_wear_si;
+    // After the purple loop the model's RMS_SA is within the threshold, and its depth within 5 %.
+    REQUIRE(r.rms_sa_simulated);
+    CHECK(std::abs(*r.rms_sa_simulated - measured) / measured <= s.rms_threshold);
+    CHECK(std::abs(r.summary.combined_mean_depth_m / depth_mean(truth.state()) - 1.0) < 0.05);
+  }
+  CHECK(std::abs(k_before_change / k1 - 1.0) < 0.10);
+  CHECK(std::abs(model.memory().k_wear_si / k2 - 1.0) < 0.10);
+  CHECK(updates_after_change >= 1);   // the change was seen
+  CHECK(updates <= 4);                // few updates (the seed: 2 dry, 4 lubricated)
+}
+
+TEST_CASE("updating: K_pitting calibrated from two inspections, a known change tracked, a falling ICS2 sets it to 0",
+          "[model][updating]") {
+  // 20 Hz, 20 N·m, lubricated-like K_wear; the truth's K_pitting is 1e-94 and ten times that from
+  // 1.0 M cycles; ICS2 = 0.1 + 10·D (linear in the pitted area); inspections at 0.2 and 0.4 M
+  // cycles; pitting points every 0.2 M cycles, records every 50 000.
+  const twin::GearboxParameters params;
+  const double kp1 = 1e-94, kp2 = 1e-93, kw = 3.55e-16;
+  ModelSettings s;
+  s.loop.k_wear_si = kw;
+  s.update_k_wear = false;
+  s.pitting_interval_cycles = 2e5;
+  s.forecast_horizon_cycles = 2e5;
+  TwinModel model(params, s, [](const WearState&, const twin::OperatingPoint&) -> double { throw std::logic_error("not used"); });
+  WearLoopOptions to = s.loop;
+  to.k_pitting = kp1;
+  to.operating_point = {20, 20};
+  BlueLoop truth(params, to);
+  std::vector<Inspection> inspections;
+  double ics2_peak = 0;
+  bool calibrated = false, change_tracked = false, set_to_zero = false;
+  for (int i = 1; i <= 36; ++i) {
+    const double cycles = 5e4 * i;
+    if (cycles > 1e6 && truth.options().k_pitting == kp1) {
+      REQUIRE(truth.run_until(1e6));
+      truth.set_coefficients(kw, kp2);
+    }
+    REQUIRE(truth.run_until(cycles));
+    const double density = summarise(truth.state()).mean_pitting_density;
+    if (cycles == 2e5 || cycles == 4e5) inspections.push_back({static_cast<std::int64_t>(i), cycles, density, {}});
+    double ics2 = 0.1 + 10 * density;
+    if (cycles <= 1.4e6) ics2_peak = ics2;
+    else ics2 = ics2_peak - 0.05 * (cycles - 1.4e6) / 5e4;   // from 1.4 M cycles ICS2 falls
+    const ModelRunReport r = model.observe(observation(cycles, 20, 20, std::nullopt, ics2), inspections);
+    INFO(cycles << " cycles: " << r.detail);
+    const double model_density = r.summary.mean_pitting_density;
+    for (const auto& u : r.updates) {
+      INFO(u.evidence);
+      CHECK(u.kind == UpdateKind::k_pitting);
+      if (u.trigger == UpdateTrigger::inspection_calibration) {
+        calibrated = true;
+        CHECK(cycles == 4e5);
+        CHECK(u.outcome == UpdateOutcome::converged);
+        CHECK(std::abs(u.new_value / kp1 - 1.0) < 0.05);           // measured 1.2 %
+        CHECK(model_density == Approx(density).epsilon(1e-3));     // the second inspection, matched
+        CHECK(r.ics2_density_estimate.value_or(-1) == Approx(density).epsilon(1e-9));  // the ICS2 scale
+      } else if (cycles == 1.2e6) {
+        // The first pitting point after the change: C of the last three falls below 0.95.
+        change_tracked = true;
+        CHECK(u.trigger == UpdateTrigger::correlation_below_threshold);
+        CHECK(u.correlation_before < 0.95);
+        CHECK(u.correlation_after >= 0.95);
+        CHECK(u.outcome == UpdateOutcome::converged);
+        CHECK(std::abs(u.new_value / kp2 - 1.0) < 0.10);           // measured 4.8 %
+      } else if (cycles == 1.6e6) {
+        set_to_zero = true;
+        CHECK(u.outcome == UpdateOutcome::set_to_zero);
+        CHECK(u.new_value == 0.0);
+        CHECK(u.evidence.find("ICS2 fell") != std::string::npos);
+      } else {
+        FAIL("unexpected update at " << cycles);
+      }
+    }
+    if (cycles >= 4e5 && cycles <= 1e6) CHECK(std::abs(model_density / density - 1.0) < 0.02);   // measured ≤ 0.94 %
+    if (cycles >= 1.2e6 && cycles < 1.6e6) CHECK(std::abs(model_density / density - 1.0) < 0.03);  // measured ≤ 1.3 %
+    if (cycles >= 1.6e6) {
+      CHECK(r.k_pitting == 0.0);
+      CHECK(model_density == Approx(model.memory().pitting_points.back().density));  // no more pitting predicted
+    }
+  }
+  CHECK(calibrated);
+  CHECK(change_tracked);
+  CHECK(set_to_zero);
+}
+
+TEST_CASE("updating: the forecast reaches the wear limit where the per-pass wear says, with the K spread as interval",
+          "[model][updating]") {
+  // A negligible K: the load never changes, so the deepest point grows linearly and the cycles
+  // to a 0.01 nm limit follow from the per-pass wear of the unworn pair. (At 1 nm the worn GTE
+  // already moves the double-contact load sharing by ~1e-4 = depth / mesh deflection.)
+  ModelSettings s;
+  s.loop.k_wear_si = 1e-22;
+  s.loop.profile_points = 21;
+  s.wear_limit_m = 1e-11;
+  s.forecast_horizon_cycles = 1e10;
+  s.forecast_points = 4;
+  s.update_k_wear = false;
+  TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 1.0; });
+  model.observe(observation(1000, 10, 20), {});
+  ModelMemory m = model.memory();
+  m.recent_k_wear = {0.5e-22, 2e-22};
+  TwinModel spread(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 1.0; }, m);
+  const Forecast f = spread.forecast();
+  REQUIRE(f.valid);
+  WearLoopOptions ref = s.loop;
+  ref.operating_point = {10, 20};
+  BlueLoop probe(twin::GearboxParameters{}, ref);
+  const PassWear pass = pass_wear(probe.geometry(), probe.current_load(), s.loop.k_wear_si, 21);
+  double rate = 0;   // deepest point's growth per cycle (gear teeth meet z1/z2 passes per cycle)
+  for (std::size_t j = 0; j < 21; ++j) rate = std::max({rate, pass.pinion_m[j], pass.gear_m[j] * 19.0 / 52.0});
+  const double now_depth = rate * 1000;
+  const double expected = (1e-11 - now_depth) / rate;
+  REQUIRE(f.wear.cycles_left);
+  CHECK(*f.wear.cycles_left == Approx(expected).epsilon(1e-5));
+  // K between 0.5 and 2 times: twice as fast and half as fast.
+  CHECK(f.k_wear_low == Approx(0.5e-22));
+  CHECK(f.k_wear_high == Approx(2e-22));
+  CHECK(f.wear.cycles_left_low.value_or(0) == Approx(expected / 2).epsilon(1e-5));
+  CHECK(f.wear.cycles_left_high.value_or(0) == Approx(expected * 2).epsilon(1e-5));
+  CHECK_FALSE(f.pitting.cycles_left);   // K_pitting = 0: never
+  CHECK(f.speed_hz == 10);
+  CHECK(f.torque_nm == 20);
+}
