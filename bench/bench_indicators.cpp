@@ -133,5 +133,11 @@ int main() {
   for (const auto& b : first.band_selections)
     std::printf("  band (%s): level %.3f centre %.0f Hz bandwidth %.0f Hz value %.4g\n", b.criterion.c_str(), b.level,
                 b.centre_hz, b.bandwidth_hz, b.value);
+  // Machine-readable lines for tools/bench.sh.
+  std::printf("BENCH name=indicators_record_wall figure=%.3f unit=s target=1 cmp=le met=%d\n", t_analysis.wall,
+              t_analysis.wall <= 1.0 ? 1 : 0);
+  const double ratio = std::max(ratio_wall, ratio_cpu);
+  std::printf("BENCH name=indicators_per_fft figure=%.1f unit=x_r2c_fft target=40 cmp=le met=%d\n", ratio,
+              ratio <= 40.0 ? 1 : 0);
   return 0;
 }

@@ -100,3 +100,56 @@ TEST_CASE("candump: format then parse gives the same frame", "[candump]") {
     for (unsigned i = 0; i < f.len; ++i) CHECK(back->frame.data[i] == f.data[i]);
   }
 }
+
+// Found by fuzz/fuzz_candump_log (fuzz/corpus/fuzz_candump_log/remote_extended_error.txt): a remote
+// frame's length was dropped when the frame was formatted, so "123#R5" came back as "123#R", a
+// remote frame of length 0. can-utils writes the DLC after the 'R' (lib.c, sprint_canframe).
+TEST_CASE("candump: a remote frame's length survives formatting", "[candump][fuzz]") {
+  std::string reason, text;
+  const auto rtr = parse_candump_line("(0000000002.500001) can0 123#R5", reason);
+  REQUIRE(rtr);
+  CHECK(rtr->frame.remote);
+  CHECK(rtr->frame.len == 5);
+  format_candump_line(rtr->frame, "can0", text);
+  CHECK(text == "(0000000002.500001) can0 123#R5");
+  const auto back = parse_candump_line(text, reason);
+  REQUIRE(back);
+  CHECK(back->frame.remote);
+  CHECK(back->frame.len == 5);
+  // length 0 keeps the bare 'R'
+  format_candump_line(parse_candump_line("(1.0) can0 123#R", reason)->frame, "can0", text);
+  CHECK(text == "(0000000001.000000) can0 123#R");
+}
+
+// Found by fuzz/fuzz_candump_log under UBSan: from_chars took "1436509052000000000002.5" (and would
+// take inf, nan, -1, 1e300) as a timestamp; formatting that frame again (a rejected frame is stored
+// as its candump line) converted 1.4e21 to long long, which is undefined. The fuzzer's input:
+TEST_CASE("candump: timestamps that are not times are rejected", "[candump][fuzz]") {
+  const char* bad[] = {
+      "(1436509052000000000002.500000) can0 123#R00002.500000) can0 12(0) can0 n0 20000080",
+      "(inf) can0 100#00",
+      "(nan) can0 100#00",
+      "(-1.000000) can0 100#00",
+      "(1e300) can0 100#00",
+      "(1000000000000.000000) can0 100#00",
+  };
+  for (const char* text : bad) {
+    std::string reason;
+    INFO(text);
+    CHECK_FALSE(parse_candump_line(text, reason));
+    CHECK(reason == "timestamp out of range (0 to 1e12 s)");
+  }
+  std::string reason;
+  const auto edge = parse_candump_line("(999999999999.500000) can0 100#00", reason);  // exact in a double
+  REQUIRE(edge);
+  CHECK(edge->frame.timestamp_s == 999999999999.5);
+}
+
+// The same fuzzer input showed "123#R00002.5" read as a remote frame of length 0, the rest ignored.
+TEST_CASE("candump: a remote frame with characters after its length is rejected", "[candump][fuzz]") {
+  std::string reason;
+  CHECK_FALSE(parse_candump_line("(0000000002.500000) can0 123#R00002.500000", reason));
+  CHECK(reason == "bad remote-frame length");
+  CHECK_FALSE(parse_candump_line("(1.0) can0 123#R55", reason));
+  CHECK(reason == "bad remote-frame length");
+}

@@ -6,6 +6,9 @@
 namespace gearwatch::acquisition {
 namespace {
 
+// Above any real capture's clock (the year 33658) and far below what fits whole seconds in 64 bits.
+constexpr double kMaxCandumpTimestampS = 1e12;
+
 int hex_value(char c) noexcept {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
@@ -62,6 +65,13 @@ std::optional<CandumpLine> parse_candump_line(std::string_view line, std::string
     const auto [ptr, ec] = std::from_chars(ts.data(), ts.data() + ts.size(), value);
     if (ec != std::errc{} || ptr != ts.data() + ts.size()) {
       reason = "bad timestamp";
+      return std::nullopt;
+    }
+    // Seconds since the epoch (or since boot), as candump writes them. from_chars also takes
+    // "inf", "nan", "-5" and "1e300": none is a time, and formatting the frame again (a rejected
+    // frame is stored as text) could not convert it to whole seconds.
+    if (!(value >= 0.0 && value < kMaxCandumpTimestampS)) {
+      reason = "timestamp out of range (0 to 1e12 s)";
       return std::nullopt;
     }
     out.frame.timestamp_s = value;
@@ -131,7 +141,7 @@ std::optional<CandumpLine> parse_candump_line(std::string_view line, std::string
     out.frame.len = 0;
     if (payload.size() > 1) {
       const int dlc = hex_value(payload[1]);
-      if (dlc < 0 || dlc > 8) {
+      if (dlc < 0 || dlc > 8 || payload.size() > 2) {
         reason = "bad remote-frame length";
         return std::nullopt;
       }
@@ -171,7 +181,10 @@ void format_candump_line(const CanFrame& frame, std::string_view interface, std:
     out.push_back('#');
     out.push_back(kHex[frame.fd_flags & 0xF]);
   } else if (frame.remote) {
+    // As can-utils writes it: a remote frame's length (DLC 1..8) follows the 'R'; without it
+    // the line would read back as a remote frame of length 0.
     out.push_back('R');
+    if (frame.len > 0 && frame.len <= 8) out.push_back(kHex[frame.len]);
     return;
   }
   for (unsigned i = 0; i < frame.len; ++i) {

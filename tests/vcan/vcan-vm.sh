@@ -22,7 +22,7 @@
 #
 # Needs the Debian packages qemu-system-x86, busybox-static, cpio and xz-utils; they are
 # installed with apt-get when missing (as root). The kernel package is fetched with
-# `apt-get download` (not installed) and unpacked into the cache once.
+# `apt-get download` (not installed) and unpacked into the cache once (fetch-kernel.sh).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 payload=${1:?usage: vcan-vm.sh PAYLOAD_DIR SCRIPT [TIMEOUT_S]}
@@ -32,33 +32,9 @@ cache=${GEARWATCH_VCAN_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/gearwatch-vcan}
 [ -d "$payload" ] || { echo "vcan-vm: payload folder '$payload' does not exist" >&2; exit 2; }
 
 "$here/install-deps.sh"
-mkdir -p "$cache"
 
-# 1. Debian's kernel and its CAN modules, unpacked once per kernel version.
-if [ ! -f "$cache/vmlinuz" ] || [ ! -f "$cache/mods/vcan.ko" ]; then
-  pkg=$(apt-cache depends linux-image-amd64 2>/dev/null |
-        sed -n 's/.*Depends: \(linux-image-[0-9][^ ]*\).*/\1/p' | head -1)
-  if [ -z "$pkg" ]; then
-    apt-get update -qq
-    pkg=$(apt-cache depends linux-image-amd64 | sed -n 's/.*Depends: \(linux-image-[0-9][^ ]*\).*/\1/p' | head -1)
-  fi
-  [ -n "$pkg" ] || { echo "vcan-vm: cannot find Debian's kernel package (apt-cache depends linux-image-amd64)" >&2; exit 2; }
-  echo "vcan-vm: fetching $pkg into $cache" >&2
-  rm -rf "$cache/root" "$cache/mods" "$cache/vmlinuz"
-  (cd "$cache" && apt-get download "$pkg" >/dev/null && dpkg-deb -x "$pkg"_*.deb root && rm -f "$pkg"_*.deb)
-  cp "$cache"/root/boot/vmlinuz-* "$cache/vmlinuz.tmp"
-  mkdir -p "$cache/mods"
-  for m in net/can/can.ko net/can/can-raw.ko drivers/net/can/dev/can-dev.ko drivers/net/can/vcan.ko; do
-    f=$(ls "$cache"/root/lib/modules/*/kernel/$m* 2>/dev/null | head -1)
-    [ -n "$f" ] || { echo "vcan-vm: the kernel package has no $m" >&2; exit 2; }
-    case $f in
-      *.xz) xz -dc "$f" >"$cache/mods/$(basename "${f%.xz}")" ;;
-      *) cp "$f" "$cache/mods/" ;;
-    esac
-  done
-  rm -rf "$cache/root"
-  mv "$cache/vmlinuz.tmp" "$cache/vmlinuz"   # last: its presence marks a complete cache
-fi
+# 1. Debian's kernel and its CAN modules, unpacked once.
+"$here/fetch-kernel.sh" "$cache"
 
 # 2. initramfs: busybox, the modules, the payload and its libraries, and the init script.
 work=$(mktemp -d)

@@ -1,0 +1,198 @@
+# inside.sh — the systemd test's steps, run INSIDE the systemd VM (systemd-vm.sh) by bash as root,
+# after gearwatch's .deb was installed with apt-get. run-systemd-test.sh builds the payload:
+# cap.log (a `gearwatch simulate` capture), gearwatch-vcan1.toml (the plant's config: vcan1),
+# replay.rows (the records of `gearwatch replay` of the same capture, made on the host), iface.
+#  1. the package: files where Debian puts them, the config a conffile, the unit's ExecStart the
+#     installed binary, the sysctl applied, no dependency on a fixed CAN device unit;
+#  2. `systemctl start gearwatch` with vcan1 in /etc/gearwatch/gearwatch.toml: READY in < 20 s;
+#  3. every hardening option of the unit in force on the running process (DynamicUser, no
+#     capabilities, seccomp, read-only system, private /tmp, inaccessible /home);
+#  4. canplayer plays the capture onto vcan1; the watchdog is pinged;
+#  5. `systemctl stop`: drains, commits, exit 0; the records equal the replay's, nothing lost;
+#  6. a second run, SIGKILLed once a record of it is committed (its record in progress and the
+#     backlog not yet analysed die with it): systemd restarts gearwatch, nothing committed is
+#     lost, integrity ok;
+#  7. `systemd-analyze security`: overall exposure <= 1.5.
+# Prints what it measured and "SYSTEMD TEST: PASS ..." or "SYSTEMD TEST: FAIL: <reason>".
+set -u
+P=/payload
+unit=gearwatch.service
+state=/var/lib/private/gearwatch         # DynamicUser's StateDirectory, as root sees it
+db=$state/gearwatch.db
+READY_LIMIT_S=20
+EXPOSURE_LIMIT=1.5
+t_begin=$(date +%s)
+step() { echo "systemd-test [+$(( $(date +%s) - t_begin )) s] $*"; }
+fail() {
+  echo "SYSTEMD TEST: FAIL: $*"
+  echo "---- systemctl status gearwatch"
+  SYSTEMD_COLORS=0 systemctl status gearwatch --no-pager -n 0
+  echo "---- journalctl -u gearwatch (last 40 lines)"
+  SYSTEMD_COLORS=0 journalctl -u gearwatch --no-pager -n 40 -o short-monotonic
+  exit 1
+}
+prop() { systemctl show -p "$1" --value $unit; }
+now() { date +%s.%N; }
+elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", b - a }'; }
+less_than() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a < b) }'; }
+# sqlite3 as root on the service's database only while gearwatch runs (its WAL files exist) or
+# after a clean stop (none left behind): root never creates files the service could not open.
+sql() { sqlite3 -batch "$db" "$1"; }
+records_query="SELECT start_index, sample_count, end_reason, analysed FROM records ORDER BY start_index"
+losses_query="SELECT COALESCE(SUM(kernel_drops + ring_overflows + gaps + malformed_frames), -1) FROM acquisition_health"
+wait_for() {  # wait_for SECONDS DESCRIPTION COMMAND...: poll every 0.5 s
+  local limit=$1 what=$2; shift 2
+  local t0; t0=$(date +%s)
+  until "$@"; do
+    [ $(( $(date +%s) - t0 )) -lt "$limit" ] || fail "$what: not within $limit s"
+    sleep 0.5
+  done
+}
+
+# --- 1. the package as installed by apt-get
+step "systemd $(systemctl --version | head -1 | cut -d' ' -f2), kernel $(uname -r), $(nproc) CPUs"
+[ "$(dpkg-query -W -f='${Status}' gearwatch 2>/dev/null)" = "install ok installed" ] || fail "gearwatch is not installed"
+step "package: gearwatch $(dpkg-query -W -f='${Version} ${Architecture}' gearwatch); Depends: $(dpkg-query -W -f='${Depends}' gearwatch)"
+for f in /usr/bin/gearwatch /lib/systemd/system/gearwatch.service /usr/lib/sysctl.d/60-gearwatch.conf \
+         /etc/gearwatch/gearwatch.toml /usr/share/doc/gearwatch/README.md; do
+  dpkg-query -L gearwatch | grep -qx "$f" || fail "the package does not install $f"
+  [ -f "$f" ] || fail "$f is missing after installation"
+done
+dpkg-query -W -f='${Conffiles}\n' gearwatch | grep -q "^ /etc/gearwatch/gearwatch.toml " ||
+  fail "/etc/gearwatch/gearwatch.toml is not a conffile"
+exec_path=$(prop ExecStart | sed -n 's/.*path=\([^ ;]*\).*/\1/p')
+[ "$exec_path" = /usr/bin/gearwatch ] || fail "ExecStart runs '$exec_path', the package installs /usr/bin/gearwatch"
+step "unit $(prop FragmentPath): ExecStart $exec_path"
+deps="$(prop After) $(prop Wants) $(prop Requires) $(prop BindsTo)"
+case $deps in *sys-subsystem-net-devices*) fail "the unit still depends on a CAN device unit: $deps" ;; esac
+rmem=$(cat /proc/sys/net/core/rmem_max)
+[ "$rmem" = 16777216 ] || fail "net.core.rmem_max is $rmem: /usr/lib/sysctl.d/60-gearwatch.conf was not applied"
+step "net.core.rmem_max = $rmem (from /usr/lib/sysctl.d/60-gearwatch.conf)"
+
+# --- 2. the plant's configuration names vcan1; start
+install -m 0644 $P/gearwatch-vcan1.toml /etc/gearwatch/gearwatch.toml
+ip -br link show vcan1 | grep -q UP || fail "vcan1 is not up"
+t0=$(now)
+systemctl start $unit || fail "systemctl start gearwatch failed"
+ready_s=$(elapsed "$t0" "$(now)")
+[ "$(prop ActiveState)/$(prop SubState)" = active/running ] || fail "gearwatch is $(prop ActiveState)/$(prop SubState) after start"
+step "systemctl start returned after ${ready_s} s (Type=notify: READY=1 received); limit ${READY_LIMIT_S} s"
+less_than "$ready_s" $READY_LIMIT_S || fail "READY took ${ready_s} s (limit ${READY_LIMIT_S} s)"
+wait_for 20 "the journal line 'listening on vcan1'" sh -c "journalctl -u gearwatch -o cat | grep -q 'listening on vcan1'"
+step "journal: $(journalctl -u gearwatch -o cat | grep -m1 'listening on vcan1')"
+pid=$(prop MainPID)
+
+# --- 3. the hardening of the unit, in force
+unitfile=/lib/systemd/system/gearwatch.service
+checked=0
+while IFS='=' read -r key value; do
+  got=$(prop "$key")
+  if [ "$key" = RestrictAddressFamilies ]; then
+    value=$(echo "$value" | tr ' ' '\n' | sort | tr '\n' ' '); got=$(echo "$got" | tr ' ' '\n' | sort | tr '\n' ' ')
+  fi
+  [ "$got" = "$value" ] || fail "$key: the unit says '$value', systemd applies '$got'"
+  checked=$((checked + 1))
+done < <(grep -E '^(Protect[A-Za-z]+|Private[A-Za-z]+|NoNewPrivileges|Restrict[A-Za-z]+|LockPersonality|MemoryDenyWriteExecute|SystemCallArchitectures|DynamicUser|UMask)=' $unitfile)
+[ "$checked" -ge 18 ] || fail "only $checked hardening options found in $unitfile"
+status=/proc/$pid/status
+uid=$(awk '/^Uid:/ { print $2 }' $status)
+[ "$uid" -ge 61184 ] && [ "$uid" -le 65519 ] || fail "gearwatch runs as uid $uid, not a dynamic user (61184..65519)"
+for want in "NoNewPrivs:	1" "Seccomp:	2" "CapInh:	0000000000000000" "CapPrm:	0000000000000000" \
+            "CapEff:	0000000000000000" "CapBnd:	0000000000000000" "CapAmb:	0000000000000000"; do
+  grep -qx "$want" $status || fail "/proc/$pid/status: expected '$want', got '$(grep "^${want%%:*}:" $status)'"
+done
+inns() { nsenter -t "$pid" -m -- "$@"; }
+inns sh -c 'touch /usr/.gearwatch-probe' 2>/dev/null && fail "ProtectSystem=strict: /usr is writable in the service's namespace"
+inns sh -c 'touch /etc/.gearwatch-probe' 2>/dev/null && fail "ProtectSystem=strict: /etc is writable in the service's namespace"
+[ "$(inns stat -c %a /home)" = 0 ] || fail "ProtectHome=yes: /home is not inaccessible in the service's namespace"
+touch /tmp/.host-only
+inns test -e /tmp/.host-only && fail "PrivateTmp=yes: the service sees the host's /tmp"
+[ "$(readlink /var/lib/gearwatch)" = private/gearwatch ] || fail "/var/lib/gearwatch is not DynamicUser's link to private/gearwatch"
+step "hardening in force: $checked options as in the unit; uid $uid (dynamic) $(awk '/^Uid:/ { print $2 "/" $3 }' $status), NoNewPrivs 1, seccomp filter, no capabilities, / and /etc read-only, /home inaccessible, private /tmp"
+
+# --- 4. the capture onto vcan1, the watchdog
+frames=$(wc -l <$P/cap.log)
+step "canplayer: $frames frames, $(cat $P/iface)"
+t0=$(now)
+canplayer -I $P/cap.log "$(cat $P/iface)" || fail "canplayer failed"
+play_s=$(elapsed "$t0" "$(now)")
+step "canplayer done in ${play_s} s"
+[ "$(prop ActiveState)" = active ] && [ "$(prop MainPID)" = "$pid" ] || fail "gearwatch did not survive the capture"
+[ "$(prop WatchdogUSec)" = 30s ] || fail "WatchdogUSec is $(prop WatchdogUSec), the unit says 30s"
+since_ready=$(( ($(prop WatchdogTimestampMonotonic) - $(prop ActiveEnterTimestampMonotonic)) / 1000000 ))
+running=$(( ($(cut -d' ' -f1 /proc/uptime | cut -d. -f1) * 1000000 - $(prop ActiveEnterTimestampMonotonic)) / 1000000 ))
+step "watchdog: last WATCHDOG=1 at $(prop WatchdogTimestamp), ${since_ready} s after READY (running ${running} s; WatchdogSec 30 s)"
+[ "$since_ready" -ge 10 ] || fail "no watchdog ping seen since READY (last ${since_ready} s after it)"
+
+# --- 5. orderly stop: drain, commit, exit 0; the records of a file replay, nothing lost
+# Under emulation the analysis lags the bus by minutes; let it catch up with the records the
+# schedule closes (end_reason complete) so that the stop has one record left to close, as on a
+# plant, rather than minutes of backlog (TimeoutStopSec=90).
+scheduled=$(grep -c '|complete|' $P/replay.rows)
+t0=$(now)
+wait_for 300 "the $scheduled scheduled records analysed" sh -c "[ \$(sqlite3 -batch $db 'SELECT COUNT(*) FROM records') -ge $scheduled ]"
+step "processing caught up with the bus: $scheduled scheduled records stored $(elapsed "$t0" "$(now)") s after the capture ended"
+records_before_stop=$(sql "SELECT COUNT(*) FROM records")
+t0=$(now)
+systemctl stop $unit
+stop_s=$(elapsed "$t0" "$(now)")
+result=$(prop Result) status_=$(prop ExecMainStatus)
+stopped_line=$(journalctl -u gearwatch -o cat | grep 'gearwatch stopped:' | tail -n 1)
+step "systemctl stop: ${stop_s} s to drain and commit ($records_before_stop records stored before the stop); Result=$result, exit status $status_"
+step "journal: $stopped_line"
+[ "$result" = success ] && [ "$status_" = 0 ] || fail "stop: Result=$result ExecMainStatus=$status_ (want success, 0)"
+[ -n "$stopped_line" ] || fail "no 'gearwatch stopped:' line in the journal: it did not drain and exit by itself"
+journalctl -u gearwatch -o cat | grep -q 'gearwatch.service: Deactivated successfully' ||
+  fail "systemd did not log 'Deactivated successfully' (exit status 0) for the stop"
+[ -f "$db" ] || fail "no database at $db"
+[ "$(stat -c %u "$db")" = "$uid" ] || fail "$db belongs to uid $(stat -c %u "$db"), not the service's dynamic uid $uid"
+sql "$records_query" >/tmp/run.rows || fail "sqlite3 on $db"
+losses=$(sql "$losses_query")
+echo "---- gearwatch under systemd (vcan1): start_index | sample_count | end_reason | analysed"
+cat /tmp/run.rows
+echo "---- gearwatch replay of the same capture (host): start_index | sample_count | end_reason | analysed"
+cat $P/replay.rows
+echo "---- acquisition_health (last snapshots)"
+sqlite3 -header "$db" "SELECT * FROM acquisition_health" | tail -n 3
+n_run=$(wc -l </tmp/run.rows) n_replay=$(wc -l <$P/replay.rows)
+[ "$n_replay" -gt 0 ] || fail "the replay has no records: nothing to compare"
+cmp -s /tmp/run.rows $P/replay.rows || { diff $P/replay.rows /tmp/run.rows; fail "records differ from the replay's ($n_run vs $n_replay)"; }
+[ "$losses" = 0 ] || fail "acquisition_health: kernel_drops + ring_overflows + gaps + malformed_frames = $losses"
+step "records: $n_run under systemd = $n_replay of the replay, identical; losses 0; database owned by uid $uid in $state"
+
+# --- 6. SIGKILL with work in progress: systemd restarts it, nothing committed is lost
+systemctl start $unit || fail "second start failed"
+first_pid=$(prop MainPID)
+canplayer -I $P/cap.log "$(cat $P/iface)" &
+player=$!
+wait_for 120 "a record of the second run committed" sh -c "[ \$(sqlite3 -batch $db 'SELECT COUNT(*) FROM records') -gt $n_run ]"
+sql "SELECT id, start_index, sample_count, end_reason FROM records ORDER BY id" >/tmp/before-kill.rows
+last_id=$(tail -n 1 /tmp/before-kill.rows | cut -d'|' -f1)
+t0=$(now)
+systemctl kill -s KILL $unit
+step "SIGKILL to gearwatch (pid $first_pid) with $(wc -l </tmp/before-kill.rows) records committed"
+wait_for 60 "systemd restarting gearwatch" sh -c "[ \"\$(systemctl show -p NRestarts --value $unit)\" = 1 ] &&
+  [ \"\$(systemctl show -p ActiveState --value $unit)\" = active ] && [ \"\$(systemctl show -p MainPID --value $unit)\" != $first_pid ]"
+restart_s=$(elapsed "$t0" "$(now)")
+step "restarted by systemd after ${restart_s} s (RestartSec 5 s): NRestarts $(prop NRestarts), pid $(prop MainPID)"
+integrity=$(sql "PRAGMA integrity_check")
+sql "SELECT id, start_index, sample_count, end_reason FROM records WHERE id <= $last_id ORDER BY id" >/tmp/after-kill.rows
+[ "$integrity" = ok ] || fail "PRAGMA integrity_check after SIGKILL: $integrity"
+cmp -s /tmp/before-kill.rows /tmp/after-kill.rows || { diff /tmp/before-kill.rows /tmp/after-kill.rows; fail "records committed before SIGKILL changed or vanished"; }
+wait $player
+systemctl stop $unit
+[ "$(prop Result)" = success ] && [ "$(prop ExecMainStatus)" = 0 ] || fail "stop after the restart: Result=$(prop Result), status $(prop ExecMainStatus)"
+integrity_final=$(sql "PRAGMA integrity_check")
+[ "$integrity_final" = ok ] || fail "PRAGMA integrity_check at the end: $integrity_final"
+step "after SIGKILL: integrity_check $integrity, all $(wc -l </tmp/before-kill.rows) committed records intact; $(sql 'SELECT COUNT(*) FROM records') records at the end, integrity_check $integrity_final"
+
+# --- 7. exposure
+systemd-analyze security $unit --no-pager >/tmp/security.txt 2>&1
+grep '✗' /tmp/security.txt | sed 's/^/  /'
+overall=$(grep -m1 'Overall exposure level' /tmp/security.txt)
+exposure=$(echo "$overall" | sed -n 's/.*: \([0-9.]*\).*/\1/p')
+step "systemd-analyze security: $overall"
+[ -n "$exposure" ] || fail "no exposure level in systemd-analyze security's output"
+awk -v e="$exposure" -v l=$EXPOSURE_LIMIT 'BEGIN { exit !(e <= l) }' || fail "exposure $exposure > $EXPOSURE_LIMIT"
+echo "SYSTEMD TEST: PASS: ready in ${ready_s} s on vcan1; $n_run records = replay, 0 lost; watchdog pinged ${since_ready} s after READY; stop ${stop_s} s, exit 0; SIGKILL -> restarted in ${restart_s} s, integrity ok, nothing committed lost; exposure $exposure; $(( $(date +%s) - t_begin )) s in the VM"
+exit 0
