@@ -26,11 +26,15 @@ class RigCaptureSignal final : public daemon::CaptureSignal {
   int channels() const override { return static_cast<int>(r_.acceleration.size()); }
   double sample_rate_hz() const override { return r_.sample_rate_hz; }
   double input_revolutions_at(double t) const override {
+    // Each encoder edge completes a revolution (the daemon adds the edges after a life-counter
+    // frame to its value), so the odometer's whole part is the number of edges passed.
     const auto& e = r_.tacho_edges;
     const double pos = t * r_.sample_rate_hz;
     const auto k = static_cast<std::size_t>(std::upper_bound(e.begin(), e.end(), pos) - e.begin());
-    if (k == 0 || k == e.size()) return static_cast<double>(k);
-    return static_cast<double>(k - 1) + (pos - e[k - 1]) / (e[k] - e[k - 1]);
+    if (e.empty()) return 0.0;
+    if (k == 0) return std::clamp(pos / e.front(), 0.0, 0.999999);
+    if (k == e.size()) return static_cast<double>(k);
+    return static_cast<double>(k) + (pos - e[k - 1]) / (e[k] - e[k - 1]);
   }
   void generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) override {
     out.resize(r_.acceleration.size());
