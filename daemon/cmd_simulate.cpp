@@ -1,33 +1,174 @@
-// `gearwatch simulate --out FILE ...`: one synthetic rig capture in protocol v1.
+// `gearwatch simulate`: one rig capture (`--out FILE`), or a wear campaign (`--campaign ... --out
+// DIR`): records in cycle order and truth.json, made by the rig simulator (rig/).
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include "capture_writer.hpp"
 #include "cli_common.hpp"
 #include "decoder_setup.hpp"
 #include "gearwatch/config/twin_config.hpp"
+#include "gearwatch/rig/campaign.hpp"
+#include "gearwatch/rig/rig_simulator.hpp"
 #include "gearwatch/twin/simulation.hpp"
 
 namespace gearwatch::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// A rig record as a capture: its channels and the input shaft's encoder (one edge per revolution).
+class RigCaptureSignal final : public daemon::CaptureSignal {
+ public:
+  explicit RigCaptureSignal(rig::RigRecord r) : r_(std::move(r)) {}
+  int channels() const override { return static_cast<int>(r_.acceleration.size()); }
+  double sample_rate_hz() const override { return r_.sample_rate_hz; }
+  double input_revolutions_at(double t) const override {
+    // Each encoder edge completes a revolution (the daemon adds the edges after a life-counter
+    // frame to its value), so the odometer's whole part is the number of edges passed.
+    const auto& e = r_.tacho_edges;
+    const double pos = t * r_.sample_rate_hz;
+    const auto k = static_cast<std::size_t>(std::upper_bound(e.begin(), e.end(), pos) - e.begin());
+    if (e.empty()) return 0.0;
+    if (k == 0) return std::clamp(pos / e.front(), 0.0, 0.999999);
+    if (k == e.size()) return static_cast<double>(k);
+    return static_cast<double>(k) + (pos - e[k - 1]) / (e[k] - e[k - 1]);
+  }
+  void generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) override {
+    out.resize(r_.acceleration.size());
+    for (std::size_t c = 0; c < r_.acceleration.size(); ++c) {
+      out[c].resize(count);
+      for (std::size_t i = 0; i < count; ++i) {
+        const std::uint64_t k = first + i;
+        out[c][i] = k < r_.acceleration[c].size() ? r_.acceleration[c][k] : 0.0;
+      }
+    }
+  }
+  std::vector<double> tacho_edges(double from, double to, int epr) const override {
+    if (epr != 1) throw std::runtime_error("the rig simulator's encoder gives one edge per revolution: set edges_per_rev = 1");
+    return {std::lower_bound(r_.tacho_edges.begin(), r_.tacho_edges.end(), from),
+            std::lower_bound(r_.tacho_edges.begin(), r_.tacho_edges.end(), to)};
+  }
+
+ private:
+  rig::RigRecord r_;
+};
+
+struct Options {
+  std::string out, config;
+  daemon::CaptureSettings cs;
+  bool classic = false, fd = false;
+  std::string physics = "synthetic";
+  std::string campaign, effects;
+  int records = 0;
+  double seconds = 0;
+};
+
+rig::EffectSet make_effects(const std::string& list, bool seeded, std::uint64_t seed,
+                            const std::map<std::string, double>& fixed) {
+  rig::EffectSet fx = rig::EffectSet::parse(list);
+  if (seeded) fx.randomise(seed);
+  for (const auto& [name, value] : fixed) fx.set(name, value);
+  return fx;
+}
+
+void run_campaign(const Options& opt, bool seeded, bool channels_given, bool effects_given) {
+  rig::CampaignSpec spec;
+  const bool builtin = opt.campaign == "lubricated" || opt.campaign == "dry" || opt.campaign == "healthy";
+  spec = builtin ? rig::builtin_campaign(opt.campaign) : rig::load_campaign_file(opt.campaign);
+  if (opt.records > 0) spec.records = opt.records;
+  if (opt.seconds > 0) spec.seconds = opt.seconds;
+  if (channels_given) {
+    if (opt.cs.signal.channels < 1 || opt.cs.signal.channels > 2) throw CommandError("--channels must be 1 or 2 for a campaign");
+    spec.channels = opt.cs.signal.channels;
+  }
+  if (effects_given) spec.effects = opt.effects;
+  const std::uint64_t seed = opt.cs.signal.seed;
+  const rig::EffectSet effects = make_effects(spec.effects, seeded, seed, spec.effect_values);
+
+  daemon::CaptureSettings cs;
+  twin::GearboxParameters params;
+  if (!opt.config.empty()) {
+    const auto cfg = load_config_or_defaults(opt.config);
+    cs.scale_m_s2_per_lsb = cfg.rig.channels.front().scale_m_s2_per_lsb;
+    cs.edges_per_rev = cfg.rig.tachos.front().edges_per_rev;
+    cs.ids = daemon::protocol_ids(cfg);
+    params = config::load_twin_parameters(opt.config);
+  }
+  if (cs.edges_per_rev != 1) throw CommandError("the rig simulator's encoder gives one edge per revolution: set edges_per_rev = 1");
+  const auto plan = rig::plan_records(spec);
+
+  // Refuse before writing anything when the records would not fit.
+  std::uint64_t needed = 65536;
+  for (const auto& p : plan) needed += rig::estimated_capture_bytes(spec.seconds, spec.sample_rate_hz, spec.channels, p.speed_hz) + 8192;
+  fs::path probe = fs::absolute(opt.out);
+  while (!probe.empty() && !fs::exists(probe) && probe != probe.parent_path()) probe = probe.parent_path();
+  std::error_code ec;
+  const auto space = fs::space(probe, ec);
+  if (!ec && needed > space.available)
+    throw CommandError("campaign " + spec.name + " needs about " + std::to_string(needed / 1000000 + 1) + " MB (" +
+                       std::to_string(plan.size()) + " records of " + std::to_string(spec.seconds) + " s) but " +
+                       probe.string() + " has " + std::to_string(space.available / 1000000) + " MB free; nothing written");
+  fs::create_directories(opt.out);
+
+  const rig::BuiltinWearTruth truth(spec.wear, params.gears);
+  std::vector<rig::RecordTruth> truths;
+  for (const auto& p : plan) {
+    rig::RecordTruth t;
+    t.plan = p;
+    t.wear = truth.at(p.cycles);
+    t.sliding = spec.bands;
+    t.sliding.pitting_rms_m_s2 = spec.pitting_gain_m_s2 * t.wear.pitting_density;
+    t.sliding.abrasion_rms_m_s2 = spec.roughness_gain_m_s2 * t.wear.roughness;
+    t.life_counter = static_cast<std::uint64_t>(std::llround(p.cycles));
+    rig::RigRunSettings run;
+    run.speed_hz = p.speed_hz;
+    run.torque_nm = spec.torque_nm;
+    run.duration_s = spec.seconds;
+    run.sample_rate_hz = spec.sample_rate_hz;
+    run.channels = spec.channels;
+    run.seed = seed * 1000003ull + static_cast<std::uint64_t>(p.index);
+    RigCaptureSignal signal(rig::simulate_record(params, effects, t.wear, t.sliding, run));
+    daemon::CaptureSettings record = cs;
+    record.duration_s = spec.seconds;
+    record.fd = true;
+    record.signal.speed_hz = p.speed_hz;
+    record.signal.torque_nm = spec.torque_nm;
+    record.signal.channels = spec.channels;
+    record.start_revolutions = t.life_counter;
+    record.stream_id = static_cast<std::uint16_t>(1 + p.index % 65535);
+    record.start_time_s = 1700000000.0 + p.cycles / p.speed_hz;
+    const auto s = daemon::write_capture(record, signal, (fs::path(opt.out) / p.file_name).string());
+    std::cout << p.file_name << ": " << p.cycles << " cycles, " << p.speed_hz << " Hz, pitting " << t.wear.pitting_density
+              << ", mean wear " << t.wear.mean_wear_depth_m * 1e6 << " um, " << s.frames << " frames, " << s.clipped_samples
+              << " clipped samples\n";
+    truths.push_back(std::move(t));
+  }
+  std::ofstream out(fs::path(opt.out) / "truth.json");
+  out << rig::truth_json(spec, effects, seed, seeded, truths, params.gears.pinion_teeth, params.gears.gear_teeth);
+  if (!out) throw CommandError("cannot write " + (fs::path(opt.out) / "truth.json").string());
+  std::cout << "wrote " << plan.size() << " records and truth.json to " << opt.out << "\n";
+}
+
+}  // namespace
 
 void register_simulate(CLI::App& app) {
-  struct Options {
-    std::string out, config;
-    daemon::CaptureSettings cs;
-    bool classic = false, fd = false;
-    std::string physics = "synthetic";
-  };
   auto opt = std::make_shared<Options>();
-  auto* cmd = app.add_subcommand("simulate", "Write a synthetic rig capture (protocol v1, candump -L log)");
-  cmd->add_option("--out", opt->out, "Output capture file")->required();
-  cmd->add_option("--duration", opt->cs.duration_s, "Seconds of signal")->check(CLI::Range(0.001, 86400.0))->capture_default_str();
-  cmd->add_option("--speed", opt->cs.signal.speed_hz, "Input shaft speed, Hz")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
-  cmd->add_option("--torque", opt->cs.signal.torque_nm, "Input torque, N·m")->check(CLI::Range(0.0, 10000.0))->capture_default_str();
+  auto* cmd = app.add_subcommand("simulate", "Write a rig capture (protocol v1, candump -L log), or a wear campaign");
+  cmd->add_option("--out", opt->out, "Output capture file (a directory with --campaign)")->required();
+  auto* duration = cmd->add_option("--duration", opt->cs.duration_s, "Seconds of signal")->check(CLI::Range(0.001, 86400.0))->capture_default_str();
+  auto* speed = cmd->add_option("--speed", opt->cs.signal.speed_hz, "Input shaft speed, Hz")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
+  auto* torque = cmd->add_option("--torque", opt->cs.signal.torque_nm, "Input torque, N·m")->check(CLI::Range(0.0, 10000.0))->capture_default_str();
   auto* fd = cmd->add_flag("--fd", opt->fd, "CAN FD frames, 30 samples each (default)");
-  cmd->add_flag("--classic", opt->classic, "Classic CAN frames, 2 samples each")->excludes(fd);
-  cmd->add_option("--channels", opt->cs.signal.channels, "Vibration channels")->check(CLI::Range(1, 8))->capture_default_str();
+  auto* classic = cmd->add_flag("--classic", opt->classic, "Classic CAN frames, 2 samples each")->excludes(fd);
+  auto* channels = cmd->add_option("--channels", opt->cs.signal.channels, "Vibration channels (rig and campaigns: 1 or 2)")->check(CLI::Range(1, 8))->capture_default_str();
   cmd->add_option("--sample-rate", opt->cs.signal.sample_rate_hz, "Samples per second")->check(CLI::Range(100.0, 1e6))->capture_default_str();
-  cmd->add_option("--speed-fluctuation", opt->cs.signal.speed_fluctuation, "Relative 0.5 Hz speed oscillation")->check(CLI::Range(0.0, 0.5));
-  cmd->add_option("--seed", opt->cs.signal.seed, "Noise seed")->capture_default_str();
+  cmd->add_option("--speed-fluctuation", opt->cs.signal.speed_fluctuation, "Relative 0.5 Hz speed oscillation (synthetic physics)")->check(CLI::Range(0.0, 0.5));
+  auto* seed = cmd->add_option("--seed", opt->cs.signal.seed,
+                               "Noise seed; with --physics rig or --campaign it also draws the effects' parameters at random")
+                   ->capture_default_str();
   cmd->add_option("--start-revs", opt->cs.start_revolutions, "Life counter at the first sample")->capture_default_str();
   cmd->add_option("--stream-id", opt->cs.stream_id, "Stream id in the header")->capture_default_str();
   cmd->add_option("--first-index", opt->cs.first_index, "Sample index of the first sample (u32)")->capture_default_str();
@@ -35,10 +176,33 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--config", opt->config, "Take channel scaling, tacho edges/rev and the twin's [twin] parameters from this config");
   cmd->add_option("--physics", opt->physics,
                   "synthetic: gear-mesh harmonics, modulated resonance and noise of known amplitudes; "
-                  "twin: the 21-DOF twin's casing acceleration y6 (one channel, no wear)")
-      ->check(CLI::IsMember({"synthetic", "twin"}))
+                  "twin: the 21-DOF twin's casing acceleration y6 (one channel, no wear); "
+                  "rig: the rig simulator (the twin plus the --effects, docs/rig-simulator.md)")
+      ->check(CLI::IsMember({"synthetic", "twin", "rig"}))
       ->capture_default_str();
-  cmd->callback([opt] {
+  auto* effects = cmd->add_option("--effects", opt->effects,
+                                  "Rig effects: all, none or a comma-separated list (docs/rig-simulator.md)");
+  auto* campaign = cmd->add_option("--campaign", opt->campaign, "A wear campaign: lubricated, dry, healthy or FILE.toml (docs/campaign-file.md)");
+  auto* records = cmd->add_option("--records", opt->records, "Campaign: measured stops (default: the campaign's)")->check(CLI::Range(1, 100000));
+  auto* seconds = cmd->add_option("--seconds", opt->seconds, "Campaign: seconds per record (default: the campaign's)")->check(CLI::Range(0.1, 3600.0));
+  records->needs(campaign);
+  seconds->needs(campaign);
+  for (auto* o : {duration, speed, torque, classic}) o->excludes(campaign);
+  cmd->callback([opt, seed, channels, effects, cmd] {
+    const bool seeded = seed->count() > 0;
+    try {
+      if (!opt->campaign.empty()) {
+        if (cmd->get_option("--physics")->count() > 0 && opt->physics != "rig")
+          throw CommandError("a campaign is made by the rig simulator (--physics rig)");
+        run_campaign(*opt, seeded, channels->count() > 0, effects->count() > 0);
+        return;
+      }
+    } catch (const CommandError&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw CommandError(e.what());
+    }
+    if (effects->count() > 0 && opt->physics != "rig") throw CommandError("--effects needs --physics rig");
     auto cs = opt->cs;
     cs.fd = !opt->classic;
     if (!opt->config.empty()) {
@@ -61,6 +225,20 @@ void register_simulate(CLI::App& app) {
         cs.signal.channels = 1;
         auto signal = daemon::sampled_capture_signal(y6.sample_rate_hz, std::move(y6.acceleration), std::move(y6.tacho_edges));
         s = daemon::write_capture(cs, *signal, opt->out);
+      } else if (opt->physics == "rig") {
+        if (cs.edges_per_rev != 1) throw CommandError("--physics rig gives one tacho edge per revolution: set edges_per_rev = 1");
+        if (cs.signal.channels > 2) throw CommandError("--physics rig has 1 or 2 channels");
+        const auto params = opt->config.empty() ? twin::GearboxParameters{} : config::load_twin_parameters(opt->config);
+        const auto fx = make_effects(opt->effects.empty() ? "none" : opt->effects, seeded, cs.signal.seed, {});
+        rig::RigRunSettings run;
+        run.speed_hz = cs.signal.speed_hz;
+        run.torque_nm = cs.signal.torque_nm;
+        run.duration_s = cs.duration_s;
+        run.sample_rate_hz = cs.signal.sample_rate_hz;
+        run.channels = cs.signal.channels;
+        run.seed = cs.signal.seed;
+        RigCaptureSignal signal(rig::simulate_record(params, fx, {}, {}, run));
+        s = daemon::write_capture(cs, signal, opt->out);
       } else {
         s = daemon::write_synthetic_capture(cs, opt->out);
       }

@@ -1,0 +1,67 @@
+#pragma once
+// The wear truth of a simulated campaign: the state of the gear pair at a cycle count. An
+// interface, so the built-in evolution below can be replaced by the project's Archard and
+// pitting models (core wear module) without touching the simulator.
+#include <memory>
+#include <vector>
+
+#include "gearwatch/twin/transmission_error.hpp"
+
+namespace gearwatch::rig {
+
+struct WearState {
+  double cycles = 0;                        ///< pinion (input) revolutions since installation
+  twin::ToothProfileDeviation profile;      ///< mean wear depth root → tip (uniform over the teeth), m
+  double mean_wear_depth_m = 0;             ///< mean over the pinion's active profile
+  double pitting_density = 0;               ///< pitted fraction of the active flank area, 0..1
+  double roughness = 0;                     ///< abrasion roughness index (1 = a sandpaper-roughened flank)
+  double k_wear = 0;                        ///< wear coefficient in force at this cycle count
+  double k_pitting = 0;                     ///< pitting coefficient in force at this cycle count
+};
+
+class WearTruth {
+ public:
+  virtual ~WearTruth() = default;
+  virtual WearState at(double cycles) const = 0;
+};
+
+/// A change of the wear coefficient from a cycle count on (run-in, lubricant contamination, ...).
+struct WearPhase {
+  double from_cycles = 0;
+  double k_wear = 0;   ///< m of wear depth per cycle, at the sliding extremes, at the reference torque
+};
+
+/// The built-in evolution (docs/rig-simulator.md, "Wear truth"):
+///   depth(u, N) = (T / T_ref) · |u − u_pitch| / max|u − u_pitch| · Σ_phases K_i · ΔN_i
+/// on the pinion (sliding is proportional to the distance from the pitch point, zero there), the
+/// gear's depth scaled by z1/z2 (each gear tooth meshes z1/z2 times as often as a pinion tooth);
+///   pitting(N) = min(max, K_pitting · ((N − N_onset)/10⁶)^β) for N > N_onset, else 0;
+///   roughness(N) = R0 · exp(−N / N_runin) + R_wear · mean depth / 1 µm.
+struct WearModelSettings {
+  std::vector<WearPhase> phases;           ///< sorted by from_cycles; before the first: K = 0
+  double reference_torque_nm = 20.0;
+  double torque_nm = 20.0;
+  double pitting_onset_cycles = 0;
+  double k_pitting = 0;                    ///< pitted fraction at 10⁶ cycles past the onset
+  double pitting_exponent = 1.5;
+  double max_pitting = 0.3;
+  double initial_roughness = 0;            ///< R0
+  double runin_cycles = 1;                 ///< e-folding of the initial roughness
+  double roughness_per_um = 0;             ///< R_wear: roughness index per µm of mean wear depth
+  int profile_points = 41;
+};
+
+class BuiltinWearTruth final : public WearTruth {
+ public:
+  /// Validates (phases sorted, coefficients ≥ 0, exponent > 0, 0 ≤ max ≤ 1); throws RigParameterError.
+  BuiltinWearTruth(const WearModelSettings& settings, const GearPairSpec& gears);
+  WearState at(double cycles) const override;
+
+ private:
+  WearModelSettings s_;
+  GearPairSpec gears_;
+  double pitch_fraction_pinion_ = 0.5;  ///< profile fraction of the pitch point on the pinion
+  double pitch_fraction_gear_ = 0.5;
+};
+
+}  // namespace gearwatch::rig

@@ -1,0 +1,290 @@
+#include "gearwatch/rig/rig_simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include "gearwatch/twin/errors.hpp"
+#include "gearwatch/twin/gear_geometry.hpp"
+#include "random.hpp"
+#include "rig_dynamics.hpp"
+
+namespace gearwatch::rig {
+namespace {
+
+using detail::RigDynamics;
+using detail::RigOutputs;
+using detail::RigState;
+
+constexpr int kProfilePoints = 41;
+
+std::vector<double> resample(const std::vector<double>& table, int n) {
+  std::vector<double> out(static_cast<std::size_t>(n), 0.0);
+  if (table.empty()) return out;
+  for (int i = 0; i < n; ++i) {
+    const double u = static_cast<double>(i) / (n - 1) * static_cast<double>(table.size() - 1);
+    const std::size_t k = std::min(static_cast<std::size_t>(u), table.size() - 2);
+    const double f = u - static_cast<double>(k);
+    out[static_cast<std::size_t>(i)] = table[k] + f * (table[k + 1] - table[k]);
+  }
+  return out;
+}
+
+/// Second-order section, direct form II transposed.
+struct Biquad {
+  double b0 = 1, b1 = 0, b2 = 0, a1 = 0, a2 = 0, z1 = 0, z2 = 0;
+  double operator()(double x) {
+    const double y = b0 * x + z1;
+    z1 = b1 * x - a1 * y + z2;
+    z2 = b2 * x - a2 * y;
+    return y;
+  }
+};
+
+/// Butterworth (Q = 1/√2) low- or high-pass section by the bilinear transform with prewarping.
+Biquad butterworth_section(double cutoff_hz, double fs, bool high_pass) {
+  const double k = std::tan(std::numbers::pi * cutoff_hz / fs);
+  const double q = 1.0 / std::sqrt(2.0);
+  const double norm = 1.0 / (1.0 + k / q + k * k);
+  Biquad b;
+  if (high_pass) {
+    b.b0 = norm;
+    b.b1 = -2.0 * norm;
+    b.b2 = norm;
+  } else {
+    b.b0 = k * k * norm;
+    b.b1 = 2.0 * b.b0;
+    b.b2 = b.b0;
+  }
+  b.a1 = 2.0 * (k * k - 1.0) * norm;
+  b.a2 = (1.0 - k / q + k * k) * norm;
+  return b;
+}
+
+/// The accelerometer on its mount, a base-excited single-DOF system: absolute-acceleration
+/// transmissibility (2ζω s + ω²)/(s² + 2ζω s + ω²), bilinear transform prewarped at ω (exact at
+/// the resonance) when it lies below 0.45 fs.
+Biquad mounting_filter(double f_hz, double zeta, double fs) {
+  const double w_analog = 2.0 * std::numbers::pi * f_hz;
+  const double w = f_hz < 0.45 * fs ? std::tan(std::numbers::pi * f_hz / fs) : w_analog / (2.0 * fs);
+  const double a0 = 1.0 + 2.0 * zeta * w + w * w;
+  Biquad b;
+  b.b0 = (2.0 * zeta * w + w * w) / a0;
+  b.b1 = 2.0 * w * w / a0;
+  b.b2 = (w * w - 2.0 * zeta * w) / a0;
+  b.a1 = (2.0 * w * w - 2.0) / a0;
+  b.a2 = (1.0 - 2.0 * zeta * w + w * w) / a0;
+  return b;
+}
+
+/// Unit-RMS Gaussian noise in [low, high] Hz (two Butterworth sections each side).
+std::vector<double> band_noise(std::size_t n, double low, double high, double fs, detail::Random& rng) {
+  if (!(low > 0) || !(high > low)) throw RigParameterError("sliding vibration band must satisfy 0 < low < high");
+  if (high >= 0.5 * fs)
+    throw RigParameterError("sliding vibration band up to " + std::to_string(high) + " Hz needs a sample rate above " +
+                            std::to_string(2 * high) + " Hz");
+  Biquad h1 = butterworth_section(low, fs, true), h2 = h1;
+  Biquad l1 = butterworth_section(high, fs, false), l2 = l1;
+  std::vector<double> x(n);
+  // Run the filters through a start-up stretch first so the record starts in steady state.
+  const std::size_t warm = static_cast<std::size_t>(std::ceil(20.0 * fs / low));
+  for (std::size_t i = 0; i < warm; ++i) l2(l1(h2(h1(rng.gaussian()))));
+  double ss = 0;
+  for (auto& v : x) {
+    v = l2(l1(h2(h1(rng.gaussian()))));
+    ss += v * v;
+  }
+  const double scale = ss > 0 ? 1.0 / std::sqrt(ss / static_cast<double>(n)) : 0.0;
+  for (auto& v : x) v *= scale;
+  return x;
+}
+
+}  // namespace
+
+twin::ToothProfileDeviation truth_profile(const twin::GearboxParameters& params, const EffectSet& effects,
+                                          const WearState& wear) {
+  std::vector<double> pinion = resample(wear.profile.pinion, kProfilePoints);
+  std::vector<double> gear = resample(wear.profile.gear, kProfilePoints);
+  if (effects.enabled(Effect::tip_relief)) {
+    // Linear relief from (1 − L) of the active profile to the tip, on both gears.
+    const double amount = effects.get("tip_relief.amount_um") * 1e-6, length = effects.get("tip_relief.length_fraction");
+    for (int i = 0; i < kProfilePoints; ++i) {
+      const double u = static_cast<double>(i) / (kProfilePoints - 1);
+      const double relief = amount * std::max(0.0, (u - (1.0 - length)) / length);
+      pinion[static_cast<std::size_t>(i)] += relief;
+      gear[static_cast<std::size_t>(i)] += relief;
+    }
+  }
+  twin::ToothProfileDeviation d;
+  const bool any = std::any_of(pinion.begin(), pinion.end(), [](double v) { return v != 0; }) ||
+                   std::any_of(gear.begin(), gear.end(), [](double v) { return v != 0; });
+  if (effects.enabled(Effect::tooth_errors)) {
+    const int z1 = params.gears.pinion_teeth, z2 = params.gears.gear_teeth;
+    const ToothErrorPattern p = effects.tooth_pattern(z1, z2);
+    auto per_tooth = [](const std::vector<double>& base, const std::vector<double>& spacing,
+                        const std::vector<double>& slope) {
+      std::vector<std::vector<double>> out(spacing.size(), base);
+      for (std::size_t n = 0; n < spacing.size(); ++n)
+        for (int i = 0; i < kProfilePoints; ++i)
+          out[n][static_cast<std::size_t>(i)] += spacing[n] + slope[n] * (static_cast<double>(i) / (kProfilePoints - 1) - 0.5);
+      return out;
+    };
+    d.pinion_per_tooth = per_tooth(pinion, p.pinion_spacing_m, p.pinion_slope_m);
+    d.gear_per_tooth = per_tooth(gear, p.gear_spacing_m, p.gear_slope_m);
+  } else if (any) {
+    d.pinion = std::move(pinion);
+    d.gear = std::move(gear);
+  }
+  return d;
+}
+
+RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet& effects, const WearState& wear,
+                          const SlidingVibration& sliding, const RigRunSettings& s) {
+  if (!(s.sample_rate_hz >= 100) || !std::isfinite(s.sample_rate_hz)) throw RigParameterError("sample rate must be >= 100 Hz");
+  if (!(s.duration_s > 0) || s.duration_s * s.sample_rate_hz > 2e9) throw RigParameterError("duration must be positive");
+  if (s.channels < 1 || s.channels > 2) throw RigParameterError("channels must be 1 or 2");
+  if (!(s.settle_s >= 0)) throw RigParameterError("settle time must be >= 0");
+  if (!(s.min_ode_rate_hz > 0)) throw RigParameterError("integration rate must be positive");
+  if (!(sliding.pitting_rms_m_s2 >= 0) || !(sliding.abrasion_rms_m_s2 >= 0))
+    throw RigParameterError("sliding vibration RMS must be >= 0");
+
+  const RigDynamics dyn(params, effects, truth_profile(params, effects, wear), s.speed_hz, s.torque_nm);
+  const double fs = s.sample_rate_hz;
+  const int substeps = std::max(1, static_cast<int>(std::ceil(s.min_ode_rate_hz / fs - 1e-9)));
+  const double h = 1.0 / (fs * substeps);
+  const auto count = static_cast<std::size_t>(std::ceil(s.duration_s * fs));
+
+  RigRecord rec;
+  rec.sample_rate_hz = fs;
+  RigState y = dyn.initial_state(), k1, k2, k3, k4, tmp;
+
+  detail::MeshSegment segment = dyn.locate(0.0, y);
+  auto rk4 = [&](double t, double dt) {  // k1 holds f(t, y) in `segment`
+    tmp = y + 0.5 * dt * k1;
+    dyn.derivative(t + 0.5 * dt, tmp, k2, nullptr, &segment);
+    tmp = y + 0.5 * dt * k2;
+    dyn.derivative(t + 0.5 * dt, tmp, k3, nullptr, &segment);
+    tmp = y + dt * k3;
+    dyn.derivative(t + dt, tmp, k4, nullptr, &segment);
+    y += (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    rec.rhs_evaluations += 3;
+    ++rec.integration_steps;
+  };
+  // One step of length dt from t, split where a tooth pair enters or leaves: every stage of a
+  // Runge-Kutta step sees the same pairs in contact, and the switch happens at the located instant.
+  auto step = [&](double t, double dt) {
+    dyn.derivative(t, y, k1, nullptr, &segment);
+    ++rec.rhs_evaluations;
+    double remaining = dt;
+    for (;;) {
+      const double r = dyn.mesh_cycle_rate(t, y);
+      const double phase = dyn.mesh_cycles(t, y) - static_cast<double>(segment.cycle);
+      const double tau = r > 0 ? std::max(0.0, (segment.hi - phase) / r) : std::numeric_limits<double>::infinity();
+      if (tau < remaining - 1e-6 * h) {
+        if (tau > 0) {
+          rk4(t, tau);
+          t += tau;
+          remaining -= tau;
+        }
+        segment = dyn.next(segment);
+        dyn.derivative(t, y, k1, nullptr, &segment);
+        ++rec.rhs_evaluations;
+      } else {
+        rk4(t, remaining);
+        return;
+      }
+    }
+  };
+
+  // Settle (not recorded).
+  const auto settle_steps = static_cast<std::size_t>(std::ceil(s.settle_s / h - 1e-9));
+  for (std::size_t i = 0; i < settle_steps; ++i) {
+    step(static_cast<double>(i) * h, h);
+    if (!y.allFinite()) throw twin::TwinDivergenceError("rig integration diverged while settling");
+  }
+  const double t0 = static_cast<double>(settle_steps) * h;
+
+  std::vector<double> ch[2];
+  for (int c = 0; c < s.channels; ++c) ch[c].resize(count);
+  std::vector<double> sliding_factor(count), input_angle(count);
+  if (s.keep_diagnostics) {
+    rec.mesh_deflection_m.resize(count);
+    rec.mesh_force_n.resize(count);
+    rec.bearing_force_y_n.resize(count);
+    rec.casing_y_m_s2.resize(count);
+    rec.structure_y_m_s2.resize(count);
+    rec.mesh_cycles.resize(count);
+  }
+  RigOutputs out;
+  for (std::size_t i = 0; i < count; ++i) {
+    const double ti = t0 + static_cast<double>(i) / fs;
+    dyn.derivative(ti, y, k1, &out, &segment);
+    ++rec.rhs_evaluations;
+    if (!y.allFinite() || std::abs(out.deflection) > 1e-3)
+      throw twin::TwinDivergenceError("rig integration diverged at t = " + std::to_string(ti - t0) + " s");
+    ch[0][i] = out.y6_acc + out.casing_y;
+    if (s.channels > 1) ch[1][i] = out.x6_acc + out.casing_x;
+    sliding_factor[i] = out.sliding_factor;
+    input_angle[i] = out.input_angle;
+    if (s.keep_diagnostics) {
+      rec.mesh_deflection_m[i] = out.deflection;
+      rec.mesh_force_n[i] = out.mesh_force;
+      rec.bearing_force_y_n[i] = out.bearing_force_y;
+      rec.casing_y_m_s2[i] = out.casing_y;
+      rec.structure_y_m_s2[i] = ch[0][i];
+      rec.mesh_cycles[i] = out.mesh_cycles;
+    }
+    if (i + 1 == count) break;
+    for (int k = 0; k < substeps; ++k) step(ti + static_cast<double>(k) * h, h);
+  }
+  if (s.keep_diagnostics) rec.input_angle_rad = input_angle;
+
+  // Tacho: the encoder angle passes 2πk between two samples.
+  for (std::size_t i = 1; i < count; ++i) {
+    const double a0 = input_angle[i - 1], a1 = input_angle[i];
+    const double edge = 2.0 * std::numbers::pi * std::ceil(a0 / (2.0 * std::numbers::pi));
+    if (edge >= a0 && edge < a1) rec.tacho_edges.push_back(static_cast<double>(i) - 1.0 + (edge - a0) / (a1 - a0));
+  }
+
+  // Sliding-induced vibration: band noise times the mesh's sliding pattern (unit RMS), one
+  // independent realisation per channel and band.
+  if (sliding.pitting_rms_m_s2 > 0 || sliding.abrasion_rms_m_s2 > 0) {
+    double ss = 0;
+    for (double v : sliding_factor) ss += v * v;
+    const double norm = ss > 0 ? 1.0 / std::sqrt(ss / static_cast<double>(count)) : 0.0;
+    for (int c = 0; c < s.channels; ++c) {
+      detail::Random rng(s.seed * 0x9E3779B97F4A7C15ull + 101 + static_cast<std::uint64_t>(c));
+      if (sliding.pitting_rms_m_s2 > 0) {
+        const auto n = band_noise(count, sliding.pitting_band_low_hz, sliding.pitting_band_high_hz, fs, rng);
+        for (std::size_t i = 0; i < count; ++i) ch[c][i] += sliding.pitting_rms_m_s2 * norm * sliding_factor[i] * n[i];
+      }
+      if (sliding.abrasion_rms_m_s2 > 0) {
+        const auto n = band_noise(count, sliding.abrasion_band_low_hz, sliding.abrasion_band_high_hz, fs, rng);
+        for (std::size_t i = 0; i < count; ++i) ch[c][i] += sliding.abrasion_rms_m_s2 * norm * sliding_factor[i] * n[i];
+      }
+    }
+  }
+  if (effects.enabled(Effect::mounting)) {
+    for (int c = 0; c < s.channels; ++c) {
+      Biquad b = mounting_filter(effects.get("mounting.frequency_hz"), effects.get("mounting.damping_ratio"), fs);
+      // Start the filter at rest with the first sample as a steady input.
+      const double x0 = ch[c].empty() ? 0.0 : ch[c][0];
+      for (int i = 0; i < 2000; ++i) b(x0);
+      for (auto& v : ch[c]) v = b(v);
+    }
+  }
+  if (effects.enabled(Effect::noise)) {
+    const double sigma = std::sqrt(effects.get("noise.psd") * fs / 2.0);
+    for (int c = 0; c < s.channels; ++c) {
+      detail::Random rng(s.seed * 0x2545F4914F6CDD1Dull + 7 + static_cast<std::uint64_t>(c));
+      for (auto& v : ch[c]) v += sigma * rng.gaussian();
+    }
+  }
+  rec.acceleration.resize(static_cast<std::size_t>(s.channels));
+  for (int c = 0; c < s.channels; ++c) rec.acceleration[static_cast<std::size_t>(c)].assign(ch[c].begin(), ch[c].end());
+  return rec;
+}
+
+}  // namespace gearwatch::rig

@@ -1,0 +1,540 @@
+// The rig simulator (the "truth" gearbox): its integration against the twin's dopri5, and each
+// truth effect's signature against a known answer (closed form, or an independent computation).
+#include "gearwatch/rig/rig_simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <numbers>
+#include <numeric>
+
+#include <catch2/catch.hpp>
+
+#include "gearwatch/dsp/fft.hpp"
+#include "gearwatch/twin/gear_geometry.hpp"
+#include "gearwatch/twin/mesh_stiffness.hpp"
+#include "gearwatch/twin/simulation.hpp"
+
+using namespace gearwatch;
+using Catch::Matchers::Contains;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+template <class V>
+double relative_rms_error(const std::vector<double>& reference, const V& x) {
+  double se = 0, sr = 0;
+  for (std::size_t i = 0; i < reference.size(); ++i) {
+    const double d = static_cast<double>(x[i]) - reference[i];
+    se += d * d;
+    sr += reference[i] * reference[i];
+  }
+  return std::sqrt(se / sr);
+}
+
+/// Amplitude of the component at f (Hz) over the whole record (rectangular window: exact when the
+/// record holds a whole number of its periods).
+template <class V>
+double amplitude_at(const V& x, double fs, double f, bool hann = false) {
+  std::complex<double> acc = 0;
+  const std::complex<double> w = std::polar(1.0, -2.0 * kPi * f / fs);
+  std::complex<double> rot = 1;
+  const double n = static_cast<double>(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double window = hann ? 1.0 - std::cos(2.0 * kPi * static_cast<double>(i) / n) : 1.0;  // Hann, unit mean
+    acc += window * static_cast<double>(x[i]) * rot;
+    rot *= w;
+    if (i % 1024 == 0) rot /= std::abs(rot);
+  }
+  return 2.0 * std::abs(acc) / n;
+}
+
+/// Welch estimates with a Hann window, 50 % overlap: one-sided PSD of x, and the cross-spectrum
+/// S_xy and auto-spectrum S_xx for a transfer estimate H1 = S_xy / S_xx.
+struct Welch {
+  double df = 0;
+  std::vector<double> psd;
+  std::vector<std::complex<double>> h1;
+};
+Welch welch(const std::vector<double>& x, const std::vector<double>* y, double fs, std::size_t n) {
+  dsp::RealFft fft(n);
+  dsp::RealBuffer in(n);
+  dsp::ComplexBuffer fx(n / 2 + 1), fy(n / 2 + 1);
+  std::vector<double> win(n), sxx(n / 2 + 1, 0.0);
+  std::vector<std::complex<double>> sxy(n / 2 + 1, 0.0);
+  double wss = 0;
+  for (std::size_t i = 0; i < n; ++i) wss += (win[i] = 0.5 - 0.5 * std::cos(2 * kPi * static_cast<double>(i) / n)) * win[i];
+  int segments = 0;
+  for (std::size_t start = 0; start + n <= x.size(); start += n / 2, ++segments) {
+    double mean = 0;
+    for (std::size_t i = 0; i < n; ++i) mean += x[start + i];
+    mean /= static_cast<double>(n);
+    for (std::size_t i = 0; i < n; ++i) in[i] = (x[start + i] - mean) * win[i];
+    fft.forward(in, fx);
+    if (y) {
+      for (std::size_t i = 0; i < n; ++i) in[i] = (*y)[start + i] * win[i];
+      fft.forward(in, fy);
+    }
+    for (std::size_t k = 0; k <= n / 2; ++k) {
+      sxx[k] += std::norm(fx[k]);
+      if (y) sxy[k] += std::conj(fx[k]) * fy[k];
+    }
+  }
+  Welch w;
+  w.df = fs / static_cast<double>(n);
+  for (std::size_t k = 0; k <= n / 2; ++k) {
+    w.psd.push_back(2.0 * sxx[k] / (segments * fs * wss));
+    if (y) w.h1.push_back(sxy[k] / sxx[k]);
+  }
+  return w;
+}
+
+rig::RigRecord run(const rig::EffectSet& fx, rig::RigRunSettings s, const rig::WearState& wear = {},
+                   const rig::SlidingVibration& sliding = {}) {
+  return rig::simulate_record(twin::GearboxParameters{}, fx, wear, sliding, s);
+}
+
+}  // namespace
+
+TEST_CASE("rig: without effects the fixed-step integration equals the twin's dopri5", "[rig]") {
+  // The same 21-DOF equations, two integrators: core's adaptive dopri5 (rel 1e-6) and the rig's
+  // classical Runge-Kutta with its steps split where a pair enters or leaves. Fourth order: the
+  // error falls 16x per halving of the step.
+  const twin::GearboxParameters p;
+  twin::SimulationOptions o;
+  o.sample_rate_hz = 100000;
+  const auto ref = twin::simulate(p, {}, {10.0, 20.0}, 0.1, o);
+  rig::RigRunSettings s;
+  s.duration_s = 0.1;
+  s.channels = 1;
+  s.keep_diagnostics = true;
+  const auto r100 = run({}, s);
+  REQUIRE(r100.acceleration[0].size() == ref.casing_acceleration.size());
+  const double e100 = relative_rms_error(ref.casing_acceleration, r100.acceleration[0]);
+  s.min_ode_rate_hz = 200000;
+  const double e200 = relative_rms_error(ref.casing_acceleration, run({}, s).acceleration[0]);
+  INFO("y6 relative RMS error: step 10 us " << e100 << ", 5 us " << e200);
+  CHECK(e100 < 4e-3);   // measured 2.8e-3
+  CHECK(e200 < 3e-4);   // measured 1.7e-4
+  CHECK(e100 / e200 > 10);
+  CHECK(relative_rms_error(ref.transmission_error_m, r100.mesh_deflection_m) < 5e-4);  // measured 2.2e-4
+}
+
+TEST_CASE("rig: shaft eccentricity puts its run-out into the transmission error at exactly that shaft's order", "[rig]") {
+  // With the soft couplings of the rig the drive train turns with the run-out (its inertia forces
+  // at 10 Hz are tiny): the dynamic TE delta = F/k - e_shaft carries the run-out e at the pinion's
+  // first order, in amplitude, and nothing at the next orders. Read over the whole
+  // revolutions between the first and last encoder edge.
+  const double fs = 5000.0;
+  rig::EffectSet fx = rig::EffectSet::parse("eccentricity");
+  fx.set("eccentricity.pinion_um", 10);
+  fx.set("eccentricity.pinion_phase_rad", 0.7);
+  fx.set("eccentricity.gear_um", 0);
+  rig::RigRunSettings s;
+  s.duration_s = 1.05;
+  s.sample_rate_hz = fs;
+  s.channels = 1;
+  s.settle_s = 1.2;  // the run-out starts at t = 0: let the 22 Hz coupling mode's transient die out
+  s.keep_diagnostics = true;
+  const auto with = run(fx, s), without = run({}, s);
+  auto order_amplitude = [fs](const std::vector<double>& x, const std::vector<double>& edges, double order) {
+    const auto first = static_cast<std::size_t>(std::ceil(edges.front())), last = static_cast<std::size_t>(std::floor(edges.back()));
+    const double revs = static_cast<double>(edges.size() - 1), span = (edges.back() - edges.front()) / fs;
+    const std::vector<double> piece(x.begin() + static_cast<std::ptrdiff_t>(first), x.begin() + static_cast<std::ptrdiff_t>(last));
+    return amplitude_at(piece, fs, order * revs / span);
+  };
+  const double a1 = order_amplitude(with.mesh_deflection_m, with.tacho_edges, 1);
+  INFO("TE at the pinion order: " << a1 * 1e6 << " um (run-out 10 um); without: "
+                                  << order_amplitude(without.mesh_deflection_m, without.tacho_edges, 1) * 1e6 << " um");
+  CHECK(a1 == Approx(10e-6).epsilon(0.02));
+  CHECK(order_amplitude(with.mesh_deflection_m, with.tacho_edges, 2) < 0.01 * a1);
+  CHECK(order_amplitude(with.mesh_deflection_m, with.tacho_edges, 3) < 0.01 * a1);
+  CHECK(order_amplitude(without.mesh_deflection_m, without.tacho_edges, 1) < 0.01 * a1);
+}
+
+TEST_CASE("rig: a casing mode is a resonance of the bearing-force-to-sensor path at its configured frequency", "[rig]") {
+  // The transfer from the vertical bearing force to the casing modes' share of the sensor signal
+  // over one hunting period (52 input revolutions: every line of the tooth-error excitation falls
+  // on a bin): at every strongly excited line it must equal the closed form
+  // sum_k -w^2/m / (w_k^2 - w^2 + 2i zeta w_k w), and peak on the same line as the closed form,
+  // within 1 % of the configured mode.
+  rig::EffectSet fx = rig::EffectSet::parse("casing,tooth_errors");
+  fx.set("casing.mode1_hz", 700);
+  fx.set("casing.mode2_hz", 1500);
+  fx.set("casing.damping_ratio", 0.03);
+  fx.set("casing.modal_mass_kg", 8);
+  rig::RigRunSettings s;
+  s.duration_s = 5.2;
+  s.settle_s = 0.5;
+  s.sample_rate_hz = 10000;
+  s.channels = 1;
+  s.keep_diagnostics = true;
+  const auto r = run(fx, s);
+  const std::size_t n = r.casing_y_m_s2.size();
+  REQUIRE(n == 52000);
+  dsp::RealFft fft(n);
+  dsp::RealBuffer in(n);
+  dsp::ComplexBuffer force(n / 2 + 1), response(n / 2 + 1);
+  std::copy(r.bearing_force_y_n.begin(), r.bearing_force_y_n.end(), in.begin());
+  fft.forward(in, force);
+  std::copy(r.casing_y_m_s2.begin(), r.casing_y_m_s2.end(), in.begin());
+  fft.forward(in, response);
+  const double df = s.sample_rate_hz / static_cast<double>(n);
+  auto closed_form = [](double f) {
+    std::complex<double> h = 0;
+    for (double fk : {700.0, 1500.0}) {
+      const double wk = 2 * kPi * fk, wf = 2 * kPi * f;
+      h += -wf * wf / 8.0 / std::complex<double>(wk * wk - wf * wf, 2 * 0.03 * wk * wf);
+    }
+    return std::abs(h);
+  };
+  // The tooth-error excitation is strong enough to read the transfer around the first mode.
+  for (auto [lo, hi, mode] : {std::tuple{400.0, 1000.0, 700.0}}) {
+    double largest = 0;
+    for (auto k = static_cast<std::size_t>(lo / df); k <= static_cast<std::size_t>(hi / df); ++k)
+      largest = std::max(largest, std::abs(force[k]));
+    double f_peak = 0, h_peak = 0, f_closed_peak = 0, h_closed_peak = 0, worst = 0;
+    int lines = 0;
+    for (auto k = static_cast<std::size_t>(lo / df); k <= static_cast<std::size_t>(hi / df); ++k) {
+      const double f = static_cast<double>(k) * df;
+      if (std::abs(force[k]) < 0.1 * largest) continue;  // the strong lines only: weak ones carry leakage
+      ++lines;
+      if (closed_form(f) > h_closed_peak) {
+        h_closed_peak = closed_form(f);
+        f_closed_peak = f;
+      }
+      const double h = std::abs(response[k] / force[k]);
+      if (h > h_peak) {
+        h_peak = h;
+        f_peak = f;
+      }
+      worst = std::max(worst, std::abs(h / closed_form(f) - 1));
+    }
+    INFO("mode " << mode << " Hz: " << lines << " excited lines, peak at " << f_peak << " Hz (closed form's peak "
+                 << f_closed_peak << " Hz, line spacing " << df << " Hz); worst deviation from the closed form " << worst);
+    CHECK(lines >= 20);
+    CHECK(f_peak == f_closed_peak);
+    CHECK(std::abs(f_peak - mode) <= 0.01 * mode);
+    CHECK(worst < 0.02);
+  }
+}
+
+TEST_CASE("rig: VFD speed ripple modulates the tacho intervals by the configured depth", "[rig]") {
+  // Speed from each encoder interval, fitted by a + b sin + c cos at the ripple frequency: the
+  // depth sqrt(b^2+c^2)/a is the configured depth times the interval's averaging,
+  // sin(pi f_m T)/(pi f_m T) with T the revolution period.
+  rig::EffectSet fx = rig::EffectSet::parse("speed_fluctuation");
+  fx.set("speed_fluctuation.depth", 0.02);
+  fx.set("speed_fluctuation.frequency_hz", 1.0);
+  fx.set("speed_fluctuation.phase_rad", 0.4);
+  rig::RigRunSettings s;
+  s.duration_s = 4.0;
+  s.sample_rate_hz = 5000;
+  s.channels = 1;
+  const auto r = run(fx, s);
+  REQUIRE(r.tacho_edges.size() >= 38);
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(r.tacho_edges.size() - 1), 3);
+  Eigen::VectorXd speed(a.rows());
+  for (Eigen::Index k = 0; k < a.rows(); ++k) {
+    const double t0 = r.tacho_edges[static_cast<std::size_t>(k)] / s.sample_rate_hz;
+    const double t1 = r.tacho_edges[static_cast<std::size_t>(k) + 1] / s.sample_rate_hz;
+    const double tm = 0.5 * (t0 + t1);
+    a.row(k) << 1.0, std::sin(2 * kPi * tm), std::cos(2 * kPi * tm);
+    speed[k] = 1.0 / (t1 - t0);
+  }
+  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(speed);
+  const double depth = std::hypot(c[1], c[2]) / c[0];
+  const double x = kPi * 1.0 / 10.0;
+  INFO("mean speed " << c[0] << " Hz, measured depth " << depth);
+  CHECK(c[0] == Approx(10.0).epsilon(1e-3));
+  CHECK(depth == Approx(0.02 * std::sin(x) / x).epsilon(0.01));
+}
+
+TEST_CASE("rig: the sensor noise floor has the configured PSD", "[rig]") {
+  rig::EffectSet fx = rig::EffectSet::parse("noise");
+  fx.set("noise.psd", 1e-4);
+  rig::RigRunSettings s;
+  s.duration_s = 0.3;
+  s.channels = 2;
+  const auto r = run(fx, s);
+  for (int c = 0; c < 2; ++c) {
+    const std::vector<double> x(r.acceleration[static_cast<std::size_t>(c)].begin(), r.acceleration[static_cast<std::size_t>(c)].end());
+    const auto w = welch(x, nullptr, s.sample_rate_hz, 1024);
+    // 30-45 kHz: far above the gear pair's own response, so the floor is the sensor's.
+    double sum = 0;
+    int bins = 0;
+    for (std::size_t k = static_cast<std::size_t>(30000 / w.df); k <= static_cast<std::size_t>(45000 / w.df); ++k, ++bins)
+      sum += w.psd[k];
+    INFO("channel " << c << ": floor " << sum / bins << " (m/s2)^2/Hz over " << bins << " bins");
+    CHECK(sum / bins == Approx(1e-4).epsilon(0.03));
+  }
+}
+
+TEST_CASE("rig: the mounting resonance amplifies the noise floor by the transmissibility at its frequency", "[rig]") {
+  // Sliding vibration is off; the sensor noise enters after the mount, so measure the mount on a
+  // wide-band structural input instead: abrasion-band sliding noise (22-34 kHz) through the mount
+  // at 28 kHz. The PSD ratio with/without the mount at 28 kHz is |T|^2 = (1 + 4 zeta^2)/(4 zeta^2).
+  rig::EffectSet with = rig::EffectSet::parse("mounting");
+  with.set("mounting.frequency_hz", 28000);
+  with.set("mounting.damping_ratio", 0.1);
+  rig::RigRunSettings s;
+  s.duration_s = 0.3;
+  s.channels = 1;
+  rig::SlidingVibration sliding;
+  sliding.abrasion_rms_m_s2 = 5.0;
+  const auto a = run(with, s, {}, sliding), b = run({}, s, {}, sliding);
+  const std::vector<double> xa(a.acceleration[0].begin(), a.acceleration[0].end()), xb(b.acceleration[0].begin(), b.acceleration[0].end());
+  const auto wa = welch(xa, nullptr, s.sample_rate_hz, 1000), wb = welch(xb, nullptr, s.sample_rate_hz, 1000);
+  const std::size_t k = static_cast<std::size_t>(28000 / wa.df);
+  double ra = 0, rb = 0;
+  for (std::size_t i = k - 2; i <= k + 2; ++i) {
+    ra += wa.psd[i];
+    rb += wb.psd[i];
+  }
+  const double expected = (1 + 4 * 0.01) / (4 * 0.01);
+  INFO("PSD ratio at 28 kHz " << ra / rb << ", expected " << expected);
+  CHECK(ra / rb == Approx(expected).epsilon(0.05));
+}
+
+TEST_CASE("rig: tooth-to-tooth spacing errors appear tooth by tooth in the synchronous transmission error", "[rig]") {
+  // Quasi-static (0.5 Hz): in a tooth's single-contact zone delta + e_n = F/k(s), e_n = -spacing_n,
+  // so the mean deflection there, tooth by tooth, is the configured pattern plus a constant.
+  const twin::GearboxParameters p;
+  const int z1 = p.gears.pinion_teeth, z2 = p.gears.gear_teeth;
+  rig::ToothErrorPattern pattern;
+  for (int n = 0; n < z1; ++n) pattern.pinion_spacing_m.push_back(3e-6 * std::sin(2 * kPi * 3 * n / z1) + (n == 7 ? 4e-6 : 0.0));
+  pattern.pinion_slope_m.assign(static_cast<std::size_t>(z1), 0.0);
+  pattern.gear_spacing_m.assign(static_cast<std::size_t>(z2), 0.0);
+  pattern.gear_slope_m.assign(static_cast<std::size_t>(z2), 0.0);
+  rig::EffectSet fx = rig::EffectSet::parse("tooth_errors");
+  fx.set_tooth_pattern(pattern, z1, z2);
+  rig::RigRunSettings s;
+  s.speed_hz = 0.5;
+  s.duration_s = 2.0;
+  s.settle_s = 0.5;
+  s.sample_rate_hz = 4000;
+  s.channels = 1;
+  s.keep_diagnostics = true;
+  const auto r = run(fx, s);
+  const double exit_phase = twin::GearMeshStiffness(twin::GearGeometry::from_spec(p.gears)).double_contact_share();
+  std::vector<double> sum(static_cast<std::size_t>(z1), 0.0), count(static_cast<std::size_t>(z1), 0.0);
+  // The single-contact zone, less its edges (the pair switch takes a few samples to settle).
+  for (std::size_t i = 0; i < r.mesh_cycles.size(); ++i) {
+    const double c = std::floor(r.mesh_cycles[i]), phase = r.mesh_cycles[i] - c;
+    if (phase < exit_phase + 0.05 || phase > 0.95) continue;
+    const auto tooth = static_cast<std::size_t>(((static_cast<long long>(c) % z1) + z1) % z1);
+    // The quasi-static F/k(s) is the same for every tooth; subtract it via the no-error run below.
+    sum[tooth] += r.mesh_deflection_m[i];
+    count[tooth] += 1;
+  }
+  const auto base = run({}, s);
+  std::vector<double> base_sum(static_cast<std::size_t>(z1), 0.0);
+  for (std::size_t i = 0; i < base.mesh_cycles.size(); ++i) {
+    const double c = std::floor(base.mesh_cycles[i]), phase = base.mesh_cycles[i] - c;
+    if (phase < exit_phase + 0.05 || phase > 0.95) continue;
+    base_sum[static_cast<std::size_t>(((static_cast<long long>(c) % z1) + z1) % z1)] += base.mesh_deflection_m[i];
+  }
+  double worst = 0;
+  for (int n = 0; n < z1; ++n) {
+    const auto k = static_cast<std::size_t>(n);
+    REQUIRE(count[k] > 10);
+    const double measured = (sum[k] - base_sum[k]) / count[k];
+    worst = std::max(worst, std::abs(measured - pattern.pinion_spacing_m[k]));
+  }
+  INFO("worst tooth error of the recovered pattern: " << worst * 1e6 << " um (pattern RMS ~2.2 um)");
+  CHECK(worst < 0.05e-6);
+}
+
+TEST_CASE("rig: tip relief lowers the high mesh harmonics of the transmission error as the quasi-static solution predicts", "[rig]") {
+  // Reference: for each mesh phase solve sum_i k_i max(delta + e_i, 0) = F by bisection (e_i the
+  // relief of the pair at s_i), then the DFT over one mesh period. The rig runs at 0.05 Hz.
+  const twin::GearboxParameters p;
+  const auto g = twin::GearGeometry::from_spec(p.gears);
+  const twin::GearMeshStiffness mesh(g);
+  const double amount = 8e-6, length = 0.2, torque = 20.0;
+  const double force = torque / g.base_radius_pinion;
+  auto relief = [&](double u) { return amount * std::max(0.0, (u - (1 - length)) / length); };
+  auto quasi_static = [&](bool relieved, int harmonic) {
+    const int n = 4000;
+    std::complex<double> acc = 0;
+    for (int i = 0; i < n; ++i) {
+      const double phase = (i + 0.5) / n;
+      double pos[3];
+      const int pairs = mesh.pairs_in_contact(phase, pos);
+      auto total = [&](double delta) {
+        double f = 0;
+        for (int j = 0; j < pairs; ++j) {
+          const double e = relieved ? -(relief(g.profile_fraction_pinion(pos[j])) + relief(g.profile_fraction_gear(pos[j]))) : 0.0;
+          f += mesh.pair_stiffness(pos[j]) * std::max(delta + e, 0.0);
+        }
+        return f;
+      };
+      double lo = 0, hi = 1e-3;
+      for (int it = 0; it < 100; ++it) ((total(0.5 * (lo + hi)) < force) ? lo : hi) = 0.5 * (lo + hi);
+      acc += 0.5 * (lo + hi) * std::polar(1.0, -2 * kPi * harmonic * phase);
+    }
+    return 2.0 * std::abs(acc) / n;
+  };
+  rig::EffectSet fx = rig::EffectSet::parse("tip_relief");
+  fx.set("tip_relief.amount_um", 8);
+  fx.set("tip_relief.length_fraction", 0.2);
+  rig::RigRunSettings s;
+  s.speed_hz = 0.05;  // mesh harmonics up to 7 (6.7 Hz) stay well below the 22 Hz coupling mode
+  s.torque_nm = torque;
+  s.settle_s = 1.0;
+  s.duration_s = 2.0 / (0.05 * 19);  // two mesh periods
+  s.sample_rate_hz = 2000;
+  s.channels = 1;
+  s.keep_diagnostics = true;
+  const auto a = run(fx, s), b = run({}, s);
+  auto simulated = [&](const rig::RigRecord& r, int h) {
+    std::complex<double> acc = 0;
+    for (std::size_t i = 0; i < r.mesh_cycles.size(); ++i)
+      acc += r.mesh_deflection_m[i] * std::polar(1.0, -2 * kPi * h * r.mesh_cycles[i]);
+    return 2.0 * std::abs(acc) / static_cast<double>(r.mesh_cycles.size());
+  };
+  double high_relief = 0, high_step = 0;
+  for (int h = 1; h <= 7; ++h) {
+    const double expected_db = 20 * std::log10(quasi_static(true, h) / quasi_static(false, h));
+    const double measured_db = 20 * std::log10(simulated(a, h) / simulated(b, h));
+    INFO("harmonic " << h << ": relief/step " << measured_db << " dB, quasi-static " << expected_db << " dB");
+    CHECK(measured_db == Approx(expected_db).margin(0.3));
+    if (h >= 4) {
+      high_relief += std::pow(simulated(a, h), 2);
+      high_step += std::pow(simulated(b, h), 2);
+    }
+  }
+  // Harmonics 4-7 together: the relief removes most of the step's high-order content.
+  CHECK(high_relief < 0.5 * high_step);
+}
+
+TEST_CASE("rig: misalignment raises the mean transmission error by half the face separation", "[rig]") {
+  // With the flanks separating by beta z across the face and the whole face loaded,
+  // F = k (c - beta b / 2): the mean deflection grows by beta b / 2 at the same load.
+  rig::EffectSet fx = rig::EffectSet::parse("misalignment");
+  fx.set("misalignment.angle_mrad", 0.05);
+  rig::RigRunSettings s;
+  s.speed_hz = 0.5;
+  s.settle_s = 0.5;
+  s.duration_s = 1.0;
+  s.sample_rate_hz = 2000;
+  s.channels = 1;
+  s.keep_diagnostics = true;
+  const auto a = run(fx, s), b = run({}, s);
+  const double shift = (std::accumulate(a.mesh_deflection_m.begin(), a.mesh_deflection_m.end(), 0.0) -
+                        std::accumulate(b.mesh_deflection_m.begin(), b.mesh_deflection_m.end(), 0.0)) /
+                       static_cast<double>(a.mesh_deflection_m.size());
+  const double expected = 0.5 * 0.05e-3 * twin::GearboxParameters{}.gears.face_width_m;
+  INFO("mean deflection shift " << shift * 1e6 << " um, expected " << expected * 1e6 << " um");
+  CHECK(shift == Approx(expected).epsilon(0.01));
+}
+
+TEST_CASE("rig: sliding vibration adds its RMS in its carrier band, modulated at the gear mesh", "[rig]") {
+  rig::RigRunSettings s;
+  s.duration_s = 0.3;
+  s.channels = 1;
+  rig::SlidingVibration sliding;
+  sliding.pitting_rms_m_s2 = 2.0;
+  const auto a = run({}, s, {}, sliding), b = run({}, s);
+  std::vector<double> d(a.acceleration[0].size());
+  for (std::size_t i = 0; i < d.size(); ++i) d[i] = a.acceleration[0][i] - b.acceleration[0][i];
+  double ss = 0;
+  for (double v : d) ss += v * v;
+  CHECK(std::sqrt(ss / d.size()) == Approx(2.0).epsilon(0.03));
+  // The carrier band is two Butterworth sections each side of 3-9 kHz: the share of power in the
+  // seed's pitting band 2-13 kHz is that of |H(f)|^2 = 1/((1 + (3k/f)^4)^2 (1 + (f/9k)^4)^2).
+  const auto w = welch(d, nullptr, s.sample_rate_hz, 1000);
+  double in_band = 0, total = 0, expected_in = 0, expected_total = 0;
+  for (std::size_t k = 1; k < w.psd.size(); ++k) {
+    const double f = static_cast<double>(k) * w.df;
+    const double h2 = 1.0 / (std::pow(1 + std::pow(3000 / f, 4), 2) * std::pow(1 + std::pow(f / 9000, 4), 2));
+    total += w.psd[k];
+    expected_total += h2;
+    if (f >= 2000 && f <= 13000) {
+      in_band += w.psd[k];
+      expected_in += h2;
+    }
+  }
+  INFO("share in 2-13 kHz: " << in_band / total << ", expected " << expected_in / expected_total);
+  CHECK(in_band / total == Approx(expected_in / expected_total).margin(0.01));
+  // Cyclostationary at the mesh: the squared envelope carries the mesh frequency (190 Hz).
+  std::vector<double> sq(d.size());
+  for (std::size_t i = 0; i < d.size(); ++i) sq[i] = d[i] * d[i];
+  const double mean_sq = ss / d.size();
+  CHECK(amplitude_at(sq, s.sample_rate_hz, 190.0) > 0.3 * mean_sq);
+  CHECK(amplitude_at(sq, s.sample_rate_hz, 173.0) < 0.1 * mean_sq);
+}
+
+TEST_CASE("rig: an effect parameter outside its range is refused with its name", "[rig]") {
+  rig::EffectSet fx;
+  CHECK_THROWS_WITH(fx.set("casing.mode1_hz", 9000), Contains("casing.mode1_hz") && Contains("[20, 5000]"));
+  CHECK_THROWS_WITH(fx.set("noise.psd", -1), Contains("noise.psd"));
+  CHECK_THROWS_WITH(fx.set("eccentricity.shaft_um", 1), Contains("eccentricity.shaft_um"));
+  CHECK_THROWS_WITH(rig::EffectSet::parse("casing,wobble"), Contains("wobble"));
+  CHECK_NOTHROW(fx.set("casing.mode1_hz", 5000));
+}
+
+TEST_CASE("rig: random effect parameters lie in their ranges and repeat for a seed", "[rig]") {
+  rig::EffectSet a = rig::EffectSet::parse("all"), b = rig::EffectSet::parse("all"), c = rig::EffectSet::parse("all");
+  a.randomise(42);
+  b.randomise(42);
+  c.randomise(43);
+  CHECK(a.active_parameters() == b.active_parameters());
+  CHECK(a.active_parameters() != c.active_parameters());
+  for (const auto& [name, value] : a.active_parameters()) {
+    const auto* info = rig::find_effect_parameter(name);
+    REQUIRE(info);
+    CHECK(value >= info->low);
+    CHECK(value <= info->high);
+  }
+  const auto pa = a.tooth_pattern(19, 52);
+  double ss = 0;
+  for (double v : pa.pinion_spacing_m) ss += v * v;
+  CHECK(std::sqrt(ss / 19) == Approx(a.get("tooth_errors.spacing_rms_um") * 1e-6).epsilon(1e-9));
+  CHECK(pa.pinion_spacing_m == b.tooth_pattern(19, 52).pinion_spacing_m);
+}
+
+TEST_CASE("rig: a record is identical for a seed and differs for another", "[rig]") {
+  rig::EffectSet fx = rig::EffectSet::parse("all");
+  fx.randomise(7);
+  rig::RigRunSettings s;
+  s.duration_s = 0.05;
+  s.seed = 3;
+  rig::SlidingVibration sliding;
+  sliding.pitting_rms_m_s2 = 1;
+  sliding.abrasion_rms_m_s2 = 1;
+  const auto a = run(fx, s, {}, sliding), b = run(fx, s, {}, sliding);
+  s.seed = 4;
+  const auto c = run(fx, s, {}, sliding);
+  CHECK(a.acceleration == b.acceleration);
+  CHECK(a.tacho_edges == b.tacho_edges);
+  CHECK(a.acceleration != c.acceleration);
+}
+
+TEST_CASE("rig: built-in wear truth follows its closed forms", "[rig]") {
+  rig::WearModelSettings w;
+  w.phases = {{0, 2e-12}, {1e6, 5e-13}};
+  w.torque_nm = 10;
+  w.reference_torque_nm = 20;
+  w.pitting_onset_cycles = 5e5;
+  w.k_pitting = 0.04;
+  w.pitting_exponent = 2;
+  w.max_pitting = 0.3;
+  w.initial_roughness = 1;
+  w.runin_cycles = 2e5;
+  w.roughness_per_um = 0.1;
+  const rig::BuiltinWearTruth truth(w, GearPairSpec{});
+  const auto s = truth.at(3e6);
+  // Amplitude: (10/20) (2e-12 * 1e6 + 5e-13 * 2e6) = 1.5e-6 m at the sliding extreme.
+  const double amplitude = 0.5 * (2e-12 * 1e6 + 5e-13 * 2e6);
+  CHECK(*std::max_element(s.profile.pinion.begin(), s.profile.pinion.end()) == Approx(amplitude).epsilon(1e-12));
+  CHECK(*std::max_element(s.profile.gear.begin(), s.profile.gear.end()) == Approx(amplitude * 19.0 / 52.0).epsilon(1e-12));
+  CHECK(s.k_wear == 5e-13);
+  CHECK(s.pitting_density == Approx(0.04 * 2.5 * 2.5));
+  CHECK(s.roughness == Approx(std::exp(-15.0) + 0.1 * s.mean_wear_depth_m * 1e6));
+  CHECK(truth.at(4e5).pitting_density == 0);
+  CHECK(truth.at(1e8).pitting_density == 0.3);
+  // Linear in cycles within a phase.
+  CHECK(truth.at(5e5).mean_wear_depth_m == Approx(0.5 * truth.at(1e6).mean_wear_depth_m));
+}
