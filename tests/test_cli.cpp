@@ -12,6 +12,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "command_runner.hpp"
 #include "temp_dir.hpp"
 #include <nlohmann/json.hpp>
 
@@ -19,28 +20,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int status;
-  std::string out, err;
-};
+using Result = gearwatch::testing::CommandResult;
 
-Result run(const std::string& args) {
-  static int n = 0;
-  const auto err_path = fs::temp_directory_path() / ("gearwatch-cli-err-" + std::to_string(::getpid()) + "-" + std::to_string(n++));
-  const std::string cmd = std::string(GEARWATCH_BINARY) + " " + args + " 2>" + err_path.string();
-  Result r{};
-  FILE* p = ::popen(cmd.c_str(), "r");
-  REQUIRE(p);
-  std::array<char, 4096> buf{};
-  std::size_t got;
-  while ((got = std::fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), got);
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128;
-  std::ifstream e(err_path);
-  r.err.assign(std::istreambuf_iterator<char>(e), {});
-  fs::remove(err_path);
-  return r;
-}
+Result run(const std::string& args) { return gearwatch::testing::run_command(std::string(GEARWATCH_BINARY) + " " + args); }
 
 
 }  // namespace
