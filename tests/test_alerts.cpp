@@ -102,7 +102,7 @@ TEST_CASE("alerts: state handed out and reloaded continues exactly (a restart ra
   REQUIRE(third.observe(key, false, "none", "m", h));  // 1 stored + 2 = 3
 }
 
-TEST_CASE("alerts: clear_all ends every raised alert of a kind; occurrences are events", "[alerts]") {
+TEST_CASE("alerts: clear_all ends every raised alert of a kind, occurrences are events", "[alerts]") {
   AlertTracker t;
   REQUIRE(t.observe({AlertKind::wear_mechanism, 0}, true, "fatigue_pitting", "m", {}));
   REQUIRE(t.observe({AlertKind::wear_mechanism, 1}, true, "abrasive_wear", "m", {}));

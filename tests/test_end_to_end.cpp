@@ -197,7 +197,7 @@ TEST_CASE("end to end: a configured accelerometer the stream does not carry is a
   CHECK(wrong.err.find("--channel applies to") != std::string::npos);
 }
 
-TEST_CASE("end to end: a channel whose frames stop is cut out; the other keeps its records", "[e2e][sensor]") {
+TEST_CASE("end to end: a channel whose frames stop is cut out, the other keeps its records", "[e2e][sensor]") {
   const gearwatch::testing::TempDir dir("e2e-stopped");
   const auto config = two_channel_config(dir.path());
   const auto db = dir / "plant.db";

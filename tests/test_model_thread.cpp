@@ -151,7 +151,7 @@ TEST_CASE("model thread: a campaign replayed one file per process ends in the st
   CHECK(dump(split, predictions) == dump(whole, predictions));
 }
 
-TEST_CASE("model thread: live it coalesces to the newest record when behind; a replay loses nothing", "[model][daemon]") {
+TEST_CASE("model thread: live it coalesces to the newest record when behind, a replay loses nothing", "[model][daemon]") {
   const gearwatch::testing::TempDir dir("model-queue");
   for (const bool lossless : {false, true}) {
     const auto db = dir / (lossless ? "lossless.db" : "live.db");

@@ -144,7 +144,7 @@ TEST_CASE("decoder: frames before the first stream header are dropped and counte
   CHECK(h.events.empty());
 }
 
-TEST_CASE("decoder: a new stream id or sample rate starts a new stream; repeats do not", "[decoder]") {
+TEST_CASE("decoder: a new stream id or sample rate starts a new stream, repeats do not", "[decoder]") {
   Harness h;
   h.header(1);
   h.samples(0, 0);
@@ -216,7 +216,7 @@ TEST_CASE("decoder: operating condition and a life counter that goes backwards",
     }
 }
 
-TEST_CASE("decoder: every rejection says its kind; kinds are distinct stored tokens", "[decoder]") {
+TEST_CASE("decoder: every rejection says its kind, kinds are distinct stored tokens", "[decoder]") {
   Harness h;
   h.header();
   auto kind_of = [&](const CanFrame& f) {

@@ -122,7 +122,7 @@ TEST_CASE("assembler: records every interval, the time between them unused", "[a
   }
 }
 
-TEST_CASE("assembler: a gap in one channel cuts the record; the schedule goes on", "[assembler]") {
+TEST_CASE("assembler: a gap in one channel cuts the record, the schedule goes on", "[assembler]") {
   Stream s;
   s.start();
   // Channel 1 loses [1300, 1400): the decoder announces it, then samples resume.
@@ -178,7 +178,7 @@ TEST_CASE("assembler: a hole nobody announced is a ring-overflow gap", "[assembl
   CHECK(s.records[0].first.sample_count() == 500);
 }
 
-TEST_CASE("assembler: a channel silent for more than the slack is cut out; the other keeps its records", "[assembler]") {
+TEST_CASE("assembler: a channel silent for more than the slack is cut out, the other keeps its records", "[assembler]") {
   Stream s;
   s.start();
   s.run(0, 400);

@@ -96,7 +96,7 @@ TEST_CASE("report: linear ticks are exact multiples of a nice step inside the ra
   CHECK(format_linear_tick(0, d) == "0");
 }
 
-TEST_CASE("report: log ticks are the decades inside the range; the log axis is chosen past two decades", "[report]") {
+TEST_CASE("report: log ticks are the decades inside the range, the log axis is chosen past two decades", "[report]") {
   const auto t = log_ticks(1e-4, 0.3);
   CHECK(t == std::vector<double>{1e-4, 1e-3, 1e-2, 1e-1});
   CHECK(format_log_tick(1e-4) == "1e-4");

@@ -147,7 +147,7 @@ TEST_CASE("rig campaign: truth.json matches the records: cycles in each capture'
   CHECK(truth.at("effects").at("parameters").at("noise.psd").at("value") == 4e-5);
 }
 
-TEST_CASE("rig campaign: the same seed writes the same files; effects drawn at random stay in range", "[rig][campaign]") {
+TEST_CASE("rig campaign: the same seed writes the same files, effects drawn at random stay in range", "[rig][campaign]") {
   const gearwatch::testing::TempDir dir("rig-campaign-seed");
   auto make = [&](const std::string& name, int seed) {
     const auto r = run_command(gearwatch_cmd("simulate --campaign healthy --records 2 --seconds 0.2 --channels 1 --effects all --seed " +

@@ -316,7 +316,7 @@ TEST_CASE("storage: every enumerated value has one source of truth: the enum", "
   CHECK(count(db, "SELECT count(*) FROM rejected_frames") == 1);
 }
 
-TEST_CASE("storage: every wear verdict and alert value is stored; a refused part loses nothing else", "[storage][vocabulary]") {
+TEST_CASE("storage: every wear verdict and alert value is stored, a refused part loses nothing else", "[storage][vocabulary]") {
   const gearwatch::testing::TempDir dir("verdicts");
   const auto path = (dir / "a.db").string();
   WriterOptions o;

@@ -5,7 +5,7 @@
 
 using namespace gearwatch;
 
-TEST_CASE("[twin] overrides parameters; errors name the key and its line", "[twin]") {
+TEST_CASE("[twin] overrides parameters, errors name the key and its line", "[twin]") {
   const auto p = config::twin_parameters_from_toml("[rig]\nx = 1\n[twin]\nkt12 = 1500.0\nmesh_damping_ratio = 0.1\n", "f.toml");
   CHECK(p.kt12 == 1500.0);
   CHECK(p.mesh_damping_ratio == 0.1);

@@ -198,7 +198,7 @@ Run run_cli(const std::string& args) {
 }
 }  // namespace
 
-TEST_CASE("cli: twin wear --format json equals the library call; bad input exits with a reason", "[wear][cli]") {
+TEST_CASE("cli: twin wear --format json equals the library call, bad input exits with a reason", "[wear][cli]") {
   const Run r = run_cli("twin wear --k-wear 1.65e-6 --torque 5 --speed 10 --cycles 7000 --k-pitting 0 --format json");
   REQUIRE(r.status == 0);
   const auto j = nlohmann::json::parse(r.out);

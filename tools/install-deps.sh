@@ -7,7 +7,7 @@
 #                                  python3 with numpy for the capture generator tests/capture_gen;
 #                                  headless chromium and a font for the report's browser test;
 #                                  the systemd VM's root: debootstrap, and the .deb it installs;
-#                                  the fuzzers: clang-14 and libFuzzer)
+#                                  the fuzzers: clang-14, libFuzzer and its sanitizer runtimes)
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config git ca-certificates
           libeigen3-dev libboost-dev libfftw3-dev libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev
@@ -16,7 +16,7 @@ package_tools=(dpkg-dev file)
 [ "${1:-}" = "--package" ] && packages+=("${package_tools[@]}")
 [ "${1:-}" = "--test" ] && packages+=(can-utils qemu-system-x86 busybox-static cpio xz-utils python3 python3-numpy
                                       chromium fonts-dejavu-core
-                                      debootstrap "${package_tools[@]}" clang-14 libfuzzer-14-dev)
+                                      debootstrap "${package_tools[@]}" clang-14 libfuzzer-14-dev libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
