@@ -26,8 +26,7 @@ double selected_value(const dsp::ChannelAnalysis& a) {
   return kNaN;
 }
 
-std::string skip_token(const dsp::SkippedIndicator& s) { return dsp::to_string(s.reason); }
-std::string skip_detail(const dsp::SkippedIndicator& s) { return s.detail; }
+
 
 }  // namespace
 
@@ -191,7 +190,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
       ch.values.emplace_back("tsa_averages_output", a.tsa_averages_output);
       ch.values.emplace_back("samples_per_revolution", static_cast<double>(a.samples_per_revolution));
     }
-    for (const auto& s : a.skipped) ch.skipped.push_back({s.name, skip_token(s), skip_detail(s)});
+    for (const auto& s : a.skipped) ch.skipped.push_back({s.name, dsp::to_string(s.reason), s.detail});
     for (const auto& b : a.band_selections) ch.bands.push_back({b.criterion, b.level, b.centre_hz, b.bandwidth_hz, b.value});
     observe_channel_alerts(channel, a, out);
     check_thresholds(channel, a, out);

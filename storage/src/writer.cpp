@@ -24,9 +24,10 @@ struct WriterState {
 };
 
 // Writes `part` in a savepoint; a constraint failure (a bug in what was submitted) drops that
-// part alone, logged with what it was. Transient errors go up: the whole batch is retried.
-template <class Part>
-void write_part(Database& db, WriterCounters& counters, const char* what, const std::string& context, Part&& part) {
+// part alone, logged with what it was (`describe()`, called only then: no text is built for the
+// parts that succeed). Transient errors go up: the whole batch is retried.
+template <class Describe, class Part>
+void write_part(Database& db, WriterCounters& counters, const char* what, Describe&& describe, Part&& part) {
   Savepoint sp(db);
   try {
     part();
@@ -35,7 +36,7 @@ void write_part(Database& db, WriterCounters& counters, const char* what, const 
     if (e.transient()) throw;
     const auto n = counters.rows_rejected.fetch_add(1, std::memory_order_relaxed) + 1;
     if (n <= 10 || n % 1000 == 0)
-      spdlog::critical("storage: {} of {} refused ({} refused so far), the rest is stored: {}", what, context, n, e.what());
+      spdlog::critical("storage: {} of {} refused ({} refused so far), the rest is stored: {}", what, describe(), n, e.what());
   }
 }
 
@@ -80,19 +81,17 @@ class BatchWriter {
     }
     const std::string context = "record " + std::to_string(record_id) + " (stream " + std::to_string(m.stream_sequence) +
                                 ", index " + std::to_string(m.start_index) + ")";
+    Statement skip(db_, "INSERT OR REPLACE INTO indicator_skips(record_id, channel, name, reason, detail) VALUES (?, ?, ?, ?, ?)");
     for (const auto& ch : m.channels)
       for (const auto& k : ch.skipped)
-        write_part(db_, counters_, "skip reason", context + " channel " + std::to_string(ch.channel) + " " + k.name + ": " + k.reason,
-                   [&] {
-                     Statement skip(db_, "INSERT OR REPLACE INTO indicator_skips(record_id, channel, name, reason, detail) VALUES (?, ?, ?, ?, ?)");
+        write_part(db_, counters_, "skip reason", [&] { return context + " channel " + std::to_string(ch.channel) + " " + k.name + ": " + k.reason; }, [&] {
                      skip.bind(1, record_id).bind(2, ch.channel).bind(3, k.name).bind(4, k.reason);
                      if (k.detail.empty()) skip.bind_null(5);
                      else skip.bind(5, k.detail);
                      skip.run();
                    });
     for (const auto& w : m.assessments)
-      write_part(db_, counters_, "wear assessment", context + " channel " + std::to_string(w.channel) + ": " + dsp::to_string(w.mechanism),
-                 [&] {
+      write_part(db_, counters_, "wear assessment", [&] { return context + " channel " + std::to_string(w.channel) + ": " + dsp::to_string(w.mechanism); }, [&] {
                    Statement a(db_, "INSERT OR REPLACE INTO wear_mechanism_assessments(record_id, channel, mechanism, points, low_band_p,"
                                     " high_band_p, low_band_rho, high_band_rho, band_jumps, evidence) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
                    a.bind(1, record_id).bind(2, w.channel).bind(3, dsp::to_string(w.mechanism)).bind(4, w.points).bind(5, w.low_band_p)
@@ -152,12 +151,12 @@ class BatchWriter {
     }
     const std::string context = "model run " + std::to_string(run_id) + " at " + std::to_string(r.observation.cycles) + " cycles";
     for (const auto issue : r.issues)
-      write_part(db_, counters_, "model issue", context + ": " + wear::to_string(issue), [&] {
+      write_part(db_, counters_, "model issue", [&] { return context + ": " + wear::to_string(issue); }, [&] {
         Statement i(db_, "INSERT OR IGNORE INTO model_run_issues(run_id, issue) VALUES (?, ?)");
         i.bind(1, run_id).bind(2, wear::to_string(issue)).run();
       });
     for (const auto& u : r.updates)
-      write_part(db_, counters_, "K update", context + ": " + wear::to_string(u.kind) + " " + wear::to_string(u.outcome), [&] {
+      write_part(db_, counters_, "K update", [&] { return context + ": " + wear::to_string(u.kind) + " " + wear::to_string(u.outcome); }, [&] {
         Statement k(db_, "INSERT INTO k_update_log(run_id, gear_pair, cycles, kind, triggered_by, outcome, old_value, new_value,"
                          " applies_from_cycles, iterations, measured, simulated_before, simulated_after, correlation_before,"
                          " correlation_after, evidence) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
@@ -199,10 +198,14 @@ class BatchWriter {
  private:
   void write_alerts(const std::vector<AlertEvent>& alerts, const std::vector<std::pair<AlertKey, AlertState>>& states,
                     std::optional<std::int64_t> record_id, const std::string& context) {
-    for (const auto& e : alerts)
-      write_part(db_, counters_, "alert", context + ": " + to_string(e.key.kind) + " " + to_string(e.transition) + " " + e.value, [&] {
-        Statement a(db_, "INSERT INTO alert_events(record_id, severity, kind, channel, transition, value, message, subject)"
+    if (alerts.empty() && states.empty()) return;
+    Statement event(db_, "INSERT INTO alert_events(record_id, severity, kind, channel, transition, value, message, subject)"
                          " VALUES (?, ?, ?, ?, ?, ?, ?, ?)");
+    Statement state(db_, "INSERT OR REPLACE INTO alert_state(kind, channel, subject, active, value, consecutive_present,"
+                         " consecutive_absent, marker) VALUES (?, ?, ?, ?, ?, ?, ?, ?)");
+    for (const auto& e : alerts)
+      write_part(db_, counters_, "alert", [&] { return context + ": " + to_string(e.key.kind) + " " + to_string(e.transition) + " " + e.value; }, [&] {
+        Statement& a = event;
         a.bind(1, record_id).bind(2, to_string(e.severity)).bind(3, to_string(e.key.kind));
         if (e.key.channel < 0) a.bind_null(4);
         else a.bind(4, e.key.channel);
@@ -215,10 +218,8 @@ class BatchWriter {
         a.run();
       });
     for (const auto& [key, st] : states)
-      write_part(db_, counters_, "alert state", context + ": " + to_string(key.kind), [&] {
-        Statement a(db_, "INSERT OR REPLACE INTO alert_state(kind, channel, subject, active, value, consecutive_present,"
-                         " consecutive_absent, marker) VALUES (?, ?, ?, ?, ?, ?, ?, ?)");
-        a.bind(1, to_string(key.kind)).bind(2, key.channel).bind(3, key.subject).bind(4, st.active ? 1 : 0).bind(5, st.value)
+      write_part(db_, counters_, "alert state", [&] { return context + ": " + to_string(key.kind); }, [&] {
+        state.bind(1, to_string(key.kind)).bind(2, key.channel).bind(3, key.subject).bind(4, st.active ? 1 : 0).bind(5, st.value)
             .bind(6, st.consecutive_present).bind(7, st.consecutive_absent).bind(8, st.marker).run();
       });
   }
