@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_runner.hpp"
+#include "gearwatch/wear/wear_loop.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -90,6 +91,10 @@ TEST_CASE("rig campaign: a campaign file with unknown keys, wrong types or impos
   CHECK_THROWS_WITH(parse(head + "[wear]\nk_pitting = \"high\"\n"), Contains("line 4") && Contains("wear.k_pitting must be a number"));
   CHECK_THROWS_WITH(parse(head + "[[wear.phase]]\nfrom_cycles = 500\nk_wear = 1e-12\n[[wear.phase]]\nfrom_cycles = 100\nk_wear = 1e-12\n"),
                     Contains("line 7") && Contains("wear.phase.from_cycles"));
+  CHECK_THROWS_WITH(parse(head + "[wear]\nlaw = \"paris\"\n"), Contains("line 4") && Contains("wear.law") && Contains("archard"));
+  CHECK_THROWS_WITH(parse(head + "[wear]\nlaw = 1\n"), Contains("line 4") && Contains("wear.law must be a string"));
+  CHECK(parse(head + "[wear]\nlaw = \"archard\"\n").wear.law == gearwatch::rig::WearLaw::archard);
+  CHECK(parse(head).wear.law == gearwatch::rig::WearLaw::linear);
   CHECK_THROWS_WITH(parse(head + "[sliding]\npitting_band_hz = [9000, 3000]\n"), Contains("line 4") && Contains("sliding.pitting_band_hz"));
   CHECK_THROWS_WITH(parse(head + "[effects]\nenabled = [\"casing\", \"wobble\"]\n"), Contains("line 4") && Contains("wobble"));
   CHECK_THROWS_WITH(parse(head + "[effects.casing]\nmode1_hz = 9000\n"),
@@ -133,16 +138,28 @@ TEST_CASE("rig campaign: truth.json matches the records: cycles in each capture'
     CHECK(counters.front() == static_cast<std::uint64_t>(expected_cycles[k]));
     // 0.3 s at 10 Hz: the counter ends 2 revolutions on (the last one sent after sample 0.2 s).
     CHECK(counters.back() <= static_cast<std::uint64_t>(expected_cycles[k]) + 3);
-    // Wear: 2e-9 m/cycle at 20 N m, run at 5 N m; mean depth grows linearly in cycles.
+    // Wear by the Archard model, K = 1e-13 m²/N at 5 N m: the depth grows with the cycles.
     const double depth = rec.at("mean_wear_depth_um").get<double>();
     CHECK(depth > last_depth);
     last_depth = depth;
-    CHECK(rec.at("k_wear").get<double>() == 2e-9);
+    CHECK(rec.at("k_wear").get<double>() == 1e-13);
     CHECK(rec.at("pitting_density").get<double>() == 0);
   }
   const auto& last = truth.at("records")[2];
   const auto& profile = last.at("wear_profile_pinion_um_root_to_tip");
-  CHECK(*std::max_element(profile.begin(), profile.end()) == Approx(5.0 / 20.0 * 2e-9 * 35000 * 1e6));
+  // The same as the project's blue loop run by hand to the same stops (the truth's steps stop there too).
+  gearwatch::wear::WearLoopOptions o;
+  o.k_wear_si = 1e-13;
+  o.operating_point = {10.0, 5.0};
+  gearwatch::wear::BlueLoop reference(gearwatch::twin::GearboxParameters{}, o);
+  REQUIRE(reference.run_until(20000));
+  REQUIRE(reference.run_until(35000));
+  const auto expected = gearwatch::wear::to_profile_deviation(reference.state()).pinion;
+  REQUIRE(profile.size() == expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) CHECK(profile[i].get<double>() == Approx(expected[i] * 1e6).epsilon(1e-12));
+  CHECK(last.at("combined_mean_wear_depth_um").get<double>() ==
+        Approx(gearwatch::wear::summarise(reference.state()).combined_mean_depth_m * 1e6).epsilon(1e-12));
+  CHECK(truth.at("campaign").at("wear_law") == "archard");
   CHECK(truth.at("effects").at("enabled") == nlohmann::json::array({"noise"}));
   CHECK(truth.at("effects").at("parameters").at("noise.psd").at("value") == 4e-5);
 }
@@ -190,6 +207,15 @@ TEST_CASE("rig campaign: refusals name the cause and write nothing", "[rig][camp
   CHECK(r.status != 0);
   CHECK_THAT(r.err, Contains("line 6") && Contains("mounting.frequency_hz"));
   CHECK_FALSE(fs::exists(dir / "x"));
+  // Archard wear that passes the wear loop's 0.5 mm depth limit before the last stop: refused
+  // before anything is written (the truth is computed for every record first).
+  const auto worn = dir / "worn.toml";
+  std::ofstream(worn) << "[campaign]\nmax_cycles = 38000\nrecords = 3\ntorque_nm = 5.0\n"
+                         "[wear]\nlaw = \"archard\"\n[[wear.phase]]\nfrom_cycles = 0\nk_wear = 1.0e-10\n";
+  r = run_command(gearwatch_cmd("simulate --campaign " + worn.string() + " --seconds 0.2 --out " + (dir / "w").string()));
+  CHECK(r.status != 0);
+  CHECK_THAT(r.err, Contains("depth limit") && Contains("nothing written"));
+  CHECK_FALSE(fs::exists(dir / "w"));
   r = run_command(gearwatch_cmd("simulate --campaign dry --effects casing,wobble --out " + (dir / "y").string()));
   CHECK(r.status != 0);
   CHECK_THAT(r.err, Contains("wobble"));

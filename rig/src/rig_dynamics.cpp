@@ -20,7 +20,9 @@ RigDynamics::RigDynamics(const twin::GearboxParameters& p, const EffectSet& fx, 
                          double speed_hz, double torque_nm) {
   p.validate();
   if (!(speed_hz > 0) || !std::isfinite(speed_hz)) throw RigParameterError("speed must be positive");
-  if (!(torque_nm >= 0) || !std::isfinite(torque_nm)) throw RigParameterError("torque must be >= 0");
+  // A negative torque is the load driving the motor (overrun): only back-flank contact (backlash)
+  // can carry it.
+  if (!std::isfinite(torque_nm)) throw RigParameterError("torque must be finite");
   const auto geometry = twin::GearGeometry::from_spec(p.gears);
   twin::MeshStiffnessOptions mo;
   mo.scale = p.mesh_stiffness_scale;
@@ -235,10 +237,13 @@ void RigDynamics::derivative(double t, const RigState& y, RigState& dy, RigOutpu
 RigState RigDynamics::static_state() {
   // The twin's static equilibrium (q5 = 0 fixes the rigid rotation), the casing at its static
   // deflection under the static bearing forces.
-  const twin::GearboxDynamics core(m_, mesh_, gte_, omega_ / (2.0 * std::numbers::pi), external_[twin::theta1]);
+  // The equilibrium is linear in the loads: under a reversed torque it is the mirror image (the
+  // twin takes only a driving torque). Backlash then has the back flanks close the gap first.
+  const double torque = external_[twin::theta1];
+  const twin::GearboxDynamics core(m_, mesh_, gte_, omega_ / (2.0 * std::numbers::pi), std::abs(torque));
   const twin::State s = core.static_equilibrium();
   RigState y = RigState::Zero();
-  for (int i = 0; i < 2 * N; ++i) y[i < N ? i : i - N + kRigDof] = s[static_cast<std::size_t>(i)];
+  for (int i = 0; i < 2 * N; ++i) y[i < N ? i : i - N + kRigDof] = (torque < 0 ? -1.0 : 1.0) * s[static_cast<std::size_t>(i)];
   q1_static_ = y[twin::theta1];
   if (casing_) {
     double by = 0, bx = 0;

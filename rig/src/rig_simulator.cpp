@@ -105,13 +105,18 @@ std::vector<double> band_noise(std::size_t n, double low, double high, double fs
 
 twin::ToothProfileDeviation truth_profile(const twin::GearboxParameters& params, const EffectSet& effects,
                                           const WearState& wear) {
-  std::vector<double> pinion = resample(wear.profile.pinion, kProfilePoints);
-  std::vector<double> gear = resample(wear.profile.gear, kProfilePoints);
+  // A wear table finer than the default grid (the Archard truth's 101 points, with its notch at the
+  // pitch point) keeps its resolution: resampling it to 41 points would blunt the notch and lower
+  // the mesh excitation the wear causes.
+  const int points = std::max<int>({kProfilePoints, static_cast<int>(wear.profile.pinion.size()),
+                                    static_cast<int>(wear.profile.gear.size())});
+  std::vector<double> pinion = resample(wear.profile.pinion, points);
+  std::vector<double> gear = resample(wear.profile.gear, points);
   if (effects.enabled(Effect::tip_relief)) {
     // Linear relief from (1 − L) of the active profile to the tip, on both gears.
     const double amount = effects.get("tip_relief.amount_um") * 1e-6, length = effects.get("tip_relief.length_fraction");
-    for (int i = 0; i < kProfilePoints; ++i) {
-      const double u = static_cast<double>(i) / (kProfilePoints - 1);
+    for (int i = 0; i < points; ++i) {
+      const double u = static_cast<double>(i) / (points - 1);
       const double relief = amount * std::max(0.0, (u - (1.0 - length)) / length);
       pinion[static_cast<std::size_t>(i)] += relief;
       gear[static_cast<std::size_t>(i)] += relief;
@@ -123,12 +128,12 @@ twin::ToothProfileDeviation truth_profile(const twin::GearboxParameters& params,
   if (effects.enabled(Effect::tooth_errors)) {
     const int z1 = params.gears.pinion_teeth, z2 = params.gears.gear_teeth;
     const ToothErrorPattern p = effects.tooth_pattern(z1, z2);
-    auto per_tooth = [](const std::vector<double>& base, const std::vector<double>& spacing,
+    auto per_tooth = [points](const std::vector<double>& base, const std::vector<double>& spacing,
                         const std::vector<double>& slope) {
       std::vector<std::vector<double>> out(spacing.size(), base);
       for (std::size_t n = 0; n < spacing.size(); ++n)
-        for (int i = 0; i < kProfilePoints; ++i)
-          out[n][static_cast<std::size_t>(i)] += spacing[n] + slope[n] * (static_cast<double>(i) / (kProfilePoints - 1) - 0.5);
+        for (int i = 0; i < points; ++i)
+          out[n][static_cast<std::size_t>(i)] += spacing[n] + slope[n] * (static_cast<double>(i) / (points - 1) - 0.5);
       return out;
     };
     d.pinion_per_tooth = per_tooth(pinion, p.pinion_spacing_m, p.pinion_slope_m);

@@ -58,6 +58,7 @@ WearState BuiltinWearTruth::at(double cycles) const {
   // Mean over the profile by the trapezoid rule on the uniform grid.
   mean -= 0.5 * (w.profile.pinion.front() + w.profile.pinion.back());
   w.mean_wear_depth_m = mean / (n - 1);
+  w.combined_mean_wear_depth_m = w.mean_wear_depth_m * (1.0 + ratio);
   if (amplitude == 0) w.profile = {};
 
   w.k_pitting = cycles >= s_.pitting_onset_cycles ? s_.k_pitting : 0.0;
@@ -66,6 +67,70 @@ WearState BuiltinWearTruth::at(double cycles) const {
         std::min(s_.max_pitting, s_.k_pitting * std::pow((cycles - s_.pitting_onset_cycles) / 1e6, s_.pitting_exponent));
   w.roughness = s_.initial_roughness * std::exp(-cycles / s_.runin_cycles) + s_.roughness_per_um * w.mean_wear_depth_m * 1e6;
   return w;
+}
+
+namespace {
+WearModelSettings without_wear(WearModelSettings s) {
+  s.phases.clear();
+  s.roughness_per_um = 0;
+  return s;
+}
+}  // namespace
+
+ArchardWearTruth::ArchardWearTruth(const WearModelSettings& settings, const twin::GearboxParameters& params, double speed_hz)
+    : s_(settings), surface_(without_wear(settings), params.gears), params_(params) {
+  BuiltinWearTruth(settings, params.gears);  // the same validation of phases and coefficients
+  options_.operating_point.input_speed_hz = speed_hz;
+  options_.operating_point.input_torque_nm = s_.torque_nm;
+  options_.force_model = wear::ForceModel::quasi_static;
+  options_.k_pitting = 0;
+  try {
+    options_.validate();
+  } catch (const std::exception& e) {
+    throw RigParameterError(std::string("archard wear truth: ") + e.what());
+  }
+}
+
+WearState ArchardWearTruth::at(double cycles) const {
+  auto k_at = [this](double n) {
+    double k = 0;
+    for (const auto& p : s_.phases)
+      if (n >= p.from_cycles) k = p.k_wear;
+    return k;
+  };
+  if (!loop_ || loop_->state().cycles > cycles) {
+    auto options = options_;
+    options.k_wear_si = k_at(0.0);
+    loop_ = std::make_unique<wear::BlueLoop>(params_, options);
+  }
+  // Run phase by phase: K changes exactly at each phase's first cycle.
+  for (;;) {
+    const double now = loop_->state().cycles;
+    if (k_at(now) != loop_->options().k_wear_si) loop_->set_coefficients(k_at(now), 0.0);
+    double boundary = INFINITY;
+    for (const auto& p : s_.phases)
+      if (p.from_cycles > now) boundary = std::min(boundary, p.from_cycles);
+    const double target = std::min(cycles, boundary);
+    if (target > now && !loop_->run_until(target))
+      throw RigParameterError("archard wear truth: a flank passes the wear loop's depth limit before " +
+                              std::to_string(target) + " cycles");
+    if (target >= cycles) break;
+  }
+  WearState w = surface_.at(cycles);
+  const auto& state = loop_->state();
+  w.profile = wear::to_profile_deviation(state);
+  const auto summary = wear::summarise(state);
+  w.mean_wear_depth_m = summary.pinion_mean_depth_m;
+  w.combined_mean_wear_depth_m = summary.combined_mean_depth_m;
+  w.k_wear = k_at(cycles);
+  w.roughness += s_.roughness_per_um * w.mean_wear_depth_m * 1e6;
+  return w;
+}
+
+std::unique_ptr<WearTruth> make_wear_truth(const WearModelSettings& settings, const twin::GearboxParameters& params,
+                                           double speed_hz) {
+  if (settings.law == WearLaw::archard) return std::make_unique<ArchardWearTruth>(settings, params, speed_hz);
+  return std::make_unique<BuiltinWearTruth>(settings, params.gears);
 }
 
 }  // namespace gearwatch::rig

@@ -25,7 +25,7 @@ struct SlidingVibration {
 
 struct RigRunSettings {
   double speed_hz = 10.0;           ///< mean input speed
-  double torque_nm = 20.0;          ///< motor torque (the brake holds it times the ratio)
+  double torque_nm = 20.0;          ///< motor torque (the brake holds it times the ratio); < 0: the load drives
   double duration_s = 10.0;
   double sample_rate_hz = 100000.0;
   int channels = 2;                 ///< 1: casing vertical (y6 side); 2: + horizontal (x6 side)

@@ -5,7 +5,9 @@
 #include <memory>
 #include <vector>
 
+#include "gearwatch/twin/gearbox_parameters.hpp"
 #include "gearwatch/twin/transmission_error.hpp"
+#include "gearwatch/wear/wear_loop.hpp"
 
 namespace gearwatch::rig {
 
@@ -13,6 +15,7 @@ struct WearState {
   double cycles = 0;                        ///< pinion (input) revolutions since installation
   twin::ToothProfileDeviation profile;      ///< mean wear depth root → tip (uniform over the teeth), m
   double mean_wear_depth_m = 0;             ///< mean over the pinion's active profile
+  double combined_mean_wear_depth_m = 0;    ///< pinion + gear mean: what the twin's model reports as its mean
   double pitting_density = 0;               ///< pitted fraction of the active flank area, 0..1
   double roughness = 0;                     ///< abrasion roughness index (1 = a sandpaper-roughened flank)
   double k_wear = 0;                        ///< wear coefficient in force at this cycle count
@@ -37,7 +40,12 @@ struct WearPhase {
 /// gear's depth scaled by z1/z2 (each gear tooth meshes z1/z2 times as often as a pinion tooth);
 ///   pitting(N) = min(max, K_pitting · ((N − N_onset)/10⁶)^β) for N > N_onset, else 0;
 ///   roughness(N) = R0 · exp(−N / N_runin) + R_wear · mean depth / 1 µm.
+/// `linear`: the law above, K in m of depth per cycle. `archard`: the project's improved Archard
+/// model (core wear, quasi-static force, the same blue loop the twin's model runs), K in m²/N.
+enum class WearLaw { linear, archard };
+
 struct WearModelSettings {
+  WearLaw law = WearLaw::linear;
   std::vector<WearPhase> phases;           ///< sorted by from_cycles; before the first: K = 0
   double reference_torque_nm = 20.0;
   double torque_nm = 20.0;
@@ -63,5 +71,25 @@ class BuiltinWearTruth final : public WearTruth {
   double pitch_fraction_pinion_ = 0.5;  ///< profile fraction of the pitch point on the pinion
   double pitch_fraction_gear_ = 0.5;
 };
+
+/// The wear depth from the project's Archard model (core wear::BlueLoop, quasi-static force, at the
+/// campaign's torque), with K_wear switching at the phases' cycle counts; pitting and roughness as
+/// in the built-in law. States are computed forward and cached: asking in increasing cycles (as a
+/// campaign does) runs the loop once.
+class ArchardWearTruth final : public WearTruth {
+ public:
+  ArchardWearTruth(const WearModelSettings& settings, const twin::GearboxParameters& params, double speed_hz);
+  WearState at(double cycles) const override;
+
+ private:
+  WearModelSettings s_;
+  BuiltinWearTruth surface_;   ///< pitting and roughness (its own depth unused)
+  twin::GearboxParameters params_;
+  wear::WearLoopOptions options_;
+  mutable std::unique_ptr<wear::BlueLoop> loop_;
+};
+
+std::unique_ptr<WearTruth> make_wear_truth(const WearModelSettings& settings, const twin::GearboxParameters& params,
+                                           double speed_hz);
 
 }  // namespace gearwatch::rig
