@@ -44,4 +44,9 @@ struct Record {
   double duration_s() const noexcept { return sample_rate_hz > 0 ? sample_count() / sample_rate_hz : 0.0; }
 };
 
+/// A one-channel record with input-shaft tacho edges, as a simulator (the twin, the rig) hands a
+/// signal to the analysis.
+Record single_channel_record(std::vector<float> samples, std::vector<double> input_tacho_edges, double sample_rate_hz,
+                             double speed_hz, double torque_nm, int channel_number = 0);
+
 }  // namespace gearwatch

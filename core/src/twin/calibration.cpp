@@ -11,6 +11,7 @@
 
 #include <Eigen/Dense>
 
+#include "frequency_fit.hpp"
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/twin/gearbox_model.hpp"
 #include "gearwatch/twin/modal_analysis.hpp"
@@ -47,46 +48,42 @@ std::vector<int> mass_dofs(const std::string& name) {
   return it == map.end() ? std::vector<int>{} : it->second;
 }
 
-struct Evaluation {
-  Eigen::VectorXd frequencies;  // Hz, ascending, 21
-  Eigen::MatrixXd shapes;       // mass-normalised columns
-  Eigen::VectorXd mass;
-  std::vector<SpringElement> springs;
-};
+using detail::FitOutcome;
+using detail::ModalEvaluation;
 
-class Problem {
+class Problem : public detail::FrequencyFitProblem {
  public:
   Problem(const GearboxParameters& prior, const std::vector<double>& measured, const std::vector<bool>& use,
           const std::vector<CalibrationKnob>& knobs, const CalibrationOptions& options)
-      : base_(prior), measured_(measured), use_(use), knobs_(knobs), options_(options) {
+      : FrequencyFitProblem(measured, use, options.frequency_sigma, options.max_iterations, "calibration"),
+        base_(prior),
+        knobs_(knobs) {
     const GearGeometry geometry = GearGeometry::from_spec(prior.gears);
     MeshStiffnessOptions mo;
     mo.scale = prior.mesh_stiffness_scale;
     mo.engagement_ramp_fraction = prior.engagement_ramp_fraction;
     const GearMeshStiffness mesh(geometry, mo);
     mesh_k_ = mesh.mean_stiffness() * mesh_direction(geometry) * mesh_direction(geometry).transpose();
+    const std::vector<SpringElement> prior_springs = spring_elements(prior);  // the order is fixed
     for (const auto& k : knobs_) {
       double log_sum = 0;
       for (auto f : k.fields) log_sum += std::log(prior.*f);
-      centre_.push_back(log_sum / static_cast<double>(k.fields.size()));
-      lo_.push_back(std::log(k.low));
-      hi_.push_back(std::log(k.high));
-      sigma_.push_back((hi_.back() - lo_.back()) / 4.0);
-      std::vector<std::string> springs, masses;
+      std::vector<std::string> spring_names;
+      std::vector<int> springs, dofs;
       for (auto f : k.fields) {
         const std::string name = field_name(f);
-        if (mass_dofs(name).empty()) springs.push_back(name);
-        else masses.push_back(name);
+        const std::vector<int> d = mass_dofs(name);
+        if (d.empty()) spring_names.push_back(name);
+        else dofs.insert(dofs.end(), d.begin(), d.end());
       }
-      knob_springs_.push_back(springs);
-      knob_masses_.push_back(masses);
+      for (const auto& name : spring_names)
+        for (std::size_t i = 0; i < prior_springs.size(); ++i)
+          if (prior_springs[i].name == name) springs.push_back(static_cast<int>(i));
+      add_knob(k.low, k.high, log_sum / static_cast<double>(k.fields.size()), std::move(springs), std::move(dofs));
     }
   }
 
-  std::size_t knob_count() const { return knobs_.size(); }
-  const std::vector<double>& centre() const { return centre_; }
-  double lo(std::size_t j) const { return lo_[j]; }
-  double hi(std::size_t j) const { return hi_[j]; }
+  double centre(std::size_t j) const { return knob(j).log_centre; }
 
   GearboxParameters parameters(const Eigen::VectorXd& x) const {
     GearboxParameters p = base_;
@@ -95,9 +92,9 @@ class Problem {
     return p;
   }
 
-  Evaluation evaluate(const Eigen::VectorXd& x) const {
+  ModalEvaluation evaluate(const Eigen::VectorXd& x) const override {
     const GearboxParameters p = parameters(x);
-    Evaluation e;
+    ModalEvaluation e;
     e.mass.resize(kDofCount);
     e.mass << p.I1, p.I2, p.I3, p.I5, p.I7, p.I8, p.I10, p.I12, p.I13, p.m4, p.m5, p.m6, p.m9, p.m10, p.m11, p.m4,
         p.m5, p.m6, p.m9, p.m10, p.m11;
@@ -115,211 +112,13 @@ class Problem {
     return e;
   }
 
-  /// d ln f_mode / d x_j (x = ln knob value): ½ φᵀ(K_j − ω² M_j)φ / ω² for mass-normalised φ.
-  Eigen::VectorXd log_sensitivity(const Evaluation& e, int mode) const {
-    const double omega2 = std::pow(2.0 * std::numbers::pi * e.frequencies[mode], 2);
-    Eigen::VectorXd s(static_cast<Eigen::Index>(knobs_.size()));
-    const auto phi = e.shapes.col(mode);
-    for (std::size_t j = 0; j < knobs_.size(); ++j) {
-      double d = 0;
-      for (const auto& name : knob_springs_[j])
-        for (const auto& sp : e.springs)
-          if (sp.name == name) {
-            const double diff = phi[sp.a] - (sp.b >= 0 ? phi[sp.b] : 0.0);
-            d += sp.stiffness * diff * diff;
-          }
-      for (const auto& name : knob_masses_[j])
-        for (int dof : mass_dofs(name)) d -= omega2 * e.mass[dof] * phi[dof] * phi[dof];
-      s[static_cast<Eigen::Index>(j)] = 0.5 * d / omega2;
-    }
-    return s;
-  }
-
-  /// Monotone assignment of measured frequencies to elastic modes, cost = prior-weighted squared
-  /// distance the knobs must travel to move the mode onto the measured value.
-  std::vector<int> initial_pairing(const Evaluation& e) const {
-    const int n_meas = static_cast<int>(measured_.size());
-    std::vector<int> elastic;
-    for (int i = 0; i < kDofCount; ++i)
-      if (e.frequencies[i] > 1.0) elastic.push_back(i);
-    const int n_mode = static_cast<int>(elastic.size());
-    if (n_mode < n_meas) throw TwinParameterError("calibration: more measured frequencies than model modes");
-    Eigen::MatrixXd cost(n_meas, n_mode);
-    Eigen::VectorXd sigma2(static_cast<Eigen::Index>(knobs_.size()));
-    for (std::size_t j = 0; j < knobs_.size(); ++j) sigma2[static_cast<Eigen::Index>(j)] = sigma_[j] * sigma_[j];
-    for (int c = 0; c < n_mode; ++c) {
-      const Eigen::VectorXd s = log_sensitivity(e, elastic[static_cast<std::size_t>(c)]);
-      const double reach = std::max(s.cwiseProduct(s).dot(sigma2), 1e-12);
-      for (int r = 0; r < n_meas; ++r) {
-        const double d = std::log(measured_[static_cast<std::size_t>(r)] / e.frequencies[elastic[static_cast<std::size_t>(c)]]);
-        cost(r, c) = d * d / reach;
-      }
-    }
-    // Measured indices in ascending frequency order.
-    std::vector<int> order(static_cast<std::size_t>(n_meas));
-    for (int i = 0; i < n_meas; ++i) order[static_cast<std::size_t>(i)] = i;
-    std::sort(order.begin(), order.end(), [&](int a, int b) { return measured_[static_cast<std::size_t>(a)] < measured_[static_cast<std::size_t>(b)]; });
-    const double inf = std::numeric_limits<double>::infinity();
-    // best[r][c]: first r measured (ascending) placed on modes < c.
-    std::vector<std::vector<double>> best(static_cast<std::size_t>(n_meas + 1), std::vector<double>(static_cast<std::size_t>(n_mode + 1), inf));
-    std::vector<std::vector<int>> take(static_cast<std::size_t>(n_meas + 1), std::vector<int>(static_cast<std::size_t>(n_mode + 1), 0));
-    for (int c = 0; c <= n_mode; ++c) best[0][static_cast<std::size_t>(c)] = 0;
-    for (int r = 1; r <= n_meas; ++r)
-      for (int c = 1; c <= n_mode; ++c) {
-        const double skip = best[static_cast<std::size_t>(r)][static_cast<std::size_t>(c - 1)];
-        const double use = best[static_cast<std::size_t>(r - 1)][static_cast<std::size_t>(c - 1)] +
-                           cost(order[static_cast<std::size_t>(r - 1)], c - 1);
-        if (use < skip) {
-          best[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)] = use;
-          take[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)] = 1;
-        } else {
-          best[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)] = skip;
-        }
-      }
-    std::vector<int> pairing(static_cast<std::size_t>(n_meas), -1);
-    for (int r = n_meas, c = n_mode; r > 0; --c) {
-      if (take[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)]) {
-        pairing[static_cast<std::size_t>(order[static_cast<std::size_t>(r - 1)])] = elastic[static_cast<std::size_t>(c - 1)];
-        --r;
-      }
-    }
-    return pairing;
-  }
-
-  /// Follows the paired modes by shape: greedy maximum-MAC assignment against reference shapes.
-  std::vector<int> track(const Evaluation& e, const Eigen::MatrixXd& reference) const {
-    const int n_meas = static_cast<int>(measured_.size());
-    std::vector<std::tuple<double, int, int>> candidates;
-    for (int r = 0; r < n_meas; ++r)
-      for (int m = 0; m < kDofCount; ++m)
-        if (e.frequencies[m] > 1.0)
-          candidates.emplace_back(modal_assurance(reference.col(r), e.shapes.col(m), e.mass), r, m);
-    std::sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) { return std::get<0>(a) > std::get<0>(b); });
-    std::vector<int> pairing(static_cast<std::size_t>(n_meas), -1);
-    std::vector<bool> taken(kDofCount, false);
-    int assigned = 0;
-    for (const auto& [mac, r, m] : candidates) {
-      if (pairing[static_cast<std::size_t>(r)] >= 0 || taken[static_cast<std::size_t>(m)]) continue;
-      pairing[static_cast<std::size_t>(r)] = m;
-      taken[static_cast<std::size_t>(m)] = true;
-      if (++assigned == n_meas) break;
-    }
-    return pairing;
-  }
-
-  Eigen::VectorXd residual(const Evaluation& e, const std::vector<int>& pairing, const Eigen::VectorXd& x,
-                           Eigen::MatrixXd* jacobian) const {
-    const std::size_t n_meas = measured_.size(), n_knob = knobs_.size();
-    Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_meas + n_knob));
-    if (jacobian) jacobian->setZero(static_cast<Eigen::Index>(n_meas + n_knob), static_cast<Eigen::Index>(n_knob));
-    for (std::size_t i = 0; i < n_meas; ++i) {
-      if (!use_[i]) continue;
-      const int m = pairing[i];
-      r[static_cast<Eigen::Index>(i)] = std::log(e.frequencies[m] / measured_[i]) / options_.frequency_sigma;
-      if (jacobian) jacobian->row(static_cast<Eigen::Index>(i)) = log_sensitivity(e, m).transpose() / options_.frequency_sigma;
-    }
-    for (std::size_t j = 0; j < n_knob; ++j) {
-      const auto row = static_cast<Eigen::Index>(n_meas + j);
-      r[row] = (x[static_cast<Eigen::Index>(j)] - centre_[j]) / sigma_[j];
-      if (jacobian) (*jacobian)(row, static_cast<Eigen::Index>(j)) = 1.0 / sigma_[j];
-    }
-    return r;
-  }
-
-  const std::vector<double>& measured() const { return measured_; }
   const std::vector<CalibrationKnob>& knobs() const { return knobs_; }
-  const CalibrationOptions& options() const { return options_; }
 
  private:
   GearboxParameters base_;
-  std::vector<double> measured_;
-  std::vector<bool> use_;
   std::vector<CalibrationKnob> knobs_;
-  CalibrationOptions options_;
   Eigen::MatrixXd mesh_k_;
-  std::vector<double> centre_, lo_, hi_, sigma_;
-  std::vector<std::vector<std::string>> knob_springs_, knob_masses_;
 };
-
-struct FitOutcome {
-  Eigen::VectorXd x;
-  std::vector<int> pairing;
-  std::vector<int> start_pairing;
-  Eigen::MatrixXd start_shapes;
-  double cost = std::numeric_limits<double>::infinity();
-  int iterations = 0;
-};
-
-FitOutcome fit_from(const Problem& problem, Eigen::VectorXd x) {
-  const auto n = static_cast<Eigen::Index>(problem.knob_count());
-  auto clamp = [&](Eigen::VectorXd& v) {
-    for (Eigen::Index j = 0; j < n; ++j)
-      v[j] = std::clamp(v[j], problem.lo(static_cast<std::size_t>(j)), problem.hi(static_cast<std::size_t>(j)));
-  };
-  clamp(x);
-  FitOutcome out;
-  Evaluation e = problem.evaluate(x);
-  out.start_pairing = problem.initial_pairing(e);
-  std::vector<int> pairing = out.start_pairing;
-  Eigen::MatrixXd reference(kDofCount, static_cast<Eigen::Index>(pairing.size()));
-  for (std::size_t i = 0; i < pairing.size(); ++i) reference.col(static_cast<Eigen::Index>(i)) = e.shapes.col(pairing[i]);
-  out.start_shapes = reference;
-  Eigen::MatrixXd jac;
-  Eigen::VectorXd r = problem.residual(e, pairing, x, &jac);
-  double cost = 0.5 * r.squaredNorm();
-  double lambda = 1e-3;
-  int iter = 0, stalls = 0;
-  for (; iter < problem.options().max_iterations; ++iter) {
-    const Eigen::VectorXd grad = jac.transpose() * r;
-    const Eigen::MatrixXd h = jac.transpose() * jac;
-    // Variables held at a bound by the gradient are frozen for this step (projected LM).
-    std::vector<bool> free(static_cast<std::size_t>(n), true);
-    for (Eigen::Index j = 0; j < n; ++j) {
-      const bool at_lo = x[j] <= problem.lo(static_cast<std::size_t>(j)) + 1e-12 && grad[j] > 0;
-      const bool at_hi = x[j] >= problem.hi(static_cast<std::size_t>(j)) - 1e-12 && grad[j] < 0;
-      free[static_cast<std::size_t>(j)] = !(at_lo || at_hi);
-    }
-    Eigen::MatrixXd a = h;
-    for (Eigen::Index j = 0; j < n; ++j) a(j, j) += lambda * (h(j, j) + 1e-9);
-    Eigen::VectorXd b = -grad;
-    for (Eigen::Index j = 0; j < n; ++j)
-      if (!free[static_cast<std::size_t>(j)]) {
-        a.row(j).setZero();
-        a.col(j).setZero();
-        a(j, j) = 1;
-        b[j] = 0;
-      }
-    Eigen::VectorXd step = a.ldlt().solve(b);
-    Eigen::VectorXd trial = x + step;
-    clamp(trial);
-    const Evaluation et = problem.evaluate(trial);
-    const std::vector<int> tp = problem.track(et, reference);
-    Eigen::MatrixXd jt;
-    const Eigen::VectorXd rt = problem.residual(et, tp, trial, &jt);
-    const double ct = 0.5 * rt.squaredNorm();
-    if (std::isfinite(ct) && ct < cost) {
-      const double gain = (cost - ct) / std::max(cost, 1e-300);
-      x = trial;
-      e = et;
-      pairing = tp;
-      r = rt;
-      jac = jt;
-      for (std::size_t i = 0; i < pairing.size(); ++i) reference.col(static_cast<Eigen::Index>(i)) = e.shapes.col(pairing[i]);
-      cost = ct;
-      lambda = std::max(lambda / 3.0, 1e-12);
-      stalls = gain < 1e-10 ? stalls + 1 : 0;
-      if (stalls >= 3) break;
-    } else {
-      lambda *= 4.0;
-      if (lambda > 1e12) break;
-    }
-  }
-  out.x = x;
-  out.pairing = pairing;
-  out.cost = cost;
-  out.iterations = iter;
-  return out;
-}
 
 }  // namespace
 
@@ -373,7 +172,7 @@ CalibrationResult calibrate(const GearboxParameters& prior, const std::vector<do
   int best_start = 0;
   for (int start = 0; start < options.starts; ++start) {
     Eigen::VectorXd x0(n);
-    for (Eigen::Index j = 0; j < n; ++j) x0[j] = problem.centre()[static_cast<std::size_t>(j)];
+    for (Eigen::Index j = 0; j < n; ++j) x0[j] = problem.centre(static_cast<std::size_t>(j));
     if (start == 1) {
       // The parameter sheet's hint: soft couplings on the input side (elastomer-insert values).
       for (Eigen::Index j = 0; j < n; ++j) {
@@ -391,7 +190,7 @@ CalibrationResult calibrate(const GearboxParameters& prior, const std::vector<do
                 u(rng) * (problem.hi(static_cast<std::size_t>(j)) - problem.lo(static_cast<std::size_t>(j)));
       }
     }
-    FitOutcome fit = fit_from(problem, x0);
+    FitOutcome fit = detail::fit_from(problem, x0);
     if (fit.cost < best.cost) {
       best = std::move(fit);
       best_start = start;
@@ -404,7 +203,7 @@ CalibrationResult calibrate(const GearboxParameters& prior, const std::vector<do
   result.cost = best.cost;
   result.best_start = best_start;
   result.iterations = best.iterations;
-  const Evaluation e = problem.evaluate(best.x);
+  const ModalEvaluation e = problem.evaluate(best.x);
   const std::vector<Mode> modes = modal_analysis(result.parameters);
   for (std::size_t i = 0; i < measured_hz.size(); ++i) {
     ModePairing pair;
@@ -432,7 +231,7 @@ CalibrationResult calibrate(const GearboxParameters& prior, const std::vector<do
     const auto& k = problem.knobs()[static_cast<std::size_t>(j)];
     KnobChange c;
     c.name = k.name;
-    c.prior_value = std::exp(problem.centre()[static_cast<std::size_t>(j)]);
+    c.prior_value = std::exp(problem.centre(static_cast<std::size_t>(j)));
     c.fitted_value = std::exp(best.x[j]);
     c.low = k.low;
     c.high = k.high;

@@ -1,0 +1,58 @@
+#pragma once
+// The sim-to-real gap diagnosis: localise the discrepancy between measured records and the twin's
+// simulation of the same operating point and wear state by family, attribute it to candidate
+// effects fitted on training records, and quantify the gap before/after on held-out records.
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/record.hpp"
+#include "gearwatch/rig.hpp"
+
+namespace gearwatch::gap {
+
+/// One measured record and the twin's simulation at the same speed, torque and wear state
+/// (same sample rate; the twin's channel is compared with `DiagnosisSettings::channel`).
+struct DiagnosisInput {
+  Record measured;
+  Record twin;
+};
+
+struct DiagnosisSettings {
+  int channel = 0;                 ///< measured channel compared with the twin's casing signal
+  int bootstrap_resamples = 200;   ///< block bootstrap over revolutions
+  std::uint64_t seed = 1;          ///< bootstrap resampling seed (deterministic reports)
+  std::size_t bootstrap_block_revolutions = 2;  ///< revolutions per bootstrap block
+  int candidate_bootstrap_resamples = 20;       ///< for each candidate's own held-out intervals
+  double floor_db = -60;           ///< bins below this (re the twin's total line power) compare as equal
+  double min_gap_db = 1.0;         ///< a family's gap smaller than this is never significant
+  double fixed_bands_per_octave = 12;  ///< Hz bands of the fixed-frequency family (resonances, ζ ≳ 0.02)
+  double accept_ic_drop = 0.3;     ///< held-out information criterion drop an effect must bring to be chosen
+  double min_shrinkage = 0.1;      ///< … and the held-out shrinkage in its own families
+  int max_effects = 3;             ///< greedy additions at most
+  std::size_t min_revolutions = 4; ///< whole input revolutions a record needs
+  /// K_wear inference (seed Eq. 7.13 taken to its fixed point: the K_wear at which the twin's RMS_SA
+  /// equals the measured one). When set, the K_wear the twin's records were simulated with; the
+  /// report then carries the K_wear inferred with the twin alone and with the chosen effects.
+  std::optional<double> reference_k_wear;
+  /// d ln RMS_SA / d ln K_wear of the twin at the records' wear state, from the caller (e.g. twin
+  /// runs at scaled wear depths); 1 is Eq. 7.13's proportional update. Must be finite and non-zero.
+  double rms_sa_wear_elasticity = 1.0;
+  int rms_sa_harmonics = 2;        ///< N of RMS_SA(N) (seed Eq. 7.1), the measurement's setting
+};
+
+/// The K_wear that makes the model's RMS_SA equal the measured one when RMS_SA ∝ K^elasticity near
+/// the reference: K_ref · (RMS_meas / RMS_model)^(1/elasticity). Throws std::invalid_argument for
+/// non-positive RMS values or K_ref, or a zero/non-finite elasticity.
+double inferred_k_wear(double rms_sa_measured, double rms_sa_model, double reference_k_wear, double elasticity);
+
+/// Throws std::invalid_argument naming the reason for inputs that cannot be diagnosed (no training
+/// or no held-out records, mismatched rates, records shorter than the minimum). Families the records
+/// cannot resolve (e.g. fixed_frequency from a single speed) come back with resolved = false and
+/// the reason, not as an error.
+GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vector<DiagnosisInput>& held_out,
+                   const GearPairSpec& gears, const DiagnosisSettings& settings = {});
+
+}  // namespace gearwatch::gap

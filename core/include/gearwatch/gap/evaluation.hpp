@@ -1,0 +1,53 @@
+#pragma once
+// The gap figure of each family between measured spectra and model spectra (the twin, or the twin
+// with candidate effects): the RMS over the family's lines/bins of 10·log10 of the power ratio, and
+// its share of the energy difference. With records at two or more speeds, the line-by-line ratios
+// are first split into a part that follows the order (one value per line) and a part that stays
+// in Hz (one value per Hz band): the Hz part is the fixed-frequency family, the order families
+// are what remains.
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/gap/spectra.hpp"
+#include "gearwatch/rig.hpp"
+
+namespace gearwatch::gap {
+
+struct GapPair {
+  const SpectralSummary* measured;
+  const SpectralSummary* model;
+  double floor;   ///< power added to both before the ratio: bins below it compare as equal
+};
+
+struct FixedBand {
+  double low_hz = 0, high_hz = 0;
+  double gain_db = 0;   ///< measured over model, the Hz-fixed part
+};
+
+struct GapEvaluation {
+  std::array<double, kAllFamilyKinds.size()> sum_sq{}, count{}, energy{};
+  std::array<bool, kAllFamilyKinds.size()> resolved{};
+  std::vector<FixedBand> fixed_bands;
+  double distance_db(std::size_t family) const { return count[family] > 0 ? std::sqrt(sum_sq[family] / count[family]) : 0.0; }
+  double energy_share(std::size_t family) const;
+};
+
+class GapEvaluator {
+ public:
+  GapEvaluator(const GearPairSpec& gears, double bands_per_octave = 12, double min_speed_ratio = 1.05);
+  /// decompose: split off the Hz-fixed part (only when the pairs cover ≥ 2 speeds; otherwise the
+  /// fixed_frequency family is unresolved and the order families keep the whole ratio).
+  GapEvaluation evaluate(const std::vector<GapPair>& pairs, bool decompose) const;
+  /// "" when the pairs resolve the fixed-frequency family, else why not.
+  std::string fixed_frequency_reason(const std::vector<GapPair>& pairs) const;
+
+ private:
+  GearPairSpec gears_;
+  double bands_per_octave_;
+  double min_speed_ratio_;
+};
+
+}  // namespace gearwatch::gap

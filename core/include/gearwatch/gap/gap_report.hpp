@@ -1,0 +1,104 @@
+#pragma once
+// Value types of the sim-to-real gap diagnosis: where the twin disagrees with the measured gearbox
+// (families of spectral lines and bands), which candidate effect explains it, and how far the gap
+// shrinks on held-out records once that effect is added. Plain values, shared by the diagnosis
+// (core/gap), storage (gap_reports) and the report page, so every name that crosses into the
+// schema comes from the enums below and nowhere else.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace gearwatch::gap {
+
+/// A family of spectral content the twin's output and a measurement are compared on.
+enum class FamilyKind : std::uint8_t {
+  input_shaft_orders = 0,   ///< integer orders of the input (pinion) shaft below the first mesh sideband region
+  output_shaft_orders = 1,  ///< integer orders of the output (gear) shaft
+  mesh_harmonics = 2,       ///< n·GMF
+  input_sidebands = 3,      ///< n·GMF ± m·input order
+  output_sidebands = 4,     ///< n·GMF ± m·output order
+  fixed_frequency = 5,      ///< bands that stay in Hz across speeds (resonances); needs ≥ 2 speeds
+  broadband = 6,            ///< what is left between the lines (noise floor, CS2 carriers)
+};
+const char* to_string(FamilyKind family) noexcept;
+inline constexpr std::array kAllFamilyKinds{FamilyKind::input_shaft_orders, FamilyKind::output_shaft_orders,
+                                            FamilyKind::mesh_harmonics,     FamilyKind::input_sidebands,
+                                            FamilyKind::output_sidebands,   FamilyKind::fixed_frequency,
+                                            FamilyKind::broadband};
+
+/// A candidate unmodelled effect: a parametric addition to the twin's output with the families it
+/// can explain. These are the diagnosis's own forms; they share names, not code, with the rig
+/// simulator's truth effects.
+enum class CandidateEffect : std::uint8_t {
+  casing_mode = 0,        ///< foundation/casing mode: a resonant transfer path, fixed in Hz
+  tooth_errors = 1,       ///< tooth-to-tooth spacing/profile errors: shaft-order lines and sidebands
+  eccentricity = 2,       ///< shaft run-out: first-order modulation of the mesh
+  tip_relief = 3,         ///< gradual engagement: a change of the mesh harmonics' amplitudes
+  speed_fluctuation = 4,  ///< VFD speed ripple: phase modulation smearing lines in orders
+  load_fluctuation = 5,   ///< brake torque ripple: low-frequency amplitude modulation of the mesh
+  noise_floor = 6,        ///< sensor noise: an additive white floor
+  mount_resonance = 7,    ///< accelerometer mounting resonance: a transmissibility peak, fixed in Hz
+  misalignment = 8,       ///< face misalignment: mean mesh stiffness loss, harmonic balance change
+  backlash = 9,           ///< contact loss: harmonics of the mesh raised non-linearly
+};
+const char* to_string(CandidateEffect effect) noexcept;
+inline constexpr std::array kAllCandidateEffects{
+    CandidateEffect::casing_mode,       CandidateEffect::tooth_errors,     CandidateEffect::eccentricity,
+    CandidateEffect::tip_relief,        CandidateEffect::speed_fluctuation, CandidateEffect::load_fluctuation,
+    CandidateEffect::noise_floor,       CandidateEffect::mount_resonance,  CandidateEffect::misalignment,
+    CandidateEffect::backlash};
+
+struct Interval {
+  double low = 0;
+  double high = 0;
+};
+
+/// The gap in one family between a measurement and the twin (or the twin plus candidate effects).
+struct FamilyGap {
+  FamilyKind family = FamilyKind::broadband;
+  bool resolved = true;                ///< false when the records cannot separate this family
+  std::string unresolved_reason;       ///< why not (e.g. "fixed_frequency needs records at >= 2 speeds")
+  double distance_db = 0;              ///< RMS over the family's lines/bins of 10·log10(P_measured / P_model)
+  Interval distance_interval_db;       ///< block bootstrap over revolutions (90 %)
+  double energy_share = 0;             ///< this family's share of the measured-vs-model energy difference
+  bool significant = false;            ///< distance beyond what the bootstrap allows for no gap
+};
+
+/// One candidate effect fitted on the training records and scored on the held-out ones.
+struct CandidateScore {
+  CandidateEffect effect = CandidateEffect::noise_floor;
+  std::vector<std::pair<std::string, double>> parameters;  ///< fitted values, name → value (SI units)
+  std::vector<FamilyKind> explains;                        ///< the families this effect can act on
+  std::vector<FamilyGap> held_out_after;                   ///< every family, held out, with this effect
+  double shrinkage = 0;                 ///< 1 − after/before of the distance in its own families (held out)
+  double information_criterion = 0;     ///< held-out fit quality penalised by the parameter count; lower is better
+  bool worsens_other_family = false;    ///< helps its own families but pushes another beyond its interval
+};
+
+/// One diagnosis: held-out gaps before, the ranked candidates, the greedy choice, gaps after.
+struct GapReport {
+  double input_revolutions = 0;               ///< life position of the newest record used
+  std::vector<double> speeds_hz;              ///< the operating speeds the records cover
+  std::size_t training_records = 0;
+  std::size_t held_out_records = 0;
+  std::vector<FamilyGap> before;              ///< held out, twin alone
+  std::vector<CandidateScore> candidates;     ///< best first
+  std::vector<CandidateEffect> chosen;        ///< greedy addition, in order
+  std::vector<FamilyGap> after;               ///< held out, twin plus the chosen effects
+  std::vector<FamilyKind> unexplained;        ///< significant families no candidate explains
+  /// K_wear inferred from the held-out records' RMS_SA (geometric mean of the per-record ratios)
+  /// with the twin alone and with the chosen effects added; empty unless the caller gave the
+  /// twin's reference K_wear (DiagnosisSettings::reference_k_wear).
+  std::optional<double> k_wear_before;
+  std::optional<double> k_wear_after;
+  /// Spectra for plots (one held-out record): order axis (input orders) and Hz axis, in dB.
+  std::vector<double> order_axis, measured_order_db, twin_order_db, twin_after_order_db;
+  std::vector<double> hz_axis, measured_hz_db, twin_hz_db, twin_after_hz_db;
+  /// Where each family lies on those axes, for shading.
+  std::vector<std::pair<FamilyKind, Interval>> order_bands, hz_bands;
+};
+
+}  // namespace gearwatch::gap

@@ -1,0 +1,80 @@
+#pragma once
+// The order-tracked spectra the gap diagnosis compares: one record's synchronous lines on the
+// input and the output shaft and its non-synchronous (broadband) part, kept per revolution so
+// that a block bootstrap over revolutions can redraw them, and the families the lines and bins
+// belong to. Pure computation on core's order tracking and FFTW plans.
+#include <complex>
+#include <cstddef>
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/record.hpp"
+#include "gearwatch/rig.hpp"
+
+namespace gearwatch::gap {
+
+/// The power (peak amplitude², (m/s²)²) of every line and broadband bin of one record, with the
+/// record's operating point. Lines are synchronous averages over whole revolutions of one shaft,
+/// read after the other shaft's synchronous average is removed; broadband is the residual of both
+/// (dsp::SynchronousSeparation) in 2-revolution Hann-windowed blocks minus their average, per
+/// 1-order bin [k, k+1) (two half-order bins). The window keeps strong non-synchronous tones from
+/// leaking far (a one-revolution rectangular window spreads them as 1/Δ² over the whole band).
+struct SpectralSummary {
+  double speed_hz = 0;            ///< mean input speed from the tacho
+  double sample_rate_hz = 0;
+  std::size_t input_revolutions = 0;
+  std::size_t output_revolutions = 0;
+  /// Effective number of averages of the (Hann-weighted) line estimates: a white floor N0 per bin
+  /// adds N0 / this to each line.
+  double input_line_averages = 1, output_line_averages = 1;
+  std::vector<double> input_lines;    ///< [k-1]: integer input order k = 1..K_in
+  std::vector<double> output_lines;   ///< [m-1]: integer output order m = 1..K_out (mesh orders hold 0, unused)
+  std::vector<double> broadband;      ///< [k-1]: non-synchronous power in orders [k, k+1) (2-revolution Hann blocks)
+};
+
+/// One record reduced to per-revolution spectra (so a bootstrap can redraw revolutions).
+class RecordSpectra {
+ public:
+  /// Order-tracks `channel` of the record on the input and the output shaft (tacho 0, one edge per
+  /// revolution unless given). Throws std::invalid_argument naming the reason when the record cannot
+  /// be analysed: no tacho, irregular tacho, fewer than `min_revolutions` input revolutions or
+  /// fewer than 2 output revolutions, non-finite samples.
+  RecordSpectra(const Record& record, int channel, const GearPairSpec& gears, std::size_t min_revolutions = 4,
+                int edges_per_rev = 1);
+
+  /// The summary over the given revolutions (indices may repeat: a bootstrap draw). Empty lists mean all.
+  SpectralSummary summary(const std::vector<std::size_t>& input_revs = {},
+                          const std::vector<std::size_t>& output_revs = {},
+                          const std::vector<std::size_t>& blocks = {}) const;
+  /// A block-bootstrap draw of both shafts' revolutions (blocks of `block` revolutions, circular).
+  SpectralSummary bootstrap(std::mt19937_64& rng, std::size_t block) const;
+
+  double speed_hz() const noexcept { return speed_hz_; }
+  std::size_t input_revolutions() const noexcept { return in_revs_; }
+  std::size_t output_revolutions() const noexcept { return out_revs_; }
+
+ private:
+  double speed_hz_ = 0, sample_rate_hz_ = 0;
+  std::size_t in_revs_ = 0, out_revs_ = 0, k_in_ = 0, k_out_ = 0, blocks_ = 0;
+  int pinion_teeth_ = 19, gear_teeth_ = 52;
+  std::vector<std::complex<double>> in_dft_;   // [rev * k_in + k-1], scaled to peak amplitude
+  std::vector<std::complex<double>> out_dft_;  // [rev * k_out + m-1]
+  std::vector<std::complex<double>> block_dft_;  // [block * 2k_in + j-1]: half-order bins j = 1..2k_in
+};
+
+/// Which family a line or bin belongs to (the partition used throughout the diagnosis).
+/// Sideband reach: m ≤ (z−1)/2 around each mesh harmonic, so every non-mesh order above the first
+/// sideband region is a sideband of some harmonic and the shaft-order families are the orders below it.
+/// Adds a tone of `power` at a fractional input order to the broadband part the way a
+/// non-synchronous tone enters it (the 2-revolution Hann window's spread over half-order bins).
+void add_tone_to_broadband(SpectralSummary& s, double order, double power);
+
+FamilyKind input_line_family(int order, int pinion_teeth) noexcept;
+/// Output orders that are mesh orders (multiples of z_gear) are counted on the input side only.
+bool output_line_is_mesh(int order, int gear_teeth) noexcept;
+FamilyKind output_line_family(int order, int gear_teeth) noexcept;
+
+}  // namespace gearwatch::gap

@@ -1,0 +1,241 @@
+#include "gearwatch/gap/candidates.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace gearwatch::gap {
+namespace {
+
+using FK = FamilyKind;
+
+
+double transmissibility_power(double f, double fn, double zeta) {
+  const double r = f / fn;
+  const double a = 1.0 - r * r, b = 2.0 * zeta * r;
+  return (1.0 + b * b) / (a * a + b * b);
+}
+
+/// The twin's mesh-harmonic powers interpolated log-linearly in order (flat beyond the ends):
+/// the transfer path a per-tooth pattern's lines pass through.
+class MeshEnvelope {
+ public:
+  MeshEnvelope(const SpectralSummary& s, int z1) : z1_(z1) {
+    for (std::size_t n = 1; n * z1 <= s.input_lines.size(); ++n)
+      log_p_.push_back(std::log(std::max(s.input_lines[n * z1 - 1], 1e-300)));
+  }
+  double at(double order) const {
+    if (log_p_.empty()) return 0.0;
+    const double x = order / z1_ - 1.0;
+    if (x <= 0) {
+      // Below the first harmonic the path keeps falling as it does from harmonic 2 to 1 (the casing
+      // response to a transmission error falls steeply below the first modes), in log-log.
+      const double slope = log_p_.size() > 1 ? std::clamp((log_p_[1] - log_p_[0]) / std::log(2.0), 0.0, 8.0) : 0.0;
+      return std::exp(log_p_.front() + slope * std::log(std::max(order, 1e-3) / z1_));
+    }
+    const auto i = static_cast<std::size_t>(x);
+    if (i + 1 >= log_p_.size()) return std::exp(log_p_.back());
+    const double t = x - static_cast<double>(i);
+    return std::exp((1 - t) * log_p_[i] + t * log_p_[i + 1]);
+  }
+
+ private:
+  int z1_;
+  std::vector<double> log_p_;
+};
+
+void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSummary& s, const GearPairSpec& gears) {
+  const int z1 = gears.pinion_teeth, z2 = gears.gear_teeth;
+  const double out_speed = s.speed_hz * z1 / z2;
+  const auto& v = e.values;
+  auto mesh_gain = [&](auto gain_db_of_harmonic) {
+    for (std::size_t n = 1; n * z1 <= s.input_lines.size(); ++n)
+      s.input_lines[n * z1 - 1] *= std::pow(10.0, gain_db_of_harmonic(static_cast<int>(n)) / 10.0);
+  };
+  switch (e.effect) {
+    case CandidateEffect::casing_mode:
+    case CandidateEffect::mount_resonance: {
+      auto gain = [&](double f) {
+        return e.effect == CandidateEffect::casing_mode ? std::pow(10.0, transfer_path_gain_db(v, f) / 10.0)
+                                                         : transmissibility_power(f, v[0], v[1]);
+      };
+      for (std::size_t k = 1; k <= s.input_lines.size(); ++k) {
+        const double g = gain(k * s.speed_hz);
+        s.input_lines[k - 1] *= g;
+        s.broadband[k - 1] *= g;
+      }
+      for (std::size_t m = 1; m <= s.output_lines.size(); ++m) s.output_lines[m - 1] *= gain(m * out_speed);
+      break;
+    }
+    case CandidateEffect::noise_floor: {
+      const double n0 = v[0];
+      for (auto& b : s.broadband) b += n0;
+      for (auto& p : s.input_lines) p += n0 / std::max(1.0, s.input_line_averages);
+      for (std::size_t m = 1; m <= s.output_lines.size(); ++m)
+        if (m % static_cast<std::size_t>(z2) != 0)
+          s.output_lines[m - 1] += n0 / std::max(1.0, s.output_line_averages);
+      break;
+    }
+    case CandidateEffect::eccentricity: {
+      const double ai = v[0] * v[0] / 4.0, ao = v[1] * v[1] / 4.0;
+      for (std::size_t n = 1; n * z1 <= twin.input_lines.size(); ++n) {
+        const double pm = twin.input_lines[n * z1 - 1];
+        for (int side : {-1, 1}) {
+          const auto ki = static_cast<std::ptrdiff_t>(n * z1) + side;
+          if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s.input_lines.size())) s.input_lines[ki - 1] += ai * pm;
+          const auto ko = static_cast<std::ptrdiff_t>(n * z2) + side;
+          if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s.output_lines.size())) s.output_lines[ko - 1] += ao * pm;
+        }
+      }
+      break;
+    }
+    case CandidateEffect::tooth_errors: {
+      const MeshEnvelope env(twin, z1);
+      for (std::size_t k = 1; k <= s.input_lines.size(); ++k)
+        if (k % static_cast<std::size_t>(z1) != 0) s.input_lines[k - 1] += v[0] * env.at(static_cast<double>(k));
+      for (std::size_t m = 1; m <= s.output_lines.size(); ++m)
+        if (m % static_cast<std::size_t>(z2) != 0) s.output_lines[m - 1] += v[1] * env.at(static_cast<double>(m) * z1 / z2);
+      break;
+    }
+    case CandidateEffect::speed_fluctuation:
+    case CandidateEffect::load_fluctuation: {
+      auto share = [&](double order) {
+        return e.effect == CandidateEffect::load_fluctuation ? 1.0 - std::exp(-(v[0] * order) * (v[0] * order))
+                                                             : v[0];
+      };
+      // The modulated share leaves the line for sidebands f_m away (in orders: f_m / speed), half each side.
+      const double offset = v[1] / s.speed_hz;
+      for (std::size_t k = 1; k <= s.input_lines.size(); ++k) {
+        const double mu = share(static_cast<double>(k));
+        const double moved = s.input_lines[k - 1] * mu;
+        s.input_lines[k - 1] -= moved;
+        add_tone_to_broadband(s, static_cast<double>(k) - offset, moved / 2);
+        add_tone_to_broadband(s, static_cast<double>(k) + offset, moved / 2);
+      }
+      for (std::size_t m = 1; m <= s.output_lines.size(); ++m) {
+        const double order = static_cast<double>(m) * z1 / z2;
+        const double moved = s.output_lines[m - 1] * share(order);
+        s.output_lines[m - 1] -= moved;
+        add_tone_to_broadband(s, order - offset, moved / 2);
+        add_tone_to_broadband(s, order + offset, moved / 2);
+      }
+      break;
+    }
+    case CandidateEffect::tip_relief:
+      mesh_gain([&](int n) { return static_cast<std::size_t>(n) <= v.size() ? v[static_cast<std::size_t>(n - 1)] : 0.0; });
+      break;
+    case CandidateEffect::misalignment:
+      mesh_gain([&](int) { return v[0]; });
+      break;
+    case CandidateEffect::backlash:
+      mesh_gain([&](int n) { return v[0] * n; });
+      break;
+  }
+}
+
+}  // namespace
+
+namespace {
+constexpr double kTransferPathLowestHz = 10.0;
+constexpr double kTransferPathBandsPerOctave = 12.0;
+}  // namespace
+
+std::size_t transfer_path_bands(double sample_rate_hz) {
+  const double top = 0.45 * sample_rate_hz;
+  if (!(top > kTransferPathLowestHz)) return 1;
+  return static_cast<std::size_t>(std::ceil(kTransferPathBandsPerOctave * std::log2(top / kTransferPathLowestHz)));
+}
+
+double transfer_path_band_centre_hz(std::size_t band) {
+  return kTransferPathLowestHz * std::exp2((static_cast<double>(band) + 0.5) / kTransferPathBandsPerOctave);
+}
+
+double transfer_path_gain_db(const std::vector<double>& gains, double f_hz) {
+  if (gains.empty() || !(f_hz > 0)) return 0.0;
+  const double x = kTransferPathBandsPerOctave * std::log2(f_hz / kTransferPathLowestHz) - 0.5;
+  if (x <= 0) return gains.front();
+  const auto i = static_cast<std::size_t>(x);
+  if (i + 1 >= gains.size()) return gains.back();
+  const double t = x - static_cast<double>(i);
+  return (1 - t) * gains[i] + t * gains[i + 1];
+}
+
+int tip_relief_harmonics(double sample_rate_hz) {
+  // Harmonics below 0.45·fs at 1 Hz input speed with 19 teeth would be thousands; the gains are
+  // only fitted where a training record has the harmonic, so bound the list at what a 2 Hz record
+  // (the seed's slowest step) holds for a 19-tooth pinion.
+  return std::max(1, static_cast<int>(0.45 * sample_rate_hz / (2.0 * 19.0)));
+}
+
+CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
+  const double top = 0.45 * sample_rate_hz;
+  switch (effect) {
+    case CandidateEffect::casing_mode: {
+      CandidateForm f{effect, {}, {}, 2};
+      for (std::size_t b = 0; b < transfer_path_bands(sample_rate_hz); ++b)
+        f.parameters.push_back({"gain_db_" + std::to_string(static_cast<long>(std::lround(transfer_path_band_centre_hz(b)))) + "_hz",
+                                -60, 60, false, 1});
+      f.explains = {FK::fixed_frequency, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands, FK::broadband};
+      return f;
+    }
+    case CandidateEffect::mount_resonance:
+      return {effect,
+              {{"frequency_hz", std::min(5000.0, top), std::max(6000.0, 1.5 * sample_rate_hz), true, 16},
+               {"damping_ratio", 0.005, 0.3, true, 4}},
+              {FK::fixed_frequency, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands, FK::broadband},
+              2};
+    case CandidateEffect::noise_floor:
+      return {effect,
+              {{"floor_per_order_bin", 1e-16, 1e4, true, 21}},
+              {FK::broadband, FK::input_shaft_orders, FK::output_shaft_orders, FK::input_sidebands,
+               FK::output_sidebands},
+              3};
+    case CandidateEffect::eccentricity:
+      return {effect,
+              {{"input_am_index", 1e-4, 2.0, true, 6}, {"output_am_index", 1e-4, 2.0, true, 6}},
+              {FK::input_sidebands, FK::output_sidebands},
+              0};
+    case CandidateEffect::tooth_errors:
+      return {effect,
+              {{"input_line_gain", 1e-9, 1e3, true, 8}, {"output_line_gain", 1e-9, 1e3, true, 8}},
+              {FK::input_shaft_orders, FK::output_shaft_orders, FK::input_sidebands, FK::output_sidebands},
+              0};
+    case CandidateEffect::speed_fluctuation:
+      return {effect, {{"modulated_share", 1e-5, 0.99, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 6}},
+              {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
+    case CandidateEffect::load_fluctuation:
+      return {effect, {{"phase_deviation_per_order_rad", 1e-5, 0.5, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 6}},
+              {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
+    case CandidateEffect::tip_relief: {
+      // One gain per mesh harmonic the band holds at the slowest speed the diagnosis accepts
+      // (the fit leaves harmonics no training record reaches at 0 dB).
+      CandidateForm f{effect, {}, {FK::mesh_harmonics}, 0};
+      for (int n = 1; n <= tip_relief_harmonics(sample_rate_hz); ++n)
+        f.parameters.push_back({"harmonic_" + std::to_string(n) + "_gain_db", -60, 60, false, 1});
+      return f;
+    }
+    case CandidateEffect::misalignment:
+      return {effect, {{"mesh_gain_db", -40, 40, false, 17}}, {FK::mesh_harmonics}, 0};
+    case CandidateEffect::backlash:
+      return {effect, {{"gain_db_per_harmonic", 0.0, 3.0, false, 16}}, {FK::mesh_harmonics}, 0};
+  }
+  throw std::invalid_argument("unknown candidate effect");
+}
+
+SpectralSummary apply_effects(const std::vector<AppliedEffect>& effects, const SpectralSummary& twin,
+                              const GearPairSpec& gears) {
+  std::vector<const AppliedEffect*> order;
+  for (const auto& e : effects) order.push_back(&e);
+  std::stable_sort(order.begin(), order.end(), [&](const AppliedEffect* a, const AppliedEffect* b) {
+    return candidate_form(a->effect, twin.sample_rate_hz).stage < candidate_form(b->effect, twin.sample_rate_hz).stage;
+  });
+  SpectralSummary s = twin;
+  for (const AppliedEffect* e : order) {
+    const SpectralSummary before = s;
+    apply_one(*e, before, s, gears);
+  }
+  return s;
+}
+
+}  // namespace gearwatch::gap

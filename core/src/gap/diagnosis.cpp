@@ -1,0 +1,391 @@
+#include "gearwatch/gap/diagnosis.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <optional>
+#include <random>
+#include <set>
+#include <stdexcept>
+
+#include "gearwatch/gap/candidates.hpp"
+#include "gearwatch/gap/evaluation.hpp"
+#include "gearwatch/gap/spectra.hpp"
+
+namespace gearwatch::gap {
+namespace {
+
+constexpr std::size_t kFamilies = kAllFamilyKinds.size();
+// Held-out information criterion: a parameter must buy this much of the summed log MSE.
+constexpr double kParameterPenalty = 0.003;
+
+struct PairSpectra {
+  RecordSpectra measured;
+  RecordSpectra twin;
+  SpectralSummary measured_all, twin_all;
+  double floor = 0;
+};
+
+std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const GearPairSpec& gears,
+                                const DiagnosisSettings& s, const char* which) {
+  std::vector<PairSpectra> out;
+  out.reserve(inputs.size());
+  for (std::size_t i = 0; i < inputs.size(); ++i) {
+    const auto& in = inputs[i];
+    const std::string where = std::string(which) + " record " + std::to_string(i) + ": ";
+    if (in.measured.sample_rate_hz != in.twin.sample_rate_hz)
+      throw std::invalid_argument(where + "measured and twin sample rates differ");
+    if (in.twin.channels.empty()) throw std::invalid_argument(where + "the twin record has no channel");
+    const int twin_channel = std::min<int>(s.channel, static_cast<int>(in.twin.channels.size()) - 1);
+    try {
+      PairSpectra p{RecordSpectra(in.measured, s.channel, gears, s.min_revolutions),
+                    RecordSpectra(in.twin, twin_channel, gears, s.min_revolutions), {}, {}, 0};
+      p.measured_all = p.measured.summary();
+      p.twin_all = p.twin.summary();
+      const double total = std::accumulate(p.twin_all.input_lines.begin(), p.twin_all.input_lines.end(), 0.0);
+      if (!(total > 0)) throw std::invalid_argument("the twin record carries no synchronous vibration");
+      p.floor = total * std::pow(10.0, s.floor_db / 10.0);
+      out.push_back(std::move(p));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(where + e.what());
+    }
+  }
+  return out;
+}
+
+std::vector<GapPair> views(const std::vector<PairSpectra>& pairs, const std::vector<SpectralSummary>& models) {
+  std::vector<GapPair> v;
+  for (std::size_t i = 0; i < pairs.size(); ++i) v.push_back({&pairs[i].measured_all, &models[i], pairs[i].floor});
+  return v;
+}
+
+std::vector<SpectralSummary> models_of(const std::vector<PairSpectra>& pairs, const std::vector<AppliedEffect>& fx,
+                                       const GearPairSpec& gears) {
+  std::vector<SpectralSummary> m;
+  for (const auto& p : pairs) m.push_back(apply_effects(fx, p.twin_all, gears));
+  return m;
+}
+
+struct Assessment {
+  GapEvaluation point;
+  std::array<Interval, kFamilies> interval{};
+};
+
+/// The held-out gaps of a model, with a block bootstrap over the revolutions of both records of
+/// each pair (the same draws for every model, so models compare on equal terms).
+Assessment assess(const std::vector<PairSpectra>& pairs, const std::vector<AppliedEffect>& fx,
+                  const GearPairSpec& gears, const DiagnosisSettings& s, int resamples,
+                  const GapEvaluator& evaluator) {
+  Assessment a;
+  const auto models = models_of(pairs, fx, gears);
+  a.point = evaluator.evaluate(views(pairs, models), true);
+  std::array<std::vector<double>, kFamilies> draws;
+  for (int b = 0; b < resamples; ++b) {
+    std::vector<SpectralSummary> meas, mod;
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      std::mt19937_64 rng(s.seed * 1000003u + static_cast<std::uint64_t>(b) * 7919u + i);
+      meas.push_back(pairs[i].measured.bootstrap(rng, s.bootstrap_block_revolutions));
+      mod.push_back(apply_effects(fx, pairs[i].twin.bootstrap(rng, s.bootstrap_block_revolutions), gears));
+    }
+    std::vector<GapPair> v;
+    for (std::size_t i = 0; i < pairs.size(); ++i) v.push_back({&meas[i], &mod[i], pairs[i].floor});
+    const auto e = evaluator.evaluate(v, true);
+    for (std::size_t f = 0; f < kFamilies; ++f) draws[f].push_back(e.distance_db(f));
+  }
+  for (std::size_t f = 0; f < kFamilies; ++f) {
+    auto& d = draws[f];
+    if (d.empty()) {
+      a.interval[f] = {a.point.distance_db(f), a.point.distance_db(f)};
+      continue;
+    }
+    std::sort(d.begin(), d.end());
+    auto q = [&](double p) { return d[static_cast<std::size_t>(std::round(p * (d.size() - 1)))]; };
+    a.interval[f] = {q(0.05), q(0.95)};
+  }
+  return a;
+}
+
+/// Estimation noise of the distances: each record's bootstrap draws against its own full estimate.
+std::array<double, kFamilies> noise_distance(const std::vector<PairSpectra>& pairs, const DiagnosisSettings& s,
+                                             const GapEvaluator& evaluator) {
+  std::array<double, kFamilies> sum{};
+  const int n = std::max(8, s.bootstrap_resamples / 4);
+  for (int b = 0; b < n; ++b) {
+    std::vector<SpectralSummary> meas, twin;
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      std::mt19937_64 rng(s.seed * 1000003u + static_cast<std::uint64_t>(b) * 7919u + i);
+      meas.push_back(pairs[i].measured.bootstrap(rng, s.bootstrap_block_revolutions));
+      twin.push_back(pairs[i].twin.bootstrap(rng, s.bootstrap_block_revolutions));
+    }
+    std::vector<GapPair> vm, vt;
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      vm.push_back({&meas[i], &pairs[i].measured_all, pairs[i].floor});
+      vt.push_back({&twin[i], &pairs[i].twin_all, pairs[i].floor});
+    }
+    const auto em = evaluator.evaluate(vm, true), et = evaluator.evaluate(vt, true);
+    for (std::size_t f = 0; f < kFamilies; ++f)
+      sum[f] += em.distance_db(f) * em.distance_db(f) + et.distance_db(f) * et.distance_db(f);
+  }
+  for (auto& v : sum) v = std::sqrt(v / n);
+  return sum;
+}
+
+std::vector<FamilyGap> family_gaps(const Assessment& a, const std::array<double, kFamilies>& noise,
+                                   const DiagnosisSettings& s, const std::string& unresolved_reason) {
+  std::vector<FamilyGap> out;
+  for (std::size_t f = 0; f < kFamilies; ++f) {
+    FamilyGap g;
+    g.family = kAllFamilyKinds[f];
+    g.resolved = a.point.resolved[f];
+    if (!g.resolved) {
+      g.unresolved_reason = a.point.count[f] > 0 || g.family != FamilyKind::fixed_frequency
+                                ? "no lines of this family in the records' band"
+                                : unresolved_reason;
+      if (g.family == FamilyKind::fixed_frequency) g.unresolved_reason = unresolved_reason;
+      out.push_back(g);
+      continue;
+    }
+    g.distance_db = a.point.distance_db(f);
+    g.distance_interval_db = a.interval[f];
+    g.energy_share = a.point.energy_share(f);
+    // Two records' estimation noise at twice its RMS, and never below the practical minimum.
+    const double threshold = std::sqrt(4.0 * noise[f] * noise[f] + s.min_gap_db * s.min_gap_db);
+    g.significant = g.distance_db > threshold;
+    out.push_back(g);
+  }
+  return out;
+}
+
+/// Σ over the resolved families of ln(D² + noise² + τ²) (a log likelihood of the family gaps with
+/// the estimation noise and the practical minimum τ as the floor, so a family already below them
+/// counts for nothing), plus a penalty per fitted parameter.
+double information_criterion(const GapEvaluation& e, const std::array<double, kFamilies>& noise, std::size_t k,
+                             double min_gap_db) {
+  double ic = 0;
+  for (std::size_t f = 0; f < kFamilies; ++f)
+    if (e.resolved[f])
+      ic += std::log(e.distance_db(f) * e.distance_db(f) + noise[f] * noise[f] + min_gap_db * min_gap_db);
+  return ic + kParameterPenalty * static_cast<double>(k);
+}
+
+/// Parameters the data set: the band and harmonic gains no training line reaches stay exactly 0.
+std::size_t fitted_count(const std::vector<double>& values) {
+  return static_cast<std::size_t>(std::count_if(values.begin(), values.end(), [](double v) { return v != 0.0; }));
+}
+
+double own_distance(const std::vector<FamilyGap>& gaps, const std::vector<FamilyKind>& families) {
+  double sum = 0;
+  int n = 0;
+  for (const auto& g : gaps)
+    if (g.resolved && std::find(families.begin(), families.end(), g.family) != families.end())
+      sum += g.distance_db * g.distance_db, ++n;
+  return n ? std::sqrt(sum / n) : 0.0;
+}
+
+std::vector<double> to_db(const std::vector<double>& p, double floor) {
+  std::vector<double> v(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) v[i] = 10 * std::log10(p[i] + floor);
+  return v;
+}
+
+std::vector<double> per_bin_total(const SpectralSummary& s) {
+  std::vector<double> v(s.input_lines.size());
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = s.input_lines[i] + s.broadband[i];
+  return v;
+}
+
+}  // namespace
+
+GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vector<DiagnosisInput>& held_out,
+                   const GearPairSpec& gears, const DiagnosisSettings& settings) {
+  if (training.empty()) throw std::invalid_argument("gap diagnosis needs training records: none given");
+  if (held_out.empty()) throw std::invalid_argument("gap diagnosis needs held-out records: none given");
+  if (settings.bootstrap_resamples < 10) throw std::invalid_argument("gap diagnosis needs >= 10 bootstrap resamples");
+  if (settings.reference_k_wear) {
+    if (!(*settings.reference_k_wear > 0) || !std::isfinite(*settings.reference_k_wear))
+      throw std::invalid_argument("gap diagnosis: reference_k_wear must be finite and > 0");
+    if (!std::isfinite(settings.rms_sa_wear_elasticity) || settings.rms_sa_wear_elasticity == 0)
+      throw std::invalid_argument("gap diagnosis: rms_sa_wear_elasticity must be finite and non-zero");
+    if (settings.rms_sa_harmonics < 1) throw std::invalid_argument("gap diagnosis: rms_sa_harmonics must be >= 1");
+  }
+  const auto train = reduce(training, gears, settings, "training");
+  const auto test = reduce(held_out, gears, settings, "held-out");
+  std::vector<SummaryPair> train_pairs;
+  for (const auto& p : train) train_pairs.push_back({p.measured_all, p.twin_all, p.floor});
+  const double fs = test.front().measured_all.sample_rate_hz;
+
+  GapReport report;
+  report.training_records = train.size();
+  report.held_out_records = test.size();
+  std::set<double> speeds;
+  for (const auto* set : {&training, &held_out})
+    for (const auto& in : *set)
+      if (in.measured.input_revolutions) report.input_revolutions = std::max(report.input_revolutions, *in.measured.input_revolutions);
+  for (const auto* set : {&train, &test})
+    for (const auto& p : *set) speeds.insert(std::round(p.measured_all.speed_hz * 100) / 100);
+  report.speeds_hz.assign(speeds.begin(), speeds.end());
+
+  const GapEvaluator evaluator(gears, settings.fixed_bands_per_octave);
+  const std::string fixed_reason = evaluator.fixed_frequency_reason(views(test, models_of(test, {}, gears)));
+
+  const auto noise = noise_distance(test, settings, evaluator);
+  const auto before = assess(test, {}, gears, settings, settings.bootstrap_resamples, evaluator);
+  report.before = family_gaps(before, noise, settings, fixed_reason);
+  const double ic_before = information_criterion(before.point, noise, 0, settings.min_gap_db);
+  const bool any_significant =
+      std::any_of(report.before.begin(), report.before.end(), [](const FamilyGap& g) { return g.significant; });
+
+  // Each candidate alone on the twin: fitted on training, scored held out.
+  std::vector<std::pair<double, CandidateScore>> ranked;
+  std::map<CandidateEffect, std::vector<double>> alone;
+  for (CandidateEffect c : kAllCandidateEffects) {
+    const auto form = candidate_form(c, fs);
+    const auto values = fit_candidate(c, {}, train_pairs, gears);
+    alone[c] = values;
+    const auto a = assess(test, {{c, values}}, gears, settings, settings.candidate_bootstrap_resamples, evaluator);
+    CandidateScore score;
+    score.effect = c;
+    for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(form.parameters[i].name, values[i]);
+    score.explains = form.explains;
+    score.held_out_after = family_gaps(a, noise, settings, fixed_reason);
+    const double own_before = own_distance(report.before, form.explains);
+    score.shrinkage = own_before > 0 ? 1.0 - own_distance(score.held_out_after, form.explains) / own_before : 0.0;
+    score.information_criterion = information_criterion(a.point, noise, fitted_count(values), settings.min_gap_db);
+    for (std::size_t f = 0; f < kFamilies; ++f) {
+      const auto& b = report.before[f];
+      const auto& after = score.held_out_after[f];
+      const bool own = std::find(form.explains.begin(), form.explains.end(), b.family) != form.explains.end();
+      if (!own && b.resolved && after.distance_db > b.distance_interval_db.high && after.distance_db > b.distance_db + 0.5)
+        score.worsens_other_family = score.shrinkage > 0;
+    }
+    ranked.emplace_back(score.information_criterion, std::move(score));
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (auto& r : ranked) report.candidates.push_back(std::move(r.second));
+
+  // Greedy addition: the best candidate on top of the ones chosen so far, while it pays.
+  std::vector<AppliedEffect> chosen;
+  double ic_current = ic_before;
+  auto current_gaps = report.before;
+  if (any_significant) {
+    for (int round = 0; round < settings.max_effects; ++round) {
+      // The lowest held-out IC among the candidates that act on a significant family is the
+      // attribution; it is added only if it pays (IC drop) and shrinks its own families. When it
+      // does not, no lesser candidate is tried in its place: the families stay unexplained.
+      double best_ic = std::numeric_limits<double>::infinity(), best_shrink = 0;
+      std::optional<AppliedEffect> best;
+      std::vector<FamilyGap> best_gaps;
+      for (CandidateEffect c : kAllCandidateEffects) {
+        if (std::any_of(chosen.begin(), chosen.end(), [&](const AppliedEffect& e) { return e.effect == c; })) continue;
+        const auto form = candidate_form(c, fs);
+        const auto values = chosen.empty() ? alone[c] : fit_candidate(c, chosen, train_pairs, gears);
+        auto fx = chosen;
+        fx.push_back({c, values});
+        const auto models = models_of(test, fx, gears);
+        const auto e = evaluator.evaluate(views(test, models), true);
+        const double ic = information_criterion(e, noise, fitted_count(values), settings.min_gap_db);
+        Assessment a;
+        a.point = e;
+        for (std::size_t f = 0; f < kFamilies; ++f) a.interval[f] = {e.distance_db(f), e.distance_db(f)};
+        const auto gaps = family_gaps(a, noise, settings, fixed_reason);
+        const double own_before = own_distance(current_gaps, form.explains);
+        const double shrink = own_before > 0 ? 1.0 - own_distance(gaps, form.explains) / own_before : 0.0;
+        const bool explains_significant = std::any_of(current_gaps.begin(), current_gaps.end(), [&](const FamilyGap& g) {
+          return g.significant &&
+                 std::find(form.explains.begin(), form.explains.end(), g.family) != form.explains.end();
+        });
+        if (explains_significant && ic < best_ic) {
+          best_ic = ic;
+          best_shrink = shrink;
+          best = AppliedEffect{c, values};
+          best_gaps = gaps;
+        }
+      }
+      if (!best || best_ic > ic_current - settings.accept_ic_drop || best_shrink < settings.min_shrinkage) break;
+      chosen.push_back(*best);
+      report.chosen.push_back(best->effect);
+      ic_current = best_ic;
+      current_gaps = best_gaps;
+      if (std::none_of(current_gaps.begin(), current_gaps.end(), [](const FamilyGap& g) { return g.significant; })) break;
+    }
+  }
+  const auto after = assess(test, chosen, gears, settings, settings.bootstrap_resamples, evaluator);
+  report.after = family_gaps(after, noise, settings, fixed_reason);
+  for (const auto& g : report.after)
+    if (g.significant) report.unexplained.push_back(g.family);
+  // K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the
+  // mesh harmonics is absorbed into it; with the chosen effects added the twin's RMS_SA changes and
+  // so does the K inferred. Records at different speeds differ in level, so their ratios are pooled
+  // in the log (geometric mean), not their energies.
+  if (settings.reference_k_wear) {
+    const auto n_harm = static_cast<std::size_t>(settings.rms_sa_harmonics);
+    const auto z1 = static_cast<std::size_t>(gears.pinion_teeth);
+    auto rms_sa = [&](const SpectralSummary& s) -> std::optional<double> {
+      if (s.input_lines.size() < n_harm * z1) return std::nullopt;
+      double e = 0;
+      for (std::size_t h = 1; h <= n_harm; ++h) e += s.input_lines[h * z1 - 1];
+      return e > 0 ? std::optional<double>(std::sqrt(e)) : std::nullopt;
+    };
+    double log_before = 0, log_after = 0;
+    int used = 0;
+    for (const auto& p : test) {
+      const auto meas = rms_sa(p.measured_all), twin = rms_sa(p.twin_all),
+                 with_fx = rms_sa(apply_effects(chosen, p.twin_all, gears));
+      if (!meas || !twin || !with_fx) continue;
+      log_before += std::log(*meas / *twin);
+      log_after += std::log(*meas / *with_fx);
+      ++used;
+    }
+    if (used > 0) {
+      const double k_ref = *settings.reference_k_wear;
+      report.k_wear_before = inferred_k_wear(std::exp(log_before / used), 1.0, k_ref, settings.rms_sa_wear_elasticity);
+      report.k_wear_after = inferred_k_wear(std::exp(log_after / used), 1.0, k_ref, settings.rms_sa_wear_elasticity);
+    }
+  }
+
+  // Plots: the first held-out record.
+  const auto& p = test.front();
+  const auto twin_after = apply_effects(chosen, p.twin_all, gears);
+  const std::size_t k = std::min(p.measured_all.input_lines.size(), p.twin_all.input_lines.size());
+  for (std::size_t i = 0; i < k; ++i) {
+    report.order_axis.push_back(static_cast<double>(i + 1));
+    report.hz_axis.push_back(static_cast<double>(i + 1) * p.measured_all.speed_hz);
+  }
+  auto cut = [&](std::vector<double> v) {
+    v.resize(k);
+    return v;
+  };
+  report.measured_order_db = cut(to_db(p.measured_all.input_lines, p.floor));
+  report.twin_order_db = cut(to_db(p.twin_all.input_lines, p.floor));
+  report.twin_after_order_db = cut(to_db(twin_after.input_lines, p.floor));
+  report.measured_hz_db = cut(to_db(per_bin_total(p.measured_all), p.floor));
+  report.twin_hz_db = cut(to_db(per_bin_total(p.twin_all), p.floor));
+  report.twin_after_hz_db = cut(to_db(per_bin_total(twin_after), p.floor));
+  const int z1 = gears.pinion_teeth;
+  const int reach = (z1 - 1) / 2;
+  report.order_bands.push_back({FamilyKind::input_shaft_orders, {0.5, z1 - reach - 0.5}});
+  for (int n = 1; n * z1 <= static_cast<int>(k) && n <= 10; ++n) {
+    report.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 - reach - 0.5, n * z1 - 0.5}});
+    report.order_bands.push_back({FamilyKind::mesh_harmonics, {n * z1 - 0.5, n * z1 + 0.5}});
+    report.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 + 0.5, n * z1 + reach + 0.5}});
+  }
+  for (const auto& band : before.point.fixed_bands)
+    if (std::abs(band.gain_db) >= settings.min_gap_db)
+      report.hz_bands.push_back({FamilyKind::fixed_frequency, {band.low_hz, band.high_hz}});
+  return report;
+}
+
+double inferred_k_wear(double rms_sa_measured, double rms_sa_model, double reference_k_wear, double elasticity) {
+  if (!(rms_sa_measured > 0) || !(rms_sa_model > 0) || !std::isfinite(rms_sa_measured) || !std::isfinite(rms_sa_model))
+    throw std::invalid_argument("inferred_k_wear: RMS_SA values must be finite and > 0");
+  if (!(reference_k_wear > 0) || !std::isfinite(reference_k_wear))
+    throw std::invalid_argument("inferred_k_wear: reference K_wear must be finite and > 0");
+  if (!std::isfinite(elasticity) || elasticity == 0)
+    throw std::invalid_argument("inferred_k_wear: elasticity must be finite and non-zero");
+  return reference_k_wear * std::pow(rms_sa_measured / rms_sa_model, 1.0 / elasticity);
+}
+
+}  // namespace gearwatch::gap

@@ -1,0 +1,143 @@
+#include "gearwatch/gap/evaluation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace gearwatch::gap {
+namespace {
+
+constexpr std::size_t kFixed = static_cast<std::size_t>(FamilyKind::fixed_frequency);
+constexpr double kLowestBandHz = 10.0;
+// The Hz part is shrunk towards 0 as if each band had this many extra points at no gap, so a band
+// seen by a handful of lines does not absorb their order-fixed differences.
+constexpr double kBandShrinkage = 1.0;
+constexpr int kIterations = 40;
+// Bins this many floors above it in either spectrum inform the split into order and Hz parts.
+constexpr double kInformativeFloors = 10.0;
+
+struct Point {
+  std::size_t key;     // line identity across records: shaft side and order
+  double hz;
+  double g;            // 10·log10 ratio
+  double model;        // model power
+  double measured;
+  std::size_t family;
+  double speed = 0;
+  bool informative = false;  // above the floor in either spectrum: carries information on the ratio
+  int band = -1;
+};
+
+}  // namespace
+
+double GapEvaluation::energy_share(std::size_t family) const {
+  double total = 0;
+  for (double e : energy) total += e;
+  return total > 0 ? energy[family] / total : 0.0;
+}
+
+GapEvaluator::GapEvaluator(const GearPairSpec& gears, double bands_per_octave, double min_speed_ratio)
+    : gears_(gears), bands_per_octave_(bands_per_octave), min_speed_ratio_(min_speed_ratio) {}
+
+std::string GapEvaluator::fixed_frequency_reason(const std::vector<GapPair>& pairs) const {
+  double lo = 1e300, hi = 0;
+  for (const auto& p : pairs) lo = std::min(lo, p.measured->speed_hz), hi = std::max(hi, p.measured->speed_hz);
+  if (pairs.empty() || hi < lo * min_speed_ratio_)
+    return "fixed_frequency needs records at >= 2 speeds (at least " +
+           std::to_string(static_cast<int>(std::round((min_speed_ratio_ - 1) * 100))) + " % apart); these are at one";
+  return "";
+}
+
+GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool decompose) const {
+  GapEvaluation e;
+  const int z1 = gears_.pinion_teeth, z2 = gears_.gear_teeth;
+  std::vector<Point> pts;
+  std::size_t max_order = 0;
+  for (const auto& p : pairs) max_order = std::max({max_order, p.measured->input_lines.size(), p.measured->output_lines.size()});
+  for (const auto& p : pairs) {
+    const auto& m = *p.measured;
+    const auto& q = *p.model;
+    auto ratio = [&](double a, double b) { return 10.0 * std::log10((a + p.floor) / (b + p.floor)); };
+    const std::size_t first = pts.size();
+    const std::size_t ki = std::min(m.input_lines.size(), q.input_lines.size());
+    for (std::size_t k = 1; k <= ki; ++k) {
+      const double hz = k * m.speed_hz;
+      pts.push_back({k, hz, ratio(m.input_lines[k - 1], q.input_lines[k - 1]), q.input_lines[k - 1], m.input_lines[k - 1],
+                     static_cast<std::size_t>(input_line_family(static_cast<int>(k), z1))});
+      pts.push_back({2 * max_order + k, hz, ratio(m.broadband[k - 1], q.broadband[k - 1]), q.broadband[k - 1],
+                     m.broadband[k - 1], static_cast<std::size_t>(FamilyKind::broadband)});
+    }
+    const std::size_t ko = std::min(m.output_lines.size(), q.output_lines.size());
+    for (std::size_t o = 1; o <= ko; ++o) {
+      if (output_line_is_mesh(static_cast<int>(o), z2)) continue;
+      pts.push_back({max_order + o, o * m.speed_hz * z1 / z2, ratio(m.output_lines[o - 1], q.output_lines[o - 1]),
+                     q.output_lines[o - 1], m.output_lines[o - 1],
+                     static_cast<std::size_t>(output_line_family(static_cast<int>(o), z2))});
+    }
+    for (std::size_t i = first; i < pts.size(); ++i) {
+      pts[i].speed = m.speed_hz;
+      pts[i].informative = std::max(pts[i].measured, pts[i].model) > kInformativeFloors * p.floor;
+    }
+  }
+  for (std::size_t f = 0; f < e.resolved.size(); ++f) e.resolved[f] = true;
+  const bool resolvable = fixed_frequency_reason(pairs).empty();
+  e.resolved[kFixed] = resolvable;
+  std::vector<double> band_gain;
+  if (decompose && resolvable) {
+    int bands = 0;
+    for (auto& pt : pts)
+      if (pt.hz >= kLowestBandHz) {
+        pt.band = static_cast<int>(std::floor(bands_per_octave_ * std::log2(pt.hz / kLowestBandHz)));
+        bands = std::max(bands, pt.band + 1);
+      }
+    // A band is identifiable only when informative lines at two speeds fall in it.
+    std::vector<double> speed_min(bands, 1e300), speed_max(bands, 0);
+    for (const auto& pt : pts)
+      if (pt.band >= 0 && pt.informative) {
+        speed_min[pt.band] = std::min(speed_min[pt.band], pt.speed);
+        speed_max[pt.band] = std::max(speed_max[pt.band], pt.speed);
+      }
+    std::vector<char> usable(bands);
+    for (int b = 0; b < bands; ++b) usable[b] = speed_max[b] >= speed_min[b] * min_speed_ratio_;
+    std::vector<double> line(3 * max_order + 2, 0.0), line_n(3 * max_order + 2, 0.0);
+    band_gain.assign(bands, 0.0);
+    std::vector<double> band_sum(bands), band_n(bands);
+    for (int it = 0; it < kIterations; ++it) {
+      std::fill(line.begin(), line.end(), 0.0);
+      std::fill(line_n.begin(), line_n.end(), 0.0);
+      for (const auto& pt : pts) {
+        if (!pt.informative) continue;
+        line[pt.key] += pt.g - (pt.band >= 0 ? band_gain[pt.band] : 0.0);
+        line_n[pt.key] += 1;
+      }
+      for (std::size_t k = 0; k < line.size(); ++k)
+        if (line_n[k] > 0) line[k] /= line_n[k];
+      std::fill(band_sum.begin(), band_sum.end(), 0.0);
+      std::fill(band_n.begin(), band_n.end(), 0.0);
+      for (const auto& pt : pts)
+        if (pt.informative && pt.band >= 0 && usable[pt.band]) band_sum[pt.band] += pt.g - line[pt.key], band_n[pt.band] += 1;
+      for (int b = 0; b < bands; ++b) band_gain[b] = usable[b] ? band_sum[b] / (band_n[b] + kBandShrinkage) : 0.0;
+    }
+    // The fixed-frequency family's bins are its Hz bands (each once, however many lines it holds).
+    for (int b = 0; b < bands; ++b)
+      if (usable[b]) e.sum_sq[kFixed] += band_gain[b] * band_gain[b], e.count[kFixed] += 1;
+    for (int b = 0; b < bands; ++b)
+      if (usable[b])
+        e.fixed_bands.push_back({kLowestBandHz * std::exp2(b / bands_per_octave_),
+                                 kLowestBandHz * std::exp2((b + 1) / bands_per_octave_), band_gain[b]});
+  }
+  for (const auto& pt : pts) {
+    const double fixed = pt.informative && pt.band >= 0 && !band_gain.empty() ? band_gain[pt.band] : 0.0;
+    const double rest = pt.g - fixed;
+    e.sum_sq[pt.family] += rest * rest;
+    e.count[pt.family] += 1;
+    const double model_fixed = pt.model * std::pow(10.0, fixed / 10.0);
+    e.energy[pt.family] += std::abs(pt.measured - model_fixed);
+    if (!band_gain.empty() && pt.informative) e.energy[kFixed] += std::abs(model_fixed - pt.model);
+  }
+  for (std::size_t f = 0; f < e.resolved.size(); ++f)
+    if (f != kFixed && e.count[f] == 0) e.resolved[f] = false;
+  return e;
+}
+
+}  // namespace gearwatch::gap

@@ -1,0 +1,196 @@
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "gearwatch/gap/candidates.hpp"
+#include "gearwatch/gap/evaluation.hpp"
+
+namespace gearwatch::gap {
+namespace {
+
+constexpr std::size_t kFamilies = kAllFamilyKinds.size();
+// As in the evaluation: bins this many floors above it carry information on the ratio.
+constexpr double kInformativeFloors = 10.0;
+// A band gain is shrunk towards 0 as if it had this many more points at no gap.
+constexpr double kBandShrinkage = 1.0;
+
+/// The training objective: the mean squared log ratio of each line/bin family, families weighted
+/// alike (the broadband family has thousands of bins, the shaft orders a few).
+double cost_of(const std::vector<SummaryPair>& pairs, const std::vector<AppliedEffect>& fx,
+               const GearPairSpec& gears, const GapEvaluator& evaluator) {
+  std::vector<SpectralSummary> models;
+  for (const auto& p : pairs) models.push_back(apply_effects(fx, p.twin, gears));
+  std::vector<GapPair> v;
+  for (std::size_t i = 0; i < pairs.size(); ++i) v.push_back({&pairs[i].measured, &models[i], pairs[i].floor});
+  const auto e = evaluator.evaluate(v, false);
+  double cost = 0;
+  for (std::size_t f = 0; f < kFamilies; ++f)
+    if (e.count[f] > 0) cost += e.sum_sq[f] / e.count[f];
+  return cost;
+}
+
+/// Grid over each parameter's range (log where marked), then Nelder–Mead from the best starts.
+}  // namespace
+
+double training_cost(const std::vector<SummaryPair>& training, const std::vector<AppliedEffect>& effects,
+                     const GearPairSpec& gears) {
+  return cost_of(training, effects, gears, GapEvaluator(gears));
+}
+
+std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<AppliedEffect>& base,
+                                  const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
+  if (training.empty()) throw std::invalid_argument("fit_candidate: no training records");
+  const GapEvaluator evaluator(gears);
+  const CandidateForm form = candidate_form(effect, training.front().measured.sample_rate_hz);
+  const std::size_t d = form.parameters.size();
+  auto to_value = [&](const std::vector<double>& u) {
+    std::vector<double> v(d);
+    for (std::size_t i = 0; i < d; ++i) {
+      const auto& p = form.parameters[i];
+      const double t = std::clamp(u[i], 0.0, 1.0);
+      v[i] = p.log_scale ? std::exp(std::log(p.low) + t * (std::log(p.high) - std::log(p.low)))
+                         : p.low + t * (p.high - p.low);
+    }
+    return v;
+  };
+  auto cost = [&](const std::vector<double>& u) {
+    auto fx = base;
+    fx.push_back({form.effect, to_value(u)});
+    return cost_of(training, fx, gears, evaluator);
+  };
+  if (form.effect == CandidateEffect::casing_mode) {
+    // Linear in the band gains: each band's gain is the shrunk mean log ratio of the informative
+    // lines/bins whose frequency falls in it; bands without any take the interpolation of their
+    // neighbours (a transfer path is smooth on the scale of a few bands).
+    const std::size_t nb = form.parameters.size();
+    std::vector<double> sum(nb, 0.0), n(nb, 0.0);
+    for (const auto& p : training) {
+      const auto model = apply_effects(base, p.twin, gears);
+      auto add = [&](double a, double b, double hz) {
+        if (std::max(a, b) <= kInformativeFloors * p.floor || !(hz > 0)) return;
+        const double x = 12.0 * std::log2(hz / 10.0);
+        if (x < 0) return;
+        const auto band = std::min(nb - 1, static_cast<std::size_t>(x));
+        sum[band] += 10 * std::log10((a + p.floor) / (b + p.floor));
+        n[band] += 1;
+      };
+      const auto& m = p.measured;
+      for (std::size_t k = 1; k <= std::min(m.input_lines.size(), model.input_lines.size()); ++k) {
+        add(m.input_lines[k - 1], model.input_lines[k - 1], k * m.speed_hz);
+        add(m.broadband[k - 1], model.broadband[k - 1], k * m.speed_hz);
+      }
+      for (std::size_t o = 1; o <= std::min(m.output_lines.size(), model.output_lines.size()); ++o)
+        if (!output_line_is_mesh(static_cast<int>(o), gears.gear_teeth))
+          add(m.output_lines[o - 1], model.output_lines[o - 1], o * m.speed_hz * gears.pinion_teeth / gears.gear_teeth);
+    }
+    std::vector<double> v(nb, 0.0);
+    std::vector<std::size_t> known;
+    for (std::size_t b = 0; b < nb; ++b)
+      if (n[b] > 0) v[b] = std::clamp(sum[b] / (n[b] + kBandShrinkage), -60.0, 60.0), known.push_back(b);
+    for (std::size_t b = 0; b < nb; ++b) {
+      if (n[b] > 0 || known.empty()) continue;
+      const auto hi = std::lower_bound(known.begin(), known.end(), b);
+      if (hi == known.begin()) v[b] = v[*hi];
+      else if (hi == known.end()) v[b] = v[known.back()];
+      else {
+        const std::size_t a = *(hi - 1), c = *hi;
+        v[b] = v[a] + (v[c] - v[a]) * static_cast<double>(b - a) / static_cast<double>(c - a);
+      }
+    }
+    return v;
+  }
+  if (form.effect == CandidateEffect::tip_relief) {
+    // Separable in the log domain: each harmonic's gain is the mean log ratio there (floors make
+    // it approximate). Harmonics no training record holds stay at 0 dB.
+    const std::size_t h_max = form.parameters.size();
+    std::vector<double> sum(h_max, 0.0), n(h_max, 0.0);
+    for (const auto& p : training) {
+      const auto model = apply_effects(base, p.twin, gears);
+      const auto& m = p.measured.input_lines;
+      const auto& q = model.input_lines;
+      const auto z1 = static_cast<std::size_t>(gears.pinion_teeth);
+      for (std::size_t h = 1; h <= h_max && h * z1 <= std::min(m.size(), q.size()); ++h) {
+        sum[h - 1] += 10 * std::log10((m[h * z1 - 1] + p.floor) / (q[h * z1 - 1] + p.floor));
+        n[h - 1] += 1;
+      }
+    }
+    std::vector<double> v(h_max);
+    for (std::size_t i = 0; i < h_max; ++i) v[i] = n[i] > 0 ? std::clamp(sum[i] / n[i], -60.0, 60.0) : 0.0;
+    return v;
+  }
+  // Start grid.
+  std::vector<std::pair<double, std::vector<double>>> starts;
+  std::vector<int> idx(d, 0);
+  while (true) {
+    std::vector<double> u(d);
+    for (std::size_t i = 0; i < d; ++i) {
+      const int g = std::max(1, form.parameters[i].grid);
+      u[i] = g == 1 ? 0.5 : (idx[i] + 0.5) / g;
+    }
+    starts.emplace_back(cost(u), u);
+    std::size_t i = 0;
+    for (; i < d; ++i) {
+      if (++idx[i] < std::max(1, form.parameters[i].grid)) break;
+      idx[i] = 0;
+    }
+    if (i == d) break;
+  }
+  std::sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<double> best_u = starts.front().second;
+  double best = starts.front().first;
+  for (std::size_t s = 0; s < std::min<std::size_t>(2, starts.size()); ++s) {
+    // Nelder–Mead on the unit box (clamped), step a grid cell.
+    std::vector<std::vector<double>> simplex{starts[s].second};
+    std::vector<double> values{starts[s].first};
+    for (std::size_t i = 0; i < d; ++i) {
+      auto u = starts[s].second;
+      u[i] = std::clamp(u[i] + 0.5 / std::max(1, form.parameters[i].grid) * (u[i] > 0.5 ? -1 : 1), 0.0, 1.0);
+      simplex.push_back(u);
+      values.push_back(cost(u));
+    }
+    for (int it = 0; it < 60 * static_cast<int>(d); ++it) {
+      std::vector<std::size_t> order(d + 1);
+      std::iota(order.begin(), order.end(), std::size_t{0});
+      std::sort(order.begin(), order.end(), [&](auto a, auto b) { return values[a] < values[b]; });
+      const std::size_t worst = order[d], second = order[d - 1], lowest = order[0];
+      if (values[worst] - values[lowest] < 1e-7 * (1 + std::abs(values[lowest]))) break;
+      std::vector<double> centre(d, 0.0);
+      for (std::size_t j = 0; j <= d; ++j)
+        if (j != worst)
+          for (std::size_t i = 0; i < d; ++i) centre[i] += simplex[j][i] / static_cast<double>(d);
+      auto point = [&](double t) {
+        std::vector<double> u(d);
+        for (std::size_t i = 0; i < d; ++i) u[i] = std::clamp(centre[i] + t * (simplex[worst][i] - centre[i]), 0.0, 1.0);
+        return u;
+      };
+      auto xr = point(-1.0);
+      const double fr = cost(xr);
+      if (fr < values[lowest]) {
+        auto xe = point(-2.0);
+        const double fe = cost(xe);
+        if (fe < fr) simplex[worst] = xe, values[worst] = fe;
+        else simplex[worst] = xr, values[worst] = fr;
+      } else if (fr < values[second]) {
+        simplex[worst] = xr, values[worst] = fr;
+      } else {
+        auto xc = point(0.5);
+        const double fc = cost(xc);
+        if (fc < values[worst]) {
+          simplex[worst] = xc, values[worst] = fc;
+        } else {
+          for (std::size_t j = 0; j <= d; ++j)
+            if (j != lowest) {
+              for (std::size_t i = 0; i < d; ++i) simplex[j][i] = 0.5 * (simplex[j][i] + simplex[lowest][i]);
+              values[j] = cost(simplex[j]);
+            }
+        }
+      }
+    }
+    const auto it = std::min_element(values.begin(), values.end());
+    if (*it < best) best = *it, best_u = simplex[static_cast<std::size_t>(it - values.begin())];
+  }
+  return to_value(best_u);
+}
+
+}  // namespace gearwatch::gap

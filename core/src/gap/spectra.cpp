@@ -1,0 +1,231 @@
+#include "gearwatch/gap/spectra.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+
+#include "gearwatch/dsp/fft.hpp"
+#include "gearwatch/dsp/order_tracking.hpp"
+#include "gearwatch/dsp/tsa.hpp"
+
+namespace gearwatch::gap {
+namespace {
+
+// The synchronous mean of each line's per-revolution DFT ([rev * lines + line]) over the chosen
+// revolutions. Plain, not weighted: Hann weights over so few revolutions widen the leakage of the
+// other shaft's tones instead of narrowing it (4 output revolutions cannot separate a tone 0.2
+// output orders from a line).
+std::vector<std::complex<double>> mean_over_revolutions(const std::vector<std::complex<double>>& dft,
+                                                        const std::vector<std::size_t>& revolutions, std::size_t lines) {
+  std::vector<std::complex<double>> mean(lines);
+  for (std::size_t r : revolutions)
+    for (std::size_t k = 0; k < lines; ++k) mean[k] += dft[r * lines + k];
+  for (auto& m : mean) m /= static_cast<double>(revolutions.size());
+  return mean;
+}
+
+// Lines above this fraction of the sample rate sit in the anti-alias roll-off of any front-end
+// and of the resampler's kernel; they are left out rather than compared.
+constexpr double kUsableBandFraction = 0.45;
+
+void per_revolution_dft(const dsp::RealBuffer& angle, std::size_t spr, std::size_t revs, std::size_t lines,
+                        const dsp::RealFft& fft, std::vector<std::complex<double>>& out) {
+  dsp::RealBuffer in(spr);
+  dsp::ComplexBuffer spectrum(fft.spectrum_size());
+  out.assign(revs * lines, {});
+  const double scale = 2.0 / static_cast<double>(spr);  // peak amplitude of a synchronous sinusoid
+  for (std::size_t r = 0; r < revs; ++r) {
+    std::copy(angle.begin() + static_cast<std::ptrdiff_t>(r * spr),
+              angle.begin() + static_cast<std::ptrdiff_t>((r + 1) * spr), in.begin());
+    fft.forward(in, spectrum);
+    for (std::size_t k = 1; k <= lines; ++k) out[r * lines + k - 1] = spectrum[k] * scale;
+  }
+}
+
+}  // namespace
+
+FamilyKind input_line_family(int order, int pinion_teeth) noexcept {
+  const int reach = (pinion_teeth - 1) / 2;
+  if (order % pinion_teeth == 0) return FamilyKind::mesh_harmonics;
+  if (order < pinion_teeth - reach) return FamilyKind::input_shaft_orders;
+  return FamilyKind::input_sidebands;
+}
+
+bool output_line_is_mesh(int order, int gear_teeth) noexcept { return order % gear_teeth == 0; }
+
+FamilyKind output_line_family(int order, int gear_teeth) noexcept {
+  const int reach = (gear_teeth - 1) / 2;
+  if (order < gear_teeth - reach) return FamilyKind::output_shaft_orders;
+  return FamilyKind::output_sidebands;
+}
+
+RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSpec& gears,
+                             std::size_t min_revolutions, int edges_per_rev)
+    : sample_rate_hz_(record.sample_rate_hz), pinion_teeth_(gears.pinion_teeth), gear_teeth_(gears.gear_teeth) {
+  if (!(record.sample_rate_hz > 0)) throw std::invalid_argument("record has no sample rate");
+  if (channel < 0 || static_cast<std::size_t>(channel) >= record.channels.size())
+    throw std::invalid_argument("record has no channel " + std::to_string(channel));
+  const auto& x = record.channels[static_cast<std::size_t>(channel)];
+  for (float v : x)
+    if (!std::isfinite(v)) throw std::invalid_argument("record has non-finite samples");
+  dsp::ShaftAngle angle;
+  const auto check = angle.assign(record.tacho_edges[0], edges_per_rev, 1.0);
+  if (!check.ok()) throw std::invalid_argument("record's input tacho is unusable: " + check.reason);
+  const double total = angle.total_revolutions();
+  in_revs_ = static_cast<std::size_t>(std::floor(total + 1e-9));
+  const double ratio = static_cast<double>(gears.gear_teeth) / gears.pinion_teeth;
+  out_revs_ = static_cast<std::size_t>(std::floor(total / ratio + 1e-9));
+  if (in_revs_ < min_revolutions)
+    throw std::invalid_argument("record too short: " + std::to_string(in_revs_) + " whole input revolutions, need " +
+                                std::to_string(min_revolutions));
+  if (out_revs_ < 2)
+    throw std::invalid_argument("record too short: " + std::to_string(out_revs_) +
+                                " whole output revolutions, need 2 for the output shaft's lines");
+  const double seconds = (angle.time_at(static_cast<double>(in_revs_)) - angle.time_at(0.0)) / sample_rate_hz_;
+  speed_hz_ = static_cast<double>(in_revs_) / seconds;
+  // Resolution: the angle domain keeps the whole acquired band at the slowest revolution.
+  std::vector<double> per_rev;
+  angle.speed_per_revolution(sample_rate_hz_, per_rev);
+  const double slowest = per_rev.empty() ? speed_hz_ : *std::min_element(per_rev.begin(), per_rev.end());
+  const std::size_t spr = dsp::next_smooth_size(static_cast<std::size_t>(std::ceil(sample_rate_hz_ / slowest)));
+  const double top_hz = kUsableBandFraction * sample_rate_hz_;
+  k_in_ = std::min(spr / 2 - 1, static_cast<std::size_t>(std::floor(top_hz / speed_hz_)));
+  // The output shaft turns z2/z1 times slower: as many more samples per revolution keep the band.
+  const std::size_t spr_out = dsp::next_smooth_size(static_cast<std::size_t>(std::ceil(spr * ratio)));
+  k_out_ = std::min(spr_out / 2 - 1, static_cast<std::size_t>(std::floor(top_hz / (speed_hz_ / ratio))));
+
+  dsp::FftPlanCache plans;
+  dsp::AngularResampler resampler;
+  dsp::RealBuffer in_angle(in_revs_ * spr), out_angle(out_revs_ * spr), out_angle_fine(out_revs_ * spr_out);
+  resampler.resample(x, angle, spr, in_revs_, in_angle);
+  resampler.resample(x, angle, spr, out_revs_, out_angle, ratio);
+  // Each shaft's lines are read with the other shaft's synchronous part removed: an input line is
+  // not periodic on the output shaft (and vice versa), so with a few revolutions its leakage
+  // would not average out and a change on one shaft would show on the other.
+  dsp::SynchronousSeparation separation;
+  dsp::RealBuffer residual(in_angle.size());
+  separation.separate(in_angle, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, residual);
+  const std::vector<double> tsa_in(separation.input_tsa().begin(), separation.input_tsa().end());
+  dsp::RealBuffer output_part(in_angle.size());
+  std::vector<float> output_only(in_angle.size());
+  for (std::size_t j = 0; j < in_angle.size(); ++j) {
+    output_part[j] = in_angle[j] - tsa_in[j % spr];
+    output_only[j] = static_cast<float>(output_part[j]);
+  }
+  // The output-only signal is sampled uniformly in input angle: its "tacho" is every spr samples.
+  std::vector<double> grid_edges(in_revs_ + 1);
+  for (std::size_t r = 0; r <= in_revs_; ++r) grid_edges[r] = static_cast<double>(r * spr);
+  dsp::ShaftAngle grid;
+  grid.assign(grid_edges, 1, 1.0);
+  resampler.resample(output_only, grid, spr_out, out_revs_, out_angle_fine, ratio);
+  // Second pass: the output shaft's average taken without the input lines (the first pass took it
+  // from the raw signal, where an input line 0.2 output orders from an output line leaks in as 1/R),
+  // so that the residual holds neither shaft's lines.
+  resampler.resample(output_only, grid, spr, out_revs_, out_angle, ratio);
+  separation.separate(output_part, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, residual);
+  dsp::RealBuffer input_only(in_angle.size());
+  for (std::size_t j = 0; j < in_angle.size(); ++j) input_only[j] = tsa_in[j % spr] + residual[j];
+  const auto& fft = plans.real(spr);
+  per_revolution_dft(input_only, spr, in_revs_, k_in_, fft, in_dft_);
+  per_revolution_dft(out_angle_fine, spr_out, out_revs_, k_out_, plans.real(spr_out), out_dft_);
+  // Broadband: 2-revolution Hann blocks, 50 % overlap.
+  const std::size_t n = 2 * spr;
+  blocks_ = in_revs_ - 1;
+  const auto& fft2 = plans.real(n);
+  dsp::RealBuffer in(n);
+  dsp::ComplexBuffer spectrum(fft2.spectrum_size());
+  std::vector<double> window(n);
+  for (std::size_t i = 0; i < n; ++i) window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / n);
+  // Peak-amplitude scale of a bin-centred tone (2/Σw), and the window's noise bandwidth (1.5
+  // bins) so that a tone's power summed over the bins it spreads into counts once.
+  const double scale = 4.0 / static_cast<double>(n) / std::sqrt(1.5);
+  const std::size_t bins = 2 * k_in_ + 1;
+  block_dft_.assign(blocks_ * bins, {});
+  for (std::size_t b = 0; b < blocks_; ++b) {
+    for (std::size_t i = 0; i < n; ++i) in[i] = residual[b * spr + i] * window[i];
+    fft2.forward(in, spectrum);
+    for (std::size_t j = 1; j <= bins; ++j) block_dft_[b * bins + j - 1] = spectrum[j] * scale;
+  }
+}
+
+SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_revs,
+                                       const std::vector<std::size_t>& output_revs,
+                                       const std::vector<std::size_t>& blocks) const {
+  auto all = [](std::size_t n) {
+    std::vector<std::size_t> v(n);
+    std::iota(v.begin(), v.end(), std::size_t{0});
+    return v;
+  };
+  const auto& ir = input_revs.empty() ? all(in_revs_) : input_revs;
+  const auto& orv = output_revs.empty() ? all(out_revs_) : output_revs;
+  SpectralSummary s;
+  s.speed_hz = speed_hz_;
+  s.sample_rate_hz = sample_rate_hz_;
+  s.input_revolutions = ir.size();
+  s.output_revolutions = orv.size();
+  s.input_lines.assign(k_in_, 0.0);
+  s.broadband.assign(k_in_, 0.0);
+  const auto mean = mean_over_revolutions(in_dft_, ir, k_in_);
+  s.input_line_averages = static_cast<double>(ir.size());
+  for (std::size_t k = 0; k < k_in_; ++k) s.input_lines[k] = std::norm(mean[k]);
+  const auto& bl = blocks.empty() ? all(blocks_) : blocks;
+  const std::size_t bins = 2 * k_in_ + 1;
+  std::vector<std::complex<double>> block_mean(bins);
+  for (std::size_t b : bl)
+    for (std::size_t j = 0; j < bins; ++j) block_mean[j] += block_dft_[b * bins + j];
+  for (auto& m : block_mean) m /= static_cast<double>(bl.size());
+  std::vector<double> power(bins, 0.0);
+  for (std::size_t b : bl)
+    for (std::size_t j = 0; j < bins; ++j) power[j] += std::norm(block_dft_[b * bins + j] - block_mean[j]);
+  const double dof = std::max(1.0, static_cast<double>(bl.size()) - 1.0);
+  // Half-order bin j (order j/2) belongs to the 1-order bin k = floor(j/2): orders [k, k+1).
+  for (std::size_t j = 2; j <= bins; ++j) s.broadband[j / 2 - 1] += power[j - 1] / dof;
+  const auto mean_out = mean_over_revolutions(out_dft_, orv, k_out_);
+  s.output_line_averages = static_cast<double>(orv.size());
+  s.output_lines.assign(k_out_, 0.0);
+  for (std::size_t m = 0; m < k_out_; ++m)
+    if (!output_line_is_mesh(static_cast<int>(m + 1), gear_teeth_)) s.output_lines[m] = std::norm(mean_out[m]);
+  return s;
+}
+
+SpectralSummary RecordSpectra::bootstrap(std::mt19937_64& rng, std::size_t block) const {
+  auto draw = [&](std::size_t n) {
+    std::vector<std::size_t> v;
+    v.reserve(n);
+    const std::size_t b = std::max<std::size_t>(1, std::min(block, n));
+    std::uniform_int_distribution<std::size_t> start(0, n - 1);
+    while (v.size() < n) {
+      const std::size_t s = start(rng);
+      for (std::size_t j = 0; j < b && v.size() < n; ++j) v.push_back((s + j) % n);
+    }
+    return v;
+  };
+  return summary(draw(in_revs_), draw(out_revs_), draw(blocks_));
+}
+
+void add_tone_to_broadband(SpectralSummary& s, double order, double power) {
+  if (!(power > 0)) return;
+  const double centre = 2.0 * order;  // in half-order bins
+  const auto first = static_cast<long>(std::floor(centre)) - 2;
+  double weights[6], total = 0;
+  for (int i = 0; i < 6; ++i) {
+    const double d = centre - static_cast<double>(first + i);
+    // Hann kernel's power at d bins from the tone: (sinc(d)/(1 − d²))².
+    double w;
+    if (std::abs(d) < 1e-9) w = 1.0;
+    else if (std::abs(std::abs(d) - 1.0) < 1e-9) w = 0.25;
+    else w = std::pow(std::sin(std::numbers::pi * d) / (std::numbers::pi * d) / (1.0 - d * d), 2);
+    weights[i] = w;
+    total += w;
+  }
+  for (int i = 0; i < 6; ++i) {
+    const long j = first + i;
+    const long k = j / 2;  // 1-order bin [k, k+1)
+    if (j >= 2 && k >= 1 && k <= static_cast<long>(s.broadband.size()))
+      s.broadband[static_cast<std::size_t>(k - 1)] += power * weights[i] / total;
+  }
+}
+
+}  // namespace gearwatch::gap

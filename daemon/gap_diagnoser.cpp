@@ -1,0 +1,52 @@
+#include "gap_diagnoser.hpp"
+
+#include "gearwatch/gap/diagnosis.hpp"
+#include "gearwatch/twin/simulation.hpp"
+#include "gearwatch/wear/wear_loop.hpp"
+
+namespace gearwatch::daemon {
+
+int gap_channel(const config::GearwatchConfig& config) {
+  if (config.gap.channel >= 0) return config.gap.channel;
+  if (config.model.channel >= 0) return config.model.channel;
+  return config.rig.channels.empty() ? 0 : config.rig.channels.front().number;
+}
+
+gap::DiagnosisSettings gap_diagnosis_settings(const config::GearwatchConfig& config) {
+  gap::DiagnosisSettings settings;
+  settings.channel = gap_channel(config);
+  settings.bootstrap_resamples = config.gap.bootstrap_resamples;
+  settings.seed = static_cast<std::uint64_t>(config.gap.seed);
+  return settings;
+}
+
+GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config) {
+  return [gears = config.rig.gears, settings = gap_diagnosis_settings(config)](
+             const std::vector<gap::DiagnosisInput>& training, const std::vector<gap::DiagnosisInput>& held_out) {
+    return gap::diagnose(training, held_out, gears, settings);
+  };
+}
+
+TwinCounterpart make_twin_counterpart(const twin::GearboxParameters& params, const config::GearwatchConfig& config) {
+  const int channel = gap_channel(config);
+  return [params, channel](const Record& measured, const wear::WearState& state) {
+    const twin::OperatingPoint op{measured.speed_hz, measured.torque_nm};
+    const twin::CasingSignal signal =
+        twin::simulate_casing_signal(params, wear::to_profile_deviation(state), op, measured.duration_s(), measured.sample_rate_hz);
+    Record twin;
+    twin.stream_key = measured.stream_key;
+    twin.stream_id = measured.stream_id;
+    twin.sample_rate_hz = signal.sample_rate_hz;
+    twin.start_index = measured.start_index;
+    twin.end = measured.end;
+    twin.channels = {signal.acceleration};
+    twin.channel_numbers = {channel};
+    twin.tacho_edges[0] = signal.tacho_edges;
+    twin.torque_nm = measured.torque_nm;
+    twin.speed_hz = measured.speed_hz;
+    twin.input_revolutions = measured.input_revolutions;
+    return twin;
+  };
+}
+
+}  // namespace gearwatch::daemon

@@ -1,0 +1,71 @@
+#pragma once
+// The daemon's side of the sim-to-real gap (docs/gap-report.md): the twin_drift alert from a
+// sequence of gap reports, and the periodic diagnosis the model thread runs on its recent records.
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gearwatch/alerts.hpp"
+#include "gearwatch/gap/diagnosis.hpp"
+#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/record.hpp"
+#include "gearwatch/wear/wear_loop.hpp"
+
+namespace gearwatch::daemon {
+
+/// One observation of twin drift per resolved family of the report's held-out gaps with the twin
+/// alone (`before`): a family significant now and not raised raises a warning (subject = the
+/// family, value = its distance in dB as "%.1f dB"), one no longer significant clears it after the
+/// hysteresis. While raised, a new distance is not a new event: the value stays the one raised
+/// (each report's distance differs a little, and staff must not hear of the same drift at every
+/// report). An unresolved family is no observation at all: it neither raises nor clears.
+std::vector<AlertEvent> observe_twin_drift(AlertTracker& tracker, const gap::GapReport& report, AlertHysteresis hysteresis);
+
+/// The diagnosis as the daemon calls it: training and held-out pairs of measured record and twin
+/// counterpart in, one report out. Throws (std::invalid_argument and others) when it cannot diagnose.
+using GapDiagnoser =
+    std::function<gap::GapReport(const std::vector<gap::DiagnosisInput>&, const std::vector<gap::DiagnosisInput>&)>;
+
+/// The twin's simulation of a measured record: same speed, torque, length and sample rate, at the
+/// wear state the model had reached at that record.
+using TwinCounterpart = std::function<Record(const Record& measured, const wear::WearState& state)>;
+
+/// What the periodic gap step calls; empty members are bound from the configuration when the
+/// model thread starts (gap_diagnoser.hpp). Tests inject their own.
+struct GapHooks {
+  GapDiagnoser diagnose;
+  TwinCounterpart twin;
+};
+
+/// What the gap step keeps of one analysed record until the next diagnosis.
+struct GapSample {
+  std::shared_ptr<const Record> measured;
+  wear::WearState state;
+  std::uint64_t stream_sequence = 0;
+  std::uint64_t start_index = 0;
+};
+
+/// Every `every_records` analysed records, once it holds training + held-out records: the oldest
+/// `training` of the newest (training + held_out) are the training set, the newest `held_out` the
+/// held-out set (other cycles, and other speeds when the load changed), so a diagnosis is always
+/// scored on records newer than the ones it was fitted on.
+class GapSchedule {
+ public:
+  GapSchedule(std::size_t every_records, std::size_t training, std::size_t held_out);
+  /// Keeps the sample (dropping the oldest beyond what a diagnosis needs); true when a diagnosis is due.
+  bool add(GapSample sample);
+  /// The split of the samples held now: first training, then held out.
+  std::pair<std::vector<const GapSample*>, std::vector<const GapSample*>> split() const;
+  const GapSample& newest() const { return samples_.back(); }
+
+ private:
+  std::size_t every_, training_, held_out_;
+  std::size_t since_last_ = 0;
+  std::deque<GapSample> samples_;
+};
+
+}  // namespace gearwatch::daemon

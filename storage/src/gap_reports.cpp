@@ -1,0 +1,296 @@
+#include "gearwatch/storage/gap_reports.hpp"
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+namespace gearwatch::storage {
+namespace {
+
+using nlohmann::json;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+template <class Enum, std::size_t N>
+Enum token_to_enum(const std::array<Enum, N>& all, const std::string& token, const char* domain, std::int64_t report_id) {
+  for (auto v : all)
+    if (token == gap::to_string(v)) return v;
+  throw std::runtime_error("gap report " + std::to_string(report_id) + ": '" + token + "' is not a " + domain +
+                           " this gearwatch knows");
+}
+
+gap::FamilyKind family_of(const std::string& token, std::int64_t id) {
+  return token_to_enum(gap::kAllFamilyKinds, token, "gap family", id);
+}
+gap::CandidateEffect effect_of(const std::string& token, std::int64_t id) {
+  return token_to_enum(gap::kAllCandidateEffects, token, "gap effect", id);
+}
+
+// JSON has no NaN or infinity: they are written as null and read back as NaN.
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+double number_from(const json& j) { return j.is_null() ? kNaN : j.get<double>(); }
+
+json numbers(const std::vector<double>& values) {
+  json a = json::array();
+  for (double v : values) a.push_back(number(v));
+  return a;
+}
+std::vector<double> numbers_from(const json& j) {
+  std::vector<double> out;
+  out.reserve(j.size());
+  for (const auto& v : j) out.push_back(number_from(v));
+  return out;
+}
+
+json bands(const std::vector<std::pair<gap::FamilyKind, gap::Interval>>& list) {
+  json a = json::array();
+  for (const auto& [family, interval] : list) a.push_back({gap::to_string(family), number(interval.low), number(interval.high)});
+  return a;
+}
+std::vector<std::pair<gap::FamilyKind, gap::Interval>> bands_from(const json& j, std::int64_t id) {
+  std::vector<std::pair<gap::FamilyKind, gap::Interval>> out;
+  for (const auto& b : j) out.emplace_back(family_of(b.at(0).get<std::string>(), id), gap::Interval{number_from(b.at(1)), number_from(b.at(2))});
+  return out;
+}
+
+std::string plot_json(const gap::GapReport& r) {
+  return json{{"order_axis", numbers(r.order_axis)},
+              {"measured_order_db", numbers(r.measured_order_db)},
+              {"twin_order_db", numbers(r.twin_order_db)},
+              {"twin_after_order_db", numbers(r.twin_after_order_db)},
+              {"hz_axis", numbers(r.hz_axis)},
+              {"measured_hz_db", numbers(r.measured_hz_db)},
+              {"twin_hz_db", numbers(r.twin_hz_db)},
+              {"twin_after_hz_db", numbers(r.twin_after_hz_db)},
+              {"order_bands", bands(r.order_bands)},
+              {"hz_bands", bands(r.hz_bands)}}
+      .dump();
+}
+
+void plot_from(const std::string& text, gap::GapReport& r, std::int64_t id) {
+  try {
+    const json j = json::parse(text);
+    r.order_axis = numbers_from(j.at("order_axis"));
+    r.measured_order_db = numbers_from(j.at("measured_order_db"));
+    r.twin_order_db = numbers_from(j.at("twin_order_db"));
+    r.twin_after_order_db = numbers_from(j.at("twin_after_order_db"));
+    r.hz_axis = numbers_from(j.at("hz_axis"));
+    r.measured_hz_db = numbers_from(j.at("measured_hz_db"));
+    r.twin_hz_db = numbers_from(j.at("twin_hz_db"));
+    r.twin_after_hz_db = numbers_from(j.at("twin_after_hz_db"));
+    r.order_bands = bands_from(j.at("order_bands"), id);
+    r.hz_bands = bands_from(j.at("hz_bands"), id);
+  } catch (const json::exception& e) {
+    throw std::runtime_error("gap report " + std::to_string(id) + ": its plot spectra are not readable: " + e.what());
+  }
+}
+
+std::string parameters_json(const std::vector<std::pair<std::string, double>>& parameters) {
+  json a = json::array();  // an array of pairs keeps the diagnosis's order
+  for (const auto& [name, value] : parameters) a.push_back({name, number(value)});
+  return a.dump();
+}
+
+std::vector<std::pair<std::string, double>> parameters_from(const std::string& text, std::int64_t id) {
+  try {
+    std::vector<std::pair<std::string, double>> out;
+    for (const auto& p : json::parse(text)) out.emplace_back(p.at(0).get<std::string>(), number_from(p.at(1)));
+    return out;
+  } catch (const json::exception& e) {
+    throw std::runtime_error("gap report " + std::to_string(id) + ": candidate parameters are not readable: " + e.what());
+  }
+}
+
+std::optional<double> optional_double(const Statement& s, int col) {
+  if (s.is_null(col)) return std::nullopt;
+  return s.get_double(col);
+}
+double double_or_nan(const Statement& s, int col) { return s.is_null(col) ? kNaN : s.get_double(col); }
+
+// Binds the eight columns of a FamilyGap from `first` on: resolved, reason, distance, low, high,
+// share, significant (position is bound by the caller).
+void bind_gap(Statement& s, int first, const gap::FamilyGap& g) {
+  s.bind(first, g.resolved ? 1 : 0);
+  if (g.unresolved_reason.empty()) s.bind_null(first + 1);
+  else s.bind(first + 1, g.unresolved_reason);
+  s.bind(first + 2, g.distance_db).bind(first + 3, g.distance_interval_db.low).bind(first + 4, g.distance_interval_db.high)
+      .bind(first + 5, g.energy_share).bind(first + 6, g.significant ? 1 : 0);
+}
+
+gap::FamilyGap read_gap(const Statement& s, int first, gap::FamilyKind family) {
+  gap::FamilyGap g;
+  g.family = family;
+  g.resolved = s.get_int(first) != 0;
+  g.unresolved_reason = s.is_null(first + 1) ? "" : s.get_text(first + 1);
+  g.distance_db = double_or_nan(s, first + 2);
+  g.distance_interval_db = {double_or_nan(s, first + 3), double_or_nan(s, first + 4)};
+  g.energy_share = double_or_nan(s, first + 5);
+  g.significant = s.get_int(first + 6) != 0;
+  return g;
+}
+
+}  // namespace
+
+bool has_gap_report_tables(Database& db) {
+  Statement s(db, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'gap_report_runs'");
+  return s.step();
+}
+
+std::int64_t insert_gap_report(Database& db, const gap::GapReport& r, const GapReportContext& context) {
+  json speeds = json::array();
+  for (double v : r.speeds_hz) speeds.push_back(number(v));
+  Statement run(db, "INSERT INTO gap_report_runs(record_id, gear_pair, input_revolutions, speeds_hz, training_records,"
+                    " held_out_records, k_wear_before, k_wear_after, plot) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  run.bind(1, context.record_id).bind(2, context.gear_pair).bind(3, r.input_revolutions).bind(4, speeds.dump())
+      .bind(5, static_cast<std::uint64_t>(r.training_records)).bind(6, static_cast<std::uint64_t>(r.held_out_records))
+      .bind(7, r.k_wear_before).bind(8, r.k_wear_after).bind(9, plot_json(r)).run();
+  const std::int64_t id = db.last_insert_rowid();
+
+  // One row per family: the before and after gaps side by side, and whether it is unexplained.
+  struct FamilyRow {
+    std::optional<std::size_t> before, after, unexplained;
+  };
+  std::map<gap::FamilyKind, FamilyRow> rows;
+  for (std::size_t i = 0; i < r.before.size(); ++i) rows[r.before[i].family].before = i;
+  for (std::size_t i = 0; i < r.after.size(); ++i) rows[r.after[i].family].after = i;
+  for (std::size_t i = 0; i < r.unexplained.size(); ++i) rows[r.unexplained[i]].unexplained = i;
+  Statement family(db, "INSERT INTO gap_report_families(report_id, family, before_position, before_resolved,"
+                       " before_unresolved_reason, before_distance_db, before_interval_low_db, before_interval_high_db,"
+                       " before_energy_share, before_significant, after_position, after_resolved, after_unresolved_reason,"
+                       " after_distance_db, after_interval_low_db, after_interval_high_db, after_energy_share, after_significant,"
+                       " unexplained_position) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  for (const auto& [kind, row] : rows) {
+    for (int c = 3; c <= 19; ++c) family.bind_null(c);
+    family.bind(1, id).bind(2, gap::to_string(kind));
+    if (row.before) {
+      family.bind(3, static_cast<std::uint64_t>(*row.before));
+      bind_gap(family, 4, r.before[*row.before]);
+    }
+    if (row.after) {
+      family.bind(11, static_cast<std::uint64_t>(*row.after));
+      bind_gap(family, 12, r.after[*row.after]);
+    }
+    if (row.unexplained) family.bind(19, static_cast<std::uint64_t>(*row.unexplained));
+    family.run();
+  }
+
+  Statement candidate(db, "INSERT INTO gap_report_candidates(report_id, rank, effect, shrinkage, information_criterion,"
+                          " worsens_other_family, parameters) VALUES (?, ?, ?, ?, ?, ?, ?)");
+  Statement candidate_family(db, "INSERT INTO gap_candidate_families(report_id, rank, family, explains_position, held_out_position,"
+                                 " resolved, unresolved_reason, distance_db, interval_low_db, interval_high_db, energy_share,"
+                                 " significant) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  for (std::size_t rank = 0; rank < r.candidates.size(); ++rank) {
+    const gap::CandidateScore& c = r.candidates[rank];
+    candidate.bind(1, id).bind(2, static_cast<std::uint64_t>(rank)).bind(3, gap::to_string(c.effect)).bind(4, c.shrinkage)
+        .bind(5, c.information_criterion).bind(6, c.worsens_other_family ? 1 : 0).bind(7, parameters_json(c.parameters)).run();
+    std::map<gap::FamilyKind, std::pair<std::optional<std::size_t>, std::optional<std::size_t>>> families;
+    for (std::size_t i = 0; i < c.explains.size(); ++i) families[c.explains[i]].first = i;
+    for (std::size_t i = 0; i < c.held_out_after.size(); ++i) families[c.held_out_after[i].family].second = i;
+    for (const auto& [kind, positions] : families) {
+      for (int col = 4; col <= 12; ++col) candidate_family.bind_null(col);
+      candidate_family.bind(1, id).bind(2, static_cast<std::uint64_t>(rank)).bind(3, gap::to_string(kind));
+      if (positions.first) candidate_family.bind(4, static_cast<std::uint64_t>(*positions.first));
+      if (positions.second) {
+        candidate_family.bind(5, static_cast<std::uint64_t>(*positions.second));
+        bind_gap(candidate_family, 6, c.held_out_after[*positions.second]);
+      }
+      candidate_family.run();
+    }
+  }
+  Statement chosen(db, "INSERT INTO gap_report_chosen(report_id, step, effect) VALUES (?, ?, ?)");
+  for (std::size_t step = 0; step < r.chosen.size(); ++step)
+    chosen.bind(1, id).bind(2, static_cast<std::uint64_t>(step)).bind(3, gap::to_string(r.chosen[step])).run();
+  return id;
+}
+
+std::vector<StoredGapReport> load_gap_reports(Database& db, std::optional<std::size_t> newest) {
+  std::vector<StoredGapReport> out;
+  if (!has_gap_report_tables(db)) return out;
+  {
+    std::string sql = "SELECT id, created_at, record_id, gear_pair, input_revolutions, speeds_hz, training_records, held_out_records,"
+                      " k_wear_before, k_wear_after, plot FROM gap_report_runs";
+    if (newest) sql += " WHERE id IN (SELECT id FROM gap_report_runs ORDER BY id DESC LIMIT " + std::to_string(*newest) + ")";
+    sql += " ORDER BY id";
+    Statement s(db, sql);
+    while (s.step()) {
+      StoredGapReport g;
+      g.id = s.get_int(0);
+      g.created_at = s.get_text(1);
+      if (!s.is_null(2)) g.context.record_id = s.get_int(2);
+      g.context.gear_pair = s.get_int(3);
+      gap::GapReport& r = g.report;
+      r.input_revolutions = double_or_nan(s, 4);
+      try {
+        r.speeds_hz = numbers_from(json::parse(s.get_text(5)));
+      } catch (const json::exception& e) {
+        throw std::runtime_error("gap report " + std::to_string(g.id) + ": speeds are not readable: " + e.what());
+      }
+      r.training_records = static_cast<std::size_t>(s.get_int(6));
+      r.held_out_records = static_cast<std::size_t>(s.get_int(7));
+      r.k_wear_before = optional_double(s, 8);
+      r.k_wear_after = optional_double(s, 9);
+      if (!s.is_null(10)) plot_from(s.get_text(10), r, g.id);
+      out.push_back(std::move(g));
+    }
+  }
+  Statement families(db, "SELECT family, before_position, before_resolved, before_unresolved_reason, before_distance_db,"
+                         " before_interval_low_db, before_interval_high_db, before_energy_share, before_significant,"
+                         " after_position, after_resolved, after_unresolved_reason, after_distance_db, after_interval_low_db,"
+                         " after_interval_high_db, after_energy_share, after_significant, unexplained_position"
+                         " FROM gap_report_families WHERE report_id = ?");
+  Statement candidates(db, "SELECT rank, effect, shrinkage, information_criterion, worsens_other_family, parameters"
+                           " FROM gap_report_candidates WHERE report_id = ? ORDER BY rank");
+  Statement candidate_families(db, "SELECT family, explains_position, held_out_position, resolved, unresolved_reason, distance_db,"
+                                   " interval_low_db, interval_high_db, energy_share, significant"
+                                   " FROM gap_candidate_families WHERE report_id = ? AND rank = ?");
+  Statement chosen(db, "SELECT effect FROM gap_report_chosen WHERE report_id = ? ORDER BY step");
+  for (StoredGapReport& g : out) {
+    gap::GapReport& r = g.report;
+    // Positions put each list back in the diagnosis's order.
+    std::map<std::int64_t, gap::FamilyGap> before, after;
+    std::map<std::int64_t, gap::FamilyKind> unexplained;
+    families.bind(1, g.id);
+    while (families.step()) {
+      const gap::FamilyKind kind = family_of(families.get_text(0), g.id);
+      if (!families.is_null(1)) before[families.get_int(1)] = read_gap(families, 2, kind);
+      if (!families.is_null(9)) after[families.get_int(9)] = read_gap(families, 10, kind);
+      if (!families.is_null(17)) unexplained[families.get_int(17)] = kind;
+    }
+    families.reset();
+    for (auto& [pos, gap_value] : before) r.before.push_back(gap_value);
+    for (auto& [pos, gap_value] : after) r.after.push_back(gap_value);
+    for (auto& [pos, kind] : unexplained) r.unexplained.push_back(kind);
+
+    candidates.bind(1, g.id);
+    while (candidates.step()) {
+      gap::CandidateScore c;
+      const std::int64_t rank = candidates.get_int(0);
+      c.effect = effect_of(candidates.get_text(1), g.id);
+      c.shrinkage = double_or_nan(candidates, 2);
+      c.information_criterion = double_or_nan(candidates, 3);
+      c.worsens_other_family = candidates.get_int(4) != 0;
+      c.parameters = parameters_from(candidates.get_text(5), g.id);
+      std::map<std::int64_t, gap::FamilyKind> explains;
+      std::map<std::int64_t, gap::FamilyGap> held_out;
+      candidate_families.bind(1, g.id).bind(2, rank);
+      while (candidate_families.step()) {
+        const gap::FamilyKind kind = family_of(candidate_families.get_text(0), g.id);
+        if (!candidate_families.is_null(1)) explains[candidate_families.get_int(1)] = kind;
+        if (!candidate_families.is_null(2)) held_out[candidate_families.get_int(2)] = read_gap(candidate_families, 3, kind);
+      }
+      candidate_families.reset();
+      for (auto& [pos, kind] : explains) c.explains.push_back(kind);
+      for (auto& [pos, gap_value] : held_out) c.held_out_after.push_back(gap_value);
+      r.candidates.push_back(std::move(c));
+    }
+    candidates.reset();
+    chosen.bind(1, g.id);
+    while (chosen.step()) r.chosen.push_back(effect_of(chosen.get_text(0), g.id));
+    chosen.reset();
+  }
+  return out;
+}
+
+}  // namespace gearwatch::storage
