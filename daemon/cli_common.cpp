@@ -1,6 +1,9 @@
 #include "cli_common.hpp"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <iostream>
 
 #include <nlohmann/json.hpp>
@@ -97,5 +100,42 @@ std::size_t print_query(storage::Database& db, const std::string& sql, const std
   if (rows.empty()) std::cout << "(no rows)\n";
   return rows.size();
 }
+
+// Written next to the target and renamed over it, so a browser (or a web server publishing DIR)
+// never sees half a page.
+std::shared_ptr<PageCommandOptions> add_page_command_options(CLI::App* cmd) {
+  auto opt = std::make_shared<PageCommandOptions>();
+  cmd->add_option("--db", opt->db, "SQLite database (opened read-only)")->required();
+  cmd->add_option("--out", opt->out, "Output directory (created if missing)")->required();
+  return opt;
+}
+
+void write_page(const std::filesystem::path& dir, const std::string& html) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw CommandError("cannot create output directory " + dir.string() + ": " + ec.message());
+  if (!fs::is_directory(dir)) throw CommandError("--out " + dir.string() + " is not a directory");
+  const fs::path target = dir / "index.html";
+  const fs::path temporary = dir / "index.html.tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) throw CommandError("cannot write " + temporary.string() + ": " + std::strerror(errno));
+    out << html;
+    out.flush();
+    if (!out) {
+      const std::string reason = std::strerror(errno);
+      fs::remove(temporary, ec);
+      throw CommandError("cannot write " + temporary.string() + ": " + reason);
+    }
+  }
+  fs::rename(temporary, target, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+    throw CommandError("cannot write " + target.string() + ": " + ec.message());
+  }
+}
+
 
 }  // namespace gearwatch::cli

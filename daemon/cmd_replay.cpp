@@ -36,12 +36,15 @@ void register_replay(CLI::App& app) {
     if (opt->format == "json") {
       nlohmann::json j{{"capture", opt->capture}, {"database", opt->db}, {"run_id", r.run_id},
                        {"records", r.records}, {"records_analysed", r.records_analysed}, {"frames", r.frames},
-                       {"samples", r.samples}, {"lost_samples", r.lost_samples}, {"end_reason", r.end_reason}};
+                       {"samples", r.samples}, {"lost_samples", r.lost_samples}, {"end_reason", r.end_reason},
+                       {"records_already_stored", r.records_already_stored}};
       std::cout << j.dump(1) << "\n";
     } else {
       std::cout << "replayed " << opt->capture << " into " << opt->db << " (run " << r.run_id << "): " << r.frames
                 << " frames, " << r.samples << " samples, " << r.records << " records (" << r.records_analysed
-                << " analysed), " << r.lost_samples << " samples lost\n";
+                << " analysed), " << r.lost_samples << " samples lost";
+      if (r.records_already_stored > 0) std::cout << "; " << r.records_already_stored << " records already stored by an earlier replay of it, skipped";
+      std::cout << "\n";
     }
     if (r.exit_status != 0) throw CommandError("replay failed: " + (r.end_reason.empty() ? "storage failure" : r.end_reason), r.exit_status);
   });

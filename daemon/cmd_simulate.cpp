@@ -111,14 +111,22 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
     throw CommandError("campaign " + spec.name + " needs about " + std::to_string(needed / 1000000 + 1) + " MB (" +
                        std::to_string(plan.size()) + " records of " + std::to_string(spec.seconds) + " s) but " +
                        probe.string() + " has " + std::to_string(space.available / 1000000) + " MB free; nothing written");
+  // The wear truth at every record first: a campaign whose flanks wear through is refused before
+  // anything is written.
+  std::vector<rig::WearState> wear_states;
+  try {
+    const auto truth = rig::make_wear_truth(spec.wear, params, spec.measurement_speeds_hz.front());
+    for (const auto& p : plan) wear_states.push_back(truth->at(p.cycles));
+  } catch (const rig::RigParameterError& e) {
+    throw CommandError(std::string("campaign ") + spec.name + ": " + e.what() + "; nothing written");
+  }
   fs::create_directories(opt.out);
 
-  const rig::BuiltinWearTruth truth(spec.wear, params.gears);
   std::vector<rig::RecordTruth> truths;
   for (const auto& p : plan) {
     rig::RecordTruth t;
     t.plan = p;
-    t.wear = truth.at(p.cycles);
+    t.wear = wear_states[truths.size()];
     t.sliding = spec.bands;
     t.sliding.pitting_rms_m_s2 = spec.pitting_gain_m_s2 * t.wear.pitting_density;
     t.sliding.abrasion_rms_m_s2 = spec.roughness_gain_m_s2 * t.wear.roughness;

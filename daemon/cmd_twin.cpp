@@ -1,5 +1,6 @@
 // `gearwatch twin ...`: the digital twin's commands (modes, simulate, tune-mesh, calibrate; `state`
 // belongs to storage).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -19,6 +20,7 @@
 #include "gearwatch/config/twin_config.hpp"
 #include "gearwatch/twin/calibration.hpp"
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/twin/modal_gap.hpp"
 #include "gearwatch/twin/modal_analysis.hpp"
 #include "gearwatch/twin/simulation.hpp"
 
@@ -275,6 +277,130 @@ void run_calibrate(const CalibrateOptions& o) {
               measured.size(), r.max_abs_error_pct, r.best_start, r.iterations);
 }
 
+struct ModalGapCommandOptions {
+  std::string format = "table", identity = "start-pairing", prediction = "ensemble";
+  int starts = twin::ModalFitOptions{}.starts;
+};
+
+nlohmann::json leave_out_json(const twin::LeaveOutScore& s) {
+  return {{"median_fold_error_pct", s.median_fold_error_pct},
+          {"worst_abs_error_pct", s.worst_abs_error_pct},
+          {"median_abs_error_pct", s.median_abs_error_pct},
+          {"median_by_frequency_pct", s.median_by_frequency_pct},
+          {"worst_by_frequency_pct", s.worst_by_frequency_pct}};
+}
+
+// The modal gap on seed Table 5.5: grouped knobs, candidate structural effects scored by
+// leave-two-out prediction, and which measured modes each explains.
+void run_modal_gap(const ModalGapCommandOptions& o) {
+  twin::ModalGapOptions options;
+  options.fit.starts = o.starts;
+  options.fit.prediction = o.prediction == "best-fit" ? twin::HeldOutPrediction::best_fit : twin::HeldOutPrediction::ensemble;
+  options.identity = o.identity == "full-fit-shape" ? twin::HeldOutIdentity::full_fit_shape : twin::HeldOutIdentity::start_pairing;
+  const twin::ModalGapReport r = twin::table_5_5_modal_gap(options);
+  nlohmann::json out;
+  out["measured_hz"] = r.measured_hz;
+  out["starts"] = o.starts;
+  out["held_out_identity"] = twin::to_string(options.identity);
+  out["baseline"] = leave_out_json(r.baseline);
+  out["final"] = leave_out_json(r.final_score);
+  out["adopted"] = r.adopted;
+  out["target_median_fold_pct"] = r.target_median_fold_pct;
+  out["knobs_inside_priors"] = r.knobs_inside_priors;
+  out["target_met"] = r.target_met;
+  out["held_out_prediction"] = twin::to_string(options.fit.prediction);
+  out["seeds"] = r.seeds;
+  out["baseline_fold_by_seed"] = r.baseline_fold_by_seed;
+  out["final_fold_by_seed"] = r.final_fold_by_seed;
+  for (const auto& c : r.candidates)
+    out["candidates"].push_back({{"name", c.name}, {"step", c.step}, {"added_knobs", c.added_knobs},
+                                 {"median_fold_before_pct", c.median_fold_before_pct},
+                                 {"median_fold_after_pct", c.median_fold_after_pct},
+                                 {"worst_after_pct", c.worst_after_pct}, {"adopted", c.adopted}});
+  for (const auto& m : r.modes)
+    out["modes"].push_back({{"measured_hz", m.measured_hz}, {"status", twin::to_string(m.status)}, {"effect", m.effect},
+                            {"worse_with_effects", m.worse_with_effects},
+                            {"median_error_before_pct", m.median_error_before_pct},
+                            {"worst_error_before_pct", m.worst_error_before_pct},
+                            {"median_error_after_pct", m.median_error_after_pct},
+                            {"worst_error_after_pct", m.worst_error_after_pct},
+                            {"worst_seed_median_before_pct", m.worst_seed_median_before_pct},
+                            {"worst_seed_median_after_pct", m.worst_seed_median_after_pct},
+                            {"element_before", m.element_before}, {"share_before", m.share_before},
+                            {"element_after", m.element_after}, {"share_after", m.share_after},
+                            {"fitted_hz_after", m.fitted_hz_after}});
+  for (const auto& c : r.corners)
+    out["softest_corner"].push_back({{"name", c.name}, {"elastic_hz", c.elastic_hz}, {"modes_at_or_below", c.modes_at_or_below},
+                                     {"deficit", c.deficit}, {"max_deficit", c.max_deficit}});
+  for (std::size_t j = 0; j < r.final_knobs.size(); ++j) {
+    const auto& k = r.final_knobs[j];
+    out["final_knobs"].push_back({{"name", k.name}, {"parameters", k.parameters}, {"factor", r.final_fit.factors[j]},
+                                  {"low", k.low}, {"high", k.high}, {"at_bound", static_cast<bool>(r.final_fit.at_bound[j])},
+                                  {"source", k.source}});
+  }
+  if (o.format == "json") {
+    std::printf("%s\n", out.dump(2).c_str());
+    return;
+  }
+  std::printf("Modal gap on seed Table 5.5: grouped knobs inside their sourced priors, leave-two-out (28 folds, %d starts, "
+              "held-out modes named by %s, predicted by the %s)\n",
+              o.starts, twin::to_string(options.identity), twin::to_string(options.fit.prediction));
+  std::printf("grouped twin (%zu knobs): median fold %.1f %%, worst %.1f %%\n", r.baseline_knobs.size(),
+              r.baseline.median_fold_error_pct, r.baseline.worst_abs_error_pct);
+  std::printf("\nCandidate structural effects (adopted when the median fold falls to %.2f^n of the current, n effects)\n",
+              options.adopt_ratio);
+  for (const auto& c : r.candidates)
+    std::printf("  step %d  %-48s +%d knobs  %6.1f %% -> %6.1f %%  (worst %.1f %%)%s\n", c.step, c.name.c_str(), c.added_knobs,
+                c.median_fold_before_pct, c.median_fold_after_pct, c.worst_after_pct, c.adopted ? "  ADOPTED" : "");
+  std::string adopted;
+  for (const auto& a : r.adopted) adopted += (adopted.empty() ? "" : ", ") + a;
+  std::printf("adopted: %s\n", adopted.empty() ? "none" : adopted.c_str());
+  std::printf("\nHeld-out error per measured mode (median / worst over the 7 folds holding it out, seed %u; in brackets\n"
+              "the largest median over every seed, which the verdict uses); the dominant strain energy of its paired\n"
+              "mode in the full fit, before and after the adopted effects\n", options.fit.seed);
+  std::printf("%9s %26s %26s  %-15s %-15s  %s\n", "meas (Hz)", "before", "after", "mode before", "mode after", "verdict");
+  auto element = [](const std::string& e, double share) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s %.0f%%", e.c_str(), 100 * share);
+    return std::string(buf);
+  };
+  for (const auto& m : r.modes)
+    std::printf("%9.0f %6.1f / %6.1f %% [%5.1f %%] %6.1f / %6.1f %% [%5.1f %%]  %-15s %-15s  %s%s\n", m.measured_hz,
+                m.median_error_before_pct, m.worst_error_before_pct, m.worst_seed_median_before_pct, m.median_error_after_pct,
+                m.worst_error_after_pct, m.worst_seed_median_after_pct,
+                element(m.element_before, m.share_before).c_str(), element(m.element_after, m.share_after).c_str(),
+                twin::to_string(m.status),
+                m.effect.empty() ? (m.worse_with_effects ? " (outside the tolerance with the effects)" : "") : (" (" + m.effect + ")").c_str());
+  std::printf("\nSoftest corner of the priors (every spring at its low end, every mass at its high end): the lowest\n"
+              "each mode can go. Peaks that exceed the corner's mode count below them cannot all be modes of that model.\n");
+  for (const auto& c : r.corners) {
+    std::string lowest;
+    for (std::size_t i = 0; i < std::min<std::size_t>(4, c.elastic_hz.size()); ++i)
+      lowest += (lowest.empty() ? "" : ", ") + std::to_string(static_cast<int>(std::lround(c.elastic_hz[i])));
+    std::string short_of;
+    for (std::size_t i = 0; i < c.deficit.size(); ++i)
+      if (c.deficit[i] > 0)
+        short_of += (short_of.empty() ? "" : ", ") + std::to_string(c.deficit[i]) + " of the peaks <= " +
+                    std::to_string(static_cast<int>(r.measured_hz[i])) + " Hz";
+    std::printf("  %-28s lowest modes %s Hz; %s\n", c.name.c_str(), lowest.c_str(),
+                short_of.empty() ? "can hold every peak" : ("cannot be modes: " + short_of).c_str());
+  }
+  std::printf("\nFitted knobs with the adopted effects (factor on the prior, sourced range)\n");
+  for (std::size_t j = 0; j < r.final_knobs.size(); ++j) {
+    const auto& k = r.final_knobs[j];
+    std::printf("  %-22s x%-8.3g [%.3g, %.3g]%s  %s\n", k.name.c_str(), r.final_fit.factors[j], k.low, k.high,
+                r.final_fit.at_bound[j] ? " at bound" : "", k.source.c_str());
+  }
+  std::printf("\nMedian fold per seed of the random starts (grouped twin -> with the adopted effects):");
+  for (std::size_t i = 0; i < r.seeds.size(); ++i)
+    std::printf("%s seed %u: %.1f -> %.1f %%", i ? "," : "", r.seeds[i], r.baseline_fold_by_seed[i], r.final_fold_by_seed[i]);
+  const double worst_seed = *std::max_element(r.final_fold_by_seed.begin(), r.final_fold_by_seed.end());
+  std::printf("\nmedian fold %.1f %% (grouped twin %.1f %%), %.1f %% at the worst seed; target: median fold within %.0f %% "
+              "at every seed with every knob inside its prior -> %s\n",
+              r.final_score.median_fold_error_pct, r.baseline.median_fold_error_pct, worst_seed, r.target_median_fold_pct,
+              r.target_met ? "MET" : "MISSED");
+}
+
 }  // namespace
 
 void register_twin(CLI::App& app) {
@@ -316,6 +442,22 @@ void register_twin(CLI::App& app) {
                                    "the source of core/src/twin/calibrated_values.cpp");
   cal->add_option("--out", co->out, "Write the source to this file instead of stdout");
   cal->callback([co] { run_calibrate(*co); });
+
+  auto go = std::make_shared<ModalGapCommandOptions>();
+  auto* gap = twin->add_subcommand("modal-gap",
+                                   "Which Table 5.5 modes the twin explains, which an added structural effect explains, "
+                                   "which remain unexplained (leave-two-out, about a minute)");
+  gap->add_option("--format", go->format, "table | json")->check(CLI::IsMember({"table", "json"}));
+  gap->add_option("--starts", go->starts, "Starts per fit")->check(CLI::Range(1, 100))->capture_default_str();
+  gap->add_option("--held-out-identity", go->identity,
+                  "How a held-out value names its model mode: start-pairing (as twin modes) | full-fit-shape")
+      ->check(CLI::IsMember({"start-pairing", "full-fit-shape"}))
+      ->capture_default_str();
+  gap->add_option("--prediction", go->prediction,
+                  "A held-out value from the lowest-cost fit (best-fit) or the near-equal fits' weighted median (ensemble)")
+      ->check(CLI::IsMember({"ensemble", "best-fit"}))
+      ->capture_default_str();
+  gap->callback([go] { run_modal_gap(*go); });
 
   register_twin_wear(twin);
   register_twin_state(twin);

@@ -22,5 +22,13 @@ void register_twin_wear(CLI::App* twin);
 void register_report(CLI::App& app);
 /// `twin state` (cmd_twin_state.cpp).
 void register_twin_state(CLI::App* twin);
+/// The `gap` subcommand, created on first use: each `gap` child registers itself through it, in any order.
+CLI::App* gap_command(CLI::App& app);
+/// `gap report` (cmd_gap.cpp).
+void add_gap_report_command(CLI::App& app);
+/// `gap bench`, the withheld-effect check (cmd_gap_bench.cpp).
+void add_gap_bench_command(CLI::App& app);
+/// `gap` and all its subcommands.
+void register_gap(CLI::App& app);
 
 }  // namespace gearwatch::cli

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   gearwatch::cli::register_inspect(app);
   gearwatch::cli::register_twin(app);
   gearwatch::cli::register_report(app);
+  gearwatch::cli::register_gap(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

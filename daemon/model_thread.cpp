@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "gap_diagnoser.hpp"
 #include "gearwatch/config/twin_config.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/twin/errors.hpp"
@@ -208,23 +209,24 @@ StoredModel load_model(const std::string& database_path) {
     st.bind(1, out.gear_pair);
     while (st.step()) out.memory.ics2_series.push_back({st.get_double(0), st.get_double(1)});
   }
-  storage::Statement al(db, "SELECT channel, active, value, consecutive_present, consecutive_absent, marker, subject"
-                            " FROM alert_state WHERE kind = ?");
-  al.bind(1, to_string(AlertKind::remaining_life));
+  storage::Statement al(db, "SELECT channel, active, value, consecutive_present, consecutive_absent, marker, subject, kind"
+                            " FROM alert_state WHERE kind IN (?, ?)");
+  al.bind(1, to_string(AlertKind::remaining_life)).bind(2, to_string(AlertKind::twin_drift));
   while (al.step()) {
+    const AlertKind kind = al.get_text(7) == to_string(AlertKind::twin_drift) ? AlertKind::twin_drift : AlertKind::remaining_life;
     AlertState s;
     s.active = al.get_int(1) != 0;
     s.value = al.is_null(2) ? "" : al.get_text(2);
     s.consecutive_present = static_cast<int>(al.get_int(3));
     s.consecutive_absent = static_cast<int>(al.get_int(4));
     s.marker = al.get_double(5);
-    out.alerts[AlertKey{AlertKind::remaining_life, static_cast<int>(al.get_int(0)), al.get_text(6)}] = s;
+    out.alerts[AlertKey{kind, static_cast<int>(al.get_int(0)), al.get_text(6)}] = s;
   }
   return out;
 }
 
-ModelThread::ModelThread(const config::GearwatchConfig& config, storage::StorageWriter& writer, bool lossless)
-    : config_(config), writer_(writer), lossless_(lossless) {}
+ModelThread::ModelThread(const config::GearwatchConfig& config, storage::StorageWriter& writer, bool lossless, GapHooks gap)
+    : config_(config), writer_(writer), lossless_(lossless), gap_(std::move(gap)) {}
 
 ModelThread::~ModelThread() {
   if (thread_.joinable()) stop();
@@ -251,6 +253,13 @@ void ModelThread::start() {
     spdlog::error("model: the stored state of gear pair {} does not fit this configuration ({}); starting from an unworn pair",
                   gear_pair_, e.what());
     model_ = std::make_unique<wear::TwinModel>(params, settings, simulator);
+  }
+  if (config_.gap.enabled) {
+    if (!gap_.diagnose) gap_.diagnose = make_gap_diagnoser(config_);
+    if (!gap_.diagnose)
+      throw std::runtime_error("gap.enabled = true, but this build of gearwatch has no sim-to-real gap diagnosis to run");
+    if (!gap_.twin) gap_.twin = make_twin_counterpart(params, config_);
+    gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
   }
   if (stored.found)
     spdlog::info("model: gear pair {} continues at {:.6g} cycles (K_wear {:.4g} m²/N, K_pitting {:.4g})", gear_pair_,
@@ -294,6 +303,8 @@ void ModelThread::stop() {
   if (thread_.joinable()) thread_.join();
   spdlog::info("model: {} records received, {} handled, {} coalesced, {} failed", counters_.received.load(),
                counters_.handled.load(), counters_.coalesced.load(), counters_.failures.load());
+  if (gap_schedule_)
+    spdlog::info("model: {} gap reports stored, {} gap diagnoses failed", counters_.gap_reports.load(), counters_.gap_failures.load());
 }
 
 void ModelThread::run() {
@@ -362,6 +373,8 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
     spdlog::info("model: {} {} ({}): {}", wear::to_string(u.kind), wear::to_string(u.outcome), wear::to_string(u.trigger), u.evidence);
   if (r.new_gear_pair) {
     ++gear_pair_;
+    // The records kept for the next diagnosis belong to the old pair's wear states.
+    if (gap_schedule_) gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
     msg.alerts = alerts_.clear_all(AlertKind::remaining_life, "new gear pair: the remaining life belonged to the previous pair");
   }
   msg.gear_pair = gear_pair_;
@@ -389,6 +402,42 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   msg.forecast_json = forecast_json(r.forecast);
   msg.store_state = r.advanced || r.new_gear_pair;
   if (msg.store_state) msg.state_json = memory_to_json(model_->memory());
+  writer_.submit(std::move(msg));
+  // The twin's counterpart needs the wear state at this record: only a record the model advanced to has one.
+  if (gap_schedule_ && input.samples && r.advanced &&
+      gap_schedule_->add(GapSample{input.samples, model_->memory().current.state, input.stream_sequence, input.start_index}))
+    diagnose_gap();
+}
+
+void ModelThread::diagnose_gap() {
+  const auto [training_samples, held_out_samples] = gap_schedule_->split();
+  const GapSample& newest = gap_schedule_->newest();
+  storage::GapReportResult msg;
+  try {
+    std::vector<gap::DiagnosisInput> training, held_out;
+    for (const GapSample* s : training_samples) training.push_back({*s->measured, gap_.twin(*s->measured, s->state)});
+    for (const GapSample* s : held_out_samples) held_out.push_back({*s->measured, gap_.twin(*s->measured, s->state)});
+    msg.report = gap_.diagnose(training, held_out);
+  } catch (const std::exception& e) {
+    const auto n = ++counters_.gap_failures;
+    if (n <= 10 || n % 1000 == 0)
+      spdlog::error("gap: no diagnosis at {:.6g} cycles ({} failed so far): {}", newest.measured->input_revolutions.value_or(kNaN), n, e.what());
+    return;
+  }
+  ++counters_.gap_reports;
+  msg.stream_sequence = newest.stream_sequence;
+  msg.start_index = newest.start_index;
+  msg.gear_pair = gear_pair_;
+  const AlertHysteresis h{config_.gap.drift_raise_after_reports, config_.gap.drift_clear_after_reports};
+  msg.alerts = observe_twin_drift(alerts_, msg.report, h);
+  msg.alert_states = alerts_.take_changed();
+  std::string significant, chosen;
+  for (const auto& g : msg.report.before)
+    if (g.significant) significant += (significant.empty() ? "" : ", ") + std::string(gap::to_string(g.family));
+  for (const auto e : msg.report.chosen) chosen += (chosen.empty() ? "" : ", ") + std::string(gap::to_string(e));
+  spdlog::info("gap: report at {:.6g} cycles: significant {}; chosen {}; {} unexplained", msg.report.input_revolutions,
+               significant.empty() ? "none" : significant, chosen.empty() ? "none" : chosen, msg.report.unexplained.size());
+  for (const auto& e : msg.alerts) spdlog::warn("gap: twin_drift {} {}: {}", to_string(e.transition), e.key.subject, e.message);
   writer_.submit(std::move(msg));
 }
 

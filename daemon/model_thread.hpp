@@ -21,6 +21,7 @@
 #include <string>
 #include <thread>
 
+#include "gap_monitor.hpp"
 #include "gearwatch/alerts.hpp"
 #include "gearwatch/config/config.hpp"
 #include "gearwatch/storage/messages.hpp"
@@ -34,6 +35,8 @@ struct ModelInput {
   std::uint64_t stream_sequence = 0;
   std::uint64_t start_index = 0;
   wear::ModelObservation observation;
+  /// The record's samples, for the periodic gap diagnosis (only when gap.enabled).
+  std::shared_ptr<const Record> samples;
 };
 
 /// The model's inputs from a processed record: cycles (NaN without a life counter), the
@@ -50,7 +53,7 @@ std::string memory_to_json(const wear::ModelMemory& memory);
 wear::ModelMemory memory_from_json(const std::string& text);
 
 /// The model's state as stored: gear pair, memory (ICS2 series rebuilt from model_runs) and the
-/// remaining_life alert states.
+/// states of the alerts the model thread owns (remaining_life, twin_drift).
 struct StoredModel {
   std::int64_t gear_pair = 0;
   bool found = false;
@@ -66,18 +69,21 @@ struct ModelCounters {
   std::atomic<std::uint64_t> coalesced{0};     ///< records dropped because the model was behind (live)
   std::atomic<std::uint64_t> failures{0};      ///< records whose handling threw (logged, stored as not advanced)
   std::atomic<std::uint64_t> queue_high_water{0};
+  std::atomic<std::uint64_t> gap_reports{0};       ///< gap diagnoses stored
+  std::atomic<std::uint64_t> gap_failures{0};      ///< gap diagnoses that threw (logged, nothing stored)
 };
+
 
 class ModelThread {
  public:
   /// `lossless`: submit() waits for room instead of coalescing (replay).
-  ModelThread(const config::GearwatchConfig& config, storage::StorageWriter& writer, bool lossless);
+  ModelThread(const config::GearwatchConfig& config, storage::StorageWriter& writer, bool lossless, GapHooks gap = {});
   ~ModelThread();
   ModelThread(const ModelThread&) = delete;
   ModelThread& operator=(const ModelThread&) = delete;
 
   /// Loads the stored state and starts the thread; throws (with the reason) when the twin's
-  /// parameters or the model settings are unusable.
+  /// parameters or the model settings are unusable, or gap.enabled has no diagnosis to run.
   void start();
   /// Never waits when live (see the overflow policy); waits for room when lossless.
   void submit(ModelInput input);
@@ -88,6 +94,7 @@ class ModelThread {
  private:
   void run();
   void handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids);
+  void diagnose_gap();
 
   config::GearwatchConfig config_;
   storage::StorageWriter& writer_;
@@ -96,6 +103,8 @@ class ModelThread {
   std::unique_ptr<wear::TwinModel> model_;
   std::int64_t gear_pair_ = 0;
   AlertTracker alerts_;
+  GapHooks gap_;
+  std::optional<GapSchedule> gap_schedule_;
   std::mutex mutex_;
   std::condition_variable not_empty_, not_full_;
   std::deque<ModelInput> queue_;

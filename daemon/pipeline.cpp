@@ -1,14 +1,19 @@
 #include "pipeline.hpp"
 
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <chrono>
 #include <deque>
+#include <filesystem>
+#include <fstream>
 #include <mutex>
+#include <sstream>
 #include <thread>
 
 #include <boost/asio/io_context.hpp>
@@ -24,9 +29,11 @@
 #include "gearwatch/acquisition/socketcan.hpp"
 #include "gearwatch/acquisition/spsc_ring.hpp"
 #include "gearwatch/storage/writer.hpp"
+#include "config_reload.hpp"
 #include "decoder_setup.hpp"
 #include "model_thread.hpp"
 #include "record_processing.hpp"
+#include "replay_resume.hpp"
 #include "vocabulary.hpp"
 
 namespace gearwatch::daemon {
@@ -65,6 +72,8 @@ class BadInputLog {
   explicit BadInputLog(double interval_s)
       : interval_(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(interval_s))) {}
   void warn(const std::string& kind, const std::string& message) {
+    // Called from the acquisition thread (bad frames) and the processing thread (gaps, sensors).
+    std::lock_guard lock(mutex_);
     auto it = limiters_.find(kind);
     if (it == limiters_.end()) it = limiters_.emplace(kind, acq::LogRateLimiter(interval_)).first;
     std::uint64_t suppressed = 0;
@@ -75,14 +84,57 @@ class BadInputLog {
   }
 
  private:
+  std::mutex mutex_;
   Clock::duration interval_;
   std::map<std::string, acq::LogRateLimiter> limiters_;
 };
 
+bool read_text(const std::string& path, std::string& text) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream s;
+  s << in.rdbuf();
+  text = s.str();
+  return !in.bad();
+}
+
+// A database gearwatch may not write is a setup error: say which file or directory and why,
+// before anything starts, instead of SQLite's "attempt to write a readonly database" at the
+// first write. (Checked with the real uid, which is the one SQLite writes with.)
+void require_writable_database(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path file(path);
+  fs::path dir = file.parent_path();
+  if (dir.empty()) dir = ".";
+  auto describe = [](const fs::path& p) {
+    struct stat st {};
+    if (::stat(p.c_str(), &st) != 0) return std::string();
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    return std::string(" (mode ") + mode + ", owner uid " + std::to_string(st.st_uid) + "; gearwatch runs as uid " +
+           std::to_string(::getuid()) + ")";
+  };
+  if (fs::exists(file, ec)) {
+    if (::access(path.c_str(), R_OK | W_OK) != 0)
+      throw std::runtime_error("database " + path + " is not writable" + describe(file) +
+                               ": gearwatch stores every record there; make it writable or set storage.database to a writable place");
+  }
+  // SQLite creates the database (when new) and its -wal and -shm files next to it.
+  if (::access(dir.c_str(), W_OK | X_OK) != 0)
+    throw std::runtime_error("directory " + dir.string() + " of database " + path + " is not writable" + describe(dir) +
+                             ": SQLite needs to create the database's -wal and -shm files there");
+}
+
+// The spdlog level a command runs at: replay is quiet at "info" (its summary is on stdout).
+std::string effective_level(const std::string& level, PipelineMode mode) {
+  return mode == PipelineMode::replay && level == "info" ? "warn" : level;
+}
+
 
 }  // namespace
 
-PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode mode) {
+PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode mode, GapHooks gap) {
   const bool from_file = mode == PipelineMode::replay || config.acquisition.source == config::SourceKind::candump;
   const std::string source_name = from_file ? config.acquisition.capture : config.acquisition.interface;
 
@@ -95,8 +147,18 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   wopt.retry_initial_ms = static_cast<int>(config.storage.retry_initial_ms);
   wopt.retry_max_ms = static_cast<int>(config.storage.retry_max_ms);
   wopt.vocabulary = acquisition_vocabulary();
+  require_writable_database(config.storage.database);
   storage::StorageWriter writer(wopt, [&](const std::string&) { fatal_storage = true; });
-  writer.start();
+  try {
+    writer.start();
+  } catch (const std::exception& e) {
+    throw std::runtime_error("database " + config.storage.database + " cannot be opened for writing: " + e.what());
+  }
+  // A capture replayed again (after a crash, or given twice) continues after what it stored.
+  const ReplayResume resume = from_file ? ReplayResume::load(config.storage.database, source_name) : ReplayResume{};
+  if (resume.records_stored() > 0)
+    spdlog::warn("{}: {} records of this capture are already in {}; continuing after them", source_name,
+                 resume.records_stored(), config.storage.database);
   writer.submit(storage::RunStarted{mode == PipelineMode::replay ? "replay" : "run", source_name, config.source_path});
 
   // --- acquisition objects (used on the acquisition thread only, counters readable anywhere)
@@ -109,14 +171,20 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   BadInputLog bad_input_log(config.logging.rate_limit_s);
   const bool wait_when_full = from_file;
 
+  // The ring counts every refused push; a file source retries them, so those are waits, not
+  // overflows, and are taken out of ring_overflows (which counts events lost).
+  std::atomic<std::uint64_t> refused_then_retried{0};
   acq::ProtocolDecoder decoder = make_decoder(config, [&](const acq::AcquisitionEvent& e) {
     if (ring.try_push(e)) return;
     if (!wait_when_full) return;  // live: dropped and counted by the ring
     // A file can wait: hand the event over as soon as processing makes room.
+    refused_then_retried.fetch_add(1, std::memory_order_relaxed);
     while (!stopping.load(std::memory_order_relaxed)) {
       std::this_thread::sleep_for(std::chrono::microseconds(200));
       if (ring.try_push(e)) return;
+      refused_then_retried.fetch_add(1, std::memory_order_relaxed);
     }
+    refused_then_retried.fetch_sub(1, std::memory_order_relaxed);  // stopped: this one is lost
   });
 
   boost::asio::io_context io;
@@ -146,7 +214,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     }
   };
 
-  boost::asio::signal_set signals(io, SIGTERM, SIGINT);
+  boost::asio::signal_set signals(io, SIGTERM, SIGINT, SIGHUP);
   boost::asio::steady_timer watchdog(io);
   std::atomic<std::int64_t> processing_heartbeat{Clock::now().time_since_epoch().count()};
   std::uint64_t watchdog_usec = 0;
@@ -160,11 +228,65 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     signals.cancel();
     watchdog.cancel();
   };
-  signals.async_wait([&](const boost::system::error_code& ec, int signo) {
-    if (ec) return;
-    spdlog::info("signal {}: stopping acquisition, draining, committing", signo);
-    stop_all("");
-  });
+  // SIGHUP (`systemctl reload`): read the file again; apply what can change while running, name
+  // what needs a restart, and keep running on the current settings either way.
+  std::string started_text;
+  if (!config.source_path.empty() && !read_text(config.source_path, started_text))
+    spdlog::warn("cannot read {} again to remember it; a reload will report every key as changed", config.source_path);
+  config::GearwatchConfig running_config = config;
+  auto reload = [&] {
+    if (config.source_path.empty()) {
+      spdlog::warn("SIGHUP: started without a configuration file; nothing to reload");
+      return;
+    }
+    std::string text;
+    if (!read_text(config.source_path, text)) {
+      spdlog::error("SIGHUP: cannot read {}; still running on the settings it started with", config.source_path);
+      return;
+    }
+    ReloadPlan plan;
+    try {
+      plan = plan_reload(started_text, running_config, text, config.source_path);
+    } catch (const config::ConfigError& e) {
+      spdlog::error("SIGHUP: {} — configuration not reloaded, still running on the current settings", e.what());
+      if (mode == PipelineMode::live) sd_notify(0, "STATUS=configuration file invalid; not reloaded (see the journal)");
+      return;
+    }
+    std::string applied;
+    for (const auto& key : plan.apply) {
+      if (key == "logging.level")
+        applied += (applied.empty() ? "" : ", ") + key + " (" + running_config.logging.level + " -> " + plan.next.logging.level + ")";
+    }
+    // Said before the new level is in force, so a quieter level does not hide it.
+    spdlog::info("SIGHUP: configuration {} reloaded; applied: {}", config.source_path, applied.empty() ? "none" : applied);
+    for (const auto& key : plan.apply) {
+      if (key == "logging.level") {
+        running_config.logging.level = plan.next.logging.level;
+        spdlog::set_level(spdlog::level::from_str(effective_level(plan.next.logging.level, mode)));
+      }
+    }
+    if (!plan.restart_required.empty()) {
+      spdlog::warn("SIGHUP: restart required to apply: {} (still running on the values it started with)",
+                   join_keys(plan.restart_required));
+      if (mode == PipelineMode::live)
+        sd_notify(0, ("STATUS=restart required to apply: " + join_keys(plan.restart_required)).c_str());
+    } else if (mode == PipelineMode::live) {
+      sd_notify(0, "STATUS=running; configuration reloaded");
+    }
+  };
+  std::function<void()> wait_for_signal = [&] {
+    signals.async_wait([&](const boost::system::error_code& ec, int signo) {
+      if (ec) return;
+      if (signo == SIGHUP) {
+        reload();
+        wait_for_signal();
+        return;
+      }
+      spdlog::info("signal {}: stopping acquisition, draining, committing", signo);
+      stop_all("");
+    });
+  };
+  wait_for_signal();
   std::function<void()> arm_watchdog = [&] {
     watchdog.expires_after(std::chrono::microseconds(static_cast<long>(watchdog_usec * config.daemon.watchdog_margin)));
     watchdog.async_wait([&](const boost::system::error_code& ec) {
@@ -181,23 +303,31 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   // --- model thread (digital twin updating); a replay is lossless, live it coalesces when behind
   std::unique_ptr<ModelThread> model;
   if (config.model.enabled) {
-    model = std::make_unique<ModelThread>(config, writer, mode == PipelineMode::replay);
+    model = std::make_unique<ModelThread>(config, writer, mode == PipelineMode::replay, std::move(gap));
     model->start();
   }
 
   // --- processing thread; the wear history of the installed gear pair continues from the database
   RecordProcessor processor(config, load_processor_memory(config.storage.database, config.alerts));
   std::uint64_t current_sequence = 0;
-  std::atomic<std::uint64_t> records_total{0}, records_analysed{0};
+  std::uint16_t current_stream_id = 0;
+  std::atomic<std::uint64_t> records_total{0}, records_analysed{0}, records_already_stored{0};
   acq::AssemblerCounters assembler_snapshot;
   std::mutex assembler_snapshot_mutex;
   acq::RecordAssembler assembler(
       config.rig,
       acq::RecordAssembler::Callbacks{
           [&](Record&& r, bool analysable) {
+            if (resume.stored(current_sequence, r)) {
+              ++records_already_stored;
+              return;
+            }
             storage::RecordResult result = processor.process(r, analysable, current_sequence);
             std::optional<ModelInput> model_in;
-            if (model && analysable) model_in = model_input(result, config);
+            if (model && analysable) {
+              model_in = model_input(result, config);
+              if (config.gap.enabled) model_in->samples = std::make_shared<const Record>(std::move(r));
+            }
             writer.submit(std::move(result));  // first: the model's row refers to the stored record
             if (model_in) model->submit(std::move(*model_in));
             ++records_total;
@@ -205,16 +335,19 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
           },
           [&](const acq::StreamInfo& s) {
             current_sequence = s.sequence;
+            current_stream_id = s.stream_id;
             spdlog::info("stream {} started: {} Hz, {} channels announced", s.stream_id, s.sample_rate_hz, s.channel_count);
             writer.submit(storage::StreamStarted{s.sequence, s.stream_id, s.sample_rate_hz, s.channel_count});
           },
           [&](const acq::GapInfo& g) {
+            if (resume.before_resume_point(current_sequence, current_stream_id, g.first_missing)) return;
             bad_input_log.warn("gap", "channel " + std::to_string(g.channel) + ": " + std::to_string(g.missing) +
                                           " samples missing from index " + std::to_string(g.first_missing) + " (" +
                                           acq::to_string(g.cause) + ")");
             writer.submit(storage::GapEvent{current_sequence, g.channel, g.first_missing, g.missing, acq::to_string(g.cause)});
           },
           [&](const acq::LifeCounterReset& l) {
+            if (resume.before_resume_point(current_sequence, current_stream_id, l.index)) return;
             writer.submit(storage::LifeCounterEvent{current_sequence, l.index, l.previous_revolutions, l.revolutions});
             writer.submit(processor.life_counter_reset(l.previous_revolutions, l.revolutions));
           },
@@ -237,6 +370,11 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
             if (!update.alerts.empty() || !update.alert_states.empty()) writer.submit(std::move(update));
           }});
 
+  auto overflows_lost = [&] {
+    const std::uint64_t retried = refused_then_retried.load(std::memory_order_acquire);
+    const std::uint64_t refused = ring.overflows();
+    return refused - std::min(retried, refused);
+  };
   auto health = [&](bool final) {
     const auto& d = decoder.counters();
     const auto& h = source->health();
@@ -252,7 +390,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     s.counters = {{"frames", v(d.frames)},
                   {"samples", v(d.samples)},
                   {"kernel_drops", v(h.kernel_drops)},
-                  {"ring_overflows", ring.overflows()},
+                  {"ring_overflows", overflows_lost()},
                   {"ring_high_water", ring.high_water()},
                   {"malformed_frames", v(d.malformed_frames)},
                   {"malformed_lines", v(h.malformed_lines)},
@@ -345,6 +483,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   result.end_reason = end_reason;
   result.records = records_total;
   result.records_analysed = records_analysed;
+  result.records_already_stored = records_already_stored;
   result.frames = decoder.counters().frames;
   result.samples = decoder.counters().samples;
   result.lost_samples = decoder.counters().gap_samples + assembler_snapshot.ring_gap_samples;

@@ -7,11 +7,14 @@
 // counted (ring_overflows; the processing side records the hole as a gap with cause
 // ring_overflow). A file source waits for room, so a replay loses nothing. The writer's queue
 // makes processing wait (storage_queue_waits).
+// SIGHUP reloads what can change while running and logs what needs a restart (config_reload.hpp).
+// A capture replayed again continues after the records it already stored (replay_resume.hpp).
 // Shutdown: SIGTERM/SIGINT stop the source; the acquisition io_context then runs out of work;
 // processing drains the ring and ends the open record; the writer commits everything; threads
 // are joined in reverse order of start.
 #include <string>
 
+#include "gap_monitor.hpp"
 #include "gearwatch/config/config.hpp"
 
 namespace gearwatch::daemon {
@@ -22,6 +25,8 @@ struct PipelineResult {
   int exit_status = 0;
   std::string end_reason;
   std::uint64_t records = 0, records_analysed = 0, frames = 0, samples = 0;
+  /// Records of a capture replayed again that an earlier run had already stored (not stored twice).
+  std::uint64_t records_already_stored = 0;
   /// Samples that never reached a record slot: gaps in the protocol (a frame dropped by the
   /// kernel or the front-end shows up here) plus holes left by ring overflows.
   std::uint64_t lost_samples = 0;
@@ -29,7 +34,8 @@ struct PipelineResult {
   std::uint64_t run_id = 0;
 };
 
-/// Runs until the source ends (replay), a signal arrives, or a fatal storage error.
-PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode mode);
+/// Runs until the source ends (replay), a signal arrives, or a fatal storage error. `gap`: the
+/// periodic gap step's diagnosis and twin counterpart (empty: bound from the configuration).
+PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode mode, GapHooks gap = {});
 
 }  // namespace gearwatch::daemon

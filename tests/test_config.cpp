@@ -211,4 +211,17 @@ trend_significance = 0.01
   CHECK(error_of("[processing]\npitting_band_hz = [13000, 2000]\n") ==
         "test.toml:2: key 'processing.pitting_band_hz': needs 0 <= low_hz < high_hz");
   CHECK(error_of("[processing]\nabrasion_band_hz = 3\n") == "test.toml:2: key 'processing.abrasion_band_hz': expected [low_hz, high_hz]");
+  CHECK(error_of("[processing]\nabrasion_band_hz = [2, \"x\"]\n") ==
+        "test.toml:2: key 'processing.abrasion_band_hz': expected [low_hz, high_hz]");
+}
+
+// Found by fuzz_config: an integer a double cannot hold exactly (toml++'s value<double>() gives
+// nothing for it) in a band aborted the parse with std::bad_optional_access. It is a number: it is
+// read as the nearest double, and the band is then judged like any other.
+TEST_CASE("config: a band edge written as a huge integer is read as a number", "[config][fuzz]") {
+  const auto c = parse_config("[processing]\nmean_carrier_ranges_hz = [[0, 300], [0, 5100000200100002000]]\n", "p.toml");
+  REQUIRE(c.processing.mean_carrier_ranges.size() == 2);
+  CHECK(c.processing.mean_carrier_ranges[1].high_hz == static_cast<double>(5100000200100002000LL));
+  CHECK(error_of("[processing]\npitting_band_hz = [5100000200100002000, 300]\n") ==
+        "test.toml:2: key 'processing.pitting_band_hz': needs 0 <= low_hz < high_hz");
 }

@@ -72,11 +72,30 @@ TEST_CASE("pipeline: a clean capture replays into exactly its records, losing no
     ++n;
   }
   CHECK(n == 4);
-  // A second replay continues the history in the same database.
+  // The same capture replayed again (a restart, or the file given twice) stores nothing twice.
   const auto r2 = daemon::run_pipeline(cfg, daemon::PipelineMode::replay);
+  CHECK(r2.exit_status == 0);
   CHECK(r2.run_id == r.run_id + 1);
-  CHECK(scalar(db, "SELECT count(*) FROM records") == 8);
+  CHECK(r2.records == 0);
+  CHECK(r2.records_already_stored == 4);
+  CHECK(scalar(db, "SELECT count(*) FROM records") == 4);
   CHECK(scalar(db, "SELECT count(*) FROM acquisition_health") == 2);
+  // A different capture written later to the same path is stored, not taken for the old one:
+  // one whose life counter moved on...
+  cs.start_revolutions = 500000;
+  daemon::write_synthetic_capture(cs, (dir / "cap.log").string());
+  const auto r3 = daemon::run_pipeline(cfg, daemon::PipelineMode::replay);
+  CHECK(r3.records == 4);
+  CHECK(r3.records_already_stored == 0);
+  CHECK(scalar(db, "SELECT count(*) FROM records") == 8);
+  // ...and one with the same stream, indices, life counter and operating point but other
+  // samples (another noise seed): only its content tells it apart.
+  cs.signal.seed = 99;
+  daemon::write_synthetic_capture(cs, (dir / "cap.log").string());
+  const auto r4 = daemon::run_pipeline(cfg, daemon::PipelineMode::replay);
+  CHECK(r4.records == 4);
+  CHECK(r4.records_already_stored == 0);
+  CHECK(scalar(db, "SELECT count(*) FROM records") == 12);
 }
 
 TEST_CASE("pipeline: every kind of bad input is counted, stored, and processing goes on", "[pipeline]") {
@@ -212,6 +231,10 @@ TEST_CASE("pipeline: the wear history continues across replays into one database
   CHECK(daemon::load_wear_history(db).at(0).size() == 4);
   CHECK(daemon::load_wear_history(db).at(0).back().cycles == Approx(100020.0));
   // With a window of 3 records the trend test sees only the newest three.
+  cs.start_revolutions = 200000;
+  cs.signal.seed = 3;
+  daemon::write_synthetic_capture(cs, (dir / "c.log").string());
+  cfg.acquisition.capture = (dir / "c.log").string();
   cfg.processing.trend_window_records = 3;
   REQUIRE(daemon::run_pipeline(cfg, daemon::PipelineMode::replay).exit_status == 0);
   CHECK(scalar(db, "SELECT max(points) FROM wear_mechanism WHERE channel = 0 AND record_id > 4") == 3);

@@ -3,12 +3,23 @@
 #include <algorithm>
 #include <fstream>
 #include <set>
+#include <limits>
+#include <optional>
 #include <sstream>
 
 #include <toml++/toml.h>
 
 namespace gearwatch::config {
 namespace {
+
+// A TOML number as a double. An integer is converted (toml++'s value<double>() refuses one that
+// a double cannot hold exactly, e.g. 5100000200100002000, and that must read as a number, not
+// abort the parse); anything else is not a number.
+std::optional<double> number_of(const toml::node& n) {
+  if (auto i = n.value_exact<std::int64_t>()) return static_cast<double>(*i);
+  if (auto d = n.value_exact<double>()) return *d;
+  return std::nullopt;
+}
 
 // Reads one TOML table, remembers which keys were used and refuses the others, so a typo
 // ("lenght_s") is an error instead of a silently ignored setting.
@@ -34,10 +45,9 @@ class TableReader {
   void number(const std::string& key, double& out, double lo, double hi) {
     const toml::node* n = node(key);
     if (!n) return;
-    double v;
-    if (auto i = n->value_exact<std::int64_t>()) v = static_cast<double>(*i);
-    else if (auto d = n->value_exact<double>()) v = *d;
-    else fail(n, key, "expected a number");
+    const std::optional<double> parsed = number_of(*n);
+    if (!parsed) fail(n, key, "expected a number");
+    const double v = *parsed;
     if (!(v >= lo && v <= hi)) {
       std::ostringstream why;
       why << "value " << v << " is outside [" << lo << ", " << hi << "]";
@@ -103,7 +113,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
   cfg.source_path = file;
   static const std::set<std::string> known{"rig", "gears", "channels", "tachos", "records", "protocol",
                                            "acquisition", "storage", "logging", "daemon", "processing", "twin",
-                                           "alerts", "model"};
+                                           "alerts", "model", "gap"};
   for (const auto& [k, v] : root) {
     if (!known.count(std::string{k.str()})) {
       throw ConfigError(file + ":" + std::to_string(v.source().begin.line) + ": key '" + std::string{k.str()} + "': unknown table or key");
@@ -267,8 +277,10 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     // A band is written [low_hz, high_hz]; errors point at the node's line.
     auto read_band = [&](const toml::node& n, const std::string& key, const char* expected) {
       const toml::array* a = n.as_array();
-      if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number()) t.fail(&n, key, expected);
-      const dsp::FrequencyBand b{(*a)[0].value<double>().value(), (*a)[1].value<double>().value()};
+      const std::optional<double> low = a && a->size() == 2 ? number_of((*a)[0]) : std::nullopt;
+      const std::optional<double> high = a && a->size() == 2 ? number_of((*a)[1]) : std::nullopt;
+      if (!low || !high) t.fail(&n, key, expected);
+      const dsp::FrequencyBand b{*low, *high};
       if (!(b.low_hz >= 0 && b.high_hz > b.low_hz)) t.fail(&n, key, "needs 0 <= low_hz < high_hz");
       return b;
     };
@@ -341,6 +353,29 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.string("force_model", m.force_model);
     if (m.force_model != "quasi-static" && m.force_model != "dynamic")
       t.fail(t.node("force_model"), "force_model", "expected \"quasi-static\" or \"dynamic\"");
+    t.reject_unknown();
+  }
+  {
+    TableReader t(sub_table(root, "gap", file), "gap.", file);
+    auto& g = cfg.gap;
+    if (const toml::node* n = t.node("enabled")) {
+      auto b = n->value_exact<bool>();
+      if (!b) t.fail(n, "enabled", "expected true or false");
+      g.enabled = *b;
+    }
+    t.integer("every_records", g.every_records, 1, 1000000);
+    t.integer("training_records", g.training_records, 1, 64);
+    t.integer("held_out_records", g.held_out_records, 1, 64);
+    t.integer("channel", g.channel, -1, 7);
+    if (g.channel >= 0 && std::none_of(cfg.rig.channels.begin(), cfg.rig.channels.end(),
+                                       [&](const ChannelSpec& c) { return c.number == g.channel; }))
+      t.fail(t.node("channel"), "channel", "channel " + std::to_string(g.channel) + " is not a configured [[channels]] entry");
+    t.integer("bootstrap_resamples", g.bootstrap_resamples, 20, 100000);
+    t.integer("seed", g.seed, 0, std::numeric_limits<std::int64_t>::max());
+    t.integer("drift_raise_after_reports", g.drift_raise_after_reports, 1, 1000);
+    t.integer("drift_clear_after_reports", g.drift_clear_after_reports, 1, 1000);
+    if (g.enabled && !cfg.model.enabled)
+      t.fail(t.node("enabled"), "enabled", "the gap diagnosis runs in the model thread: it needs [model] enabled = true");
     t.reject_unknown();
   }
   // [twin] is read by the twin's own loader (twin_config).

@@ -14,6 +14,7 @@ const char* to_string(AlertKind kind) noexcept {
     case AlertKind::life_counter_reset: return "life_counter_reset";
     case AlertKind::indicator_threshold: return "indicator_threshold";
     case AlertKind::remaining_life: return "remaining_life";
+    case AlertKind::twin_drift: return "twin_drift";
   }
   return "unknown";
 }
@@ -48,6 +49,9 @@ AlertSeverity severity_of(AlertKind kind) noexcept {
     case AlertKind::indicator_threshold: return AlertSeverity::warning;
     // The gear pair is forecast to reach a scrap limit soon: replacement must be planned.
     case AlertKind::remaining_life: return AlertSeverity::alarm;
+    // The twin no longer explains part of the spectrum: its wear inferences need a look, the
+    // gearbox itself is not in danger because of it.
+    case AlertKind::twin_drift: return AlertSeverity::warning;
   }
   return AlertSeverity::warning;
 }

@@ -657,6 +657,8 @@ void render_model(const ReportData& d, std::string& h) {
 
 }  // namespace
 
+const char* report_base_style() noexcept { return kStyle; }
+
 std::string render_report_html(const ReportData& d) {
   std::string h;
   h.reserve(1 << 16);

@@ -234,6 +234,17 @@ std::string SvgPlot::render(std::string_view css_id) const {
   svg += "<text class=\"axis-label\" transform=\"translate(14 " + coord(mid_y) + ") rotate(-90)\" text-anchor=\"middle\">" +
          html_escape(y_.label + (y_.scale == AxisScale::log ? " (log scale)" : "")) + "</text></g>\n";
 
+  // Bands first, clipped to the axis, so lines and events stay on top of the shading.
+  for (const auto& b : bands_) {
+    if (!std::isfinite(b.lo) || !std::isfinite(b.hi)) continue;
+    const double lo = std::max(std::min(b.lo, b.hi), x_.lo), hi = std::min(std::max(b.lo, b.hi), x_.hi);
+    if (!(hi > lo) || (x_.scale == AxisScale::log && !(lo > 0))) continue;
+    const double x0 = x_to_px(lo), x1 = x_to_px(hi);
+    svg += "<rect class=\"band " + html_escape(b.css_class) + "\" x=\"" + coord(x0) + "\" y=\"" + coord(plot_top) + "\" width=\"" +
+           coord(std::max(x1 - x0, 1.0)) + "\" height=\"" + coord(plot_bottom - plot_top) + "\" fill=\"" + html_escape(b.colour) +
+           "\"><title>" + html_escape(b.title) + "</title></rect>\n";
+  }
+
   // Events under the data, so the points stay visible and hoverable.
   for (const auto& e : events_) {
     if (!std::isfinite(e.x) || (x_.scale == AxisScale::log && !(e.x > 0))) continue;
@@ -263,7 +274,7 @@ std::string SvgPlot::render(std::string_view css_id) const {
     }
     flush();
     for (const auto& p : s.points) {
-      if (!placeable(p)) continue;
+      if (!s.markers || !placeable(p)) continue;
       svg += "<circle class=\"pt\" cx=\"" + coord(x_to_px(p.x)) + "\" cy=\"" + coord(y_to_px(p.y)) + "\" r=\"2.5\"><title>" +
              html_escape(p.title) + "</title></circle>\n";
     }

@@ -6,6 +6,7 @@
 #include "gearwatch/alerts.hpp"
 #include "gearwatch/dsp/skip_reason.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
+#include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/record.hpp"
 #include "gearwatch/wear/updating.hpp"
 
@@ -13,7 +14,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 4> kMigrations{
+constexpr std::array<const char*, 5> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -334,6 +335,105 @@ CREATE VIEW model_skips AS
          (SELECT group_concat(i.issue, ',') FROM model_run_issues i WHERE i.run_id = m.id) AS issues, m.detail
   FROM model_runs m WHERE m.advanced = 0 OR m.skipped_records > 0;
 )SQL",
+    // 4 -> 5: the sim-to-real gap reports (docs/gap-report.md): one row per diagnosis, its families
+    // before/after, its ranked candidates with their held-out gaps, the greedy choice, and the
+    // staff views gap_reports and gap_candidates.
+    R"SQL(
+CREATE TABLE gap_report_runs (
+  id INTEGER PRIMARY KEY,
+  created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  record_id INTEGER REFERENCES records(id),
+  gear_pair INTEGER NOT NULL DEFAULT 0,
+  input_revolutions REAL,
+  speeds_hz TEXT NOT NULL,
+  training_records INTEGER NOT NULL,
+  held_out_records INTEGER NOT NULL,
+  k_wear_before REAL,
+  k_wear_after REAL,
+  plot TEXT
+);
+CREATE TABLE gap_report_families (
+  report_id INTEGER NOT NULL REFERENCES gap_report_runs(id),
+  family TEXT NOT NULL,
+  before_position INTEGER, before_resolved INTEGER, before_unresolved_reason TEXT,
+  before_distance_db REAL, before_interval_low_db REAL, before_interval_high_db REAL,
+  before_energy_share REAL, before_significant INTEGER,
+  after_position INTEGER, after_resolved INTEGER, after_unresolved_reason TEXT,
+  after_distance_db REAL, after_interval_low_db REAL, after_interval_high_db REAL,
+  after_energy_share REAL, after_significant INTEGER,
+  unexplained_position INTEGER,
+  PRIMARY KEY (report_id, family)
+) WITHOUT ROWID;
+CREATE TABLE gap_report_candidates (
+  report_id INTEGER NOT NULL REFERENCES gap_report_runs(id),
+  rank INTEGER NOT NULL,
+  effect TEXT NOT NULL,
+  shrinkage REAL,
+  information_criterion REAL,
+  worsens_other_family INTEGER NOT NULL,
+  parameters TEXT NOT NULL,
+  PRIMARY KEY (report_id, rank)
+) WITHOUT ROWID;
+CREATE TABLE gap_candidate_families (
+  report_id INTEGER NOT NULL REFERENCES gap_report_runs(id),
+  rank INTEGER NOT NULL,
+  family TEXT NOT NULL,
+  explains_position INTEGER,
+  held_out_position INTEGER, resolved INTEGER, unresolved_reason TEXT,
+  distance_db REAL, interval_low_db REAL, interval_high_db REAL, energy_share REAL, significant INTEGER,
+  PRIMARY KEY (report_id, rank, family)
+) WITHOUT ROWID;
+CREATE TABLE gap_report_chosen (
+  report_id INTEGER NOT NULL REFERENCES gap_report_runs(id),
+  step INTEGER NOT NULL,
+  effect TEXT NOT NULL,
+  PRIMARY KEY (report_id, step)
+) WITHOUT ROWID;
+CREATE TRIGGER gap_report_families_family_in_vocabulary BEFORE INSERT ON gap_report_families
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'gap_family')
+   AND NEW.family NOT IN (SELECT token FROM vocabulary WHERE domain = 'gap_family')
+BEGIN SELECT RAISE(ABORT, 'gap_report_families.family: value not in vocabulary domain gap_family'); END;
+CREATE TRIGGER gap_candidate_families_family_in_vocabulary BEFORE INSERT ON gap_candidate_families
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'gap_family')
+   AND NEW.family NOT IN (SELECT token FROM vocabulary WHERE domain = 'gap_family')
+BEGIN SELECT RAISE(ABORT, 'gap_candidate_families.family: value not in vocabulary domain gap_family'); END;
+CREATE TRIGGER gap_report_candidates_effect_in_vocabulary BEFORE INSERT ON gap_report_candidates
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'gap_effect')
+   AND NEW.effect NOT IN (SELECT token FROM vocabulary WHERE domain = 'gap_effect')
+BEGIN SELECT RAISE(ABORT, 'gap_report_candidates.effect: value not in vocabulary domain gap_effect'); END;
+CREATE TRIGGER gap_report_chosen_effect_in_vocabulary BEFORE INSERT ON gap_report_chosen
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'gap_effect')
+   AND NEW.effect NOT IN (SELECT token FROM vocabulary WHERE domain = 'gap_effect')
+BEGIN SELECT RAISE(ABORT, 'gap_report_chosen.effect: value not in vocabulary domain gap_effect'); END;
+CREATE VIEW gap_reports AS
+  SELECT g.id AS report_id, g.created_at, g.record_id, g.gear_pair, g.input_revolutions AS cycles, g.speeds_hz,
+         g.training_records, g.held_out_records, f.family,
+         f.before_resolved AS resolved, f.before_unresolved_reason AS unresolved_reason,
+         f.before_distance_db AS distance_before_db, f.before_interval_low_db AS interval_before_low_db,
+         f.before_interval_high_db AS interval_before_high_db, f.before_energy_share AS energy_share_before,
+         f.before_significant AS significant_before,
+         f.after_distance_db AS distance_after_db, f.after_interval_low_db AS interval_after_low_db,
+         f.after_interval_high_db AS interval_after_high_db, f.after_energy_share AS energy_share_after,
+         f.after_significant AS significant_after,
+         CASE WHEN f.before_distance_db IS NOT NULL AND f.after_distance_db IS NOT NULL AND abs(f.before_distance_db) > 0
+              THEN 1.0 - abs(f.after_distance_db) / abs(f.before_distance_db) END AS shrinkage,
+         (SELECT group_concat(c.effect, ',') FROM (SELECT effect FROM gap_report_chosen WHERE report_id = g.id ORDER BY step) c
+           WHERE EXISTS (
+             SELECT 1 FROM gap_report_candidates k JOIN gap_candidate_families e ON e.report_id = k.report_id AND e.rank = k.rank
+             WHERE k.report_id = g.id AND k.effect = c.effect AND e.family = f.family AND e.explains_position IS NOT NULL)) AS attributed_to,
+         CASE WHEN f.unexplained_position IS NULL THEN 0 ELSE 1 END AS unexplained,
+         (SELECT group_concat(c.effect, ',') FROM (SELECT effect FROM gap_report_chosen WHERE report_id = g.id ORDER BY step) c) AS chosen,
+         g.k_wear_before, g.k_wear_after
+  FROM gap_report_runs g JOIN gap_report_families f ON f.report_id = g.id;
+CREATE VIEW gap_candidates AS
+  SELECT g.id AS report_id, g.created_at, g.input_revolutions AS cycles, k.rank, k.effect, k.shrinkage,
+         k.information_criterion, k.worsens_other_family,
+         (SELECT c.step FROM gap_report_chosen c WHERE c.report_id = g.id AND c.effect = k.effect) AS chosen_step,
+         (SELECT group_concat(e.family, ',') FROM (SELECT family FROM gap_candidate_families
+            WHERE report_id = g.id AND rank = k.rank AND explains_position IS NOT NULL ORDER BY explains_position) e) AS explains,
+         k.parameters
+  FROM gap_report_candidates k JOIN gap_report_runs g ON g.id = k.report_id;
+)SQL",
 };
 
 }  // namespace
@@ -356,6 +456,8 @@ Vocabulary core_vocabulary() {
   add("model_update_trigger", wear::kAllUpdateTriggers);
   add("model_update_outcome", wear::kAllUpdateOutcomes);
   add("model_issue", wear::kAllModelIssues);
+  add("gap_family", gap::kAllFamilyKinds);
+  add("gap_effect", gap::kAllCandidateEffects);
   return v;
 }
 

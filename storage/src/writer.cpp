@@ -8,6 +8,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "gearwatch/storage/gap_reports.hpp"
 #include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 
@@ -101,15 +102,7 @@ class BatchWriter {
     write_alerts(m.alerts, m.alert_states, record_id, context);
   }
   void write(const ModelRunResult& m) {
-    std::optional<std::int64_t> record_id;
-    if (m.has_record) {
-      const auto key = state_.stream_keys.find(m.stream_sequence);
-      if (key != state_.stream_keys.end()) {
-        Statement find(db_, "SELECT id FROM records WHERE stream_key = ? AND start_index = ? ORDER BY id DESC LIMIT 1");
-        find.bind(1, key->second).bind(2, m.start_index);
-        if (find.step()) record_id = find.get_int(0);
-      }
-    }
+    const std::optional<std::int64_t> record_id = find_record(m.has_record, m.stream_sequence, m.start_index);
     const wear::ModelRunReport& r = m.report;
     const wear::Forecast& f = r.forecast;
     const bool advanced = r.advanced;
@@ -166,6 +159,11 @@ class BatchWriter {
             .bind(14, u.correlation_before).bind(15, u.correlation_after).bind(16, u.evidence).run();
       });
     write_alerts(m.alerts, m.alert_states, record_id, context);
+  }
+  void write(const GapReportResult& m) {
+    const std::optional<std::int64_t> record_id = find_record(m.has_record, m.stream_sequence, m.start_index);
+    const std::int64_t id = insert_gap_report(db_, m.report, GapReportContext{record_id, m.gear_pair});
+    write_alerts(m.alerts, m.alert_states, record_id, "gap report " + std::to_string(id));
   }
   void write(const AlertUpdate& m) { write_alerts(m.alerts, m.alert_states, std::nullopt, "alert update"); }
   void write(const GapEvent& m) {
@@ -224,6 +222,15 @@ class BatchWriter {
       });
   }
 
+  std::optional<std::int64_t> find_record(bool has_record, std::uint64_t stream_sequence, std::uint64_t start_index) {
+    if (!has_record) return std::nullopt;
+    const auto key = state_.stream_keys.find(stream_sequence);
+    if (key == state_.stream_keys.end()) return std::nullopt;
+    Statement find(db_, "SELECT id FROM records WHERE stream_key = ? AND start_index = ? ORDER BY id DESC LIMIT 1");
+    find.bind(1, key->second).bind(2, start_index);
+    if (find.step()) return find.get_int(0);
+    return std::nullopt;
+  }
   std::int64_t run() const {
     if (state_.run_id == 0) throw SqliteError(0, "message before RunStarted");
     return state_.run_id;

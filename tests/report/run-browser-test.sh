@@ -15,13 +15,9 @@ set -euo pipefail
 gearwatch=${1:?usage: run-browser-test.sh GEARWATCH ARTEFACT_DIR}
 artefacts=${2:?usage: run-browser-test.sh GEARWATCH ARTEFACT_DIR}
 
-fail() { echo "report browser test: FAILED: $*" >&2; exit 1; }
-browser=$(command -v chromium || command -v chromium-browser || true)
-[ -n "$browser" ] || fail "chromium is not installed (tools/install-deps.sh --test installs Debian's chromium)"
-
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-mkdir -p "$artefacts"
+test_name="report browser test"
+# shellcheck source=tests/report/browser-lib.sh
+. "$(dirname "$0")/browser-lib.sh"
 
 # Short records and a 3-record baseline, so a few seconds of capture give analysed records,
 # unanalysed 0.3 s tails (gaps) and raised and cleared threshold alerts.
@@ -47,41 +43,7 @@ rm -rf "$artefacts/report"
 "$gearwatch" report --db "$work/plant.db" --out "$artefacts/report" >/dev/null
 page="$artefacts/report/index.html"
 
-# One fresh profile per run; every background service that could reach out is off.
-chrome() {
-  local profile
-  profile=$(mktemp -d "$work/profile.XXXXXX")
-  timeout 120 "$browser" --headless --no-sandbox --disable-gpu --disable-quic --no-first-run \
-    --disable-background-networking --disable-component-update --disable-sync --disable-default-apps \
-    --user-data-dir="$profile" --enable-logging=stderr --v=0 "$@"
-}
-count() { grep -o -- "$1" "$2" | wc -l; }
-
-# The console capture works: a page that logs on purpose is seen.
-printf '<!DOCTYPE html><html><body><script>console.error("gearwatch-canary-" + (6 * 7))</script></body></html>\n' > "$work/canary.html"
-chrome --dump-dom "file://$work/canary.html" > "$work/canary.dom" 2> "$work/canary.log" || fail "chromium failed on the canary page"
-grep -q 'CONSOLE.*gearwatch-canary-42' "$work/canary.log" || fail "the console capture does not see console.error (see $work/canary.log)"
-
-# Requests the page made: the net log's URL_REQUEST_START_JOB entries isolated under file://
-# (the browser's own background requests carry another network isolation key), other than
-# file: and data: URLs. Prints them, one a line.
-page_requests() {
-  "$python" - "$1" <<'PY'
-import json, sys
-text = open(sys.argv[1]).read()
-try:
-    log = json.loads(text)
-except ValueError:  # a log cut short at exit: close its event list
-    log = json.loads(text.rstrip().rstrip(",") + "]}")
-names = {v: k for k, v in log["constants"]["logEventTypes"].items()}
-for e in log.get("events", []):
-    p = e.get("params", {})
-    if names.get(e["type"]) == "URL_REQUEST_START_JOB" and "file://" in p.get("network_isolation_key", ""):
-        if not p.get("url", "").startswith(("file:", "data:")):
-            print(p["url"])
-PY
-}
-python=$(command -v python3) || fail "python3 is needed to read the net log"
+check_console_capture
 
 # The net-log check works: a page without the report's policy that asks for an image (on the
 # loopback discard port, where nothing answers) is caught.
@@ -90,24 +52,11 @@ chrome --log-net-log="$work/probe-net.json" --dump-dom "file://$work/probe.html"
 page_requests "$work/probe-net.json" | grep -q '^http://127.0.0.1:9/probe.png$' || fail "the net-log check does not see a page's request"
 
 # The report: rendered DOM, console and requests.
-chrome --log-net-log="$work/net.json" --dump-dom "file://$page" > "$work/dom.html" 2> "$work/console.log" || fail "chromium failed on the report"
-cp "$work/console.log" "$artefacts/report-console.log"
-for pattern in '<svg class="plot"' '<polyline' '<circle class="pt"' '<tr class="alert-row' '<tr class="health-row"'; do
-  in_file=$(count "$pattern" "$page")
-  in_dom=$(count "$pattern" "$work/dom.html")
-  echo "$pattern: page $in_file, rendered DOM $in_dom"
-  [ "$in_file" -gt 0 ] || fail "the page has no $pattern"
-  [ "$in_dom" -eq "$in_file" ] || fail "rendered DOM has $in_dom × $pattern, the page $in_file"
-done
+load_and_compare "$page" "$artefacts/report-console.log" "the report" \
+  '<svg class="plot"' '<polyline' '<circle class="pt"' '<tr class="alert-row' '<tr class="health-row"'
 [ "$(count '<svg class="plot"' "$page")" -eq 10 ] || fail "expected 10 plots (5 families × 2 channels)"
-if grep -E 'CONSOLE|Uncaught|Refused to' "$work/console.log"; then fail "the page wrote to the console"; fi
-requests=$(page_requests "$work/net.json")
-[ -z "$requests" ] || fail "the page made network requests: $requests"
+check_silent_and_offline
 
-# Screenshot for a person; its PNG header must say 1280 x 2000.
-rm -f "$artefacts/report-screenshot.png"
-chrome --hide-scrollbars --window-size=1280,2000 --screenshot="$artefacts/report-screenshot.png" "file://$page" 2>/dev/null >/dev/null \
-  || fail "chromium could not take the screenshot"
-size=$(od -An -tu1 -j16 -N8 "$artefacts/report-screenshot.png" | awk '{print ($1*16777216+$2*65536+$3*256+$4) "x" ($5*16777216+$6*65536+$7*256+$8)}')
-[ "$size" = "1280x2000" ] || fail "screenshot is $size, expected 1280x2000"
+# Screenshot for a person.
+screenshot "$page" "$artefacts/report-screenshot.png" 1280 2000
 echo "report browser test: passed; screenshot: $artefacts/report-screenshot.png"

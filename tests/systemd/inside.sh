@@ -9,9 +9,12 @@
 #     capabilities, seccomp, read-only system, private /tmp, inaccessible /home);
 #  4. canplayer plays the capture onto vcan1; the watchdog is pinged;
 #  5. `systemctl stop`: drains, commits, exit 0; the records equal the replay's, nothing lost;
-#  6. a second run, SIGKILLed once a record of it is committed (its record in progress and the
-#     backlog not yet analysed die with it): systemd restarts gearwatch, nothing committed is
-#     lost, integrity ok;
+#  4b. `systemctl reload` (ExecReload: SIGHUP): the same process goes on; an edit that needs a
+#     restart is named in the journal and in `systemctl status`, and is not applied;
+#  6. a second run: vcan1 is deleted under it and created again — it survives (same pid), reopens
+#     with backoff, and the capture then played onto the new vcan1 gives records; SIGKILLed once
+#     a record of it is committed (its record in progress and the backlog not yet analysed die
+#     with it): systemd restarts gearwatch, nothing committed is lost, integrity ok;
 #  7. `systemd-analyze security`: overall exposure <= 1.5.
 # Prints what it measured and "SYSTEMD TEST: PASS ..." or "SYSTEMD TEST: FAIL: <reason>".
 set -u
@@ -124,6 +127,24 @@ running=$(( ($(cut -d' ' -f1 /proc/uptime | cut -d. -f1) * 1000000 - $(prop Acti
 step "watchdog: last WATCHDOG=1 at $(prop WatchdogTimestamp), ${since_ready} s after READY (running ${running} s; WatchdogSec 30 s)"
 [ "$since_ready" -ge 10 ] || fail "no watchdog ping seen since READY (last ${since_ready} s after it)"
 
+# --- 4b. systemctl reload: SIGHUP, the same process, a change that needs a restart is named
+cfg=/etc/gearwatch/gearwatch.toml
+cp $cfg /tmp/plant.toml
+sed -i 's/^min_length_s = 1.0$/min_length_s = 2.0/' $cfg
+grep -q '^min_length_s = 2.0$' $cfg || fail "could not edit records.min_length_s in $cfg for the reload check"
+systemctl reload $unit || fail "systemctl reload gearwatch failed"
+wait_for 20 "the reload in the journal" sh -c "journalctl -u gearwatch -o cat | grep -q 'SIGHUP: restart required to apply: records.min_length_s'"
+[ "$(prop MainPID)" = "$pid" ] && [ "$(prop ActiveState)" = active ] || fail "gearwatch did not keep running through the reload"
+wait_for 10 "systemctl status saying 'restart required to apply: records.min_length_s' (it says '$(prop StatusText)')" \
+  sh -c "[ \"\$(systemctl show -p StatusText --value $unit)\" = 'restart required to apply: records.min_length_s' ]"
+step "reload: $(journalctl -u gearwatch -o cat | grep -m1 'SIGHUP: restart required')"
+cp /tmp/plant.toml $cfg
+systemctl reload $unit || fail "second systemctl reload failed"
+wait_for 20 "the second reload in the journal" sh -c "[ \$(journalctl -u gearwatch -o cat | grep -c 'SIGHUP: configuration $cfg reloaded; applied: none') -ge 2 ]"
+wait_for 10 "systemctl status saying 'running; configuration reloaded'" \
+  sh -c "[ \"\$(systemctl show -p StatusText --value $unit)\" = 'running; configuration reloaded' ]"
+step "reload with the file restored: status '$(prop StatusText)', pid $(prop MainPID) unchanged"
+
 # --- 5. orderly stop: drain, commit, exit 0; the records of a file replay, nothing lost
 # Under emulation the analysis lags the bus by minutes; let it catch up with the records the
 # schedule closes (end_reason complete) so that the stop has one record left to close, as on a
@@ -160,12 +181,26 @@ cmp -s /tmp/run.rows $P/replay.rows || { diff $P/replay.rows /tmp/run.rows; fail
 [ "$losses" = 0 ] || fail "acquisition_health: kernel_drops + ring_overflows + gaps + malformed_frames = $losses"
 step "records: $n_run under systemd = $n_replay of the replay, identical; losses 0; database owned by uid $uid in $state"
 
-# --- 6. SIGKILL with work in progress: systemd restarts it, nothing committed is lost
+# --- 6. the interface removed and created again under a running gearwatch; then SIGKILL with
+# work in progress: systemd restarts it, nothing committed is lost
 systemctl start $unit || fail "second start failed"
 first_pid=$(prop MainPID)
+journal_count() { journalctl -u gearwatch -o cat | grep -c "$1"; }
+wait_for 20 "the second start listening on vcan1" sh -c "[ \$(journalctl -u gearwatch -o cat | grep -c 'listening on vcan1') -ge 2 ]"
+reopened_before=$(journal_count 'socketcan vcan1: reopened after')
+ip link del vcan1 || fail "could not delete vcan1"
+wait_for 20 "gearwatch noticing vcan1 is gone" sh -c "journalctl -u gearwatch -o cat | grep -q 'socketcan vcan1: .*reopening in'"
+step "vcan1 deleted: $(journalctl -u gearwatch -o cat | grep 'socketcan vcan1: .*reopening in' | tail -n 1)"
+sleep 4  # a few rounds of the backoff (100 ms doubling) with no interface at all
+[ "$(prop ActiveState)" = active ] && [ "$(prop MainPID)" = "$first_pid" ] ||
+  fail "gearwatch did not survive the interface's removal ($(prop ActiveState), pid $(prop MainPID))"
+ip link add dev vcan1 type vcan && ip link set vcan1 mtu 72 && ip link set up vcan1 || fail "could not create vcan1 again"
+wait_for 30 "gearwatch reopening vcan1" sh -c "[ \$(journalctl -u gearwatch -o cat | grep -c 'socketcan vcan1: reopened after') -gt $reopened_before ]"
+[ "$(prop MainPID)" = "$first_pid" ] && [ "$(prop NRestarts)" = 0 ] || fail "gearwatch was restarted around the interface's return"
+step "vcan1 back: $(journalctl -u gearwatch -o cat | grep 'socketcan vcan1: reopened after' | tail -n 1); same pid $first_pid, NRestarts 0"
 canplayer -I $P/cap.log "$(cat $P/iface)" &
 player=$!
-wait_for 120 "a record of the second run committed" sh -c "[ \$(sqlite3 -batch $db 'SELECT COUNT(*) FROM records') -gt $n_run ]"
+wait_for 120 "a record of the second run committed (after vcan1 came back)" sh -c "[ \$(sqlite3 -batch $db 'SELECT COUNT(*) FROM records') -gt $n_run ]"
 sql "SELECT id, start_index, sample_count, end_reason FROM records ORDER BY id" >/tmp/before-kill.rows
 last_id=$(tail -n 1 /tmp/before-kill.rows | cut -d'|' -f1)
 t0=$(now)
@@ -194,5 +229,5 @@ exposure=$(echo "$overall" | sed -n 's/.*: \([0-9.]*\).*/\1/p')
 step "systemd-analyze security: $overall"
 [ -n "$exposure" ] || fail "no exposure level in systemd-analyze security's output"
 awk -v e="$exposure" -v l=$EXPOSURE_LIMIT 'BEGIN { exit !(e <= l) }' || fail "exposure $exposure > $EXPOSURE_LIMIT"
-echo "SYSTEMD TEST: PASS: ready in ${ready_s} s on vcan1; $n_run records = replay, 0 lost; watchdog pinged ${since_ready} s after READY; stop ${stop_s} s, exit 0; SIGKILL -> restarted in ${restart_s} s, integrity ok, nothing committed lost; exposure $exposure; $(( $(date +%s) - t_begin )) s in the VM"
+echo "SYSTEMD TEST: PASS: ready in ${ready_s} s on vcan1; reload names what needs a restart; $n_run records = replay, 0 lost; watchdog pinged ${since_ready} s after READY; stop ${stop_s} s, exit 0; vcan1 deleted and re-created: same process reopened it, records went on; SIGKILL -> restarted in ${restart_s} s, integrity ok, nothing committed lost; exposure $exposure; $(( $(date +%s) - t_begin )) s in the VM"
 exit 0

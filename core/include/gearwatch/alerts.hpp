@@ -29,11 +29,13 @@ enum class AlertKind : std::uint8_t {
   life_counter_reset,  ///< the odometer went backwards: new gear pair or front-end fault
   indicator_threshold, ///< an indicator above its per-gearbox baseline; subject = the indicator
   remaining_life,      ///< the model's remaining life to a limit below the configured cycles; subject = the limit
+  twin_drift,          ///< a gap family newly significant between twin and gearbox; subject = the family, value = its distance
 };
 inline constexpr std::array kAllAlertKinds{AlertKind::wear_mechanism,   AlertKind::carrier_band_jump,
                                            AlertKind::sensor_missing,   AlertKind::sensor_flat_line,
                                            AlertKind::sensor_saturated, AlertKind::life_counter_reset,
-                                           AlertKind::indicator_threshold, AlertKind::remaining_life};
+                                           AlertKind::indicator_threshold, AlertKind::remaining_life,
+                                           AlertKind::twin_drift};
 const char* to_string(AlertKind kind) noexcept;
 
 enum class AlertSeverity : std::uint8_t { info, warning, alarm };

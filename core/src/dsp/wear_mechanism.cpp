@@ -1,6 +1,7 @@
 #include "gearwatch/dsp/wear_mechanism.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
@@ -160,6 +161,61 @@ std::size_t minimum_points_for_trend(double significance) {
   return 1000;
 }
 
+namespace {
+
+// ln sinh(x) for x > 0 without overflow.
+double log_sinh(double x) { return x + std::log1p(-std::exp(-2.0 * x)) - std::log(2.0); }
+
+struct MixtureComponent {
+  double lambda, weight;
+};
+constexpr std::array<MixtureComponent, 6> kRisingMixture{
+    {{0.1, 0.1}, {0.2, 0.1}, {0.35, 0.1}, {0.6, 0.1}, {1.0, 0.1}, {3.0, 0.5}}};
+
+// ln of the mixture martingale over the given y sequence (already in order, all finite).
+double log_rising_evidence(const std::vector<double>& y) {
+  std::array<double, kRisingMixture.size()> log_m{};
+  for (std::size_t j = 1; j < y.size(); ++j) {
+    double d = 0.0;
+    for (std::size_t i = 0; i < j; ++i) d += (y[j] > y[i]) - (y[j] < y[i]);
+    const double count = static_cast<double>(j + 1);
+    for (std::size_t k = 0; k < kRisingMixture.size(); ++k) {
+      const double l = kRisingMixture[k].lambda;
+      log_m[k] += l * d - (log_sinh(count * l) - std::log(count) - log_sinh(l));
+    }
+  }
+  double top = -INFINITY;
+  for (std::size_t k = 0; k < log_m.size(); ++k) top = std::max(top, std::log(kRisingMixture[k].weight) + log_m[k]);
+  double sum = 0.0;
+  for (std::size_t k = 0; k < log_m.size(); ++k) sum += std::exp(std::log(kRisingMixture[k].weight) + log_m[k] - top);
+  return top + std::log(sum);
+}
+
+}  // namespace
+
+double rising_trend_evidence(std::span<const double> x, std::span<const double> y) {
+  if (x.size() != y.size()) throw std::invalid_argument("rising_trend_evidence: x and y differ in length");
+  std::vector<std::pair<double, double>> pairs;
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (std::isfinite(x[i]) && std::isfinite(y[i])) pairs.emplace_back(x[i], y[i]);
+  std::stable_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<double> ordered;
+  for (const auto& p : pairs) ordered.push_back(p.second);
+  return std::exp(std::min(log_rising_evidence(ordered), 700.0));
+}
+
+double rising_evidence_threshold(double significance) { return 2.0 / significance; }
+
+std::size_t minimum_points_for_evidence(double significance) {
+  const double bar = rising_evidence_threshold(significance);
+  std::vector<double> y;
+  for (std::size_t n = 1; n < 1000; ++n) {
+    y.push_back(static_cast<double>(n));
+    if (std::exp(log_rising_evidence(y)) >= bar) return n;
+  }
+  return 1000;
+}
+
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings) {
   const double alpha = settings.trend_significance;
@@ -174,10 +230,18 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
   WearMechanismVerdict v;
   v.low_band = trend_test(cycles, low, alpha);
   v.high_band = trend_test(cycles, high, alpha);
+  // The verdict re-decides at every record: Mann-Kendall at a fixed level would, on a stationary
+  // history, eventually report a trend by chance (one more test per record). The sequential
+  // evidence keeps that chance below alpha however long the history grows.
+  const double bar = rising_evidence_threshold(alpha);
+  for (auto [band, values] : {std::pair{&v.low_band, &low}, std::pair{&v.high_band, &high}}) {
+    band->rising_evidence = rising_trend_evidence(cycles, *values);
+    band->increasing = band->rising_evidence >= bar;
+  }
 
   v.band_jumps = significant_band_jumps(points, settings);
 
-  const std::size_t needed = minimum_points_for_trend(alpha);
+  const std::size_t needed = minimum_points_for_evidence(alpha);
   if (v.low_band.points < needed && v.high_band.points < needed) {
     v.mechanism = WearMechanism::undetermined;
   } else if (v.low_band.increasing && v.high_band.increasing) {
@@ -194,13 +258,14 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
 
   char buffer[512];
   std::snprintf(buffer, sizeof buffer,
-                "low band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f%s; high band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f%s; "
-                "alpha=%.3g (needs >= %zu points); band jumps: %zu",
+                "low band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f e=%.3g%s; high band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f e=%.3g%s; "
+                "alpha=%.3g (rising when e >= %.3g, needs >= %zu points); band jumps: %zu",
                 v.low_band.points, v.low_band.mann_kendall_s, v.low_band.mann_kendall_z, v.low_band.p_value,
-                v.low_band.spearman_rho, v.low_band.increasing ? " increasing" : v.low_band.decreasing ? " decreasing" : "",
+                v.low_band.spearman_rho, v.low_band.rising_evidence,
+                v.low_band.increasing ? " increasing" : v.low_band.decreasing ? " decreasing" : "",
                 v.high_band.points, v.high_band.mann_kendall_s, v.high_band.mann_kendall_z, v.high_band.p_value,
-                v.high_band.spearman_rho,
-                v.high_band.increasing ? " increasing" : v.high_band.decreasing ? " decreasing" : "", alpha, needed,
+                v.high_band.spearman_rho, v.high_band.rising_evidence,
+                v.high_band.increasing ? " increasing" : v.high_band.decreasing ? " decreasing" : "", alpha, bar, needed,
                 v.band_jumps.size());
   v.evidence = buffer;
   for (const auto& j : v.band_jumps) {

@@ -97,6 +97,20 @@ struct ModelConfig {
   std::string force_model = "quasi-static";         ///< quasi-static | dynamic (docs/wear.md)
 };
 
+/// The periodic sim-to-real gap diagnosis in the model thread (docs/gap-report.md). Off by
+/// default: it keeps raw records in memory and simulates the twin for each of them.
+struct GapConfig {
+  bool enabled = false;
+  std::uint32_t every_records = 50;            ///< analysed records between diagnoses
+  std::uint32_t training_records = 4;          ///< the older of the newest records: the candidates are fitted on these
+  std::uint32_t held_out_records = 2;          ///< the newest records: the gaps are scored on these
+  int channel = -1;                            ///< measured channel compared with the twin; -1 = the model's
+  int bootstrap_resamples = 200;               ///< block bootstrap over revolutions (the intervals)
+  std::int64_t seed = 1;                       ///< bootstrap seed: the same records give the same report
+  int drift_raise_after_reports = 1;           ///< twin_drift: reports in a row with the family significant
+  int drift_clear_after_reports = 2;           ///< reports in a row without it before clearing
+};
+
 struct GearwatchConfig {
   RigSpec rig;
   dsp::SignalProcessingSettings processing;
@@ -107,6 +121,7 @@ struct GearwatchConfig {
   DaemonSettings daemon;
   AlertSettings alerts;
   ModelConfig model;
+  GapConfig gap;
   std::string source_path;                          ///< the file it came from ("" for defaults)
 };
 

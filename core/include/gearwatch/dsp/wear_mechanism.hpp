@@ -2,8 +2,12 @@
 // Wear-mechanism identification over a record history (seed §4.4): a monotonic (increasing)
 // ICS2 trend in the low carrier band and not the high band -> fatigue pitting; high and not low
 // -> abrasive wear; both -> both; neither -> none; too short a history -> undetermined.
-// Trends are tested with Mann-Kendall (tie-corrected variance, normal approximation, two-sided);
-// Spearman's rho is reported alongside. Jumps of the ICS2-selected carrier band are flagged.
+// The decision "this band's ICS2 is rising" is sequential: a test-martingale on the sequential ranks
+// of the band's history (rising_trend_evidence), so re-deciding at every new record keeps the
+// chance that a stationary history ever raises a verdict below the configured significance,
+// however long the history grows (Ville's inequality). Mann-Kendall (tie-corrected variance,
+// normal approximation, two-sided) and Spearman's rho describe the trend alongside. Jumps of the
+// ICS2-selected carrier band are flagged.
 #include <array>
 #include <limits>
 #include <span>
@@ -39,8 +43,10 @@ struct TrendTest {
   double mann_kendall_z = 0.0;
   double p_value = 1.0;             ///< two-sided
   double spearman_rho = 0.0;
-  bool increasing = false;          ///< significant at the configured level with S > 0
+  bool increasing = false;          ///< significant at the configured level with S > 0 (trend_test);
+                                    ///< in a WearMechanismVerdict: the sequential evidence crossed its bar
   bool decreasing = false;          ///< significant with S < 0 (reported, not a wear signature)
+  double rising_evidence = 1.0;     ///< e-value of a rise at the newest point (identify_wear_mechanism only)
 };
 
 /// Mann-Kendall and Spearman on (x, y) pairs, ordered by x; pairs with a non-finite y are dropped.
@@ -48,6 +54,24 @@ TrendTest trend_test(std::span<const double> x, std::span<const double> y, doubl
 
 /// Smallest number of points at which a perfectly monotonic series can reach `significance`.
 std::size_t minimum_points_for_trend(double significance);
+
+/// Evidence that y rises along x, as a test-martingale (an "e-value") at the newest point. Pairs are
+/// ordered by x, non-finite y dropped. The j-th point's sequential rank gives
+/// D_j = sum_{i<j} sign(y_j - y_i); for an exchangeable (stationary, no trend) sequence the D_j are
+/// independent, uniform on {-(j-1), -(j-3), ..., j-1}, with E exp(lambda D_j) = sinh(j lambda) /
+/// (j sinh lambda). So M_n = sum_k w_k prod_j exp(lambda_k D_j) j sinh(lambda_k) / sinh(j lambda_k)
+/// has mean 1 at every n, and P(M_n >= 1/a for some n) <= a for every history length (Ville). Ties
+/// only shrink D_j towards 0, which keeps M a supermartingale. The mixture puts half its weight on
+/// lambda = 3 (a perfectly rising run of n points reaches almost n!) and the rest on 0.1 ... 1 (slow,
+/// noisy rises after a long flat history).
+double rising_trend_evidence(std::span<const double> x, std::span<const double> y);
+
+/// The evidence a band needs for a rising verdict: 2 / significance (each band gets half of the
+/// significance, so a stationary channel raises any wear verdict with probability <= significance).
+double rising_evidence_threshold(double significance);
+
+/// Smallest number of points at which a perfectly rising series reaches rising_evidence_threshold.
+std::size_t minimum_points_for_evidence(double significance);
 
 /// A significant, lasting move of the ICS2-selected carrier band (seed Figs 4.8, 4.15): the new
 /// centre is an octave or more from the established one, stays within an octave of itself for
@@ -71,7 +95,9 @@ struct WearMechanismVerdict {
   std::string evidence;               ///< one line: statistics, p-values, jumps
 };
 
-/// Uses settings.trend_significance. Points are sorted by cycles internally.
+/// Uses settings.trend_significance. Points are sorted by cycles internally. A band is rising when
+/// its rising_trend_evidence reaches rising_evidence_threshold; Mann-Kendall's `decreasing` is
+/// reported only.
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings);
 

@@ -140,4 +140,7 @@ std::string render_report_html(const ReportData& data);
 /// UTC now, ISO 8601 with seconds ("2026-11-23T07:23:42Z").
 std::string utc_now_iso8601();
 
+/// The stylesheet every gearwatch page shares (page layout, tables, plots).
+const char* report_base_style() noexcept;
+
 }  // namespace gearwatch::report

@@ -64,6 +64,16 @@ struct PlotSeries {
   std::string label;   ///< legend text
   std::string colour;  ///< CSS colour
   std::vector<PlotPoint> points;
+  bool markers = true; ///< a circle with a tooltip at each point; off for dense curves (spectra)
+};
+
+/// A shaded stretch of the x axis across the plot's height (a spectral family's band), drawn
+/// under the data; `css_class` and the fill colour style it, `title` is its tooltip.
+struct PlotBand {
+  double lo = 0, hi = 0;
+  std::string css_class;
+  std::string colour;
+  std::string title;
 };
 
 /// Vertical line across the plot at x. `css_class` picks its style in the page's stylesheet
@@ -93,6 +103,7 @@ class SvgPlot {
 
   void add_series(PlotSeries series) { series_.push_back(std::move(series)); }
   void add_event(EventLine event) { events_.push_back(std::move(event)); }
+  void add_band(PlotBand band) { bands_.push_back(std::move(band)); }
 
   /// Points that could not be placed (non-positive on a log axis): they are drawn as gaps.
   std::size_t unplottable_points() const;
@@ -109,6 +120,7 @@ class SvgPlot {
   Layout layout_;
   std::vector<PlotSeries> series_;
   std::vector<EventLine> events_;
+  std::vector<PlotBand> bands_;
 };
 
 }  // namespace gearwatch::report

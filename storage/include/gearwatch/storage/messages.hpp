@@ -9,6 +9,7 @@
 
 #include "gearwatch/alerts.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
+#include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/record.hpp"
 #include "gearwatch/wear/updating.hpp"
 
@@ -124,7 +125,19 @@ struct ModelRunResult {
   std::vector<std::pair<AlertKey, AlertState>> alert_states;
 };
 
+/// One sim-to-real gap diagnosis (docs/gap-report.md) with the twin_drift transitions it caused
+/// and the alert states they leave: written in one transaction.
+struct GapReportResult {
+  std::uint64_t stream_sequence = 0;      ///< the record that triggered it (its id is looked up)
+  std::uint64_t start_index = 0;
+  bool has_record = true;
+  std::int64_t gear_pair = 0;
+  gap::GapReport report;
+  std::vector<AlertEvent> alerts;
+  std::vector<std::pair<AlertKey, AlertState>> alert_states;
+};
+
 using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, AlertUpdate, GapEvent,
-                             LifeCounterEvent, RejectedFrame, HealthSnapshot, ModelRunResult>;
+                             LifeCounterEvent, RejectedFrame, HealthSnapshot, ModelRunResult, GapReportResult>;
 
 }  // namespace gearwatch::storage

@@ -1,0 +1,48 @@
+#pragma once
+// Replaying a capture that is already (partly) in the database — a replay killed mid-write and
+// started again, or the same file given twice — continues after the records committed from it
+// instead of storing them a second time. Records are cut deterministically from the stream
+// (acquisition/record_assembler.hpp), so a record is found again by the capture (its path), the
+// stream's position in it (its sequence and stream id) and its first sample index; it is taken
+// for the stored one only if its content agrees too: the length, the life counter (input
+// revolutions), the operating point (speed, torque) and, when the stored record was analysed,
+// the RMS of its first channel (`rms_raw`). A different capture written later to the same path
+// therefore is stored, not skipped.
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <tuple>
+
+#include "gearwatch/record.hpp"
+
+namespace gearwatch::daemon {
+
+class ReplayResume {
+ public:
+  /// Reads what earlier runs and replays of `capture` (the same file: its path compared after
+  /// resolving it) committed to `database`. A missing database means nothing is stored yet.
+  static ReplayResume load(const std::string& database, const std::string& capture);
+
+  /// True when this record (of the stream with this sequence in the capture) is already stored.
+  /// A stored record that is shorter (cut by a stop) does not count: the new run completes it.
+  bool stored(std::uint64_t sequence, const Record& record) const;
+  /// True when `index` of this stream lies before the end of the last record stored from it:
+  /// events there (gaps, life-counter resets) were stored with those records.
+  bool before_resume_point(std::uint64_t sequence, std::uint16_t stream_id, std::uint64_t index) const;
+
+  std::size_t records_stored() const noexcept { return records_.size(); }
+
+ private:
+  using StreamKey = std::pair<std::uint64_t, std::uint16_t>;
+  struct Stored {
+    std::uint64_t sample_count = 0;
+    std::optional<double> input_revolutions, speed_hz, torque_nm;
+    int rms_channel = -1;  ///< protocol channel of rms_raw (-1: not analysed, no RMS stored)
+    double rms_raw = 0.0;
+  };
+  std::map<std::tuple<std::uint64_t, std::uint16_t, std::uint64_t>, Stored> records_;
+  std::map<StreamKey, std::uint64_t> stored_until_;  ///< first sample index after the last stored record
+};
+
+}  // namespace gearwatch::daemon
