@@ -209,3 +209,43 @@ TEST_CASE("A divergent integration is stopped with a clear error", "[twin]") {
   CHECK_THROWS_AS(integrate_sampled(dyn, bad, 0.0, 1000.0, 10, SimulationOptions{}, [](const State&, double) {}),
                   TwinDivergenceError);
 }
+
+TEST_CASE("Face misalignment: the mesh force of a Winkler face whose flanks separate across it", "[twin]") {
+  // Flanks separating linearly by w across the face, each face element a spring k/b: a pair
+  // compressed by c touches over the width where c − w ξ > 0 (ξ the face position / b), so
+  //   c < w:  F = ∫₀^{c/w} k (c − w ξ) dξ = k c² / (2w)      (part of the face loaded)
+  //   c ≥ w:  F = ∫₀^1 k (c − w ξ) dξ = k (c − w/2)           (the whole face)
+  // with k the pair's stiffness: summed over the pairs in contact, K = Σ k_i. At rest (zero
+  // velocities) no damping acts, so the mesh force is exactly these.
+  const GearboxParameters p;
+  const GearGeometry geometry = GearGeometry::from_spec(p.gears);
+  auto mesh = std::make_shared<const GearMeshStiffness>(geometry, MeshStiffnessOptions{});
+  const GearboxMatrices m = assemble(p, *mesh);
+  GearboxDynamics dynamics(m, mesh, nullptr, 10.0, 5.0);
+  const double w = 4e-6;  // 0.2 mrad over the 20 mm face
+  dynamics.set_face_misalignment(w);
+  // A state whose mesh deflection δ = gᵀq is c: q along g.
+  auto state_with_deflection = [&](double c) {
+    State x{};
+    const double gg = m.mesh.dot(m.mesh);
+    for (int i = 0; i < kDofCount; ++i) x[static_cast<std::size_t>(i)] = c * m.mesh[i] / gg;
+    return x;
+  };
+  for (double t : {0.0, 0.0013, 0.0031}) {  // single and double contact along the mesh cycle
+    for (double c : {0.5e-6, 2e-6, 3.9e-6, 4.1e-6, 8e-6}) {
+      const auto ms = dynamics.mesh_state(state_with_deflection(c), t);
+      REQUIRE(ms.deflection == Approx(c).epsilon(1e-12));
+      const double expected = c < w ? ms.stiffness * c * c / (2 * w) : ms.stiffness * (c - w / 2);
+      CHECK(ms.force == Approx(expected).epsilon(1e-12));
+    }
+  }
+  // Aligned (the seed's twin): F = K c; and the addition refuses a negative or non-finite width.
+  dynamics.set_face_misalignment(0.0);
+  const auto aligned = dynamics.mesh_state(state_with_deflection(2e-6), 0.0);
+  CHECK(aligned.force == Approx(aligned.stiffness * 2e-6).epsilon(1e-12));
+  CHECK_THROWS_AS(dynamics.set_face_misalignment(-1e-6), TwinParameterError);
+  CHECK_THROWS_AS(dynamics.set_face_misalignment(std::nan("")), TwinParameterError);
+  SimulationOptions bad;
+  bad.face_misalignment_rad = -1e-4;
+  CHECK_THROWS_AS(simulate(p, ToothProfileDeviation{}, {10.0, 5.0}, 0.01, bad), TwinParameterError);
+}

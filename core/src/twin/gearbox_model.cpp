@@ -114,6 +114,12 @@ GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_pt
   base_pitch_angle_ = 2.0 * std::numbers::pi / g.spec.pinion_teeth;
 }
 
+void GearboxDynamics::set_face_misalignment(double separation_m) {
+  if (!std::isfinite(separation_m) || separation_m < 0)
+    throw TwinParameterError("face misalignment separation must be finite and >= 0");
+  face_separation_ = separation_m;
+}
+
 double GearboxDynamics::mesh_frequency_hz() const { return speed_hz_ * mesh_stiffness_->geometry().spec.pinion_teeth; }
 
 double GearboxDynamics::mesh_force(const Eigen::Ref<const Vector21>& q, const Eigen::Ref<const Vector21>& v, double t,
@@ -153,7 +159,14 @@ double GearboxDynamics::mesh_force(const Eigen::Ref<const Vector21>& q, const Ei
     gte_max = std::max(gte_max, e);
     const double compression = delta + e;
     double f = 0;
-    if (compression > 0) f = std::max(0.0, k * compression + mu * k * (delta_rate + e_rate));
+    const double w = face_separation_;
+    if (compression > 0 && compression < w) {
+      // Winkler face with the flanks separating linearly across it: the loaded width is c/w of the
+      // face, so F = ∫ k (c − w ξ) dξ over ξ ∈ [0, c/w] = k c² / (2w); the damping acts on that share.
+      f = std::max(0.0, k * compression * compression / (2.0 * w) + mu * k * (compression / w) * (delta_rate + e_rate));
+    } else if (compression > 0) {
+      f = std::max(0.0, k * (compression - 0.5 * w) + mu * k * (delta_rate + e_rate));
+    }
     stiffness += k;
     total += f;
     if (out) out->pair_force[j] = f;

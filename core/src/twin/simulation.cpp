@@ -23,7 +23,10 @@ SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviatio
   auto mesh = std::make_shared<const GearMeshStiffness>(geometry, mo);
   auto gte = std::make_shared<const GeometricTransmissionError>(geometry, deviation);
   const GearboxMatrices matrices = assemble(p, *mesh);
-  const GearboxDynamics dynamics(matrices, mesh, gte, op.input_speed_hz, op.input_torque_nm, options.mesh_model);
+  GearboxDynamics dynamics(matrices, mesh, gte, op.input_speed_hz, op.input_torque_nm, options.mesh_model);
+  if (!std::isfinite(options.face_misalignment_rad) || options.face_misalignment_rad < 0)
+    throw TwinParameterError("face misalignment must be finite and >= 0 rad");
+  dynamics.set_face_misalignment(options.face_misalignment_rad * p.gears.face_width_m);
 
   SimulationResult result;
   result.sample_rate_hz = options.sample_rate_hz;
@@ -98,6 +101,12 @@ CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfi
                                     const OperatingPoint& op, double duration_s, double sample_rate_hz) {
   SimulationOptions options;
   options.sample_rate_hz = sample_rate_hz;
+  return simulate_casing_signal(p, deviation, op, duration_s, options);
+}
+
+CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
+                                    const OperatingPoint& op, double duration_s, const SimulationOptions& options) {
+  const double sample_rate_hz = options.sample_rate_hz;
   const SimulationResult r = simulate(p, deviation, op, duration_s, options);
   CasingSignal s;
   s.sample_rate_hz = sample_rate_hz;

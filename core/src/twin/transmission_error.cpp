@@ -87,4 +87,39 @@ double GeometricTransmissionError::kinematic_error(const double* positions, int 
   return e;
 }
 
+namespace {
+// A profile table (root → tip, uniformly spaced) read at u ∈ [0, 1] by linear interpolation.
+double profile_at(const std::vector<double>& table, double u) {
+  if (table.empty()) return 0.0;
+  if (table.size() == 1) return table.front();
+  const double x = std::clamp(u, 0.0, 1.0) * static_cast<double>(table.size() - 1);
+  const auto i = std::min(static_cast<std::size_t>(x), table.size() - 2);
+  const double t = x - static_cast<double>(i);
+  return (1 - t) * table[i] + t * table[i + 1];
+}
+
+std::vector<double> relieved(const std::vector<double>& table, double amount, double length, std::size_t points) {
+  const std::size_t n = std::max(points, table.size());
+  std::vector<double> out(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    const double u = static_cast<double>(j) / static_cast<double>(n - 1);
+    out[j] = profile_at(table, u) + amount * std::max(0.0, (u - (1.0 - length)) / length);
+  }
+  return out;
+}
+}  // namespace
+
+ToothProfileDeviation with_linear_tip_relief(const ToothProfileDeviation& base, double amount_m, double length_fraction,
+                                             std::size_t points) {
+  if (!std::isfinite(amount_m) || amount_m < 0) throw TwinParameterError("tip relief amount must be finite and >= 0");
+  if (!(length_fraction > 0 && length_fraction <= 1)) throw TwinParameterError("tip relief length must lie in (0, 1]");
+  points = std::max<std::size_t>(points, 2);
+  ToothProfileDeviation out;
+  out.pinion = relieved(base.pinion, amount_m, length_fraction, points);
+  out.gear = relieved(base.gear, amount_m, length_fraction, points);
+  for (const auto& t : base.pinion_per_tooth) out.pinion_per_tooth.push_back(relieved(t, amount_m, length_fraction, points));
+  for (const auto& t : base.gear_per_tooth) out.gear_per_tooth.push_back(relieved(t, amount_m, length_fraction, points));
+  return out;
+}
+
 }  // namespace gearwatch::twin

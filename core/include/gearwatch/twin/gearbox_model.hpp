@@ -110,6 +110,11 @@ class GearboxDynamics {
   double linear_energy(const State& x) const;
 
   void set_harmonic_load(const HarmonicLoad& load) { harmonic_ = load; }
+  /// Face misalignment as an addition to the twin (a candidate effect of the gap diagnosis): the
+  /// flanks of a pair separate linearly across the face by `separation_m` (angle × face width), so
+  /// a pair compressed by c < separation carries only the part of the face where it touches.
+  /// Throws TwinParameterError for a negative or non-finite value; 0 (the default) is aligned.
+  void set_face_misalignment(double separation_m);
   const GearboxMatrices& matrices() const { return m_; }
   double input_speed_hz() const { return speed_hz_; }
   double mesh_frequency_hz() const;
@@ -121,6 +126,7 @@ class GearboxDynamics {
   GearboxMatrices m_;
   Vector21 inverse_mass_;
   std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
+  double face_separation_ = 0;  // m: flank separation across the face (0 = aligned)
   std::shared_ptr<const GeometricTransmissionError> gte_;
   double speed_hz_;
   double omega_;

@@ -23,6 +23,9 @@ struct SimulationOptions {
   int max_steps_per_sample = 2000;      ///< odeint max_step_checker between two output samples
   double deflection_limit_m = 1e-3;     ///< |δ| beyond this is divergence (teeth are ~4 mm high)
   MeshModel mesh_model = MeshModel::time_varying;
+  /// An addition the seed's twin does not have (for the gap diagnosis's misalignment candidate):
+  /// angular misalignment across the face, rad; the flank separation is this × the face width.
+  double face_misalignment_rad = 0;
 };
 
 /// The dynamic force carried by one tooth pair over its pass along the line of action (root of the
@@ -65,6 +68,9 @@ struct CasingSignal {
 };
 CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
                                     const OperatingPoint& op, double duration_s, double sample_rate_hz);
+/// The same with every simulation option (the rate is options.sample_rate_hz).
+CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
+                                    const OperatingPoint& op, double duration_s, const SimulationOptions& options);
 
 /// Integrates an arbitrary GearboxDynamics from `state` at t0, calling observer(state, t) at
 /// t0 + i/rate for i = 0..count-1; dopri5 with dense output and the divergence checks above.

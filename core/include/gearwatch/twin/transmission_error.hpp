@@ -6,6 +6,7 @@
 // fraction 0) to the tip (fraction 1), uniformly spaced. The GTE of a pair in contact at s is
 // e = −(d_pinion(u_p(s)) + d_gear(u_g(s))): missing material reduces the pair's compression, which
 // enters the mesh force of Eq. 5.3 as k_m (δ + e).
+#include <cstddef>
 #include <vector>
 
 #include "gearwatch/twin/gear_geometry.hpp"
@@ -21,6 +22,14 @@ struct ToothProfileDeviation {
   std::vector<std::vector<double>> pinion_per_tooth;
   std::vector<std::vector<double>> gear_per_tooth;
 };
+
+/// `base` with a linear tip relief added on every pinion and gear tooth (an addition the seed's
+/// twin does not have, for the gap diagnosis's tip_relief candidate): material removed from
+/// (1 − length_fraction) of the active profile to the tip, rising linearly to `amount_m` at the tip.
+/// Profiles are resampled to at least `points` (the base's own points kept where finer). Throws
+/// TwinParameterError for a negative amount or a length fraction outside (0, 1].
+ToothProfileDeviation with_linear_tip_relief(const ToothProfileDeviation& base, double amount_m, double length_fraction,
+                                             std::size_t points = 201);
 
 class GeometricTransmissionError {
  public:
