@@ -252,3 +252,25 @@ TEST_CASE("Simulated RMS_SA comes from the measurement analyzer and grows with w
   CHECK(healthy > 0);
   CHECK(worn > healthy);
 }
+
+TEST_CASE("A linear tip relief adds material removed from (1 - L) of the profile to the tip", "[twin]") {
+  // 10 µm over the last 0.25 of the active profile on a worn base (a uniform 1 µm): 1 µm up to
+  // u = 0.75, then 1 + 10 (u − 0.75)/0.25 µm, 11 µm at the tip; per-tooth tables alike.
+  ToothProfileDeviation base;
+  base.pinion.assign(11, 1e-6);
+  base.gear_per_tooth.assign(52, std::vector<double>(5, 0.0));
+  const auto relieved = with_linear_tip_relief(base, 10e-6, 0.25, 101);
+  REQUIRE(relieved.pinion.size() == 101);
+  REQUIRE(relieved.gear.size() == 101);
+  REQUIRE(relieved.gear_per_tooth.size() == static_cast<std::size_t>(52));
+  for (std::size_t j = 0; j <= 100; ++j) {
+    const double u = j / 100.0;
+    const double relief = u > 0.75 ? 10e-6 * (u - 0.75) / 0.25 : 0.0;
+    CHECK(relieved.pinion[j] == Approx(1e-6 + relief).margin(1e-15));
+    CHECK(relieved.gear[j] == Approx(relief).margin(1e-15));
+    CHECK(relieved.gear_per_tooth[7][j] == Approx(relief).margin(1e-15));
+  }
+  CHECK_THROWS(with_linear_tip_relief(base, -1e-6, 0.2));
+  CHECK_THROWS(with_linear_tip_relief(base, 1e-6, 0.0));
+  CHECK_THROWS(with_linear_tip_relief(base, 1e-6, 1.5));
+}
