@@ -9,6 +9,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -16,6 +17,7 @@
 #include "command_runner.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/spectra.hpp"
+#include "gearwatch/twin/simulation.hpp"
 
 using namespace gearwatch;
 using namespace gearwatch::gap;
@@ -250,6 +252,99 @@ TEST_CASE("gap: records at a single speed leave fixed_frequency unresolved with 
     if (other.family != FamilyKind::fixed_frequency) CHECK(other.resolved);
 }
 
+TEST_CASE("gap: records at two loads, one speed each, leave fixed_frequency unresolved", "[gap]") {
+  // A line's identity includes its load, so the Hz-fixed part needs two speeds at one load.
+  Record light = synthetic_record(10240, 10, 12, twin_tones());
+  light.torque_nm = 5;
+  const Record heavy = synthetic_record(10240, 13, 14, twin_tones());
+  const auto report = diagnose({{light, light}, {heavy, heavy}}, {{light, light}, {heavy, heavy}}, GearPairSpec{},
+                               fast_settings());
+  const auto& g = family(report.before, FamilyKind::fixed_frequency);
+  CHECK_FALSE(g.resolved);
+  CHECK(g.unresolved_reason.find("at one load; each load here has one") != std::string::npos);
+  // The same two speeds at one load resolve it.
+  Record heavy_slow = light;
+  heavy_slow.torque_nm = 20;
+  const auto resolved = diagnose({{heavy_slow, heavy_slow}, {heavy, heavy}}, {{heavy_slow, heavy_slow}, {heavy, heavy}},
+                                 GearPairSpec{}, fast_settings());
+  CHECK(family(resolved.before, FamilyKind::fixed_frequency).resolved);
+}
+
+TEST_CASE("gap: candidates fitted by re-running the twin are named, with their values, and close the gap", "[gap][rerun]") {
+  // The "measurement" is the twin itself with one addition at a point of the candidate's grid, the
+  // twin runs without it: the fit must return that point exactly and the held-out mesh gap must
+  // close to what two identical simulations leave (nothing).
+  //  - misalignment 0.1 mrad across the face (2 µm over 20 mm, more than the static deflection at
+  //    the seed's dry-test load of 5 N·m, so part of the face carries the load);
+  //  - tip relief 8 µm over 0.2 of the active profile, at the lubricated test's 20 N·m.
+  struct Case {
+    CandidateEffect effect;
+    std::vector<double> truth;
+    double torque;
+    std::vector<std::string> names;
+  };
+  const std::vector<Case> cases{{CandidateEffect::misalignment, {1e-4}, 5.0, {"angle_rad"}},
+                                {CandidateEffect::tip_relief, {8e-6, 0.2}, 20.0, {"amount_m", "length_fraction"}}};
+  for (const auto& c : cases) {
+    DYNAMIC_SECTION(to_string(c.effect)) {
+      const double fs = 20000, seconds = 0.8;
+      std::map<std::tuple<int, std::vector<double>, double>, Record> cache;
+      std::map<CandidateEffect, int> reruns;
+      auto twin_record = [&](double speed, CandidateEffect effect, const std::vector<double>& values) -> const Record& {
+        const auto key = std::make_tuple(static_cast<int>(effect), values, speed);
+        if (auto it = cache.find(key); it != cache.end()) return it->second;
+        twin::SimulationOptions o;
+        o.sample_rate_hz = fs;
+        twin::ToothProfileDeviation profile;
+        if (!values.empty() && effect == CandidateEffect::misalignment) o.face_misalignment_rad = values[0];
+        if (!values.empty() && effect == CandidateEffect::tip_relief)
+          profile = twin::with_linear_tip_relief(profile, values[0], values[1]);
+        const auto s = twin::simulate_casing_signal(twin::GearboxParameters{}, profile, {speed, c.torque}, seconds, o);
+        return cache.emplace(key, single_channel_record(s.acceleration, s.tacho_edges, fs, speed, c.torque)).first->second;
+      };
+      auto pairs = [&](std::vector<double> speeds) {
+        std::vector<DiagnosisInput> in;
+        for (double v : speeds) in.push_back({twin_record(v, c.effect, c.truth), twin_record(v, c.effect, {})});
+        return in;
+      };
+      const auto training = pairs({10.0, 13.0}), held_out = pairs({11.5, 14.5});
+      const auto grid = rerun_grid(c.effect);
+      REQUIRE(std::find(grid.begin(), grid.end(), c.truth) != grid.end());
+      auto settings = fast_settings();
+      settings.rerun_twin = [&](CandidateEffect effect, const std::vector<double>& values, const Record& like) {
+        ++reruns[effect];
+        return twin_record(like.speed_hz, effect, values);
+      };
+      const auto report = diagnose(training, held_out, GearPairSpec{}, settings);
+      const auto& mesh_before = family(report.before, FamilyKind::mesh_harmonics);
+      INFO("mesh before " << mesh_before.distance_db << " dB");
+      REQUIRE(mesh_before.significant);
+      // One rerun per grid point and record, training and held out, for each rerun candidate.
+      for (CandidateEffect e : {CandidateEffect::misalignment, CandidateEffect::tip_relief})
+        CHECK(reruns[e] == static_cast<int>(rerun_grid(e).size() * 4));
+      REQUIRE_FALSE(report.chosen.empty());
+      CHECK(report.chosen.front() == c.effect);
+      REQUIRE(report.candidates.front().effect == c.effect);
+      const auto& fitted = report.candidates.front().parameters;
+      REQUIRE(fitted.size() == c.truth.size());
+      for (std::size_t i = 0; i < fitted.size(); ++i) {
+        CHECK(fitted[i].first == c.names[i]);
+        CHECK(fitted[i].second == Approx(c.truth[i]).epsilon(1e-12));
+      }
+      CHECK(family(report.after, FamilyKind::mesh_harmonics).distance_db < 0.01);
+      CHECK(report.unexplained.empty());
+    }
+  }
+  SECTION("without a rerun the candidates keep their spectral forms") {
+    const Record twin = synthetic_record(10240, 10, 12, twin_tones());
+    const auto spectral = diagnose({{twin, twin}}, {{twin, twin}}, GearPairSpec{}, fast_settings());
+    for (const auto& c : spectral.candidates) {
+      if (c.effect == CandidateEffect::misalignment) CHECK(c.parameters.front().first == "mesh_gain_db");
+      if (c.effect == CandidateEffect::tip_relief) CHECK(c.parameters.front().first == "load_1_nm");
+    }
+  }
+}
+
 TEST_CASE("gap: bad input is refused with the reason", "[gap]") {
   const Record ok = synthetic_record(10240, 10, 12, twin_tones());
   const Record short_record = synthetic_record(10240, 10, 3, twin_tones());
@@ -270,6 +365,7 @@ namespace {
 SpectralSummary twin_summary(double speed, double fs = 100000) {
   SpectralSummary s;
   s.speed_hz = speed;
+  s.torque_nm = 20;
   s.sample_rate_hz = fs;
   s.input_revolutions = 20;
   s.output_revolutions = 7;
@@ -312,7 +408,7 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
       {CandidateEffect::mount_resonance, {30000, 0.05}, 0.02},
       {CandidateEffect::noise_floor, {1e-4}, 0.02},
       {CandidateEffect::eccentricity, {0.1, 0.2}, 0.02},
-      {CandidateEffect::tooth_errors, {1e-3, 2e-3}, 0.02},
+      {CandidateEffect::tooth_errors, {20, 1e-3, 2e-3}, 0.02},  // per load: the records' 20 N·m, then its gains
       {CandidateEffect::speed_fluctuation, {0.1, 3.0}, 0.03},
       {CandidateEffect::load_fluctuation, {0.002, 5.0}, 0.03},
       {CandidateEffect::misalignment, {-3.0}, 0.02},
@@ -330,12 +426,46 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
 }
 
 TEST_CASE("gap: the closed-form candidates (per-harmonic gains, Hz-band transfer path) recover their gains", "[gap]") {
-  SECTION("tip_relief: one gain per mesh harmonic") {
-    std::vector<double> gains(static_cast<std::size_t>(tip_relief_harmonics(100000)), 0.0);
-    for (std::size_t n = 0; n < 40; ++n) gains[n] = 8.0 * std::sin(0.7 * static_cast<double>(n));
-    const auto fitted = fit_candidate(CandidateEffect::tip_relief, {}, generated(CandidateEffect::tip_relief, gains), GearPairSpec{});
-    REQUIRE(fitted.size() == gains.size());
-    for (std::size_t n = 0; n < 40; ++n) CHECK(fitted[n] == Approx(gains[n]).margin(0.05));
+  SECTION("tip_relief: one gain per mesh harmonic at the records' load") {
+    // Values: the load (N·m), then the gains; the generated records are at 20 N·m.
+    std::vector<double> values(static_cast<std::size_t>(tip_relief_harmonics(100000)) + 1, 0.0);
+    values[0] = 20;
+    for (std::size_t n = 0; n < 40; ++n) values[n + 1] = 8.0 * std::sin(0.7 * static_cast<double>(n));
+    const auto fitted = fit_candidate(CandidateEffect::tip_relief, {}, generated(CandidateEffect::tip_relief, values), GearPairSpec{});
+    REQUIRE(fitted.size() == values.size());
+    CHECK(fitted[0] == 20.0);
+    for (std::size_t n = 1; n <= 40; ++n) CHECK(fitted[n] == Approx(values[n]).margin(0.05));
+  }
+  SECTION("tip_relief: each training load has its own gains; a record takes the nearest load's") {
+    // Records at 20 and at 5 N·m whose mesh harmonics change differently: the fit returns one group
+    // per load, and a record at 7 N·m is changed as the 5 N·m group says.
+    const std::size_t group = static_cast<std::size_t>(tip_relief_harmonics(100000)) + 1;
+    std::vector<double> heavy(group, 0.0), light(group, 0.0);
+    heavy[0] = 20, light[0] = 5;
+    for (std::size_t n = 1; n <= 40; ++n) heavy[n] = 6.0, light[n] = -4.0 + 0.1 * static_cast<double>(n);
+    auto pairs = generated(CandidateEffect::tip_relief, heavy);
+    std::vector<double> both = heavy;
+    both.insert(both.end(), light.begin(), light.end());
+    for (auto p : generated(CandidateEffect::tip_relief, light)) {
+      p.twin.torque_nm = 5;
+      p.measured = apply_effects({{CandidateEffect::tip_relief, both}}, p.twin, GearPairSpec{});
+      pairs.push_back(std::move(p));
+    }
+    const auto fitted = fit_candidate(CandidateEffect::tip_relief, {}, pairs, GearPairSpec{});
+    REQUIRE(fitted.size() == 2 * group);
+    CHECK(fitted[0] == 20.0);
+    CHECK(fitted[group] == 5.0);
+    for (std::size_t n = 1; n <= 40; ++n) {
+      CHECK(fitted[n] == Approx(6.0).margin(0.05));
+      CHECK(fitted[group + n] == Approx(light[n]).margin(0.05));
+    }
+    auto at_seven = twin_summary(8.0);
+    at_seven.torque_nm = 7;
+    const auto changed = apply_effects({{CandidateEffect::tip_relief, fitted}}, at_seven, GearPairSpec{});
+    for (std::size_t n = 1; n <= 40 && n * kZ1 <= at_seven.input_lines.size(); ++n)
+      CHECK(10 * std::log10(changed.input_lines[n * kZ1 - 1] / at_seven.input_lines[n * kZ1 - 1]) ==
+            Approx(light[n]).margin(0.05));
+    CHECK(parameter_names(candidate_form(CandidateEffect::tip_relief, 100000), fitted)[group] == "load_2_nm");
   }
   SECTION("casing_mode: a gain per 1/12-octave band, fixed in Hz") {
     std::vector<double> gains(transfer_path_bands(100000), 0.0);

@@ -161,6 +161,50 @@ double transfer_path_gain_db(const std::vector<double>& gains, double f_hz) {
   return (1 - t) * gains[i] + t * gains[i + 1];
 }
 
+double load_key(double torque_nm) noexcept { return std::isfinite(torque_nm) ? std::round(torque_nm * 100) / 100 : -1.0; }
+
+std::vector<double> values_at_load(const CandidateForm& form, const std::vector<double>& values, double torque_nm) {
+  if (!form.per_load) return values;
+  const std::size_t group = form.parameters.size() + 1;
+  if (values.size() < group) return {};
+  const double load = load_key(torque_nm);
+  std::size_t first = 0;
+  for (std::size_t g = 0; g + group <= values.size(); g += group)
+    if (std::abs(values[g] - load) < std::abs(values[first] - load)) first = g;
+  return {values.begin() + static_cast<std::ptrdiff_t>(first + 1), values.begin() + static_cast<std::ptrdiff_t>(first + group)};
+}
+
+std::vector<std::string> parameter_names(const CandidateForm& form, const std::vector<double>& values) {
+  std::vector<std::string> names;
+  if (form.per_load) {
+    const std::size_t group = form.parameters.size() + 1;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const std::string prefix = "load_" + std::to_string(i / group + 1) + "_";
+      names.push_back(i % group == 0 ? prefix + "nm" : prefix + form.parameters[i % group - 1].name);
+    }
+    return names;
+  }
+  for (std::size_t i = 0; i < values.size(); ++i)
+    names.push_back(i < form.parameters.size() ? form.parameters[i].name : "value_" + std::to_string(i));
+  return names;
+}
+
+std::vector<std::vector<double>> rerun_grid(CandidateEffect effect) {
+  std::vector<std::vector<double>> grid;
+  if (effect == CandidateEffect::misalignment)
+    for (int i = 0; i < 9; ++i) grid.push_back({0.01e-3 * std::pow(100.0, i / 8.0)});  // rad
+  if (effect == CandidateEffect::tip_relief)
+    for (double amount_um : {2.0, 4.0, 8.0, 16.0, 32.0})
+      for (double length : {0.1, 0.2, 0.4}) grid.push_back({amount_um * 1e-6, length});
+  return grid;
+}
+
+std::vector<std::string> rerun_parameter_names(CandidateEffect effect) {
+  if (effect == CandidateEffect::misalignment) return {"angle_rad"};
+  if (effect == CandidateEffect::tip_relief) return {"amount_m", "length_fraction"};
+  return {};
+}
+
 int tip_relief_harmonics(double sample_rate_hz) {
   // Harmonics below 0.45·fs at 1 Hz input speed with 19 teeth would be thousands; the gains are
   // only fitted where a training record has the harmonic, so bound the list at what a 2 Hz record
@@ -200,7 +244,8 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
       return {effect,
               {{"input_line_gain", 1e-9, 1e3, true, 8}, {"output_line_gain", 1e-9, 1e3, true, 8}},
               {FK::input_shaft_orders, FK::output_shaft_orders, FK::input_sidebands, FK::output_sidebands},
-              0};
+              0,
+              true};
     case CandidateEffect::speed_fluctuation:
       return {effect, {{"modulated_share", 1e-5, 0.99, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 6}},
               {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
@@ -210,13 +255,15 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
     case CandidateEffect::tip_relief: {
       // One gain per mesh harmonic the band holds at the slowest speed the diagnosis accepts
       // (the fit leaves harmonics no training record reaches at 0 dB).
-      CandidateForm f{effect, {}, {FK::mesh_harmonics}, 0};
+      CandidateForm f{effect, {}, {FK::mesh_harmonics}, 0, true};
       for (int n = 1; n <= tip_relief_harmonics(sample_rate_hz); ++n)
         f.parameters.push_back({"harmonic_" + std::to_string(n) + "_gain_db", -60, 60, false, 1});
       return f;
     }
     case CandidateEffect::misalignment:
-      return {effect, {{"mesh_gain_db", -40, 40, false, 17}}, {FK::mesh_harmonics}, 0};
+      // The spectral fallback acts on the mesh harmonics only; the rerun twin's stiffer-with-load
+      // mesh also moves the mesh resonance, which stays in Hz.
+      return {effect, {{"mesh_gain_db", -40, 40, false, 17}}, {FK::mesh_harmonics, FK::fixed_frequency}, 0};
     case CandidateEffect::backlash:
       return {effect, {{"gain_db_per_harmonic", 0.0, 3.0, false, 16}}, {FK::mesh_harmonics}, 0};
   }
@@ -233,7 +280,9 @@ SpectralSummary apply_effects(const std::vector<AppliedEffect>& effects, const S
   SpectralSummary s = twin;
   for (const AppliedEffect* e : order) {
     const SpectralSummary before = s;
-    apply_one(*e, before, s, gears);
+    const auto form = candidate_form(e->effect, twin.sample_rate_hz);
+    if (form.per_load) apply_one({e->effect, values_at_load(form, e->values, twin.torque_nm)}, before, s, gears);
+    else apply_one(*e, before, s, gears);
   }
   return s;
 }

@@ -56,6 +56,25 @@ std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const
   return out;
 }
 
+/// The same measured record against the twin re-run with an addition; the floor stays the one of the
+/// plain twin, so every model is compared above the same level.
+PairSpectra with_rerun_twin(const PairSpectra& p, const Record& twin, const GearPairSpec& gears,
+                            const DiagnosisSettings& s) {
+  if (twin.channels.empty()) throw std::invalid_argument("the rerun twin record has no channel");
+  const int twin_channel = std::min<int>(s.channel, static_cast<int>(twin.channels.size()) - 1);
+  PairSpectra out{p.measured, RecordSpectra(twin, twin_channel, gears, s.min_revolutions), p.measured_all, {}, p.floor};
+  out.twin_all = out.twin.summary();
+  return out;
+}
+
+/// A candidate that changes the twin's dynamics, simulated at each value of its grid for every
+/// training and held-out record.
+struct RerunSet {
+  std::vector<std::vector<double>> values;
+  std::vector<std::vector<SummaryPair>> train;   // [grid][record]
+  std::vector<std::vector<PairSpectra>> test;    // [grid][record]
+};
+
 std::vector<GapPair> views(const std::vector<PairSpectra>& pairs, const std::vector<SpectralSummary>& models) {
   std::vector<GapPair> v;
   for (std::size_t i = 0; i < pairs.size(); ++i) v.push_back({&pairs[i].measured_all, &models[i], pairs[i].floor});
@@ -238,17 +257,69 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   const bool any_significant =
       std::any_of(report.before.begin(), report.before.end(), [](const FamilyGap& g) { return g.significant; });
 
+  // Candidates that change the twin's dynamics: the twin re-run over their grid, when the caller
+  // can re-run it.
+  std::map<CandidateEffect, RerunSet> reruns;
+  // Only when some family is significant: the reruns cost a twin simulation per record and grid
+  // value, and without a significant family nothing is chosen (the ranking then scores such a
+  // candidate by its spectral form).
+  if (settings.attribute && settings.rerun_twin && any_significant) {
+    for (CandidateEffect c : kAllCandidateEffects) {
+      const auto grid = rerun_grid(c);
+      if (grid.empty()) continue;
+      RerunSet set;
+      set.values = grid;
+      for (const auto& v : grid) {
+        std::vector<SummaryPair> tr;
+        std::vector<PairSpectra> te;
+        for (std::size_t i = 0; i < train.size(); ++i) {
+          const auto p = with_rerun_twin(train[i], settings.rerun_twin(c, v, training[i].twin), gears, settings);
+          tr.push_back({p.measured_all, p.twin_all, p.floor});
+        }
+        for (std::size_t i = 0; i < test.size(); ++i)
+          te.push_back(with_rerun_twin(test[i], settings.rerun_twin(c, v, held_out[i].twin), gears, settings));
+        set.train.push_back(std::move(tr));
+        set.test.push_back(std::move(te));
+      }
+      reruns.emplace(c, std::move(set));
+    }
+  }
+  // The grid value whose rerun twin, with the spectral effects `fx` on top, fits the training records best.
+  auto best_rerun = [&](const RerunSet& set, const std::vector<AppliedEffect>& fx) {
+    std::size_t best = 0;
+    double best_cost = std::numeric_limits<double>::infinity();
+    for (std::size_t g = 0; g < set.values.size(); ++g) {
+      const double cost = training_cost(set.train[g], fx, gears);
+      if (cost < best_cost) best_cost = cost, best = g;
+    }
+    return best;
+  };
+
   // Each candidate alone on the twin: fitted on training, scored held out.
   std::vector<std::pair<double, CandidateScore>> ranked;
   std::map<CandidateEffect, std::vector<double>> alone;
+  std::map<CandidateEffect, std::size_t> alone_grid;
   for (CandidateEffect c : kAllCandidateEffects) {
+    if (!settings.attribute) break;
     const auto form = candidate_form(c, fs);
-    const auto values = fit_candidate(c, {}, train_pairs, gears);
-    alone[c] = values;
-    const auto a = assess(test, {{c, values}}, gears, settings, settings.candidate_bootstrap_resamples, evaluator);
     CandidateScore score;
     score.effect = c;
-    for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(form.parameters[i].name, values[i]);
+    Assessment a;
+    std::vector<double> values;
+    if (const auto r = reruns.find(c); r != reruns.end()) {
+      const std::size_t g = best_rerun(r->second, {});
+      alone_grid[c] = g;
+      values = r->second.values[g];
+      a = assess(r->second.test[g], {}, gears, settings, settings.candidate_bootstrap_resamples, evaluator);
+      const auto names = rerun_parameter_names(c);
+      for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names.at(i), values[i]);
+    } else {
+      values = fit_candidate(c, {}, train_pairs, gears);
+      alone[c] = values;
+      a = assess(test, {{c, values}}, gears, settings, settings.candidate_bootstrap_resamples, evaluator);
+      const auto names = parameter_names(form, values);
+      for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names[i], values[i]);
+    }
     score.explains = form.explains;
     score.held_out_after = family_gaps(a, noise, settings, fixed_reason);
     const double own_before = own_distance(report.before, form.explains);
@@ -266,26 +337,42 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (auto& r : ranked) report.candidates.push_back(std::move(r.second));
 
-  // Greedy addition: the best candidate on top of the ones chosen so far, while it pays.
-  std::vector<AppliedEffect> chosen;
+  // Greedy addition: the best candidate on top of the ones chosen so far, while it pays. A chosen
+  // rerun candidate replaces the twin the later ones act on (one rerun at a time).
+  std::vector<AppliedEffect> chosen;                 // the spectral effects, applied to the base twin
+  const std::vector<PairSpectra>* test_base = &test;
+  const std::vector<SummaryPair>* train_base = &train_pairs;
+  bool rerun_chosen = false;
   double ic_current = ic_before;
   auto current_gaps = report.before;
-  if (any_significant) {
+  if (any_significant && settings.attribute) {
     for (int round = 0; round < settings.max_effects; ++round) {
       // The lowest held-out IC among the candidates that act on a significant family is the
       // attribution; it is added only if it pays (IC drop) and shrinks its own families. When it
       // does not, no lesser candidate is tried in its place: the families stay unexplained.
       double best_ic = std::numeric_limits<double>::infinity(), best_shrink = 0;
       std::optional<AppliedEffect> best;
+      std::optional<std::size_t> best_grid;
       std::vector<FamilyGap> best_gaps;
       for (CandidateEffect c : kAllCandidateEffects) {
-        if (std::any_of(chosen.begin(), chosen.end(), [&](const AppliedEffect& e) { return e.effect == c; })) continue;
+        if (std::find(report.chosen.begin(), report.chosen.end(), c) != report.chosen.end()) continue;
         const auto form = candidate_form(c, fs);
-        const auto values = chosen.empty() ? alone[c] : fit_candidate(c, chosen, train_pairs, gears);
-        auto fx = chosen;
-        fx.push_back({c, values});
-        const auto models = models_of(test, fx, gears);
-        const auto e = evaluator.evaluate(views(test, models), true);
+        const auto r = reruns.find(c);
+        if (r != reruns.end() && rerun_chosen) continue;
+        std::vector<double> values;
+        std::optional<std::size_t> grid;
+        std::vector<SpectralSummary> models;
+        if (r != reruns.end()) {
+          grid = chosen.empty() ? alone_grid[c] : best_rerun(r->second, chosen);
+          values = r->second.values[*grid];
+          models = models_of(r->second.test[*grid], chosen, gears);
+        } else {
+          values = round == 0 ? alone[c] : fit_candidate(c, chosen, *train_base, gears);
+          auto fx = chosen;
+          fx.push_back({c, values});
+          models = models_of(*test_base, fx, gears);
+        }
+        const auto e = evaluator.evaluate(views(*test_base, models), true);
         const double ic = information_criterion(e, noise, fitted_count(values), settings.min_gap_db);
         Assessment a;
         a.point = e;
@@ -301,18 +388,26 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
           best_ic = ic;
           best_shrink = shrink;
           best = AppliedEffect{c, values};
+          best_grid = grid;
           best_gaps = gaps;
         }
       }
       if (!best || best_ic > ic_current - settings.accept_ic_drop || best_shrink < settings.min_shrinkage) break;
-      chosen.push_back(*best);
       report.chosen.push_back(best->effect);
+      if (best_grid) {
+        const auto& set = reruns.at(best->effect);
+        test_base = &set.test[*best_grid];
+        train_base = &set.train[*best_grid];
+        rerun_chosen = true;
+      } else {
+        chosen.push_back(*best);
+      }
       ic_current = best_ic;
       current_gaps = best_gaps;
       if (std::none_of(current_gaps.begin(), current_gaps.end(), [](const FamilyGap& g) { return g.significant; })) break;
     }
   }
-  const auto after = assess(test, chosen, gears, settings, settings.bootstrap_resamples, evaluator);
+  const auto after = assess(*test_base, chosen, gears, settings, settings.bootstrap_resamples, evaluator);
   report.after = family_gaps(after, noise, settings, fixed_reason);
   for (const auto& g : report.after)
     if (g.significant) report.unexplained.push_back(g.family);
@@ -331,9 +426,10 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     };
     double log_before = 0, log_after = 0;
     int used = 0;
-    for (const auto& p : test) {
+    for (std::size_t i = 0; i < test.size(); ++i) {
+      const auto& p = test[i];
       const auto meas = rms_sa(p.measured_all), twin = rms_sa(p.twin_all),
-                 with_fx = rms_sa(apply_effects(chosen, p.twin_all, gears));
+                 with_fx = rms_sa(apply_effects(chosen, (*test_base)[i].twin_all, gears));
       if (!meas || !twin || !with_fx) continue;
       log_before += std::log(*meas / *twin);
       log_after += std::log(*meas / *with_fx);
@@ -348,7 +444,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
 
   // Plots: the first held-out record.
   const auto& p = test.front();
-  const auto twin_after = apply_effects(chosen, p.twin_all, gears);
+  const auto twin_after = apply_effects(chosen, test_base->front().twin_all, gears);
   const std::size_t k = std::min(p.measured_all.input_lines.size(), p.twin_all.input_lines.size());
   for (std::size_t i = 0; i < k; ++i) {
     report.order_axis.push_back(static_cast<double>(i + 1));

@@ -40,12 +40,19 @@ GapEvaluator::GapEvaluator(const GearPairSpec& gears, double bands_per_octave, d
     : gears_(gears), bands_per_octave_(bands_per_octave), min_speed_ratio_(min_speed_ratio) {}
 
 std::string GapEvaluator::fixed_frequency_reason(const std::vector<GapPair>& pairs) const {
-  double lo = 1e300, hi = 0;
-  for (const auto& p : pairs) lo = std::min(lo, p.measured->speed_hz), hi = std::max(hi, p.measured->speed_hz);
-  if (pairs.empty() || hi < lo * min_speed_ratio_)
-    return "fixed_frequency needs records at >= 2 speeds (at least " +
-           std::to_string(static_cast<int>(std::round((min_speed_ratio_ - 1) * 100))) + " % apart); these are at one";
-  return "";
+  // Lines are compared across speeds at one load (a line's identity includes its load).
+  std::map<double, std::pair<double, double>> span;  // load → slowest, fastest
+  for (const auto& p : pairs) {
+    const double t = std::isfinite(p.measured->torque_nm) ? std::round(p.measured->torque_nm * 100) / 100 : -1.0;
+    auto [it, fresh] = span.try_emplace(t, p.measured->speed_hz, p.measured->speed_hz);
+    it->second.first = std::min(it->second.first, p.measured->speed_hz);
+    it->second.second = std::max(it->second.second, p.measured->speed_hz);
+  }
+  for (const auto& [load, s] : span)
+    if (s.second >= s.first * min_speed_ratio_) return "";
+  return "fixed_frequency needs records at >= 2 speeds (at least " +
+         std::to_string(static_cast<int>(std::round((min_speed_ratio_ - 1) * 100))) + " % apart) at one load; " +
+         (span.size() > 1 ? "each load here has one" : "these are at one");
 }
 
 GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool decompose) const {
@@ -54,7 +61,19 @@ GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool dec
   std::vector<Point> pts;
   std::size_t max_order = 0;
   for (const auto& p : pairs) max_order = std::max({max_order, p.measured->input_lines.size(), p.measured->output_lines.size()});
+  // A line's identity is its shaft and order at one load: how an effect scales a line may change
+  // with the load (a misaligned face carries more of the load as it grows), never with the speed.
+  const std::size_t keys_per_load = 3 * max_order + 2;
+  std::vector<double> loads;
+  auto load_group = [&](double torque) {
+    const double t = std::isfinite(torque) ? std::round(torque * 100) / 100 : -1.0;
+    const auto it = std::find(loads.begin(), loads.end(), t);
+    if (it != loads.end()) return static_cast<std::size_t>(it - loads.begin());
+    loads.push_back(t);
+    return loads.size() - 1;
+  };
   for (const auto& p : pairs) {
+    const std::size_t key0 = load_group(p.measured->torque_nm) * keys_per_load;
     const auto& m = *p.measured;
     const auto& q = *p.model;
     auto ratio = [&](double a, double b) { return 10.0 * std::log10((a + p.floor) / (b + p.floor)); };
@@ -62,15 +81,15 @@ GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool dec
     const std::size_t ki = std::min(m.input_lines.size(), q.input_lines.size());
     for (std::size_t k = 1; k <= ki; ++k) {
       const double hz = k * m.speed_hz;
-      pts.push_back({k, hz, ratio(m.input_lines[k - 1], q.input_lines[k - 1]), q.input_lines[k - 1], m.input_lines[k - 1],
+      pts.push_back({key0 + k, hz, ratio(m.input_lines[k - 1], q.input_lines[k - 1]), q.input_lines[k - 1], m.input_lines[k - 1],
                      static_cast<std::size_t>(input_line_family(static_cast<int>(k), z1))});
-      pts.push_back({2 * max_order + k, hz, ratio(m.broadband[k - 1], q.broadband[k - 1]), q.broadband[k - 1],
+      pts.push_back({key0 + 2 * max_order + k, hz, ratio(m.broadband[k - 1], q.broadband[k - 1]), q.broadband[k - 1],
                      m.broadband[k - 1], static_cast<std::size_t>(FamilyKind::broadband)});
     }
     const std::size_t ko = std::min(m.output_lines.size(), q.output_lines.size());
     for (std::size_t o = 1; o <= ko; ++o) {
       if (output_line_is_mesh(static_cast<int>(o), z2)) continue;
-      pts.push_back({max_order + o, o * m.speed_hz * z1 / z2, ratio(m.output_lines[o - 1], q.output_lines[o - 1]),
+      pts.push_back({key0 + max_order + o, o * m.speed_hz * z1 / z2, ratio(m.output_lines[o - 1], q.output_lines[o - 1]),
                      q.output_lines[o - 1], m.output_lines[o - 1],
                      static_cast<std::size_t>(output_line_family(static_cast<int>(o), z2))});
     }
@@ -99,7 +118,7 @@ GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool dec
       }
     std::vector<char> usable(bands);
     for (int b = 0; b < bands; ++b) usable[b] = speed_max[b] >= speed_min[b] * min_speed_ratio_;
-    std::vector<double> line(3 * max_order + 2, 0.0), line_n(3 * max_order + 2, 0.0);
+    std::vector<double> line(keys_per_load * loads.size(), 0.0), line_n(keys_per_load * loads.size(), 0.0);
     band_gain.assign(bands, 0.0);
     std::vector<double> band_sum(bands), band_n(bands);
     for (int it = 0; it < kIterations; ++it) {

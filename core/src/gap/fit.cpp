@@ -38,11 +38,38 @@ double training_cost(const std::vector<SummaryPair>& training, const std::vector
   return cost_of(training, effects, gears, GapEvaluator(gears));
 }
 
+namespace {
+/// The fit of a form's own parameters on training records (of one load, for a per-load form).
+std::vector<double> fit_values(const CandidateForm& form, const std::vector<AppliedEffect>& base,
+                               const std::vector<SummaryPair>& training, const GearPairSpec& gears);
+}  // namespace
+
 std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<AppliedEffect>& base,
                                   const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
   if (training.empty()) throw std::invalid_argument("fit_candidate: no training records");
+  CandidateForm form = candidate_form(effect, training.front().measured.sample_rate_hz);
+  if (!form.per_load) return fit_values(form, base, training, gears);
+  // One group per training load: its load, then the form's parameters fitted on that load's records.
+  std::vector<double> loads;
+  for (const auto& p : training)
+    if (std::find(loads.begin(), loads.end(), load_key(p.measured.torque_nm)) == loads.end())
+      loads.push_back(load_key(p.measured.torque_nm));
+  std::vector<double> values;
+  for (double load : loads) {
+    std::vector<SummaryPair> subset;
+    for (const auto& p : training)
+      if (load_key(p.measured.torque_nm) == load) subset.push_back(p);
+    values.push_back(load);
+    const auto v = fit_values(form, base, subset, gears);
+    values.insert(values.end(), v.begin(), v.end());
+  }
+  return values;
+}
+
+namespace {
+std::vector<double> fit_values(const CandidateForm& form, const std::vector<AppliedEffect>& base,
+                               const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
   const GapEvaluator evaluator(gears);
-  const CandidateForm form = candidate_form(effect, training.front().measured.sample_rate_hz);
   const std::size_t d = form.parameters.size();
   auto to_value = [&](const std::vector<double>& u) {
     std::vector<double> v(d);
@@ -54,9 +81,14 @@ std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<Appl
     }
     return v;
   };
+  // A per-load form is applied with its group's load in front (every record here has that load).
+  auto applied = [&](std::vector<double> v) {
+    if (form.per_load) v.insert(v.begin(), load_key(training.front().measured.torque_nm));
+    return v;
+  };
   auto cost = [&](const std::vector<double>& u) {
     auto fx = base;
-    fx.push_back({form.effect, to_value(u)});
+    fx.push_back({form.effect, applied(to_value(u))});
     return cost_of(training, fx, gears, evaluator);
   };
   if (form.effect == CandidateEffect::casing_mode) {
@@ -192,5 +224,7 @@ std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<Appl
   }
   return to_value(best_u);
 }
+
+}  // namespace
 
 }  // namespace gearwatch::gap

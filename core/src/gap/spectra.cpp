@@ -63,7 +63,7 @@ FamilyKind output_line_family(int order, int gear_teeth) noexcept {
 
 RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSpec& gears,
                              std::size_t min_revolutions, int edges_per_rev)
-    : sample_rate_hz_(record.sample_rate_hz), pinion_teeth_(gears.pinion_teeth), gear_teeth_(gears.gear_teeth) {
+    : sample_rate_hz_(record.sample_rate_hz), torque_nm_(record.torque_nm), pinion_teeth_(gears.pinion_teeth), gear_teeth_(gears.gear_teeth) {
   if (!(record.sample_rate_hz > 0)) throw std::invalid_argument("record has no sample rate");
   if (channel < 0 || static_cast<std::size_t>(channel) >= record.channels.size())
     throw std::invalid_argument("record has no channel " + std::to_string(channel));
@@ -162,6 +162,7 @@ SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_rev
   const auto& orv = output_revs.empty() ? all(out_revs_) : output_revs;
   SpectralSummary s;
   s.speed_hz = speed_hz_;
+  s.torque_nm = torque_nm_;
   s.sample_rate_hz = sample_rate_hz_;
   s.input_revolutions = ir.size();
   s.output_revolutions = orv.size();

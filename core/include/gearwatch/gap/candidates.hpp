@@ -9,7 +9,8 @@
 //   noise_floor       additive white floor N0 per 1-order bin; N0/R on each synchronous line
 //   eccentricity      AM at shaft order 1: sidebands n·z ± 1 gain (a²/4)·P(n·GMF) on each shaft
 //   tooth_errors      per-tooth pattern: every non-mesh line of a shaft gains c·E(order), E the
-//                     twin's mesh-harmonic envelope (its transfer path) interpolated in order
+//                     twin's mesh-harmonic envelope (its transfer path) interpolated in order; c at
+//                     each load (the errors excite the same at any load, the twin's mesh ∝ load)
 //   speed_fluctuation order tracking follows the speed, but the transfer path does not: the lines
 //                     are amplitude-modulated at f_m; a share μ of every line leaves it for sidebands
 //                     f_m away (the lines themselves barely change)
@@ -18,9 +19,14 @@
 //                     it for sidebands f_m away (grows with order, the high mesh harmonics lose most)
 // The broadband part is what neither shaft's synchronous average holds: modulation sidebands
 // enter it at their fractional orders.
-//   tip_relief        a gain per mesh harmonic, dB (gradual engagement reshapes the whole
-//                     harmonic series; fixed in orders, where casing_mode is fixed in Hz)
-//   misalignment      one gain on all mesh harmonics, dB
+//   tip_relief        with a twin rerun: the twin with linearly relieved tips (gradual engagement,
+//                     which changes with load as the load deflects the relieved tip into contact);
+//                     without: a gain per mesh harmonic at each load, dB (fixed in orders, where
+//                     casing_mode is fixed in Hz)
+//   misalignment      with a twin rerun (DiagnosisSettings::rerun_twin): the twin with the load carried
+//                     over part of the face (a pair's stiffness grows with its compression, so the
+//                     mesh stiffness and its resonance change with load); without: one gain on all
+//                     mesh harmonics, dB
 //   backlash          mesh harmonics raised by b·n dB (b ≥ 0)
 #include <string>
 #include <vector>
@@ -43,10 +49,24 @@ struct CandidateForm {
   std::vector<CandidateParameter> parameters;
   std::vector<FamilyKind> explains;
   int stage = 0;      ///< order of application: source (0), modulation (1), transfer path (2), sensor (3)
+  /// Fitted at each training load on its own: the values are groups of the load (N·m, −1 for records
+  /// without one) followed by the parameters, and a record takes the group of the nearest load.
+  /// For effects whose size relative to the twin's mesh response changes with load.
+  bool per_load = false;
 };
 
 /// The form of a candidate; `sample_rate_hz` bounds the resonance searches.
 CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz);
+
+/// The parameter values at which a candidate that changes the twin's dynamics is simulated (its
+/// fit picks the best); empty for the candidates that act on the twin's spectra.
+///   misalignment  {angle}: across the face, 0.01–1 mrad in 9 log steps (1 mrad over a 20 mm face
+///                 separates the flanks by 20 µm, several times the static deflection at the seed's loads)
+///   tip_relief    {amount, length fraction}: linear relief on both gears, 2–32 µm in 5 doubling
+///                 steps × 0.1, 0.2, 0.4 of the active profile from the tip
+std::vector<std::vector<double>> rerun_grid(CandidateEffect effect);
+/// The names (SI units) of a rerun candidate's values, in the order of its grid points.
+std::vector<std::string> rerun_parameter_names(CandidateEffect effect);
 
 /// The transfer path's bands: centre of band b is 10·2^((b + 0.5)/12) Hz; enough bands to reach
 /// 0.45·fs.
@@ -57,6 +77,14 @@ double transfer_path_gain_db(const std::vector<double>& band_gains_db, double f_
 
 /// How many per-harmonic gains the tip_relief form has at this sample rate.
 int tip_relief_harmonics(double sample_rate_hz);
+/// The load key of a record's torque (−1 when it has none), as per-load forms group records.
+double load_key(double torque_nm) noexcept;
+/// A per-load form's values for a record at `torque_nm`: the group of the nearest load, without
+/// its load (the values themselves for other forms).
+std::vector<double> values_at_load(const CandidateForm& form, const std::vector<double>& values, double torque_nm);
+
+/// The names of a candidate's fitted values (the form's names; per-load forms' prefixed by the group).
+std::vector<std::string> parameter_names(const CandidateForm& form, const std::vector<double>& values);
 
 /// A candidate with its parameters (natural units, in the order of its form).
 struct AppliedEffect {

@@ -4,6 +4,7 @@
 // effects fitted on training records, and quantify the gap before/after on held-out records.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -20,6 +21,15 @@ struct DiagnosisInput {
   Record twin;
 };
 
+/// The twin re-run with one candidate's addition at `values` (a point of its `rerun_grid`, named by
+/// `rerun_parameter_names`), at the operating point of `twin_record` (its speed, torque, length and
+/// rate). Candidates that change the twin's dynamics (misalignment: a pair carrying load over part
+/// of the face stiffens with load; tip relief: a relieved tip engages as the load deflects it) have
+/// no spectral form that stands in for them; with a rerun the diagnosis fits them over their grid.
+/// Throwing std::invalid_argument refuses the diagnosis.
+using TwinRerun =
+    std::function<Record(CandidateEffect effect, const std::vector<double>& values, const Record& twin_record)>;
+
 struct DiagnosisSettings {
   int channel = 0;                 ///< measured channel compared with the twin's casing signal
   int bootstrap_resamples = 200;   ///< block bootstrap over revolutions
@@ -32,6 +42,12 @@ struct DiagnosisSettings {
   double accept_ic_drop = 0.3;     ///< held-out information criterion drop an effect must bring to be chosen
   double min_shrinkage = 0.1;      ///< … and the held-out shrinkage in its own families
   int max_effects = 3;             ///< greedy additions at most
+  /// false: localise only ("where"): the held-out gaps before, with no candidate fitted, ranked or
+  /// chosen (report.candidates and report.chosen stay empty, report.after equals report.before).
+  bool attribute = true;
+  /// When set, candidates with a rerun grid (rerun_grid()) are fitted by re-running the twin; when
+  /// empty they fall back to their spectral forms.
+  TwinRerun rerun_twin;
   std::size_t min_revolutions = 4; ///< whole input revolutions a record needs
   /// K_wear inference (seed Eq. 7.13 taken to its fixed point: the K_wear at which the twin's RMS_SA
   /// equals the measured one). When set, the K_wear the twin's records were simulated with; the

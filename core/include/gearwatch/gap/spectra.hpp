@@ -6,6 +6,7 @@
 #include <complex>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -24,6 +25,7 @@ namespace gearwatch::gap {
 /// leaking far (a one-revolution rectangular window spreads them as 1/Δ² over the whole band).
 struct SpectralSummary {
   double speed_hz = 0;            ///< mean input speed from the tacho
+  double torque_nm = std::numeric_limits<double>::quiet_NaN();  ///< the record's input torque (NaN: none)
   double sample_rate_hz = 0;
   std::size_t input_revolutions = 0;
   std::size_t output_revolutions = 0;
@@ -57,7 +59,7 @@ class RecordSpectra {
   std::size_t output_revolutions() const noexcept { return out_revs_; }
 
  private:
-  double speed_hz_ = 0, sample_rate_hz_ = 0;
+  double speed_hz_ = 0, sample_rate_hz_ = 0, torque_nm_ = 0;
   std::size_t in_revs_ = 0, out_revs_ = 0, k_in_ = 0, k_out_ = 0, blocks_ = 0;
   int pinion_teeth_ = 19, gear_teeth_ = 52;
   std::vector<std::complex<double>> in_dft_;   // [rev * k_in + k-1], scaled to peak amplitude
