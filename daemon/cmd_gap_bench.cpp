@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
+#include <tuple>
 
 #include "cli_common.hpp"
 #include "commands.hpp"
@@ -50,7 +51,9 @@ struct BenchOptions {
   std::string format = "table";
   double sample_rate_hz = 50000;
   double seconds = 2.0;
-  double torque_nm = 20;
+  // The seed's two test loads (20 N·m lubricated, 5 N·m dry, §3.2.1): every speed runs at each, so
+  // effects that show only at a light load (a misaligned face loaded over part of its width) can.
+  std::vector<double> torques_nm{20.0, 5.0};
   std::vector<double> training_speeds_hz{8.0, 14.0};
   std::vector<double> held_out_speeds_hz{11.0, 17.0};
   int no_effect_runs = -1;   // default: max(2, seeds / 5)
@@ -86,32 +89,84 @@ Record make_record(const std::vector<float>& x, const std::vector<double>& edges
 /// simulated once).
 class TwinCache {
  public:
-  TwinCache(double fs, double seconds, double torque, twin::ToothProfileDeviation wear)
-      : fs_(fs), seconds_(seconds), torque_(torque), wear_(std::move(wear)) {}
-  const Record& at(double speed, double wear_scale = 1.0) {
-    const auto key = std::make_pair(speed, wear_scale);
+  TwinCache(double fs, double seconds, twin::ToothProfileDeviation wear)
+      : fs_(fs), seconds_(seconds), wear_(std::move(wear)) {}
+  const Record& at(double speed, double torque, double wear_scale = 1.0) {
+    const auto key = std::make_tuple(speed, torque, wear_scale);
     auto it = cache_.find(key);
     if (it != cache_.end()) return it->second;
     const auto s =
-        twin::simulate_casing_signal(twin::GearboxParameters{}, scaled(wear_, wear_scale), {speed, torque_}, seconds_, fs_);
-    return cache_.emplace(key, make_record(s.acceleration, s.tacho_edges, fs_, speed, torque_)).first->second;
+        twin::simulate_casing_signal(twin::GearboxParameters{}, scaled(wear_, wear_scale), {speed, torque}, seconds_, fs_);
+    return cache_.emplace(key, make_record(s.acceleration, s.tacho_edges, fs_, speed, torque)).first->second;
+  }
+  /// The twin re-run with a candidate's addition (the diagnosis's TwinRerun), cached: every scenario
+  /// at these operating points asks for the same grid.
+  Record rerun(gap::CandidateEffect effect, const std::vector<double>& values, const Record& like) {
+    const auto key = std::make_tuple(static_cast<int>(effect), values, like.speed_hz, like.torque_nm);
+    auto it = reruns_.find(key);
+    if (it != reruns_.end()) return it->second;
+    twin::SimulationOptions options;
+    options.sample_rate_hz = fs_;
+    twin::ToothProfileDeviation profile = wear_;
+    if (effect == gap::CandidateEffect::misalignment) options.face_misalignment_rad = values.at(0);
+    else if (effect == gap::CandidateEffect::tip_relief) profile = twin::with_linear_tip_relief(wear_, values.at(0), values.at(1));
+    else throw std::invalid_argument(std::string("no twin rerun for ") + gap::to_string(effect));
+    const auto s = twin::simulate_casing_signal(twin::GearboxParameters{}, profile, {like.speed_hz, like.torque_nm}, seconds_,
+                                                options);
+    return reruns_.emplace(key, make_record(s.acceleration, s.tacho_edges, fs_, like.speed_hz, like.torque_nm))
+        .first->second;
   }
   /// d ln RMS_SA / d ln K of the twin at the wear state: depth ∝ K (Archard, constant operating
   /// point), read by a central difference in log over wear depths ×0.8 and ×1.25.
-  double elasticity(double speed, int harmonics) {
-    const auto key = std::make_pair(speed, harmonics);
+  double elasticity(double speed, double torque, int harmonics) {
+    const auto key = std::make_tuple(speed, torque, harmonics);
     auto it = elasticity_.find(key);
     if (it != elasticity_.end()) return it->second;
-    const double e = std::log(rms_sa_of(at(speed, 1.25), harmonics) / rms_sa_of(at(speed, 0.8), harmonics)) /
-                     std::log(1.25 / 0.8);
+    const double e =
+        std::log(rms_sa_of(at(speed, torque, 1.25), harmonics) / rms_sa_of(at(speed, torque, 0.8), harmonics)) /
+        std::log(1.25 / 0.8);
     return elasticity_.emplace(key, e).first->second;
   }
 
  private:
-  double fs_, seconds_, torque_;
+  double fs_, seconds_;
   twin::ToothProfileDeviation wear_;
+  std::map<std::tuple<double, double, double>, Record> cache_;
+  std::map<std::tuple<int, std::vector<double>, double, double>, Record> reruns_;
+  std::map<std::tuple<double, double, int>, double> elasticity_;
+};
+
+/// One record of the rig (one channel) at an operating point, with the given effects.
+Record rig_record(const BenchOptions& o, const rig::EffectSet& effects, const rig::WearState& wear, double speed,
+                  double torque, std::uint64_t seed) {
+  rig::RigRunSettings run;
+  run.speed_hz = speed;
+  run.torque_nm = torque;
+  run.duration_s = o.seconds;
+  run.sample_rate_hz = o.sample_rate_hz;
+  run.channels = 1;
+  run.seed = seed;
+  const auto r = rig::simulate_record(twin::GearboxParameters{}, effects, wear, {}, run);
+  return make_record(r.acceleration[0], r.tacho_edges, o.sample_rate_hz, speed, torque);
+}
+
+/// The rig without any effect at an operating point (deterministic, so simulated once): what a
+/// scenario's records would be had the drawn effect been off.
+class RigBaselineCache {
+ public:
+  RigBaselineCache(const BenchOptions& o, rig::WearState wear) : o_(o), wear_(std::move(wear)) {}
+  const Record& at(double speed, double torque) {
+    const auto key = std::make_pair(speed, torque);
+    auto it = cache_.find(key);
+    if (it != cache_.end()) return it->second;
+    // Without effects the rig is deterministic: the seed changes nothing.
+    return cache_.emplace(key, rig_record(o_, rig::EffectSet{}, wear_, speed, torque, 1)).first->second;
+  }
+
+ private:
+  const BenchOptions& o_;
+  rig::WearState wear_;
   std::map<std::pair<double, double>, Record> cache_;
-  std::map<std::pair<double, int>, double> elasticity_;
 };
 
 struct ScenarioResult {
@@ -120,6 +175,10 @@ struct ScenarioResult {
   std::vector<CandidateEffect> chosen;
   bool detected = false;                    // any significant family before
   bool localised = false;                   // a significant family is one the true effect explains
+  // The effect's own signature: the rig with the effect against the same rig without it, held out,
+  // judged by the diagnosis's significance test. No method can attribute an effect without one.
+  bool identifiable = false;
+  std::vector<std::string> signature_families;
   double shrinkage = std::numeric_limits<double>::quiet_NaN();
   double collateral_db = 0;                 // largest rise of a family the true effects do not explain
   bool collateral_beyond_interval = false;
@@ -142,7 +201,7 @@ double family_rms(const std::vector<gap::FamilyGap>& gaps, const std::vector<Fam
 }
 
 ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects, const rig::WearState& wear,
-                            double k_true, TwinCache& twins,
+                            double k_true, TwinCache& twins, RigBaselineCache& baseline,
                             const std::vector<double>& training_speeds, const std::vector<double>& held_speeds,
                             std::uint64_t seed) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -151,16 +210,9 @@ ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects
   res.parameters = effects.active_parameters();
   auto make_inputs = [&](const std::vector<double>& speeds, std::uint64_t salt) {
     std::vector<gap::DiagnosisInput> in;
+    for (double torque : o.torques_nm)
     for (double speed : speeds) {
-      rig::RigRunSettings run;
-      run.speed_hz = speed;
-      run.torque_nm = o.torque_nm;
-      run.duration_s = o.seconds;
-      run.sample_rate_hz = o.sample_rate_hz;
-      run.channels = 1;
-      run.seed = seed * 101 + salt++;
-      const auto r = rig::simulate_record(twin::GearboxParameters{}, effects, wear, {}, run);
-      in.push_back({make_record(r.acceleration[0], r.tacho_edges, o.sample_rate_hz, speed, o.torque_nm), twins.at(speed)});
+      in.push_back({rig_record(o, effects, wear, speed, torque, seed * 101 + salt++), twins.at(speed, torque)});
     }
     return in;
   };
@@ -171,12 +223,29 @@ ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects
   ds.seed = seed;
   ds.floor_db = o.floor_db;
   double elasticity = 0;
-  for (double speed : held_speeds) elasticity += twins.elasticity(speed, ds.rms_sa_harmonics) / held_speeds.size();
+  for (const auto& in : held_out)
+    elasticity += twins.elasticity(in.twin.speed_hz, in.twin.torque_nm, ds.rms_sa_harmonics) / held_out.size();
+  ds.rerun_twin = [&twins](gap::CandidateEffect c, const std::vector<double>& values, const Record& like) {
+    return twins.rerun(c, values, like);
+  };
   res.elasticity = elasticity;
   // The twin runs at the true wear state, so the K it was simulated with is the truth.
   ds.reference_k_wear = k_true;
   ds.rms_sa_wear_elasticity = elasticity;
   const auto report = gap::diagnose(training, held_out, GearPairSpec{}, ds);
+  if (!res.truth.empty()) {
+    std::vector<gap::DiagnosisInput> signature;
+    for (const auto& in : held_out) signature.push_back({in.measured, baseline.at(in.measured.speed_hz, in.measured.torque_nm)});
+    auto localise = ds;
+    localise.attribute = false;
+    localise.reference_k_wear.reset();
+    localise.rerun_twin = nullptr;
+    for (const auto& g : gap::diagnose(signature, signature, GearPairSpec{}, localise).before)
+      if (g.significant) {
+        res.identifiable = true;
+        res.signature_families.push_back(gap::to_string(g.family));
+      }
+  }
   if (report.k_wear_before) res.k_ratio_before = *report.k_wear_before / k_true;
   if (report.k_wear_after) res.k_ratio_after = *report.k_wear_after / k_true;
   res.chosen = report.chosen;
@@ -240,11 +309,15 @@ void run_bench(const BenchOptions& o) {
   // A known wear state: the rig's linear law, one K over the cycles, giving the asked depth at the
   // sliding extremes at this torque. Rig and twin share the profile; only the effects differ.
   rig::WearModelSettings wm;
-  wm.torque_nm = o.torque_nm;
-  const double k_true = o.wear_depth_um * 1e-6 / o.wear_cycles * (wm.reference_torque_nm / o.torque_nm);
+  if (o.torques_nm.empty() || std::any_of(o.torques_nm.begin(), o.torques_nm.end(), [](double t) { return !(t > 0); }))
+    throw CommandError("--torques must list loads > 0 N m");
+  // The wear state is reached at the first load; rig and twin share it at every operating point.
+  wm.torque_nm = o.torques_nm.front();
+  const double k_true = o.wear_depth_um * 1e-6 / o.wear_cycles * (wm.reference_torque_nm / wm.torque_nm);
   wm.phases = {{0.0, k_true}};
   const rig::WearState wear = rig::BuiltinWearTruth(wm, GearPairSpec{}).at(o.wear_cycles);
-  TwinCache twins(o.sample_rate_hz, o.seconds, o.torque_nm, wear.profile);
+  TwinCache twins(o.sample_rate_hz, o.seconds, wear.profile);
+  RigBaselineCache baseline(o, wear);
   const auto& all = rig::all_effects();
   std::vector<ScenarioResult> runs;
   for (int i = 0; i < o.seeds; ++i) {
@@ -262,7 +335,7 @@ void run_bench(const BenchOptions& o) {
     }
     fx.randomise(seed);
     try {
-      runs.push_back(run_scenario(o, fx, wear, k_true, twins, o.training_speeds_hz, o.held_out_speeds_hz, seed));
+      runs.push_back(run_scenario(o, fx, wear, k_true, twins, baseline, o.training_speeds_hz, o.held_out_speeds_hz, seed));
     } catch (const std::exception& e) {
       throw CommandError("gap bench seed " + std::to_string(seed) + ": " + e.what());
     }
@@ -281,7 +354,7 @@ void run_bench(const BenchOptions& o) {
       for (double x : v) s.push_back(std::round(x * scale * 1000) / 1000);
       return s;
     };
-    quiet.push_back(run_scenario(o, rig::EffectSet{}, wear, k_true, twins, scaled(o.training_speeds_hz), scaled(o.held_out_speeds_hz),
+    quiet.push_back(run_scenario(o, rig::EffectSet{}, wear, k_true, twins, baseline, scaled(o.training_speeds_hz), scaled(o.held_out_speeds_hz),
                                  o.first_seed + 100000 + static_cast<std::uint64_t>(i)));
   }
 
@@ -304,7 +377,8 @@ void run_bench(const BenchOptions& o) {
   };
   struct Row {
     int runs = 0, detected = 0, top1 = 0, top2 = 0, localised = 0, collateral = 0;
-    std::vector<double> shrink, k_bias_before, k_bias_after;
+    int identifiable = 0, top1_identifiable = 0;
+    std::vector<double> shrink, shrink_identifiable, k_bias_before, k_bias_after;
   };
   std::map<std::string, Row> rows;
   Row total;
@@ -319,6 +393,11 @@ void run_bench(const BenchOptions& o) {
       row->k_bias_before.push_back(std::abs(r.k_ratio_before - 1.0));
       row->k_bias_after.push_back(std::abs(r.k_ratio_after - 1.0));
       row->shrink.push_back(r.shrinkage);
+      if (r.identifiable) {
+        ++row->identifiable;
+        row->top1_identifiable += top(r, 1);
+        row->shrink_identifiable.push_back(r.shrinkage);
+      }
     }
   }
   int false_alarms = 0;
@@ -333,11 +412,17 @@ void run_bench(const BenchOptions& o) {
   j["record_seconds"] = o.seconds;
   j["training_speeds_hz"] = o.training_speeds_hz;
   j["held_out_speeds_hz"] = o.held_out_speeds_hz;
+  j["torques_nm"] = o.torques_nm;
   j["top1_accuracy"] = number_or_null(frac(total.top1, total.runs));
   j["top2_accuracy"] = number_or_null(frac(total.top2, total.runs));
   j["detection_rate"] = number_or_null(frac(total.detected, total.runs));
   j["top1_accuracy_when_detected"] = number_or_null(frac(total.top1, total.detected));
   j["localisation_rate"] = number_or_null(frac(total.localised, total.runs));
+  // Scenarios whose effect leaves a signature at these operating points (the rig with it against
+  // the rig without it): attribution is possible only there.
+  j["identifiable_rate"] = number_or_null(frac(total.identifiable, total.runs));
+  j["top1_accuracy_identifiable"] = number_or_null(frac(total.top1_identifiable, total.identifiable));
+  j["median_shrinkage_identifiable"] = number_or_null(median(total.shrink_identifiable));
   j["median_shrinkage"] = number_or_null(median(total.shrink));
   j["collateral_beyond_interval_rate"] = number_or_null(frac(total.collateral, total.runs));
   j["no_effect_runs"] = none_runs;
@@ -382,6 +467,8 @@ void run_bench(const BenchOptions& o) {
     per.push_back({{"effect", name},
                    {"runs", row.runs},
                    {"detected", row.detected},
+                   {"identifiable", row.identifiable},
+                   {"top1_accuracy_identifiable", number_or_null(frac(row.top1_identifiable, row.identifiable))},
                    {"top1_accuracy", number_or_null(frac(row.top1, row.runs))},
                    {"top2_accuracy", number_or_null(frac(row.top2, row.runs))},
                    {"localisation_rate", number_or_null(frac(row.localised, row.runs))},
@@ -396,6 +483,7 @@ void run_bench(const BenchOptions& o) {
     for (auto e : r.chosen) c.push_back(gap::to_string(e));
     for (std::size_t k = 0; k < std::min<std::size_t>(3, r.ranked.size()); ++k) rk.push_back(gap::to_string(r.ranked[k]));
     scen.push_back({{"truth", t}, {"parameters", r.parameters}, {"chosen", c}, {"ranked", rk}, {"detected", r.detected},
+                    {"identifiable", r.identifiable}, {"signature_families", r.signature_families},
                     {"shrinkage", number_or_null(r.shrinkage)}, {"collateral_db", r.collateral_db}, {"families", r.families}, {"candidates", r.candidates},
                     {"k_wear_ratio_before", number_or_null(r.k_ratio_before)},
                     {"k_wear_ratio_after", number_or_null(r.k_ratio_after)},
@@ -414,12 +502,15 @@ void run_bench(const BenchOptions& o) {
   std::cout << std::fixed << std::setprecision(2);
   std::cout << "gap bench: " << o.seeds << " scenarios with " << o.effects << " effect(s), " << none_runs
             << " without; " << o.sample_rate_hz << " Hz, " << o.seconds << " s records; " << wall << " s\n";
-  std::cout << "effect              runs detected top1 top2 localised median_shrinkage\n";
+  std::cout << "effect              runs identifiable detected top1 top2 localised median_shrinkage\n";
   for (const auto& [name, row] : rows)
-    std::cout << std::left << std::setw(20) << name << std::right << std::setw(4) << row.runs << std::setw(9)
-              << row.detected << std::setw(5) << frac(row.top1, row.runs) << std::setw(5) << frac(row.top2, row.runs)
+    std::cout << std::left << std::setw(20) << name << std::right << std::setw(4) << row.runs << std::setw(13)
+              << row.identifiable << std::setw(9) << row.detected << std::setw(5) << frac(row.top1, row.runs)
+              << std::setw(5) << frac(row.top2, row.runs)
               << std::setw(10) << frac(row.localised, row.runs) << std::setw(17) << median(row.shrink) << "\n";
   std::cout << "top1_accuracy " << frac(total.top1, total.runs) << " (target >= 0.90)\n"
+            << "identifiable_rate " << frac(total.identifiable, total.runs) << ", top1 among them "
+            << frac(total.top1_identifiable, total.identifiable) << "\n"
             << "top2_accuracy " << frac(total.top2, total.runs) << "\n"
             << "median_shrinkage " << median(total.shrink) << " (target >= 0.70)\n"
             << "false_alarm_rate " << frac(false_alarms, none_runs) << " (target <= 0.05)\n"
@@ -437,6 +528,8 @@ void add_gap_bench_command(CLI::App& app) {
   cmd->add_option("--format", opt->format, "table or json");
   cmd->add_option("--sample-rate", opt->sample_rate_hz, "Sample rate of the simulated records, Hz");
   cmd->add_option("--seconds", opt->seconds, "Length of each simulated record, s");
+  cmd->add_option("--torques", opt->torques_nm, "Input torques: every speed runs at each, N m (comma-separated)")
+      ->delimiter(',');
   cmd->add_option("--no-effect-runs", opt->no_effect_runs, "Scenarios without effects (default max(2, seeds/5))");
   cmd->add_option("--first-seed", opt->first_seed, "Seed of the first scenario");
   cmd->add_option("--bootstrap", opt->bootstrap, "Bootstrap resamples per diagnosis");

@@ -96,6 +96,10 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
         if (k % static_cast<std::size_t>(z1) != 0) s.input_lines[k - 1] += v[0] * env.at(static_cast<double>(k));
       for (std::size_t m = 1; m <= s.output_lines.size(); ++m)
         if (m % static_cast<std::size_t>(z2) != 0) s.output_lines[m - 1] += v[1] * env.at(static_cast<double>(m) * z1 / z2);
+      // The pairing of pinion and gear teeth repeats only after z1·z2 meshes (the hunting period):
+      // what the pairs add together is synchronous with neither shaft and stays in the residual,
+      // through the same transfer path.
+      for (std::size_t k = 1; k <= s.broadband.size(); ++k) s.broadband[k - 1] += v[2] * env.at(static_cast<double>(k) + 0.5);
       break;
     }
     case CandidateEffect::speed_fluctuation:
@@ -242,7 +246,8 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
               0};
     case CandidateEffect::tooth_errors:
       return {effect,
-              {{"input_line_gain", 1e-9, 1e3, true, 8}, {"output_line_gain", 1e-9, 1e3, true, 8}},
+              {{"input_line_gain", 1e-9, 1e3, true, 8}, {"output_line_gain", 1e-9, 1e3, true, 8},
+               {"residual_gain", 1e-9, 1e3, true, 6}},
               {FK::input_shaft_orders, FK::output_shaft_orders, FK::input_sidebands, FK::output_sidebands},
               0,
               true};

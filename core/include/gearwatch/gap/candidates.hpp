@@ -9,7 +9,9 @@
 //   noise_floor       additive white floor N0 per 1-order bin; N0/R on each synchronous line
 //   eccentricity      AM at shaft order 1: sidebands n·z ± 1 gain (a²/4)·P(n·GMF) on each shaft
 //   tooth_errors      per-tooth pattern: every non-mesh line of a shaft gains c·E(order), E the
-//                     twin's mesh-harmonic envelope (its transfer path) interpolated in order; c at
+//                     twin's mesh-harmonic envelope (its transfer path) interpolated in order, and
+//                     the residual gains c_r·E(order) (the tooth pairings repeat only every z1·z2
+//                     meshes, so what pairs add together is synchronous with neither shaft); at
 //                     each load (the errors excite the same at any load, the twin's mesh ∝ load)
 //   speed_fluctuation order tracking follows the speed, but the transfer path does not: the lines
 //                     are amplitude-modulated at f_m; a share μ of every line leaves it for sidebands
