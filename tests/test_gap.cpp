@@ -407,7 +407,7 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
   const std::vector<Case> cases{
       {CandidateEffect::mount_resonance, {30000, 0.05}, 0.02},
       {CandidateEffect::noise_floor, {1e-4}, 0.02},
-      {CandidateEffect::eccentricity, {0.1, 0.2}, 0.02},
+      {CandidateEffect::eccentricity, {20, 0.1, 0.2}, 0.02},  // per load
       {CandidateEffect::tooth_errors, {20, 1e-3, 2e-3, 5e-4}, 0.02},  // per load: the records' 20 N·m, then its gains
       {CandidateEffect::speed_fluctuation, {0.1, 3.0}, 0.03},
       {CandidateEffect::load_fluctuation, {0.002, 5.0}, 0.03},

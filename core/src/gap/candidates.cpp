@@ -243,7 +243,8 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
       return {effect,
               {{"input_am_index", 1e-4, 2.0, true, 6}, {"output_am_index", 1e-4, 2.0, true, 6}},
               {FK::input_sidebands, FK::output_sidebands},
-              0};
+              0,
+              true};
     case CandidateEffect::tooth_errors:
       return {effect,
               {{"input_line_gain", 1e-9, 1e3, true, 8}, {"output_line_gain", 1e-9, 1e3, true, 8},

@@ -7,7 +7,8 @@
 //                     band from 10 Hz, interpolated linearly in log f between band centres
 //   mount_resonance   base-excited 1-DOF transmissibility: P·(1 + (2ζr)²)/((1 − r²)² + (2ζr)²), r = f/fn
 //   noise_floor       additive white floor N0 per 1-order bin; N0/R on each synchronous line
-//   eccentricity      AM at shaft order 1: sidebands n·z ± 1 gain (a²/4)·P(n·GMF) on each shaft
+//   eccentricity      AM at shaft order 1: sidebands n·z ± 1 gain (a²/4)·P(n·GMF) on each shaft; a at
+//                     each load (the run-out excites the same at any load, the twin's mesh ∝ load)
 //   tooth_errors      per-tooth pattern: every non-mesh line of a shaft gains c·E(order), E the
 //                     twin's mesh-harmonic envelope (its transfer path) interpolated in order, and
 //                     the residual gains c_r·E(order) (the tooth pairings repeat only every z1·z2
