@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numeric>
 #include <optional>
 #include <random>
@@ -23,7 +24,8 @@ constexpr std::size_t kFamilies = kAllFamilyKinds.size();
 constexpr double kParameterPenalty = 0.003;
 
 struct PairSpectra {
-  RecordSpectra measured;
+  // Shared: every twin re-run of a record is compared with the same measured spectra.
+  std::shared_ptr<const RecordSpectra> measured;
   RecordSpectra twin;
   SpectralSummary measured_all, twin_all;
   double floor = 0;
@@ -41,9 +43,9 @@ std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const
     if (in.twin.channels.empty()) throw std::invalid_argument(where + "the twin record has no channel");
     const int twin_channel = std::min<int>(s.channel, static_cast<int>(in.twin.channels.size()) - 1);
     try {
-      PairSpectra p{RecordSpectra(in.measured, s.channel, gears, s.min_revolutions),
+      PairSpectra p{std::make_shared<const RecordSpectra>(in.measured, s.channel, gears, s.min_revolutions),
                     RecordSpectra(in.twin, twin_channel, gears, s.min_revolutions), {}, {}, 0};
-      p.measured_all = p.measured.summary();
+      p.measured_all = p.measured->summary();
       p.twin_all = p.twin.summary();
       const double total = std::accumulate(p.twin_all.input_lines.begin(), p.twin_all.input_lines.end(), 0.0);
       if (!(total > 0)) throw std::invalid_argument("the twin record carries no synchronous vibration");
@@ -106,7 +108,7 @@ Assessment assess(const std::vector<PairSpectra>& pairs, const std::vector<Appli
     std::vector<SpectralSummary> meas, mod;
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       std::mt19937_64 rng(s.seed * 1000003u + static_cast<std::uint64_t>(b) * 7919u + i);
-      meas.push_back(pairs[i].measured.bootstrap(rng, s.bootstrap_block_revolutions));
+      meas.push_back(pairs[i].measured->bootstrap(rng, s.bootstrap_block_revolutions));
       mod.push_back(apply_effects(fx, pairs[i].twin.bootstrap(rng, s.bootstrap_block_revolutions), gears));
     }
     std::vector<GapPair> v;
@@ -136,7 +138,7 @@ std::array<double, kFamilies> noise_distance(const std::vector<PairSpectra>& pai
     std::vector<SpectralSummary> meas, twin;
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       std::mt19937_64 rng(s.seed * 1000003u + static_cast<std::uint64_t>(b) * 7919u + i);
-      meas.push_back(pairs[i].measured.bootstrap(rng, s.bootstrap_block_revolutions));
+      meas.push_back(pairs[i].measured->bootstrap(rng, s.bootstrap_block_revolutions));
       twin.push_back(pairs[i].twin.bootstrap(rng, s.bootstrap_block_revolutions));
     }
     std::vector<GapPair> vm, vt;
