@@ -125,6 +125,14 @@ class GearboxDynamics {
                     MeshState* out) const;
   GearboxMatrices m_;
   Vector21 inverse_mass_;
+  /// The structural K as a sparse list: the shaft chain couples only neighbouring DOFs, and the
+  /// dense products were the largest part of a simulation's time. The modal C is dense.
+  struct Coupling {
+    int row, column;
+    double value;
+  };
+  std::vector<Coupling> structural_stiffness_;
+  Eigen::Matrix<double, kDofCount, kDofCount, Eigen::RowMajor> damping_rows_;
   std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
   double face_separation_ = 0;  // m: flank separation across the face (0 = aligned)
   std::shared_ptr<const GeometricTransmissionError> gte_;
