@@ -11,6 +11,7 @@
 #include <random>
 #include <set>
 #include <stdexcept>
+#include <string>
 
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/evaluation.hpp"
@@ -72,9 +73,13 @@ PairSpectra with_rerun_twin(const PairSpectra& p, const Record& twin, const Gear
 /// A candidate that changes the twin's dynamics, simulated at each value of its grid for every
 /// training and held-out record.
 struct RerunSet {
+  CandidateEffect effect{};
   std::vector<std::vector<double>> values;
   std::vector<std::vector<SummaryPair>> train;   // [grid][record]
-  std::vector<std::vector<PairSpectra>> test;    // [grid][record]
+  // [grid][record], re-run only at the grid values a training fit picks (the held-out records are
+  // half the reruns, and one or two grid values are ever scored); sized up front, so an element's
+  // address stays put once it is filled.
+  std::vector<std::optional<std::vector<PairSpectra>>> test;
 };
 
 std::vector<GapPair> views(const std::vector<PairSpectra>& pairs, const std::vector<SpectralSummary>& models) {
@@ -231,6 +236,13 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     if (!std::isfinite(settings.rms_sa_wear_elasticity) || settings.rms_sa_wear_elasticity == 0)
       throw std::invalid_argument("gap diagnosis: rms_sa_wear_elasticity must be finite and non-zero");
     if (settings.rms_sa_harmonics < 1) throw std::invalid_argument("gap diagnosis: rms_sa_harmonics must be >= 1");
+    if (!settings.rms_sa_wear_elasticities.empty() && settings.rms_sa_wear_elasticities.size() != held_out.size())
+      throw std::invalid_argument("gap diagnosis: rms_sa_wear_elasticities needs one value per held-out record (" +
+                                  std::to_string(held_out.size()) + "), got " +
+                                  std::to_string(settings.rms_sa_wear_elasticities.size()));
+    for (double e : settings.rms_sa_wear_elasticities)
+      if (!std::isfinite(e) || e == 0)
+        throw std::invalid_argument("gap diagnosis: every rms_sa_wear_elasticities value must be finite and non-zero");
   }
   const auto train = reduce(training, gears, settings, "training");
   const auto test = reduce(held_out, gears, settings, "held-out");
@@ -270,22 +282,30 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       const auto grid = rerun_grid(c);
       if (grid.empty()) continue;
       RerunSet set;
+      set.effect = c;
       set.values = grid;
+      set.test.resize(grid.size());
       for (const auto& v : grid) {
         std::vector<SummaryPair> tr;
-        std::vector<PairSpectra> te;
         for (std::size_t i = 0; i < train.size(); ++i) {
           const auto p = with_rerun_twin(train[i], settings.rerun_twin(c, v, training[i].twin), gears, settings);
           tr.push_back({p.measured_all, p.twin_all, p.floor});
         }
-        for (std::size_t i = 0; i < test.size(); ++i)
-          te.push_back(with_rerun_twin(test[i], settings.rerun_twin(c, v, held_out[i].twin), gears, settings));
         set.train.push_back(std::move(tr));
-        set.test.push_back(std::move(te));
       }
       reruns.emplace(c, std::move(set));
     }
   }
+  // The held-out records with the twin re-run at grid value g.
+  auto rerun_test = [&](RerunSet& set, std::size_t g) -> const std::vector<PairSpectra>& {
+    if (!set.test[g]) {
+      std::vector<PairSpectra> te;
+      for (std::size_t i = 0; i < test.size(); ++i)
+        te.push_back(with_rerun_twin(test[i], settings.rerun_twin(set.effect, set.values[g], held_out[i].twin), gears, settings));
+      set.test[g] = std::move(te);
+    }
+    return *set.test[g];
+  };
   // The grid value whose rerun twin, with the spectral effects `fx` on top, fits the training records best.
   auto best_rerun = [&](const RerunSet& set, const std::vector<AppliedEffect>& fx) {
     std::size_t best = 0;
@@ -312,7 +332,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       const std::size_t g = best_rerun(r->second, {});
       alone_grid[c] = g;
       values = r->second.values[g];
-      a = assess(r->second.test[g], {}, gears, settings, settings.candidate_bootstrap_resamples, evaluator);
+      a = assess(rerun_test(r->second, g), {}, gears, settings, settings.candidate_bootstrap_resamples, evaluator);
       const auto names = rerun_parameter_names(c);
       for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names.at(i), values[i]);
     } else {
@@ -367,7 +387,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
         if (r != reruns.end()) {
           grid = chosen.empty() ? alone_grid[c] : best_rerun(r->second, chosen);
           values = r->second.values[*grid];
-          models = models_of(r->second.test[*grid], chosen, gears);
+          models = models_of(rerun_test(r->second, *grid), chosen, gears);
         } else {
           values = round == 0 ? alone[c] : fit_candidate(c, chosen, *train_base, gears);
           auto fx = chosen;
@@ -397,8 +417,8 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       if (!best || best_ic > ic_current - settings.accept_ic_drop || best_shrink < settings.min_shrinkage) break;
       report.chosen.push_back(best->effect);
       if (best_grid) {
-        const auto& set = reruns.at(best->effect);
-        test_base = &set.test[*best_grid];
+        auto& set = reruns.at(best->effect);
+        test_base = &rerun_test(set, *best_grid);
         train_base = &set.train[*best_grid];
         rerun_chosen = true;
       } else {
@@ -426,21 +446,23 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       for (std::size_t h = 1; h <= n_harm; ++h) e += s.input_lines[h * z1 - 1];
       return e > 0 ? std::optional<double>(std::sqrt(e)) : std::nullopt;
     };
-    double log_before = 0, log_after = 0;
-    int used = 0;
+    // Least squares in the log: ln r_i = e_i ln(K/K_ref) (one elasticity for all: the mean log ratio / e).
+    double num_before = 0, num_after = 0, den = 0;
     for (std::size_t i = 0; i < test.size(); ++i) {
       const auto& p = test[i];
       const auto meas = rms_sa(p.measured_all), twin = rms_sa(p.twin_all),
                  with_fx = rms_sa(apply_effects(chosen, (*test_base)[i].twin_all, gears));
       if (!meas || !twin || !with_fx) continue;
-      log_before += std::log(*meas / *twin);
-      log_after += std::log(*meas / *with_fx);
-      ++used;
+      const double e = settings.rms_sa_wear_elasticities.empty() ? settings.rms_sa_wear_elasticity
+                                                                 : settings.rms_sa_wear_elasticities[i];
+      num_before += e * std::log(*meas / *twin);
+      num_after += e * std::log(*meas / *with_fx);
+      den += e * e;
     }
-    if (used > 0) {
+    if (den > 0) {
       const double k_ref = *settings.reference_k_wear;
-      report.k_wear_before = inferred_k_wear(std::exp(log_before / used), 1.0, k_ref, settings.rms_sa_wear_elasticity);
-      report.k_wear_after = inferred_k_wear(std::exp(log_after / used), 1.0, k_ref, settings.rms_sa_wear_elasticity);
+      report.k_wear_before = inferred_k_wear(std::exp(num_before / den), 1.0, k_ref, 1.0);
+      report.k_wear_after = inferred_k_wear(std::exp(num_after / den), 1.0, k_ref, 1.0);
     }
   }
 

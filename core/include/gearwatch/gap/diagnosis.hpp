@@ -56,6 +56,11 @@ struct DiagnosisSettings {
   /// d ln RMS_SA / d ln K_wear of the twin at the records' wear state, from the caller (e.g. twin
   /// runs at scaled wear depths); 1 is Eq. 7.13's proportional update. Must be finite and non-zero.
   double rms_sa_wear_elasticity = 1.0;
+  /// The same per held-out record, in their order (empty: `rms_sa_wear_elasticity` for all). The
+  /// twin's sensitivity to wear differs with load (at light load the worn profile is a larger share of
+  /// the deflection), so the records' log ratios are combined by least squares,
+  /// ln(K/K_ref) = Σ e_i ln r_i / Σ e_i², which weights the records that can tell K the most.
+  std::vector<double> rms_sa_wear_elasticities;
   int rms_sa_harmonics = 2;        ///< N of RMS_SA(N) (seed Eq. 7.1), the measurement's setting
 };
 
