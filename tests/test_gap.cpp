@@ -300,10 +300,15 @@ TEST_CASE("gap: candidates fitted by re-running the twin are named, with their v
     double torque;
     std::vector<std::string> names;
   };
+  //  - misalignment half a grid step above 0.1 mrad (1e-4 · 100^(1/16) rad, between two grid
+  //    values): the chosen value's refinement reaches it.
+  const double between = rerun_grid(CandidateEffect::misalignment)[4][0] *
+                         std::pow(rerun_grid_ratios(CandidateEffect::misalignment)[0], 0.5);
   const std::vector<Case> cases{{CandidateEffect::misalignment, {1e-4}, 5.0, {"angle_rad"}},
-                                {CandidateEffect::tip_relief, {8e-6, 0.2}, 20.0, {"amount_m", "length_fraction"}}};
+                                {CandidateEffect::tip_relief, {8e-6, 0.2}, 20.0, {"amount_m", "length_fraction"}},
+                                {CandidateEffect::misalignment, {between}, 5.0, {"angle_rad"}}};
   for (const auto& c : cases) {
-    DYNAMIC_SECTION(to_string(c.effect)) {
+    DYNAMIC_SECTION(to_string(c.effect) << " at " << c.truth.front()) {
       const double fs = 20000, seconds = 0.8;
       std::map<std::tuple<int, std::vector<double>, double>, Record> cache;
       std::map<CandidateEffect, int> reruns;
@@ -326,7 +331,8 @@ TEST_CASE("gap: candidates fitted by re-running the twin are named, with their v
       };
       const auto training = pairs({10.0, 13.0}), held_out = pairs({11.5, 14.5});
       const auto grid = rerun_grid(c.effect);
-      REQUIRE(std::find(grid.begin(), grid.end(), c.truth) != grid.end());
+      const bool on_grid = std::find(grid.begin(), grid.end(), c.truth) != grid.end();
+      REQUIRE((on_grid || c.truth.front() == between));
       auto settings = fast_settings();
       settings.rerun_twin = [&](CandidateEffect effect, const std::vector<double>& values, const Record& like) {
         ++reruns[effect];
@@ -338,9 +344,15 @@ TEST_CASE("gap: candidates fitted by re-running the twin are named, with their v
       REQUIRE(mesh_before.significant);
       // Each rerun candidate: the 2 training records at every grid point, the 2 held-out records only
       // at the one grid value its training fit picks (the other rerun candidate is not tried once
-      // one is chosen, so no second value is scored).
-      for (CandidateEffect e : {CandidateEffect::misalignment, CandidateEffect::tip_relief})
-        CHECK(reruns[e] == static_cast<int>(rerun_grid(e).size() * 2 + 2));
+      // one is chosen, so no second value is scored). The chosen one's refinement re-runs the
+      // training records at ± a half and ± a quarter grid step along each parameter (4 points each).
+      for (CandidateEffect e : {CandidateEffect::misalignment, CandidateEffect::tip_relief}) {
+        const auto refinement = e == c.effect ? 4 * rerun_grid_ratios(e).size() * 2 : 0;
+        // Off the grid the held-out records are re-run at the grid value first chosen and at the
+        // refined one.
+        const std::size_t held_out_points = e == c.effect && !on_grid ? 2 : 1;
+        CHECK(reruns[e] == static_cast<int>(rerun_grid(e).size() * 2 + 2 * held_out_points + refinement));
+      }
       REQUIRE_FALSE(report.chosen.empty());
       CHECK(report.chosen.front() == c.effect);
       REQUIRE(report.candidates.front().effect == c.effect);

@@ -203,6 +203,12 @@ std::vector<std::vector<double>> rerun_grid(CandidateEffect effect) {
   return grid;
 }
 
+std::vector<double> rerun_grid_ratios(CandidateEffect effect) {
+  if (effect == CandidateEffect::misalignment) return {std::pow(100.0, 1.0 / 8.0)};
+  if (effect == CandidateEffect::tip_relief) return {2.0, 2.0};
+  return {};
+}
+
 std::vector<std::string> rerun_parameter_names(CandidateEffect effect) {
   if (effect == CandidateEffect::misalignment) return {"angle_rad"};
   if (effect == CandidateEffect::tip_relief) return {"amount_m", "length_fraction"};

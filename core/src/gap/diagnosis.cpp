@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <deque>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -74,12 +75,12 @@ PairSpectra with_rerun_twin(const PairSpectra& p, const Record& twin, const Gear
 /// training and held-out record.
 struct RerunSet {
   CandidateEffect effect{};
-  std::vector<std::vector<double>> values;
-  std::vector<std::vector<SummaryPair>> train;   // [grid][record]
-  // [grid][record], re-run only at the grid values a training fit picks (the held-out records are
-  // half the reruns, and one or two grid values are ever scored); sized up front, so an element's
-  // address stays put once it is filled.
-  std::vector<std::optional<std::vector<PairSpectra>>> test;
+  std::vector<std::vector<double>> values;  // the grid, then the points a refinement added
+  std::deque<std::vector<SummaryPair>> train;   // [point][record]
+  // [point][record], re-run only at the points a training fit picks (the held-out records are
+  // half the reruns, and one or two points are ever scored). Deques: an element's address stays
+  // put while points are added.
+  std::deque<std::optional<std::vector<PairSpectra>>> test;
 };
 
 std::vector<GapPair> views(const std::vector<PairSpectra>& pairs, const std::vector<SpectralSummary>& models) {
@@ -274,6 +275,20 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   // Candidates that change the twin's dynamics: the twin re-run over their grid, when the caller
   // can re-run it.
   std::map<CandidateEffect, RerunSet> reruns;
+  // The training records with the twin re-run at `v`, added to the set (or the point it has already).
+  auto add_rerun_point = [&](RerunSet& set, const std::vector<double>& v) -> std::size_t {
+    for (std::size_t i = 0; i < set.values.size(); ++i)
+      if (set.values[i] == v) return i;
+    std::vector<SummaryPair> tr;
+    for (std::size_t i = 0; i < train.size(); ++i) {
+      const auto p = with_rerun_twin(train[i], settings.rerun_twin(set.effect, v, training[i].twin), gears, settings);
+      tr.push_back({p.measured_all, p.twin_all, p.floor});
+    }
+    set.values.push_back(v);
+    set.train.push_back(std::move(tr));
+    set.test.emplace_back();
+    return set.values.size() - 1;
+  };
   // Only when some family is significant: the reruns cost a twin simulation per record and grid
   // value, and without a significant family nothing is chosen (the ranking then scores such a
   // candidate by its spectral form).
@@ -283,16 +298,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       if (grid.empty()) continue;
       RerunSet set;
       set.effect = c;
-      set.values = grid;
-      set.test.resize(grid.size());
-      for (const auto& v : grid) {
-        std::vector<SummaryPair> tr;
-        for (std::size_t i = 0; i < train.size(); ++i) {
-          const auto p = with_rerun_twin(train[i], settings.rerun_twin(c, v, training[i].twin), gears, settings);
-          tr.push_back({p.measured_all, p.twin_all, p.floor});
-        }
-        set.train.push_back(std::move(tr));
-      }
+      for (const auto& v : grid) add_rerun_point(set, v);
       reruns.emplace(c, std::move(set));
     }
   }
@@ -314,6 +320,29 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       const double cost = training_cost(set.train[g], fx, gears);
       if (cost < best_cost) best_cost = cost, best = g;
     }
+    return best;
+  };
+
+  // A chosen rerun candidate's grid value refined on the training records: a compass search in half
+  // and then quarter grid steps (in the log), inside the grid's range. A whole step (×1.8 in angle,
+  // ×2 in relief) moves the first mesh harmonics by a few dB, and K_wear's inference from them
+  // magnifies that; the refinement costs a few reruns of the training records, for one candidate.
+  auto refine_rerun = [&](RerunSet& set, std::size_t start, const std::vector<AppliedEffect>& fx) {
+    const auto grid = rerun_grid(set.effect);
+    const auto ratios = rerun_grid_ratios(set.effect);
+    std::size_t best = start;
+    double best_cost = training_cost(set.train[start], fx, gears);
+    for (double fraction : {0.5, 0.25})
+      for (std::size_t j = 0; j < ratios.size(); ++j)
+        for (double direction : {-1.0, 1.0}) {
+          auto v = set.values[best];
+          double low = v[j], high = v[j];
+          for (const auto& g : grid) low = std::min(low, g[j]), high = std::max(high, g[j]);
+          v[j] = std::clamp(v[j] * std::pow(ratios[j], direction * fraction), low, high);
+          const std::size_t point = add_rerun_point(set, v);
+          const double cost = training_cost(set.train[point], fx, gears);
+          if (cost < best_cost) best_cost = cost, best = point;
+        }
     return best;
   };
 
@@ -418,6 +447,21 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       report.chosen.push_back(best->effect);
       if (best_grid) {
         auto& set = reruns.at(best->effect);
+        const std::size_t refined = refine_rerun(set, *best_grid, chosen);
+        if (refined != *best_grid) {
+          best_grid = refined;
+          const auto& refined_test = rerun_test(set, refined);
+          const auto e = evaluator.evaluate(views(refined_test, models_of(refined_test, chosen, gears)), true);
+          best_ic = information_criterion(e, noise, fitted_count(set.values[refined]), settings.min_gap_db);
+          Assessment a;
+          a.point = e;
+          for (std::size_t f = 0; f < kFamilies; ++f) a.interval[f] = {e.distance_db(f), e.distance_db(f)};
+          best_gaps = family_gaps(a, noise, settings, fixed_reason);
+          for (auto& candidate : report.candidates)
+            if (candidate.effect == best->effect)
+              for (std::size_t i = 0; i < candidate.parameters.size() && i < set.values[refined].size(); ++i)
+                candidate.parameters[i].second = set.values[refined][i];
+        }
         test_base = &rerun_test(set, *best_grid);
         train_base = &set.train[*best_grid];
         rerun_chosen = true;

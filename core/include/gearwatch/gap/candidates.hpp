@@ -68,6 +68,9 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz);
 ///   tip_relief    {amount, length fraction}: linear relief on both gears, 2–32 µm in 5 doubling
 ///                 steps × 0.1, 0.2, 0.4 of the active profile from the tip
 std::vector<std::vector<double>> rerun_grid(CandidateEffect effect);
+/// The ratio between neighbouring grid values along each of a rerun candidate's parameters (its
+/// grid is log-spaced); a chosen candidate's value is refined in fractions of it.
+std::vector<double> rerun_grid_ratios(CandidateEffect effect);
 /// The names (SI units) of a rerun candidate's values, in the order of its grid points.
 std::vector<std::string> rerun_parameter_names(CandidateEffect effect);
 

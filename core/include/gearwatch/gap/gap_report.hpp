@@ -89,7 +89,7 @@ struct GapReport {
   std::vector<CandidateEffect> chosen;        ///< greedy addition, in order
   std::vector<FamilyGap> after;               ///< held out, twin plus the chosen effects
   std::vector<FamilyKind> unexplained;        ///< significant families no candidate explains
-  /// K_wear inferred from the held-out records' RMS_SA (geometric mean of the per-record ratios)
+  /// K_wear inferred from the held-out records' RMS_SA (per-record ratios combined by least squares in the log)
   /// with the twin alone and with the chosen effects added; empty unless the caller gave the
   /// twin's reference K_wear (DiagnosisSettings::reference_k_wear).
   std::optional<double> k_wear_before;
