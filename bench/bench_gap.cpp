@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdio>
 
+#include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/rig/rig_simulator.hpp"
 #include "gearwatch/twin/simulation.hpp"
@@ -49,8 +50,7 @@ int main() {
     twin::SimulationOptions o;
     o.sample_rate_hz = fs;
     twin::ToothProfileDeviation profile;
-    if (effect == gap::CandidateEffect::misalignment) o.face_misalignment_rad = values.at(0);
-    else profile = twin::with_linear_tip_relief(profile, values.at(0), values.at(1));
+    gap::add_rerun_effect(effect, values, profile, o);
     const auto s = twin::simulate_casing_signal(twin::GearboxParameters{}, profile, {like.speed_hz, like.torque_nm}, seconds, o);
     return reruns.emplace(key, record(s.acceleration, s.tacho_edges)).first->second;
   };

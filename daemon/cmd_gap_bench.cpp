@@ -108,9 +108,7 @@ class TwinCache {
     twin::SimulationOptions options;
     options.sample_rate_hz = fs_;
     twin::ToothProfileDeviation profile = wear_;
-    if (effect == gap::CandidateEffect::misalignment) options.face_misalignment_rad = values.at(0);
-    else if (effect == gap::CandidateEffect::tip_relief) profile = twin::with_linear_tip_relief(wear_, values.at(0), values.at(1));
-    else throw std::invalid_argument(std::string("no twin rerun for ") + gap::to_string(effect));
+    gap::add_rerun_effect(effect, values, profile, options);
     const auto s = twin::simulate_casing_signal(twin::GearboxParameters{}, profile, {like.speed_hz, like.torque_nm}, seconds_,
                                                 options);
     return reruns_.emplace(key, make_record(s.acceleration, s.tacho_edges, fs_, like.speed_hz, like.torque_nm))

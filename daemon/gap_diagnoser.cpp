@@ -1,5 +1,6 @@
 #include "gap_diagnoser.hpp"
 
+#include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
@@ -17,35 +18,62 @@ gap::DiagnosisSettings gap_diagnosis_settings(const config::GearwatchConfig& con
   settings.channel = gap_channel(config);
   settings.bootstrap_resamples = config.gap.bootstrap_resamples;
   settings.seed = static_cast<std::uint64_t>(config.gap.seed);
+  settings.rms_sa_harmonics = config.processing.rms_sa_harmonics;
   return settings;
 }
 
 GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config) {
-  return [gears = config.rig.gears, settings = gap_diagnosis_settings(config)](
-             const std::vector<gap::DiagnosisInput>& training, const std::vector<gap::DiagnosisInput>& held_out) {
+  return [gears = config.rig.gears, base = gap_diagnosis_settings(config)](const std::vector<gap::DiagnosisInput>& training,
+                                                                           const std::vector<gap::DiagnosisInput>& held_out,
+                                                                           const GapCallContext& context) {
+    auto settings = base;
+    settings.rerun_twin = context.rerun_twin;
+    settings.reference_k_wear = context.reference_k_wear;
+    settings.rms_sa_wear_elasticities = context.rms_sa_wear_elasticities;
     return gap::diagnose(training, held_out, gears, settings);
   };
 }
 
+namespace {
+
+Record counterpart_record(const Record& measured, int channel, const twin::GearboxParameters& params,
+                          const twin::ToothProfileDeviation& profile, twin::SimulationOptions options) {
+  const twin::OperatingPoint op{measured.speed_hz, measured.torque_nm};
+  options.sample_rate_hz = measured.sample_rate_hz;
+  const twin::CasingSignal signal = twin::simulate_casing_signal(params, profile, op, measured.duration_s(), options);
+  Record twin;
+  twin.stream_key = measured.stream_key;
+  twin.stream_id = measured.stream_id;
+  twin.sample_rate_hz = signal.sample_rate_hz;
+  twin.start_index = measured.start_index;
+  twin.end = measured.end;
+  twin.channels = {signal.acceleration};
+  twin.channel_numbers = {channel};
+  twin.tacho_edges[0] = signal.tacho_edges;
+  twin.torque_nm = measured.torque_nm;
+  twin.speed_hz = measured.speed_hz;
+  twin.input_revolutions = measured.input_revolutions;
+  return twin;
+}
+
+}  // namespace
+
 TwinCounterpart make_twin_counterpart(const twin::GearboxParameters& params, const config::GearwatchConfig& config) {
   const int channel = gap_channel(config);
   return [params, channel](const Record& measured, const wear::WearState& state) {
-    const twin::OperatingPoint op{measured.speed_hz, measured.torque_nm};
-    const twin::CasingSignal signal =
-        twin::simulate_casing_signal(params, wear::to_profile_deviation(state), op, measured.duration_s(), measured.sample_rate_hz);
-    Record twin;
-    twin.stream_key = measured.stream_key;
-    twin.stream_id = measured.stream_id;
-    twin.sample_rate_hz = signal.sample_rate_hz;
-    twin.start_index = measured.start_index;
-    twin.end = measured.end;
-    twin.channels = {signal.acceleration};
-    twin.channel_numbers = {channel};
-    twin.tacho_edges[0] = signal.tacho_edges;
-    twin.torque_nm = measured.torque_nm;
-    twin.speed_hz = measured.speed_hz;
-    twin.input_revolutions = measured.input_revolutions;
-    return twin;
+    return counterpart_record(measured, channel, params, wear::to_profile_deviation(state), {});
+  };
+}
+
+TwinRerunCounterpart make_twin_rerun(const twin::GearboxParameters& params, const config::GearwatchConfig& config) {
+  if (!config.gap.rerun_twin) return {};
+  const int channel = gap_channel(config);
+  return [params, channel](const Record& measured, const wear::WearState& state, gap::CandidateEffect effect,
+                           const std::vector<double>& values) {
+    twin::ToothProfileDeviation profile = wear::to_profile_deviation(state);
+    twin::SimulationOptions options;
+    gap::add_rerun_effect(effect, values, profile, options);
+    return counterpart_record(measured, channel, params, profile, options);
   };
 }
 

@@ -10,7 +10,8 @@ namespace gearwatch::daemon {
 /// The diagnosis's settings from [gap]: the compared channel, the bootstrap resamples and seed.
 gap::DiagnosisSettings gap_diagnosis_settings(const config::GearwatchConfig& config);
 
-/// The diagnosis the daemon runs with this configuration's gears and gap_diagnosis_settings().
+/// The diagnosis the daemon runs with this configuration's gears and gap_diagnosis_settings(), and
+/// each call's context (its twin reruns and K_wear inference) on top.
 /// Empty when this build has no diagnosis to bind: the model thread then refuses `gap.enabled`.
 GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config);
 
@@ -18,6 +19,10 @@ GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config);
 /// sample rate for the given wear state, as a one-channel Record numbered like the compared
 /// channel, with the simulated input-shaft tacho edges.
 TwinCounterpart make_twin_counterpart(const twin::GearboxParameters& params, const config::GearwatchConfig& config);
+
+/// The counterpart re-run with a rerun candidate's addition (gap::add_rerun_effect on the wear
+/// state's profile or on the simulation's options); empty when `gap.rerun_twin` is false.
+TwinRerunCounterpart make_twin_rerun(const twin::GearboxParameters& params, const config::GearwatchConfig& config);
 
 /// The measured channel the gap step compares: gap.channel, else the model's.
 int gap_channel(const config::GearwatchConfig& config);

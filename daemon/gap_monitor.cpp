@@ -1,8 +1,12 @@
 #include "gap_monitor.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <string>
+
+#include "gearwatch/gap/spectra.hpp"
 
 namespace gearwatch::daemon {
 
@@ -40,6 +44,25 @@ GapSchedule::GapSchedule(std::size_t every_records, std::size_t training, std::s
     : every_(every_records), training_(training), held_out_(held_out) {
   if (every_ == 0 || training_ == 0 || held_out_ == 0)
     throw std::invalid_argument("gap schedule: every_records, training_records and held_out_records must be at least 1");
+}
+
+double twin_rms_sa_wear_elasticity(const TwinCounterpart& twin, const Record& measured, const wear::WearState& state,
+                                   int channel, const GearPairSpec& gears, int harmonics) {
+  auto rms_sa_at = [&](double scale) {
+    wear::WearState scaled = state;
+    for (auto& d : scaled.pinion_depth_m) d *= scale;
+    for (auto& d : scaled.gear_depth_m) d *= scale;
+    const auto lines = gap::RecordSpectra(twin(measured, scaled), channel, gears).summary().input_lines;
+    const auto z1 = static_cast<std::size_t>(gears.pinion_teeth);
+    double e = 0;
+    for (std::size_t h = 1; h <= static_cast<std::size_t>(harmonics) && h * z1 <= lines.size(); ++h) e += lines[h * z1 - 1];
+    if (!(e > 0) || !std::isfinite(e))
+      throw std::invalid_argument("twin RMS_SA is not positive at wear depths x" + std::to_string(scale) +
+                                  ": no K_wear sensitivity");
+    return std::sqrt(e);
+  };
+  const double low = 0.8, high = 1.25;
+  return std::log(rms_sa_at(high) / rms_sa_at(low)) / std::log(high / low);
 }
 
 bool GapSchedule::add(GapSample sample) {

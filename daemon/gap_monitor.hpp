@@ -25,21 +25,45 @@ namespace gearwatch::daemon {
 /// report). An unresolved family is no observation at all: it neither raises nor clears.
 std::vector<AlertEvent> observe_twin_drift(AlertTracker& tracker, const gap::GapReport& report, AlertHysteresis hysteresis);
 
+/// What one periodic diagnosis may use beyond its pairs (each member may be empty):
+///  - the twin re-run with a rerun candidate's addition at the wear state of the record it stands
+///    for (empty: misalignment and tip relief keep their spectral forms);
+///  - the K_wear inference: the model's K_wear, which the twin's wear states came from, and the
+///    twin's d ln RMS_SA / d ln K_wear at each held-out record (empty: no K_wear in the report).
+struct GapCallContext {
+  gap::TwinRerun rerun_twin;
+  std::optional<double> reference_k_wear;
+  std::vector<double> rms_sa_wear_elasticities;
+};
+
 /// The diagnosis as the daemon calls it: training and held-out pairs of measured record and twin
 /// counterpart in, one report out. Throws (std::invalid_argument and others) when it cannot diagnose.
-using GapDiagnoser =
-    std::function<gap::GapReport(const std::vector<gap::DiagnosisInput>&, const std::vector<gap::DiagnosisInput>&)>;
+using GapDiagnoser = std::function<gap::GapReport(const std::vector<gap::DiagnosisInput>&,
+                                                  const std::vector<gap::DiagnosisInput>&, const GapCallContext&)>;
 
 /// The twin's simulation of a measured record: same speed, torque, length and sample rate, at the
 /// wear state the model had reached at that record.
 using TwinCounterpart = std::function<Record(const Record& measured, const wear::WearState& state)>;
 
+/// The same with a rerun candidate's addition (gap::add_rerun_effect) at `values`.
+using TwinRerunCounterpart = std::function<Record(const Record& measured, const wear::WearState& state,
+                                                  gap::CandidateEffect effect, const std::vector<double>& values)>;
+
 /// What the periodic gap step calls; empty members are bound from the configuration when the
-/// model thread starts (gap_diagnoser.hpp). Tests inject their own.
+/// model thread starts (gap_diagnoser.hpp). Tests inject their own. `rerun` stays empty when
+/// `gap.rerun_twin` is false.
 struct GapHooks {
   GapDiagnoser diagnose;
   TwinCounterpart twin;
+  TwinRerunCounterpart rerun;
 };
+
+/// d ln RMS_SA(N) / d ln K_wear of the twin at a record: the counterpart at the wear depths ×0.8 and
+/// ×1.25 (depth ∝ K_wear at a constant operating point, Archard), RMS_SA(N) read from the
+/// diagnosis's own input-order lines of `channel`. Throws std::invalid_argument when the twin's
+/// RMS_SA is not positive at either depth.
+double twin_rms_sa_wear_elasticity(const TwinCounterpart& twin, const Record& measured, const wear::WearState& state,
+                                   int channel, const GearPairSpec& gears, int harmonics);
 
 /// What the gap step keeps of one analysed record until the next diagnosis.
 struct GapSample {

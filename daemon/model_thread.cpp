@@ -258,7 +258,11 @@ void ModelThread::start() {
     if (!gap_.diagnose) gap_.diagnose = make_gap_diagnoser(config_);
     if (!gap_.diagnose)
       throw std::runtime_error("gap.enabled = true, but this build of gearwatch has no sim-to-real gap diagnosis to run");
-    if (!gap_.twin) gap_.twin = make_twin_counterpart(params, config_);
+    // The rerun is bound only with the configured counterpart: an injected twin brings its own (or none).
+    if (!gap_.twin) {
+      gap_.twin = make_twin_counterpart(params, config_);
+      if (!gap_.rerun) gap_.rerun = make_twin_rerun(params, config_);
+    }
     gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
   }
   if (stored.found)
@@ -304,7 +308,8 @@ void ModelThread::stop() {
   spdlog::info("model: {} records received, {} handled, {} coalesced, {} failed", counters_.received.load(),
                counters_.handled.load(), counters_.coalesced.load(), counters_.failures.load());
   if (gap_schedule_)
-    spdlog::info("model: {} gap reports stored, {} gap diagnoses failed", counters_.gap_reports.load(), counters_.gap_failures.load());
+    spdlog::info("model: {} gap reports stored ({} without K_wear), {} gap diagnoses failed", counters_.gap_reports.load(),
+                 counters_.gap_k_wear_skipped.load(), counters_.gap_failures.load());
 }
 
 void ModelThread::run() {
@@ -417,7 +422,34 @@ void ModelThread::diagnose_gap() {
     std::vector<gap::DiagnosisInput> training, held_out;
     for (const GapSample* s : training_samples) training.push_back({*s->measured, gap_.twin(*s->measured, s->state)});
     for (const GapSample* s : held_out_samples) held_out.push_back({*s->measured, gap_.twin(*s->measured, s->state)});
-    msg.report = gap_.diagnose(training, held_out);
+    GapCallContext context;
+    if (gap_.rerun) {
+      // The diagnosis hands back the counterpart it wants re-run; the record it stands for (same
+      // stream and start) gives the wear state to re-run it at.
+      std::map<std::pair<std::uint64_t, std::uint64_t>, const GapSample*> by_record;
+      for (const auto* set : {&training_samples, &held_out_samples})
+        for (const GapSample* s : *set) by_record[{s->measured->stream_id, s->measured->start_index}] = s;
+      context.rerun_twin = [this, by_record](gap::CandidateEffect effect, const std::vector<double>& values, const Record& like) {
+        const auto it = by_record.find({like.stream_id, like.start_index});
+        if (it == by_record.end()) throw std::invalid_argument("gap: no kept record for a twin rerun");
+        return gap_.rerun(*it->second->measured, it->second->state, effect, values);
+      };
+    }
+    // K_wear with and without the chosen effects: the twin's wear states came from the model's K_wear.
+    if (model_->memory().k_wear_si > 0) {
+      try {
+        for (const GapSample* s : held_out_samples)
+          context.rms_sa_wear_elasticities.push_back(twin_rms_sa_wear_elasticity(
+              gap_.twin, *s->measured, s->state, gap_channel(config_), config_.rig.gears, config_.processing.rms_sa_harmonics));
+        context.reference_k_wear = model_->memory().k_wear_si;
+      } catch (const std::invalid_argument& e) {
+        // The report goes on without K_wear: the twin's RMS_SA cannot tell it here.
+        context.rms_sa_wear_elasticities.clear();
+        const auto n = ++counters_.gap_k_wear_skipped;
+        if (n <= 10 || n % 1000 == 0) spdlog::warn("gap: report without K_wear ({} so far): {}", n, e.what());
+      }
+    }
+    msg.report = gap_.diagnose(training, held_out, context);
   } catch (const std::exception& e) {
     const auto n = ++counters_.gap_failures;
     if (n <= 10 || n % 1000 == 0)

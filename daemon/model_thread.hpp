@@ -71,6 +71,7 @@ struct ModelCounters {
   std::atomic<std::uint64_t> queue_high_water{0};
   std::atomic<std::uint64_t> gap_reports{0};       ///< gap diagnoses stored
   std::atomic<std::uint64_t> gap_failures{0};      ///< gap diagnoses that threw (logged, nothing stored)
+  std::atomic<std::uint64_t> gap_k_wear_skipped{0};  ///< gap reports stored without K_wear (the twin could not tell it)
 };
 
 

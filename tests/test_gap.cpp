@@ -166,7 +166,17 @@ TEST_CASE("gap: K_wear absorbs a mesh-harmonic gain the twin lacks, and the chos
     settings.rms_sa_wear_elasticities = {0.5};  // one value for two records
     CHECK_THROWS_AS(diagnose({{meas, twin}}, {{meas, twin}, {meas, twin}}, GearPairSpec{}, settings),
                     std::invalid_argument);
-    settings.rms_sa_wear_elasticities = {0.5, 0.0};
+    // A record whose twin cannot tell K (|e| below min_rms_sa_wear_elasticity, 0.05) weighs nothing:
+    // the other alone gives K_ref·g^(1/0.5).
+    settings.rms_sa_wear_elasticities = {0.5, 0.04};
+    const auto one = diagnose({{meas, twin}}, {{meas, twin}, {meas, twin}}, GearPairSpec{}, settings);
+    REQUIRE(one.k_wear_before);
+    CHECK(*one.k_wear_before == Approx(k_ref * std::pow(gain, 1.0 / 0.5)).epsilon(0.01));
+    settings.rms_sa_wear_elasticities = {0.0, -0.02};
+    const auto none = diagnose({{meas, twin}}, {{meas, twin}, {meas, twin}}, GearPairSpec{}, settings);
+    CHECK_FALSE(none.k_wear_before);
+    CHECK_FALSE(none.k_wear_after);
+    settings.rms_sa_wear_elasticities = {0.5, std::numeric_limits<double>::quiet_NaN()};
     CHECK_THROWS_AS(diagnose({{meas, twin}}, {{meas, twin}, {meas, twin}}, GearPairSpec{}, settings),
                     std::invalid_argument);
   }

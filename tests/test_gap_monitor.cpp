@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <numbers>
 
 #include <catch2/catch.hpp>
 
@@ -138,7 +139,8 @@ struct ScriptedDiagnosis {
   std::vector<Call> calls;
   daemon::GapHooks hooks() {
     daemon::GapHooks h;
-    h.diagnose = [this](const std::vector<gap::DiagnosisInput>& training, const std::vector<gap::DiagnosisInput>& held_out) {
+    h.diagnose = [this](const std::vector<gap::DiagnosisInput>& training, const std::vector<gap::DiagnosisInput>& held_out,
+                        const daemon::GapCallContext&) {
       Call c;
       for (const auto& d : training) {
         c.training.push_back(d.measured.start_index);
@@ -311,6 +313,40 @@ TEST_CASE("config: [gap] keys with their defaults, ranges and file:line errors",
   CHECK(daemon::gap_diagnosis_settings(config::parse_config("[model]\nchannel = 1\n[gap]\nchannel = 0\n", "m.toml")).channel == 0);
 }
 
+TEST_CASE("gap step: the twin's RMS_SA wear elasticity is read from counterparts at wear depths x0.8 and x1.25",
+          "[twin_drift][daemon][kwear]") {
+  // A counterpart whose first two mesh harmonics (orders 19 and 38) have amplitude (depth / 1 µm)^e:
+  // RMS_SA(2) ∝ depth^e, so the central difference in log returns e itself.
+  const double fs = 10240, speed = 10;
+  auto counterpart_with = [&](double e) {
+    return daemon::TwinCounterpart([=](const Record&, const wear::WearState& state) {
+      const double a = std::pow(state.pinion_depth_m.at(0) / 1e-6, e);
+      const auto n = static_cast<std::size_t>(20.5 * fs / speed);
+      std::vector<float> x(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        const double t = static_cast<double>(i) / fs;
+        x[i] = static_cast<float>(a * std::cos(2 * std::numbers::pi * 19 * speed * t) + 0.5 * a * std::cos(2 * std::numbers::pi * 38 * speed * t + 0.3));
+      }
+      std::vector<double> edges;
+      for (int k = 0; k <= 20; ++k) edges.push_back(k * fs / speed);
+      return single_channel_record(std::move(x), std::move(edges), fs, speed, 20);
+    });
+  };
+  wear::WearState state;
+  state.pinion_depth_m = {2e-6, 1e-6};
+  state.gear_depth_m = {1e-6};
+  const Record measured;
+  for (double e : {-0.62, 0.11, 1.0}) {
+    INFO("e = " << e);
+    CHECK(daemon::twin_rms_sa_wear_elasticity(counterpart_with(e), measured, state, 0, GearPairSpec{}, 2) ==
+          Approx(e).margin(1e-4));
+  }
+  // A counterpart with no tacho cannot be read: refused with the reason, which the model thread
+  // turns into a report without K_wear.
+  const daemon::TwinCounterpart silent = [](const Record&, const wear::WearState&) { return Record{}; };
+  CHECK_THROWS_AS(daemon::twin_rms_sa_wear_elasticity(silent, measured, state, 0, GearPairSpec{}, 2), std::invalid_argument);
+}
+
 TEST_CASE("gap step: the twin counterpart of a record has its length, rate, channel and operating point, with the tacho at its speed",
           "[twin_drift][daemon]") {
   auto cfg = config::parse_config("[model]\nchannel = 1\n", "test");
@@ -365,7 +401,8 @@ TEST_CASE("pipeline: a replay hands each analysed record's samples to the gap st
   };
   std::vector<Seen> seen;
   daemon::GapHooks hooks;
-  hooks.diagnose = [&](const std::vector<gap::DiagnosisInput>& training, const std::vector<gap::DiagnosisInput>& held_out) {
+  hooks.diagnose = [&](const std::vector<gap::DiagnosisInput>& training, const std::vector<gap::DiagnosisInput>& held_out,
+                       const daemon::GapCallContext&) {
     for (const auto* list : {&training, &held_out})
       for (const auto& d : *list) seen.push_back({d.measured.sample_count(), d.measured.channels.size(), d.measured.sample_rate_hz,
                                                   d.measured.input_revolutions});
@@ -462,6 +499,12 @@ TEST_CASE("daemon's gap diagnosis end to end: rig tooth errors withheld from the
   // The truth's effect is the first chosen, and a family tooth errors act on is significant.
   REQUIRE_FALSE(report.chosen.empty());
   CHECK(report.chosen.front() == gap::CandidateEffect::tooth_errors);
+  // The daemon binds the twin rerun (`rerun_twin` defaults to true): misalignment and tip relief were
+  // fitted over their grids, so they carry the grid's values, not their spectral forms' gains.
+  for (const auto& c : report.candidates) {
+    if (c.effect == gap::CandidateEffect::misalignment) CHECK(c.parameters.front().first == "angle_rad");
+    if (c.effect == gap::CandidateEffect::tip_relief) CHECK(c.parameters.front().first == "amount_m");
+  }
   bool own_family_significant = false;
   for (const auto& g : report.before)
     if (g.significant && (g.family == gap::FamilyKind::input_shaft_orders || g.family == gap::FamilyKind::output_shaft_orders ||

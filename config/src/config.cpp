@@ -372,6 +372,11 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
       t.fail(t.node("channel"), "channel", "channel " + std::to_string(g.channel) + " is not a configured [[channels]] entry");
     t.integer("bootstrap_resamples", g.bootstrap_resamples, 20, 100000);
     t.integer("seed", g.seed, 0, std::numeric_limits<std::int64_t>::max());
+    if (const toml::node* n = t.node("rerun_twin")) {
+      auto b = n->value_exact<bool>();
+      if (!b) t.fail(n, "rerun_twin", "expected true or false");
+      g.rerun_twin = *b;
+    }
     t.integer("drift_raise_after_reports", g.drift_raise_after_reports, 1, 1000);
     t.integer("drift_clear_after_reports", g.drift_clear_after_reports, 1, 1000);
     if (g.enabled && !cfg.model.enabled)

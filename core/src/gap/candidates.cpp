@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 namespace gearwatch::gap {
 namespace {
@@ -201,6 +202,17 @@ std::vector<std::vector<double>> rerun_grid(CandidateEffect effect) {
     for (double amount_um : {2.0, 4.0, 8.0, 16.0, 32.0})
       for (double length : {0.1, 0.2, 0.4}) grid.push_back({amount_um * 1e-6, length});
   return grid;
+}
+
+void add_rerun_effect(CandidateEffect effect, const std::vector<double>& values, twin::ToothProfileDeviation& profile,
+                      twin::SimulationOptions& options) {
+  const auto names = rerun_parameter_names(effect);
+  if (names.empty()) throw std::invalid_argument(std::string("no twin rerun for ") + to_string(effect));
+  if (values.size() != names.size())
+    throw std::invalid_argument(std::string("twin rerun for ") + to_string(effect) + ": " + std::to_string(names.size()) +
+                                " values expected, got " + std::to_string(values.size()));
+  if (effect == CandidateEffect::misalignment) options.face_misalignment_rad = values[0];
+  if (effect == CandidateEffect::tip_relief) profile = twin::with_linear_tip_relief(profile, values[0], values[1]);
 }
 
 std::vector<double> rerun_grid_ratios(CandidateEffect effect) {

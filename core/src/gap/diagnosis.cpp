@@ -242,8 +242,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
                                   std::to_string(held_out.size()) + "), got " +
                                   std::to_string(settings.rms_sa_wear_elasticities.size()));
     for (double e : settings.rms_sa_wear_elasticities)
-      if (!std::isfinite(e) || e == 0)
-        throw std::invalid_argument("gap diagnosis: every rms_sa_wear_elasticities value must be finite and non-zero");
+      if (!std::isfinite(e)) throw std::invalid_argument("gap diagnosis: every rms_sa_wear_elasticities value must be finite");
   }
   const auto train = reduce(training, gears, settings, "training");
   const auto test = reduce(held_out, gears, settings, "held-out");
@@ -499,6 +498,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       if (!meas || !twin || !with_fx) continue;
       const double e = settings.rms_sa_wear_elasticities.empty() ? settings.rms_sa_wear_elasticity
                                                                  : settings.rms_sa_wear_elasticities[i];
+      if (std::abs(e) < settings.min_rms_sa_wear_elasticity) continue;
       num_before += e * std::log(*meas / *twin);
       num_after += e * std::log(*meas / *with_fx);
       den += e * e;

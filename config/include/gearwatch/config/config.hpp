@@ -107,6 +107,9 @@ struct GapConfig {
   int channel = -1;                            ///< measured channel compared with the twin; -1 = the model's
   int bootstrap_resamples = 200;               ///< block bootstrap over revolutions (the intervals)
   std::int64_t seed = 1;                       ///< bootstrap seed: the same records give the same report
+  /// Fit misalignment and tip relief by re-running the twin over their grids (about 30 extra
+  /// simulations of each training record per diagnosis); false keeps their spectral forms.
+  bool rerun_twin = true;
   int drift_raise_after_reports = 1;           ///< twin_drift: reports in a row with the family significant
   int drift_clear_after_reports = 2;           ///< reports in a row without it before clearing
 };

@@ -37,6 +37,8 @@
 #include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/twin/simulation.hpp"
+#include "gearwatch/twin/transmission_error.hpp"
 
 namespace gearwatch::gap {
 
@@ -71,6 +73,12 @@ std::vector<std::vector<double>> rerun_grid(CandidateEffect effect);
 /// The ratio between neighbouring grid values along each of a rerun candidate's parameters (its
 /// grid is log-spaced); a chosen candidate's value is refined in fractions of it.
 std::vector<double> rerun_grid_ratios(CandidateEffect effect);
+/// What re-running the twin with a rerun candidate at `values` changes: the options (misalignment:
+/// the face misalignment angle) or the tooth profile (tip relief: a linear relief on top of the
+/// profile, e.g. the wear state's). Every caller that re-runs the twin for the diagnosis goes through
+/// this. Throws std::invalid_argument for a candidate without a rerun or values of the wrong count.
+void add_rerun_effect(CandidateEffect effect, const std::vector<double>& values, twin::ToothProfileDeviation& profile,
+                      twin::SimulationOptions& options);
 /// The names (SI units) of a rerun candidate's values, in the order of its grid points.
 std::vector<std::string> rerun_parameter_names(CandidateEffect effect);
 

@@ -59,8 +59,13 @@ struct DiagnosisSettings {
   /// The same per held-out record, in their order (empty: `rms_sa_wear_elasticity` for all). The
   /// twin's sensitivity to wear differs with load (at light load the worn profile is a larger share of
   /// the deflection), so the records' log ratios are combined by least squares,
-  /// ln(K/K_ref) = Σ e_i ln r_i / Σ e_i², which weights the records that can tell K the most.
+  /// ln(K/K_ref) = Σ e_i ln r_i / Σ e_i², which weights the records that can tell K the most. Each
+  /// must be finite.
   std::vector<double> rms_sa_wear_elasticities;
+  /// A record whose |e| is below this cannot tell K_wear (a 1 % RMS_SA difference would move K by
+  /// more than 20 %) and weighs nothing; with no record left, no K_wear is inferred. Near an unworn
+  /// state, where the wear depth is a tiny share of the profile's own deviation, e is near 0.
+  double min_rms_sa_wear_elasticity = 0.05;
   int rms_sa_harmonics = 2;        ///< N of RMS_SA(N) (seed Eq. 7.1), the measurement's setting
 };
 
