@@ -14,6 +14,7 @@
 #include "capture_writer.hpp"
 #include "gap_diagnoser.hpp"
 #include "gearwatch/twin/gearbox_parameters.hpp"
+#include "gearwatch/twin/simulation.hpp"
 #include "gap_report_fixture.hpp"
 #include "gearwatch/rig/rig_simulator.hpp"
 #include "gearwatch/storage/gap_reports.hpp"
@@ -131,6 +132,8 @@ struct Call {
   std::vector<std::uint64_t> training, held_out;
   std::vector<std::uint64_t> twin_training;  ///< start indices of the twin counterparts handed over
   std::vector<double> wear_cycles;           ///< the wear state's cycles of each counterpart, training then held out
+  bool rerun = false;                        ///< the call could re-run the twin
+  bool k_wear = false;                       ///< the call asked for K_wear
 };
 
 // A diagnosis double: notes what it was given, returns the next of the given reports.
@@ -140,8 +143,10 @@ struct ScriptedDiagnosis {
   daemon::GapHooks hooks() {
     daemon::GapHooks h;
     h.diagnose = [this](const std::vector<gap::DiagnosisInput>& training, const std::vector<gap::DiagnosisInput>& held_out,
-                        const daemon::GapCallContext&) {
+                        const daemon::GapCallContext& context) {
       Call c;
+      c.rerun = static_cast<bool>(context.rerun_twin);
+      c.k_wear = context.reference_k_wear.has_value();
       for (const auto& d : training) {
         c.training.push_back(d.measured.start_index);
         c.twin_training.push_back(d.twin.start_index);
@@ -211,6 +216,7 @@ TEST_CASE("model thread: every N records the injected diagnosis gets the newest 
     writer.stop();
     CHECK(model.counters().gap_reports == 2);
     CHECK(model.counters().gap_failures == 0);
+    CHECK(model.counters().gap_k_wear_skipped == 2);  // counted, and the reports still stored
   }
   REQUIRE(script.calls.size() == 2);
   CHECK(script.calls[0].training == std::vector<std::uint64_t>{1000, 2000});
@@ -218,6 +224,10 @@ TEST_CASE("model thread: every N records the injected diagnosis gets the newest 
   CHECK(script.calls[0].twin_training == std::vector<std::uint64_t>{1001000, 1002000});
   // Each counterpart is simulated at the wear state the model reached at its own record.
   CHECK(script.calls[0].wear_cycles == std::vector<double>{1000, 2000, 3000});
+  // An injected counterpart brings no configured rerun; its records have no tacho, so the twin's
+  // RMS_SA elasticity cannot be read and the report goes without K_wear.
+  CHECK_FALSE(script.calls[0].rerun);
+  CHECK_FALSE(script.calls[0].k_wear);
   CHECK(script.calls[1].training == std::vector<std::uint64_t>{3000, 4000});
   CHECK(script.calls[1].held_out == std::vector<std::uint64_t>{5000});
 
@@ -292,6 +302,12 @@ TEST_CASE("config: [gap] keys with their defaults, ranges and file:line errors",
   CHECK(defaults.gap.held_out_records == 2);
   CHECK(defaults.gap.drift_raise_after_reports == 1);
   CHECK(defaults.gap.drift_clear_after_reports == 2);
+  CHECK(defaults.gap.rerun_twin);
+  CHECK_FALSE(config::parse_config("[gap]\nrerun_twin = false\n", "c.toml").gap.rerun_twin);
+  CHECK_THROWS_WITH(config::parse_config("[gap]\nrerun_twin = 1\n", "c.toml"), "c.toml:2: key 'gap.rerun_twin': expected true or false");
+  // Off, the daemon binds no rerun: misalignment and tip relief keep their spectral forms.
+  CHECK_FALSE(daemon::make_twin_rerun(twin::GearboxParameters{}, config::parse_config("[gap]\nrerun_twin = false\n", "c.toml")));
+  CHECK(daemon::make_twin_rerun(twin::GearboxParameters{}, defaults));
   const auto c = config::parse_config("[gap]\nenabled = true\nevery_records = 7\nbootstrap_resamples = 50\nseed = 9\n", "c.toml");
   CHECK(c.gap.enabled);
   CHECK(c.gap.every_records == 7);
@@ -377,6 +393,22 @@ TEST_CASE("gap step: the twin counterpart of a record has its length, rate, chan
   for (float v : twin.channels[0]) energy += static_cast<double>(v) * v;
   CHECK(std::isfinite(energy));
   CHECK(energy > 0);
+
+  SECTION("re-run with a candidate's addition: the twin simulated with that addition, sample for sample") {
+    const auto rerun = daemon::make_twin_rerun(twin::GearboxParameters{}, cfg);
+    REQUIRE(rerun);
+    twin::SimulationOptions options;
+    options.sample_rate_hz = 20000;
+    options.face_misalignment_rad = 1e-4;
+    const auto direct = twin::simulate_casing_signal(twin::GearboxParameters{}, {}, {20, 15}, measured.duration_s(), options);
+    const Record misaligned = rerun(measured, wear::WearState{}, gap::CandidateEffect::misalignment, {1e-4});
+    CHECK(misaligned.channel_numbers == std::vector<int>{1});
+    CHECK(misaligned.start_index == 12345);
+    REQUIRE(misaligned.channels[0].size() == direct.acceleration.size());
+    CHECK(misaligned.channels[0] == direct.acceleration);
+    CHECK(misaligned.channels[0] != twin.channels[0]);
+    CHECK_THROWS_AS(rerun(measured, wear::WearState{}, gap::CandidateEffect::casing_mode, {1.0}), std::invalid_argument);
+  }
 }
 
 TEST_CASE("pipeline: a replay hands each analysed record's samples to the gap step, and each report is tied to its newest record",
