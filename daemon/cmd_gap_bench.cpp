@@ -68,11 +68,9 @@ struct BenchOptions {
 /// the way the diagnosis reads RMS_SA.
 double rms_sa_of(const Record& r, int harmonics) {
   const GearPairSpec gears{};
-  const auto lines = gap::RecordSpectra(r, 0, gears).summary().input_lines;
-  const auto z1 = static_cast<std::size_t>(gears.pinion_teeth);
-  double e = 0;
-  for (std::size_t h = 1; h <= static_cast<std::size_t>(harmonics) && h * z1 <= lines.size(); ++h) e += lines[h * z1 - 1];
-  return std::sqrt(e);
+  const auto rms = gap::rms_sa_of_lines(gap::RecordSpectra(r, 0, gears).summary(), gears.pinion_teeth, harmonics);
+  if (!rms) throw std::invalid_argument("gap bench: the twin's RMS_SA(" + std::to_string(harmonics) + ") is not positive");
+  return *rms;
 }
 
 twin::ToothProfileDeviation scaled(twin::ToothProfileDeviation p, double factor) {
@@ -120,9 +118,8 @@ class TwinCache {
     const auto key = std::make_tuple(speed, torque, harmonics);
     auto it = elasticity_.find(key);
     if (it != elasticity_.end()) return it->second;
-    const double e =
-        std::log(rms_sa_of(at(speed, torque, 1.25), harmonics) / rms_sa_of(at(speed, torque, 0.8), harmonics)) /
-        std::log(1.25 / 0.8);
+    const double e = gap::rms_sa_wear_elasticity(rms_sa_of(at(speed, torque, gap::kElasticityDepthLow), harmonics),
+                                                 rms_sa_of(at(speed, torque, gap::kElasticityDepthHigh), harmonics));
     return elasticity_.emplace(key, e).first->second;
   }
 

@@ -52,17 +52,14 @@ double twin_rms_sa_wear_elasticity(const TwinCounterpart& twin, const Record& me
     wear::WearState scaled = state;
     for (auto& d : scaled.pinion_depth_m) d *= scale;
     for (auto& d : scaled.gear_depth_m) d *= scale;
-    const auto lines = gap::RecordSpectra(twin(measured, scaled), channel, gears).summary().input_lines;
-    const auto z1 = static_cast<std::size_t>(gears.pinion_teeth);
-    double e = 0;
-    for (std::size_t h = 1; h <= static_cast<std::size_t>(harmonics) && h * z1 <= lines.size(); ++h) e += lines[h * z1 - 1];
-    if (!(e > 0) || !std::isfinite(e))
-      throw std::invalid_argument("twin RMS_SA is not positive at wear depths x" + std::to_string(scale) +
-                                  ": no K_wear sensitivity");
-    return std::sqrt(e);
+    const auto rms = gap::rms_sa_of_lines(gap::RecordSpectra(twin(measured, scaled), channel, gears).summary(),
+                                          gears.pinion_teeth, harmonics);
+    if (!rms)
+      throw std::invalid_argument("twin RMS_SA(" + std::to_string(harmonics) + ") is not positive at wear depths x" +
+                                  std::to_string(scale) + ": no K_wear sensitivity");
+    return *rms;
   };
-  const double low = 0.8, high = 1.25;
-  return std::log(rms_sa_at(high) / rms_sa_at(low)) / std::log(high / low);
+  return gap::rms_sa_wear_elasticity(rms_sa_at(gap::kElasticityDepthLow), rms_sa_at(gap::kElasticityDepthHigh));
 }
 
 bool GapSchedule::add(GapSample sample) {

@@ -182,6 +182,21 @@ TEST_CASE("gap: K_wear absorbs a mesh-harmonic gain the twin lacks, and the chos
   }
 }
 
+TEST_CASE("gap: RMS_SA(N) from the input-order lines, and its wear elasticity as a central difference in the log", "[gap][kwear]") {
+  SpectralSummary s;
+  s.input_lines.assign(2 * kZ1, 1e-3);
+  s.input_lines[kZ1 - 1] = 9.0;       // harmonic 1: power 9
+  s.input_lines[2 * kZ1 - 1] = 16.0;  // harmonic 2: power 16
+  CHECK(*rms_sa_of_lines(s, kZ1, 1) == Approx(3.0).epsilon(1e-12));
+  CHECK(*rms_sa_of_lines(s, kZ1, 2) == Approx(5.0).epsilon(1e-12));
+  CHECK_FALSE(rms_sa_of_lines(s, kZ1, 3));  // the lines end before harmonic 3
+  s.input_lines[kZ1 - 1] = s.input_lines[2 * kZ1 - 1] = 0;
+  CHECK_FALSE(rms_sa_of_lines(s, kZ1, 2));
+  // RMS_SA ∝ depth^e: the ratio between depths ×1.25 and ×0.8 is (1.25/0.8)^e.
+  CHECK(rms_sa_wear_elasticity(1.0, std::pow(1.25 / 0.8, -0.62)) == Approx(-0.62).epsilon(1e-12));
+  CHECK_THROWS_AS(rms_sa_wear_elasticity(0.0, 1.0), std::invalid_argument);
+}
+
 TEST_CASE("gap: inferred_k_wear is the fixed point of the proportional update under a power law", "[gap][kwear]") {
   // RMS_SA = c·K^e: the K at which the model's RMS_SA equals 1.21 times the reference's.
   CHECK(inferred_k_wear(1.21, 1.0, 3e-12, 2.0) == Approx(3e-12 * 1.1).epsilon(1e-12));

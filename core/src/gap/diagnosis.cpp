@@ -481,14 +481,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   // so does the K inferred. Records at different speeds differ in level, so their ratios are pooled
   // in the log (geometric mean), not their energies.
   if (settings.reference_k_wear) {
-    const auto n_harm = static_cast<std::size_t>(settings.rms_sa_harmonics);
-    const auto z1 = static_cast<std::size_t>(gears.pinion_teeth);
-    auto rms_sa = [&](const SpectralSummary& s) -> std::optional<double> {
-      if (s.input_lines.size() < n_harm * z1) return std::nullopt;
-      double e = 0;
-      for (std::size_t h = 1; h <= n_harm; ++h) e += s.input_lines[h * z1 - 1];
-      return e > 0 ? std::optional<double>(std::sqrt(e)) : std::nullopt;
-    };
+    auto rms_sa = [&](const SpectralSummary& s) { return rms_sa_of_lines(s, gears.pinion_teeth, settings.rms_sa_harmonics); };
     // Least squares in the log: ln r_i = e_i ln(K/K_ref) (one elasticity for all: the mean log ratio / e).
     double num_before = 0, num_after = 0, den = 0;
     for (std::size_t i = 0; i < test.size(); ++i) {
@@ -540,6 +533,22 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     if (std::abs(band.gain_db) >= settings.min_gap_db)
       report.hz_bands.push_back({FamilyKind::fixed_frequency, {band.low_hz, band.high_hz}});
   return report;
+}
+
+std::optional<double> rms_sa_of_lines(const SpectralSummary& s, int pinion_teeth, int harmonics) {
+  if (pinion_teeth < 1 || harmonics < 1) return std::nullopt;
+  const auto z1 = static_cast<std::size_t>(pinion_teeth), n = static_cast<std::size_t>(harmonics);
+  if (s.input_lines.size() < n * z1) return std::nullopt;
+  double e = 0;
+  for (std::size_t h = 1; h <= n; ++h) e += s.input_lines[h * z1 - 1];
+  return e > 0 && std::isfinite(e) ? std::optional<double>(std::sqrt(e)) : std::nullopt;
+}
+
+double rms_sa_wear_elasticity(double rms_sa_at_low_depth, double rms_sa_at_high_depth) {
+  if (!(rms_sa_at_low_depth > 0) || !(rms_sa_at_high_depth > 0) || !std::isfinite(rms_sa_at_low_depth) ||
+      !std::isfinite(rms_sa_at_high_depth))
+    throw std::invalid_argument("rms_sa_wear_elasticity: RMS_SA values must be finite and > 0");
+  return std::log(rms_sa_at_high_depth / rms_sa_at_low_depth) / std::log(kElasticityDepthHigh / kElasticityDepthLow);
 }
 
 double inferred_k_wear(double rms_sa_measured, double rms_sa_model, double reference_k_wear, double elasticity) {

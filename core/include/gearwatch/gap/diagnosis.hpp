@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/record.hpp"
 #include "gearwatch/rig.hpp"
 
@@ -68,6 +69,16 @@ struct DiagnosisSettings {
   double min_rms_sa_wear_elasticity = 0.05;
   int rms_sa_harmonics = 2;        ///< N of RMS_SA(N) (seed Eq. 7.1), the measurement's setting
 };
+
+/// RMS_SA(N) (seed Eq. 7.1) from a record's input-order lines: the root of the summed power of the
+/// first `harmonics` mesh harmonics (the TSA's harmonics). Empty when the lines do not reach the
+/// N-th harmonic or hold no power there.
+std::optional<double> rms_sa_of_lines(const SpectralSummary& s, int pinion_teeth, int harmonics);
+
+/// The wear-depth factors at which a caller simulates the twin to read d ln RMS_SA / d ln K_wear
+/// (depth ∝ K_wear at a constant operating point, Archard), and that central difference in the log.
+inline constexpr double kElasticityDepthLow = 0.8, kElasticityDepthHigh = 1.25;
+double rms_sa_wear_elasticity(double rms_sa_at_low_depth, double rms_sa_at_high_depth);
 
 /// The K_wear that makes the model's RMS_SA equal the measured one when RMS_SA ∝ K^elasticity near
 /// the reference: K_ref · (RMS_meas / RMS_model)^(1/elasticity). Throws std::invalid_argument for
