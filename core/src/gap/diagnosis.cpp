@@ -329,15 +329,16 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   auto refine_rerun = [&](RerunSet& set, std::size_t start, const std::vector<AppliedEffect>& fx) {
     const auto grid = rerun_grid(set.effect);
     const auto ratios = rerun_grid_ratios(set.effect);
+    std::vector<double> low = grid.front(), high = grid.front();  // the grid's range along each parameter
+    for (const auto& g : grid)
+      for (std::size_t j = 0; j < g.size(); ++j) low[j] = std::min(low[j], g[j]), high[j] = std::max(high[j], g[j]);
     std::size_t best = start;
     double best_cost = training_cost(set.train[start], fx, gears);
     for (double fraction : {0.5, 0.25})
       for (std::size_t j = 0; j < ratios.size(); ++j)
         for (double direction : {-1.0, 1.0}) {
           auto v = set.values[best];
-          double low = v[j], high = v[j];
-          for (const auto& g : grid) low = std::min(low, g[j]), high = std::max(high, g[j]);
-          v[j] = std::clamp(v[j] * std::pow(ratios[j], direction * fraction), low, high);
+          v[j] = std::clamp(v[j] * std::pow(ratios[j], direction * fraction), low[j], high[j]);
           const std::size_t point = add_rerun_point(set, v);
           const double cost = training_cost(set.train[point], fx, gears);
           if (cost < best_cost) best_cost = cost, best = point;
@@ -387,6 +388,14 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (auto& r : ranked) report.candidates.push_back(std::move(r.second));
 
+  // The family gaps of one held-out evaluation without a bootstrap (its interval is the point).
+  auto point_gaps = [&](const auto& e) {
+    Assessment a;
+    a.point = e;
+    for (std::size_t f = 0; f < kFamilies; ++f) a.interval[f] = {e.distance_db(f), e.distance_db(f)};
+    return family_gaps(a, noise, settings, fixed_reason);
+  };
+
   // Greedy addition: the best candidate on top of the ones chosen so far, while it pays. A chosen
   // rerun candidate replaces the twin the later ones act on (one rerun at a time).
   std::vector<AppliedEffect> chosen;                 // the spectral effects, applied to the base twin
@@ -424,10 +433,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
         }
         const auto e = evaluator.evaluate(views(*test_base, models), true);
         const double ic = information_criterion(e, noise, fitted_count(values), settings.min_gap_db);
-        Assessment a;
-        a.point = e;
-        for (std::size_t f = 0; f < kFamilies; ++f) a.interval[f] = {e.distance_db(f), e.distance_db(f)};
-        const auto gaps = family_gaps(a, noise, settings, fixed_reason);
+        const auto gaps = point_gaps(e);
         const double own_before = own_distance(current_gaps, form.explains);
         const double shrink = own_before > 0 ? 1.0 - own_distance(gaps, form.explains) / own_before : 0.0;
         const bool explains_significant = std::any_of(current_gaps.begin(), current_gaps.end(), [&](const FamilyGap& g) {
@@ -452,10 +458,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
           const auto& refined_test = rerun_test(set, refined);
           const auto e = evaluator.evaluate(views(refined_test, models_of(refined_test, chosen, gears)), true);
           best_ic = information_criterion(e, noise, fitted_count(set.values[refined]), settings.min_gap_db);
-          Assessment a;
-          a.point = e;
-          for (std::size_t f = 0; f < kFamilies; ++f) a.interval[f] = {e.distance_db(f), e.distance_db(f)};
-          best_gaps = family_gaps(a, noise, settings, fixed_reason);
+          best_gaps = point_gaps(e);
           for (auto& candidate : report.candidates)
             if (candidate.effect == best->effect)
               for (std::size_t i = 0; i < candidate.parameters.size() && i < set.values[refined].size(); ++i)
