@@ -100,15 +100,15 @@ class TwinCache {
   }
   /// The twin re-run with a candidate's addition (the diagnosis's TwinRerun), cached: every scenario
   /// at these operating points asks for the same grid.
-  Record rerun(gap::CandidateEffect effect, const std::vector<double>& values, const Record& like) {
-    const auto key = std::make_tuple(static_cast<int>(effect), values, like.speed_hz, like.torque_nm);
+  Record rerun(gap::CandidateEffect effect, const std::vector<double>& values, const Record& like, double duration_s) {
+    const auto key = std::make_tuple(static_cast<int>(effect), values, like.speed_hz, like.torque_nm, duration_s);
     auto it = reruns_.find(key);
     if (it != reruns_.end()) return it->second;
     twin::SimulationOptions options;
     options.sample_rate_hz = fs_;
     twin::ToothProfileDeviation profile = wear_;
     gap::add_rerun_effect(effect, values, profile, options);
-    const auto s = twin::simulate_casing_signal(twin::GearboxParameters{}, profile, {like.speed_hz, like.torque_nm}, seconds_,
+    const auto s = twin::simulate_casing_signal(twin::GearboxParameters{}, profile, {like.speed_hz, like.torque_nm}, duration_s,
                                                 options);
     return reruns_.emplace(key, make_record(s.acceleration, s.tacho_edges, fs_, like.speed_hz, like.torque_nm))
         .first->second;
@@ -128,7 +128,7 @@ class TwinCache {
   double fs_, seconds_;
   twin::ToothProfileDeviation wear_;
   std::map<std::tuple<double, double, double>, Record> cache_;
-  std::map<std::tuple<int, std::vector<double>, double, double>, Record> reruns_;
+  std::map<std::tuple<int, std::vector<double>, double, double, double>, Record> reruns_;
   std::map<std::tuple<double, double, int>, double> elasticity_;
 };
 
@@ -220,8 +220,8 @@ ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects
   ds.floor_db = o.floor_db;
   for (const auto& in : held_out)
     ds.rms_sa_wear_elasticities.push_back(twins.elasticity(in.twin.speed_hz, in.twin.torque_nm, ds.rms_sa_harmonics));
-  ds.rerun_twin = [&twins](gap::CandidateEffect c, const std::vector<double>& values, const Record& like) {
-    return twins.rerun(c, values, like);
+  ds.rerun_twin = [&twins](gap::CandidateEffect c, const std::vector<double>& values, const Record& like, double duration_s) {
+    return twins.rerun(c, values, like, duration_s);
   };
   res.elasticities = ds.rms_sa_wear_elasticities;
   // The twin runs at the true wear state, so the K it was simulated with is the truth.

@@ -36,11 +36,13 @@ GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config) {
 
 namespace {
 
+/// The twin at `measured`'s operating point and rate, `duration_s` long (the record's length for
+/// the counterpart itself, shorter for a rerun).
 Record counterpart_record(const Record& measured, int channel, const twin::GearboxParameters& params,
-                          const twin::ToothProfileDeviation& profile, twin::SimulationOptions options) {
+                          const twin::ToothProfileDeviation& profile, twin::SimulationOptions options, double duration_s) {
   const twin::OperatingPoint op{measured.speed_hz, measured.torque_nm};
   options.sample_rate_hz = measured.sample_rate_hz;
-  const twin::CasingSignal signal = twin::simulate_casing_signal(params, profile, op, measured.duration_s(), options);
+  const twin::CasingSignal signal = twin::simulate_casing_signal(params, profile, op, duration_s, options);
   Record twin;
   twin.stream_key = measured.stream_key;
   twin.stream_id = measured.stream_id;
@@ -61,7 +63,7 @@ Record counterpart_record(const Record& measured, int channel, const twin::Gearb
 TwinCounterpart make_twin_counterpart(const twin::GearboxParameters& params, const config::GearwatchConfig& config) {
   const int channel = gap_channel(config);
   return [params, channel](const Record& measured, const wear::WearState& state) {
-    return counterpart_record(measured, channel, params, wear::to_profile_deviation(state), {});
+    return counterpart_record(measured, channel, params, wear::to_profile_deviation(state), {}, measured.duration_s());
   };
 }
 
@@ -69,11 +71,11 @@ TwinRerunCounterpart make_twin_rerun(const twin::GearboxParameters& params, cons
   if (!config.gap.rerun_twin) return {};
   const int channel = gap_channel(config);
   return [params, channel](const Record& measured, const wear::WearState& state, gap::CandidateEffect effect,
-                           const std::vector<double>& values) {
+                           const std::vector<double>& values, double duration_s) {
     twin::ToothProfileDeviation profile = wear::to_profile_deviation(state);
     twin::SimulationOptions options;
     gap::add_rerun_effect(effect, values, profile, options);
-    return counterpart_record(measured, channel, params, profile, options);
+    return counterpart_record(measured, channel, params, profile, options, duration_s);
   };
 }
 

@@ -45,9 +45,11 @@ using GapDiagnoser = std::function<gap::GapReport(const std::vector<gap::Diagnos
 /// wear state the model had reached at that record.
 using TwinCounterpart = std::function<Record(const Record& measured, const wear::WearState& state)>;
 
-/// The same with a rerun candidate's addition (gap::add_rerun_effect) at `values`.
-using TwinRerunCounterpart = std::function<Record(const Record& measured, const wear::WearState& state,
-                                                  gap::CandidateEffect effect, const std::vector<double>& values)>;
+/// The same with a rerun candidate's addition (gap::add_rerun_effect) at `values`, `duration_s` long
+/// (what the diagnosis asks for: gap::rerun_duration_s).
+using TwinRerunCounterpart =
+    std::function<Record(const Record& measured, const wear::WearState& state, gap::CandidateEffect effect,
+                         const std::vector<double>& values, double duration_s)>;
 
 /// What the periodic gap step calls; empty members are bound from the configuration when the
 /// model thread starts (gap_diagnoser.hpp). Tests inject their own. `rerun` stays empty when

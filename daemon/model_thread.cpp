@@ -429,10 +429,11 @@ void ModelThread::diagnose_gap() {
       std::map<std::pair<std::uint64_t, std::uint64_t>, const GapSample*> by_record;
       for (const auto* set : {&training_samples, &held_out_samples})
         for (const GapSample* s : *set) by_record[{s->measured->stream_id, s->measured->start_index}] = s;
-      context.rerun_twin = [this, by_record](gap::CandidateEffect effect, const std::vector<double>& values, const Record& like) {
+      context.rerun_twin = [this, by_record](gap::CandidateEffect effect, const std::vector<double>& values, const Record& like,
+                                             double duration_s) {
         const auto it = by_record.find({like.stream_id, like.start_index});
         if (it == by_record.end()) throw std::invalid_argument("gap: no kept record for a twin rerun");
-        return gap_.rerun(*it->second->measured, it->second->state, effect, values);
+        return gap_.rerun(*it->second->measured, it->second->state, effect, values, duration_s);
       };
     }
     // K_wear with and without the chosen effects: the twin's wear states came from the model's K_wear.

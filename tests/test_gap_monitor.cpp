@@ -394,20 +394,22 @@ TEST_CASE("gap step: the twin counterpart of a record has its length, rate, chan
   CHECK(std::isfinite(energy));
   CHECK(energy > 0);
 
-  SECTION("re-run with a candidate's addition: the twin simulated with that addition, sample for sample") {
+  SECTION("re-run with a candidate's addition: the twin simulated with that addition, as long as asked, sample for sample") {
     const auto rerun = daemon::make_twin_rerun(twin::GearboxParameters{}, cfg);
     REQUIRE(rerun);
     twin::SimulationOptions options;
     options.sample_rate_hz = 20000;
     options.face_misalignment_rad = 1e-4;
-    const auto direct = twin::simulate_casing_signal(twin::GearboxParameters{}, {}, {20, 15}, measured.duration_s(), options);
-    const Record misaligned = rerun(measured, wear::WearState{}, gap::CandidateEffect::misalignment, {1e-4});
+    const double duration_s = measured.duration_s() / 2;
+    const auto direct = twin::simulate_casing_signal(twin::GearboxParameters{}, {}, {20, 15}, duration_s, options);
+    REQUIRE(direct.acceleration.size() == static_cast<std::size_t>(std::lround(duration_s * 20000)));
+    const Record misaligned = rerun(measured, wear::WearState{}, gap::CandidateEffect::misalignment, {1e-4}, duration_s);
     CHECK(misaligned.channel_numbers == std::vector<int>{1});
     CHECK(misaligned.start_index == 12345);
     REQUIRE(misaligned.channels[0].size() == direct.acceleration.size());
     CHECK(misaligned.channels[0] == direct.acceleration);
     CHECK(misaligned.channels[0] != twin.channels[0]);
-    CHECK_THROWS_AS(rerun(measured, wear::WearState{}, gap::CandidateEffect::casing_mode, {1.0}), std::invalid_argument);
+    CHECK_THROWS_AS(rerun(measured, wear::WearState{}, gap::CandidateEffect::casing_mode, {1.0}, duration_s), std::invalid_argument);
   }
 }
 
