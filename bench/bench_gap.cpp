@@ -4,7 +4,7 @@
 // and held-out record. One core. Target: <= 30 s. The simulations are not timed, except in the
 // second figure: the same diagnosis with the misalignment and tip-relief candidates fitted by
 // re-running the twin over their grids (24 twin simulations, cached per value as a caller would,
-// each as long as gap::rerun_duration_s asks: 2 s here), which are part of that diagnosis's cost
+// each as long as gap::twin_duration_s asks: 2 s here), which are part of that diagnosis's cost
 // (made only when some family is significant).
 #include <map>
 #include <chrono>
@@ -60,7 +60,7 @@ int main() {
   report = gap::diagnose({pair}, {pair}, GearPairSpec{}, with_rerun);
   const double rerun_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("the same with the twin re-run for misalignment and tip relief (%zu simulations of %.0f s): chosen %s, %.2f s\n",
-              reruns.size(), gap::rerun_duration_s(pair.twin, with_rerun), report.chosen.empty() ? "none" : gap::to_string(report.chosen.front()), rerun_s);
+              reruns.size(), gap::twin_duration_s(pair.twin, with_rerun), report.chosen.empty() ? "none" : gap::to_string(report.chosen.front()), rerun_s);
   std::printf("BENCH name=gap_diagnosis_one_pair_with_twin_reruns figure=%.2f unit=s target=30 cmp=le met=%d\n", rerun_s,
               rerun_s <= 30 ? 1 : 0);
   return 0;

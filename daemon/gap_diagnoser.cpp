@@ -62,8 +62,12 @@ Record counterpart_record(const Record& measured, int channel, const twin::Gearb
 
 TwinCounterpart make_twin_counterpart(const twin::GearboxParameters& params, const config::GearwatchConfig& config) {
   const int channel = gap_channel(config);
-  return [params, channel](const Record& measured, const wear::WearState& state) {
-    return counterpart_record(measured, channel, params, wear::to_profile_deviation(state), {}, measured.duration_s());
+  // The twin repeats itself every revolution: a counterpart as long as the diagnosis's reruns
+  // (gap::twin_duration_s) reads the same spectra as one as long as the record, at a fraction of
+  // the cost on the model thread.
+  return [params, channel, settings = gap_diagnosis_settings(config)](const Record& measured, const wear::WearState& state) {
+    return counterpart_record(measured, channel, params, wear::to_profile_deviation(state), {},
+                              gap::twin_duration_s(measured, settings));
   };
 }
 

@@ -41,12 +41,13 @@ struct GapCallContext {
 using GapDiagnoser = std::function<gap::GapReport(const std::vector<gap::DiagnosisInput>&,
                                                   const std::vector<gap::DiagnosisInput>&, const GapCallContext&)>;
 
-/// The twin's simulation of a measured record: same speed, torque, length and sample rate, at the
-/// wear state the model had reached at that record.
+/// The twin's simulation of a measured record: same speed, torque and sample rate, at the wear state
+/// the model had reached at that record; as long as the record, but at most gap::twin_duration_s
+/// (2 s or 20 revolutions: the twin repeats itself every revolution).
 using TwinCounterpart = std::function<Record(const Record& measured, const wear::WearState& state)>;
 
 /// The same with a rerun candidate's addition (gap::add_rerun_effect) at `values`, `duration_s` long
-/// (what the diagnosis asks for: gap::rerun_duration_s).
+/// (what the diagnosis asks for: gap::twin_duration_s).
 using TwinRerunCounterpart =
     std::function<Record(const Record& measured, const wear::WearState& state, gap::CandidateEffect effect,
                          const std::vector<double>& values, double duration_s)>;

@@ -362,7 +362,7 @@ TEST_CASE("gap: candidates fitted by re-running the twin are named, with their v
       settings.rerun_twin = [&](CandidateEffect effect, const std::vector<double>& values, const Record& like,
                                 double duration_s) {
         ++reruns[effect];
-        // 0.8 s records, shorter than rerun_min_seconds: the rerun is asked for the record's length.
+        // 0.8 s records, shorter than twin_min_seconds: the rerun is asked for the record's length.
         CHECK(duration_s == like.duration_s());
         return twin_record(like.speed_hz, effect, values);
       };
@@ -409,14 +409,14 @@ TEST_CASE("gap: a rerun lasts the record, at most the longer of 2 s and 20 revol
     return single_channel_record(std::vector<float>(static_cast<std::size_t>(seconds * 1000), 0.0f), {}, 1000, speed, 20);
   };
   const DiagnosisSettings settings;
-  CHECK(rerun_duration_s(twin_of(10, 10), settings) == Approx(2.0));        // 20 revolutions take 2 s
-  CHECK(rerun_duration_s(twin_of(10, 20), settings) == Approx(2.0));        // 20 revolutions take 1 s: 2 s
-  CHECK(rerun_duration_s(twin_of(10, 2), settings) == Approx(10.0));        // 20 revolutions take 10 s
-  CHECK(rerun_duration_s(twin_of(30, 1.5), settings) == Approx(20 / 1.5));  // 13.3 s of a 30 s record
-  CHECK(rerun_duration_s(twin_of(0.8, 10), settings) == Approx(0.8));       // never longer than the record
+  CHECK(twin_duration_s(twin_of(10, 10), settings) == Approx(2.0));        // 20 revolutions take 2 s
+  CHECK(twin_duration_s(twin_of(10, 20), settings) == Approx(2.0));        // 20 revolutions take 1 s: 2 s
+  CHECK(twin_duration_s(twin_of(10, 2), settings) == Approx(10.0));        // 20 revolutions take 10 s
+  CHECK(twin_duration_s(twin_of(30, 1.5), settings) == Approx(20 / 1.5));  // 13.3 s of a 30 s record
+  CHECK(twin_duration_s(twin_of(0.8, 10), settings) == Approx(0.8));       // never longer than the record
   auto longer = settings;
-  longer.rerun_min_seconds = 5;
-  CHECK(rerun_duration_s(twin_of(10, 10), longer) == Approx(5.0));
+  longer.twin_min_seconds = 5;
+  CHECK(twin_duration_s(twin_of(10, 10), longer) == Approx(5.0));
 
   // Why the cap holds: the twin has no noise and a steady speed, so a 2 s run and a 6 s run give the
   // same family summaries (the known answer is 0 dB; what remains is the start-up's share).
@@ -438,9 +438,9 @@ TEST_CASE("gap: a rerun lasts the record, at most the longer of 2 s and 20 revol
   }
 
   auto bad = settings;
-  bad.rerun_min_seconds = 0;
+  bad.twin_min_seconds = 0;
   const Record ok = synthetic_record(10240, 10, 12, twin_tones());
-  CHECK_THROWS_WITH(diagnose({{ok, ok}}, {{ok, ok}}, GearPairSpec{}, bad), Catch::Contains("rerun_min_seconds"));
+  CHECK_THROWS_WITH(diagnose({{ok, ok}}, {{ok, ok}}, GearPairSpec{}, bad), Catch::Contains("twin_min_seconds"));
 }
 
 TEST_CASE("gap: bad input is refused with the reason", "[gap]") {

@@ -363,7 +363,7 @@ TEST_CASE("gap step: the twin's RMS_SA wear elasticity is read from counterparts
   CHECK_THROWS_AS(daemon::twin_rms_sa_wear_elasticity(silent, measured, state, 0, GearPairSpec{}, 2), std::invalid_argument);
 }
 
-TEST_CASE("gap step: the twin counterpart of a record has its length, rate, channel and operating point, with the tacho at its speed",
+TEST_CASE("gap step: the twin counterpart of a record has its length (2 s at most), rate, channel and operating point, with the tacho at its speed",
           "[twin_drift][daemon]") {
   auto cfg = config::parse_config("[model]\nchannel = 1\n", "test");
   const daemon::TwinCounterpart counterpart = daemon::make_twin_counterpart(twin::GearboxParameters{}, cfg);
@@ -393,6 +393,10 @@ TEST_CASE("gap step: the twin counterpart of a record has its length, rate, chan
   for (float v : twin.channels[0]) energy += static_cast<double>(v) * v;
   CHECK(std::isfinite(energy));
   CHECK(energy > 0);
+  // A 10 s record at 20 Hz: 20 revolutions take 1 s, so the counterpart is 2 s (gap::twin_duration_s).
+  Record long_record = measured;
+  long_record.channels = {std::vector<float>(200000, 0.0f), std::vector<float>(200000, 0.0f)};
+  CHECK(std::abs(static_cast<double>(counterpart(long_record, wear::WearState{}).channels[0].size()) - 40000.0) <= 1.0);
 
   SECTION("re-run with a candidate's addition: the twin simulated with that addition, as long as asked, sample for sample") {
     const auto rerun = daemon::make_twin_rerun(twin::GearboxParameters{}, cfg);

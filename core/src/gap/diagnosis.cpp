@@ -231,9 +231,9 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   if (training.empty()) throw std::invalid_argument("gap diagnosis needs training records: none given");
   if (held_out.empty()) throw std::invalid_argument("gap diagnosis needs held-out records: none given");
   if (settings.bootstrap_resamples < 10) throw std::invalid_argument("gap diagnosis needs >= 10 bootstrap resamples");
-  if (!(settings.rerun_min_seconds > 0) || !std::isfinite(settings.rerun_min_seconds) ||
-      !(settings.rerun_min_revolutions >= 0) || !std::isfinite(settings.rerun_min_revolutions))
-    throw std::invalid_argument("gap diagnosis: rerun_min_seconds must be finite and > 0, rerun_min_revolutions finite and >= 0");
+  if (!(settings.twin_min_seconds > 0) || !std::isfinite(settings.twin_min_seconds) ||
+      !(settings.twin_min_revolutions >= 0) || !std::isfinite(settings.twin_min_revolutions))
+    throw std::invalid_argument("gap diagnosis: twin_min_seconds must be finite and > 0, twin_min_revolutions finite and >= 0");
   if (settings.reference_k_wear) {
     if (!(*settings.reference_k_wear > 0) || !std::isfinite(*settings.reference_k_wear))
       throw std::invalid_argument("gap diagnosis: reference_k_wear must be finite and > 0");
@@ -283,7 +283,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       if (set.values[i] == v) return i;
     std::vector<SummaryPair> tr;
     for (std::size_t i = 0; i < train.size(); ++i) {
-      const Record rerun = settings.rerun_twin(set.effect, v, training[i].twin, rerun_duration_s(training[i].twin, settings));
+      const Record rerun = settings.rerun_twin(set.effect, v, training[i].twin, twin_duration_s(training[i].twin, settings));
       const auto p = with_rerun_twin(train[i], rerun, gears, settings);
       tr.push_back({p.measured_all, p.twin_all, p.floor});
     }
@@ -311,7 +311,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       std::vector<PairSpectra> te;
       for (std::size_t i = 0; i < test.size(); ++i)
         te.push_back(with_rerun_twin(test[i], settings.rerun_twin(set.effect, set.values[g], held_out[i].twin,
-                                                            rerun_duration_s(held_out[i].twin, settings)), gears, settings));
+                                                            twin_duration_s(held_out[i].twin, settings)), gears, settings));
       set.test[g] = std::move(te);
     }
     return *set.test[g];
@@ -559,10 +559,10 @@ double rms_sa_wear_elasticity(double rms_sa_at_low_depth, double rms_sa_at_high_
   return std::log(rms_sa_at_high_depth / rms_sa_at_low_depth) / std::log(kElasticityDepthHigh / kElasticityDepthLow);
 }
 
-double rerun_duration_s(const Record& twin_record, const DiagnosisSettings& settings) {
-  double cap = settings.rerun_min_seconds;
-  if (twin_record.speed_hz > 0) cap = std::max(cap, settings.rerun_min_revolutions / twin_record.speed_hz);
-  return std::min(twin_record.duration_s(), cap);
+double twin_duration_s(const Record& record, const DiagnosisSettings& settings) {
+  double cap = settings.twin_min_seconds;
+  if (record.speed_hz > 0) cap = std::max(cap, settings.twin_min_revolutions / record.speed_hz);
+  return std::min(record.duration_s(), cap);
 }
 
 double inferred_k_wear(double rms_sa_measured, double rms_sa_model, double reference_k_wear, double elasticity) {

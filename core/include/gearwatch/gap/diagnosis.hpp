@@ -24,7 +24,7 @@ struct DiagnosisInput {
 
 /// The twin re-run with one candidate's addition at `values` (a point of its `rerun_grid`, named by
 /// `rerun_parameter_names`), at the operating point of `twin_record` (its speed, torque and rate),
-/// `duration_s` long (rerun_duration_s(): the twin is deterministic, so a rerun need not be as long
+/// `duration_s` long (twin_duration_s(): the twin is deterministic, so a rerun need not be as long
 /// as the record it stands for). Candidates that change the twin's dynamics (misalignment: a pair
 /// carrying load over part of the face stiffens with load; tip relief: a relieved tip engages as the
 /// load deflects it) have no spectral form that stands in for them; with a rerun the diagnosis fits
@@ -50,12 +50,14 @@ struct DiagnosisSettings {
   /// When set, candidates with a rerun grid (rerun_grid()) are fitted by re-running the twin; when
   /// empty they fall back to their spectral forms.
   TwinRerun rerun_twin;
-  /// A rerun lasts the record's length, but at most the longer of these two (rerun_duration_s()).
-  /// The twin has no noise and runs at a steady speed, so its lines repeat every revolution: 2 s
-  /// against 10 s changed no family's distance by more than 0.02 dB (docs/gap.md), against a 1 dB
-  /// `min_gap_db`. Each rerun is one twin simulation, the diagnosis's largest cost.
-  double rerun_min_seconds = 2.0;
-  double rerun_min_revolutions = 20;  ///< input revolutions: enough for the bootstrap at low speed
+  /// A twin run standing for a record lasts the record's length, but at most the longer of these
+  /// two (twin_duration_s()): the diagnosis asks its reruns for that, and a caller may simulate its
+  /// counterparts that long too. The twin has no noise and runs at a steady speed, so its lines
+  /// repeat every revolution: 2 s against 10 s changed no family's distance by more than 0.02 dB
+  /// (docs/gap.md), against a 1 dB `min_gap_db`. Each is one twin simulation, the diagnosis's
+  /// largest cost.
+  double twin_min_seconds = 2.0;
+  double twin_min_revolutions = 20;  ///< input revolutions: enough for the bootstrap at low speed
   std::size_t min_revolutions = 4; ///< whole input revolutions a record needs
   /// K_wear inference (seed Eq. 7.13 taken to its fixed point: the K_wear at which the twin's RMS_SA
   /// equals the measured one). When set, the K_wear the twin's records were simulated with; the
@@ -92,9 +94,10 @@ double rms_sa_wear_elasticity(double rms_sa_at_low_depth, double rms_sa_at_high_
 /// non-positive RMS values or K_ref, or a zero/non-finite elasticity.
 double inferred_k_wear(double rms_sa_measured, double rms_sa_model, double reference_k_wear, double elasticity);
 
-/// How long the diagnosis asks a twin rerun standing for `twin_record` to last: the record's length,
-/// but at most the longer of `rerun_min_seconds` and `rerun_min_revolutions` at its speed.
-double rerun_duration_s(const Record& twin_record, const DiagnosisSettings& settings);
+/// How long a twin run standing for `record` (a rerun of its twin, or the twin counterpart of a
+/// measured record) needs to last: the record's length, but at most the longer of
+/// `twin_min_seconds` and `twin_min_revolutions` at its speed.
+double twin_duration_s(const Record& record, const DiagnosisSettings& settings);
 
 /// Throws std::invalid_argument naming the reason for inputs that cannot be diagnosed (no training
 /// or no held-out records, mismatched rates, records shorter than the minimum). Families the records
