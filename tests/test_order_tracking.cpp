@@ -2,6 +2,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -164,4 +165,36 @@ TEST_CASE("Order tracking puts a fluctuating-speed order into one bin", "[dsp][o
   CHECK(order19 / total == Approx(0.8).epsilon(1e-4));
   // Amplitude: |X| = A L / 2.
   CHECK(2 * std::sqrt(order19) / double(resampled.size()) == Approx(1.0).epsilon(1e-3));
+}
+
+TEST_CASE("Shaft angle from one edge per revolution follows a slow speed ripple and aliases one faster than half the shaft speed",
+          "[dsp][order_tracking]") {
+  // Speed f0 (1 + d sin 2π fm t): the angle ripple is f0 d / (2π fm) revolutions. The spline of edge
+  // times interpolates it between edges one revolution apart, so its error is the cubic spline's,
+  // at most (5/384) (2π fm/f0)^4 of the ripple (the classic bound for an interpolated sinusoid).
+  // Above fm/f0 = 1/2 the edges cannot hold the ripple (the sampling theorem at one sample per
+  // revolution): the spline follows an alias, and the residual is at least the ripple itself.
+  const double f0 = 10, depth = 0.01, rate = 100000;
+  auto residual_share = [&](double ratio) {
+    const double fm = ratio * f0;
+    const double ripple_revs = f0 * depth / (2 * kPi * fm);
+    auto angle_revs = [&](double t) { return f0 * t - ripple_revs * (std::cos(2 * kPi * fm * t) - 1); };
+    std::vector<double> edges;
+    double t = 0;
+    for (int m = 0; m < 200; ++m) {
+      for (int iter = 0; iter < 50; ++iter) t -= (angle_revs(t) - m) / (f0 * (1 + depth * std::sin(2 * kPi * fm * t)));
+      edges.push_back(t * rate);
+    }
+    ShaftAngle angle;
+    REQUIRE(angle.assign(edges, 1, 1.0).ok());
+    double worst = 0;
+    for (double revs = 20; revs < 180; revs += 0.01) worst = std::max(worst, std::abs(angle_revs(angle.time_at(revs) / rate) - revs));
+    return worst / ripple_revs;
+  };
+  for (double ratio : {0.05, 0.1, 0.2}) {
+    INFO("fm/f0 = " << ratio);
+    CHECK(residual_share(ratio) <= 5.0 / 384.0 * std::pow(2 * kPi * ratio, 4));
+  }
+  CHECK(residual_share(0.6) >= 1.0);
+  CHECK(residual_share(0.8) >= 1.0);
 }
