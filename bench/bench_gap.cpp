@@ -53,14 +53,16 @@ int main() {
     o.sample_rate_hz = fs;
     twin::ToothProfileDeviation profile;
     gap::add_rerun_effect(effect, values, profile, o);
-    const auto s = twin::simulate_casing_signal(twin::GearboxParameters{}, profile, {like.speed_hz, like.torque_nm}, duration_s, o);
+    const auto s =
+        twin::simulate_casing_signal(twin::GearboxParameters{}, profile, {like.speed_hz, like.torque_nm}, duration_s, o);
     return reruns.emplace(key, record(s.acceleration, s.tacho_edges)).first->second;
   };
   const auto t0 = std::chrono::steady_clock::now();
   report = gap::diagnose({pair}, {pair}, GearPairSpec{}, with_rerun);
   const double rerun_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("the same with the twin re-run for misalignment and tip relief (%zu simulations of %.0f s): chosen %s, %.2f s\n",
-              reruns.size(), gap::twin_duration_s(pair.twin, with_rerun), report.chosen.empty() ? "none" : gap::to_string(report.chosen.front()), rerun_s);
+              reruns.size(), gap::twin_duration_s(pair.twin, with_rerun),
+              report.chosen.empty() ? "none" : gap::to_string(report.chosen.front()), rerun_s);
   std::printf("BENCH name=gap_diagnosis_one_pair_with_twin_reruns figure=%.2f unit=s target=30 cmp=le met=%d\n", rerun_s,
               rerun_s <= 30 ? 1 : 0);
   return 0;

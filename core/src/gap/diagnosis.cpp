@@ -233,7 +233,8 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   if (settings.bootstrap_resamples < 10) throw std::invalid_argument("gap diagnosis needs >= 10 bootstrap resamples");
   if (!(settings.twin_min_seconds > 0) || !std::isfinite(settings.twin_min_seconds) ||
       !(settings.twin_min_revolutions >= 0) || !std::isfinite(settings.twin_min_revolutions))
-    throw std::invalid_argument("gap diagnosis: twin_min_seconds must be finite and > 0, twin_min_revolutions finite and >= 0");
+    throw std::invalid_argument(
+        "gap diagnosis: twin_min_seconds must be finite and > 0, twin_min_revolutions finite and >= 0");
   if (settings.reference_k_wear) {
     if (!(*settings.reference_k_wear > 0) || !std::isfinite(*settings.reference_k_wear))
       throw std::invalid_argument("gap diagnosis: reference_k_wear must be finite and > 0");
@@ -283,8 +284,9 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       if (set.values[i] == v) return i;
     std::vector<SummaryPair> tr;
     for (std::size_t i = 0; i < train.size(); ++i) {
-      const Record rerun = settings.rerun_twin(set.effect, v, training[i].twin, twin_duration_s(training[i].twin, settings));
-      const auto p = with_rerun_twin(train[i], rerun, gears, settings);
+      const Record& like = training[i].twin;
+      const auto p = with_rerun_twin(train[i], settings.rerun_twin(set.effect, v, like, twin_duration_s(like, settings)), gears,
+                                     settings);
       tr.push_back({p.measured_all, p.twin_all, p.floor});
     }
     set.values.push_back(v);
@@ -309,9 +311,11 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   auto rerun_test = [&](RerunSet& set, std::size_t g) -> const std::vector<PairSpectra>& {
     if (!set.test[g]) {
       std::vector<PairSpectra> te;
-      for (std::size_t i = 0; i < test.size(); ++i)
-        te.push_back(with_rerun_twin(test[i], settings.rerun_twin(set.effect, set.values[g], held_out[i].twin,
-                                                            twin_duration_s(held_out[i].twin, settings)), gears, settings));
+      for (std::size_t i = 0; i < test.size(); ++i) {
+        const Record& like = held_out[i].twin;
+        te.push_back(with_rerun_twin(test[i], settings.rerun_twin(set.effect, set.values[g], like, twin_duration_s(like, settings)),
+                                     gears, settings));
+      }
       set.test[g] = std::move(te);
     }
     return *set.test[g];
