@@ -19,7 +19,6 @@
 #include "commands.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
-#include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/rig/rig_simulator.hpp"
 #include "gearwatch/rig/wear_truth.hpp"
 #include "gearwatch/twin/simulation.hpp"
@@ -68,8 +67,7 @@ struct BenchOptions {
 /// RMS_SA(N) (seed Eq. 7.1) from the diagnosis's own input-order lines, so the elasticity is read
 /// the way the diagnosis reads RMS_SA.
 double rms_sa_of(const Record& r, int harmonics) {
-  const GearPairSpec gears{};
-  const auto rms = gap::rms_sa_of_lines(gap::RecordSpectra(r, 0, gears).summary(), gears.pinion_teeth, harmonics);
+  const auto rms = gap::rms_sa_of_record(r, 0, GearPairSpec{}, harmonics);
   if (!rms) throw std::invalid_argument("gap bench: the twin's RMS_SA(" + std::to_string(harmonics) + ") is not positive");
   return *rms;
 }

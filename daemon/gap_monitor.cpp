@@ -1,12 +1,9 @@
 #include "gap_monitor.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 #include <string>
-
-#include "gearwatch/gap/spectra.hpp"
 
 namespace gearwatch::daemon {
 
@@ -52,8 +49,7 @@ double twin_rms_sa_wear_elasticity(const TwinCounterpart& twin, const Record& me
     wear::WearState scaled = state;
     for (auto& d : scaled.pinion_depth_m) d *= scale;
     for (auto& d : scaled.gear_depth_m) d *= scale;
-    const auto rms = gap::rms_sa_of_lines(gap::RecordSpectra(twin(measured, scaled), channel, gears).summary(),
-                                          gears.pinion_teeth, harmonics);
+    const auto rms = gap::rms_sa_of_record(twin(measured, scaled), channel, gears, harmonics);
     if (!rms)
       throw std::invalid_argument("twin RMS_SA(" + std::to_string(harmonics) + ") is not positive at wear depths x" +
                                   std::to_string(scale) + ": no K_wear sensitivity");

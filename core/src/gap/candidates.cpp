@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <numbers>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -216,9 +218,15 @@ void add_rerun_effect(CandidateEffect effect, const std::vector<double>& values,
 }
 
 std::vector<double> rerun_grid_ratios(CandidateEffect effect) {
-  if (effect == CandidateEffect::misalignment) return {std::pow(100.0, 1.0 / 8.0)};
-  if (effect == CandidateEffect::tip_relief) return {2.0, 2.0};
-  return {};
+  // Read off the grid itself, so the refinement's step follows any change of the grid.
+  const auto grid = rerun_grid(effect);
+  std::vector<double> ratios;
+  for (std::size_t j = 0; !grid.empty() && j < grid.front().size(); ++j) {
+    std::set<double> along;
+    for (const auto& point : grid) along.insert(point[j]);
+    ratios.push_back(along.size() > 1 ? *std::next(along.begin()) / *along.begin() : 1.0);
+  }
+  return ratios;
 }
 
 std::vector<std::string> rerun_parameter_names(CandidateEffect effect) {

@@ -556,6 +556,10 @@ std::optional<double> rms_sa_of_lines(const SpectralSummary& s, int pinion_teeth
   return e > 0 && std::isfinite(e) ? std::optional<double>(std::sqrt(e)) : std::nullopt;
 }
 
+std::optional<double> rms_sa_of_record(const Record& record, int channel, const GearPairSpec& gears, int harmonics) {
+  return rms_sa_of_lines(RecordSpectra(record, channel, gears).summary(), gears.pinion_teeth, harmonics);
+}
+
 double rms_sa_wear_elasticity(double rms_sa_at_low_depth, double rms_sa_at_high_depth) {
   if (!(rms_sa_at_low_depth > 0) || !(rms_sa_at_high_depth > 0) || !std::isfinite(rms_sa_at_low_depth) ||
       !std::isfinite(rms_sa_at_high_depth))

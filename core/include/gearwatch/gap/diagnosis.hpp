@@ -83,6 +83,9 @@ struct DiagnosisSettings {
 /// first `harmonics` mesh harmonics (the TSA's harmonics). Empty when the lines do not reach the
 /// N-th harmonic or hold no power there.
 std::optional<double> rms_sa_of_lines(const SpectralSummary& s, int pinion_teeth, int harmonics);
+/// The same read from a record's `channel` through the diagnosis's own order tracking
+/// (RecordSpectra, which throws std::invalid_argument for a record it cannot read).
+std::optional<double> rms_sa_of_record(const Record& record, int channel, const GearPairSpec& gears, int harmonics);
 
 /// The wear-depth factors at which a caller simulates the twin to read d ln RMS_SA / d ln K_wear
 /// (depth ∝ K_wear at a constant operating point, Archard), and that central difference in the log.
