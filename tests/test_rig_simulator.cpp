@@ -297,6 +297,33 @@ TEST_CASE("rig: the mounting resonance amplifies the noise floor by the transmis
   CHECK(ra / rb == Approx(expected).epsilon(0.05));
 }
 
+TEST_CASE("rig: below its resonance the mount follows the analog transmissibility, not a warped one", "[rig]") {
+  // A 40 kHz mount at fs = 100 kHz: the PSD ratio with/without it at f is the analog
+  // |T(r)|² = (1 + (2ζr)²)/((1 − r²)² + (2ζr)²), r = f/fn. A bilinear transform prewarped at fn
+  // would give 0.9, 1.5 and 2.6 dB at 24, 28 and 32 kHz instead of the analog 3.9, 5.8 and 8.7 dB.
+  const double fn = 40000, zeta = 0.05;
+  rig::EffectSet with = rig::EffectSet::parse("mounting");
+  with.set("mounting.frequency_hz", fn);
+  with.set("mounting.damping_ratio", zeta);
+  rig::RigRunSettings s;
+  s.duration_s = 0.3;
+  s.channels = 1;
+  rig::SlidingVibration sliding;
+  sliding.abrasion_rms_m_s2 = 5.0;  // 22-34 kHz band noise: a wide-band input below the mount
+  const auto a = run(with, s, {}, sliding), b = run({}, s, {}, sliding);
+  const std::vector<double> xa(a.acceleration[0].begin(), a.acceleration[0].end()), xb(b.acceleration[0].begin(), b.acceleration[0].end());
+  const auto wa = welch(xa, nullptr, s.sample_rate_hz, 1000), wb = welch(xb, nullptr, s.sample_rate_hz, 1000);
+  for (double f : {24000.0, 28000.0, 32000.0}) {
+    const std::size_t k = static_cast<std::size_t>(f / wa.df);
+    double ra = 0, rb = 0;
+    for (std::size_t i = k - 2; i <= k + 2; ++i) ra += wa.psd[i], rb += wb.psd[i];
+    const double r = f / fn, c = 2 * zeta * r;
+    const double expected = (1 + c * c) / ((1 - r * r) * (1 - r * r) + c * c);
+    INFO(f << " Hz: PSD ratio " << ra / rb << ", analog " << expected);
+    CHECK(ra / rb == Approx(expected).epsilon(0.05));
+  }
+}
+
 TEST_CASE("rig: tooth-to-tooth spacing errors appear tooth by tooth in the synchronous transmission error", "[rig]") {
   // Quasi-static (0.5 Hz): in a tooth's single-contact zone delta + e_n = F/k(s), e_n = -spacing_n,
   // so the mean deflection there, tooth by tooth, is the configured pattern plus a constant.

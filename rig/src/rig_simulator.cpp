@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <limits>
 #include <numbers>
 #include <string>
 
+#include "gearwatch/dsp/fft.hpp"
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/twin/gear_geometry.hpp"
 #include "random.hpp"
@@ -64,19 +66,32 @@ Biquad butterworth_section(double cutoff_hz, double fs, bool high_pass) {
 }
 
 /// The accelerometer on its mount, a base-excited single-DOF system: absolute-acceleration
-/// transmissibility (2ζω s + ω²)/(s² + 2ζω s + ω²), bilinear transform prewarped at ω (exact at
-/// the resonance) when it lies below 0.45 fs.
-Biquad mounting_filter(double f_hz, double zeta, double fs) {
-  const double w_analog = 2.0 * std::numbers::pi * f_hz;
-  const double w = f_hz < 0.45 * fs ? std::tan(std::numbers::pi * f_hz / fs) : w_analog / (2.0 * fs);
-  const double a0 = 1.0 + 2.0 * zeta * w + w * w;
-  Biquad b;
-  b.b0 = (2.0 * zeta * w + w * w) / a0;
-  b.b1 = 2.0 * w * w / a0;
-  b.b2 = (w * w - 2.0 * zeta * w) / a0;
-  b.a1 = (2.0 * w * w - 2.0) / a0;
-  b.a2 = (1.0 - 2.0 * zeta * w + w * w) / a0;
-  return b;
+/// transmissibility H(f) = (1 + j2ζr)/(1 − r² + j2ζr), r = f/fn, applied in the frequency domain so
+/// that the record sees the analog mount's response at every frequency. (A bilinear transform is
+/// exact at one frequency and warps the others towards Nyquist: prewarped at a 40 kHz mount with
+/// fs = 100 kHz, it gave 20 kHz the response the mount has at 9.4 kHz.) The record is extended by
+/// its mirror image at both ends first, long enough for the mount's ringing to die away, so the
+/// circular transform sees no jump at the record's edges.
+void apply_mount(std::vector<double>& x, double fn_hz, double zeta, double fs) {
+  const std::size_t n = x.size();
+  if (n < 2) return;
+  const double decay_samples = fs / (2.0 * std::numbers::pi * fn_hz * zeta);  // 1/e time of the ringing
+  const std::size_t pad = std::min(n - 1, static_cast<std::size_t>(std::ceil(12.0 * decay_samples)) + 16);
+  const std::size_t size = dsp::next_smooth_size(n + 2 * pad);
+  const dsp::RealFft fft(size);
+  dsp::RealBuffer buffer(size, 0.0);
+  for (std::size_t i = 0; i < pad; ++i) buffer[i] = x[pad - i];                 // mirrored head
+  std::copy(x.begin(), x.end(), buffer.begin() + static_cast<std::ptrdiff_t>(pad));
+  for (std::size_t i = 0; i < pad; ++i) buffer[pad + n + i] = x[n - 2 - i];     // mirrored tail
+  dsp::ComplexBuffer spectrum(fft.spectrum_size());
+  fft.forward(buffer, spectrum);
+  for (std::size_t k = 0; k < spectrum.size(); ++k) {
+    const double r = static_cast<double>(k) * fs / static_cast<double>(size) / fn_hz;
+    const std::complex<double> h = std::complex<double>(1.0, 2.0 * zeta * r) / std::complex<double>(1.0 - r * r, 2.0 * zeta * r);
+    spectrum[k] *= h / static_cast<double>(size);
+  }
+  fft.inverse(spectrum, buffer);
+  std::copy(buffer.begin() + static_cast<std::ptrdiff_t>(pad), buffer.begin() + static_cast<std::ptrdiff_t>(pad + n), x.begin());
 }
 
 /// Unit-RMS Gaussian noise in [low, high] Hz (two Butterworth sections each side).
@@ -273,11 +288,7 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
   }
   if (effects.enabled(Effect::mounting)) {
     for (int c = 0; c < s.channels; ++c) {
-      Biquad b = mounting_filter(effects.get("mounting.frequency_hz"), effects.get("mounting.damping_ratio"), fs);
-      // Start the filter at rest with the first sample as a steady input.
-      const double x0 = ch[c].empty() ? 0.0 : ch[c][0];
-      for (int i = 0; i < 2000; ++i) b(x0);
-      for (auto& v : ch[c]) v = b(v);
+      apply_mount(ch[c], effects.get("mounting.frequency_hz"), effects.get("mounting.damping_ratio"), fs);
     }
   }
   if (effects.enabled(Effect::noise)) {
