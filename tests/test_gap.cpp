@@ -523,6 +523,28 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
   }
 }
 
+TEST_CASE("gap: noise_floor fitted on records with white noise of a known PSD recovers the PSD", "[gap]") {
+  // One-sided PSD S of white noise with per-sample variance σ² at fs: S = 2σ²/fs. In the spectra a
+  // 1-order bin holds 2·S·speed, so a floor fitted per order at one speed would be wrong at another
+  // by their ratio; the form is in Hz and must find S from records at 8 and 14 Hz alike.
+  const double fs = 10240, sigma = 0.02, psd = 2 * sigma * sigma / fs;
+  CHECK(noise_floor_per_order_bin(psd, 10.0) == Approx(4 * sigma * sigma / 1024));  // the 4σ²/spr of a 1024-sample revolution
+  std::vector<SummaryPair> training;
+  std::uint64_t seed = 31;
+  for (double speed : {8.0, 14.0}) {
+    const auto twin = RecordSpectra(synthetic_record(fs, speed, 48, twin_tones()), 0, GearPairSpec{}).summary();
+    const auto measured = RecordSpectra(synthetic_record(fs, speed, 48, twin_tones(), sigma, seed++), 0, GearPairSpec{}).summary();
+    double total = 0;
+    for (double v : twin.input_lines) total += v;
+    training.push_back({measured, twin, total * std::pow(10.0, DiagnosisSettings{}.floor_db / 10.0)});
+  }
+  const auto fitted = fit_candidate(CandidateEffect::noise_floor, {}, training, GearPairSpec{});
+  REQUIRE(fitted.size() == 1);
+  // ±10 %: each 1-order bin has ~90 degrees of freedom (47 blocks, two half-order bins), and
+  // thousands of bins are fitted at once; the synchronous means remove 1/R of the noise.
+  CHECK(fitted[0] == Approx(psd).epsilon(0.10));
+}
+
 TEST_CASE("gap: the closed-form candidates (per-harmonic gains, Hz-band transfer path) recover their gains", "[gap]") {
   SECTION("tip_relief: one gain per mesh harmonic at the records' load") {
     // Values: the load (N·m), then the gains; the generated records are at 20 N·m.

@@ -72,12 +72,17 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
       break;
     }
     case CandidateEffect::noise_floor: {
-      const double n0 = v[0];
-      for (auto& b : s.broadband) b += n0;
-      for (auto& p : s.input_lines) p += n0 / std::max(1.0, s.input_line_averages);
+      // A white floor of one-sided PSD S is white in Hz, not in orders: a bin one shaft order wide
+      // is `speed` Hz wide and holds 2·S·speed (peak-amplitude² convention, as a tone of amplitude A
+      // holds A²). A synchronous line is the mean of R one-revolution DFTs, each bin a shaft order
+      // wide; the output shaft's orders are z1/z2 as wide in Hz as the input's.
+      const double per_input_order = noise_floor_per_order_bin(v[0], s.speed_hz);
+      for (auto& b : s.broadband) b += per_input_order;
+      for (auto& p : s.input_lines) p += per_input_order / std::max(1.0, s.input_line_averages);
+      const double per_output_order = noise_floor_per_order_bin(v[0], out_speed);
       for (std::size_t m = 1; m <= s.output_lines.size(); ++m)
         if (m % static_cast<std::size_t>(z2) != 0)
-          s.output_lines[m - 1] += n0 / std::max(1.0, s.output_line_averages);
+          s.output_lines[m - 1] += per_output_order / std::max(1.0, s.output_line_averages);
       break;
     }
     case CandidateEffect::eccentricity: {
@@ -167,6 +172,8 @@ double transfer_path_gain_db(const std::vector<double>& gains, double f_hz) {
   const double t = x - static_cast<double>(i);
   return (1 - t) * gains[i] + t * gains[i + 1];
 }
+
+double noise_floor_per_order_bin(double psd_per_hz, double shaft_speed_hz) noexcept { return 2.0 * psd_per_hz * shaft_speed_hz; }
 
 double load_key(double torque_nm) noexcept { return std::isfinite(torque_nm) ? std::round(torque_nm * 100) / 100 : -1.0; }
 
@@ -261,7 +268,7 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
               2};
     case CandidateEffect::noise_floor:
       return {effect,
-              {{"floor_per_order_bin", 1e-16, 1e4, true, 21}},
+              {{"psd_per_hz", 1e-18, 1e3, true, 22}},
               {FK::broadband, FK::input_shaft_orders, FK::output_shaft_orders, FK::input_sidebands,
                FK::output_sidebands},
               3};

@@ -6,7 +6,9 @@
 //                     twin's response, so the ratio has peaks and notches): a gain per 1/12-octave
 //                     band from 10 Hz, interpolated linearly in log f between band centres
 //   mount_resonance   base-excited 1-DOF transmissibility: P·(1 + (2ζr)²)/((1 − r²)² + (2ζr)²), r = f/fn
-//   noise_floor       additive white floor N0 per 1-order bin; N0/R on each synchronous line
+//   noise_floor       additive white floor of one-sided PSD S (per Hz): 2·S·speed in each 1-order
+//                     bin (white in Hz, so its level per order grows with the speed), that over R on
+//                     each synchronous line (R its averages; the output's orders z1/z2 as wide)
 //   eccentricity      AM at shaft order 1: sidebands n·z ± 1 gain (a²/4)·P(n·GMF) on each shaft; a at
 //                     each load (the run-out excites the same at any load, the twin's mesh ∝ load)
 //   tooth_errors      per-tooth pattern: every non-mesh line of a shaft gains c·E(order), E the
@@ -91,6 +93,9 @@ double transfer_path_gain_db(const std::vector<double>& band_gains_db, double f_
 
 /// How many per-harmonic gains the tip_relief form has at this sample rate.
 int tip_relief_harmonics(double sample_rate_hz);
+/// The power a white floor of one-sided PSD `psd_per_hz` puts in one order bin of a shaft turning
+/// at `shaft_speed_hz` (a bin `shaft_speed_hz` wide), in the spectra's peak-amplitude² convention.
+double noise_floor_per_order_bin(double psd_per_hz, double shaft_speed_hz) noexcept;
 /// The load key of a record's torque (−1 when it has none), as per-load forms group records.
 double load_key(double torque_nm) noexcept;
 /// A per-load form's values for a record at `torque_nm`: the group of the nearest load, without
