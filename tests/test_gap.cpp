@@ -79,6 +79,19 @@ DiagnosisSettings fast_settings() {
 
 }  // namespace
 
+TEST_CASE("gap: the sideband families are the first sidebands n·z ± 1; other non-mesh orders are the shaft's", "[gap]") {
+  REQUIRE(kSidebandOrders == 1);
+  // Pinion, 19 teeth: 19 and 38 are mesh harmonics, 18/20 and 37/39 their first sidebands.
+  CHECK(input_line_family(19, kZ1) == FamilyKind::mesh_harmonics);
+  CHECK(input_line_family(38, kZ1) == FamilyKind::mesh_harmonics);
+  for (int k : {18, 20, 37, 39}) CHECK(input_line_family(k, kZ1) == FamilyKind::input_sidebands);
+  for (int k : {1, 2, 17, 21, 28, 36, 40}) CHECK(input_line_family(k, kZ1) == FamilyKind::input_shaft_orders);
+  // Gear, 52 teeth: order 1 is the shaft's own line, not a sideband of a harmonic 0.
+  for (int m : {51, 53, 103, 105}) CHECK(output_line_family(m, kZ2) == FamilyKind::output_sidebands);
+  for (int m : {1, 2, 26, 50, 54, 102}) CHECK(output_line_family(m, kZ2) == FamilyKind::output_shaft_orders);
+  CHECK(output_line_is_mesh(104, kZ2));
+}
+
 TEST_CASE("gap: a known line change lands in its own family with the closed-form dB", "[gap]") {
   const double fs = 10240, speed = 10;  // 1024 samples per revolution: the angle grid is the time grid
   struct Case {
@@ -86,13 +99,16 @@ TEST_CASE("gap: a known line change lands in its own family with the closed-form
     double order;        // the tone changed (input orders)
     int lines_in_family; // lines of that family in the band (0.45·fs / speed = 460 input orders)
   };
-  // Input orders 1..460; output orders 1..1260 (460·52/19), mesh orders (multiples of 52) excluded.
+  // Input orders 1..460; output orders 1..1261 (0.45·fs over the output speed 10·19/52 Hz), mesh
+  // orders (multiples of 52) excluded. Every mesh harmonic in the band (the last 24·19 = 456 and
+  // 24·52 = 1248) has its kSidebandOrders sidebands on each side inside it too.
   const int mesh = 460 / kZ1;                                  // 24
-  const int input_shaft = kZ1 - (kZ1 - 1) / 2 - 1;             // orders 1..9
-  const int input_sidebands = 460 - mesh - input_shaft;
+  const int input_sidebands = 2 * kSidebandOrders * mesh;      // 48 for m = ±1
+  const int input_shaft = 460 - mesh - input_sidebands;
   const int k_out = static_cast<int>(std::floor(0.45 * fs / (speed * kZ1 / kZ2)));
-  const int output_shaft = kZ2 - (kZ2 - 1) / 2 - 1;            // orders 1..26
-  const int output_sidebands = k_out - k_out / kZ2 - output_shaft;
+  const int output_sidebands = 2 * kSidebandOrders * (k_out / kZ2);
+  const int output_shaft = k_out - k_out / kZ2 - output_sidebands;
+  REQUIRE(k_out == 1261);
   const std::vector<Case> cases{{FamilyKind::mesh_harmonics, 38, mesh},
                                 {FamilyKind::input_shaft_orders, 3, input_shaft},
                                 {FamilyKind::input_sidebands, 20, input_sidebands},
@@ -505,7 +521,7 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
   const std::vector<Case> cases{
       {CandidateEffect::mount_resonance, {30000, 0.05}, 0.02},
       {CandidateEffect::noise_floor, {1e-4}, 0.02},
-      {CandidateEffect::eccentricity, {20, 0.1, 0.2}, 0.02},  // per load
+      {CandidateEffect::eccentricity, {20, 0.1, 0.01, 0.2, 0.005}, 0.02},  // per load: AM and PM per harmonic, each shaft
       {CandidateEffect::tooth_errors, {20, 1e-3, 2e-3, 5e-4}, 0.02},  // per load: the records' 20 N·m, then its gains
       {CandidateEffect::speed_fluctuation, {0.1, 3.0}, 0.03},
       {CandidateEffect::load_fluctuation, {0.002, 5.0}, 0.03},
@@ -622,9 +638,10 @@ TEST_CASE("gap: gap bench with a few seeds writes the scores as JSON", "[gap]") 
   // significant gap on the no-effect run.
   CHECK(false_alarms == 0.0);
   CHECK(top1 == 1.0);
-  // The held-out shrinkage target (median >= 0.70) is missed (0.63 over 30 seeds at 100 kHz: the
-  // bench prints it, docs/gap.md says why), so it is not asserted; what must hold for every
-  // scenario is that adding the truth's own effect brings its families closer on held-out records.
+  // The held-out shrinkage target (median >= 0.70) is met only narrowly over 30 seeds at 100 kHz
+  // (0.705, docs/gap.md); these 4 short 50 kHz scenarios give 0.64-0.74 (median 0.67), so it is not
+  // asserted here. What must hold for every scenario is that adding the truth's own effect brings its
+  // families closer on held-out records.
   CHECK(shrinkage > 0.0);
   // The rig's effect names and the candidates' differ in three places (docs/gap.md).
   const std::map<std::string, std::string> candidate_of{{"casing", "casing_mode"}, {"noise", "noise_floor"}, {"mounting", "mount_resonance"}};

@@ -86,9 +86,17 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
       break;
     }
     case CandidateEffect::eccentricity: {
-      const double ai = v[0] * v[0] / 4.0, ao = v[1] * v[1] / 4.0;
+      // A run-out is a once-per-revolution transmission error. It modulates the mesh force (AM, the
+      // same share at every harmonic) and turns the pinion or gear against the tacho that the order
+      // tracking follows (PM, of index n·b at harmonic n, as the mesh phase is n·z times the angle).
+      // The two are in quadrature in the mean: first-sideband power ((a² + (n·b)²)/4)·P(n·GMF).
+      auto share = [](double am, double pm_per_harmonic, std::size_t n) {
+        const double pm = pm_per_harmonic * static_cast<double>(n);
+        return (am * am + pm * pm) / 4.0;
+      };
       for (std::size_t n = 1; n * z1 <= twin.input_lines.size(); ++n) {
         const double pm = twin.input_lines[n * z1 - 1];
+        const double ai = share(v[0], v[1], n), ao = share(v[2], v[3], n);
         for (int side : {-1, 1}) {
           const auto ki = static_cast<std::ptrdiff_t>(n * z1) + side;
           if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s.input_lines.size())) s.input_lines[ki - 1] += ai * pm;
@@ -274,7 +282,10 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
               3};
     case CandidateEffect::eccentricity:
       return {effect,
-              {{"input_am_index", 1e-4, 2.0, true, 6}, {"output_am_index", 1e-4, 2.0, true, 6}},
+              {{"input_am_index", 1e-4, 2.0, true, 5},
+               {"input_pm_index_per_harmonic", 1e-5, 0.2, true, 5},
+               {"output_am_index", 1e-4, 2.0, true, 5},
+               {"output_pm_index_per_harmonic", 1e-5, 0.2, true, 5}},
               {FK::input_sidebands, FK::output_sidebands},
               0,
               true};

@@ -534,12 +534,14 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   report.twin_hz_db = cut(to_db(per_bin_total(p.twin_all), p.floor));
   report.twin_after_hz_db = cut(to_db(per_bin_total(twin_after), p.floor));
   const int z1 = gears.pinion_teeth;
-  const int reach = (z1 - 1) / 2;
-  report.order_bands.push_back({FamilyKind::input_shaft_orders, {0.5, z1 - reach - 0.5}});
+  const int m = kSidebandOrders;
+  double shaft_from = 0.5;
   for (int n = 1; n * z1 <= static_cast<int>(k) && n <= 10; ++n) {
-    report.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 - reach - 0.5, n * z1 - 0.5}});
+    report.order_bands.push_back({FamilyKind::input_shaft_orders, {shaft_from, n * z1 - m - 0.5}});
+    report.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 - m - 0.5, n * z1 - 0.5}});
     report.order_bands.push_back({FamilyKind::mesh_harmonics, {n * z1 - 0.5, n * z1 + 0.5}});
-    report.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 + 0.5, n * z1 + reach + 0.5}});
+    report.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 + 0.5, n * z1 + m + 0.5}});
+    shaft_from = n * z1 + m + 0.5;
   }
   for (const auto& band : before.point.fixed_bands)
     if (std::abs(band.gain_db) >= settings.min_gap_db)

@@ -46,19 +46,24 @@ void per_revolution_dft(const dsp::RealBuffer& angle, std::size_t spr, std::size
 
 }  // namespace
 
+namespace {
+/// Whether an order lies within kSidebandOrders of a mesh harmonic n·z (n ≥ 1), the harmonic excluded.
+bool is_sideband_order(int order, int teeth) noexcept {
+  if (teeth <= 2 * kSidebandOrders || order % teeth == 0 || order < teeth - kSidebandOrders) return false;
+  const int from_below = order % teeth;
+  return from_below <= kSidebandOrders || teeth - from_below <= kSidebandOrders;
+}
+}  // namespace
+
 FamilyKind input_line_family(int order, int pinion_teeth) noexcept {
-  const int reach = (pinion_teeth - 1) / 2;
   if (order % pinion_teeth == 0) return FamilyKind::mesh_harmonics;
-  if (order < pinion_teeth - reach) return FamilyKind::input_shaft_orders;
-  return FamilyKind::input_sidebands;
+  return is_sideband_order(order, pinion_teeth) ? FamilyKind::input_sidebands : FamilyKind::input_shaft_orders;
 }
 
 bool output_line_is_mesh(int order, int gear_teeth) noexcept { return order % gear_teeth == 0; }
 
 FamilyKind output_line_family(int order, int gear_teeth) noexcept {
-  const int reach = (gear_teeth - 1) / 2;
-  if (order < gear_teeth - reach) return FamilyKind::output_shaft_orders;
-  return FamilyKind::output_sidebands;
+  return is_sideband_order(order, gear_teeth) ? FamilyKind::output_sidebands : FamilyKind::output_shaft_orders;
 }
 
 RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSpec& gears,

@@ -15,11 +15,11 @@ namespace gearwatch::gap {
 
 /// A family of spectral content the twin's output and a measurement are compared on.
 enum class FamilyKind : std::uint8_t {
-  input_shaft_orders = 0,   ///< integer orders of the input (pinion) shaft below the first mesh sideband region
-  output_shaft_orders = 1,  ///< integer orders of the output (gear) shaft
+  input_shaft_orders = 0,   ///< integer orders of the input (pinion) shaft other than mesh harmonics and their first sidebands
+  output_shaft_orders = 1,  ///< integer orders of the output (gear) shaft other than the first sidebands
   mesh_harmonics = 2,       ///< n·GMF
-  input_sidebands = 3,      ///< n·GMF ± m·input order
-  output_sidebands = 4,     ///< n·GMF ± m·output order
+  input_sidebands = 3,      ///< n·GMF ± 1 input order (m = 1..kSidebandOrders, spectra.hpp)
+  output_sidebands = 4,     ///< n·GMF ± 1 output order
   fixed_frequency = 5,      ///< bands that stay in Hz across speeds (resonances); needs ≥ 2 speeds
   broadband = 6,            ///< what is left between the lines (noise floor, CS2 carriers)
 };

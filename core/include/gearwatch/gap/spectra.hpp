@@ -67,13 +67,17 @@ class RecordSpectra {
   std::vector<std::complex<double>> block_dft_;  // [block * 2k_in + j-1]: half-order bins j = 1..2k_in
 };
 
-/// Which family a line or bin belongs to (the partition used throughout the diagnosis).
-/// Sideband reach: m ≤ (z−1)/2 around each mesh harmonic, so every non-mesh order above the first
-/// sideband region is a sideband of some harmonic and the shaft-order families are the orders below it.
+/// The sideband families hold n·z ± m for m = 1..kSidebandOrders: a once-per-revolution
+/// modulation (eccentricity, a run-out) puts its lines there, and a family spread over every
+/// order between the mesh harmonics would dilute them (2 changed lines among 18 read as a third
+/// of their gap). The other non-mesh orders are the shaft's orders.
+inline constexpr int kSidebandOrders = 1;
+
 /// Adds a tone of `power` at a fractional input order to the broadband part the way a
 /// non-synchronous tone enters it (the 2-revolution Hann window's spread over half-order bins).
 void add_tone_to_broadband(SpectralSummary& s, double order, double power);
 
+/// Which family a line or bin belongs to (the partition used throughout the diagnosis).
 FamilyKind input_line_family(int order, int pinion_teeth) noexcept;
 /// Output orders that are mesh orders (multiples of z_gear) are counted on the input side only.
 bool output_line_is_mesh(int order, int gear_teeth) noexcept;
