@@ -90,18 +90,18 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
       // same share at every harmonic) and turns the pinion or gear against the tacho that the order
       // tracking follows (PM, of index n·b at harmonic n, as the mesh phase is n·z times the angle).
       // The two are in quadrature in the mean: first-sideband power ((a² + (n·b)²)/4)·P(n·GMF).
-      auto share = [](double am, double pm_per_harmonic, std::size_t n) {
-        const double pm = pm_per_harmonic * static_cast<double>(n);
-        return (am * am + pm * pm) / 4.0;
+      auto share = [](double am_index, double pm_index_per_harmonic, std::size_t n) {
+        const double pm_index = pm_index_per_harmonic * static_cast<double>(n);
+        return (am_index * am_index + pm_index * pm_index) / 4.0;
       };
       for (std::size_t n = 1; n * z1 <= twin.input_lines.size(); ++n) {
-        const double pm = twin.input_lines[n * z1 - 1];
+        const double mesh_power = twin.input_lines[n * z1 - 1];
         const double ai = share(v[0], v[1], n), ao = share(v[2], v[3], n);
         for (int side : {-1, 1}) {
           const auto ki = static_cast<std::ptrdiff_t>(n * z1) + side;
-          if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s.input_lines.size())) s.input_lines[ki - 1] += ai * pm;
+          if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s.input_lines.size())) s.input_lines[ki - 1] += ai * mesh_power;
           const auto ko = static_cast<std::ptrdiff_t>(n * z2) + side;
-          if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s.output_lines.size())) s.output_lines[ko - 1] += ao * pm;
+          if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s.output_lines.size())) s.output_lines[ko - 1] += ao * mesh_power;
         }
       }
       break;
