@@ -79,7 +79,7 @@ DiagnosisSettings fast_settings() {
 
 }  // namespace
 
-TEST_CASE("gap: the sideband families are the first sidebands n·z ± 1; other non-mesh orders are the shaft's", "[gap]") {
+TEST_CASE("gap: the sideband families are the first sidebands n·z ± 1, the other non-mesh orders the shaft's", "[gap]") {
   REQUIRE(kSidebandOrders == 1);
   // Pinion, 19 teeth: 19 and 38 are mesh harmonics, 18/20 and 37/39 their first sidebands.
   CHECK(input_line_family(19, kZ1) == FamilyKind::mesh_harmonics);
