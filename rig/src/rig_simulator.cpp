@@ -71,28 +71,44 @@ Biquad butterworth_section(double cutoff_hz, double fs, bool high_pass) {
 /// exact at one frequency and warps the others towards Nyquist: prewarped at a 40 kHz mount with
 /// fs = 100 kHz, it gave 20 kHz the response the mount has at 9.4 kHz.) The record is extended by
 /// its mirror image at both ends first, long enough for the mount's ringing to die away, so the
-/// circular transform sees no jump at the record's edges.
-void apply_mount(std::vector<double>& x, double fn_hz, double zeta, double fs) {
-  const std::size_t n = x.size();
-  if (n < 2) return;
-  const double decay_samples = fs / (2.0 * std::numbers::pi * fn_hz * zeta);  // 1/e time of the ringing
-  const std::size_t pad = std::min(n - 1, static_cast<std::size_t>(std::ceil(12.0 * decay_samples)) + 16);
-  const std::size_t size = dsp::next_smooth_size(n + 2 * pad);
-  const dsp::RealFft fft(size);
-  dsp::RealBuffer buffer(size, 0.0);
-  for (std::size_t i = 0; i < pad; ++i) buffer[i] = x[pad - i];                 // mirrored head
-  std::copy(x.begin(), x.end(), buffer.begin() + static_cast<std::ptrdiff_t>(pad));
-  for (std::size_t i = 0; i < pad; ++i) buffer[pad + n + i] = x[n - 2 - i];     // mirrored tail
-  dsp::ComplexBuffer spectrum(fft.spectrum_size());
-  fft.forward(buffer, spectrum);
-  for (std::size_t k = 0; k < spectrum.size(); ++k) {
-    const double r = static_cast<double>(k) * fs / static_cast<double>(size) / fn_hz;
-    const std::complex<double> h = std::complex<double>(1.0, 2.0 * zeta * r) / std::complex<double>(1.0 - r * r, 2.0 * zeta * r);
-    spectrum[k] *= h / static_cast<double>(size);
+/// circular transform sees no jump at the record's edges. Built once per record length (the plan,
+/// the response per bin and the scratch), applied to each channel.
+class AnalogMount {
+ public:
+  AnalogMount(std::size_t n, double fn_hz, double zeta, double fs)
+      : n_(n),
+        // 12 decay times 1/(2π·fn·ζ) of the ringing, in samples, as the mirrored pad.
+        pad_(n < 2 ? 0 : std::min(n - 1, static_cast<std::size_t>(std::ceil(12.0 * fs / (2.0 * std::numbers::pi * fn_hz * zeta))) + 16)),
+        fft_(dsp::next_smooth_size(n + 2 * pad_)),
+        buffer_(fft_.size(), 0.0),
+        spectrum_(fft_.spectrum_size()) {
+    for (std::size_t k = 0; k < spectrum_.size(); ++k) {
+      const double r = static_cast<double>(k) * fs / static_cast<double>(fft_.size()) / fn_hz;
+      const std::complex<double> h = std::complex<double>(1.0, 2.0 * zeta * r) / std::complex<double>(1.0 - r * r, 2.0 * zeta * r);
+      response_.push_back(h / static_cast<double>(fft_.size()));
+    }
   }
-  fft.inverse(spectrum, buffer);
-  std::copy(buffer.begin() + static_cast<std::ptrdiff_t>(pad), buffer.begin() + static_cast<std::ptrdiff_t>(pad + n), x.begin());
-}
+
+  void apply(std::vector<double>& x) {
+    if (n_ < 2 || x.size() != n_) return;
+    const std::size_t n = n_, pad = pad_;
+    std::fill(buffer_.begin(), buffer_.end(), 0.0);
+    for (std::size_t i = 0; i < pad; ++i) buffer_[i] = x[pad - i];                 // mirrored head
+    std::copy(x.begin(), x.end(), buffer_.begin() + static_cast<std::ptrdiff_t>(pad));
+    for (std::size_t i = 0; i < pad; ++i) buffer_[pad + n + i] = x[n - 2 - i];     // mirrored tail
+    fft_.forward(buffer_, spectrum_);
+    for (std::size_t k = 0; k < spectrum_.size(); ++k) spectrum_[k] *= response_[k];
+    fft_.inverse(spectrum_, buffer_);
+    std::copy(buffer_.begin() + static_cast<std::ptrdiff_t>(pad), buffer_.begin() + static_cast<std::ptrdiff_t>(pad + n), x.begin());
+  }
+
+ private:
+  std::size_t n_, pad_;
+  dsp::RealFft fft_;
+  dsp::RealBuffer buffer_;
+  dsp::ComplexBuffer spectrum_;
+  std::vector<std::complex<double>> response_;
+};
 
 /// Unit-RMS Gaussian noise in [low, high] Hz (two Butterworth sections each side).
 std::vector<double> band_noise(std::size_t n, double low, double high, double fs, detail::Random& rng) {
@@ -287,9 +303,8 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
     }
   }
   if (effects.enabled(Effect::mounting)) {
-    for (int c = 0; c < s.channels; ++c) {
-      apply_mount(ch[c], effects.get("mounting.frequency_hz"), effects.get("mounting.damping_ratio"), fs);
-    }
+    AnalogMount mount(count, effects.get("mounting.frequency_hz"), effects.get("mounting.damping_ratio"), fs);
+    for (int c = 0; c < s.channels; ++c) mount.apply(ch[c]);
   }
   if (effects.enabled(Effect::noise)) {
     const double sigma = std::sqrt(effects.get("noise.psd") * fs / 2.0);

@@ -44,9 +44,6 @@ void per_revolution_dft(const dsp::RealBuffer& angle, std::size_t spr, std::size
   }
 }
 
-}  // namespace
-
-namespace {
 /// Whether an order lies within kSidebandOrders of a mesh harmonic n·z (n ≥ 1), the harmonic excluded.
 bool is_sideband_order(int order, int teeth) noexcept {
   if (teeth <= 2 * kSidebandOrders || order % teeth == 0 || order < teeth - kSidebandOrders) return false;
