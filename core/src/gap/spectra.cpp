@@ -213,13 +213,16 @@ void add_tone_to_broadband(SpectralSummary& s, double order, double power) {
   const double centre = 2.0 * order;  // in half-order bins
   const auto first = static_cast<long>(std::floor(centre)) - 2;
   double weights[6], total = 0;
+  // d steps by whole bins, so sin(π·d) only changes sign from one bin to the next.
+  const double sine_at_first = std::sin(std::numbers::pi * (centre - static_cast<double>(first)));
   for (int i = 0; i < 6; ++i) {
     const double d = centre - static_cast<double>(first + i);
+    const double sine = i % 2 == 0 ? sine_at_first : -sine_at_first;
     // Hann kernel's power at d bins from the tone: (sinc(d)/(1 − d²))².
     double w;
     if (std::abs(d) < 1e-9) w = 1.0;
     else if (std::abs(std::abs(d) - 1.0) < 1e-9) w = 0.25;
-    else w = std::pow(std::sin(std::numbers::pi * d) / (std::numbers::pi * d) / (1.0 - d * d), 2);
+    else w = std::pow(sine / (std::numbers::pi * d) / (1.0 - d * d), 2);
     weights[i] = w;
     total += w;
   }
@@ -229,6 +232,79 @@ void add_tone_to_broadband(SpectralSummary& s, double order, double power) {
     if (j >= 2 && k >= 1 && k <= static_cast<long>(s.broadband.size()))
       s.broadband[static_cast<std::size_t>(k - 1)] += power * weights[i] / total;
   }
+}
+
+void add_non_synchronous_tone(SpectralSummary& s, double input_order, double power, const GearPairSpec& gears,
+                              double negligible_power) {
+  if (!(power > 0) || !(input_order > 0)) return;
+  const double broadband_bias = s.input_revolutions > 2 ? (s.input_revolutions - 1.0) / (s.input_revolutions - 2.0) : 1.0;
+  if (power <= negligible_power || gears.pinion_teeth < 1 || gears.gear_teeth < 1) {
+    add_tone_to_broadband(s, input_order, power * broadband_bias);
+    return;
+  }
+  using Complex = std::complex<double>;
+  // The mean over R revolutions from angle 0 of e^{i2π·x·φ} read at order k is e^{iπRΔ}·sinc(RΔ)
+  // = (e^{i2πRΔ} − 1)/(i2πRΔ), Δ = x − k. R is whole, so along integer k only the 1/Δ changes, and
+  // e^{i2πRx} itself steps by a fixed rotation from one x to the next (x = k·ratio or m/ratio).
+  struct Kernel {
+    double revolutions, x;
+    Complex turn;  // e^{i2πRx}
+    Complex operator()(double k) const {
+      const double delta = x - k;
+      const double phase = std::numbers::pi * revolutions * delta;
+      if (std::abs(phase) < 1e-6) return std::polar(1.0 - phase * phase / 6.0, phase);  // sinc's series
+      const Complex d = turn - 1.0;  // d / (i·2·phase), without a complex division
+      return Complex(d.imag(), -d.real()) * (0.5 / phase);
+    }
+  };
+  auto kernel_at = [](double r, double x) { return Kernel{r, x, std::polar(1.0, 2 * std::numbers::pi * r * x)}; };
+  const double ratio = static_cast<double>(gears.gear_teeth) / gears.pinion_teeth;  // output orders per input order
+  const auto r_in = static_cast<double>(s.input_revolutions), r_out = static_cast<double>(s.output_revolutions);
+  const double output_order = input_order * ratio;
+  const auto shared = static_cast<long>(gears.gear_teeth / std::gcd(gears.pinion_teeth, gears.gear_teeth));
+  // Beyond three orders a line holds below 1/(3π·R)² of the tone (1e-3 for R = 4): the neighbours suffice.
+  const long k0 = std::max(1L, static_cast<long>(std::floor(input_order)) - 2), k1 = static_cast<long>(std::floor(input_order)) + 3;
+  const long m0 = std::max(1L, static_cast<long>(std::floor(output_order)) - 3), m1 = static_cast<long>(std::floor(output_order)) + 4;
+  // 1. The input synchronous average takes d_k; 2. the output one, of what is left, c_m (it leaves the
+  // orders both shafts share to the input side); 3. the input lines are read off the tone less the
+  // output average's part, the output lines off the tone less the input average's part (= c_m).
+  Complex input_average[6], output_average[8];
+  double removed = 0;
+  const Kernel tone_on_input = kernel_at(r_in, input_order), tone_on_output = kernel_at(r_out, output_order);
+  for (long k = k0; k <= k1; ++k) {
+    input_average[k - k0] = tone_on_input(static_cast<double>(k));
+    removed += std::norm(input_average[k - k0]);
+  }
+  Kernel input_line_on_output[6];  // the input average's line k seen by the output average
+  input_line_on_output[0] = kernel_at(r_out, static_cast<double>(k0) * ratio);
+  const Complex output_step = std::polar(1.0, 2 * std::numbers::pi * r_out * ratio);
+  for (long k = k0 + 1; k <= k1; ++k) {
+    const auto& previous = input_line_on_output[k - k0 - 1];
+    input_line_on_output[k - k0] = Kernel{r_out, static_cast<double>(k) * ratio, previous.turn * output_step};
+  }
+  for (long m = m0; m <= m1; ++m) {
+    Complex c{};
+    if (m % shared != 0) {
+      c = tone_on_output(static_cast<double>(m));
+      for (long k = k0; k <= k1; ++k) c -= input_average[k - k0] * input_line_on_output[k - k0](static_cast<double>(m));
+    }
+    output_average[m - m0] = c;
+    removed += std::norm(c);
+    if (m <= static_cast<long>(s.output_lines.size()) && !output_line_is_mesh(static_cast<int>(m), gears.gear_teeth))
+      s.output_lines[static_cast<std::size_t>(m - 1)] += power * std::norm(c);
+  }
+  Complex input_line[6];
+  for (long k = k0; k <= k1; ++k) input_line[k - k0] = input_average[k - k0];
+  Kernel output_line_on_input = kernel_at(r_in, static_cast<double>(m0) / ratio);
+  const Complex input_step = std::polar(1.0, 2 * std::numbers::pi * r_in / ratio);
+  for (long m = m0; m <= m1; ++m) {
+    if (m > m0) output_line_on_input = Kernel{r_in, static_cast<double>(m) / ratio, output_line_on_input.turn * input_step};
+    if (output_average[m - m0] == Complex{}) continue;
+    for (long k = k0; k <= k1; ++k) input_line[k - k0] -= output_average[m - m0] * output_line_on_input(static_cast<double>(k));
+  }
+  for (long k = k0; k <= k1 && k <= static_cast<long>(s.input_lines.size()); ++k)
+    s.input_lines[static_cast<std::size_t>(k - 1)] += power * std::norm(input_line[k - k0]);
+  add_tone_to_broadband(s, input_order, power * std::max(0.0, 1.0 - removed) * broadband_bias);
 }
 
 }  // namespace gearwatch::gap

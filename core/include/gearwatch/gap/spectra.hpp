@@ -77,6 +77,19 @@ inline constexpr int kSidebandOrders = 1;
 /// non-synchronous tone enters it (the 2-revolution Hann window's spread over half-order bins).
 void add_tone_to_broadband(SpectralSummary& s, double order, double power);
 
+/// Adds a non-synchronous tone of `power` at a fractional input order the way RecordSpectra sees
+/// it. A mean over R whole revolutions is one DFT over R revolutions read at an integer order, so it
+/// keeps e^{iπRΔ}·sinc(RΔ) of a tone Δ orders away. Each shaft's lines are read after the other
+/// shaft's average is taken out, and with 5 output revolutions that average holds a tenth of the
+/// tone's amplitude at the nearest output orders, enough to change the input lines' leakage by half;
+/// so the two averages are followed in turn, coherently, over the neighbouring orders. The broadband
+/// part gets the rest, times B/(B − 1) for its B blocks (a deterministic tone in the variance about
+/// the block mean). With 16 revolutions a tone 0.4 orders from a line puts 0.2 % of its power in it:
+/// next to a mesh harmonic 40 dB above its sidebands, several dB on them. Tones at or below
+/// `negligible_power` go to the broadband part whole (the lines' share of them cannot show).
+void add_non_synchronous_tone(SpectralSummary& s, double input_order, double power, const GearPairSpec& gears,
+                              double negligible_power = 0);
+
 /// Which family a line or bin belongs to (the partition used throughout the diagnosis).
 FamilyKind input_line_family(int order, int pinion_teeth) noexcept;
 /// Output orders that are mesh orders (multiples of z_gear) are counted on the input side only.
