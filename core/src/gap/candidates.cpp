@@ -124,21 +124,29 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
         return e.effect == CandidateEffect::load_fluctuation ? 1.0 - std::exp(-(v[0] * order) * (v[0] * order))
                                                              : v[0];
       };
-      // The modulated share leaves the line for sidebands f_m away (in orders: f_m / speed), half each side.
+      // The modulated share leaves the line for sidebands f_m away (in orders: f_m / speed), half each
+      // side; being off the integer orders they land mostly in the broadband part, and what leaks
+      // into the neighbouring lines (a few dB on sidebands 40 dB below a mesh harmonic) with them.
       const double offset = v[1] / s.speed_hz;
+      // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
+      // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
+      // following a tone through both averages is most of this form's cost.
+      double total = 0;
+      for (double p : twin.input_lines) total += p;
+      const double negligible = 1e-7 * total;
       for (std::size_t k = 1; k <= s.input_lines.size(); ++k) {
         const double mu = share(static_cast<double>(k));
-        const double moved = s.input_lines[k - 1] * mu;
+        const double moved = twin.input_lines[k - 1] * mu;
         s.input_lines[k - 1] -= moved;
-        add_tone_to_broadband(s, static_cast<double>(k) - offset, moved / 2);
-        add_tone_to_broadband(s, static_cast<double>(k) + offset, moved / 2);
+        add_non_synchronous_tone(s, static_cast<double>(k) - offset, moved / 2, gears, negligible);
+        add_non_synchronous_tone(s, static_cast<double>(k) + offset, moved / 2, gears, negligible);
       }
       for (std::size_t m = 1; m <= s.output_lines.size(); ++m) {
         const double order = static_cast<double>(m) * z1 / z2;
-        const double moved = s.output_lines[m - 1] * share(order);
+        const double moved = twin.output_lines[m - 1] * share(order);
         s.output_lines[m - 1] -= moved;
-        add_tone_to_broadband(s, order - offset, moved / 2);
-        add_tone_to_broadband(s, order + offset, moved / 2);
+        add_non_synchronous_tone(s, order - offset, moved / 2, gears, negligible);
+        add_non_synchronous_tone(s, order + offset, moved / 2, gears, negligible);
       }
       break;
     }
@@ -297,10 +305,10 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
               0,
               true};
     case CandidateEffect::speed_fluctuation:
-      return {effect, {{"modulated_share", 1e-5, 0.99, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 6}},
+      return {effect, {{"modulated_share", 1e-5, 0.99, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 16}},
               {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
     case CandidateEffect::load_fluctuation:
-      return {effect, {{"phase_deviation_per_order_rad", 1e-5, 0.5, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 6}},
+      return {effect, {{"phase_deviation_per_order_rad", 1e-5, 0.5, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 16}},
               {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
     case CandidateEffect::tip_relief: {
       // One gain per mesh harmonic the band holds at the slowest speed the diagnosis accepts
