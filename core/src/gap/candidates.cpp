@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iterator>
 #include <numbers>
+#include <numeric>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -125,15 +126,13 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
                                                              : v[0];
       };
       // The modulated share leaves the line for sidebands f_m away (in orders: f_m / speed), half each
-      // side; being off the integer orders they land mostly in the broadband part, and what leaks
-      // into the neighbouring lines (a few dB on sidebands 40 dB below a mesh harmonic) with them.
+      // side; being off the integer orders they land mostly in the broadband part, and partly in the
+      // neighbouring lines (a few dB on sidebands 40 dB below a mesh harmonic).
       const double offset = v[1] / s.speed_hz;
       // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
       // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
       // following a tone through both averages is most of this form's cost.
-      double total = 0;
-      for (double p : twin.input_lines) total += p;
-      const double negligible = 1e-7 * total;
+      const double negligible = 1e-7 * std::accumulate(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
       for (std::size_t k = 1; k <= s.input_lines.size(); ++k) {
         const double mu = share(static_cast<double>(k));
         const double moved = twin.input_lines[k - 1] * mu;

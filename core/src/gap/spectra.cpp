@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
@@ -237,6 +238,7 @@ void add_tone_to_broadband(SpectralSummary& s, double order, double power) {
 void add_non_synchronous_tone(SpectralSummary& s, double input_order, double power, const GearPairSpec& gears,
                               double negligible_power) {
   if (!(power > 0) || !(input_order > 0)) return;
+  // B/(B − 1) for the B = R − 1 broadband blocks RecordSpectra cuts from R input revolutions.
   const double broadband_bias = s.input_revolutions > 2 ? (s.input_revolutions - 1.0) / (s.input_revolutions - 2.0) : 1.0;
   if (power <= negligible_power || gears.pinion_teeth < 1 || gears.gear_teeth < 1) {
     add_tone_to_broadband(s, input_order, power * broadband_bias);
@@ -263,19 +265,21 @@ void add_non_synchronous_tone(SpectralSummary& s, double input_order, double pow
   const double output_order = input_order * ratio;
   const auto shared = static_cast<long>(gears.gear_teeth / std::gcd(gears.pinion_teeth, gears.gear_teeth));
   // Beyond three orders a line holds below 1/(3π·R)² of the tone (1e-3 for R = 4): the neighbours suffice.
+  // Input orders ⌊x⌋ − 2 … ⌊x⌋ + 3, output orders ⌊y⌋ − 3 … ⌊y⌋ + 4 (fewer near order 1).
+  constexpr long kInputLinesFollowed = 6, kOutputLinesFollowed = 8;
   const long k0 = std::max(1L, static_cast<long>(std::floor(input_order)) - 2), k1 = static_cast<long>(std::floor(input_order)) + 3;
   const long m0 = std::max(1L, static_cast<long>(std::floor(output_order)) - 3), m1 = static_cast<long>(std::floor(output_order)) + 4;
   // 1. The input synchronous average takes d_k; 2. the output one, of what is left, c_m (it leaves the
   // orders both shafts share to the input side); 3. the input lines are read off the tone less the
   // output average's part, the output lines off the tone less the input average's part (= c_m).
-  Complex input_average[6], output_average[8];
+  Complex input_average[kInputLinesFollowed], output_average[kOutputLinesFollowed];
   double removed = 0;
   const Kernel tone_on_input = kernel_at(r_in, input_order), tone_on_output = kernel_at(r_out, output_order);
   for (long k = k0; k <= k1; ++k) {
     input_average[k - k0] = tone_on_input(static_cast<double>(k));
     removed += std::norm(input_average[k - k0]);
   }
-  Kernel input_line_on_output[6];  // the input average's line k seen by the output average
+  Kernel input_line_on_output[kInputLinesFollowed];  // the input average's line k seen by the output average
   input_line_on_output[0] = kernel_at(r_out, static_cast<double>(k0) * ratio);
   const Complex output_step = std::polar(1.0, 2 * std::numbers::pi * r_out * ratio);
   for (long k = k0 + 1; k <= k1; ++k) {
@@ -293,7 +297,7 @@ void add_non_synchronous_tone(SpectralSummary& s, double input_order, double pow
     if (m <= static_cast<long>(s.output_lines.size()) && !output_line_is_mesh(static_cast<int>(m), gears.gear_teeth))
       s.output_lines[static_cast<std::size_t>(m - 1)] += power * std::norm(c);
   }
-  Complex input_line[6];
+  Complex input_line[kInputLinesFollowed];
   for (long k = k0; k <= k1; ++k) input_line[k - k0] = input_average[k - k0];
   Kernel output_line_on_input = kernel_at(r_in, static_cast<double>(m0) / ratio);
   const Complex input_step = std::polar(1.0, 2 * std::numbers::pi * r_in / ratio);
