@@ -17,6 +17,7 @@
 
 #include "command_runner.hpp"
 #include "gearwatch/gap/candidates.hpp"
+#include "gearwatch/gap/evaluation.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/twin/simulation.hpp"
 
@@ -274,6 +275,31 @@ TEST_CASE("gap: a non-synchronous tone's share of each line follows the two sync
   }
 }
 
+TEST_CASE("gap: a distance's interval is its bootstrap draws' spread about their median, placed on the estimate", "[gap]") {
+  // 101 draws 2.00, 2.01, ..., 3.00 (shuffled): median 2.50, 5th/95th percentiles 2.05/2.95.
+  std::vector<double> draws;
+  for (int i = 100; i >= 0; --i) draws.push_back(2.0 + 0.01 * ((i * 37) % 101));
+  // Biased draws wholly above an estimate of 1.2 dB: the interval is 1.2 - 0.45 .. 1.2 + 0.45.
+  auto a = bootstrap_interval(draws, 1.2);
+  CHECK(a.low == Approx(0.75).margin(1e-12));
+  CHECK(a.high == Approx(1.65).margin(1e-12));
+  // Coverage 0.5: the 25th/75th percentiles 2.25/2.75 about the same median.
+  a = bootstrap_interval(draws, 1.2, 0.5);
+  CHECK(a.low == Approx(0.95).margin(1e-12));
+  CHECK(a.high == Approx(1.45).margin(1e-12));
+  // A distance is never negative: the low end stops at 0 dB.
+  a = bootstrap_interval(draws, 0.3);
+  CHECK(a.low == 0.0);
+  CHECK(a.high == Approx(0.75).margin(1e-12));
+  // Unbiased draws (median at the estimate) keep their own percentiles.
+  a = bootstrap_interval(draws, 2.5);
+  CHECK(a.low == Approx(2.05).margin(1e-12));
+  CHECK(a.high == Approx(2.95).margin(1e-12));
+  a = bootstrap_interval({}, 0.7);
+  CHECK(a.low == 0.7);
+  CHECK(a.high == 0.7);
+}
+
 TEST_CASE("gap: white noise on the measurement raises the broadband family to 10 log10(1 + N0/floor)", "[gap]") {
   const double fs = 10240, speed = 10, sigma = 0.02;
   const Record twin = synthetic_record(fs, speed, 24, twin_tones());
@@ -308,9 +334,15 @@ TEST_CASE("gap: no effect (twin plus noise against twin plus independent noise) 
   }
   const auto report = diagnose(training, held_out, GearPairSpec{}, fast_settings());
   for (const auto& g : report.before) {
-    INFO(to_string(g.family) << " " << g.distance_db);
+    INFO(to_string(g.family) << " " << g.distance_db << " [" << g.distance_interval_db.low << ", "
+                             << g.distance_interval_db.high << "]");
     CHECK(g.resolved);
     CHECK_FALSE(g.significant);
+    // Noise alone lifts a redrawn line's power above the full record's (fewer distinct
+    // revolutions in the average): the interval must still hold the estimate it belongs to.
+    CHECK(g.distance_interval_db.low <= g.distance_db);
+    CHECK(g.distance_interval_db.high >= g.distance_db);
+    if (g.distance_db > 0) CHECK(g.distance_interval_db.high > g.distance_interval_db.low);
   }
   CHECK(report.chosen.empty());
   CHECK(report.unexplained.empty());

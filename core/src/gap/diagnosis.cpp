@@ -122,16 +122,7 @@ Assessment assess(const std::vector<PairSpectra>& pairs, const std::vector<Appli
     const auto e = evaluator.evaluate(v, true);
     for (std::size_t f = 0; f < kFamilies; ++f) draws[f].push_back(e.distance_db(f));
   }
-  for (std::size_t f = 0; f < kFamilies; ++f) {
-    auto& d = draws[f];
-    if (d.empty()) {
-      a.interval[f] = {a.point.distance_db(f), a.point.distance_db(f)};
-      continue;
-    }
-    std::sort(d.begin(), d.end());
-    auto q = [&](double p) { return d[static_cast<std::size_t>(std::round(p * (d.size() - 1)))]; };
-    a.interval[f] = {q(0.05), q(0.95)};
-  }
+  for (std::size_t f = 0; f < kFamilies; ++f) a.interval[f] = bootstrap_interval(std::move(draws[f]), a.point.distance_db(f));
   return a;
 }
 

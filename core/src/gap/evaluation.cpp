@@ -36,6 +36,16 @@ double GapEvaluation::energy_share(std::size_t family) const {
   return total > 0 ? energy[family] / total : 0.0;
 }
 
+Interval bootstrap_interval(std::vector<double> draws, double estimate, double coverage) {
+  if (draws.empty()) return {estimate, estimate};
+  std::sort(draws.begin(), draws.end());
+  // Nearest rank: with the few hundred draws a report uses, interpolating would not change a digit.
+  auto quantile = [&](double p) { return draws[static_cast<std::size_t>(std::round(p * static_cast<double>(draws.size() - 1)))]; };
+  const double tail = (1.0 - std::clamp(coverage, 0.0, 1.0)) / 2.0;
+  const double shift = estimate - quantile(0.5);
+  return {std::max(0.0, quantile(tail) + shift), std::max(0.0, quantile(1.0 - tail) + shift)};
+}
+
 GapEvaluator::GapEvaluator(const GearPairSpec& gears, double bands_per_octave, double min_speed_ratio)
     : gears_(gears), bands_per_octave_(bands_per_octave), min_speed_ratio_(min_speed_ratio) {}
 

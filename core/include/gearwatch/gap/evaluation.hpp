@@ -35,6 +35,14 @@ struct GapEvaluation {
   double energy_share(std::size_t family) const;
 };
 
+/// The interval of a distance from its bootstrap draws: their central `coverage` spread about
+/// their median, placed on the estimate, and never below 0 dB. A redrawn record averages fewer
+/// distinct revolutions than the full one, so its noise-borne line power and hence its distance are
+/// biased (up for lines near the floor, down for the broadband part); the draws' own percentiles
+/// can then lie wholly on one side of the estimate they stand for. The spread is what the draws
+/// tell; the centre is the estimate's. `draws` empty: the point.
+Interval bootstrap_interval(std::vector<double> draws, double estimate, double coverage = 0.90);
+
 class GapEvaluator {
  public:
   GapEvaluator(const GearPairSpec& gears, double bands_per_octave = 12, double min_speed_ratio = 1.05);
