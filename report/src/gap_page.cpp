@@ -125,8 +125,8 @@ void render_header(const GapPageData& d, const storage::StoredGapReport& s, std:
 void render_family_table(const GapReport& r, std::string& h) {
   h += "<h2 id=\"families\">Gap per family, held out: twin alone and with the chosen effects</h2>\n";
   h += "<p class=\"muted\">Distance: RMS over the family's lines or bins of 10·log10(P<sub>measured</sub>/P<sub>model</sub>); "
-       "interval: 90 % block bootstrap over revolutions; share: of the measured-vs-model energy difference; significant: beyond "
-       "what the bootstrap allows for no gap.</p>\n";
+       "interval: the 90 % spread of a block bootstrap over revolutions, placed on the distance; "
+       "share: of the measured-vs-model energy difference; significant: beyond what the bootstrap allows for no gap.</p>\n";
   h += "<div class=\"scroll\"><table class=\"families\">\n<thead><tr><th>family</th><th>distance before</th><th>interval</th>"
        "<th>share</th><th>significant</th><th>distance after</th><th>interval</th><th>share</th><th>significant</th><th>change</th>"
        "<th>attribution</th></tr></thead>\n<tbody>\n";
