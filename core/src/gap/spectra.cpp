@@ -258,6 +258,8 @@ void add_non_synchronous_tone(SpectralSummary& s, double input_order, double pow
       const Complex d = turn - 1.0;  // d / (i·2·phase), without a complex division
       return Complex(d.imag(), -d.real()) * (0.5 / phase);
     }
+    // The same mean read for a tone at `next_x`, whose e^{i2πR·next_x} is this one's turned by `step`.
+    Kernel stepped_to(double next_x, Complex step) const { return {revolutions, next_x, turn * step}; }
   };
   auto kernel_at = [](double r, double x) { return Kernel{r, x, std::polar(1.0, 2 * std::numbers::pi * r * x)}; };
   const double ratio = static_cast<double>(gears.gear_teeth) / gears.pinion_teeth;  // output orders per input order
@@ -282,10 +284,8 @@ void add_non_synchronous_tone(SpectralSummary& s, double input_order, double pow
   Kernel input_line_on_output[kInputLinesFollowed];  // the input average's line k seen by the output average
   input_line_on_output[0] = kernel_at(r_out, static_cast<double>(k0) * ratio);
   const Complex output_step = std::polar(1.0, 2 * std::numbers::pi * r_out * ratio);
-  for (long k = k0 + 1; k <= k1; ++k) {
-    const auto& previous = input_line_on_output[k - k0 - 1];
-    input_line_on_output[k - k0] = Kernel{r_out, static_cast<double>(k) * ratio, previous.turn * output_step};
-  }
+  for (long k = k0 + 1; k <= k1; ++k)
+    input_line_on_output[k - k0] = input_line_on_output[k - k0 - 1].stepped_to(static_cast<double>(k) * ratio, output_step);
   for (long m = m0; m <= m1; ++m) {
     Complex c{};
     if (m % shared != 0) {
@@ -298,11 +298,11 @@ void add_non_synchronous_tone(SpectralSummary& s, double input_order, double pow
       s.output_lines[static_cast<std::size_t>(m - 1)] += power * std::norm(c);
   }
   Complex input_line[kInputLinesFollowed];
-  for (long k = k0; k <= k1; ++k) input_line[k - k0] = input_average[k - k0];
+  std::copy(input_average, input_average + (k1 - k0 + 1), input_line);
   Kernel output_line_on_input = kernel_at(r_in, static_cast<double>(m0) / ratio);
   const Complex input_step = std::polar(1.0, 2 * std::numbers::pi * r_in / ratio);
   for (long m = m0; m <= m1; ++m) {
-    if (m > m0) output_line_on_input = Kernel{r_in, static_cast<double>(m) / ratio, output_line_on_input.turn * input_step};
+    if (m > m0) output_line_on_input = output_line_on_input.stepped_to(static_cast<double>(m) / ratio, input_step);
     if (output_average[m - m0] == Complex{}) continue;
     for (long k = k0; k <= k1; ++k) input_line[k - k0] -= output_average[m - m0] * output_line_on_input(static_cast<double>(k));
   }
