@@ -249,3 +249,22 @@ TEST_CASE("Face misalignment: the mesh force of a Winkler face whose flanks sepa
   bad.face_misalignment_rad = -1e-4;
   CHECK_THROWS_AS(simulate(p, ToothProfileDeviation{}, {10.0, 5.0}, 0.01, bad), TwinParameterError);
 }
+
+TEST_CASE("twin: below the couplings' modes a transmission error turns the train instead of loading the mesh", "[twin]") {
+  // A slow error e at the mesh: the mesh force stays nearly 0, so r_b1 q5 − r_b2 q10 ≈ −e, and each
+  // side of the train, rigid at 0.5 Hz, is accelerated by the same force: −ω² J_in q_in = −r_b1 F,
+  // −ω² J_out q_out = r_b2 F. Hence q_in = −e (r_b1/J_in) / (r_b1²/J_in + r_b2²/J_out), and
+  // q_out = e (r_b2/J_out) / (the same).
+  const GearboxParameters p;
+  const auto m = assemble(p);
+  const double r1 = m.mesh[theta5], r2 = -m.mesh[theta10];
+  const double j_in = p.I1 + p.I2 + p.I3 + p.I5 + p.I7, j_out = p.I8 + p.I10 + p.I12 + p.I13;
+  const double sum = r1 * r1 / j_in + r2 * r2 / j_out;
+  const auto q = transmission_error_response(m, 0.5);
+  CHECK(q[theta5].real() == Approx(-(r1 / j_in) / sum).epsilon(0.01));
+  CHECK(q[theta10].real() == Approx((r2 / j_out) / sum).epsilon(0.01));
+  CHECK(std::abs(q[theta1] - q[theta5]) < 0.01 * std::abs(q[theta5]));  // the input side turns as one
+  CHECK(std::abs(m.mesh.cast<std::complex<double>>().dot(q) + 1.0) < 0.01);  // the mesh hardly deflects
+  CHECK_THROWS_AS(transmission_error_response(m, 0.0), TwinParameterError);
+  CHECK_THROWS_AS(transmission_error_response(m, std::nan("")), TwinParameterError);
+}

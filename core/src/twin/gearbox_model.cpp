@@ -91,6 +91,19 @@ GearboxMatrices assemble(const GearboxParameters& p) {
   return assemble(p, mesh);
 }
 
+Eigen::Matrix<std::complex<double>, kDofCount, 1> transmission_error_response(const GearboxMatrices& m, double frequency_hz) {
+  if (!std::isfinite(frequency_hz) || frequency_hz <= 0)
+    throw TwinParameterError("transmission error response: the frequency must be positive and finite");
+  using Complex = std::complex<double>;
+  const double omega = 2.0 * std::numbers::pi * frequency_hz;
+  const Complex mesh(m.mean_mesh_stiffness, omega * m.mesh_damping_time_constant * m.mean_mesh_stiffness);
+  const Matrix21 ggt = m.mesh * m.mesh.transpose();
+  Eigen::Matrix<Complex, kDofCount, kDofCount> dynamic = (m.stiffness - omega * omega * Matrix21(m.mass.asDiagonal())).cast<Complex>();
+  dynamic += Complex(0, omega) * m.damping.cast<Complex>() + mesh * ggt.cast<Complex>();
+  const Eigen::Matrix<Complex, kDofCount, 1> load = -mesh * m.mesh.cast<Complex>();
+  return dynamic.partialPivLu().solve(load);
+}
+
 GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_ptr<const GearMeshStiffness> mesh_stiffness,
                                  std::shared_ptr<const GeometricTransmissionError> gte, double input_speed_hz,
                                  double input_torque_nm, MeshModel model)

@@ -2,6 +2,7 @@
 // The 21-DOF lumped model of the rig (seed Eqs. 5.1–5.7): assembled matrices, the linearised
 // (mean mesh stiffness) system, and the time-varying equations of motion as an odeint system.
 #include <array>
+#include <complex>
 #include <memory>
 #include <string>
 #include <vector>
@@ -59,6 +60,14 @@ struct GearboxMatrices {
 /// Builds M, K, C, g (validates the parameters; throws TwinParameterError).
 GearboxMatrices assemble(const GearboxParameters& p, const GearMeshStiffness& mesh_stiffness);
 GearboxMatrices assemble(const GearboxParameters& p);
+
+/// The linearised model's steady response to a transmission error of one metre at the mesh, as
+/// e^{i2πft}: the complex amplitude of every DOF. An error e enters each pair's force as k(δ + e)
+/// (GearboxDynamics), so the response solves (K + k̄ggᵀ − ω²M + iω(C + μk̄ggᵀ)) q = −(k̄ + iωμk̄) g;
+/// the loaded deflection then changes by gᵀq + 1 per metre. A run-out of either shaft along the line
+/// of action is such an error at that shaft's frequency. Throws TwinParameterError for a frequency
+/// that is not positive and finite.
+Eigen::Matrix<std::complex<double>, kDofCount, 1> transmission_error_response(const GearboxMatrices& m, double frequency_hz);
 
 /// State of the integrator: [q; q̇], q = x minus the nominal rigid rotation at constant speed.
 using State = std::array<double, 2 * kDofCount>;
