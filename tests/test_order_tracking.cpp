@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
+#include <stdexcept>
 #include <vector>
 
 #include "gearwatch/dsp/fft.hpp"
@@ -197,4 +199,54 @@ TEST_CASE("Shaft angle from one edge per revolution follows a slow speed ripple 
   }
   CHECK(residual_share(0.6) >= 1.0);
   CHECK(residual_share(0.8) >= 1.0);
+}
+
+TEST_CASE("Tracking residual share: all of a deviation at the shaft's own order stays, a slow one is followed, and the "
+          "order-tracked sidebands of a phase-modulated tone say the same",
+          "[dsp][order_tracking]") {
+  // At ratio 1 (and 2) every edge meets the deviation at the same phase: the spline sees a uniform
+  // rotation and the whole deviation stays in the tracked signal.
+  CHECK(tracking_residual_share(1.0) == Approx(1.0).margin(1e-3));
+  CHECK(tracking_residual_share(2.0) == Approx(1.0).margin(1e-3));
+  // A slow one is followed to within the interpolated sinusoid's bound (5/384)(2π ratio)^4.
+  for (double ratio : {0.1, 0.2}) CHECK(tracking_residual_share(ratio) <= 5.0 / 384.0 * std::pow(2 * kPi * ratio, 4));
+  CHECK_THROWS_AS(tracking_residual_share(0.0), std::invalid_argument);
+  CHECK_THROWS_AS(tracking_residual_share(4.5), std::invalid_argument);
+
+  // Independently, through the whole order tracking: a tone at order k of a shaft whose angle deviates
+  // by ε sin(2π x f0 t) revolutions, resampled with the spline through one edge per revolution. The
+  // tracked tone is phase-modulated by 2π k ε r at x orders, so each first sideband holds
+  // (2π k ε r / 2) of the tone's amplitude (small index), r = tracking_residual_share(x).
+  const double f0 = 10, fs = 20000, epsilon = 2e-4, k = 19;
+  for (double x : {0.375, 0.625, 1.0}) {
+    const std::size_t revs = 128;
+    const auto n = static_cast<std::size_t>((revs + 2) * fs / f0);
+    auto angle_at = [&](double t) { return f0 * t + epsilon * std::sin(2 * kPi * x * f0 * t); };
+    std::vector<float> signal(n);
+    for (std::size_t i = 0; i < n; ++i) signal[i] = static_cast<float>(std::cos(2 * kPi * k * angle_at(double(i) / fs)));
+    std::vector<double> edges;
+    double t = 0;
+    for (int m = 0; m <= static_cast<int>(revs) + 1; ++m) {
+      for (int iteration = 0; iteration < 30; ++iteration)
+        t -= (angle_at(t) - m) / (f0 * (1 + epsilon * 2 * kPi * x * std::cos(2 * kPi * x * f0 * t)));
+      edges.push_back(t * fs);
+    }
+    ShaftAngle angle;
+    REQUIRE(angle.assign(edges, 1, 1.0).ok());
+    const std::size_t spr = 128;
+    std::vector<double> resampled(revs * spr);
+    AngularResampler resampler;
+    resampler.resample(signal, angle, spr, revs, resampled);
+    // Read over the middle 96 revolutions (x·96 whole cycles): the spline's not-a-knot ends bend the
+    // first and last revolutions' angle.
+    auto bin = [&](double order) {
+      std::complex<double> sum = 0;
+      for (std::size_t j = 16 * spr; j < 112 * spr; ++j) sum += resampled[j] * std::polar(1.0, -2 * kPi * order * double(j) / spr);
+      return std::abs(sum);
+    };
+    const double carrier = bin(k), sidebands = 0.5 * (bin(k - x) + bin(k + x));
+    const double measured = 2 * sidebands / carrier / (2 * kPi * k * epsilon);
+    INFO("x = " << x << ": sidebands say " << measured << ", tracking_residual_share " << tracking_residual_share(x));
+    CHECK(measured == Approx(tracking_residual_share(x)).epsilon(0.005));  // measured: within 6e-5
+  }
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <stdexcept>
 
@@ -191,6 +192,37 @@ void AngularResampler::resample(std::span<const float> x, const ShaftAngle& angl
   interpolator_.set_cutoff(std::max(cutoff, 1.0 / 64.0));
   const double step = angle_revs_per_rev / static_cast<double>(samples_per_rev);
   for (std::size_t j = 0; j < count; ++j) out[j] = interpolator_(x, angle.time_at(static_cast<double>(j) * step));
+}
+
+double tracking_residual_share(double ratio) {
+  if (!(ratio > 0 && ratio <= 4)) throw std::invalid_argument("tracking residual: the ratio must lie in (0, 4]");
+  // Unit speed (one revolution per unit of time), 1000 samples per revolution, a deviation of 1e-3
+  // revolutions: small enough that the edges stay regular, large against the spline's rounding.
+  constexpr double kSamples = 1000, kDeviation = 1e-3;
+  constexpr int kRevolutions = 400;
+  const double w = 2.0 * std::numbers::pi * ratio;
+  auto angle = [&](double t) { return t + kDeviation * std::sin(w * t); };
+  std::vector<double> edges;
+  edges.reserve(kRevolutions + 1);
+  double t = 0;
+  for (int m = 0; m <= kRevolutions; ++m) {
+    for (int iteration = 0; iteration < 30; ++iteration) t -= (angle(t) - m) / (1.0 + kDeviation * w * std::cos(w * t));
+    edges.push_back(t * kSamples);
+  }
+  ShaftAngle tracked;
+  if (!tracked.assign(edges, 1, 1.0).ok()) throw std::logic_error("tracking residual: synthetic edges refused");
+  // The error's component at the deviation's frequency, Hann-weighted over the middle revolutions
+  // (the spline's ends are not-a-knot, and the aliases at other frequencies must not leak in).
+  constexpr double kFirst = 20, kLast = kRevolutions - 20, kStep = 1.0 / 64;
+  std::complex<double> sum = 0;
+  double weights = 0;
+  for (double revs = kFirst; revs <= kLast; revs += kStep) {
+    const double hann = 0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * (revs - kFirst) / (kLast - kFirst));
+    const double error = angle(tracked.time_at(revs) / kSamples) - revs;
+    sum += hann * error * std::polar(1.0, -w * revs);
+    weights += hann;
+  }
+  return 2.0 * std::abs(sum) / weights / kDeviation;
 }
 
 }  // namespace gearwatch::dsp

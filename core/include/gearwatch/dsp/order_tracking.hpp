@@ -51,6 +51,15 @@ class ShaftAngle {
   friend class AngularResampler;
 };
 
+/// How much of a sinusoidal deviation of a shaft's angle, at `ratio` times the shaft's speed, the
+/// angle from one tacho edge per revolution (ShaftAngle's spline) leaves in the tracked signal: the
+/// amplitude of the tracked angle's error at that frequency over the deviation's. Near 0 for slow
+/// deviations (the spline follows them), 1 at ratio 1 (every edge sees the deviation at the same
+/// phase, so the spline sees none of it). Measured on synthetic edges, 400 revolutions (a deviation
+/// whose ratio is not a simple fraction meets the edges at every phase). Throws
+/// std::invalid_argument for a ratio outside (0, 4].
+double tracking_residual_share(double ratio);
+
 /// Band-limited interpolation of a uniformly sampled signal at arbitrary positions: a Kaiser-windowed
 /// sinc with `zero_crossings` lobes each side, tabulated at `phases` fractional offsets with linear
 /// interpolation between adjacent phase rows. When the output is sparser than the input the
