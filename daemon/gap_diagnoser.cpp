@@ -22,8 +22,10 @@ gap::DiagnosisSettings gap_diagnosis_settings(const config::GearwatchConfig& con
   return settings;
 }
 
-GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config) {
-  return [gears = config.rig.gears, base = gap_diagnosis_settings(config)](const std::vector<gap::DiagnosisInput>& training,
+GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config, const twin::GearboxParameters& params) {
+  auto base = gap_diagnosis_settings(config);
+  base.twin_parameters = params;
+  return [gears = config.rig.gears, base = std::move(base)](const std::vector<gap::DiagnosisInput>& training,
                                                                            const std::vector<gap::DiagnosisInput>& held_out,
                                                                            const GapCallContext& context) {
     auto settings = base;

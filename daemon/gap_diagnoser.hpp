@@ -10,10 +10,11 @@ namespace gearwatch::daemon {
 /// The diagnosis's settings from [gap]: the compared channel, the bootstrap resamples and seed.
 gap::DiagnosisSettings gap_diagnosis_settings(const config::GearwatchConfig& config);
 
-/// The diagnosis the daemon runs with this configuration's gears and gap_diagnosis_settings(), and
-/// each call's context (its twin reruns and K_wear inference) on top.
+/// The diagnosis the daemon runs with this configuration's gears and gap_diagnosis_settings(), the
+/// twin's parameters (the ones its counterparts are simulated with), and each call's context (its
+/// twin reruns and K_wear inference) on top.
 /// Empty when this build has no diagnosis to bind: the model thread then refuses `gap.enabled`.
-GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config);
+GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config, const twin::GearboxParameters& params);
 
 /// The twin's casing signal for a measured record: y6 at the record's speed, torque, length and
 /// sample rate for the given wear state, as a one-channel Record numbered like the compared

@@ -255,7 +255,7 @@ void ModelThread::start() {
     model_ = std::make_unique<wear::TwinModel>(params, settings, simulator);
   }
   if (config_.gap.enabled) {
-    if (!gap_.diagnose) gap_.diagnose = make_gap_diagnoser(config_);
+    if (!gap_.diagnose) gap_.diagnose = make_gap_diagnoser(config_, params);
     if (!gap_.diagnose)
       throw std::runtime_error("gap.enabled = true, but this build of gearwatch has no sim-to-real gap diagnosis to run");
     // The rerun is bound only with the configured counterpart: an injected twin brings its own (or none).

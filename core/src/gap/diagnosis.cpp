@@ -17,6 +17,8 @@
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/evaluation.hpp"
 #include "gearwatch/gap/spectra.hpp"
+#include "gearwatch/twin/errors.hpp"
+#include "gearwatch/twin/gearbox_model.hpp"
 
 namespace gearwatch::gap {
 namespace {
@@ -34,7 +36,7 @@ struct PairSpectra {
 };
 
 std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const GearPairSpec& gears,
-                                const DiagnosisSettings& s, const char* which) {
+                                const DiagnosisSettings& s, const twin::GearboxMatrices& twin_matrices, const char* which) {
   std::vector<PairSpectra> out;
   out.reserve(inputs.size());
   for (std::size_t i = 0; i < inputs.size(); ++i) {
@@ -47,6 +49,9 @@ std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const
     try {
       PairSpectra p{std::make_shared<const RecordSpectra>(in.measured, s.channel, gears, s.min_revolutions),
                     RecordSpectra(in.twin, twin_channel, gears, s.min_revolutions), {}, {}, 0};
+      p.twin.set_run_out_sensitivity(
+          run_out_sensitivity(twin_matrices, gears, false, p.twin.speed_hz(), p.twin.torque_nm()),
+          run_out_sensitivity(twin_matrices, gears, true, p.twin.speed_hz(), p.twin.torque_nm()));
       p.measured_all = p.measured->summary();
       p.twin_all = p.twin.summary();
       const double total = std::accumulate(p.twin_all.input_lines.begin(), p.twin_all.input_lines.end(), 0.0);
@@ -67,6 +72,7 @@ PairSpectra with_rerun_twin(const PairSpectra& p, const Record& twin, const Gear
   if (twin.channels.empty()) throw std::invalid_argument("the rerun twin record has no channel");
   const int twin_channel = std::min<int>(s.channel, static_cast<int>(twin.channels.size()) - 1);
   PairSpectra out{p.measured, RecordSpectra(twin, twin_channel, gears, s.min_revolutions), p.measured_all, {}, p.floor};
+  out.twin.set_run_out_sensitivity(p.twin_all.pinion_run_out, p.twin_all.gear_run_out);
   out.twin_all = out.twin.summary();
   return out;
 }
@@ -239,8 +245,15 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     for (double e : settings.rms_sa_wear_elasticities)
       if (!std::isfinite(e)) throw std::invalid_argument("gap diagnosis: every rms_sa_wear_elasticities value must be finite");
   }
-  const auto train = reduce(training, gears, settings, "training");
-  const auto test = reduce(held_out, gears, settings, "held-out");
+  const twin::GearboxMatrices twin_matrices = [&] {
+    try {
+      return twin::assemble(settings.twin_parameters);
+    } catch (const twin::TwinParameterError& e) {
+      throw std::invalid_argument(std::string("gap diagnosis: the twin's parameters: ") + e.what());
+    }
+  }();
+  const auto train = reduce(training, gears, settings, twin_matrices, "training");
+  const auto test = reduce(held_out, gears, settings, twin_matrices, "held-out");
   std::vector<SummaryPair> train_pairs;
   for (const auto& p : train) train_pairs.push_back({p.measured_all, p.twin_all, p.floor});
   const double fs = test.front().measured_all.sample_rate_hz;
@@ -346,6 +359,19 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     return best;
   };
 
+  // Held out, a family outside the candidate's own above its interval before any effect, and by more
+  // than 0.5 dB: a candidate that does this while it shrinks its own families is flagged, and it is
+  // not chosen (an effect that makes the twin worse elsewhere is not the cause; its families stay
+  // unexplained).
+  auto worsens_other_family = [&](const std::vector<FamilyGap>& after, const std::vector<FamilyKind>& own) {
+    for (std::size_t f = 0; f < kFamilies && f < after.size(); ++f) {
+      const auto& b = report.before[f];
+      if (std::find(own.begin(), own.end(), b.family) != own.end() || !b.resolved) continue;
+      if (after[f].distance_db > b.distance_interval_db.high && after[f].distance_db > b.distance_db + 0.5) return true;
+    }
+    return false;
+  };
+
   // Each candidate alone on the twin: fitted on training, scored held out.
   std::vector<std::pair<double, CandidateScore>> ranked;
   std::map<CandidateEffect, std::vector<double>> alone;
@@ -376,13 +402,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     const double own_before = own_distance(report.before, form.explains);
     score.shrinkage = own_before > 0 ? 1.0 - own_distance(score.held_out_after, form.explains) / own_before : 0.0;
     score.information_criterion = information_criterion(a.point, noise, fitted_count(values), settings.min_gap_db);
-    for (std::size_t f = 0; f < kFamilies; ++f) {
-      const auto& b = report.before[f];
-      const auto& after = score.held_out_after[f];
-      const bool own = std::find(form.explains.begin(), form.explains.end(), b.family) != form.explains.end();
-      if (!own && b.resolved && after.distance_db > b.distance_interval_db.high && after.distance_db > b.distance_db + 0.5)
-        score.worsens_other_family = score.shrinkage > 0;
-    }
+    score.worsens_other_family = score.shrinkage > 0 && worsens_other_family(score.held_out_after, form.explains);
     ranked.emplace_back(score.information_criterion, std::move(score));
   }
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -410,6 +430,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       // attribution; it is added only if it pays (IC drop) and shrinks its own families. When it
       // does not, no lesser candidate is tried in its place: the families stay unexplained.
       double best_ic = std::numeric_limits<double>::infinity(), best_shrink = 0;
+      bool best_worsens = false;
       std::optional<AppliedEffect> best;
       std::optional<std::size_t> best_grid;
       std::vector<FamilyGap> best_gaps;
@@ -443,12 +464,13 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
         if (explains_significant && ic < best_ic) {
           best_ic = ic;
           best_shrink = shrink;
+          best_worsens = worsens_other_family(gaps, form.explains);
           best = AppliedEffect{c, values};
           best_grid = grid;
           best_gaps = gaps;
         }
       }
-      if (!best || best_ic > ic_current - settings.accept_ic_drop || best_shrink < settings.min_shrinkage) break;
+      if (!best || best_ic > ic_current - settings.accept_ic_drop || best_shrink < settings.min_shrinkage || best_worsens) break;
       report.chosen.push_back(best->effect);
       if (best_grid) {
         auto& set = reruns.at(best->effect);

@@ -167,6 +167,8 @@ SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_rev
   s.speed_hz = speed_hz_;
   s.torque_nm = torque_nm_;
   s.sample_rate_hz = sample_rate_hz_;
+  s.pinion_run_out = pinion_run_out_;
+  s.gear_run_out = gear_run_out_;
   s.input_revolutions = ir.size();
   s.output_revolutions = orv.size();
   s.input_lines.assign(k_in_, 0.0);

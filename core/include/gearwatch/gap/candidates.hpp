@@ -9,8 +9,12 @@
 //   noise_floor       additive white floor of one-sided PSD S (per Hz): 2·S·speed in each 1-order
 //                     bin (white in Hz, so its level per order grows with the speed), that over R on
 //                     each synchronous line (R its averages; the output's orders z1/z2 as wide)
-//   eccentricity      AM at shaft order 1: sidebands n·z ± 1 gain (a²/4)·P(n·GMF) on each shaft; a at
-//                     each load (the run-out excites the same at any load, the twin's mesh ∝ load)
+//   eccentricity      a run-out of each shaft along the line of action (m): a transmission error at that
+//                     shaft's frequency, which the twin's linearised model turns into a modulation of
+//                     the mesh force (AM) and a turning of the pinion that one tacho edge per revolution
+//                     cannot follow (PM growing with the harmonic): first sidebands n·z ± 1 of each
+//                     shaft gain ((a·e)² + (n·b·e)²)/4 · P(n·GMF), a and b from run_out_sensitivity()
+//                     at each record's speed and torque, so one run-out serves every speed and load
 //   tooth_errors      per-tooth pattern: every non-mesh line of a shaft gains c·E(order), E the
 //                     twin's mesh-harmonic envelope (its transfer path) interpolated in order, and
 //                     the residual gains c_r·E(order) (the tooth pairings repeat only every z1·z2
@@ -39,6 +43,7 @@
 #include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/twin/gearbox_model.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "gearwatch/twin/transmission_error.hpp"
 
@@ -104,6 +109,17 @@ std::vector<double> values_at_load(const CandidateForm& form, const std::vector<
 
 /// The names of a candidate's fitted values (the form's names; per-load forms' prefixed by the group).
 std::vector<std::string> parameter_names(const CandidateForm& form, const std::vector<double>& values);
+
+/// The twin's response to a run-out of one metre of the pinion (`gear_shaft` false) or the gear shaft
+/// at a record's input speed and torque. The run-out is a transmission error at that shaft's
+/// frequency f (twin::transmission_error_response). AM index: the loaded deflection's change over the
+/// mean deflection T/(r_b1·k̄) (0 without a torque). PM per harmonic: z1 times the pinion's angle
+/// (the mesh phase follows it) times the share one tacho edge per input revolution leaves of an angle
+/// deviation at f (dsp::tracking_residual_share: all of it at the input shaft's own frequency; the
+/// encoder at the input shaft's free end, seed §3.2, turns with the pinion at these frequencies).
+/// Throws std::invalid_argument for a speed that is not positive and finite.
+RunOutSensitivity run_out_sensitivity(const twin::GearboxMatrices& matrices, const GearPairSpec& gears, bool gear_shaft,
+                                      double input_speed_hz, double torque_nm);
 
 /// A candidate with its parameters (natural units, in the order of its form).
 struct AppliedEffect {

@@ -12,6 +12,7 @@
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/record.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/twin/gearbox_parameters.hpp"
 
 namespace gearwatch::gap {
 
@@ -34,6 +35,9 @@ using TwinRerun = std::function<Record(CandidateEffect effect, const std::vector
 
 struct DiagnosisSettings {
   int channel = 0;                 ///< measured channel compared with the twin's casing signal
+  /// The twin the counterparts were simulated with: its linearised model gives each record's
+  /// response to a run-out (the eccentricity candidate). Must match the twin records.
+  twin::GearboxParameters twin_parameters;
   int bootstrap_resamples = 200;   ///< block bootstrap over revolutions
   std::uint64_t seed = 1;          ///< bootstrap resampling seed (deterministic reports)
   std::size_t bootstrap_block_revolutions = 2;  ///< revolutions per bootstrap block

@@ -17,6 +17,15 @@
 
 namespace gearwatch::gap {
 
+/// What a run-out of one metre on one shaft does to a record's mesh (run_out_sensitivity()): mesh
+/// harmonic n of power P gets ((a·e)² + (n·b·e)²)/4 · P on each first sideband (n·z ± 1 of that
+/// shaft) for a run-out e, a the mesh-force modulation index and n·b the mesh-phase modulation
+/// (rad) the order tracking keeps, per metre. Zero: not known (the run-out adds nothing).
+struct RunOutSensitivity {
+  double am_per_m = 0;
+  double pm_per_harmonic_per_m = 0;
+};
+
 /// The power (peak amplitude², (m/s²)²) of every line and broadband bin of one record, with the
 /// record's operating point. Lines are synchronous averages over whole revolutions of one shaft,
 /// read after the other shaft's synchronous average is removed; broadband is the residual of both
@@ -35,6 +44,9 @@ struct SpectralSummary {
   std::vector<double> input_lines;    ///< [k-1]: integer input order k = 1..K_in
   std::vector<double> output_lines;   ///< [m-1]: integer output order m = 1..K_out (mesh orders hold 0, unused)
   std::vector<double> broadband;      ///< [k-1]: non-synchronous power in orders [k, k+1) (2-revolution Hann blocks)
+  /// For a twin's record: its response to a run-out of the pinion (input) and of the gear (output)
+  /// shaft at this operating point (RecordSpectra::set_run_out_sensitivity).
+  RunOutSensitivity pinion_run_out, gear_run_out;
 };
 
 /// One record reduced to per-revolution spectra (so a bootstrap can redraw revolutions).
@@ -54,7 +66,13 @@ class RecordSpectra {
   /// A block-bootstrap draw of both shafts' revolutions (blocks of `block` revolutions, circular).
   SpectralSummary bootstrap(std::mt19937_64& rng, std::size_t block) const;
 
+  /// Carried into every summary and bootstrap draw (the twin's response to a run-out).
+  void set_run_out_sensitivity(RunOutSensitivity pinion, RunOutSensitivity gear) noexcept {
+    pinion_run_out_ = pinion;
+    gear_run_out_ = gear;
+  }
   double speed_hz() const noexcept { return speed_hz_; }
+  double torque_nm() const noexcept { return torque_nm_; }
   std::size_t input_revolutions() const noexcept { return in_revs_; }
   std::size_t output_revolutions() const noexcept { return out_revs_; }
 
@@ -62,6 +80,7 @@ class RecordSpectra {
   double speed_hz_ = 0, sample_rate_hz_ = 0, torque_nm_ = 0;
   std::size_t in_revs_ = 0, out_revs_ = 0, k_in_ = 0, k_out_ = 0, blocks_ = 0;
   int pinion_teeth_ = 19, gear_teeth_ = 52;
+  RunOutSensitivity pinion_run_out_, gear_run_out_;
   std::vector<std::complex<double>> in_dft_;   // [rev * k_in + k-1], scaled to peak amplitude
   std::vector<std::complex<double>> out_dft_;  // [rev * k_out + m-1]
   std::vector<std::complex<double>> block_dft_;  // [block * 2k_in + j-1]: half-order bins j = 1..2k_in
