@@ -75,7 +75,9 @@ struct CandidateScore {
   std::vector<FamilyGap> held_out_after;                   ///< every family, held out, with this effect
   double shrinkage = 0;                 ///< 1 − after/before of the distance in its own families (held out)
   double information_criterion = 0;     ///< held-out fit quality penalised by the parameter count; lower is better
-  bool worsens_other_family = false;    ///< helps its own families but pushes another beyond its interval
+  /// Helps its own families but pushes another beyond its interval (held out, alone). The greedy
+  /// choice adopts no candidate that does so at its step: its families stay unexplained.
+  bool worsens_other_family = false;
 };
 
 /// One diagnosis: held-out gaps before, the ranked candidates, the greedy choice, gaps after.
