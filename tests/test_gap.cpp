@@ -655,6 +655,14 @@ TEST_CASE("gap: the run-out sensitivity is the twin's response to a transmission
     CHECK(run_out_sensitivity(matrices, gears, false, speed, std::nan("")).am_per_m == 0.0);
   }
   CHECK_THROWS_AS(run_out_sensitivity(matrices, gears, false, 0.0, 20.0), std::invalid_argument);
+  // A pair whose gear turns more than 16 times as fast as the tacho's shaft (the config allows 5–500
+  // teeth) is still diagnosed: above the shaft's own order the edges keep all of the deviation.
+  GearPairSpec step_up;
+  step_up.pinion_teeth = 400;
+  step_up.gear_teeth = 20;
+  const auto fast_gear = run_out_sensitivity(matrices, step_up, true, 8.0, 20.0);
+  CHECK(fast_gear.pm_per_harmonic_per_m ==
+        Approx(400 * std::abs(twin::transmission_error_response(matrices, 160.0)[twin::theta5])).epsilon(1e-3));
 }
 
 TEST_CASE("gap: eccentricity fitted on the rig's records recovers the run-outs the rig was given, across speeds", "[gap]") {

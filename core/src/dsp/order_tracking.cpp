@@ -195,7 +195,7 @@ void AngularResampler::resample(std::span<const float> x, const ShaftAngle& angl
 }
 
 double tracking_residual_share(double ratio) {
-  if (!(ratio > 0 && ratio <= 4)) throw std::invalid_argument("tracking residual: the ratio must lie in (0, 4]");
+  if (!(ratio > 0 && ratio <= 16)) throw std::invalid_argument("tracking residual: the ratio must lie in (0, 16]");
   // Unit speed (one revolution per unit of time), 1000 samples per revolution, a deviation of 1e-3
   // revolutions: small enough that the edges stay regular, large against the spline's rounding.
   constexpr double kSamples = 1000, kDeviation = 1e-3;

@@ -203,7 +203,10 @@ RunOutSensitivity run_out_sensitivity(const twin::GearboxMatrices& matrices, con
     const double mean_deflection = torque_nm / pinion_base_radius / matrices.mean_mesh_stiffness;
     r.am_per_m = std::abs(matrices.mesh.cast<std::complex<double>>().dot(q) + 1.0) / mean_deflection;
   }
-  r.pm_per_harmonic_per_m = gears.pinion_teeth * std::abs(q[twin::theta5]) * dsp::tracking_residual_share(ratio);
+  // Above the tacho shaft's own order the edges hold only an alias and the share is 1 (to 5e-4 up to
+  // 16 orders); a gear turning faster than that (a 16:1 step-up) is taken at 16.
+  r.pm_per_harmonic_per_m =
+      gears.pinion_teeth * std::abs(q[twin::theta5]) * dsp::tracking_residual_share(std::min(ratio, 16.0));
   return r;
 }
 

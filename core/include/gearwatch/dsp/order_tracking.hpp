@@ -56,8 +56,9 @@ class ShaftAngle {
 /// amplitude of the tracked angle's error at that frequency over the deviation's. Near 0 for slow
 /// deviations (the spline follows them), 1 at ratio 1 (every edge sees the deviation at the same
 /// phase, so the spline sees none of it). Measured on synthetic edges, 400 revolutions (a deviation
-/// whose ratio is not a simple fraction meets the edges at every phase). Throws
-/// std::invalid_argument for a ratio outside (0, 4].
+/// whose ratio is not a simple fraction meets the edges at every phase). Above 1 the edges hold only
+/// an alias of the deviation and the share is 1 (within 5e-4 up to 16). Throws std::invalid_argument
+/// for a ratio outside (0, 16].
 double tracking_residual_share(double ratio);
 
 /// Band-limited interpolation of a uniformly sampled signal at arbitrary positions: a Kaiser-windowed
