@@ -615,7 +615,9 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
       {CandidateEffect::noise_floor, {1e-4}, 0.02},
       {CandidateEffect::eccentricity, {20e-6, 8e-6}, 0.02},  // pinion and gear run-out, m
       {CandidateEffect::tooth_errors, {20, 1e-3, 2e-3, 5e-4}, 0.02},  // per load: the records' 20 N·m, then its gains
-      {CandidateEffect::speed_fluctuation, {0.1, 3.0}, 0.03},
+      // depth, f_m (x = 0.375 and 0.21 of the shaft speed: 12 % and 0.7 % of the angle left by the
+      // tacho), AM share
+      {CandidateEffect::speed_fluctuation, {0.01, 3.0, 0.02}, 0.03},
       {CandidateEffect::load_fluctuation, {0.002, 5.0}, 0.03},
       {CandidateEffect::misalignment, {-3.0}, 0.02},
       {CandidateEffect::backlash, {0.5}, 0.02},
@@ -627,6 +629,86 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
       REQUIRE(fitted.size() == c.values.size());
       for (std::size_t i = 0; i < fitted.size(); ++i) CHECK(fitted[i] == Approx(c.values[i]).epsilon(c.tolerance));
       CHECK(training_cost(pairs, {{c.effect, fitted}}, GearPairSpec{}) < 1e-3 * training_cost(pairs, {}, GearPairSpec{}));
+    }
+  }
+}
+
+namespace {
+
+/// A record of mesh-like tones locked to the angle of a shaft whose speed ripples by `depth` at
+/// `f_m` (it turns depth·f0/f_m rad ahead and back), with one tacho edge per revolution.
+Record rippling_shaft_record(double fs, double f0, int revs, double depth, double f_m, const std::vector<int>& orders) {
+  const double amplitude_rev = depth * f0 / (2 * kPi * f_m);  // angle ripple in revolutions
+  auto revolutions_at = [&](double t) { return f0 * t - amplitude_rev * std::cos(2 * kPi * f_m * t); };
+  Record r;
+  r.sample_rate_hz = fs;
+  const auto n = static_cast<std::size_t>((revs + 0.5) * fs / f0);
+  std::vector<float> x(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double phi = revolutions_at(static_cast<double>(i) / fs);
+    double v = 0;
+    for (int k : orders) v += std::cos(2 * kPi * k * phi);
+    x[i] = static_cast<float>(v);
+  }
+  r.channels = {x};
+  r.channel_numbers = {0};
+  double t = 0;
+  for (int k = 0; k <= revs + 1; ++k) {
+    // Newton on the angle: the edge where it passes revolution k (the angle at t = 0 is −a).
+    const double target = k - amplitude_rev;
+    for (int it = 0; it < 30; ++it)
+      t -= (revolutions_at(t) - target) / (f0 + amplitude_rev * 2 * kPi * f_m * std::sin(2 * kPi * f_m * t));
+    if (t * fs < static_cast<double>(n)) r.tacho_edges[0].push_back(t * fs);
+  }
+  r.speed_hz = f0;
+  r.torque_nm = 20;
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per revolution leaves of the ripple", "[gap]") {
+  // A speed ripple of depth d at f_m turns the shaft d/x rad (x = f_m/f0); one edge per revolution
+  // follows all but r(x) of that angle, so a line at order k keeps J0²(k·(d/x)·r(x)) of its power.
+  const double fs = 20000, f0 = 10;
+  const std::vector<int> orders{19, 57, 95, 133, 190};
+  auto twin_of = [&](const SpectralSummary& measured) {
+    SpectralSummary twin = measured;
+    std::fill(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
+    std::fill(twin.output_lines.begin(), twin.output_lines.end(), 0.0);
+    std::fill(twin.broadband.begin(), twin.broadband.end(), 0.0);
+    for (int k : orders) twin.input_lines[static_cast<std::size_t>(k - 1)] = 1.0;
+    return twin;
+  };
+  // The form against its closed form, with r from dsp::tracking_residual_share (the form reads it
+  // off a table): x = 0.25 and 0.3, 2 %.
+  for (double f_m : {2.5, 3.0}) {
+    CAPTURE(f_m);
+    const double d = 0.02, x = f_m / f0, residual_rad = d / x * dsp::tracking_residual_share(x);
+    const auto twin = twin_of(RecordSpectra(rippling_shaft_record(fs, f0, 40, d, f_m, orders), 0, GearPairSpec{}).summary());
+    const auto model = apply_effects({{CandidateEffect::speed_fluctuation, {d, f_m, 0.0}}}, twin, GearPairSpec{});
+    for (int k : orders) {
+      CAPTURE(k);
+      CHECK(model.input_lines[static_cast<std::size_t>(k - 1)] ==
+            Approx(std::pow(std::cyl_bessel_j(0.0, k * residual_rad), 2)).epsilon(0.01));
+    }
+  }
+  // Against the order-tracked record where no tracking is possible: a ripple at the shaft's own
+  // order (x = 1) and at twice it meets every edge at the same phase, so all of it stays (r = 1)
+  // and the record's lines keep J0²(k·d/x). Slower ripples leave less, but the spline through the
+  // edges also carries an image of the ripple at 1 − x, a second phase modulation the form leaves
+  // out: at x = 0.3 (160 revolutions) a record's order-190 line keeps 0.80 of its power where the form says 0.90
+  // (docs/gap.md).
+  for (double f_m : {10.0, 20.0}) {
+    CAPTURE(f_m);
+    const double d = 0.005, x = f_m / f0;
+    const auto measured = RecordSpectra(rippling_shaft_record(fs, f0, 40, d, f_m, orders), 0, GearPairSpec{}).summary();
+    const auto model = apply_effects({{CandidateEffect::speed_fluctuation, {d, f_m, 0.0}}}, twin_of(measured), GearPairSpec{});
+    for (int k : orders) {
+      CAPTURE(k);
+      const double kept = std::pow(std::cyl_bessel_j(0.0, k * d / x), 2);
+      CHECK(measured.input_lines[static_cast<std::size_t>(k - 1)] == Approx(kept).epsilon(0.02));
+      CHECK(model.input_lines[static_cast<std::size_t>(k - 1)] == Approx(kept).epsilon(0.01));
     }
   }
 }

@@ -52,6 +52,36 @@ class MeshEnvelope {
   std::vector<double> log_p_;
 };
 
+/// J0, by its series where the index is small (most lines: the library's is slow, and this form
+/// asks for it at every line of every record at every trial value).
+double bessel_j0(double z) {
+  const double q = z * z / 4.0;
+  if (q < 0.01) return 1.0 - q + q * q / 4.0 - q * q * q / 36.0;  // next term q⁴/576 < 2e-11
+  return std::cyl_bessel_j(0.0, z);
+}
+
+/// dsp::tracking_residual_share read off a table in log x: each call simulates 400 revolutions of
+/// tacho edges (3 ms), and the speed-fluctuation form asks at every record and trial frequency.
+/// Below the table it falls as x⁴ (the cubic spline's error for a slow deviation); above x = 2 the
+/// edges hold only an alias and the share is 1.
+double tracking_residual(double x) {
+  constexpr double kLow = 0.01, kHigh = 2.0;
+  constexpr int kPoints = 131;
+  static const std::vector<double> log_share = [] {
+    std::vector<double> t;
+    for (int i = 0; i < kPoints; ++i)
+      t.push_back(std::log(dsp::tracking_residual_share(kLow * std::pow(kHigh / kLow, static_cast<double>(i) / (kPoints - 1)))));
+    return t;
+  }();
+  if (!(x > 0)) return 0.0;
+  if (x > kHigh) return 1.0;
+  if (x <= kLow) return std::exp(log_share.front()) * std::pow(x / kLow, 4);
+  const double u = std::log(x / kLow) / std::log(kHigh / kLow) * (kPoints - 1);
+  const auto i = std::min(static_cast<std::size_t>(u), static_cast<std::size_t>(kPoints - 2));
+  const double w = u - static_cast<double>(i);
+  return std::exp((1 - w) * log_share[i] + w * log_share[i + 1]);
+}
+
 void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSummary& s, const GearPairSpec& gears) {
   const int z1 = gears.pinion_teeth, z2 = gears.gear_teeth;
   const double out_speed = s.speed_hz * z1 / z2;
@@ -124,28 +154,44 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
     }
     case CandidateEffect::speed_fluctuation:
     case CandidateEffect::load_fluctuation: {
+      // A speed ripple of depth d at f_m turns the shaft d/x rad ahead and back (x = f_m over the
+      // shaft's speed); the one-edge tacho follows all but the share r(x) of that angle, which stays
+      // in the tracked signal as a phase modulation of index order·(d/x)·r(x). On top, the transfer
+      // path in Hz sees the speed change: a share μ of every line is amplitude-modulated. The load
+      // ripple's form is one phase modulation growing with order, a share 1 − exp(−(β·order)²).
+      const double x = v[1] / s.speed_hz;
+      const bool speed = e.effect == CandidateEffect::speed_fluctuation;
+      const double pm_per_order = speed ? v[0] / x * tracking_residual(x) : 0.0;
       auto share = [&](double order) {
-        return e.effect == CandidateEffect::load_fluctuation ? 1.0 - std::exp(-(v[0] * order) * (v[0] * order))
-                                                             : v[0];
+        if (!speed) return 1.0 - std::exp(-(v[0] * order) * (v[0] * order));
+        const double carrier = bessel_j0(pm_per_order * order);
+        return 1.0 - (1.0 - v[2]) * carrier * carrier;
       };
       // The modulated share leaves the line for sidebands f_m away (in orders: f_m / speed), half each
       // side; being off the integer orders they land mostly in the broadband part, and partly in the
       // neighbouring lines (a few dB on sidebands 40 dB below a mesh harmonic).
-      const double offset = v[1] / s.speed_hz;
+      const double offset = x;
       // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
       // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
       // following a tone through both averages is most of this form's cost.
-      const double negligible = 1e-7 * std::accumulate(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
+      const double total = std::accumulate(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
+      const double negligible = 1e-7 * total;
+      // A line 90 dB below the total cannot move a bin: all of it in one bin at the floor (60 dB
+      // down) is 0.004 dB. The twin has no noise, so most of its lines are that far down.
+      const double too_small_to_move = 1e-9 * total;
       for (std::size_t k = 1; k <= s.input_lines.size(); ++k) {
-        const double mu = share(static_cast<double>(k));
-        const double moved = twin.input_lines[k - 1] * mu;
+        const double power = twin.input_lines[k - 1];
+        if (!(power > too_small_to_move)) continue;
+        const double moved = power * share(static_cast<double>(k));
         s.input_lines[k - 1] -= moved;
         add_non_synchronous_tone(s, static_cast<double>(k) - offset, moved / 2, gears, negligible);
         add_non_synchronous_tone(s, static_cast<double>(k) + offset, moved / 2, gears, negligible);
       }
       for (std::size_t m = 1; m <= s.output_lines.size(); ++m) {
+        const double power = twin.output_lines[m - 1];
+        if (!(power > too_small_to_move)) continue;
         const double order = static_cast<double>(m) * z1 / z2;
-        const double moved = twin.output_lines[m - 1] * share(order);
+        const double moved = power * share(order);
         s.output_lines[m - 1] -= moved;
         add_non_synchronous_tone(s, order - offset, moved / 2, gears, negligible);
         add_non_synchronous_tone(s, order + offset, moved / 2, gears, negligible);
@@ -323,7 +369,8 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
               0,
               true};
     case CandidateEffect::speed_fluctuation:
-      return {effect, {{"modulated_share", 1e-5, 0.99, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 16}},
+      return {effect,
+              {{"depth", 1e-4, 0.1, true, 8}, {"modulation_frequency_hz", 0.1, 20, true, 16}, {"am_share", 1e-5, 0.99, true, 2}},
               {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
     case CandidateEffect::load_fluctuation:
       return {effect, {{"phase_deviation_per_order_rad", 1e-5, 0.5, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 16}},

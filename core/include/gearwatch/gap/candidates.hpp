@@ -20,9 +20,11 @@
 //                     the residual gains c_r·E(order) (the tooth pairings repeat only every z1·z2
 //                     meshes, so what pairs add together is synchronous with neither shaft); at
 //                     each load (the errors excite the same at any load, the twin's mesh ∝ load)
-//   speed_fluctuation order tracking follows the speed, but the transfer path does not: the lines
-//                     are amplitude-modulated at f_m; a share μ of every line leaves it for sidebands
-//                     f_m away (the lines themselves barely change)
+//   speed_fluctuation a speed ripple of depth d at f_m turns the shaft d/x rad ahead and back
+//                     (x = f_m / shaft speed); the one-edge tacho follows all but r(x) of it
+//                     (dsp::tracking_residual_share): line k keeps J0²(k·(d/x)·r); the transfer path
+//                     in Hz does not follow the speed, so a share μ of every line is amplitude-
+//                     modulated too; what leaves a line goes to sidebands f_m away
 //   load_fluctuation  brake torque ripple twists the train between the encoder and the mesh: phase
 //                     modulation in the encoder's angle; a share 1 − exp(−(β·k)²) of line k leaves
 //                     it for sidebands f_m away (grows with order, the high mesh harmonics lose most)
