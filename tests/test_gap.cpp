@@ -681,7 +681,7 @@ TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per
     return twin;
   };
   // The form against its closed form, with r from dsp::tracking_residual_share (the form reads it
-  // off a table; measured within 7e-5): x = 0.25 and 0.3, 2 %.
+  // off a table; measured within 7e-5): x = 0.25 and 0.3, depth 2 %.
   for (double f_m : {2.5, 3.0}) {
     CAPTURE(f_m);
     const double d = 0.02, x = f_m / f0, residual_rad = d / x * dsp::tracking_residual_share(x);
@@ -697,8 +697,8 @@ TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per
   // order (x = 1) and at twice it meets every edge at the same phase, so all of it stays (r = 1)
   // and the record's lines keep J0²(k·d/x). Slower ripples leave less, but the spline through the
   // edges also carries an image of the ripple at 1 − x, a second phase modulation the form leaves
-  // out: at x = 0.3 (160 revolutions) a record's order-190 line keeps 0.80 of its power where the form says 0.90
-  // (docs/gap.md).
+  // out: at x = 0.3 (160 revolutions) a record's order-190 line keeps 0.80 of its power where the
+  // form says 0.90 (docs/gap.md).
   for (double f_m : {10.0, 20.0}) {
     CAPTURE(f_m);
     const double d = 0.005, x = f_m / f0;

@@ -168,9 +168,8 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
         return 1.0 - (1.0 - v[2]) * carrier * carrier;
       };
       // The modulated share leaves the line for sidebands f_m away (in orders: f_m / speed), half each
-      // side; being off the integer orders they land mostly in the broadband part, and partly in the
-      // neighbouring lines (a few dB on sidebands 40 dB below a mesh harmonic).
-      const double offset = x;
+      // side (x orders away); being off the integer orders they land mostly in the broadband part, and
+      // partly in the neighbouring lines (a few dB on sidebands 40 dB below a mesh harmonic).
       // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
       // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
       // following a tone through both averages is most of this form's cost.
@@ -184,8 +183,8 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
         if (!(power > too_small_to_move)) continue;
         const double moved = power * share(static_cast<double>(k));
         s.input_lines[k - 1] -= moved;
-        add_non_synchronous_tone(s, static_cast<double>(k) - offset, moved / 2, gears, negligible);
-        add_non_synchronous_tone(s, static_cast<double>(k) + offset, moved / 2, gears, negligible);
+        add_non_synchronous_tone(s, static_cast<double>(k) - x, moved / 2, gears, negligible);
+        add_non_synchronous_tone(s, static_cast<double>(k) + x, moved / 2, gears, negligible);
       }
       for (std::size_t m = 1; m <= s.output_lines.size(); ++m) {
         const double power = twin.output_lines[m - 1];
@@ -193,8 +192,8 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
         const double order = static_cast<double>(m) * z1 / z2;
         const double moved = power * share(order);
         s.output_lines[m - 1] -= moved;
-        add_non_synchronous_tone(s, order - offset, moved / 2, gears, negligible);
-        add_non_synchronous_tone(s, order + offset, moved / 2, gears, negligible);
+        add_non_synchronous_tone(s, order - x, moved / 2, gears, negligible);
+        add_non_synchronous_tone(s, order + x, moved / 2, gears, negligible);
       }
       break;
     }
