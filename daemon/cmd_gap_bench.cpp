@@ -60,6 +60,8 @@ struct BenchOptions {
   std::uint64_t first_seed = 1;
   int bootstrap = 100;
   double floor_db = gap::DiagnosisSettings{}.floor_db;
+  double min_gap_db = gap::DiagnosisSettings{}.min_gap_db;
+  double min_residual_gap_db = gap::DiagnosisSettings{}.min_residual_gap_db;
   double wear_depth_um = 2;    // pinion wear depth at the sliding extremes, rig and twin alike
   double wear_cycles = 1e6;    // over which the known K_wear produced it
 };
@@ -216,6 +218,8 @@ ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects
   ds.bootstrap_resamples = o.bootstrap;
   ds.seed = seed;
   ds.floor_db = o.floor_db;
+  ds.min_gap_db = o.min_gap_db;
+  ds.min_residual_gap_db = o.min_residual_gap_db;
   for (const auto& in : held_out)
     ds.rms_sa_wear_elasticities.push_back(twins.elasticity(in.twin.speed_hz, in.twin.torque_nm, ds.rms_sa_harmonics));
   ds.rerun_twin = [&twins](gap::CandidateEffect c, const std::vector<double>& values, const Record& like, double duration_s) {
@@ -295,6 +299,8 @@ nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::js
 void run_bench(const BenchOptions& o) {
   if (o.seeds < 1) throw CommandError("--seeds must be at least 1");
   if (o.effects != 1 && o.effects != 2) throw CommandError("--effects must be 1 or 2");
+  if (!(o.min_gap_db >= 0) || !std::isfinite(o.min_gap_db) || !(o.min_residual_gap_db >= 0) || !std::isfinite(o.min_residual_gap_db))
+    throw CommandError("--min-gap-db and --min-residual-gap-db must be finite and >= 0");
   if (o.format != "json" && o.format != "table") throw CommandError("--format must be json or table");
   const auto wall0 = std::chrono::steady_clock::now();
   if (!(o.wear_depth_um > 0) || !(o.wear_cycles > 0)) throw CommandError("--wear-depth-um and --wear-cycles must be > 0");
@@ -405,6 +411,8 @@ void run_bench(const BenchOptions& o) {
   j["training_speeds_hz"] = o.training_speeds_hz;
   j["held_out_speeds_hz"] = o.held_out_speeds_hz;
   j["torques_nm"] = o.torques_nm;
+  j["min_gap_db"] = o.min_gap_db;
+  j["min_residual_gap_db"] = o.min_residual_gap_db;
   j["top1_accuracy"] = number_or_null(frac(total.top1, total.runs));
   j["top2_accuracy"] = number_or_null(frac(total.top2, total.runs));
   j["detection_rate"] = number_or_null(frac(total.detected, total.runs));
@@ -530,6 +538,9 @@ void add_gap_bench_command(CLI::App& app) {
   cmd->add_option("--first-seed", opt->first_seed, "Seed of the first scenario");
   cmd->add_option("--bootstrap", opt->bootstrap, "Bootstrap resamples per diagnosis");
   cmd->add_option("--floor-db", opt->floor_db, "Diagnosis floor, dB re the twin's total line power");
+  cmd->add_option("--min-gap-db", opt->min_gap_db, "Smallest line-family gap the diagnosis calls significant, dB");
+  cmd->add_option("--min-residual-gap-db", opt->min_residual_gap_db,
+                  "Smallest broadband or fixed-frequency gap the diagnosis calls significant, dB");
   cmd->add_option("--wear-depth-um", opt->wear_depth_um, "Known wear depth at the sliding extremes (rig and twin), um");
   cmd->add_option("--wear-cycles", opt->wear_cycles, "Cycles over which the known K_wear produced that depth");
   cmd->callback([opt] { run_bench(*opt); });

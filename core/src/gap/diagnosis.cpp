@@ -36,7 +36,8 @@ struct PairSpectra {
 };
 
 std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const GearPairSpec& gears,
-                                const DiagnosisSettings& s, const twin::GearboxMatrices& twin_matrices, const char* which) {
+                                const DiagnosisSettings& s, const twin::GearboxMatrices& twin_matrices,
+                                const std::shared_ptr<const BearingForcePath>& bearing_path, const char* which) {
   std::vector<PairSpectra> out;
   out.reserve(inputs.size());
   for (std::size_t i = 0; i < inputs.size(); ++i) {
@@ -52,6 +53,7 @@ std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const
       p.twin.set_run_out_sensitivity(
           run_out_sensitivity(twin_matrices, gears, false, p.twin.speed_hz(), p.twin.torque_nm()),
           run_out_sensitivity(twin_matrices, gears, true, p.twin.speed_hz(), p.twin.torque_nm()));
+      p.twin.set_bearing_force_path(bearing_path);
       p.measured_all = p.measured->summary();
       p.twin_all = p.twin.summary();
       const double total = std::accumulate(p.twin_all.input_lines.begin(), p.twin_all.input_lines.end(), 0.0);
@@ -73,6 +75,7 @@ PairSpectra with_rerun_twin(const PairSpectra& p, const Record& twin, const Gear
   const int twin_channel = std::min<int>(s.channel, static_cast<int>(twin.channels.size()) - 1);
   PairSpectra out{p.measured, RecordSpectra(twin, twin_channel, gears, s.min_revolutions), p.measured_all, {}, p.floor};
   out.twin.set_run_out_sensitivity(p.twin_all.pinion_run_out, p.twin_all.gear_run_out);
+  out.twin.set_bearing_force_path(p.twin_all.bearing_force_path);
   out.twin_all = out.twin.summary();
   return out;
 }
@@ -176,7 +179,8 @@ std::vector<FamilyGap> family_gaps(const Assessment& a, const std::array<double,
     g.distance_interval_db = a.interval[f];
     g.energy_share = a.point.energy_share(f);
     // Two records' estimation noise at twice its RMS, and never below the practical minimum.
-    const double threshold = std::sqrt(4.0 * noise[f] * noise[f] + s.min_gap_db * s.min_gap_db);
+    const double tau = min_gap_db_of(s, g.family);
+    const double threshold = std::sqrt(4.0 * noise[f] * noise[f] + tau * tau);
     g.significant = g.distance_db > threshold;
     out.push_back(g);
   }
@@ -187,11 +191,13 @@ std::vector<FamilyGap> family_gaps(const Assessment& a, const std::array<double,
 /// the estimation noise and the practical minimum τ as the floor, so a family already below them
 /// counts for nothing), plus a penalty per fitted parameter.
 double information_criterion(const GapEvaluation& e, const std::array<double, kFamilies>& noise, std::size_t k,
-                             double min_gap_db) {
+                             const DiagnosisSettings& s) {
   double ic = 0;
   for (std::size_t f = 0; f < kFamilies; ++f)
-    if (e.resolved[f])
-      ic += std::log(e.distance_db(f) * e.distance_db(f) + noise[f] * noise[f] + min_gap_db * min_gap_db);
+    if (e.resolved[f]) {
+      const double tau = min_gap_db_of(s, kAllFamilyKinds[f]);
+      ic += std::log(e.distance_db(f) * e.distance_db(f) + noise[f] * noise[f] + tau * tau);
+    }
   return ic + kParameterPenalty * static_cast<double>(k);
 }
 
@@ -252,8 +258,13 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       throw std::invalid_argument(std::string("gap diagnosis: the twin's parameters: ") + e.what());
     }
   }();
-  const auto train = reduce(training, gears, settings, twin_matrices, "training");
-  const auto test = reduce(held_out, gears, settings, twin_matrices, "held-out");
+  // The casing form's path, up to the records' band (one table for every record and re-run).
+  double top_hz = 0;
+  for (const auto* set : {&training, &held_out})
+    for (const auto& in : *set) top_hz = std::max(top_hz, 0.5 * in.twin.sample_rate_hz);
+  const auto bearing_path = bearing_force_path(settings.twin_parameters, std::max(top_hz, 2.0));
+  const auto train = reduce(training, gears, settings, twin_matrices, bearing_path, "training");
+  const auto test = reduce(held_out, gears, settings, twin_matrices, bearing_path, "held-out");
   std::vector<SummaryPair> train_pairs;
   for (const auto& p : train) train_pairs.push_back({p.measured_all, p.twin_all, p.floor});
   const double fs = test.front().measured_all.sample_rate_hz;
@@ -275,7 +286,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   const auto noise = noise_distance(test, settings, evaluator);
   const auto before = assess(test, {}, gears, settings, settings.bootstrap_resamples, evaluator);
   report.before = family_gaps(before, noise, settings, fixed_reason);
-  const double ic_before = information_criterion(before.point, noise, 0, settings.min_gap_db);
+  const double ic_before = information_criterion(before.point, noise, 0, settings);
   const bool any_significant =
       std::any_of(report.before.begin(), report.before.end(), [](const FamilyGap& g) { return g.significant; });
 
@@ -401,7 +412,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     score.held_out_after = family_gaps(a, noise, settings, fixed_reason);
     const double own_before = own_distance(report.before, form.explains);
     score.shrinkage = own_before > 0 ? 1.0 - own_distance(score.held_out_after, form.explains) / own_before : 0.0;
-    score.information_criterion = information_criterion(a.point, noise, fitted_count(values), settings.min_gap_db);
+    score.information_criterion = information_criterion(a.point, noise, fitted_count(values), settings);
     score.worsens_other_family = score.shrinkage > 0 && worsens_other_family(score.held_out_after, form.explains);
     ranked.emplace_back(score.information_criterion, std::move(score));
   }
@@ -453,7 +464,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
           models = models_of(*test_base, fx, gears);
         }
         const auto e = evaluator.evaluate(views(*test_base, models), true);
-        const double ic = information_criterion(e, noise, fitted_count(values), settings.min_gap_db);
+        const double ic = information_criterion(e, noise, fitted_count(values), settings);
         const auto gaps = point_gaps(e);
         const double own_before = own_distance(current_gaps, form.explains);
         const double shrink = own_before > 0 ? 1.0 - own_distance(gaps, form.explains) / own_before : 0.0;
@@ -479,7 +490,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
           best_grid = refined;
           const auto& refined_test = rerun_test(set, refined);
           const auto e = evaluator.evaluate(views(refined_test, models_of(refined_test, chosen, gears)), true);
-          best_ic = information_criterion(e, noise, fitted_count(set.values[refined]), settings.min_gap_db);
+          best_ic = information_criterion(e, noise, fitted_count(set.values[refined]), settings);
           best_gaps = point_gaps(e);
           for (auto& candidate : report.candidates)
             if (candidate.effect == best->effect)
@@ -557,9 +568,14 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     shaft_from = n * z1 + m + 0.5;
   }
   for (const auto& band : before.point.fixed_bands)
-    if (std::abs(band.gain_db) >= settings.min_gap_db)
+    if (std::abs(band.gain_db) >= min_gap_db_of(settings, FamilyKind::fixed_frequency))
       report.hz_bands.push_back({FamilyKind::fixed_frequency, {band.low_hz, band.high_hz}});
   return report;
+}
+
+double min_gap_db_of(const DiagnosisSettings& settings, FamilyKind family) noexcept {
+  return family == FamilyKind::broadband || family == FamilyKind::fixed_frequency ? settings.min_residual_gap_db
+                                                                                   : settings.min_gap_db;
 }
 
 std::optional<double> rms_sa_of_lines(const SpectralSummary& s, int pinion_teeth, int harmonics) {

@@ -10,10 +10,6 @@ namespace gearwatch::gap {
 namespace {
 
 constexpr std::size_t kFamilies = kAllFamilyKinds.size();
-// As in the evaluation: bins this many floors above it carry information on the ratio.
-constexpr double kInformativeFloors = 10.0;
-// A band gain is shrunk towards 0 as if it had this many more points at no gap.
-constexpr double kBandShrinkage = 1.0;
 
 /// The training objective: the mean squared log ratio of each line/bin family, families weighted
 /// alike (the broadband family has thousands of bins, the shaft orders a few).
@@ -48,6 +44,12 @@ std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<Appl
                                   const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
   if (training.empty()) throw std::invalid_argument("fit_candidate: no training records");
   CandidateForm form = candidate_form(effect, training.front().measured.sample_rate_hz);
+  if (effect == CandidateEffect::casing_mode) {
+    // The two modes are interchangeable: reported in rising frequency.
+    auto v = fit_values(form, base, training, gears);
+    if (v[0] > v[1]) std::swap(v[0], v[1]);
+    return v;
+  }
   if (!form.per_load) return fit_values(form, base, training, gears);
   // One group per training load: its load, then the form's parameters fitted on that load's records.
   std::vector<double> loads;
@@ -91,47 +93,6 @@ std::vector<double> fit_values(const CandidateForm& form, const std::vector<Appl
     fx.push_back({form.effect, applied(to_value(u))});
     return cost_of(training, fx, gears, evaluator);
   };
-  if (form.effect == CandidateEffect::casing_mode) {
-    // Linear in the band gains: each band's gain is the shrunk mean log ratio of the informative
-    // lines/bins whose frequency falls in it; bands without any take the interpolation of their
-    // neighbours (a transfer path is smooth on the scale of a few bands).
-    const std::size_t nb = form.parameters.size();
-    std::vector<double> sum(nb, 0.0), n(nb, 0.0);
-    for (const auto& p : training) {
-      const auto model = apply_effects(base, p.twin, gears);
-      auto add = [&](double a, double b, double hz) {
-        if (std::max(a, b) <= kInformativeFloors * p.floor || !(hz > 0)) return;
-        const double x = 12.0 * std::log2(hz / 10.0);
-        if (x < 0) return;
-        const auto band = std::min(nb - 1, static_cast<std::size_t>(x));
-        sum[band] += 10 * std::log10((a + p.floor) / (b + p.floor));
-        n[band] += 1;
-      };
-      const auto& m = p.measured;
-      for (std::size_t k = 1; k <= std::min(m.input_lines.size(), model.input_lines.size()); ++k) {
-        add(m.input_lines[k - 1], model.input_lines[k - 1], k * m.speed_hz);
-        add(m.broadband[k - 1], model.broadband[k - 1], k * m.speed_hz);
-      }
-      for (std::size_t o = 1; o <= std::min(m.output_lines.size(), model.output_lines.size()); ++o)
-        if (!output_line_is_mesh(static_cast<int>(o), gears.gear_teeth))
-          add(m.output_lines[o - 1], model.output_lines[o - 1], o * m.speed_hz * gears.pinion_teeth / gears.gear_teeth);
-    }
-    std::vector<double> v(nb, 0.0);
-    std::vector<std::size_t> known;
-    for (std::size_t b = 0; b < nb; ++b)
-      if (n[b] > 0) v[b] = std::clamp(sum[b] / (n[b] + kBandShrinkage), -60.0, 60.0), known.push_back(b);
-    for (std::size_t b = 0; b < nb; ++b) {
-      if (n[b] > 0 || known.empty()) continue;
-      const auto hi = std::lower_bound(known.begin(), known.end(), b);
-      if (hi == known.begin()) v[b] = v[*hi];
-      else if (hi == known.end()) v[b] = v[known.back()];
-      else {
-        const std::size_t a = *(hi - 1), c = *hi;
-        v[b] = v[a] + (v[c] - v[a]) * static_cast<double>(b - a) / static_cast<double>(c - a);
-      }
-    }
-    return v;
-  }
   if (form.effect == CandidateEffect::tip_relief) {
     // Separable in the log domain: each harmonic's gain is the mean log ratio there (floors make
     // it approximate). Harmonics no training record holds stay at 0 dB.
@@ -160,7 +121,9 @@ std::vector<double> fit_values(const CandidateForm& form, const std::vector<Appl
       const int g = std::max(1, form.parameters[i].grid);
       u[i] = g == 1 ? 0.5 : (idx[i] + 0.5) / g;
     }
-    starts.emplace_back(cost(u), u);
+    // Two modes of one form are interchangeable: one order of each pair of starting frequencies.
+    const bool mirrored = form.effect == CandidateEffect::casing_mode && idx[0] > idx[1];
+    if (!mirrored) starts.emplace_back(cost(u), u);
     std::size_t i = 0;
     for (; i < d; ++i) {
       if (++idx[i] < std::max(1, form.parameters[i].grid)) break;

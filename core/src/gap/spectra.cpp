@@ -153,6 +153,25 @@ RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSp
   }
 }
 
+BearingForcePath::BearingForcePath(double lowest_hz, double points_per_octave, std::vector<std::complex<double>> ratio)
+    : lowest_hz_(lowest_hz), points_per_octave_(points_per_octave), ratio_(std::move(ratio)) {
+  if (!(lowest_hz > 0) || !(points_per_octave > 0) || ratio_.empty())
+    throw std::invalid_argument("bearing-force path: a positive lowest frequency, step and at least one point are needed");
+}
+
+double BearingForcePath::highest_hz() const noexcept {
+  return lowest_hz_ * std::exp2(static_cast<double>(ratio_.size() - 1) / points_per_octave_);
+}
+
+std::complex<double> BearingForcePath::at(double hz) const noexcept {
+  if (!(hz > lowest_hz_)) return ratio_.front();
+  const double x = points_per_octave_ * std::log2(hz / lowest_hz_);
+  const auto i = static_cast<std::size_t>(x);
+  if (i + 1 >= ratio_.size()) return ratio_.back();
+  const double t = x - static_cast<double>(i);
+  return (1 - t) * ratio_[i] + t * ratio_[i + 1];
+}
+
 SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_revs,
                                        const std::vector<std::size_t>& output_revs,
                                        const std::vector<std::size_t>& blocks) const {
@@ -169,6 +188,7 @@ SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_rev
   s.sample_rate_hz = sample_rate_hz_;
   s.pinion_run_out = pinion_run_out_;
   s.gear_run_out = gear_run_out_;
+  s.bearing_force_path = bearing_force_path_;
   s.input_revolutions = ir.size();
   s.output_revolutions = orv.size();
   s.input_lines.assign(k_in_, 0.0);

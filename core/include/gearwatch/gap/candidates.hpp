@@ -2,9 +2,11 @@
 // The candidate effects' parametric forms. Each acts on the twin's order-tracked spectra (lines of
 // both shafts and the broadband part) the way the physical effect acts on the twin's output, in
 // expectation, so adding a candidate never re-runs the twin's ODE:
-//   casing_mode       a transfer path fixed in Hz (foundation/casing modes add coherently to the
-//                     twin's response, so the ratio has peaks and notches): a gain per 1/12-octave
-//                     band from 10 Hz, interpolated linearly in log f between band centres
+//   casing_mode       casing/foundation modes on the bearings (fixed in Hz): two modes of frequencies
+//                     f1, f2, damping ζ and modal mass m, driven by the bearings' forces F, add their
+//                     acceleration to the sensor's: line at f gains |1 + (F/y6)(f)/m · Σ 1/(ωc² − ω² +
+//                     2iζωcω)|², F/y6 the twin's own bearing-force path (bearing_force_path()), so
+//                     the peaks and notches follow from four values at every speed
 //   mount_resonance   base-excited 1-DOF transmissibility: P·(1 + (2ζr)²)/((1 − r²)² + (2ζr)²), r = f/fn
 //   noise_floor       additive white floor of one-sided PSD S (per Hz): 2·S·speed in each 1-order
 //                     bin (white in Hz, so its level per order grows with the speed), that over R on
@@ -39,6 +41,8 @@
 //                     mesh stiffness and its resonance change with load); without: one gain on all
 //                     mesh harmonics, dB
 //   backlash          mesh harmonics raised by b·n dB (b ≥ 0)
+#include <complex>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -91,12 +95,16 @@ void add_rerun_effect(CandidateEffect effect, const std::vector<double>& values,
 /// The names (SI units) of a rerun candidate's values, in the order of its grid points.
 std::vector<std::string> rerun_parameter_names(CandidateEffect effect);
 
-/// The transfer path's bands: centre of band b is 10·2^((b + 0.5)/12) Hz; enough bands to reach
-/// 0.45·fs.
-std::size_t transfer_path_bands(double sample_rate_hz);
-double transfer_path_band_centre_hz(std::size_t band);
-/// Gain (dB) of a transfer path with the given band gains at f (flat beyond the outer centres).
-double transfer_path_gain_db(const std::vector<double>& band_gains_db, double f_hz);
+/// The twin's bearing-force path (BearingForcePath) from its linearised model: the response to a
+/// transmission error at the mesh (twin::transmission_error_response), Σ of the grounded vertical
+/// bearing springs' forces over the sensor DOF y6, from 1 Hz to `highest_hz` at 96 points an octave.
+/// Throws std::invalid_argument for parameters the twin refuses or a highest frequency ≤ 1 Hz.
+std::shared_ptr<const BearingForcePath> bearing_force_path(const twin::GearboxParameters& parameters, double highest_hz);
+
+/// The power gain of casing modes (casing_mode's form) at f for a bearing-force path ratio (N/m):
+/// |1 + ratio/m · Σ_c 1/(ωc² − ω² + 2iζωcω)|².
+double casing_modes_gain(std::complex<double> bearing_force_ratio, double f_hz, double mode1_hz, double mode2_hz,
+                         double damping_ratio, double modal_mass_kg) noexcept;
 
 /// How many per-harmonic gains the tip_relief form has at this sample rate.
 int tip_relief_harmonics(double sample_rate_hz);

@@ -33,7 +33,7 @@ inline constexpr std::array kAllFamilyKinds{FamilyKind::input_shaft_orders, Fami
 /// can explain. These are the diagnosis's own forms; they share names, not code, with the rig
 /// simulator's truth effects.
 enum class CandidateEffect : std::uint8_t {
-  casing_mode = 0,        ///< foundation/casing mode: a resonant transfer path, fixed in Hz
+  casing_mode = 0,        ///< foundation/casing modes driven by the bearing forces: fixed in Hz
   tooth_errors = 1,       ///< tooth-to-tooth spacing/profile errors: shaft-order lines and sidebands
   eccentricity = 2,       ///< shaft run-out: first-order modulation of the mesh
   tip_relief = 3,         ///< gradual engagement: a change of the mesh harmonics' amplitudes

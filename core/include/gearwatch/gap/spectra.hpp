@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -24,6 +25,24 @@ namespace gearwatch::gap {
 struct RunOutSensitivity {
   double am_per_m = 0;
   double pm_per_harmonic_per_m = 0;
+};
+
+/// The twin's vertical bearing forces on the casing per metre of its sensor DOF's displacement
+/// (Σ k_i y_i / y6, complex, N/m) when the mesh drives the gearbox at f, tabulated in log f
+/// (bearing_force_path() builds it from the twin's linearised model). Every line of the twin's
+/// record is driven through the mesh, so a casing on the bearings adds its response to the
+/// sensor's in this ratio at every line. Shared by all the summaries of a diagnosis.
+class BearingForcePath {
+ public:
+  BearingForcePath(double lowest_hz, double points_per_octave, std::vector<std::complex<double>> ratio);
+  /// Linear in log f between the table's points; the end values beyond them.
+  std::complex<double> at(double hz) const noexcept;
+  double lowest_hz() const noexcept { return lowest_hz_; }
+  double highest_hz() const noexcept;
+
+ private:
+  double lowest_hz_, points_per_octave_;
+  std::vector<std::complex<double>> ratio_;
 };
 
 /// The power (peak amplitude², (m/s²)²) of every line and broadband bin of one record, with the
@@ -47,6 +66,8 @@ struct SpectralSummary {
   /// For a twin's record: its response to a run-out of the pinion (input) and of the gear (output)
   /// shaft at this operating point (RecordSpectra::set_run_out_sensitivity).
   RunOutSensitivity pinion_run_out, gear_run_out;
+  /// For a twin's record: its bearing-force path (RecordSpectra::set_bearing_force_path); null: not known.
+  std::shared_ptr<const BearingForcePath> bearing_force_path;
 };
 
 /// One record reduced to per-revolution spectra (so a bootstrap can redraw revolutions).
@@ -71,6 +92,8 @@ class RecordSpectra {
     pinion_run_out_ = pinion;
     gear_run_out_ = gear;
   }
+  /// Carried into every summary and bootstrap draw (the twin's bearing forces per sensor displacement).
+  void set_bearing_force_path(std::shared_ptr<const BearingForcePath> path) noexcept { bearing_force_path_ = std::move(path); }
   double speed_hz() const noexcept { return speed_hz_; }
   double torque_nm() const noexcept { return torque_nm_; }
   std::size_t input_revolutions() const noexcept { return in_revs_; }
@@ -81,6 +104,7 @@ class RecordSpectra {
   std::size_t in_revs_ = 0, out_revs_ = 0, k_in_ = 0, k_out_ = 0, blocks_ = 0;
   int pinion_teeth_ = 19, gear_teeth_ = 52;
   RunOutSensitivity pinion_run_out_, gear_run_out_;
+  std::shared_ptr<const BearingForcePath> bearing_force_path_;
   std::vector<std::complex<double>> in_dft_;   // [rev * k_in + k-1], scaled to peak amplitude
   std::vector<std::complex<double>> out_dft_;  // [rev * k_out + m-1]
   std::vector<std::complex<double>> block_dft_;  // [block * 2k_in + j-1]: half-order bins j = 1..2k_in
