@@ -578,7 +578,7 @@ SpectralSummary twin_summary(double speed, double fs = 100000) {
   s.pinion_run_out = {300.0, 150.0};
   s.gear_run_out = {30.0, 15.0};
   // The shipped twin's bearing-force path (casing_mode acts through it).
-  static const auto path = bearing_force_path(twin::GearboxParameters{}, 0.5 * fs);
+  static const auto path = bearing_force_path(twin::assemble(twin::GearboxParameters{}), 0.5 * fs);
   s.bearing_force_path = path;
   const auto k_in = static_cast<std::size_t>(0.45 * fs / speed);
   const auto k_out = static_cast<std::size_t>(0.45 * fs / (speed * kZ1 / kZ2));
@@ -833,8 +833,8 @@ TEST_CASE("gap: eccentricity fitted on the rig's records recovers the run-outs t
 
 TEST_CASE("gap: the bearing-force path is the twin's response to a mesh error, read between its points", "[gap]") {
   const twin::GearboxParameters p;
-  const auto path = bearing_force_path(p, 10000);
   const auto m = twin::assemble(p);
+  const auto path = bearing_force_path(m, 10000);
   // Off the table's points (96 an octave: 0.7 % apart), at and away from the twin's modes.
   for (double f : {37.3, 152.0, 611.7, 1234.5, 4321.0}) {
     const auto q = twin::transmission_error_response(m, f);
@@ -843,7 +843,7 @@ TEST_CASE("gap: the bearing-force path is the twin's response to a mesh error, r
     CHECK(std::abs(path->at(f) - direct) < 2e-3 * std::abs(direct));
   }
   CHECK(path->highest_hz() >= 10000);
-  CHECK_THROWS_AS(bearing_force_path(p, 0.5), std::invalid_argument);
+  CHECK_THROWS_AS(bearing_force_path(m, 0.5), std::invalid_argument);
   // A heavy casing adds nothing; without the path the form refuses.
   CHECK(casing_modes_gain(path->at(500), 500, 300, 700, 0.03, 1e12) == Approx(1.0).epsilon(1e-9));
   SpectralSummary bare;
@@ -861,7 +861,7 @@ TEST_CASE("gap: casing_mode's form is what the rig's casing modes do to its reco
   // Measured: within 0.01 dB at the mesh harmonics 1–20 (the largest change 11 dB).
   const double fs = 20000, seconds = 2.0;
   const auto fx = casing_modes(300, 700, 0.03, 5);
-  const auto path = bearing_force_path(twin::GearboxParameters{}, 0.5 * fs);
+  const auto path = bearing_force_path(twin::assemble(twin::GearboxParameters{}), 0.5 * fs);
   for (double speed : {8.0, 14.0}) {
     const auto plain = rig_at(rig::EffectSet{}, speed, fs, seconds), with = rig_at(fx, speed, fs, seconds);
     auto twin = RecordSpectra(single_channel_record(plain.acceleration[0], plain.tacho_edges, fs, speed, 20), 0, GearPairSpec{}).summary();

@@ -82,6 +82,10 @@ double tracking_residual(double x) {
   return std::exp((1 - w) * log_share[i] + w * log_share[i + 1]);
 }
 
+double total_input_line_power(const SpectralSummary& s) {
+  return std::accumulate(s.input_lines.begin(), s.input_lines.end(), 0.0);
+}
+
 void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSummary& s, const GearPairSpec& gears) {
   const int z1 = gears.pinion_teeth, z2 = gears.gear_teeth;
   const double out_speed = s.speed_hz * z1 / z2;
@@ -103,7 +107,7 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
       // A bin 120 dB under the twin's total stays under the comparison's floor (60 dB down) unless
       // the casing lifts it a thousandfold in amplitude, when the strong lines beside it say so to
       // the fit already. The noise-free twin has most of its bins there; skipping them saves work.
-      const double total = std::accumulate(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
+      const double total = total_input_line_power(twin);
       const double too_small_to_move = 1e-12 * total;
       auto scale = [&](double& power, double f) {
         if (power > too_small_to_move) power *= gain(f);
@@ -184,7 +188,7 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
       // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
       // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
       // following a tone through both averages is most of this form's cost.
-      const double total = std::accumulate(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
+      const double total = total_input_line_power(twin);
       const double negligible = 1e-7 * total;
       // A line 90 dB below the total cannot move a bin: all of it in one bin at the floor (60 dB
       // down) is 0.004 dB. The twin has no noise, so most of its lines are that far down.
@@ -222,27 +226,21 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
 
 }  // namespace
 
-std::shared_ptr<const BearingForcePath> bearing_force_path(const twin::GearboxParameters& parameters, double highest_hz) {
+std::shared_ptr<const BearingForcePath> bearing_force_path(const twin::GearboxMatrices& matrices, double highest_hz) {
   if (!(highest_hz > 1.0) || !std::isfinite(highest_hz))
     throw std::invalid_argument("bearing-force path: the highest frequency must be finite and above 1 Hz");
-  twin::GearboxMatrices m;
-  try {
-    m = twin::assemble(parameters);
-  } catch (const std::exception& e) {
-    throw std::invalid_argument(std::string("bearing-force path: the twin's parameters: ") + e.what());
-  }
   // The casing carries the bearings through their grounded springs; the vertical ones act on the
-  // vertical sensor (the twin's record is ÿ6).
-  std::vector<std::pair<int, double>> bearings;
-  for (const auto& spring : twin::spring_elements(parameters))
-    if (spring.b < 0 && spring.a >= twin::y4 && spring.a <= twin::y11) bearings.emplace_back(spring.a, spring.stiffness);
+  // vertical sensor (the twin's record is ÿ6). The structural springs join vertical DOFs only to
+  // vertical DOFs or the ground, so the vertical rows of K q sum to the grounded springs' forces
+  // (a spring between two of them adds +k(a − b) to one row and −k(a − b) to the other).
+  const Eigen::Matrix<std::complex<double>, 1, twin::kDofCount> grounded_vertical =
+      matrices.stiffness.middleRows(twin::y4, twin::y11 - twin::y4 + 1).colwise().sum().cast<std::complex<double>>();
   constexpr double kLowestHz = 1.0, kPointsPerOctave = 96.0;
   const auto points = static_cast<std::size_t>(std::ceil(kPointsPerOctave * std::log2(highest_hz / kLowestHz))) + 1;
   std::vector<std::complex<double>> ratio(points);
   for (std::size_t i = 0; i < points; ++i) {
-    const auto q = twin::transmission_error_response(m, kLowestHz * std::exp2(static_cast<double>(i) / kPointsPerOctave));
-    std::complex<double> force = 0;
-    for (const auto& [dof, k] : bearings) force += k * q[dof];
+    const auto q = twin::transmission_error_response(matrices, kLowestHz * std::exp2(static_cast<double>(i) / kPointsPerOctave));
+    const std::complex<double> force = grounded_vertical * q;
     // A sensor DOF at rest (an antiresonance of ÿ6) leaves the line at the floor whatever the gain.
     ratio[i] = std::abs(q[twin::y6]) > 0 ? force / q[twin::y6] : std::complex<double>(0.0);
   }
@@ -370,7 +368,9 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
                {"modal_mass_kg", 0.1, 1000.0, true, 3}},
               {FK::fixed_frequency, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands, FK::broadband,
                FK::input_shaft_orders, FK::output_shaft_orders},
-              2};
+              2,
+              false,
+              true};
     case CandidateEffect::mount_resonance:
       return {effect,
               {{"frequency_hz", std::min(5000.0, top), std::max(6000.0, 1.5 * sample_rate_hz), true, 16},

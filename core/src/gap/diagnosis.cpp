@@ -262,7 +262,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   double top_hz = 0;
   for (const auto* set : {&training, &held_out})
     for (const auto& in : *set) top_hz = std::max(top_hz, 0.5 * in.twin.sample_rate_hz);
-  const auto bearing_path = bearing_force_path(settings.twin_parameters, std::max(top_hz, 2.0));
+  const auto bearing_path = bearing_force_path(twin_matrices, std::max(top_hz, 2.0));
   const auto train = reduce(training, gears, settings, twin_matrices, bearing_path, "training");
   const auto test = reduce(held_out, gears, settings, twin_matrices, bearing_path, "held-out");
   std::vector<SummaryPair> train_pairs;

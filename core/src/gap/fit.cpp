@@ -44,12 +44,6 @@ std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<Appl
                                   const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
   if (training.empty()) throw std::invalid_argument("fit_candidate: no training records");
   CandidateForm form = candidate_form(effect, training.front().measured.sample_rate_hz);
-  if (effect == CandidateEffect::casing_mode) {
-    // The two modes are interchangeable: reported in rising frequency.
-    auto v = fit_values(form, base, training, gears);
-    if (v[0] > v[1]) std::swap(v[0], v[1]);
-    return v;
-  }
   if (!form.per_load) return fit_values(form, base, training, gears);
   // One group per training load: its load, then the form's parameters fitted on that load's records.
   std::vector<double> loads;
@@ -121,8 +115,7 @@ std::vector<double> fit_values(const CandidateForm& form, const std::vector<Appl
       const int g = std::max(1, form.parameters[i].grid);
       u[i] = g == 1 ? 0.5 : (idx[i] + 0.5) / g;
     }
-    // Two modes of one form are interchangeable: one order of each pair of starting frequencies.
-    const bool mirrored = form.effect == CandidateEffect::casing_mode && idx[0] > idx[1];
+    const bool mirrored = form.interchangeable_pair && idx[0] > idx[1];
     if (!mirrored) starts.emplace_back(cost(u), u);
     std::size_t i = 0;
     for (; i < d; ++i) {
@@ -185,7 +178,9 @@ std::vector<double> fit_values(const CandidateForm& form, const std::vector<Appl
     const auto it = std::min_element(values.begin(), values.end());
     if (*it < best) best = *it, best_u = simplex[static_cast<std::size_t>(it - values.begin())];
   }
-  return to_value(best_u);
+  auto v = to_value(best_u);
+  if (form.interchangeable_pair && v[0] > v[1]) std::swap(v[0], v[1]);
+  return v;
 }
 
 }  // namespace

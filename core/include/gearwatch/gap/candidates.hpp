@@ -71,6 +71,9 @@ struct CandidateForm {
   /// without one) followed by the parameters, and a record takes the group of the nearest load.
   /// For effects whose size relative to the twin's mesh response changes with load.
   bool per_load = false;
+  /// The first two parameters are interchangeable (two modes of one kind): the fit starts from one
+  /// order of each pair of their grid points and reports them rising.
+  bool interchangeable_pair = false;
 };
 
 /// The form of a candidate; `sample_rate_hz` bounds the resonance searches.
@@ -98,8 +101,8 @@ std::vector<std::string> rerun_parameter_names(CandidateEffect effect);
 /// The twin's bearing-force path (BearingForcePath) from its linearised model: the response to a
 /// transmission error at the mesh (twin::transmission_error_response), Σ of the grounded vertical
 /// bearing springs' forces over the sensor DOF y6, from 1 Hz to `highest_hz` at 96 points an octave.
-/// Throws std::invalid_argument for parameters the twin refuses or a highest frequency ≤ 1 Hz.
-std::shared_ptr<const BearingForcePath> bearing_force_path(const twin::GearboxParameters& parameters, double highest_hz);
+/// Throws std::invalid_argument for a highest frequency ≤ 1 Hz or not finite.
+std::shared_ptr<const BearingForcePath> bearing_force_path(const twin::GearboxMatrices& matrices, double highest_hz);
 
 /// The power gain of casing modes (casing_mode's form) at f for a bearing-force path ratio (N/m):
 /// |1 + ratio/m · Σ_c 1/(ωc² − ω² + 2iζωcω)|².
