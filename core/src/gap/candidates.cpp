@@ -5,7 +5,6 @@
 #include <complex>
 #include <iterator>
 #include <numbers>
-#include <numeric>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -80,10 +79,6 @@ double tracking_residual(double x) {
   const auto i = std::min(static_cast<std::size_t>(u), static_cast<std::size_t>(kPoints - 2));
   const double w = u - static_cast<double>(i);
   return std::exp((1 - w) * log_share[i] + w * log_share[i + 1]);
-}
-
-double total_input_line_power(const SpectralSummary& s) {
-  return std::accumulate(s.input_lines.begin(), s.input_lines.end(), 0.0);
 }
 
 void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSummary& s, const GearPairSpec& gears) {

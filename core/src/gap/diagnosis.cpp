@@ -7,7 +7,6 @@
 #include <deque>
 #include <map>
 #include <memory>
-#include <numeric>
 #include <optional>
 #include <random>
 #include <set>
@@ -56,7 +55,7 @@ std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const
       p.twin.set_bearing_force_path(bearing_path);
       p.measured_all = p.measured->summary();
       p.twin_all = p.twin.summary();
-      const double total = std::accumulate(p.twin_all.input_lines.begin(), p.twin_all.input_lines.end(), 0.0);
+      const double total = total_input_line_power(p.twin_all);
       if (!(total > 0)) throw std::invalid_argument("the twin record carries no synchronous vibration");
       p.floor = total * std::pow(10.0, s.floor_db / 10.0);
       out.push_back(std::move(p));

@@ -153,6 +153,10 @@ RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSp
   }
 }
 
+double total_input_line_power(const SpectralSummary& s) noexcept {
+  return std::accumulate(s.input_lines.begin(), s.input_lines.end(), 0.0);
+}
+
 BearingForcePath::BearingForcePath(double lowest_hz, double points_per_octave, std::vector<std::complex<double>> ratio)
     : lowest_hz_(lowest_hz), points_per_octave_(points_per_octave), ratio_(std::move(ratio)) {
   if (!(lowest_hz > 0) || !(points_per_octave > 0) || ratio_.empty())
