@@ -582,7 +582,7 @@ SpectralSummary twin_summary(double speed, double fs = 100000) {
   s.bearing_force_path = path;
   const auto k_in = static_cast<std::size_t>(0.45 * fs / speed);
   const auto k_out = static_cast<std::size_t>(0.45 * fs / (speed * kZ1 / kZ2));
-  // Every line and bin well above the floor, so that every band of the transfer path is seen.
+  // Every line and bin well above the floor, so that every form changes lines the comparison sees.
   s.input_lines.assign(k_in, 1e-3);
   s.broadband.assign(k_in, 1e-3);
   s.output_lines.assign(k_out, 1e-3);
@@ -930,7 +930,7 @@ TEST_CASE("gap: noise_floor fitted on records with white noise of a known PSD re
   CHECK(fitted[0] == Approx(psd).epsilon(0.10));
 }
 
-TEST_CASE("gap: the closed-form candidates (per-harmonic gains, Hz-band transfer path) recover their gains", "[gap]") {
+TEST_CASE("gap: the closed-form candidate (tip relief's per-harmonic gains) recovers its gains", "[gap]") {
   SECTION("tip_relief: one gain per mesh harmonic at the records' load") {
     // Values: the load (N·m), then the gains; the generated records are at 20 N·m.
     std::vector<double> values(static_cast<std::size_t>(tip_relief_harmonics(100000)) + 1, 0.0);
