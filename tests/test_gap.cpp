@@ -974,6 +974,31 @@ TEST_CASE("gap: the closed-form candidate (tip relief's per-harmonic gains) reco
   }
 }
 
+TEST_CASE("gap: gap bench's scenario 21 (casing at 151 and 396 Hz, 67 kg): its casing candidate recovers all four values", "[gap]") {
+  // The casing fit's grid has cells ×2.9 apart in Hz. Here its best starts all have both modes in
+  // the 396 Hz cell and differ in damping or mass; descents from two of them ended with a mode at
+  // 264 Hz. The first mode sits on the first mesh harmonic of the 8 Hz training records (152 Hz).
+  // The scenario's held-out records (11 and 17 Hz) show it too little for a choice (docs/gap.md), so
+  // what is checked is the candidate as ranked, against the truth the bench reports beside it.
+  const auto r = gearwatch::testing::run_command(std::string(GEARWATCH_BINARY) +
+                                                 " gap bench --seeds 1 --first-seed 21 --no-effect-runs 0 --sample-rate 100000 --format json");
+  REQUIRE(r.status == 0);
+  const auto scenario = nlohmann::json::parse(r.out)["scenarios"].at(0);
+  REQUIRE(scenario["truth"].front() == "casing");
+  const auto& truth = scenario["parameters"];
+  const auto candidate = std::find_if(scenario["candidates"].begin(), scenario["candidates"].end(),
+                                      [](const auto& c) { return c["effect"] == "casing_mode"; });
+  REQUIRE(candidate != scenario["candidates"].end());
+  const auto& fitted = (*candidate)["parameters"];
+  INFO("truth " << truth.dump() << "; fitted " << fitted.dump());
+  REQUIRE(truth["casing.mode1_hz"].get<double>() == Approx(151.19).epsilon(0.001));
+  // Measured: 151.03 and 396.28 Hz, ζ 0.0525 and 67.05 kg for 151.19, 395.99, 0.0514 and 67.04.
+  CHECK(fitted["mode1_hz"].get<double>() == Approx(truth["casing.mode1_hz"].get<double>()).epsilon(0.01));
+  CHECK(fitted["mode2_hz"].get<double>() == Approx(truth["casing.mode2_hz"].get<double>()).epsilon(0.01));
+  CHECK(fitted["damping_ratio"].get<double>() == Approx(truth["casing.damping_ratio"].get<double>()).epsilon(0.05));
+  CHECK(fitted["modal_mass_kg"].get<double>() == Approx(truth["casing.modal_mass_kg"].get<double>()).epsilon(0.02));
+}
+
 TEST_CASE("gap: gap bench with a few seeds writes the scores as JSON", "[gap]") {
   const auto r = gearwatch::testing::run_command(std::string(GEARWATCH_BINARY) +
                              " gap bench --seeds 4 --no-effect-runs 1 --effects 1 --sample-rate 50000 --seconds 1.5 "
@@ -992,8 +1017,8 @@ TEST_CASE("gap: gap bench with a few seeds writes the scores as JSON", "[gap]") 
   // significant gap on the no-effect run.
   CHECK(false_alarms == 0.0);
   CHECK(top1 == 1.0);
-  // The held-out shrinkage target (median >= 0.70) is met only narrowly over 30 seeds at 100 kHz
-  // (0.705, docs/gap.md); these 4 short 50 kHz scenarios give 0.64-0.74 (median 0.67), so it is not
+  // The held-out shrinkage target (median >= 0.70) is met over 30 seeds at 100 kHz
+  // (0.721, docs/gap.md); these 4 short 50 kHz scenarios give 0.64-0.74 (median 0.67), so it is not
   // asserted here. What must hold for every scenario is that adding the truth's own effect brings its
   // families closer on held-out records.
   CHECK(shrinkage > 0.0);

@@ -72,7 +72,7 @@ struct CandidateForm {
   /// For effects whose size relative to the twin's mesh response changes with load.
   bool per_load = false;
   /// The first two parameters are interchangeable (two modes of one kind): the fit starts from one
-  /// order of each pair of their grid points and reports them rising.
+  /// order of each pair of their grid points, descends from different pairs, and reports them rising.
   bool interchangeable_pair = false;
 };
 
