@@ -26,7 +26,6 @@ double cost_of(const std::vector<SummaryPair>& pairs, const std::vector<AppliedE
   return cost;
 }
 
-/// Grid over each parameter's range (log where marked), then Nelder–Mead from the best starts.
 }  // namespace
 
 double training_cost(const std::vector<SummaryPair>& training, const std::vector<AppliedEffect>& effects,
@@ -35,7 +34,8 @@ double training_cost(const std::vector<SummaryPair>& training, const std::vector
 }
 
 namespace {
-/// The fit of a form's own parameters on training records (of one load, for a per-load form).
+/// The fit of a form's own parameters on training records (of one load, for a per-load form): a
+/// grid over each parameter's range (log where marked), then Nelder–Mead from the best starts.
 std::vector<double> fit_values(const CandidateForm& form, const std::vector<AppliedEffect>& base,
                                const std::vector<SummaryPair>& training, const GearPairSpec& gears);
 }  // namespace
@@ -125,21 +125,22 @@ std::vector<double> fit_values(const CandidateForm& form, const std::vector<Appl
     if (i == d) break;
   }
   std::sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  if (form.interchangeable_pair) {
-    // The descents start from different pairs of mode cells: two starts in one pair that differ in
-    // damping or mass lead to one basin (the descent moves those freely), while a mode a cell away
-    // is a basin of its own. A casing at 151 and 396 Hz (67 kg) was otherwise fitted as 264 and
-    // 392 Hz from the two best starts, both at (396, 396) Hz, at a training cost above the truth's.
-    std::vector<std::pair<double, std::vector<double>>> distinct;
-    for (auto& s : starts)
-      if (std::none_of(distinct.begin(), distinct.end(),
-                       [&](const auto& t) { return t.second[0] == s.second[0] && t.second[1] == s.second[1]; }))
-        distinct.push_back(std::move(s));
-    starts = std::move(distinct);
+  // Descents from the two best starts; for an interchangeable pair, the two best with different
+  // pairs of mode cells: starts in one pair that differ in damping or mass lead to one basin (the
+  // descent moves those freely), while a mode a cell away is a basin of its own. A casing at 151 and
+  // 396 Hz (67 kg) was otherwise fitted as 264 and 392 Hz from two starts at (396, 396) Hz, at a
+  // training cost above the truth's.
+  std::vector<std::size_t> descents;
+  for (std::size_t s = 0; s < starts.size() && descents.size() < 2; ++s) {
+    const auto& u = starts[s].second;
+    const bool same_cells = form.interchangeable_pair && std::any_of(descents.begin(), descents.end(), [&](std::size_t t) {
+                              return starts[t].second[0] == u[0] && starts[t].second[1] == u[1];
+                            });
+    if (!same_cells) descents.push_back(s);
   }
   std::vector<double> best_u = starts.front().second;
   double best = starts.front().first;
-  for (std::size_t s = 0; s < std::min<std::size_t>(2, starts.size()); ++s) {
+  for (const std::size_t s : descents) {
     // Nelder–Mead on the unit box (clamped), step a grid cell.
     std::vector<std::vector<double>> simplex{starts[s].second};
     std::vector<double> values{starts[s].first};

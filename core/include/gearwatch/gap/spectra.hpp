@@ -133,11 +133,11 @@ void add_tone_to_broadband(SpectralSummary& s, double order, double power);
 void add_non_synchronous_tone(SpectralSummary& s, double input_order, double power, const GearPairSpec& gears,
                               double negligible_power = 0);
 
-/// Which family a line or bin belongs to (the partition used throughout the diagnosis).
 /// Σ of the input-order lines' power: the reference of the comparison's floor and of the forms'
 /// negligible-power thresholds.
 double total_input_line_power(const SpectralSummary& s) noexcept;
 
+/// Which family a line or bin belongs to (the partition used throughout the diagnosis).
 FamilyKind input_line_family(int order, int pinion_teeth) noexcept;
 /// Output orders that are mesh orders (multiples of z_gear) are counted on the input side only.
 bool output_line_is_mesh(int order, int gear_teeth) noexcept;
