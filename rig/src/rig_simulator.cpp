@@ -5,8 +5,10 @@
 #include <complex>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <string>
 
+#include "gearwatch/dsp/decimation.hpp"
 #include "gearwatch/dsp/fft.hpp"
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/twin/gear_geometry.hpp"
@@ -186,15 +188,36 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
   if (!(sliding.pitting_rms_m_s2 >= 0) || !(sliding.abrasion_rms_m_s2 >= 0))
     throw RigParameterError("sliding vibration RMS must be >= 0");
 
+  if (s.front_end_oversampling < 1) throw RigParameterError("front-end oversampling must be at least 1");
+
   const RigDynamics dyn(params, effects, truth_profile(params, effects, wear), s.speed_hz, s.torque_nm);
   const double fs = s.sample_rate_hz;
   const int substeps = std::max(1, static_cast<int>(std::ceil(s.min_ode_rate_hz / fs - 1e-9)));
   const double h = 1.0 / (fs * substeps);
   const auto count = static_cast<std::size_t>(std::ceil(s.duration_s * fs));
+  // The sensor front-end (dsp::AntiAliasDecimator): the structure's acceleration is read `factor`
+  // times per sample over the record and the filter's reach on both sides, low-passed and
+  // decimated; sample i of the record is instant pad + i of the run. factor 1: read once per sample.
+  const int factor = s.front_end_oversampling;
+  std::optional<dsp::AntiAliasDecimator> front_end;
+  if (factor > 1) front_end.emplace(factor);
+  const std::size_t pad = front_end ? front_end->padding_outputs() : 0;
+  const std::size_t instants = count + 2 * pad;
+  const auto fine_per_sample = static_cast<std::size_t>(factor);
+  const double fine_h = 1.0 / (fs * factor);
 
   RigRecord rec;
   rec.sample_rate_hz = fs;
-  RigState y = dyn.initial_state(), k1, k2, k3, k4, tmp;
+  RigState y = dyn.initial_state(), k1, k2, k3, k4, tmp, k_end, y_start, k_start, y_fine, dy_fine;
+  bool k1_ready = false;  // k1 already holds f(t, y) in `segment` at the start of the next step
+
+  std::vector<double> fine[2];
+  if (front_end)
+    for (int c = 0; c < s.channels; ++c) fine[c].assign(instants * fine_per_sample, 0.0);
+  std::size_t fine_base = 0;  // fine index of the current sample instant
+  double instant_t = 0;       // its time
+  int next_fine = factor;     // the next fine point after it still to be read (1 .. factor - 1; none while settling)
+  RigOutputs fine_out;
 
   detail::MeshSegment segment = dyn.locate(0.0, y);
   auto rk4 = [&](double t, double dt) {  // k1 holds f(t, y) in `segment`
@@ -208,11 +231,38 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
     rec.rhs_evaluations += 3;
     ++rec.integration_steps;
   };
+  // Reads the front-end's fine points inside a piece [t, t + dt] that stayed in one segment, on the
+  // cubic Hermite interpolant of the state between its ends (k_start: f at the start; f at the
+  // end, in the same segment, goes to k_end), so a sample costs one derivative, not a step.
+  auto read_fine = [&](double t, double dt) -> bool {
+    if (!front_end || next_fine >= factor) return false;
+    const double t_fine = instant_t + next_fine * fine_h;
+    if (t_fine > t + dt * (1 + 1e-9)) return false;
+    dyn.derivative(t + dt, y, k_end, nullptr, &segment);
+    ++rec.rhs_evaluations;
+    while (next_fine < factor) {
+      const double tf = instant_t + next_fine * fine_h;
+      if (tf > t + dt * (1 + 1e-9) + 1e-15) break;
+      const double u = std::clamp((tf - t) / dt, 0.0, 1.0), u2 = u * u, u3 = u2 * u;
+      y_fine = (2 * u3 - 3 * u2 + 1) * y_start + (u3 - 2 * u2 + u) * dt * k_start + (3 * u2 - 2 * u3) * y +
+               (u3 - u2) * dt * k_end;
+      dyn.derivative(tf, y_fine, dy_fine, &fine_out, &segment);
+      ++rec.rhs_evaluations;
+      const std::size_t at = fine_base + static_cast<std::size_t>(next_fine);
+      fine[0][at] = fine_out.y6_acc + fine_out.casing_y;
+      if (s.channels > 1) fine[1][at] = fine_out.x6_acc + fine_out.casing_x;
+      ++next_fine;
+    }
+    return true;
+  };
   // One step of length dt from t, split where a tooth pair enters or leaves: every stage of a
   // Runge-Kutta step sees the same pairs in contact, and the switch happens at the located instant.
   auto step = [&](double t, double dt) {
-    dyn.derivative(t, y, k1, nullptr, &segment);
-    ++rec.rhs_evaluations;
+    if (!k1_ready) {
+      dyn.derivative(t, y, k1, nullptr, &segment);
+      ++rec.rhs_evaluations;
+    }
+    k1_ready = false;
     double remaining = dt;
     for (;;) {
       const double r = dyn.mesh_cycle_rate(t, y);
@@ -220,7 +270,10 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
       const double tau = r > 0 ? std::max(0.0, (segment.hi - phase) / r) : std::numeric_limits<double>::infinity();
       if (tau < remaining - 1e-6 * h) {
         if (tau > 0) {
+          y_start = y;
+          k_start = k1;
           rk4(t, tau);
+          read_fine(t, tau);
           t += tau;
           remaining -= tau;
         }
@@ -228,7 +281,13 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
         dyn.derivative(t, y, k1, nullptr, &segment);
         ++rec.rhs_evaluations;
       } else {
+        y_start = y;
+        k_start = k1;
         rk4(t, remaining);
+        if (read_fine(t, remaining)) {
+          k1 = k_end;  // f at the step's end in the same segment: the next step's start
+          k1_ready = true;
+        }
         return;
       }
     }
@@ -254,26 +313,45 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
     rec.mesh_cycles.resize(count);
   }
   RigOutputs out;
-  for (std::size_t i = 0; i < count; ++i) {
-    const double ti = t0 + static_cast<double>(i) / fs;
+  for (std::size_t n = 0; n < instants; ++n) {
+    const double ti = t0 + static_cast<double>(n) / fs;
     dyn.derivative(ti, y, k1, &out, &segment);
     ++rec.rhs_evaluations;
+    k1_ready = true;
     if (!y.allFinite() || std::abs(out.deflection) > 1e-3)
       throw twin::TwinDivergenceError("rig integration diverged at t = " + std::to_string(ti - t0) + " s");
-    ch[0][i] = out.y6_acc + out.casing_y;
-    if (s.channels > 1) ch[1][i] = out.x6_acc + out.casing_x;
-    sliding_factor[i] = out.sliding_factor;
-    input_angle[i] = out.input_angle;
-    if (s.keep_diagnostics) {
-      rec.mesh_deflection_m[i] = out.deflection;
-      rec.mesh_force_n[i] = out.mesh_force;
-      rec.bearing_force_y_n[i] = out.bearing_force_y;
-      rec.casing_y_m_s2[i] = out.casing_y;
-      rec.structure_y_m_s2[i] = ch[0][i];
-      rec.mesh_cycles[i] = out.mesh_cycles;
+    const double structure_y = out.y6_acc + out.casing_y, structure_x = out.x6_acc + out.casing_x;
+    if (front_end) {
+      fine_base = n * fine_per_sample;
+      fine[0][fine_base] = structure_y;
+      if (s.channels > 1) fine[1][fine_base] = structure_x;
     }
-    if (i + 1 == count) break;
+    if (n >= pad && n < pad + count) {
+      const std::size_t i = n - pad;
+      if (!front_end) {
+        ch[0][i] = structure_y;
+        if (s.channels > 1) ch[1][i] = structure_x;
+      }
+      sliding_factor[i] = out.sliding_factor;
+      input_angle[i] = out.input_angle;
+      if (s.keep_diagnostics) {
+        rec.mesh_deflection_m[i] = out.deflection;
+        rec.mesh_force_n[i] = out.mesh_force;
+        rec.bearing_force_y_n[i] = out.bearing_force_y;
+        rec.casing_y_m_s2[i] = out.casing_y;
+        rec.structure_y_m_s2[i] = structure_y;
+        rec.mesh_cycles[i] = out.mesh_cycles;
+      }
+    }
+    if (n + 1 == instants) break;
+    instant_t = ti;
+    next_fine = 1;
     for (int k = 0; k < substeps; ++k) step(ti + static_cast<double>(k) * h, h);
+  }
+  if (front_end) {
+    // The last instant's fine points lie beyond the run; the filter never reaches them (the
+    // padding covers its half length), so they stay 0 unread.
+    for (int c = 0; c < s.channels; ++c) front_end->decimate(fine[c], ch[c]);
   }
   if (s.keep_diagnostics) rec.input_angle_rad = input_angle;
 

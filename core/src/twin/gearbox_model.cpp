@@ -212,6 +212,17 @@ void GearboxDynamics::operator()(const State& x, State& dxdt, double t) const {
   Eigen::Map<Vector21>(dxdt.data() + kDofCount) = inverse_mass_.cwiseProduct(load);
 }
 
+double GearboxDynamics::acceleration(const State& x, double t, int dof) const {
+  const Eigen::Map<const Vector21> q(x.data());
+  const Eigen::Map<const Vector21> v(x.data() + kDofCount);
+  const double f = mesh_force(q, v, t, nullptr);
+  double load = external_[dof] - m_.mesh[dof] * f - damping_rows_.row(dof).dot(v);
+  for (const Coupling& c : structural_stiffness_)
+    if (c.row == dof) load -= c.value * q[c.column];
+  if (harmonic_.frequency_hz > 0) load += harmonic_.amplitude[dof] * std::sin(2.0 * std::numbers::pi * harmonic_.frequency_hz * t);
+  return inverse_mass_[dof] * load;
+}
+
 GearboxDynamics::MeshState GearboxDynamics::mesh_state(const State& x, double t) const {
   MeshState s;
   mesh_force(Eigen::Map<const Vector21>(x.data()), Eigen::Map<const Vector21>(x.data() + kDofCount), t, &s);

@@ -5,10 +5,16 @@
 #include <memory>
 #include <numbers>
 
+#include "gearwatch/dsp/decimation.hpp"
+
 namespace gearwatch::twin {
 
-SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
-                          double duration_s, const SimulationOptions& options) {
+namespace {
+
+// casing_only: what a record needs (the casing acceleration and the tacho), nothing else kept, so
+// that the front-end's oversampled run does not hold every state signal `factor` times over.
+SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                                double duration_s, const SimulationOptions& options, bool casing_only) {
   p.validate();
   if (!std::isfinite(duration_s) || duration_s <= 0) throw TwinParameterError("simulation duration must be positive");
   if (!std::isfinite(op.input_speed_hz) || op.input_speed_hz <= 0) throw TwinParameterError("input speed must be positive");
@@ -42,13 +48,15 @@ SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviatio
                                                std::max(options.sample_rate_hz / 10.0, 1000.0)
                                          : 0.0;
   const auto count = static_cast<std::size_t>(samples_d);
-  result.time_s.reserve(count);
   result.casing_acceleration.reserve(count);
-  result.mesh_force_n.reserve(count);
-  result.mesh_stiffness_n_m.reserve(count);
-  result.transmission_error_m.reserve(count);
-  result.gte_m.reserve(count);
-  result.pairs_in_contact.reserve(count);
+  if (!casing_only) {
+    result.time_s.reserve(count);
+    result.mesh_force_n.reserve(count);
+    result.mesh_stiffness_n_m.reserve(count);
+    result.transmission_error_m.reserve(count);
+    result.gte_m.reserve(count);
+    result.pairs_in_contact.reserve(count);
+  }
   std::vector<double> input_angle_deviation;
   input_angle_deviation.reserve(count);
   // Follow one tooth pair over a full pass: the pair that enters in the first full cycle.
@@ -56,16 +64,21 @@ SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviatio
   bool profile_done = false;
   State dxdt{};
   result.rhs_evaluations += integrate_sampled(dynamics, state, t0, options.sample_rate_hz, count, options, [&](const State& x, double t) {
+    if (casing_only) {
+      result.casing_acceleration.push_back(dynamics.acceleration(x, t, y6));
+      input_angle_deviation.push_back(x[theta1]);
+      return;
+    }
     dynamics(x, dxdt, t);
+    result.casing_acceleration.push_back(dxdt[kDofCount + y6]);
+    input_angle_deviation.push_back(x[theta1]);
     const auto ms = dynamics.mesh_state(x, t);
     result.time_s.push_back(t - t0);
-    result.casing_acceleration.push_back(dxdt[kDofCount + y6]);
     result.mesh_force_n.push_back(ms.force);
     result.mesh_stiffness_n_m.push_back(ms.stiffness);
     result.transmission_error_m.push_back(ms.deflection);
     result.gte_m.push_back(ms.gte);
     result.pairs_in_contact.push_back(ms.pairs);
-    input_angle_deviation.push_back(x[theta1]);
     if (!profile_done) {
       if (tracked_cycle < 0 && ms.phase < 0.5) tracked_cycle = ms.cycle + 1;  // the next pair to enter
       if (tracked_cycle >= 0) {
@@ -97,6 +110,13 @@ SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviatio
   return result;
 }
 
+}  // namespace
+
+SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                          double duration_s, const SimulationOptions& options) {
+  return run_simulation(p, deviation, op, duration_s, options, false);
+}
+
 CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
                                     const OperatingPoint& op, double duration_s, double sample_rate_hz) {
   SimulationOptions options;
@@ -106,12 +126,38 @@ CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfi
 
 CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
                                     const OperatingPoint& op, double duration_s, const SimulationOptions& options) {
-  const double sample_rate_hz = options.sample_rate_hz;
-  const SimulationResult r = simulate(p, deviation, op, duration_s, options);
+  const double fs = options.sample_rate_hz;
+  const int factor = options.front_end_oversampling;
+  if (factor < 1) throw TwinParameterError("front-end oversampling must be at least 1");
   CasingSignal s;
-  s.sample_rate_hz = sample_rate_hz;
-  s.acceleration.assign(r.casing_acceleration.begin(), r.casing_acceleration.end());
-  s.tacho_edges = r.tacho_edges;
+  s.sample_rate_hz = fs;
+  if (factor == 1) {
+    const SimulationResult r = run_simulation(p, deviation, op, duration_s, options, true);
+    s.acceleration.assign(r.casing_acceleration.begin(), r.casing_acceleration.end());
+    s.tacho_edges = r.tacho_edges;
+    return s;
+  }
+  if (!std::isfinite(duration_s) || duration_s <= 0) throw TwinParameterError("simulation duration must be positive");
+  if (!(fs > 0) || !std::isfinite(fs)) throw TwinParameterError("sample rate must be positive");
+  const double count_d = std::ceil(duration_s * fs);
+  if (count_d * factor > 2e9) throw TwinParameterError("simulation too long for one run");
+  const auto count = static_cast<std::size_t>(count_d);
+  // The record's samples are the front-end's: the model read at factor × fs over the record and
+  // the filter's reach on both sides, then low-passed and decimated (output j is fine sample
+  // (pad + j)·factor, so the record starts pad samples after the settling).
+  const dsp::AntiAliasDecimator front_end(factor);
+  const std::size_t pad = front_end.padding_outputs();
+  SimulationOptions fine = options;
+  fine.sample_rate_hz = fs * factor;
+  const std::size_t fine_count = (count + 2 * pad) * static_cast<std::size_t>(factor);
+  const SimulationResult r = run_simulation(p, deviation, op, (static_cast<double>(fine_count) - 0.5) / fine.sample_rate_hz, fine, true);
+  if (r.casing_acceleration.size() != fine_count) throw TwinParameterError("front-end: unexpected oversampled length");
+  s.acceleration.resize(count);
+  front_end.decimate(r.casing_acceleration, s.acceleration);
+  for (double e : r.tacho_edges) {
+    const double at = e / factor - static_cast<double>(pad);
+    if (at >= 0 && at < static_cast<double>(count) - 1) s.tacho_edges.push_back(at);
+  }
   return s;
 }
 

@@ -96,6 +96,9 @@ class GearboxDynamics {
                   double input_torque_nm, MeshModel model = MeshModel::time_varying);
 
   void operator()(const State& x, State& dxdt, double t) const;
+  /// One row of operator()'s accelerations: d²q[dof]/dt² at (x, t) without the other 20 (a
+  /// record's sensor read many times per sample needs only its own DOF).
+  double acceleration(const State& x, double t, int dof) const;
 
   /// Mesh quantities at (x, t).
   struct MeshState {

@@ -26,6 +26,11 @@ struct SimulationOptions {
   /// An addition the seed's twin does not have (for the gap diagnosis's misalignment candidate):
   /// angular misalignment across the face, rad; the flank separation is this × the face width.
   double face_misalignment_rad = 0;
+  /// simulate_casing_signal only: the sensor front-end reads the model at this many times the
+  /// sample rate and low-passes before decimating (dsp::AntiAliasDecimator), as an oversampling
+  /// converter does; 1 samples the acceleration directly, which folds the mesh's lines above
+  /// fs/2 onto the band. simulate() always samples directly.
+  int front_end_oversampling = 4;
 };
 
 /// The dynamic force carried by one tooth pair over its pass along the line of action (root of the
@@ -59,7 +64,8 @@ struct SimulationResult {
 SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
                           double duration_s, const SimulationOptions& options = {});
 
-/// For rig simulators: the simulated casing acceleration y6 (m/s²) at `sample_rate_hz` and the
+/// The twin's record: the casing acceleration y6 (m/s²) at `sample_rate_hz` as a sensor front-end
+/// gives it (SimulationOptions::front_end_oversampling, anti-aliased by default) and the
 /// input-shaft tacho edges (one per revolution, in samples), for a given wear state.
 struct CasingSignal {
   double sample_rate_hz = 0;

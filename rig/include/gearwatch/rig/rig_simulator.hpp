@@ -33,6 +33,11 @@ struct RigRunSettings {
   double min_ode_rate_hz = 100000;  ///< the integration step is at most 1/this (sub-steps per sample)
   std::uint64_t seed = 1;           ///< noise and sliding-vibration realisations
   bool keep_diagnostics = false;    ///< fill RigRecord's diagnostic signals
+  /// The sensor front-end reads the structure's acceleration this many times per sample and
+  /// low-passes before decimating (dsp::AntiAliasDecimator), as an oversampling converter does;
+  /// 1 reads it once per sample, which folds the mesh's lines above fs/2 onto the band. The
+  /// sliding vibration, the mount and the noise act on the decimated record.
+  int front_end_oversampling = 4;
 };
 
 struct RigRecord {

@@ -1,0 +1,41 @@
+#pragma once
+// Test helper: the power of whole input orders of a record at a constant, known speed, by a
+// plain DFT over whole revolutions (no order tracking), for checking simulated records.
+#include <cmath>
+#include <complex>
+#include <cstddef>
+#include <numbers>
+#include <vector>
+
+namespace gearwatch::test {
+
+/// Peak-amplitude² of orders 1..max_order over `revolutions` revolutions of `samples_per_rev`
+/// samples (an integer at the record's speed), from the first sample.
+template <class V>
+std::vector<double> order_line_power(const V& x, std::size_t samples_per_rev, std::size_t revolutions, int max_order) {
+  const std::size_t n = samples_per_rev * revolutions;
+  std::vector<double> power(static_cast<std::size_t>(max_order), 0.0);
+  for (int k = 1; k <= max_order; ++k) {
+    const double w = 2.0 * std::numbers::pi * k / static_cast<double>(samples_per_rev);
+    std::complex<double> s = 0, rotor = 1, step = std::polar(1.0, -w);
+    for (std::size_t i = 0; i < n; ++i) {
+      s += static_cast<double>(x[i]) * rotor;
+      rotor *= step;
+      if (i % 4096 == 4095) rotor = std::polar(1.0, -w * static_cast<double>(i + 1));  // keep |rotor| = 1
+    }
+    power[static_cast<std::size_t>(k - 1)] = std::norm(2.0 * s / static_cast<double>(n));
+  }
+  return power;
+}
+
+/// Σ of the orders that are neither a mesh harmonic nor one of its first sidebands.
+inline double shaft_order_power(const std::vector<double>& power, int teeth) {
+  double sum = 0;
+  for (std::size_t i = 0; i < power.size(); ++i) {
+    const int k = static_cast<int>(i) + 1, r = k % teeth;
+    if (r != 0 && r != 1 && r != teeth - 1) sum += power[i];
+  }
+  return sum;
+}
+
+}  // namespace gearwatch::test
