@@ -38,4 +38,9 @@ inline double shaft_order_power(const std::vector<double>& power, int teeth) {
   return sum;
 }
 
+/// shaft_order_power over the first mesh harmonic's line, dB.
+inline double shaft_order_db_re_mesh(const std::vector<double>& power, int teeth) {
+  return 10.0 * std::log10(shaft_order_power(power, teeth) / power[static_cast<std::size_t>(teeth - 1)]);
+}
+
 }  // namespace gearwatch::test
