@@ -1,5 +1,6 @@
 #include "gearwatch/dsp/decimation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>

@@ -216,9 +216,8 @@ double GearboxDynamics::acceleration(const State& x, double t, int dof) const {
   const Eigen::Map<const Vector21> q(x.data());
   const Eigen::Map<const Vector21> v(x.data() + kDofCount);
   const double f = mesh_force(q, v, t, nullptr);
-  double load = external_[dof] - m_.mesh[dof] * f - damping_rows_.row(dof).dot(v);
-  for (const Coupling& c : structural_stiffness_)
-    if (c.row == dof) load -= c.value * q[c.column];
+  // The row of K itself, not a scan of the sparse list operator() walks: the same non-zero terms.
+  double load = external_[dof] - m_.mesh[dof] * f - damping_rows_.row(dof).dot(v) - m_.stiffness.row(dof).dot(q);
   if (harmonic_.frequency_hz > 0) load += harmonic_.amplitude[dof] * std::sin(2.0 * std::numbers::pi * harmonic_.frequency_hz * t);
   return inverse_mass_[dof] * load;
 }
