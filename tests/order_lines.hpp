@@ -38,6 +38,16 @@ inline double shaft_order_power(const std::vector<double>& power, int teeth) {
   return sum;
 }
 
+/// Σ of the mesh harmonics' first sidebands (orders n·teeth ± 1) over the first mesh harmonic's line, dB.
+inline double first_sideband_db_re_mesh(const std::vector<double>& power, int teeth) {
+  double sum = 0;
+  for (std::size_t i = 0; i < power.size(); ++i) {
+    const int r = (static_cast<int>(i) + 1) % teeth;
+    if (r == 1 || r == teeth - 1) sum += power[i];
+  }
+  return 10.0 * std::log10(sum / power[static_cast<std::size_t>(teeth - 1)]);
+}
+
 /// shaft_order_power over the first mesh harmonic's line, dB.
 inline double shaft_order_db_re_mesh(const std::vector<double>& power, int teeth) {
   return 10.0 * std::log10(shaft_order_power(power, teeth) / power[static_cast<std::size_t>(teeth - 1)]);

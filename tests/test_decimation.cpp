@@ -5,6 +5,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <vector>
@@ -115,4 +116,15 @@ TEST_CASE("Decimation refuses a factor below 2, crossed bands and a mis-sized ou
   CHECK_NOTHROW(d.decimate(fine, right));
   CHECK(d.outputs_for(fine.size()) == 10);
   CHECK(d.outputs_for(4 * 2 * d.padding_outputs()) == 0);
+}
+
+TEST_CASE("The simulators' front-end oversampling reads the model at 400 kHz or faster, never under 4x", "[dsp][decimation]") {
+  CHECK(gearwatch::dsp::front_end_oversampling(100000) == 4);  // exactly 400 kHz
+  CHECK(gearwatch::dsp::front_end_oversampling(50000) == 8);
+  CHECK(gearwatch::dsp::front_end_oversampling(25000) == 16);
+  CHECK(gearwatch::dsp::front_end_oversampling(20000) == 20);
+  CHECK(gearwatch::dsp::front_end_oversampling(30000) == 14);  // 420 kHz: the next whole factor
+  CHECK(gearwatch::dsp::front_end_oversampling(200000) == 4);  // 800 kHz: 4 is the least
+  CHECK_THROWS_AS(gearwatch::dsp::front_end_oversampling(0), std::invalid_argument);
+  CHECK_THROWS_AS(gearwatch::dsp::front_end_oversampling(std::numeric_limits<double>::infinity()), std::invalid_argument);
 }

@@ -15,6 +15,7 @@
 #include "gearwatch/twin/gearbox_model.hpp"
 #include "gearwatch/twin/mesh_stiffness.hpp"
 #include "gearwatch/twin/simulation.hpp"
+#include "gearwatch/dsp/decimation.hpp"
 #include "order_lines.hpp"
 
 using namespace gearwatch;
@@ -736,7 +737,8 @@ TEST_CASE("The rig's record is what an anti-aliased front-end gives: the mesh's 
     REQUIRE(r.acceleration[0].size() == 200000);
     return gearwatch::test::order_line_power(r.acceleration[0], 12500, 15, 40);
   };
-  REQUIRE(rig::RigRunSettings{}.front_end_oversampling == 4);
+  REQUIRE(rig::RigRunSettings{}.front_end_oversampling == 0);  // automatic: 4 at 100 kHz
+  REQUIRE(gearwatch::dsp::front_end_oversampling(100000) == 4);
   const auto direct = lines(1), front_end = lines(4), reference = lines(32);
   auto shaft_db = [](const std::vector<double>& l) { return gearwatch::test::shaft_order_db_re_mesh(l, 19); };
   INFO("shaft orders re the first mesh harmonic: read once per sample " << shaft_db(direct) << " dB, front-end 4x "
@@ -748,4 +750,35 @@ TEST_CASE("The rig's record is what an anti-aliased front-end gives: the mesh's 
   CHECK(shaft_db(reference) < -44.0);
   CHECK(shaft_db(front_end) - shaft_db(reference) < 6.0);
   for (int k : {19, 38}) CHECK(10 * std::log10(front_end[k - 1] / reference[k - 1]) == Approx(0).margin(0.01));
+}
+
+TEST_CASE("At 20 kHz the rig's front-end reads at 400 kHz: 4x would leave folded lines on the first sidebands", "[rig][front-end]") {
+  // As the twin's (test_twin_simulation.cpp): 8 Hz at 20 kHz, a perfect pair; the same 10 µs steps
+  // read at 4×, by the default (20×) and at 64×.
+  auto lines = [](int oversampling) {
+    rig::RigRunSettings run;
+    run.speed_hz = 8;
+    run.torque_nm = 20;
+    run.duration_s = 2;
+    run.sample_rate_hz = 20000;
+    run.channels = 1;
+    run.front_end_oversampling = oversampling;
+    const auto r = rig::simulate_record(twin::GearboxParameters{}, rig::EffectSet{}, rig::WearState{}, {}, run);
+    REQUIRE(r.acceleration[0].size() == 40000);
+    return gearwatch::test::order_line_power(r.acceleration[0], 2500, 15, 60);
+  };
+  const auto four = lines(4), automatic = lines(0), reference = lines(64);
+  auto sidebands_db = [](const std::vector<double>& l) { return gearwatch::test::first_sideband_db_re_mesh(l, 19); };
+  auto shaft_db = [](const std::vector<double>& l) { return gearwatch::test::shaft_order_db_re_mesh(l, 19); };
+  INFO("first sidebands re the first mesh harmonic: 4x " << sidebands_db(four) << " dB, automatic " << sidebands_db(automatic)
+                                                          << " dB, 64x " << sidebands_db(reference) << " dB");
+  INFO("shaft orders: 4x " << shaft_db(four) << " dB, automatic " << shaft_db(automatic) << " dB, 64x " << shaft_db(reference) << " dB");
+  // Measured: first sidebands −33.4 (4×), −72.6 (automatic) and −63.6 dB (64×); shaft orders
+  // −13.6, −40.8 and −44.2 dB (the 10 µs Runge–Kutta steps' floor, as at 100 kHz: −42.4 and −46.6).
+  CHECK(sidebands_db(four) > -40.0);
+  CHECK(shaft_db(four) > -20.0);
+  CHECK(sidebands_db(automatic) < -60.0);
+  CHECK(shaft_db(automatic) < -38.0);
+  CHECK(shaft_db(automatic) - shaft_db(reference) < 6.0);
+  for (int k : {19, 38}) CHECK(10 * std::log10(automatic[k - 1] / reference[k - 1]) == Approx(0).margin(0.01));
 }

@@ -9,6 +9,7 @@
 #include <catch2/catch.hpp>
 
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/dsp/decimation.hpp"
 #include "order_lines.hpp"
 
 using namespace gearwatch;
@@ -293,7 +294,8 @@ TEST_CASE("The twin's record is what an anti-aliased front-end gives: no mesh ha
     CHECK(s.tacho_edges[1] - s.tacho_edges[0] == Approx(12500).margin(0.01));
     return gearwatch::test::order_line_power(s.acceleration, 12500, 15, 40);
   };
-  REQUIRE(SimulationOptions{}.front_end_oversampling == 4);
+  REQUIRE(SimulationOptions{}.front_end_oversampling == 0);  // automatic: 4 at 100 kHz
+  REQUIRE(gearwatch::dsp::front_end_oversampling(100000) == 4);
   const auto direct = lines(1), front_end = lines(4), reference = lines(32);
   auto shaft_db = [](const std::vector<double>& l) { return gearwatch::test::shaft_order_db_re_mesh(l, 19); };
   INFO("shaft orders re the first mesh harmonic: read once per sample " << shaft_db(direct) << " dB, front-end 4x "
@@ -309,4 +311,36 @@ TEST_CASE("The twin's record is what an anti-aliased front-end gives: no mesh ha
     CHECK(10 * std::log10(front_end[k - 1] / reference[k - 1]) == Approx(0).margin(0.01));
     CHECK(10 * std::log10(direct[k - 1] / reference[k - 1]) == Approx(0).margin(0.05));
   }
+}
+
+TEST_CASE("At 20 kHz the twin's front-end reads at 400 kHz: 4x would leave folded lines on the first sidebands", "[twin][front-end]") {
+  // 8 Hz at 20 kHz: 2 500 samples a revolution. Read at 80 kHz (4×), the mesh's lines near 80 kHz
+  // fold onto whole orders, among them the first sidebands of the first mesh harmonic (orders 18
+  // and 20), which a perfect pair does not have. The default reads at 400 kHz (20×).
+  const GearboxParameters p;
+  const OperatingPoint op{8.0, 20.0};
+  auto lines = [&](int oversampling) {
+    SimulationOptions o;
+    o.sample_rate_hz = 20000;
+    o.front_end_oversampling = oversampling;
+    const CasingSignal s = simulate_casing_signal(p, {}, op, 2.0, o);
+    REQUIRE(s.acceleration.size() == 40000);
+    return gearwatch::test::order_line_power(s.acceleration, 2500, 15, 60);
+  };
+  REQUIRE(gearwatch::dsp::front_end_oversampling(20000) == 20);
+  const auto four = lines(4), automatic = lines(0), reference = lines(64);
+  auto sidebands_db = [](const std::vector<double>& l) { return gearwatch::test::first_sideband_db_re_mesh(l, 19); };
+  auto shaft_db = [](const std::vector<double>& l) { return gearwatch::test::shaft_order_db_re_mesh(l, 19); };
+  INFO("first sidebands re the first mesh harmonic: 4x " << sidebands_db(four) << " dB, automatic " << sidebands_db(automatic)
+                                                          << " dB, 64x " << sidebands_db(reference) << " dB");
+  INFO("shaft orders: 4x " << shaft_db(four) << " dB, automatic " << shaft_db(automatic) << " dB, 64x " << shaft_db(reference) << " dB");
+  // Measured: first sidebands −33.4 (4×), −72.3 (automatic) and −63.5 dB (64×); shaft orders
+  // −13.7, −43.7 and −68.0 dB. The automatic front-end's shaft orders are the 100 kHz record's at
+  // 4× (−44.7 dB): the same fine rate folds the same lines.
+  CHECK(sidebands_db(four) > -40.0);
+  CHECK(shaft_db(four) > -20.0);
+  CHECK(sidebands_db(automatic) < -60.0);
+  CHECK(shaft_db(automatic) < -40.0);
+  CHECK(shaft_db(reference) < -60.0);
+  for (int k : {19, 38}) CHECK(10 * std::log10(automatic[k - 1] / reference[k - 1]) == Approx(0).margin(0.01));
 }

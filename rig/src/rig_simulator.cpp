@@ -188,7 +188,7 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
   if (!(sliding.pitting_rms_m_s2 >= 0) || !(sliding.abrasion_rms_m_s2 >= 0))
     throw RigParameterError("sliding vibration RMS must be >= 0");
 
-  if (s.front_end_oversampling < 1) throw RigParameterError("front-end oversampling must be at least 1");
+  if (s.front_end_oversampling < 0) throw RigParameterError("front-end oversampling must be 0 (automatic) or at least 1");
 
   const RigDynamics dyn(params, effects, truth_profile(params, effects, wear), s.speed_hz, s.torque_nm);
   const double fs = s.sample_rate_hz;
@@ -198,7 +198,7 @@ RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet
   // The sensor front-end (dsp::AntiAliasDecimator): the structure's acceleration is read `factor`
   // times per sample over the record and the filter's reach on both sides, low-passed and
   // decimated; sample i of the record is instant pad + i of the run. factor 1: read once per sample.
-  const int factor = s.front_end_oversampling;
+  const int factor = s.front_end_oversampling > 0 ? s.front_end_oversampling : dsp::front_end_oversampling(fs);
   std::optional<dsp::AntiAliasDecimator> front_end;
   if (factor > 1) front_end.emplace(factor);
   const std::size_t pad = front_end ? front_end->padding_outputs() : 0;

@@ -7,6 +7,14 @@
 
 namespace gearwatch::dsp {
 
+int front_end_oversampling(double sample_rate_hz) {
+  if (!(sample_rate_hz > 0) || !std::isfinite(sample_rate_hz))
+    throw std::invalid_argument("front-end oversampling: the sample rate must be positive and finite");
+  // 1e-9: a rate that divides the fine rate exactly (100 kHz) gets its exact factor.
+  const double factor = std::ceil(kFrontEndMinimumFineRateHz / sample_rate_hz - 1e-9);
+  return static_cast<int>(std::clamp(factor, 4.0, 4096.0));
+}
+
 AntiAliasDecimator::AntiAliasDecimator(int factor, double pass_fraction, double stop_fraction, double stop_db)
     : factor_(factor) {
   if (factor < 2) throw std::invalid_argument("decimation factor must be at least 2");

@@ -127,8 +127,9 @@ CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfi
 CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
                                     const OperatingPoint& op, double duration_s, const SimulationOptions& options) {
   const double fs = options.sample_rate_hz;
-  const int factor = options.front_end_oversampling;
-  if (factor < 1) throw TwinParameterError("front-end oversampling must be at least 1");
+  if (options.front_end_oversampling < 0) throw TwinParameterError("front-end oversampling must be 0 (automatic) or at least 1");
+  if (!(fs > 0) || !std::isfinite(fs)) throw TwinParameterError("sample rate must be positive");
+  const int factor = options.front_end_oversampling > 0 ? options.front_end_oversampling : dsp::front_end_oversampling(fs);
   CasingSignal s;
   s.sample_rate_hz = fs;
   if (factor == 1) {
@@ -138,7 +139,6 @@ CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfi
     return s;
   }
   if (!std::isfinite(duration_s) || duration_s <= 0) throw TwinParameterError("simulation duration must be positive");
-  if (!(fs > 0) || !std::isfinite(fs)) throw TwinParameterError("sample rate must be positive");
   const double count_d = std::ceil(duration_s * fs);
   if (count_d * factor > 2e9) throw TwinParameterError("simulation too long for one run");
   const auto count = static_cast<std::size_t>(count_d);

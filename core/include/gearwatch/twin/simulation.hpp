@@ -28,9 +28,10 @@ struct SimulationOptions {
   double face_misalignment_rad = 0;
   /// simulate_casing_signal only: the sensor front-end reads the model at this many times the
   /// sample rate and low-passes before decimating (dsp::AntiAliasDecimator), as an oversampling
-  /// converter does; 1 samples the acceleration directly, which folds the mesh's lines above
-  /// fs/2 onto the band. simulate() always samples directly.
-  int front_end_oversampling = 4;
+  /// converter does; 0 (the default) takes dsp::front_end_oversampling(sample_rate_hz), 4 at
+  /// 100 kHz; 1 samples the acceleration directly, which folds the mesh's lines above fs/2 onto
+  /// the band. simulate() always samples directly.
+  int front_end_oversampling = 0;
 };
 
 /// The dynamic force carried by one tooth pair over its pass along the line of action (root of the

@@ -35,9 +35,10 @@ struct RigRunSettings {
   bool keep_diagnostics = false;    ///< fill RigRecord's diagnostic signals
   /// The sensor front-end reads the structure's acceleration this many times per sample and
   /// low-passes before decimating (dsp::AntiAliasDecimator), as an oversampling converter does;
-  /// 1 reads it once per sample, which folds the mesh's lines above fs/2 onto the band. The
-  /// sliding vibration, the mount and the noise act on the decimated record.
-  int front_end_oversampling = 4;
+  /// 0 (the default) takes dsp::front_end_oversampling(sample_rate_hz), 4 at 100 kHz; 1 reads it
+  /// once per sample, which folds the mesh's lines above fs/2 onto the band. The sliding
+  /// vibration, the mount and the noise act on the decimated record.
+  int front_end_oversampling = 0;
 };
 
 struct RigRecord {
