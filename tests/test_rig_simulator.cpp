@@ -721,22 +721,28 @@ TEST_CASE("rig: with the torque reversed the back flanks carry it, a clearance f
   }
 }
 
+namespace {
+/// As the twin's (test_twin_simulation.cpp): orders 1..max_order of 2 s of a perfect pair at 8 Hz and
+/// 20 N·m, at `fs` (a whole number of samples a revolution), through a front-end of `oversampling`.
+std::vector<double> front_end_order_lines(double fs, int oversampling, int max_order) {
+  rig::RigRunSettings run;
+  run.speed_hz = 8;
+  run.torque_nm = 20;
+  run.duration_s = 2;
+  run.sample_rate_hz = fs;
+  run.channels = 1;
+  run.front_end_oversampling = oversampling;
+  const auto r = rig::simulate_record(twin::GearboxParameters{}, rig::EffectSet{}, rig::WearState{}, {}, run);
+  REQUIRE(r.acceleration[0].size() == static_cast<std::size_t>(2 * fs));
+  return gearwatch::test::order_line_power(r.acceleration[0], static_cast<std::size_t>(fs / 8.0), 15, max_order);
+}
+}  // namespace
+
 TEST_CASE("The rig's record is what an anti-aliased front-end gives: the mesh's lines above fs/2 do not fold onto the shaft orders", "[rig][front-end]") {
   // As the twin's (test_twin_simulation.cpp): 8 Hz at 100 kHz, a perfect pair, so the orders
   // between the mesh harmonics and their first sidebands hold only folding and the integrator's
   // noise; the same integration steps read once per sample, by the default front-end (4×) and at 32×.
-  auto lines = [](int oversampling) {
-    rig::RigRunSettings run;
-    run.speed_hz = 8;
-    run.torque_nm = 20;
-    run.duration_s = 2;
-    run.sample_rate_hz = 100000;
-    run.channels = 1;
-    run.front_end_oversampling = oversampling;
-    const auto r = rig::simulate_record(twin::GearboxParameters{}, rig::EffectSet{}, rig::WearState{}, {}, run);
-    REQUIRE(r.acceleration[0].size() == 200000);
-    return gearwatch::test::order_line_power(r.acceleration[0], 12500, 15, 40);
-  };
+  auto lines = [](int oversampling) { return front_end_order_lines(100000, oversampling, 40); };
   REQUIRE(rig::RigRunSettings{}.front_end_oversampling == 0);  // automatic: 4 at 100 kHz
   REQUIRE(gearwatch::dsp::front_end_oversampling(100000) == 4);
   const auto direct = lines(1), front_end = lines(4), reference = lines(32);
@@ -755,18 +761,7 @@ TEST_CASE("The rig's record is what an anti-aliased front-end gives: the mesh's 
 TEST_CASE("At 20 kHz the rig's front-end reads at 400 kHz: 4x would leave folded lines on the first sidebands", "[rig][front-end]") {
   // As the twin's (test_twin_simulation.cpp): 8 Hz at 20 kHz, a perfect pair; the same 10 µs steps
   // read at 4×, by the default (20×) and at 64×.
-  auto lines = [](int oversampling) {
-    rig::RigRunSettings run;
-    run.speed_hz = 8;
-    run.torque_nm = 20;
-    run.duration_s = 2;
-    run.sample_rate_hz = 20000;
-    run.channels = 1;
-    run.front_end_oversampling = oversampling;
-    const auto r = rig::simulate_record(twin::GearboxParameters{}, rig::EffectSet{}, rig::WearState{}, {}, run);
-    REQUIRE(r.acceleration[0].size() == 40000);
-    return gearwatch::test::order_line_power(r.acceleration[0], 2500, 15, 60);
-  };
+  auto lines = [](int oversampling) { return front_end_order_lines(20000, oversampling, 60); };
   const auto four = lines(4), automatic = lines(0), reference = lines(64);
   auto sidebands_db = [](const std::vector<double>& l) { return gearwatch::test::first_sideband_db_re_mesh(l, 19); };
   auto shaft_db = [](const std::vector<double>& l) { return gearwatch::test::shaft_order_db_re_mesh(l, 19); };

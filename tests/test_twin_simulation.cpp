@@ -277,23 +277,28 @@ TEST_CASE("A linear tip relief adds material removed from (1 - L) of the profile
   CHECK_THROWS(with_linear_tip_relief(base, 1e-6, 1.5));
 }
 
+namespace {
+/// Orders 1..max_order of 2 s of a perfect pair at 8 Hz and 20 N·m, at `fs` (a whole number of samples
+/// a revolution, so whatever folds lands on whole orders) through a front-end of `oversampling`.
+std::vector<double> front_end_order_lines(double fs, int oversampling, int max_order) {
+  SimulationOptions o;
+  o.sample_rate_hz = fs;
+  o.front_end_oversampling = oversampling;
+  const CasingSignal s = simulate_casing_signal(GearboxParameters{}, {}, OperatingPoint{8.0, 20.0}, 2.0, o);
+  const auto per_rev = static_cast<std::size_t>(fs / 8.0);
+  REQUIRE(s.acceleration.size() == static_cast<std::size_t>(2 * fs));
+  REQUIRE(s.tacho_edges.size() >= 15);
+  CHECK(s.tacho_edges[1] - s.tacho_edges[0] == Approx(static_cast<double>(per_rev)).margin(0.01));
+  return gearwatch::test::order_line_power(s.acceleration, per_rev, 15, max_order);
+}
+}  // namespace
+
 TEST_CASE("The twin's record is what an anti-aliased front-end gives: no mesh harmonic above fs/2 folds onto the shaft orders", "[twin][front-end]") {
   // 8 Hz at 100 kHz: 12 500 samples a revolution, so whatever folds lands on whole orders. Read
   // once per sample, the 657th–659th mesh harmonics (99.86–100.17 kHz) fold onto orders 17, 2
   // and 21. A twin without tooth errors has nothing of its own at the orders between the mesh
   // harmonics and their first sidebands: what is there is folding or the integrator's noise.
-  const GearboxParameters p;
-  const OperatingPoint op{8.0, 20.0};
-  auto lines = [&](int oversampling) {
-    SimulationOptions o;
-    o.sample_rate_hz = 100000;
-    o.front_end_oversampling = oversampling;
-    const CasingSignal s = simulate_casing_signal(p, {}, op, 2.0, o);
-    REQUIRE(s.acceleration.size() == 200000);
-    REQUIRE(s.tacho_edges.size() >= 15);
-    CHECK(s.tacho_edges[1] - s.tacho_edges[0] == Approx(12500).margin(0.01));
-    return gearwatch::test::order_line_power(s.acceleration, 12500, 15, 40);
-  };
+  auto lines = [](int oversampling) { return front_end_order_lines(100000, oversampling, 40); };
   REQUIRE(SimulationOptions{}.front_end_oversampling == 0);  // automatic: 4 at 100 kHz
   REQUIRE(gearwatch::dsp::front_end_oversampling(100000) == 4);
   const auto direct = lines(1), front_end = lines(4), reference = lines(32);
@@ -317,16 +322,7 @@ TEST_CASE("At 20 kHz the twin's front-end reads at 400 kHz: 4x would leave folde
   // 8 Hz at 20 kHz: 2 500 samples a revolution. Read at 80 kHz (4×), the mesh's lines near 80 kHz
   // fold onto whole orders, among them the first sidebands of the first mesh harmonic (orders 18
   // and 20), which a perfect pair does not have. The default reads at 400 kHz (20×).
-  const GearboxParameters p;
-  const OperatingPoint op{8.0, 20.0};
-  auto lines = [&](int oversampling) {
-    SimulationOptions o;
-    o.sample_rate_hz = 20000;
-    o.front_end_oversampling = oversampling;
-    const CasingSignal s = simulate_casing_signal(p, {}, op, 2.0, o);
-    REQUIRE(s.acceleration.size() == 40000);
-    return gearwatch::test::order_line_power(s.acceleration, 2500, 15, 60);
-  };
+  auto lines = [](int oversampling) { return front_end_order_lines(20000, oversampling, 60); };
   REQUIRE(gearwatch::dsp::front_end_oversampling(20000) == 20);
   const auto four = lines(4), automatic = lines(0), reference = lines(64);
   auto sidebands_db = [](const std::vector<double>& l) { return gearwatch::test::first_sideband_db_re_mesh(l, 19); };
