@@ -226,6 +226,12 @@ TEST_CASE("Simulation rejects bad operating points", "[twin]") {
   ToothProfileDeviation bad;
   bad.pinion = {0.0, std::nan("")};
   CHECK_THROWS_AS(simulate(p, bad, {10.0, 20.0}, 0.1), TwinParameterError);
+  // The shaft run-out (the gap diagnosis's addition): an amplitude is >= 0 and finite, a phase finite.
+  for (const ShaftRunOut& run_out : {ShaftRunOut{-1e-6, 0, 0, 0}, ShaftRunOut{0, 0, std::nan(""), 0}, ShaftRunOut{1e-6, INFINITY, 0, 0}}) {
+    SimulationOptions o;
+    o.shaft_run_out = run_out;
+    CHECK_THROWS_WITH(simulate(p, {}, {10.0, 20.0}, 0.01, o), Catch::Matchers::Contains("run-out"));
+  }
 }
 
 #include "gearwatch/dsp/record_analyzer.hpp"

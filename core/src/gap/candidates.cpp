@@ -130,6 +130,26 @@ void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSumm
       break;
     }
     case CandidateEffect::eccentricity: {
+      if (twin.run_out_response) {
+        // The twin's own response to each run-out, line by line (lower and upper sidebands apart,
+        // each through the twin's dynamics at its own frequency). A run-out e at phase φ changes
+        // line k by e·(cos φ·R0 + sin φ·R1); its power, over the phase the lines' powers cannot
+        // tell, is e²·(|R0|² + |R1|²)/2, and its cross term with the twin's own line averages out.
+        const RunOutResponse& r = *twin.run_out_response;
+        auto add = [&](std::vector<double>& lines, const std::array<std::vector<std::complex<double>>, 4>& per_m, bool output) {
+          std::size_t n = lines.size();
+          for (const auto& d : per_m) n = std::min(n, d.size());
+          const double pinion = v[0] * v[0] / 2, gear = v[1] * v[1] / 2;
+          for (std::size_t k = 0; k < n; ++k) {
+            if (output && output_line_is_mesh(static_cast<int>(k + 1), z2)) continue;
+            lines[k] += pinion * (std::norm(per_m[0][k]) + std::norm(per_m[1][k])) +
+                        gear * (std::norm(per_m[2][k]) + std::norm(per_m[3][k]));
+          }
+        };
+        add(s.input_lines, r.input_per_m, false);
+        add(s.output_lines, r.output_per_m, true);
+        break;
+      }
       // A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM, the
       // same share at every harmonic) and turns the pinion against the tacho (PM of index n·b at
       // harmonic n, as the mesh phase is n·z1 times the pinion's angle). The mean of a modulated
@@ -322,6 +342,7 @@ void add_rerun_effect(CandidateEffect effect, const std::vector<double>& values,
     throw std::invalid_argument(std::string("twin rerun for ") + to_string(effect) + ": " + std::to_string(names.size()) +
                                 " values expected, got " + std::to_string(values.size()));
   if (effect == CandidateEffect::misalignment) options.face_misalignment_rad = values[0];
+  if (effect == CandidateEffect::eccentricity) options.shaft_run_out = {values[0], values[2], values[1], values[3]};
   if (effect == CandidateEffect::tip_relief) profile = twin::with_linear_tip_relief(profile, values[0], values[1]);
 }
 
@@ -340,7 +361,13 @@ std::vector<double> rerun_grid_ratios(CandidateEffect effect) {
 std::vector<std::string> rerun_parameter_names(CandidateEffect effect) {
   if (effect == CandidateEffect::misalignment) return {"angle_rad"};
   if (effect == CandidateEffect::tip_relief) return {"amount_m", "length_fraction"};
+  if (effect == CandidateEffect::eccentricity) return {"pinion_run_out_m", "gear_run_out_m", "pinion_phase_rad", "gear_phase_rad"};
   return {};
+}
+
+std::array<std::vector<double>, 5> run_out_response_reruns() {
+  const double u = kRunOutResponseUnitM, quarter = std::numbers::pi / 2;
+  return {{{0.0, 0.0, 0.0, 0.0}, {u, 0.0, 0.0, 0.0}, {u, 0.0, quarter, 0.0}, {0.0, u, 0.0, 0.0}, {0.0, u, 0.0, quarter}}};
 }
 
 int tip_relief_harmonics(double sample_rate_hz) {

@@ -262,8 +262,8 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   for (const auto* set : {&training, &held_out})
     for (const auto& in : *set) top_hz = std::max(top_hz, 0.5 * in.twin.sample_rate_hz);
   const auto bearing_path = bearing_force_path(twin_matrices, std::max(top_hz, 2.0));
-  const auto train = reduce(training, gears, settings, twin_matrices, bearing_path, "training");
-  const auto test = reduce(held_out, gears, settings, twin_matrices, bearing_path, "held-out");
+  auto train = reduce(training, gears, settings, twin_matrices, bearing_path, "training");
+  auto test = reduce(held_out, gears, settings, twin_matrices, bearing_path, "held-out");
   std::vector<SummaryPair> train_pairs;
   for (const auto& p : train) train_pairs.push_back({p.measured_all, p.twin_all, p.floor});
   const double fs = test.front().measured_all.sample_rate_hz;
@@ -386,8 +386,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   std::vector<std::pair<double, CandidateScore>> ranked;
   std::map<CandidateEffect, std::vector<double>> alone;
   std::map<CandidateEffect, std::size_t> alone_grid;
-  for (CandidateEffect c : kAllCandidateEffects) {
-    if (!settings.attribute) break;
+  auto score_alone = [&](CandidateEffect c) {
     const auto form = candidate_form(c, fs);
     CandidateScore score;
     score.effect = c;
@@ -413,9 +412,48 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     score.shrinkage = own_before > 0 ? 1.0 - own_distance(score.held_out_after, form.explains) / own_before : 0.0;
     score.information_criterion = information_criterion(a.point, noise, fitted_count(values), settings);
     score.worsens_other_family = score.shrinkage > 0 && worsens_other_family(score.held_out_after, form.explains);
-    ranked.emplace_back(score.information_criterion, std::move(score));
+    return std::make_pair(score.information_criterion, std::move(score));
+  };
+  auto by_ic = [](const auto& a, const auto& b) { return a.first < b.first; };
+  if (settings.attribute)
+    for (CandidateEffect c : kAllCandidateEffects) ranked.push_back(score_alone(c));
+  std::stable_sort(ranked.begin(), ranked.end(), by_ic);
+  // The run-out through the twin. The power form gives a pair of first sidebands their mean; the
+  // twin with a run-out gives each line its own (AM and PM out of phase through the time-varying
+  // mesh, several dB apart on the rig's). When the power form ranks eccentricity among the two best
+  // and the twin can be re-run, each record's twin is re-run 4 times (run_out_response_reruns; a 5th
+  // without a run-out when the counterpart is longer than a rerun) for its lines' response, and the
+  // form is fitted again with it.
+  const auto eccentricity_rank = std::find_if(ranked.begin(), ranked.end(), [](const auto& r) {
+    return r.second.effect == CandidateEffect::eccentricity;
+  });
+  if (settings.rerun_twin && any_significant && eccentricity_rank != ranked.end() && eccentricity_rank - ranked.begin() < 2) {
+    const auto runs = run_out_response_reruns();
+    auto attach = [&](std::vector<PairSpectra>& pairs, const std::vector<DiagnosisInput>& inputs) {
+      for (std::size_t i = 0; i < pairs.size(); ++i) {
+        const Record& like = inputs[i].twin;
+        const int channel = std::min<int>(settings.channel, static_cast<int>(like.channels.size()) - 1);
+        const double duration = twin_duration_s(like, settings);
+        std::vector<RecordSpectra> spectra;
+        // The twin without a run-out is the counterpart itself when that is as long as a rerun.
+        const bool counterpart_is_base = like.duration_s() <= duration;
+        for (std::size_t r = counterpart_is_base ? 1 : 0; r < runs.size(); ++r)
+          spectra.emplace_back(settings.rerun_twin(CandidateEffect::eccentricity, runs[r], like, duration), channel, gears,
+                               settings.min_revolutions);
+        const std::size_t u = counterpart_is_base ? 0 : 1;
+        const RecordSpectra& base = counterpart_is_base ? pairs[i].twin : spectra[0];
+        pairs[i].twin.set_run_out_response(
+            run_out_response(base, {&spectra[u], &spectra[u + 1], &spectra[u + 2], &spectra[u + 3]}, kRunOutResponseUnitM));
+        pairs[i].twin_all = pairs[i].twin.summary();
+      }
+    };
+    attach(train, training);
+    attach(test, held_out);
+    for (std::size_t i = 0; i < train.size(); ++i) train_pairs[i].twin = train[i].twin_all;
+    ranked.erase(eccentricity_rank);
+    ranked.push_back(score_alone(CandidateEffect::eccentricity));
+    std::stable_sort(ranked.begin(), ranked.end(), by_ic);
   }
-  std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (auto& r : ranked) report.candidates.push_back(std::move(r.second));
 
   // The family gaps of one held-out evaluation without a bootstrap (its interval is the point).

@@ -193,6 +193,7 @@ SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_rev
   s.pinion_run_out = pinion_run_out_;
   s.gear_run_out = gear_run_out_;
   s.bearing_force_path = bearing_force_path_;
+  s.run_out_response = run_out_response_;
   s.input_revolutions = ir.size();
   s.output_revolutions = orv.size();
   s.input_lines.assign(k_in_, 0.0);
@@ -218,6 +219,37 @@ SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_rev
   for (std::size_t m = 0; m < k_out_; ++m)
     if (!output_line_is_mesh(static_cast<int>(m + 1), gear_teeth_)) s.output_lines[m] = std::norm(mean_out[m]);
   return s;
+}
+
+std::vector<std::complex<double>> RecordSpectra::input_line_means() const {
+  std::vector<std::size_t> all(in_revs_);
+  std::iota(all.begin(), all.end(), std::size_t{0});
+  return mean_over_revolutions(in_dft_, all, k_in_);
+}
+
+std::vector<std::complex<double>> RecordSpectra::output_line_means() const {
+  std::vector<std::size_t> all(out_revs_);
+  std::iota(all.begin(), all.end(), std::size_t{0});
+  return mean_over_revolutions(out_dft_, all, k_out_);
+}
+
+std::shared_ptr<const RunOutResponse> run_out_response(const RecordSpectra& without,
+                                                       const std::array<const RecordSpectra*, 4>& with_unit,
+                                                       double unit_m) {
+  if (!(unit_m > 0) || !std::isfinite(unit_m)) throw std::invalid_argument("run-out response: the unit run-out must be finite and > 0");
+  auto r = std::make_shared<RunOutResponse>();
+  const auto input_lines = without.input_line_means(), output_lines = without.output_line_means();
+  for (std::size_t i = 0; i < with_unit.size(); ++i) {
+    if (with_unit[i] == nullptr) throw std::invalid_argument("run-out response: a run with a run-out is missing");
+    auto difference = [&](const std::vector<std::complex<double>>& with, const std::vector<std::complex<double>>& base) {
+      std::vector<std::complex<double>> d(std::min(with.size(), base.size()));
+      for (std::size_t k = 0; k < d.size(); ++k) d[k] = (with[k] - base[k]) / unit_m;
+      return d;
+    };
+    r->input_per_m[i] = difference(with_unit[i]->input_line_means(), input_lines);
+    r->output_per_m[i] = difference(with_unit[i]->output_line_means(), output_lines);
+  }
+  return r;
 }
 
 SpectralSummary RecordSpectra::bootstrap(std::mt19937_64& rng, std::size_t block) const {

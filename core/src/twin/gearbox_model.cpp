@@ -137,6 +137,16 @@ void GearboxDynamics::set_face_misalignment(double separation_m) {
   face_separation_ = separation_m;
 }
 
+void GearboxDynamics::set_shaft_run_out(const ShaftRunOut& run_out) {
+  for (double e : {run_out.pinion_m, run_out.gear_m})
+    if (!std::isfinite(e) || e < 0) throw TwinParameterError("shaft run-out must be finite and >= 0 m");
+  if (!std::isfinite(run_out.pinion_phase_rad) || !std::isfinite(run_out.gear_phase_rad))
+    throw TwinParameterError("shaft run-out phases must be finite");
+  run_out_ = run_out;
+  const GearGeometry& g = mesh_stiffness_->geometry();
+  gear_turn_per_pinion_turn_ = static_cast<double>(g.spec.pinion_teeth) / g.spec.gear_teeth;
+}
+
 double GearboxDynamics::mesh_frequency_hz() const { return speed_hz_ * mesh_stiffness_->geometry().spec.pinion_teeth; }
 
 double GearboxDynamics::mesh_force(const Eigen::Ref<const Vector21>& q, const Eigen::Ref<const Vector21>& v, double t,
@@ -163,15 +173,25 @@ double GearboxDynamics::mesh_force(const Eigen::Ref<const Vector21>& q, const Ei
   const int n = mesh_stiffness_->pairs_in_contact(phase, positions);
   const GearGeometry& g = mesh_stiffness_->geometry();
   const double contact_speed = g.base_radius_pinion * (omega_ + v[theta5]);  // ds/dt along the line of action
+  // A run-out moves the shaft's centre along the line of action once per its turn: the same
+  // transmission error for every pair in contact.
+  double e_shaft = 0, e_shaft_rate = 0;
+  if (run_out_.any()) {
+    const double gear_angle = omega_ * gear_turn_per_pinion_turn_ * t + q[theta10];
+    const double gear_speed = omega_ * gear_turn_per_pinion_turn_ + v[theta10];
+    const double ap = pinion_angle + run_out_.pinion_phase_rad, ag = gear_angle + run_out_.gear_phase_rad;
+    e_shaft = -(run_out_.pinion_m * std::sin(ap) + run_out_.gear_m * std::sin(ag));
+    e_shaft_rate = -(run_out_.pinion_m * std::cos(ap) * (omega_ + v[theta5]) + run_out_.gear_m * std::cos(ag) * gear_speed);
+  }
   double total = 0, stiffness = 0, gte_max = -1e300;
   for (int j = 0; j < n; ++j) {
     const double k = mesh_stiffness_->pair_stiffness(positions[j]);
-    double e = 0, e_rate = 0;
+    double e = e_shaft, e_rate = e_shaft_rate;
     if (gte_ && !gte_->is_zero()) {
       const int pinion_tooth = static_cast<int>((cycle - j) % g.spec.pinion_teeth);
       const int gear_tooth = static_cast<int>((cycle - j) % g.spec.gear_teeth);
-      e = gte_->pair_error(positions[j], pinion_tooth, gear_tooth);
-      e_rate = gte_->pair_error_slope(positions[j], pinion_tooth, gear_tooth) * contact_speed;
+      e += gte_->pair_error(positions[j], pinion_tooth, gear_tooth);
+      e_rate += gte_->pair_error_slope(positions[j], pinion_tooth, gear_tooth) * contact_speed;
     }
     gte_max = std::max(gte_max, e);
     const double compression = delta + e;

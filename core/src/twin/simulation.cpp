@@ -33,6 +33,7 @@ SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDe
   if (!std::isfinite(options.face_misalignment_rad) || options.face_misalignment_rad < 0)
     throw TwinParameterError("face misalignment must be finite and >= 0 rad");
   dynamics.set_face_misalignment(options.face_misalignment_rad * p.gears.face_width_m);
+  dynamics.set_shaft_run_out(options.shaft_run_out);
 
   SimulationResult result;
   result.sample_rate_hz = options.sample_rate_hz;

@@ -16,7 +16,13 @@
 //                     the mesh force (AM) and a turning of the pinion that one tacho edge per revolution
 //                     cannot follow (PM growing with the harmonic): first sidebands n·z ± 1 of each
 //                     shaft gain ((a·e)² + (n·b·e)²)/4 · P(n·GMF), a and b from run_out_sensitivity()
-//                     at each record's speed and torque, so one run-out serves every speed and load
+//                     at each record's speed and torque, so one run-out serves every speed and load.
+//                     With the twin's run-out response on its spectra (RunOutResponse, from twin
+//                     reruns; the diagnosis reads it when this form ranks among the two best) every
+//                     line gains e²·(|R0|² + |R1|²)/2 per shaft instead: the twin's own change of that
+//                     line under a run-out, over the run-out's phase (which line powers cannot tell),
+//                     so the lower and upper sidebands each get their own, where the power form gives
+//                     a sideband pair's mean
 //   tooth_errors      per-tooth pattern: every non-mesh line of a shaft gains c·E(order), E the
 //                     twin's mesh-harmonic envelope (its transfer path) interpolated in order, and
 //                     the residual gains c_r·E(order) (the tooth pairings repeat only every z1·z2
@@ -41,6 +47,7 @@
 //                     mesh stiffness and its resonance change with load); without: one gain on all
 //                     mesh harmonics, dB
 //   backlash          mesh harmonics raised by b·n dB (b ≥ 0)
+#include <array>
 #include <complex>
 #include <memory>
 #include <string>
@@ -96,7 +103,18 @@ std::vector<double> rerun_grid_ratios(CandidateEffect effect);
 void add_rerun_effect(CandidateEffect effect, const std::vector<double>& values, twin::ToothProfileDeviation& profile,
                       twin::SimulationOptions& options);
 /// The names (SI units) of a rerun candidate's values, in the order of its grid points.
+/// Eccentricity has no grid but is re-run for its run-out response (run_out_response_reruns()):
+/// {pinion_run_out_m, gear_run_out_m, pinion_phase_rad, gear_phase_rad}.
 std::vector<std::string> rerun_parameter_names(CandidateEffect effect);
+
+/// The run-out the twin is re-run with to read its response (RunOutResponse): enough above the
+/// integrator's noise that the lines' differences are clean, small enough to stay linear (at 8 Hz
+/// and 20 N·m 10 µm and 2 µm give the same response to 0.1 dB on the sidebands above the
+/// comparison's floor).
+inline constexpr double kRunOutResponseUnitM = 10e-6;
+/// The eccentricity reruns, in rerun_parameter_names' order: without a run-out, then
+/// kRunOutResponseUnitM on the pinion at phase 0 and π/2, then on the gear at 0 and π/2.
+std::array<std::vector<double>, 5> run_out_response_reruns();
 
 /// The twin's bearing-force path (BearingForcePath) from its linearised model: the response to a
 /// transmission error at the mesh (twin::transmission_error_response), Σ of the grounded vertical

@@ -29,7 +29,9 @@ struct DiagnosisInput {
 /// as the record it stands for). Candidates that change the twin's dynamics (misalignment: a pair
 /// carrying load over part of the face stiffens with load; tip relief: a relieved tip engages as the
 /// load deflects it) have no spectral form that stands in for them; with a rerun the diagnosis fits
-/// them over their grid. Throwing std::invalid_argument refuses the diagnosis.
+/// them over their grid. The eccentricity candidate is re-run too, at run_out_response_reruns(), for
+/// the twin's response to a run-out (when its spectral form ranks among the two best). Throwing
+/// std::invalid_argument refuses the diagnosis.
 using TwinRerun = std::function<Record(CandidateEffect effect, const std::vector<double>& values,
                                        const Record& twin_record, double duration_s)>;
 

@@ -3,6 +3,7 @@
 // input and the output shaft and its non-synchronous (broadband) part, kept per revolution so
 // that a block bootstrap over revolutions can redraw them, and the families the lines and bins
 // belong to. Pure computation on core's order tracking and FFTW plans.
+#include <array>
 #include <complex>
 #include <cstddef>
 #include <cstdint>
@@ -25,6 +26,16 @@ namespace gearwatch::gap {
 struct RunOutSensitivity {
   double am_per_m = 0;
   double pm_per_harmonic_per_m = 0;
+};
+
+/// How the twin's synchronous lines (complex peak amplitudes, phased on the tacho) change per metre
+/// of run-out, read off twin runs with a run-out (run_out_response()): a small run-out enters every
+/// pair's compression additively, so the lines are linear in it. Index [0] is the pinion's run-out
+/// at phase 0, [1] at phase π/2, [2] and [3] the gear's; a run-out e at phase φ adds
+/// e·(cos φ·[0] + sin φ·[1]) (resp. [2], [3]). Input lines [k-1] are input order k, output lines
+/// [m-1] output order m.
+struct RunOutResponse {
+  std::array<std::vector<std::complex<double>>, 4> input_per_m, output_per_m;
 };
 
 /// The twin's vertical bearing forces on the casing per metre of its sensor DOF's displacement
@@ -68,6 +79,9 @@ struct SpectralSummary {
   RunOutSensitivity pinion_run_out, gear_run_out;
   /// For a twin's record: its bearing-force path (RecordSpectra::set_bearing_force_path); null: not known.
   std::shared_ptr<const BearingForcePath> bearing_force_path;
+  /// For a twin's record: its lines' response to a run-out (RecordSpectra::set_run_out_response);
+  /// null: not known (the eccentricity form then uses the run-out sensitivities).
+  std::shared_ptr<const RunOutResponse> run_out_response;
 };
 
 /// One record reduced to per-revolution spectra (so a bootstrap can redraw revolutions).
@@ -94,6 +108,12 @@ class RecordSpectra {
   }
   /// Carried into every summary and bootstrap draw (the twin's bearing forces per sensor displacement).
   void set_bearing_force_path(std::shared_ptr<const BearingForcePath> path) noexcept { bearing_force_path_ = std::move(path); }
+  /// Carried into every summary and bootstrap draw (the twin's lines' response to a run-out).
+  void set_run_out_response(std::shared_ptr<const RunOutResponse> response) noexcept { run_out_response_ = std::move(response); }
+  /// The synchronous lines over all revolutions, complex (summary() holds their power): input
+  /// orders 1..K_in and output orders 1..K_out.
+  std::vector<std::complex<double>> input_line_means() const;
+  std::vector<std::complex<double>> output_line_means() const;
   double speed_hz() const noexcept { return speed_hz_; }
   double torque_nm() const noexcept { return torque_nm_; }
   std::size_t input_revolutions() const noexcept { return in_revs_; }
@@ -105,10 +125,19 @@ class RecordSpectra {
   int pinion_teeth_ = 19, gear_teeth_ = 52;
   RunOutSensitivity pinion_run_out_, gear_run_out_;
   std::shared_ptr<const BearingForcePath> bearing_force_path_;
+  std::shared_ptr<const RunOutResponse> run_out_response_;
   std::vector<std::complex<double>> in_dft_;   // [rev * k_in + k-1], scaled to peak amplitude
   std::vector<std::complex<double>> out_dft_;  // [rev * k_out + m-1]
   std::vector<std::complex<double>> block_dft_;  // [block * 2k_in + j-1]: half-order bins j = 1..2k_in
 };
+
+/// The twin's run-out response from its record without a run-out and four with one of `unit_m` each
+/// (the pinion's at phase 0 and π/2, the gear's at phase 0 and π/2), all at one operating point:
+/// (lines with − lines without) / unit_m. Throws std::invalid_argument for a unit that is not
+/// positive and finite.
+std::shared_ptr<const RunOutResponse> run_out_response(const RecordSpectra& without,
+                                                       const std::array<const RecordSpectra*, 4>& with_unit,
+                                                       double unit_m);
 
 /// The sideband families hold n·z ± m for m = 1..kSidebandOrders: a once-per-revolution
 /// modulation (eccentricity, a run-out) puts its lines there, and a family spread over every

@@ -78,6 +78,15 @@ struct HarmonicLoad {
   double frequency_hz = 0;
 };
 
+/// Run-out of eccentric shafts along the line of action (an addition the seed's twin does not have):
+/// the pinion's (input) and the gear's (output) shaft, each an amplitude (m) and the angle of its
+/// eccentricity at zero shaft angle (rad). Both zero: concentric.
+struct ShaftRunOut {
+  double pinion_m = 0, pinion_phase_rad = 0;
+  double gear_m = 0, gear_phase_rad = 0;
+  bool any() const noexcept { return pinion_m != 0 || gear_m != 0; }
+};
+
 /// Mesh model used by the equations of motion.
 enum class MeshModel {
   time_varying,       ///< per-pair stiffness from the potential-energy table, contact loss allowed
@@ -127,6 +136,11 @@ class GearboxDynamics {
   /// a pair compressed by c < separation carries only the part of the face where it touches.
   /// Throws TwinParameterError for a negative or non-finite value; 0 (the default) is aligned.
   void set_face_misalignment(double separation_m);
+  /// Eccentric shafts as an addition to the twin (the gap diagnosis's eccentricity candidate): every
+  /// pair's compression gains −(e_p sin(θ_p + φ_p) + e_g sin(θ_g + φ_g)), θ the shaft's angle (its
+  /// nominal turn and its torsional DOF at the gear). Throws TwinParameterError for a negative or
+  /// non-finite run-out or a non-finite phase.
+  void set_shaft_run_out(const ShaftRunOut& run_out);
   const GearboxMatrices& matrices() const { return m_; }
   double input_speed_hz() const { return speed_hz_; }
   double mesh_frequency_hz() const;
@@ -147,6 +161,8 @@ class GearboxDynamics {
   Eigen::Matrix<double, kDofCount, kDofCount, Eigen::RowMajor> damping_rows_;
   std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
   double face_separation_ = 0;  // m: flank separation across the face (0 = aligned)
+  ShaftRunOut run_out_;
+  double gear_turn_per_pinion_turn_ = 0;  // z1 / z2
   std::shared_ptr<const GeometricTransmissionError> gte_;
   double speed_hz_;
   double omega_;

@@ -26,6 +26,9 @@ struct SimulationOptions {
   /// An addition the seed's twin does not have (for the gap diagnosis's misalignment candidate):
   /// angular misalignment across the face, rad; the flank separation is this × the face width.
   double face_misalignment_rad = 0;
+  /// An addition for the gap diagnosis's eccentricity candidate: the shafts' run-out along the line
+  /// of action (ShaftRunOut); zero (the default) is none.
+  ShaftRunOut shaft_run_out;
   /// simulate_casing_signal only: the sensor front-end reads the model at this many times the
   /// sample rate and low-passes before decimating (dsp::AntiAliasDecimator), as an oversampling
   /// converter does; 0 (the default) takes dsp::front_end_oversampling(sample_rate_hz), 4 at
