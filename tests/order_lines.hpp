@@ -5,6 +5,7 @@
 #include <complex>
 #include <cstddef>
 #include <numbers>
+#include <ostream>
 #include <vector>
 
 namespace gearwatch::test {
@@ -51,6 +52,37 @@ inline double first_sideband_db_re_mesh(const std::vector<double>& power, int te
 /// shaft_order_power over the first mesh harmonic's line, dB.
 inline double shaft_order_db_re_mesh(const std::vector<double>& power, int teeth) {
   return 10.0 * std::log10(shaft_order_power(power, teeth) / power[static_cast<std::size_t>(teeth - 1)]);
+}
+
+/// One figure (dB re the first mesh harmonic, e.g. first_sideband_db_re_mesh) of the three records
+/// a front-end test compares: read at 4×, by the automatic factor, and at a reference factor.
+struct FrontEndFigure {
+  double four, automatic, reference;
+};
+template <class Figure>
+FrontEndFigure front_end_figure(Figure figure, const std::vector<double>& four, const std::vector<double>& automatic,
+                                const std::vector<double>& reference, int teeth) {
+  return {figure(four, teeth), figure(automatic, teeth), figure(reference, teeth)};
+}
+inline std::ostream& operator<<(std::ostream& o, const FrontEndFigure& f) {
+  return o << "4x " << f.four << " dB, automatic " << f.automatic << " dB, reference " << f.reference << " dB";
+}
+
+/// A perfect pair's order lines read at 4×, by the automatic factor (0) and at `reference_factor`
+/// (`lines(factor)` gives them), with their first sidebands' and shaft orders' figures.
+struct FrontEndComparison {
+  std::vector<double> four, automatic, reference;
+  FrontEndFigure sidebands, shaft;
+};
+template <class Lines>
+FrontEndComparison compare_front_ends(Lines lines, int reference_factor, int teeth) {
+  FrontEndComparison c{lines(4), lines(0), lines(reference_factor), {}, {}};
+  c.sidebands = front_end_figure(first_sideband_db_re_mesh, c.four, c.automatic, c.reference, teeth);
+  c.shaft = front_end_figure(shaft_order_db_re_mesh, c.four, c.automatic, c.reference, teeth);
+  return c;
+}
+inline std::ostream& operator<<(std::ostream& o, const FrontEndComparison& c) {
+  return o << "first sidebands re the first mesh harmonic: " << c.sidebands << "; shaft orders: " << c.shaft;
 }
 
 }  // namespace gearwatch::test

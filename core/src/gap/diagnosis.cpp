@@ -442,9 +442,11 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
                                settings.min_revolutions);
         const std::size_t u = counterpart_is_base ? 0 : 1;
         const RecordSpectra& base = counterpart_is_base ? pairs[i].twin : spectra[0];
-        pairs[i].twin.set_run_out_response(
-            run_out_response(base, {&spectra[u], &spectra[u + 1], &spectra[u + 2], &spectra[u + 3]}, kRunOutResponseUnitM));
-        pairs[i].twin_all = pairs[i].twin.summary();
+        const auto response =
+            run_out_response(base, {&spectra[u], &spectra[u + 1], &spectra[u + 2], &spectra[u + 3]}, kRunOutResponseUnitM);
+        // Bootstrap draws take it from the spectra; the full summary gets it as it is.
+        pairs[i].twin.set_run_out_response(response);
+        pairs[i].twin_all.run_out_response = response;
       }
     };
     attach(train, training);

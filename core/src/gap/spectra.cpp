@@ -27,6 +27,13 @@ std::vector<std::complex<double>> mean_over_revolutions(const std::vector<std::c
   return mean;
 }
 
+// Revolutions (or blocks) 0 .. n−1: the summary over the whole record.
+std::vector<std::size_t> every_revolution(std::size_t n) {
+  std::vector<std::size_t> v(n);
+  std::iota(v.begin(), v.end(), std::size_t{0});
+  return v;
+}
+
 // Lines above this fraction of the sample rate sit in the anti-alias roll-off of any front-end
 // and of the resampler's kernel; they are left out rather than compared.
 constexpr double kUsableBandFraction = 0.45;
@@ -179,13 +186,8 @@ std::complex<double> BearingForcePath::at(double hz) const noexcept {
 SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_revs,
                                        const std::vector<std::size_t>& output_revs,
                                        const std::vector<std::size_t>& blocks) const {
-  auto all = [](std::size_t n) {
-    std::vector<std::size_t> v(n);
-    std::iota(v.begin(), v.end(), std::size_t{0});
-    return v;
-  };
-  const auto& ir = input_revs.empty() ? all(in_revs_) : input_revs;
-  const auto& orv = output_revs.empty() ? all(out_revs_) : output_revs;
+  const auto& ir = input_revs.empty() ? every_revolution(in_revs_) : input_revs;
+  const auto& orv = output_revs.empty() ? every_revolution(out_revs_) : output_revs;
   SpectralSummary s;
   s.speed_hz = speed_hz_;
   s.torque_nm = torque_nm_;
@@ -201,7 +203,7 @@ SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_rev
   const auto mean = mean_over_revolutions(in_dft_, ir, k_in_);
   s.input_line_averages = static_cast<double>(ir.size());
   for (std::size_t k = 0; k < k_in_; ++k) s.input_lines[k] = std::norm(mean[k]);
-  const auto& bl = blocks.empty() ? all(blocks_) : blocks;
+  const auto& bl = blocks.empty() ? every_revolution(blocks_) : blocks;
   const std::size_t bins = 2 * k_in_ + 1;
   std::vector<std::complex<double>> block_mean(bins);
   for (std::size_t b : bl)
@@ -222,15 +224,11 @@ SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_rev
 }
 
 std::vector<std::complex<double>> RecordSpectra::input_line_means() const {
-  std::vector<std::size_t> all(in_revs_);
-  std::iota(all.begin(), all.end(), std::size_t{0});
-  return mean_over_revolutions(in_dft_, all, k_in_);
+  return mean_over_revolutions(in_dft_, every_revolution(in_revs_), k_in_);
 }
 
 std::vector<std::complex<double>> RecordSpectra::output_line_means() const {
-  std::vector<std::size_t> all(out_revs_);
-  std::iota(all.begin(), all.end(), std::size_t{0});
-  return mean_over_revolutions(out_dft_, all, k_out_);
+  return mean_over_revolutions(out_dft_, every_revolution(out_revs_), k_out_);
 }
 
 std::shared_ptr<const RunOutResponse> run_out_response(const RecordSpectra& without,

@@ -129,6 +129,7 @@ GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_pt
   external_[theta1] = input_torque_nm;
   external_[theta13] = -brake_torque_;
   base_pitch_angle_ = 2.0 * std::numbers::pi / g.spec.pinion_teeth;
+  gear_turn_per_pinion_turn_ = static_cast<double>(g.spec.pinion_teeth) / g.spec.gear_teeth;
 }
 
 void GearboxDynamics::set_face_misalignment(double separation_m) {
@@ -143,8 +144,6 @@ void GearboxDynamics::set_shaft_run_out(const ShaftRunOut& run_out) {
   if (!std::isfinite(run_out.pinion_phase_rad) || !std::isfinite(run_out.gear_phase_rad))
     throw TwinParameterError("shaft run-out phases must be finite");
   run_out_ = run_out;
-  const GearGeometry& g = mesh_stiffness_->geometry();
-  gear_turn_per_pinion_turn_ = static_cast<double>(g.spec.pinion_teeth) / g.spec.gear_teeth;
 }
 
 double GearboxDynamics::mesh_frequency_hz() const { return speed_hz_ * mesh_stiffness_->geometry().spec.pinion_teeth; }

@@ -162,7 +162,7 @@ class GearboxDynamics {
   std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
   double face_separation_ = 0;  // m: flank separation across the face (0 = aligned)
   ShaftRunOut run_out_;
-  double gear_turn_per_pinion_turn_ = 0;  // z1 / z2
+  double gear_turn_per_pinion_turn_ = 0;  // z1 / z2, the gear's nominal turn per the pinion's
   std::shared_ptr<const GeometricTransmissionError> gte_;
   double speed_hz_;
   double omega_;
