@@ -116,9 +116,12 @@ GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_pt
     throw TwinParameterError("input torque must be finite and non-negative");
   if ((m_.mass.array() <= 0).any() || !m_.mass.allFinite()) throw TwinParameterError("masses must be positive");
   inverse_mass_ = m_.mass.cwiseInverse();
-  for (int r = 0; r < kDofCount; ++r)
+  for (int r = 0; r < kDofCount; ++r) {
+    stiffness_row_start_[static_cast<std::size_t>(r)] = static_cast<int>(structural_stiffness_.size());
     for (int c = 0; c < kDofCount; ++c)
       if (m_.stiffness(r, c) != 0.0) structural_stiffness_.push_back({r, c, m_.stiffness(r, c)});
+  }
+  stiffness_row_start_[kDofCount] = static_cast<int>(structural_stiffness_.size());
   damping_rows_ = m_.damping;
   const GearGeometry& g = mesh_stiffness_->geometry();
   omega_ = 2.0 * std::numbers::pi * input_speed_hz;
@@ -225,7 +228,15 @@ void GearboxDynamics::operator()(const State& x, State& dxdt, double t) const {
   const Eigen::Map<const Vector21> v(x.data() + kDofCount);
   const double f = mesh_force(q, v, t, nullptr);
   Vector21 load = external_ - m_.mesh * f - damping_rows_.lazyProduct(v);
-  for (const Coupling& c : structural_stiffness_) load[c.row] -= c.value * q[c.column];
+  // The same terms in the same order as subtracting each from load[row] in turn.
+  const Coupling* entry = structural_stiffness_.data();
+  for (int r = 0; r < kDofCount; ++r) {
+    double row_load = load[r];
+    for (const Coupling* end = structural_stiffness_.data() + stiffness_row_start_[static_cast<std::size_t>(r) + 1];
+         entry != end; ++entry)
+      row_load -= entry->value * q[entry->column];
+    load[r] = row_load;
+  }
   if (harmonic_.frequency_hz > 0) load += harmonic_.amplitude * std::sin(2.0 * std::numbers::pi * harmonic_.frequency_hz * t);
   Eigen::Map<Vector21>(dxdt.data()) = v;
   Eigen::Map<Vector21>(dxdt.data() + kDofCount) = inverse_mass_.cwiseProduct(load);

@@ -157,7 +157,11 @@ class GearboxDynamics {
     int row, column;
     double value;
   };
-  std::vector<Coupling> structural_stiffness_;
+  std::vector<Coupling> structural_stiffness_;  // row by row
+  /// structural_stiffness_[row_start[r] .. row_start[r + 1]) are row r's: a row is summed in a
+  /// register, since subtracting each term from the load vector in memory made every term wait for
+  /// the previous one's store.
+  std::array<int, kDofCount + 1> stiffness_row_start_{};
   Eigen::Matrix<double, kDofCount, kDofCount, Eigen::RowMajor> damping_rows_;
   std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
   double face_separation_ = 0;  // m: flank separation across the face (0 = aligned)
