@@ -304,6 +304,48 @@ TEST_CASE("gap: a distance's interval is its bootstrap draws' spread about their
   CHECK(a.high == 0.7);
 }
 
+TEST_CASE("gap: a bootstrap draw is blocks of consecutive revolutions (circular) and a record's identity follows its content",
+          "[gap]") {
+  const Record r = synthetic_record(20000, 10, 24, twin_tones(), 0.01);
+  const RecordSpectra spectra(r, 0, GearPairSpec{});
+  for (std::size_t block : {1u, 2u, 5u}) {
+    std::mt19937_64 rng(7), again(7);
+    const auto d = spectra.draw_bootstrap(rng, block);
+    REQUIRE(d.input_revs.size() == spectra.input_revolutions());
+    REQUIRE(d.output_revs.size() == spectra.output_revolutions());
+    REQUIRE(d.blocks.size() == spectra.input_revolutions() - 1);  // one 2-revolution block per start
+    for (const auto* v : {&d.input_revs, &d.output_revs, &d.blocks}) {
+      const std::size_t n = v->size();
+      for (std::size_t j = 0; j < n; ++j) {
+        CHECK((*v)[j] < n);
+        if (j % block != 0) CHECK((*v)[j] == ((*v)[j - 1] + 1) % n);
+      }
+    }
+    // The bootstrap is the summary over the same draw, to the bit.
+    const SpectralSummary direct = spectra.summary(d.input_revs, d.output_revs, d.blocks);
+    const SpectralSummary drawn = spectra.bootstrap(again, block);
+    CHECK(drawn.input_lines == direct.input_lines);
+    CHECK(drawn.output_lines == direct.output_lines);
+    CHECK(drawn.broadband == direct.broadband);
+    // Every revolution carries the same tones, so any draw reads them at their amplitude²
+    // (peak amplitude, 0.01 noise: within 1e-3 of 1.0 and 0.36).
+    CHECK(direct.input_lines[18] == Approx(1.0).margin(1e-3));
+    CHECK(direct.input_lines[37] == Approx(0.36).margin(1e-3));
+  }
+  // A copy keeps the identity (the same spectra); another record and every setter take a new one.
+  RecordSpectra copy = spectra;
+  CHECK(copy.identity() == spectra.identity());
+  CHECK(RecordSpectra(r, 0, GearPairSpec{}).identity() != spectra.identity());
+  copy.set_run_out_response(nullptr);
+  CHECK(copy.identity() != spectra.identity());
+  const auto before_path = copy.identity();
+  copy.set_bearing_force_path(nullptr);
+  CHECK(copy.identity() != before_path);
+  const auto before_sensitivity = copy.identity();
+  copy.set_run_out_sensitivity({}, {});
+  CHECK(copy.identity() != before_sensitivity);
+}
+
 TEST_CASE("gap: white noise on the measurement raises the broadband family to 10 log10(1 + N0/floor)", "[gap]") {
   const double fs = 10240, speed = 10, sigma = 0.02;
   const Record twin = synthetic_record(fs, speed, 24, twin_tones());

@@ -12,6 +12,8 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
 
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/evaluation.hpp"
@@ -109,24 +111,58 @@ struct Assessment {
   std::array<Interval, kFamilies> interval{};
 };
 
+/// The records' summaries over the bootstrap draws, each computed once in a diagnosis. Every model
+/// is scored on the same draws (the same seeds), and between the candidates that act on the twin's
+/// spectra only the twin's side changes, on a copy; a summary is a pass over all of a record's
+/// revolutions, the largest part of scoring a candidate. A draw is fixed by the resample, the pair
+/// and the records' sizes (the twin's continues the measured record's generator), so the key is
+/// the records' identities, the resample and the pair. Lives for one diagnose() call (one seed and
+/// block length).
+class BootstrapSummaries {
+ public:
+  explicit BootstrapSummaries(const DiagnosisSettings& s) : seed_(s.seed), block_(s.bootstrap_block_revolutions) {}
+  /// The measured record's and the twin's summary over draw `resample` of pair `pair`.
+  std::pair<const SpectralSummary*, const SpectralSummary*> get(const PairSpectra& p, int resample, std::size_t pair) {
+    std::mt19937_64 rng(seed_ * 1000003u + static_cast<std::uint64_t>(resample) * 7919u + pair);
+    const std::uint64_t measured = p.measured->identity();
+    const SpectralSummary* m = &fetch({measured, 0, resample, pair}, *p.measured, rng);
+    const SpectralSummary* t = &fetch({measured, p.twin.identity(), resample, pair}, p.twin, rng);
+    return {m, t};
+  }
+
+ private:
+  using Key = std::tuple<std::uint64_t, std::uint64_t, int, std::size_t>;  // identity 0: none
+  const SpectralSummary& fetch(const Key& key, const RecordSpectra& r, std::mt19937_64& rng) {
+    if (const auto it = kept_.find(key); it != kept_.end()) {
+      r.draw_bootstrap(rng, block_);  // the generator moves on as if drawn, for the next record
+      return it->second;
+    }
+    return kept_.emplace(key, r.bootstrap(rng, block_)).first->second;
+  }
+  std::uint64_t seed_;
+  std::size_t block_;
+  std::map<Key, SpectralSummary> kept_;
+};
+
 /// The held-out gaps of a model, with a block bootstrap over the revolutions of both records of
 /// each pair (the same draws for every model, so models compare on equal terms).
 Assessment assess(const std::vector<PairSpectra>& pairs, const std::vector<AppliedEffect>& fx,
-                  const GearPairSpec& gears, const DiagnosisSettings& s, int resamples,
-                  const GapEvaluator& evaluator) {
+                  const GearPairSpec& gears, int resamples, const GapEvaluator& evaluator,
+                  BootstrapSummaries& bootstrap) {
   Assessment a;
   const auto models = models_of(pairs, fx, gears);
   a.point = evaluator.evaluate(views(pairs, models), true);
   std::array<std::vector<double>, kFamilies> draws;
   for (int b = 0; b < resamples; ++b) {
-    std::vector<SpectralSummary> meas, mod;
+    std::vector<const SpectralSummary*> meas;
+    std::vector<SpectralSummary> mod;
     for (std::size_t i = 0; i < pairs.size(); ++i) {
-      std::mt19937_64 rng(s.seed * 1000003u + static_cast<std::uint64_t>(b) * 7919u + i);
-      meas.push_back(pairs[i].measured->bootstrap(rng, s.bootstrap_block_revolutions));
-      mod.push_back(apply_effects(fx, pairs[i].twin.bootstrap(rng, s.bootstrap_block_revolutions), gears));
+      const auto [m, t] = bootstrap.get(pairs[i], b, i);
+      meas.push_back(m);
+      mod.push_back(apply_effects(fx, *t, gears));
     }
     std::vector<GapPair> v;
-    for (std::size_t i = 0; i < pairs.size(); ++i) v.push_back({&meas[i], &mod[i], pairs[i].floor});
+    for (std::size_t i = 0; i < pairs.size(); ++i) v.push_back({meas[i], &mod[i], pairs[i].floor});
     const auto e = evaluator.evaluate(v, true);
     for (std::size_t f = 0; f < kFamilies; ++f) draws[f].push_back(e.distance_db(f));
   }
@@ -136,20 +172,15 @@ Assessment assess(const std::vector<PairSpectra>& pairs, const std::vector<Appli
 
 /// Estimation noise of the distances: each record's bootstrap draws against its own full estimate.
 std::array<double, kFamilies> noise_distance(const std::vector<PairSpectra>& pairs, const DiagnosisSettings& s,
-                                             const GapEvaluator& evaluator) {
+                                             const GapEvaluator& evaluator, BootstrapSummaries& bootstrap) {
   std::array<double, kFamilies> sum{};
   const int n = std::max(8, s.bootstrap_resamples / 4);
   for (int b = 0; b < n; ++b) {
-    std::vector<SpectralSummary> meas, twin;
-    for (std::size_t i = 0; i < pairs.size(); ++i) {
-      std::mt19937_64 rng(s.seed * 1000003u + static_cast<std::uint64_t>(b) * 7919u + i);
-      meas.push_back(pairs[i].measured->bootstrap(rng, s.bootstrap_block_revolutions));
-      twin.push_back(pairs[i].twin.bootstrap(rng, s.bootstrap_block_revolutions));
-    }
     std::vector<GapPair> vm, vt;
     for (std::size_t i = 0; i < pairs.size(); ++i) {
-      vm.push_back({&meas[i], &pairs[i].measured_all, pairs[i].floor});
-      vt.push_back({&twin[i], &pairs[i].twin_all, pairs[i].floor});
+      const auto [m, t] = bootstrap.get(pairs[i], b, i);
+      vm.push_back({m, &pairs[i].measured_all, pairs[i].floor});
+      vt.push_back({t, &pairs[i].twin_all, pairs[i].floor});
     }
     const auto em = evaluator.evaluate(vm, true), et = evaluator.evaluate(vt, true);
     for (std::size_t f = 0; f < kFamilies; ++f)
@@ -282,8 +313,9 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   const GapEvaluator evaluator(gears, settings.fixed_bands_per_octave);
   const std::string fixed_reason = evaluator.fixed_frequency_reason(views(test, models_of(test, {}, gears)));
 
-  const auto noise = noise_distance(test, settings, evaluator);
-  const auto before = assess(test, {}, gears, settings, settings.bootstrap_resamples, evaluator);
+  BootstrapSummaries bootstrap(settings);
+  const auto noise = noise_distance(test, settings, evaluator, bootstrap);
+  const auto before = assess(test, {}, gears, settings.bootstrap_resamples, evaluator, bootstrap);
   report.before = family_gaps(before, noise, settings, fixed_reason);
   const double ic_before = information_criterion(before.point, noise, 0, settings);
   const bool any_significant =
@@ -396,13 +428,13 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       const std::size_t g = best_rerun(r->second, {});
       alone_grid[c] = g;
       values = r->second.values[g];
-      a = assess(rerun_test(r->second, g), {}, gears, settings, settings.candidate_bootstrap_resamples, evaluator);
+      a = assess(rerun_test(r->second, g), {}, gears, settings.candidate_bootstrap_resamples, evaluator, bootstrap);
       const auto names = rerun_parameter_names(c);
       for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names.at(i), values[i]);
     } else {
       values = fit_candidate(c, {}, train_pairs, gears);
       alone[c] = values;
-      a = assess(test, {{c, values}}, gears, settings, settings.candidate_bootstrap_resamples, evaluator);
+      a = assess(test, {{c, values}}, gears, settings.candidate_bootstrap_resamples, evaluator, bootstrap);
       const auto names = parameter_names(form, values);
       for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names[i], values[i]);
     }
@@ -547,7 +579,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       if (std::none_of(current_gaps.begin(), current_gaps.end(), [](const FamilyGap& g) { return g.significant; })) break;
     }
   }
-  const auto after = assess(*test_base, chosen, gears, settings, settings.bootstrap_resamples, evaluator);
+  const auto after = assess(*test_base, chosen, gears, settings.bootstrap_resamples, evaluator, bootstrap);
   report.after = family_gaps(after, noise, settings, fixed_reason);
   for (const auto& g : report.after)
     if (g.significant) report.unexplained.push_back(g.family);

@@ -1,6 +1,7 @@
 #include "gearwatch/gap/spectra.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -250,7 +251,12 @@ std::shared_ptr<const RunOutResponse> run_out_response(const RecordSpectra& with
   return r;
 }
 
-SpectralSummary RecordSpectra::bootstrap(std::mt19937_64& rng, std::size_t block) const {
+std::uint64_t RecordSpectra::next_identity() noexcept {
+  static std::atomic<std::uint64_t> next{1};
+  return next.fetch_add(1, std::memory_order_relaxed);
+}
+
+RecordSpectra::BootstrapDraw RecordSpectra::draw_bootstrap(std::mt19937_64& rng, std::size_t block) const {
   auto draw = [&](std::size_t n) {
     std::vector<std::size_t> v;
     v.reserve(n);
@@ -262,7 +268,16 @@ SpectralSummary RecordSpectra::bootstrap(std::mt19937_64& rng, std::size_t block
     }
     return v;
   };
-  return summary(draw(in_revs_), draw(out_revs_), draw(blocks_));
+  BootstrapDraw d;
+  d.blocks = draw(blocks_);
+  d.output_revs = draw(out_revs_);
+  d.input_revs = draw(in_revs_);
+  return d;
+}
+
+SpectralSummary RecordSpectra::bootstrap(std::mt19937_64& rng, std::size_t block) const {
+  const BootstrapDraw d = draw_bootstrap(rng, block);
+  return summary(d.input_revs, d.output_revs, d.blocks);
 }
 
 void add_tone_to_broadband(SpectralSummary& s, double order, double power) {

@@ -98,18 +98,35 @@ class RecordSpectra {
   SpectralSummary summary(const std::vector<std::size_t>& input_revs = {},
                           const std::vector<std::size_t>& output_revs = {},
                           const std::vector<std::size_t>& blocks = {}) const;
-  /// A block-bootstrap draw of both shafts' revolutions (blocks of `block` revolutions, circular).
+  /// The revolutions (and broadband blocks) of one block-bootstrap draw: blocks of `block`
+  /// consecutive revolutions from random starts, circular, drawn from `rng` for the broadband
+  /// blocks first, then the output and the input revolutions.
+  struct BootstrapDraw {
+    std::vector<std::size_t> input_revs, output_revs, blocks;
+  };
+  BootstrapDraw draw_bootstrap(std::mt19937_64& rng, std::size_t block) const;
+  /// summary() over a draw of draw_bootstrap().
   SpectralSummary bootstrap(std::mt19937_64& rng, std::size_t block) const;
+  /// Equal for two objects only when their spectra and everything summary() carries are equal (a
+  /// copy keeps it; construction and every setter take a new one): a key for caching summaries.
+  std::uint64_t identity() const noexcept { return identity_; }
 
   /// Carried into every summary and bootstrap draw (the twin's response to a run-out).
   void set_run_out_sensitivity(RunOutSensitivity pinion, RunOutSensitivity gear) noexcept {
     pinion_run_out_ = pinion;
     gear_run_out_ = gear;
+    identity_ = next_identity();
   }
   /// Carried into every summary and bootstrap draw (the twin's bearing forces per sensor displacement).
-  void set_bearing_force_path(std::shared_ptr<const BearingForcePath> path) noexcept { bearing_force_path_ = std::move(path); }
+  void set_bearing_force_path(std::shared_ptr<const BearingForcePath> path) noexcept {
+    bearing_force_path_ = std::move(path);
+    identity_ = next_identity();
+  }
   /// Carried into every summary and bootstrap draw (the twin's lines' response to a run-out).
-  void set_run_out_response(std::shared_ptr<const RunOutResponse> response) noexcept { run_out_response_ = std::move(response); }
+  void set_run_out_response(std::shared_ptr<const RunOutResponse> response) noexcept {
+    run_out_response_ = std::move(response);
+    identity_ = next_identity();
+  }
   /// The synchronous lines over all revolutions, complex (summary() holds their power): input
   /// orders 1..K_in and output orders 1..K_out.
   std::vector<std::complex<double>> input_line_means() const;
@@ -120,6 +137,8 @@ class RecordSpectra {
   std::size_t output_revolutions() const noexcept { return out_revs_; }
 
  private:
+  static std::uint64_t next_identity() noexcept;
+  std::uint64_t identity_ = next_identity();
   double speed_hz_ = 0, sample_rate_hz_ = 0, torque_nm_ = 0;
   std::size_t in_revs_ = 0, out_revs_ = 0, k_in_ = 0, k_out_ = 0, blocks_ = 0;
   int pinion_teeth_ = 19, gear_teeth_ = 52;
