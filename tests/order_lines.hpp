@@ -8,6 +8,8 @@
 #include <ostream>
 #include <vector>
 
+#include <catch2/catch.hpp>
+
 namespace gearwatch::test {
 
 /// Peak-amplitude² of orders 1..max_order over `revolutions` revolutions of `samples_per_rev`
@@ -83,6 +85,18 @@ FrontEndComparison compare_front_ends(Lines lines, int reference_factor, int tee
 }
 inline std::ostream& operator<<(std::ostream& o, const FrontEndComparison& c) {
   return o << "first sidebands re the first mesh harmonic: " << c.sidebands << "; shaft orders: " << c.shaft;
+}
+
+/// What a 20 kHz record of a perfect pair must show (8 Hz, 2 500 samples a revolution): read at 4×
+/// (80 kHz) the mesh's lines fold onto the first sidebands (above −40 dB) and the shaft orders
+/// (above −20 dB); the automatic front-end keeps the sidebands below −60 dB and the first two mesh
+/// harmonics (orders 19 and 38) at the reference's level within 0.01 dB. Each caller adds its own
+/// measured bounds on the shaft orders.
+inline void check_front_end_folding_at_20_khz(const FrontEndComparison& c) {
+  CHECK(c.sidebands.four > -40.0);
+  CHECK(c.shaft.four > -20.0);
+  CHECK(c.sidebands.automatic < -60.0);
+  for (int k : {19, 38}) CHECK(10 * std::log10(c.automatic[k - 1] / c.reference[k - 1]) == Approx(0).margin(0.01));
 }
 
 }  // namespace gearwatch::test

@@ -187,8 +187,10 @@ std::complex<double> BearingForcePath::at(double hz) const noexcept {
 SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_revs,
                                        const std::vector<std::size_t>& output_revs,
                                        const std::vector<std::size_t>& blocks) const {
-  const auto& ir = input_revs.empty() ? every_revolution(in_revs_) : input_revs;
-  const auto& orv = output_revs.empty() ? every_revolution(out_revs_) : output_revs;
+  // Lvalues on both sides, so that a given draw is read where it is, not copied.
+  std::vector<std::size_t> all_in, all_out, all_blocks;
+  const auto& ir = input_revs.empty() ? (all_in = every_revolution(in_revs_)) : input_revs;
+  const auto& orv = output_revs.empty() ? (all_out = every_revolution(out_revs_)) : output_revs;
   SpectralSummary s;
   s.speed_hz = speed_hz_;
   s.torque_nm = torque_nm_;
@@ -204,7 +206,7 @@ SpectralSummary RecordSpectra::summary(const std::vector<std::size_t>& input_rev
   const auto mean = mean_over_revolutions(in_dft_, ir, k_in_);
   s.input_line_averages = static_cast<double>(ir.size());
   for (std::size_t k = 0; k < k_in_; ++k) s.input_lines[k] = std::norm(mean[k]);
-  const auto& bl = blocks.empty() ? every_revolution(blocks_) : blocks;
+  const auto& bl = blocks.empty() ? (all_blocks = every_revolution(blocks_)) : blocks;
   const std::size_t bins = 2 * k_in_ + 1;
   std::vector<std::complex<double>> block_mean(bins);
   for (std::size_t b : bl)

@@ -119,7 +119,7 @@ GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_pt
   for (int r = 0; r < kDofCount; ++r) {
     stiffness_row_start_[static_cast<std::size_t>(r)] = static_cast<int>(structural_stiffness_.size());
     for (int c = 0; c < kDofCount; ++c)
-      if (m_.stiffness(r, c) != 0.0) structural_stiffness_.push_back({r, c, m_.stiffness(r, c)});
+      if (m_.stiffness(r, c) != 0.0) structural_stiffness_.push_back({c, m_.stiffness(r, c)});
   }
   stiffness_row_start_[kDofCount] = static_cast<int>(structural_stiffness_.size());
   damping_rows_ = m_.damping;

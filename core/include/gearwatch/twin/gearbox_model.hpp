@@ -154,11 +154,11 @@ class GearboxDynamics {
   /// The structural K as a sparse list: the shaft chain couples only neighbouring DOFs, and the
   /// dense products were the largest part of a simulation's time. The modal C is dense.
   struct Coupling {
-    int row, column;
+    int column;  // the row is where it lies: see stiffness_row_start_
     double value;
   };
   std::vector<Coupling> structural_stiffness_;  // row by row
-  /// structural_stiffness_[row_start[r] .. row_start[r + 1]) are row r's: a row is summed in a
+  /// structural_stiffness_[stiffness_row_start_[r] .. stiffness_row_start_[r + 1]) are row r's: a row is summed in a
   /// register, since subtracting each term from the load vector in memory made every term wait for
   /// the previous one's store.
   std::array<int, kDofCount + 1> stiffness_row_start_{};
