@@ -116,13 +116,7 @@ GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_pt
     throw TwinParameterError("input torque must be finite and non-negative");
   if ((m_.mass.array() <= 0).any() || !m_.mass.allFinite()) throw TwinParameterError("masses must be positive");
   inverse_mass_ = m_.mass.cwiseInverse();
-  for (int r = 0; r < kDofCount; ++r) {
-    stiffness_row_start_[static_cast<std::size_t>(r)] = static_cast<int>(structural_stiffness_.size());
-    for (int c = 0; c < kDofCount; ++c)
-      if (m_.stiffness(r, c) != 0.0) structural_stiffness_.push_back({c, m_.stiffness(r, c)});
-  }
-  stiffness_row_start_[kDofCount] = static_cast<int>(structural_stiffness_.size());
-  damping_rows_ = m_.damping;
+  structural_ = StructuralRows(m_.stiffness, m_.damping);
   const GearGeometry& g = mesh_stiffness_->geometry();
   omega_ = 2.0 * std::numbers::pi * input_speed_hz;
   // Balanced torques: the brake holds T r_b2 / r_b1 so the nominal speed is steady (a rigid-body
@@ -133,6 +127,17 @@ GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_pt
   external_[theta13] = -brake_torque_;
   base_pitch_angle_ = 2.0 * std::numbers::pi / g.spec.pinion_teeth;
   gear_turn_per_pinion_turn_ = static_cast<double>(g.spec.pinion_teeth) / g.spec.gear_teeth;
+}
+
+GearboxDynamics::StructuralRows::StructuralRows(const Matrix21& stiffness, const Matrix21& damping) {
+  for (int r = 0; r < kDofCount; ++r) {
+    row_start_[static_cast<std::size_t>(r)] = static_cast<int>(entries_.size());
+    for (int c = 0; c < kDofCount; ++c)
+      if (stiffness(r, c) != 0.0) entries_.push_back({static_cast<std::size_t>(c), stiffness(r, c)});
+    for (int c = 0; c < kDofCount; ++c)
+      if (damping(r, c) != 0.0) entries_.push_back({static_cast<std::size_t>(kDofCount + c), damping(r, c)});
+  }
+  row_start_[kDofCount] = static_cast<int>(entries_.size());
 }
 
 void GearboxDynamics::set_face_misalignment(double separation_m) {
@@ -227,16 +232,8 @@ void GearboxDynamics::operator()(const State& x, State& dxdt, double t) const {
   const Eigen::Map<const Vector21> q(x.data());
   const Eigen::Map<const Vector21> v(x.data() + kDofCount);
   const double f = mesh_force(q, v, t, nullptr);
-  Vector21 load = external_ - m_.mesh * f - damping_rows_.lazyProduct(v);
-  // The same terms in the same order as subtracting each from load[row] in turn.
-  const Coupling* entry = structural_stiffness_.data();
-  for (int r = 0; r < kDofCount; ++r) {
-    double row_load = load[r];
-    for (const Coupling* end = structural_stiffness_.data() + stiffness_row_start_[static_cast<std::size_t>(r) + 1];
-         entry != end; ++entry)
-      row_load -= entry->value * q[entry->column];
-    load[r] = row_load;
-  }
+  Vector21 load;
+  for (int r = 0; r < kDofCount; ++r) load[r] = structural_.subtract_row_product(r, x, external_[r] - m_.mesh[r] * f);
   if (harmonic_.frequency_hz > 0) load += harmonic_.amplitude * std::sin(2.0 * std::numbers::pi * harmonic_.frequency_hz * t);
   Eigen::Map<Vector21>(dxdt.data()) = v;
   Eigen::Map<Vector21>(dxdt.data() + kDofCount) = inverse_mass_.cwiseProduct(load);
@@ -246,8 +243,7 @@ double GearboxDynamics::acceleration(const State& x, double t, int dof) const {
   const Eigen::Map<const Vector21> q(x.data());
   const Eigen::Map<const Vector21> v(x.data() + kDofCount);
   const double f = mesh_force(q, v, t, nullptr);
-  // The row of K itself, not a scan of the sparse list operator() walks: the same non-zero terms.
-  double load = external_[dof] - m_.mesh[dof] * f - damping_rows_.row(dof).dot(v) - m_.stiffness.row(dof).dot(q);
+  double load = structural_.subtract_row_product(dof, x, external_[dof] - m_.mesh[dof] * f);
   if (harmonic_.frequency_hz > 0) load += harmonic_.amplitude[dof] * std::sin(2.0 * std::numbers::pi * harmonic_.frequency_hz * t);
   return inverse_mass_[dof] * load;
 }

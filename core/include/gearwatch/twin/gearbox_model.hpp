@@ -151,18 +151,33 @@ class GearboxDynamics {
                     MeshState* out) const;
   GearboxMatrices m_;
   Vector21 inverse_mass_;
-  /// The structural K as a sparse list: the shaft chain couples only neighbouring DOFs, and the
-  /// dense products were the largest part of a simulation's time. The modal C is dense.
-  struct Coupling {
-    int column;  // the row is where it lies: see stiffness_row_start_
-    double value;
+  /// The structural [K C] as its non-zero entries, row by row, each against the state [q v]. The
+  /// shaft chains couple only neighbouring DOFs, and the modal C couples only DOFs of one
+  /// substructure (the structure without the mesh falls apart into uncoupled parts), so both have
+  /// few non-zeros; their dense products were the largest part of a simulation's time. Every entry
+  /// that is not exactly 0 is kept, so the product is the dense one whatever the pattern.
+  class StructuralRows {
+   public:
+    StructuralRows() = default;
+    StructuralRows(const Matrix21& stiffness, const Matrix21& damping);
+    /// acc − Σ_j [K C](row, j) x[j], summed in a register: subtracting each term from the load
+    /// vector in memory made every term wait for the previous one's store.
+    double subtract_row_product(int row, const State& x, double acc) const {
+      const auto first = static_cast<std::size_t>(row_start_[static_cast<std::size_t>(row)]);
+      const auto last = static_cast<std::size_t>(row_start_[static_cast<std::size_t>(row) + 1]);
+      for (std::size_t i = first; i < last; ++i) acc -= entries_[i].value * x[entries_[i].state_index];
+      return acc;
+    }
+
+   private:
+    struct Entry {
+      std::size_t state_index;  // a column of K (q) or kDofCount + a column of C (v); the row is where it lies
+      double value;
+    };
+    std::vector<Entry> entries_;                   // row by row
+    std::array<int, kDofCount + 1> row_start_{};  // entries_[row_start_[r] .. row_start_[r + 1]) are row r's
   };
-  std::vector<Coupling> structural_stiffness_;  // row by row
-  /// structural_stiffness_[stiffness_row_start_[r] .. stiffness_row_start_[r + 1]) are row r's: a row is summed in a
-  /// register, since subtracting each term from the load vector in memory made every term wait for
-  /// the previous one's store.
-  std::array<int, kDofCount + 1> stiffness_row_start_{};
-  Eigen::Matrix<double, kDofCount, kDofCount, Eigen::RowMajor> damping_rows_;
+  StructuralRows structural_;
   std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
   double face_separation_ = 0;  // m: flank separation across the face (0 = aligned)
   ShaftRunOut run_out_;
