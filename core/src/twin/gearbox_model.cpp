@@ -130,14 +130,14 @@ GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_pt
 }
 
 GearboxDynamics::StructuralRows::StructuralRows(const Matrix21& stiffness, const Matrix21& damping) {
-  for (int r = 0; r < kDofCount; ++r) {
-    row_start_[static_cast<std::size_t>(r)] = static_cast<int>(entries_.size());
-    for (int c = 0; c < kDofCount; ++c)
-      if (stiffness(r, c) != 0.0) entries_.push_back({static_cast<std::size_t>(c), stiffness(r, c)});
-    for (int c = 0; c < kDofCount; ++c)
-      if (damping(r, c) != 0.0) entries_.push_back({static_cast<std::size_t>(kDofCount + c), damping(r, c)});
+  for (std::size_t r = 0; r < kDofCount; ++r) {
+    row_start_[r] = entries_.size();
+    for (std::size_t c = 0; c < kDofCount; ++c)
+      if (stiffness(r, c) != 0.0) entries_.push_back({c, stiffness(r, c)});
+    for (std::size_t c = 0; c < kDofCount; ++c)
+      if (damping(r, c) != 0.0) entries_.push_back({kDofCount + c, damping(r, c)});
   }
-  row_start_[kDofCount] = static_cast<int>(entries_.size());
+  row_start_[kDofCount] = entries_.size();
 }
 
 void GearboxDynamics::set_face_misalignment(double separation_m) {

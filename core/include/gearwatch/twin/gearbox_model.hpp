@@ -163,9 +163,8 @@ class GearboxDynamics {
     /// acc − Σ_j [K C](row, j) x[j], summed in a register: subtracting each term from the load
     /// vector in memory made every term wait for the previous one's store.
     double subtract_row_product(int row, const State& x, double acc) const {
-      const auto first = static_cast<std::size_t>(row_start_[static_cast<std::size_t>(row)]);
-      const auto last = static_cast<std::size_t>(row_start_[static_cast<std::size_t>(row) + 1]);
-      for (std::size_t i = first; i < last; ++i) acc -= entries_[i].value * x[entries_[i].state_index];
+      const auto r = static_cast<std::size_t>(row);
+      for (std::size_t i = row_start_[r]; i < row_start_[r + 1]; ++i) acc -= entries_[i].value * x[entries_[i].state_index];
       return acc;
     }
 
@@ -175,7 +174,7 @@ class GearboxDynamics {
       double value;
     };
     std::vector<Entry> entries_;                   // row by row
-    std::array<int, kDofCount + 1> row_start_{};  // entries_[row_start_[r] .. row_start_[r + 1]) are row r's
+    std::array<std::size_t, kDofCount + 1> row_start_{};  // entries_[row_start_[r] .. row_start_[r + 1]) are row r's
   };
   StructuralRows structural_;
   std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
