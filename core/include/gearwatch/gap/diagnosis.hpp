@@ -52,7 +52,7 @@ struct DiagnosisSettings {
   double min_gap_db = 0.5;
   /// The same for the broadband part and the fixed-frequency bands (which read the broadband bins
   /// too). They hold what no model of the gearbox's synchronous vibration has (sensor noise, the
-  /// random part of sliding) and move with the acquisition: the rig without effects sits 0.40–0.42 dB
+  /// random part of sliding) and move with the acquisition: the rig without effects sits 0.33–0.44 dB
   /// off the twin there in the bench's records and 0.74 dB in the daemon's.
   double min_residual_gap_db = 1.0;
   double fixed_bands_per_octave = 12;  ///< Hz bands of the fixed-frequency family (resonances, ζ ≳ 0.02)
