@@ -47,12 +47,12 @@ struct DiagnosisSettings {
   double floor_db = -60;           ///< bins below this (re the twin's total line power) compare as equal
   /// A line family's gap (shaft orders, mesh harmonics, sidebands) smaller than this is never
   /// significant. Synchronous averages keep only what repeats every revolution: the rig without
-  /// effects sits under 0.2 dB off the twin there (docs/gap.md), and a casing that moves the mesh
+  /// effects sits under 0.1 dB off the twin there (docs/gap.md), and a casing that moves the mesh
   /// harmonics by 0.76 dB is over it.
   double min_gap_db = 0.5;
   /// The same for the broadband part and the fixed-frequency bands (which read the broadband bins
   /// too). They hold what no model of the gearbox's synchronous vibration has (sensor noise, the
-  /// random part of sliding) and move with the acquisition: the rig without effects sits 0.33–0.44 dB
+  /// random part of sliding) and move with the acquisition: the rig without effects sits 0.02–0.21 dB
   /// off the twin there in the bench's records and 0.74 dB in the daemon's.
   double min_residual_gap_db = 1.0;
   double fixed_bands_per_octave = 12;  ///< Hz bands of the fixed-frequency family (resonances, ζ ≳ 0.02)
