@@ -1,6 +1,6 @@
 // The model thread's cost (docs/model.md): one blue-loop step, one simulated RMS_SA, one K_wear
 // update, and the whole per-record work (blue loop to the record, purple loop, forecast) on one
-// core, for the seed's dry regime (10 Hz, 5 N·m, deep wear) and a lubricated one (20 Hz, 20 N·m).
+// core, for the thesis's dry regime (10 Hz, 5 N·m, deep wear) and a lubricated one (20 Hz, 20 N·m).
 // Target: at most 10 s per record (records come every few minutes).
 #include <algorithm>
 #include <chrono>
@@ -51,7 +51,7 @@ int main() {
     std::printf("simulated RMS_SA(N=%d) of 6 revolutions: %.2f s (value %.4g)\n", g.harmonics, seconds_since(t1), rms);
 
     // The model from a wrong K: records every record_cycles with the truth's RMS_SA; the first
-    // record is the K_wear update (the seed's first calibration).
+    // record is the K_wear update (the thesis's first calibration).
     ModelSettings s;
     s.loop.k_wear_si = g.k_start;
     TwinModel model(params, s, sim);

@@ -1,4 +1,4 @@
-// Simulated seconds of the 21-DOF twin per wall second on one core at the seed's operating point
+// Simulated seconds of the 21-DOF twin per wall second on one core at the thesis's operating point
 // (10 Hz input, 20 N m), output at 100 kHz. Target: >= 1 (real time).
 #include <chrono>
 #include <cstdio>

@@ -1,5 +1,5 @@
 // Wall time of one blue-loop step (wear + pitting increment, then the new contact force) on one
-// core, for both force models, at the seed's operating points. Target: far below one record
+// core, for both force models, at the thesis's operating points. Target: far below one record
 // interval (the model thread must keep up with one record per minute).
 #include <chrono>
 #include <cstdio>

@@ -1,9 +1,12 @@
 #include "gearwatch/acquisition/protocol_decoder.hpp"
 
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include <catch2/catch.hpp>
 
+#include "gearwatch/acquisition/candump_log.hpp"
 #include "gearwatch/acquisition/protocol_encoder.hpp"
 
 using namespace gearwatch::acquisition;
@@ -269,4 +272,99 @@ TEST_CASE("decoder: after a stream change, frames placed at 'the latest index' b
   REQUIRE_FALSE(h.samples(0, 30));
   REQUIRE_FALSE(h.decoder.decode(make_life_counter(h.ids, 5041)));
   CHECK(h.events.back().index == 59);
+}
+
+namespace {
+
+// The frames of docs/can-protocol.md's "Worked examples" section: its indented candump lines,
+// read from the page itself so the page and this test cannot drift apart.
+std::vector<CanFrame> worked_example_frames() {
+  std::ifstream page(std::string(GEARWATCH_SOURCE_DIR) + "/docs/can-protocol.md");
+  REQUIRE(page);
+  std::vector<CanFrame> frames;
+  bool in_section = false;
+  for (std::string line; std::getline(page, line);) {
+    if (line.rfind("## ", 0) == 0) in_section = line == "## Worked examples";
+    if (!in_section || line.rfind("    (", 0) != 0) continue;
+    std::string reason;
+    const auto parsed = parse_candump_line(line.substr(4), reason);
+    INFO(line << ": " << reason);
+    REQUIRE(parsed);
+    frames.push_back(parsed->frame);
+  }
+  return frames;
+}
+
+}  // namespace
+
+TEST_CASE("can protocol document: the worked examples decode as the page says", "[decoder]") {
+  const auto frames = worked_example_frames();
+  REQUIRE(frames.size() == 7);
+  Harness h;
+  for (const auto& f : frames) REQUIRE_FALSE(h.decoder.decode(f));
+  REQUIRE(h.events.size() == 7);
+
+  const auto& header = h.events[0];  // 1. stream header
+  REQUIRE(header.kind == EventKind::stream_start);
+  CHECK(header.sample_rate_hz == 100000);
+  CHECK(header.channel_count == 2);
+  CHECK(header.stream_id == 7);
+
+  const auto& fd = h.events[1];  // 2. channel 0, CAN FD, 64 bytes
+  REQUIRE(fd.kind == EventKind::samples);
+  CHECK(frames[1].fd);
+  CHECK(frames[1].len == 64);
+  CHECK(fd.channel == 0);
+  CHECK(fd.index == 1000);
+  REQUIRE(fd.count == 30);
+  CHECK(fd.samples[0] == 100);
+  CHECK(fd.samples[1] == -2);
+  CHECK(fd.samples[2] == 1234);
+  CHECK(fd.samples[3] == -32768);
+  CHECK(fd.samples[4] == 32767);
+  for (int k = 5; k < 30; ++k) CHECK(fd.samples[static_cast<std::size_t>(k)] == 0);
+  // The page's m/s² at the example config's scale of 0.01 m/s² per LSB.
+  CHECK(fd.samples[2] * 0.01 == Approx(12.34));
+  CHECK(fd.samples[3] * 0.01 == Approx(-327.68));
+
+  const auto& classic = h.events[2];  // 3. channel 1, classic, 8 bytes
+  REQUIRE(classic.kind == EventKind::samples);
+  CHECK_FALSE(frames[2].fd);
+  CHECK(classic.channel == 1);
+  CHECK(classic.index == 1000);
+  REQUIRE(classic.count == 2);
+  CHECK(classic.samples[0] == 100);
+  CHECK(classic.samples[1] == -2);
+
+  const auto& edge = h.events[3];  // 4. tacho edge, shaft 0
+  REQUIRE(edge.kind == EventKind::tacho_edge);
+  CHECK(edge.channel == 0);
+  CHECK(edge.index == 1003);
+  CHECK(edge.fraction == 0.25);
+  CHECK((static_cast<double>(edge.index) + edge.fraction) / 100000.0 == Approx(0.0100325));
+
+  const auto& condition_fd = h.events[4];  // 5. operating condition with its index
+  REQUIRE(condition_fd.kind == EventKind::condition);
+  CHECK(frames[4].len == 12);
+  CHECK(condition_fd.condition.torque_nm == 20.0f);
+  CHECK(condition_fd.condition.speed_hz == 10.0f);
+  CHECK(condition_fd.index == 1000);
+
+  const auto& condition_classic = h.events[5];  // 6. without an index: the newest one received
+  REQUIRE(condition_classic.kind == EventKind::condition);
+  CHECK(frames[5].len == 8);
+  CHECK(condition_classic.condition.torque_nm == 4.0f);
+  CHECK(condition_classic.condition.speed_hz == 10.0f);
+  CHECK(condition_classic.index == 1029);
+
+  const auto& life = h.events[6];  // 7. life counter
+  REQUIRE(life.kind == EventKind::life_counter);
+  CHECK(life.life.revolutions == 5000000000ull);
+  CHECK(life.index == 1029);
+
+  // Example 2 says the channel's next frame is expected at 1030: one there is neither gap nor repeat.
+  REQUIRE_FALSE(h.samples(0, 1030));
+  CHECK(h.decoder.counters().gaps == 0);
+  CHECK(h.decoder.counters().duplicates == 0);
+  CHECK(h.decoder.counters().malformed_frames == 0);
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # demo.sh — the whole job on a simulated rig: build gearwatch, run the rig simulator's compressed
-# lubricated wear campaign (the seed's test 1: 10 measured stops over 3.2 M cycles, 3 s records,
+# lubricated wear campaign (the thesis's test 1: 10 measured stops over 3.2 M cycles, 3 s records,
 # 100 kHz x 2 channels + tacho, CAN FD candump logs, and the truth.json the daemon never reads),
 # replay the records in cycle order through `gearwatch replay` with the model on, enter two
 # pitted-area inspections as a maintenance engineer would, and print what the engineer wants: the

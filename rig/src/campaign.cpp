@@ -13,9 +13,9 @@
 namespace gearwatch::rig {
 namespace {
 
-// The seed's tests (Table 3.1), compressed to `records` measured stops. Values documented in
+// The thesis's tests (Table 3.1), compressed to `records` measured stops. Values documented in
 // docs/campaign-file.md.
-const char* kLubricated = R"(# The seed's lubricated test (Table 3.1, test 1): pre-roughened pair, 20 N m, 3.25 M cycles,
+const char* kLubricated = R"(# The thesis's lubricated test (Table 3.1, test 1): pre-roughened pair, 20 N m, 3.25 M cycles,
 # stopped every 0.1 M cycles; fatigue pitting after the run-in.
 [campaign]
 name = "lubricated"
@@ -59,7 +59,7 @@ abrasion_band_hz = [22000.0, 34000.0]
 enabled = ["noise"]
 )";
 
-const char* kDry = R"(# The seed's dry test (Table 3.1, test 2): new pair, no lubricant, 5 N m, 38 000 cycles,
+const char* kDry = R"(# The thesis's dry test (Table 3.1, test 2): new pair, no lubricant, 5 N m, 38 000 cycles,
 # stopped every 5 000 cycles; abrasive wear, rough flanks, no pitting.
 [campaign]
 name = "dry"

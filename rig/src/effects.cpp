@@ -53,7 +53,7 @@ const std::vector<EffectParameter>& effect_parameter_table() {
   using E = Effect;
   static const std::vector<EffectParameter> table{
       {E::casing, "casing.mode1_hz", "Hz", 20, 5000, 688, true,
-       "first casing/foundation mode (seed Table 5.4 lists foundation modes at 13-1714 Hz)"},
+       "first casing/foundation mode (thesis Table 5.4 lists foundation modes at 13-1714 Hz)"},
       {E::casing, "casing.mode2_hz", "Hz", 20, 5000, 1714, true, "second casing/foundation mode"},
       {E::casing, "casing.damping_ratio", "-", 0.005, 0.1, 0.02, false, "modal damping ratio of both casing modes"},
       {E::casing, "casing.modal_mass_kg", "kg", 1, 100, 8, true,

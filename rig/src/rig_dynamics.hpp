@@ -1,5 +1,5 @@
 #pragma once
-// The rig's equations of motion: the 21 DOF of the seed's model (core's matrices, mesh stiffness
+// The rig's equations of motion: the 21 DOF of the thesis's model (core's matrices, mesh stiffness
 // and GTE) with the truth effects inside, plus four casing modal DOF (two modes, vertical and
 // horizontal) driven by the bearing forces. Internal to the rig library.
 #include <memory>

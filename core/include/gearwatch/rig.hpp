@@ -1,6 +1,6 @@
 #pragma once
 // Description of the monitored rig: the gear pair, the sensors and how records are cut.
-// Defaults are the seed's UNSW spur rig (§3.2.1, Table 5.1; 52 teeth on the gear, see
+// Defaults are the thesis's UNSW spur rig (§3.2.1, Table 5.1; 52 teeth on the gear, see
 // docs/config.md). Plain values; parsing lives in config/.
 #include <cstdint>
 #include <string>
@@ -36,7 +36,7 @@ struct TachoSpec {
 };
 
 struct RecordSchedule {
-  double length_s = 10.0;             ///< seed: 10 s records
+  double length_s = 10.0;             ///< the thesis: 10 s records
   double interval_s = 600.0;          ///< one record every interval (start to start)
   double min_length_s = 2.0;          ///< a record cut at a gap is analysed only if this long
 };

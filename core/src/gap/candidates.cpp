@@ -373,7 +373,7 @@ std::array<std::vector<double>, 5> run_out_response_reruns() {
 int tip_relief_harmonics(double sample_rate_hz) {
   // Harmonics below 0.45·fs at 1 Hz input speed with 19 teeth would be thousands; the gains are
   // only fitted where a training record has the harmonic, so bound the list at what a 2 Hz record
-  // (the seed's slowest step) holds for a 19-tooth pinion.
+  // (the thesis's slowest step) holds for a 19-tooth pinion.
   return std::max(1, static_cast<int>(0.45 * sample_rate_hz / (2.0 * 19.0)));
 }
 
@@ -381,7 +381,7 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
   const double top = 0.45 * sample_rate_hz;
   switch (effect) {
     case CandidateEffect::casing_mode:
-      // Foundation modes from 10 Hz to the band's top (the seed's Table 5.4 lists them at 13–1714 Hz),
+      // Foundation modes from 10 Hz to the band's top (the thesis's Table 5.4 lists them at 13–1714 Hz),
       // light damping to ζ = 0.2, a modal mass from a bracket to a bedplate.
       return {effect,
               {{"mode1_hz", 10.0, top, true, 8},

@@ -59,7 +59,7 @@ const std::vector<ParameterInfo>& parameter_table() {
       {"mesh_damping_ratio", &P::mesh_damping_ratio, 0.07, 0.03, 0.17, "-", "zeta of Eq. 5.14"},
       {"mesh_stiffness_scale", &P::mesh_stiffness_scale, 1.0, 0.5, 1.5, "-", "scale on the potential-energy k_m"},
       {"engagement_ramp_fraction", &P::engagement_ramp_fraction, 0.0, 0.0, 0.45, "-",
-       "gradual engagement length / base pitch (0 = abrupt step as in the seed)"},
+       "gradual engagement length / base pitch (0 = abrupt step as in the thesis)"},
   };
   return table;
 }

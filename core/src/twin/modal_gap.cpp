@@ -429,7 +429,7 @@ std::vector<StructuralCandidate> structural_candidates() {
   // Table 5.5 left out (13, 41, 59, 68, 128 Hz) at the estimated 50 kg: k = 3.8e6 N/m gives 41 Hz,
   // ×0.1…×10 gives 13…130 Hz.
   out.push_back(base_support_candidate({true, 50.0, 3.8e6, 3.8e6}, 0.2, 5.0, 0.1, 10.0,
-                                       "seed Table 5.4 peaks left out of Table 5.5, 13-128 Hz; bed mass 10-250 kg (estimate)"));
+                                       "thesis Table 5.4 peaks left out of Table 5.5, 13-128 Hz; bed mass 10-250 kg (estimate)"));
   auto coupling_type = [&](const std::string& name, const std::string& what, double low_nm, double high_nm) {
     StructuralCandidate c;
     c.name = name;
@@ -449,9 +449,9 @@ std::vector<StructuralCandidate> structural_candidates() {
     out.push_back(std::move(c));
   };
   coupling_type("elastomer couplings", "elastomer-insert couplings: the sheet's range below the stiff types, 1e2-5e3 N m/rad", 1e2, 5e3);
-  // Seed §3.2: "couplings with high torsional stiffness and low bending stiffness".
+  // Thesis §3.2: "couplings with high torsional stiffness and low bending stiffness".
   coupling_type("stiff couplings",
-                "torsionally stiff couplings as seed 3.2 states them (disc/bellows, torque flange): from a shaft-type "
+                "torsionally stiff couplings as thesis §3.2 states them (disc/bellows, torque flange): from a shaft-type "
                 "meter's GJ/L to the TB1A flange, 5e3-2e5 N m/rad", 5e3, 2e5);
   {
     StructuralCandidate c;

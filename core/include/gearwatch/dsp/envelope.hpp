@@ -1,5 +1,5 @@
 #pragma once
-// Squared-envelope spectrum (SES) and ICS2 (seed Eq. 4.3 / 7.2):
+// Squared-envelope spectrum (SES) and ICS2 (thesis Eq. 4.3 / 7.2):
 //   ICS2 = sum_{h=1..H} max_{n in A_h} SES[n]^2 / SES[0]^2,  A_h = h*GMF +- tolerance bins.
 // Signals are angle-domain (a whole number R of shaft revolutions), so SES bin n is the cyclic
 // order n / R of that shaft and speed changes do not smear the gear-mesh cyclic frequency.

@@ -1,7 +1,7 @@
 #pragma once
 // The 1/3-binary tree filter bank of Antoni's fast kurtogram (MSSP 21 (2007) 108-124), with the
 // band criterion pluggable: kurtosis reproduces the kurtogram (checked against an independent
-// implementation), ICS2 is the seed's band selection (§4.3.2). Conventions (filters, decimation
+// implementation), ICS2 is the thesis's band selection (§4.3.2). Conventions (filters, decimation
 // phases, transient trimming, row/column layout) follow the reference's README exactly; see
 // docs/dsp.md.
 #include <array>

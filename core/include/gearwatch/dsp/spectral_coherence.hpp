@@ -1,5 +1,5 @@
 #pragma once
-// Spectral coherence at one cyclic order (seed Eq. 4.2),
+// Spectral coherence at one cyclic order (thesis Eq. 4.2),
 //   gamma(alpha, f) = S(alpha, f) / sqrt(S(0, f) S(0, f - alpha)),
 // estimated by the averaged cyclic periodogram (Welch: Hann windows, 50 % overlap) of an
 // angle-domain signal, and the "mean carrier frequency" of Fig. 4.13: the first moment of

@@ -1,5 +1,5 @@
 #pragma once
-// Time-synchronous averaging (seed §4.3.2, §7.2) on angle-domain signals, and the residual:
+// Time-synchronous averaging (thesis §4.3.2, §7.2) on angle-domain signals, and the residual:
 // the raw signal minus the synchronous parts of both shafts of a gear pair.
 #include <cstddef>
 #include <span>
@@ -19,9 +19,9 @@ std::size_t time_synchronous_average(std::span<const double> x, std::size_t peri
 void synchronous_harmonic_amplitudes(std::span<const double> tsa, int order, std::size_t count,
                                      FftPlanCache& plans, std::vector<double>& amplitudes);
 
-/// RMS_SA(N) of seed Eq. 7.1: sqrt(sum_{i=1..N} A_GMi^2), A = peak amplitudes of the first N
+/// RMS_SA(N) of thesis Eq. 7.1: sqrt(sum_{i=1..N} A_GMi^2), A = peak amplitudes of the first N
 /// gear-mesh harmonics. Note the equation as printed omits the 1/2 of a sinusoid's mean square,
-/// so this is sqrt(2) x the RMS of the mesh-harmonic-only TSA; we keep the seed's form so values
+/// so this is sqrt(2) x the RMS of the mesh-harmonic-only TSA; we keep the thesis's form so values
 /// compare with the thesis and with the twin (which must call this same function).
 /// Throws std::invalid_argument if N exceeds the amplitudes given or any used amplitude is NaN.
 double rms_sa(std::span<const double> gmf_amplitudes, std::size_t harmonics);

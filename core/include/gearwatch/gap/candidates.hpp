@@ -89,7 +89,7 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz);
 /// The parameter values at which a candidate that changes the twin's dynamics is simulated (its
 /// fit picks the best); empty for the candidates that act on the twin's spectra.
 ///   misalignment  {angle}: across the face, 0.01–1 mrad in 9 log steps (1 mrad over a 20 mm face
-///                 separates the flanks by 20 µm, several times the static deflection at the seed's loads)
+///                 separates the flanks by 20 µm, several times the static deflection at the thesis's loads)
 ///   tip_relief    {amount, length fraction}: linear relief on both gears, 2–32 µm in 5 doubling
 ///                 steps × 0.1, 0.2, 0.4 of the active profile from the tip
 std::vector<std::vector<double>> rerun_grid(CandidateEffect effect);
@@ -147,7 +147,7 @@ std::vector<std::string> parameter_names(const CandidateForm& form, const std::v
 /// mean deflection T/(r_b1·k̄) (0 without a torque). PM per harmonic: z1 times the pinion's angle
 /// (the mesh phase follows it) times the share one tacho edge per input revolution leaves of an angle
 /// deviation at f (dsp::tracking_residual_share: all of it at the input shaft's own frequency; the
-/// encoder at the input shaft's free end, seed §3.2, turns with the pinion at these frequencies).
+/// encoder at the input shaft's free end, thesis §3.2, turns with the pinion at these frequencies).
 /// Throws std::invalid_argument for a speed that is not positive and finite.
 RunOutSensitivity run_out_sensitivity(const twin::GearboxMatrices& matrices, const GearPairSpec& gears, bool gear_shaft,
                                       double input_speed_hz, double torque_nm);

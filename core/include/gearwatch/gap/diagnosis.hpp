@@ -74,7 +74,7 @@ struct DiagnosisSettings {
   double twin_min_seconds = 2.0;
   double twin_min_revolutions = 20;  ///< input revolutions: enough for the bootstrap at low speed
   std::size_t min_revolutions = 4; ///< whole input revolutions a record needs
-  /// K_wear inference (seed Eq. 7.13 taken to its fixed point: the K_wear at which the twin's RMS_SA
+  /// K_wear inference (thesis Eq. 7.13 taken to its fixed point: the K_wear at which the twin's RMS_SA
   /// equals the measured one). When set, the K_wear the twin's records were simulated with; the
   /// report then carries the K_wear inferred with the twin alone and with the chosen effects.
   std::optional<double> reference_k_wear;
@@ -91,14 +91,14 @@ struct DiagnosisSettings {
   /// more than 20 %) and weighs nothing; with no record left, no K_wear is inferred. Near an unworn
   /// state, where the wear depth is a tiny share of the profile's own deviation, e is near 0.
   double min_rms_sa_wear_elasticity = 0.05;
-  int rms_sa_harmonics = 2;        ///< N of RMS_SA(N) (seed Eq. 7.1), the measurement's setting
+  int rms_sa_harmonics = 2;        ///< N of RMS_SA(N) (thesis Eq. 7.1), the measurement's setting
 };
 
 /// The practical minimum of a family's gap: `min_residual_gap_db` for the broadband and
 /// fixed-frequency families, `min_gap_db` for the line families.
 double min_gap_db_of(const DiagnosisSettings& settings, FamilyKind family) noexcept;
 
-/// RMS_SA(N) (seed Eq. 7.1) from a record's input-order lines: the root of the summed power of the
+/// RMS_SA(N) (thesis Eq. 7.1) from a record's input-order lines: the root of the summed power of the
 /// first `harmonics` mesh harmonics (the TSA's harmonics). Empty when the lines do not reach the
 /// N-th harmonic or hold no power there.
 std::optional<double> rms_sa_of_lines(const SpectralSummary& s, int pinion_teeth, int harmonics);

@@ -1,5 +1,5 @@
 #pragma once
-// Calibration of the 21-DOF model to measured natural frequencies (seed §5.3, Table 5.5).
+// Calibration of the 21-DOF model to measured natural frequencies (thesis §5.3, Table 5.5).
 //
 // Bounded least squares on log-parameters with a Gaussian prior penalty (Levenberg–Marquardt,
 // box constraints by projection, analytic eigenvalue sensitivities), from several starts.
@@ -17,7 +17,7 @@
 
 namespace gearwatch::twin {
 
-/// The eight natural frequencies of seed Table 5.5 (Hz), after removal of the foundation modes.
+/// The eight natural frequencies of thesis Table 5.5 (Hz), after removal of the foundation modes.
 const std::vector<double>& table_5_5_frequencies();
 
 /// One fitted quantity: one or more parameter fields moved together (same factor), with the prior
@@ -102,7 +102,7 @@ CrossValidationResult cross_validate(const GearboxParameters& prior, const std::
                                      const std::vector<CalibrationKnob>& knobs, const CalibrationOptions& options = {});
 
 /// The cross-validation target: the median fold's larger held-out |error| within this (%), the
-/// accuracy the seed reached on the fitted frequencies. Inside the documented priors it is missed
+/// accuracy the thesis reached on the fitted frequencies. Inside the documented priors it is missed
 /// (docs/twin.md); `gearwatch twin modes` and bench_calibration report the figure against it.
 inline constexpr double kCrossValidationTargetPct = 8.0;
 

@@ -1,5 +1,5 @@
 #pragma once
-// The 21-DOF lumped model of the rig (seed Eqs. 5.1–5.7): assembled matrices, the linearised
+// The 21-DOF lumped model of the rig (thesis Eqs. 5.1–5.7): assembled matrices, the linearised
 // (mean mesh stiffness) system, and the time-varying equations of motion as an odeint system.
 #include <array>
 #include <complex>
@@ -78,7 +78,7 @@ struct HarmonicLoad {
   double frequency_hz = 0;
 };
 
-/// Run-out of eccentric shafts along the line of action (an addition the seed's twin does not have):
+/// Run-out of eccentric shafts along the line of action (an addition the thesis's twin does not have):
 /// the pinion's (input) and the gear's (output) shaft, each an amplitude (m) and the angle of its
 /// eccentricity at zero shaft angle (rad). Both zero: concentric.
 struct ShaftRunOut {

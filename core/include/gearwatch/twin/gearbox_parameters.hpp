@@ -1,6 +1,6 @@
 #pragma once
-// Every parameter of the 21-DOF model (seed Tables 5.2–5.3, Eqs. 5.6–5.7), SI units, with its
-// documented prior range (docs/rig-parameters-used.md). Node numbering follows seed Eq. 5.2.
+// Every parameter of the 21-DOF model (thesis Tables 5.2–5.3, Eqs. 5.6–5.7), SI units, with its
+// documented prior range (docs/rig-parameters-used.md). Node numbering follows thesis Eq. 5.2.
 // The defaults are the calibrated set (docs/twin.md); prior_value() gives the uncalibrated prior.
 #include <string>
 #include <vector>

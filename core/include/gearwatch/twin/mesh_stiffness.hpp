@@ -1,5 +1,5 @@
 #pragma once
-// Time-varying gear mesh stiffness by the potential-energy method (seed §5.2.1, Eqs. 5.8–5.12)
+// Time-varying gear mesh stiffness by the potential-energy method (thesis §5.2.1, Eqs. 5.8–5.12)
 // and the proportional mesh damping of Eqs. 5.13–5.16.
 //
 // Each tooth is a non-uniform cantilever on its base circle (the usual potential-energy model):
@@ -29,17 +29,17 @@ double hertz_stiffness(const GearGeometry& geometry);
 /// Unscaled single-pair stiffness (Eq. 5.12) at position s on the line of action.
 double single_pair_stiffness(const GearGeometry& geometry, double s);
 
-/// ISO 6336-1 method B single-pair stiffness c'·b of the seed's pair (13.25 N/(mm·µm) × 20 mm).
+/// ISO 6336-1 method B single-pair stiffness c'·b of the thesis's pair (13.25 N/(mm·µm) × 20 mm).
 inline constexpr double kIsoSinglePairStiffness = 2.65e8;
 
 struct MeshStiffnessOptions {
-  double scale = 1.0;                 ///< calibration scale on the level (seed Fig. 5.15)
+  double scale = 1.0;                 ///< calibration scale on the level (thesis Fig. 5.15)
   /// The potential-energy curve (no fillet-foundation term, as Eq. 5.12) is ~2.9× stiffer than the
-  /// ISO 6336 value for this pair; like the seed (Fig. 5.15) the *shape* is kept and its peak is
+  /// ISO 6336 value for this pair; like the thesis (Fig. 5.15) the *shape* is kept and its peak is
   /// normalised to this level before `scale` applies. 0 keeps the raw potential-energy level.
   double normalise_peak_to = kIsoSinglePairStiffness;
   /// Gradual engagement: the pair stiffness rises/falls smoothly (cosine ramp) over this length at
-  /// each end of the active line, as a fraction of the base pitch. 0 = the seed's abrupt step.
+  /// each end of the active line, as a fraction of the base pitch. 0 = the thesis's abrupt step.
   double engagement_ramp_fraction = 0.0;
   int table_points = 1025;            ///< samples of the single-pair curve along the active line
 };

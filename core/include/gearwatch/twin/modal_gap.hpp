@@ -1,6 +1,6 @@
 #pragma once
-// The modal gap on measured data (seed Table 5.5): a calibration with physically grouped knobs whose
-// ranges are the sourced priors, candidate structural effects the seed left out (§5.3: the bed under
+// The modal gap on measured data (thesis Table 5.5): a calibration with physically grouped knobs whose
+// ranges are the sourced priors, candidate structural effects the thesis left out (§5.3: the bed under
 // the pedestals, the coupling type, the pedestal masses), each scored by leave-two-out prediction of
 // the measured natural frequencies, and a report of which measured modes the twin explains, which an
 // added effect explains and which remain unexplained (docs/twin.md, "The modal gap").
@@ -150,7 +150,7 @@ struct StructuralCandidate {
 
 /// The candidates: "base support" (the bed as 2 DOFs; its mass and its mount stiffness in y and in x
 /// as 3 knobs), "elastomer couplings" and "stiff couplings" (the coupling knob's range split at the
-/// boundary between the two types inside the sheet's range; seed §3.2 states stiff ones), "pedestal
+/// boundary between the two types inside the sheet's range; thesis §3.2 states stiff ones), "pedestal
 /// masses per shaft" (input and output pedestals as separate knobs).
 std::vector<StructuralCandidate> structural_candidates();
 
@@ -252,7 +252,7 @@ ModalGapReport modal_gap_analysis(const StructuralModel& baseline, const std::ve
                                   const std::vector<StructuralCandidate>& candidates,
                                   const std::vector<double>& measured_hz, const ModalGapOptions& options = {});
 
-/// The analysis on seed Table 5.5 with the grouped knobs and every candidate.
+/// The analysis on thesis Table 5.5 with the grouped knobs and every candidate.
 ModalGapReport table_5_5_modal_gap(const ModalGapOptions& options = {});
 
 }  // namespace gearwatch::twin

@@ -1,5 +1,5 @@
 #pragma once
-// Steady-state simulation of the 21-DOF model (seed §5.2.3, §5.3): Boost.Odeint dopri5 with dense
+// Steady-state simulation of the 21-DOF model (thesis §5.2.3, §5.3): Boost.Odeint dopri5 with dense
 // output sampled at the acquisition rate, with step checks that stop a divergent run.
 #include <cstddef>
 #include <vector>
@@ -23,7 +23,7 @@ struct SimulationOptions {
   int max_steps_per_sample = 2000;      ///< odeint max_step_checker between two output samples
   double deflection_limit_m = 1e-3;     ///< |δ| beyond this is divergence (teeth are ~4 mm high)
   MeshModel mesh_model = MeshModel::time_varying;
-  /// An addition the seed's twin does not have (for the gap diagnosis's misalignment candidate):
+  /// An addition the thesis's twin does not have (for the gap diagnosis's misalignment candidate):
   /// angular misalignment across the face, rad; the flank separation is this × the face width.
   double face_misalignment_rad = 0;
   /// An addition for the gap diagnosis's eccentricity candidate: the shafts' run-out along the line
@@ -38,7 +38,7 @@ struct SimulationOptions {
 };
 
 /// The dynamic force carried by one tooth pair over its pass along the line of action (root of the
-/// pinion → tip), with the Hertz pressure (seed Fig. 5.18; input to the wear models).
+/// pinion → tip), with the Hertz pressure (thesis Fig. 5.18; input to the wear models).
 struct ContactForceProfile {
   std::vector<double> position_m;         ///< s on the line of action
   std::vector<double> pinion_fraction;    ///< 0 = pinion start of active profile .. 1 = tip
@@ -90,12 +90,12 @@ std::size_t integrate_sampled(const GearboxDynamics& dynamics, State& state, dou
                               const SimulationOptions& options, Observer&& observer);
 
 /// RMS of a signal after a 4th-order Butterworth low-pass (two biquads, bilinear transform): the
-/// seed's 0–2 kHz band RMS of y6 used to tune the mesh (§5.3). The mean is removed first and the
+/// thesis's 0–2 kHz band RMS of y6 used to tune the mesh (§5.3). The mean is removed first and the
 /// first 5/cutoff seconds (filter start-up) are left out of the RMS.
 double lowpass_rms(const std::vector<double>& signal, double sample_rate_hz, double cutoff_hz);
 
 /// Fine-tunes mesh_stiffness_scale (inside [low, high]) so that lowpass_rms of the simulated y6 at
-/// `op` equals target_rms (bisection on the monotone branch; the seed adjusted it by hand).
+/// `op` equals target_rms (bisection on the monotone branch; the thesis adjusted it by hand).
 struct MeshTuningResult {
   double mesh_stiffness_scale = 1;
   double simulated_rms = 0;

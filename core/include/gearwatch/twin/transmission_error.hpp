@@ -1,5 +1,5 @@
 #pragma once
-// Geometric transmission error (seed §5.2.2) from tooth-profile deviations.
+// Geometric transmission error (thesis §5.2.2) from tooth-profile deviations.
 //
 // A deviation is material missing from the ideal involute (m, positive = removed, e.g. wear
 // depth), given along the active profile of a tooth from the start of active profile (root side,
@@ -23,7 +23,7 @@ struct ToothProfileDeviation {
   std::vector<std::vector<double>> gear_per_tooth;
 };
 
-/// `base` with a linear tip relief added on every pinion and gear tooth (an addition the seed's
+/// `base` with a linear tip relief added on every pinion and gear tooth (an addition the thesis's
 /// twin does not have, for the gap diagnosis's tip_relief candidate): material removed from
 /// (1 − length_fraction) of the active profile to the tip, rising linearly to `amount_m` at the tip.
 /// Profiles are resampled to at least `points` (the base's own points kept where finer). Throws

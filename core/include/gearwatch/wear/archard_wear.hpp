@@ -1,11 +1,11 @@
 #pragma once
-// The improved Archard wear model of seed §6.2.3 (Eqs. 6.3–6.4): the wear depth at a flank point is
+// The improved Archard wear model of thesis §6.2.3 (Eqs. 6.3–6.4): the wear depth at a flank point is
 // the integral over time of K_wear · P(x, t) · v_s(t), where P is the Hertzian (semi-elliptical)
 // pressure of the travelling contact and v_s the sliding speed at the contact centre. Because the
 // pressure covers a strip of half-width a, a point is worn while the neighbouring positions are
 // the nominal contact "point" (Eq. 6.4): the pitch point, where v_s = 0, still wears a little.
 //
-// Units: SI inside (Pa, m, m/s). The seed quotes K_wear in "Pa⁻¹" with values that only agree with
+// Units: SI inside (Pa, m, m/s). The thesis quotes K_wear in "Pa⁻¹" with values that only agree with
 // its reported depths under a different convention; see k_wear_si_from_seed() and docs/wear.md.
 #include <functional>
 #include <limits>
@@ -24,10 +24,10 @@ struct LineContact {
 };
 LineContact line_contact(double load_per_width_n_m, double reduced_radius_m, double effective_modulus_pa);
 
-/// The seed's K_wear figures (e.g. 1.65e-6 "Pa⁻¹", dry, §6.3.1) in SI (m²/N = Pa⁻¹ for
-/// h = K ∫ P v_s dt with P in Pa, v_s in m/s, h in m). The seed's values are read as MPa⁻¹ in the
-/// N–mm–MPa system (h[mm] = K · P[MPa] · s[mm]), so K_SI = 1e-6 · K_seed. No constant factor makes
-/// both of the seed's reported (K, depth) pairs agree with this model; this one is within a
+/// The thesis's K_wear figures (e.g. 1.65e-6 "Pa⁻¹", dry, §6.3.1) in SI (m²/N = Pa⁻¹ for
+/// h = K ∫ P v_s dt with P in Pa, v_s in m/s, h in m). The thesis's values are read as MPa⁻¹ in the
+/// N–mm–MPa system (h[mm] = K · P[MPa] · s[mm]), so K_SI = 1e-6 · K_thesis. No constant factor makes
+/// both of the thesis's reported (K, depth) pairs agree with this model; this one is within a
 /// factor of ~4 of both (docs/wear.md has the numbers).
 double k_wear_si_from_seed(double k_wear_seed);
 double k_wear_seed_from_si(double k_wear_si);

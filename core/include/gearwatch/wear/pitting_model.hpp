@@ -1,11 +1,11 @@
 #pragma once
-// Surface pitting density from the Lundberg–Palmgren survival model (seed §7.3.2, Eqs. 7.3–7.12).
+// Surface pitting density from the Lundberg–Palmgren survival model (thesis §7.3.2, Eqs. 7.3–7.12).
 //
 // Per contact position θ (here: a point of the pinion's active profile, root → tip):
 //   τ0 = 0.3 p_max (7.4), z0 = 0.786 b (7.5), V = 2b · z0 · 2π R (7.6), b the Hertz half-width,
 //   R the reduced radius; D(N) = 1 − exp(−K τ0^c N^m V / z0^h) (7.8), accumulated step by step
 //   with Eq. 7.11 while the contact width shrinks with the pitted share, B = B0 (1 − D) (7.12).
-// Units: τ0 in Pa, z0 in m, V in m³, so K_pitting is in Pa^-c m^(h-3) (the seed gives no unit and
+// Units: τ0 in Pa, z0 in m, V in m³, so K_pitting is in Pa^-c m^(h-3) (the thesis gives no unit and
 // no exponents for its K_pitting = 5.64e-15; see docs/wear.md).
 #include <vector>
 
@@ -13,7 +13,7 @@ namespace gearwatch::wear {
 
 /// Material exponents of Eq. 7.3. Defaults: the classical Lundberg–Palmgren values (1947):
 /// c = 31/3 (shear stress), h = 7/3 (depth), m = e = 10/9 (Weibull slope, the exponent of N).
-/// The seed names them "material coefficients" [27] without values.
+/// The thesis names them "material coefficients" [27] without values.
 struct PittingMaterial {
   double c = 31.0 / 3.0;
   double m = 10.0 / 9.0;

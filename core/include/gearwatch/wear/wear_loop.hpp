@@ -1,5 +1,5 @@
 #pragma once
-// The "blue loop" of seed Fig. 7.1 (open loop, no measurements): worn profile → GTE → contact force
+// The "blue loop" of thesis Fig. 7.1 (open loop, no measurements): worn profile → GTE → contact force
 // of the pair → Archard wear increment and pitting increment → new worn profile, every ΔN cycles.
 // ΔN adapts: a step whose wear changes the pair's force anywhere on the pass by more than a
 // tolerance (fraction of the static force) is retried with half the cycles; quiet steps double it.
@@ -22,7 +22,7 @@ enum class ForceModel {
 };
 
 struct WearLoopOptions {
-  double k_wear_si = 0;                 ///< Archard K in SI (m²/N); k_wear_si_from_seed() converts the seed's figures
+  double k_wear_si = 0;                 ///< Archard K in SI (m²/N); k_wear_si_from_seed() converts the thesis's figures
   double k_pitting = 0;                 ///< Lundberg–Palmgren K (SI, see pitting_model.hpp); 0 = no pitting
   PittingMaterial material;
   twin::OperatingPoint operating_point;
@@ -49,7 +49,7 @@ struct WearState {
 /// The worn profiles as the twin's profile deviation (material removed, root → tip), for the GTE.
 twin::ToothProfileDeviation to_profile_deviation(const WearState& state);
 
-/// Mean depths and the pinion's share (the seed reports about 73 %), mean pitting density.
+/// Mean depths and the pinion's share (the thesis reports about 73 %), mean pitting density.
 struct WearSummary {
   double cycles = 0;
   double pinion_mean_depth_m = 0;

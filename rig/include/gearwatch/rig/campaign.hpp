@@ -1,5 +1,5 @@
 #pragma once
-// Wear campaigns for the rig simulator: the seed's two endurance tests (Table 3.1) and a healthy
+// Wear campaigns for the rig simulator: the thesis's two endurance tests (Table 3.1) and a healthy
 // reference, or a campaign file (docs/campaign-file.md); the records they produce, in cycle order;
 // and the truth.json that records what was simulated (the daemon never reads it).
 #include <cstdint>

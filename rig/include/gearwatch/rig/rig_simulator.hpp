@@ -1,7 +1,7 @@
 #pragma once
-// The rig simulator: the 21-DOF model of the seed's rig (core twin building blocks) with the
+// The rig simulator: the 21-DOF model of the thesis's rig (core twin building blocks) with the
 // truth effects of effects.hpp inside its equations of motion, a wear state, the sliding-induced
-// cyclostationary vibration (seed §4.2–4.3) and the sensor chain. Integrated by fixed-step
+// cyclostationary vibration (thesis §4.2–4.3) and the sensor chain. Integrated by fixed-step
 // classical Runge–Kutta whose steps are split at the mesh-stiffness steps (docs/rig-simulator.md
 // "Integration", with its error against the twin's dopri5).
 #include <cstdint>
@@ -15,7 +15,7 @@ namespace gearwatch::rig {
 
 /// Sliding-induced random vibration modulated by the gear mesh (CS2): band-limited Gaussian noise
 /// in a carrier band, times the mesh's sliding-speed pattern. Its strength follows the surface:
-/// low carriers from pitting, high carriers from abrasion/roughness (seed §4.2–4.3).
+/// low carriers from pitting, high carriers from abrasion/roughness (thesis §4.2–4.3).
 struct SlidingVibration {
   double pitting_rms_m_s2 = 0;     ///< RMS of the low-carrier (pitting) component
   double abrasion_rms_m_s2 = 0;    ///< RMS of the high-carrier (abrasion/roughness) component
