@@ -28,6 +28,7 @@
 #include "gearwatch/acquisition/record_assembler.hpp"
 #include "gearwatch/acquisition/socketcan.hpp"
 #include "gearwatch/acquisition/spsc_ring.hpp"
+#include "gearwatch/storage/database_lock.hpp"
 #include "gearwatch/storage/writer.hpp"
 #include "config_reload.hpp"
 #include "decoder_setup.hpp"
@@ -148,6 +149,8 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   wopt.retry_max_ms = static_cast<int>(config.storage.retry_max_ms);
   wopt.vocabulary = acquisition_vocabulary();
   require_writable_database(config.storage.database);
+  // One writer per database, held until we return: a second run or replay on it is refused here.
+  const storage::DatabaseLock writer_lock = storage::DatabaseLock::acquire(config.storage.database);
   storage::StorageWriter writer(wopt, [&](const std::string&) { fatal_storage = true; });
   try {
     writer.start();
