@@ -157,12 +157,14 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   } catch (const std::exception& e) {
     throw std::runtime_error("database " + config.storage.database + " cannot be opened for writing: " + e.what());
   }
-  // A capture replayed again (after a crash, or given twice) continues after what it stored.
-  const ReplayResume resume = from_file ? ReplayResume::load(config.storage.database, source_name) : ReplayResume{};
+  // A capture replayed again (after a crash, or given twice, by any path) continues after what it stored.
+  const CaptureIdentity capture = from_file ? identify_capture(source_name) : CaptureIdentity{source_name, ""};
+  const ReplayResume resume = from_file ? ReplayResume::load(config.storage.database, capture) : ReplayResume{};
   if (resume.records_stored() > 0)
     spdlog::warn("{}: {} records of this capture are already in {}; continuing after them", source_name,
                  resume.records_stored(), config.storage.database);
-  writer.submit(storage::RunStarted{mode == PipelineMode::replay ? "replay" : "run", source_name, config.source_path});
+  writer.submit(storage::RunStarted{mode == PipelineMode::replay ? "replay" : "run", capture.path, config.source_path,
+                                    capture.content_id});
 
   // --- acquisition objects (used on the acquisition thread only, counters readable anywhere)
   const std::size_t ring_events =

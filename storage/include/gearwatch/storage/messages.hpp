@@ -17,8 +17,9 @@ namespace gearwatch::storage {
 
 struct RunStarted {
   std::string kind;         ///< "run" or "replay"
-  std::string source;       ///< interface name or capture path
+  std::string source;       ///< interface name or the capture's canonical absolute path
   std::string config_path;
+  std::string capture_id;   ///< the capture's content identity ("" for an interface: stored as NULL)
 };
 
 struct RunEnded {
