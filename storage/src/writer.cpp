@@ -105,7 +105,8 @@ class BatchWriter {
     write_alerts(m.alerts, m.alert_states, record_id, context);
   }
   void write(const ModelRunResult& m) {
-    const std::optional<std::int64_t> record_id = find_record(m.has_record, m.stream_sequence, m.start_index);
+    const std::optional<std::int64_t> record_id =
+        m.stored_record_id ? m.stored_record_id : find_record(m.has_record, m.stream_sequence, m.start_index);
     const wear::ModelRunReport& r = m.report;
     const wear::Forecast& f = r.forecast;
     const bool advanced = r.advanced;
