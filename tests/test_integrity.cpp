@@ -303,4 +303,15 @@ TEST_CASE("defects #3: the same capture by another relative path or a symlink is
   CHECK(other["records_already_stored"] == 0);
   CHECK(count(db, "records") == 12);
   CHECK(count(db, "(SELECT DISTINCT capture_id FROM runs)") == 2);
+
+  // A run stored before runs had a capture_id (schema 5) is matched by its stored path.
+  const auto old_db = dir / "old.db";
+  CHECK(replay(dir.path().string(), "cap.log", "old.db")["records"] == 6);
+  {
+    Database w(old_db.string(), Database::Mode::read_write);
+    w.exec("UPDATE runs SET capture_id = NULL");
+  }
+  const auto by_path = replay((dir / "sub").string(), "link.log", "../old.db");
+  CHECK(by_path["records"] == 0);
+  CHECK(by_path["records_already_stored"] == 6);
 }
