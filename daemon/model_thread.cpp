@@ -102,7 +102,7 @@ ModelInput model_input(const storage::RecordResult& record, const config::Gearwa
 std::deque<ModelInput> stored_backlog(const std::string& database_path, const config::GearwatchConfig& config) {
   storage::Database db(database_path, storage::Database::Mode::read_only);
   std::deque<ModelInput> backlog;
-  for (const auto& stored : storage::load_records_after_newest_model_run(db)) {
+  for (const auto& stored : storage::load_records_after_newest_model_run(db, model_channel(config))) {
     ModelInput in = model_input(stored.record, config);
     in.stored_record_id = stored.record_id;
     backlog.push_back(std::move(in));

@@ -9,7 +9,6 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -52,11 +51,6 @@ int wait_exit(pid_t pid) {
   int st = 0;
   ::waitpid(pid, &st, 0);
   return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return {std::istreambuf_iterator<char>(in), {}};
 }
 
 // A count read the way staff read; 0 while the database is not there or not migrated yet.
@@ -213,7 +207,7 @@ TEST_CASE("defects #1: with the model disabled, kill -9 and resume store every r
   CHECK(count(db, "model_runs") == 0);
 }
 
-TEST_CASE("defects #2: a second writer on one database is refused with the holder's pid; inspect never creates a held database",
+TEST_CASE("defects #2: a second writer on one database is refused with the holder's pid and inspect never creates a held database",
           "[integrity][cli]") {
   const gearwatch::testing::TempDir dir("defect2");
   const auto cap = dir / "cap.log", cfg = dir / "plant.toml";
@@ -264,7 +258,7 @@ TEST_CASE("defects #2: a second writer on one database is refused with the holde
   CHECK_FALSE(fs::exists(fresh));
 }
 
-TEST_CASE("defects #3: the same capture by another relative path or a symlink is not stored again; new content at the path is",
+TEST_CASE("defects #3: the same capture by another relative path or a symlink is not stored again but new content at the path is",
           "[integrity][cli]") {
   const gearwatch::testing::TempDir dir("defect3");
   const auto cfg = dir / "plant.toml";

@@ -1,7 +1,6 @@
 #include "gearwatch/storage/resume.hpp"
 
 #include <limits>
-#include <map>
 
 namespace gearwatch::storage {
 namespace {
@@ -27,18 +26,15 @@ std::int64_t newest_modelled_record(Database& db) {
   return st.step() ? st.get_int(0) : 0;
 }
 
-void load_indicator_values(Database& db, std::vector<StoredAnalysedRecord>& records) {
-  Statement st(db, "SELECT channel, name, value FROM indicator_values WHERE record_id = ? ORDER BY channel, name");
+void load_indicator_values(Database& db, int channel, std::vector<StoredAnalysedRecord>& records) {
+  Statement st(db, "SELECT name, value FROM indicator_values WHERE record_id = ? AND channel = ? ORDER BY name");
   for (auto& r : records) {
-    st.bind(1, r.record_id);
-    std::map<int, ChannelResult> channels;
-    while (st.step()) {
-      auto& ch = channels[static_cast<int>(st.get_int(0))];
-      ch.channel = static_cast<int>(st.get_int(0));
-      ch.values.emplace_back(st.get_text(1), real_or_nan(st, 2));
-    }
+    st.bind(1, r.record_id).bind(2, channel);
+    ChannelResult ch;
+    ch.channel = channel;
+    while (st.step()) ch.values.emplace_back(st.get_text(0), real_or_nan(st, 1));
     st.reset();
-    for (auto& [number, ch] : channels) r.record.channels.push_back(std::move(ch));
+    if (!ch.values.empty()) r.record.channels.push_back(std::move(ch));
   }
 }
 
@@ -77,7 +73,7 @@ std::vector<StoredRunRecord> load_run_records(Database& db, std::int64_t run_id)
   return out;
 }
 
-std::vector<StoredAnalysedRecord> load_records_after_newest_model_run(Database& db) {
+std::vector<StoredAnalysedRecord> load_records_after_newest_model_run(Database& db, int channel) {
   std::vector<StoredAnalysedRecord> out;
   Statement st(db, "SELECT r.id, s.sequence, r.start_index, r.sample_count, r.input_revolutions, r.speed_hz, r.torque_nm"
                    " FROM records r JOIN streams s ON s.id = r.stream_key WHERE r.analysed = 1 AND r.id > ? ORDER BY r.id");
@@ -94,7 +90,7 @@ std::vector<StoredAnalysedRecord> load_records_after_newest_model_run(Database& 
     r.record.torque_nm = real_or_nan(st, 6);
     out.push_back(std::move(r));
   }
-  load_indicator_values(db, out);
+  load_indicator_values(db, channel, out);
   return out;
 }
 

@@ -38,14 +38,15 @@ std::vector<StoredRunRecord> load_run_records(Database& db, std::int64_t run_id)
 
 /// An analysed record as the processing thread submitted it, read back: the stored id, and of
 /// RecordResult the fields the model reads (stream sequence and start index, cycles, speed,
-/// torque, every channel's indicator values; a NULL value reads as NaN, as it was written).
+/// torque, the indicator values of one channel; a NULL value reads as NaN, as it was written).
 struct StoredAnalysedRecord {
   std::int64_t record_id = 0;
   RecordResult record;
 };
 
 /// The analysed records committed after the record of the newest model run (every analysed
-/// record when there is no model run yet), oldest first: those the model has not handled.
-std::vector<StoredAnalysedRecord> load_records_after_newest_model_run(Database& db);
+/// record when there is no model run yet), oldest first: those the model has not handled. Only
+/// `channel`'s indicator values are read (the model reads one channel; a long backlog stays small).
+std::vector<StoredAnalysedRecord> load_records_after_newest_model_run(Database& db, int channel);
 
 }  // namespace gearwatch::storage
