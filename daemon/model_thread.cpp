@@ -14,6 +14,7 @@
 
 #include "gap_diagnoser.hpp"
 #include "gearwatch/config/twin_config.hpp"
+#include "gearwatch/storage/resume.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/twin/errors.hpp"
 
@@ -96,6 +97,17 @@ ModelInput model_input(const storage::RecordResult& record, const config::Gearwa
     }
   }
   return in;
+}
+
+std::deque<ModelInput> stored_backlog(const std::string& database_path, const config::GearwatchConfig& config) {
+  storage::Database db(database_path, storage::Database::Mode::read_only);
+  std::deque<ModelInput> backlog;
+  for (const auto& stored : storage::load_records_after_newest_model_run(db, model_channel(config))) {
+    ModelInput in = model_input(stored.record, config);
+    in.stored_record_id = stored.record_id;
+    backlog.push_back(std::move(in));
+  }
+  return backlog;
 }
 
 wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
@@ -242,6 +254,10 @@ void ModelThread::start() {
   const wear::RmsSaSimulator simulator =
       wear::twin_rms_sa_simulator(params, config_.rig, config_.processing, config_.model.simulation_revolutions);
   StoredModel stored = load_model(config_.storage.database);
+  backlog_ = stored_backlog(config_.storage.database, config_);
+  if (!backlog_.empty())
+    spdlog::warn("model: {} stored records were not handled by the model before (a crash, or the model was off); handling them first",
+                 backlog_.size());
   gear_pair_ = stored.gear_pair;
   alerts_ = AlertTracker(std::move(stored.alerts));
   if (!stored.problem.empty())
@@ -305,8 +321,9 @@ void ModelThread::stop() {
   not_empty_.notify_all();
   not_full_.notify_all();
   if (thread_.joinable()) thread_.join();
-  spdlog::info("model: {} records received, {} handled, {} coalesced, {} failed", counters_.received.load(),
-               counters_.handled.load(), counters_.coalesced.load(), counters_.failures.load());
+  spdlog::info("model: {} records received, {} handled ({} of them stored before this start), {} coalesced, {} failed",
+               counters_.received.load(), counters_.handled.load(), counters_.caught_up.load(), counters_.coalesced.load(),
+               counters_.failures.load());
   if (gap_schedule_)
     spdlog::info("model: {} gap reports stored ({} without K_wear), {} gap diagnoses failed", counters_.gap_reports.load(),
                  counters_.gap_k_wear_skipped.load(), counters_.gap_failures.load());
@@ -316,6 +333,11 @@ void ModelThread::run() {
   // The model is the least urgent work in the daemon: it must never take the CPU from acquisition.
   if (config_.daemon.processing_nice > 0 && ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), 19) != 0)
     spdlog::warn("model: could not lower the model thread's priority");
+  // The stored backlog first, in storage order: it precedes everything submitted.
+  for (; !backlog_.empty(); backlog_.pop_front()) {
+    handle(backlog_.front(), 0, "");
+    ++counters_.caught_up;
+  }
   for (;;) {
     ModelInput in;
     std::uint64_t skipped = 0;
@@ -356,6 +378,7 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   storage::ModelRunResult msg;
   msg.stream_sequence = input.stream_sequence;
   msg.start_index = input.start_index;
+  msg.stored_record_id = input.stored_record_id;
   msg.skipped_records = skipped;
   msg.skipped_record_ids = skipped_ids;
   try {

@@ -37,6 +37,8 @@ struct ModelInput {
   wear::ModelObservation observation;
   /// The record's samples, for the periodic gap diagnosis (only when gap.enabled).
   std::shared_ptr<const Record> samples;
+  /// Set for a record an earlier process stored and the model had not handled (read back at start).
+  std::optional<std::int64_t> stored_record_id;
 };
 
 /// The model's inputs from a processed record: cycles (NaN without a life counter), the
@@ -46,6 +48,11 @@ ModelInput model_input(const storage::RecordResult& record, const config::Gearwa
 
 /// The model's settings from the configuration (the rig's gears, speed range and the [model] table).
 wear::ModelSettings model_settings(const config::GearwatchConfig& config);
+
+/// The analysed records stored before this start that the model has not handled (committed
+/// after the record of its newest stored run), oldest first, each rebuilt as model_input() built
+/// it from the processed record. They carry no samples: the gap diagnosis cannot use them.
+std::deque<ModelInput> stored_backlog(const std::string& database_path, const config::GearwatchConfig& config);
 
 /// What the model remembers, as stored in model_state.state (JSON; every double exactly).
 std::string memory_to_json(const wear::ModelMemory& memory);
@@ -65,6 +72,7 @@ StoredModel load_model(const std::string& database_path);
 
 struct ModelCounters {
   std::atomic<std::uint64_t> received{0};
+  std::atomic<std::uint64_t> caught_up{0};     ///< stored records handled at start (the backlog)
   std::atomic<std::uint64_t> handled{0};
   std::atomic<std::uint64_t> coalesced{0};     ///< records dropped because the model was behind (live)
   std::atomic<std::uint64_t> failures{0};      ///< records whose handling threw (logged, stored as not advanced)
@@ -83,7 +91,8 @@ class ModelThread {
   ModelThread(const ModelThread&) = delete;
   ModelThread& operator=(const ModelThread&) = delete;
 
-  /// Loads the stored state and starts the thread; throws (with the reason) when the twin's
+  /// Loads the stored state and the stored backlog (handled before anything submitted: crash
+  /// and resume give the state of an uninterrupted history) and starts the thread; throws (with the reason) when the twin's
   /// parameters or the model settings are unusable, or gap.enabled has no diagnosis to run.
   void start();
   /// Never waits when live (see the overflow policy); waits for room when lossless.
@@ -109,6 +118,7 @@ class ModelThread {
   std::mutex mutex_;
   std::condition_variable not_empty_, not_full_;
   std::deque<ModelInput> queue_;
+  std::deque<ModelInput> backlog_;   ///< read at start; used by the model thread only
   std::uint64_t pending_skipped_ = 0;
   std::string pending_skipped_ids_;
   std::map<wear::ModelIssue, std::uint64_t> issue_counts_;

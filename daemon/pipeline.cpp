@@ -28,6 +28,7 @@
 #include "gearwatch/acquisition/record_assembler.hpp"
 #include "gearwatch/acquisition/socketcan.hpp"
 #include "gearwatch/acquisition/spsc_ring.hpp"
+#include "gearwatch/storage/database_lock.hpp"
 #include "gearwatch/storage/writer.hpp"
 #include "config_reload.hpp"
 #include "decoder_setup.hpp"
@@ -148,18 +149,22 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   wopt.retry_max_ms = static_cast<int>(config.storage.retry_max_ms);
   wopt.vocabulary = acquisition_vocabulary();
   require_writable_database(config.storage.database);
+  // One writer per database, held until we return: a second run or replay on it is refused here.
+  const storage::DatabaseLock writer_lock = storage::DatabaseLock::acquire(config.storage.database);
   storage::StorageWriter writer(wopt, [&](const std::string&) { fatal_storage = true; });
   try {
     writer.start();
   } catch (const std::exception& e) {
     throw std::runtime_error("database " + config.storage.database + " cannot be opened for writing: " + e.what());
   }
-  // A capture replayed again (after a crash, or given twice) continues after what it stored.
-  const ReplayResume resume = from_file ? ReplayResume::load(config.storage.database, source_name) : ReplayResume{};
+  // A capture replayed again (after a crash, or given twice, by any path) continues after what it stored.
+  const CaptureIdentity capture = from_file ? identify_capture(source_name) : CaptureIdentity{source_name, ""};
+  const ReplayResume resume = from_file ? ReplayResume::load(config.storage.database, capture) : ReplayResume{};
   if (resume.records_stored() > 0)
     spdlog::warn("{}: {} records of this capture are already in {}; continuing after them", source_name,
                  resume.records_stored(), config.storage.database);
-  writer.submit(storage::RunStarted{mode == PipelineMode::replay ? "replay" : "run", source_name, config.source_path});
+  writer.submit(storage::RunStarted{mode == PipelineMode::replay ? "replay" : "run", capture.path, config.source_path,
+                                    capture.content_id});
 
   // --- acquisition objects (used on the acquisition thread only, counters readable anywhere)
   const std::size_t ring_events =

@@ -2,19 +2,36 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <system_error>
 #include <vector>
 
+#include "gearwatch/storage/resume.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 
 namespace gearwatch::daemon {
 namespace {
 
+// Enough of a capture to tell two recordings apart (their first frames carry their timestamps
+// and samples), little enough to read at every start.
+constexpr std::size_t kIdentityBytes = 1 << 20;
+
 std::string resolved(const std::string& path) {
   std::error_code ec;
-  auto p = std::filesystem::weakly_canonical(path, ec);
+  auto p = std::filesystem::weakly_canonical(std::filesystem::absolute(path, ec), ec);
   return ec ? path : p.string();
+}
+
+// FNV-1a, 64 bits: not a defence against a forged capture, only against mistaking one recording
+// for another.
+std::uint64_t fnv1a64(const char* data, std::size_t n, std::uint64_t h = 0xcbf29ce484222325ULL) {
+  for (std::size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(data[i]);
+    h *= 0x100000001b3ULL;
+  }
+  return h;
 }
 
 // The same capture gives the same numbers; the tolerance absorbs a REAL's round trip and the
@@ -26,42 +43,38 @@ bool same(std::optional<double> stored, double now) {
 
 }  // namespace
 
-ReplayResume ReplayResume::load(const std::string& database, const std::string& capture) {
+CaptureIdentity identify_capture(const std::string& path) {
+  CaptureIdentity id{resolved(path), ""};
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return id;
+  std::vector<char> head(kIdentityBytes);
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  const auto n = static_cast<std::size_t>(in.gcount());
+  if (in.bad()) return id;
+  char text[64];
+  std::snprintf(text, sizeof text, "fnv1a64:%016llx:%zu", static_cast<unsigned long long>(fnv1a64(head.data(), n)), n);
+  id.content_id = text;
+  return id;
+}
+
+ReplayResume ReplayResume::load(const std::string& database, const CaptureIdentity& capture) {
   ReplayResume resume;
   std::error_code ec;
   if (!std::filesystem::exists(database, ec)) return resume;
   storage::Database db(database, storage::Database::Mode::read_only);
   if (db.user_version() == 0) return resume;  // created but never migrated: nothing stored
-  // Earlier runs name the capture as they were given it (relative or absolute).
-  const std::string wanted = resolved(capture);
-  std::vector<std::int64_t> runs;
-  {
-    storage::Statement st(db, "SELECT id, source FROM runs");
-    while (st.step())
-      if (st.get_text(1) == capture || resolved(st.get_text(1)) == wanted) runs.push_back(st.get_int(0));
-  }
-  storage::Statement st(db, R"SQL(
-    SELECT s.sequence, s.stream_id, r.start_index, r.sample_count, r.input_revolutions, r.speed_hz, r.torque_nm,
-           (SELECT v.channel FROM indicator_values v WHERE v.record_id = r.id AND v.name = 'rms_raw' ORDER BY v.channel LIMIT 1),
-           (SELECT v.value FROM indicator_values v WHERE v.record_id = r.id AND v.name = 'rms_raw' ORDER BY v.channel LIMIT 1)
-    FROM records r JOIN streams s ON s.id = r.stream_key WHERE s.run_id = ?)SQL");
-  for (const auto run : runs) {
-    st.bind(1, run);
-    while (st.step()) {
-      auto optional = [&](int col) { return st.is_null(col) ? std::nullopt : std::optional<double>(st.get_double(col)); };
-      const auto sequence = static_cast<std::uint64_t>(st.get_int(0));
-      const auto stream_id = static_cast<std::uint16_t>(st.get_int(1));
-      const auto start = static_cast<std::uint64_t>(st.get_int(2));
-      const auto count = static_cast<std::uint64_t>(st.get_int(3));
-      auto& stored = resume.records_[{sequence, stream_id, start}];
-      if (count >= stored.sample_count) {
-        stored = Stored{count, optional(4), optional(5), optional(6), st.is_null(7) ? -1 : static_cast<int>(st.get_int(7)),
-                        st.is_null(8) ? 0.0 : st.get_double(8)};
-      }
-      auto& until = resume.stored_until_[{sequence, stream_id}];
-      until = std::max(until, start + count);
+  for (const auto& run : storage::load_runs(db)) {
+    // A run that knows its capture's identity is matched by it alone; an older one by its path.
+    const bool same_capture = run.capture_id ? !capture.content_id.empty() && *run.capture_id == capture.content_id
+                                             : run.source == capture.path || resolved(run.source) == capture.path;
+    if (!same_capture) continue;
+    for (const auto& r : storage::load_run_records(db, run.id)) {
+      auto& stored = resume.records_[{r.stream_sequence, r.stream_id, r.start_index}];
+      if (r.sample_count >= stored.sample_count)
+        stored = Stored{r.sample_count, r.input_revolutions, r.speed_hz, r.torque_nm, r.rms_channel.value_or(-1), r.rms_raw};
+      auto& until = resume.stored_until_[{r.stream_sequence, r.stream_id}];
+      until = std::max(until, r.start_index + r.sample_count);
     }
-    st.reset();
   }
   return resume;
 }

@@ -1,13 +1,16 @@
 #pragma once
 // Replaying a capture that is already (partly) in the database — a replay killed mid-write and
-// started again, or the same file given twice — continues after the records committed from it
-// instead of storing them a second time. Records are cut deterministically from the stream
-// (acquisition/record_assembler.hpp), so a record is found again by the capture (its path), the
-// stream's position in it (its sequence and stream id) and its first sample index; it is taken
-// for the stored one only if its content agrees too: the length, the life counter (input
-// revolutions), the operating point (speed, torque) and, when the stored record was analysed,
-// the RMS of its first channel (`rms_raw`). A different capture written later to the same path
-// therefore is stored, not skipped.
+// started again, or the same file given twice, by any path — continues after the records
+// committed from it instead of storing them a second time. A capture is identified by what it
+// is, not by how its path is spelt: its content identity (a hash of its first MiB, see
+// identify_capture), stored with each run. Runs stored before the identity was (schema < 6) are
+// matched by their path, resolved against the current directory. Records are cut
+// deterministically from the stream (acquisition/record_assembler.hpp), so a record is found again
+// by the stream's position in the capture (its sequence and stream id) and its first sample
+// index; it is taken for the stored one only if its content agrees too: the length, the life
+// counter (input revolutions), the operating point (speed, torque) and, when the stored record
+// was analysed, the RMS of its first channel (`rms_raw`). A different capture written later to
+// the same path therefore is stored, not skipped.
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -18,11 +21,21 @@
 
 namespace gearwatch::daemon {
 
+/// What a capture file is, whatever path it was given by.
+struct CaptureIdentity {
+  std::string path;        ///< its canonical absolute path (symlinks resolved): what runs.source shows
+  std::string content_id;  ///< "fnv1a64:<16 hex digits>:<bytes hashed>" over its first MiB; "" when unreadable
+};
+
+/// The identity of the capture at `path`. A file that cannot be read gets an empty content_id
+/// (the source then reports why it cannot read it).
+CaptureIdentity identify_capture(const std::string& path);
+
 class ReplayResume {
  public:
-  /// Reads what earlier runs and replays of `capture` (the same file: its path compared after
-  /// resolving it) committed to `database`. A missing database means nothing is stored yet.
-  static ReplayResume load(const std::string& database, const std::string& capture);
+  /// Reads what earlier runs and replays of `capture` committed to `database`. A missing
+  /// database means nothing is stored yet.
+  static ReplayResume load(const std::string& database, const CaptureIdentity& capture);
 
   /// True when this record (of the stream with this sequence in the capture) is already stored.
   /// A stored record that is shorter (cut by a stop) does not count: the new run completes it.

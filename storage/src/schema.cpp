@@ -14,7 +14,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 5> kMigrations{
+constexpr std::array<const char*, 6> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -433,6 +433,12 @@ CREATE VIEW gap_candidates AS
             WHERE report_id = g.id AND rank = k.rank AND explains_position IS NOT NULL ORDER BY explains_position) e) AS explains,
          k.parameters
   FROM gap_report_candidates k JOIN gap_report_runs g ON g.id = k.report_id;
+)SQL",
+    // 5 -> 6: a run from a capture file keeps the capture's content identity, so a capture given
+    // again by another path (relative, through a symlink) is recognised (docs/storage.md, "Resuming").
+    R"SQL(
+ALTER TABLE runs ADD COLUMN capture_id TEXT;
+CREATE INDEX runs_capture_id ON runs(capture_id);
 )SQL",
 };
 

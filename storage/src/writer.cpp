@@ -46,8 +46,11 @@ class BatchWriter {
   BatchWriter(Database& db, WriterState& state, WriterCounters& counters) : db_(db), state_(state), counters_(counters) {}
 
   void write(const RunStarted& m) {
-    Statement s(db_, "INSERT INTO runs(kind, source, config_path) VALUES (?, ?, ?)");
-    s.bind(1, m.kind).bind(2, m.source).bind(3, m.config_path).run();
+    Statement s(db_, "INSERT INTO runs(kind, source, config_path, capture_id) VALUES (?, ?, ?, ?)");
+    s.bind(1, m.kind).bind(2, m.source).bind(3, m.config_path);
+    if (m.capture_id.empty()) s.bind_null(4);
+    else s.bind(4, m.capture_id);
+    s.run();
     state_.run_id = db_.last_insert_rowid();
     state_.stream_keys.clear();
   }
@@ -102,7 +105,8 @@ class BatchWriter {
     write_alerts(m.alerts, m.alert_states, record_id, context);
   }
   void write(const ModelRunResult& m) {
-    const std::optional<std::int64_t> record_id = find_record(m.has_record, m.stream_sequence, m.start_index);
+    const std::optional<std::int64_t> record_id =
+        m.stored_record_id ? m.stored_record_id : find_record(m.has_record, m.stream_sequence, m.start_index);
     const wear::ModelRunReport& r = m.report;
     const wear::Forecast& f = r.forecast;
     const bool advanced = r.advanced;

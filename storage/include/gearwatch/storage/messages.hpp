@@ -17,8 +17,9 @@ namespace gearwatch::storage {
 
 struct RunStarted {
   std::string kind;         ///< "run" or "replay"
-  std::string source;       ///< interface name or capture path
+  std::string source;       ///< interface name or the capture's canonical absolute path
   std::string config_path;
+  std::string capture_id;   ///< the capture's content identity ("" for an interface: stored as NULL)
 };
 
 struct RunEnded {
@@ -113,6 +114,9 @@ struct ModelRunResult {
   std::uint64_t stream_sequence = 0;      ///< identify the record (its id is looked up)
   std::uint64_t start_index = 0;
   bool has_record = true;
+  /// The record's id when it was stored by an earlier process (the model catching up at start):
+  /// its stream is not one of this run's, so it cannot be looked up by stream and start index.
+  std::optional<std::int64_t> stored_record_id;
   std::int64_t gear_pair = 0;
   wear::ModelRunReport report;
   std::uint64_t skipped_records = 0;      ///< records coalesced away before this one
