@@ -120,6 +120,9 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   s.rms_threshold = m.update_threshold;
   s.convergence_tolerance = m.convergence_tolerance;
   s.max_wear_iterations = m.max_wear_iterations;
+  s.k_wear_update = m.k_wear_update;
+  s.min_wear_elasticity = m.min_wear_elasticity;
+  s.pitting_reference_torque_nm = m.pitting_reference_torque_nm;
   s.correlation_threshold = m.correlation_threshold;
   s.pitting_interval_cycles = m.pitting_interval_cycles;
   s.min_torque_nm = m.min_torque_nm;

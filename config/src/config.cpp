@@ -335,6 +335,14 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     if (m.convergence_tolerance > m.update_threshold)
       t.fail(t.node("convergence_tolerance"), "convergence_tolerance", "must not exceed update_threshold");
     t.integer("max_wear_iterations", m.max_wear_iterations, 1, 100);
+    if (const toml::node* n = t.node("k_wear_update")) {
+      const auto text = n->value_exact<std::string>();
+      const auto rule = text ? wear::k_wear_update_rule_from_string(*text) : std::nullopt;
+      if (!rule) t.fail(n, "k_wear_update", "expected \"root_find\" or \"proportional\"");
+      m.k_wear_update = *rule;
+    }
+    t.number("min_wear_elasticity", m.min_wear_elasticity, 0.0, 0.99);
+    t.number("pitting_reference_torque_nm", m.pitting_reference_torque_nm, 1e-3, 1e5);
     t.number("correlation_threshold", m.correlation_threshold, 0.01, 0.9999);
     t.number("pitting_interval_cycles", m.pitting_interval_cycles, 1.0, 1e10);
     t.number("simulation_revolutions", m.simulation_revolutions, 2.0, 1000.0);

@@ -38,6 +38,7 @@ const char* to_string(UpdateOutcome outcome) noexcept {
     case UpdateOutcome::bound_reached: return "bound_reached";
     case UpdateOutcome::set_to_zero: return "set_to_zero";
     case UpdateOutcome::simulation_failed: return "simulation_failed";
+    case UpdateOutcome::insensitive: return "insensitive";
   }
   return "unknown";
 }
@@ -88,6 +89,21 @@ void add_issue(ModelRunReport& r, ModelIssue issue, const std::string& text) {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// "speed 90 Hz outside the model's [0.5, 60] Hz", the torque likewise, or both joined by
+// "and"; empty when both lie inside their ranges. Only what is out of range is named.
+std::string out_of_range_text(const ModelObservation& obs, const ModelSettings& s) {
+  auto outside = [](const char* what, double v, double lo, double hi, const char* unit) {
+    if (v >= lo && v <= hi) return std::string{};
+    char b[160];
+    std::snprintf(b, sizeof b, "%s %.4g %s outside the model's [%.4g, %.4g] %s", what, v, unit, lo, hi, unit);
+    return std::string(b);
+  };
+  const std::string speed = outside("speed", obs.speed_hz, s.min_speed_hz, s.max_speed_hz, "Hz");
+  const std::string torque = outside("torque", obs.torque_nm, s.min_torque_nm, s.max_torque_nm, "N m");
+  if (!speed.empty() && !torque.empty()) return speed + " and " + torque;
+  return speed + torque;
+}
+
 }  // namespace
 
 RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const RigSpec& rig,
@@ -103,6 +119,63 @@ RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const RigSp
     const double duration = (revolutions + 0.05) / op.input_speed_hz;
     return twin::simulated_rms_sa(params, to_profile_deviation(state), op, duration, sim_rig, settings);
   };
+}
+
+double PittingScale::cycles_to_reference(double k_pitting) const {
+  if (!(k_pitting > 0)) return std::numeric_limits<double>::infinity();
+  // Eq. 7.8 solved for N: K T N^m = −ln(1 − D_ref).
+  return std::pow(-std::log1p(-reference_density) / (k_pitting * terms), 1.0 / material.m);
+}
+
+double PittingScale::k_pitting_for(double cycles) const {
+  return -std::log1p(-reference_density) / (terms * std::pow(cycles, material.m));
+}
+
+std::string PittingScale::unit() const {
+  char b[120];
+  std::snprintf(b, sizeof b, "Pa^-%.4g m^%.4g cycle^-%.4g", material.c, material.h - 3.0, material.m);
+  return b;
+}
+
+namespace {
+// "(Pa^-10.33 m^-0.6667 cycle^-1.111; 10 % pitted at the unworn pair's most loaded point at
+// 20 N m after 3.1e+06 -> 3.2e+06 cycles, Eq. 7.8)": the unit and the readable scale of a change.
+std::string pitting_change_text(const PittingScale& scale, double old_k, double new_k) {
+  auto cycles = [&](double k) { return k > 0 ? fmt("%.4g", scale.cycles_to_reference(k)) : std::string("never"); };
+  char b[300];
+  std::snprintf(b, sizeof b, "(%s; %.4g %% pitted at the unworn pair's most loaded point at %.4g N m after %s -> %s cycles, Eq. 7.8)",
+                scale.unit().c_str(), 100 * scale.reference_density, scale.reference_torque_nm, cycles(old_k).c_str(),
+                cycles(new_k).c_str());
+  return b;
+}
+}  // namespace
+
+std::string PittingScale::describe(double k_pitting) const {
+  char b[300];
+  if (!(k_pitting > 0)) {
+    std::snprintf(b, sizeof b, "K_pitting 0 %s: no pitting", unit().c_str());
+  } else {
+    std::snprintf(b, sizeof b, "K_pitting %.5g %s: %.4g %% pitted at the unworn pair's most loaded point after %.4g cycles at %.4g N m (Eq. 7.8)",
+                  k_pitting, unit().c_str(), 100 * reference_density, cycles_to_reference(k_pitting), reference_torque_nm);
+  }
+  return b;
+}
+
+PittingScale pitting_scale(const twin::GearboxParameters& params, const WearLoopOptions& loop, double reference_torque_nm,
+                           double reference_density) {
+  require(std::isfinite(reference_torque_nm) && reference_torque_nm > 0, "pitting reference torque must be positive");
+  require(std::isfinite(reference_density) && reference_density > 0 && reference_density < 1,
+          "pitting reference density must lie in (0, 1)");
+  WearLoopOptions o = loop;
+  // The quasi-static force of the unworn pair: the scale must not depend on the speed or on
+  // the dynamic model's resonances, only on the geometry, the material exponents and the load.
+  o.force_model = ForceModel::quasi_static;
+  o.operating_point.input_torque_nm = reference_torque_nm;
+  const BlueLoop unworn(params, o);
+  const std::vector<double> unit_rates = unworn.pitting_rates(1.0);
+  const double terms = *std::max_element(unit_rates.begin(), unit_rates.end());
+  require(std::isfinite(terms) && terms > 0, "no contact pressure at the pitting reference torque");
+  return PittingScale{reference_torque_nm, reference_density, terms, loop.material};
 }
 
 void ModelSettings::validate() const {
@@ -129,6 +202,11 @@ void ModelSettings::validate() const {
   require(spread_updates >= 1 && spread_updates <= 1000, "spread updates must lie in [1, 1000]");
   require(operating_window_records >= 1 && operating_window_records <= 100000, "operating window must lie in [1, 100000]");
   require(max_intervals >= 4, "at least 4 intervals must be kept");
+  require(std::isfinite(min_wear_elasticity) && min_wear_elasticity >= 0 && min_wear_elasticity < 1,
+          "minimum K_wear elasticity must lie in [0, 1)");
+  require(std::isfinite(pitting_reference_torque_nm) && pitting_reference_torque_nm > 0, "pitting reference torque must be positive");
+  require(std::isfinite(pitting_reference_density) && pitting_reference_density > 0 && pitting_reference_density < 1,
+          "pitting reference density must lie in (0, 1)");
 }
 
 double pearson3(const std::array<double, 3>& x, const std::array<double, 3>& y) {
@@ -200,7 +278,9 @@ TwinModel::TwinModel(twin::GearboxParameters params, ModelSettings settings, Rms
       settings_((settings.validate(), std::move(settings))),
       simulator_(std::move(simulator)),
       memory_(std::move(memory)),
-      loop_(params_, loop_options(settings_)) {
+      loop_(params_, loop_options(settings_)),
+      pitting_scale_(wear::pitting_scale(params_, settings_.loop, settings_.pitting_reference_torque_nm,
+                                         settings_.pitting_reference_density)) {
   if (!memory_.started) {
     start_new_pair();
   } else {
@@ -331,12 +411,8 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
     finish();
     return report;
   }
-  if (obs.speed_hz < settings_.min_speed_hz || obs.speed_hz > settings_.max_speed_hz || obs.torque_nm < settings_.min_torque_nm ||
-      obs.torque_nm > settings_.max_torque_nm) {
-    char b[200];
-    std::snprintf(b, sizeof b, "%.4g Hz, %.4g N m outside the model's [%.4g, %.4g] Hz, [%.4g, %.4g] N m", obs.speed_hz, obs.torque_nm,
-                  settings_.min_speed_hz, settings_.max_speed_hz, settings_.min_torque_nm, settings_.max_torque_nm);
-    add_issue(report, ModelIssue::operating_point_out_of_range, b);
+  if (const std::string outside = out_of_range_text(obs, settings_); !outside.empty()) {
+    add_issue(report, ModelIssue::operating_point_out_of_range, outside);
     finish();
     return report;
   }
@@ -415,85 +491,197 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   u.applies_from_cycles = memory_.wear_anchor.state.cycles;
   u.measured = measured;
   u.simulated_before = simulated;
-  const LoopSnapshot anchor = memory_.wear_anchor;
-  const ModelMemory saved = memory_;  // a failed re-run must not leave recaptured anchors behind
+  // A failed re-run must not leave recaptured anchors behind: every trial starts from `saved`.
+  WearSearch search{memory_.wear_anchor, memory_, op, measured, memory_.k_wear_si, simulated, 0, std::nullopt, {}};
+  if (settings_.k_wear_update == KWearUpdateRule::proportional) update_k_wear_proportional(search, u);
+  else update_k_wear_root_find(search, u);
+  u.iterations = search.evaluations;
 
-  struct Trial {
-    double k, sim, error;
-    LoopSnapshot state;
-    ModelMemory memory;
-  };
-  std::optional<Trial> best;
-  double k = memory_.k_wear_si, sim = simulated, last_error = error;
-  std::string why;
-  u.outcome = UpdateOutcome::iteration_limit;
-  for (int it = 1; it <= settings_.max_wear_iterations; ++it) {
-    // Eqs. 7.13–7.14: K ← K / G, G = RMS_SA,sim / RMS_SA,meas.
-    double next = std::clamp(k * measured / sim, settings_.k_wear_min_si, settings_.k_wear_max_si);
-    if (k <= 0) next = settings_.k_wear_min_si;
-    if (next == k) {
-      u.outcome = UpdateOutcome::bound_reached;
-      why = "K_wear at its bound " + fmt("%.4g", k);
-      break;
-    }
-    k = next;
-    u.iterations = it;
-    memory_ = saved;
-    LoopSnapshot trial;
-    if (!rerun(anchor, Override{k, std::nullopt, anchor.state.cycles}, trial, true)) {
-      u.outcome = UpdateOutcome::bound_reached;
-      why = "with K_wear = " + fmt("%.4g", k) + " a flank passes the depth limit before the record";
-      break;
-    }
-    try {
-      sim = simulator_(trial.state, op);
-      if (!std::isfinite(sim) || sim <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
-    } catch (const std::exception& e) {
-      u.outcome = UpdateOutcome::simulation_failed;
-      why = std::string("simulation failed at K_wear = ") + fmt("%.4g", k) + ": " + e.what();
-      break;
-    }
-    const double err = (sim - measured) / measured;
-    if (!best || std::abs(err) < std::abs(best->error)) best = Trial{k, sim, err, trial, memory_};
-    if (std::abs(err) <= settings_.convergence_tolerance) {
-      u.outcome = UpdateOutcome::converged;
-      break;
-    }
-    if (std::abs(err) >= std::abs(last_error)) {
-      u.outcome = UpdateOutcome::not_monotone;
-      why = "the error grew from " + fmt("%.3g", 100 * last_error) + " % to " + fmt("%.3g", 100 * err) +
-            " %: RMS_SA does not rise with K_wear here";
-      break;
-    }
-    last_error = err;
-  }
-  if (u.outcome == UpdateOutcome::iteration_limit)
-    why = "no convergence to " + fmt("%.3g", 100 * settings_.convergence_tolerance) + " % in " +
-          std::to_string(settings_.max_wear_iterations) + " iterations";
-  // Keep the best K found if it improved on the old one; otherwise nothing changes.
-  if (best && std::abs(best->error) < std::abs(error)) {
-    memory_ = std::move(best->memory);
-    memory_.current = best->state;
-    apply_k(true, best->k, anchor.state.cycles);
+  // Keep the best K found if it improved on the old one; otherwise nothing changes. An
+  // insensitive RMS_SA at the current K changes nothing either: its best K would follow the scatter.
+  // (Insensitive at the sensitivity read, the only re-run so far.)
+  const bool insensitive_here = u.outcome == UpdateOutcome::insensitive && search.evaluations == 1;
+  const bool keep = !insensitive_here && search.best && std::abs(search.best->sim - measured) < std::abs(simulated - measured);
+  if (keep) {
+    WearTrial& best = *search.best;
+    memory_ = std::move(best.memory);
+    memory_.current = best.state;
+    apply_k(true, best.k, search.anchor.state.cycles);
     memory_.wear_anchor = memory_.current;
     loop_ = loop_at(memory_.current);
     ++memory_.k_wear_updates;
-    u.new_value = best->k;
-    u.simulated_after = best->sim;
-    report.rms_sa_simulated = best->sim;
+    u.new_value = best.k;
+    u.simulated_after = best.sim;
+    report.rms_sa_simulated = best.sim;
   } else {
-    memory_ = saved;
+    memory_ = search.saved;
     u.new_value = u.old_value;
     u.simulated_after = simulated;
     if (u.outcome == UpdateOutcome::converged) u.outcome = UpdateOutcome::not_monotone;
   }
   char b[400];
-  std::snprintf(b, sizeof b, "RMS_SA measured %.5g, simulated %.5g (%+.2f %%) -> %.5g (%+.2f %%) after %d iteration(s), K_wear %.5g -> %.5g m^2/N",
+  std::snprintf(b, sizeof b, "RMS_SA measured %.5g, simulated %.5g (%+.2f %%) -> %.5g (%+.2f %%) after %d %s, K_wear %.5g -> %.5g m^2/N",
                 measured, simulated, 100 * error, u.simulated_after, 100 * (u.simulated_after - measured) / measured, u.iterations,
+                settings_.k_wear_update == KWearUpdateRule::proportional ? "iteration(s) of Eq. 7.13" : "twin re-run(s)",
                 u.old_value, u.new_value);
   u.evidence = b;
-  if (!why.empty()) u.evidence += "; " + why;
+  if (std::isfinite(u.elasticity)) u.evidence += "; elasticity d ln RMS_SA / d ln K_wear " + fmt("%.3g", u.elasticity);
+  if (!search.why.empty()) u.evidence += "; " + search.why;
   report.updates.push_back(std::move(u));
+}
+
+std::optional<TwinModel::WearTrial> TwinModel::wear_trial(double k, WearSearch& search, KUpdate& u) {
+  ++search.evaluations;
+  memory_ = search.saved;
+  WearTrial t;
+  t.k = k;
+  if (!rerun(search.anchor, Override{k, std::nullopt, search.anchor.state.cycles}, t.state, true)) {
+    u.outcome = UpdateOutcome::bound_reached;
+    search.why = "with K_wear = " + fmt("%.4g", k) + " a flank passes the depth limit before the record";
+    return std::nullopt;
+  }
+  try {
+    t.sim = simulator_(t.state.state, search.op);
+    if (!std::isfinite(t.sim) || t.sim <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
+  } catch (const std::exception& e) {
+    u.outcome = UpdateOutcome::simulation_failed;
+    search.why = std::string("simulation failed at K_wear = ") + fmt("%.4g", k) + ": " + e.what();
+    return std::nullopt;
+  }
+  t.log_error = std::log(t.sim / search.measured);
+  t.memory = memory_;
+  if (!search.best || std::abs(t.sim - search.measured) < std::abs(search.best->sim - search.measured)) search.best = t;
+  return t;
+}
+
+bool TwinModel::wear_converged(const WearTrial& t, double measured) const {
+  return std::abs(t.sim - measured) / measured <= settings_.convergence_tolerance;
+}
+
+void TwinModel::update_k_wear_proportional(WearSearch& search, KUpdate& u) {
+  double k = search.k0, sim = search.sim0, last_error = (sim - search.measured) / search.measured;
+  u.outcome = UpdateOutcome::iteration_limit;
+  while (search.evaluations < settings_.max_wear_iterations) {
+    // Eqs. 7.13–7.14: K ← K / G, G = RMS_SA,sim / RMS_SA,meas.
+    double next = std::clamp(k * search.measured / sim, settings_.k_wear_min_si, settings_.k_wear_max_si);
+    if (k <= 0) next = settings_.k_wear_min_si;
+    if (next == k) {
+      u.outcome = UpdateOutcome::bound_reached;
+      search.why = "K_wear at its bound " + fmt("%.4g", k);
+      return;
+    }
+    k = next;
+    const std::optional<WearTrial> t = wear_trial(k, search, u);
+    if (!t) return;
+    sim = t->sim;
+    const double err = (sim - search.measured) / search.measured;
+    if (wear_converged(*t, search.measured)) {
+      u.outcome = UpdateOutcome::converged;
+      return;
+    }
+    if (std::abs(err) >= std::abs(last_error)) {
+      u.outcome = UpdateOutcome::not_monotone;
+      search.why = "the error grew from " + fmt("%.3g", 100 * last_error) + " % to " + fmt("%.3g", 100 * err) +
+                   " %: RMS_SA does not rise with K_wear here";
+      return;
+    }
+    last_error = err;
+  }
+  search.why = "no convergence to " + fmt("%.3g", 100 * settings_.convergence_tolerance) + " % in " +
+               std::to_string(settings_.max_wear_iterations) + " iterations";
+}
+
+namespace {
+// The root-find's points: x = ln K_wear, g = ln(RMS_SA,sim / RMS_SA,meas).
+struct LogPoint {
+  double x = 0, g = 0;
+};
+
+// The tightest pair of points on either side of the root, if any.
+std::optional<std::pair<double, double>> bracket_of(const std::vector<LogPoint>& pts) {
+  std::optional<std::pair<double, double>> best;
+  for (const LogPoint& a : pts)
+    for (const LogPoint& b : pts)
+      if (a.g < 0 && b.g > 0 && (!best || std::abs(a.x - b.x) < best->second - best->first))
+        best = std::pair{std::min(a.x, b.x), std::max(a.x, b.x)};
+  return best;
+}
+}  // namespace
+
+void TwinModel::update_k_wear_root_find(WearSearch& search, KUpdate& u) {
+  // The sensitivity read: one re-run at the step Eq. 7.13 would take (at least 5 % in K, so the
+  // difference is not the blue loop's step-size noise); it is also the first candidate.
+  const double x0 = std::log(std::max(search.k0, settings_.k_wear_min_si));
+  const double g0 = std::log(search.sim0 / search.measured);
+  const double h = std::abs(g0) < 0.05 ? std::copysign(0.05, -g0) : -g0;
+  const double k1 = std::clamp(std::exp(x0 + h), settings_.k_wear_min_si, settings_.k_wear_max_si);
+  if (k1 == search.k0) {
+    u.outcome = UpdateOutcome::bound_reached;
+    search.why = "K_wear at its bound " + fmt("%.4g", search.k0);
+    return;
+  }
+  std::optional<WearTrial> t = wear_trial(k1, search, u);
+  if (!t) return;
+  const double x1 = std::log(k1);
+  u.elasticity = (t->log_error - g0) / (x1 - x0);
+  if (wear_converged(*t, search.measured)) {
+    u.outcome = UpdateOutcome::converged;
+    return;
+  }
+  if (!(std::abs(u.elasticity) >= settings_.min_wear_elasticity)) {
+    u.outcome = UpdateOutcome::insensitive;
+    search.why = "RMS_SA barely follows K_wear here (elasticity " + fmt("%.3g", u.elasticity) + ", below " +
+                 fmt("%.3g", settings_.min_wear_elasticity) + "): a " + fmt("%.3g", 100 * settings_.rms_threshold) +
+                 " % mismatch would move K_wear by more than a decade, so K_wear is left as it was";
+    return;
+  }
+  std::vector<LogPoint> pts{{x0, g0}, {x1, t->log_error}};
+  u.outcome = UpdateOutcome::iteration_limit;
+  while (search.evaluations < settings_.max_wear_iterations) {
+    const LogPoint a = pts[pts.size() - 2], b = pts.back();
+    const auto bracket = bracket_of(pts);
+    // Secant through the last two points; inside a bracket, bisection when it leaves the bracket;
+    // outside one, at most a decade per step.
+    double x = a.g == b.g ? b.x + (b.x - a.x) : b.x - b.g * (b.x - a.x) / (b.g - a.g);
+    if (bracket && !(x > bracket->first && x < bracket->second)) x = 0.5 * (bracket->first + bracket->second);
+    if (!bracket) x = std::clamp(x, b.x - std::log(10.0), b.x + std::log(10.0));
+    const double k = std::clamp(std::exp(x), settings_.k_wear_min_si, settings_.k_wear_max_si);
+    if (std::abs(std::log(k) - b.x) < 1e-12) {   // pinned at a bound it already tried
+      u.outcome = UpdateOutcome::bound_reached;
+      search.why = "K_wear at its bound " + fmt("%.4g", k);
+      return;
+    }
+    const std::optional<WearTrial> best_before = search.best;
+    t = wear_trial(k, search, u);
+    if (!t) return;
+    if (wear_converged(*t, search.measured)) {
+      u.outcome = UpdateOutcome::converged;
+      return;
+    }
+    const LogPoint next{std::log(k), t->log_error};
+    const double slope = (next.g - b.g) / (next.x - b.x);
+    if (!bracket && next.g * b.g > 0 && std::abs(slope) < settings_.min_wear_elasticity) {
+      // The measurement lies beyond what any K_wear gives from the anchor (e.g. below the
+      // RMS_SA of the anchor's own profile, which K_wear -> 0 approaches). Going on would drive K
+      // towards a bound where RMS_SA no longer depends on it, and every later update would find
+      // it insensitive there; the best K before the flat stretch is kept instead.
+      search.best = best_before;
+      u.outcome = UpdateOutcome::insensitive;
+      search.why = "RMS_SA stops following K_wear between " + fmt("%.4g", std::exp(b.x)) + " and " + fmt("%.4g", k) +
+                   " m^2/N (elasticity " + fmt("%.3g", slope) + ", below " + fmt("%.3g", settings_.min_wear_elasticity) +
+                   "): no K_wear reaches the measurement from the anchor's state; the closest K before that is kept";
+      return;
+    }
+    if (!bracket && next.g * b.g > 0 && std::abs(next.g) >= std::abs(b.g)) {
+      u.outcome = UpdateOutcome::not_monotone;
+      search.why = "the error grew from " + fmt("%.3g", 100 * std::expm1(b.g)) + " % to " + fmt("%.3g", 100 * std::expm1(next.g)) +
+                   " % along K_wear: RMS_SA turns here and has no root nearby";
+      return;
+    }
+    pts.push_back(next);
+  }
+  search.why = "no convergence to " + fmt("%.3g", 100 * settings_.convergence_tolerance) + " % in " +
+               std::to_string(settings_.max_wear_iterations) + " twin re-runs";
 }
 
 void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report) {
@@ -626,6 +814,7 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
   std::snprintf(b, sizeof b, "inspections: pitted area %.4g at %.6g cycles, %.4g at %.6g cycles (ICS2 %.4g, %.4g); model %.4g at the second; K_pitting %.5g -> %.5g",
                 a0, n0, a1, n1, i0, i1, u.simulated_after, u.old_value, u.new_value);
   u.evidence = b;
+  u.evidence += " " + pitting_change_text(pitting_scale_, u.old_value, u.new_value);
   if (!why.empty()) u.evidence += "; " + why;
   report.updates.push_back(std::move(u));
 }
@@ -738,6 +927,7 @@ void TwinModel::check_pitting(const ModelObservation& obs, ModelRunReport& repor
                 y[0], y[1], y[2], points[points.size() - 2].density, points.back().density, density_now, density_new,
                 u.correlation_before, u.correlation_after, u.old_value, u.new_value);
   u.evidence = b;
+  u.evidence += " " + pitting_change_text(pitting_scale_, u.old_value, u.new_value);
   if (!why.empty()) u.evidence += "; " + why;
   push_point(density_new);
   report.updates.push_back(std::move(u));

@@ -3,9 +3,12 @@
 // vibration, around the blue loop (wear_loop.hpp), with forecasts and remaining life.
 //
 // - K_wear (Eqs. 7.13–7.14): when |RMS_SA,sim − RMS_SA,meas| / RMS_SA,meas exceeds a threshold,
-//   K_wear ← K_wear · RMS_SA,meas / RMS_SA,sim, re-running the blue loop from the state at which
-//   the current K_wear was accepted (the last K_wear update, or the start of the gear pair's life)
-//   to the record, until the error is within a tolerance or the bounded iterations run out.
+//   K_wear is changed and the blue loop re-run from the state at which the current K_wear was
+//   accepted (the last K_wear update, or the start of the gear pair's life) to the record, until
+//   the error is within a tolerance or the bounded re-runs run out. By default a root-find on
+//   ln K with the twin's own elasticity d ln RMS_SA / d ln K (the thesis's rule assumes it is 1);
+//   where RMS_SA barely depends on K_wear the update is refused as `insensitive`. The thesis's
+//   proportional rule K ← K · RMS_SA,meas / RMS_SA,sim is kept as an option.
 //   RMS_SA,sim comes from the twin's casing signal analysed by the measurement code.
 // - K_pitting (§7.3.3 steps 1–4): two pitted-area inspections calibrate K_pitting and the
 //   ICS2 ↔ pitting-density scale; then at every pitting point (every `pitting_interval_cycles`)
@@ -19,12 +22,14 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "gearwatch/twin/gearbox_parameters.hpp"
 #include "gearwatch/twin/simulation.hpp"
+#include "gearwatch/wear/k_wear_rule.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
 
 namespace gearwatch {
@@ -59,10 +64,12 @@ enum class UpdateOutcome : std::uint8_t {
   bound_reached,      ///< K hit its configured bound (or the inspections cannot be matched)
   set_to_zero,        ///< K_pitting: the correlation threshold cannot be reached (§7.3.3, after step 4)
   simulation_failed,  ///< the twin's simulation diverged or could not be analysed: K unchanged
+  insensitive,        ///< K_wear: |d ln RMS_SA / d ln K_wear| below the stated minimum: RMS_SA cannot tell K here, K unchanged
 };
 inline constexpr std::array kAllUpdateOutcomes{UpdateOutcome::converged,     UpdateOutcome::iteration_limit,
                                                UpdateOutcome::not_monotone,  UpdateOutcome::bound_reached,
-                                               UpdateOutcome::set_to_zero,   UpdateOutcome::simulation_failed};
+                                               UpdateOutcome::set_to_zero,   UpdateOutcome::simulation_failed,
+                                               UpdateOutcome::insensitive};
 const char* to_string(UpdateOutcome outcome) noexcept;
 
 /// Why a record could not be used, in whole or in part.
@@ -94,13 +101,46 @@ using RmsSaSimulator = std::function<double(const WearState&, const twin::Operat
 RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const RigSpec& rig,
                                      const dsp::SignalProcessingSettings& settings, double revolutions);
 
+/// K_pitting on a scale a reader can check. Inside, K_pitting multiplies τ0^c V / z0^h with τ0 in
+/// Pa, z0 in m, V in m³ and N in cycles (Eqs. 7.3–7.8), so its unit is Pa^-c · m^(h−3) · cycle^-m
+/// and its value (≈ 1e-94 for the rig's pair) says nothing by itself. The readable form: the
+/// cycles after which the unworn pair's most loaded profile point reaches `reference_density` at
+/// `reference_torque_nm`, by Eq. 7.8: D = 1 − exp(−K T N^m), T = max over the profile of
+/// τ0^c V / z0^h. Both directions are closed form, so the one converts exactly into the other.
+struct PittingScale {
+  double reference_torque_nm = 0;
+  double reference_density = 0;
+  double terms = 0;   ///< T: τ0^c V / z0^h at the most loaded point of the unworn pair (Pa^c m^(3−h))
+  PittingMaterial material;
+  /// Cycles to the reference density with coefficient k (infinity when k ≤ 0).
+  double cycles_to_reference(double k_pitting) const;
+  /// The coefficient that reaches the reference density after `cycles` (the inverse).
+  double k_pitting_for(double cycles) const;
+  /// "Pa^-10.33 m^-0.667 cycle^-1.111": the unit with the configured exponents.
+  std::string unit() const;
+  /// One line: K with its unit and the cycles to the reference density.
+  std::string describe(double k_pitting) const;
+};
+/// The scale of the given pair and blue-loop options (its material exponents and profile) at a
+/// reference torque; throws TwinParameterError when the pair carries no load there.
+PittingScale pitting_scale(const twin::GearboxParameters& params, const WearLoopOptions& loop, double reference_torque_nm,
+                           double reference_density);
+
 struct ModelSettings {
   WearLoopOptions loop;                    ///< K values here are the initial ones (SI); operating point ignored
   bool update_k_wear = true;
   bool update_k_pitting = true;
   double rms_threshold = 0.05;             ///< relative RMS_SA error that triggers a K_wear update (seed: 5 %)
   double convergence_tolerance = 0.01;     ///< an update iterates until this (≤ threshold), so it does not sit at the edge
-  int max_wear_iterations = 8;
+  int max_wear_iterations = 8;             ///< twin re-runs per K_wear update (the root-find's sensitivity read included)
+  KWearUpdateRule k_wear_update = KWearUpdateRule::root_find;
+  /// Root-find: below this |d ln RMS_SA / d ln K_wear| the update is refused (`insensitive`).
+  /// Mismatches under `rms_threshold` are taken as the measurement's scatter; with an elasticity
+  /// below rms_threshold / ln 10 (0.0217 at 5 %) a mismatch of that size would move K_wear by more
+  /// than a decade, so RMS_SA does not determine K_wear there and an update would follow the scatter.
+  double min_wear_elasticity = 0.02;
+  double pitting_reference_torque_nm = 20.0;   ///< torque of K_pitting's readable scale (PittingScale)
+  double pitting_reference_density = 0.10;     ///< density of K_pitting's readable scale
   double k_wear_min_si = 1e-22, k_wear_max_si = 1e-9;
   double correlation_threshold = 0.95;     ///< §7.3.3
   double pitting_interval_cycles = 50000;  ///< ΔN between pitting points (the seed's j)
@@ -181,7 +221,9 @@ struct KUpdate {
   double cycles = 0;
   double old_value = 0, new_value = 0;
   double applies_from_cycles = 0;          ///< the re-run start: the new K holds from here
-  int iterations = 0;                      ///< K_wear iterations / K_pitting blue-loop evaluations
+  int iterations = 0;                      ///< K_wear twin re-runs / K_pitting blue-loop evaluations
+  /// K_wear root-find: d ln RMS_SA / d ln K_wear read from the twin (NaN: not read).
+  double elasticity = std::numeric_limits<double>::quiet_NaN();
   /// K_wear: measured RMS_SA, simulated before and after. K_pitting: the correlation before and
   /// after (calibration: the inspected densities, and the ICS2 at their cycles when known).
   double measured = 0, simulated_before = 0, simulated_after = 0;
@@ -254,6 +296,8 @@ class TwinModel {
   const ModelMemory& memory() const noexcept { return memory_; }
   const ModelSettings& settings() const noexcept { return settings_; }
   const twin::GearboxParameters& parameters() const noexcept { return params_; }
+  /// K_pitting's readable scale for this pair and settings.
+  const PittingScale& pitting_scale() const noexcept { return pitting_scale_; }
   /// Forecast from the current state (what observe() adds to its report).
   Forecast forecast() const;
 
@@ -268,6 +312,29 @@ class TwinModel {
   };
   bool rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot& out, bool recapture_anchors);
   void check_k_wear(const ModelObservation& obs, ModelRunReport& report);
+  /// One K_wear candidate: the blue loop re-run from the wear anchor with K, and its RMS_SA.
+  struct WearTrial {
+    double k = 0, sim = 0;
+    double log_error = 0;                  ///< ln(sim / measured): the root-find's function
+    LoopSnapshot state;
+    ModelMemory memory;
+  };
+  /// What a K_wear update searches with, and the best candidate it found.
+  struct WearSearch {
+    LoopSnapshot anchor;
+    ModelMemory saved;
+    twin::OperatingPoint op;
+    double measured = 0;
+    double k0 = 0, sim0 = 0;
+    int evaluations = 0;
+    std::optional<WearTrial> best;
+    std::string why;                       ///< why it stopped, when it did not converge
+  };
+  /// Runs one candidate; on failure sets u.outcome and search.why and returns nullopt.
+  std::optional<WearTrial> wear_trial(double k, WearSearch& search, KUpdate& u);
+  bool wear_converged(const WearTrial& t, double measured) const;
+  void update_k_wear_proportional(WearSearch& search, KUpdate& u);
+  void update_k_wear_root_find(WearSearch& search, KUpdate& u);
   void calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report);
   void check_pitting(const ModelObservation& obs, ModelRunReport& report);
   double ics2_at(double cycles) const;
@@ -280,6 +347,7 @@ class TwinModel {
   RmsSaSimulator simulator_;
   ModelMemory memory_;
   BlueLoop loop_;
+  PittingScale pitting_scale_;
 };
 
 }  // namespace gearwatch::wear
