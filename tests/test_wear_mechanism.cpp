@@ -264,7 +264,7 @@ TEST_CASE("defects #7: the materiality floor is a quarter of the ICS2 of half-de
   CHECK(material_ics2_rise(settings) == 0.0);
 }
 
-TEST_CASE("defects #7: the dry campaign's low band (ICS2 5e-5 -> 3e-3, significant but immaterial) is not a rise",
+TEST_CASE("defects #7: the dry campaign's low band (ICS2 5e-5 -> 3e-3: significant but immaterial) is not a rise",
           "[dsp][wear_mechanism]") {
   // The issue's histories: 8 records, both bands rising at every record. The high band goes from
   // 0.01 to 0.21 (abrasion fills it); the low band from 5e-5 to 3e-3, a geometric rise that is
@@ -330,7 +330,7 @@ TEST_CASE("defects #7: a material rise (ICS2 0.05 -> 0.3) is named as soon as it
   CHECK(identify_wear_mechanism(creep, settings).mechanism == WearMechanism::fatigue_pitting);
 }
 
-TEST_CASE("defects #7: the floor against ICS2's estimation noise and the share law, by direct Monte Carlo",
+TEST_CASE("defects #7: the floor against ICS2's estimation noise and the share law by direct Monte Carlo",
           "[dsp][wear_mechanism]") {
   // A band of N = bandwidth x duration independent complex samples: 2-13 kHz over a 2 s record at
   // 10 rev/s is N = 22000 samples spanning 20 revolutions, the mesh order 19 at SES bins 380 h.
