@@ -385,3 +385,17 @@ TEST_CASE("defects #7: the floor against ICS2's estimation noise and the share l
   INFO("half-share band: mean ICS2 " << share_mean << ", floor " << material_ics2_rise(settings));
   CHECK(share_mean == Approx(material_ics2_rise(settings) + expected).epsilon(0.03));
 }
+
+TEST_CASE("defects #7: wear_min_band_share outside [0 1] is refused naming the setting", "[dsp][wear_mechanism]") {
+  const gearwatch::RigSpec rig;
+  SignalProcessingSettings s;
+  CHECK_NOTHROW(s.validate(rig));  // default 0.5
+  for (double bad : {-0.1, 1.5, std::nan("")}) {
+    s.wear_min_band_share = bad;
+    CHECK_THROWS_WITH(s.validate(rig), Catch::Contains("wear_min_band_share"));
+  }
+  for (double good : {0.0, 1.0}) {
+    s.wear_min_band_share = good;
+    CHECK_NOTHROW(s.validate(rig));
+  }
+}
