@@ -194,9 +194,10 @@ TEST_CASE("rig end to end: defects #7: a lubricated campaign is identified as fa
 TEST_CASE("rig end to end: defects #7: a dry campaign is identified as abrasive wear on both channels and never pitting",
           "[rig][e2e]") {
   const gearwatch::testing::TempDir dir("rig-e2e-dry");
-  // The campaign's own 10 s records: with 2 s records the low band's estimation noise (ICS2 ~4e-4)
-  // hid the trace of abrasion it picks up, with 10 s records (noise ~7e-5) that trace rose
-  // significantly on channel 1 and the verdict there became `both`.
+  // The campaign's own 10 s records: the low band's estimation noise (ICS2 of stationary noise,
+  // 3.5e-4 on average over 2 s, 7e-5 over 10 s; docs/dsp.md) hides the trace of abrasion the low
+  // band picks up in 2 s records but not in 10 s ones, where it rose significantly on channel 1
+  // and, without the materiality floor, the verdict there became `both`.
   const auto r = run_campaign(dir, "dry", 8, "[model]\nenabled = false\n", 10.0);
   check_cycles(r);
   check_verdicts(r, "abrasive_wear", 8);
