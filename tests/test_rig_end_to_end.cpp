@@ -32,13 +32,15 @@ struct CampaignResult {
 // Records of 2.2 s (one 2 s record each). The wear verdict is sequential (docs/dsp.md): a
 // stationary history raises one with probability <= 5 % however many records it has. The model
 // thread is off unless a test needs it (it costs seconds per record).
+// `record_s` > 2 gives captures of exactly that length and records of the same length.
 CampaignResult run_campaign(const gearwatch::testing::TempDir& dir, const std::string& name, int records,
-                            const std::string& extra_config = "[model]\nenabled = false\n") {
+                            const std::string& extra_config = "[model]\nenabled = false\n", double record_s = 2.0) {
   const auto config = dir / "daemon.toml";
-  std::ofstream(config) << "[records]\nlength_s = 2.0\ninterval_s = 600.0\nmin_length_s = 1.0\n" << extra_config;
+  std::ofstream(config) << "[records]\nlength_s = " << std::to_string(record_s) << "\ninterval_s = 600.0\nmin_length_s = 1.0\n" << extra_config;
   const auto out = dir / "campaign";
+  const double capture_s = record_s > 2.0 ? record_s : 2.2;
   auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --campaign " + name + " --records " + std::to_string(records) +
-                       " --seconds 2.2 --out " + out.string());
+                       " --seconds " + std::to_string(capture_s) + " --out " + out.string());
   INFO(r.err);
   REQUIRE(r.status == 0);
   std::vector<fs::path> files;
@@ -116,6 +118,30 @@ std::map<int, std::vector<std::string>> raised(const nlohmann::json& alerts) {
   return out;
 }
 
+/// The wear verdict of every record of a channel, in record order.
+std::vector<std::string> verdicts(const CampaignResult& r, int channel) {
+  gearwatch::storage::Database d(r.db.string(), gearwatch::storage::Database::Mode::read_only);
+  gearwatch::storage::Statement s(d, "SELECT mechanism FROM wear_mechanism WHERE channel = ? ORDER BY record_id");
+  s.bind(1, channel);
+  std::vector<std::string> out;
+  while (s.step()) out.push_back(s.get_text(0));
+  return out;
+}
+
+/// defects #7: on both channels, every record's verdict is `expected` once named (or not yet a
+/// wear verdict), never the mode the campaign's truth does not have; the last record names it.
+void check_verdicts(const CampaignResult& r, const std::string& expected, std::size_t records) {
+  for (int channel : {0, 1}) {
+    const auto v = verdicts(r, channel);
+    std::string joined;
+    for (const auto& m : v) joined += m + " ";
+    INFO("channel " << channel << ": " << joined);
+    REQUIRE(v.size() == records);
+    for (const auto& m : v) CHECK((m == expected || m == "none" || m == "undetermined"));
+    CHECK(v.back() == (expected.empty() ? std::string("none") : expected));
+  }
+}
+
 /// The records' cycles as the daemon stored them equal the truth's.
 void check_cycles(const CampaignResult& r) {
   gearwatch::storage::Database d(r.db.string(), gearwatch::storage::Database::Mode::read_only);
@@ -128,10 +154,12 @@ void check_cycles(const CampaignResult& r) {
 
 }  // namespace
 
-TEST_CASE("rig end to end: a lubricated campaign is identified as fatigue pitting", "[rig][e2e]") {
+TEST_CASE("rig end to end: defects #7: a lubricated campaign is identified as fatigue pitting on both channels and never abrasion",
+          "[rig][e2e]") {
   const gearwatch::testing::TempDir dir("rig-e2e-lubricated");
   const auto r = run_campaign(dir, "lubricated", 8);
   check_cycles(r);
+  check_verdicts(r, "fatigue_pitting", 8);
   const auto by_channel = raised(r.alerts);
   REQUIRE(by_channel.size() == 2);
   for (const auto& [channel, values] : by_channel) {
@@ -163,10 +191,16 @@ TEST_CASE("rig end to end: a lubricated campaign is identified as fatigue pittin
   }
 }
 
-TEST_CASE("rig end to end: a dry campaign is identified as abrasive wear", "[rig][e2e]") {
+TEST_CASE("rig end to end: defects #7: a dry campaign is identified as abrasive wear on both channels and never pitting",
+          "[rig][e2e]") {
   const gearwatch::testing::TempDir dir("rig-e2e-dry");
-  const auto r = run_campaign(dir, "dry", 8);
+  // The campaign's own 10 s records: the low band's estimation noise (ICS2 of stationary noise,
+  // 3.5e-4 on average over 2 s, 7e-5 over 10 s; docs/dsp.md) hides the trace of abrasion the low
+  // band picks up in 2 s records but not in 10 s ones, where it rose significantly on channel 1
+  // and, without the materiality floor, the verdict there became `both`.
+  const auto r = run_campaign(dir, "dry", 8, "[model]\nenabled = false\n", 10.0);
   check_cycles(r);
+  check_verdicts(r, "abrasive_wear", 8);
   const auto by_channel = raised(r.alerts);
   REQUIRE(by_channel.size() == 2);
   for (const auto& [channel, values] : by_channel) {
@@ -194,10 +228,11 @@ TEST_CASE("rig end to end: a dry campaign is identified as abrasive wear", "[rig
   }
 }
 
-TEST_CASE("rig end to end: a healthy campaign raises no wear alert", "[rig][e2e]") {
+TEST_CASE("rig end to end: defects #7: a healthy campaign raises no wear alert on either channel", "[rig][e2e]") {
   const gearwatch::testing::TempDir dir("rig-e2e-healthy");
   const auto r = run_campaign(dir, "healthy", 10);
   check_cycles(r);
+  check_verdicts(r, "", 10);
   CHECK(raised(r.alerts).empty());
   for (const auto& rec : r.truth.at("records")) {
     CHECK(rec.at("sliding_pitting_rms_m_s2").get<double>() == 0);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -188,8 +189,11 @@ TEST_CASE("A stationary history raises no wear verdict more often than the signi
   // re-tested each record, finds a "trend" in a good share of pure-noise histories; the sequential
   // evidence keeps the chance that a history ever raises a wear verdict (either band) below
   // alpha = 0.05 at every length (Ville's bound: alpha/2 per band). 300 histories of 120 records,
-  // three noise laws (the ranks make the evidence distribution-free).
+  // three noise laws (the ranks make the evidence distribution-free). Materiality is off here
+  // (wear_min_band_share 0): this is the bound on the significance alone; with the default floor
+  // none of these histories (scatter 0.002) could rise by 0.05.
   SignalProcessingSettings settings;
+  settings.wear_min_band_share = 0.0;
   constexpr int histories = 300, length = 120;
   int raised_sequential = 0, raised_mann_kendall = 0, raised_sequential_by_40 = 0;
   std::mt19937_64 rng(2026);
@@ -244,5 +248,154 @@ TEST_CASE("Flat then rising: the sequential verdict comes within 3 records of th
       }
     }
     CHECK(first_wear == 4);  // first rise at record 1, verdict at record 4: 3 records later
+  }
+}
+
+TEST_CASE("defects #7: the materiality floor is a quarter of the ICS2 of half-depth AM noise",
+          "[dsp][wear_mechanism]") {
+  // Squared envelope of (1 + a cos) x noise: mean 1 + a²/2, lines a and a²/4 (closed form).
+  CHECK(am_noise_ics2(0.5, 3) == Approx((0.25 + 0.0625 * 0.0625) / (1.125 * 1.125)).epsilon(1e-15));
+  CHECK(am_noise_ics2(0.5, 3) == Approx(0.2006172839506173).epsilon(1e-12));
+  CHECK(am_noise_ics2(0.5, 1) == Approx(0.25 / (1.125 * 1.125)).epsilon(1e-15));
+  CHECK(am_noise_ics2(1.0, 2) == Approx((1.0 + 1.0 / 16.0) / 2.25).epsilon(1e-15));
+  SignalProcessingSettings settings;  // wear_min_band_share 1/2, H = 3
+  CHECK(material_ics2_rise(settings) == Approx(0.25 * 0.2006172839506173).epsilon(1e-12));
+  settings.wear_min_band_share = 0.0;
+  CHECK(material_ics2_rise(settings) == 0.0);
+}
+
+TEST_CASE("defects #7: the dry campaign's low band (ICS2 5e-5 -> 3e-3: significant but immaterial) is not a rise",
+          "[dsp][wear_mechanism]") {
+  // The issue's histories: 8 records, both bands rising at every record. The high band goes from
+  // 0.01 to 0.21 (abrasion fills it); the low band from 5e-5 to 3e-3, a geometric rise that is
+  // perfectly monotonic (so its rank evidence is as large as the high band's) but reaches a share
+  // of the band of only sqrt(3e-3 / 0.2) = 12 % for a wear vibration of ICS2 0.2.
+  SignalProcessingSettings settings;
+  std::vector<WearHistoryPoint> h;
+  for (int k = 0; k < 8; ++k) {
+    const double low = 5e-5 * std::pow(3e-3 / 5e-5, k / 7.0);
+    const double high = 0.01 + 0.2 * k / 7.0;
+    h.push_back({5000.0 * k, low, high, 30000.0});
+  }
+  const auto v = identify_wear_mechanism(h, settings);
+  INFO(v.evidence);
+  CHECK(v.low_band.significant_rise);       // evidence as before: the ranks rise at every record
+  CHECK(v.low_band.rising_evidence == Approx(v.high_band.rising_evidence).epsilon(1e-12));
+  CHECK(v.low_band.rise == Approx(3e-3 - 5e-5).epsilon(1e-9));
+  CHECK_FALSE(v.low_band.material);         // 2.95e-3 < 0.0502
+  CHECK_FALSE(v.low_band.increasing);
+  CHECK(v.high_band.increasing);            // rise 0.2 >= 0.0502
+  CHECK(v.high_band.rise == Approx(0.2).epsilon(1e-9));
+  CHECK(v.mechanism == WearMechanism::abrasive_wear);  // before: both
+  CHECK(v.evidence.find("immaterial") != std::string::npos);
+  // At every prefix the verdict never names the low band: abrasive_wear once significant, never both.
+  for (std::size_t n = 1; n <= h.size(); ++n) {
+    const auto p = identify_wear_mechanism(std::span<const WearHistoryPoint>(h).first(n), settings);
+    INFO("records " << n << ": " << p.evidence);
+    CHECK(p.mechanism != WearMechanism::both);
+    CHECK(p.mechanism != WearMechanism::fatigue_pitting);
+  }
+}
+
+TEST_CASE("defects #7: a material rise (ICS2 0.05 -> 0.3) is named as soon as it is significant",
+          "[dsp][wear_mechanism]") {
+  SignalProcessingSettings settings;
+  std::vector<WearHistoryPoint> h;
+  int first_verdict = -1;
+  for (int k = 0; k < 8; ++k) {
+    h.push_back({1e5 * k, 0.05 + 0.25 * k / 7.0, 0.01, 30000.0});
+    const auto v = identify_wear_mechanism(h, settings);
+    if (first_verdict < 0 && is_wear(v.mechanism)) {
+      first_verdict = k;
+      CHECK(v.mechanism == WearMechanism::fatigue_pitting);
+      CHECK(v.low_band.material);
+    }
+  }
+  // A perfectly rising run reaches the evidence bar at 5 points (minimum_points_for_evidence), and
+  // by then the band has risen by 4 x 0.25 / 7 = 0.143 >= 0.0502: materiality costs no record.
+  CHECK(first_verdict == static_cast<int>(minimum_points_for_evidence(settings.trend_significance)) - 1);
+  // Both bands rising materially: both.
+  for (auto& p : h) p.ics2_high = p.ics2_low;
+  CHECK(identify_wear_mechanism(h, settings).mechanism == WearMechanism::both);
+  // A slow creep on a band that already carries modulation (0.10 -> 0.14, rise 0.04 < 0.0502) is
+  // significant but not material.
+  std::vector<WearHistoryPoint> creep;
+  for (int k = 0; k < 10; ++k) creep.push_back({1e5 * k, 0.10 + 0.04 * k / 9.0, 0.01, 30000.0});
+  const auto c = identify_wear_mechanism(creep, settings);
+  CHECK(c.low_band.significant_rise);
+  CHECK(c.low_band.rise == Approx(0.04).epsilon(1e-9));
+  CHECK(c.mechanism == WearMechanism::none);
+  // With wear_min_band_share = 0 significance alone decides again (the earlier behaviour).
+  settings.wear_min_band_share = 0.0;
+  CHECK(identify_wear_mechanism(creep, settings).mechanism == WearMechanism::fatigue_pitting);
+}
+
+TEST_CASE("defects #7: the floor against ICS2's estimation noise and the share law by direct Monte Carlo",
+          "[dsp][wear_mechanism]") {
+  // A band of N = bandwidth x duration independent complex samples: 2-13 kHz over a 2 s record at
+  // 10 rev/s is N = 22000 samples spanning 20 revolutions, the mesh order 19 at SES bins 380 h.
+  constexpr std::size_t n = 22000;
+  constexpr double revolutions = 20.0;
+  FftPlanCache plans;
+  SquaredEnvelopeAnalyzer envelope(plans);
+  const Ics2Parameters p;  // order 19, H = 3, +-3 bins
+  std::mt19937_64 rng(1977);
+  std::normal_distribution<double> gauss(0.0, std::sqrt(0.5));
+  std::vector<Complex> c(n);
+  auto noise = [&] { return Complex(gauss(rng), gauss(rng)); };
+  // Stationary noise: E|SES[k]|² / SES[0]² = (N - k) / N², independent exponentials; the largest of
+  // 2 tol + 1 = 7 has mean H_7 = 1 + 1/2 + ... + 1/7 and variance 1 + 1/4 + ... + 1/49.
+  double h7 = 0, h7_2 = 0;
+  for (int i = 1; i <= 7; ++i) h7 += 1.0 / i, h7_2 += 1.0 / (i * i);
+  double expected = 0, variance = 0;
+  for (int h = 1; h <= 3; ++h) {
+    const double unit = (n - 380.0 * h) / (static_cast<double>(n) * n);
+    expected += h7 * unit;
+    variance += h7_2 * unit * unit;
+  }
+  constexpr int trials = 200;
+  double sum = 0, largest = 0;
+  for (int t = 0; t < trials; ++t) {
+    for (auto& v : c) v = noise();
+    const double ics2 = envelope.complex_ics2(c, revolutions, p).value;
+    sum += ics2;
+    largest = std::max(largest, ics2);
+  }
+  const double mean = sum / trials;
+  INFO("noise: mean " << mean << " (closed form " << expected << "), largest of " << trials << " " << largest);
+  CHECK(std::abs(mean - expected) < 4.0 * std::sqrt(variance / trials));
+  SignalProcessingSettings settings;
+  // The floor is two orders of magnitude above what noise alone reads.
+  CHECK(material_ics2_rise(settings) > 100.0 * expected);
+  CHECK(material_ics2_rise(settings) > 20.0 * largest);
+  // Share law: noise modulated at depth 1/2 by the mesh, holding half of the band's power beside
+  // independent stationary noise, reads a quarter of the modulated noise's own ICS2 (+ the noise
+  // term above, scaled by the modulation's fourth moment): the floor.
+  const double depth = 0.5, mod_power = 1.0 + depth * depth / 2.0;
+  double share_sum = 0;
+  constexpr int share_trials = 40;
+  for (int t = 0; t < share_trials; ++t) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const double m = 1.0 + depth * std::cos(2.0 * std::numbers::pi * 19.0 * revolutions * static_cast<double>(i) / n);
+      c[i] = m * noise() + std::sqrt(mod_power) * noise();
+    }
+    share_sum += envelope.complex_ics2(c, revolutions, p).value;
+  }
+  const double share_mean = share_sum / share_trials;
+  INFO("half-share band: mean ICS2 " << share_mean << ", floor " << material_ics2_rise(settings));
+  CHECK(share_mean == Approx(material_ics2_rise(settings) + expected).epsilon(0.03));
+}
+
+TEST_CASE("defects #7: wear_min_band_share outside [0 1] is refused naming the setting", "[dsp][wear_mechanism]") {
+  const gearwatch::RigSpec rig;
+  SignalProcessingSettings s;
+  CHECK_NOTHROW(s.validate(rig));  // default 0.5
+  for (double bad : {-0.1, 1.5, std::nan("")}) {
+    s.wear_min_band_share = bad;
+    CHECK_THROWS_WITH(s.validate(rig), Catch::Contains("wear_min_band_share"));
+  }
+  for (double good : {0.0, 1.0}) {
+    s.wear_min_band_share = good;
+    CHECK_NOTHROW(s.validate(rig));
   }
 }

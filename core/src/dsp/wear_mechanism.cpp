@@ -216,6 +216,32 @@ std::size_t minimum_points_for_evidence(double significance) {
   return 1000;
 }
 
+double am_noise_ics2(double depth, int harmonics) {
+  const double a2 = depth * depth;
+  const double lines = (harmonics >= 1 ? a2 : 0.0) + (harmonics >= 2 ? a2 * a2 / 16.0 : 0.0);
+  return lines / ((1.0 + a2 / 2.0) * (1.0 + a2 / 2.0));
+}
+
+double material_ics2_rise(const SignalProcessingSettings& settings) {
+  // The reference wear vibration: noise modulated at depth 1/2 by the mesh (see the header).
+  constexpr double kReferenceDepth = 0.5;
+  const double share = settings.wear_min_band_share;
+  return share * share * am_noise_ics2(kReferenceDepth, settings.ics2_harmonics);
+}
+
+namespace {
+
+// Newest finite value minus the lowest earlier finite one (in the given order); 0 with < 2 values.
+double rise_over_lowest(const std::vector<double>& values) {
+  std::vector<double> finite;
+  for (double v : values)
+    if (std::isfinite(v)) finite.push_back(v);
+  if (finite.size() < 2) return 0.0;
+  return finite.back() - *std::min_element(finite.begin(), finite.end() - 1);
+}
+
+}  // namespace
+
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings) {
   const double alpha = settings.trend_significance;
@@ -232,11 +258,16 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
   v.high_band = trend_test(cycles, high, alpha);
   // The verdict re-decides at every record: Mann-Kendall at a fixed level would, on a stationary
   // history, eventually report a trend by chance (one more test per record). The sequential
-  // evidence keeps that chance below alpha however long the history grows.
+  // evidence keeps that chance below alpha however long the history grows. Significance says
+  // nothing of size: a rise must also be material (see the header).
   const double bar = rising_evidence_threshold(alpha);
+  const double material_rise = material_ics2_rise(settings);
   for (auto [band, values] : {std::pair{&v.low_band, &low}, std::pair{&v.high_band, &high}}) {
     band->rising_evidence = rising_trend_evidence(cycles, *values);
-    band->increasing = band->rising_evidence >= bar;
+    band->significant_rise = band->rising_evidence >= bar;
+    band->rise = rise_over_lowest(*values);
+    band->material = material_rise <= 0.0 || band->rise >= material_rise;  // share 0: materiality off
+    band->increasing = band->significant_rise && band->material;
   }
 
   v.band_jumps = significant_band_jumps(points, settings);
@@ -256,17 +287,19 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
     v.mechanism = WearMechanism::none;
   }
 
-  char buffer[512];
+  auto trend_word = [](const TrendTest& t) {
+    return t.increasing ? " increasing" : t.significant_rise ? " immaterial" : t.decreasing ? " decreasing" : "";
+  };
+  char buffer[640];
   std::snprintf(buffer, sizeof buffer,
-                "low band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f e=%.3g%s; high band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f e=%.3g%s; "
-                "alpha=%.3g (rising when e >= %.3g, needs >= %zu points); band jumps: %zu",
+                "low band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f e=%.3g rise=%.3g%s; "
+                "high band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f e=%.3g rise=%.3g%s; "
+                "alpha=%.3g (rising when e >= %.3g and rise >= %.3g, needs >= %zu points); band jumps: %zu",
                 v.low_band.points, v.low_band.mann_kendall_s, v.low_band.mann_kendall_z, v.low_band.p_value,
-                v.low_band.spearman_rho, v.low_band.rising_evidence,
-                v.low_band.increasing ? " increasing" : v.low_band.decreasing ? " decreasing" : "",
+                v.low_band.spearman_rho, v.low_band.rising_evidence, v.low_band.rise, trend_word(v.low_band),
                 v.high_band.points, v.high_band.mann_kendall_s, v.high_band.mann_kendall_z, v.high_band.p_value,
-                v.high_band.spearman_rho, v.high_band.rising_evidence,
-                v.high_band.increasing ? " increasing" : v.high_band.decreasing ? " decreasing" : "", alpha, bar, needed,
-                v.band_jumps.size());
+                v.high_band.spearman_rho, v.high_band.rising_evidence, v.high_band.rise, trend_word(v.high_band), alpha,
+                bar, material_rise, needed, v.band_jumps.size());
   v.evidence = buffer;
   for (const auto& j : v.band_jumps) {
     std::snprintf(buffer, sizeof buffer, "; jump at %.6g cycles %.0f Hz -> %.0f Hz", j.cycles, j.from_hz, j.to_hz);

@@ -60,6 +60,10 @@ struct SignalProcessingSettings {
   /// (the tree's 17/25-tap filters leak about -55 dB, so a weaker band may hold only leakage).
   double band_energy_floor_db = -40.0;
   double trend_significance = 0.05;       ///< wear-mechanism trend tests
+  /// Materiality of a wear trend (dsp::material_ics2_rise): the share of a carrier band's power the
+  /// wear vibration must reach before that band's rise names a mechanism; in [0, 1], 0 = the
+  /// significance alone decides.
+  double wear_min_band_share = 0.5;
   /// The trend tests use the most recent records only: Mann-Kendall is O(n²), and a daemon
   /// recording every 10 min for years must not slow down with age (the seed's lubricated test
   /// had ~540 records over 3.25 M cycles).

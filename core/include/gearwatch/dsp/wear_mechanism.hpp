@@ -1,13 +1,26 @@
 #pragma once
-// Wear-mechanism identification over a record history (seed §4.4): a monotonic (increasing)
+// Wear-mechanism identification over a record history (thesis §4.4): a monotonic (increasing)
 // ICS2 trend in the low carrier band and not the high band -> fatigue pitting; high and not low
 // -> abrasive wear; both -> both; neither -> none; too short a history -> undetermined.
-// The decision "this band's ICS2 is rising" is sequential: a test-martingale on the sequential ranks
-// of the band's history (rising_trend_evidence), so re-deciding at every new record keeps the
-// chance that a stationary history ever raises a verdict below the configured significance,
-// however long the history grows (Ville's inequality). Mann-Kendall (tie-corrected variance,
-// normal approximation, two-sided) and Spearman's rho describe the trend alongside. Jumps of the
-// ICS2-selected carrier band are flagged.
+// A band "rises" when its rise is both significant and material:
+// - significant: a test-martingale on the sequential ranks of the band's history
+//   (rising_trend_evidence) reaches 2/alpha, so re-deciding at every new record keeps the chance
+//   that a stationary history ever raises a verdict below the configured significance, however
+//   long the history grows (Ville's inequality);
+// - material: the newest ICS2 stands at least material_ics2_rise() above the lowest earlier value
+//   of the history. A band holding a wear vibration (mesh-modulated with its own ICS2 I_s) and
+//   independent stationary content reads ICS2 = share^2 x I_s, share = the wear vibration's part of
+//   the band's power. A band "carries" a mechanism when that share reaches
+//   settings.wear_min_band_share (default 1/2: the wear vibration is at least as strong as
+//   everything else in the band), taking I_s as the ICS2 of noise amplitude-modulated at depth 1/2
+//   (0.2006; a single tooth pair's sliding speed, zero at the pitch point, gives 0.397): 0.050 at
+//   the defaults. Rank evidence alone cannot tell a band that gains a trace of another band's
+//   modulation (a share of a few percent, ICS2 of a few 1e-3) from one that fills with it. The
+//   floor is far above the estimation noise of ICS2: a band of stationary Gaussian noise with
+//   N = bandwidth x duration independent samples reads H x (1 + 1/2 + ... + 1/(2 tol + 1)) / N
+//   on average (3.5e-4 for the 2-13 kHz band of a 2 s record).
+// Mann-Kendall (tie-corrected variance, normal approximation, two-sided) and Spearman's rho
+// describe the trend alongside. Jumps of the ICS2-selected carrier band are flagged.
 #include <array>
 #include <limits>
 #include <span>
@@ -44,9 +57,13 @@ struct TrendTest {
   double p_value = 1.0;             ///< two-sided
   double spearman_rho = 0.0;
   bool increasing = false;          ///< significant at the configured level with S > 0 (trend_test);
-                                    ///< in a WearMechanismVerdict: the sequential evidence crossed its bar
+                                    ///< in a WearMechanismVerdict: significant_rise and material
   bool decreasing = false;          ///< significant with S < 0 (reported, not a wear signature)
-  double rising_evidence = 1.0;     ///< e-value of a rise at the newest point (identify_wear_mechanism only)
+  // identify_wear_mechanism only:
+  double rising_evidence = 1.0;     ///< e-value of a rise at the newest point
+  bool significant_rise = false;    ///< rising_evidence reached rising_evidence_threshold
+  double rise = 0.0;                ///< newest ICS2 minus the lowest earlier one (0 with < 2 points)
+  bool material = false;            ///< rise >= material_ics2_rise(settings) (always, when that is 0)
 };
 
 /// Mann-Kendall and Spearman on (x, y) pairs, ordered by x; pairs with a non-finite y are dropped.
@@ -73,7 +90,18 @@ double rising_evidence_threshold(double significance);
 /// Smallest number of points at which a perfectly rising series reaches rising_evidence_threshold.
 std::size_t minimum_points_for_evidence(double significance);
 
-/// A significant, lasting move of the ICS2-selected carrier band (seed Figs 4.8, 4.15): the new
+/// ICS2 (Eq. 4.3, H harmonics) of a band holding only Gaussian noise whose amplitude is modulated
+/// as 1 + depth cos(gear-mesh angle): its squared envelope's mean is 1 + depth^2/2, its lines
+/// depth at the mesh order and depth^2/4 at twice it, so
+/// ICS2 = (depth^2 + [H >= 2] depth^4/16) / (1 + depth^2/2)^2 (0.2006 at depth 1/2, H >= 2).
+double am_noise_ics2(double depth, int harmonics);
+
+/// The least rise of a band's ICS2 that is material (see the file comment):
+/// settings.wear_min_band_share^2 x am_noise_ics2(1/2, settings.ics2_harmonics); 0.050 at the
+/// defaults. 0 when the share is 0 (significance alone decides).
+double material_ics2_rise(const SignalProcessingSettings& settings);
+
+/// A significant, lasting move of the ICS2-selected carrier band (thesis Figs 4.8, 4.15): the new
 /// centre is an octave or more from the established one, stays within an octave of itself for
 /// settings.band_jump_persistence_records records, and its mean ICS2 over them exceeds the
 /// established band's mean by more than settings.band_jump_sigma times that band's
@@ -95,9 +123,10 @@ struct WearMechanismVerdict {
   std::string evidence;               ///< one line: statistics, p-values, jumps
 };
 
-/// Uses settings.trend_significance. Points are sorted by cycles internally. A band is rising when
-/// its rising_trend_evidence reaches rising_evidence_threshold; Mann-Kendall's `decreasing` is
-/// reported only.
+/// Uses settings.trend_significance and settings.wear_min_band_share. Points are sorted by cycles
+/// internally. A band is rising when its rising_trend_evidence reaches rising_evidence_threshold
+/// and its newest ICS2 is at least material_ics2_rise above the lowest earlier one; Mann-Kendall's
+/// `decreasing` is reported only.
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings);
 
