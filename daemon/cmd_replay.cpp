@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cli_common.hpp"
+#include "gearwatch/acquisition/candump_source.hpp"
 #include "logging.hpp"
 #include "pipeline.hpp"
 
@@ -29,6 +30,7 @@ void register_replay(CLI::App& app) {
     logging::setup(logging::Sink::stderr_only, cfg.logging.level == "info" ? "warn" : cfg.logging.level);
     daemon::PipelineResult r;
     try {
+      acquisition::require_capture_file(opt->capture);  // before the database is touched
       r = daemon::run_pipeline(cfg, daemon::PipelineMode::replay);
     } catch (const std::exception& e) {
       throw CommandError(e.what());
@@ -39,14 +41,19 @@ void register_replay(CLI::App& app) {
                        {"samples", r.samples}, {"lost_samples", r.lost_samples}, {"end_reason", r.end_reason},
                        {"records_already_stored", r.records_already_stored}};
       std::cout << j.dump(1) << "\n";
-    } else {
+    } else if (r.exit_status == 0) {
       std::cout << "replayed " << opt->capture << " into " << opt->db << " (run " << r.run_id << "): " << r.frames
                 << " frames, " << r.samples << " samples, " << r.records << " records (" << r.records_analysed
                 << " analysed), " << r.lost_samples << " samples lost";
       if (r.records_already_stored > 0) std::cout << "; " << r.records_already_stored << " records already stored by an earlier replay of it, skipped";
       std::cout << "\n";
     }
-    if (r.exit_status != 0) throw CommandError("replay failed: " + (r.end_reason.empty() ? "storage failure" : r.end_reason), r.exit_status);
+    // A replay that failed says so, and only so: what it stored before failing is in the message.
+    if (r.exit_status != 0)
+      throw CommandError("replay of " + opt->capture + " failed: " + (r.end_reason.empty() ? "storage failure" : r.end_reason) +
+                             " (" + std::to_string(r.records) + " records from " + std::to_string(r.frames) +
+                             " frames stored before it, run " + std::to_string(r.run_id) + ")",
+                         r.exit_status);
   });
 }
 

@@ -183,7 +183,7 @@ Record first_record(const std::string& capture, const config::GearwatchConfig& c
   acq::RecordAssembler assembler(cfg.rig, {[&](Record&& r, bool ok) {
                                              if (ok && !found) found = std::move(r);
                                            },
-                                           {}, {}, {}, {}});
+                                           {}, {}, {}, {}, {}});
   acq::ProtocolDecoder decoder = daemon::make_decoder(cfg, [&](const acq::AcquisitionEvent& e) { assembler.consume(e); });
   std::ifstream in(capture, std::ios::binary);
   if (!in) throw CommandError("cannot open capture " + capture);

@@ -240,6 +240,16 @@ StoredModel load_model(const std::string& database_path) {
   return out;
 }
 
+wear::RmsSaSimulator rms_sa_simulator_at_record_rate(const twin::GearboxParameters& params, const config::GearwatchConfig& config,
+                                                     const double& rate_hz) {
+  return [params, rig = config.rig, processing = config.processing, revolutions = config.model.simulation_revolutions,
+          &rate_hz](const wear::WearState& state, const twin::OperatingPoint& op) {
+    RigSpec at_rate = rig;
+    if (rate_hz > 0) at_rate.sample_rate_hz = rate_hz;
+    return wear::twin_rms_sa_simulator(params, at_rate, processing, revolutions)(state, op);
+  };
+}
+
 ModelThread::ModelThread(const config::GearwatchConfig& config, storage::StorageWriter& writer, bool lossless, GapHooks gap)
     : config_(config), writer_(writer), lossless_(lossless), gap_(std::move(gap)) {}
 
@@ -254,8 +264,9 @@ void ModelThread::start() {
                                              ? config::load_twin_parameters(config_.source_path)
                                              : twin::GearboxParameters{};
   const wear::ModelSettings settings = model_settings(config_);
-  const wear::RmsSaSimulator simulator =
-      wear::twin_rms_sa_simulator(params, config_.rig, config_.processing, config_.model.simulation_revolutions);
+  // Built for each record at its rate; built once here so a bad model.simulation_revolutions stops the start.
+  (void)wear::twin_rms_sa_simulator(params, config_.rig, config_.processing, config_.model.simulation_revolutions);
+  const wear::RmsSaSimulator simulator = rms_sa_simulator_at_record_rate(params, config_, record_rate_hz_);
   StoredModel stored = load_model(config_.storage.database);
   backlog_ = stored_backlog(config_.storage.database, config_);
   if (!backlog_.empty())
@@ -384,6 +395,7 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   msg.stored_record_id = input.stored_record_id;
   msg.skipped_records = skipped;
   msg.skipped_record_ids = skipped_ids;
+  record_rate_hz_ = input.sample_rate_hz;
   try {
     msg.report = model_->observe(input.observation, inspections);
   } catch (const std::exception& e) {

@@ -35,6 +35,8 @@ struct ModelInput {
   std::uint64_t stream_sequence = 0;
   std::uint64_t start_index = 0;
   wear::ModelObservation observation;
+  /// The record's own sample rate (its stream header's): the twin simulates its RMS_SA at it.
+  double sample_rate_hz = 0;
   /// The record's samples, for the periodic gap diagnosis (only when gap.enabled).
   std::shared_ptr<const Record> samples;
   /// Set for a record an earlier process stored and the model had not handled (read back at start).
@@ -68,6 +70,11 @@ struct StoredModel {
   std::map<AlertKey, AlertState> alerts;
   std::string problem;   ///< why a stored state could not be used ("" = fine)
 };
+
+/// The twin's RMS_SA at the sample rate of the record being handled (`rate_hz`, read at each call;
+/// the configured rig.sample_rate_hz while it is 0).
+wear::RmsSaSimulator rms_sa_simulator_at_record_rate(const twin::GearboxParameters& params, const config::GearwatchConfig& config,
+                                                     const double& rate_hz);
 StoredModel load_model(const std::string& database_path);
 
 struct ModelCounters {
@@ -112,6 +119,7 @@ class ModelThread {
   ModelCounters counters_;
   std::unique_ptr<wear::TwinModel> model_;
   std::int64_t gear_pair_ = 0;
+  double record_rate_hz_ = 0;  ///< sample rate of the record being handled (model thread only)
   AlertTracker alerts_;
   GapHooks gap_;
   std::optional<GapSchedule> gap_schedule_;

@@ -127,6 +127,16 @@ void require_writable_database(const std::string& path) {
                              ": SQLite needs to create the database's -wal and -shm files there");
 }
 
+std::string sample_rate_message(const acq::StreamInfo& s, double configured_hz) {
+  const std::string rate = std::to_string(s.sample_rate_hz) + " Hz";
+  char configured[32];
+  std::snprintf(configured, sizeof configured, "%.10g Hz", configured_hz);
+  if (static_cast<double>(s.sample_rate_hz) == configured_hz)
+    return "stream " + std::to_string(s.stream_id) + ": sample rate " + rate + " as configured";
+  return "stream " + std::to_string(s.stream_id) + ": the header's sample rate " + rate + " differs from rig.sample_rate_hz = " +
+         configured + "; its samples are analysed at " + rate;
+}
+
 // The spdlog level a command runs at: replay is quiet at "info" (its summary is on stdout).
 std::string effective_level(const std::string& level, PipelineMode mode) {
   return mode == PipelineMode::replay && level == "info" ? "warn" : level;
@@ -331,6 +341,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
             std::optional<ModelInput> model_in;
             if (model && analysable) {
               model_in = model_input(result, config);
+              model_in->sample_rate_hz = r.sample_rate_hz;  // the twin's counterpart at the stream's rate
               if (config.gap.enabled) model_in->samples = std::make_shared<const Record>(std::move(r));
             }
             writer.submit(std::move(result));  // first: the model's row refers to the stored record
@@ -343,6 +354,12 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
             current_stream_id = s.stream_id;
             spdlog::info("stream {} started: {} Hz, {} channels announced", s.stream_id, s.sample_rate_hz, s.channel_count);
             writer.submit(storage::StreamStarted{s.sequence, s.stream_id, s.sample_rate_hz, s.channel_count});
+            // The header is the truth for its samples: they are analysed at its rate. A configuration
+            // that says otherwise is reported once per stream.
+            const std::string rate_message = sample_rate_message(s, config.rig.sample_rate_hz);
+            if (static_cast<double>(s.sample_rate_hz) != config.rig.sample_rate_hz) spdlog::warn("{}", rate_message);
+            auto rate_update = processor.stream_sample_rate(s.sample_rate_hz, rate_message);
+            if (!rate_update.alerts.empty() || !rate_update.alert_states.empty()) writer.submit(std::move(rate_update));
           },
           [&](const acq::GapInfo& g) {
             if (resume.before_resume_point(current_sequence, current_stream_id, g.first_missing)) return;
@@ -369,9 +386,24 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
               case acq::ChannelStatus::resumed:
                 message += "frames back at sample " + std::to_string(c.index) + " — in the records again from the next one";
                 break;
+              case acq::ChannelStatus::silent:
+                message += "announced by the stream but no frame of it since sample " + std::to_string(c.index) +
+                           " while the tacho went on — no records until it delivers";
+                break;
             }
             bad_input_log.warn("sensor", message);
             auto update = processor.sensor_presence(c.channel, present, acq::to_string(c.status), message);
+            if (!update.alerts.empty() || !update.alert_states.empty()) writer.submit(std::move(update));
+          },
+          [&](const acq::TachoStatusChange& t) {
+            const bool present = t.status == acq::TachoStatus::resumed;
+            const std::string message =
+                "tacho of shaft " + std::to_string(t.shaft) +
+                (present ? ": edges back at sample " + std::to_string(t.index)
+                         : ": no edge since sample " + std::to_string(t.index) +
+                               " while the samples go on — order-domain indicators and cycle counts need it");
+            bad_input_log.warn("tacho", message);
+            auto update = processor.tacho_presence(t.shaft, present, acq::to_string(t.status), message);
             if (!update.alerts.empty() || !update.alert_states.empty()) writer.submit(std::move(update));
           }});
 

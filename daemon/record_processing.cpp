@@ -94,6 +94,36 @@ storage::AlertUpdate RecordProcessor::sensor_presence(int channel, bool present,
   return u;
 }
 
+storage::AlertUpdate RecordProcessor::tacho_presence(int shaft, bool present, const std::string& how,
+                                                     const std::string& message) {
+  storage::AlertUpdate u;
+  // Definite like a channel's presence: the assembler already waited two edge intervals.
+  if (auto e = alerts_.observe(AlertKey{AlertKind::tacho_missing, shaft}, !present, how, message, AlertHysteresis{1, 1}))
+    u.alerts.push_back(std::move(*e));
+  u.alert_states = alerts_.take_changed();
+  return u;
+}
+
+storage::AlertUpdate RecordProcessor::stream_sample_rate(std::uint32_t stream_rate_hz, const std::string& message) {
+  storage::AlertUpdate u;
+  const bool differs = static_cast<double>(stream_rate_hz) != config_.rig.sample_rate_hz;
+  if (auto e = alerts_.observe(AlertKey{AlertKind::sample_rate_mismatch, -1}, differs, std::to_string(stream_rate_hz), message,
+                               AlertHysteresis{1, 1}))
+    u.alerts.push_back(std::move(*e));
+  u.alert_states = alerts_.take_changed();
+  return u;
+}
+
+void RecordProcessor::observe_cycle_count(const Record& record, storage::RecordResult& out) {
+  // Only a record that has a count, or had one refused, tells whether the count is sound.
+  const bool fault = record.cycle_fault != CycleCountFault::none;
+  if (!fault && !record.input_revolutions) return;
+  const std::string message = fault ? record.cycle_fault_detail : "input revolutions consistent with the tacho and the speed frame again";
+  if (auto e = alerts_.observe(AlertKey{AlertKind::cycle_count_fault, -1}, fault, to_string(record.cycle_fault), message,
+                               AlertHysteresis{1, 1}))
+    out.alerts.push_back(std::move(*e));
+}
+
 void RecordProcessor::observe_channel_alerts(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out) {
   const AlertHysteresis sensor{1, config_.alerts.sensor_clear_after_records};
   bool flat_line = false, clipped = false;
@@ -173,9 +203,11 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
   out.torque_nm = record.torque_nm;
   out.speed_hz = record.speed_hz;
   out.input_revolutions = record.input_revolutions;
+  observe_cycle_count(record, out);
   if (!analysable) {
     out.reject_reason = record.end == RecordEnd::cut_at_gap ? "shorter than records.min_length_s after a gap"
                                                              : "shorter than records.min_length_s at stream end";
+    out.alert_states = alerts_.take_changed();
     return out;
   }
   for (std::size_t c = 0; c < record.channels.size(); ++c) {
@@ -196,6 +228,8 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
     check_thresholds(channel, a, out);
     // Wear mechanism over the history of this gear pair (needs a place in its life).
     if (record.input_revolutions) assess_wear(channel, *record.input_revolutions, a, out);
+    else if (record.cycle_fault != CycleCountFault::none)
+      ch.skipped.push_back({"wear_mechanism", dsp::to_string(dsp::SkipReason::cycle_count_fault), record.cycle_fault_detail});
     else ch.skipped.push_back({"wear_mechanism", dsp::to_string(dsp::SkipReason::no_life_counter), ""});
     out.channels.push_back(std::move(ch));
   }

@@ -40,10 +40,16 @@ class RecordProcessor {
   /// A configured channel the stream does not carry, or whose frames stopped (present = false),
   /// or that came back (present = true). `how` says which ("missing_from_stream", "stopped").
   storage::AlertUpdate sensor_presence(int channel, bool present, const std::string& how, const std::string& message);
+  /// A configured tacho whose edges stopped while the samples go on (present = false), or came back.
+  storage::AlertUpdate tacho_presence(int shaft, bool present, const std::string& how, const std::string& message);
+  /// A new stream: its header's sample rate against rig.sample_rate_hz (raised when they differ,
+  /// cleared by a stream at the configured rate). The stream's own rate is used either way.
+  storage::AlertUpdate stream_sample_rate(std::uint32_t stream_rate_hz, const std::string& message);
   const WearHistory& history() const noexcept { return history_; }
   const AlertTracker& alerts() const noexcept { return alerts_; }
 
  private:
+  void observe_cycle_count(const Record& record, storage::RecordResult& out);
   void observe_channel_alerts(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
   void assess_wear(int channel, double cycles, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
   void check_thresholds(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);

@@ -28,7 +28,7 @@ struct Stream {
         rig, RecordAssembler::Callbacks{[this](Record&& r, bool ok) { records.emplace_back(std::move(r), ok); },
                                         [this](const StreamInfo& s) { streams.push_back(s); },
                                         [this](const GapInfo& g) { gaps.push_back(g); }, {},
-                                        [this](const ChannelStatusChange& c) { statuses.push_back(c); }});
+                                        [this](const ChannelStatusChange& c) { statuses.push_back(c); }, {}});
   }
   void start(std::uint16_t id = 1, std::uint8_t channel_count = 2) {
     AcquisitionEvent e;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 namespace gearwatch::acquisition {
@@ -15,8 +16,13 @@ const char* to_string(ChannelStatus status) noexcept {
     case ChannelStatus::missing_from_stream: return "missing_from_stream";
     case ChannelStatus::stopped: return "stopped";
     case ChannelStatus::resumed: return "resumed";
+    case ChannelStatus::silent: return "silent";
   }
   return "unknown";
+}
+
+const char* to_string(TachoStatus status) noexcept {
+  return status == TachoStatus::resumed ? "resumed" : "missing";
 }
 
 RecordAssembler::RecordAssembler(const RigSpec& rig, Callbacks callbacks) : rig_(rig), callbacks_(std::move(callbacks)) {
@@ -41,18 +47,9 @@ void RecordAssembler::consume(const AcquisitionEvent& e) {
     case EventKind::samples:
       on_samples(e);
       break;
-    case EventKind::tacho_edge: {
-      if (e.channel >= kMaxShafts) break;
-      auto& q = edges_[e.channel];
-      q.push_back(static_cast<double>(e.index) + e.fraction);
-      // Keep only what a record can still need: edges from the record in progress on.
-      const double keep_from = static_cast<double>(open_.active ? open_.start : next_start_.value_or(0));
-      while (!q.empty() && q.front() < keep_from && q.size() > 1) q.pop_front();
-      // The odometer already includes a revolution completed at its own index.
-      if (e.channel == input_tacho_shaft_ && (!life_index_ || static_cast<double>(e.index) + e.fraction > static_cast<double>(*life_index_)))
-        ++edges_since_life_;
+    case EventKind::tacho_edge:
+      on_tacho_edge(e);
       break;
-    }
     case EventKind::condition:
       torque_ = e.condition.torque_nm;
       speed_ = e.condition.speed_hz;
@@ -64,6 +61,7 @@ void RecordAssembler::consume(const AcquisitionEvent& e) {
       edges_since_life_ = 0;
       break;
     case EventKind::life_counter_reset:
+      last_revolutions_.reset();  // a new gear pair counts from its own start
       if (callbacks_.on_life_counter_reset)
         callbacks_.on_life_counter_reset({e.index, e.life.previous_revolutions, e.life.revolutions});
       break;
@@ -74,6 +72,66 @@ void RecordAssembler::consume(const AcquisitionEvent& e) {
       if (callbacks_.on_gap) callbacks_.on_gap({e.channel, e.index, e.missing, GapCause::protocol});
       break;
     }
+  }
+}
+
+void RecordAssembler::on_tacho_edge(const AcquisitionEvent& e) {
+  if (!in_stream_ || e.channel >= kMaxShafts) return;
+  auto& q = edges_[e.channel];
+  q.push_back(static_cast<double>(e.index) + e.fraction);
+  // Keep only what a record can still need: edges from the record in progress on.
+  const double keep_from = static_cast<double>(open_.active ? open_.start : next_start_.value_or(0));
+  while (!q.empty() && q.front() < keep_from && q.size() > 1) q.pop_front();
+  // The odometer already includes a revolution completed at its own index.
+  if (e.channel == input_tacho_shaft_ && (!life_index_ || static_cast<double>(e.index) + e.fraction > static_cast<double>(*life_index_)))
+    ++edges_since_life_;
+  last_edge_[e.channel] = e.index;
+  if (tacho_missing_[e.channel]) {
+    tacho_missing_[e.channel] = false;
+    if (callbacks_.on_tacho_status) callbacks_.on_tacho_status({e.channel, TachoStatus::resumed, e.index});
+  }
+  note_progress(e.index, e.index);
+  check_silent_channels();
+}
+
+void RecordAssembler::note_progress(std::uint64_t first, std::uint64_t last) {
+  if (!stream_origin_) stream_origin_ = first;
+  latest_index_ = std::max(latest_index_, last);
+}
+
+void RecordAssembler::check_silent_channels() {
+  // Between channels, place_samples sees one fall behind the others. When none delivers at all,
+  // only the tacho's clock shows the stream going on without them. They are reported, and the
+  // record in progress waits as before: when samples come back, a gap cuts it as usual.
+  bool any_active = false;
+  for (std::size_t slot = 0; slot < rig_.channels.size(); ++slot) {
+    if (slot_state_[slot] != SlotState::active || silence_reported_[slot]) continue;
+    any_active = true;
+    if (latest_index_ <= next_seen_[slot].value_or(*stream_origin_) + slack_) return;
+  }
+  if (!any_active) return;
+  for (std::size_t slot = 0; slot < rig_.channels.size(); ++slot) {
+    if (slot_state_[slot] != SlotState::active || silence_reported_[slot]) continue;
+    silence_reported_[slot] = true;
+    ++counters_.channels_stopped;
+    const auto status = next_seen_[slot] ? ChannelStatus::stopped : ChannelStatus::silent;
+    if (callbacks_.on_channel_status)
+      callbacks_.on_channel_status({rig_.channels[slot].number, status, next_seen_[slot].value_or(*stream_origin_)});
+  }
+}
+
+void RecordAssembler::check_tachos() {
+  // A gearbox at rest (the speed frame below the rig's range) has no edges to miss.
+  if (have_condition_ && !(speed_ >= rig_.min_speed_hz)) return;
+  for (const auto& t : rig_.tachos) {
+    if (t.shaft < 0 || t.shaft >= kMaxShafts) continue;
+    const auto shaft = static_cast<std::size_t>(t.shaft);
+    if (tacho_missing_[shaft]) continue;
+    const std::uint64_t since = last_edge_[shaft].value_or(*stream_origin_);
+    if (latest_index_ <= since + tacho_silence_limit_[shaft]) continue;
+    tacho_missing_[shaft] = true;
+    ++counters_.tachos_missing;
+    if (callbacks_.on_tacho_status) callbacks_.on_tacho_status({t.shaft, TachoStatus::missing, since});
   }
 }
 
@@ -89,6 +147,20 @@ void RecordAssembler::on_stream_start(const AcquisitionEvent& e) {
   interval_ = std::max(length_, static_cast<std::size_t>(std::llround(rig_.schedule.interval_s * fs)));
   min_length_ = static_cast<std::size_t>(std::llround(rig_.schedule.min_length_s * fs));
   slack_ = static_cast<std::size_t>(fs);  // a channel more than 1 s behind the others has stopped
+  for (const auto& t : rig_.tachos) {
+    if (t.shaft < 0 || t.shaft >= kMaxShafts) continue;
+    // Two edge intervals at the slowest speed the rig runs at, and never less than the slack.
+    const double edge_hz = rig_.min_speed_hz * t.ratio_to_input * std::max(1, t.edges_per_rev);
+    const double limit = edge_hz > 0 ? std::ceil(2.0 * fs / edge_hz) : 0.0;
+    tacho_silence_limit_[static_cast<std::size_t>(t.shaft)] =
+        std::max<std::uint64_t>(slack_, limit < 1e15 ? static_cast<std::uint64_t>(limit) : std::uint64_t{1'000'000'000'000'000});
+  }
+  stream_origin_.reset();
+  latest_index_ = 0;
+  last_edge_.fill(std::nullopt);
+  silence_reported_.fill(false);
+  last_revolutions_.reset();
+  edge_rate_fault_.clear();
   next_start_.reset();
   scheduled_start_.reset();
   gap_end_ = 0;
@@ -111,6 +183,10 @@ void RecordAssembler::on_stream_start(const AcquisitionEvent& e) {
 
 void RecordAssembler::set_slot_state(std::size_t slot, SlotState state, ChannelStatus status, std::uint64_t index) {
   slot_state_[slot] = state;
+  if (status == ChannelStatus::stopped && silence_reported_[slot]) {
+    silence_reported_[slot] = false;  // already reported by the tacho's clock; the slot state tracks it now
+    return;
+  }
   if (status == ChannelStatus::stopped) ++counters_.channels_stopped;
   if (callbacks_.on_channel_status) callbacks_.on_channel_status({rig_.channels[slot].number, status, index});
 }
@@ -170,6 +246,12 @@ void RecordAssembler::on_samples(const AcquisitionEvent& e) {
     gap_end_ = std::max(gap_end_, e.index);
   }
   next_seen_[s] = e.index + e.count;
+  note_progress(e.index, e.index + e.count);
+  check_tachos();
+  if (silence_reported_[s]) {
+    silence_reported_[s] = false;
+    if (callbacks_.on_channel_status) callbacks_.on_channel_status({e.channel, ChannelStatus::resumed, e.index});
+  }
   if (slot_state_[s] == SlotState::absent) set_slot_state(s, SlotState::rejoining, ChannelStatus::resumed, e.index);
   if (slot_state_[s] == SlotState::rejoining && open_.active) {
     pending_[s].push_back(e);  // for the next record; what falls before its start is dropped there
@@ -297,6 +379,7 @@ void RecordAssembler::finalize(RecordEnd end) {
       if (edge > lo && edge <= static_cast<double>(*life_index_)) ++between;
     r.input_revolutions = static_cast<double>(*life_revolutions_) - static_cast<double>(between) / input_edges_per_rev_;
   }
+  check_cycle_count(r);
   const bool analysable = n >= min_length_ && n > 0;
   if (!analysable) ++counters_.records_rejected;
   else if (end == RecordEnd::complete) ++counters_.records_complete;
@@ -315,6 +398,43 @@ void RecordAssembler::finalize(RecordEnd end) {
   open_.active = false;
   open_.buffers.clear();
   if (callbacks_.on_record) callbacks_.on_record(std::move(r), analysable);
+}
+
+void RecordAssembler::check_cycle_count(Record& r) {
+  if (!r.input_revolutions) return;
+  char detail[320];
+  const double revolutions = *r.input_revolutions;
+  // The tacho against the speed frame: a wrong edges_per_rev scales every count made from it.
+  // A record too short (or too slow) to hold two edges keeps the verdict of the stream's last one.
+  if (input_tacho_shaft_ >= 0 && open_.have_condition && open_.speed >= rig_.min_speed_hz) {
+    const auto& edges = r.tacho_edges[static_cast<std::size_t>(input_tacho_shaft_)];
+    if (edges.size() >= 2 && edges.back() > edges.front()) {
+      const double tacho_hz = static_cast<double>(edges.size() - 1) / input_edges_per_rev_ /
+                              ((edges.back() - edges.front()) / r.sample_rate_hz);
+      edge_rate_fault_.clear();
+      if (std::abs(tacho_hz / open_.speed - 1.0) > kEdgeRateTolerance) {
+        std::snprintf(detail, sizeof detail,
+                      "input tacho gives %.6g Hz with edges_per_rev = %d, the speed frame %.6g Hz (more than %.0f%% apart)",
+                      tacho_hz, input_edges_per_rev_, static_cast<double>(open_.speed), kEdgeRateTolerance * 100.0);
+        edge_rate_fault_ = detail;
+      }
+    }
+  }
+  if (!edge_rate_fault_.empty()) {
+    std::snprintf(detail, sizeof detail, "%s: revolutions %.10g not used", edge_rate_fault_.c_str(), revolutions);
+    r.cycle_fault = CycleCountFault::edge_rate_mismatch;
+  } else if (revolutions < 0.0 || (last_revolutions_ && revolutions < *last_revolutions_)) {
+    std::snprintf(detail, sizeof detail, "input revolutions %.10g at the record's start, %.10g at the previous record's in this stream: not used",
+                  revolutions, last_revolutions_.value_or(0.0));
+    r.cycle_fault = CycleCountFault::went_backwards;
+  }
+  if (r.cycle_fault == CycleCountFault::none) {
+    last_revolutions_ = revolutions;
+    return;
+  }
+  ++counters_.cycle_count_faults;
+  r.cycle_fault_detail = detail;
+  r.input_revolutions.reset();  // a count that failed its check must not place the record in the pair's life
 }
 
 void RecordAssembler::finish() {

@@ -15,6 +15,9 @@ const char* to_string(AlertKind kind) noexcept {
     case AlertKind::indicator_threshold: return "indicator_threshold";
     case AlertKind::remaining_life: return "remaining_life";
     case AlertKind::twin_drift: return "twin_drift";
+    case AlertKind::tacho_missing: return "tacho_missing";
+    case AlertKind::cycle_count_fault: return "cycle_count_fault";
+    case AlertKind::sample_rate_mismatch: return "sample_rate_mismatch";
   }
   return "unknown";
 }
@@ -52,6 +55,11 @@ AlertSeverity severity_of(AlertKind kind) noexcept {
     // The twin no longer explains part of the spectrum: its wear inferences need a look, the
     // gearbox itself is not in danger because of it.
     case AlertKind::twin_drift: return AlertSeverity::warning;
+    // Without the tacho no order-domain indicator and no wear verdict: as blind as a dead accelerometer.
+    case AlertKind::tacho_missing: return AlertSeverity::alarm;
+    // The records go on being analysed; only their place in the pair's life is unknown.
+    case AlertKind::cycle_count_fault: return AlertSeverity::warning;
+    case AlertKind::sample_rate_mismatch: return AlertSeverity::warning;
   }
   return AlertSeverity::warning;
 }

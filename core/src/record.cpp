@@ -13,6 +13,15 @@ const char* to_string(RecordEnd end) noexcept {
   return "unknown";
 }
 
+const char* to_string(CycleCountFault fault) noexcept {
+  switch (fault) {
+    case CycleCountFault::none: return "none";
+    case CycleCountFault::edge_rate_mismatch: return "edge_rate_mismatch";
+    case CycleCountFault::went_backwards: return "went_backwards";
+  }
+  return "unknown";
+}
+
 Record single_channel_record(std::vector<float> samples, std::vector<double> input_tacho_edges, double sample_rate_hz,
                              double speed_hz, double torque_nm, int channel_number) {
   Record r;

@@ -115,6 +115,8 @@ def build_parser():
     p.add_argument("--start-revs", type=int, default=0, help="life counter (input revolutions) at the first sample")
     p.add_argument("--tacho-phase", type=float, default=0.31415926535,
                    help="revolutions from the first sample to the first tacho edge, in [0, 1)")
+    p.add_argument("--tacho-edges-per-rev", type=int, default=1,
+                   help="tacho edges per revolution of the input shaft, evenly spaced from the first")
     p.add_argument("--status-period", type=float, default=1.0,
                    help="at most this many seconds between stream header / operating condition / life counter frames (<= 1)")
     p.add_argument("--start-time", type=float, default=1700000000.0, help="log timestamp of the first sample (epoch s)")
@@ -329,6 +331,8 @@ def validate(args):
         raise GeneratorError("--duration, --speed, --scale and --pinion-teeth must be positive")
     if not 0 <= args.tacho_phase < 1:
         raise GeneratorError("--tacho-phase must be in [0, 1)")
+    if args.tacho_edges_per_rev < 1:
+        raise GeneratorError("--tacho-edges-per-rev must be at least 1")
     if not 0 < args.status_period <= 1:
         raise GeneratorError("--status-period must be in (0, 1] s: the protocol wants these frames at least once a second")
     if not 0 <= args.first_index < INDEX_MODULUS or not 0 <= args.stream_id < (1 << 16):
@@ -452,9 +456,11 @@ def generate(args):
         if c in saturated:
             saturated[c] = {"samples": len(saturated[c]), "sent": int(np.count_nonzero(sent[saturated[c] // per_frame]))}
 
-    # Tacho edges of the input shaft (shaft 0, one per revolution), at fractional sample positions.
-    edge_count = int(math.floor((n - 1) / samples_per_rev - args.tacho_phase)) + 1 if (n - 1) / samples_per_rev >= args.tacho_phase else 0
-    edge_pos = (np.arange(edge_count) + args.tacho_phase) * samples_per_rev
+    # Tacho edges of the input shaft (shaft 0, E per revolution: edge j at angle j / E), at
+    # fractional sample positions.
+    per_rev = args.tacho_edges_per_rev
+    edge_count = int(math.floor(((n - 1) / samples_per_rev - args.tacho_phase) * per_rev)) + 1 if (n - 1) / samples_per_rev >= args.tacho_phase else 0
+    edge_pos = (np.arange(edge_count) / per_rev + args.tacho_phase) * samples_per_rev
     edge_whole = np.floor(edge_pos).astype(np.int64)
     edge_frac = np.minimum(np.floor((edge_pos - edge_whole) * INDEX_MODULUS), INDEX_MODULUS - 1).astype(np.uint64)
     tacho = np.empty(edge_count, dtype=[("index", "<u4"), ("frac", "<u4")])
@@ -482,7 +488,8 @@ def generate(args):
         condition["index"] = index_of(status)
     add(candump_rows(time_us(status), OPERATING_CONDITION_ID, condition.view(np.uint8), args.fd, args.interface),
         status, PRIORITY_CONDITION, np.zeros(len(status)), OPERATING_CONDITION_ID, len(status))
-    life_values = [args.start_revs + int(e) for e in np.searchsorted(edge_pos, status, side="left")]
+    # Whole revolutions: every E-th edge (0, E, 2E, ...) strictly before the position completes one.
+    life_values = [args.start_revs + (int(e) + per_rev - 1) // per_rev for e in np.searchsorted(edge_pos, status, side="left")]
     life = np.array(life_values, dtype="<u8")
     add(candump_rows(time_us(status), LIFE_COUNTER_ID, life.view(np.uint8), args.fd, args.interface),
         status, PRIORITY_LIFE, np.zeros(len(status)), LIFE_COUNTER_ID, len(status))
@@ -515,6 +522,7 @@ def generate(args):
         "gaps": gaps,
         "streams": streams,
         "tacho_edges": edge_count,
+        "tacho_edges_per_rev": per_rev,
         "tacho_first_edge_sample": float(edge_pos[0]) if edge_count else None,
         "status_samples": [int(s) for s in status],
         "life_counter_values": life_values,

@@ -23,6 +23,14 @@ enum class RecordEnd : std::uint8_t {
 const char* to_string(RecordEnd end) noexcept;
 inline constexpr std::array kAllRecordEnds{RecordEnd::complete, RecordEnd::cut_at_gap, RecordEnd::stream_end};
 
+/// Why a record's input revolutions failed the assembler's check (they are then not used).
+enum class CycleCountFault : std::uint8_t {
+  none = 0,
+  edge_rate_mismatch = 1,  ///< the input tacho's speed (edges / edges_per_rev) disagrees with the speed frame
+  went_backwards = 2,      ///< below zero, or below the previous record's count in the same stream
+};
+const char* to_string(CycleCountFault fault) noexcept;
+
 struct Record {
   std::int64_t stream_key = 0;        ///< database id of the stream (0 when not stored)
   std::uint16_t stream_id = 0;        ///< protocol stream id (header frame)
@@ -39,6 +47,9 @@ struct Record {
   /// Input-shaft revolutions since the pair was installed, at the first sample (life counter
   /// plus revolutions counted from the tacho since the last life-counter frame).
   std::optional<double> input_revolutions;
+  /// Set when input_revolutions failed the check; `cycle_fault_detail` says why, with the numbers.
+  CycleCountFault cycle_fault = CycleCountFault::none;
+  std::string cycle_fault_detail;
 
   std::size_t sample_count() const noexcept { return channels.empty() ? 0 : channels.front().size(); }
   double duration_s() const noexcept { return sample_rate_hz > 0 ? sample_count() / sample_rate_hz : 0.0; }

@@ -25,6 +25,7 @@ const char* to_string(SkipReason reason) noexcept {
     case SkipReason::analysis_error: return "analysis_error";
     case SkipReason::not_computed: return "not_computed";
     case SkipReason::no_life_counter: return "no_life_counter";
+    case SkipReason::cycle_count_fault: return "cycle_count_fault";
   }
   return "unknown";
 }

@@ -6,7 +6,13 @@
 // schedule continues. A configured channel that the stream does not announce, or whose frames
 // stop for more than the slack (1 s), is left out of the records (reported through
 // on_channel_status) while the other channels' records go on; it rejoins at the next record
-// after its frames come back.
+// after its frames come back. When no channel delivers at all, the tacho's edges show the stream
+// going on without them: every channel is reported silent (or stopped) once the edges are more
+// than the slack past its last sample, and resumed at its next samples. A configured tacho whose edges stop while the samples go
+// on is reported missing (on_tacho_status), and back when its edges return.
+// A record's input revolutions are checked before they leave: the input tacho's speed must agree
+// with the speed frame (kEdgeRateTolerance) and the count must not go backwards within a stream;
+// a record that fails carries no revolutions, only the reason (Record::cycle_fault).
 // Deterministic: the same event sequence always gives the same records, which is what lets a
 // live run and a replay of its capture produce identical databases.
 #include <array>
@@ -50,11 +56,12 @@ struct LifeCounterReset {
 /// A configured channel's presence in the stream changed.
 enum class ChannelStatus : std::uint8_t {
   missing_from_stream,  ///< the stream header announces fewer channels than this channel's number
-  stopped,              ///< its frames stopped: more than the slack (1 s) behind the other channels
+  stopped,              ///< its frames stopped: more than the slack (1 s) behind the other channels or the tacho
   resumed,              ///< its frames came back; it is in records again from the next one
+  silent,               ///< announced, but no frame of it in this stream while the tacho went on for more than the slack
 };
 inline constexpr std::array kAllChannelStatuses{ChannelStatus::missing_from_stream, ChannelStatus::stopped,
-                                                ChannelStatus::resumed};
+                                                ChannelStatus::resumed, ChannelStatus::silent};
 const char* to_string(ChannelStatus status) noexcept;
 
 struct ChannelStatusChange {
@@ -63,6 +70,25 @@ struct ChannelStatusChange {
   std::uint64_t index = 0;          ///< sample index where it was noticed (stream start, last sample held, first sample back)
 };
 
+/// A configured tacho's edges stopped while the samples went on, or came back.
+enum class TachoStatus : std::uint8_t {
+  missing,  ///< no edge for longer than two edge intervals at rig.min_speed_hz (at least the slack) while samples arrive
+  resumed,  ///< its edges came back
+};
+inline constexpr std::array kAllTachoStatuses{TachoStatus::missing, TachoStatus::resumed};
+const char* to_string(TachoStatus status) noexcept;
+
+struct TachoStatusChange {
+  int shaft = 0;                    ///< protocol shaft number
+  TachoStatus status = TachoStatus::missing;
+  std::uint64_t index = 0;          ///< its last edge (or the stream's first index) when missing; the edge when resumed
+};
+
+/// Largest relative difference allowed between the input tacho's speed over a record (edges /
+/// edges_per_rev / time) and the speed frame's: above a motor's slip under load and a record's
+/// speed variation, below the error of an edges_per_rev that is wrong by one in ten.
+inline constexpr double kEdgeRateTolerance = 0.1;
+
 struct AssemblerCounters {
   std::uint64_t records_complete = 0;
   std::uint64_t records_cut = 0;      ///< cut at a gap or stream end, analysed
@@ -70,7 +96,9 @@ struct AssemblerCounters {
   std::uint64_t ring_gaps = 0;        ///< discontinuities caused by ring overflow
   std::uint64_t ring_gap_samples = 0;
   std::uint64_t records_restarted_after_gap = 0;  ///< records started right after a gap that cut a too-short one
-  std::uint64_t channels_stopped = 0;             ///< channels cut out of records because their frames stopped
+  std::uint64_t channels_stopped = 0;             ///< channels cut out of records because their frames stopped (or never came)
+  std::uint64_t tachos_missing = 0;               ///< times a configured tacho's edges stopped while samples went on
+  std::uint64_t cycle_count_faults = 0;           ///< records whose revolutions failed their check (not used)
 };
 
 class RecordAssembler {
@@ -82,6 +110,7 @@ class RecordAssembler {
     std::function<void(const GapInfo&)> on_gap;
     std::function<void(const LifeCounterReset&)> on_life_counter_reset;
     std::function<void(const ChannelStatusChange&)> on_channel_status;
+    std::function<void(const TachoStatusChange&)> on_tacho_status;
   };
 
   RecordAssembler(const RigSpec& rig, Callbacks callbacks);
@@ -113,6 +142,11 @@ class RecordAssembler {
   void finalize(RecordEnd end);
   std::size_t filled_min() const noexcept;
   void set_slot_state(std::size_t slot, SlotState state, ChannelStatus status, std::uint64_t index);
+  void note_progress(std::uint64_t first, std::uint64_t last);
+  void on_tacho_edge(const AcquisitionEvent& e);
+  void check_silent_channels();
+  void check_tachos();
+  void check_cycle_count(Record& r);
 
   RigSpec rig_;
   Callbacks callbacks_;
@@ -139,6 +173,15 @@ class RecordAssembler {
   std::optional<std::uint64_t> life_revolutions_;
   std::optional<std::uint64_t> life_index_;
   std::uint64_t edges_since_life_ = 0;
+
+  std::array<bool, 8> silence_reported_{};       ///< per slot: reported by the tacho's clock, not cut out
+  std::optional<std::uint64_t> stream_origin_;  ///< first sample-clock index seen in this stream
+  std::uint64_t latest_index_ = 0;              ///< newest sample-clock index seen in this stream
+  std::array<std::optional<std::uint64_t>, kMaxShafts> last_edge_{};  ///< per shaft, this stream
+  std::array<std::uint64_t, kMaxShafts> tacho_silence_limit_{};       ///< samples without an edge before it is missing
+  std::array<bool, kMaxShafts> tacho_missing_{};  ///< kept across streams: the alarm clears on its next edge
+  std::optional<double> last_revolutions_;        ///< the previous record's checked count, this stream
+  std::string edge_rate_fault_;                   ///< the stream's last edge-rate check, when it failed
 };
 
 }  // namespace gearwatch::acquisition

@@ -30,6 +30,7 @@ enum class SkipReason {
   analysis_error,         ///< an unexpected failure (detail: its message)
   not_computed,           ///< not reached (should not happen; kept so every name has a reason)
   no_life_counter,        ///< wear_mechanism: the record has no place in the pair's life (no life counter yet)
+  cycle_count_fault,      ///< wear_mechanism: the record's revolutions failed their check (detail: which, with the numbers)
 };
 
 inline constexpr std::array kAllSkipReasons{
@@ -40,6 +41,7 @@ inline constexpr std::array kAllSkipReasons{
     SkipReason::band_empty,         SkipReason::band_below_floor,      SkipReason::residual_below_floor,
     SkipReason::all_bands_below_floor, SkipReason::non_finite_result,  SkipReason::filter_bank_error,
     SkipReason::analysis_error,     SkipReason::not_computed,          SkipReason::no_life_counter,
+    SkipReason::cycle_count_fault,
 };
 
 /// The stored snake_case token, e.g. "no_tacho".
