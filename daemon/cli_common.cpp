@@ -8,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "gearwatch/storage/schema.hpp"
+
 namespace gearwatch::cli {
 
 config::GearwatchConfig load_config_or_defaults(const std::string& path) {
@@ -19,9 +21,58 @@ config::GearwatchConfig load_config_or_defaults(const std::string& path) {
   }
 }
 
-void add_format_option(CLI::App* cmd, std::string& format, const std::string& default_format) {
+void add_format_option(CLI::App* cmd, std::string& format, const std::string& default_format,
+                       const std::vector<std::string>& allowed) {
   format = default_format;
-  cmd->add_option("--format", format, "Output format")->check(CLI::IsMember({"table", "csv", "json"}));
+  cmd->add_option("--format", format, "Output format")->check(CLI::IsMember(allowed));
+}
+
+std::string dump_json(const nlohmann::json& j, int indent) { return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace); }
+
+std::string printable(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte != 0x7f) {
+      out += c;
+      continue;
+    }
+    char escaped[5];
+    std::snprintf(escaped, sizeof escaped, "\\x%02x", byte);
+    out += escaped;
+  }
+  return out;
+}
+
+void require_history(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto status = fs::status(path, ec);
+  if (!fs::exists(status)) throw CommandError("no database at " + path + " (only `run` and `replay` create one)");
+  if (fs::is_directory(status)) throw CommandError(path + " is a directory, not a database");
+  if (fs::is_regular_file(status) && fs::file_size(path, ec) == 0)
+    throw CommandError(path + " is empty: no gearwatch history in it (only `run` and `replay` create one)");
+  try {
+    storage::Database db(path, storage::Database::Mode::read_only);
+    const storage::DatabaseIdentity identity = storage::identify_database(db);
+    storage::refuse_foreign_database(path, identity);
+    if (identity.kind == storage::DatabaseKind::empty)
+      throw CommandError(path + " is an empty database: no gearwatch history in it (only `run` and `replay` create one)");
+  } catch (const storage::ForeignDatabase& e) {
+    throw CommandError(e.what());  // names the path already
+  } catch (const storage::SqliteError& e) {
+    throw CommandError("cannot read " + path + ": " + e.what());
+  }
+}
+
+storage::Database open_history(const std::string& path) {
+  require_history(path);
+  try {
+    return storage::Database(path, storage::Database::Mode::read_only);
+  } catch (const storage::SqliteError& e) {
+    throw CommandError("cannot read " + path + ": " + e.what());
+  }
 }
 
 namespace {
@@ -51,28 +102,29 @@ std::size_t print_query(storage::Database& db, const std::string& sql, const std
     std::vector<std::string> row;
     nlohmann::json obj = nlohmann::json::object();
     for (int c = 0; c < ncol; ++c) {
-      const std::string type = st.column_type(c);
-      if (type == "null") {
+      const storage::ColumnType type = st.column_type(c);
+      if (type == storage::ColumnType::null) {
         row.emplace_back("");
         obj[names[static_cast<std::size_t>(c)]] = nullptr;
-      } else if (type == "integer") {
+      } else if (type == storage::ColumnType::integer) {
         row.push_back(std::to_string(st.get_int(c)));
         obj[names[static_cast<std::size_t>(c)]] = st.get_int(c);
-      } else if (type == "real") {
+      } else if (type == storage::ColumnType::real) {
         char buf[32];
         std::snprintf(buf, sizeof buf, "%.6g", st.get_double(c));
         row.emplace_back(buf);
         obj[names[static_cast<std::size_t>(c)]] = st.get_double(c);
       } else {
-        row.push_back(st.get_text(c));
-        obj[names[static_cast<std::size_t>(c)]] = st.get_text(c);
+        std::string text = st.get_text(c);
+        obj[names[static_cast<std::size_t>(c)]] = text;
+        row.push_back(format == "table" ? printable(text) : std::move(text));
       }
     }
     if (format == "json") json_rows.push_back(std::move(obj));
     else rows.push_back(std::move(row));
   }
   if (format == "json") {
-    std::cout << json_rows.dump(1) << "\n";
+    std::cout << dump_json(json_rows) << "\n";
     return json_rows.size();
   }
   if (format == "csv") {

@@ -6,6 +6,9 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "gearwatch/config/config.hpp"
@@ -33,16 +36,21 @@ struct PageCommandOptions {
 /// Adds the required --db (opened read-only) and --out (created if missing) to `cmd`.
 std::shared_ptr<PageCommandOptions> add_page_command_options(CLI::App* cmd);
 
-/// Opens the database at `path` read-only and returns `load(db)`. A missing path, a directory, an
-/// unreadable database or a load error becomes a CommandError naming it; a CommandError from
-/// `load` passes unchanged.
+/// The one gate of every command that reads an existing history (query, report, gap report,
+/// twin state, inspect): refuses with a one-line CommandError a missing path, a directory, an
+/// empty file or database, and another application's database. Only `run` and `replay` create one.
+void require_history(const std::string& path);
+
+/// require_history, then the database opened read-only.
+storage::Database open_history(const std::string& path);
+
+/// Opens the history at `path` read-only (open_history) and returns `load(db)`. An unreadable
+/// database or a load error becomes a CommandError naming it; a CommandError from `load` passes
+/// unchanged.
 template <class Load>
 auto load_page_data(const std::string& path, Load&& load) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw CommandError("no database at " + path);
-  if (std::filesystem::is_directory(path, ec)) throw CommandError(path + " is a directory, not a database");
   try {
-    storage::Database db(path, storage::Database::Mode::read_only);
+    storage::Database db = open_history(path);
     return std::forward<Load>(load)(db);
   } catch (const CommandError&) {
     throw;
@@ -53,7 +61,17 @@ auto load_page_data(const std::string& path, Load&& load) {
   }
 }
 
-/// Adds --format with the allowed values.
-void add_format_option(CLI::App* cmd, std::string& format, const std::string& default_format = "table");
+/// Adds --format with the allowed values (the help lists exactly these).
+void add_format_option(CLI::App* cmd, std::string& format, const std::string& default_format = "table",
+                       const std::vector<std::string>& allowed = {"table", "csv", "json"});
+
+/// `j` as JSON text (indent 1). Text that is not valid UTF-8 (a file name, a capture line) has each
+/// invalid byte replaced by U+FFFD, so the output is always valid JSON (docs/cli.md).
+std::string dump_json(const nlohmann::json& j, int indent = 1);
+
+/// `text` for a terminal table: each control character (C0 and DEL; an escape sequence in a
+/// capture line, a tab) written as \xHH, so stored text cannot move the cursor or recolour the
+/// terminal.
+std::string printable(const std::string& text);
 
 }  // namespace gearwatch::cli

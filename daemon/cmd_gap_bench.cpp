@@ -304,7 +304,6 @@ void run_bench(const BenchOptions& o) {
   if (o.effects != 1 && o.effects != 2) throw CommandError("--effects must be 1 or 2");
   if (!(o.min_gap_db >= 0) || !std::isfinite(o.min_gap_db) || !(o.min_residual_gap_db >= 0) || !std::isfinite(o.min_residual_gap_db))
     throw CommandError("--min-gap-db and --min-residual-gap-db must be finite and >= 0");
-  if (o.format != "json" && o.format != "table") throw CommandError("--format must be json or table");
   const auto wall0 = std::chrono::steady_clock::now();
   if (!(o.wear_depth_um > 0) || !(o.wear_cycles > 0)) throw CommandError("--wear-depth-um and --wear-cycles must be > 0");
   // A known wear state: the rig's linear law, one K over the cycles, giving the asked depth at the
@@ -503,7 +502,7 @@ void run_bench(const BenchOptions& o) {
                   {"k_wear_ratio_after", number_or_null(q.k_ratio_after)}});
   j["no_effect_scenarios"] = qs;
   if (o.format == "json") {
-    std::cout << j.dump(2) << "\n";
+    std::cout << dump_json(j, 2) << "\n";
     return;
   }
   std::cout << std::fixed << std::setprecision(2);
@@ -532,7 +531,7 @@ void add_gap_bench_command(CLI::App& app) {
   auto* cmd = gap_command(app)->add_subcommand("bench", "Withheld-effect check: rig scenarios with hidden effects, diagnosed and scored");
   cmd->add_option("--seeds", opt->seeds, "Scenarios with effects (each effect equally often)")->required();
   cmd->add_option("--effects", opt->effects, "Effects on per scenario: 1 or 2");
-  cmd->add_option("--format", opt->format, "table or json");
+  add_format_option(cmd, opt->format, "table", {"table", "json"});
   cmd->add_option("--sample-rate", opt->sample_rate_hz, "Sample rate of the simulated records, Hz");
   cmd->add_option("--seconds", opt->seconds, "Length of each simulated record, s");
   cmd->add_option("--torques", opt->torques_nm, "Input torques: every speed runs at each, N m (comma-separated)")

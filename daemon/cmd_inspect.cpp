@@ -61,7 +61,7 @@ void register_inspect(CLI::App& app) {
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = app.add_subcommand("inspect", "Record an inspection (pitted area, wear depth) at a cycle count");
-  cmd->add_option("--db", opt->db, "SQLite database")->required();
+  cmd->add_option("--db", opt->db, "SQLite database written by `run` or `replay`")->required();
   cmd->add_option("--cycles", opt->cycles, "Input-shaft revolutions at the inspection")->required();
   cmd->add_option("--pitted-area", opt->pitted_area, "Pitted area as a fraction of the flank area (0..1)");
   cmd->add_option("--wear-depth", opt->wear_depth, "Mean wear depth in metres (e.g. 12e-6)");
@@ -73,6 +73,7 @@ void register_inspect(CLI::App& app) {
       throw CommandError("--pitted-area is a fraction of the flank area: " + number(*opt->pitted_area) + " is outside [0, 1]");
     if (opt->wear_depth && !(*opt->wear_depth >= 0 && *opt->wear_depth <= 0.01))
       throw CommandError("--wear-depth is in metres: " + number(*opt->wear_depth) + " is outside [0, 0.01] (negative, or not a wear depth)");
+    require_history(opt->db);  // an inspection belongs to an existing history, never to a new file
     try {
       InspectionDatabase opened = open_for_inspection(opt->db);
       storage::Database& db = opened.db;

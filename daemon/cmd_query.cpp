@@ -1,8 +1,10 @@
 // `gearwatch query alerts|active|indicators|health|updates|predictions|inspections|records|gaps|rejected --db FILE
 //  [--since T] [--until T] [--channel C] [--name N] [--limit N] [--format table|csv|json]`.
 #include <map>
+#include <optional>
 
 #include "cli_common.hpp"
+#include "utc_time.hpp"
 
 namespace gearwatch::cli {
 
@@ -19,7 +21,7 @@ bool has_table(storage::Database& db, const std::string& name) {
 void register_query(CLI::App& app) {
   struct Options {
     std::string what, db, since, until, format, name;
-    int limit = 0;
+    std::optional<long long> limit;
     int channel = -1;
   };
   auto opt = std::make_shared<Options>();
@@ -27,16 +29,20 @@ void register_query(CLI::App& app) {
   cmd->add_option("what", opt->what, "alerts | active | indicators | health | updates | predictions | inspections | records | gaps | rejected")
       ->required()
       ->check(CLI::IsMember({"alerts", "active", "indicators", "health", "updates", "predictions", "inspections", "records", "gaps", "rejected"}));
-  cmd->add_option("--db", opt->db, "SQLite database")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--since", opt->since, "Only rows at or after this UTC time (ISO 8601, e.g. 2026-11-01 or 2026-11-01T08:00)");
+  cmd->add_option("--db", opt->db, "SQLite database written by `run` or `replay`")->required();
+  cmd->add_option("--since", opt->since, "Only rows at or after this UTC time (ISO 8601: 2026-11-01, 2026-11-01T08:00, 2026-11-01T08:00:30)");
   cmd->add_option("--until", opt->until, "Only rows before this UTC time (same forms as --since)");
   cmd->add_option("--channel", opt->channel, "alerts, active, indicators, gaps: only this channel")->check(CLI::Range(0, 255));
   cmd->add_option("--name", opt->name, "indicators: only this indicator name");
-  cmd->add_option("--limit", opt->limit, "At most this many rows (newest first when set)")->check(CLI::PositiveNumber);
+  cmd->add_option("--limit", opt->limit, "At most this many rows, the newest (1 or more)");
   add_format_option(cmd, opt->format);
   cmd->callback([opt] {
+    // Checked before the database is opened: a malformed filter must never read as "no rows".
+    const std::string since = opt->since.empty() ? "" : parse_utc_time(opt->since, "--since");
+    const std::string until = opt->until.empty() ? "" : parse_utc_time(opt->until, "--until");
+    if (opt->limit && *opt->limit < 1) throw CommandError("--limit " + std::to_string(*opt->limit) + ": give 1 or more rows");
+    storage::Database db = open_history(opt->db);
     try {
-      storage::Database db(opt->db, storage::Database::Mode::read_only);
       // What each query reads, and the column --since filters on.
       struct Source {
         const char* sql;
@@ -76,13 +82,13 @@ void register_query(CLI::App& app) {
       const std::string time_col = source.time_col;
       std::vector<std::string> bind;
       std::vector<std::string> where;
-      if (!opt->since.empty()) {
+      if (!since.empty()) {
         where.push_back(time_col + " >= ?");
-        bind.push_back(opt->since);
+        bind.push_back(since);
       }
-      if (!opt->until.empty()) {
+      if (!until.empty()) {
         where.push_back(time_col + " < ?");
-        bind.push_back(opt->until);
+        bind.push_back(until);
       }
       if (opt->channel >= 0) {
         if (!source.channel_col) throw CommandError("--channel applies to alerts, active, indicators and gaps only");
@@ -94,7 +100,7 @@ void register_query(CLI::App& app) {
         bind.push_back(opt->name);
       }
       for (std::size_t i = 0; i < where.size(); ++i) sql += (i ? " AND " : " WHERE ") + where[i];
-      if (opt->limit > 0) sql = "SELECT * FROM (" + sql + " ORDER BY " + time_col + " DESC LIMIT " + std::to_string(opt->limit) + ") ORDER BY " + time_col;
+      if (opt->limit) sql = "SELECT * FROM (" + sql + " ORDER BY " + time_col + " DESC LIMIT " + std::to_string(*opt->limit) + ") ORDER BY " + time_col;
       print_query(db, sql, bind, opt->format);
     } catch (const storage::SqliteError& e) {
       throw CommandError(e.what());

@@ -1,6 +1,7 @@
 // `gearwatch replay CAPTURE --db FILE [--config FILE]`: a candump log through the whole
 // pipeline as fast as possible. Several replays into one database continue its history.
 #include <iostream>
+#include <string>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
@@ -12,6 +13,28 @@
 
 namespace gearwatch::cli {
 
+namespace {
+
+// ", every indicator skipped in 2 of them (flat_line in 2)": what "analysed" does not say.
+std::string without_indicators_text(const daemon::RecordsWithoutIndicators& w) {
+  if (w.records == 0) return "";
+  std::string text = ", every indicator skipped in " + std::to_string(w.records) + " of them (";
+  bool first = true;
+  for (const auto& [reason, records] : w.reasons) {
+    text += (first ? "" : ", ") + std::string(dsp::to_string(reason)) + " in " + std::to_string(records);
+    first = false;
+  }
+  return text + ")";
+}
+
+nlohmann::json without_indicators_json(const daemon::RecordsWithoutIndicators& w) {
+  nlohmann::json reasons = nlohmann::json::object();
+  for (const auto& [reason, records] : w.reasons) reasons[dsp::to_string(reason)] = records;
+  return {{"records", w.records}, {"skip_reasons", reasons}};
+}
+
+}  // namespace
+
 void register_replay(CLI::App& app) {
   struct Options {
     std::string capture, db, config, format = "table";
@@ -21,7 +44,7 @@ void register_replay(CLI::App& app) {
   cmd->add_option("capture", opt->capture, "Capture file (candump -L format)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--db", opt->db, "SQLite database (created if missing)")->required();
   cmd->add_option("--config", opt->config, "Configuration file (TOML); built-in defaults otherwise");
-  add_format_option(cmd, opt->format);
+  add_format_option(cmd, opt->format, "table", {"table", "json"});
   cmd->callback([opt] {
     auto cfg = load_config_or_defaults(opt->config);
     cfg.acquisition.source = config::SourceKind::candump;
@@ -38,13 +61,15 @@ void register_replay(CLI::App& app) {
     if (opt->format == "json") {
       nlohmann::json j{{"capture", opt->capture}, {"database", opt->db}, {"run_id", r.run_id},
                        {"records", r.records}, {"records_analysed", r.records_analysed}, {"frames", r.frames},
-                       {"samples", r.samples}, {"lost_samples", r.lost_samples}, {"end_reason", r.end_reason},
-                       {"records_already_stored", r.records_already_stored}};
-      std::cout << j.dump(1) << "\n";
+                       {"samples", r.samples}, {"lost_samples", r.lost_samples}, {"end_reason", r.run_end_reason},
+                       {"records_already_stored", r.records_already_stored},
+                       {"records_without_indicators", without_indicators_json(r.records_without_indicators)}};
+      std::cout << dump_json(j) << "\n";
     } else if (r.exit_status == 0) {
       std::cout << "replayed " << opt->capture << " into " << opt->db << " (run " << r.run_id << "): " << r.frames
                 << " frames, " << r.samples << " samples, " << r.records << " records (" << r.records_analysed
-                << " analysed), " << r.lost_samples << " samples lost";
+                << " analysed" << without_indicators_text(r.records_without_indicators) << "), " << r.lost_samples
+                << " samples lost";
       if (r.records_already_stored > 0) std::cout << "; " << r.records_already_stored << " records already stored by an earlier replay of it, skipped";
       std::cout << "\n";
     }

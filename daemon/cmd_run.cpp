@@ -17,6 +17,10 @@ void register_run(CLI::App& app) {
   cmd->add_option("--db", opt->db, "Override storage.database");
   cmd->callback([opt] {
     auto cfg = load_config_or_defaults(opt->config);
+    // Asked here, not by the config parser: `replay` takes its capture on the command line.
+    if (cfg.acquisition.source == config::SourceKind::candump && cfg.acquisition.capture.empty())
+      throw CommandError(opt->config + ": [acquisition] source = \"candump\" needs capture = FILE for `run` "
+                         "(`gearwatch replay CAPTURE` takes it on the command line)");
     if (!opt->db.empty()) cfg.storage.database = opt->db;
     const bool journald = cfg.logging.sink == "journald" || (cfg.logging.sink == "auto" && logging::running_under_journald());
     logging::setup(journald ? logging::Sink::journald : logging::Sink::stderr_only, cfg.logging.level);

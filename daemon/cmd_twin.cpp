@@ -106,7 +106,7 @@ void run_modes(const ModesOptions& o) {
     }
   }
   if (o.format == "json") {
-    std::printf("%s\n", out.dump(2).c_str());
+    std::printf("%s\n", dump_json(out, 2).c_str());
     return;
   }
   std::printf("Natural frequencies of the linearised 21-DOF model (mean mesh stiffness)\n");
@@ -234,7 +234,7 @@ void run_tune_mesh(const TuneOptions& o) {
                      {"measured_rms", target},       {"simulated_rms", r.simulated_rms},
                      {"mesh_stiffness_scale", r.mesh_stiffness_scale}, {"reached", r.reached},
                      {"simulations", r.simulations}};
-    std::printf("%s\n", j.dump(1).c_str());
+    std::printf("%s\n", dump_json(j).c_str());
   } else {
     std::printf("record: %.2f s at %.3f Hz, %.1f N m; measured 0-%.0f Hz RMS %.5g m/s2 (channel %d)\n", record.duration_s(),
                 speed, torque, o.cutoff_hz, target, o.channel);
@@ -339,7 +339,7 @@ void run_modal_gap(const ModalGapCommandOptions& o) {
                                   {"source", k.source}});
   }
   if (o.format == "json") {
-    std::printf("%s\n", out.dump(2).c_str());
+    std::printf("%s\n", dump_json(out, 2).c_str());
     return;
   }
   std::printf("Modal gap on seed Table 5.5: grouped knobs inside their sourced priors, leave-two-out (28 folds, %d starts, "

@@ -17,9 +17,9 @@ using nlohmann::json;
 
 json column_value(const storage::Statement& st, int i) {
   if (st.is_null(i)) return nullptr;
-  const std::string type = st.column_type(i);
-  if (type == "integer") return st.get_int(i);
-  if (type == "real") return st.get_double(i);
+  const storage::ColumnType type = st.column_type(i);
+  if (type == storage::ColumnType::integer) return st.get_int(i);
+  if (type == storage::ColumnType::real) return st.get_double(i);
   return st.get_text(i);
 }
 
@@ -50,13 +50,12 @@ void register_twin_state(CLI::App* twin) {
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = twin->add_subcommand("state", "The model's current K values, wear, pitting, updates and predictions");
-  cmd->add_option("--db", opt->db, "SQLite database")->required()->check(CLI::ExistingFile);
-  add_format_option(cmd, opt->format);
+  cmd->add_option("--db", opt->db, "SQLite database written by `run` or `replay`")->required();
+  add_format_option(cmd, opt->format, "table", {"table", "json"});
   cmd->callback([opt] {
-    if (opt->format == "csv") throw CommandError("twin state: --format is table or json");
     json out;
+    storage::Database db = open_history(opt->db);
     try {
-      storage::Database db(opt->db, storage::Database::Mode::read_only);
       storage::Statement has(db, "SELECT 1 FROM sqlite_master WHERE name = 'model_state'");
       if (!has.step()) throw CommandError("twin state: this database has no model state (written before schema version 4)");
       storage::Statement st(db, "SELECT gear_pair, updated_at, state FROM model_state ORDER BY gear_pair DESC LIMIT 1");
@@ -133,7 +132,7 @@ void register_twin_state(CLI::App* twin) {
       throw CommandError(std::string("twin state: ") + e.what());
     }
     if (opt->format == "json") {
-      std::cout << out.dump(1) << "\n";
+      std::cout << dump_json(out) << "\n";
       return;
     }
     std::printf("gear pair %lld at %.6g cycles (state of %s)\n", static_cast<long long>(out["gear_pair"].get<std::int64_t>()),

@@ -2,11 +2,34 @@
 // The command forms are a stable contract (docs/cli.md).
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
+#include "gearwatch/storage/schema.hpp"
 #include "logging.hpp"
+
+namespace {
+
+// A command line the parser refuses (EX_USAGE of sysexits.h): distinct from the statuses a
+// command's own failures use.
+constexpr int kUsageExitStatus = 64;
+
+std::string version_text() {
+  return std::string("gearwatch ") + GEARWATCH_VERSION + " (database schema version " +
+         std::to_string(gearwatch::storage::current_schema_version()) + ")";
+}
+
+// The parser's messages may span lines; the contract is one line per error.
+std::string one_line(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  for (char& c : text)
+    if (c == '\n') c = ' ';
+  return text;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"gearwatch: vibration-based gear wear monitoring"};
@@ -20,10 +43,14 @@ int main(int argc, char** argv) {
   gearwatch::cli::register_twin(app);
   gearwatch::cli::register_report(app);
   gearwatch::cli::register_gap(app);
+  app.set_version_flag("--version", version_text(), "Print gearwatch's version and the database schema version it writes, and exit");
   try {
     app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);  // --help, --help-all, --version: their text on stdout, exit 0
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    std::fprintf(stderr, "gearwatch: %s; see --help\n", one_line(e.what()).c_str());
+    return kUsageExitStatus;
   } catch (const gearwatch::cli::CommandError& e) {
     std::fprintf(stderr, "gearwatch: %s\n", e.what());
     return e.exit_status;

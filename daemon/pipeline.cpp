@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <chrono>
@@ -13,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -142,8 +144,26 @@ std::string effective_level(const std::string& level, PipelineMode mode) {
   return mode == PipelineMode::replay && level == "info" ? "warn" : level;
 }
 
+// What runs.end_reason says: the source's error, else the signal that stopped the run, else (a
+// replay read to its end) "end of capture".
+std::string run_end_text(const std::string& error, int stop_signal, PipelineMode mode) {
+  if (!error.empty()) return error;
+  if (stop_signal != 0) return std::string("stopped by SIG") + ::sigabbrev_np(stop_signal);
+  return mode == PipelineMode::replay ? "end of capture" : "stopped";
+}
 
 }  // namespace
+
+void RecordsWithoutIndicators::count(const storage::RecordResult& record) {
+  std::set<dsp::SkipReason> why;
+  for (const auto& channel : record.channels) {
+    if (!channel.values.empty()) return;
+    for (const auto& skipped : channel.skipped)
+      if (const auto reason = dsp::parse_skip_reason(skipped.reason)) why.insert(*reason);
+  }
+  ++records;
+  for (const auto reason : why) ++reasons[reason];
+}
 
 PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode mode, GapHooks gap) {
   const bool from_file = mode == PipelineMode::replay || config.acquisition.source == config::SourceKind::candump;
@@ -220,6 +240,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     source = std::make_unique<acq::SocketCanSource>(io, source_name, sopt);
   }
   std::string end_reason;
+  int stop_signal = 0;  // the signal that stopped the run, if one did
   auto on_frame = [&](const acq::CanFrame& frame) {
     if (auto rejection = decoder.decode(frame)) {
       const char* kind = acq::to_string(rejection->kind);
@@ -298,6 +319,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
         return;
       }
       spdlog::info("signal {}: stopping acquisition, draining, committing", signo);
+      stop_signal = signo;
       stop_all("");
     });
   };
@@ -327,6 +349,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   std::uint64_t current_sequence = 0;
   std::uint16_t current_stream_id = 0;
   std::atomic<std::uint64_t> records_total{0}, records_analysed{0}, records_already_stored{0};
+  RecordsWithoutIndicators records_without_indicators;  // the processing thread's; read after it joined
   acq::AssemblerCounters assembler_snapshot;
   std::mutex assembler_snapshot_mutex;
   acq::RecordAssembler assembler(
@@ -344,6 +367,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
               model_in->sample_rate_hz = r.sample_rate_hz;  // the twin's counterpart at the stream's rate
               if (config.gap.enabled) model_in->samples = std::make_shared<const Record>(std::move(r));
             }
+            if (analysable) records_without_indicators.count(result);
             writer.submit(std::move(result));  // first: the model's row refers to the stored record
             if (model_in) model->submit(std::move(*model_in));
             ++records_total;
@@ -513,13 +537,16 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   processing.join();
   if (model) model->stop();  // drains what it holds
   writer.submit(health(true));
-  writer.submit(storage::RunEnded{end_reason});
+  const std::string run_end_reason = run_end_text(end_reason, stop_signal, mode);
+  writer.submit(storage::RunEnded{run_end_reason});
   writer.stop();
 
   PipelineResult result;
   result.end_reason = end_reason;
+  result.run_end_reason = run_end_reason;
   result.records = records_total;
   result.records_analysed = records_analysed;
+  result.records_without_indicators = records_without_indicators;
   result.records_already_stored = records_already_stored;
   result.frames = decoder.counters().frames;
   result.samples = decoder.counters().samples;

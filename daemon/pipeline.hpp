@@ -12,19 +12,34 @@
 // Shutdown: SIGTERM/SIGINT stop the source; the acquisition io_context then runs out of work;
 // processing drains the ring and ends the open record; the writer commits everything; threads
 // are joined in reverse order of start.
+#include <map>
 #include <string>
 
 #include "gap_monitor.hpp"
 #include "gearwatch/config/config.hpp"
+#include "gearwatch/dsp/skip_reason.hpp"
+#include "gearwatch/storage/messages.hpp"
 
 namespace gearwatch::daemon {
 
 enum class PipelineMode { live, replay };
 
+/// Records analysed that came out without a single indicator: every indicator of every channel
+/// was skipped (a flat or clipped sensor, no tacho, too short). Counted so a summary does not
+/// call them analysed without saying so.
+struct RecordsWithoutIndicators {
+  std::uint64_t records = 0;
+  /// Skip reason -> how many of those records it skipped at least one indicator of.
+  std::map<dsp::SkipReason, std::uint64_t> reasons;
+  void count(const storage::RecordResult& record);
+};
+
 struct PipelineResult {
   int exit_status = 0;
-  std::string end_reason;
+  std::string end_reason;      ///< the source's error ("" when it ended normally or was stopped)
+  std::string run_end_reason;  ///< as stored in runs.end_reason: also "end of capture", "stopped by SIGTERM"
   std::uint64_t records = 0, records_analysed = 0, frames = 0, samples = 0;
+  RecordsWithoutIndicators records_without_indicators;
   /// Records of a capture replayed again that an earlier run had already stored (not stored twice).
   std::uint64_t records_already_stored = 0;
   /// Samples that never reached a record slot: gaps in the protocol (a frame dropped by the

@@ -55,7 +55,7 @@ std::string dump(const fs::path& db, const std::string& sql) {
   while (s.step()) {
     for (int i = 0; i < s.column_count(); ++i) {
       if (s.is_null(i)) out << "NULL";
-      else if (s.column_type(i) == "real") out << s.get_double(i);
+      else if (s.column_type(i) == storage::ColumnType::real) out << s.get_double(i);
       else out << s.get_text(i);
       out << "|";
     }

@@ -301,13 +301,13 @@ TEST_CASE("report: end to end on replayed captures (plots, points, gaps, alerts,
   CHECK(with_model.find("predictions: not available in this database.") == std::string::npos);
 }
 
-TEST_CASE("report: bad input gets a one-line error and a non-zero exit, an empty database a page that says so", "[report][cli]") {
+TEST_CASE("report: bad input gets a one-line error and a non-zero exit, a database without records a page that says so", "[report][cli]") {
   const gearwatch::testing::TempDir dir("report-bad");
   auto one_line = [](const std::string& err) { return !err.empty() && err.back() == '\n' && count_of(err, "\n") == 1; };
 
   const auto missing = run_command(gearwatch_cli("report --db " + (dir / "none.db").string() + " --out " + (dir / "o1").string()));
   CHECK(missing.status == 1);
-  CHECK(missing.err == "gearwatch: no database at " + (dir / "none.db").string() + "\n");
+  CHECK(missing.err == "gearwatch: no database at " + (dir / "none.db").string() + " (only `run` and `replay` create one)\n");
   CHECK_FALSE(fs::exists(dir / "o1"));
 
   std::ofstream(dir / "text.db") << "not a database\n";
@@ -316,25 +316,26 @@ TEST_CASE("report: bad input gets a one-line error and a non-zero exit, an empty
   CHECK(one_line(garbage.err));
   CHECK(garbage.err.find("file is not a database") != std::string::npos);
 
-  // A gearwatch database before its first record, and a zero-byte file: pages that say so.
+  // A gearwatch database before its first record: a page that says so.
   {
     gearwatch::storage::Database fresh((dir / "fresh.db").string());
     gearwatch::storage::open_and_migrate(fresh);
   }
-  std::ofstream(dir / "zero.db").close();
-  for (const char* name : {"fresh.db", "zero.db"}) {
-    INFO(name);
-    const fs::path out = dir / (std::string(name) + "-out");
-    const auto r = run_command(gearwatch_cli("report --db " + (dir / name).string() + " --out " + out.string()));
+  {
+    const fs::path out = dir / "fresh.db-out";
+    const auto r = run_command(gearwatch_cli("report --db " + (dir / "fresh.db").string() + " --out " + out.string()));
     CHECK(r.status == 0);
     const std::string page = read_file(out / "index.html");
     CHECK(page.find("<p class=\"notice\" id=\"no-records\">This database has no records") != std::string::npos);
     CHECK(count_of(page, "<svg") == 0);
-    // A database without the model's views (not a gearwatch database of this version) says so;
-    // a fresh gearwatch database has them, empty.
-    if (std::string(name) == "fresh.db") CHECK(page.find("k_updates: no rows yet.") != std::string::npos);
-    else CHECK(page.find("k_updates: not available in this database.") != std::string::npos);
+    CHECK(page.find("k_updates: no rows yet.") != std::string::npos);  // the model's views exist, empty
   }
+  // A zero-byte file holds no history: refused, nothing written (issue 33, item 5).
+  std::ofstream(dir / "zero.db").close();
+  const auto zero = run_command(gearwatch_cli("report --db " + (dir / "zero.db").string() + " --out " + (dir / "zero-out").string()));
+  CHECK(zero.status == 1);
+  CHECK(one_line(zero.err));
+  CHECK_FALSE(fs::exists(dir / "zero-out"));
   CHECK(fs::file_size(dir / "zero.db") == 0);  // read-only: not even initialised
 
   // A database of someone else's: refused.
@@ -344,7 +345,9 @@ TEST_CASE("report: bad input gets a one-line error and a non-zero exit, an empty
   }
   const auto foreign = run_command(gearwatch_cli("report --db " + (dir / "other.db").string() + " --out " + (dir / "o3").string()));
   CHECK(foreign.status == 1);
-  CHECK(foreign.err == "gearwatch: " + (dir / "other.db").string() + " is not a gearwatch database (it has no records table)\n");
+  CHECK(foreign.err == "gearwatch: " + (dir / "other.db").string() +
+                           " is not a gearwatch database (application_id 0, user_version 0, 1 tables, views, indexes and triggers); "
+                           "left untouched\n");
 
   // An --out that cannot be a directory (below a regular file: fails for root too).
   std::ofstream(dir / "file").close();

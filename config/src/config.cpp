@@ -1,6 +1,7 @@
 #include "gearwatch/config/config.hpp"
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <limits>
@@ -110,7 +111,6 @@ const toml::array* array_of_tables(const toml::table& root, const std::string& n
 
 GearwatchConfig from_table(const toml::table& root, const std::string& file) {
   GearwatchConfig cfg;
-  cfg.source_path = file;
   static const std::set<std::string> known{"rig", "gears", "channels", "tachos", "records", "protocol",
                                            "acquisition", "storage", "logging", "daemon", "processing", "twin",
                                            "alerts", "model", "gap"};
@@ -214,7 +214,6 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.integer("receive_buffer_bytes", a.receive_buffer_bytes, 4096, std::int64_t{1} << 30);  // the kernel's own cap
     t.integer("reopen_initial_ms", a.reopen_initial_ms, 1, 600000);
     t.integer("reopen_max_ms", a.reopen_max_ms, 1, 3600000);
-    if (a.source == SourceKind::candump && a.capture.empty()) t.fail(t.node("capture"), "capture", "source = \"candump\" needs a capture file");
     t.reject_unknown();
   }
   {
@@ -411,12 +410,17 @@ GearwatchConfig parse_config(const std::string& text, const std::string& name) {
 }
 
 GearwatchConfig load_config(const std::string& path) {
+  // A directory opens as a stream that reads nothing, which would parse as the built-in defaults.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw ConfigError(path + ": is a directory, not a configuration file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError(path + ": cannot open config file");
   std::ostringstream buf;
   buf << in.rdbuf();
   if (in.bad()) throw ConfigError(path + ": read error");
-  return parse_config(buf.str(), path);
+  GearwatchConfig cfg = parse_config(buf.str(), path);
+  cfg.source_path = path;  // only a file read here can be read again (SIGHUP)
+  return cfg;
 }
 
 }  // namespace gearwatch::config

@@ -71,10 +71,10 @@ std::string format_cycles(double cycles) {
 }
 
 std::string cell_text(const Statement& s, int col) {
-  const std::string type = s.column_type(col);
-  if (type == "null") return "—";
-  if (type == "real") return format_number(s.get_double(col), 6);
-  if (type == "blob") return "(binary)";
+  const storage::ColumnType type = s.column_type(col);
+  if (type == storage::ColumnType::null) return "—";
+  if (type == storage::ColumnType::real) return format_number(s.get_double(col), 6);
+  if (type == storage::ColumnType::blob) return "(binary)";
   return s.get_text(col);
 }
 

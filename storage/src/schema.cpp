@@ -467,7 +467,58 @@ Vocabulary core_vocabulary() {
   return v;
 }
 
+const char* to_string(DatabaseKind kind) noexcept {
+  switch (kind) {
+    case DatabaseKind::empty: return "empty";
+    case DatabaseKind::gearwatch: return "gearwatch";
+    case DatabaseKind::gearwatch_before_application_id: return "gearwatch_before_application_id";
+    case DatabaseKind::foreign: return "foreign";
+  }
+  return "?";
+}
+
+namespace {
+
+std::int64_t single_integer(Database& db, const char* sql) {
+  Statement st(db, sql);
+  return st.step() ? st.get_int(0) : 0;
+}
+
+// The tables of schema version 1, which every gearwatch database has had since its first release.
+bool has_first_version_tables(Database& db) {
+  return single_integer(db,
+                        "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name IN"
+                        " ('runs', 'streams', 'records', 'indicator_values', 'indicator_skips', 'health_snapshots', 'inspections')") == 7;
+}
+
+}  // namespace
+
+DatabaseIdentity identify_database(Database& db) {
+  DatabaseIdentity id;
+  id.application_id = single_integer(db, "PRAGMA application_id");
+  id.user_version = db.user_version();
+  id.schema_objects = single_integer(db, "SELECT count(*) FROM sqlite_master");
+  if (id.application_id == kApplicationId) id.kind = DatabaseKind::gearwatch;
+  else if (id.application_id != 0) id.kind = DatabaseKind::foreign;
+  else if (id.schema_objects == 0 && id.user_version == 0) id.kind = DatabaseKind::empty;
+  // Before application_id, a gearwatch database was known by its schema version and its tables.
+  else if (id.user_version >= 1 && id.user_version <= current_schema_version() && has_first_version_tables(db))
+    id.kind = DatabaseKind::gearwatch_before_application_id;
+  else id.kind = DatabaseKind::foreign;
+  return id;
+}
+
+void refuse_foreign_database(const std::string& path, const DatabaseIdentity& identity) {
+  if (identity.kind != DatabaseKind::foreign) return;
+  throw ForeignDatabase(path + " is not a gearwatch database (application_id " + std::to_string(identity.application_id) +
+                        ", user_version " + std::to_string(identity.user_version) + ", " +
+                        std::to_string(identity.schema_objects) + " tables, views, indexes and triggers); left untouched");
+}
+
 void open_and_migrate(Database& db, const Vocabulary& extra) {
+  // Identified before anything is written: not even the journal mode of another application's
+  // file may change.
+  refuse_foreign_database(db.path(), identify_database(db));
   db.exec("PRAGMA journal_mode = WAL");
   db.exec("PRAGMA synchronous = FULL");
   db.exec("PRAGMA foreign_keys = ON");
@@ -487,6 +538,7 @@ void open_and_migrate(Database& db, const Vocabulary& extra) {
   Vocabulary vocabulary = core_vocabulary();
   for (const auto& [domain, tokens] : extra) vocabulary[domain] = tokens;
   Transaction tx(db);
+  db.exec("PRAGMA application_id = " + std::to_string(kApplicationId));
   db.exec("DELETE FROM vocabulary");
   Statement insert(db, "INSERT OR IGNORE INTO vocabulary(domain, token) VALUES (?, ?)");
   for (const auto& [domain, tokens] : vocabulary)

@@ -144,13 +144,24 @@ std::string Statement::get_text(int col) const {
 
 std::string Statement::column_name(int col) const { return sqlite3_column_name(stmt_, col); }
 
-std::string Statement::column_type(int col) const {
+const char* to_string(ColumnType type) noexcept {
+  switch (type) {
+    case ColumnType::integer: return "integer";
+    case ColumnType::real: return "real";
+    case ColumnType::text: return "text";
+    case ColumnType::blob: return "blob";
+    case ColumnType::null: return "null";
+  }
+  return "?";
+}
+
+ColumnType Statement::column_type(int col) const noexcept {
   switch (sqlite3_column_type(stmt_, col)) {
-    case SQLITE_INTEGER: return "integer";
-    case SQLITE_FLOAT: return "real";
-    case SQLITE_TEXT: return "text";
-    case SQLITE_BLOB: return "blob";
-    default: return "null";
+    case SQLITE_INTEGER: return ColumnType::integer;
+    case SQLITE_FLOAT: return ColumnType::real;
+    case SQLITE_TEXT: return ColumnType::text;
+    case SQLITE_BLOB: return ColumnType::blob;
+    default: return ColumnType::null;
   }
 }
 

@@ -2,6 +2,7 @@
 // The database schema (docs/storage.md) and its migrations. The schema version lives in
 // PRAGMA user_version; migrate() applies each missing step in its own transaction, so a
 // database written by an older gearwatch is upgraded in place and never half-migrated.
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -12,6 +13,41 @@ namespace gearwatch::storage {
 
 /// The version this build writes.
 int current_schema_version() noexcept;
+
+/// What gearwatch writes into PRAGMA application_id ("GWCH"), so that gearwatch and tools such as
+/// file(1) tell its databases from other SQLite files.
+inline constexpr std::int32_t kApplicationId = 0x47574348;
+
+/// What a SQLite file holds, as far as gearwatch is concerned.
+enum class DatabaseKind {
+  empty,                            ///< no tables, views or versions: a new file
+  gearwatch,                        ///< carries gearwatch's application_id
+  gearwatch_before_application_id,  ///< application_id 0, a schema version this build knows and the
+                                    ///< tables of the first schema version: written before
+                                    ///< gearwatch set application_id
+  foreign,                          ///< anything else: another application's database
+};
+const char* to_string(DatabaseKind kind) noexcept;
+
+struct DatabaseIdentity {
+  DatabaseKind kind = DatabaseKind::empty;
+  std::int64_t application_id = 0;
+  int user_version = 0;
+  std::int64_t schema_objects = 0;  ///< tables, views, indexes and triggers
+};
+
+/// Reads the identity without changing anything (works on a read-only connection).
+DatabaseIdentity identify_database(Database& db);
+
+/// Refused: the file is another application's database (or not one gearwatch can read). Nothing
+/// was changed.
+struct ForeignDatabase : SqliteError {
+  explicit ForeignDatabase(const std::string& what) : SqliteError(0, what) {}
+};
+
+/// Throws ForeignDatabase unless `identity` is empty or gearwatch's; the message names `path`, the
+/// application_id, the schema version and the number of objects found.
+void refuse_foreign_database(const std::string& path, const DatabaseIdentity& identity);
 
 /// Every enumerated value a column may hold, per domain ("alert_kind" -> {"wear_mechanism", ...}).
 /// Each list is made from its enum's to_string over its kAll... array, so the enum is the one
@@ -28,7 +64,10 @@ Vocabulary core_vocabulary();
 /// Sets WAL mode and synchronous=FULL (a committed transaction survives a crash or power
 /// loss), migrates, and writes the vocabulary (core's plus `extra`: the domains of the layers
 /// above core: rejected_frame_kind, gap_cause). A domain absent from the
-/// vocabulary is not checked. Throws SqliteError if the file is newer than this build knows.
+/// vocabulary is not checked. Throws SqliteError if the file is newer than this build knows, and
+/// ForeignDatabase — before anything is written, so the file stays byte for byte as it was — if
+/// it is not empty and not gearwatch's. Sets PRAGMA application_id (also on a gearwatch database
+/// written before it was set).
 void open_and_migrate(Database& db, const Vocabulary& extra = {});
 
 }  // namespace gearwatch::storage

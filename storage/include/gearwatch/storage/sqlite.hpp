@@ -47,6 +47,11 @@ class Database {
   std::string path_;
 };
 
+/// The type of a value in the current row (SQLite's storage classes).
+enum class ColumnType { integer, real, text, blob, null };
+/// "integer", "real", "text", "blob" or "null".
+const char* to_string(ColumnType type) noexcept;
+
 class Statement {
  public:
   Statement(Database& db, std::string_view sql);
@@ -78,8 +83,8 @@ class Statement {
   double get_double(int col) const noexcept;
   std::string get_text(int col) const;
   std::string column_name(int col) const;
-  /// "integer", "real", "text", "blob" or "null" for the current row's value.
-  std::string column_type(int col) const;
+  /// The type of the current row's value in `col`.
+  ColumnType column_type(int col) const noexcept;
 
  private:
   sqlite3_stmt* stmt_ = nullptr;
