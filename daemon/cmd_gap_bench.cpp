@@ -51,7 +51,7 @@ struct BenchOptions {
   std::string format = "table";
   double sample_rate_hz = 50000;
   double seconds = 2.0;
-  // The seed's two test loads (20 N·m lubricated, 5 N·m dry, §3.2.1): every speed runs at each, so
+  // The thesis's two test loads (20 N·m lubricated, 5 N·m dry, §3.2.1): every speed runs at each, so
   // effects that show only at a light load (a misaligned face loaded over part of its width) can.
   std::vector<double> torques_nm{20.0, 5.0};
   std::vector<double> training_speeds_hz{8.0, 14.0};
@@ -66,7 +66,7 @@ struct BenchOptions {
   double wear_cycles = 1e6;    // over which the known K_wear produced it
 };
 
-/// RMS_SA(N) (seed Eq. 7.1) from the diagnosis's own input-order lines, so the elasticity is read
+/// RMS_SA(N) (thesis Eq. 7.1) from the diagnosis's own input-order lines, so the elasticity is read
 /// the way the diagnosis reads RMS_SA.
 double rms_sa_of(const Record& r, int harmonics) {
   const auto rms = gap::rms_sa_of_record(r, 0, GearPairSpec{}, harmonics);

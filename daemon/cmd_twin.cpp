@@ -118,7 +118,7 @@ void run_modes(const ModesOptions& o) {
     std::printf("\n(parameters differ from the calibrated set: no Table 5.5 comparison)\n");
     return;
   }
-  std::printf("\nSeed Table 5.5 comparison (pairing by eigenvalue sensitivity, followed by mode shape)\n");
+  std::printf("\nThesis Table 5.5 comparison (pairing by eigenvalue sensitivity, followed by mode shape)\n");
   std::printf("%9s %5s %9s %8s  %-10s %6s %5s  %s\n", "meas (Hz)", "mode", "model", "error", "dominant", "share", "MAC0",
               "most sensitive knobs (d ln f / d ln p)");
   for (const auto& pr : cal.pairing) {
@@ -290,7 +290,7 @@ nlohmann::json leave_out_json(const twin::LeaveOutScore& s) {
           {"worst_by_frequency_pct", s.worst_by_frequency_pct}};
 }
 
-// The modal gap on seed Table 5.5: grouped knobs, candidate structural effects scored by
+// The modal gap on the thesis's Table 5.5: grouped knobs, candidate structural effects scored by
 // leave-two-out prediction, and which measured modes each explains.
 void run_modal_gap(const ModalGapCommandOptions& o) {
   twin::ModalGapOptions options;
@@ -342,7 +342,7 @@ void run_modal_gap(const ModalGapCommandOptions& o) {
     std::printf("%s\n", dump_json(out, 2).c_str());
     return;
   }
-  std::printf("Modal gap on seed Table 5.5: grouped knobs inside their sourced priors, leave-two-out (28 folds, %d starts, "
+  std::printf("Modal gap on thesis Table 5.5: grouped knobs inside their sourced priors, leave-two-out (28 folds, %d starts, "
               "held-out modes named by %s, predicted by the %s)\n",
               o.starts, twin::to_string(options.identity), twin::to_string(options.fit.prediction));
   std::printf("grouped twin (%zu knobs): median fold %.1f %%, worst %.1f %%\n", r.baseline_knobs.size(),

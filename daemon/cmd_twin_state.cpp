@@ -137,7 +137,7 @@ void register_twin_state(CLI::App* twin) {
     }
     std::printf("gear pair %lld at %.6g cycles (state of %s)\n", static_cast<long long>(out["gear_pair"].get<std::int64_t>()),
                 out["cycles"].get<double>(), out["updated_at"].get<std::string>().c_str());
-    std::printf("K_wear    %.5g m^2/N (%.5g in the seed's unit), %llu updates\n", out["k_wear_si"].get<double>(),
+    std::printf("K_wear    %.5g m^2/N (%.5g in the thesis's unit), %llu updates\n", out["k_wear_si"].get<double>(),
                 out["k_wear_seed_unit"].get<double>(), static_cast<unsigned long long>(out["k_wear_updates"].get<std::uint64_t>()));
     std::printf("K_pitting %.5g (%s), %llu updates\n", out["k_pitting"].get<double>(),
                 out["pitting_calibrated"].get<bool>() ? "calibrated from inspections" : "not calibrated: needs two pitted-area inspections",

@@ -22,7 +22,7 @@ struct WearOptions {
 void check(const WearOptions& o) {
   auto bad = [](const std::string& what) { throw CommandError("twin wear: " + what); };
   if (!std::isfinite(o.k_wear) || o.k_wear < 0 || o.k_wear > 1e-3)
-    bad("--k-wear must be finite and in [0, 1e-3] (the seed's unit, e.g. 1.65e-6)");
+    bad("--k-wear must be finite and in [0, 1e-3] (the thesis's unit, e.g. 1.65e-6)");
   if (!std::isfinite(o.torque) || o.torque <= 0 || o.torque > 1000) bad("--torque must be finite and in (0, 1000] N m");
   if (!std::isfinite(o.speed) || o.speed <= 0 || o.speed > 200) bad("--speed must be finite and in (0, 200] Hz");
   if (!std::isfinite(o.cycles) || o.cycles <= 0 || o.cycles > 1e10) bad("--cycles must be finite and in (0, 1e10]");
@@ -87,7 +87,7 @@ void run_wear(const WearOptions& o) {
     std::printf("%s\n", out.dump(1).c_str());
     return;
   }
-  std::printf("Open-loop wear from an unworn pair: K_wear %.4g (seed unit) = %.4g m2/N, %.4g N m, %.4g Hz, %.6g cycles (%s force)\n",
+  std::printf("Open-loop wear from an unworn pair: K_wear %.4g (thesis's unit) = %.4g m2/N, %.4g N m, %.4g Hz, %.6g cycles (%s force)\n",
               o.k_wear, options.k_wear_si, o.torque, o.speed, s.cycles, o.force_model.c_str());
   std::printf("mean wear depth: pinion %.4f um, gear %.4f um, combined %.4f um (pinion share %.1f %%)\n",
               s.pinion_mean_depth_m * 1e6, s.gear_mean_depth_m * 1e6, s.combined_mean_depth_m * 1e6, 100 * s.pinion_share);
@@ -107,7 +107,7 @@ void run_wear(const WearOptions& o) {
 void register_twin_wear(CLI::App* twin) {
   auto o = std::make_shared<WearOptions>();
   auto* cmd = twin->add_subcommand("wear", "Open-loop wear and pitting from an unworn pair (the blue loop, docs/wear.md)");
-  cmd->add_option("--k-wear", o->k_wear, "Archard K_wear in the seed's unit (e.g. 1.65e-6 dry, 3.55e-10 lubricated)")->required();
+  cmd->add_option("--k-wear", o->k_wear, "Archard K_wear in the thesis's unit (e.g. 1.65e-6 dry, 3.55e-10 lubricated)")->required();
   cmd->add_option("--torque", o->torque, "Input torque (N m)")->required();
   cmd->add_option("--speed", o->speed, "Input shaft speed (Hz)")->required();
   cmd->add_option("--cycles", o->cycles, "Pinion revolutions")->required();

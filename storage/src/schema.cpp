@@ -152,7 +152,7 @@ CREATE VIEW record_status AS
          (SELECT group_concat(k.name || ': ' || k.reason, '; ') FROM indicator_skips k WHERE k.record_id = r.id) AS skipped
   FROM records r JOIN streams s ON s.id = r.stream_key;
 )SQL",
-    // 1 -> 2: wear-mechanism identification over the record history (seed §4.4).
+    // 1 -> 2: wear-mechanism identification over the record history (thesis §4.4).
     R"SQL(
 CREATE TABLE wear_mechanism_assessments (
   record_id INTEGER NOT NULL REFERENCES records(id),

@@ -1,6 +1,6 @@
 #pragma once
 // A record: a contiguous stretch of the sample clock, cut by the processing thread from the
-// acquisition stream (seed §3.2.2: 10 s records at 100 kHz). Value type only: no I/O.
+// acquisition stream (thesis §3.2.2: 10 s records at 100 kHz). Value type only: no I/O.
 #include <array>
 #include <cstdint>
 #include <limits>

@@ -12,7 +12,7 @@
 namespace gearwatch::wear {
 
 namespace {
-// The seed's K is read as MPa⁻¹ in the N–mm–MPa system: h[mm] = K · P[MPa] · s[mm], so
+// The thesis's K is read as MPa⁻¹ in the N–mm–MPa system: h[mm] = K · P[MPa] · s[mm], so
 // h[m]·1e3 = K · P[Pa]·1e-6 · s[m]·1e3 and K_SI = K · 1e-6 (docs/wear.md: how this was chosen).
 constexpr double kSeedToSi = 1e-6;
 }  // namespace

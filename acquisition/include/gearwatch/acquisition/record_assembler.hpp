@@ -1,6 +1,6 @@
 #pragma once
 // Cuts records out of the decoded event stream (processing thread): a record of length L starts
-// every interval I on the sample clock (seed §3.2.2). A record never spans a gap: it is cut at
+// every interval I on the sample clock (thesis §3.2.2). A record never spans a gap: it is cut at
 // the gap (kept if at least min_length long, otherwise rejected). After a rejected one, a new
 // record starts right after the gap when a full L fits before the next scheduled start; else the
 // schedule continues. A configured channel that the stream does not announce, or whose frames

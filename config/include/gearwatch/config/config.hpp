@@ -1,5 +1,5 @@
 #pragma once
-// The daemon's configuration file (TOML). Every key has a default for the seed's rig, so an
+// The daemon's configuration file (TOML). Every key has a default for the thesis's rig, so an
 // empty file is valid; docs/config.md lists the keys. A bad file is refused as a whole with
 // ConfigError naming the file, line and key, before anything starts.
 #include <cstdint>
@@ -79,7 +79,7 @@ struct AlertSettings {
 struct ModelConfig {
   bool enabled = true;
   int channel = -1;                                 ///< accelerometer feeding the model; -1 = the first configured
-  double initial_k_wear = 3.55e-10;                 ///< seed's unit (read as MPa⁻¹, docs/wear.md); §7.4.1's first calibration
+  double initial_k_wear = 3.55e-10;                 ///< thesis's unit (read as MPa⁻¹, docs/wear.md); §7.4.1's first calibration
   double initial_k_pitting = 0.0;                   ///< SI (docs/wear.md); two pitted-area inspections calibrate it
   double update_threshold = 0.05;                   ///< |RMS_SA sim − meas| / meas that triggers a K_wear update
   double convergence_tolerance = 0.01;              ///< an update iterates until within this
@@ -92,7 +92,7 @@ struct ModelConfig {
   double simulation_revolutions = 6.0;              ///< input revolutions of the twin's signal per RMS_SA
   double min_torque_nm = 0.5, max_torque_nm = 1000.0;
   double wear_limit_fraction = 0.10;                ///< deepest flank point, of the pitch-circle tooth thickness π m / 2
-  double pitting_limit = 0.17;                      ///< mean pitting density (seed §7.4.1: scrap at ~17 %)
+  double pitting_limit = 0.17;                      ///< mean pitting density (thesis §7.4.1: scrap at ~17 %)
   double forecast_horizon_cycles = 2.0e7;
   double remaining_life_alert_cycles = 500000.0;    ///< remaining_life alert when a limit is closer than this
   int remaining_life_raise_after_records = 2;

@@ -26,7 +26,7 @@ struct FrequencyBand {
   double high_hz = 0.0;
 };
 
-/// Defaults are the seed's values where it gives them (§4.4 bands, §7.2 N = 2, Fig. 4.13
+/// Defaults are the thesis's values where it gives them (§4.4 bands, §7.2 N = 2, Fig. 4.13
 /// ranges, ±3 cyclic bins); the config file overrides them.
 struct SignalProcessingSettings {
   /// Order-tracking resolution. 0 = automatic: per record, the smallest 2^a 3^b 5^c with
@@ -34,9 +34,9 @@ struct SignalProcessingSettings {
   /// acquired band is lost and FFT sizes stay fast. A fixed value must be such a number in
   /// [64, 2^20] (a power of two is fine).
   int samples_per_revolution = 0;
-  int rms_sa_harmonics = 2;           ///< N of Eq. 7.1 (seed: 2 mild, 6 severe profile change)
+  int rms_sa_harmonics = 2;           ///< N of Eq. 7.1 (thesis: 2 mild, 6 severe profile change)
   int stored_gmf_harmonics = 10;
-  int ics2_harmonics = 3;             ///< H of Eq. 4.3 (the seed does not state it)
+  int ics2_harmonics = 3;             ///< H of Eq. 4.3 (the thesis does not state it)
   int ics2_tolerance_bins = 3;
   FrequencyBand pitting_band{2000.0, 13000.0};
   FrequencyBand abrasion_band{20000.0, 37000.0};
@@ -65,7 +65,7 @@ struct SignalProcessingSettings {
   /// significance alone decides.
   double wear_min_band_share = 0.5;
   /// The trend tests use the most recent records only: Mann-Kendall is O(n²), and a daemon
-  /// recording every 10 min for years must not slow down with age (the seed's lubricated test
+  /// recording every 10 min for years must not slow down with age (the thesis's lubricated test
   /// had ~540 records over 3.25 M cycles).
   int trend_window_records = 500;
   /// Band jumps (see dsp::BandJump): records the new band must last, and how many standard

@@ -1,5 +1,5 @@
 #pragma once
-// The purple loop of seed Fig. 7.1 (§7.3.3): the twin's wear coefficients updated from measured
+// The purple loop of thesis Fig. 7.1 (§7.3.3): the twin's wear coefficients updated from measured
 // vibration, around the blue loop (wear_loop.hpp), with forecasts and remaining life.
 //
 // - K_wear (Eqs. 7.13–7.14): when |RMS_SA,sim − RMS_SA,meas| / RMS_SA,meas exceeds a threshold,
@@ -130,7 +130,7 @@ struct ModelSettings {
   WearLoopOptions loop;                    ///< K values here are the initial ones (SI); operating point ignored
   bool update_k_wear = true;
   bool update_k_pitting = true;
-  double rms_threshold = 0.05;             ///< relative RMS_SA error that triggers a K_wear update (seed: 5 %)
+  double rms_threshold = 0.05;             ///< relative RMS_SA error that triggers a K_wear update (thesis: 5 %)
   double convergence_tolerance = 0.01;     ///< an update iterates until this (≤ threshold), so it does not sit at the edge
   int max_wear_iterations = 8;             ///< twin re-runs per K_wear update (the root-find's sensitivity read included)
   KWearUpdateRule k_wear_update = KWearUpdateRule::root_find;
@@ -143,12 +143,12 @@ struct ModelSettings {
   double pitting_reference_density = 0.10;     ///< density of K_pitting's readable scale
   double k_wear_min_si = 1e-22, k_wear_max_si = 1e-9;
   double correlation_threshold = 0.95;     ///< §7.3.3
-  double pitting_interval_cycles = 50000;  ///< ΔN between pitting points (the seed's j)
+  double pitting_interval_cycles = 50000;  ///< ΔN between pitting points (the thesis's j)
   int max_pitting_evaluations = 40;        ///< blue-loop re-runs per K_pitting search
   double min_torque_nm = 0.5, max_torque_nm = 1000.0;
   double min_speed_hz = 0.5, max_speed_hz = 60.0;
   double wear_limit_m = 0.314e-3;          ///< deepest flank point; default 10 % of the pitch-circle tooth thickness
-  double pitting_limit = 0.17;             ///< mean pitting density (the seed's scrap level, §7.4.1)
+  double pitting_limit = 0.17;             ///< mean pitting density (the thesis's scrap level, §7.4.1)
   double forecast_horizon_cycles = 2e7;
   int forecast_points = 10;                ///< forecast curve samples up to the horizon
   int spread_updates = 4;                  ///< recent K values whose spread gives the forecast interval
