@@ -27,31 +27,13 @@ using namespace std::chrono_literals;
 using gearwatch::storage::Database;
 using gearwatch::storage::Statement;
 using gearwatch::testing::run_command;
+using gearwatch::testing::spawn;
+using gearwatch::testing::wait_exit;
 
 namespace {
 
 std::string gw(const std::string& args) { return std::string(GEARWATCH_BINARY) + " " + args; }
 
-// gearwatch with `args`, stdout and stderr into files.
-pid_t spawn(const std::vector<std::string>& args, const fs::path& out, const fs::path& err) {
-  const pid_t pid = ::fork();
-  if (pid != 0) return pid;
-  const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  ::dup2(o, 1);
-  ::dup2(e, 2);
-  std::vector<char*> argv{const_cast<char*>(GEARWATCH_BINARY)};
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  ::execv(GEARWATCH_BINARY, argv.data());
-  ::_exit(127);
-}
-
-int wait_exit(pid_t pid) {
-  int st = 0;
-  ::waitpid(pid, &st, 0);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
 
 // A count read the way staff read; 0 while the database is not there or not migrated yet.
 std::int64_t count(const fs::path& db, const std::string& table) {
@@ -85,7 +67,7 @@ std::string dump(const fs::path& db, const std::string& sql, const std::set<std:
       if (ignored.count(s.column_name(i))) continue;
       out << s.column_name(i) << "=";
       if (s.is_null(i)) out << "NULL";
-      else if (s.column_type(i) == "real") out << s.get_double(i);
+      else if (s.column_type(i) == gearwatch::storage::ColumnType::real) out << s.get_double(i);
       else out << s.get_text(i);
       out << "|";
     }

@@ -36,31 +36,11 @@ namespace {
 
 using gearwatch::storage::Database;
 using gearwatch::storage::Statement;
+using gearwatch::testing::spawn;
+using gearwatch::testing::wait_exit;
 
 std::string gw(const std::string& args) { return std::string(GEARWATCH_BINARY) + " " + args; }
 
-// Starts gearwatch with `args`, its stdout and stderr into files; optionally as another user.
-pid_t spawn(const std::vector<std::string>& args, const fs::path& out, const fs::path& err, uid_t as_user = 0,
-            const std::string& binary = GEARWATCH_BINARY) {
-  const pid_t pid = ::fork();
-  if (pid != 0) return pid;
-  const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  ::dup2(o, 1);
-  ::dup2(e, 2);
-  if (as_user != 0 && (::setgroups(0, nullptr) != 0 || ::setgid(as_user) != 0 || ::setuid(as_user) != 0)) ::_exit(126);
-  std::vector<char*> argv{const_cast<char*>(binary.c_str())};
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  ::execv(binary.c_str(), argv.data());
-  ::_exit(127);
-}
-
-int wait_exit(pid_t pid) {
-  int st = 0;
-  ::waitpid(pid, &st, 0);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);
