@@ -45,6 +45,10 @@ bool same(std::optional<double> stored, double now) {
 
 CaptureIdentity identify_capture(const std::string& path) {
   CaptureIdentity id{resolved(path), ""};
+  // Only a regular file can be read twice: reading the head of a FIFO (a capture streamed in)
+  // would take its first frames away from the source. A stream has no identity to resume by.
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return id;
   std::ifstream in(path, std::ios::binary);
   if (!in) return id;
   std::vector<char> head(kIdentityBytes);

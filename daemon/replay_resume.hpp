@@ -27,8 +27,9 @@ struct CaptureIdentity {
   std::string content_id;  ///< "fnv1a64:<16 hex digits>:<bytes hashed>" over its first MiB; "" when unreadable
 };
 
-/// The identity of the capture at `path`. A file that cannot be read gets an empty content_id
-/// (the source then reports why it cannot read it).
+/// The identity of the capture at `path`. A file that cannot be read, and anything but a regular
+/// file (a FIFO a capture is streamed through cannot be read twice), gets an empty content_id:
+/// nothing of it is read here, and a run from it is never resumed by identity.
 CaptureIdentity identify_capture(const std::string& path);
 
 class ReplayResume {

@@ -91,7 +91,7 @@ std::size_t count_of(const std::string& text, const std::string& what) {
 // ---------------------------------------------------------------------------------------------
 // Item 13: unbounded line length.
 
-TEST_CASE("defects #13: an 800 MB line is counted once as malformed and skipped in bounded memory; every frame around it is replayed",
+TEST_CASE("defects #13: an 800 MB line is counted once as malformed and skipped in bounded memory and every frame around it is replayed",
           "[defects][acquisition]") {
   const gearwatch::testing::TempDir dir("defects13-long");
   const auto clean = dir / "clean.log";
@@ -144,7 +144,7 @@ TEST_CASE("defects #13: replaying /dev/zero is refused in one line before anythi
 // ---------------------------------------------------------------------------------------------
 // Item 11: dead sensors.
 
-TEST_CASE("defects #11: accelerometers that send nothing while the tacho goes on raise sensor_missing once each; it clears when they deliver",
+TEST_CASE("defects #11: accelerometers that send nothing while the tacho goes on raise sensor_missing once each and it clears when they deliver",
           "[defects][acquisition]") {
   const gearwatch::testing::TempDir dir("defects11-vib");
   // Stream 1: 4 s of tacho, header, speed and life counter, and no vibration frame at all.
@@ -172,7 +172,7 @@ TEST_CASE("defects #11: accelerometers that send nothing while the tacho goes on
   CHECK(scalar(db, "SELECT count(*) FROM active_alerts") == 0);
 }
 
-TEST_CASE("defects #11: a tacho that sends nothing while the samples go on raises tacho_missing once; it clears when its edges come back",
+TEST_CASE("defects #11: a tacho that sends nothing while the samples go on raises tacho_missing once and it clears when its edges come back",
           "[defects][acquisition]") {
   const gearwatch::testing::TempDir dir("defects11-tacho");
   // Stream 1: 6 s without a single tacho frame (the generator's capture with them taken out).

@@ -301,7 +301,7 @@ TEST_CASE("defects #12: query rejected: valid JSON on non-UTF-8 capture lines, c
   CHECK(table.out.find("\\x1b[31mred") != std::string::npos);
 }
 
-TEST_CASE("defects (smaller): parse errors are one line `gearwatch: <reason>` with exit 64; --version exists", "[cli][defects]") {
+TEST_CASE("defects (smaller): parse errors are one line `gearwatch: <reason>` with exit 64 and --version exists", "[cli][defects]") {
   const TempDir dir("d-parse");
   const auto unknown_view = run("query customers --db x.db");
   CHECK(unknown_view.status == 64);

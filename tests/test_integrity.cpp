@@ -230,14 +230,31 @@ TEST_CASE("defects #2: a second writer on one database is refused with the holde
 
   // The lock is the process's: once it has ended (kill -9 included) the next writer gets it.
   auto lock = gearwatch::storage::DatabaseLock::acquire(db.string());
-  // inspect never creates (or migrates) a database another process holds.
+  // inspect never creates a database (item 5 of the same issue), held or not.
   const auto fresh = dir / "fresh.db";
   auto held = gearwatch::storage::DatabaseLock::acquire(fresh.string());
-  const auto refused = run_command(gw("inspect --db " + fresh.string() + " --cycles 0 --wear-depth 1e-6"));
+  const auto missing = run_command(gw("inspect --db " + fresh.string() + " --cycles 0 --wear-depth 1e-6"));
+  CHECK(missing.status != 0);
+  CHECK(std::count(missing.err.begin(), missing.err.end(), '\n') == 1);
+  CHECK_FALSE(fs::exists(fresh));
+  // Nor does it migrate a database another process holds: a copy of this history set back to
+  // schema version 5 is refused with the holder's pid and left at version 5.
+  const auto older = dir / "older.db";
+  fs::copy_file(db, older);
+  {
+    Database w(older.string(), Database::Mode::read_write);
+    w.set_user_version(5);
+  }
+  auto held_older = gearwatch::storage::DatabaseLock::acquire(older.string());
+  const auto refused = run_command(gw("inspect --db " + older.string() + " --cycles 0 --wear-depth 1e-6"));
   CHECK(refused.status != 0);
   CHECK(refused.err.find("pid " + std::to_string(::getpid()) + ")") != std::string::npos);
   CHECK(std::count(refused.err.begin(), refused.err.end(), '\n') == 1);
-  CHECK_FALSE(fs::exists(fresh));
+  {
+    Database rd(older.string(), Database::Mode::read_only);
+    CHECK(rd.user_version() == 5);
+  }
+  CHECK(count(older, "inspections") == 1);
 }
 
 TEST_CASE("defects #3: the same capture by another relative path or a symlink is not stored again but new content at the path is",

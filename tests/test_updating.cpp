@@ -460,7 +460,7 @@ TEST_CASE("prognosis #1: where RMS_SA barely follows K_wear the update is refuse
   CHECK(u.evidence.find("below 0.02") != std::string::npos);
 }
 
-TEST_CASE("prognosis #1: [model] k_wear_update selects the rule, min_wear_elasticity its threshold; a typo is refused",
+TEST_CASE("prognosis #1: model.k_wear_update selects the rule and model.min_wear_elasticity its threshold and a typo is refused",
           "[model][updating][config]") {
   CHECK(config::parse_config("", "m.toml").model.k_wear_update == KWearUpdateRule::root_find);
   CHECK(config::parse_config("", "m.toml").model.min_wear_elasticity == ModelSettings{}.min_wear_elasticity);
