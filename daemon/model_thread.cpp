@@ -105,6 +105,7 @@ std::deque<ModelInput> stored_backlog(const std::string& database_path, const co
   for (const auto& stored : storage::load_records_after_newest_model_run(db, model_channel(config))) {
     ModelInput in = model_input(stored.record, config);
     in.stored_record_id = stored.record_id;
+    in.sample_rate_hz = stored.sample_rate_hz;  // as the processing thread gives it for a live record
     backlog.push_back(std::move(in));
   }
   return backlog;

@@ -75,7 +75,8 @@ std::vector<StoredRunRecord> load_run_records(Database& db, std::int64_t run_id)
 
 std::vector<StoredAnalysedRecord> load_records_after_newest_model_run(Database& db, int channel) {
   std::vector<StoredAnalysedRecord> out;
-  Statement st(db, "SELECT r.id, s.sequence, r.start_index, r.sample_count, r.input_revolutions, r.speed_hz, r.torque_nm"
+  Statement st(db, "SELECT r.id, s.sequence, r.start_index, r.sample_count, r.input_revolutions, r.speed_hz, r.torque_nm,"
+                   " s.sample_rate_hz"
                    " FROM records r JOIN streams s ON s.id = r.stream_key WHERE r.analysed = 1 AND r.id > ? ORDER BY r.id");
   st.bind(1, newest_modelled_record(db));
   while (st.step()) {
@@ -88,6 +89,7 @@ std::vector<StoredAnalysedRecord> load_records_after_newest_model_run(Database& 
     r.record.input_revolutions = optional_real(st, 4);
     r.record.speed_hz = real_or_nan(st, 5);
     r.record.torque_nm = real_or_nan(st, 6);
+    r.sample_rate_hz = static_cast<std::uint32_t>(st.get_int(7));
     out.push_back(std::move(r));
   }
   load_indicator_values(db, channel, out);

@@ -41,6 +41,7 @@ std::vector<StoredRunRecord> load_run_records(Database& db, std::int64_t run_id)
 /// torque, the indicator values of one channel; a NULL value reads as NaN, as it was written).
 struct StoredAnalysedRecord {
   std::int64_t record_id = 0;
+  std::uint32_t sample_rate_hz = 0;  ///< its stream header's rate (the twin simulates its counterpart at it)
   RecordResult record;
 };
 
