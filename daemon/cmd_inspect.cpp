@@ -10,6 +10,7 @@
 #include "cli_common.hpp"
 #include "vocabulary.hpp"
 #include "gearwatch/storage/database_lock.hpp"
+#include "gearwatch/storage/inspections.hpp"
 #include "gearwatch/storage/schema.hpp"
 
 namespace gearwatch::cli {
@@ -78,29 +79,16 @@ void register_inspect(CLI::App& app) {
       InspectionDatabase opened = open_for_inspection(opt->db);
       storage::Database& db = opened.db;
       // The gear pair now installed: its records since the last life-counter reset.
-      double reset_at = 0;
-      std::int64_t gear_pair = 0;
-      {
-        storage::Statement st(db, "SELECT count(*), (SELECT revolutions FROM life_counter_events ORDER BY id DESC LIMIT 1) FROM life_counter_events");
-        st.step();
-        gear_pair = st.get_int(0);
-        if (!st.is_null(1)) reset_at = st.get_double(1);
-      }
-      storage::Statement newest(db, "SELECT input_revolutions FROM records WHERE input_revolutions IS NOT NULL ORDER BY id DESC LIMIT 1");
-      const double newest_cycles = newest.step() ? newest.get_double(0) : 0.0;
-      if (opt->cycles > newest_cycles)
-        throw CommandError("--cycles " + number(opt->cycles) + " is beyond the newest record (" + number(newest_cycles) +
+      const storage::GearPairPosition at = storage::load_gear_pair_position(db);
+      if (opt->cycles > at.newest_record_cycles)
+        throw CommandError("--cycles " + number(opt->cycles) + " is beyond the newest record (" + number(at.newest_record_cycles) +
                            " cycles): an inspection cannot be in the future of the data");
-      if (gear_pair > 0 && opt->cycles < reset_at)
-        throw CommandError("--cycles " + number(opt->cycles) + " is before the last life-counter reset (" + number(reset_at) +
-                           " cycles): that was the previous gear pair");
-      storage::Statement s(db, "INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note, gear_pair) VALUES (?, ?, ?, ?, ?)");
-      s.bind(1, opt->cycles).bind(2, opt->pitted_area).bind(3, opt->wear_depth);
-      if (opt->note.empty()) s.bind_null(4);
-      else s.bind(4, opt->note);
-      s.bind(5, gear_pair);
-      s.run();
-      std::cout << "inspection " << db.last_insert_rowid() << " recorded at " << opt->cycles << " cycles\n";
+      if (at.gear_pair > 0 && opt->cycles < at.reset_at_cycles)
+        throw CommandError("--cycles " + number(opt->cycles) + " is before the last life-counter reset (" +
+                           number(at.reset_at_cycles) + " cycles): that was the previous gear pair");
+      const std::int64_t id =
+          storage::insert_inspection(db, {opt->cycles, opt->pitted_area, opt->wear_depth, opt->note, at.gear_pair});
+      std::cout << "inspection " << id << " recorded at " << opt->cycles << " cycles\n";
     } catch (const CommandError&) {
       throw;
     } catch (const std::runtime_error& e) {  // SQLite's errors, the lock file's
