@@ -171,7 +171,7 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--sample-rate", opt->cs.signal.sample_rate_hz, "Samples per second")->check(CLI::Range(100.0, 1e6))->capture_default_str();
   cmd->add_option("--speed-fluctuation", opt->cs.signal.speed_fluctuation, "Relative 0.5 Hz speed oscillation (synthetic physics)")->check(CLI::Range(0.0, 0.5));
   auto* seed = cmd->add_option("--seed", opt->cs.signal.seed,
-                               "Noise seed; with --physics rig or --campaign it also draws the effects' parameters at random")
+                               "Noise seed; with --physics rig or --campaign it also draws the effects' parameters at random, and --campaign random's campaign")
                    ->capture_default_str();
   cmd->add_option("--start-revs", opt->cs.start_revolutions, "Life counter at the first sample")->capture_default_str();
   cmd->add_option("--stream-id", opt->cs.stream_id, "Stream id in the header")->capture_default_str();
