@@ -74,10 +74,19 @@ rig::EffectSet make_effects(const std::string& list, bool seeded, std::uint64_t 
   return fx;
 }
 
+/// The campaign named on the command line: built in, drawn at random from the seed, or a file.
+rig::CampaignSpec campaign_spec(const Options& opt, bool seeded) {
+  if (opt.campaign == "lubricated" || opt.campaign == "dry" || opt.campaign == "healthy")
+    return rig::builtin_campaign(opt.campaign);
+  if (opt.campaign == "random") {
+    if (!seeded) throw CommandError("--campaign random needs --seed N (the campaign is drawn from it)");
+    return rig::random_campaign(opt.cs.signal.seed);
+  }
+  return rig::load_campaign_file(opt.campaign);
+}
+
 void run_campaign(const Options& opt, bool seeded, bool channels_given, bool effects_given) {
-  rig::CampaignSpec spec;
-  const bool builtin = opt.campaign == "lubricated" || opt.campaign == "dry" || opt.campaign == "healthy";
-  spec = builtin ? rig::builtin_campaign(opt.campaign) : rig::load_campaign_file(opt.campaign);
+  rig::CampaignSpec spec = campaign_spec(opt, seeded);
   if (opt.records > 0) spec.records = opt.records;
   if (opt.seconds > 0) spec.seconds = opt.seconds;
   if (channels_given) {
@@ -86,7 +95,7 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
   }
   if (effects_given) spec.effects = opt.effects;
   const std::uint64_t seed = opt.cs.signal.seed;
-  const rig::EffectSet effects = make_effects(spec.effects, seeded, seed, spec.effect_values);
+  const rig::EffectSet effects = rig::campaign_effects(spec, seeded, seed);
 
   daemon::CaptureSettings cs;
   twin::GearboxParameters params;
@@ -124,32 +133,19 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
 
   std::vector<rig::RecordTruth> truths;
   for (const auto& p : plan) {
-    rig::RecordTruth t;
-    t.plan = p;
-    t.wear = wear_states[truths.size()];
-    t.sliding = spec.bands;
-    t.sliding.pitting_rms_m_s2 = spec.pitting_gain_m_s2 * t.wear.pitting_density;
-    t.sliding.abrasion_rms_m_s2 = spec.roughness_gain_m_s2 * t.wear.roughness;
-    t.life_counter = static_cast<std::uint64_t>(std::llround(p.cycles));
-    rig::RigRunSettings run;
-    run.speed_hz = p.speed_hz;
-    run.torque_nm = spec.torque_nm;
-    run.duration_s = spec.seconds;
-    run.sample_rate_hz = spec.sample_rate_hz;
-    run.channels = spec.channels;
-    run.seed = seed * 1000003ull + static_cast<std::uint64_t>(p.index);
-    RigCaptureSignal signal(rig::simulate_record(params, effects, t.wear, t.sliding, run));
+    rig::RecordTruth t = rig::record_truth(spec, p, wear_states[truths.size()]);
+    RigCaptureSignal signal(rig::simulate_record(params, effects, t.wear, t.sliding, rig::record_run_settings(spec, p, seed)));
     daemon::CaptureSettings record = cs;
     record.duration_s = spec.seconds;
     record.fd = true;
     record.signal.speed_hz = p.speed_hz;
-    record.signal.torque_nm = spec.torque_nm;
+    record.signal.torque_nm = p.torque_nm;
     record.signal.channels = spec.channels;
     record.start_revolutions = t.life_counter;
     record.stream_id = static_cast<std::uint16_t>(1 + p.index % 65535);
     record.start_time_s = 1700000000.0 + p.cycles / p.speed_hz;
     const auto s = daemon::write_capture(record, signal, (fs::path(opt.out) / p.file_name).string());
-    std::cout << p.file_name << ": " << p.cycles << " cycles, " << p.speed_hz << " Hz, pitting " << t.wear.pitting_density
+    std::cout << p.file_name << ": " << p.cycles << " cycles, " << p.speed_hz << " Hz, " << p.torque_nm << " N m, pitting " << t.wear.pitting_density
               << ", mean wear " << t.wear.mean_wear_depth_m * 1e6 << " um, " << s.frames << " frames, " << s.clipped_samples
               << " clipped samples\n";
     truths.push_back(std::move(t));
@@ -175,7 +171,7 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--sample-rate", opt->cs.signal.sample_rate_hz, "Samples per second")->check(CLI::Range(100.0, 1e6))->capture_default_str();
   cmd->add_option("--speed-fluctuation", opt->cs.signal.speed_fluctuation, "Relative 0.5 Hz speed oscillation (synthetic physics)")->check(CLI::Range(0.0, 0.5));
   auto* seed = cmd->add_option("--seed", opt->cs.signal.seed,
-                               "Noise seed; with --physics rig or --campaign it also draws the effects' parameters at random")
+                               "Noise seed; with --physics rig or --campaign it also draws the effects' parameters at random, and --campaign random's campaign")
                    ->capture_default_str();
   cmd->add_option("--start-revs", opt->cs.start_revolutions, "Life counter at the first sample")->capture_default_str();
   cmd->add_option("--stream-id", opt->cs.stream_id, "Stream id in the header")->capture_default_str();
@@ -190,7 +186,7 @@ void register_simulate(CLI::App& app) {
       ->capture_default_str();
   auto* effects = cmd->add_option("--effects", opt->effects,
                                   "Rig effects: all, none or a comma-separated list (docs/rig-simulator.md)");
-  auto* campaign = cmd->add_option("--campaign", opt->campaign, "A wear campaign: lubricated, dry, healthy or FILE.toml (docs/campaign-file.md)");
+  auto* campaign = cmd->add_option("--campaign", opt->campaign, "A wear campaign: lubricated, dry, healthy, random (drawn from --seed) or FILE.toml (docs/campaign-file.md)");
   auto* records = cmd->add_option("--records", opt->records, "Campaign: measured stops (default: the campaign's)")->check(CLI::Range(1, 100000));
   auto* seconds = cmd->add_option("--seconds", opt->seconds, "Campaign: seconds per record (default: the campaign's)")->check(CLI::Range(0.1, 3600.0));
   records->needs(campaign);

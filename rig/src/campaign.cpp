@@ -254,7 +254,7 @@ CampaignSpec parse_campaign(const std::string& text, const std::string& source) 
     if (law == "archard") {
       c.wear.law = WearLaw::archard;
     } else if (law != "linear") {
-      r.fail(*wear->get("law"), "law", "must be \"linear\" or \"archard\"");
+      r.fail(*wear->get("law"), "law", "must be \"linear\" or \"archard\" (the other forms: --campaign random)");
     }
     c.wear.reference_torque_nm = r.number("reference_torque_nm", 20, 0.01, 1000);
     c.wear.pitting_onset_cycles = r.number("pitting_onset_cycles", 0, 0, 1e12);
@@ -363,6 +363,7 @@ std::vector<PlannedRecord> plan_records(const CampaignSpec& c) {
       p.index = static_cast<int>(out.size());
       p.cycles = n;
       p.speed_hz = speed;
+      p.torque_nm = c.torque_schedule().at(n);
       char speed_text[32];
       std::snprintf(speed_text, sizeof speed_text, "%gHz", speed);
       p.file_name = "rec_" + pad(p.index, 5) + "_c" + pad(n, 12) + "_" + speed_text + ".log";
@@ -379,6 +380,87 @@ std::uint64_t estimated_capture_bytes(double seconds, double fs, int channels, d
   return static_cast<std::uint64_t>(std::ceil(samples / 30.0) * 160.0 * channels + seconds * (speed_hz * 45.0 + 150.0) + 4096);
 }
 
+EffectSet campaign_effects(const CampaignSpec& spec, bool seeded, std::uint64_t seed) {
+  EffectSet fx = EffectSet::parse(spec.effects);
+  if (seeded) fx.randomise(seed);
+  for (const auto& [name, value] : spec.effect_values) fx.set(name, value);
+  return fx;
+}
+
+RecordTruth record_truth(const CampaignSpec& spec, const PlannedRecord& plan, const WearState& wear) {
+  RecordTruth t;
+  t.plan = plan;
+  t.wear = wear;
+  t.sliding = spec.bands;
+  t.sliding.pitting_rms_m_s2 = spec.pitting_gain_m_s2 * wear.pitting_density;
+  t.sliding.abrasion_rms_m_s2 = spec.roughness_gain_m_s2 * wear.roughness;
+  t.life_counter = static_cast<std::uint64_t>(std::llround(plan.cycles));
+  return t;
+}
+
+RigRunSettings record_run_settings(const CampaignSpec& spec, const PlannedRecord& plan, std::uint64_t seed) {
+  RigRunSettings run;
+  run.speed_hz = plan.speed_hz;
+  run.torque_nm = plan.torque_nm;
+  run.duration_s = spec.seconds;
+  run.sample_rate_hz = spec.sample_rate_hz;
+  run.channels = spec.channels;
+  run.seed = seed * 1000003ull + static_cast<std::uint64_t>(plan.index);
+  return run;
+}
+
+namespace {
+
+/// truth.json's "truth_forms": every drawn form and parameter of a `forms` campaign.
+nlohmann::json truth_forms_json(const CampaignSpec& c) {
+  using nlohmann::json;
+  const auto& f = c.wear.forms;
+  json j;
+  j["wear_coefficient_form"] = to_string(f.wear);
+  j["k0_m_per_cycle"] = f.k0;
+  j["k_unit"] = "m of depth per pinion cycle at the pinion's sliding extreme, at the reference torque";
+  j["reference_torque_nm"] = c.wear.reference_torque_nm;
+  j["lubricant"] = {{"viscosity_pa_s", f.film.viscosity_pa_s}, {"pressure_viscosity_per_pa", f.film.pressure_viscosity_per_pa}};
+  j["roughness"] = {{"initial_um", f.roughness.initial_um},
+                    {"final_um", f.roughness.final_um},
+                    {"runin_cycles", f.roughness.runin_cycles},
+                    {"index_floor", f.roughness.index_floor},
+                    {"index_per_um_wear", f.roughness.index_per_um_wear}};
+  j["contamination"] = f.contamination.on() ? json{{"from_cycles", f.contamination.from_cycles},
+                                                   {"wear_factor", f.contamination.wear_factor},
+                                                   {"pitting_growth_factor", f.contamination.pitting_growth_factor}}
+                                            : json(nullptr);
+  j["load_change"] = c.load_change_cycles >= 0
+                         ? json{{"from_cycles", c.load_change_cycles}, {"torque_before_nm", c.torque_nm}, {"torque_after_nm", c.torque_after_nm}}
+                         : json(nullptr);
+  j["pitting_form"] = to_string(f.pitting);
+  if (f.pitting == PittingForm::weibull) {
+    const auto& w = f.weibull;
+    j["pitting"] = {{"shape", w.shape},
+                    {"characteristic_life_cycles", w.characteristic_life_cycles},
+                    {"location_cycles", w.location_cycles},
+                    {"sites", w.sites},
+                    {"initial_area_mm2", w.initial_area_m2 * 1e6},
+                    {"max_area_mm2", w.max_area_m2 * 1e6},
+                    {"growth_per_cycle", w.growth_per_cycle},
+                    {"reference_torque_nm", w.reference_torque_nm},
+                    {"load_life_exponent", w.load_life_exponent},
+                    {"max_density", w.max_density},
+                    {"seed", w.seed},
+                    {"k_pitting_meaning", "the pit growth rate in force, 1/cycle"}};
+  }
+  if (c.random.drawn)
+    j["random"] = {{"seed", c.random.seed},
+                   {"regime", to_string(c.random.regime)},
+                   {"final_depth_target_um", c.random.final_depth_target_um},
+                   {"final_density_target", c.random.final_density_target},
+                   {"pit_site_oversupply", c.random.pit_site_oversupply},
+                   {"pit_growth_cycles", c.random.pit_growth_cycles}};
+  return j;
+}
+
+}  // namespace
+
 std::string truth_json(const CampaignSpec& c, const EffectSet& effects, std::uint64_t seed, bool seeded,
                        const std::vector<RecordTruth>& records, int pinion_teeth, int gear_teeth) {
   using nlohmann::json;
@@ -387,12 +469,15 @@ std::string truth_json(const CampaignSpec& c, const EffectSet& effects, std::uin
                    {"max_cycles", c.max_cycles},
                    {"stop_interval_cycles", c.stop_interval_cycles},
                    {"torque_nm", c.torque_nm},
+                   {"load_change_cycles", c.load_change_cycles >= 0 ? json(c.load_change_cycles) : json(nullptr)},
+                   {"torque_after_nm", c.load_change_cycles >= 0 ? json(c.torque_after_nm) : json(nullptr)},
                    {"measurement_speeds_hz", c.measurement_speeds_hz},
                    {"records", records.size()},
                    {"seconds", c.seconds},
                    {"sample_rate_hz", c.sample_rate_hz},
                    {"channels", c.channels},
-                   {"wear_law", c.wear.law == WearLaw::archard ? "archard" : "linear"}};
+                   {"wear_law", to_string(c.wear.law)}};
+  if (c.wear.law == WearLaw::forms) j["truth_forms"] = truth_forms_json(c);
   j["seed"] = seed;
   j["effect_parameters_drawn_at_random"] = seeded;
   json fx;
@@ -426,7 +511,7 @@ std::string truth_json(const CampaignSpec& c, const EffectSet& effects, std::uin
                     {"cycles", r.plan.cycles},
                     {"life_counter_revolutions", r.life_counter},
                     {"speed_hz", r.plan.speed_hz},
-                    {"torque_nm", c.torque_nm},
+                    {"torque_nm", r.plan.torque_nm},
                     {"mean_wear_depth_um", r.wear.mean_wear_depth_m * 1e6},
                     {"combined_mean_wear_depth_um", r.wear.combined_mean_wear_depth_m * 1e6},
                     {"wear_profile_pinion_um_root_to_tip", pinion_um},

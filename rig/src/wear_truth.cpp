@@ -127,8 +127,22 @@ WearState ArchardWearTruth::at(double cycles) const {
   return w;
 }
 
+const char* to_string(WearLaw law) {
+  switch (law) {
+    case WearLaw::linear: return "linear";
+    case WearLaw::archard: return "archard";
+    case WearLaw::forms: return "forms";
+  }
+  return "?";
+}
+
 std::unique_ptr<WearTruth> make_wear_truth(const WearModelSettings& settings, const twin::GearboxParameters& params,
                                            double speed_hz) {
+  if (settings.law == WearLaw::forms)
+    return std::make_unique<FormsWearTruth>(settings.forms, settings.torque_schedule(), settings.reference_torque_nm,
+                                            settings.profile_points, params.gears, speed_hz);
+  if (settings.load_change_cycles >= 0)
+    throw RigParameterError(std::string("a load change needs the forms wear law (law is ") + to_string(settings.law) + ")");
   if (settings.law == WearLaw::archard) return std::make_unique<ArchardWearTruth>(settings, params, speed_hz);
   return std::make_unique<BuiltinWearTruth>(settings, params.gears);
 }

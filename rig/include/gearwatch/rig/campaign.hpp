@@ -19,11 +19,29 @@ struct CampaignError : std::invalid_argument {
   explicit CampaignError(const std::string& what) : std::invalid_argument(what) {}
 };
 
+/// The two families random_campaign() draws from.
+enum class CampaignRegime { lubricated_like, dry_like };
+const char* to_string(CampaignRegime regime);
+
+/// What random_campaign() drew besides the settings themselves: the targets its derived values
+/// (k0, η, the pit sites) were solved for.
+struct RandomCampaignDraw {
+  bool drawn = false;                  ///< false: not a random campaign
+  std::uint64_t seed = 0;
+  CampaignRegime regime = CampaignRegime::lubricated_like;
+  double final_depth_target_um = 0;    ///< combined mean wear depth at max_cycles (k0 is scaled to it)
+  double final_density_target = 0;     ///< pitting density at max_cycles (η is solved for it; 0: no pitting)
+  double pit_site_oversupply = 0;      ///< sites = ceil(oversupply · density target · area / a_max)
+  double pit_growth_cycles = 0;        ///< cycles a pit takes from a0 to a_max before contamination
+};
+
 struct CampaignSpec {
   std::string name;
   double max_cycles = 0;                       ///< pinion cycles at the end of the test
   double stop_interval_cycles = 0;             ///< the rig stopped (and was measured) every this many cycles
-  double torque_nm = 20;
+  double torque_nm = 20;                       ///< motor torque (until the load change, if any)
+  double load_change_cycles = -1;              ///< the torque becomes torque_after_nm here (< 0: never)
+  double torque_after_nm = 20;
   std::vector<double> measurement_speeds_hz;   ///< one record per speed at each measured stop
   int records = 20;                            ///< measured stops (compressed from the test's)
   double seconds = 10;
@@ -35,6 +53,9 @@ struct CampaignSpec {
   SlidingVibration bands;                      ///< carrier bands (its RMS fields are unused here)
   std::string effects = "none";                ///< "all", "none" or a list
   std::map<std::string, double> effect_values; ///< parameters fixed by the file ("effect.key")
+  RandomCampaignDraw random;                   ///< set by random_campaign()
+
+  TorqueSchedule torque_schedule() const { return {torque_nm, load_change_cycles, torque_after_nm}; }
 };
 
 /// "lubricated", "dry", "healthy"; throws CampaignError for another name.
@@ -46,10 +67,18 @@ std::string builtin_campaign_text(const std::string& name);
 CampaignSpec parse_campaign(const std::string& toml_text, const std::string& source);
 CampaignSpec load_campaign_file(const std::string& path);
 
+/// A campaign drawn from `seed` over the truth forms of wear_truth_forms.hpp (docs/rig-simulator.md,
+/// "Random campaigns": the draws and their ranges): lubricated-like or dry-like, regime-dependent
+/// or constant K, Weibull pitting (lubricated-like), an optional contamination, an optional load
+/// change. name = "random-<seed>"; the same seed gives the same campaign. The derived values (k0,
+/// η, the number of pit sites) are solved on the default gear pair (twin::GearboxParameters{}).
+CampaignSpec random_campaign(std::uint64_t seed);
+
 struct PlannedRecord {
   int index = 0;
   double cycles = 0;
   double speed_hz = 0;
+  double torque_nm = 0;    ///< the campaign's torque at this record's cycles (the record runs and is written at it)
   std::string file_name;   ///< sorts in cycle order
 };
 
@@ -68,6 +97,16 @@ struct RecordTruth {
   SlidingVibration sliding;
   std::uint64_t life_counter = 0;   ///< input revolutions at the record's first sample
 };
+
+/// The effects of a campaign: its list, parameters drawn from `seed` when `seeded`, then the
+/// campaign's fixed values (what `simulate --campaign` uses).
+EffectSet campaign_effects(const CampaignSpec& spec, bool seeded, std::uint64_t seed);
+/// What record `plan` is made from: the wear state, the sliding vibration at the campaign's gains,
+/// the life counter.
+RecordTruth record_truth(const CampaignSpec& spec, const PlannedRecord& plan, const WearState& wear);
+/// The rig run of record `plan` (its speed and torque, the campaign's length, rate and channels;
+/// noise seed derived from `seed` and the record's index), as `simulate --campaign` runs it.
+RigRunSettings record_run_settings(const CampaignSpec& spec, const PlannedRecord& plan, std::uint64_t seed);
 
 /// truth.json: the campaign, the seed, the effects with their parameters, and per record its
 /// cycles, life counter, wear state, coefficients and sliding-vibration strength.

@@ -5,28 +5,13 @@
 #include <memory>
 #include <vector>
 
+#include "gearwatch/rig/wear_state.hpp"
+#include "gearwatch/rig/wear_truth_forms.hpp"
 #include "gearwatch/twin/gearbox_parameters.hpp"
 #include "gearwatch/twin/transmission_error.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
 
 namespace gearwatch::rig {
-
-struct WearState {
-  double cycles = 0;                        ///< pinion (input) revolutions since installation
-  twin::ToothProfileDeviation profile;      ///< mean wear depth root → tip (uniform over the teeth), m
-  double mean_wear_depth_m = 0;             ///< mean over the pinion's active profile
-  double combined_mean_wear_depth_m = 0;    ///< pinion + gear mean: what the twin's model reports as its mean
-  double pitting_density = 0;               ///< pitted fraction of the active flank area, 0..1
-  double roughness = 0;                     ///< abrasion roughness index (1 = a sandpaper-roughened flank)
-  double k_wear = 0;                        ///< wear coefficient in force at this cycle count
-  double k_pitting = 0;                     ///< pitting coefficient in force at this cycle count
-};
-
-class WearTruth {
- public:
-  virtual ~WearTruth() = default;
-  virtual WearState at(double cycles) const = 0;
-};
 
 /// A change of the wear coefficient from a cycle count on (run-in, lubricant contamination, ...).
 struct WearPhase {
@@ -42,13 +27,19 @@ struct WearPhase {
 ///   roughness(N) = R0 · exp(−N / N_runin) + R_wear · mean depth / 1 µm.
 /// `linear`: the law above, K in m of depth per cycle. `archard`: the project's improved Archard
 /// model (core wear, quasi-static force, the same blue loop the twin's model runs), K in m²/N.
-enum class WearLaw { linear, archard };
+/// `forms`: the truth's own forms (wear_truth_forms.hpp: regime-dependent K, Weibull pitting,
+/// contamination, load change), K in m of depth per cycle as `linear`'s.
+enum class WearLaw { linear, archard, forms };
+const char* to_string(WearLaw law);
 
 struct WearModelSettings {
   WearLaw law = WearLaw::linear;
   std::vector<WearPhase> phases;           ///< sorted by from_cycles; before the first: K = 0
   double reference_torque_nm = 20.0;
   double torque_nm = 20.0;
+  double load_change_cycles = -1;          ///< `forms` only: the torque becomes torque_after_nm here (< 0: never)
+  double torque_after_nm = 20.0;
+  FormsSettings forms;                     ///< `forms` only (its pitting and roughness replace the fields below)
   double pitting_onset_cycles = 0;
   double k_pitting = 0;                    ///< pitted fraction at 10⁶ cycles past the onset
   double pitting_exponent = 1.5;
@@ -57,6 +48,8 @@ struct WearModelSettings {
   double runin_cycles = 1;                 ///< e-folding of the initial roughness
   double roughness_per_um = 0;             ///< R_wear: roughness index per µm of mean wear depth
   int profile_points = 41;
+
+  TorqueSchedule torque_schedule() const { return {torque_nm, load_change_cycles, torque_after_nm}; }
 };
 
 class BuiltinWearTruth final : public WearTruth {
