@@ -4,6 +4,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -278,4 +279,22 @@ TEST_CASE("prognosis bench: two campaigns through the binary, scores recomputed 
                                                      " bench prognosis --campaigns 1 --seed 2 --records 6 --format json");
   REQUIRE(alone.status == 0);
   CHECK(without_seconds(nlohmann::json::parse(alone.out)["campaigns"][0]) == without_seconds(j["campaigns"][1]));
+}
+
+TEST_CASE("prognosis bench: bad options are refused in one line before anything is simulated", "[prognosis_bench][cli]") {
+  const std::string bench = std::string(GEARWATCH_BINARY) + " bench prognosis";
+  for (const char* bad : {" --campaigns 0", " --records 1", " --jobs 0", " --seconds 0.1", " --inspection-sd -0.1"}) {
+    INFO(bad);
+    const auto r = gearwatch::testing::run_command(bench + bad);
+    CHECK(r.status == 64);  // the parser's refusal (EX_USAGE)
+    CHECK(r.out.empty());
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+  }
+  // A directory is not a configuration file: refused with the path (docs/cli.md, --config).
+  const auto dir = gearwatch::testing::run_command(bench + " --config " + GEARWATCH_SOURCE_DIR);
+  CHECK(dir.status != 0);
+  CHECK(dir.out.empty());
+  CHECK(dir.err.rfind("gearwatch: ", 0) == 0);
+  CHECK(dir.err.find(GEARWATCH_SOURCE_DIR) != std::string::npos);
+  CHECK(std::count(dir.err.begin(), dir.err.end(), '\n') == 1);
 }
