@@ -30,5 +30,11 @@ void add_gap_report_command(CLI::App& app);
 void add_gap_bench_command(CLI::App& app);
 /// `gap` and all its subcommands.
 void register_gap(CLI::App& app);
+/// The `bench` subcommand, created on first use: each `bench` child registers itself through it.
+CLI::App* bench_command(CLI::App& app);
+/// `bench prognosis` (cmd_bench_prognosis.cpp).
+void add_bench_prognosis_command(CLI::App& app);
+/// `bench` and all its subcommands.
+void register_bench(CLI::App& app);
 
 }  // namespace gearwatch::cli

@@ -24,11 +24,6 @@ namespace {
 using nlohmann::json;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-int model_channel(const config::GearwatchConfig& c) {
-  if (c.model.channel >= 0) return c.model.channel;
-  return c.rig.channels.empty() ? 0 : c.rig.channels.front().number;
-}
-
 json snapshot_json(const wear::LoopSnapshot& s) {
   return {{"cycles", s.state.cycles},
           {"next_step_cycles", s.next_step_cycles},
@@ -79,6 +74,11 @@ std::string cycles_text(const std::optional<double>& c) {
 
 }  // namespace
 
+int model_channel(const config::GearwatchConfig& c) {
+  if (c.model.channel >= 0) return c.model.channel;
+  return c.rig.channels.empty() ? 0 : c.rig.channels.front().number;
+}
+
 ModelInput model_input(const storage::RecordResult& record, const config::GearwatchConfig& config) {
   ModelInput in;
   in.stream_sequence = record.stream_sequence;
@@ -109,6 +109,12 @@ std::deque<ModelInput> stored_backlog(const std::string& database_path, const co
     backlog.push_back(std::move(in));
   }
   return backlog;
+}
+
+twin::GearboxParameters model_twin_parameters(const config::GearwatchConfig& config) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(config.source_path, ec) ? config::load_twin_parameters(config.source_path)
+                                                                  : twin::GearboxParameters{};
 }
 
 wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
@@ -259,11 +265,7 @@ ModelThread::~ModelThread() {
 }
 
 void ModelThread::start() {
-  // The [twin] table of the configuration file, when there is one (tests and defaults have none).
-  std::error_code ec;
-  const twin::GearboxParameters params = std::filesystem::is_regular_file(config_.source_path, ec)
-                                             ? config::load_twin_parameters(config_.source_path)
-                                             : twin::GearboxParameters{};
+  const twin::GearboxParameters params = model_twin_parameters(config_);
   const wear::ModelSettings settings = model_settings(config_);
   // Built for each record at its rate; built once here so a bad model.simulation_revolutions stops the start.
   (void)wear::twin_rms_sa_simulator(params, config_.rig, config_.processing, config_.model.simulation_revolutions);

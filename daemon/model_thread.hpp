@@ -43,10 +43,17 @@ struct ModelInput {
   std::optional<std::int64_t> stored_record_id;
 };
 
+/// The accelerometer channel feeding the model: model.channel, else the first configured one.
+int model_channel(const config::GearwatchConfig& config);
+
 /// The model's inputs from a processed record: cycles (NaN without a life counter), the
 /// front-end's speed (else the tacho's mean speed) and torque, and the RMS_SA and low-band ICS2
 /// of the model's channel (absent when skipped).
 ModelInput model_input(const storage::RecordResult& record, const config::GearwatchConfig& config);
+
+/// The twin's parameters: the [twin] table of the configuration's file, when there is one (tests
+/// and the built-in defaults have none: the default parameters).
+twin::GearboxParameters model_twin_parameters(const config::GearwatchConfig& config);
 
 /// The model's settings from the configuration (the rig's gears, speed range and the [model] table).
 wear::ModelSettings model_settings(const config::GearwatchConfig& config);
