@@ -6,9 +6,13 @@
 #include <fstream>
 #include <iostream>
 
+#include <nlohmann/json.hpp>
+
 #include "capture_writer.hpp"
 #include "cli_common.hpp"
 #include "decoder_setup.hpp"
+#include "model_thread.hpp"
+#include "prognosis_scoring.hpp"
 #include "gearwatch/config/twin_config.hpp"
 #include "gearwatch/rig/campaign.hpp"
 #include "gearwatch/rig/rig_simulator.hpp"
@@ -85,6 +89,37 @@ rig::CampaignSpec campaign_spec(const Options& opt, bool seeded) {
   return rig::load_campaign_file(opt.campaign);
 }
 
+double deepest_flank_point(const rig::WearState& w) {
+  double m = 0;
+  for (double d : w.profile.pinion) m = std::max(m, d);
+  for (double d : w.profile.gear) m = std::max(m, d);
+  return m;
+}
+
+/// Where the truth crosses the model's limits (the configured wear and pitting limits), continued
+/// past the campaign's last stop by the model's forecast horizon, so the forecasts a replay gives
+/// can be held against the truth's cycles left. The search is the prognosis benchmark's (a stop
+/// spacing forward, then bisection to 1/1024 of it); null where the truth does not get there.
+nlohmann::json truth_limits(const rig::CampaignSpec& spec, const twin::GearboxParameters& params,
+                            const config::GearwatchConfig& cfg) {
+  const wear::ModelSettings s = daemon::model_settings(cfg);
+  const auto truth = rig::make_wear_truth(spec.wear, params, spec.measurement_speeds_hz.front());
+  const double step = spec.stop_interval_cycles > 0 ? spec.stop_interval_cycles : spec.max_cycles / 20.0;
+  const double to = spec.max_cycles + s.forecast_horizon_cycles;
+  nlohmann::json j{{"wear_limit_m", s.wear_limit_m}, {"pitting_limit", s.pitting_limit}, {"searched_to_cycles", to}};
+  auto crossing = [&](const daemon::prognosis::TruthCurve& curve, double level) -> nlohmann::json {
+    try {
+      const auto c = daemon::prognosis::first_crossing(curve, level, 0.0, to, step, step / 1024.0);
+      return c ? nlohmann::json(*c) : nlohmann::json();
+    } catch (const std::exception& e) {
+      return nlohmann::json(std::string("not computed: ") + e.what());
+    }
+  };
+  j["wear_limit_cycles"] = crossing([&](double n) { return deepest_flank_point(truth->at(n)); }, s.wear_limit_m);
+  j["pitting_limit_cycles"] = crossing([&](double n) { return truth->at(n).pitting_density; }, s.pitting_limit);
+  return j;
+}
+
 void run_campaign(const Options& opt, bool seeded, bool channels_given, bool effects_given) {
   rig::CampaignSpec spec = campaign_spec(opt, seeded);
   if (opt.records > 0) spec.records = opt.records;
@@ -99,8 +134,9 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
 
   daemon::CaptureSettings cs;
   twin::GearboxParameters params;
+  config::GearwatchConfig cfg;
   if (!opt.config.empty()) {
-    const auto cfg = load_config_or_defaults(opt.config);
+    cfg = load_config_or_defaults(opt.config);
     cs.scale_m_s2_per_lsb = cfg.rig.channels.front().scale_m_s2_per_lsb;
     cs.edges_per_rev = cfg.rig.tachos.front().edges_per_rev;
     cs.ids = daemon::protocol_ids(cfg);
@@ -151,7 +187,10 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
     truths.push_back(std::move(t));
   }
   std::ofstream out(fs::path(opt.out) / "truth.json");
-  out << rig::truth_json(spec, effects, seed, seeded, truths, params.gears.pinion_teeth, params.gears.gear_teeth);
+  nlohmann::json truth_doc =
+      nlohmann::json::parse(rig::truth_json(spec, effects, seed, seeded, truths, params.gears.pinion_teeth, params.gears.gear_teeth));
+  truth_doc["limits"] = truth_limits(spec, params, cfg);
+  out << truth_doc.dump(2) << "\n";
   if (!out) throw CommandError("cannot write " + (fs::path(opt.out) / "truth.json").string());
   std::cout << "wrote " << plan.size() << " records and truth.json to " << opt.out << "\n";
 }

@@ -81,6 +81,22 @@ sqlite3 -header -column "$db" "
 
 echo "== 6. forecast and remaining life (at the newest record's speed and torque)"
 $gw twin state --db "$db" | sed -n '/^prediction/,$p' | sed 's/^/   /'
+# The truth's own cycles left at the newest record (truth.json's limits: the truth continued past
+# the campaign to the model's limits), to hold the forecast and its interval against.
+sqlite3 :memory: "
+  WITH l AS (SELECT json_extract(readfile('$truth'), '$.limits') AS v),
+       last AS (SELECT max(json_extract(value, '$.cycles')) AS c FROM json_each(readfile('$truth'), '$.records'))
+  SELECT '   truth: ' ||
+         CASE WHEN json_type(v, '$.pitting_limit_cycles') IN ('integer', 'real')
+              THEN printf('pitting limit %g %% reached %.4g M cycles after the newest record', 100 * json_extract(v, '$.pitting_limit'),
+                          max(0, json_extract(v, '$.pitting_limit_cycles') - c) / 1e6)
+              ELSE 'pitting limit not reached within the search' END || '; ' ||
+         CASE WHEN json_type(v, '$.wear_limit_cycles') IN ('integer', 'real')
+              THEN printf('wear limit %.3f mm reached %.4g M cycles after it', 1e3 * json_extract(v, '$.wear_limit_m'),
+                          max(0, json_extract(v, '$.wear_limit_cycles') - c) / 1e6)
+              ELSE printf('wear limit %.3f mm not reached within %.4g M cycles', 1e3 * json_extract(v, '$.wear_limit_m'),
+                          json_extract(v, '$.searched_to_cycles') / 1e6) END
+  FROM l, last"
 
 echo "== 7. the maintenance page"
 $gw report --db "$db" --out "$out/report" >/dev/null
