@@ -108,6 +108,16 @@ const SpeedEstimate& SpeedEstimator::estimate(std::span<const float> x, double f
   if (!(high > low)) return fail("the nominal speed lies outside the speed range");
   if (!track_speed(x, fs, low, high)) return result_;
   coarse_angle(x, fs);
+  // The estimate measures its own scatter between independent windows (its tolerance against a
+  // tacho rests on it): a record must hold at least four of them.
+  const double window = 1.0 + static_cast<double>(settings_.gear_teeth) / settings_.pinion_teeth;
+  const double revolutions = result_.knot_revs.back() - result_.knot_revs.front();
+  if (revolutions < 4.0 * window) {
+    char text[160];
+    std::snprintf(text, sizeof text, "the record holds %.1f revolutions: a speed estimate needs four demodulation windows (%.1f)",
+                  revolutions, 4.0 * window);
+    return fail(text);
+  }
   const int order = settings_.pinion_teeth * result_.harmonic;
   double noise = 0.0;
   for (int k = 0; k < settings_.iterations; ++k) {
