@@ -745,8 +745,19 @@ def self_test():
           "saturated samples in the frames sent")
     check(s["clipped_samples"]["0"] == 0, "no natural clipping")
 
+    # 4b. A tacho 0.01 % fast: edge j at (j + phase)·fs/(speed·1.0001); none with --no-tacho.
+    fs, speed, scale = 20000, 10.0, 1.0001
+    _, by_id, s = decode(["--duration", "2.5", "--sample-rate", str(fs), "--speed", str(speed), "--channels", "0",
+                          "--tacho-rate-scale", str(scale)])
+    edges = [int.from_bytes(f[3][:4], "little") + int.from_bytes(f[3][4:], "little") / 2.0 ** 32 for f in by_id[TACHO_BASE_ID]]
+    check(len(edges) == s["tacho_edges"] == 25, "one edge per (faster) revolution")
+    check(max(abs(e - (j + 0.31415926535) * fs / (speed * scale)) for j, e in enumerate(edges)) < 1e-6, "scaled edge positions")
+    _, by_id, s = decode(["--duration", "1", "--sample-rate", str(fs), "--channels", "0", "--no-tacho"])
+    check(TACHO_BASE_ID not in by_id and s["tacho_edges"] == 0, "--no-tacho sends no tacho frame")
+
     # 5. Wrong options are refused with a reason.
-    for bad in (["--stop-channel", "5:1"], ["--status-period", "2"], ["--gap", "9:30"], ["--tacho-phase", "1.5"]):
+    for bad in (["--stop-channel", "5:1"], ["--status-period", "2"], ["--gap", "9:30"], ["--tacho-phase", "1.5"],
+                ["--tacho-rate-scale", "3"]):
         try:
             generate(self_test_args(["--duration", "1", "--sample-rate", "10000"] + bad))
             check(False, f"{bad} must be refused")
