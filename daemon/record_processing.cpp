@@ -181,7 +181,9 @@ RecordSpeed RecordProcessor::establish_speed(const Record& record, storage::Reco
 
 void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage::RecordResult& out) {
   char value[32], text[320];
-  std::snprintf(value, sizeof value, "%+.3g", check.relative_difference);
+  // Two significant digits: the value of a raised alert changes (and is raised again) only when
+  // the disagreement does, not with the estimate's last digits from record to record.
+  std::snprintf(value, sizeof value, "%+.2g", check.relative_difference);
   std::snprintf(text, sizeof text,
                 "tacho mean speed %.6g Hz, vibration signal %.6g Hz: %+.4f %% (tolerance %.4f %%)%s", check.tacho_speed_hz,
                 check.signal_speed_hz, 100.0 * check.relative_difference, 100.0 * check.tolerance,

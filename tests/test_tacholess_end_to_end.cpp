@@ -23,7 +23,7 @@ namespace {
 
 const std::string kGenerator = std::string(GEARWATCH_SOURCE_DIR) + "/tests/capture_gen/rig_capture.py";
 
-std::string quoted(const fs::path& p) { return "'" + p.native() + "'"; }
+std::string sh_quoted(const fs::path& p) { return "'" + p.native() + "'"; }
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);
@@ -31,7 +31,7 @@ std::string slurp(const fs::path& p) {
 }
 
 int shell(const std::string& command, const fs::path& out, const fs::path& err) {
-  const int status = std::system((command + " >" + quoted(out) + " 2>" + quoted(err)).c_str());
+  const int status = std::system((command + " >" + sh_quoted(out) + " 2>" + sh_quoted(err)).c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
@@ -39,7 +39,7 @@ int shell(const std::string& command, const fs::path& out, const fs::path& err) 
 // harmonics 2.4, 1.2, 0.6 m/s² and 1 m/s² of white noise; 21 s (two 10 s records).
 fs::path generate(const gearwatch::testing::TempDir& dir, const std::string& name, const std::string& tacho) {
   const fs::path log = dir / (name + ".log");
-  const int status = shell(std::string(GEARWATCH_PYTHON) + " " + quoted(kGenerator) + " --out " + quoted(log) +
+  const int status = shell(std::string(GEARWATCH_PYTHON) + " " + sh_quoted(kGenerator) + " --out " + sh_quoted(log) +
                                " --duration 21 --sample-rate 25600 --speed 33.3307 --pinion-teeth 23 --gmf-harmonics 2.4,1.2,0.6"
                                " --white-noise 1.0 --channels 0 " + tacho,
                            dir / (name + ".gen.out"), dir / (name + ".gen.err"));
@@ -71,9 +71,9 @@ struct Replayed {
 Replayed replay(const gearwatch::testing::TempDir& dir, const std::string& name, const std::string& tacho) {
   const fs::path log = generate(dir, name, tacho);
   Replayed r{dir / (name + ".db"), {}};
-  const auto summary = gearwatch_json(dir, "replay " + quoted(log) + " --db " + quoted(r.db) + " --config " + quoted(write_config(dir)));
+  const auto summary = gearwatch_json(dir, "replay " + sh_quoted(log) + " --db " + sh_quoted(r.db) + " --config " + sh_quoted(write_config(dir)));
   CHECK(summary["records_analysed"] == 2);
-  r.alerts = gearwatch_json(dir, "query alerts --db " + quoted(r.db));
+  r.alerts = gearwatch_json(dir, "query alerts --db " + sh_quoted(r.db));
   return r;
 }
 
