@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <numbers>
 #include <random>
+#include <span>
 #include <vector>
 
 #include <unistd.h>
@@ -27,6 +28,7 @@
 #include "gearwatch/dsp/fft.hpp"
 #include "gearwatch/dsp/filter_bank.hpp"
 #include "gearwatch/dsp/record_analyzer.hpp"
+#include "gearwatch/dsp/speed_estimation.hpp"
 
 using namespace gearwatch;
 using namespace gearwatch::dsp;
@@ -181,6 +183,30 @@ int main() {
   std::printf("full indicator set against issue 11's target: %.1f x (target <= 20): %s\n", std::max(ratio_wall, ratio_cpu),
               std::max(ratio_wall, ratio_cpu) <= 20.0 ? "met" : "NOT met");
 
+  // --- speed from the signal (tacholess order tracking) on the same record: every step, from the
+  // short-time spectra to the synthetic edges (issue 36: target <= 5 r2c FFTs).
+  SpeedEstimationSettings speed_settings;
+  speed_settings.pinion_teeth = rig.gears.pinion_teeth;
+  speed_settings.gear_teeth = rig.gears.gear_teeth;
+  speed_settings.min_speed_hz = rig.min_speed_hz;
+  speed_settings.max_speed_hz = rig.max_speed_hz;
+  SpeedEstimator estimator(speed_settings);
+  const std::span<const float> samples(record.channels[0]);
+  const SpeedEstimate& estimate = estimator.estimate(samples, record.sample_rate_hz);  // plans
+  Timing t_speed;
+  for (int i = 0; i < 7; ++i) {
+    measure(t_fft, [&] { fft.forward(in, out); });
+    measure(t_speed, [&] { estimator.estimate(samples, record.sample_rate_hz); });
+  }
+  const double speed_ratio = std::max(t_speed.wall / t_fft.wall, t_speed.cpu / t_fft.cpu);
+  const auto& tacho = record.tacho_edges[0];
+  const double tacho_speed = double(tacho.size() - 1) * record.sample_rate_hz / (tacho.back() - tacho.front());
+  const SpeedCheck check = check_tacho(tacho, 1.0, estimate, record.sample_rate_hz, rig.gears.pinion_teeth);
+  std::printf("speed estimation from the signal:  %8.1f ms   %8.1f ms   = %.1f x r2c FFT (target <= 5); %s, harmonic %d, "
+              "mean %.6f Hz (tacho %.6f Hz, difference %+.2e, tolerance %.2e)\n",
+              t_speed.wall * 1e3, t_speed.cpu * 1e3, speed_ratio, estimate.ok ? "ok" : estimate.failure.c_str(),
+              estimate.harmonic, estimate.mean_speed_hz, tacho_speed, check.relative_difference, check.tolerance);
+
   // --- the peer's fast kurtogram on the same samples, when one is named
   if (const char* peer = std::getenv("GEARWATCH_PEER_FAST_KURTOGRAM")) {
     const char* python = std::getenv("GEARWATCH_PYTHON");
@@ -215,5 +241,7 @@ int main() {
               ratio <= 20.0 ? 1 : 0);
   std::printf("BENCH name=band_selection_per_fft figure=%.1f unit=x_r2c_fft target=3 cmp=le met=%d\n", tree_ratio,
               tree_ratio <= 3.0 ? 1 : 0);
+  std::printf("BENCH name=speed_estimation_per_fft figure=%.1f unit=x_r2c_fft target=5 cmp=le met=%d\n", speed_ratio,
+              speed_ratio <= 5.0 ? 1 : 0);
   return 0;
 }

@@ -28,11 +28,32 @@ double selected_value(const dsp::ChannelAnalysis& a) {
 
 
 
+dsp::SpeedEstimationSettings speed_estimation_settings(const RigSpec& rig) {
+  dsp::SpeedEstimationSettings s;
+  s.pinion_teeth = rig.gears.pinion_teeth;
+  s.gear_teeth = rig.gears.gear_teeth;
+  s.min_speed_hz = rig.min_speed_hz;
+  s.max_speed_hz = rig.max_speed_hz;
+  return s;
+}
+
+// The carrier band this record's analysis could not look at: skipped as above 0.45·fs.
+std::optional<dsp::CarrierBand> unseen_band(const dsp::ChannelAnalysis& a) {
+  auto above = [&](const char* name) {
+    const auto* s = a.skip_reason(name);
+    return s != nullptr && s->reason == dsp::SkipReason::band_above_nyquist;
+  };
+  const bool pitting = above("ics2_low_band"), abrasion = above("ics2_high_band");
+  if (pitting == abrasion) return std::nullopt;
+  return pitting ? dsp::CarrierBand::pitting : dsp::CarrierBand::abrasion;
+}
+
 }  // namespace
 
 RecordProcessor::RecordProcessor(const config::GearwatchConfig& config, ProcessorMemory memory)
     : config_(config),
       analyzer_(config.rig, config.processing),
+      estimator_(speed_estimation_settings(config.rig)),
       history_(std::move(memory.wear_history)),
       alerts_(std::move(memory.alerts)),
       baselines_(std::move(memory.baselines)) {}
@@ -114,6 +135,63 @@ storage::AlertUpdate RecordProcessor::stream_sample_rate(std::uint32_t stream_ra
   return u;
 }
 
+// The record's shaft angle: the tacho's, checked against the signal's estimate; the estimate's
+// when there is no tacho or the two disagree (the estimate is then the better angle: a tacho whose
+// mean speed is off slips the mesh phase through the record and wrecks the averages silently,
+// while the estimate has just passed its own consistency checks).
+RecordSpeed RecordProcessor::establish_speed(const Record& record, storage::RecordResult& out) {
+  RecordSpeed speed;
+  const TachoSpec* tacho = dsp::input_tacho(config_.rig, record);
+  const std::vector<double>* edges = tacho != nullptr ? &record.tacho_edges[static_cast<std::size_t>(tacho->shaft)] : nullptr;
+  const double revs_per_edge = tacho != nullptr ? 1.0 / (tacho->edges_per_rev * tacho->ratio_to_input) : 0.0;
+  double nominal = std::isfinite(record.speed_hz) && record.speed_hz > 0 ? record.speed_hz : kNaN;
+  if (!std::isfinite(nominal) && edges != nullptr && edges->size() >= 2)
+    nominal = static_cast<double>(edges->size() - 1) * revs_per_edge * record.sample_rate_hz / (edges->back() - edges->front());
+  const dsp::SpeedEstimate* estimate = nullptr;
+  for (const auto& channel : record.channels) {
+    const dsp::SpeedEstimate& e = estimator_.estimate(channel, record.sample_rate_hz, nominal);
+    if (e.ok) {
+      estimate = &e;
+      break;
+    }
+    speed.estimate_failure = e.failure;
+  }
+  if (estimate != nullptr) {
+    speed.estimate_failure.clear();
+    out.estimated_speed_hz = estimate->mean_speed_hz;
+  }
+  if (tacho == nullptr) {
+    if (estimate != nullptr) {
+      speed.source = dsp::SpeedSource::signal_estimate;
+      speed.estimated_edges = estimate->edges;
+    }
+    return speed;
+  }
+  speed.source = dsp::SpeedSource::tacho;
+  if (estimate == nullptr) return speed;  // nothing to check the tacho against
+  const dsp::SpeedCheck check =
+      dsp::check_tacho(*edges, revs_per_edge, *estimate, record.sample_rate_hz, config_.rig.gears.pinion_teeth);
+  observe_speed_check(check, out);
+  if (check.mismatch) {
+    speed.source = dsp::SpeedSource::signal_estimate;
+    speed.estimated_edges = estimate->edges;
+  }
+  return speed;
+}
+
+void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage::RecordResult& out) {
+  char value[32], text[320];
+  // Two significant digits: the value of a raised alert changes (and is raised again) only when
+  // the disagreement does, not with the estimate's last digits from record to record.
+  std::snprintf(value, sizeof value, "%+.2g", check.relative_difference);
+  std::snprintf(text, sizeof text,
+                "tacho mean speed %.6g Hz, vibration signal %.6g Hz: %+.4f %% (tolerance %.4f %%)%s", check.tacho_speed_hz,
+                check.signal_speed_hz, 100.0 * check.relative_difference, 100.0 * check.tolerance,
+                check.mismatch ? "; the record is analysed on the signal's estimate" : "; the tacho agrees again");
+  if (auto e = alerts_.observe(AlertKey{AlertKind::tacho_speed_mismatch, -1}, check.mismatch, value, text, AlertHysteresis{1, 1}))
+    out.alerts.push_back(std::move(*e));
+}
+
 void RecordProcessor::observe_cycle_count(const Record& record, storage::RecordResult& out) {
   // Only a record that has a count, or had one refused, tells whether the count is sound.
   const bool fault = record.cycle_fault != CycleCountFault::none;
@@ -155,7 +233,7 @@ void RecordProcessor::assess_wear(int channel, double cycles, const dsp::Channel
                selected_value(a)});
   const auto window = static_cast<std::size_t>(config_.processing.trend_window_records);
   if (h.size() > window) h.erase(h.begin(), h.end() - static_cast<std::ptrdiff_t>(window));
-  const auto verdict = dsp::identify_wear_mechanism(h, config_.processing);
+  const auto verdict = dsp::identify_wear_mechanism(h, config_.processing, unseen_band(a));
   storage::WearAssessment w;
   w.channel = channel;
   w.mechanism = verdict.mechanism;
@@ -166,6 +244,7 @@ void RecordProcessor::assess_wear(int channel, double cycles, const dsp::Channel
   w.high_band_rho = verdict.high_band.spearman_rho;
   w.band_jumps = verdict.band_jumps.size();
   w.evidence = verdict.evidence;
+  w.unseen_band = verdict.unseen_band;
 
   const std::string ch = "channel " + std::to_string(channel);
   const bool wear = dsp::is_wear(verdict.mechanism);
@@ -210,9 +289,14 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
     out.alert_states = alerts_.take_changed();
     return out;
   }
+  const RecordSpeed speed = establish_speed(record, out);
+  out.speed_source = speed.source;
   for (std::size_t c = 0; c < record.channels.size(); ++c) {
     const int channel = record.channel_numbers.at(c);
-    const dsp::ChannelAnalysis a = analyzer_.analyze(record, c);
+    dsp::ChannelAnalysis a = analyzer_.analyze(record, c, speed.estimated_edges);
+    if (!speed.estimate_failure.empty())
+      for (auto& s : a.skipped)
+        if (s.reason == dsp::SkipReason::no_tacho) s.detail = "no speed estimate from the signal either: " + speed.estimate_failure;
     storage::ChannelResult ch;
     ch.channel = channel;
     for (const auto& v : a.indicators) ch.values.emplace_back(v.name, v.value);
@@ -223,6 +307,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
       ch.values.emplace_back("samples_per_revolution", static_cast<double>(a.samples_per_revolution));
     }
     for (const auto& s : a.skipped) ch.skipped.push_back({s.name, dsp::to_string(s.reason), s.detail});
+    for (const auto& n : a.notes) ch.notes.push_back({n.name, dsp::to_string(n.note), n.detail});
     for (const auto& b : a.band_selections) ch.bands.push_back({b.criterion, b.level, b.centre_hz, b.bandwidth_hz, b.value});
     observe_channel_alerts(channel, a, out);
     check_thresholds(channel, a, out);

@@ -4,12 +4,15 @@
 // the alerts these raise or clear (AlertTracker, state reloaded from the database at start).
 // Runs on the processing thread; owns the analyzer's FFT plans and scratch.
 #include <map>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "gearwatch/alerts.hpp"
 #include "gearwatch/config/config.hpp"
 #include "gearwatch/dsp/record_analyzer.hpp"
+#include "gearwatch/dsp/speed_estimation.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
 #include "gearwatch/record.hpp"
 #include "gearwatch/storage/messages.hpp"
@@ -27,6 +30,13 @@ struct ProcessorMemory {
   WearHistory wear_history;
   AlertStates alerts;
   IndicatorBaselines baselines;
+};
+
+/// The shaft angle a record is analysed on (docs/dsp.md "Speed from the signal").
+struct RecordSpeed {
+  std::optional<dsp::SpeedSource> source;   ///< nullopt: no tacho and no estimate
+  std::span<const double> estimated_edges;  ///< the estimate's edges when they replace the tacho, else empty
+  std::string estimate_failure;             ///< why no estimate ("" when there is one)
 };
 
 class RecordProcessor {
@@ -49,6 +59,8 @@ class RecordProcessor {
   const AlertTracker& alerts() const noexcept { return alerts_; }
 
  private:
+  RecordSpeed establish_speed(const Record& record, storage::RecordResult& out);
+  void observe_speed_check(const dsp::SpeedCheck& check, storage::RecordResult& out);
   void observe_cycle_count(const Record& record, storage::RecordResult& out);
   void observe_channel_alerts(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
   void assess_wear(int channel, double cycles, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
@@ -56,6 +68,7 @@ class RecordProcessor {
 
   config::GearwatchConfig config_;
   dsp::RecordAnalyzer analyzer_;
+  dsp::SpeedEstimator estimator_;
   WearHistory history_;
   AlertTracker alerts_;
   IndicatorBaselines baselines_;

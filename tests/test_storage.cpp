@@ -12,6 +12,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "gearwatch/dsp/speed_estimation.hpp"
+
 #include "temp_dir.hpp"
 
 #include "gearwatch/dsp/skip_reason.hpp"
@@ -314,6 +316,33 @@ TEST_CASE("storage: every enumerated value has one source of truth: the enum", "
   db.exec("INSERT INTO runs(kind, source) VALUES ('replay', 'test')");
   db.exec("INSERT INTO rejected_frames(run_id, kind, reason, frame) VALUES (1, 'anything', 'r', 'f')");
   CHECK(count(db, "SELECT count(*) FROM rejected_frames") == 1);
+}
+
+TEST_CASE("storage: a record's speed source, indicator notes and unseen band are vocabulary-checked (schema 7)",
+          "[storage][vocabulary]") {
+  const gearwatch::testing::TempDir dir("speed-source");
+  Database db((dir / "a.db").string());
+  open_and_migrate(db);
+  CHECK(vocabulary(db, "speed_source") == sorted_tokens(gearwatch::dsp::kAllSpeedSources));
+  CHECK(vocabulary(db, "indicator_note") == sorted_tokens(gearwatch::dsp::kAllIndicatorNotes));
+  CHECK(vocabulary(db, "carrier_band") == sorted_tokens(gearwatch::dsp::kAllCarrierBands));
+  db.exec("INSERT INTO runs(kind, source) VALUES ('replay', 'test')");
+  db.exec("INSERT INTO streams(run_id, sequence, stream_id, sample_rate_hz, channel_count) VALUES (1, 1, 1, 25600, 1)");
+  const char* record = "INSERT INTO records(stream_key, start_index, sample_count, duration_s, end_reason, analysed, speed_source)"
+                       " VALUES (1, 0, 10, 1.0, 'complete', 1, ";
+  CHECK_THROWS_AS(db.exec(std::string(record) + "'signal estimate')"), SqliteError);
+  db.exec(std::string(record) + "'signal_estimate')");
+  db.exec(std::string(record) + "NULL)");  // neither tacho nor estimate
+  CHECK_THROWS_AS(db.exec("INSERT INTO indicator_notes(record_id, channel, name, note) VALUES (1, 0, 'ics2_low_band', 'trimmed')"),
+                  SqliteError);
+  db.exec("INSERT INTO indicator_notes(record_id, channel, name, note, detail) VALUES (1, 0, 'ics2_low_band', 'band_trimmed', 'd')");
+  CHECK(count(db, "SELECT count(*) FROM record_status WHERE speed_source = 'signal_estimate' AND notes = '0 ics2_low_band: band_trimmed (d)'") == 1);
+  CHECK_THROWS_AS(db.exec("INSERT INTO wear_mechanism_assessments(record_id, channel, mechanism, points, band_jumps, evidence, unseen_band)"
+                          " VALUES (1, 0, 'none', 5, 0, 'e', 'high')"),
+                  SqliteError);
+  db.exec("INSERT INTO wear_mechanism_assessments(record_id, channel, mechanism, points, band_jumps, evidence, unseen_band)"
+          " VALUES (1, 0, 'none', 5, 0, 'e', 'abrasion')");
+  CHECK(count(db, "SELECT count(*) FROM wear_mechanism WHERE unseen_band = 'abrasion'") == 1);
 }
 
 TEST_CASE("storage: every wear verdict and alert value is stored, a refused part loses nothing else", "[storage][vocabulary]") {

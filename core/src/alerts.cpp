@@ -18,6 +18,7 @@ const char* to_string(AlertKind kind) noexcept {
     case AlertKind::tacho_missing: return "tacho_missing";
     case AlertKind::cycle_count_fault: return "cycle_count_fault";
     case AlertKind::sample_rate_mismatch: return "sample_rate_mismatch";
+    case AlertKind::tacho_speed_mismatch: return "tacho_speed_mismatch";
   }
   return "unknown";
 }
@@ -60,6 +61,7 @@ AlertSeverity severity_of(AlertKind kind) noexcept {
     // The records go on being analysed; only their place in the pair's life is unknown.
     case AlertKind::cycle_count_fault: return AlertSeverity::warning;
     case AlertKind::sample_rate_mismatch: return AlertSeverity::warning;
+    case AlertKind::tacho_speed_mismatch: return AlertSeverity::warning;
   }
   return AlertSeverity::warning;
 }

@@ -5,6 +5,7 @@
 
 #include "gearwatch/alerts.hpp"
 #include "gearwatch/dsp/skip_reason.hpp"
+#include "gearwatch/dsp/speed_estimation.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
 #include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/record.hpp"
@@ -14,7 +15,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 6> kMigrations{
+constexpr std::array<const char*, 7> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -440,6 +441,49 @@ CREATE VIEW gap_candidates AS
 ALTER TABLE runs ADD COLUMN capture_id TEXT;
 CREATE INDEX runs_capture_id ON runs(capture_id);
 )SQL",
+    // 6 -> 7: where a record's shaft angle came from (the tacho or the vibration signal's estimate,
+    // docs/dsp.md "Speed from the signal") with the estimate's mean speed; caveats of computed
+    // indicators (a carrier band trimmed to 0.45 fs); the carrier band a wear verdict could not see.
+    R"SQL(
+ALTER TABLE records ADD COLUMN speed_source TEXT;
+ALTER TABLE records ADD COLUMN estimated_speed_hz REAL;
+ALTER TABLE wear_mechanism_assessments ADD COLUMN unseen_band TEXT;
+CREATE TABLE indicator_notes (
+  record_id INTEGER NOT NULL REFERENCES records(id),
+  channel INTEGER NOT NULL,
+  name TEXT NOT NULL,
+  note TEXT NOT NULL,
+  detail TEXT,
+  PRIMARY KEY (record_id, channel, name, note)
+) WITHOUT ROWID;
+CREATE TRIGGER records_speed_source_in_vocabulary BEFORE INSERT ON records
+  WHEN NEW.speed_source IS NOT NULL AND EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'speed_source')
+   AND NEW.speed_source NOT IN (SELECT token FROM vocabulary WHERE domain = 'speed_source')
+BEGIN SELECT RAISE(ABORT, 'records.speed_source: value not in vocabulary domain speed_source'); END;
+CREATE TRIGGER indicator_notes_note_in_vocabulary BEFORE INSERT ON indicator_notes
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'indicator_note')
+   AND NEW.note NOT IN (SELECT token FROM vocabulary WHERE domain = 'indicator_note')
+BEGIN SELECT RAISE(ABORT, 'indicator_notes.note: value not in vocabulary domain indicator_note'); END;
+CREATE TRIGGER wear_mechanism_assessments_unseen_band_in_vocabulary BEFORE INSERT ON wear_mechanism_assessments
+  WHEN NEW.unseen_band IS NOT NULL AND EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'carrier_band')
+   AND NEW.unseen_band NOT IN (SELECT token FROM vocabulary WHERE domain = 'carrier_band')
+BEGIN SELECT RAISE(ABORT, 'wear_mechanism_assessments.unseen_band: value not in vocabulary domain carrier_band'); END;
+DROP VIEW record_status;
+CREATE VIEW record_status AS
+  SELECT r.id AS record_id, s.run_id, s.stream_id, r.start_index, r.sample_count, r.duration_s,
+         r.end_reason, r.analysed, r.reject_reason, r.created_at,
+         (SELECT group_concat(k.channel || ' ' || k.name || ': ' || k.reason || coalesce(' (' || k.detail || ')', ''), '; ')
+            FROM indicator_skips k WHERE k.record_id = r.id) AS skipped,
+         r.speed_source, r.estimated_speed_hz,
+         (SELECT group_concat(n.channel || ' ' || n.name || ': ' || n.note || coalesce(' (' || n.detail || ')', ''), '; ')
+            FROM indicator_notes n WHERE n.record_id = r.id) AS notes
+  FROM records r JOIN streams s ON s.id = r.stream_key;
+DROP VIEW wear_mechanism;
+CREATE VIEW wear_mechanism AS
+  SELECT a.record_id, r.created_at, r.input_revolutions AS cycles, a.channel, a.mechanism, a.points,
+         a.low_band_p, a.high_band_p, a.low_band_rho, a.high_band_rho, a.band_jumps, a.evidence, a.unseen_band
+  FROM wear_mechanism_assessments a JOIN records r ON r.id = a.record_id;
+)SQL",
 };
 
 }  // namespace
@@ -458,6 +502,9 @@ Vocabulary core_vocabulary() {
   add("alert_severity", kAllAlertSeverities);
   add("alert_transition", kAllAlertTransitions);
   add("skip_reason", dsp::kAllSkipReasons);
+  add("indicator_note", dsp::kAllIndicatorNotes);
+  add("speed_source", dsp::kAllSpeedSources);
+  add("carrier_band", dsp::kAllCarrierBands);
   add("model_update_kind", wear::kAllUpdateKinds);
   add("model_update_trigger", wear::kAllUpdateTriggers);
   add("model_update_outcome", wear::kAllUpdateOutcomes);

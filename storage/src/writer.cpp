@@ -67,12 +67,15 @@ class BatchWriter {
   void write(const RecordResult& m) {
     Statement s(db_,
                 "INSERT INTO records(stream_key, start_index, sample_count, duration_s, end_reason, analysed, reject_reason,"
-                " torque_nm, speed_hz, input_revolutions) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                " torque_nm, speed_hz, input_revolutions, speed_source, estimated_speed_hz) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
     s.bind(1, stream(m.stream_sequence)).bind(2, m.start_index).bind(3, m.sample_count).bind(4, m.duration_s)
         .bind(5, to_string(m.end_reason)).bind(6, m.analysed ? 1 : 0);
     if (m.reject_reason.empty()) s.bind_null(7);
     else s.bind(7, m.reject_reason);
-    s.bind(8, m.torque_nm).bind(9, m.speed_hz).bind(10, m.input_revolutions).run();
+    s.bind(8, m.torque_nm).bind(9, m.speed_hz).bind(10, m.input_revolutions);
+    if (m.speed_source) s.bind(11, dsp::to_string(*m.speed_source));
+    else s.bind_null(11);
+    s.bind(12, m.estimated_speed_hz).run();
     const std::int64_t record_id = db_.last_insert_rowid();
     Statement value(db_, "INSERT OR REPLACE INTO indicator_values(record_id, channel, name, value) VALUES (?, ?, ?, ?)");
     Statement band(db_, "INSERT OR REPLACE INTO band_selections(record_id, channel, criterion, level, centre_hz, bandwidth_hz, value)"
@@ -94,13 +97,26 @@ class BatchWriter {
                      else skip.bind(5, k.detail);
                      skip.run();
                    });
+    Statement note(db_, "INSERT OR REPLACE INTO indicator_notes(record_id, channel, name, note, detail) VALUES (?, ?, ?, ?, ?)");
+    for (const auto& ch : m.channels)
+      for (const auto& k : ch.notes)
+        write_part(db_, counters_, "indicator note", [&] { return context + " channel " + std::to_string(ch.channel) + " " + k.name + ": " + k.note; }, [&] {
+                     note.bind(1, record_id).bind(2, ch.channel).bind(3, k.name).bind(4, k.note);
+                     if (k.detail.empty()) note.bind_null(5);
+                     else note.bind(5, k.detail);
+                     note.run();
+                   });
     for (const auto& w : m.assessments)
       write_part(db_, counters_, "wear assessment", [&] { return context + " channel " + std::to_string(w.channel) + ": " + dsp::to_string(w.mechanism); }, [&] {
                    Statement a(db_, "INSERT OR REPLACE INTO wear_mechanism_assessments(record_id, channel, mechanism, points, low_band_p,"
-                                    " high_band_p, low_band_rho, high_band_rho, band_jumps, evidence) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                                    " high_band_p, low_band_rho, high_band_rho, band_jumps, evidence, unseen_band)"
+                                    " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
                    a.bind(1, record_id).bind(2, w.channel).bind(3, dsp::to_string(w.mechanism)).bind(4, w.points).bind(5, w.low_band_p)
                        .bind(6, w.high_band_p).bind(7, w.low_band_rho).bind(8, w.high_band_rho).bind(9, w.band_jumps)
-                       .bind(10, w.evidence).run();
+                       .bind(10, w.evidence);
+                   if (w.unseen_band) a.bind(11, dsp::to_string(*w.unseen_band));
+                   else a.bind_null(11);
+                   a.run();
                  });
     write_alerts(m.alerts, m.alert_states, record_id, context);
   }

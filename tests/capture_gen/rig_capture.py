@@ -117,6 +117,11 @@ def build_parser():
                    help="revolutions from the first sample to the first tacho edge, in [0, 1)")
     p.add_argument("--tacho-edges-per-rev", type=int, default=1,
                    help="tacho edges per revolution of the input shaft, evenly spaced from the first")
+    p.add_argument("--no-tacho", action="store_true",
+                   help="send no tacho frames (a recording with an accelerometer only)")
+    p.add_argument("--tacho-rate-scale", type=float, default=1.0,
+                   help="the tacho's edges come F times as often as the shaft's revolutions (a wrong "
+                        "nameplate or a slipping belt: 1.0001 = 0.01 %% fast); the signal keeps the true angle")
     p.add_argument("--status-period", type=float, default=1.0,
                    help="at most this many seconds between stream header / operating condition / life counter frames (<= 1)")
     p.add_argument("--start-time", type=float, default=1700000000.0, help="log timestamp of the first sample (epoch s)")
@@ -333,6 +338,8 @@ def validate(args):
         raise GeneratorError("--tacho-phase must be in [0, 1)")
     if args.tacho_edges_per_rev < 1:
         raise GeneratorError("--tacho-edges-per-rev must be at least 1")
+    if not 0.5 < args.tacho_rate_scale < 2.0:
+        raise GeneratorError("--tacho-rate-scale must be in (0.5, 2)")
     if not 0 < args.status_period <= 1:
         raise GeneratorError("--status-period must be in (0, 1] s: the protocol wants these frames at least once a second")
     if not 0 <= args.first_index < INDEX_MODULUS or not 0 <= args.stream_id < (1 << 16):
@@ -458,9 +465,13 @@ def generate(args):
 
     # Tacho edges of the input shaft (shaft 0, E per revolution: edge j at angle j / E), at
     # fractional sample positions.
+    # With --tacho-rate-scale F the edges are those of a shaft turning F times as fast.
     per_rev = args.tacho_edges_per_rev
-    edge_count = int(math.floor(((n - 1) / samples_per_rev - args.tacho_phase) * per_rev)) + 1 if (n - 1) / samples_per_rev >= args.tacho_phase else 0
-    edge_pos = (np.arange(edge_count) / per_rev + args.tacho_phase) * samples_per_rev
+    edge_rev = samples_per_rev / args.tacho_rate_scale
+    edge_count = int(math.floor(((n - 1) / edge_rev - args.tacho_phase) * per_rev)) + 1 if (n - 1) / edge_rev >= args.tacho_phase else 0
+    if args.no_tacho:
+        edge_count = 0
+    edge_pos = (np.arange(edge_count) / per_rev + args.tacho_phase) * edge_rev
     edge_whole = np.floor(edge_pos).astype(np.int64)
     edge_frac = np.minimum(np.floor((edge_pos - edge_whole) * INDEX_MODULUS), INDEX_MODULUS - 1).astype(np.uint64)
     tacho = np.empty(edge_count, dtype=[("index", "<u4"), ("frac", "<u4")])
@@ -734,8 +745,19 @@ def self_test():
           "saturated samples in the frames sent")
     check(s["clipped_samples"]["0"] == 0, "no natural clipping")
 
+    # 4b. A tacho 0.01 % fast: edge j at (j + phase)·fs/(speed·1.0001); none with --no-tacho.
+    fs, speed, scale = 20000, 10.0, 1.0001
+    _, by_id, s = decode(["--duration", "2.5", "--sample-rate", str(fs), "--speed", str(speed), "--channels", "0",
+                          "--tacho-rate-scale", str(scale)])
+    edges = [int.from_bytes(f[3][:4], "little") + int.from_bytes(f[3][4:], "little") / 2.0 ** 32 for f in by_id[TACHO_BASE_ID]]
+    check(len(edges) == s["tacho_edges"] == 25, "one edge per (faster) revolution")
+    check(max(abs(e - (j + 0.31415926535) * fs / (speed * scale)) for j, e in enumerate(edges)) < 1e-6, "scaled edge positions")
+    _, by_id, s = decode(["--duration", "1", "--sample-rate", str(fs), "--channels", "0", "--no-tacho"])
+    check(TACHO_BASE_ID not in by_id and s["tacho_edges"] == 0, "--no-tacho sends no tacho frame")
+
     # 5. Wrong options are refused with a reason.
-    for bad in (["--stop-channel", "5:1"], ["--status-period", "2"], ["--gap", "9:30"], ["--tacho-phase", "1.5"]):
+    for bad in (["--stop-channel", "5:1"], ["--status-period", "2"], ["--gap", "9:30"], ["--tacho-phase", "1.5"],
+                ["--tacho-rate-scale", "3"]):
         try:
             generate(self_test_args(["--duration", "1", "--sample-rate", "10000"] + bad))
             check(False, f"{bad} must be refused")

@@ -33,13 +33,15 @@ enum class AlertKind : std::uint8_t {
   tacho_missing,       ///< a configured tacho sends no edges while the samples go on; channel = the shaft, value = how
   cycle_count_fault,   ///< a record's revolutions cannot be trusted (tacho disagrees with the speed frame, or they go backwards)
   sample_rate_mismatch,///< the stream header's sample rate differs from rig.sample_rate_hz; value = the header's rate
+  tacho_speed_mismatch,///< the tacho's mean speed disagrees with the vibration signal's estimate; value = the relative difference
 };
 inline constexpr std::array kAllAlertKinds{AlertKind::wear_mechanism,   AlertKind::carrier_band_jump,
                                            AlertKind::sensor_missing,   AlertKind::sensor_flat_line,
                                            AlertKind::sensor_saturated, AlertKind::life_counter_reset,
                                            AlertKind::indicator_threshold, AlertKind::remaining_life,
                                            AlertKind::twin_drift,       AlertKind::tacho_missing,
-                                           AlertKind::cycle_count_fault, AlertKind::sample_rate_mismatch};
+                                           AlertKind::cycle_count_fault, AlertKind::sample_rate_mismatch,
+                                           AlertKind::tacho_speed_mismatch};
 const char* to_string(AlertKind kind) noexcept;
 
 enum class AlertSeverity : std::uint8_t { info, warning, alarm };

@@ -1,6 +1,7 @@
 #include "gearwatch/dsp/order_tracking.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -21,12 +22,19 @@ TachoCheck ShaftAngle::assign(std::span<const double> edges, int edges_per_rev,
     if (!std::isfinite(edges[i]) || !std::isfinite(edges[i + 1]) || !(d > 0.0)) return TachoCheck(SkipReason::tacho_irregular);
     scratch_[i] = d;
   }
-  auto mid = scratch_.begin() + static_cast<std::ptrdiff_t>(scratch_.size() / 2);
-  std::nth_element(scratch_.begin(), mid, scratch_.end());
-  const double median = *mid;
-  for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
-    const double d = edges[i + 1] - edges[i];
-    if (d < 0.5 * median || d > 1.5 * median) return TachoCheck(SkipReason::tacho_irregular);
+  // Each interval against the median of the (up to) nine intervals around it: a missed or
+  // spurious edge stands out from its neighbours, while a run-up that doubles the speed over the
+  // record (a slow change from one interval to the next) is not mistaken for one.
+  constexpr std::size_t kNeighbours = 4;
+  const std::size_t count = scratch_.size();
+  std::array<double, 2 * kNeighbours + 1> local{};
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::size_t first = i >= kNeighbours ? i - kNeighbours : 0, last = std::min(count, i + kNeighbours + 1);
+    std::copy(scratch_.begin() + static_cast<std::ptrdiff_t>(first), scratch_.begin() + static_cast<std::ptrdiff_t>(last), local.begin());
+    const std::size_t m = last - first;
+    std::nth_element(local.begin(), local.begin() + static_cast<std::ptrdiff_t>(m / 2), local.begin() + static_cast<std::ptrdiff_t>(m));
+    const double median = local[m / 2];
+    if (scratch_[i] < 0.5 * median || scratch_[i] > 1.5 * median) return TachoCheck(SkipReason::tacho_irregular);
   }
 
   // Cubic spline through (i*h, edges[i]) with uniform knot spacing h and not-a-knot ends (the

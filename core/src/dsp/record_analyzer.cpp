@@ -137,7 +137,16 @@ std::vector<std::string> RecordAnalyzer::indicator_names() const {
   return names;
 }
 
-ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channel_index) {
+const TachoSpec* input_tacho(const RigSpec& rig, const Record& record) {
+  const TachoSpec* tacho = nullptr;
+  for (const auto& t : rig.tachos) {
+    if (t.shaft < 0 || t.shaft >= kMaxShafts || record.tacho_edges[static_cast<std::size_t>(t.shaft)].empty()) continue;
+    if (tacho == nullptr || (t.ratio_to_input == 1.0 && tacho->ratio_to_input != 1.0)) tacho = &t;
+  }
+  return tacho;
+}
+
+ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channel_index, std::span<const double> input_edges) {
   if (channel_index >= record.channels.size())
     throw std::out_of_range("RecordAnalyzer::analyze: record has no channel " + std::to_string(channel_index));
   ChannelAnalysis out;
@@ -186,7 +195,7 @@ ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channe
 
   std::string failure;
   try {
-    analyze_order_domain(record, x, raw.std_dev, out);
+    analyze_order_domain(record, x, raw.std_dev, input_edges, out);
   } catch (const std::exception& e) {
     failure = e.what();
   }
@@ -201,7 +210,7 @@ ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channe
 }
 
 void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const float> x, double raw_std_dev,
-                                          ChannelAnalysis& out) {
+                                          std::span<const double> input_edges, ChannelAnalysis& out) {
   const double fs = record.sample_rate_hz;
   auto skip = [&](const std::vector<std::string>& names, SkipReason reason, const std::string& detail = {}) {
     for (const auto& n : names) out.skipped.push_back({n, reason, detail});
@@ -217,18 +226,17 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   const auto residual_group = residual_names(settings_);
   for (auto& n : residual_group) order_names.push_back(n);
 
-  // Tacho: the input shaft's own if it has edges, else any other shaft's scaled by its ratio.
-  const TachoSpec* tacho = nullptr;
-  for (const auto& t : rig_.tachos) {
-    if (t.shaft < 0 || t.shaft >= kMaxShafts || record.tacho_edges[static_cast<std::size_t>(t.shaft)].empty()) continue;
-    if (tacho == nullptr || (t.ratio_to_input == 1.0 && tacho->ratio_to_input != 1.0)) tacho = &t;
-  }
-  if (tacho == nullptr) {
+  // Tacho: the given input-shaft edges (a speed estimate), else the input shaft's own tacho if it
+  // has edges, else any other shaft's scaled by its ratio.
+  const TachoSpec* tacho = input_tacho(rig_, record);
+  if (tacho == nullptr && input_edges.empty()) {
     skip(order_names, SkipReason::no_tacho);
     return;
   }
-  const TachoCheck check = angle_.assign(record.tacho_edges[static_cast<std::size_t>(tacho->shaft)],
-                                         tacho->edges_per_rev, 1.0 / tacho->ratio_to_input);
+  const TachoCheck check =
+      input_edges.empty() ? angle_.assign(record.tacho_edges[static_cast<std::size_t>(tacho->shaft)], tacho->edges_per_rev,
+                                          1.0 / tacho->ratio_to_input)
+                          : angle_.assign(input_edges, 1, 1.0);
   if (!check.ok()) {
     skip(order_names, *check.failure);
     return;
@@ -329,10 +337,22 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   const double min_band_fraction = std::pow(10.0, settings_.band_energy_floor_db / 10.0);
   const double full_band = envelope_.full_band_ics2(residual_spectrum_, spectral_length, spectral_revs, ics2).value;
   add("ics2_full_band", full_band);
-  auto band_ics2 = [&](const FrequencyBand& band, const std::string& name) {
-    if (band.high_hz > nyquist_hz + 1e-9) {
-      out.skipped.push_back({name, SkipReason::band_above_nyquist, {}});
-      return;
+  // Carrier bands reach up to 0.45·fs (kUsableBandFraction); a band reaching past it keeps the
+  // part below when that is at least half of it (the band still stands for its mechanism), noted.
+  const double usable_hz = std::min(nyquist_hz, kUsableBandFraction * fs);
+  auto band_ics2 = [&](FrequencyBand band, const std::string& name) {
+    if (band.high_hz > usable_hz + 1e-9) {
+      const double kept = std::max(0.0, usable_hz - band.low_hz) / (band.high_hz - band.low_hz);
+      char text[200];
+      if (kept < 0.5) {
+        std::snprintf(text, sizeof text, "%.0f-%.0f Hz: %.0f %% of it below %.0f Hz", band.low_hz, band.high_hz, 100.0 * kept,
+                      usable_hz);
+        out.skipped.push_back({name, SkipReason::band_above_nyquist, text});
+        return;
+      }
+      std::snprintf(text, sizeof text, "%.0f-%.0f Hz analysed of %.0f-%.0f Hz", band.low_hz, usable_hz, band.low_hz, band.high_hz);
+      out.notes.push_back({name, IndicatorNote::band_trimmed, text});
+      band.high_hz = usable_hz;
     }
     const auto first = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(band.low_hz * bins_per_hz)));
     const auto last = std::min(last_bin, static_cast<std::size_t>(std::floor(band.high_hz * bins_per_hz)));
@@ -364,7 +384,7 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   try {
     filter_bank_.analyse(residual, settings_.filter_bank_levels, criteria, band_maps_);
     for (std::size_t i = 1; i < criteria.size(); ++i) {
-      const auto best = band_maps_[i].optimum(nyquist_hz / equivalent_rate, &band_maps_[0], min_band_fraction);
+      const auto best = band_maps_[i].optimum(usable_hz / equivalent_rate, &band_maps_[0], min_band_fraction);
       if (!best.found) {
         skip({selection_names[i - 1]}, SkipReason::all_bands_below_floor);
         continue;

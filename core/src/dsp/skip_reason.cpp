@@ -30,6 +30,13 @@ const char* to_string(SkipReason reason) noexcept {
   return "unknown";
 }
 
+const char* to_string(IndicatorNote note) noexcept {
+  switch (note) {
+    case IndicatorNote::band_trimmed: return "band_trimmed";
+  }
+  return "unknown";
+}
+
 std::optional<SkipReason> parse_skip_reason(std::string_view token) noexcept {
   for (SkipReason r : kAllSkipReasons)
     if (token == to_string(r)) return r;

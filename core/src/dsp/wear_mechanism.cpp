@@ -242,6 +242,37 @@ double rise_over_lowest(const std::vector<double>& values) {
 
 }  // namespace
 
+const char* to_string(CarrierBand band) noexcept {
+  switch (band) {
+    case CarrierBand::pitting: return "pitting";
+    case CarrierBand::abrasion: return "abrasion";
+  }
+  return "unknown";
+}
+
+WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
+                                             const SignalProcessingSettings& settings,
+                                             std::optional<CarrierBand> unseen_band) {
+  WearMechanismVerdict v = identify_wear_mechanism(history, settings);
+  if (!unseen_band) return v;
+  v.unseen_band = unseen_band;
+  // The seen band alone decides; the unseen band's history (from records at another rate, if any)
+  // is reported in the evidence but not used.
+  const bool abrasion_unseen = *unseen_band == CarrierBand::abrasion;
+  const TrendTest& seen = abrasion_unseen ? v.low_band : v.high_band;
+  const std::size_t needed = minimum_points_for_evidence(settings.trend_significance);
+  if (seen.increasing) v.mechanism = abrasion_unseen ? WearMechanism::fatigue_pitting : WearMechanism::abrasive_wear;
+  else if (seen.points >= needed) v.mechanism = WearMechanism::none;
+  else v.mechanism = WearMechanism::undetermined;
+  const FrequencyBand& band = abrasion_unseen ? settings.abrasion_band : settings.pitting_band;
+  char text[200];
+  std::snprintf(text, sizeof text, "; from the %s band alone: the %s band (%.0f-%.0f Hz) lies above 0.45 fs, so %s cannot be seen",
+                abrasion_unseen ? "pitting" : "abrasion", abrasion_unseen ? "abrasion" : "pitting", band.low_hz, band.high_hz,
+                abrasion_unseen ? "abrasive wear" : "fatigue pitting");
+  v.evidence += text;
+  return v;
+}
+
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings) {
   const double alpha = settings.trend_significance;

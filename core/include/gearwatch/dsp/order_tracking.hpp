@@ -31,8 +31,9 @@ class ShaftAngle {
   /// analysed_revs_per_tacho_rev converts tacho-shaft revolutions into revolutions of the shaft
   /// the angle is expressed in (1 when the tacho is on that shaft).
   /// Returns the reason when the edges are unusable: fewer than one revolution, non-finite or
-  /// non-increasing positions, or an edge interval outside [0.5, 1.5] x the median interval
-  /// (a missed or spurious edge; ±5 % speed fluctuation and slow drift stay well inside).
+  /// non-increasing positions, or an edge interval outside [0.5, 1.5] x the median of the nine
+  /// intervals around it (a missed or spurious edge; ±5 % speed fluctuation and a run-up that
+  /// doubles the speed over a record stay well inside).
   TachoCheck assign(std::span<const double> edges, int edges_per_rev, double analysed_revs_per_tacho_rev);
 
   /// Revolutions covered from the first to the last edge.

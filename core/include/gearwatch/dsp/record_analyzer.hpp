@@ -90,6 +90,11 @@ struct SkippedIndicator {
   SkipReason reason = SkipReason::not_computed;   ///< stored as to_string(reason); see docs/dsp.md
   std::string detail;   ///< free text for some reasons (e.g. the filter bank's message), else empty
 };
+struct IndicatorNoteEntry {
+  std::string name;
+  IndicatorNote note = IndicatorNote::band_trimmed;   ///< stored as to_string(note)
+  std::string detail;
+};
 struct BandSelection {
   std::string criterion;    ///< "ics2" or "kurtosis"
   double level = 0.0;
@@ -101,6 +106,7 @@ struct BandSelection {
 struct ChannelAnalysis {
   std::vector<IndicatorValue> indicators;   ///< stable snake_case names, see docs/dsp.md
   std::vector<SkippedIndicator> skipped;
+  std::vector<IndicatorNoteEntry> notes;    ///< caveats of computed indicators (a trimmed band)
   std::vector<BandSelection> band_selections;
   double tsa_averages_input = 0;
   double tsa_averages_output = 0;
@@ -119,7 +125,9 @@ class RecordAnalyzer {
   RecordAnalyzer(const RigSpec& rig, const SignalProcessingSettings& settings);
   /// Never throws on bad data: every indicator is either in `indicators` or in `skipped` with a
   /// reason. Throws only std::out_of_range for a channel index the record does not have.
-  ChannelAnalysis analyze(const Record& record, std::size_t channel_index);
+  /// `input_edges`, when not empty, replaces the record's tacho: input-shaft edges, one per
+  /// revolution (a SpeedEstimate's synthetic edges), used exactly as a tacho's.
+  ChannelAnalysis analyze(const Record& record, std::size_t channel_index, std::span<const double> input_edges = {});
 
   const SignalProcessingSettings& settings() const noexcept { return settings_; }
   /// Every indicator name analyze() can produce, in output order.
@@ -127,7 +135,8 @@ class RecordAnalyzer {
 
  private:
   struct Context;
-  void analyze_order_domain(const Record& record, std::span<const float> x, double raw_std_dev, ChannelAnalysis& out);
+  void analyze_order_domain(const Record& record, std::span<const float> x, double raw_std_dev,
+                            std::span<const double> input_edges, ChannelAnalysis& out);
 
   RigSpec rig_;
   SignalProcessingSettings settings_;
@@ -147,6 +156,15 @@ class RecordAnalyzer {
   std::vector<double> gmf_amplitudes_;
   std::vector<BandMap> band_maps_;
 };
+
+/// The tacho the analysis uses for a record: the input shaft's own if it has edges, else any
+/// other configured shaft's with edges (scaled by its ratio); nullptr when no tacho has edges.
+const TachoSpec* input_tacho(const RigSpec& rig, const Record& record);
+
+/// The highest carrier frequency analysed at a sample rate: 0.45·fs. Above it a converter's
+/// anti-alias filter is in its transition band (flat to ~0.45·fs, stopped by ~0.55·fs in the
+/// usual sigma-delta front end), so what is there is attenuated or aliased.
+inline constexpr double kUsableBandFraction = 0.45;
 
 /// Name of the mean-carrier indicator for a range: "mean_carrier_hz_<low>_<high>" (whole Hz).
 std::string mean_carrier_indicator_name(const FrequencyBand& range);

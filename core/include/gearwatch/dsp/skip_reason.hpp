@@ -47,6 +47,14 @@ inline constexpr std::array kAllSkipReasons{
 /// The stored snake_case token, e.g. "no_tacho".
 const char* to_string(SkipReason reason) noexcept;
 
+/// Something true of an indicator that WAS computed, and that its value depends on (stored beside
+/// the skip reasons, vocabulary domain indicator_note). Existing tokens never change spelling.
+enum class IndicatorNote {
+  band_trimmed,   ///< a fixed carrier band reaching past 0.45·fs, analysed up to there (detail: the band used)
+};
+inline constexpr std::array kAllIndicatorNotes{IndicatorNote::band_trimmed};
+const char* to_string(IndicatorNote note) noexcept;
+
 /// The reason whose token is `token`, or nullopt (e.g. for reading stored tokens back).
 std::optional<SkipReason> parse_skip_reason(std::string_view token) noexcept;
 

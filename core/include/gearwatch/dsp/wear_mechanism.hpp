@@ -23,6 +23,7 @@
 // describe the trend alongside. Jumps of the ICS2-selected carrier band are flagged.
 #include <array>
 #include <limits>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -49,6 +50,13 @@ inline constexpr std::array kAllWearMechanisms{WearMechanism::none, WearMechanis
 constexpr bool is_wear(WearMechanism m) noexcept {
   return m == WearMechanism::fatigue_pitting || m == WearMechanism::abrasive_wear || m == WearMechanism::both;
 }
+
+/// The two fixed carrier bands of §4.4 (stored as the wear verdict's unseen band, vocabulary
+/// domain carrier_band).
+enum class CarrierBand { pitting, abrasion };
+inline constexpr std::array kAllCarrierBands{CarrierBand::pitting, CarrierBand::abrasion};
+/// The stored tokens: pitting, abrasion.
+const char* to_string(CarrierBand band) noexcept;
 
 struct TrendTest {
   std::size_t points = 0;
@@ -118,6 +126,9 @@ struct BandJump {
 
 struct WearMechanismVerdict {
   WearMechanism mechanism = WearMechanism::undetermined;
+  /// The band the verdict could not look at (above 0.45·fs at the record's rate): the verdict is
+  /// then about the other band alone, and cannot name this band's mechanism (nullopt = both seen).
+  std::optional<CarrierBand> unseen_band;
   TrendTest low_band, high_band;
   std::vector<BandJump> band_jumps;   ///< significant moves of the selected band (see BandJump)
   std::string evidence;               ///< one line: statistics, p-values, jumps
@@ -129,5 +140,14 @@ struct WearMechanismVerdict {
 /// `decreasing` is reported only.
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings);
+
+/// The same, when one carrier band cannot be seen at the record's sample rate (it lies above
+/// 0.45·fs, skipped band_above_nyquist): the verdict comes from the other band alone. Its rise names
+/// its mechanism; no rise gives `none` — of what can be seen — where the two-band rule would stay
+/// `undetermined` for good; `unseen_band` and the evidence say which mechanism could not be
+/// looked for. nullopt behaves as the two-band overload (so do both bands unseen: no points).
+WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
+                                             const SignalProcessingSettings& settings,
+                                             std::optional<CarrierBand> unseen_band);
 
 }  // namespace gearwatch::dsp

@@ -1,6 +1,7 @@
 #pragma once
 // What the processing thread asks the writer to store. Plain values.
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "gearwatch/alerts.hpp"
+#include "gearwatch/dsp/speed_estimation.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
 #include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/record.hpp"
@@ -44,10 +46,17 @@ struct SkippedRow {
   std::string detail;   ///< free text ("" = none)
 };
 
+struct NoteRow {
+  std::string name;     ///< indicator
+  std::string note;     ///< an indicator_note token
+  std::string detail;   ///< free text ("" = none)
+};
+
 struct ChannelResult {
   int channel = 0;
   std::vector<std::pair<std::string, double>> values;
   std::vector<SkippedRow> skipped;
+  std::vector<NoteRow> notes;
   std::vector<BandSelectionRow> bands;
 };
 
@@ -58,6 +67,7 @@ struct WearAssessment {
   double low_band_p = 1, high_band_p = 1, low_band_rho = 0, high_band_rho = 0;
   std::uint64_t band_jumps = 0;
   std::string evidence;
+  std::optional<dsp::CarrierBand> unseen_band;   ///< the band the verdict could not see
 };
 
 struct RecordResult {
@@ -70,6 +80,10 @@ struct RecordResult {
   std::string reject_reason;              ///< why not analysed ("" when analysed)
   double torque_nm = 0, speed_hz = 0;     ///< NaN when unknown (stored as NULL)
   std::optional<double> input_revolutions;
+  /// Where the analysed shaft angle came from (nullopt: neither, nothing order-domain computed),
+  /// and the signal estimate's mean input speed when there was one (NaN = none; both stored NULL).
+  std::optional<dsp::SpeedSource> speed_source;
+  double estimated_speed_hz = std::numeric_limits<double>::quiet_NaN();
   std::vector<ChannelResult> channels;
   std::vector<WearAssessment> assessments;
   /// Alert transitions caused by this record (stored with its id) and the alert states they

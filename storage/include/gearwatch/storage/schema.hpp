@@ -57,7 +57,7 @@ void refuse_foreign_database(const std::string& path, const DatabaseIdentity& id
 using Vocabulary = std::map<std::string, std::vector<std::string>>;
 
 /// The domains of core's enums: record_end_reason, wear_mechanism, alert_kind, alert_severity,
-/// alert_transition, skip_reason, and the model's model_update_kind, model_update_trigger,
+/// alert_transition, skip_reason, indicator_note, speed_source, carrier_band, and the model's model_update_kind, model_update_trigger,
 /// model_update_outcome, model_issue (gearwatch/wear/updating.hpp).
 Vocabulary core_vocabulary();
 
