@@ -16,6 +16,12 @@ bool has_table(storage::Database& db, const std::string& name) {
   return s.step();
 }
 
+bool has_column(storage::Database& db, const std::string& table, const std::string& column) {
+  storage::Statement s(db, "SELECT 1 FROM pragma_table_info(?) WHERE name = ?");
+  s.bind(1, table).bind(2, column);
+  return s.step();
+}
+
 }  // namespace
 
 void register_query(CLI::App& app) {
@@ -71,7 +77,8 @@ void register_query(CLI::App& app) {
            {"SELECT run_id, created_at, record_id, gear_pair, cycles, speed_hz, torque_nm, k_wear, k_pitting, rms_sa_measured,"
             " rms_sa_simulated, ics2_low, ics2_density_estimate, wear_mean_m, wear_max_m, pitting_mean, pitting_max, wear_limit_m,"
             " wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit, pitting_cycles_left,"
-            " pitting_cycles_left_low, pitting_cycles_left_high, issues, detail FROM predictions",
+            " pitting_cycles_left_low, pitting_cycles_left_high, interval_coverage, forecast_flags, issues, detail, forecast_evidence"
+            " FROM predictions",
             "created_at"}},
       };
       if ((opt->what == "updates" && !has_table(db, "k_updates")) || (opt->what == "predictions" && !has_table(db, "predictions")))
@@ -79,6 +86,9 @@ void register_query(CLI::App& app) {
                            " view yet: it was written by an older gearwatch (schema before version 4); open it once with this one");
       const Source& source = sources.at(opt->what);
       std::string sql = source.sql;
+      if (opt->what == "predictions" && !has_column(db, "predictions", "interval_coverage"))
+        throw CommandError("this database's predictions view has no interval coverage yet: it was written by an older gearwatch"
+                           " (schema before version 8); open it once with this one");
       const std::string time_col = source.time_col;
       std::vector<std::string> bind;
       std::vector<std::string> where;

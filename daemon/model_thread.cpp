@@ -3,6 +3,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -40,6 +41,22 @@ wear::LoopSnapshot snapshot_from(const json& j) {
   s.state.gear_depth_m = j.at("gear_depth_m").get<std::vector<double>>();
   s.state.pinion_pitting = j.at("pinion_pitting").get<std::vector<double>>();
   return s;
+}
+
+json posterior_json(const wear::LogPosterior& p) {
+  return {{"valid", p.valid}, {"mean", p.mean}, {"var", p.var}, {"cycles", p.cycles}};
+}
+
+// A state stored before the posterior existed has none: missing -> not valid (the model starts a prior).
+wear::LogPosterior posterior_from(const json& j, const char* key) {
+  wear::LogPosterior p;
+  if (!j.contains(key)) return p;
+  const json& o = j.at(key);
+  p.valid = o.at("valid").get<bool>();
+  p.mean = o.at("mean").get<double>();
+  p.var = o.at("var").get<double>();
+  p.cycles = o.at("cycles").get<double>();
+  return p;
 }
 
 // Root -> tip at 11 points (the twin wear table's rows): what a prediction row keeps of the profile.
@@ -140,6 +157,12 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   s.wear_limit_m = m.wear_limit_fraction * 3.14159265358979323846 * config.rig.gears.module_m / 2.0;
   s.pitting_limit = m.pitting_limit;
   s.forecast_horizon_cycles = m.forecast_horizon_cycles;
+  s.prior_log_k_wear_sd = m.prior_log_k_wear_sd;
+  s.log_k_drift_per_million_cycles = m.log_k_drift_per_million_cycles;
+  s.rms_sa_relative_sd_floor = m.rms_sa_relative_sd_floor;
+  s.inspection_area_relative_sd = m.inspection_area_relative_sd;
+  s.disagreement_records = m.disagreement_records;
+  s.ics2_onset_records = m.ics2_onset_records;
   return s;
 }
 
@@ -150,6 +173,8 @@ std::string memory_to_json(const wear::ModelMemory& m) {
   for (const auto& p : m.pitting_points) points.push_back({p.cycles, p.ics2, p.density});
   json ops = json::array();
   for (const auto& p : m.recent_operating_points) ops.push_back({p[0], p[1]});
+  json residuals = json::array();
+  for (const auto& r : m.rms_residuals) residuals.push_back({r[0], r[1]});
   const json j{{"format", 1},
                {"started", m.started},
                {"current", snapshot_json(m.current)},
@@ -162,7 +187,14 @@ std::string memory_to_json(const wear::ModelMemory& m) {
                {"pitting_calibrated", m.pitting_calibrated},
                {"calibration_inspection_id", m.calibration_inspection_id},
                {"ics2_scale", {{"valid", m.ics2_scale_valid}, {"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density},
-                               {"slope", m.ics2_scale_slope}}},
+                               {"slope", m.ics2_scale_slope}, {"inspections", m.ics2_scale_inspections},
+                               {"baseline_sd", m.ics2_scale_baseline_sd}}},
+               {"log_k_wear", posterior_json(m.log_k_wear)},
+               {"log_k_pitting", posterior_json(m.log_k_pitting)},
+               {"rms_residuals", residuals},
+               {"pitting_calibration_var", m.pitting_calibration_var},
+               {"scale_residual", {{"sum_sq", m.scale_residual_sum_sq}, {"count", m.scale_residual_count}}},
+               {"last_ics2_calibration_cycles", m.last_ics2_calibration_cycles},
                {"recent_k_wear", m.recent_k_wear},
                {"recent_k_pitting", m.recent_k_pitting},
                {"recent_operating_points", ops},
@@ -193,6 +225,19 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     m.ics2_scale_ics2 = sc.at("ics2").get<double>();
     m.ics2_scale_density = sc.at("density").get<double>();
     m.ics2_scale_slope = sc.at("slope").get<double>();
+    // Fields added with the posterior (issue 34): an older state lacks them, and gets the defaults.
+    m.ics2_scale_inspections = sc.value("inspections", m.ics2_scale_valid ? 2 : 0);
+    m.ics2_scale_baseline_sd = sc.value("baseline_sd", 0.0);
+    m.log_k_wear = posterior_from(j, "log_k_wear");
+    m.log_k_pitting = posterior_from(j, "log_k_pitting");
+    if (j.contains("rms_residuals"))
+      for (const auto& r : j.at("rms_residuals")) m.rms_residuals.push_back({r.at(0).get<double>(), r.at(1).get<double>()});
+    m.pitting_calibration_var = j.value("pitting_calibration_var", 0.0);
+    if (j.contains("scale_residual")) {
+      m.scale_residual_sum_sq = j.at("scale_residual").at("sum_sq").get<double>();
+      m.scale_residual_count = j.at("scale_residual").at("count").get<std::uint64_t>();
+    }
+    m.last_ics2_calibration_cycles = j.value("last_ics2_calibration_cycles", -1.0);
     m.recent_k_wear = j.at("recent_k_wear").get<std::vector<double>>();
     m.recent_k_pitting = j.at("recent_k_pitting").get<std::vector<double>>();
     for (const auto& p : j.at("recent_operating_points")) m.recent_operating_points.push_back({p.at(0).get<double>(), p.at(1).get<double>()});
@@ -428,11 +473,15 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
     const AlertHysteresis h{config_.model.remaining_life_raise_after_records, config_.model.remaining_life_clear_after_records};
     const double threshold = config_.model.remaining_life_alert_cycles;
     auto observe_limit = [&](const char* subject, const wear::LimitForecast& lf, const char* what, double scale, const char* unit) {
-      const bool near = lf.cycles_left && *lf.cycles_left < threshold;
+      // Near: the nominal forecast, or a limit the measured ICS2 estimate has reached already.
+      const bool reached = &lf == &r.forecast.pitting &&
+                           std::count(r.forecast.flags.begin(), r.forecast.flags.end(), wear::ForecastFlag::pitting_limit_reached_by_ics2) > 0;
+      const bool near = (lf.cycles_left && *lf.cycles_left < threshold) || reached;
       char text[400];
-      std::snprintf(text, sizeof text, "%s limit %.4g %s: %s cycles left (%s to %s with the spread of recent K updates) at %.3g Hz, %.3g N m; alert below %.4g",
-                    what, lf.limit * scale, unit, cycles_text(lf.cycles_left).c_str(), cycles_text(lf.cycles_left_low).c_str(),
-                    cycles_text(lf.cycles_left_high).c_str(), r.forecast.speed_hz, r.forecast.torque_nm, threshold);
+      std::snprintf(text, sizeof text, "%s limit %.4g %s: %s cycles left (%.0f %% interval %s to %s) at %.3g Hz, %.3g N m; alert below %.4g",
+                    what, lf.limit * scale, unit, cycles_text(lf.cycles_left).c_str(), 100 * r.forecast.coverage,
+                    cycles_text(lf.cycles_left_low).c_str(), cycles_text(lf.cycles_left_high).c_str(), r.forecast.speed_hz,
+                    r.forecast.torque_nm, threshold);
       // The value is the limit, not the cycles left: those change at every record, and a changed
       // value would be raised again each time.
       char value[48];

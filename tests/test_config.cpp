@@ -170,6 +170,12 @@ TEST_CASE("config: the shipped configuration files parse", "[config]") {
   CHECK(m.remaining_life_clear_after_records == md.remaining_life_clear_after_records);
   CHECK(m.queue_capacity == md.queue_capacity);
   CHECK(m.force_model == md.force_model);
+  CHECK(m.prior_log_k_wear_sd == md.prior_log_k_wear_sd);
+  CHECK(m.log_k_drift_per_million_cycles == md.log_k_drift_per_million_cycles);
+  CHECK(m.rms_sa_relative_sd_floor == md.rms_sa_relative_sd_floor);
+  CHECK(m.inspection_area_relative_sd == md.inspection_area_relative_sd);
+  CHECK(m.disagreement_records == md.disagreement_records);
+  CHECK(m.ics2_onset_records == md.ics2_onset_records);
 }
 
 TEST_CASE("config: [model] keys, and the errors that name them", "[config][model]") {

@@ -4,6 +4,7 @@
 // CLI shows it (`twin state`, `query updates|predictions`, `inspect`).
 #include "model_thread.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -113,6 +114,52 @@ TEST_CASE("model thread: the stored state round-trips every double exactly", "[m
   CHECK(back.calibration_inspection_id == 123456789012345);
   CHECK_THROWS_WITH(daemon::memory_from_json("{\"format\": 1}"), Catch::Contains("model state is not readable"));
   CHECK_THROWS_WITH(daemon::memory_from_json("{\"format\": 2}"), Catch::Contains("unknown state format"));
+}
+
+TEST_CASE("model thread: the posterior and residuals round-trip, and a state stored before them reads with the defaults",
+          "[model][daemon]") {
+  wear::ModelSettings s;
+  s.loop.profile_points = 11;
+  s.forecast_horizon_cycles = 1000;
+  wear::TwinModel model(twin::GearboxParameters{}, s, [](const wear::WearState&, const twin::OperatingPoint&) { return 1.0; });
+  model.observe({0, 1234.5, 10.3, 20.1, 1.0, 0.3}, {});
+  wear::ModelMemory m = model.memory();
+  REQUIRE(m.log_k_wear.valid);   // the prior, from the start of the pair
+  m.log_k_pitting = {true, -216.1 + 1.0 / 3.0, 0.1 + 0.2, 4.5e5};
+  m.rms_residuals = {{0.1 + 0.2, 0.0}, {-1e-300, 1.0}};
+  m.pitting_calibration_var = 1.0 / 7.0;
+  m.scale_residual_sum_sq = 2.0 / 3.0;
+  m.scale_residual_count = 5;
+  m.ics2_scale_inspections = 1;
+  m.ics2_scale_baseline_sd = 1e-3 / 3.0;
+  m.last_ics2_calibration_cycles = 6.5e5;
+  const std::string text = daemon::memory_to_json(m);
+  const wear::ModelMemory back = daemon::memory_from_json(text);
+  CHECK(daemon::memory_to_json(back) == text);
+  CHECK(back.log_k_pitting.mean == -216.1 + 1.0 / 3.0);
+  CHECK(back.log_k_wear.var == m.log_k_wear.var);
+  CHECK(back.rms_residuals[1][0] == -1e-300);
+  CHECK(back.scale_residual_count == 5);
+  CHECK(back.last_ics2_calibration_cycles == 6.5e5);
+  // A state of an older gearwatch: without the fields added with the posterior.
+  nlohmann::json old = nlohmann::json::parse(text);
+  for (const char* key : {"log_k_wear", "log_k_pitting", "rms_residuals", "pitting_calibration_var", "scale_residual",
+                          "last_ics2_calibration_cycles"})
+    old.erase(key);
+  old["ics2_scale"].erase("inspections");
+  old["ics2_scale"].erase("baseline_sd");
+  const wear::ModelMemory older = daemon::memory_from_json(old.dump());
+  CHECK_FALSE(older.log_k_wear.valid);
+  CHECK_FALSE(older.log_k_pitting.valid);
+  CHECK(older.rms_residuals.empty());
+  CHECK(older.scale_residual_count == 0);
+  CHECK(older.last_ics2_calibration_cycles == -1.0);
+  // The model given it starts the prior about its K_wear, from its cycles on.
+  const wear::TwinModel resumed(twin::GearboxParameters{}, s, [](const wear::WearState&, const twin::OperatingPoint&) { return 1.0; }, older);
+  CHECK(resumed.memory().log_k_wear.valid);
+  CHECK(resumed.memory().log_k_wear.mean == std::log(std::max(older.k_wear_si, s.k_wear_min_si)));   // K 0 here: the lower bound
+  CHECK(resumed.memory().log_k_wear.var == Approx(std::pow(s.prior_log_k_wear_sd, 2)).epsilon(1e-15));
+  CHECK(resumed.memory().log_k_wear.cycles == older.current.state.cycles);
 }
 
 TEST_CASE("model thread: a campaign replayed one file per process ends in the state of one long replay",
@@ -242,6 +289,13 @@ TEST_CASE("model thread: bad input is stored with its reason, nothing is NaN, th
   const auto preds = gw("query predictions --db " + db2.string() + " --format json");
   REQUIRE(preds.status == 0);
   CHECK(nlohmann::json::parse(preds.out).size() == 2);
+  // Every stored forecast states its interval's nominal coverage (issue 34: 90 %), through the CLI.
+  for (const auto& row : nlohmann::json::parse(preds.out)) {
+    REQUIRE(row.contains("interval_coverage"));
+    CHECK(row["interval_coverage"].get<double>() == 0.90);
+    CHECK(row.contains("forecast_flags"));
+    CHECK(row.contains("forecast_evidence"));
+  }
   const auto ups = gw("query updates --db " + db2.string() + " --format json");
   REQUIRE(ups.status == 0);
   CHECK(nlohmann::json::parse(ups.out).size() == scalar(db2, "SELECT count(*) FROM k_update_log"));
@@ -254,7 +308,8 @@ TEST_CASE("model thread: the model's enumerated values are the database's vocabu
   for (const auto& [domain, n] : {std::pair{"model_update_kind", wear::kAllUpdateKinds.size()},
                                   {"model_update_trigger", wear::kAllUpdateTriggers.size()},
                                   {"model_update_outcome", wear::kAllUpdateOutcomes.size()},
-                                  {"model_issue", wear::kAllModelIssues.size()}}) {
+                                  {"model_issue", wear::kAllModelIssues.size()},
+                                  {"forecast_flag", wear::kAllForecastFlags.size()}}) {
     storage::Statement s(db, "SELECT count(*) FROM vocabulary WHERE domain = ?");
     s.bind(1, domain);
     REQUIRE(s.step());
@@ -262,6 +317,8 @@ TEST_CASE("model thread: the model's enumerated values are the database's vocabu
   }
   db.exec("INSERT INTO model_runs(gear_pair, advanced) VALUES (0, 0)");
   CHECK_THROWS_WITH(db.exec("INSERT INTO model_run_issues(run_id, issue) VALUES (1, 'tired')"), Catch::Contains("model_issue"));
+  CHECK_THROWS_WITH(db.exec("INSERT INTO model_run_forecast_flags(run_id, flag) VALUES (1, 'gut_feeling')"), Catch::Contains("forecast_flag"));
+  db.exec("INSERT INTO model_run_forecast_flags(run_id, flag) VALUES (1, 'pitting_limit_reached_by_ics2')");
   CHECK_THROWS_WITH(db.exec("INSERT INTO k_update_log(run_id, gear_pair, cycles, kind, triggered_by, outcome, old_value, new_value,"
                             " applies_from_cycles, iterations, evidence) VALUES (1, 0, 1, 'k_wear', 'whim', 'converged', 1, 2, 0, 1, '')"),
                     Catch::Contains("model_update_trigger"));

@@ -326,7 +326,7 @@ TEST_CASE("updating: K_pitting calibrated from two inspections, a known change t
   CHECK(set_to_zero);
 }
 
-TEST_CASE("updating: the forecast reaches the wear limit where the per-pass wear says, with the K spread as interval",
+TEST_CASE("updating: the forecast reaches the wear limit where the per-pass wear says, with the posterior's 90 % interval",
           "[model][updating]") {
   // A negligible K: the load never changes, so the deepest point grows linearly and the cycles
   // to a 0.01 nm limit follow from the per-pass wear of the unworn pair. (At 1 nm the worn GTE
@@ -338,10 +338,13 @@ TEST_CASE("updating: the forecast reaches the wear limit where the per-pass wear
   s.forecast_horizon_cycles = 1e10;
   s.forecast_points = 4;
   s.update_k_wear = false;
+  s.log_k_drift_per_million_cycles = 0;   // no random walk: the interval is the posterior's alone
   TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 1.0; });
   model.observe(observation(1000, 10, 20), {});
   ModelMemory m = model.memory();
-  m.recent_k_wear = {0.5e-22, 2e-22};
+  // The interval (issue 34) is the posterior's 5 % and 95 % quantiles of ln K (it was the spread
+  // of the recent K values): a posterior about ln 1e-22 whose 1.645 SD is ln 2 gives K × 0.5 … × 2.
+  m.log_k_wear = {true, std::log(1e-22), std::pow(std::log(2.0) / normal_quantile(0.95), 2), 1000};
   TwinModel spread(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 1.0; }, m);
   const Forecast f = spread.forecast();
   REQUIRE(f.valid);
@@ -356,8 +359,10 @@ TEST_CASE("updating: the forecast reaches the wear limit where the per-pass wear
   REQUIRE(f.wear.cycles_left);
   CHECK(*f.wear.cycles_left == Approx(expected).epsilon(1e-5));
   // K between 0.5 and 2 times: twice as fast and half as fast.
-  CHECK(f.k_wear_low == Approx(0.5e-22));
-  CHECK(f.k_wear_high == Approx(2e-22));
+  CHECK(f.k_wear_low == Approx(0.5e-22).epsilon(1e-12));
+  CHECK(f.k_wear_high == Approx(2e-22).epsilon(1e-12));
+  CHECK(f.coverage == 0.90);
+  CHECK(f.flags.empty());
   CHECK(f.wear.cycles_left_low.value_or(0) == Approx(expected / 2).epsilon(1e-5));
   CHECK(f.wear.cycles_left_high.value_or(0) == Approx(expected * 2).epsilon(1e-5));
   CHECK_FALSE(f.pitting.cycles_left);   // K_pitting = 0: never

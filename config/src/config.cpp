@@ -358,6 +358,12 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.integer("remaining_life_raise_after_records", m.remaining_life_raise_after_records, 1, 100000);
     t.integer("remaining_life_clear_after_records", m.remaining_life_clear_after_records, 1, 100000);
     t.integer("queue_capacity", m.queue_capacity, 1, 10000);
+    t.number("prior_log_k_wear_sd", m.prior_log_k_wear_sd, 1e-3, 50.0);
+    t.number("log_k_drift_per_million_cycles", m.log_k_drift_per_million_cycles, 0.0, 50.0);
+    t.number("rms_sa_relative_sd_floor", m.rms_sa_relative_sd_floor, 1e-5, 0.9);
+    t.number("inspection_area_relative_sd", m.inspection_area_relative_sd, 1e-4, 0.9);
+    t.integer("disagreement_records", m.disagreement_records, 1, 64);
+    t.integer("ics2_onset_records", m.ics2_onset_records, 1, 1000);
     t.string("force_model", m.force_model);
     if (m.force_model != "quasi-static" && m.force_model != "dynamic")
       t.fail(t.node("force_model"), "force_model", "expected \"quasi-static\" or \"dynamic\"");

@@ -483,6 +483,34 @@ CREATE VIEW wear_mechanism AS
   SELECT a.record_id, r.created_at, r.input_revolutions AS cycles, a.channel, a.mechanism, a.points,
          a.low_band_p, a.high_band_p, a.low_band_rho, a.high_band_rho, a.band_jumps, a.evidence, a.unseen_band
   FROM wear_mechanism_assessments a JOIN records r ON r.id = a.record_id;
+  )SQL",
+    // 7 -> 8: the forecast interval's nominal coverage, why it was widened or brought nearer
+    // (forecast_flag tokens) and the numbers behind it (docs/model.md, "Posterior and interval").
+    R"SQL(
+ALTER TABLE model_runs ADD COLUMN interval_coverage REAL;
+ALTER TABLE model_runs ADD COLUMN forecast_evidence TEXT;
+CREATE TABLE model_run_forecast_flags (
+  run_id INTEGER NOT NULL REFERENCES model_runs(id),
+  flag TEXT NOT NULL,
+  PRIMARY KEY (run_id, flag)
+) WITHOUT ROWID;
+CREATE TRIGGER model_run_forecast_flags_flag_in_vocabulary BEFORE INSERT ON model_run_forecast_flags
+  WHEN EXISTS (SELECT 1 FROM vocabulary WHERE domain = 'forecast_flag')
+   AND NEW.flag NOT IN (SELECT token FROM vocabulary WHERE domain = 'forecast_flag')
+BEGIN SELECT RAISE(ABORT, 'model_run_forecast_flags.flag: value not in vocabulary domain forecast_flag'); END;
+DROP VIEW predictions;
+CREATE VIEW predictions AS
+  SELECT m.id AS run_id, m.created_at, m.record_id, m.gear_pair, m.cycles, m.speed_hz, m.torque_nm,
+         m.k_wear, m.k_pitting, m.rms_sa_measured, m.rms_sa_simulated, m.ics2_low, m.ics2_density_estimate,
+         m.wear_mean_m, m.wear_max_m, m.pitting_mean, m.pitting_max,
+         m.wear_limit_m, m.wear_cycles_left, m.wear_cycles_left_low, m.wear_cycles_left_high,
+         m.pitting_limit, m.pitting_cycles_left, m.pitting_cycles_left_low, m.pitting_cycles_left_high,
+         m.forecast_speed_hz, m.forecast_torque_nm, m.forecast_failure,
+         (SELECT group_concat(i.issue, ',') FROM model_run_issues i WHERE i.run_id = m.id) AS issues, m.detail,
+         m.interval_coverage,
+         (SELECT group_concat(f.flag, ',') FROM model_run_forecast_flags f WHERE f.run_id = m.id) AS forecast_flags,
+         m.forecast_evidence
+  FROM model_runs m WHERE m.advanced = 1;
 )SQL",
 };
 
@@ -509,6 +537,7 @@ Vocabulary core_vocabulary() {
   add("model_update_trigger", wear::kAllUpdateTriggers);
   add("model_update_outcome", wear::kAllUpdateOutcomes);
   add("model_issue", wear::kAllModelIssues);
+  add("forecast_flag", wear::kAllForecastFlags);
   add("gap_family", gap::kAllFamilyKinds);
   add("gap_effect", gap::kAllCandidateEffects);
   return v;

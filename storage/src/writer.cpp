@@ -132,8 +132,9 @@ class BatchWriter {
                 " rms_sa_measured, rms_sa_simulated, ics2_low, ics2_density_estimate, k_wear, k_pitting, wear_mean_m, wear_max_m,"
                 " pinion_wear_mean_m, gear_wear_mean_m, pitting_mean, pitting_max, pitting_max_fraction, forecast_speed_hz,"
                 " forecast_torque_nm, wear_limit_m, wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit,"
-                " pitting_cycles_left, pitting_cycles_left_low, pitting_cycles_left_high, forecast_failure, profile, forecast_curve, detail)"
-                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                " pitting_cycles_left, pitting_cycles_left_low, pitting_cycles_left_high, forecast_failure, profile, forecast_curve, detail,"
+                " interval_coverage, forecast_evidence)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
     s.bind(1, record_id).bind(2, m.gear_pair).bind(3, r.observation.cycles).bind(4, r.observation.speed_hz)
         .bind(5, r.observation.torque_nm).bind(6, advanced ? 1 : 0).bind(7, m.skipped_records);
     if (m.skipped_record_ids.empty()) s.bind_null(8);
@@ -154,6 +155,9 @@ class BatchWriter {
     else s.bind(34, m.forecast_json);
     if (r.detail.empty()) s.bind_null(35);
     else s.bind(35, r.detail);
+    s.bind(36, opt(f.valid, f.coverage));
+    if (!f.valid || f.evidence.empty()) s.bind_null(37);
+    else s.bind(37, f.evidence);
     s.run();
     const std::int64_t run_id = db_.last_insert_rowid();
     if (m.store_state) {
@@ -167,6 +171,11 @@ class BatchWriter {
       write_part(db_, counters_, "model issue", [&] { return context + ": " + wear::to_string(issue); }, [&] {
         Statement i(db_, "INSERT OR IGNORE INTO model_run_issues(run_id, issue) VALUES (?, ?)");
         i.bind(1, run_id).bind(2, wear::to_string(issue)).run();
+      });
+    for (const auto flag : f.flags)
+      write_part(db_, counters_, "forecast flag", [&] { return context + ": " + wear::to_string(flag); }, [&] {
+        Statement i(db_, "INSERT OR IGNORE INTO model_run_forecast_flags(run_id, flag) VALUES (?, ?)");
+        i.bind(1, run_id).bind(2, wear::to_string(flag)).run();
       });
     for (const auto& u : r.updates)
       write_part(db_, counters_, "K update", [&] { return context + ": " + wear::to_string(u.kind) + " " + wear::to_string(u.outcome); }, [&] {

@@ -26,6 +26,7 @@ const char* to_string(UpdateTrigger trigger) noexcept {
     case UpdateTrigger::rms_sa_mismatch: return "rms_sa_mismatch";
     case UpdateTrigger::inspection_calibration: return "inspection_calibration";
     case UpdateTrigger::correlation_below_threshold: return "correlation_below_threshold";
+    case UpdateTrigger::ics2_one_inspection: return "ics2_one_inspection";
   }
   return "unknown";
 }
@@ -207,6 +208,17 @@ void ModelSettings::validate() const {
   require(std::isfinite(pitting_reference_torque_nm) && pitting_reference_torque_nm > 0, "pitting reference torque must be positive");
   require(std::isfinite(pitting_reference_density) && pitting_reference_density > 0 && pitting_reference_density < 1,
           "pitting reference density must lie in (0, 1)");
+  require(std::isfinite(prior_log_k_wear_sd) && prior_log_k_wear_sd > 0, "prior SD of ln K_wear must be positive");
+  require(std::isfinite(log_k_drift_per_million_cycles) && log_k_drift_per_million_cycles >= 0, "ln K drift must be non-negative");
+  require(std::isfinite(rms_sa_relative_sd_floor) && rms_sa_relative_sd_floor > 0 && rms_sa_relative_sd_floor < 1,
+          "RMS_SA scatter floor must lie in (0, 1)");
+  require(std::isfinite(inspection_area_relative_sd) && inspection_area_relative_sd > 0 && inspection_area_relative_sd < 1,
+          "inspection area SD must lie in (0, 1)");
+  require(disagreement_records >= 1 && disagreement_records <= 1000, "disagreement records must lie in [1, 1000]");
+  require(scatter_records >= disagreement_records && scatter_records <= 100000, "scatter records must lie in [disagreement records, 100000]");
+  require(std::isfinite(innovation_gate_sd) && innovation_gate_sd > 0, "innovation gate must be positive");
+  require(ics2_onset_records >= 1 && ics2_onset_records <= 1000, "ICS2 onset records must lie in [1, 1000]");
+  require(ics2_trend_records >= 3 && ics2_trend_records <= 1000, "ICS2 trend records must lie in [3, 1000]");
 }
 
 double pearson3(const std::array<double, 3>& x, const std::array<double, 3>& y) {
@@ -262,6 +274,11 @@ LineSearchResult golden_section_maximise(const std::function<double(double)>& f,
 namespace {
 WearLoopOptions loop_options(const ModelSettings& s) { return s.loop; }
 
+// The prior of ln K_wear: about the given K (the configured initial guess), SD prior_log_k_wear_sd.
+LogPosterior wear_prior(const ModelSettings& s, double k, double cycles) {
+  return LogPosterior{true, std::log(std::max(k, s.k_wear_min_si)), s.prior_log_k_wear_sd * s.prior_log_k_wear_sd, cycles};
+}
+
 LoopSnapshot unworn_snapshot(const ModelSettings& s) {
   LoopSnapshot snap;
   const auto n = static_cast<std::size_t>(s.loop.profile_points);
@@ -285,6 +302,8 @@ TwinModel::TwinModel(twin::GearboxParameters params, ModelSettings settings, Rms
     start_new_pair();
   } else {
     loop_ = loop_at(memory_.current);
+    // A state stored before the posterior existed: the prior about its K, from its cycles on.
+    if (!memory_.log_k_wear.valid) memory_.log_k_wear = wear_prior(settings_, memory_.k_wear_si, memory_.current.state.cycles);
   }
 }
 
@@ -295,6 +314,7 @@ void TwinModel::start_new_pair() {
   fresh.pitting_anchor = fresh.current;
   fresh.k_wear_si = settings_.loop.k_wear_si;
   fresh.k_pitting = settings_.loop.k_pitting;
+  fresh.log_k_wear = wear_prior(settings_, fresh.k_wear_si, 0.0);
   memory_ = std::move(fresh);
   loop_ = loop_at(memory_.current);
 }
@@ -345,6 +365,44 @@ void TwinModel::remember_k(std::vector<double>& recent, double k) const {
   recent.push_back(k);
   const auto n = static_cast<std::size_t>(settings_.spread_updates);
   if (recent.size() > n) recent.erase(recent.begin(), recent.end() - static_cast<std::ptrdiff_t>(n));
+}
+
+std::string TwinModel::learn(LogPosterior& posterior, double z, double r, double cycles) const {
+  const LogPosterior prior = predict(posterior, cycles, settings_.log_k_q_per_cycle());
+  const FilterStep step = filter_update(prior, z, r, settings_.innovation_gate_sd);
+  posterior = step.posterior;
+  char b[300];
+  if (!prior.valid)
+    std::snprintf(b, sizeof b, "; posterior ln K %.4f SD %.3g (the first measurement, SD %.3g)", posterior.mean, std::sqrt(posterior.var),
+                  std::sqrt(r));
+  else
+    std::snprintf(b, sizeof b, "; posterior ln K %.4f SD %.3g -> %.4f SD %.3g (measurement SD %.3g, innovation %.2f SD%s)", prior.mean,
+                  std::sqrt(prior.var), posterior.mean, std::sqrt(posterior.var), std::sqrt(r), step.innovation_sd,
+                  step.inflated ? ": beyond the gate, prior variance raised to the innovation's" : "");
+  return b;
+}
+
+double TwinModel::rms_scatter_sd() const {
+  // Records without an update, older than the disagreement window (its check must not judge
+  // the residuals by their own scatter).
+  const auto& all = memory_.rms_residuals;
+  const std::size_t window = static_cast<std::size_t>(settings_.disagreement_records);
+  std::vector<double> quiet;
+  for (std::size_t i = 0; i + window < all.size(); ++i)
+    if (all[i][1] == 0.0) quiet.push_back(all[i][0]);
+  return scatter_sd(quiet, settings_.rms_sa_relative_sd_floor);
+}
+
+double TwinModel::pitting_measurement_var() const {
+  const double scatter = memory_.scale_residual_count ? memory_.scale_residual_sum_sq / static_cast<double>(memory_.scale_residual_count) : 0.0;
+  return memory_.pitting_calibration_var + scatter;
+}
+
+void TwinModel::remember_residual(double log_residual, bool updated) {
+  auto& r = memory_.rms_residuals;
+  r.push_back({log_residual, updated ? 1.0 : 0.0});
+  const auto n = static_cast<std::size_t>(settings_.scatter_records);
+  if (r.size() > n) r.erase(r.begin(), r.end() - static_cast<std::ptrdiff_t>(n));
 }
 
 void TwinModel::prune_intervals() {
@@ -481,7 +539,9 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   }
   report.rms_sa_simulated = simulated;
   const double error = (simulated - measured) / measured;
-  if (!settings_.update_k_wear || std::abs(error) <= settings_.rms_threshold) return;
+  const bool update = settings_.update_k_wear && std::abs(error) > settings_.rms_threshold;
+  remember_residual(std::log(measured / simulated), update);
+  if (!update) return;
 
   KUpdate u;
   u.kind = UpdateKind::k_wear;
@@ -527,6 +587,15 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   u.evidence = b;
   if (std::isfinite(u.elasticity)) u.evidence += "; elasticity d ln RMS_SA / d ln K_wear " + fmt("%.3g", u.elasticity);
   if (!search.why.empty()) u.evidence += "; " + search.why;
+  if (keep) {
+    // The update is a measurement of ln K_wear: ε / e with ε the RMS_SA's relative scatter and e
+    // the elasticity between the old and the new K (the sensitivity read's when that is flat).
+    double e = std::log(u.simulated_after / simulated) / std::log(u.new_value / u.old_value);
+    if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = u.elasticity;
+    if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = 1.0;   // the proportional rule's assumption
+    const double sd = rms_scatter_sd() / std::abs(e);
+    u.evidence += learn(memory_.log_k_wear, std::log(u.new_value), sd * sd, obs.cycles);
+  }
   report.updates.push_back(std::move(u));
 }
 
@@ -693,8 +762,8 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
   std::sort(pitted.begin(), pitted.end(), [](const Inspection& a, const Inspection& b) {
     return a.cycles != b.cycles ? a.cycles < b.cycles : a.id < b.id;
   });
+  if (pitted.empty()) return;
   // The two newest inspections at distinct cycles.
-  if (pitted.size() < 2) return;
   const Inspection second = pitted.back();
   std::optional<Inspection> first;
   for (auto it = pitted.rbegin() + 1; it != pitted.rend(); ++it)
@@ -702,37 +771,80 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
       first = *it;
       break;
     }
-  if (!first) return;
+  if (!first) {
+    if (!memory_.pitting_calibrated) calibrate_from_one_inspection(second, cycles, report);
+    return;
+  }
   const std::int64_t key = std::max(first->id, second.id);
   if (memory_.pitting_calibrated && key <= memory_.calibration_inspection_id) return;
 
-  const double n0 = first->cycles, n1 = second.cycles, a0 = *first->pitted_area, a1 = *second.pitted_area;
+  const CalibrationPoints c{first->cycles, *first->pitted_area, second.cycles, *second.pitted_area};
   KUpdate u;
   u.kind = UpdateKind::k_pitting;
   u.trigger = UpdateTrigger::inspection_calibration;
   u.cycles = cycles;
   u.old_value = memory_.k_pitting;
   u.applies_from_cycles = cycles;
-  u.measured = a1;
-  const twin::OperatingPoint op{memory_.recent_operating_points.back()[0], memory_.recent_operating_points.back()[1]};
+  u.measured = c.a1;
+  std::string why;
+  int evaluations = 0;
+  const double k_new = calibrate_k(c, cycles, u, why, evaluations);
+  memory_.pitting_calibrated = true;
+  memory_.calibration_inspection_id = key;
+  const double i0 = ics2_at(c.n0), i1 = ics2_at(c.n1);
+  memory_.pitting_points.clear();
+  const bool scale = std::isfinite(i0) && std::isfinite(i1) && i1 > i0 && c.a1 > c.a0;
+  if (std::isfinite(i0) && std::isfinite(i1)) memory_.pitting_points = {{c.n0, i0, c.a0}, {c.n1, i1, c.a1}};
+  if (scale) {
+    memory_.ics2_scale_valid = true;
+    memory_.ics2_scale_inspections = 2;
+    memory_.ics2_scale_ics2 = i0;
+    memory_.ics2_scale_density = c.a0;
+    memory_.ics2_scale_slope = (c.a1 - c.a0) / (i1 - i0);
+    memory_.ics2_scale_baseline_sd = 0;
+  } else {
+    // A one-inspection scale, if any, stays: it is the only ICS2 reading of the density.
+    if (!why.empty()) why += "; ";
+    why += "no ICS2 <-> density scale (ICS2 " + fmt("%.4g", i0) + " at the first inspection, " + fmt("%.4g", i1) +
+           " at the second: it must rise)";
+  }
+  u.new_value = k_new;
+  u.iterations = evaluations;
+  u.simulated_before = c.a0;
+  u.correlation_before = i0;
+  u.correlation_after = i1;
+  char b[400];
+  std::snprintf(b, sizeof b, "inspections: pitted area %.4g at %.6g cycles, %.4g at %.6g cycles (ICS2 %.4g, %.4g); model %.4g at the second; K_pitting %.5g -> %.5g",
+                c.a0, c.n0, c.a1, c.n1, i0, i1, u.simulated_after, u.old_value, u.new_value);
+  u.evidence = b;
+  u.evidence += " " + pitting_change_text(pitting_scale_, u.old_value, u.new_value);
+  if (!why.empty()) u.evidence += "; " + why;
+  if (k_new > 0 && c.a1 > c.a0 && c.a1 < 1) {
+    const double sd = settings_.inspection_area_relative_sd;
+    memory_.pitting_calibration_var = calibration_log_variance(c.a0, c.a1, sd, sd, 0.0);
+    u.evidence += learn(memory_.log_k_pitting, std::log(k_new), pitting_measurement_var(), cycles);
+  }
+  report.updates.push_back(std::move(u));
+}
 
+double TwinModel::calibrate_k(const CalibrationPoints& c, double cycles, KUpdate& u, std::string& why, int& evaluations) {
+  const twin::OperatingPoint op{memory_.recent_operating_points.back()[0], memory_.recent_operating_points.back()[1]};
   // Eq. 7.11 accumulates from the start of the pair's life (absolute N), so a candidate K is run
   // from 0 cycles, unpitted, on the current worn profile (held: K_wear = 0 in calibration runs).
   // At N0 its pitting profile is rescaled to the inspected mean (shape from the model, level from
-  // the inspection); N0 -> N1 then decides K: the model must pit A1 by the second inspection.
+  // the inspection); N0 -> N1 then decides K: the model must pit A1 by the second point.
   LoopSnapshot start = memory_.current;
   start.state.cycles = 0;
   std::fill(start.state.pinion_pitting.begin(), start.state.pinion_pitting.end(), 0.0);
   start.next_step_cycles = settings_.loop.initial_step_cycles;
-  int evaluations = 0;
   auto run_to = [&](double k, double until, BlueLoop* keep) {
     BlueLoop loop = loop_at(start);
     loop.set_operating_point(op);
     loop.set_coefficients(0.0, k);
-    loop.run_until(n0);
+    loop.run_until(c.n0);
     WearState at_n0 = loop.state();
     const double m0 = mean_of(at_n0.pinion_pitting);
-    for (double& d : at_n0.pinion_pitting) d = m0 > 0 ? std::min(1.0, d * a0 / m0) : a0;
+    for (double& d : at_n0.pinion_pitting) d = m0 > 0 ? std::min(1.0, d * c.a0 / m0) : c.a0;
     loop.restore(at_n0, loop.next_step_cycles());
     loop.run_until(until);
     ++evaluations;
@@ -741,11 +853,10 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
     return d;
   };
   double k_new = 0;
-  std::string why;
   u.outcome = UpdateOutcome::converged;
-  if (!(a1 > a0)) {
+  if (!(c.a1 > c.a0)) {
     u.outcome = UpdateOutcome::set_to_zero;
-    why = "the inspections show no pitting growth (" + fmt("%.4g", a0) + " then " + fmt("%.4g", a1) + ")";
+    why = "the inspections show no pitting growth (" + fmt("%.4g", c.a0) + " then " + fmt("%.4g", c.a1) + ")";
   } else {
     // The scale of K: the K at which the most loaded point reaches A N1^m = 1.
     BlueLoop probe = loop_at(start);
@@ -756,22 +867,22 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
       u.outcome = UpdateOutcome::bound_reached;
       why = "no contact pressure to pit under";
     } else {
-      const double k_scale = 1.0 / (top * std::pow(n1, settings_.loop.material.m));
+      const double k_scale = 1.0 / (top * std::pow(c.n1, settings_.loop.material.m));
       // Bisection on ln K between "no pitting" and the scale (raised while still short).
       double lo = std::log(k_scale) - 30.0, hi = std::log(k_scale);
-      double d_hi = run_to(std::exp(hi), n1, nullptr);
-      for (int up = 0; up < 3 && d_hi < a1; ++up) {
+      double d_hi = run_to(std::exp(hi), c.n1, nullptr);
+      for (int up = 0; up < 3 && d_hi < c.a1; ++up) {
         hi += std::log(10.0);
-        d_hi = run_to(std::exp(hi), n1, nullptr);
+        d_hi = run_to(std::exp(hi), c.n1, nullptr);
       }
-      if (d_hi < a1) {
+      if (d_hi < c.a1) {
         u.outcome = UpdateOutcome::bound_reached;
-        why = "the model cannot pit " + fmt("%.4g", a1) + " by the second inspection (at most " + fmt("%.4g", d_hi) + ")";
+        why = "the model cannot pit " + fmt("%.4g", c.a1) + " by the second point (at most " + fmt("%.4g", d_hi) + ")";
         k_new = std::exp(hi);
       } else {
         while (hi - lo > 1e-4 && evaluations < 80) {
           const double mid = 0.5 * (lo + hi);
-          if (run_to(std::exp(mid), n1, nullptr) < a1) lo = mid;
+          if (run_to(std::exp(mid), c.n1, nullptr) < c.a1) lo = mid;
           else hi = mid;
         }
         k_new = std::exp(0.5 * (lo + hi));
@@ -780,7 +891,7 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
   }
   // The state: the calibrated run continued to now gives the current pitting profile.
   BlueLoop calibrated = loop_at(start);
-  u.simulated_after = run_to(k_new, n1, &calibrated);
+  u.simulated_after = run_to(k_new, c.n1, &calibrated);
   calibrated.run_until(cycles);
   memory_.current.state.pinion_pitting = calibrated.state().pinion_pitting;
   loop_ = loop_at(memory_.current);
@@ -789,33 +900,74 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
   // Calibration accepts the whole state: both anchors move here.
   memory_.wear_anchor = memory_.current;
   memory_.pitting_anchor = memory_.current;
-  memory_.pitting_calibrated = true;
-  memory_.calibration_inspection_id = key;
   ++memory_.k_pitting_updates;
-  const double i0 = ics2_at(n0), i1 = ics2_at(n1);
-  memory_.pitting_points.clear();
-  memory_.ics2_scale_valid = std::isfinite(i0) && std::isfinite(i1) && i1 > i0 && a1 > a0;
-  if (std::isfinite(i0) && std::isfinite(i1)) memory_.pitting_points = {{n0, i0, a0}, {n1, i1, a1}};
-  if (memory_.ics2_scale_valid) {
-    memory_.ics2_scale_ics2 = i0;
-    memory_.ics2_scale_density = a0;
-    memory_.ics2_scale_slope = (a1 - a0) / (i1 - i0);
-  } else {
-    if (!why.empty()) why += "; ";
-    why += "no ICS2 <-> density scale (ICS2 " + fmt("%.4g", i0) + " at the first inspection, " + fmt("%.4g", i1) +
-           " at the second: it must rise)";
-  }
-  u.new_value = k_new;
+  return k_new;
+}
+
+void TwinModel::calibrate_from_one_inspection(const Inspection& first, double cycles, ModelRunReport& report) {
+  const double n0 = first.cycles, a0 = *first.pitted_area;
+  // The onset baseline: the pair's first ICS2 values, all before the inspection.
+  std::vector<double> onset;
+  for (const auto& p : memory_.ics2_series)
+    if (p[0] < n0 && onset.size() < static_cast<std::size_t>(settings_.ics2_onset_records)) onset.push_back(p[1]);
+  if (onset.size() < static_cast<std::size_t>(settings_.ics2_onset_records)) return;
+  // 3 baseline SDs: a rise the baseline's own scatter gives in 0.13 % of records.
+  const std::optional<Ics2Scale> scale = one_inspection_scale(onset, ics2_at(n0), a0, 3.0);
+  if (!scale) return;
+  memory_.ics2_scale_valid = true;
+  memory_.ics2_scale_inspections = 1;
+  memory_.ics2_scale_ics2 = scale->ics2;
+  memory_.ics2_scale_density = scale->density;
+  memory_.ics2_scale_slope = scale->slope;
+  memory_.ics2_scale_baseline_sd = scale->baseline_sd;
+  // The second point: the median ICS2 of the newest three records after the inspection, once a
+  // pitting interval after it (and after the last such calibration).
+  const double spacing = settings_.pitting_interval_cycles;
+  if (cycles < n0 + spacing || (memory_.last_ics2_calibration_cycles >= 0 && cycles < memory_.last_ics2_calibration_cycles + spacing))
+    return;
+  std::vector<std::array<double, 2>> newest;   // (ICS2, cycles)
+  for (auto it = memory_.ics2_series.rbegin(); it != memory_.ics2_series.rend() && newest.size() < 3 && (*it)[0] > n0; ++it)
+    newest.push_back({(*it)[1], (*it)[0]});
+  if (newest.size() < 3) return;
+  std::sort(newest.begin(), newest.end());
+  const double n1 = newest[1][1];   // the point sits at the median record's cycles
+  const std::array<double, 2> recent{newest[1][0], n1};
+  const double a1 = scale->density + scale->slope * (recent[0] - scale->ics2);
+  // The median of three normal values has an SD of about 1.16 of one (the sample median's small-n factor).
+  const double ics2_rel_sd = a1 > 0 ? scale->slope * 1.16 * scale->baseline_sd / a1 : 0.0;
+  const double sd = settings_.inspection_area_relative_sd;
+  // Growth beyond what the ICS2 scatter gives: otherwise no second point.
+  if (!(a1 > a0 * (1.0 + 2.0 * ics2_rel_sd)) || !(a1 < 1)) return;
+  memory_.last_ics2_calibration_cycles = cycles;
+  KUpdate u;
+  u.kind = UpdateKind::k_pitting;
+  u.trigger = UpdateTrigger::ics2_one_inspection;
+  u.cycles = cycles;
+  u.old_value = memory_.k_pitting;
+  u.applies_from_cycles = cycles;
+  u.measured = a1;
+  std::string why;
+  int evaluations = 0;
+  const CalibrationPoints c{n0, a0, n1, a1};
+  u.new_value = calibrate_k(c, cycles, u, why, evaluations);
   u.iterations = evaluations;
   u.simulated_before = a0;
-  u.correlation_before = i0;
-  u.correlation_after = i1;
-  char b[400];
-  std::snprintf(b, sizeof b, "inspections: pitted area %.4g at %.6g cycles, %.4g at %.6g cycles (ICS2 %.4g, %.4g); model %.4g at the second; K_pitting %.5g -> %.5g",
-                a0, n0, a1, n1, i0, i1, u.simulated_after, u.old_value, u.new_value);
+  u.correlation_before = scale->baseline;
+  u.correlation_after = recent[0];
+  char b[500];
+  std::snprintf(b, sizeof b, "one inspection: pitted area %.4g at %.6g cycles; ICS2 onset baseline %.4g (SD %.3g, median of the first %d), %.4g at the inspection; "
+                "scale D = %.4g (ICS2 - %.4g) / (%.4g - %.4g); median ICS2 of the newest three %.4g -> density %.4g at %.6g cycles; model %.4g there; K_pitting %.5g -> %.5g",
+                a0, n0, scale->baseline, scale->baseline_sd, settings_.ics2_onset_records, scale->ics2, a0, scale->baseline, scale->ics2,
+                scale->baseline, recent[0], a1, n1, u.simulated_after, u.old_value, u.new_value);
   u.evidence = b;
   u.evidence += " " + pitting_change_text(pitting_scale_, u.old_value, u.new_value);
   if (!why.empty()) u.evidence += "; " + why;
+  if (u.new_value > 0) {
+    // A0 scales the ICS2 estimate too: its error is shared (correlation), the ICS2 scatter is not.
+    const double sd1 = std::hypot(sd, ics2_rel_sd);
+    memory_.pitting_calibration_var = calibration_log_variance(a0, a1, sd, sd1, sd / sd1);
+    u.evidence += learn(memory_.log_k_pitting, std::log(u.new_value), pitting_measurement_var(), cycles);
+  }
   report.updates.push_back(std::move(u));
 }
 
@@ -827,6 +979,15 @@ void TwinModel::check_pitting(const ModelObservation& obs, ModelRunReport& repor
   if (!(obs.cycles > anchor.state.cycles)) return;
   const double ics2 = *obs.ics2_low;
   const double density_now = mean_of(memory_.current.state.pinion_pitting);
+  if (memory_.ics2_scale_valid) {
+    // The scale's scatter: the ICS2-derived density against the model's at each new point, in ln K.
+    const double d_scale = memory_.ics2_scale_density + memory_.ics2_scale_slope * (ics2 - memory_.ics2_scale_ics2);
+    if (d_scale > 0 && d_scale < 1 && density_now > 0) {
+      const double gap = log_k_gap(d_scale, density_now);
+      memory_.scale_residual_sum_sq += gap * gap;
+      ++memory_.scale_residual_count;
+    }
+  }
   auto push_point = [&](double density) {
     points.push_back({obs.cycles, ics2, density});
     if (points.size() > 3) points.erase(points.begin(), points.end() - 3);
@@ -929,8 +1090,156 @@ void TwinModel::check_pitting(const ModelObservation& obs, ModelRunReport& repor
   u.evidence = b;
   u.evidence += " " + pitting_change_text(pitting_scale_, u.old_value, u.new_value);
   if (!why.empty()) u.evidence += "; " + why;
+  // K = 0 (the thesis's rule) is no measurement of ln K: the posterior keeps the last one.
+  if (best_k > 0) u.evidence += learn(memory_.log_k_pitting, std::log(best_k), pitting_measurement_var(), obs.cycles);
   push_point(density_new);
   report.updates.push_back(std::move(u));
+}
+
+TwinModel::Crossing TwinModel::run_forecast(double kw, double kp, const WearLoopOptions& o, std::vector<ForecastPoint>* curve) const {
+  Crossing c;
+  const double start = memory_.current.state.cycles;
+  const double horizon = settings_.forecast_horizon_cycles;
+  BlueLoop loop(params_, o);
+  loop.restore(memory_.current.state, std::clamp(memory_.current.next_step_cycles, o.min_step_cycles, o.max_step_cycles));
+  loop.set_coefficients(kw, kp);
+  double prev_cycles = start, prev_depth = max_depth(loop.state()), prev_pit = mean_of(loop.state().pinion_pitting);
+  auto check = [&] {
+    const double cyc = loop.state().cycles, d = max_depth(loop.state()), p = mean_of(loop.state().pinion_pitting);
+    auto cross = [&](std::optional<double>& out, double before, double after, double limit) {
+      if (out || after < limit) return;
+      const double frac = after > before ? (limit - before) / (after - before) : 0.0;
+      out = std::max(0.0, prev_cycles + std::clamp(frac, 0.0, 1.0) * (cyc - prev_cycles) - start);
+    };
+    cross(c.wear, prev_depth, d, settings_.wear_limit_m);
+    cross(c.pitting, prev_pit, p, settings_.pitting_limit);
+    prev_cycles = cyc, prev_depth = d, prev_pit = p;
+  };
+  if (prev_depth >= settings_.wear_limit_m) c.wear = 0.0;
+  if (prev_pit >= settings_.pitting_limit) c.pitting = 0.0;
+  // Past both limits (or past the wear limit when nothing pits) the run has told its story.
+  auto told = [&] { return c.wear && (c.pitting || !(kp > 0)); };
+  for (int k = 1; k <= settings_.forecast_points; ++k) {
+    const double target = start + horizon * k / settings_.forecast_points;
+    bool stopped = false;
+    while (loop.state().cycles < target) {
+      if (loop.step(target).step_cycles <= 0) {
+        stopped = true;
+        break;
+      }
+      check();
+      if (told()) break;
+    }
+    if (curve) {
+      const WearSummary s = summarise(loop.state());
+      curve->push_back({loop.state().cycles, max_depth(loop.state()), s.combined_mean_depth_m, s.mean_pitting_density});
+    }
+    if (stopped || told()) break;
+  }
+  return c;
+}
+
+namespace {
+std::string interval_text(const char* what, const LogInterval& li, double widen) {
+  char b[200];
+  std::snprintf(b, sizeof b, "%s: ln K %.4f to %.4f (SD %.3g%s)", what, li.low, li.high, li.sd,
+                widen > 1 ? (", widened x" + fmt("%.3g", widen)).c_str() : "");
+  return b;
+}
+}  // namespace
+
+void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o) const {
+  const double now = memory_.current.state.cycles, horizon = settings_.forecast_horizon_cycles, q = settings_.log_k_q_per_cycle();
+  // The chi-square check of the recent RMS_SA residuals (before any update at their records).
+  std::vector<double> recent;
+  const auto& res = memory_.rms_residuals;
+  for (std::size_t i = res.size() > static_cast<std::size_t>(settings_.disagreement_records) ? res.size() - settings_.disagreement_records : 0;
+       i < res.size(); ++i)
+    recent.push_back(res[i][0]);
+  const double expected = rms_scatter_sd();
+  const ScatterCheck chk = residual_scatter_check(recent, expected);
+  const double widen = chk.exceeded ? chk.ratio : 1.0;
+  if (chk.exceeded) {
+    f.flags.push_back(ForecastFlag::rms_sa_residuals_exceed_scatter);
+    char b[300];
+    std::snprintf(b, sizeof b, "RMS_SA: the last %d ln(meas/sim) give chi-square %.3g > %.3g (5 %%) at the expected scatter %.3g: the K_wear interval widened x%.3g",
+                  chk.n, chk.statistic, chk.critical, expected, chk.ratio);
+    f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+  }
+  const LogPosterior pw = predict(memory_.log_k_wear, now, q), pp = predict(memory_.log_k_pitting, now, q);
+  // The random walk accumulates to each end's own crossing: first to the nominal one, then once
+  // more to the crossing the first pass gave (beyond the horizon: the horizon).
+  auto until = [&](const std::optional<double>& c) { return c ? *c : horizon; };
+  Crossing fast = nominal, slow = nominal;
+  LogInterval lw, lp;
+  for (int pass = 0; pass < 2; ++pass) {
+    const LogInterval w_fast = log_interval(pw, q, until(fast.wear), widen), w_slow = log_interval(pw, q, until(slow.wear), widen);
+    const LogInterval p_fast = log_interval(pp, q, until(fast.pitting), 1.0), p_slow = log_interval(pp, q, until(slow.pitting), 1.0);
+    lw = {w_slow.low, w_fast.high, std::max(w_fast.sd, w_slow.sd)};
+    lp = {p_slow.low, p_fast.high, std::max(p_fast.sd, p_slow.sd)};
+    // The working K lies inside the interval (the twin runs with the update's K, the posterior
+    // mean may sit beside it; docs/model.md).
+    const double kw = memory_.k_wear_si, kp = memory_.k_pitting;
+    f.k_wear_low = std::min(std::exp(lw.low), kw);
+    f.k_wear_high = std::max(std::exp(lw.high), kw);
+    f.k_pitting_low = pp.valid ? std::min(std::exp(lp.low), kp) : kp;
+    f.k_pitting_high = pp.valid ? std::max(std::exp(lp.high), kp) : kp;
+    fast = run_forecast(f.k_wear_high, f.k_pitting_high, o, nullptr);
+    slow = run_forecast(f.k_wear_low, f.k_pitting_low, o, nullptr);
+  }
+  f.log_sd_wear = lw.sd;
+  f.log_sd_pitting = pp.valid ? lp.sd : 0.0;
+  f.wear.cycles_left_low = fast.wear;
+  f.wear.cycles_left_high = slow.wear;
+  f.pitting.cycles_left_low = fast.pitting;
+  f.pitting.cycles_left_high = slow.pitting;
+  // The interval holds the nominal forecast.
+  for (LimitForecast* lf : {&f.wear, &f.pitting}) {
+    if (lf->cycles_left && (!lf->cycles_left_low || *lf->cycles_left_low > *lf->cycles_left)) lf->cycles_left_low = lf->cycles_left;
+    if (lf->cycles_left_high && (!lf->cycles_left || *lf->cycles_left_high < *lf->cycles_left)) lf->cycles_left_high = lf->cycles_left;
+  }
+  f.evidence += (f.evidence.empty() ? "" : "; ") + interval_text("K_wear", lw, widen);
+  if (pp.valid) f.evidence += "; " + interval_text("K_pitting", lp, 1.0);
+}
+
+std::vector<std::array<double, 2>> TwinModel::ics2_density_series(std::size_t newest) const {
+  std::vector<std::array<double, 2>> out;
+  if (!memory_.ics2_scale_valid) return out;
+  const auto& s = memory_.ics2_series;
+  for (std::size_t i = s.size() > newest ? s.size() - newest : 0; i < s.size(); ++i)
+    out.push_back({s[i][0], memory_.ics2_scale_density + memory_.ics2_scale_slope * (s[i][1] - memory_.ics2_scale_ics2)});
+  return out;
+}
+
+void TwinModel::check_ics2_trend(Forecast& f) const {
+  const auto series = ics2_density_series(static_cast<std::size_t>(settings_.ics2_trend_records));
+  if (series.size() < 3) return;
+  const double now = memory_.current.state.cycles, limit = settings_.pitting_limit;
+  // Centred on now, so the intercept is the trend's density now.
+  std::vector<std::array<double, 2>> centred;
+  for (const auto& p : series) centred.push_back({p[0] - now, p[1]});
+  const RobustLine line = theil_sen(centred);
+  if (!line.valid) return;
+  const double d_trend = line.intercept, d_latest = series.back()[1];
+  const double d_model = mean_of(memory_.current.state.pinion_pitting);
+  // The ICS2 estimate's SD: the inspected area's (it sets the scale) and the ICS2 baseline's scatter.
+  const double sd = std::hypot(settings_.inspection_area_relative_sd * d_trend, memory_.ics2_scale_slope * memory_.ics2_scale_baseline_sd);
+  char b[300];
+  if (std::max(d_trend, d_latest) >= limit) {
+    // A limit the measured estimate has reached cannot be excluded by any interval.
+    f.flags.push_back(ForecastFlag::pitting_limit_reached_by_ics2);
+    f.pitting.cycles_left_low = 0.0;
+    std::snprintf(b, sizeof b, "ICS2-derived density %.4g (trend) / %.4g (latest) at or above the limit %.4g: near end 0", d_trend, d_latest, limit);
+  } else if (d_trend - d_model > 2.0 * sd && line.slope > 0) {
+    f.flags.push_back(ForecastFlag::ics2_density_ahead_of_model);
+    const double trend_left = (limit - d_trend) / line.slope;
+    if (!f.pitting.cycles_left_low || trend_left < *f.pitting.cycles_left_low) f.pitting.cycles_left_low = trend_left;
+    std::snprintf(b, sizeof b, "ICS2-derived density %.4g (Theil-Sen trend of the last %zu, %.3g per Mcycle) ahead of the model's %.4g by more than 2 SD (%.3g): the trend reaches %.4g in %.4g cycles",
+                  d_trend, series.size(), line.slope * 1e6, d_model, sd, limit, trend_left);
+  } else {
+    return;
+  }
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
 }
 
 Forecast TwinModel::forecast() const {
@@ -945,22 +1254,8 @@ Forecast TwinModel::forecast() const {
   torque /= static_cast<double>(memory_.recent_operating_points.size());
   f.speed_hz = speed;
   f.torque_nm = torque;
-  auto spread = [](const std::vector<double>& recent, double k) {
-    double s = 0;
-    if (k > 0)
-      for (double v : recent)
-        if (v > 0) s = std::max(s, std::abs(std::log(v / k)));
-    return s;
-  };
-  const double sw = spread(memory_.recent_k_wear, memory_.k_wear_si), sp = spread(memory_.recent_k_pitting, memory_.k_pitting);
-  f.k_wear_low = memory_.k_wear_si * std::exp(-sw);
-  f.k_wear_high = memory_.k_wear_si * std::exp(sw);
-  f.k_pitting_low = memory_.k_pitting * std::exp(-sp);
-  f.k_pitting_high = memory_.k_pitting * std::exp(sp);
   f.wear.limit = settings_.wear_limit_m;
   f.pitting.limit = settings_.pitting_limit;
-
-  const double start = memory_.current.state.cycles;
   const double horizon = settings_.forecast_horizon_cycles;
   // Coarser steps than the monitoring loop: the force tolerance still bounds each one.
   WearLoopOptions o = settings_.loop;
@@ -968,58 +1263,12 @@ Forecast TwinModel::forecast() const {
   // docs/wear.md: a 0.2 force tolerance changes the dry pair's depth by 0.04 %, at a fraction of the steps.
   o.force_tolerance = std::max(o.force_tolerance, 0.2);
   o.operating_point = {speed, torque};
-  struct Crossing {
-    std::optional<double> wear, pitting;
-  };
-  auto run = [&](double kw, double kp, std::vector<ForecastPoint>* curve) {
-    Crossing c;
-    BlueLoop loop(params_, o);
-    loop.restore(memory_.current.state, std::clamp(memory_.current.next_step_cycles, o.min_step_cycles, o.max_step_cycles));
-    loop.set_coefficients(kw, kp);
-    double prev_cycles = start, prev_depth = max_depth(loop.state()), prev_pit = mean_of(loop.state().pinion_pitting);
-    auto check = [&] {
-      const double cyc = loop.state().cycles, d = max_depth(loop.state()), p = mean_of(loop.state().pinion_pitting);
-      auto cross = [&](std::optional<double>& out, double before, double after, double limit) {
-        if (out || after < limit) return;
-        const double frac = after > before ? (limit - before) / (after - before) : 0.0;
-        out = std::max(0.0, prev_cycles + std::clamp(frac, 0.0, 1.0) * (cyc - prev_cycles) - start);
-      };
-      cross(c.wear, prev_depth, d, settings_.wear_limit_m);
-      cross(c.pitting, prev_pit, p, settings_.pitting_limit);
-      prev_cycles = cyc, prev_depth = d, prev_pit = p;
-    };
-    if (prev_depth >= settings_.wear_limit_m) c.wear = 0.0;
-    if (prev_pit >= settings_.pitting_limit) c.pitting = 0.0;
-    for (int k = 1; k <= settings_.forecast_points; ++k) {
-      const double target = start + horizon * k / settings_.forecast_points;
-      bool stopped = false;
-      while (loop.state().cycles < target) {
-        if (loop.step(target).step_cycles <= 0) {
-          stopped = true;
-          break;
-        }
-        check();
-        // Past both limits (or past the wear limit when nothing pits) the run has told its story.
-        if (c.wear && (c.pitting || !(kp > 0))) break;
-      }
-      if (curve) {
-        const WearSummary s = summarise(loop.state());
-        curve->push_back({loop.state().cycles, max_depth(loop.state()), s.combined_mean_depth_m, s.mean_pitting_density});
-      }
-      if (stopped || (c.wear && (c.pitting || !(kp > 0)))) break;
-    }
-    return c;
-  };
   try {
-    const Crossing nominal = run(memory_.k_wear_si, memory_.k_pitting, &f.curve);
-    const Crossing fast = sw > 0 || sp > 0 ? run(f.k_wear_high, f.k_pitting_high, nullptr) : nominal;
-    const Crossing slow = sw > 0 || sp > 0 ? run(f.k_wear_low, f.k_pitting_low, nullptr) : nominal;
+    const Crossing nominal = run_forecast(memory_.k_wear_si, memory_.k_pitting, o, &f.curve);
     f.wear.cycles_left = nominal.wear;
-    f.wear.cycles_left_low = fast.wear;
-    f.wear.cycles_left_high = slow.wear;
     f.pitting.cycles_left = nominal.pitting;
-    f.pitting.cycles_left_low = fast.pitting;
-    f.pitting.cycles_left_high = slow.pitting;
+    set_intervals(f, nominal, o);
+    check_ics2_trend(f);
     f.valid = true;
   } catch (const std::exception& e) {
     f.failure = e.what();

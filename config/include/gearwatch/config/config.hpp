@@ -99,6 +99,13 @@ struct ModelConfig {
   int remaining_life_clear_after_records = 3;
   std::uint32_t queue_capacity = 4;                 ///< records waiting for the model thread (live: coalesced beyond)
   std::string force_model = "quasi-static";         ///< quasi-static | dynamic (docs/wear.md)
+  // The forecast interval (docs/model.md, "Posterior and interval"); the reasons are in wear::ModelSettings.
+  double prior_log_k_wear_sd = 4.605170185988091;    ///< prior SD of ln K_wear about initial_k_wear (two decades)
+  double log_k_drift_per_million_cycles = 0.6931471805599453;   ///< random-walk SD of ln K per million cycles (x2)
+  double rms_sa_relative_sd_floor = 0.01;           ///< floor of RMS_SA's relative record-to-record scatter
+  double inspection_area_relative_sd = 0.10;        ///< relative SD of an inspected pitted area
+  int disagreement_records = 8;                     ///< records in the chi-square check of RMS_SA residuals
+  int ics2_onset_records = 5;                       ///< first ICS2 values of a pair: their median is the onset baseline
 };
 
 /// The periodic sim-to-real gap diagnosis in the model thread (docs/gap-report.md). Off by

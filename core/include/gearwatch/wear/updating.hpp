@@ -16,8 +16,10 @@
 //   (Eq. 7.15) is checked; below 0.95, K_pitting maximises C (Eqs. 7.16–7.17) by a bracketed
 //   golden-section search on log K; when 0.95 cannot be reached K_pitting is set to 0.
 // - Forecasts: the blue loop run ahead on a copy at the recent operating conditions, with the
-//   cycles left to a wear-depth and a pitting-density limit, and an interval from the spread of
-//   recent K updates.
+//   cycles left to a wear-depth and a pitting-density limit, and a 90 % interval from the normal
+//   posterior of ln K (forecast_intervals.hpp) with the random walk accumulated to the crossing,
+//   widened when the recent RMS_SA residuals exceed their scatter and brought forward when the
+//   ICS2-derived pitting density runs ahead of the model's.
 // No I/O and no threads: the daemon's model thread feeds it records and stores what it returns.
 #include <array>
 #include <cstdint>
@@ -29,6 +31,7 @@
 
 #include "gearwatch/twin/gearbox_parameters.hpp"
 #include "gearwatch/twin/simulation.hpp"
+#include "gearwatch/wear/forecast_intervals.hpp"
 #include "gearwatch/wear/k_wear_rule.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
 
@@ -51,9 +54,10 @@ enum class UpdateTrigger : std::uint8_t {
   rms_sa_mismatch,              ///< |RMS_SA sim − meas| / meas above the threshold (Eqs. 7.13–7.14)
   inspection_calibration,       ///< two pitted-area inspections (§7.3.3 step 2)
   correlation_below_threshold,  ///< Pearson C of the last three (ICS2, density) pairs below 0.95 (steps 3–4)
+  ics2_one_inspection,          ///< one inspection and the ICS2 trend: the second point from the ICS2 scale
 };
 inline constexpr std::array kAllUpdateTriggers{UpdateTrigger::rms_sa_mismatch, UpdateTrigger::inspection_calibration,
-                                               UpdateTrigger::correlation_below_threshold};
+                                               UpdateTrigger::correlation_below_threshold, UpdateTrigger::ics2_one_inspection};
 const char* to_string(UpdateTrigger trigger) noexcept;
 
 /// How it ended.
@@ -151,7 +155,30 @@ struct ModelSettings {
   double pitting_limit = 0.17;             ///< mean pitting density (the thesis's scrap level, §7.4.1)
   double forecast_horizon_cycles = 2e7;
   int forecast_points = 10;                ///< forecast curve samples up to the horizon
-  int spread_updates = 4;                  ///< recent K values whose spread gives the forecast interval
+  int spread_updates = 4;                  ///< recent K values kept (the correlation search starts from the newest non-zero)
+  // --- the posterior of ln K and the interval (docs/model.md, "Posterior and interval")
+  /// Prior SD of ln K_wear about the configured initial K: two decades. The initial K is a guess
+  /// carried from another regime, and Archard coefficients of one pair differ by decades between
+  /// lubricated and dry running (the thesis's own: 3.55e-16 and 1.65e-12 m²/N).
+  double prior_log_k_wear_sd = 4.605170185988091;
+  /// Random walk of ln K (both coefficients): SD per million cycles. A factor 2 per million cycles
+  /// at one SD: the truth's K changes over life (run-in, contamination); the thesis's dry test
+  /// moved K_wear by a third within thousands of cycles, so this is no upper bound, and the
+  /// innovation gate catches larger jumps.
+  double log_k_drift_per_million_cycles = 0.6931471805599453;
+  /// Floor of the RMS_SA relative record-to-record scatter: the root-find's 1 % tolerance is the
+  /// smallest mismatch the twin resolves, so no scatter estimate below it is believed.
+  double rms_sa_relative_sd_floor = 0.01;
+  /// Relative SD of an inspected pitted area: pits outlined on a mould (replica) image, whose
+  /// edges are a matter of judgement; 10 % is a stated choice, not a measured figure.
+  double inspection_area_relative_sd = 0.10;
+  int disagreement_records = 8;            ///< recent records in the chi-square check of RMS_SA residuals
+  int scatter_records = 64;                ///< records whose residuals (without an update) give the RMS_SA scatter
+  double innovation_gate_sd = 3.0;         ///< an update's innovation beyond this many SDs raises the prior variance
+  int ics2_onset_records = 5;              ///< first ICS2 values of a pair whose median is the ICS2 onset baseline
+  int ics2_trend_records = 10;             ///< recent ICS2-derived densities in the robust trend
+  /// q: the random walk's variance of ln K per cycle.
+  double log_k_q_per_cycle() const { return log_k_drift_per_million_cycles * log_k_drift_per_million_cycles / 1e6; }
   int operating_window_records = 10;       ///< records averaged for the forecast's operating point
   std::size_t max_intervals = 256;         ///< record intervals kept for re-runs (oldest merged beyond)
   /// Throws TwinParameterError naming the first bad value.
@@ -208,6 +235,18 @@ struct ModelMemory {
   double ics2_scale_ics2 = 0, ics2_scale_density = 0, ics2_scale_slope = 0;  ///< D = density + slope (ICS2 − ics2)
   std::vector<double> recent_k_wear, recent_k_pitting;   ///< the last spread_updates values set by updates (not the initial guess)
   std::vector<std::array<double, 2>> recent_operating_points;  ///< (speed, torque) of the last records
+  /// The posteriors of ln K_wear (prior at the start of a pair) and ln K_pitting (none before
+  /// its first calibration).
+  LogPosterior log_k_wear, log_k_pitting;
+  /// ln(RMS_SA meas / sim) of the last records before any update there, and whether an update was
+  /// tried at that record (the scatter estimate takes only those without).
+  std::vector<std::array<double, 2>> rms_residuals;
+  double pitting_calibration_var = 0;      ///< var ln K of the last calibration from the inspected areas
+  double scale_residual_sum_sq = 0;        ///< Σ (ln K gap of the ICS2 scale's density vs the model's at pitting points)²
+  std::uint64_t scale_residual_count = 0;
+  int ics2_scale_inspections = 0;          ///< 1: the one-inspection scale; 2: two inspections
+  double ics2_scale_baseline_sd = 0;       ///< ICS2 SD of the onset baseline (one-inspection scale)
+  double last_ics2_calibration_cycles = -1;   ///< the last one-inspection calibration (−1: none)
   /// (cycles, ICS2 low) of the pair's records: ICS2 at an inspection's cycles. The daemon rebuilds
   /// it from the model's stored runs rather than storing it in the state.
   std::vector<std::array<double, 2>> ics2_series;
@@ -234,8 +273,8 @@ struct KUpdate {
 struct LimitForecast {
   double limit = 0;
   std::optional<double> cycles_left;        ///< nullopt: not within the horizon
-  std::optional<double> cycles_left_low;    ///< with the faster end of the K spread
-  std::optional<double> cycles_left_high;   ///< with the slower end (nullopt: beyond the horizon)
+  std::optional<double> cycles_left_low;    ///< the interval's near end: the fast K (or the ICS2 trend)
+  std::optional<double> cycles_left_high;   ///< its far end: the slow K (nullopt: beyond the horizon)
 };
 
 struct ForecastPoint {
@@ -248,7 +287,11 @@ struct Forecast {
   std::string failure;                     ///< why not (e.g. the loop stopped at its depth limit)
   double speed_hz = 0, torque_nm = 0;      ///< the recent operating point used
   double k_wear_low = 0, k_wear_high = 0, k_pitting_low = 0, k_pitting_high = 0;
+  double coverage = kNominalCoverage;      ///< the interval's nominal coverage
+  double log_sd_wear = 0, log_sd_pitting = 0;   ///< SD of ln K behind each interval (widening included)
   LimitForecast wear, pitting;
+  std::vector<ForecastFlag> flags;         ///< why the interval is wider or nearer than the posterior alone
+  std::string evidence;                    ///< one line: the numbers behind the flags
   std::vector<ForecastPoint> curve;        ///< at the nominal K
 };
 
@@ -336,8 +379,29 @@ class TwinModel {
   void update_k_wear_proportional(WearSearch& search, KUpdate& u);
   void update_k_wear_root_find(WearSearch& search, KUpdate& u);
   void calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report);
+  /// Two pitted areas (A0 at N0, A1 at N1): K_pitting by bisection on ln K so that the model, its
+  /// profile rescaled to A0 at N0, pits A1 by N1; the current pitting profile from that run.
+  struct CalibrationPoints {
+    double n0 = 0, a0 = 0, n1 = 0, a1 = 0;
+  };
+  double calibrate_k(const CalibrationPoints& c, double cycles, KUpdate& u, std::string& why, int& evaluations);
+  /// One inspection and the ICS2 trend: the onset-baseline scale, and the second point from it.
+  void calibrate_from_one_inspection(const Inspection& first, double cycles, ModelRunReport& report);
   void check_pitting(const ModelObservation& obs, ModelRunReport& report);
   double ics2_at(double cycles) const;
+  /// The filter step of ln K_wear / ln K_pitting with a measurement z of variance r; returns the evidence.
+  std::string learn(LogPosterior& posterior, double z, double r, double cycles) const;
+  double rms_scatter_sd() const;           ///< the RMS_SA relative scatter: residuals without an update, floored
+  double pitting_measurement_var() const;  ///< var ln K_pitting of a calibration: the areas and the scale's scatter
+  void remember_residual(double log_residual, bool updated);
+  struct Crossing {
+    std::optional<double> wear, pitting;
+  };
+  Crossing run_forecast(double k_wear, double k_pitting, const WearLoopOptions& o, std::vector<ForecastPoint>* curve) const;
+  void set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o) const;
+  void check_ics2_trend(Forecast& f) const;
+  /// The ICS2-derived density of the newest ICS2 values of the pair, (cycles, density).
+  std::vector<std::array<double, 2>> ics2_density_series(std::size_t newest) const;
   void remember_k(std::vector<double>& recent, double k) const;
   void prune_intervals();
   void apply_k(bool wear, double value, double from_cycles);

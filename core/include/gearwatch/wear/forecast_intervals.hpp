@@ -1,0 +1,130 @@
+#pragma once
+// The uncertainty behind the twin's forecasts (docs/model.md, "Posterior and interval"): a
+// normal posterior of ln K per coefficient with a random-walk process noise, the 90 % interval it
+// gives, K_pitting's measurement variance from the inspections and the ICS2 <-> density scale,
+// the one-inspection ICS2 scale, and the checks of the forecast's path against the measured
+// indicators. Pure functions on numbers: no I/O, no threads, no twin.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gearwatch::wear {
+
+/// The interval's nominal coverage: the 5 % and 95 % quantiles of ln K.
+inline constexpr double kNominalCoverage = 0.90;
+
+/// Why a forecast's interval is wider than the posterior alone gives, or where its near end came from.
+enum class ForecastFlag : std::uint8_t {
+  rms_sa_residuals_exceed_scatter,  ///< recent ln(RMS_SA meas / sim) beyond the expected scatter (chi-square, 5 %): widened
+  ics2_density_ahead_of_model,      ///< the ICS2-derived density is ahead of the model's: the near end from the ICS2 trend
+  pitting_limit_reached_by_ics2,    ///< the ICS2-derived density is at the pitting limit already: near end 0
+};
+inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exceed_scatter,
+                                              ForecastFlag::ics2_density_ahead_of_model,
+                                              ForecastFlag::pitting_limit_reached_by_ics2};
+const char* to_string(ForecastFlag flag) noexcept;
+
+/// Normal belief about ln K: mean, variance, and the cycles it refers to. `valid` false: no belief
+/// yet (K_pitting before its first calibration).
+struct LogPosterior {
+  bool valid = false;
+  double mean = 0, var = 0;
+  double cycles = 0;
+};
+
+/// The random walk to `cycles`: var += q (cycles − posterior cycles) (q per cycle; never backwards).
+LogPosterior predict(LogPosterior p, double cycles, double q_per_cycle);
+
+/// The conjugate normal update with a measurement z of ln K with variance r:
+/// var' = 1 / (1/var + 1/r), mean' = var' (mean/var + z/r).
+LogPosterior conjugate_update(const LogPosterior& prior, double z, double r);
+
+/// The same, after innovation-based variance matching: when the innovation z − mean is beyond
+/// `gate_sd` standard deviations of its predicted spread (var + r), the prior variance is raised
+/// to (z − mean)² − r, the moment estimate of the prior's variance from that innovation. A K
+/// update is made only when the twin misses the measurement (a detected change), and a change
+/// larger than the random walk allows must not be averaged away with the old K.
+struct FilterStep {
+  LogPosterior posterior;
+  bool inflated = false;
+  double innovation_sd = 0;   ///< (z − mean) / sqrt(var + r) before any inflation
+};
+FilterStep filter_update(const LogPosterior& prior, double z, double r, double gate_sd);
+
+/// Standard normal quantile (inverse CDF).
+double normal_quantile(double p);
+/// Chi-square quantile with `dof` degrees of freedom.
+double chi_square_quantile(double p, double dof);
+
+/// The mean of K over a path of T cycles, A = (1/T) ∫ exp(W) with W a random walk of variance q
+/// per cycle from 0, as a lognormal with A's exact first two moments (the moment matching used
+/// for arithmetic averages of geometric Brownian motion): E[A] = (e^{x/2} − 1)/(x/2),
+/// E[A²] = 4/(3x²) ((e^{2x} − 1)/2 − 2(e^{x/2} − 1)), x = q T. To first order ln A ~ N(x/12, x/3).
+struct PathMeanMoments {
+  double log_mean = 0, log_var = 0;
+};
+PathMeanMoments path_mean_moments(double q_per_cycle, double cycles);
+
+/// ln K quantiles for the interval: mean + μ_A ± z_{(1+coverage)/2} sqrt(var + σ²_A), with
+/// (μ_A, σ²_A) the path mean's over T. T is the forecast's cycles to the crossing: what sets a
+/// crossing is the mean of K over the path. `widen` multiplies the SD.
+struct LogInterval {
+  double low = 0, high = 0;   ///< ln K at the slow and the fast end
+  double sd = 0;
+};
+LogInterval log_interval(const LogPosterior& p, double q_per_cycle, double horizon_cycles, double widen,
+                         double coverage = kNominalCoverage);
+
+/// K_pitting's calibration from two pitted areas A0 at N0, A1 at N1 of one point of Eq. 7.8,
+/// D = 1 − exp(−K T N^m): K = ln((1 − A0)/(1 − A1)) / (T (N1^m − N0^m)). Its elasticities
+/// d ln K / d ln A0 and d ln K / d ln A1, in closed form (A0 < A1 < 1).
+struct CalibrationElasticities {
+  double d_ln_a0 = 0, d_ln_a1 = 0;
+};
+CalibrationElasticities calibration_elasticities(double a0, double a1);
+/// Closed-form K of the calibration above (for the tests and the evidence).
+double closed_form_calibration_k(double a0, double n0, double a1, double n1, double terms, double m);
+
+/// Var ln K of a calibration whose areas carry relative SDs sd0, sd1, with `correlation` between
+/// their errors (1 when A1 is an ICS2 estimate scaled by A0 itself).
+double calibration_log_variance(double a0, double a1, double sd0, double sd1, double correlation);
+
+/// At fixed cycles Eq. 7.8 gives ln K = ln(−ln(1 − D)) − ln(T N^m): the difference of two
+/// densities' ln(−ln(1 − D)) is their difference in ln K.
+double log_k_gap(double density_a, double density_b);
+
+/// The ICS2 <-> density scale through one inspection: D = A0 (ICS2 − ICS2_on) / (ICS2_0 − ICS2_on),
+/// ICS2_on the onset baseline. nullopt when ICS2_0 does not rise materially above the baseline
+/// (by more than `min_rise_sd` baseline SDs, or not at all when the baseline has no spread).
+struct Ics2Scale {
+  double ics2 = 0, density = 0, slope = 0;   ///< D = density + slope (ICS2 − ics2)
+  double baseline = 0, baseline_sd = 0;
+};
+/// The baseline: the median of the first `records` ICS2 values of the pair (a new pair starts
+/// unpitted, so its first records hold ICS2 at its noise level; the median ignores one outlier);
+/// its SD from their MAD (1.4826 MAD, the normal's).
+std::optional<Ics2Scale> one_inspection_scale(const std::vector<double>& first_ics2, double ics2_at_inspection, double area,
+                                              double min_rise_sd);
+
+/// Theil–Sen line through (x, y): the median of the pairwise slopes, the median intercept.
+struct RobustLine {
+  double slope = 0, intercept = 0;
+  bool valid = false;
+};
+RobustLine theil_sen(const std::vector<std::array<double, 2>>& points);
+
+/// The chi-square check of recent ln(RMS_SA meas / sim) against the expected relative scatter:
+/// S = Σ r² / σ², exceeded when S > χ²_{n, 0.95}; the widening is the RMS ratio sqrt(S / n).
+struct ScatterCheck {
+  bool exceeded = false;
+  double statistic = 0, critical = 0, ratio = 1;
+  int n = 0;
+};
+ScatterCheck residual_scatter_check(const std::vector<double>& log_residuals, double expected_sd, double level = 0.05);
+
+/// The RMS of ln(meas / sim) with a floor: the RMS_SA measurement's record-to-record scatter.
+double scatter_sd(const std::vector<double>& log_residuals, double floor);
+
+}  // namespace gearwatch::wear
