@@ -6,6 +6,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include <boost/math/distributions/students_t.hpp>
+
 namespace gearwatch::gap {
 namespace {
 
@@ -13,8 +15,12 @@ double ratio_db(double measured, double model, double floor) {
   return 10.0 * std::log10((measured + floor) / (model + floor));
 }
 
-/// Two-sided normal tail of z.
-double two_sided_p(double z) { return std::erfc(std::abs(z) / std::sqrt(2.0)); }
+/// Two-sided tail of t with `dof` degrees of freedom: g over a spread estimated from dof + 1 draws.
+double two_sided_p(double t, double dof) {
+  if (!(dof >= 1)) return 1.0;
+  const boost::math::students_t dist(dof);
+  return std::min(1.0, 2.0 * boost::math::cdf(boost::math::complement(dist, std::abs(t))));
+}
 
 /// The normal quantile of a central coverage (bisection on erfc: no table, no library).
 double normal_quantile(double coverage) {
@@ -27,23 +33,6 @@ double normal_quantile(double coverage) {
   return 0.5 * (lo + hi);
 }
 
-/// A run of touching counted cells of one record.
-struct Cluster {
-  std::size_t record;
-  std::vector<std::size_t> cells;
-  double low, high;  // input orders
-};
-
-/// Union–find over the clusters, for joining them across records.
-struct Groups {
-  std::vector<std::size_t> parent;
-  explicit Groups(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), std::size_t{0}); }
-  std::size_t root(std::size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  }
-  void join(std::size_t a, std::size_t b) { parent[root(a)] = root(b); }
-};
 
 }  // namespace
 
@@ -120,7 +109,7 @@ std::vector<double> FeatureFinder::p_values(std::vector<std::pair<std::size_t, s
       const Cell& c = records_[r].cells[i];
       const double sd = c.sd();
       double value = 1.0;
-      if (std::isfinite(sd) && sd > 0) value = two_sided_p(c.g / sd);
+      if (std::isfinite(sd) && sd > 0) value = two_sided_p(c.g / sd, c.n - 1);
       // No spread over the draws: both spectra are the same in every draw (no noise at all), so any
       // difference is exact; none is no evidence.
       else if (std::isfinite(sd)) value = std::abs(c.g) > 1e-9 ? 0.0 : 1.0;
@@ -171,6 +160,54 @@ FeatureMovement movement_of(const std::vector<FeatureSighting>& seen, double min
 
 }  // namespace
 
+std::vector<std::vector<std::size_t>> FeatureFinder::join_clusters(const std::vector<Cluster>& clusters) const {
+  std::vector<std::size_t> live(clusters.size());
+  std::iota(live.begin(), live.end(), std::size_t{0});
+  std::vector<std::vector<std::size_t>> out;
+  // Components of the live clusters whose extents, widened by half a bin each side, overlap along
+  // one axis: input orders, or Hz (a bin there is the record's speed).
+  auto components = [&](bool in_hz) {
+    auto lo = [&](std::size_t c) { return (clusters[c].low - 0.5) * (in_hz ? records_[clusters[c].record].speed_hz : 1.0); };
+    auto hi = [&](std::size_t c) { return (clusters[c].high + 0.5) * (in_hz ? records_[clusters[c].record].speed_hz : 1.0); };
+    auto sorted = live;
+    std::sort(sorted.begin(), sorted.end(), [&](std::size_t a, std::size_t b) { return lo(a) < lo(b); });
+    std::vector<std::vector<std::size_t>> groups;
+    double reach = -std::numeric_limits<double>::infinity();
+    for (std::size_t c : sorted) {
+      if (groups.empty() || lo(c) > reach) groups.emplace_back(), reach = hi(c);
+      groups.back().push_back(c);
+      reach = std::max(reach, hi(c));
+    }
+    return groups;
+  };
+  auto records_in = [&](const std::vector<std::size_t>& g) {
+    std::vector<std::size_t> r;
+    for (std::size_t c : g) r.push_back(clusters[c].record);
+    std::sort(r.begin(), r.end());
+    return static_cast<std::size_t>(std::unique(r.begin(), r.end()) - r.begin());
+  };
+  auto weight = [&](const std::vector<std::size_t>& g) {
+    double w = 0;
+    for (std::size_t c : g)
+      for (std::size_t i : clusters[c].cells) w += std::abs(records_[clusters[c].record].cells[i].g);
+    return w;
+  };
+  while (!live.empty()) {
+    std::vector<std::size_t> best;
+    std::pair<std::size_t, double> best_key{0, -1.0};
+    for (bool in_hz : {false, true})
+      for (auto& g : components(in_hz)) {
+        const std::pair<std::size_t, double> key{records_in(g), weight(g)};
+        if (key > best_key) best_key = key, best = std::move(g);
+      }
+    std::vector<char> taken(clusters.size(), 0);
+    for (std::size_t c : best) taken[c] = 1;
+    live.erase(std::remove_if(live.begin(), live.end(), [&](std::size_t c) { return taken[c] != 0; }), live.end());
+    out.push_back(std::move(best));
+  }
+  return out;
+}
+
 std::vector<GapFeature> FeatureFinder::features() const {
   std::size_t rejected = 0;
   const auto flags = counted(rejected);
@@ -194,17 +231,7 @@ std::vector<GapFeature> FeatureFinder::features() const {
       }
     }
   }
-  // Join clusters of different records that overlap within half a bin in orders or in Hz.
-  Groups groups(clusters.size());
-  for (std::size_t a = 0; a < clusters.size(); ++a)
-    for (std::size_t b = a + 1; b < clusters.size(); ++b) {
-      const auto &x = clusters[a], &y = clusters[b];
-      if (x.record == y.record) continue;
-      const double sx = records_[x.record].speed_hz, sy = records_[y.record].speed_hz;
-      const bool in_orders = x.low - 0.5 <= y.high + 0.5 && y.low - 0.5 <= x.high + 0.5;
-      const bool in_hz = (x.low - 0.5) * sx <= (y.high + 0.5) * sy && (y.low - 0.5) * sy <= (x.high + 0.5) * sx;
-      if (in_orders || in_hz) groups.join(a, b);
-    }
+  const auto groups = join_clusters(clusters);
   // The p-value of each cell, for the feature's smallest.
   std::vector<std::vector<double>> cell_p(records_.size());
   for (std::size_t r = 0; r < records_.size(); ++r) cell_p[r].assign(records_[r].cells.size(), 1.0);
@@ -213,11 +240,7 @@ std::vector<GapFeature> FeatureFinder::features() const {
   std::vector<GapFeature> out;
   const double z = normal_quantile(settings_.coverage);
   const double ratio = static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth;
-  std::vector<char> done(clusters.size(), 0);
-  for (std::size_t a = 0; a < clusters.size(); ++a) {
-    const std::size_t root = groups.root(a);
-    if (done[root]) continue;
-    done[root] = 1;
+  for (const auto& group : groups) {
     GapFeature f;
     f.p_value = 1.0;
     double order_lo = std::numeric_limits<double>::infinity(), order_hi = -order_lo;
@@ -226,8 +249,8 @@ std::vector<GapFeature> FeatureFinder::features() const {
     CellKind peak_kind = CellKind::input_line;
     for (std::size_t r = 0; r < records_.size(); ++r) {
       double weight = 0, centre = 0, peak = 0, peak_sd = 0;
-      for (std::size_t b = 0; b < clusters.size(); ++b) {
-        if (clusters[b].record != r || groups.root(b) != root) continue;
+      for (std::size_t b : group) {
+        if (clusters[b].record != r) continue;
         for (std::size_t c : clusters[b].cells) {
           const Cell& cell = records_[r].cells[c];
           weight += std::abs(cell.g), centre += std::abs(cell.g) * cell.centre;

@@ -7,15 +7,17 @@
 //  - cells: each record's input-order lines, output-order lines (the mesh orders counted on the input
 //    side) and 1-order broadband bins, at the spectra's own resolution; g = 10·log10((P_meas + F)/
 //    (P_twin + F)) with the comparison's floor F, as the families use;
-//  - per-cell p-value: two-sided normal, z = g / sd, sd the spread of g over the record's bootstrap
-//    draws over revolutions (the same draws as the families' intervals). A normal tail and not the
-//    draws' own ranks: Benjamini–Hochberg over tens of thousands of cells needs p-values far below
+//  - per-cell p-value: two-sided Student t with (draws − 1) degrees of freedom, t = g / sd, sd the
+//    spread of g over the record's bootstrap draws over revolutions (the same draws as the families'
+//    intervals): the spread is itself an estimate, and with a normal tail its error alone raised a
+//    rejection in a third of no-effect tests at 50 draws. A parametric tail and not the draws' own ranks: Benjamini–Hochberg over tens of thousands of cells needs p-values far below
 //    1/(draws + 1). A test over records per line would not do: a resonance fixed in Hz sits on
 //    different lines at different speeds;
 //  - Benjamini–Hochberg at q over all cells of all records; a cell counts when it is rejected and
 //    its |g| is at least the practical minimum (min_feature_db);
 //  - in each record, counted cells whose extents (in input orders) touch are one cluster; clusters
-//    of different records whose extents overlap within half a bin in orders or in Hz are one feature;
+//    whose extents overlap within half a bin in orders, or in Hz, are one feature: the grouping seen
+//    in the most records first (join_clusters);
 //  - movement: the sightings' centres in orders and in Hz at speeds ≥ min_speed_ratio apart; spread
 //    within one order and beyond one bin in Hz: fixed in orders; within one bin in Hz (one input order
 //    at the fastest sighting) and beyond one order: fixed in Hz; beyond both: neither; within both
@@ -82,6 +84,18 @@ class FeatureFinder {
     double speed_hz, torque_nm;
     std::vector<Cell> cells;
   };
+  /// A run of touching counted cells of one record, with its extent in input orders.
+  struct Cluster {
+    std::size_t record;
+    std::vector<std::size_t> cells;
+    double low, high;
+  };
+  /// The clusters joined into features: repeatedly, of the groups of clusters whose extents overlap
+  /// within half a bin in orders, and of those that overlap so in Hz, the one seen in the most
+  /// records (then the largest Σ|g|) is a feature, and its clusters leave. A line fixed in orders
+  /// meets another harmonic's line at the same Hz at some pair of speeds; joining on either axis at
+  /// once would chain them.
+  std::vector<std::vector<std::size_t>> join_clusters(const std::vector<Cluster>& clusters) const;
   std::vector<double> p_values(std::vector<std::pair<std::size_t, std::size_t>>& where) const;
   std::vector<char> counted(std::size_t& rejected) const;
   std::vector<RecordCells> records_;
