@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
 
 #include "command_runner.hpp"
 #include "commands.hpp"
@@ -173,6 +174,27 @@ TEST_CASE("gap page: loading needs a stored report, and gap report says so and w
   std::stringstream text;
   text << page.rdbuf();
   CHECK(count(text.str(), "<tr class=\"history-row\">") == 3);
+  // The newest report's features and bounds printed: a table after the summary, or JSON alone on
+  // standard output (the summary then on standard error).
+  CHECK(ok.out.find(", 2 features") != std::string::npos);
+  CHECK(ok.out.find("fixed_in_hz      input       240.33     2403.1    2385.0-2425.0        +11.75 [+11.50, +12.00] 2") !=
+        std::string::npos);
+  CHECK(ok.out.find("fitted at a bound: mount_resonance: frequency_hz would need > 2450 (the top of its range)") != std::string::npos);
+  const auto json_run =
+      testing::run_command(std::string(GEARWATCH_BINARY) + " gap report --format json --db " + path + " --out " + (dir / "out").string());
+  CHECK(json_run.status == 0);
+  CHECK(json_run.err.find(", 2 features") != std::string::npos);
+  const auto doc = nlohmann::json::parse(json_run.out);
+  CHECK(doc.at("report") == 3);
+  REQUIRE(doc.at("features").size() == 2);
+  CHECK(doc["features"][0]["movement"] == "fixed_in_hz");
+  CHECK(doc["features"][0]["hz"] == 2403.125);
+  CHECK(doc["features"][0]["seen_in"].size() == 2);
+  CHECK(doc["features"][1]["shaft"] == "output");
+  CHECK(doc["features"][1]["seen_in"][0]["torque_nm"].is_null());
+  REQUIRE(doc.at("at_bounds").size() == 1);
+  CHECK(doc["at_bounds"][0]["effect"] == "mount_resonance");
+  CHECK(doc["at_bounds"][0]["side"] == "upper");
   const auto bad = testing::run_command(std::string(GEARWATCH_BINARY) + " gap report --db " + (dir / "missing.db").string() + " --out " +
                                         (dir / "out").string());
   CHECK(bad.status == 1);
