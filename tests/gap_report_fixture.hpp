@@ -4,6 +4,7 @@
 // output shaft orders not resolvable from short records. Not a component: shared by the storage,
 // report-page and alert tests and by the browser test's database writer. The doubles are picked
 // so that any rounding on the way through the database or the page shows.
+#include <limits>
 #include <cmath>
 #include <vector>
 
@@ -92,6 +93,7 @@ inline gap::GapReport known_gap_report() {
   mount.shrinkage = 0.7623762376237624;
   mount.information_criterion = -30.125;
   mount.worsens_other_family = true;
+  mount.at_bounds = {{"frequency_hz", 2450.0, true}};  // fitted at the top of its range
 
   gap::CandidateScore floor;
   floor.effect = gap::CandidateEffect::noise_floor;
@@ -122,6 +124,34 @@ inline gap::GapReport known_gap_report() {
                    {FamilyKind::fixed_frequency, {228.0, 252.0}}};
   r.hz_bands = {{FamilyKind::mesh_harmonics, {215.0, 225.0}}, {FamilyKind::fixed_frequency, {2280.0, 2520.0}},
                 {FamilyKind::broadband, {500.0, 900.0}}};
+  // Features: a band fixed in Hz at the casing's 2400 Hz, seen in two records, and a line at a
+  // non-integer output order seen in one.
+  gap::GapFeature band;
+  band.movement = gap::FeatureMovement::fixed_in_hz;
+  band.order = 240.0 + 1.0 / 3.0;
+  band.order_low = 238.5;
+  band.order_high = 242.5;
+  band.hz = 2403.125;
+  band.hz_low = 2385.0;
+  band.hz_high = 2425.0;
+  band.size_db = 11.75;
+  band.size_interval_db = {11.5, 12.0};
+  band.p_value = 1.25e-12;
+  band.seen_in = {{true, 0, 10.0, 20.0, 240.3125, 2403.125, 11.5}, {false, 1, 8.0, 5.0, 300.375, 2403.0, 12.0}};
+  gap::GapFeature ghost;
+  ghost.movement = gap::FeatureMovement::undetermined;
+  ghost.shaft = gap::FeatureShaft::output;
+  ghost.order = 2.5;
+  ghost.order_low = 2.0;
+  ghost.order_high = 3.0;
+  ghost.hz = 9.125;
+  ghost.hz_low = 7.3;
+  ghost.hz_high = 10.95;
+  ghost.size_db = -4.5;
+  ghost.size_interval_db = {-5.0, -4.0};
+  ghost.p_value = 3e-7;
+  ghost.seen_in = {{true, 1, 10.0, std::numeric_limits<double>::quiet_NaN(), 0.9125, 9.125, -4.5}};
+  r.features = {band, ghost};
   return r;
 }
 

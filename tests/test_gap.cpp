@@ -393,6 +393,9 @@ TEST_CASE("gap: no effect (twin plus noise against twin plus independent noise) 
   CHECK(report.chosen.empty());
   CHECK(report.unexplained.empty());
   CHECK(report.speeds_hz.size() == 4);
+  // Nor at the resolution of a line or a band (features.hpp), on the real bootstrap's spreads.
+  for (const auto& f : report.features) INFO(describe(f));
+  CHECK(report.features.empty());
 }
 
 TEST_CASE("gap: a transfer-path gain fixed in Hz is localised to the fixed-frequency family", "[gap]") {
@@ -430,6 +433,19 @@ TEST_CASE("gap: a transfer-path gain fixed in Hz is localised to the fixed-frequ
   // speeds, so part of a Hz-fixed change stays on the strong mesh lines; the fixed family is
   // significant and its band is found, but it does not take the whole change.
   CHECK(fixed.significant);
+  // At the resolution of a line: the +18 dB band is one feature fixed in Hz, seen at every speed,
+  // its band inside 700–800 Hz widened by half a line (4–7 Hz), the size 18 dB (floor and
+  // leakage: 1 dB).
+  std::string all;
+  for (const auto& f : report.features) all += describe(f) + "\n";
+  INFO(all);
+  const auto band = std::find_if(report.features.begin(), report.features.end(),
+                                 [](const GapFeature& f) { return f.movement == FeatureMovement::fixed_in_hz; });
+  REQUIRE(band != report.features.end());
+  CHECK(band->seen_in.size() == 4);
+  CHECK(band->hz_low >= 700 - 7);
+  CHECK(band->hz_high <= 800 + 7);
+  CHECK(band->size_db == Approx(20 * std::log10(8.0)).margin(1.0));
 }
 
 TEST_CASE("gap: records at a single speed leave fixed_frequency unresolved with the reason", "[gap]") {

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
 
 #include "command_runner.hpp"
 #include "commands.hpp"
@@ -173,6 +174,27 @@ TEST_CASE("gap page: loading needs a stored report, and gap report says so and w
   std::stringstream text;
   text << page.rdbuf();
   CHECK(count(text.str(), "<tr class=\"history-row\">") == 3);
+  // The newest report's features and bounds printed: a table after the summary, or JSON alone on
+  // standard output (the summary then on standard error).
+  CHECK(ok.out.find(", 2 features") != std::string::npos);
+  CHECK(ok.out.find("fixed_in_hz      input       240.33     2403.1    2385.0-2425.0        +11.75 [+11.50, +12.00] 2") !=
+        std::string::npos);
+  CHECK(ok.out.find("fitted at a bound: mount_resonance: frequency_hz would need > 2450 (the top of its range)") != std::string::npos);
+  const auto json_run =
+      testing::run_command(std::string(GEARWATCH_BINARY) + " gap report --format json --db " + path + " --out " + (dir / "out").string());
+  CHECK(json_run.status == 0);
+  CHECK(json_run.err.find(", 2 features") != std::string::npos);
+  const auto doc = nlohmann::json::parse(json_run.out);
+  CHECK(doc.at("report") == 3);
+  REQUIRE(doc.at("features").size() == 2);
+  CHECK(doc["features"][0]["movement"] == "fixed_in_hz");
+  CHECK(doc["features"][0]["hz"] == 2403.125);
+  CHECK(doc["features"][0]["seen_in"].size() == 2);
+  CHECK(doc["features"][1]["shaft"] == "output");
+  CHECK(doc["features"][1]["seen_in"][0]["torque_nm"].is_null());
+  REQUIRE(doc.at("at_bounds").size() == 1);
+  CHECK(doc["at_bounds"][0]["effect"] == "mount_resonance");
+  CHECK(doc["at_bounds"][0]["side"] == "upper");
   const auto bad = testing::run_command(std::string(GEARWATCH_BINARY) + " gap report --db " + (dir / "missing.db").string() + " --out " +
                                         (dir / "out").string());
   CHECK(bad.status == 1);
@@ -195,4 +217,24 @@ TEST_CASE("gap command: one `gap` parent for every child, in any order of regist
   }
   const auto bare = testing::run_command(std::string(GEARWATCH_BINARY) + " gap");
   CHECK(bare.status != 0);
+}
+
+TEST_CASE("gap page: the features are listed with where, movement, size and records, and marked on both spectra",
+          "[gap_page][report][gap_features]") {
+  const std::string html = report::render_gap_report_html(page_data(testing::known_gap_report()));
+  CHECK(count(html, "<tr class=\"feature-row\"") == 2);
+  // The band fixed in Hz: where in Hz, its band and size, the two records it was seen in.
+  CHECK(html.find("<tr class=\"feature-row\" data-movement=\"fixed_in_hz\"><td>F1</td><td>2403.1 Hz</td><td>fixed_in_hz</td>"
+                  "<td class=\"num\">240.33 (input)</td><td class=\"num\">2403.1</td><td class=\"num\">2385.0–2425.0</td>"
+                  "<td class=\"num\">+11.75 dB</td><td class=\"num\">[11.50, 12.00]</td>"
+                  "<td>held-out 0 (10.00 Hz, +11.5 dB), training 1 (8.00 Hz, +12.0 dB)</td></tr>") != std::string::npos);
+  // The ghost line, at an output order, seen in one record (so its movement is undetermined).
+  CHECK(html.find("<td>F2</td><td>output order 2.50</td><td>undetermined</td>") != std::string::npos);
+  // Marked on each spectrum: the plotted record turns at 10 Hz (7.5 Hz over 0.75 orders), so the band
+  // sits at 2403.125 Hz = order 240.3125, the ghost at its 10 Hz sighting (order 0.9125, 9.125 Hz).
+  CHECK(count(html, "<line class=\"ev feature\"") == 4);
+  CHECK(html.find("<title>F1: 2403.1 Hz (band 2385.0-2425.0 Hz), fixed in Hz, +11.8 dB [+11.5, +12.0], seen in 2 records</title>") !=
+        std::string::npos);
+  // A candidate fitted at a bound says what it would need.
+  CHECK(html.find("at a bound: frequency_hz would need &gt; 2450 (the top of its range)") != std::string::npos);
 }

@@ -1,3 +1,4 @@
+#include <cmath>
 #include "gearwatch/storage/gap_reports.hpp"
 
 #include <algorithm>
@@ -53,6 +54,41 @@ void check_same(const gap::GapReport& a, const gap::GapReport& b) {
     CHECK(x.shrinkage == y.shrinkage);
     CHECK(x.information_criterion == y.information_criterion);
     CHECK(x.worsens_other_family == y.worsens_other_family);
+    REQUIRE(x.at_bounds.size() == y.at_bounds.size());
+    for (std::size_t j = 0; j < x.at_bounds.size(); ++j) {
+      CHECK(x.at_bounds[j].name == y.at_bounds[j].name);
+      CHECK(x.at_bounds[j].bound == y.at_bounds[j].bound);
+      CHECK(x.at_bounds[j].upper == y.at_bounds[j].upper);
+    }
+  }
+  REQUIRE(a.features.size() == b.features.size());
+  for (std::size_t i = 0; i < a.features.size(); ++i) {
+    const auto& x = a.features[i];
+    const auto& y = b.features[i];
+    INFO("feature " << i);
+    CHECK(x.movement == y.movement);
+    CHECK(x.shaft == y.shaft);
+    CHECK(x.order == y.order);
+    CHECK(x.order_low == y.order_low);
+    CHECK(x.order_high == y.order_high);
+    CHECK(x.hz == y.hz);
+    CHECK(x.hz_low == y.hz_low);
+    CHECK(x.hz_high == y.hz_high);
+    CHECK(x.size_db == y.size_db);
+    CHECK(x.size_interval_db.low == y.size_interval_db.low);
+    CHECK(x.size_interval_db.high == y.size_interval_db.high);
+    CHECK(x.p_value == y.p_value);
+    REQUIRE(x.seen_in.size() == y.seen_in.size());
+    for (std::size_t j = 0; j < x.seen_in.size(); ++j) {
+      const auto &s = x.seen_in[j], &t = y.seen_in[j];
+      CHECK(s.held_out == t.held_out);
+      CHECK(s.record == t.record);
+      CHECK(s.speed_hz == t.speed_hz);
+      CHECK((s.torque_nm == t.torque_nm || (std::isnan(s.torque_nm) && std::isnan(t.torque_nm))));
+      CHECK(s.order == t.order);
+      CHECK(s.hz == t.hz);
+      CHECK(s.size_db == t.size_db);
+    }
   }
   CHECK(a.chosen == b.chosen);
   CHECK(a.unexplained == b.unexplained);

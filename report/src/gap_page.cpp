@@ -41,6 +41,7 @@ const char* family_colour(FamilyKind f) {
 }
 
 constexpr const char* kMeasuredColour = "#212121";
+constexpr const char* kFeatureColour = "#ef6c00";
 constexpr const char* kTwinColour = "#1e88e5";
 constexpr const char* kAfterColour = "#e53935";
 constexpr const char* kBeforeBar = "#78909c";
@@ -262,6 +263,8 @@ void render_candidates(const GapReport& r, std::string& h) {
       }
       if (!which.empty()) worse += " (" + html_escape(which) + ")";
     }
+    for (const auto& b : c.at_bounds)
+      params += std::string(params.empty() ? "" : "; ") + "<b class=\"at-bound\">at a bound: " + html_escape(gap::describe(b)) + "</b>";
     h += std::string("<tr class=\"candidate-row") + (step != r.chosen.end() ? " chosen" : "") + "\" data-effect=\"" + gap::to_string(c.effect) +
          "\"><td class=\"num\">" + std::to_string(i + 1) + "</td><td>" + gap::to_string(c.effect) + "</td><td>" +
          html_escape(joined(c.explains, [](auto f) { return gap::to_string(f); })) + "</td><td class=\"num\">" + percent(c.shrinkage) +
@@ -273,9 +276,29 @@ void render_candidates(const GapReport& r, std::string& h) {
   h += "</tbody></table></div>\n";
 }
 
+/// Where a feature sits on the plotted record's axes (the record at `speed_hz`): in input orders and
+/// in Hz. A feature fixed in Hz is at its Hz, one fixed in orders at its sightings' mean input order
+/// (the sightings count input orders whatever its shaft); otherwise at the sighting nearest that speed.
+std::pair<double, double> feature_position(const gap::GapFeature& f, double speed_hz) {
+  if (f.seen_in.empty()) return {f.hz / speed_hz, f.hz};
+  if (f.movement == gap::FeatureMovement::fixed_in_hz) return {f.hz / speed_hz, f.hz};
+  if (f.movement == gap::FeatureMovement::fixed_in_orders) {
+    double order = 0;
+    for (const auto& s : f.seen_in) order += s.order / static_cast<double>(f.seen_in.size());
+    return {order, order * speed_hz};
+  }
+  const gap::FeatureSighting* nearest = &f.seen_in.front();
+  for (const auto& s : f.seen_in)
+    if (std::fabs(s.speed_hz - speed_hz) < std::fabs(nearest->speed_hz - speed_hz)) nearest = &s;
+  return {nearest->order, nearest->hz};
+}
+
+std::string feature_label(std::size_t i) { return "F" + std::to_string(i + 1); }
+
 std::string spectrum_plot(const std::string& title, const std::string& x_label, const std::vector<double>& axis,
                           const std::vector<double>& measured, const std::vector<double>& twin, const std::vector<double>& after,
-                          const std::vector<std::pair<FamilyKind, gap::Interval>>& bands, const std::string& id, const std::string& unit) {
+                          const std::vector<std::pair<FamilyKind, gap::Interval>>& bands, const std::string& id, const std::string& unit,
+                          const std::vector<std::pair<double, std::string>>& marks = {}) {
   std::vector<double> all;
   for (const auto* v : {&measured, &twin, &after}) all.insert(all.end(), v->begin(), v->end());
   Axis x = fit_axis(axis, x_label, false);
@@ -298,6 +321,8 @@ std::string spectrum_plot(const std::string& title, const std::string& x_label, 
   series("measured", "measured", kMeasuredColour, measured);
   series("twin", "twin alone", kTwinColour, twin);
   series("twin_after", "twin + chosen effects", kAfterColour, after);
+  for (const auto& [x, title_text] : marks)
+    if (!axis.empty() && x >= axis.front() && x <= axis.back()) plot.add_event(EventLine{x, "feature", kFeatureColour, title_text});
   return plot.render(id);
 }
 
@@ -308,19 +333,59 @@ void render_spectra(const GapReport& r, std::string& h) {
     h += std::string("<span><span class=\"swatch\" style=\"background:") + family_colour(f) + "\"></span>" + gap::to_string(f) + "</span>";
   h += "</div>\n";
   bool any = false;
+  // Each feature marked where it sits on the plotted record (its speed: Hz over order on the axes).
+  std::vector<std::pair<double, std::string>> order_marks, hz_marks;
+  if (!r.order_axis.empty() && !r.hz_axis.empty() && r.order_axis.front() > 0) {
+    const double speed = r.hz_axis.front() / r.order_axis.front();
+    for (std::size_t i = 0; i < r.features.size(); ++i) {
+      const auto [order, hz] = feature_position(r.features[i], speed);
+      const std::string title = feature_label(i) + ": " + gap::describe(r.features[i]);
+      order_marks.emplace_back(order, title);
+      hz_marks.emplace_back(hz, title);
+    }
+  }
   if (!r.order_axis.empty()) {
     h += "<figure>" + spectrum_plot("In orders of the input shaft: lines that move with speed", "input-shaft order", r.order_axis,
-                                    r.measured_order_db, r.twin_order_db, r.twin_after_order_db, r.order_bands, "spectrum-orders", "orders") +
-         "<figcaption>Shaded: where each family lies in orders.</figcaption></figure>\n";
+                                    r.measured_order_db, r.twin_order_db, r.twin_after_order_db, r.order_bands, "spectrum-orders", "orders",
+                                    order_marks) +
+         "<figcaption>Shaded: where each family lies in orders. Orange lines: the features (hover: which).</figcaption></figure>\n";
     any = true;
   }
   if (!r.hz_axis.empty()) {
     h += "<figure>" + spectrum_plot("In Hz: resonances that stay put across speeds", "frequency (Hz)", r.hz_axis, r.measured_hz_db,
-                                    r.twin_hz_db, r.twin_after_hz_db, r.hz_bands, "spectrum-hz", "Hz") +
-         "<figcaption>Shaded: where each family lies in Hz.</figcaption></figure>\n";
+                                    r.twin_hz_db, r.twin_after_hz_db, r.hz_bands, "spectrum-hz", "Hz", hz_marks) +
+         "<figcaption>Shaded: where each family lies in Hz. Orange lines: the features (hover: which).</figcaption></figure>\n";
     any = true;
   }
   if (!any) h += "<p class=\"notice\">This report carries no spectra to plot.</p>\n";
+}
+
+// The gaps at the resolution of a line or a band, largest first (docs/gap.md, "Features").
+void render_features(const GapReport& r, std::string& h) {
+  h += "<h2 id=\"features\">Features: single lines and bands off the twin</h2>\n";
+  h += "<p class=\"muted\">Every line and broadband bin of every record (training and held out) against the twin alone; significant "
+       "over all of them (Benjamini–Hochberg, false discovery rate 5 %) and at least the practical minimum; adjacent bins merged, "
+       "records joined where the feature sits at one order or one Hz. Movement: whether it stays at one order or one frequency "
+       "across the records' speeds. Size: 10·log10(measured/twin) at its largest bin, mean over the records, 90 % interval.</p>\n";
+  h += "<div class=\"scroll\"><table class=\"features\">\n<thead><tr><th>feature</th><th>where</th><th>movement</th><th>order</th>"
+       "<th>Hz</th><th>band (Hz)</th><th>size</th><th>interval</th><th>seen in</th></tr></thead>\n<tbody>\n";
+  for (std::size_t i = 0; i < r.features.size(); ++i) {
+    const auto& f = r.features[i];
+    std::string seen;
+    for (const auto& w : f.seen_in)
+      seen += (seen.empty() ? "" : ", ") + std::string(w.held_out ? "held-out " : "training ") + std::to_string(w.record) + " (" +
+              fmt("%.2f Hz", w.speed_hz) + ", " + fmt("%+.1f dB", w.size_db) + ")";
+    const bool in_hz = f.movement == gap::FeatureMovement::fixed_in_hz;
+    h += std::string("<tr class=\"feature-row\" data-movement=\"") + gap::to_string(f.movement) + "\"><td>" + feature_label(i) +
+         "</td><td>" + (in_hz ? fmt("%.1f Hz", f.hz) : std::string(gap::to_string(f.shaft)) + fmt(" order %.2f", f.order)) + "</td><td>" +
+         gap::to_string(f.movement) + "</td><td class=\"num\">" + fmt("%.2f", f.order) + " (" + gap::to_string(f.shaft) +
+         ")</td><td class=\"num\">" + fmt("%.1f", f.hz) + "</td><td class=\"num\">" + fmt("%.1f", f.hz_low) + "–" +
+         fmt("%.1f", f.hz_high) + "</td><td class=\"num\">" + fmt("%+.2f dB", f.size_db) + "</td><td class=\"num\">" +
+         interval_text(f.size_interval_db) + "</td><td>" + html_escape(seen) + "</td></tr>\n";
+  }
+  if (r.features.empty())
+    h += "<tr><td colspan=\"9\" class=\"muted\">none: no line or band is off the twin beyond its noise and the practical minimum</td></tr>\n";
+  h += "</tbody></table></div>\n";
 }
 
 // Each family's gap with the twin alone over the pair's life: when the twin began to drift.
@@ -382,7 +447,7 @@ void render_history(const GapPageData& d, std::string& h) {
 }
 
 constexpr const char* kGapStyle = R"CSS(
-table.families td.num, table.candidates td.num, table.history td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+table.families td.num, table.candidates td.num, table.history td.num, table.features td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 tr.family-row.significant td:first-child { font-weight: 600; }
 table.families td:first-child { white-space: nowrap; }
 tr.candidate-row.chosen { background: #e8f5e9; }
@@ -392,6 +457,8 @@ span.swatch { display: inline-block; width: 12px; height: 12px; border-radius: 2
 svg.plot rect.band { fill-opacity: 0.18; stroke: none; }
 svg.plot text.sig { font-size: 14px; font-weight: 700; fill: #b71c1c; }
 svg.plot text.family-label { font-weight: 600; }
+svg.plot line.feature { stroke-width: 1.5; stroke-dasharray: 5 3; }
+.at-bound { color: #ef6c00; font-weight: 600; }
 )CSS";
 
 }  // namespace
@@ -442,6 +509,7 @@ std::string render_gap_report_html(const GapPageData& d) {
   render_family_table(newest.report, h);
   render_bar_chart(newest.report, h);
   render_candidates(newest.report, h);
+  render_features(newest.report, h);
   render_spectra(newest.report, h);
   render_trend(d, h);
   render_history(d, h);

@@ -55,6 +55,54 @@ std::vector<std::pair<gap::FamilyKind, gap::Interval>> bands_from(const json& j,
   return out;
 }
 
+gap::FeatureMovement movement_of(const std::string& token, std::int64_t id) {
+  return token_to_enum(gap::kAllFeatureMovements, token, "feature movement", id);
+}
+gap::FeatureShaft shaft_of(const std::string& token, std::int64_t id) {
+  return token_to_enum(gap::kAllFeatureShafts, token, "feature shaft", id);
+}
+
+json features_json(const std::vector<gap::GapFeature>& features) {
+  json a = json::array();
+  for (const auto& f : features) {
+    json seen = json::array();
+    for (const auto& s : f.seen_in)
+      seen.push_back({{"held_out", s.held_out}, {"record", s.record}, {"speed_hz", number(s.speed_hz)},
+                      {"torque_nm", number(s.torque_nm)}, {"order", number(s.order)}, {"hz", number(s.hz)},
+                      {"size_db", number(s.size_db)}});
+    a.push_back({{"movement", gap::to_string(f.movement)}, {"shaft", gap::to_string(f.shaft)}, {"order", number(f.order)},
+                 {"order_low", number(f.order_low)}, {"order_high", number(f.order_high)}, {"hz", number(f.hz)},
+                 {"hz_low", number(f.hz_low)}, {"hz_high", number(f.hz_high)}, {"size_db", number(f.size_db)},
+                 {"size_interval_db", {number(f.size_interval_db.low), number(f.size_interval_db.high)}},
+                 {"p_value", number(f.p_value)}, {"seen_in", seen}});
+  }
+  return a;
+}
+
+std::vector<gap::GapFeature> features_from(const json& a, std::int64_t id) {
+  std::vector<gap::GapFeature> out;
+  for (const auto& j : a) {
+    gap::GapFeature f;
+    f.movement = movement_of(j.at("movement").get<std::string>(), id);
+    f.shaft = shaft_of(j.at("shaft").get<std::string>(), id);
+    f.order = number_from(j.at("order"));
+    f.order_low = number_from(j.at("order_low"));
+    f.order_high = number_from(j.at("order_high"));
+    f.hz = number_from(j.at("hz"));
+    f.hz_low = number_from(j.at("hz_low"));
+    f.hz_high = number_from(j.at("hz_high"));
+    f.size_db = number_from(j.at("size_db"));
+    f.size_interval_db = {number_from(j.at("size_interval_db").at(0)), number_from(j.at("size_interval_db").at(1))};
+    f.p_value = number_from(j.at("p_value"));
+    for (const auto& s : j.at("seen_in"))
+      f.seen_in.push_back({s.at("held_out").get<bool>(), s.at("record").get<std::size_t>(), number_from(s.at("speed_hz")),
+                           number_from(s.at("torque_nm")), number_from(s.at("order")), number_from(s.at("hz")),
+                           number_from(s.at("size_db"))});
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
 std::string plot_json(const gap::GapReport& r) {
   return json{{"order_axis", numbers(r.order_axis)},
               {"measured_order_db", numbers(r.measured_order_db)},
@@ -65,7 +113,8 @@ std::string plot_json(const gap::GapReport& r) {
               {"twin_hz_db", numbers(r.twin_hz_db)},
               {"twin_after_hz_db", numbers(r.twin_after_hz_db)},
               {"order_bands", bands(r.order_bands)},
-              {"hz_bands", bands(r.hz_bands)}}
+              {"hz_bands", bands(r.hz_bands)},
+              {"features", features_json(r.features)}}
       .dump();
 }
 
@@ -82,22 +131,40 @@ void plot_from(const std::string& text, gap::GapReport& r, std::int64_t id) {
     r.twin_after_hz_db = numbers_from(j.at("twin_after_hz_db"));
     r.order_bands = bands_from(j.at("order_bands"), id);
     r.hz_bands = bands_from(j.at("hz_bands"), id);
+    // Reports stored before features were found carry none.
+    if (const auto f = j.find("features"); f != j.end()) r.features = features_from(*f, id);
   } catch (const json::exception& e) {
     throw std::runtime_error("gap report " + std::to_string(id) + ": its plot spectra are not readable: " + e.what());
   }
 }
 
-std::string parameters_json(const std::vector<std::pair<std::string, double>>& parameters) {
-  json a = json::array();  // an array of pairs keeps the diagnosis's order
-  for (const auto& [name, value] : parameters) a.push_back({name, number(value)});
+// [name, value] per parameter, in the diagnosis's order; a parameter fitted at an end of its range
+// carries two more: ["upper" or "lower", the end] (gap::ParameterBound). Readers of the two-element
+// form read the first two of any entry.
+std::string parameters_json(const std::vector<std::pair<std::string, double>>& parameters,
+                            const std::vector<gap::ParameterBound>& bounds) {
+  json a = json::array();
+  std::vector<char> used(bounds.size(), 0);
+  for (const auto& [name, value] : parameters) {
+    json entry = {name, number(value)};
+    for (std::size_t b = 0; b < bounds.size(); ++b)
+      if (!used[b] && bounds[b].name == name) {
+        entry.push_back(bounds[b].upper ? "upper" : "lower");
+        entry.push_back(number(bounds[b].bound));
+        used[b] = 1;
+        break;
+      }
+    a.push_back(entry);
+  }
   return a.dump();
 }
 
-std::vector<std::pair<std::string, double>> parameters_from(const std::string& text, std::int64_t id) {
+void parameters_from(const std::string& text, std::int64_t id, gap::CandidateScore& c) {
   try {
-    std::vector<std::pair<std::string, double>> out;
-    for (const auto& p : json::parse(text)) out.emplace_back(p.at(0).get<std::string>(), number_from(p.at(1)));
-    return out;
+    for (const auto& p : json::parse(text)) {
+      c.parameters.emplace_back(p.at(0).get<std::string>(), number_from(p.at(1)));
+      if (p.size() >= 4) c.at_bounds.push_back({p.at(0).get<std::string>(), number_from(p.at(3)), p.at(2).get<std::string>() == "upper"});
+    }
   } catch (const json::exception& e) {
     throw std::runtime_error("gap report " + std::to_string(id) + ": candidate parameters are not readable: " + e.what());
   }
@@ -184,7 +251,7 @@ std::int64_t insert_gap_report(Database& db, const gap::GapReport& r, const GapR
   for (std::size_t rank = 0; rank < r.candidates.size(); ++rank) {
     const gap::CandidateScore& c = r.candidates[rank];
     candidate.bind(1, id).bind(2, static_cast<std::uint64_t>(rank)).bind(3, gap::to_string(c.effect)).bind(4, c.shrinkage)
-        .bind(5, c.information_criterion).bind(6, c.worsens_other_family ? 1 : 0).bind(7, parameters_json(c.parameters)).run();
+        .bind(5, c.information_criterion).bind(6, c.worsens_other_family ? 1 : 0).bind(7, parameters_json(c.parameters, c.at_bounds)).run();
     std::map<gap::FamilyKind, std::pair<std::optional<std::size_t>, std::optional<std::size_t>>> families;
     for (std::size_t i = 0; i < c.explains.size(); ++i) families[c.explains[i]].first = i;
     for (std::size_t i = 0; i < c.held_out_after.size(); ++i) families[c.held_out_after[i].family].second = i;
@@ -271,7 +338,7 @@ std::vector<StoredGapReport> load_gap_reports(Database& db, std::optional<std::s
       c.shrinkage = double_or_nan(candidates, 2);
       c.information_criterion = double_or_nan(candidates, 3);
       c.worsens_other_family = candidates.get_int(4) != 0;
-      c.parameters = parameters_from(candidates.get_text(5), g.id);
+      parameters_from(candidates.get_text(5), g.id, c);
       std::map<std::int64_t, gap::FamilyKind> explains;
       std::map<std::int64_t, gap::FamilyGap> held_out;
       candidate_families.bind(1, g.id).bind(2, rank);

@@ -324,6 +324,44 @@ std::vector<std::string> parameter_names(const CandidateForm& form, const std::v
   return names;
 }
 
+std::vector<ParameterBound> parameters_at_bounds(CandidateEffect effect, const std::vector<double>& values,
+                                                 double sample_rate_hz, bool rerun) {
+  std::vector<ParameterBound> out;
+  if (rerun) {
+    // The grid's range along each parameter: the fit picks grid points and refines inside the range.
+    const auto grid = rerun_grid(effect);
+    const auto names = rerun_parameter_names(effect);
+    for (std::size_t j = 0; !grid.empty() && j < values.size() && j < grid.front().size() && j < names.size(); ++j) {
+      double low = grid.front()[j], high = low;
+      for (const auto& g : grid) low = std::min(low, g[j]), high = std::max(high, g[j]);
+      if (low == high) continue;
+      if (values[j] <= low) out.push_back({names[j], low, false});
+      if (values[j] >= high) out.push_back({names[j], high, true});
+    }
+    return out;
+  }
+  const CandidateForm form = candidate_form(effect, sample_rate_hz);
+  const auto names = parameter_names(form, values);
+  const std::size_t group = form.per_load ? form.parameters.size() + 1 : form.parameters.size();
+  // The fit clamps its unit coordinate to [0, 1], and its descent stops when its simplex's costs
+  // agree, so a fit pressing on an end stops at it or within a sliver of the range: a thousandth of
+  // it (the fit's starts lie at least 1/44 of it inside).
+  constexpr double kAtEnd = 1e-3;
+  for (std::size_t i = 0; i < values.size() && group > 0; ++i) {
+    const std::size_t within = i % group;
+    if (form.per_load && within == 0) continue;
+    const std::size_t k = form.per_load ? within - 1 : within;
+    if (k >= form.parameters.size()) continue;
+    const auto& par = form.parameters[k];
+    const double u = par.log_scale ? (std::log(values[i]) - std::log(par.low)) / (std::log(par.high) - std::log(par.low))
+                                   : (values[i] - par.low) / (par.high - par.low);
+    if (!std::isfinite(u)) continue;
+    if (u <= kAtEnd) out.push_back({names[i], par.low, false});
+    if (u >= 1 - kAtEnd) out.push_back({names[i], par.high, true});
+  }
+  return out;
+}
+
 std::vector<std::vector<double>> rerun_grid(CandidateEffect effect) {
   std::vector<std::vector<double>> grid;
   if (effect == CandidateEffect::misalignment)

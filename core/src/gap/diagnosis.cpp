@@ -17,6 +17,7 @@
 
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/evaluation.hpp"
+#include "gearwatch/gap/features.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/twin/gearbox_model.hpp"
@@ -130,6 +131,15 @@ class BootstrapSummaries {
     return {m, t};
   }
 
+  /// The same draw computed and not kept (for records whose draws are read once: the features'
+  /// training records), with the key's generator.
+  std::pair<SpectralSummary, SpectralSummary> fresh(const PairSpectra& p, int resample, std::size_t pair) const {
+    std::mt19937_64 rng(seed_ * 1000003u + static_cast<std::uint64_t>(resample) * 7919u + pair);
+    auto m = p.measured->bootstrap(rng, block_);
+    auto t = p.twin.bootstrap(rng, block_);
+    return {std::move(m), std::move(t)};
+  }
+
  private:
   using Key = std::tuple<std::uint64_t, std::uint64_t, int, std::size_t>;  // identity 0: none
   const SpectralSummary& fetch(const Key& key, const RecordSpectra& r, std::mt19937_64& rng) {
@@ -188,6 +198,29 @@ std::array<double, kFamilies> noise_distance(const std::vector<PairSpectra>& pai
   }
   for (auto& v : sum) v = std::sqrt(v / n);
   return sum;
+}
+
+/// The gaps at the resolution of a line or a band (features.hpp) of every record, held out and
+/// training, against the twin alone: the held-out records' bootstrap draws are the families' (kept),
+/// the training records' are drawn once here (pairs numbered after the held-out ones).
+std::vector<GapFeature> find_features(const std::vector<PairSpectra>& train, const std::vector<PairSpectra>& test,
+                                      const GearPairSpec& gears, const DiagnosisSettings& s, BootstrapSummaries& bootstrap) {
+  std::vector<FeaturePair> pairs;
+  for (std::size_t i = 0; i < test.size(); ++i) pairs.push_back({&test[i].measured_all, &test[i].twin_all, test[i].floor, true, i});
+  for (std::size_t i = 0; i < train.size(); ++i)
+    pairs.push_back({&train[i].measured_all, &train[i].twin_all, train[i].floor, false, i});
+  FeatureFinder finder(pairs, gears, s.features);
+  for (int b = 0; b < s.bootstrap_resamples; ++b) {
+    for (std::size_t i = 0; i < test.size(); ++i) {
+      const auto [m, t] = bootstrap.get(test[i], b, i);
+      finder.add_draw(i, *m, *t);
+    }
+    for (std::size_t i = 0; i < train.size(); ++i) {
+      const auto [m, t] = bootstrap.fresh(train[i], b, test.size() + i);
+      finder.add_draw(test.size() + i, m, t);
+    }
+  }
+  return finder.features();
 }
 
 std::vector<FamilyGap> family_gaps(const Assessment& a, const std::array<double, kFamilies>& noise,
@@ -318,6 +351,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   const auto before = assess(test, {}, gears, settings.bootstrap_resamples, evaluator, bootstrap);
   report.before = family_gaps(before, noise, settings, fixed_reason);
   const double ic_before = information_criterion(before.point, noise, 0, settings);
+  if (settings.find_features) report.features = find_features(train, test, gears, settings, bootstrap);
   const bool any_significant =
       std::any_of(report.before.begin(), report.before.end(), [](const FamilyGap& g) { return g.significant; });
 
@@ -431,12 +465,14 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
       a = assess(rerun_test(r->second, g), {}, gears, settings.candidate_bootstrap_resamples, evaluator, bootstrap);
       const auto names = rerun_parameter_names(c);
       for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names.at(i), values[i]);
+      score.at_bounds = parameters_at_bounds(c, values, fs, true);
     } else {
       values = fit_candidate(c, {}, train_pairs, gears);
       alone[c] = values;
       a = assess(test, {{c, values}}, gears, settings.candidate_bootstrap_resamples, evaluator, bootstrap);
       const auto names = parameter_names(form, values);
       for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names[i], values[i]);
+      score.at_bounds = parameters_at_bounds(c, values, fs, false);
     }
     score.explains = form.explains;
     score.held_out_after = family_gaps(a, noise, settings, fixed_reason);
@@ -564,9 +600,11 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
           best_ic = information_criterion(e, noise, fitted_count(set.values[refined]), settings);
           best_gaps = point_gaps(e);
           for (auto& candidate : report.candidates)
-            if (candidate.effect == best->effect)
+            if (candidate.effect == best->effect) {
               for (std::size_t i = 0; i < candidate.parameters.size() && i < set.values[refined].size(); ++i)
                 candidate.parameters[i].second = set.values[refined][i];
+              candidate.at_bounds = parameters_at_bounds(best->effect, set.values[refined], fs, true);
+            }
         }
         test_base = &rerun_test(set, *best_grid);
         train_base = &set.train[*best_grid];

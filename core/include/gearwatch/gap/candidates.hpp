@@ -141,6 +141,14 @@ std::vector<double> values_at_load(const CandidateForm& form, const std::vector<
 /// The names of a candidate's fitted values (the form's names; per-load forms' prefixed by the group).
 std::vector<std::string> parameter_names(const CandidateForm& form, const std::vector<double>& values);
 
+/// The fitted values of a candidate that sit at an end of their range (the form's range for a
+/// spectral fit, which clamps there; the grid's for a rerun fit, `rerun` true): the fit would have
+/// gone further, so the physics would need a value beyond the range (e.g. a run-out above 0.3 mm).
+/// Named as parameter_names() (rerun_parameter_names() for a rerun fit). A per-load form's loads are
+/// not parameters.
+std::vector<ParameterBound> parameters_at_bounds(CandidateEffect effect, const std::vector<double>& values,
+                                                 double sample_rate_hz, bool rerun);
+
 /// The twin's response to a run-out of one metre of the pinion (`gear_shaft` false) or the gear shaft
 /// at a record's input speed and torque. The run-out is a transmission error at that shaft's
 /// frequency f (twin::transmission_error_response). AM index: the loaded deflection's change over the

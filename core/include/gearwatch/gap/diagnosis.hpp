@@ -8,6 +8,7 @@
 #include <optional>
 #include <vector>
 
+#include "gearwatch/gap/features.hpp"
 #include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/record.hpp"
@@ -92,6 +93,10 @@ struct DiagnosisSettings {
   /// state, where the wear depth is a tiny share of the profile's own deviation, e is near 0.
   double min_rms_sa_wear_elasticity = 0.05;
   int rms_sa_harmonics = 2;        ///< N of RMS_SA(N) (thesis Eq. 7.1), the measurement's setting
+  /// Gaps at the resolution of a line or a band (report.features; features.hpp): every record,
+  /// training and held out, against the twin alone, over `bootstrap_resamples` draws each.
+  bool find_features = true;
+  FeatureSettings features;
 };
 
 /// The practical minimum of a family's gap: `min_residual_gap_db` for the broadband and

@@ -56,6 +56,65 @@ struct Interval {
   double high = 0;
 };
 
+/// How a feature's location moves with the speed across the records it was seen in (features.hpp
+/// gives the rule): it stays at one order (a line or a modulation of a shaft), at one frequency
+/// (a resonance, a tone from elsewhere), neither, or the records' speeds are too close to tell.
+enum class FeatureMovement : std::uint8_t {
+  fixed_in_orders = 0,
+  fixed_in_hz = 1,
+  neither = 2,
+  undetermined = 3,
+};
+const char* to_string(FeatureMovement movement) noexcept;
+inline constexpr std::array kAllFeatureMovements{FeatureMovement::fixed_in_orders, FeatureMovement::fixed_in_hz,
+                                                 FeatureMovement::neither, FeatureMovement::undetermined};
+
+/// The shaft whose orders a feature's order counts.
+enum class FeatureShaft : std::uint8_t {
+  input = 0,   ///< the pinion's (input) shaft
+  output = 1,  ///< the gear's (output) shaft
+};
+const char* to_string(FeatureShaft shaft) noexcept;
+inline constexpr std::array kAllFeatureShafts{FeatureShaft::input, FeatureShaft::output};
+
+/// One record a feature was seen in: where it sat there and how large it was.
+struct FeatureSighting {
+  bool held_out = false;      ///< the diagnosis's held-out set (else training)
+  std::size_t record = 0;     ///< index in that set
+  double speed_hz = 0;        ///< the record's input speed
+  double torque_nm = 0;       ///< NaN: the record has none
+  double order = 0;           ///< centre in input orders (|g|-weighted over the feature's lines/bins there)
+  double hz = 0;              ///< the same in Hz
+  double size_db = 0;         ///< the largest |g| of its lines/bins there, with its sign
+};
+
+/// A gap at the resolution of a line or a band (features.hpp): adjacent lines/bins of one record
+/// whose measured-vs-twin ratio is significant over all lines and bins (Benjamini–Hochberg) and at
+/// least the practical minimum, joined across records where they sit at one order or one Hz.
+struct GapFeature {
+  FeatureMovement movement = FeatureMovement::undetermined;
+  FeatureShaft shaft = FeatureShaft::input;  ///< whose orders `order` counts (the shaft of its largest line)
+  double order = 0;                ///< centre, mean over the sightings, in `shaft`'s orders
+  double order_low = 0, order_high = 0;  ///< extent of its lines/bins over the sightings, same orders
+  double hz = 0;                   ///< centre, mean over the sightings, Hz
+  double hz_low = 0, hz_high = 0;  ///< extent over the sightings, Hz
+  double size_db = 0;              ///< mean over the sightings of their size_db: 10·log10(measured/twin)
+  Interval size_interval_db;       ///< 90 %, from the records' bootstrap over revolutions
+  double p_value = 1;              ///< the smallest per-bin p-value among its lines/bins (before BH)
+  std::vector<FeatureSighting> seen_in;
+};
+/// "input order 23.4, fixed in orders, +33.1 dB [32.9, 33.3]" (the place the movement points at).
+std::string describe(const GapFeature& feature);
+
+/// A fitted parameter at an end of its candidate's range: the fit would go further if it could.
+struct ParameterBound {
+  std::string name;        ///< the parameter's name (SI unit in its suffix)
+  double bound = 0;        ///< the end it sits at
+  bool upper = true;       ///< true: it would need more than `bound`; false: less
+};
+/// "pinion_run_out_m would need > 300 µm (the top of its range)".
+std::string describe(const ParameterBound& bound);
+
 /// The gap in one family between a measurement and the twin (or the twin plus candidate effects).
 struct FamilyGap {
   FamilyKind family = FamilyKind::broadband;
@@ -78,6 +137,9 @@ struct CandidateScore {
   /// Helps its own families but pushes another beyond its interval (held out, alone). The greedy
   /// choice adopts no candidate that does so at its step: its families stay unexplained.
   bool worsens_other_family = false;
+  /// Fitted values at an end of their range: the physics this candidate stands for would need a
+  /// value beyond it (reported, so a bounded fit is not read as a fit that failed silently).
+  std::vector<ParameterBound> at_bounds;
 };
 
 /// One diagnosis: held-out gaps before, the ranked candidates, the greedy choice, gaps after.
@@ -91,6 +153,9 @@ struct GapReport {
   std::vector<CandidateEffect> chosen;        ///< greedy addition, in order
   std::vector<FamilyGap> after;               ///< held out, twin plus the chosen effects
   std::vector<FamilyKind> unexplained;        ///< significant families no candidate explains
+  /// Gaps at the resolution of a line or a band (every record, training and held out, against the
+  /// twin alone), largest |size| first; the families above are their summary.
+  std::vector<GapFeature> features;
   /// K_wear inferred from the held-out records' RMS_SA (per-record ratios combined by least squares in the log)
   /// with the twin alone and with the chosen effects added; empty unless the caller gave the
   /// twin's reference K_wear (DiagnosisSettings::reference_k_wear).

@@ -30,7 +30,9 @@ struct StoredGapReport {
 
 /// Every stored report, oldest first, or only the newest `newest` of them (still oldest first).
 /// A database older than schema version 5 has none. Throws std::runtime_error naming the report
-/// when a stored token or plot document cannot be read.
+/// when a stored token or plot document cannot be read. The features (GapReport::features) are kept
+/// in the plot document, under "features" (a report stored before them reads back with none), and a
+/// candidate's parameters at a bound of their range in its parameters document: no schema change.
 std::vector<StoredGapReport> load_gap_reports(Database& db, std::optional<std::size_t> newest = std::nullopt);
 
 /// True when the database has the gap report tables (schema version 5 or later).

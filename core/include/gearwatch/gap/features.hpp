@@ -1,0 +1,110 @@
+#pragma once
+// Gaps at the resolution of a line or a band: every line and broadband bin of every record compared
+// with the twin on its own, so that one line 40 dB off or one resonance 12 dB up is found however
+// many bins its family holds (a family's RMS dilutes it below the family's minimum).
+//
+// Method (docs/gap.md, "Features"):
+//  - cells: each record's input-order lines, output-order lines (the mesh orders counted on the input
+//    side) and 1-order broadband bins, at the spectra's own resolution; g = 10·log10((P_meas + F)/
+//    (P_twin + F)) with the comparison's floor F, as the families use;
+//  - per-cell p-value: two-sided Student t with (draws − 1) degrees of freedom, t = g / sd, sd the
+//    spread of g over the record's bootstrap draws over revolutions (the same draws as the families'
+//    intervals): the spread is itself an estimate, and with a normal tail its error alone raised a
+//    rejection in a third of no-effect tests at 50 draws. A parametric tail and not the draws' own ranks: Benjamini–Hochberg over tens of thousands of cells needs p-values far below
+//    1/(draws + 1). A test over records per line would not do: a resonance fixed in Hz sits on
+//    different lines at different speeds;
+//  - Benjamini–Hochberg at q over all cells of all records; a cell counts when it is rejected and
+//    its |g| is at least the practical minimum (min_feature_db);
+//  - in each record, counted cells whose extents (in input orders) touch are one cluster; clusters
+//    whose extents overlap within half a bin in orders, or in Hz, are one feature: the grouping seen
+//    in the most records first (join_clusters);
+//  - movement: the sightings' centres in orders and in Hz at speeds ≥ min_speed_ratio apart; spread
+//    within one order and beyond one bin in Hz: fixed in orders; within one bin in Hz (one input order
+//    at the fastest sighting) and beyond one order: fixed in Hz; beyond both: neither; within both
+//    (or one speed): undetermined;
+//  - size: per sighting the largest |g| with its sign, the mean over sightings; its interval the
+//    normal 90 % interval from the cells' bootstrap spreads (records independent).
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/gap/spectra.hpp"
+#include "gearwatch/rig.hpp"
+
+namespace gearwatch::gap {
+
+struct FeatureSettings {
+  double false_discovery_rate = 0.05;  ///< Benjamini–Hochberg q over all cells
+  /// The practical minimum of a feature's cells, dB: a factor of two in power, the half-power
+  /// criterion that bounds a resonance's band. A lumped model is not asked to hold each single line
+  /// closer than that; the families (RMS over many lines) keep their own, smaller minima.
+  double min_feature_db = 3.0;
+  double min_speed_ratio = 1.05;       ///< sightings at speeds this far apart can tell orders from Hz
+  double coverage = 0.90;              ///< of the size's interval
+};
+
+/// One record pair the features are read from: its spectra over all revolutions and the floor.
+struct FeaturePair {
+  const SpectralSummary* measured = nullptr;
+  const SpectralSummary* model = nullptr;
+  double floor = 0;
+  bool held_out = false;     ///< where it sits in the diagnosis (reported with each sighting)
+  std::size_t record = 0;
+};
+
+/// Collects the cells' bootstrap spreads draw by draw (Welford), then finds the features.
+class FeatureFinder {
+ public:
+  FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPairSpec& gears, FeatureSettings settings = {});
+  /// One bootstrap draw of pair `pair`: its measured and model summaries over the same redrawn
+  /// revolutions as the families' (sizes as the full summaries').
+  void add_draw(std::size_t pair, const SpectralSummary& measured, const SpectralSummary& model);
+  /// The features, largest |size| first. Needs ≥ 2 draws of every pair (a pair without its spread
+  /// has no p-values and no cells counted).
+  std::vector<GapFeature> features() const;
+  /// Cells rejected by Benjamini–Hochberg (before the practical minimum), for tests.
+  std::size_t rejected_cells() const;
+
+  enum class CellKind : std::uint8_t { input_line, output_line, broadband };
+  struct Cell {
+    CellKind kind;
+    std::size_t index;      // order − 1 (lines), bin − 1 (broadband)
+    double low, high;       // extent in input orders
+    double centre;          // input orders
+    double g;               // dB
+    double n = 0, mean = 0, m2 = 0;  // Welford over the draws
+    double sd() const;
+  };
+
+ private:
+  struct RecordCells {
+    FeaturePair pair;
+    double speed_hz, torque_nm;
+    std::vector<Cell> cells;
+  };
+  /// A run of touching counted cells of one record, with its extent in input orders.
+  struct Cluster {
+    std::size_t record;
+    std::vector<std::size_t> cells;
+    double low, high;
+  };
+  /// The clusters joined into features: repeatedly, of the groups of clusters whose extents overlap
+  /// within half a bin in orders, and of those that overlap so in Hz, the one seen in the most
+  /// records (then the largest Σ|g|) is a feature, and its clusters leave. A line fixed in orders
+  /// meets another harmonic's line at the same Hz at some pair of speeds; joining on either axis at
+  /// once would chain them.
+  std::vector<std::vector<std::size_t>> join_clusters(const std::vector<Cluster>& clusters) const;
+  std::vector<double> p_values(std::vector<std::pair<std::size_t, std::size_t>>& where) const;
+  std::vector<char> counted(std::size_t& rejected) const;
+  std::vector<RecordCells> records_;
+  GearPairSpec gears_;
+  FeatureSettings settings_;
+};
+
+/// The Benjamini–Hochberg rejections at level q of the given p-values (step-up: the largest k with
+/// p_(k) ≤ q·k/m, and every p at or below it).
+std::vector<char> benjamini_hochberg(const std::vector<double>& p, double q);
+
+}  // namespace gearwatch::gap

@@ -1,0 +1,287 @@
+#include "gearwatch/gap/features.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+#include <boost/math/distributions/students_t.hpp>
+
+namespace gearwatch::gap {
+namespace {
+
+double ratio_db(double measured, double model, double floor) {
+  return 10.0 * std::log10((measured + floor) / (model + floor));
+}
+
+/// Two-sided tail of t with `dof` degrees of freedom: g over a spread estimated from dof + 1 draws.
+double two_sided_p(double t, double dof) {
+  if (!(dof >= 1)) return 1.0;
+  const boost::math::students_t dist(dof);
+  return std::min(1.0, 2.0 * boost::math::cdf(boost::math::complement(dist, std::abs(t))));
+}
+
+/// The normal quantile of a central coverage (bisection on erfc: no table, no library).
+double normal_quantile(double coverage) {
+  const double tail = (1.0 - coverage) / 2.0;
+  double lo = 0, hi = 10;
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(mid / std::sqrt(2.0)) > tail ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+
+}  // namespace
+
+double FeatureFinder::Cell::sd() const { return n > 1 ? std::sqrt(m2 / (n - 1)) : std::numeric_limits<double>::quiet_NaN(); }
+
+std::vector<char> benjamini_hochberg(const std::vector<double>& p, double q) {
+  const std::size_t m = p.size();
+  std::vector<char> reject(m, 0);
+  if (m == 0) return reject;
+  std::vector<std::size_t> order(m);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p[a] < p[b]; });
+  std::size_t k = 0;  // the number rejected: the largest rank whose p is under its line
+  for (std::size_t r = 0; r < m; ++r)
+    if (p[order[r]] <= q * static_cast<double>(r + 1) / static_cast<double>(m)) k = r + 1;
+  for (std::size_t r = 0; r < k; ++r) reject[order[r]] = 1;
+  return reject;
+}
+
+FeatureFinder::FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPairSpec& gears, FeatureSettings settings)
+    : gears_(gears), settings_(settings) {
+  const double ratio = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;  // input orders per output order
+  for (const auto& p : pairs) {
+    if (!p.measured || !p.model) throw std::invalid_argument("FeatureFinder: a pair without spectra");
+    RecordCells r{p, p.measured->speed_hz, p.measured->torque_nm, {}};
+    const auto& m = *p.measured;
+    const auto& t = *p.model;
+    const std::size_t ki = std::min(m.input_lines.size(), t.input_lines.size());
+    for (std::size_t k = 1; k <= ki; ++k) {
+      const double o = static_cast<double>(k);
+      r.cells.push_back({CellKind::input_line, k - 1, o - 0.5, o + 0.5, o, ratio_db(m.input_lines[k - 1], t.input_lines[k - 1], p.floor)});
+    }
+    const std::size_t kb = std::min(m.broadband.size(), t.broadband.size());
+    for (std::size_t k = 1; k <= kb; ++k) {
+      const double o = static_cast<double>(k);
+      r.cells.push_back({CellKind::broadband, k - 1, o, o + 1, o + 0.5, ratio_db(m.broadband[k - 1], t.broadband[k - 1], p.floor)});
+    }
+    const std::size_t ko = std::min(m.output_lines.size(), t.output_lines.size());
+    for (std::size_t j = 1; j <= ko; ++j) {
+      if (output_line_is_mesh(static_cast<int>(j), gears.gear_teeth)) continue;
+      const double o = static_cast<double>(j) * ratio;
+      r.cells.push_back({CellKind::output_line, j - 1, o - 0.5 * ratio, o + 0.5 * ratio, o,
+                         ratio_db(m.output_lines[j - 1], t.output_lines[j - 1], p.floor)});
+    }
+    records_.push_back(std::move(r));
+  }
+}
+
+void FeatureFinder::add_draw(std::size_t pair, const SpectralSummary& measured, const SpectralSummary& model) {
+  RecordCells& r = records_.at(pair);
+  const double floor = r.pair.floor;
+  auto value = [&](const std::vector<double>& a, const std::vector<double>& b, std::size_t i) {
+    return i < a.size() && i < b.size() ? ratio_db(a[i], b[i], floor) : std::numeric_limits<double>::quiet_NaN();
+  };
+  for (Cell& c : r.cells) {
+    double g = 0;
+    switch (c.kind) {
+      case CellKind::input_line: g = value(measured.input_lines, model.input_lines, c.index); break;
+      case CellKind::output_line: g = value(measured.output_lines, model.output_lines, c.index); break;
+      case CellKind::broadband: g = value(measured.broadband, model.broadband, c.index); break;
+    }
+    if (!std::isfinite(g)) continue;
+    c.n += 1;
+    const double delta = g - c.mean;
+    c.mean += delta / c.n;
+    c.m2 += delta * (g - c.mean);
+  }
+}
+
+std::vector<double> FeatureFinder::p_values(std::vector<std::pair<std::size_t, std::size_t>>& where) const {
+  std::vector<double> p;
+  for (std::size_t r = 0; r < records_.size(); ++r)
+    for (std::size_t i = 0; i < records_[r].cells.size(); ++i) {
+      const Cell& c = records_[r].cells[i];
+      const double sd = c.sd();
+      double value = 1.0;
+      if (std::isfinite(sd) && sd > 0) value = two_sided_p(c.g / sd, c.n - 1);
+      // No spread over the draws: both spectra are the same in every draw (no noise at all), so any
+      // difference is exact; none is no evidence.
+      else if (std::isfinite(sd)) value = std::abs(c.g) > 1e-9 ? 0.0 : 1.0;
+      p.push_back(value);
+      where.emplace_back(r, i);
+    }
+  return p;
+}
+
+std::vector<char> FeatureFinder::counted(std::size_t& rejected) const {
+  std::vector<std::pair<std::size_t, std::size_t>> where;
+  const auto p = p_values(where);
+  const auto reject = benjamini_hochberg(p, settings_.false_discovery_rate);
+  rejected = static_cast<std::size_t>(std::count(reject.begin(), reject.end(), 1));
+  std::vector<char> out(reject.size(), 0);
+  for (std::size_t i = 0; i < reject.size(); ++i) {
+    const Cell& c = records_[where[i].first].cells[where[i].second];
+    out[i] = reject[i] && std::abs(c.g) >= settings_.min_feature_db;
+  }
+  return out;
+}
+
+std::size_t FeatureFinder::rejected_cells() const {
+  std::size_t rejected = 0;
+  counted(rejected);
+  return rejected;
+}
+
+namespace {
+
+/// The movement rule (features.hpp): spreads of the sightings' centres at distinct speeds.
+FeatureMovement movement_of(const std::vector<FeatureSighting>& seen, double min_speed_ratio) {
+  double slow = std::numeric_limits<double>::infinity(), fast = 0;
+  double order_lo = slow, order_hi = -slow, hz_lo = slow, hz_hi = -slow;
+  for (const auto& s : seen) {
+    slow = std::min(slow, s.speed_hz), fast = std::max(fast, s.speed_hz);
+    order_lo = std::min(order_lo, s.order), order_hi = std::max(order_hi, s.order);
+    hz_lo = std::min(hz_lo, s.hz), hz_hi = std::max(hz_hi, s.hz);
+  }
+  if (seen.size() < 2 || fast < slow * min_speed_ratio) return FeatureMovement::undetermined;
+  // One bin: an input order, which in Hz is the fastest sighting's speed (the widest of the bins).
+  const bool orders_hold = order_hi - order_lo <= 1.0;
+  const bool hz_holds = hz_hi - hz_lo <= fast;
+  if (orders_hold && !hz_holds) return FeatureMovement::fixed_in_orders;
+  if (hz_holds && !orders_hold) return FeatureMovement::fixed_in_hz;
+  return orders_hold ? FeatureMovement::undetermined : FeatureMovement::neither;
+}
+
+}  // namespace
+
+std::vector<std::vector<std::size_t>> FeatureFinder::join_clusters(const std::vector<Cluster>& clusters) const {
+  std::vector<std::size_t> live(clusters.size());
+  std::iota(live.begin(), live.end(), std::size_t{0});
+  std::vector<std::vector<std::size_t>> out;
+  // Components of the live clusters whose extents, widened by half a bin each side, overlap along
+  // one axis: input orders, or Hz (a bin there is the record's speed).
+  auto components = [&](bool in_hz) {
+    auto lo = [&](std::size_t c) { return (clusters[c].low - 0.5) * (in_hz ? records_[clusters[c].record].speed_hz : 1.0); };
+    auto hi = [&](std::size_t c) { return (clusters[c].high + 0.5) * (in_hz ? records_[clusters[c].record].speed_hz : 1.0); };
+    auto sorted = live;
+    std::sort(sorted.begin(), sorted.end(), [&](std::size_t a, std::size_t b) { return lo(a) < lo(b); });
+    std::vector<std::vector<std::size_t>> groups;
+    double reach = -std::numeric_limits<double>::infinity();
+    for (std::size_t c : sorted) {
+      if (groups.empty() || lo(c) > reach) groups.emplace_back(), reach = hi(c);
+      groups.back().push_back(c);
+      reach = std::max(reach, hi(c));
+    }
+    return groups;
+  };
+  auto records_in = [&](const std::vector<std::size_t>& g) {
+    std::vector<std::size_t> r;
+    for (std::size_t c : g) r.push_back(clusters[c].record);
+    std::sort(r.begin(), r.end());
+    return static_cast<std::size_t>(std::unique(r.begin(), r.end()) - r.begin());
+  };
+  auto weight = [&](const std::vector<std::size_t>& g) {
+    double w = 0;
+    for (std::size_t c : g)
+      for (std::size_t i : clusters[c].cells) w += std::abs(records_[clusters[c].record].cells[i].g);
+    return w;
+  };
+  while (!live.empty()) {
+    std::vector<std::size_t> best;
+    std::pair<std::size_t, double> best_key{0, -1.0};
+    for (bool in_hz : {false, true})
+      for (auto& g : components(in_hz)) {
+        const std::pair<std::size_t, double> key{records_in(g), weight(g)};
+        if (key > best_key) best_key = key, best = std::move(g);
+      }
+    std::vector<char> taken(clusters.size(), 0);
+    for (std::size_t c : best) taken[c] = 1;
+    live.erase(std::remove_if(live.begin(), live.end(), [&](std::size_t c) { return taken[c] != 0; }), live.end());
+    out.push_back(std::move(best));
+  }
+  return out;
+}
+
+std::vector<GapFeature> FeatureFinder::features() const {
+  std::size_t rejected = 0;
+  const auto flags = counted(rejected);
+  std::vector<std::pair<std::size_t, std::size_t>> where;
+  const auto p = p_values(where);
+  // Clusters: each record's counted cells in order of their extent, touching ones merged.
+  std::vector<Cluster> clusters;
+  std::vector<std::vector<std::size_t>> by_record(records_.size());
+  for (std::size_t i = 0; i < flags.size(); ++i)
+    if (flags[i]) by_record[where[i].first].push_back(where[i].second);
+  for (std::size_t r = 0; r < records_.size(); ++r) {
+    auto& cells = by_record[r];
+    const auto& all = records_[r].cells;
+    std::sort(cells.begin(), cells.end(), [&](std::size_t a, std::size_t b) { return all[a].low < all[b].low; });
+    for (std::size_t c : cells) {
+      if (!clusters.empty() && clusters.back().record == r && all[c].low <= clusters.back().high + 1e-9) {
+        clusters.back().cells.push_back(c);
+        clusters.back().high = std::max(clusters.back().high, all[c].high);
+      } else {
+        clusters.push_back({r, {c}, all[c].low, all[c].high});
+      }
+    }
+  }
+  const auto groups = join_clusters(clusters);
+  // The p-value of each cell, for the feature's smallest.
+  std::vector<std::vector<double>> cell_p(records_.size());
+  for (std::size_t r = 0; r < records_.size(); ++r) cell_p[r].assign(records_[r].cells.size(), 1.0);
+  for (std::size_t i = 0; i < p.size(); ++i) cell_p[where[i].first][where[i].second] = p[i];
+
+  std::vector<GapFeature> out;
+  const double z = normal_quantile(settings_.coverage);
+  const double ratio = static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth;
+  for (const auto& group : groups) {
+    GapFeature f;
+    f.p_value = 1.0;
+    double order_lo = std::numeric_limits<double>::infinity(), order_hi = -order_lo;
+    f.hz_low = order_lo, f.hz_high = order_hi;
+    double variance = 0, peak_abs = -1;
+    CellKind peak_kind = CellKind::input_line;
+    for (std::size_t r = 0; r < records_.size(); ++r) {
+      double weight = 0, centre = 0, peak = 0, peak_sd = 0;
+      for (std::size_t b : group) {
+        if (clusters[b].record != r) continue;
+        for (std::size_t c : clusters[b].cells) {
+          const Cell& cell = records_[r].cells[c];
+          weight += std::abs(cell.g), centre += std::abs(cell.g) * cell.centre;
+          if (std::abs(cell.g) > std::abs(peak)) peak = cell.g, peak_sd = cell.sd();
+          if (std::abs(cell.g) > peak_abs) peak_abs = std::abs(cell.g), peak_kind = cell.kind;
+          f.p_value = std::min(f.p_value, cell_p[r][c]);
+          order_lo = std::min(order_lo, cell.low), order_hi = std::max(order_hi, cell.high);
+          f.hz_low = std::min(f.hz_low, cell.low * records_[r].speed_hz);
+          f.hz_high = std::max(f.hz_high, cell.high * records_[r].speed_hz);
+        }
+      }
+      if (weight == 0) continue;
+      const auto& rec = records_[r];
+      f.seen_in.push_back({rec.pair.held_out, rec.pair.record, rec.speed_hz, rec.torque_nm, centre / weight,
+                           centre / weight * rec.speed_hz, peak});
+      variance += std::isfinite(peak_sd) ? peak_sd * peak_sd : 0.0;
+    }
+    const double n = static_cast<double>(f.seen_in.size());
+    for (const auto& s : f.seen_in) f.order += s.order / n, f.hz += s.hz / n, f.size_db += s.size_db / n;
+    const double half = z * std::sqrt(variance) / n;
+    f.size_interval_db = {f.size_db - half, f.size_db + half};
+    f.movement = movement_of(f.seen_in, settings_.min_speed_ratio);
+    f.shaft = peak_kind == CellKind::output_line ? FeatureShaft::output : FeatureShaft::input;
+    const double to_shaft = f.shaft == FeatureShaft::output ? 1.0 / ratio : 1.0;
+    f.order *= to_shaft;
+    f.order_low = order_lo * to_shaft, f.order_high = order_hi * to_shaft;
+    out.push_back(std::move(f));
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const GapFeature& a, const GapFeature& b) { return std::abs(a.size_db) > std::abs(b.size_db); });
+  return out;
+}
+
+}  // namespace gearwatch::gap

@@ -1,0 +1,378 @@
+// Gaps at the resolution of a line or a band (core/gap/features.hpp) and candidates fitted at a
+// bound of their range (docs/gap.md, "Features" and "Bounded fits"). The spectra are made in closed
+// form here: a twin's lines and broadband bins, the measurement as the twin times a known effect
+// and a known noise, and bootstrap draws whose spread is that noise.
+#include "gearwatch/gap/features.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "gearwatch/gap/candidates.hpp"
+#include "gearwatch/gap/diagnosis.hpp"
+#include "gearwatch/gap/evaluation.hpp"
+
+using namespace gearwatch;
+using namespace gearwatch::gap;
+
+namespace {
+
+constexpr int kZ1 = 19, kZ2 = 52;
+constexpr double kRatio = static_cast<double>(kZ1) / kZ2;  // input orders per output order
+// The comparison's floor, −60 dB under the twin's total line power (DiagnosisSettings::floor_db).
+constexpr double kFloorDb = -60;
+// Noise of one line or bin of one measured record against the twin: the bench's no-effect runs sit
+// 0.07–0.21 dB off the twin in their families' RMS (docs/gap.md), so 0.2 dB per cell.
+constexpr double kNoiseDb = 0.2;
+constexpr int kDraws = 50;  // bootstrap draws per record: the spread to about 10 %
+
+/// A twin's spectra at `speed` in closed form: mesh harmonics 1/n², the other input and output
+/// lines 1e-3/(1 + order/50) (order in input orders), broadband 1e-5 per 1-order bin; all of it
+/// above the floor, so every cell carries its ratio.
+SpectralSummary twin_spectra(double fs, double speed) {
+  SpectralSummary s;
+  s.speed_hz = speed;
+  s.torque_nm = 20;
+  s.sample_rate_hz = fs;
+  const auto k_in = static_cast<std::size_t>(0.45 * fs / speed);
+  const auto k_out = static_cast<std::size_t>(0.45 * fs / (speed * kRatio));
+  for (std::size_t k = 1; k <= k_in; ++k) {
+    const double n = static_cast<double>(k) / kZ1;
+    s.input_lines.push_back(k % kZ1 == 0 ? 1.0 / (n * n) : 1e-3 / (1 + k / 50.0));
+    s.broadband.push_back(1e-5);
+  }
+  for (std::size_t m = 1; m <= k_out; ++m)
+    s.output_lines.push_back(m % kZ2 == 0 ? 0.0 : 1e-3 / (1 + m * kRatio / 50.0));
+  return s;
+}
+
+double floor_of(const SpectralSummary& twin) { return total_input_line_power(twin) * std::pow(10.0, kFloorDb / 10); }
+
+/// Every cell of a summary with its frequency (Hz): input lines at k·speed, output lines at
+/// m·speed·z1/z2, broadband bins at their centre (k + 0.5)·speed.
+template <class F>
+void for_each_cell(SpectralSummary& s, F&& f) {
+  for (std::size_t k = 0; k < s.input_lines.size(); ++k) f(s.input_lines[k], (k + 1.0) * s.speed_hz);
+  for (std::size_t m = 0; m < s.output_lines.size(); ++m) f(s.output_lines[m], (m + 1.0) * kRatio * s.speed_hz);
+  for (std::size_t k = 0; k < s.broadband.size(); ++k) f(s.broadband[k], (k + 1.5) * s.speed_hz);
+}
+
+/// Each cell times 10^(N(0, kNoiseDb)/10).
+SpectralSummary with_noise(SpectralSummary s, std::mt19937_64& rng) {
+  std::normal_distribution<double> db(0.0, kNoiseDb);
+  for_each_cell(s, [&](double& p, double) { p *= std::pow(10.0, db(rng) / 10); });
+  return s;
+}
+
+struct Records {
+  std::vector<SpectralSummary> measured, twin;
+};
+
+/// A finder over the records for each of `settings`, all fed the same kDraws bootstrap draws: the
+/// measured estimate redrawn with the same noise (the twin has none, as the daemon's counterparts).
+std::vector<FeatureFinder> finders_of(const Records& r, std::mt19937_64& rng, const std::vector<FeatureSettings>& settings) {
+  std::vector<FeaturePair> pairs;
+  for (std::size_t i = 0; i < r.measured.size(); ++i) pairs.push_back({&r.measured[i], &r.twin[i], floor_of(r.twin[i]), true, i});
+  std::vector<FeatureFinder> finders;
+  for (const auto& s : settings) finders.emplace_back(pairs, GearPairSpec{}, s);
+  for (int d = 0; d < kDraws; ++d)
+    for (std::size_t i = 0; i < r.measured.size(); ++i) {
+      const auto draw = with_noise(r.measured[i], rng);
+      for (auto& f : finders) f.add_draw(i, draw, r.twin[i]);
+    }
+  return finders;
+}
+
+std::vector<GapFeature> features_of(const Records& r, std::mt19937_64& rng) { return finders_of(r, rng, {FeatureSettings{}})[0].features(); }
+
+/// The families' figures on the same records (the summary the features are diluted in), and
+/// whether any reaches its practical minimum.
+void check_families_stay_under_their_minimum(const Records& r) {
+  std::vector<GapPair> v;
+  for (std::size_t i = 0; i < r.measured.size(); ++i) v.push_back({&r.measured[i], &r.twin[i], floor_of(r.twin[i])});
+  const auto e = GapEvaluator(GearPairSpec{}).evaluate(v, true);
+  const DiagnosisSettings defaults;
+  for (std::size_t f = 0; f < kAllFamilyKinds.size(); ++f) {
+    INFO(to_string(kAllFamilyKinds[f]) << " " << e.distance_db(f) << " dB");
+    CHECK(e.distance_db(f) < min_gap_db_of(defaults, kAllFamilyKinds[f]));
+  }
+}
+
+const std::vector<double> kSpeeds{9.0, 11.0, 13.5, 16.0};
+
+std::string descriptions(const std::vector<GapFeature>& features) {
+  std::string s;
+  for (const auto& f : features) s += describe(f) + "\n";
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("gap features: Benjamini-Hochberg rejects the step-up set of the 1995 paper's example", "[gap][gap_features]") {
+  // Benjamini & Hochberg (1995), section 4: 15 p-values at q = 0.05 reject the four smallest
+  // (p_(4) = 0.0095 ≤ 4·0.05/15, p_(5) = 0.0201 > 5·0.05/15, and no later one is under its line).
+  const std::vector<double> p{0.0201, 0.0001, 0.3240, 0.0004, 0.0019, 0.0095, 0.0278, 0.0298,
+                              0.0344, 0.0459, 0.4262, 0.5719, 0.6528, 0.7590, 1.0000};
+  const auto r = benjamini_hochberg(p, 0.05);
+  for (std::size_t i = 0; i < p.size(); ++i) CHECK(static_cast<bool>(r[i]) == (p[i] <= 0.0095));
+  // Step-up: a p above its own line is rejected when a larger rank is under its line.
+  const auto s = benjamini_hochberg({0.04, 0.03, 0.045}, 0.05);  // p_(3) = 0.045 ≤ 0.05
+  CHECK(std::count(s.begin(), s.end(), 1) == 3);
+}
+
+TEST_CASE("gap features: a narrow resonance fixed in Hz is one feature at its centre, which the families dilute",
+          "[gap][gap_features]") {
+  // A structural resonance between the mesh harmonics: +12 dB at 1100 Hz, 25 Hz between its
+  // half-excess points. 1100 Hz is 6.43, 5.26, 4.29 and 3.62 mesh harmonics at the four speeds, at
+  // least 50 Hz from any harmonic.
+  const double fs = 50000, f0 = 1100, width = 25, peak_db = 12;
+  auto gain = [&](double hz) {
+    const double x = (hz - f0) / (width / 2);
+    return 1 + (std::pow(10.0, peak_db / 10) - 1) / (1 + x * x);
+  };
+  std::mt19937_64 rng(35);
+  Records r;
+  double expected_size = 0;  // the mean over records of each one's largest cell ratio, noise-free
+  for (double speed : kSpeeds) {
+    auto twin = twin_spectra(fs, speed);
+    auto measured = twin;
+    for_each_cell(measured, [&](double& p, double hz) { p *= gain(hz); });
+    std::vector<double> powers;
+    for_each_cell(twin, [&](double& p, double) { powers.push_back(p); });
+    double largest = 0;
+    std::size_t i = 0;
+    const double floor = floor_of(twin);
+    for_each_cell(measured, [&](double& p, double) { largest = std::max(largest, 10 * std::log10((p + floor) / (powers[i++] + floor))); });
+    expected_size += largest / static_cast<double>(kSpeeds.size());
+    r.measured.push_back(with_noise(measured, rng));
+    r.twin.push_back(twin);
+  }
+  // The lines sample the peak within half their spacing (output lines 3.3–5.8 Hz apart): 11–12 dB.
+  REQUIRE(expected_size > 11.0);
+  REQUIRE(expected_size <= 12.0);
+  const auto features = features_of(r, rng);
+  INFO(descriptions(features));
+  REQUIRE(features.size() == 1);
+  const auto& f = features.front();
+  INFO(describe(f));
+  CHECK(f.movement == FeatureMovement::fixed_in_hz);
+  CHECK(f.seen_in.size() == kSpeeds.size());
+  // Within the resolution: one bin in Hz at the fastest record (an input order there, 16 Hz).
+  CHECK(std::abs(f.hz - f0) <= kSpeeds.back());
+  CHECK(f.hz_low <= f0);
+  CHECK(f.hz_high >= f0);
+  CHECK(f.size_interval_db.low <= expected_size);
+  CHECK(f.size_interval_db.high >= expected_size);
+  // The interval: 1.645 · kNoiseDb / sqrt(4 records) each side; the spread is read off 50 draws (±20 %).
+  CHECK((f.size_interval_db.high - f.size_interval_db.low) / 2 == Approx(1.645 * kNoiseDb / 2).epsilon(0.2));
+  // What the issue saw: each family's RMS keeps the resonance under its practical minimum.
+  check_families_stay_under_their_minimum(r);
+}
+
+TEST_CASE("gap features: a ghost tone at a non-integer input order is one feature fixed in orders", "[gap][gap_features]") {
+  // A tone at input order 23.4, 17 dB under the twin's total line power: non-synchronous, so it is
+  // in the broadband bin [23, 24) of every record (its leakage into the lines is left out here).
+  const double fs = 50000, order = 23.4;
+  std::mt19937_64 rng(36);
+  Records r;
+  double expected_size = 0;
+  for (double speed : kSpeeds) {
+    auto twin = twin_spectra(fs, speed);
+    auto measured = twin;
+    const double tone = total_input_line_power(twin) * std::pow(10.0, -17.0 / 10);
+    measured.broadband[22] += tone;
+    const double floor = floor_of(twin);
+    expected_size += 10 * std::log10((measured.broadband[22] + floor) / (twin.broadband[22] + floor)) / kSpeeds.size();
+    r.measured.push_back(with_noise(measured, rng));
+    r.twin.push_back(twin);
+  }
+  const auto features = features_of(r, rng);
+  INFO(descriptions(features));
+  REQUIRE(features.size() == 1);
+  const auto& f = features.front();
+  INFO(describe(f));
+  CHECK(f.movement == FeatureMovement::fixed_in_orders);
+  CHECK(f.shaft == FeatureShaft::input);
+  // Within the resolution: the broadband bin is one order wide.
+  CHECK(std::abs(f.order - order) <= 1.0);
+  CHECK(f.seen_in.size() == kSpeeds.size());
+  CHECK(f.size_interval_db.low <= expected_size);
+  CHECK(f.size_interval_db.high >= expected_size);
+  check_families_stay_under_their_minimum(r);
+}
+
+TEST_CASE("gap features: with no effect, Benjamini-Hochberg finds something in at most 5 % of draws", "[gap][gap_features]") {
+  // 100 draws of 4 records at 4 speeds, the measurement the twin plus 0.2 dB noise per cell. With
+  // the practical minimum at 0 the count is BH's alone: under no effect, its false discovery rate
+  // is the probability of any rejection, at most q = 0.05. Binomial: 100·0.05 + 3·sqrt(100·0.05·0.95).
+  const double fs = 10000;
+  const int draws = 100;
+  std::mt19937_64 rng(37);
+  FeatureSettings bh_only;
+  bh_only.min_feature_db = 0;
+  int with_rejection = 0, with_feature = 0, with_feature_at_minimum = 0;
+  for (int d = 0; d < draws; ++d) {
+    Records r;
+    for (double speed : kSpeeds) {
+      r.twin.push_back(twin_spectra(fs, speed));
+      r.measured.push_back(with_noise(r.twin.back(), rng));
+    }
+    const auto finders = finders_of(r, rng, {bh_only, FeatureSettings{}});
+    with_feature += finders[0].features().empty() ? 0 : 1;
+    with_rejection += finders[0].rejected_cells() > 0 ? 1 : 0;
+    with_feature_at_minimum += finders[1].features().empty() ? 0 : 1;
+  }
+  INFO(with_rejection << " draws of " << draws << " with a rejected cell");
+  const double limit = draws * 0.05 + 3 * std::sqrt(draws * 0.05 * 0.95);
+  CHECK(with_rejection <= limit);
+  CHECK(with_feature == with_rejection);  // with no minimum every rejected cell is a feature
+  // The default 3 dB minimum is 15 noise SDs: no feature at all.
+  CHECK(with_feature_at_minimum == 0);
+}
+
+TEST_CASE("gap features: the speed-movement rule and the merging of adjacent bins", "[gap][gap_features]") {
+  // Two records, 10 and 15 Hz. A change of input line 40 in both (fixed in orders), and a +10 dB
+  // change on input lines 49–51 at 10 Hz and 33–35 at 15 Hz (about 500 Hz in both: fixed in Hz,
+  // three adjacent lines merged into one cluster per record).
+  const double fs = 10000;
+  std::mt19937_64 rng(38);
+  Records r;
+  for (double speed : {10.0, 15.0}) {
+    auto twin = twin_spectra(fs, speed);
+    auto measured = twin;
+    measured.input_lines[39] *= 10;
+    const int centre = speed == 10.0 ? 50 : 33;
+    for (int k = centre - 1; k <= centre + 1; ++k) measured.input_lines[k - 1] *= 10;
+    r.measured.push_back(with_noise(measured, rng));
+    r.twin.push_back(twin);
+  }
+  auto features = features_of(r, rng);
+  REQUIRE(features.size() == 2);
+  std::sort(features.begin(), features.end(), [](const auto& a, const auto& b) { return a.hz < b.hz; });
+  CHECK(features[0].movement == FeatureMovement::fixed_in_hz);
+  // Each sighting's centre is its middle line (the three weigh alike within the noise): 500 and 495 Hz.
+  CHECK(features[0].hz == Approx((50 * 10.0 + 33 * 15.0) / 2).margin(1));
+  CHECK(features[0].order_low == Approx(31.5));
+  CHECK(features[0].order_high == Approx(51.5));
+  CHECK(features[1].movement == FeatureMovement::fixed_in_orders);
+  CHECK(features[1].order == Approx(40).margin(0.01));
+  CHECK(features[1].size_db == Approx(10).margin(0.5));  // 10 dB, noise 0.2 dB per cell
+  // One record: the speeds cannot tell orders from Hz.
+  Records one{{r.measured[0]}, {r.twin[0]}};
+  for (const auto& f : features_of(one, rng)) CHECK(f.movement == FeatureMovement::undetermined);
+}
+
+namespace {
+
+/// A constant-speed record of tones at input orders, exactly `revs` revolutions (plus half, so the
+/// last tacho edge lies inside), one edge per revolution.
+Record tone_record(double fs, double speed, int revs, const std::vector<std::pair<double, double>>& order_amplitude) {
+  Record r;
+  r.sample_rate_hz = fs;
+  const auto n = static_cast<std::size_t>((revs + 0.5) * fs / speed);
+  std::vector<float> x(n, 0.0f);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = static_cast<double>(i) / fs;
+    double v = 0;
+    for (const auto& [order, amplitude] : order_amplitude) v += amplitude * std::cos(2 * std::numbers::pi * order * speed * t + 0.3 * order);
+    x[i] = static_cast<float>(v);
+  }
+  r.channels = {x};
+  r.channel_numbers = {0};
+  for (int k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(k * fs / speed);
+  r.speed_hz = speed;
+  r.torque_nm = 20;
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("gap bounded fits: a run-out the form's range cannot reach is reported at its bound with what it would need",
+          "[gap][gap_features]") {
+  // The eccentricity's power form, written here: each first output sideband n·z2 ± 1 gains
+  // ((a·e)² + (n·b·e)²)/4 of mesh harmonic n. A gear run-out of 1 mm, above the range's 0.3 mm.
+  const double fs = 20000, a = 50, b = 800, truth = 1e-3;
+  std::vector<SummaryPair> training;
+  for (double speed : {9.0, 13.0}) {
+    auto twin = twin_spectra(fs, speed);
+    twin.gear_run_out = {a, b};
+    twin.pinion_run_out = {a, b};
+    auto measured = twin;
+    for (std::size_t n = 1; n * kZ1 <= twin.input_lines.size(); ++n)
+      for (int side : {-1, 1}) {
+        const std::size_t m = n * kZ2 + side;
+        const double pm = b * truth * static_cast<double>(n);
+        if (m <= measured.output_lines.size())
+          measured.output_lines[m - 1] += ((a * truth) * (a * truth) + pm * pm) / 4 * twin.input_lines[n * kZ1 - 1];
+      }
+    training.push_back({measured, twin, floor_of(twin)});
+  }
+  const auto values = fit_candidate(CandidateEffect::eccentricity, {}, training, GearPairSpec{});
+  REQUIRE(values.size() == 2);
+  const auto bounds = parameters_at_bounds(CandidateEffect::eccentricity, values, fs, false);
+  const auto gear = std::find_if(bounds.begin(), bounds.end(), [](const auto& x) { return x.name == "gear_run_out_m"; });
+  REQUIRE(gear != bounds.end());
+  CHECK(gear->upper);
+  CHECK(gear->bound == Approx(3e-4));  // the form's range: 0.1 µm to 0.3 mm
+  CHECK(describe(*gear) == "gear_run_out_m would need > 300 µm (the top of its range)");
+  // A value inside the range, and a rerun candidate's grid (misalignment 0.01–1 mrad).
+  CHECK(parameters_at_bounds(CandidateEffect::eccentricity, {1e-5, 2e-5}, fs, false).empty());
+  const auto top = parameters_at_bounds(CandidateEffect::misalignment, {1e-3}, fs, true);
+  REQUIRE(top.size() == 1);
+  CHECK(top[0].name == "angle_rad");
+  CHECK(top[0].upper);
+  CHECK(parameters_at_bounds(CandidateEffect::misalignment, {1e-4}, fs, true).empty());
+  const auto bottom = parameters_at_bounds(CandidateEffect::misalignment, {1e-5}, fs, true);
+  REQUIRE(bottom.size() == 1);
+  CHECK_FALSE(bottom[0].upper);
+}
+
+TEST_CASE("gap bounded fits: the diagnosis reports a candidate fitted at its bound with that bound", "[gap][gap_features]") {
+  // Every mesh harmonic of the measurement 50 dB above the twin's: misalignment's spectral form (one
+  // gain on all mesh harmonics, −40 to +40 dB, without a twin rerun) fits at +40 dB and says so.
+  const double fs = 10240, gain = std::pow(10.0, 50.0 / 20);
+  std::vector<std::pair<double, double>> twin_lines, measured_lines;
+  for (int n = 1; n <= 5; ++n) {
+    twin_lines.push_back({19.0 * n, 1e-3 / n});
+    measured_lines.push_back({19.0 * n, 1e-3 / n * gain});
+  }
+  for (double o : {3.0, 20.0, 5.0 * kRatio}) twin_lines.push_back({o, 0.05}), measured_lines.push_back({o, 0.05});
+  std::vector<DiagnosisInput> training, held_out;
+  for (double speed : {8.0, 12.0}) training.push_back({tone_record(fs, speed, 16, measured_lines), tone_record(fs, speed, 16, twin_lines)});
+  for (double speed : {10.0, 14.0}) held_out.push_back({tone_record(fs, speed, 16, measured_lines), tone_record(fs, speed, 16, twin_lines)});
+  DiagnosisSettings settings;
+  settings.bootstrap_resamples = 20;
+  settings.candidate_bootstrap_resamples = 10;
+  const auto report = diagnose(training, held_out, GearPairSpec{}, settings);
+  const auto misalignment = std::find_if(report.candidates.begin(), report.candidates.end(),
+                                         [](const auto& c) { return c.effect == CandidateEffect::misalignment; });
+  REQUIRE(misalignment != report.candidates.end());
+  REQUIRE(misalignment->parameters.size() == 1);
+  CHECK(misalignment->parameters[0].second == Approx(40));
+  REQUIRE(misalignment->at_bounds.size() == 1);
+  CHECK(misalignment->at_bounds[0].name == "mesh_gain_db");
+  CHECK(misalignment->at_bounds[0].bound == 40);
+  CHECK(misalignment->at_bounds[0].upper);
+  // The mesh harmonics are lines of their own at the resolution of a line: one feature each, fixed
+  // in orders, 50 dB up less what the comparison's floor takes from a weak twin line:
+  // 10·log10((10^5·P_n + F)/(P_n + F)), P_n = (1e-3/n)² and F = 1e-6 of the twin's total input-line
+  // power (the lines at input orders 3 and 20 and the harmonics; output order 5 is no input order).
+  double total = 2 * 0.05 * 0.05;
+  for (int n = 1; n <= 5; ++n) total += 1e-6 / (n * n);
+  const double floor = total * 1e-6;
+  std::size_t mesh_features = 0;
+  for (const auto& f : report.features)
+    if (f.movement == FeatureMovement::fixed_in_orders && std::abs(std::fmod(f.order + 0.5, 19.0) - 0.5) < 0.01) {
+      ++mesh_features;
+      const double n = std::round(f.order / 19), p = 1e-6 / (n * n);
+      INFO("harmonic " << n);
+      // 0.1 dB: the records are float samples order-tracked through the resampler.
+      CHECK(f.size_db == Approx(10 * std::log10((1e5 * p + floor) / (p + floor))).margin(0.1));
+    }
+  CHECK(mesh_features == 5);
+}
