@@ -335,8 +335,8 @@ TEST_CASE("gap diagnose refuses bad input with one line and stores nothing", "[g
   const fs::path good = generate(dir, 1, 10.0);
   const fs::path db = dir / "h.db";
   REQUIRE(gw("replay " + sh(good) + " --db " + sh(db) + " --config " + sh(config)).status == 0);
-  auto refused = [&](const std::string& args, int status, const std::string& says) {
-    const auto r = gw("gap diagnose " + args + " --config " + sh(config) + " --db " + sh(db));
+  auto refused = [&](const std::string& args, int status, const std::string& says, const fs::path& into) {
+    const auto r = gw("gap diagnose " + args + " --config " + sh(config) + " --db " + sh(into));
     INFO(args << ": " << r.err);
     CHECK(r.status == status);
     CHECK(r.out.empty());
@@ -344,19 +344,19 @@ TEST_CASE("gap diagnose refuses bad input with one line and stores nothing", "[g
     CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
   };
   // A missing capture is refused by the parser (64); the others by the command (1).
-  refused(sh(good) + " " + sh(dir / "missing.log"), 64, "missing.log");
-  refused(sh(good) + " /dev/zero", 1, "is a device");
+  refused(sh(good) + " " + sh(dir / "missing.log"), 64, "missing.log", db);
+  refused(sh(good) + " /dev/zero", 1, "is a device", db);
   const fs::path short_capture = dir / "short.log";
   {
     const auto r = testing::run_command(std::string(GEARWATCH_PYTHON) + " " + sh(kGenerator) + " --out " + sh(short_capture) +
                                         " --duration 0.3 --sample-rate 24000 --channels 0");
     REQUIRE(r.status == 0);
   }
-  refused(sh(good) + " " + sh(short_capture), 1, "no complete record");
+  refused(sh(good) + " " + sh(short_capture), 1, "no complete record", db);
   const fs::path two_channels = generate(dir, 2, 12.0, "--channels 0,1");
-  refused(sh(good) + " " + sh(two_channels), 1, "mismatched channels");
-  refused(sh(good), 1, "none is left for training");
-  refused(sh(good) + " --held-out " + sh(good) + " --db " + sh(dir / "none.db"), 1, "no database at");
+  refused(sh(good) + " " + sh(two_channels), 1, "mismatched channels", db);
+  refused(sh(good), 1, "none is left for training", db);
+  refused(sh(good) + " --held-out " + sh(good), 1, "no database at", dir / "none.db");
   CHECK(scalar(db, "SELECT count(*) FROM gap_report_runs") == 0);
   CHECK_FALSE(fs::exists(dir / "none.db"));
 }
