@@ -125,7 +125,7 @@ TEST_CASE("storage: a kept gap record and its wear state read back exactly; rows
   storage::Database db((dir / "k.db").string());
   storage::open_and_migrate(db);
   CHECK(storage::has_gap_schedule_tables(db));
-  CHECK(db.user_version() == 7);
+  CHECK(db.user_version() == storage::current_schema_version());
   storage::KeptGapRecord k;
   k.position = 3;
   k.stream_sequence = 2;
