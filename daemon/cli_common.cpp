@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gearwatch/storage/schema.hpp"
+#include "vocabulary.hpp"
 
 namespace gearwatch::cli {
 
@@ -73,6 +74,30 @@ storage::Database open_history(const std::string& path) {
   } catch (const storage::SqliteError& e) {
     throw CommandError("cannot read " + path + ": " + e.what());
   }
+}
+
+// Such a command stores one transaction and no records, so it may run while the daemon holds the
+// database (the model reads the inspections at every record).
+WritableHistory open_history_for_writing(const std::string& path, const std::string& command) {
+  require_history(path);
+  auto lock = storage::DatabaseLock::try_acquire(path);
+  if (lock) {
+    storage::Database db(path);
+    storage::open_and_migrate(db, daemon::acquisition_vocabulary());
+    return {std::move(lock), std::move(db)};
+  }
+  const pid_t holder = storage::DatabaseLock::holder(path);
+  const std::string held = "database " + path + " is in use by another gearwatch (pid " +
+                           (holder > 0 ? std::to_string(holder) : std::string("unknown")) + ")";
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw CommandError(held + " that has not created it yet; try again in a moment");
+  storage::Database db(path, storage::Database::Mode::read_write);
+  if (db.user_version() != storage::current_schema_version())
+    throw CommandError(held + " at schema version " + std::to_string(db.user_version()) + ", not this gearwatch's " +
+                       std::to_string(storage::current_schema_version()) + "; " + command +
+                       " does not migrate a database another process holds");
+  db.exec("PRAGMA foreign_keys = ON");
+  return {std::nullopt, std::move(db)};
 }
 
 namespace {

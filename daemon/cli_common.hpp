@@ -12,6 +12,7 @@
 
 #include "commands.hpp"
 #include "gearwatch/config/config.hpp"
+#include "gearwatch/storage/database_lock.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 
 namespace gearwatch::cli {
@@ -43,6 +44,19 @@ void require_history(const std::string& path);
 
 /// require_history, then the database opened read-only.
 storage::Database open_history(const std::string& path);
+
+/// A history opened for a command that adds rows to it without storing records (`inspect`,
+/// `gap diagnose --db`): one transaction, so it may run while the daemon writes the database.
+struct WritableHistory {
+  std::optional<storage::DatabaseLock> lock;  ///< held to the end of the command when it was free
+  storage::Database db;
+};
+
+/// require_history(), then: with the writer lock free, the lock is held while the database may be
+/// migrated; with it held by another process, the database is written only as that process left
+/// it — at this build's schema version, never migrated under it (CommandError naming the pid and
+/// `command` otherwise).
+WritableHistory open_history_for_writing(const std::string& path, const std::string& command);
 
 /// Opens the history at `path` read-only (open_history) and returns `load(db)`. An unreadable
 /// database or a load error becomes a CommandError naming it; a CommandError from `load` passes

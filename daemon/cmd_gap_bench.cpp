@@ -550,6 +550,7 @@ void add_gap_bench_command(CLI::App& app) {
 
 void register_gap(CLI::App& app) {
   add_gap_report_command(app);
+  add_gap_diagnose_command(app);
   add_gap_bench_command(app);
 }
 

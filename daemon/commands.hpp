@@ -26,6 +26,8 @@ void register_twin_state(CLI::App* twin);
 CLI::App* gap_command(CLI::App& app);
 /// `gap report` (cmd_gap.cpp).
 void add_gap_report_command(CLI::App& app);
+/// `gap diagnose`: the diagnosis on captures a user brings (cmd_gap_diagnose.cpp).
+void add_gap_diagnose_command(CLI::App& app);
 /// `gap bench`, the withheld-effect check (cmd_gap_bench.cpp).
 void add_gap_bench_command(CLI::App& app);
 /// `gap` and all its subcommands.

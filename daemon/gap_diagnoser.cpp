@@ -15,7 +15,9 @@ int gap_channel(const config::GearwatchConfig& config) {
 
 gap::DiagnosisSettings gap_diagnosis_settings(const config::GearwatchConfig& config) {
   gap::DiagnosisSettings settings;
-  settings.channel = gap_channel(config);
+  // The index in the records the daemon hands over: they carry the compared channel (gap_channel) alone
+  // (kept_gap_record), so the protocol number never stands in for a position in a record.
+  settings.channel = 0;
   settings.bootstrap_resamples = config.gap.bootstrap_resamples;
   settings.seed = static_cast<std::uint64_t>(config.gap.seed);
   settings.rms_sa_harmonics = config.processing.rms_sa_harmonics;

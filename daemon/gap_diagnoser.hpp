@@ -7,7 +7,8 @@
 
 namespace gearwatch::daemon {
 
-/// The diagnosis's settings from [gap]: the compared channel, the bootstrap resamples and seed.
+/// The diagnosis's settings from [gap]: the bootstrap resamples and seed; the compared channel is
+/// index 0, the one channel of the records the gap step keeps (kept_gap_record with gap_channel).
 gap::DiagnosisSettings gap_diagnosis_settings(const config::GearwatchConfig& config);
 
 /// The diagnosis the daemon runs with this configuration's gears and gap_diagnosis_settings(), the

@@ -68,31 +68,74 @@ struct GapHooks {
 double twin_rms_sa_wear_elasticity(const TwinCounterpart& twin, const Record& measured, const wear::WearState& state,
                                    int channel, const GearPairSpec& gears, int harmonics);
 
-/// What the gap step keeps of one analysed record until the next diagnosis.
+/// What the gap step keeps of one analysed record until the diagnosis that uses it.
 struct GapSample {
-  std::shared_ptr<const Record> measured;
+  std::shared_ptr<const Record> measured;   ///< one channel: kept_gap_record()
   wear::WearState state;
   std::uint64_t stream_sequence = 0;
   std::uint64_t start_index = 0;
+  std::uint64_t position = 0;               ///< set by GapSchedule::add: 1, 2, ... for this gear pair
 };
 
-/// Every `every_records` analysed records, once it holds training + held-out records: the oldest
+/// The record as the gap step keeps and the diagnosis reads it: the compared channel (protocol
+/// number `channel`) alone, with the tacho edges, rate, stream id, start index, speed, torque and life
+/// position. Nothing else of a record reaches the diagnosis, so a record kept in memory and one read
+/// back from the database (storage::load_gap_schedule) are the same. Empty when the record does not
+/// carry that channel (its frames stopped, or the stream does not announce it).
+std::optional<Record> kept_gap_record(const Record& record, int channel);
+
+/// Every `every_records` analysed records, once it has had training + held-out records: the oldest
 /// `training` of the newest (training + held_out) are the training set, the newest `held_out` the
 /// held-out set (other cycles, and other speeds when the load changed), so a diagnosis is always
 /// scored on records newer than the ones it was fitted on.
+///
+/// It keeps only what a coming diagnosis can use: the position of the next diagnosis follows from
+/// the counters alone, so a record more than training + held_out positions before it is never
+/// needed (with every_records = 50 and 4 + 2 records, 6 of every 50). restore() rebuilds the same
+/// schedule from the counters and the kept records of an earlier process.
 class GapSchedule {
  public:
   GapSchedule(std::size_t every_records, std::size_t training, std::size_t held_out);
-  /// Keeps the sample (dropping the oldest beyond what a diagnosis needs); true when a diagnosis is due.
-  bool add(GapSample sample);
-  /// The split of the samples held now: first training, then held out.
+
+  struct Step {
+    bool due = false;                      ///< a diagnosis is due now (split() gives its records)
+    bool keep = false;                     ///< a later diagnosis can use this record: store it
+    std::uint64_t position = 0;            ///< this record's position
+    std::uint64_t drop_through_position = 0;  ///< no later diagnosis uses a record at or before this
+  };
+  /// Adds the sample as the next position.
+  Step add(GapSample sample);
+  /// The counters and kept samples an earlier process stored (positions set, oldest first); samples
+  /// no coming diagnosis can use are left out.
+  void restore(std::uint64_t records_added, std::uint64_t since_diagnosis, std::vector<GapSample> kept);
+  /// The split of the newest training + held-out samples: first training, then held out.
   std::pair<std::vector<const GapSample*>, std::vector<const GapSample*>> split() const;
   const GapSample& newest() const { return samples_.back(); }
+  std::uint64_t records_added() const noexcept { return added_; }
+  std::uint64_t since_diagnosis() const noexcept { return since_last_; }
+  std::size_t held() const noexcept { return samples_.size(); }
 
  private:
+  std::uint64_t next_due_position() const noexcept;
+  void drop_through(std::uint64_t position);
+
   std::size_t every_, training_, held_out_;
-  std::size_t since_last_ = 0;
+  std::uint64_t added_ = 0;
+  std::uint64_t since_last_ = 0;
   std::deque<GapSample> samples_;
 };
+
+/// One diagnosis as the daemon makes it from kept samples: each sample's twin counterpart at its
+/// own wear state, the twin re-run for a candidate at the wear state of the record it stands for
+/// (when the hooks have a rerun), and K_wear with and without the chosen effects when `model_k_wear`
+/// is positive (the twin's wear states came from it; each held-out record's elasticity from two more
+/// counterparts). Shared by the periodic step and `gap diagnose`. Throws what the diagnosis throws.
+struct GapRun {
+  gap::GapReport report;
+  std::string k_wear_skipped;  ///< why the report has no K_wear although one was asked for ("" otherwise)
+};
+GapRun run_gap_diagnosis(const GapHooks& hooks, const std::vector<const GapSample*>& training,
+                         const std::vector<const GapSample*>& held_out, double model_k_wear, const GearPairSpec& gears,
+                         int rms_sa_harmonics);
 
 }  // namespace gearwatch::daemon

@@ -15,6 +15,7 @@
 
 #include "gap_diagnoser.hpp"
 #include "gearwatch/config/twin_config.hpp"
+#include "gearwatch/storage/gap_kept_records.hpp"
 #include "gearwatch/storage/resume.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/twin/errors.hpp"
@@ -342,6 +343,7 @@ void ModelThread::start() {
       if (!gap_.rerun) gap_.rerun = make_twin_rerun(params, config_);
     }
     gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
+    restore_gap_schedule();
   }
   if (stored.found)
     spdlog::info("model: gear pair {} continues at {:.6g} cycles (K_wear {:.4g} m²/N, K_pitting {:.4g})", gear_pair_,
@@ -387,8 +389,9 @@ void ModelThread::stop() {
                counters_.received.load(), counters_.handled.load(), counters_.caught_up.load(), counters_.coalesced.load(),
                counters_.failures.load());
   if (gap_schedule_)
-    spdlog::info("model: {} gap reports stored ({} without K_wear), {} gap diagnoses failed", counters_.gap_reports.load(),
-                 counters_.gap_k_wear_skipped.load(), counters_.gap_failures.load());
+    spdlog::info("model: {} gap reports stored ({} without K_wear), {} gap diagnoses failed, {} records without the gap channel",
+                 counters_.gap_reports.load(), counters_.gap_k_wear_skipped.load(), counters_.gap_failures.load(),
+                 counters_.gap_records_without_channel.load());
 }
 
 void ModelThread::run() {
@@ -497,11 +500,46 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   msg.forecast_json = forecast_json(r.forecast);
   msg.store_state = r.advanced || r.new_gear_pair;
   if (msg.store_state) msg.state_json = memory_to_json(model_->memory());
-  writer_.submit(std::move(msg));
   // The twin's counterpart needs the wear state at this record: only a record the model advanced to has one.
-  if (gap_schedule_ && input.samples && r.advanced &&
-      gap_schedule_->add(GapSample{input.samples, model_->memory().current.state, input.stream_sequence, input.start_index}))
-    diagnose_gap();
+  const bool gap_due = gap_schedule_ && input.samples && r.advanced && add_gap_sample(input, msg);
+  writer_.submit(std::move(msg));
+  if (gap_due) diagnose_gap();
+}
+
+void ModelThread::restore_gap_schedule() {
+  storage::Database db(config_.storage.database, storage::Database::Mode::read_only);
+  storage::StoredGapSchedule stored = storage::load_gap_schedule(db, gear_pair_);
+  if (!stored.found) return;
+  std::vector<GapSample> kept;
+  for (auto& k : stored.kept) {
+    GapSample s{std::make_shared<const Record>(std::move(k.record)), std::move(k.state), k.stream_sequence, 0, k.position};
+    s.start_index = s.measured->start_index;
+    kept.push_back(std::move(s));
+  }
+  gap_schedule_->restore(stored.counters.records_added, stored.counters.since_diagnosis, std::move(kept));
+  spdlog::info("gap: gear pair {} continues its schedule: {} records since the last diagnosis, {} kept for the next", gear_pair_,
+               gap_schedule_->since_diagnosis(), gap_schedule_->held());
+}
+
+bool ModelThread::add_gap_sample(const ModelInput& input, storage::ModelRunResult& msg) {
+  std::optional<Record> kept = kept_gap_record(*input.samples, gap_channel(config_));
+  if (!kept) {
+    const auto n = ++counters_.gap_records_without_channel;
+    if (n <= 10 || n % 1000 == 0)
+      spdlog::warn("gap: record at {:.6g} cycles does not carry channel {}: not used by the gap step ({} so far)",
+                   input.observation.cycles, gap_channel(config_), n);
+    return false;
+  }
+  auto record = std::make_shared<const Record>(std::move(*kept));
+  const wear::WearState& state = model_->memory().current.state;
+  const GapSchedule::Step step = gap_schedule_->add(GapSample{record, state, input.stream_sequence, input.start_index, 0});
+  storage::GapScheduleUpdate update;
+  update.gear_pair = gear_pair_;
+  update.counters = {gap_schedule_->records_added(), gap_schedule_->since_diagnosis()};
+  update.drop_through_position = step.drop_through_position;
+  if (step.keep) update.keep = storage::KeptGapRecord{step.position, input.stream_sequence, *record, state};
+  msg.gap = std::move(update);
+  return step.due;
 }
 
 void ModelThread::diagnose_gap() {
@@ -509,38 +547,13 @@ void ModelThread::diagnose_gap() {
   const GapSample& newest = gap_schedule_->newest();
   storage::GapReportResult msg;
   try {
-    std::vector<gap::DiagnosisInput> training, held_out;
-    for (const GapSample* s : training_samples) training.push_back({*s->measured, gap_.twin(*s->measured, s->state)});
-    for (const GapSample* s : held_out_samples) held_out.push_back({*s->measured, gap_.twin(*s->measured, s->state)});
-    GapCallContext context;
-    if (gap_.rerun) {
-      // The diagnosis hands back the counterpart it wants re-run; the record it stands for (same
-      // stream and start) gives the wear state to re-run it at.
-      std::map<std::pair<std::uint64_t, std::uint64_t>, const GapSample*> by_record;
-      for (const auto* set : {&training_samples, &held_out_samples})
-        for (const GapSample* s : *set) by_record[{s->measured->stream_id, s->measured->start_index}] = s;
-      context.rerun_twin = [this, by_record](gap::CandidateEffect effect, const std::vector<double>& values, const Record& like,
-                                             double duration_s) {
-        const auto it = by_record.find({like.stream_id, like.start_index});
-        if (it == by_record.end()) throw std::invalid_argument("gap: no kept record for a twin rerun");
-        return gap_.rerun(*it->second->measured, it->second->state, effect, values, duration_s);
-      };
+    GapRun run = run_gap_diagnosis(gap_, training_samples, held_out_samples, model_->memory().k_wear_si, config_.rig.gears,
+                                   config_.processing.rms_sa_harmonics);
+    if (!run.k_wear_skipped.empty()) {
+      const auto n = ++counters_.gap_k_wear_skipped;
+      if (n <= 10 || n % 1000 == 0) spdlog::warn("gap: report without K_wear ({} so far): {}", n, run.k_wear_skipped);
     }
-    // K_wear with and without the chosen effects: the twin's wear states came from the model's K_wear.
-    if (model_->memory().k_wear_si > 0) {
-      try {
-        for (const GapSample* s : held_out_samples)
-          context.rms_sa_wear_elasticities.push_back(twin_rms_sa_wear_elasticity(
-              gap_.twin, *s->measured, s->state, gap_channel(config_), config_.rig.gears, config_.processing.rms_sa_harmonics));
-        context.reference_k_wear = model_->memory().k_wear_si;
-      } catch (const std::invalid_argument& e) {
-        // The report goes on without K_wear: the twin's RMS_SA cannot tell it here.
-        context.rms_sa_wear_elasticities.clear();
-        const auto n = ++counters_.gap_k_wear_skipped;
-        if (n <= 10 || n % 1000 == 0) spdlog::warn("gap: report without K_wear ({} so far): {}", n, e.what());
-      }
-    }
-    msg.report = gap_.diagnose(training, held_out, context);
+    msg.report = std::move(run.report);
   } catch (const std::exception& e) {
     const auto n = ++counters_.gap_failures;
     if (n <= 10 || n % 1000 == 0)

@@ -94,6 +94,7 @@ struct ModelCounters {
   std::atomic<std::uint64_t> gap_reports{0};       ///< gap diagnoses stored
   std::atomic<std::uint64_t> gap_failures{0};      ///< gap diagnoses that threw (logged, nothing stored)
   std::atomic<std::uint64_t> gap_k_wear_skipped{0};  ///< gap reports stored without K_wear (the twin could not tell it)
+  std::atomic<std::uint64_t> gap_records_without_channel{0};  ///< records the gap step could not use: no compared channel
 };
 
 
@@ -119,6 +120,11 @@ class ModelThread {
   void run();
   void handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids);
   void diagnose_gap();
+  /// The counters and records an earlier process kept for the next diagnosis of this gear pair.
+  void restore_gap_schedule();
+  /// Adds the record to the gap schedule and puts what changes into the record's model run (stored
+  /// in its transaction); true when a diagnosis is due.
+  bool add_gap_sample(const ModelInput& input, storage::ModelRunResult& msg);
 
   config::GearwatchConfig config_;
   storage::StorageWriter& writer_;

@@ -112,7 +112,7 @@ TEST_CASE("gap schedule: every N records, the newest training + held-out records
   for (std::uint64_t i = 1; i <= 9; ++i) {
     daemon::GapSample s;
     s.start_index = i;
-    due.push_back(schedule.add(s));
+    due.push_back(schedule.add(s).due);
     if (due.back()) {
       const auto [training, held_out] = schedule.split();
       REQUIRE(training.size() == 2);
@@ -320,13 +320,16 @@ TEST_CASE("config: [gap] keys with their defaults, ranges and file:line errors",
   CHECK_THROWS_WITH(config::parse_config("[gap]\nevery_records = 2.5\n", "c.toml"), "c.toml:2: key 'gap.every_records': expected an integer");
   CHECK_THROWS_WITH(config::parse_config("[model]\nenabled = false\n[gap]\nenabled = true\n", "c.toml"),
                     Catch::Contains("c.toml:4: key 'gap.enabled'"));
-  // What reaches the diagnosis: the gap channel, else the model's, else the first configured.
+  // The compared channel: the gap channel, else the model's, else the first configured. The records
+  // handed to the diagnosis carry that channel alone, at index 0.
   const auto settings = daemon::gap_diagnosis_settings(c);
   CHECK(settings.channel == 0);
   CHECK(settings.bootstrap_resamples == 50);
   CHECK(settings.seed == 9u);
-  CHECK(daemon::gap_diagnosis_settings(config::parse_config("[model]\nchannel = 1\n", "m.toml")).channel == 1);
-  CHECK(daemon::gap_diagnosis_settings(config::parse_config("[model]\nchannel = 1\n[gap]\nchannel = 0\n", "m.toml")).channel == 0);
+  CHECK(daemon::gap_channel(c) == 0);
+  CHECK(daemon::gap_channel(config::parse_config("[model]\nchannel = 1\n", "m.toml")) == 1);
+  CHECK(daemon::gap_diagnosis_settings(config::parse_config("[model]\nchannel = 1\n", "m.toml")).channel == 0);
+  CHECK(daemon::gap_channel(config::parse_config("[model]\nchannel = 1\n[gap]\nchannel = 0\n", "m.toml")) == 0);
 }
 
 TEST_CASE("gap step: the twin's RMS_SA wear elasticity is read from counterparts at wear depths x0.8 and x1.25",
@@ -452,11 +455,11 @@ TEST_CASE("pipeline: a replay hands each analysed record's samples to the gap st
   const auto result = daemon::run_pipeline(cfg, daemon::PipelineMode::replay, hooks);
   REQUIRE(result.exit_status == 0);
   REQUIRE(result.records_analysed == 4);
-  // Two diagnoses (records 2 and 4), each of one training and one held-out record: 1 s, 20 kHz, both channels.
+  // Two diagnoses (records 2 and 4), each of one training and one held-out record: 1 s, 20 kHz, the compared channel.
   REQUIRE(seen.size() == 4);
   for (const auto& s : seen) {
     CHECK(s.samples == 20000);
-    CHECK(s.channels == 2);
+    CHECK(s.channels == 1);  // the compared channel alone: what the gap step keeps (kept_gap_record)
     CHECK(s.rate == 20000);
   }
   storage::Database d(cfg.storage.database, storage::Database::Mode::read_only);

@@ -15,7 +15,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 7> kMigrations{
+constexpr std::array<const char*, 9> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -511,6 +511,37 @@ CREATE VIEW predictions AS
          (SELECT group_concat(f.flag, ',') FROM model_run_forecast_flags f WHERE f.run_id = m.id) AS forecast_flags,
          m.forecast_evidence
   FROM model_runs m WHERE m.advanced = 1;
+  )SQL",
+    // 8 -> 9: what the periodic gap diagnosis keeps between records (docs/gap.md, "Persistence"):
+    // its schedule's counters per gear pair and the records the next diagnosis can use (the compared
+    // channel's samples, the tacho edges and the wear state at each), written with each record's model
+    // run, so replays one capture per process diagnose like one long replay.
+    R"SQL(
+CREATE TABLE gap_schedule (
+  gear_pair INTEGER PRIMARY KEY,
+  records_added INTEGER NOT NULL,
+  since_diagnosis INTEGER NOT NULL
+);
+CREATE TABLE gap_kept_records (
+  id INTEGER PRIMARY KEY,
+  gear_pair INTEGER NOT NULL,
+  position INTEGER NOT NULL,
+  record_id INTEGER REFERENCES records(id),
+  model_run_id INTEGER REFERENCES model_runs(id),
+  stream_sequence INTEGER NOT NULL,
+  stream_id INTEGER NOT NULL,
+  start_index INTEGER NOT NULL,
+  sample_rate_hz REAL NOT NULL,
+  speed_hz REAL,
+  torque_nm REAL,
+  input_revolutions REAL,
+  channel INTEGER NOT NULL,
+  sample_count INTEGER NOT NULL,
+  samples BLOB NOT NULL,
+  tacho_edges TEXT NOT NULL,
+  wear_state TEXT NOT NULL,
+  UNIQUE (gear_pair, position)
+);
 )SQL",
 };
 

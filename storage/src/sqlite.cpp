@@ -106,6 +106,12 @@ Statement& Statement::bind(int index, std::string_view v) {
   return *this;
 }
 
+Statement& Statement::bind_blob(int index, const void* data, std::size_t bytes) {
+  const int rc = sqlite3_bind_blob64(stmt_, index, bytes ? data : "", static_cast<sqlite3_uint64>(bytes), SQLITE_TRANSIENT);
+  if (rc != SQLITE_OK) throw_error(db_, rc, "bind");
+  return *this;
+}
+
 Statement& Statement::bind_null(int index) {
   const int rc = sqlite3_bind_null(stmt_, index);
   if (rc != SQLITE_OK) throw_error(db_, rc, "bind");
@@ -140,6 +146,11 @@ double Statement::get_double(int col) const noexcept { return sqlite3_column_dou
 std::string Statement::get_text(int col) const {
   const auto* p = sqlite3_column_text(stmt_, col);
   return p ? std::string(reinterpret_cast<const char*>(p), static_cast<std::size_t>(sqlite3_column_bytes(stmt_, col))) : std::string{};
+}
+
+std::string Statement::get_blob(int col) const {
+  const void* p = sqlite3_column_blob(stmt_, col);
+  return p ? std::string(static_cast<const char*>(p), static_cast<std::size_t>(sqlite3_column_bytes(stmt_, col))) : std::string{};
 }
 
 std::string Statement::column_name(int col) const { return sqlite3_column_name(stmt_, col); }

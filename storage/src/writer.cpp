@@ -8,6 +8,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "gearwatch/storage/gap_kept_records.hpp"
 #include "gearwatch/storage/gap_reports.hpp"
 #include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
@@ -166,6 +167,8 @@ class BatchWriter {
       st.bind(1, m.gear_pair).bind(2, record_id).bind(3, r.summary.cycles).bind(4, r.k_wear_si).bind(5, r.k_pitting)
           .bind(6, m.state_json).run();
     }
+    // Not a part of its own: the kept record and the schedule's counters stand or fall with the run.
+    if (m.gap) write_gap_schedule_update(db_, *m.gap, record_id, run_id);
     const std::string context = "model run " + std::to_string(run_id) + " at " + std::to_string(r.observation.cycles) + " cycles";
     for (const auto issue : r.issues)
       write_part(db_, counters_, "model issue", [&] { return context + ": " + wear::to_string(issue); }, [&] {

@@ -13,6 +13,7 @@
 #include "gearwatch/dsp/wear_mechanism.hpp"
 #include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/record.hpp"
+#include "gearwatch/storage/gap_kept_records.hpp"
 #include "gearwatch/wear/updating.hpp"
 
 namespace gearwatch::storage {
@@ -141,6 +142,9 @@ struct ModelRunResult {
   std::string state_json;
   std::vector<AlertEvent> alerts;
   std::vector<std::pair<AlertKey, AlertState>> alert_states;
+  /// The periodic gap step's counters after this record and the record itself when a coming
+  /// diagnosis can use it (only when the step is enabled and the model advanced to the record).
+  std::optional<GapScheduleUpdate> gap;
 };
 
 /// One sim-to-real gap diagnosis (docs/gap-report.md) with the twin_drift transitions it caused

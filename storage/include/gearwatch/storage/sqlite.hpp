@@ -3,6 +3,7 @@
 // Threading: one Database (connection) per thread. A Database and its Statements must only be
 // used from the thread that opened it; the daemon's writer thread owns the writing connection,
 // and readers (CLI, sqlite3) open their own.
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -68,6 +69,8 @@ class Statement {
   Statement& bind(int index, const char* v) { return bind(index, std::string_view{v}); }
   Statement& bind(int index, const std::string& v) { return bind(index, std::string_view{v}); }
   Statement& bind_null(int index);
+  /// The bytes as a BLOB (copied: the caller's buffer may go away before the statement runs).
+  Statement& bind_blob(int index, const void* data, std::size_t bytes);
   template <typename T>
   Statement& bind(int index, const std::optional<T>& v) { return v ? bind(index, *v) : bind_null(index); }
 
@@ -82,6 +85,8 @@ class Statement {
   std::int64_t get_int(int col) const noexcept;
   double get_double(int col) const noexcept;
   std::string get_text(int col) const;
+  /// A BLOB's bytes (empty for NULL or a zero-length BLOB).
+  std::string get_blob(int col) const;
   std::string column_name(int col) const;
   /// The type of the current row's value in `col`.
   ColumnType column_type(int col) const noexcept;
