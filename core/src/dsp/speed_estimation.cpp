@@ -155,7 +155,7 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   // large part of the record). The second pass sizes its frames from what this one found.
   const std::size_t first_length =
       std::min(next_power_of_two(static_cast<std::size_t>(std::ceil(kRevsPerFrame * fs / std::max(low, high / 4.0)))), cap);
-  scan_frames(x, fs, first_length, first_length / 2, nullptr, low, high, coarse_);
+  scan_frames(x, fs, first_length, first_length, nullptr, low, high, coarse_);
   for (auto& f : coarse_) f.speed = std::clamp(f.speed, low, high);
   median_of_three(coarse_.size(), [&](std::size_t i) { return coarse_[i].speed; }, [&](std::size_t i, double v) { coarse_[i].speed = v; });
   double slowest = high;
@@ -313,9 +313,11 @@ SpeedEstimator::Frame SpeedEstimator::search_frame(double fs, std::size_t length
   double best_score = -1.0;
   const double step = 0.5 * df / (z1 * harmonics);  // the highest harmonic moves half a bin
   for (double f = low; f <= high; f += step) {
-    double score = 0.0;
-    for (int h = 1; h <= harmonics; ++h)
-      if (z1 * h * f < top) score += std::max(0.0, snr_at(z1 * h * f) - kMinLineSnr);  // lines only, not noise
+    // Weights 0.84^(h-1) (Hermes' subharmonic summation): a speed k times too low also meets the
+    // true lines, at harmonics k, 2k, ..., and must not tie with the true one.
+    double score = 0.0, weight = 1.0;
+    for (int h = 1; h <= harmonics; ++h, weight *= 0.84)
+      if (z1 * h * f < top) score += weight * std::max(0.0, snr_at(z1 * h * f) - kMinLineSnr);  // lines only, not noise
     if (score > best_score) {
       best_score = score;
       best.speed = f;
