@@ -172,7 +172,7 @@ RecordSpeed RecordProcessor::establish_speed(const Record& record, storage::Reco
   const dsp::SpeedCheck check =
       dsp::check_tacho(*edges, revs_per_edge, *estimate, record.sample_rate_hz, config_.rig.gears.pinion_teeth);
   observe_speed_check(check, out);
-  if (check.mismatch) {
+  if (check.source == dsp::SpeedSource::signal_estimate) {
     speed.source = dsp::SpeedSource::signal_estimate;
     speed.estimated_edges = estimate->edges;
   }
@@ -187,7 +187,9 @@ void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage:
   std::snprintf(text, sizeof text,
                 "tacho mean speed %.6g Hz, vibration signal %.6g Hz: %+.4f %% (tolerance %.4f %%)%s", check.tacho_speed_hz,
                 check.signal_speed_hz, 100.0 * check.relative_difference, 100.0 * check.tolerance,
-                check.mismatch ? "; the record is analysed on the signal's estimate" : "; the tacho agrees again");
+                !check.mismatch ? "; the tacho agrees again"
+                : check.gross   ? "; too far apart for a tacho's error (another line followed?): the record is analysed on the tacho"
+                                : "; the record is analysed on the signal's estimate");
   if (auto e = alerts_.observe(AlertKey{AlertKind::tacho_speed_mismatch, -1}, check.mismatch, value, text, AlertHysteresis{1, 1}))
     out.alerts.push_back(std::move(*e));
 }

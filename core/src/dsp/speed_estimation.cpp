@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <numbers>
 #include <stdexcept>
+#include <utility>
 
 namespace gearwatch::dsp {
 
@@ -148,7 +149,12 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
     result_.failure = "record too short for a speed estimate";
     return false;
   }
-  const std::size_t first_length = std::min(next_power_of_two(static_cast<std::size_t>(std::ceil(kRevsPerFrame * fs / low))), cap);
+  // First-pass frames hold four revolutions at a quarter of the highest speed searched: long
+  // enough to resolve a mesh line at the speeds a record usually has, short enough that a run-up
+  // or a fluctuation barely smears it (frames for the lowest speed of a wide range would span a
+  // large part of the record). The second pass sizes its frames from what this one found.
+  const std::size_t first_length =
+      std::min(next_power_of_two(static_cast<std::size_t>(std::ceil(kRevsPerFrame * fs / std::max(low, high / 4.0)))), cap);
   scan_frames(x, fs, first_length, first_length, nullptr, low, high, coarse_);
   for (auto& f : coarse_) f.speed = std::clamp(f.speed, low, high);
   median_of_three(coarse_.size(), [&](std::size_t i) { return coarse_[i].speed; }, [&](std::size_t i, double v) { coarse_[i].speed = v; });
@@ -157,18 +163,19 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   const std::size_t length =
       std::min(next_power_of_two(static_cast<std::size_t>(std::ceil(kRevsPerFrame * fs / (0.8 * slowest)))), cap);
   scan_frames(x, fs, length, length / 2, &coarse_, low, high, fine_);
-  // The harmonic that stands highest over the record.
-  int best = 0;
-  double best_snr = -1.0;
+  // The line to demodulate: the lowest harmonic standing within 6 dB of the highest (median over
+  // the frames). A higher harmonic holds the angle more finely, but its phase swings h times as far
+  // under a speed fluctuation, beyond what the coarse track can hand the refinement.
+  std::vector<double> medians;
   for (int h = 0; h < settings_.harmonics; ++h) {
     std::vector<double> snr;
     for (const auto& f : fine_) snr.push_back(f.snr[static_cast<std::size_t>(h)]);
-    const double m = median(snr);
-    if (m > best_snr) {
-      best_snr = m;
-      best = h;
-    }
+    medians.push_back(median(snr));
   }
+  const double highest = *std::max_element(medians.begin(), medians.end());
+  int best = 0;
+  while (medians[static_cast<std::size_t>(best)] < highest - kMinLineSnr) ++best;
+  const double best_snr = medians[static_cast<std::size_t>(best)];
   if (fine_.size() < 2 || best_snr < kMinLineSnr) {
     char text[160];
     std::snprintf(text, sizeof text, "no gear-mesh line found between %.3g and %.3g Hz of shaft speed (best median %.1f dB above the floor)",
@@ -249,6 +256,48 @@ void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start,
   floor_ = std::move(snr);  // floor_ now holds the clipped log-SNR per bin
 }
 
+// The harmonic sum's octave errors. At k times the true speed its harmonics fall on the true mesh
+// harmonics k, 2k, ..., which may outscore 1, 2, 3 (a gearbox whose first mesh harmonic is weak);
+// at 1/k of it, on a signal with fewer mesh harmonics than searched, the true lines score the same
+// at every k-th harmonic. Both are told by the lines in between: a speed's harmonics that are not
+// multiples of k (h % k != 0) against those that are, as mean log-SNRs above the 6 dB a line needs
+// (noise then scores ~0), over the searched span. At
+// the true speed both sets hold lines; at k times too low the first set holds none (taken: k·f when
+// it stands below a quarter of the second); at k times too high the lines of f/k in between are
+// real (taken: f/k when they stand at least half as high as f's own).
+template <class SnrAt>
+double SpeedEstimator::resolve_octave(double speed, double low, double high, double top, SnrAt snr_at) const {
+  const int z1 = settings_.pinion_teeth;
+  // Mean log-SNR of f's harmonics 1..count with (h % k != 0) and with (h % k == 0).
+  auto split = [&](double f, int k, int count) {
+    double between = 0.0, multiples = 0.0;
+    int n_between = 0, n_multiples = 0;
+    for (int h = 1; h <= count && z1 * h * f < top; ++h) {
+      const double v = std::max(0.0, snr_at(z1 * h * f) - kMinLineSnr);  // lines only, as in the score
+      if (h % k == 0) {
+        multiples += v;
+        ++n_multiples;
+      } else {
+        between += v;
+        ++n_between;
+      }
+    }
+    const bool ok = n_between > 0 && n_multiples > 0;
+    return std::pair{ok ? between / n_between : -1.0, ok ? multiples / n_multiples : -1.0};
+  };
+  for (int k = 3; k >= 2; --k) {  // too low?
+    if (speed * k > high) continue;
+    const auto [between, multiples] = split(speed, k, settings_.harmonics);
+    if (multiples > 0.0 && between >= 0.0 && between < 0.25 * multiples) return speed * k;
+  }
+  for (int k = 3; k >= 2; --k) {  // too high?
+    if (speed / k < low) continue;
+    const auto [between, multiples] = split(speed / k, k, settings_.harmonics * k);
+    if (multiples > 0.0 && between >= 0.5 * multiples) return speed / k;
+  }
+  return speed;
+}
+
 SpeedEstimator::Frame SpeedEstimator::search_frame(double fs, std::size_t length, double low, double high) {
   const double df = fs / static_cast<double>(length);
   const int z1 = settings_.pinion_teeth, harmonics = settings_.harmonics;
@@ -264,14 +313,17 @@ SpeedEstimator::Frame SpeedEstimator::search_frame(double fs, std::size_t length
   double best_score = -1.0;
   const double step = 0.5 * df / (z1 * harmonics);  // the highest harmonic moves half a bin
   for (double f = low; f <= high; f += step) {
-    double score = 0.0;
-    for (int h = 1; h <= harmonics; ++h)
-      if (z1 * h * f < top) score += snr_at(z1 * h * f);
+    // Weights 0.84^(h-1) (Hermes' subharmonic summation): a speed k times too low also meets the
+    // true lines, at harmonics k, 2k, ..., and must not tie with the true one.
+    double score = 0.0, weight = 1.0;
+    for (int h = 1; h <= harmonics; ++h, weight *= 0.84)
+      if (z1 * h * f < top) score += weight * std::max(0.0, snr_at(z1 * h * f) - kMinLineSnr);  // lines only, not noise
     if (score > best_score) {
       best_score = score;
       best.speed = f;
     }
   }
+  best.speed = resolve_octave(best.speed, low, high, top, snr_at);
   // Each harmonic's line near the chosen speed, refined by a parabola through the log power.
   best.line_speed.assign(static_cast<std::size_t>(harmonics), best.speed);
   best.snr.assign(static_cast<std::size_t>(harmonics), 0.0);
@@ -460,7 +512,8 @@ SpeedCheck check_tacho(std::span<const double> tacho_edges, double input_revs_pe
   c.relative_difference = (tacho_revs - signal_revs) / signal_revs;
   c.tolerance = speed_tolerance(estimate, signal_revs, pinion_teeth);
   c.mismatch = std::abs(c.relative_difference) > c.tolerance;
-  c.source = c.mismatch ? SpeedSource::signal_estimate : SpeedSource::tacho;
+  c.gross = std::abs(c.relative_difference) > kGrossSpeedDifference;
+  c.source = c.mismatch && !c.gross ? SpeedSource::signal_estimate : SpeedSource::tacho;
   return c;
 }
 

@@ -43,7 +43,7 @@ struct SpeedEstimationSettings {
   int gear_teeth = 52;            ///< z2, on the output shaft
   double min_speed_hz = 0.5;      ///< search range of the input shaft's speed
   double max_speed_hz = 60.0;
-  int harmonics = 3;              ///< mesh harmonics in the search (the line used is one of them)
+  int harmonics = 10;             ///< mesh harmonics in the search (the line used is one of them)
   int iterations = 3;             ///< refinement passes
   /// The estimate is refused when its window phases scatter more than this (radians, standard
   /// deviation between independent windows): beyond ~π/8 the unwrapping between neighbouring
@@ -94,6 +94,8 @@ class SpeedEstimator {
                    const std::vector<Frame>* guide, double low, double high, std::vector<Frame>& frames);
   void frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length);
   Frame search_frame(double fs, std::size_t length, double low, double high);
+  template <class SnrAt>
+  double resolve_octave(double speed, double low, double high, double top, SnrAt snr_at) const;
   void coarse_angle(std::span<const float> x, double fs);
   double refine(std::span<const float> x, double fs, int order);
   void demodulate(std::span<const float> x, int order);
@@ -109,10 +111,17 @@ class SpeedEstimator {
   std::vector<double> segment_re_, segment_im_, grid_re_, grid_im_, phase_;
 };
 
+/// A disagreement beyond this (relative) is not a tacho's small error: the estimate more likely
+/// followed another line (a harmonic sum's octave, a foreign tone), and a tacho that far off the
+/// speed frame is refused by the record assembler's own 10 % check. The tacho is kept; the alert
+/// is still raised.
+inline constexpr double kGrossSpeedDifference = 0.10;
+
 /// The decision for one record: which angle the analysis uses, and whether the tacho disagrees.
 struct SpeedCheck {
   SpeedSource source = SpeedSource::tacho;
   bool mismatch = false;          ///< tacho and estimate differ by more than the tolerance
+  bool gross = false;             ///< ... by more than kGrossSpeedDifference: the tacho is kept
   double tacho_speed_hz = 0.0;    ///< mean over the tacho edges' span (0 = no tacho)
   double signal_speed_hz = 0.0;   ///< the estimate's mean over the same span (0 = no estimate)
   double relative_difference = 0.0;  ///< (tacho - signal) / signal
@@ -129,7 +138,8 @@ double speed_tolerance(const SpeedEstimate& estimate, double revolutions, int pi
 
 /// Compares a tacho's edges (input shaft, `input_revs_per_edge` input revolutions between
 /// successive edges) with the estimate over the tacho's span. With no usable estimate the tacho is
-/// used as it is (source tacho, no mismatch).
+/// used as it is (source tacho, no mismatch). A mismatch within kGrossSpeedDifference switches the
+/// source to the estimate.
 SpeedCheck check_tacho(std::span<const double> tacho_edges, double input_revs_per_edge, const SpeedEstimate& estimate,
                        double sample_rate_hz, int pinion_teeth);
 
