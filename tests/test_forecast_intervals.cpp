@@ -350,7 +350,7 @@ ModelSettings closed_form_settings() {
 
 }  // namespace
 
-TEST_CASE("forecast intervals: a truth whose K doubles widens the interval and says so; a stationary one does not",
+TEST_CASE("forecast intervals: a truth whose K doubles widens the interval and says so, and a stationary one does not",
           "[model][updating][intervals]") {
   ModelSettings s = closed_form_settings();
   const ClosedFormTwin twin(s);
@@ -380,7 +380,7 @@ TEST_CASE("forecast intervals: a truth whose K doubles widens the interval and s
   }
 }
 
-TEST_CASE("forecast intervals: no interval excludes a pitting limit the ICS2 estimate has reached; an ICS2 trend ahead sets the near end",
+TEST_CASE("forecast intervals: no interval excludes a pitting limit the ICS2 estimate has reached, and an ICS2 trend ahead sets the near end",
           "[model][updating][intervals]") {
   ModelSettings s = closed_form_settings();
   const ClosedFormTwin twin(s);

@@ -119,7 +119,7 @@ TEST_CASE("gap schedule: it keeps exactly what a coming diagnosis uses, and rest
       }
 }
 
-TEST_CASE("storage: a kept gap record and its wear state read back exactly; rows no coming diagnosis uses are deleted",
+TEST_CASE("storage: a kept gap record and its wear state read back exactly, and rows no coming diagnosis uses are deleted",
           "[gap_diagnose][storage]") {
   const testing::TempDir dir("gap-kept");
   storage::Database db((dir / "k.db").string());

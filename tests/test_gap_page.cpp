@@ -167,15 +167,16 @@ TEST_CASE("gap page: loading needs a stored report, and gap report says so and w
     CHECK(count(html, "<li class=\"sev-warning drift-alert\"><b>fixed_frequency</b> 12.6 dB since ") == 1);
     CHECK(html.find(": differ in fixed_frequency &lt;by&gt; 12.6 dB</li>") != std::string::npos);
   }
-  const auto ok = testing::run_command(std::string(GEARWATCH_BINARY) + " gap report --db " + path + " --out " + (dir / "out").string());
+  const auto ok = testing::run_command(std::string(GEARWATCH_BINARY) + " gap report --format table --db " + path + " --out " +
+                                       (dir / "out").string());
   CHECK(ok.status == 0);
   CHECK(ok.out.find("gap report #3 of 3, 3 significant families, 1 chosen effects, 1 unexplained") != std::string::npos);
   std::ifstream page(dir / "out" / "index.html");
   std::stringstream text;
   text << page.rdbuf();
   CHECK(count(text.str(), "<tr class=\"history-row\">") == 3);
-  // The newest report's features and bounds printed: a table after the summary, or JSON alone on
-  // standard output (the summary then on standard error).
+  // The newest report printed with its features and bounds: a table before the summary, or JSON
+  // alone on standard output (the summary then on standard error).
   CHECK(ok.out.find(", 2 features") != std::string::npos);
   CHECK(ok.out.find("fixed_in_hz      input       240.33     2403.1    2385.0-2425.0        +11.75 [+11.50, +12.00] 2") !=
         std::string::npos);
@@ -185,7 +186,7 @@ TEST_CASE("gap page: loading needs a stored report, and gap report says so and w
   CHECK(json_run.status == 0);
   CHECK(json_run.err.find(", 2 features") != std::string::npos);
   const auto doc = nlohmann::json::parse(json_run.out);
-  CHECK(doc.at("report") == 3);
+  CHECK(doc.at("id") == 3);
   REQUIRE(doc.at("features").size() == 2);
   CHECK(doc["features"][0]["movement"] == "fixed_in_hz");
   CHECK(doc["features"][0]["hz"] == 2403.125);
