@@ -16,22 +16,14 @@
 #include <catch2/catch.hpp>
 
 #include "gearwatch/wear/updating.hpp"
+#include "model_observation.hpp"
 
 using namespace gearwatch;
 using namespace gearwatch::wear;
 
 namespace {
 
-ModelObservation observation(double cycles, double speed, double torque, std::optional<double> rms = {},
-                             std::optional<double> ics2 = {}) {
-  ModelObservation o;
-  o.cycles = cycles;
-  o.speed_hz = speed;
-  o.torque_nm = torque;
-  o.rms_sa = rms;
-  o.ics2_low = ics2;
-  return o;
-}
+using gearwatch::testing::observation;
 
 bool has_flag(const Forecast& f, ForecastFlag flag) { return std::count(f.flags.begin(), f.flags.end(), flag) > 0; }
 

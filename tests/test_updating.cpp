@@ -4,6 +4,7 @@
 // is linear in its pitting density (the Ch. 4 finding the seed's scale rests on). The model starts
 // from wrong coefficients and must find the truth's.
 #include "gearwatch/wear/updating.hpp"
+#include "model_observation.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -23,16 +24,7 @@ using namespace gearwatch::wear;
 
 namespace {
 
-ModelObservation observation(double cycles, double speed, double torque, std::optional<double> rms = {},
-                             std::optional<double> ics2 = {}) {
-  ModelObservation o;
-  o.cycles = cycles;
-  o.speed_hz = speed;
-  o.torque_nm = torque;
-  o.rms_sa = rms;
-  o.ics2_low = ics2;
-  return o;
-}
+using gearwatch::testing::observation;
 
 double depth_mean(const WearState& s) { return summarise(s).combined_mean_depth_m; }
 
