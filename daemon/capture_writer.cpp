@@ -112,8 +112,9 @@ CaptureSummary write_capture(const CaptureSettings& cs, CaptureSignal& rig, cons
       emit(acq::make_stream_header(cs.ids, static_cast<std::uint32_t>(fs), static_cast<std::uint8_t>(channel_count),
                                    cs.stream_id),
            i);
+      const double speed = rig.speed_hz_at(i);
       auto cond = acq::make_operating_condition(cs.ids, static_cast<float>(cs.signal.torque_nm),
-                                                static_cast<float>(cs.signal.speed_hz), index32);
+                                                static_cast<float>(std::isfinite(speed) ? speed : cs.signal.speed_hz), index32);
       if (!cs.fd) {  // classic frames carry at most 8 bytes: the form without an index
         cond.fd = false;
         cond.len = 8;
@@ -123,13 +124,15 @@ CaptureSummary write_capture(const CaptureSettings& cs, CaptureSignal& rig, cons
     const bool life_due = i >= next_meta;
     if (life_due) next_meta += per_second;
     for (double edge : rig.tacho_edges(static_cast<double>(i), static_cast<double>(i + n), cs.edges_per_rev)) {
-      emit(acq::make_tacho_frame(cs.ids, 0, edge + cs.first_index), i);
+      emit(acq::make_tacho_frame(cs.ids, cs.tacho_shaft, edge + cs.first_index), i);
       ++summary.tacho_edges;
     }
     rig.generate(i, n, block);
     for (int c = 0; c < channel_count; ++c) {
+      const double scale = cs.channel_scales_m_s2_per_lsb.empty() ? cs.scale_m_s2_per_lsb
+                                                                  : cs.channel_scales_m_s2_per_lsb.at(static_cast<std::size_t>(c));
       for (std::size_t k = 0; k < n; ++k) {
-        double q = std::round(block[static_cast<std::size_t>(c)][k] / cs.scale_m_s2_per_lsb);
+        double q = std::round(block[static_cast<std::size_t>(c)][k] / scale);
         if (std::fabs(q) > full_scale) {
           q = std::copysign(full_scale, q);
           ++summary.clipped_samples;

@@ -2,6 +2,7 @@
 // Writes a protocol-v1 capture (candump -L log): `gearwatch simulate`. The signal comes from a
 // CaptureSignal: the synthetic rig (known content) or the digital twin's casing acceleration.
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -23,6 +24,9 @@ class CaptureSignal {
   virtual void generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) = 0;
   /// Tacho edge positions (fractional samples) in [from, to), `edges_per_rev` per revolution.
   virtual std::vector<double> tacho_edges(double from, double to, int edges_per_rev) const = 0;
+  /// The input speed (Hz) the operating-condition frame at sample `index` carries; NaN (the
+  /// default) = CaptureSettings::signal.speed_hz throughout.
+  virtual double speed_hz_at(std::uint64_t /*index*/) const { return std::numeric_limits<double>::quiet_NaN(); }
 };
 
 /// The synthetic rig of known content (core/synthetic_rig.hpp).
@@ -42,7 +46,10 @@ struct CaptureSettings {
   double start_time_s = 1700000000.0;    ///< candump timestamp of sample 0
   std::uint32_t first_index = 0;         ///< sample index of sample 0 (u32, wraps)
   int edges_per_rev = 1;
+  int tacho_shaft = 0;                   ///< the protocol shaft the input tacho's edges go out on
   double scale_m_s2_per_lsb = 0.01;
+  /// Per channel (m/s² per LSB), e.g. each configured channel's own; empty = scale_m_s2_per_lsb for all.
+  std::vector<double> channel_scales_m_s2_per_lsb;
   std::string interface = "can0";
   acquisition::ProtocolIds ids;
 };

@@ -14,6 +14,8 @@ struct CommandError : std::runtime_error {
 void register_run(CLI::App& app);
 void register_replay(CLI::App& app);
 void register_simulate(CLI::App& app);
+/// `import`: a DAQ recording (WAV, CSV, .mat) as a capture (cmd_import.cpp).
+void register_import(CLI::App& app);
 void register_query(CLI::App& app);
 void register_inspect(CLI::App& app);
 void register_twin(CLI::App& app);

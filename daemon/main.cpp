@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   gearwatch::cli::register_run(app);
   gearwatch::cli::register_replay(app);
   gearwatch::cli::register_simulate(app);
+  gearwatch::cli::register_import(app);
   gearwatch::cli::register_query(app);
   gearwatch::cli::register_inspect(app);
   gearwatch::cli::register_twin(app);

@@ -1,0 +1,114 @@
+#!/usr/bin/env python3
+"""Independent writer of DAQ recordings for the `gearwatch import` tests (tests/test_daq_import.cpp).
+
+Writes one known signal in the forms a test bench's recorder gives, with Python's own `wave`
+module, numpy text output and scipy.io.savemat (MATLAB v5): nothing here shares code with
+gearwatch's readers (libsndfile, libmatio) or its capture writer.
+
+The signal: a 23-tooth pinion at a constant SPEED_HZ; gear-mesh harmonics 2.4, 1.2, 0.6 m/s^2
+and 0.5 m/s^2 (rms) of seeded white noise, sampled at FS_HZ. A once-per-revolution tacho: a
+rectangular pulse, high for the first quarter of each revolution counted from TACHO_PHASE
+revolutions after the first sample, so its rising edges are at (k + TACHO_PHASE) * FS_HZ / SPEED_HZ.
+
+Files written into --out DIR:
+  accel.f64       the signal in m/s^2 (little-endian float64), the reference of every comparison
+  codes.i16       round(accel / 0.01): the samples a capture at 0.01 m/s^2 per LSB carries
+  edges.f64       the tacho's true rising-edge positions in samples
+  rec.wav         16-bit PCM, 2 channels: codes (full scale 32768 codes = 327.68 m/s^2) and the tacho (0 / 16384)
+  rec.mat         v5: accel (N x 1 double, codes * 0.01 m/s^2), fs (scalar), info (a struct)
+  rec.csv         header time,accel_g,tacho_V: time i/fs, the signal in g (17 digits), tacho 0 / 5 V
+and the refused ones: rate8k.wav (8 kHz), short.wav (0.5 s), clipped.wav (one sample at +32767),
+bad_cell.csv (a cell "abc" on line 7), nan.csv (a "nan" on line 5).
+"""
+
+import argparse
+import math
+import os
+import wave
+
+import numpy as np
+import scipy.io
+
+FS_HZ = 25600
+SPEED_HZ = 25.3
+PINION_TEETH = 23
+HARMONICS = (2.4, 1.2, 0.6)
+NOISE_RMS = 0.5
+TACHO_PHASE = 0.3
+STANDARD_GRAVITY = 9.80665
+LSB = 0.01
+
+
+def signal(n, seed):
+    t = np.arange(n) / FS_HZ
+    x = np.zeros(n)
+    for h, a in enumerate(HARMONICS, start=1):
+        x += a * np.sin(2 * math.pi * h * PINION_TEETH * SPEED_HZ * t + 0.7 * h)
+    return x + np.random.default_rng(seed).normal(0.0, NOISE_RMS, n)
+
+
+def tacho(n):
+    revs = np.arange(n) * SPEED_HZ / FS_HZ - TACHO_PHASE
+    return (revs >= 0) & (np.mod(revs, 1.0) < 0.25)
+
+
+def true_edges(n):
+    per_rev = FS_HZ / SPEED_HZ
+    k = np.arange(0, int((n - 1) / per_rev - TACHO_PHASE) + 1)
+    return (k + TACHO_PHASE) * per_rev
+
+
+def write_wav(path, rate, channels):
+    frames = np.stack(channels, axis=1).astype("<i2")
+    with wave.open(path, "wb") as w:
+        w.setnchannels(frames.shape[1])
+        w.setsampwidth(2)
+        w.setframerate(rate)
+        w.writeframes(frames.tobytes())
+
+
+def write_csv(path, header, rows):
+    with open(path, "w") as f:
+        f.write(header + "\n")
+        for r in rows:
+            f.write(r + "\n")
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", required=True, help="directory to write into")
+    p.add_argument("--seconds", type=float, default=4.5)
+    p.add_argument("--seed", type=int, default=1)
+    a = p.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    n = int(round(a.seconds * FS_HZ))
+    x = signal(n, a.seed)
+    codes = np.round(x / LSB).astype(np.int16)
+    pulse = tacho(n)
+    x.astype("<f8").tofile(os.path.join(a.out, "accel.f64"))
+    codes.astype("<i2").tofile(os.path.join(a.out, "codes.i16"))
+    true_edges(n).astype("<f8").tofile(os.path.join(a.out, "edges.f64"))
+
+    write_wav(os.path.join(a.out, "rec.wav"), FS_HZ, [codes, np.where(pulse, 16384, 0)])
+    scipy.io.savemat(os.path.join(a.out, "rec.mat"),
+                     {"accel": (codes.astype(np.float64) * LSB).reshape(-1, 1), "fs": float(FS_HZ),
+                      "info": {"rig": "test bench", "teeth": PINION_TEETH}},
+                     format="5")
+    rows = ["%.9f,%.17g,%d" % (i / FS_HZ, x[i] / STANDARD_GRAVITY, 5 if pulse[i] else 0) for i in range(n)]
+    write_csv(os.path.join(a.out, "rec.csv"), "time,accel_g,tacho_V", rows)
+
+    write_wav(os.path.join(a.out, "rate8k.wav"), 8000, [codes[:3 * 8000]])
+    write_wav(os.path.join(a.out, "short.wav"), FS_HZ, [codes[:FS_HZ // 2]])
+    clipped = codes.copy()
+    clipped[1000] = 32767
+    write_wav(os.path.join(a.out, "clipped.wav"), FS_HZ, [clipped])
+    bad = list(rows)
+    bad[5] = bad[5].split(",")[0] + ",abc,0"     # line 7: the header is line 1
+    write_csv(os.path.join(a.out, "bad_cell.csv"), "time,accel_g,tacho_V", bad)
+    nan = list(rows)
+    nan[3] = nan[3].split(",")[0] + ",nan,0"     # line 5
+    write_csv(os.path.join(a.out, "nan.csv"), "time,accel_g,tacho_V", nan)
+
+
+if __name__ == "__main__":
+    main()

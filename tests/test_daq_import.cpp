@@ -1,0 +1,280 @@
+// `gearwatch import`, end to end through the binary: recordings written independently
+// (tests/capture_gen/daq_recordings.py: Python's wave module, numpy text, scipy's MATLAB v5
+// writer) from one known signal are imported, the captures decoded here from their candump lines
+// and replayed. The direct capture they are held against is the existing capture writer's, fed
+// the same samples.
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "capture_writer.hpp"
+#include "command_runner.hpp"
+#include "gearwatch/acquisition/candump_log.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+#include "temp_dir.hpp"
+
+namespace fs = std::filesystem;
+using gearwatch::testing::run_command;
+
+namespace {
+
+// The generator's signal (tests/capture_gen/daq_recordings.py).
+constexpr double kFs = 25600.0;
+constexpr double kSpeedHz = 25.3;
+constexpr double kLsb = 0.01;  // [[channels]] scale of the config below, m/s² per LSB
+
+std::string q(const fs::path& p) { return "'" + p.native() + "'"; }
+
+template <class T>
+std::vector<T> read_binary(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::vector<char> bytes{std::istreambuf_iterator<char>(in), {}};
+  std::vector<T> v(bytes.size() / sizeof(T));
+  std::memcpy(v.data(), bytes.data(), v.size() * sizeof(T));
+  return v;
+}
+
+void generate(const gearwatch::testing::TempDir& dir) {
+  const auto r = run_command(std::string(GEARWATCH_PYTHON) + " " + q(fs::path(GEARWATCH_SOURCE_DIR) / "tests/capture_gen/daq_recordings.py") +
+                             " --out " + q(dir.path()));
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+}
+
+fs::path write_config(const gearwatch::testing::TempDir& dir) {
+  const auto path = dir / "gearwatch.toml";
+  std::ofstream(path) << "[rig]\nsample_rate_hz = 25600\n[gears]\npinion_teeth = 23\ngear_teeth = 46\n"
+                         "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
+                         "[records]\nlength_s = 2\ninterval_s = 2\nmin_length_s = 1\n[model]\nenabled = false\n";
+  return path;
+}
+
+gearwatch::testing::CommandResult gw(const std::string& args) {
+  return run_command(std::string(GEARWATCH_BINARY) + " " + args);
+}
+
+void must(const std::string& args) {
+  const auto r = gw(args);
+  INFO(args << "\n" << r.err);
+  REQUIRE(r.status == 0);
+}
+
+// What a capture carries, decoded from its lines with the protocol's default ids: channel 0's
+// samples placed by their frame's first index, the tacho edges and the condition frames.
+struct Decoded {
+  std::vector<std::int16_t> samples;
+  std::vector<double> edges;
+  struct Condition {
+    double torque, speed;
+    std::uint32_t index;
+  };
+  std::vector<Condition> conditions;
+  std::uint32_t rate = 0;
+};
+
+template <class T>
+T le(const std::uint8_t* p) {
+  T v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+Decoded decode(const fs::path& capture) {
+  Decoded d;
+  std::ifstream in(capture);
+  std::string line, reason;
+  while (std::getline(in, line)) {
+    const auto parsed = gearwatch::acquisition::parse_candump_line(line, reason);
+    REQUIRE(parsed);
+    const auto& f = parsed->frame;
+    if (f.id == 0x100) {
+      const auto first = le<std::uint32_t>(f.data.data());
+      const std::size_t n = (f.len - 4u) / 2u;
+      if (d.samples.size() < first + n) d.samples.resize(first + n);
+      for (std::size_t k = 0; k < n; ++k) d.samples[first + k] = le<std::int16_t>(f.data.data() + 4 + 2 * k);
+    } else if (f.id == 0x180) {
+      d.edges.push_back(le<std::uint32_t>(f.data.data()) + le<std::uint32_t>(f.data.data() + 4) / 4294967296.0);
+    } else if (f.id == 0x1F1 && f.len == 12) {
+      d.conditions.push_back({le<float>(f.data.data()), le<float>(f.data.data() + 4), le<std::uint32_t>(f.data.data() + 8)});
+    } else if (f.id == 0x1F0) {
+      d.rate = le<std::uint32_t>(f.data.data());
+    }
+  }
+  return d;
+}
+
+std::vector<std::string> rows(const fs::path& db, const std::string& sql) {
+  gearwatch::storage::Database d(db.string(), gearwatch::storage::Database::Mode::read_only);
+  gearwatch::storage::Statement s(d, sql);
+  std::vector<std::string> out;
+  while (s.step()) {
+    std::string row;
+    for (int c = 0; c < s.column_count(); ++c) row += (s.is_null(c) ? std::string("NULL") : s.get_text(c)) + "|";
+    out.push_back(row);
+  }
+  return out;
+}
+
+/// Replays `capture` into a fresh database: the records and their indicator values.
+struct Replayed {
+  std::vector<std::string> records, indicators;
+};
+
+Replayed replay(const gearwatch::testing::TempDir& dir, const fs::path& capture, const fs::path& config) {
+  const fs::path db = dir / (capture.stem().string() + ".db");
+  must("replay " + q(capture) + " --db " + q(db) + " --config " + q(config));
+  // printf('%.17g'): every value to its last bit, so "equal" means equal.
+  return {rows(db, "SELECT start_index, sample_count, end_reason, analysed, torque_nm, speed_hz FROM records ORDER BY id"),
+          rows(db, "SELECT record_id, channel, name, printf('%.17g', value) FROM indicators ORDER BY record_id, channel, name")};
+}
+
+}  // namespace
+
+TEST_CASE("import: a WAV and a .mat file replay to the same records as the capture written directly from the same samples",
+          "[import]") {
+  const gearwatch::testing::TempDir dir("daq-import-equal");
+  generate(dir);
+  const auto config = write_config(dir);
+  const auto codes = read_binary<std::int16_t>(dir / "codes.i16");
+  REQUIRE(codes.size() == 115200);
+
+  // The existing writer, given the samples (codes × 0.01 m/s²) and a tacho at the nameplate speed.
+  std::vector<float> x(codes.size());
+  for (std::size_t i = 0; i < codes.size(); ++i) x[i] = static_cast<float>(codes[i] * kLsb);
+  std::vector<double> edges;
+  for (double k = 1; k * kFs / kSpeedHz < static_cast<double>(codes.size()); ++k) edges.push_back(k * kFs / kSpeedHz);
+  gearwatch::daemon::CaptureSettings cs;
+  cs.signal.sample_rate_hz = kFs;
+  cs.signal.channels = 1;
+  cs.signal.speed_hz = kSpeedHz;
+  cs.signal.torque_nm = 20.0;
+  cs.duration_s = static_cast<double>(codes.size()) / kFs;
+  auto signal = gearwatch::daemon::sampled_capture_signal(kFs, x, edges);
+  gearwatch::daemon::write_capture(cs, *signal, (dir / "direct.log").string());
+
+  // WAV: 16-bit codes at full scale 1.0 = 32768 codes, so --scale 327.68 m/s² gives 0.01 m/s² a code.
+  must("import " + q(dir / "rec.wav") + " --out " + q(dir / "wav.log") + " --map 0=casing_y --scale 327.68 --speed 25.3 --torque 20 --config " + q(config));
+  // .mat: accel in m/s², fs from the file's variable.
+  must("import " + q(dir / "rec.mat") + " --out " + q(dir / "mat.log") + " --speed 25.3 --torque 20 --config " + q(config));
+
+  // The captures carry the file's samples exactly: they are whole codes of the capture's LSB.
+  for (const char* name : {"wav.log", "mat.log"}) {
+    const Decoded d = decode(dir / name);
+    INFO(name);
+    CHECK(d.rate == 25600);
+    CHECK(d.samples == codes);
+    CHECK(d.edges.size() == edges.size());
+  }
+  const Replayed direct = replay(dir, dir / "direct.log", config);
+  REQUIRE(direct.records.size() == 2);
+  REQUIRE(direct.indicators.size() > 20);
+  const Replayed wav = replay(dir, dir / "wav.log", config);
+  const Replayed mat = replay(dir, dir / "mat.log", config);
+  CHECK(wav.records == direct.records);
+  CHECK(wav.indicators == direct.indicators);
+  CHECK(mat.records == direct.records);
+  CHECK(mat.indicators == direct.indicators);
+}
+
+TEST_CASE("import: a CSV in g with a time column and a tacho column comes back within half an LSB and the tacho's speed",
+          "[import]") {
+  const gearwatch::testing::TempDir dir("daq-import-csv");
+  generate(dir);
+  const auto config = write_config(dir);
+  const auto accel = read_binary<double>(dir / "accel.f64");
+  const auto true_edges = read_binary<double>(dir / "edges.f64");
+  must("import " + q(dir / "rec.csv") + " --out " + q(dir / "csv.log") + " --tacho tacho_V --unit g --torque 20 --config " + q(config));
+  const Decoded d = decode(dir / "csv.log");
+  CHECK(d.rate == 25600);  // from the time column
+  REQUIRE(d.samples.size() == accel.size());
+  // Rounding to the LSB moves a sample by at most half of it; the g → m/s² product and the
+  // 17-digit text add ~1e-15 m/s².
+  double worst = 0;
+  for (std::size_t i = 0; i < accel.size(); ++i) worst = std::max(worst, std::fabs(d.samples[i] * kLsb - accel[i]));
+  CHECK(worst <= kLsb / 2 + 1e-9);
+  CHECK(worst > kLsb / 2 * 0.99);  // the bound is reached: the samples really were quantised, not copied
+
+  // Tacho pulses (0 / 5 V rectangles): each rising edge is located between the last sample below
+  // the mid level and the first above it, so within 1 sample of the true crossing.
+  REQUIRE(d.edges.size() == true_edges.size());
+  double edge_error = 0;
+  for (std::size_t k = 0; k < true_edges.size(); ++k) edge_error = std::max(edge_error, std::fabs(d.edges[k] - true_edges[k]));
+  CHECK(edge_error <= 1.0);
+  // Each condition frame's speed is the mean over the edges within ±0.5 s of it: with each end
+  // within a sample, relatively within 2 / span (span = those true edges' extent in samples).
+  REQUIRE(d.conditions.size() == 5);
+  for (const auto& c : d.conditions) {
+    std::vector<double> in;
+    for (double e : true_edges)
+      if (e >= c.index - kFs / 2 && e < c.index + kFs / 2) in.push_back(e);
+    REQUIRE(in.size() >= 2);
+    const double bound = 2.0 / (in.back() - in.front()) + 1e-7;  // + float32
+    CHECK(std::fabs(c.speed / kSpeedHz - 1.0) <= bound);
+    CHECK(c.torque == 20.0);
+  }
+
+  const Replayed r = replay(dir, dir / "csv.log", config);
+  REQUIRE(r.records.size() == 2);
+  const fs::path db = dir / "csv.db";
+  CHECK(rows(db, "SELECT speed_source FROM records WHERE analysed = 1 ORDER BY id") == std::vector<std::string>{"tacho|", "tacho|"});
+  // Over a 2 s record (50 edges, span ~ 49 600 samples) the tacho's mean speed is within
+  // 2 / 49 600 = 4.0e-5 of the true one.
+  for (const auto& v : rows(db, "SELECT value FROM indicators WHERE channel = 0 AND name = 'input_speed_hz'"))
+    CHECK(std::stod(v) == Approx(kSpeedHz).epsilon(4.1e-5));
+}
+
+TEST_CASE("import: each refusal prints one line and writes nothing", "[import]") {
+  const gearwatch::testing::TempDir dir("daq-import-refusals");
+  generate(dir);
+  const auto config = write_config(dir);
+  const std::string common = " --torque 20 --config " + q(config);
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {q(dir / "rate8k.wav") + " --speed 25", "sample rate 8000 Hz is outside 10-200 kHz"},
+      {q(dir / "short.wav") + " --speed 25", "shorter than one record"},
+      {q(dir / "rec.wav") + " --map 5=casing_y --scale 327.68", "no channel 5 in the recording"},
+      {q(dir / "rec.wav") + " --tacho 7", "no channel 7 in the recording"},
+      {q(dir / "rec.wav") + " --map 0=casing_q", "no configured channel casing_q"},
+      {q(dir / "bad_cell.csv") + " --unit g", "line 7, column 2: not a number: \"abc\""},
+      {q(dir / "nan.csv") + " --tacho tacho_V --unit g", "sample 3 is not a number"},
+      {q(dir / "clipped.wav") + " --scale 327.68", "sample 1000 sits at the file's full scale: the recording is clipped"},
+      {q(dir / "rec.mat") + " --mat-variable nope", "no variable nope"},
+      {q(dir / "rec.mat") + " --mat-variable info", "variable info is not a real numeric matrix"},
+      {q(dir / "rec.mat") + " --mat-variable fs", "shorter than one record"},
+      {q(dir / "rec.mat") + " --sample-rate 48000", "--sample-rate 48000 Hz disagrees with the 25600 Hz of the .mat variable"},
+      {q(dir / "rec.wav") + " --map 0=casing_y --scale 3276800", "beyond the capture's"},
+      {q(dir / "rec.csv") + " --tacho tacho_V --unit V", "--unit V needs the accelerometer's --sensitivity"},
+  };
+  // One --out that exists already (a previous capture): a refusal leaves it as it was.
+  std::ofstream(dir / "previous.log") << "(1700000000.000000) can0 1F0#A086010002010700\n";
+  const auto listing = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir.path())) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  const auto before = listing();
+  int i = 0;
+  for (const auto& [args, reason] : cases) {
+    const fs::path out = dir / (i++ % 2 == 0 ? "previous.log" : "new.log");
+    const auto r = gw("import " + args + " --out " + q(out) + common);
+    INFO(args << "\n" << r.err);
+    CHECK(r.status == 1);
+    CHECK(r.out.empty());
+    CHECK(r.err.find(reason) != std::string::npos);
+    CHECK(r.err.rfind("gearwatch: ", 0) == 0);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK(r.err.find("nothing written") != std::string::npos);
+    CHECK(listing() == before);  // no capture, no temporary file left behind
+  }
+  std::ifstream kept(dir / "previous.log");
+  std::string line;
+  std::getline(kept, line);
+  CHECK(line == "(1700000000.000000) can0 1F0#A086010002010700");
+}
