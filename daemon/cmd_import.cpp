@@ -49,14 +49,18 @@ struct MappedChannel {
   std::size_t source = 0;
   int number = 0;
   double lsb_m_s2 = 0.01;
+  std::string name;  ///< the configured channel's name ("" when that number is not configured)
 };
 
 /// The recording as a capture's signal: scaled samples, and the input shaft's edges (from the
 /// tacho channel, at a constant speed, or none).
 class RecordingSignal final : public daemon::CaptureSignal {
  public:
-  RecordingSignal(std::vector<std::vector<double>> m_s2, double fs, std::vector<double> edges, int edges_per_rev)
-      : x_(std::move(m_s2)), fs_(fs), edges_(std::move(edges)), epr_(edges_per_rev) {}
+  /// `measured_edges`: the edges come from a tacho channel, so the condition frames follow them;
+  /// otherwise they carry the given constant speed as it is.
+  RecordingSignal(std::vector<std::vector<double>> m_s2, double fs, std::vector<double> edges, int edges_per_rev,
+                  bool measured_edges)
+      : x_(std::move(m_s2)), fs_(fs), edges_(std::move(edges)), epr_(edges_per_rev), measured_(measured_edges) {}
   int channels() const override { return static_cast<int>(x_.size()); }
   double sample_rate_hz() const override { return fs_; }
   double input_revolutions_at(double t) const override {
@@ -76,6 +80,7 @@ class RecordingSignal final : public daemon::CaptureSignal {
   double speed_hz_at(std::uint64_t index) const override {
     // The condition frame's speed: the tacho's mean over the second around it, so a run-up's
     // frames follow it (the assembler checks the edge rate against this).
+    if (!measured_) return kNaN;
     const double at = static_cast<double>(index);
     return acq::speed_from_edges(edges_, epr_, fs_, at - fs_ / 2, at + fs_ / 2);
   }
@@ -85,6 +90,7 @@ class RecordingSignal final : public daemon::CaptureSignal {
   double fs_;
   std::vector<double> edges_;
   int epr_;
+  bool measured_;
 };
 
 /// The configured channel a --map target names: its name or its protocol number.
@@ -107,7 +113,7 @@ std::vector<MappedChannel> map_channels(const Options& opt, const config::Gearwa
   std::vector<MappedChannel> mapped;
   if (opt.map.empty()) {
     for (std::size_t s = 0; s < r.channels.size(); ++s)
-      if (s != tacho) mapped.push_back({s, static_cast<int>(mapped.size()), 0});
+      if (s != tacho) mapped.push_back({s, static_cast<int>(mapped.size()), 0, ""});
   }
   for (const auto& entry : opt.map) {
     const auto eq = entry.rfind('=');
@@ -122,7 +128,7 @@ std::vector<MappedChannel> map_channels(const Options& opt, const config::Gearwa
       throw CommandError("--map " + entry + ": no configured channel " + target + " (configured: " + names + ")");
     }
     if (tacho && source == *tacho) throw CommandError("--map " + entry + ": that is the tacho channel");
-    mapped.push_back({source, c->number, 0});
+    mapped.push_back({source, c->number, 0, ""});
   }
   if (mapped.empty()) throw CommandError("no vibration channel left to import (the recording's only channel is the tacho)");
   if (mapped.size() > 8) throw CommandError("the recording has " + std::to_string(mapped.size()) + " vibration channels, the protocol carries 8: choose with --map");
@@ -131,7 +137,10 @@ std::vector<MappedChannel> map_channels(const Options& opt, const config::Gearwa
     if (mapped[i].number != static_cast<int>(i))
       throw CommandError("the capture's channels must be 0 … " + std::to_string(mapped.size() - 1) + ", each once (a stream carries channels 0 … count-1): channel " +
                          std::to_string(mapped[i].number) + " is mapped " + (i > 0 && mapped[i - 1].number == mapped[i].number ? "twice" : "without the ones below it"));
-  for (auto& m : mapped) m.lsb_m_s2 = lsb_of(cfg, m.number);
+  for (auto& m : mapped) {
+    m.lsb_m_s2 = lsb_of(cfg, m.number);
+    if (const ChannelSpec* c = configured_channel(cfg, std::to_string(m.number))) m.name = c->name;
+  }
   return mapped;
 }
 
@@ -195,6 +204,7 @@ struct Imported {
   daemon::CaptureSettings cs;
   std::vector<double> edges;
   SpeedSource speed = SpeedSource::none;
+  double m_s2_per_unit = 1.0;
 };
 
 /// Every check, in the order an operator fixes them: the file, its rate and length, the channels,
@@ -210,8 +220,8 @@ Imported prepare(const Options& opt) {
   im.channels = map_channels(opt, cfg, r, tacho);
   const auto unit = acq::parse_sample_unit(opt.unit);
   if (!unit) throw CommandError("--unit " + opt.unit + ": expected m/s2, g or V", 64);
-  const double per_unit = acq::m_s2_per_file_unit({opt.scale, *unit, opt.sensitivity_mv_per_g});
-  for (const auto& m : im.channels) acq::check_channel_fits(r, m.source, per_unit, m.lsb_m_s2);
+  im.m_s2_per_unit = acq::m_s2_per_file_unit({opt.scale, *unit, opt.sensitivity_mv_per_g});
+  for (const auto& m : im.channels) acq::check_channel_fits(r, m.source, im.m_s2_per_unit, m.lsb_m_s2);
   if (tacho)
     for (double v : r.channels[*tacho])
       if (!std::isfinite(v)) throw CommandError("tacho channel " + r.names[*tacho] + " holds a sample that is not a number");
@@ -242,14 +252,13 @@ Imported prepare(const Options& opt) {
 void run_import(const Options& opt) {
   if (fs::is_directory(opt.out)) throw CommandError("--out " + opt.out + " is a directory");
   Imported im = prepare(opt);
-  const auto unit = *acq::parse_sample_unit(opt.unit);
-  const double per_unit = acq::m_s2_per_file_unit({opt.scale, unit, opt.sensitivity_mv_per_g});
   std::vector<std::vector<double>> m_s2;
   for (const auto& m : im.channels) {
     m_s2.push_back(std::move(im.recording.channels[m.source]));
-    for (double& v : m_s2.back()) v *= per_unit;
+    for (double& v : m_s2.back()) v *= im.m_s2_per_unit;
   }
-  RecordingSignal signal(std::move(m_s2), im.cs.signal.sample_rate_hz, im.edges, im.cs.edges_per_rev);
+  RecordingSignal signal(std::move(m_s2), im.cs.signal.sample_rate_hz, im.edges, im.cs.edges_per_rev,
+                         im.speed == SpeedSource::tacho_channel);
   PendingFile pending(opt.out);
   const auto s = daemon::write_capture(im.cs, signal, pending.path().string());
   pending.commit();
@@ -262,7 +271,8 @@ void run_import(const Options& opt) {
   if (im.speed != SpeedSource::none) std::cout << ", mean " << im.cs.signal.speed_hz << " Hz";
   std::cout << "\n";
   for (const auto& m : im.channels)
-    std::cout << "  " << im.recording.names[m.source] << " -> channel " << m.number << " (" << m.lsb_m_s2 << " m/s2 per LSB)\n";
+    std::cout << "  " << im.recording.names[m.source] << " -> channel " << m.number << (m.name.empty() ? "" : " " + m.name) << " ("
+              << m.lsb_m_s2 << " m/s2 per LSB)\n";
 }
 
 }  // namespace
