@@ -5,7 +5,7 @@
 #   tools/install-deps.sh --package  plus what tools/package.sh needs (dpkg-shlibdeps, file)
 #   tools/install-deps.sh --test   plus what the tests need (the vcan VM: qemu, busybox, can-utils;
 #                                  python3 with numpy for the capture generator tests/capture_gen,
-#                                  scipy for the import test's independent .mat writer;
+#                                  scipy and h5py for the import test's independent .mat writers;
 #                                  headless chromium and a font for the report's browser test;
 #                                  the systemd VM's root: debootstrap, and the .deb it installs;
 #                                  the fuzzers: clang-14, libFuzzer and its sanitizer runtimes)
@@ -15,7 +15,7 @@ packages=(build-essential cmake ninja-build pkg-config git ca-certificates
           libsystemd-dev libsndfile1-dev libmatio-dev libcli11-dev libtomlplusplus-dev nlohmann-json3-dev catch2)
 package_tools=(dpkg-dev file)
 [ "${1:-}" = "--package" ] && packages+=("${package_tools[@]}")
-[ "${1:-}" = "--test" ] && packages+=(can-utils qemu-system-x86 busybox-static cpio xz-utils python3 python3-numpy python3-scipy
+[ "${1:-}" = "--test" ] && packages+=(can-utils qemu-system-x86 busybox-static cpio xz-utils python3 python3-numpy python3-scipy python3-h5py
                                       chromium fonts-dejavu-core
                                       debootstrap "${package_tools[@]}" clang-14 libfuzzer-14-dev libclang-rt-14-dev)
 missing=()

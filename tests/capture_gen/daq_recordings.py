@@ -2,7 +2,7 @@
 """Independent writer of DAQ recordings for the `gearwatch import` tests (tests/test_daq_import.cpp).
 
 Writes one known signal in the forms a test bench's recorder gives, with Python's own `wave`
-module, numpy text output and scipy.io.savemat (MATLAB v5): nothing here shares code with
+module, numpy text output, scipy.io.savemat (MATLAB v5) and h5py (MATLAB v7.3): nothing here shares code with
 gearwatch's readers (libsndfile, libmatio) or its capture writer.
 
 The signal: a 23-tooth pinion at a constant SPEED_HZ; gear-mesh harmonics 2.4, 1.2, 0.6 m/s^2
@@ -16,6 +16,7 @@ Files written into --out DIR:
   edges.f64       the tacho's true rising-edge positions in samples
   rec.wav         16-bit PCM, 2 channels: codes (full scale 32768 codes = 327.68 m/s^2) and the tacho (0 / 16384)
   rec.mat         v5: accel (N x 1 double, codes * 0.01 m/s^2), fs (scalar), info (a struct)
+  rec73.mat       v7.3 (HDF5 through h5py): accel and fs as in rec.mat
   rec.csv         header time,accel_g,tacho_V: time i/fs, the signal in g (17 digits), tacho 0 / 5 V
 and the refused ones: rate8k.wav (8 kHz), short.wav (0.5 s), clipped.wav (one sample at +32767),
 bad_cell.csv (a cell "abc" on line 7), nan.csv (a "nan" on line 5).
@@ -26,6 +27,7 @@ import math
 import os
 import wave
 
+import h5py
 import numpy as np
 import scipy.io
 
@@ -67,6 +69,26 @@ def write_wav(path, rate, channels):
         w.writeframes(frames.tobytes())
 
 
+def write_mat73(path, variables):
+    """MATLAB v7.3 as its documented layout: an HDF5 file behind a 512-byte user block holding the
+    MAT header (116 bytes of text, 8 of subsystem offset, version 0x0200, endian mark "IM"); each
+    variable a dataset in MATLAB's column-major order (so an N x 1 column is stored as 1 x N) with
+    the attribute MATLAB_class."""
+    with h5py.File(path, "w", userblock_size=512) as f:
+        for name, value in variables.items():
+            d = f.create_dataset(name, data=np.asarray(value, dtype=np.float64).T)
+            # A scalar fixed-length ASCII string, null-terminated (the terminator counted in its size).
+            kind = h5py.h5t.C_S1.copy()
+            kind.set_size(len(b"double") + 1)
+            kind.set_strpad(h5py.h5t.STR_NULLTERM)
+            attr = h5py.h5a.create(d.id, b"MATLAB_class", kind, h5py.h5s.create(h5py.h5s.SCALAR))
+            attr.write(np.array(b"double", dtype="S7"))
+    text = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Thu Jan  1 00:00:00 2026 HDF5 schema 1.00 ."
+    header = text.ljust(116, b" ") + b" " * 8 + (0x0200).to_bytes(2, "little") + b"IM"
+    with open(path, "r+b") as f:
+        f.write(header.ljust(512, b"\0"))
+
+
 def write_csv(path, header, rows):
     with open(path, "w") as f:
         f.write(header + "\n")
@@ -94,6 +116,8 @@ def main():
                      {"accel": (codes.astype(np.float64) * LSB).reshape(-1, 1), "fs": float(FS_HZ),
                       "info": {"rig": "test bench", "teeth": PINION_TEETH}},
                      format="5")
+    write_mat73(os.path.join(a.out, "rec73.mat"),
+                {"accel": (codes.astype(np.float64) * LSB).reshape(-1, 1), "fs": np.array([[float(FS_HZ)]])})
     rows = ["%.9f,%.17g,%d" % (i / FS_HZ, x[i] / STANDARD_GRAVITY, 5 if pulse[i] else 0) for i in range(n)]
     write_csv(os.path.join(a.out, "rec.csv"), "time,accel_g,tacho_V", rows)
 
