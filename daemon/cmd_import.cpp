@@ -264,9 +264,8 @@ void run_import(const Options& opt) {
   pending.commit();
   std::cout << "wrote " << opt.out << ": " << s.frames << " frames, " << s.samples_per_channel << " samples x "
             << im.channels.size() << " channels at " << im.cs.signal.sample_rate_hz << " Hz ("
-            << acq::to_string(im.recording.rate_source == acq::RateSource::none || std::isfinite(opt.sample_rate_hz)
-                                  ? acq::RateSource::none
-                                  : im.recording.rate_source)
+            << (im.recording.rate_source == acq::RateSource::none ? std::string_view("--sample-rate")
+                                                                  : acq::to_string(im.recording.rate_source))
             << "), speed " << to_string(im.speed) << ", " << s.tacho_edges << " tacho edges";
   if (im.speed != SpeedSource::none) std::cout << ", mean " << im.cs.signal.speed_hz << " Hz";
   std::cout << "\n";
