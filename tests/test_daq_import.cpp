@@ -18,6 +18,8 @@
 #include "capture_writer.hpp"
 #include "command_runner.hpp"
 #include "gearwatch/acquisition/candump_log.hpp"
+#include "gearwatch/acquisition/daq_file.hpp"
+#include "gearwatch/acquisition/daq_import.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
@@ -305,4 +307,62 @@ TEST_CASE("import: each refusal prints one line and writes nothing", "[import]")
   std::string line;
   std::getline(kept, line);
   CHECK(line == "(1700000000.000000) can0 1F0#A086010002010700");
+}
+
+TEST_CASE("import readers: a wide int16 .mat, a header-less CSV with ';' and a time column, units and tacho edges",
+          "[import]") {
+  namespace acq = gearwatch::acquisition;
+  const gearwatch::testing::TempDir dir("daq-import-readers");
+  generate(dir);
+  const auto codes = read_binary<std::int16_t>(dir / "codes.i16");
+
+  // A 2 x 1000 matrix is two channels of 1000 samples (channels along the shorter dimension);
+  // int16 values come back as they are; the rate from the variable Fs.
+  const acq::DaqRecording wide = acq::read_daq_file((dir / "rows.mat").string());
+  REQUIRE(wide.channels.size() == 2);
+  REQUIRE(wide.samples() == 1000);
+  CHECK(wide.names == std::vector<std::string>{"wide[0]", "wide[1]"});
+  CHECK(wide.sample_rate_hz == 51200.0);
+  CHECK(wide.rate_source == acq::RateSource::mat_variable);
+  for (std::size_t i = 0; i < 1000; ++i) {
+    CHECK(wide.channels[0][i] == codes[i]);
+    CHECK(wide.channels[1][i] == -codes[i]);
+  }
+
+  // No header: columns are named by index, and the time column is named by index too.
+  const acq::DaqRecording csv = acq::read_csv((dir / "semicolon.csv").string(), {"0", "", ""});
+  REQUIRE(csv.channels.size() == 1);
+  CHECK(csv.names == std::vector<std::string>{"column 1"});
+  // Times printed to 1 ns: the rate (n-1)/(t_last - t_0) is within 1e-9 s / 19.5 ms of 51 200 Hz.
+  CHECK(csv.sample_rate_hz == Approx(51200.0).epsilon(1e-6));
+  for (std::size_t i = 0; i < 1000; ++i) CHECK(csv.channels[0][i] == Approx(codes[i] * kLsb).margin(1e-12));
+
+  // Units: g is standard gravity; V through the sensitivity (100 mV/g: 10 g per volt).
+  CHECK(acq::m_s2_per_file_unit({2.0, acq::SampleUnit::g, std::nan("")}) == 2.0 * 9.80665);
+  CHECK(acq::m_s2_per_file_unit({1.0, acq::SampleUnit::volt, 100.0}) == Approx(98.0665).epsilon(1e-15));
+  CHECK_THROWS_AS(acq::m_s2_per_file_unit({1.0, acq::SampleUnit::volt, std::nan("")}), acq::DaqFileError);
+
+  // Tacho edges on trapezoidal pulses (0 → 4 V over a linear 8-sample ramp) with up to 0.2 V of
+  // ripple on the flat parts, towards the middle (so the range stays 0 … 4 V and the mid level 2 V):
+  // the mid-level crossing of a linear ramp is found exactly, and the ripple (5 % of the range,
+  // short of the hysteresis levels at 40 % and 60 %) adds no edge. Rises start at 100.37 + 250.5 k.
+  std::vector<double> tacho(3000);
+  std::vector<double> expected;
+  for (double start = 100.37; start + 60 < 3000; start += 250.5) expected.push_back(start + 4.0);  // mid-level at half the ramp
+  for (std::size_t i = 0; i < tacho.size(); ++i) {
+    const double t = static_cast<double>(i);
+    double v = 0;
+    for (double e : expected) {
+      const double start = e - 4.0;
+      if (t >= start && t < start + 8) v = 4.0 * (t - start) / 8;
+      if (t >= start + 8 && t < start + 60) v = 4.0;
+    }
+    const bool on_ramp = v > 0 && v < 4.0;
+    const double ripple = on_ramp ? 0.0 : 0.2 * std::fabs(std::sin(1.7 * t));
+    tacho[i] = v >= 4.0 ? v - ripple : v + ripple;
+  }
+  const auto edges = acq::detect_tacho_edges(tacho);
+  REQUIRE(edges.size() == expected.size());
+  for (std::size_t k = 0; k < edges.size(); ++k) CHECK(edges[k] == Approx(expected[k]).margin(1e-9));
+  CHECK(acq::speed_from_edges(edges, 1, 51200.0, 0, 3000) == Approx(51200.0 / 250.5).epsilon(1e-12));
 }

@@ -17,6 +17,8 @@ Files written into --out DIR:
   rec.wav         16-bit PCM, 2 channels: codes (full scale 32768 codes = 327.68 m/s^2) and the tacho (0 / 16384)
   rec.mat         v5: accel (N x 1 double, codes * 0.01 m/s^2), fs (scalar), info (a struct)
   rec73.mat       v7.3 (HDF5 through h5py): accel and fs as in rec.mat
+  rows.mat        v5: wide (2 x 1000 int16): row 0 = codes[:1000], row 1 = -codes[:1000]; rate 51200
+  semicolon.csv   no header, ';' between cells: sample index / 51200 s, codes[:1000] * 0.01
   rec.csv         header time,accel_g,tacho_V: time i/fs, the signal in g (17 digits), tacho 0 / 5 V
 and the refused ones: rate8k.wav (8 kHz), short.wav (0.5 s), clipped.wav (one sample at +32767),
 bad_cell.csv (a cell "abc" on line 7), nan.csv (a "nan" on line 5).
@@ -118,6 +120,10 @@ def main():
                      format="5")
     write_mat73(os.path.join(a.out, "rec73.mat"),
                 {"accel": (codes.astype(np.float64) * LSB).reshape(-1, 1), "fs": np.array([[float(FS_HZ)]])})
+    scipy.io.savemat(os.path.join(a.out, "rows.mat"),
+                     {"wide": np.stack([codes[:1000], -codes[:1000]]).astype(np.int16), "Fs": 51200.0}, format="5")
+    write_csv(os.path.join(a.out, "semicolon.csv"), "%.9f;%.2f" % (0.0, codes[0] * LSB),
+              ["%.9f;%.2f" % (i / 51200, codes[i] * LSB) for i in range(1, 1000)])
     rows = ["%.9f,%.17g,%d" % (i / FS_HZ, x[i] / STANDARD_GRAVITY, 5 if pulse[i] else 0) for i in range(n)]
     write_csv(os.path.join(a.out, "rec.csv"), "time,accel_g,tacho_V", rows)
 
