@@ -8,6 +8,7 @@
 
 #include "cli_common.hpp"
 #include "gearwatch/acquisition/candump_source.hpp"
+#include "gearwatch/acquisition/daq_file.hpp"
 #include "logging.hpp"
 #include "pipeline.hpp"
 
@@ -53,8 +54,15 @@ void register_replay(CLI::App& app) {
     logging::setup(logging::Sink::stderr_only, cfg.logging.level == "info" ? "warn" : cfg.logging.level);
     daemon::PipelineResult r;
     try {
+      // A recording given for a capture would only fill the database with malformed lines.
+      if (const auto daq = acquisition::sniff_daq_recording(opt->capture))
+        throw CommandError(opt->capture + " is a " + std::string(acquisition::to_string(*daq)) +
+                           " recording, not a capture: turn it into one with `gearwatch import " + opt->capture +
+                           " --out CAPTURE --torque NM`; nothing stored");
       acquisition::require_capture_file(opt->capture);  // before the database is touched
       r = daemon::run_pipeline(cfg, daemon::PipelineMode::replay);
+    } catch (const CommandError&) {
+      throw;
     } catch (const std::exception& e) {
       throw CommandError(e.what());
     }

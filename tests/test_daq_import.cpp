@@ -303,6 +303,15 @@ TEST_CASE("import: each refusal prints one line and writes nothing", "[import]")
     CHECK(r.err.find("nothing written") != std::string::npos);
     CHECK(listing() == before);  // no capture, no temporary file left behind
   }
+  // A recording given to replay for a capture: one line pointing to import, no database.
+  for (const char* recording : {"rec.wav", "rec.mat", "rec73.mat"}) {
+    const auto r = gw("replay " + q(dir / recording) + " --db " + q(dir / "replay.db") + " --config " + q(config));
+    INFO(recording << "\n" << r.err);
+    CHECK(r.status == 1);
+    CHECK(r.err.find("recording, not a capture: turn it into one with `gearwatch import ") != std::string::npos);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK_FALSE(fs::exists(dir / "replay.db"));
+  }
   std::ifstream kept(dir / "previous.log");
   std::string line;
   std::getline(kept, line);

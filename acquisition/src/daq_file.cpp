@@ -358,6 +358,18 @@ DaqRecording read_daq_file(const std::string& path, const DaqReadOptions& option
   throw DaqFileError(path + ": unknown recording format \"" + ext + "\" (.wav, .csv, .txt or .mat)");
 }
 
+std::optional<DaqFormat> sniff_daq_recording(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
+  std::ifstream in(path, std::ios::binary);
+  std::array<char, 12> head{};
+  in.read(head.data(), head.size());
+  const std::string_view h(head.data(), static_cast<std::size_t>(in.gcount()));
+  if (h.size() == 12 && h.substr(0, 4) == "RIFF" && h.substr(8, 4) == "WAVE") return DaqFormat::wav;
+  if (h.substr(0, 6) == "MATLAB") return DaqFormat::mat;
+  return std::nullopt;
+}
+
 std::size_t find_channel(const DaqRecording& recording, const std::string& which) {
   for (std::size_t i = 0; i < recording.names.size(); ++i)
     if (recording.names[i] == which) return i;

@@ -5,6 +5,7 @@
 // Reading only; turning a recording into a capture is `gearwatch import` (docs/acquisition.md).
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -56,6 +57,10 @@ DaqRecording read_daq_file(const std::string& path, const DaqReadOptions& option
 DaqRecording read_wav(const std::string& path);
 DaqRecording read_csv(const std::string& path, const DaqReadOptions& options = {});
 DaqRecording read_mat(const std::string& path, const DaqReadOptions& options = {});
+
+/// A WAV or MATLAB file recognised by its first bytes ("RIFF"…"WAVE", "MATLAB"), nullopt otherwise
+/// (also when it cannot be read): what `replay` refuses as a recording that needs `import` first.
+std::optional<DaqFormat> sniff_daq_recording(const std::string& path);
 
 /// The channel a user names: a 0-based index, or a name in `recording.names`. DaqFileError when
 /// there is no such channel (the message lists what there is).
