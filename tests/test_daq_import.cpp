@@ -318,7 +318,7 @@ TEST_CASE("import: each refusal prints one line and writes nothing", "[import]")
   CHECK(line == "(1700000000.000000) can0 1F0#A086010002010700");
 }
 
-TEST_CASE("import readers: a wide int16 .mat, a header-less CSV with ';' and a time column, units and tacho edges",
+TEST_CASE("import readers: a wide int16 .mat, a header-less semicolon CSV with a time column, units and tacho edges",
           "[import]") {
   namespace acq = gearwatch::acquisition;
   const gearwatch::testing::TempDir dir("daq-import-readers");
