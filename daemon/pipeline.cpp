@@ -193,8 +193,10 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   if (resume.records_stored() > 0)
     spdlog::warn("{}: {} records of this capture are already in {}; continuing after them", source_name,
                  resume.records_stored(), config.storage.database);
+  std::vector<storage::ChannelName> channel_names;
+  for (const auto& c : config.rig.channels) channel_names.push_back({c.number, c.name});
   writer.submit(storage::RunStarted{mode == PipelineMode::replay ? "replay" : "run", capture.path, config.source_path,
-                                    capture.content_id});
+                                    capture.content_id, std::move(channel_names)});
 
   // --- acquisition objects (used on the acquisition thread only, counters readable anywhere)
   const std::size_t ring_events =

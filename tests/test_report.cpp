@@ -360,3 +360,132 @@ TEST_CASE("report: bad input gets a one-line error and a non-zero exit, a databa
   CHECK(one_line(onto_file.err));
   CHECK(onto_file.err.rfind("gearwatch: cannot create output directory " + (dir / "file").string() + ": ", 0) == 0);
 }
+
+TEST_CASE("report: record ids as runs of consecutive ids", "[report]") {
+  CHECK(record_ranges({}).empty());
+  CHECK(record_ranges({7}) == "7");
+  CHECK(record_ranges({1, 2, 3, 5, 9, 10}) == "1\u20133, 5, 9\u201310");
+  CHECK(record_ranges({4, 6, 8}) == "4, 6, 8");
+}
+
+TEST_CASE("report: skips of one reason in the same records make one row, caveats after skips", "[report]") {
+  using gearwatch::dsp::IndicatorNote;
+  using gearwatch::dsp::SkipReason;
+  ReportData d;
+  // Channel 0: two indicators above Nyquist in records 1–3, a third only in record 2 (its own
+  // row), no tacho in record 5 with two different details; channel 1: a trimmed band.
+  for (const std::int64_t r : {1, 2, 3}) {
+    d.skips.push_back({r, 0, "ics2_high_band", SkipReason::band_above_nyquist, "20000-37000 Hz"});
+    d.skips.push_back({r, 0, "mean_carrier_hz_0_50000", SkipReason::band_above_nyquist, ""});
+  }
+  d.skips.push_back({2, 0, "rms_sa", SkipReason::band_above_nyquist, ""});
+  d.skips.push_back({5, 0, "rms_sa", SkipReason::no_tacho, "first"});
+  d.skips.push_back({5, 0, "ics2_low_band", SkipReason::no_tacho, "second"});
+  d.caveats.push_back({1, 1, "ics2_low_band", IndicatorNote::band_trimmed, "2000-11520 Hz"});
+  d.caveats.push_back({3, 1, "ics2_low_band", IndicatorNote::band_trimmed, "2000-11520 Hz"});
+  d.skips.push_back({3, 1, "rms_sa", SkipReason::flat_line, ""});
+
+  const auto g = reason_groups(d);
+  REQUIRE(g.size() == 5);
+  // Channel 0, enum order: no_tacho (5) before band_above_nyquist (11); within a reason by first record.
+  CHECK(g[0].channel == 0);
+  CHECK(std::get<SkipReason>(g[0].reason) == SkipReason::no_tacho);
+  CHECK(g[0].indicators == std::vector<std::string>{"ics2_low_band", "rms_sa"});
+  CHECK(g[0].records == std::vector<std::int64_t>{5});
+  CHECK(g[0].details == std::vector<std::string>{"second", "first"});  // by indicator name, then record
+  CHECK(std::string(to_string(g[1].reason)) == "band_above_nyquist");
+  CHECK(g[1].indicators == std::vector<std::string>{"ics2_high_band", "mean_carrier_hz_0_50000"});
+  CHECK(g[1].records == std::vector<std::int64_t>{1, 2, 3});
+  CHECK(g[1].details == std::vector<std::string>{"20000-37000 Hz"});
+  CHECK(g[2].indicators == std::vector<std::string>{"rms_sa"});
+  CHECK(g[2].records == std::vector<std::int64_t>{2});
+  // Channel 1: the skip, then the caveat.
+  CHECK(std::get<SkipReason>(g[3].reason) == SkipReason::flat_line);
+  CHECK(std::get<IndicatorNote>(g[4].reason) == IndicatorNote::band_trimmed);
+  CHECK(g[4].records == std::vector<std::int64_t>{1, 3});
+  CHECK(g[4].details == std::vector<std::string>{"2000-11520 Hz"});
+
+  // Beyond kMaxReasonDetails distinct details, the rest are counted.
+  ReportData many;
+  for (std::int64_t r = 1; r <= 5; ++r) many.skips.push_back({r, 0, "rms_sa", SkipReason::analysis_error, "error " + std::to_string(r)});
+  const auto m = reason_groups(many);
+  REQUIRE(m.size() == 1);
+  CHECK(m[0].details.size() == kMaxReasonDetails);
+  CHECK(m[0].more_details == 5 - kMaxReasonDetails);
+
+  // Labels: the configured name when a run named the channel.
+  d.channel_names.push_back({0, "casing_y", {"acc0"}});
+  CHECK(channel_label(d, 0) == "casing_y (channel 0)");
+  CHECK(channel_label(d, 1) == "channel 1");
+}
+
+TEST_CASE("report: configured channel names, skip reasons with their records and the verdict's unseen band (25.6 kHz capture)", "[report][cli]") {
+  const gearwatch::testing::TempDir dir("report-why");
+  // At fs = 25.6 kHz the carrier bands reach 0.45 fs = 11 520 Hz: the abrasion band (20–37 kHz)
+  // lies wholly above it (skipped, band_above_nyquist, and the verdict cannot see abrasion), the
+  // pitting band (2–13 kHz) keeps 9 520 of its 11 000 Hz (trimmed, band_trimmed), and both
+  // mean-carrier ranges (0–30 kHz, 0–50 kHz) end above the record's Nyquist, 12.8 kHz (skipped).
+  // 1 s records of a 3.3 s capture: records 1–3 analysed, record 4 (0.3 s) ends the stream short.
+  std::ofstream(dir / "c.toml") << "[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.5\n"
+                                    "[[channels]]\nnumber = 0\nname = \"pinion_end_y\"\nscale = 0.01\n"
+                                    "[[channels]]\nnumber = 1\nname = \"<motor & side>\"\nscale = 0.01\n";
+  const fs::path db = dir / "plant.db", cap = dir / "slow.log";
+  REQUIRE(run_command(gearwatch_cli("simulate --out " + cap.string() + " --sample-rate 25600 --speed 20 --torque 20 --duration 3.3 --start-revs 0"
+                                    " --config " + (dir / "c.toml").string())).status == 0);
+  const auto replay = run_command(gearwatch_cli("replay " + cap.string() + " --db " + db.string() + " --config " + (dir / "c.toml").string()));
+  INFO(replay.err);
+  REQUIRE(replay.status == 0);
+
+  // What the database holds, read directly: the known answer above.
+  REQUIRE(count_rows(db, "SELECT count(*) FROM records WHERE analysed = 1") == 3);
+  REQUIRE(count_rows(db, "SELECT count(*) FROM records WHERE analysed = 0 AND id = 4 AND end_reason = 'stream_end'") == 1);
+  for (const int channel : {0, 1}) {
+    const std::string ch = " AND channel = " + std::to_string(channel);
+    CHECK(count_rows(db, "SELECT count(*) FROM indicator_skips WHERE reason = 'band_above_nyquist'" + ch) == 3 * 3);
+    CHECK(count_rows(db, "SELECT count(*) FROM indicator_skips WHERE reason <> 'band_above_nyquist'" + ch) == 0);
+    CHECK(count_rows(db, "SELECT count(*) FROM indicator_notes WHERE note = 'band_trimmed' AND name = 'ics2_low_band'" + ch) == 3);
+  }
+  CHECK(count_rows(db, "SELECT count(*) FROM run_channels WHERE channel = 0 AND name = 'pinion_end_y'") == 1);
+
+  const fs::path out = dir / "report";
+  const auto r = run_command(gearwatch_cli("report --db " + db.string() + " --out " + out.string()));
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  const std::string page = read_file(out / "index.html");
+
+  // The configured names, escaped, wherever a channel is named; never a bare "Channel 0".
+  CHECK(page.find("<h3>pinion_end_y (channel 0)</h3>") != std::string::npos);
+  CHECK(page.find("<h3>&lt;motor &amp; side&gt; (channel 1)</h3>") != std::string::npos);
+  CHECK(page.find("<motor") == std::string::npos);
+  CHECK(page.find("Channel 0") == std::string::npos);
+  CHECK(page.find("RMS_SA (mesh harmonics) — pinion_end_y (channel 0)") != std::string::npos);
+
+  // Per channel: one row for the three indicators above Nyquist in records 1–3, one for the
+  // trimmed pitting band, with their exact counts, records and details.
+  for (const std::string label : {"pinion_end_y (channel 0)", "&lt;motor &amp; side&gt; (channel 1)"}) {
+    INFO(label);
+    const auto at = page.find("\">" + label + "</h3>\n<div class=\"scroll\"><table class=\"why\">");
+    REQUIRE(at != std::string::npos);
+    const std::string table = element(page.substr(at), "<table class=\"why\">", "</table>");
+    CHECK(count_of(table, "<tr class=\"skip-row\"") == 1);
+    CHECK(count_of(table, "<tr class=\"caveat-row\"") == 1);
+    CHECK(table.find("<tr class=\"skip-row\" data-reason=\"band_above_nyquist\"><td><code>band_above_nyquist</code></td>"
+                     "<td class=\"names\">ics2_high_band, mean_carrier_hz_0_30000, mean_carrier_hz_0_50000</td>"
+                     "<td class=\"num\">3</td><td>1\u20133</td><td class=\"detail\">20000-37000 Hz: 0 % of it below 11520 Hz</td></tr>") !=
+          std::string::npos);
+    CHECK(table.find("<tr class=\"caveat-row\" data-reason=\"band_trimmed\"><td><code>band_trimmed</code> <span class=\"muted\">(computed)</span></td>"
+                     "<td class=\"names\">ics2_low_band</td><td class=\"num\">3</td><td>1\u20133</td>"
+                     "<td class=\"detail\">2000-11520 Hz analysed of 2000-13000 Hz</td></tr>") != std::string::npos);
+  }
+  // The record not analysed, by how it ended.
+  CHECK(page.find("<tr class=\"unanalysed-row\"><td><code>stream_end</code> (shorter than records.min_length_s)</td>"
+                  "<td class=\"num\">1</td><td>4</td></tr>") != std::string::npos);
+  CHECK(page.find("Shaft angle of the analysed records from: <code>tacho</code> 3.") != std::string::npos);
+  // The verdict says what it cannot see, per channel.
+  for (const int channel : {0, 1}) {
+    const std::string note = element(page, "<p class=\"cannot-see\" id=\"cannot-see-ch" + std::to_string(channel) + "\">", "</p>");
+    INFO(note);
+    CHECK(note.find("cannot see the abrasion band</strong> (<code>unseen_band = abrasion</code>)") != std::string::npos);
+    CHECK(note.find("<code>abrasive_wear</code> cannot be identified") != std::string::npos);
+  }
+}

@@ -7,6 +7,7 @@
 #include <limits>
 #include <set>
 #include <stdexcept>
+#include <tuple>
 
 namespace gearwatch::report {
 namespace {
@@ -40,10 +41,6 @@ bool has_object(Database& db, const std::string& name) {
   return s.step();
 }
 
-std::optional<std::int64_t> opt_int(const Statement& s, int col) {
-  if (s.is_null(col)) return std::nullopt;
-  return s.get_int(col);
-}
 std::optional<double> opt_double(const Statement& s, int col) {
   if (s.is_null(col)) return std::nullopt;
   return s.get_double(col);
@@ -79,16 +76,18 @@ std::string cell_text(const Statement& s, int col) {
 }
 
 // The alert, severity and event colours; the page's stylesheet uses the same ones.
-const char* severity_colour(const std::string& severity) {
-  if (severity == "alarm") return "#d32f2f";
-  if (severity == "warning") return "#ef6c00";
+const char* severity_colour(AlertSeverity severity) {
+  switch (severity) {
+    case AlertSeverity::alarm: return "#d32f2f";
+    case AlertSeverity::warning: return "#ef6c00";
+    case AlertSeverity::info: break;
+  }
   return "#546e7a";
 }
 constexpr const char* kClearedColour = "#9e9e9e";
 constexpr const char* kInspectionColour = "#2e7d32";
 const char* const kSeriesColours[] = {"#1f5fbf", "#00897b", "#8e44ad", "#795548"};
 
-std::string channel_text(const std::optional<std::int64_t>& channel) { return channel ? std::to_string(*channel) : "—"; }
 
 }  // namespace
 
@@ -121,8 +120,8 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
   // Records by id; a cycle count going backwards is a life-counter reset: a new gear pair.
   {
     std::vector<RecordRow> all;
-    Statement s(db, "SELECT id, input_revolutions, created_at, analysed FROM records ORDER BY id");
-    while (s.step()) all.push_back({s.get_int(0), opt_double(s, 1), s.get_text(2), s.get_int(3) != 0});
+    for (auto& r : storage::load_record_summaries(db))
+      all.push_back({r.id, r.input_revolutions, std::move(r.created_at), r.analysed, r.end_reason, r.speed_source});
     d.total_records = static_cast<std::int64_t>(all.size());
     std::size_t pair_start = 0;
     std::optional<double> previous;
@@ -138,6 +137,9 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
     if (!d.records.empty()) d.gear_pair_started_at = d.records.front().created_at;
   }
   const std::int64_t first_record = d.records.empty() ? std::numeric_limits<std::int64_t>::max() : d.records.front().id;
+  d.channel_names = storage::load_channel_names(db);
+  d.skips = storage::load_indicator_skips(db, first_record);
+  d.caveats = storage::load_indicator_caveats(db, first_record);
 
   // Only the indicators the plots show: a long history has tens of other values per record.
   if (has_object(db, "indicators")) {
@@ -159,39 +161,11 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
     d.indicator_names.assign(names.begin(), names.end());
   }
 
-  if (has_object(db, "wear_mechanism")) {
-    Statement s(db,
-                "SELECT channel, record_id, mechanism, points, created_at, cycles, evidence FROM wear_mechanism w"
-                " WHERE record_id = (SELECT max(record_id) FROM wear_mechanism x WHERE x.channel = w.channel) ORDER BY channel");
-    while (s.step())
-      d.verdicts.push_back({s.get_int(0), s.get_int(1), s.get_text(2), s.get_int(3), s.get_text(4), opt_double(s, 5), s.get_text(6)});
-  }
+  d.verdicts = storage::load_newest_wear_verdicts(db);
 
-  const bool alerts_have_transitions = has_object(db, "active_alerts");  // schema 3: channel, subject, transition
-  if (has_object(db, "alerts")) {
-    const std::string columns = alerts_have_transitions
-                                    ? "id, created_at, severity, kind, channel, subject, transition, value, record_id, message"
-                                    : "id, created_at, severity, kind, NULL, NULL, 'event', NULL, record_id, message";
-    Statement count(db, "SELECT count(*) FROM alerts");
-    count.step();
-    d.total_alerts = count.get_int(0);
-    Statement s(db, "SELECT " + columns + " FROM alerts ORDER BY id DESC LIMIT " + std::to_string(kMaxAlertRows));
-    while (s.step())
-      d.alerts.push_back({s.get_int(0), s.get_text(1), s.get_text(2), s.get_text(3), opt_int(s, 4), s.get_text(5), s.get_text(6),
-                          s.get_text(7), opt_int(s, 8), s.get_text(9)});
-  }
-  if (alerts_have_transitions) {
-    Statement s(db,
-                "SELECT kind, channel, subject, value, raised_at, updated_at,"
-                " (SELECT severity FROM alerts a WHERE a.kind = x.kind AND coalesce(a.channel, -1) = coalesce(x.channel, -1)"
-                "   AND coalesce(a.subject, '') = coalesce(x.subject, '') AND a.transition = 'raised' ORDER BY a.id DESC LIMIT 1),"
-                " (SELECT message FROM alerts a WHERE a.kind = x.kind AND coalesce(a.channel, -1) = coalesce(x.channel, -1)"
-                "   AND coalesce(a.subject, '') = coalesce(x.subject, '') AND a.transition = 'raised' ORDER BY a.id DESC LIMIT 1)"
-                " FROM active_alerts x ORDER BY kind, channel, subject");
-    while (s.step())
-      d.active_alerts.push_back(
-          {s.get_text(0), opt_int(s, 1), s.get_text(2), s.get_text(3), s.get_text(4), s.get_text(5), s.get_text(6), s.get_text(7)});
-  }
+  d.total_alerts = storage::count_alerts(db);
+  d.alerts = storage::load_newest_alerts(db, kMaxAlertRows);
+  d.active_alerts = storage::load_active_alerts(db);
 
   if (has_object(db, "acquisition_health")) {
     // By column name, so a snapshot with more counters (a newer schema) still reads.
@@ -277,15 +251,7 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
 
   // Alert transitions of the current gear pair, for the plots' event lines (the table above
   // holds only the newest rows of the whole history).
-  if (alerts_have_transitions && !d.records.empty()) {
-    Statement s(db,
-                "SELECT id, created_at, severity, kind, channel, subject, transition, value, record_id, message FROM alerts"
-                " WHERE record_id >= ? OR (record_id IS NULL AND created_at >= ?) ORDER BY id");
-    s.bind(1, first_record).bind(2, *d.gear_pair_started_at);
-    while (s.step())
-      d.gear_pair_alerts.push_back({s.get_int(0), s.get_text(1), s.get_text(2), s.get_text(3), opt_int(s, 4), s.get_text(5), s.get_text(6),
-                                    s.get_text(7), opt_int(s, 8), s.get_text(9)});
-  }
+  if (!d.records.empty()) d.gear_pair_alerts = storage::load_alerts_since(db, first_record, *d.gear_pair_started_at);
   return d;
 }
 
@@ -311,6 +277,101 @@ std::vector<PlotFamily> plot_families(const ReportData& data) {
   return families;
 }
 
+std::string channel_label(const ReportData& data, std::int64_t channel) {
+  for (const auto& n : data.channel_names)
+    if (n.channel == channel) return n.name + " (channel " + std::to_string(channel) + ")";
+  return "channel " + std::to_string(channel);
+}
+
+std::string alert_channel_label(const ReportData& data, AlertKind kind, std::int64_t channel) {
+  // A tacho alert's channel is the tacho's shaft, not an accelerometer.
+  if (kind == AlertKind::tacho_missing) return "shaft " + std::to_string(channel);
+  return channel_label(data, channel);
+}
+
+const char* to_string(const Reason& reason) noexcept {
+  return std::visit([](auto r) { return dsp::to_string(r); }, reason);
+}
+
+namespace {
+
+// (channel, reason, indicator) -> the records and details of its rows.
+struct ReasonKey {
+  std::int64_t channel;
+  Reason reason;
+  std::string indicator;
+  bool operator<(const ReasonKey& o) const {
+    return std::tie(channel, reason, indicator) < std::tie(o.channel, o.reason, o.indicator);
+  }
+};
+struct ReasonRows {
+  std::vector<std::int64_t> records;  // ascending: the readers return rows by record
+  std::vector<std::string> details;   // distinct, in order of first appearance
+};
+
+template <class Row, class ReasonOf>
+void collect_reasons(const std::vector<Row>& rows, ReasonOf reason_of, std::map<ReasonKey, ReasonRows>& out) {
+  for (const auto& r : rows) {
+    auto& entry = out[ReasonKey{r.channel, reason_of(r), r.indicator}];
+    if (entry.records.empty() || entry.records.back() != r.record_id) entry.records.push_back(r.record_id);
+    if (!r.detail.empty() && std::find(entry.details.begin(), entry.details.end(), r.detail) == entry.details.end())
+      entry.details.push_back(r.detail);
+  }
+}
+
+// Indicators of a channel skipped for one reason in exactly the same records become one group.
+std::vector<ReasonGroup> merge_indicators(const std::map<ReasonKey, ReasonRows>& by_indicator) {
+  std::vector<ReasonGroup> groups;
+  std::map<std::tuple<std::int64_t, Reason, std::vector<std::int64_t>>, std::size_t> index;
+  std::vector<std::vector<std::string>> all_details;
+  for (const auto& [key, rows] : by_indicator) {
+    const auto [it, added] = index.try_emplace({key.channel, key.reason, rows.records}, groups.size());
+    if (added) {
+      groups.push_back({key.channel, key.reason, {}, rows.records, {}, 0});
+      all_details.emplace_back();
+    }
+    groups[it->second].indicators.push_back(key.indicator);
+    auto& details = all_details[it->second];
+    for (const auto& text : rows.details)
+      if (std::find(details.begin(), details.end(), text) == details.end()) details.push_back(text);
+  }
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    auto& details = all_details[i];
+    groups[i].more_details = details.size() > kMaxReasonDetails ? details.size() - kMaxReasonDetails : 0;
+    details.resize(std::min(details.size(), kMaxReasonDetails));
+    groups[i].details = std::move(details);
+  }
+  return groups;
+}
+
+}  // namespace
+
+std::vector<ReasonGroup> reason_groups(const ReportData& data) {
+  std::map<ReasonKey, ReasonRows> by_indicator;
+  collect_reasons(data.skips, [](const storage::IndicatorSkip& k) { return Reason{k.reason}; }, by_indicator);
+  collect_reasons(data.caveats, [](const storage::IndicatorCaveat& k) { return Reason{k.note}; }, by_indicator);
+  auto groups = merge_indicators(by_indicator);
+  // Per channel, skips before caveats (the variant's order), reasons in enum order, then by records.
+  std::stable_sort(groups.begin(), groups.end(), [](const ReasonGroup& a, const ReasonGroup& b) {
+    return std::tie(a.channel, a.reason, a.records.front(), a.indicators.front()) <
+           std::tie(b.channel, b.reason, b.records.front(), b.indicators.front());
+  });
+  return groups;
+}
+
+std::string record_ranges(const std::vector<std::int64_t>& ids) {
+  std::string out;
+  for (std::size_t i = 0; i < ids.size();) {
+    std::size_t j = i;
+    while (j + 1 < ids.size() && ids[j + 1] == ids[j] + 1) ++j;
+    if (!out.empty()) out += ", ";
+    out += std::to_string(ids[i]);
+    if (j > i) out += "\u2013" + std::to_string(ids[j]);  // en dash
+    i = j + 1;
+  }
+  return out;
+}
+
 namespace {
 
 /// Where an alert sits on the cycle axis: its record's cycles, or (an alert without a record,
@@ -328,7 +389,7 @@ std::optional<double> alert_cycles(const ReportData& data, const AlertRow& a, co
 }
 
 std::string alert_title(const AlertRow& a) {
-  std::string t = a.transition + " " + a.severity + ": " + a.kind;
+  std::string t = std::string(to_string(a.transition)) + " " + to_string(a.severity) + ": " + to_string(a.kind);
   if (!a.subject.empty()) t += " (" + a.subject + ")";
   t += " at " + a.created_at;
   if (a.record_id) t += ", record " + std::to_string(*a.record_id);
@@ -383,10 +444,10 @@ std::optional<SvgPlot> make_trend_plot(const ReportData& data, const PlotFamily&
     const auto x = alert_cycles(data, a, by_id);
     if (!x) continue;
     EventLine e{*x, "", "", alert_title(a)};
-    if (a.transition == "raised") {
-      e.css_class = "raised-" + a.severity;
+    if (a.transition == AlertTransition::raised) {
+      e.css_class = std::string("raised-") + to_string(a.severity);
       e.colour = severity_colour(a.severity);
-    } else if (a.transition == "cleared") {
+    } else if (a.transition == AlertTransition::cleared) {
       e.css_class = "cleared";
       e.colour = kClearedColour;
     } else {
@@ -401,7 +462,7 @@ std::optional<SvgPlot> make_trend_plot(const ReportData& data, const PlotFamily&
   }
   for (const auto& e : events) xs.push_back(e.x);
 
-  SvgPlot plot(family.title + " — channel " + std::to_string(channel), fit_axis(xs, "input revolutions", false),
+  SvgPlot plot(family.title + " — " + channel_label(data, channel), fit_axis(xs, "input revolutions", false),
                fit_axis(ys, family.y_label, family.allow_log));
   for (auto& e : events) plot.add_event(std::move(e));
   for (auto& s : series) plot.add_series(std::move(s));
@@ -463,7 +524,14 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; }
 td.bad { color: #b71c1c; font-weight: 600; }
 table.alerts td:first-child { border-left: 6px solid #e0e0e0; }
 tr.trans-cleared td { color: #616161; }
-.scroll { overflow-x: auto; }
+.scroll { overflow-x: auto; max-width: 100%; }
+svg.plot { max-width: 100%; height: auto; }
+table.health, table.why { width: 100%; }
+table.health td.source, table.why td.names, table.why td.detail { overflow-wrap: anywhere; }
+table.health td.time { white-space: normal; min-width: 8em; }
+table.why td.names { max-width: 26em; }
+table.why td.detail { max-width: 34em; }
+p.cannot-see { border-left: 6px solid #90a4ae; background: #eceff1; padding: 6px 10px; margin: 6px 0; }
 )CSS";
 
 std::string td(const std::string& text, const char* cls = nullptr) {
@@ -471,6 +539,28 @@ std::string td(const std::string& text, const char* cls = nullptr) {
 }
 std::string td_num(std::int64_t v, bool bad_if_nonzero = false) {
   return td(std::to_string(v), bad_if_nonzero && v != 0 ? "num bad" : "num");
+}
+// An ISO 8601 time that may wrap between its date and its time of day (narrow columns).
+std::string td_time(const std::string& text) {
+  const auto t = text.find('T');
+  if (t == std::string::npos) return td(text, "time");
+  return "<td class=\"time\">" + html_escape(text.substr(0, t + 1)) + "<wbr>" + html_escape(text.substr(t + 1)) + "</td>";
+}
+
+// The band each verdict could not see and, from it, the mechanism it cannot identify.
+dsp::WearMechanism hidden_mechanism(dsp::CarrierBand band) {
+  return band == dsp::CarrierBand::abrasion ? dsp::WearMechanism::abrasive_wear : dsp::WearMechanism::fatigue_pitting;
+}
+
+void render_cannot_see(const ReportData& d, std::string& h) {
+  for (const auto& v : d.verdicts) {
+    if (!v.unseen_band) continue;
+    const std::string band = dsp::to_string(*v.unseen_band);
+    h += "<p class=\"cannot-see\" id=\"cannot-see-ch" + std::to_string(v.channel) + "\"><strong>" + html_escape(channel_label(d, v.channel)) +
+         " cannot see the " + band + " band</strong> (<code>unseen_band = " + band + "</code>): it lies above 0.45·fs of the records, so <code>" +
+         dsp::to_string(hidden_mechanism(*v.unseen_band)) + "</code> cannot be identified and the verdict rests on the other band alone. "
+         "<span class=\"muted\">Evidence: " + html_escape(v.evidence) + "</span></p>\n";
+  }
 }
 
 void render_header(const ReportData& d, std::string& h) {
@@ -501,20 +591,23 @@ void render_header(const ReportData& d, std::string& h) {
   h += "<h3>Wear mechanism (newest verdict per channel)</h3>\n<div class=\"badges\">";
   if (d.verdicts.empty()) h += "<span class=\"muted\">no verdict yet</span>";
   for (const auto& v : d.verdicts) {
-    h += "<span class=\"badge verdict-" + html_escape(v.mechanism) + "\" title=\"" + html_escape(v.evidence) + "\">Channel " +
-         std::to_string(v.channel) + ": <strong>" + html_escape(v.mechanism) + "</strong> <span class=\"muted\">(" +
+    const std::string mechanism = dsp::to_string(v.mechanism);
+    h += "<span class=\"badge verdict-" + mechanism + "\" title=\"" + html_escape(v.evidence) + "\">" +
+         html_escape(channel_label(d, v.channel)) + ": <strong>" + mechanism + "</strong> <span class=\"muted\">(" +
          std::to_string(v.points) + " points, record " + std::to_string(v.record_id) +
          (v.cycles ? ", " + html_escape(format_cycles(*v.cycles)) + " rev" : std::string{}) + ")</span></span>";
   }
-  h += "</div>\n<h3>Active alerts</h3>\n";
+  h += "</div>\n";
+  render_cannot_see(d, h);
+  h += "<h3>Active alerts</h3>\n";
   if (d.active_alerts.empty()) {
     h += "<p class=\"ok\">No alert is raised.</p>\n";
   } else {
     h += "<ul class=\"active\">\n";
     for (const auto& a : d.active_alerts) {
-      const std::string severity = a.severity.empty() ? "warning" : a.severity;
-      h += "<li class=\"sev-" + html_escape(severity) + "\"><strong>" + html_escape(severity) + "</strong> " + html_escape(a.kind);
-      if (a.channel) h += ", channel " + std::to_string(*a.channel);
+      const std::string severity = to_string(a.severity.value_or(AlertSeverity::warning));
+      h += "<li class=\"sev-" + severity + "\"><strong>" + severity + "</strong> " + to_string(a.kind);
+      if (a.channel) h += ", " + html_escape(alert_channel_label(d, a.kind, *a.channel));
       if (!a.subject.empty()) h += " (" + html_escape(a.subject) + ")";
       if (!a.message.empty()) h += ": " + html_escape(a.message);
       else if (!a.value.empty() && a.value != a.subject) h += ": " + html_escape(a.value);
@@ -543,11 +636,12 @@ void render_trends(const ReportData& d, std::string& h) {
        "<span><span class=\"sw\" style=\"border-color:#9e9e9e;border-top-style:dashed\"></span>cleared</span>"
        "<span><span class=\"sw\" style=\"border-color:#ef6c00;border-top-style:dotted\"></span>one-off event</span>"
        "<span><span class=\"sw\" style=\"border-color:#2e7d32;border-top-style:dashed\"></span>inspection</span>"
-       "<span>Gaps in a line: records not analysed or indicators skipped. Hover a point for its record and time.</span></div>\n";
+       "<span>Gaps in a line: records not analysed or indicators skipped (why: <em>What was not computed, and why</em>, below). "
+       "Hover a point for its record and time.</span></div>\n";
   if (d.channels.empty()) h += "<p class=\"notice\">No record of this gear pair has indicator values yet.</p>\n";
   const auto families = plot_families(d);
   for (const auto channel : d.channels) {
-    h += "<h3>Channel " + std::to_string(channel) + "</h3>\n<div class=\"plots\">\n";
+    h += "<h3>" + html_escape(channel_label(d, channel)) + "</h3>\n<div class=\"plots\">\n";
     for (const auto& f : families) {
       const auto plot = make_trend_plot(d, f, channel);
       if (!plot) continue;
@@ -567,6 +661,85 @@ void render_trends(const ReportData& d, std::string& h) {
   h += "</section>\n";
 }
 
+// Records not analysed, by how they ended (both ends mean: shorter than records.min_length_s).
+void render_unanalysed(const ReportData& d, std::string& h) {
+  std::map<RecordEnd, std::vector<std::int64_t>> by_end;
+  for (const auto& r : d.records)
+    if (!r.analysed) by_end[r.end_reason].push_back(r.id);
+  if (by_end.empty()) {
+    h += "<p>Every record of the gear pair was analysed.</p>\n";
+    return;
+  }
+  h += "<div class=\"scroll\"><table class=\"why unanalysed\">\n<thead><tr><th>record not analysed: ended</th><th>records</th>"
+       "<th>which</th></tr></thead>\n<tbody>\n";
+  for (const auto& [end, ids] : by_end)
+    h += "<tr class=\"unanalysed-row\"><td><code>" + std::string(to_string(end)) + "</code> (shorter than records.min_length_s)</td>" +
+         td_num(static_cast<std::int64_t>(ids.size())) + td(record_ranges(ids)) + "</tr>\n";
+  h += "</tbody></table></div>\n";
+}
+
+// Where the analysed records' shaft angle came from (docs/dsp.md, "Speed from the signal").
+void render_speed_sources(const ReportData& d, std::string& h) {
+  std::map<dsp::SpeedSource, std::int64_t> counts;
+  for (const auto& r : d.records)
+    if (r.analysed && r.speed_source) ++counts[*r.speed_source];
+  if (counts.empty()) return;
+  h += "<p class=\"speed-sources\">Shaft angle of the analysed records from: ";
+  bool first = true;
+  for (const auto& [source, n] : counts) {
+    h += std::string(first ? "" : ", ") + "<code>" + dsp::to_string(source) + "</code> " + std::to_string(n);
+    first = false;
+  }
+  h += ".</p>\n";
+}
+
+std::vector<std::int64_t> why_channels(const ReportData& d, const std::vector<ReasonGroup>& groups) {
+  std::set<std::int64_t> channels(d.channels.begin(), d.channels.end());
+  for (const auto& g : groups) channels.insert(g.channel);
+  return {channels.begin(), channels.end()};
+}
+
+void render_reason_row(const ReasonGroup& g, std::string& h) {
+  const bool skipped = std::holds_alternative<dsp::SkipReason>(g.reason);
+  const std::string token = to_string(g.reason);
+  std::string indicators;
+  for (const auto& name : g.indicators) indicators += (indicators.empty() ? "" : ", ") + name;
+  std::string details;
+  for (const auto& text : g.details) details += (details.empty() ? "" : "; ") + text;
+  if (g.more_details) details += "; and " + std::to_string(g.more_details) + " more";
+  h += std::string("<tr class=\"") + (skipped ? "skip-row" : "caveat-row") + "\" data-reason=\"" + token + "\"><td><code>" + token +
+       "</code>" + (skipped ? "" : " <span class=\"muted\">(computed)</span>") + "</td>" + td(indicators, "names") +
+       td_num(static_cast<std::int64_t>(g.records.size())) + td(record_ranges(g.records)) + td(details.empty() ? "—" : details, "detail") +
+       "</tr>\n";
+}
+
+void render_why(const ReportData& d, std::string& h) {
+  h += "<section id=\"why\">\n<h2>What was not computed, and why</h2>\n";
+  if (d.records.empty()) {
+    h += "<p>No record yet.</p>\n</section>\n";
+    return;
+  }
+  render_unanalysed(d, h);
+  render_speed_sources(d, h);
+  const auto groups = reason_groups(d);
+  for (const auto channel : why_channels(d, groups)) {
+    h += "<h3 id=\"why-ch" + std::to_string(channel) + "\">" + html_escape(channel_label(d, channel)) + "</h3>\n";
+    bool any = false;
+    for (const auto& g : groups) any = any || g.channel == channel;
+    if (!any) {
+      h += "<p>Every indicator was computed in every analysed record.</p>\n";
+      continue;
+    }
+    h += "<div class=\"scroll\"><table class=\"why\">\n<thead><tr><th>reason</th><th>indicators</th><th>records</th><th>which records</th>"
+         "<th>detail</th></tr></thead>\n<tbody>\n";
+    for (const auto& g : groups)
+      if (g.channel == channel) render_reason_row(g, h);
+    h += "</tbody></table></div>\n";
+  }
+  h += "<p class=\"muted\">A reason's rows list the indicators skipped for it in exactly the same records; "
+       "<em>(computed)</em> marks a caveat of a value that was computed (docs/dsp.md).</p>\n</section>\n";
+}
+
 void render_alert_table(const ReportData& d, std::string& h) {
   h += "<section id=\"alert-history\">\n<h2>Alert history</h2>\n";
   if (d.alerts.empty()) {
@@ -579,9 +752,9 @@ void render_alert_table(const ReportData& d, std::string& h) {
   h += "<div class=\"scroll\"><table class=\"alerts\">\n<thead><tr><th>time (UTC)</th><th>severity</th><th>kind</th><th>channel</th>"
        "<th>subject</th><th>transition</th><th>value</th><th>record</th><th>message</th></tr></thead>\n<tbody>\n";
   for (const auto& a : d.alerts) {
-    h += "<tr class=\"alert-row sev-" + html_escape(a.severity) + " trans-" + html_escape(a.transition) + "\">";
-    h += td(a.created_at, "time") + td(a.severity) + td(a.kind) +
-         td(channel_text(a.channel), "num") + td(a.subject) + td(a.transition) + td(a.value) +
+    h += std::string("<tr class=\"alert-row sev-") + to_string(a.severity) + " trans-" + to_string(a.transition) + "\">";
+    h += td_time(a.created_at) + td(to_string(a.severity)) + td(to_string(a.kind)) +
+         td(a.channel ? alert_channel_label(d, a.kind, *a.channel) : "—") + td(a.subject) + td(to_string(a.transition)) + td(a.value) +
          td(a.record_id ? std::to_string(*a.record_id) : "—", "num") + td(a.message) + "</tr>\n";
   }
   h += "</tbody></table></div>\n</section>\n";
@@ -599,8 +772,8 @@ void render_health_table(const ReportData& d, std::string& h) {
   for (const auto& r : d.health) {
     std::string breakdown;
     for (const auto& [name, n] : r.rejected_breakdown) breakdown += (breakdown.empty() ? "" : ", ") + name + " " + std::to_string(n);
-    h += "<tr class=\"health-row\">" + td_num(r.run_id) + td(r.run_kind) + td(r.source) + td(r.run_started_at, "time") +
-         td(r.run_ended_at.empty() ? "running" : r.run_ended_at, "time") + td(r.taken_at + (r.final ? " (final)" : ""), "time") + td_num(r.frames) +
+    h += "<tr class=\"health-row\">" + td_num(r.run_id) + td(r.run_kind) + td(r.source, "source") + td_time(r.run_started_at) +
+         td_time(r.run_ended_at.empty() ? "running" : r.run_ended_at) + td_time(r.taken_at + (r.final ? " (final)" : "")) + td_num(r.frames) +
          td_num(r.samples) + td_num(r.lost_samples, true) + td_num(r.kernel_drops, true) + "<td class=\"num" +
          (r.rejected_frames ? " bad" : "") + "\" title=\"" + html_escape(breakdown) + "\">" + std::to_string(r.rejected_frames) + "</td>" +
          td_num(r.records_rejected, true) + td_num(r.storage_rows_rejected, true) + "</tr>\n";
@@ -670,6 +843,7 @@ std::string render_report_html(const ReportData& d) {
   render_header(d, h);
   if (d.total_records == 0) h += "<p class=\"notice\" id=\"no-records\">This database has no records: nothing has been measured yet.</p>\n";
   render_trends(d, h);
+  render_why(d, h);
   render_alert_table(d, h);
   render_health_table(d, h);
   render_inspections(d, h);

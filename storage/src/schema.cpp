@@ -15,7 +15,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 9> kMigrations{
+constexpr std::array<const char*, 10> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -542,6 +542,17 @@ CREATE TABLE gap_kept_records (
   wear_state TEXT NOT NULL,
   UNIQUE (gear_pair, position)
 );
+)SQL",
+    // 9 -> 10: the names the run's config gave its accelerometer channels, so the pages and queries
+    // say "casing_y" where the rows say channel 0 (docs/storage.md; the config may be gone or changed
+    // since the run, so the names are kept as they were then).
+    R"SQL(
+CREATE TABLE run_channels (
+  run_id INTEGER NOT NULL REFERENCES runs(id),
+  channel INTEGER NOT NULL,
+  name TEXT NOT NULL,
+  PRIMARY KEY (run_id, channel)
+) WITHOUT ROWID;
 )SQL",
 };
 

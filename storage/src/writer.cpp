@@ -54,6 +54,8 @@ class BatchWriter {
     s.run();
     state_.run_id = db_.last_insert_rowid();
     state_.stream_keys.clear();
+    Statement name(db_, "INSERT OR REPLACE INTO run_channels(run_id, channel, name) VALUES (?, ?, ?)");
+    for (const auto& c : m.channels) name.bind(1, state_.run_id).bind(2, c.channel).bind(3, c.name).run();
   }
   void write(const RunEnded& m) {
     Statement s(db_, "UPDATE runs SET ended_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), end_reason = ? WHERE id = ?");

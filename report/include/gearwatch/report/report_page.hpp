@@ -6,9 +6,12 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "gearwatch/report/svg_plot.hpp"
+#include "gearwatch/storage/alert_history.hpp"
+#include "gearwatch/storage/record_reasons.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 
 namespace gearwatch::report {
@@ -19,34 +22,14 @@ struct RecordRow {
   std::optional<double> cycles;  ///< input revolutions at the record (NULL without a life counter)
   std::string created_at;
   bool analysed = false;
+  RecordEnd end_reason = RecordEnd::complete;
+  std::optional<dsp::SpeedSource> speed_source;  ///< where the analysed shaft angle came from
 };
 
-struct AlertRow {
-  std::int64_t id = 0;
-  std::string created_at, severity, kind;
-  std::optional<std::int64_t> channel;
-  std::string subject, transition, value;
-  std::optional<std::int64_t> record_id;
-  std::string message;
-};
+using AlertRow = storage::StoredAlert;
+using ActiveAlertRow = storage::StoredActiveAlert;
 
-struct ActiveAlertRow {
-  std::string kind;
-  std::optional<std::int64_t> channel;
-  std::string subject, value, raised_at, updated_at;
-  std::string severity;  ///< of its newest `raised` transition (active_alerts has no severity)
-  std::string message;   ///< of that transition
-};
-
-struct WearVerdictRow {
-  std::int64_t channel = 0;
-  std::int64_t record_id = 0;
-  std::string mechanism;
-  std::int64_t points = 0;
-  std::string created_at;
-  std::optional<double> cycles;
-  std::string evidence;
-};
+using WearVerdictRow = storage::StoredWearVerdict;
 
 struct HealthRow {
   std::int64_t run_id = 0;
@@ -92,6 +75,10 @@ struct ReportData {
   /// (channel, indicator name) -> record id -> value (only non-NULL values).
   std::map<std::pair<std::int64_t, std::string>, std::map<std::int64_t, double>> values;
 
+  std::vector<storage::ChannelNaming> channel_names;  ///< as the runs' configs named them, by channel
+  std::vector<storage::IndicatorSkip> skips;          ///< of the current gear pair
+  std::vector<storage::IndicatorCaveat> caveats;      ///< of the current gear pair
+
   std::vector<WearVerdictRow> verdicts;   ///< newest per channel
   std::vector<ActiveAlertRow> active_alerts;
   std::vector<AlertRow> alerts;           ///< newest first, at most kMaxAlertRows
@@ -115,6 +102,35 @@ inline const std::vector<std::string>& model_table_names() {
 /// mode it never blocks the writer). A database without any table is read as empty; one that
 /// has tables but no `records` is refused (std::runtime_error).
 ReportData load_report_data(storage::Database& db, const std::string& database_label, const std::string& generated_at);
+
+/// "casing_y (channel 0)", or "channel 0" when no run named it (a database before schema 10).
+std::string channel_label(const ReportData& data, std::int64_t channel);
+/// The same for an alert's channel, which for a tacho alert is the tacho's shaft ("shaft 0").
+std::string alert_channel_label(const ReportData& data, AlertKind kind, std::int64_t channel);
+
+/// Why something was not computed, or computed with a caveat its value depends on.
+using Reason = std::variant<dsp::SkipReason, dsp::IndicatorNote>;
+/// The reason's stored token, from its enum's to_string.
+const char* to_string(const Reason& reason) noexcept;
+
+/// Indicators of one channel skipped (or computed with a caveat) for one reason in exactly the
+/// same records: the page's rows of "what was not computed, and why".
+struct ReasonGroup {
+  std::int64_t channel = 0;
+  Reason reason;
+  std::vector<std::string> indicators;      ///< sorted
+  std::vector<std::int64_t> records;        ///< record ids, ascending
+  std::vector<std::string> details;         ///< the distinct details stored with them, at most kMaxReasonDetails
+  std::size_t more_details = 0;             ///< distinct details beyond those
+};
+inline constexpr std::size_t kMaxReasonDetails = 3;
+
+/// The skips and caveats of the current gear pair grouped per channel: skips first, then by
+/// reason (enum order), then by first record and indicator.
+std::vector<ReasonGroup> reason_groups(const ReportData& data);
+
+/// Ascending record ids as runs of consecutive ids: {1, 2, 3, 5, 9, 10} -> "1–3, 5, 9–10".
+std::string record_ranges(const std::vector<std::int64_t>& ids);
 
 /// A trend plot family: one SVG per channel, a series per indicator.
 struct PlotFamily {

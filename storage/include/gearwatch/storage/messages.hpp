@@ -18,11 +18,18 @@
 
 namespace gearwatch::storage {
 
+/// An accelerometer channel as the run's config names it ([[channels]] number and name).
+struct ChannelName {
+  int channel = 0;
+  std::string name;
+};
+
 struct RunStarted {
   std::string kind;         ///< "run" or "replay"
   std::string source;       ///< interface name or the capture's canonical absolute path
   std::string config_path;
   std::string capture_id;   ///< the capture's content identity ("" for an interface: stored as NULL)
+  std::vector<ChannelName> channels;  ///< the configured channels' names (table run_channels)
 };
 
 struct RunEnded {
