@@ -24,6 +24,7 @@
 #include "gearwatch/acquisition/candump_log.hpp"
 #include "gearwatch/acquisition/candump_source.hpp"
 #include "gearwatch/acquisition/record_assembler.hpp"
+#include "capture_records.hpp"
 #include "gearwatch/config/twin_config.hpp"
 #include "gearwatch/report/gap_page.hpp"
 #include "gearwatch/report/report_page.hpp"
@@ -59,28 +60,12 @@ std::string channels_text(const std::vector<int>& channels) {
 
 // The analysable records of one capture, decoded and cut as a replay cuts them ([records]).
 std::vector<InputRecord> read_capture(const std::string& capture, const config::GearwatchConfig& cfg, int channel) {
+  std::vector<Record> records;
   try {
-    acquisition::require_capture_file(capture);
+    records = daemon::read_capture_records(capture, cfg);
   } catch (const std::exception& e) {
     throw CommandError(e.what());
   }
-  std::ifstream in(capture, std::ios::binary);
-  if (!in) throw CommandError("cannot read capture " + capture + ": " + std::strerror(errno));
-  std::vector<Record> records;
-  acquisition::RecordAssembler assembler(cfg.rig, {[&](Record&& r, bool analysable) {
-                                                     if (analysable) records.push_back(std::move(r));
-                                                   },
-                                                   {}, {}, {}, {}, {}});
-  acquisition::ProtocolDecoder decoder = daemon::make_decoder(cfg, [&](const acquisition::AcquisitionEvent& e) { assembler.consume(e); });
-  std::string line, reason;
-  while (std::getline(in, line))
-    if (auto parsed = acquisition::parse_candump_line(line, reason)) decoder.decode(parsed->frame);
-  if (in.bad()) throw CommandError("cannot read capture " + capture + ": " + std::strerror(errno));
-  assembler.finish();
-  if (records.empty())
-    throw CommandError(capture + ": no complete record could be cut from it (records.min_length_s = " +
-                       std::to_string(cfg.rig.schedule.min_length_s) + " s, records.length_s = " +
-                       std::to_string(cfg.rig.schedule.length_s) + " s)");
   std::vector<InputRecord> out;
   for (Record& r : records) {
     std::optional<Record> kept = daemon::kept_gap_record(r, channel);

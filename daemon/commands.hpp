@@ -40,5 +40,6 @@ CLI::App* bench_command(CLI::App& app);
 void add_bench_prognosis_command(CLI::App& app);
 /// `bench` and all its subcommands.
 void register_bench(CLI::App& app);
+void register_commission(CLI::App& app);
 
 }  // namespace gearwatch::cli

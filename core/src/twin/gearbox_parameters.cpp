@@ -60,6 +60,8 @@ const std::vector<ParameterInfo>& parameter_table() {
       {"mesh_stiffness_scale", &P::mesh_stiffness_scale, 1.0, 0.5, 1.5, "-", "scale on the potential-energy k_m"},
       {"engagement_ramp_fraction", &P::engagement_ramp_fraction, 0.0, 0.0, 0.45, "-",
        "gradual engagement length / base pitch (0 = abrupt step as in the thesis)"},
+      {"casing_path_gain", &P::casing_path_gain, 1.0, 0.01, 100.0, "-",
+       "pedestal (y6) to accelerometer path gain (1 = the thesis's sensor on the pedestal; fitted by commission)"},
   };
   return table;
 }

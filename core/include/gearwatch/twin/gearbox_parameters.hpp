@@ -28,6 +28,10 @@ struct GearboxParameters {
   double mesh_damping_ratio;         ///< ζ of Eq. 5.14
   double mesh_stiffness_scale;       ///< scale on the potential-energy mesh stiffness (Fig. 5.15)
   double engagement_ramp_fraction;   ///< gradual engagement length / base pitch (0 = abrupt step)
+  /// Gain of the path from the pedestal's acceleration (ÿ6) to the accelerometer the records come
+  /// from: 1 for the thesis's sensor on the pedestal; `gearwatch commission` fits it on another
+  /// gearbox. It scales every simulated casing signal and nothing else.
+  double casing_path_gain;
 
   /// The calibrated default set.
   GearboxParameters();
