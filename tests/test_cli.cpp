@@ -28,7 +28,7 @@ Result run(const std::string& args) { return gearwatch::testing::run_command(std
 }  // namespace
 
 TEST_CASE("cli: every subcommand has --help and exits 0", "[cli]") {
-  for (const char* sub : {"", "run", "replay", "simulate", "import", "query", "inspect", "twin"}) {
+  for (const char* sub : {"", "run", "replay", "simulate", "import", "commission", "query", "inspect", "twin"}) {
     INFO(sub);
     const auto r = run(std::string(sub) + " --help");
     CHECK(r.status == 0);
