@@ -201,18 +201,18 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
       hs.push_back(h);
     }
     PerRecord& p = per[r];
-    double w = 0, wn2 = 0, excess = 0;
+    double w = 0, excess = 0;
     for (const auto& h : hs) {
       w += h.carrier_power, excess += h.excess;
       if (!with_phase) continue;
       const Complex a = (h.u_m + std::conj(h.l_m)) - (h.u_t + std::conj(h.l_t));
       const Complex b = (h.u_m - std::conj(h.l_m)) - (h.u_t - std::conj(h.l_t));
-      p.a += h.carrier_power * a, p.b += h.carrier_power * h.n * b, wn2 += h.carrier_power * h.n * h.n;
+      p.a += h.carrier_power * a, p.b += h.carrier_power * b / static_cast<double>(h.n);
     }
     if (w <= 0) continue;
     p.weight = w;
     if (with_phase) {
-      p.a /= w, p.b /= wn2;
+      p.a /= w, p.b /= w;
       p.am = std::abs(p.a), p.pm = std::abs(p.b);
     } else {
       p.am = std::sqrt(std::max(0.0, 2 * excess / w));  // both sidebands m²/4 of the carrier
