@@ -310,7 +310,7 @@ TEST_CASE("gap describe: tones at 50, 100 and 150 Hz are supply pick-up with the
     const auto& d = features[i].description;
     INFO(tones[i].at << " Hz: " << text_of(d));
     REQUIRE(d.kind == DescriptionKind::fixed_tone);
-    // 16 revolutions at 9–16 Hz: the records resolve 0.6–1 Hz, the fit on the 0.02-order grid
+    // 16 revolutions at 9–16 Hz: the records resolve 0.6–1 Hz, the fit on the 0.05-order grid
     // refined; within 0.5 Hz. The amplitude through the same tone model as the ghost's, at low
     // orders where no mesh line is near: within 5 %.
     CHECK(d.parameter("frequency_hz") == Approx(tones[i].at).margin(0.5));

@@ -268,18 +268,20 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
     }
     return s;
   };
-  auto best_gain = [&](double fn, double zeta) { return golden_min([&](double g) { return rss(fn, zeta, g); }, -30, 40, 30); };
+  auto best_gain = [&](double fn, double zeta) { return golden_min([&](double g) { return rss(fn, zeta, g); }, -30, 40, 20); };
   double lo = f.hz_low, hi = f.hz_high;
   if (!(hi > lo) || !(lo > 0)) lo = std::max(1.0, f.hz * 0.9), hi = f.hz * 1.1;
   // A grid over f_n in the feature's band and ζ from 0.002 to 0.3 (log), the gain by golden section;
   // then a pattern search around the best.
   double bf = f.hz, bz = 0.02, bg = 0, best = std::numeric_limits<double>::infinity();
-  for (int i = 0; i <= 40; ++i)
-    for (int j = 0; j <= 20; ++j) {
-      const double fn = lo + (hi - lo) * i / 40.0, zeta = 0.002 * std::pow(150.0, j / 20.0), g = best_gain(fn, zeta), v = rss(fn, zeta, g);
+  constexpr int kF = 24, kZeta = 12;
+  for (int i = 0; i <= kF; ++i)
+    for (int j = 0; j <= kZeta; ++j) {
+      const double fn = lo + (hi - lo) * i / kF, zeta = 0.002 * std::pow(150.0, static_cast<double>(j) / kZeta), g = best_gain(fn, zeta),
+                   v = rss(fn, zeta, g);
       if (v < best) best = v, bf = fn, bz = zeta, bg = g;
     }
-  double step_f = (hi - lo) / 40.0, step_lz = std::log(150.0) / 20.0;
+  double step_f = (hi - lo) / kF, step_lz = std::log(150.0) / kZeta;
   for (int it = 0; it < 30; ++it) {
     bool moved = false;
     for (const auto& [df, dlz] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}}) {
@@ -325,12 +327,12 @@ FeatureDescriber::Fit FeatureDescriber::tone(const GapFeature& f, const Window& 
   const double to_input = f.shaft == FeatureShaft::output ? ratio : 1.0;
   double total = 0;
   for (const auto& r : records_) total = std::max(total, total_input_line_power(*r.source->twin));
-  // Candidate places: in input orders (ghost) or Hz (tone), across the feature's extent, 0.02 orders apart.
+  // Candidate places: in input orders (ghost) or Hz (tone), across the feature's extent, 0.05 orders apart, then refined by halving.
   double lo = f.order_low * to_input, hi = f.order_high * to_input;
   double top_speed = 0;
   for (const auto& r : records_) top_speed = std::max(top_speed, r.speed_hz);
   if (fixed_in_hz) lo = f.hz_low, hi = f.hz_high;
-  const double step = fixed_in_hz ? 0.02 * top_speed : 0.02;
+  const double step = fixed_in_hz ? 0.05 * top_speed : 0.05;
   // Per place: every record's unit responses on the window (in the window's order), then the power.
   struct Result {
     double place = 0, power = 0, rss = std::numeric_limits<double>::infinity();
@@ -353,7 +355,7 @@ FeatureDescriber::Fit FeatureDescriber::tone(const GapFeature& f, const Window& 
       return s;
     };
     const double top = std::log10(std::max(total, 1e-300));
-    const double lp = golden_min(rss, top - 14, top + 2, 50);
+    const double lp = golden_min(rss, top - 14, top + 2, 36);
     res.power = std::pow(10.0, lp), res.rss = rss(lp);
     return res;
   };
@@ -369,7 +371,7 @@ FeatureDescriber::Fit FeatureDescriber::tone(const GapFeature& f, const Window& 
     auto res = evaluate(place);
     if (res.rss < best.rss) best = std::move(res);
   }
-  for (double s = step / 2; s > step / 64; s /= 2)
+  for (double s = step / 2; s > step / 128; s /= 2)
     for (double place : {best.place - s, best.place + s}) {
       if (on_a_line(place) || best.unit.empty()) continue;
       auto res = evaluate(place);
