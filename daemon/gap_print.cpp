@@ -125,7 +125,16 @@ void print_candidates(std::ostream& out, const gap::GapReport& r) {
 }
 
 
-/// The report's features, largest first, and the candidates fitted at a bound of their range.
+json described_json(const gap::FeatureDescription& d) {
+  json parameters = json::array();
+  for (const auto& [name, value] : d.parameters) parameters.push_back({name, number(value)});
+  return {{"kind", gap::to_string(d.kind)}, {"shaft", gap::to_string(d.shaft)}, {"parameters", parameters},
+          {"gap_db", number(d.gap_db)}, {"residual_db", number(d.residual_db)}, {"text", gap::describe(d)}};
+}
+
+
+/// The report's features, largest first, with their descriptions, and the candidates fitted at a
+/// bound of their range with what they would need.
 json features_json(const gap::GapReport& r) {
   json features = json::array(), bounds = json::array();
   for (const auto& f : r.features) {
@@ -138,12 +147,17 @@ json features_json(const gap::GapReport& r) {
                         {"order_low", number(f.order_low)}, {"order_high", number(f.order_high)}, {"hz", number(f.hz)},
                         {"hz_low", number(f.hz_low)}, {"hz_high", number(f.hz_high)}, {"size_db", number(f.size_db)},
                         {"size_interval_db", {number(f.size_interval_db.low), number(f.size_interval_db.high)}},
-                        {"p_value", number(f.p_value)}, {"description", gap::describe(f)}, {"seen_in", seen}});
+                        {"p_value", number(f.p_value)}, {"description", gap::describe(f)}, {"seen_in", seen},
+                        {"described_as", described_json(f.description)}, {"explained_by", f.explained_by ? json(gap::to_string(*f.explained_by)) : json(nullptr)},
+                        {"statement", gap::statement(f)}});
   }
   for (const auto& c : r.candidates)
-    for (const auto& b : c.at_bounds)
+    for (const auto& b : c.at_bounds) {
+      const auto reading = gap::reading_of(b);
       bounds.push_back({{"effect", gap::to_string(c.effect)}, {"parameter", b.name}, {"bound", number(b.bound)},
-                        {"side", b.upper ? "upper" : "lower"}, {"description", gap::describe(b)}});
+                        {"side", b.upper ? "upper" : "lower"}, {"value", number(reading.value)}, {"unit", reading.unit},
+                        {"quantity", reading.quantity}, {"description", gap::describe(c.effect, b)}});
+    }
   return {{"features", features}, {"at_bounds", bounds}};
 }
 
@@ -160,8 +174,9 @@ void print_features(std::ostream& out, const gap::GapReport& r) {
                   f.size_interval_db.high, f.seen_in.size());
     out << line;
   }
+  for (std::size_t i = 0; i < r.features.size(); ++i) out << "  feature " << i + 1 << ": " << gap::statement(r.features[i]) << "\n";
   for (const auto& c : r.candidates)
-    for (const auto& b : c.at_bounds) out << "fitted at a bound: " << gap::to_string(c.effect) << ": " << gap::describe(b) << "\n";
+    for (const auto& b : c.at_bounds) out << "fitted at a bound: " << gap::describe(c.effect, b) << "\n";
 }
 
 }  // namespace
@@ -170,6 +185,7 @@ json gap_report_json(const storage::StoredGapReport& s, bool stored) {
   const gap::GapReport& r = s.report;
   json candidates = json::array();
   for (std::size_t i = 0; i < r.candidates.size(); ++i) candidates.push_back(candidate_json(r.candidates[i], i + 1));
+  const json features = features_json(r);
   return {{"id", stored ? json(s.id) : json(nullptr)},
           {"created_at", stored ? json(s.created_at) : json(nullptr)},
           {"record_id", stored && s.context.record_id ? json(*s.context.record_id) : json(nullptr)},
@@ -186,8 +202,8 @@ json gap_report_json(const storage::StoredGapReport& s, bool stored) {
           {"k_wear_before", optional_number(r.k_wear_before)},
           {"k_wear_after", optional_number(r.k_wear_after)},
           {"plot", plot_json(r)},
-          {"features", features_json(r)["features"]},
-          {"at_bounds", features_json(r)["at_bounds"]}};
+          {"features", features["features"]},
+          {"at_bounds", features["at_bounds"]}};
 }
 
 void print_gap_report_table(std::ostream& out, const storage::StoredGapReport& s, bool stored) {

@@ -151,6 +151,13 @@ inline gap::GapReport known_gap_report() {
   ghost.size_interval_db = {-5.0, -4.0};
   ghost.p_value = 3e-7;
   ghost.seen_in = {{true, 1, 10.0, std::numeric_limits<double>::quiet_NaN(), 0.9125, 9.125, -4.5}};
+  // Descriptions: the band a resonance explained by the chosen casing mode, the line a 15 % AM at the
+  // gear shaft's order no candidate explains.
+  band.description = {gap::DescriptionKind::resonance, gap::FeatureShaft::input,
+                      {{"frequency_hz", 2403.5}, {"damping_ratio", 0.0125}, {"gain_db", 11.75}}, 4.25, 0.1875};
+  band.explained_by = gap::CandidateEffect::casing_mode;
+  ghost.description = {gap::DescriptionKind::modulation, gap::FeatureShaft::output,
+                       {{"am_index", 0.15}, {"pm_index_rad", std::numeric_limits<double>::quiet_NaN()}}, 3.5, 0.25};
   r.features = {band, ghost};
   return r;
 }

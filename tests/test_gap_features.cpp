@@ -319,7 +319,7 @@ TEST_CASE("gap bounded fits: a run-out the form's range cannot reach is reported
   REQUIRE(gear != bounds.end());
   CHECK(gear->upper);
   CHECK(gear->bound == Approx(3e-4));  // the form's range: 0.1 µm to 0.3 mm
-  CHECK(describe(*gear) == "gear_run_out_m would need > 300 µm (the top of its range)");
+  CHECK(describe(CandidateEffect::eccentricity, *gear) == "eccentricity would need > 300 µm gear run-out (gear_run_out_m at the top of its range)");
   // A value inside the range, and a rerun candidate's grid (misalignment 0.01–1 mrad).
   CHECK(parameters_at_bounds(CandidateEffect::eccentricity, {1e-5, 2e-5}, fs, false).empty());
   const auto top = parameters_at_bounds(CandidateEffect::misalignment, {1e-3}, fs, true);

@@ -180,7 +180,12 @@ TEST_CASE("gap page: loading needs a stored report, and gap report says so and w
   CHECK(ok.out.find(", 2 features") != std::string::npos);
   CHECK(ok.out.find("fixed_in_hz      input       240.33     2403.1    2385.0-2425.0        +11.75 [+11.50, +12.00] 2") !=
         std::string::npos);
-  CHECK(ok.out.find("fitted at a bound: mount_resonance: frequency_hz would need > 2450 (the top of its range)") != std::string::npos);
+  CHECK(ok.out.find("fitted at a bound: mount_resonance would need > 2450 Hz frequency (frequency_hz at the top of its range)") != std::string::npos);
+  // Each feature's statement: which candidate explains it, and what form it has either way.
+  CHECK(ok.out.find("feature 1: explained by casing_mode; described as a resonance at 2403.5 Hz, damping ratio 0.0125, +11.8 dB at its peak") !=
+        std::string::npos);
+  CHECK(ok.out.find("feature 2: not explained by a physical candidate; described as a 15 % modulation (AM or PM: no phases) at the gear "
+                    "shaft's order") != std::string::npos);
   const auto json_run =
       testing::run_command(std::string(GEARWATCH_BINARY) + " gap report --format json --db " + path + " --out " + (dir / "out").string());
   CHECK(json_run.status == 0);
@@ -196,6 +201,15 @@ TEST_CASE("gap page: loading needs a stored report, and gap report says so and w
   REQUIRE(doc.at("at_bounds").size() == 1);
   CHECK(doc["at_bounds"][0]["effect"] == "mount_resonance");
   CHECK(doc["at_bounds"][0]["side"] == "upper");
+  CHECK(doc["at_bounds"][0]["value"] == 2450.0);
+  CHECK(doc["at_bounds"][0]["unit"] == "Hz");
+  CHECK(doc["at_bounds"][0]["description"] == "mount_resonance would need > 2450 Hz frequency (frequency_hz at the top of its range)");
+  CHECK(doc["features"][0]["explained_by"] == "casing_mode");
+  CHECK(doc["features"][0]["described_as"]["kind"] == "resonance");
+  CHECK(doc["features"][0]["described_as"]["parameters"][0][1] == 2403.5);
+  CHECK(doc["features"][1]["explained_by"].is_null());
+  CHECK(doc["features"][1]["described_as"]["kind"] == "modulation");
+  CHECK(doc["features"][1]["described_as"]["parameters"][1][1].is_null());
   const auto bad = testing::run_command(std::string(GEARWATCH_BINARY) + " gap report --db " + (dir / "missing.db").string() + " --out " +
                                         (dir / "out").string());
   CHECK(bad.status == 1);
@@ -237,5 +251,5 @@ TEST_CASE("gap page: the features are listed with where, movement, size and reco
   CHECK(html.find("<title>F1: 2403.1 Hz (band 2385.0-2425.0 Hz), fixed in Hz, +11.8 dB [+11.5, +12.0], seen in 2 records</title>") !=
         std::string::npos);
   // A candidate fitted at a bound says what it would need.
-  CHECK(html.find("at a bound: frequency_hz would need &gt; 2450 (the top of its range)") != std::string::npos);
+  CHECK(html.find("at a bound: mount_resonance would need &gt; 2450 Hz frequency (frequency_hz at the top of its range)") != std::string::npos);
 }

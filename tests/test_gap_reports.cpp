@@ -78,6 +78,17 @@ void check_same(const gap::GapReport& a, const gap::GapReport& b) {
     CHECK(x.size_interval_db.low == y.size_interval_db.low);
     CHECK(x.size_interval_db.high == y.size_interval_db.high);
     CHECK(x.p_value == y.p_value);
+    CHECK(x.explained_by == y.explained_by);
+    CHECK(x.description.kind == y.description.kind);
+    CHECK(x.description.shaft == y.description.shaft);
+    CHECK(x.description.gap_db == y.description.gap_db);
+    CHECK(x.description.residual_db == y.description.residual_db);
+    REQUIRE(x.description.parameters.size() == y.description.parameters.size());
+    for (std::size_t j = 0; j < x.description.parameters.size(); ++j) {
+      CHECK(x.description.parameters[j].first == y.description.parameters[j].first);
+      const double u = x.description.parameters[j].second, v = y.description.parameters[j].second;
+      CHECK((u == v || (std::isnan(u) && std::isnan(v))));
+    }
     REQUIRE(x.seen_in.size() == y.seen_in.size());
     for (std::size_t j = 0; j < x.seen_in.size(); ++j) {
       const auto &s = x.seen_in[j], &t = y.seen_in[j];

@@ -264,7 +264,7 @@ void render_candidates(const GapReport& r, std::string& h) {
       if (!which.empty()) worse += " (" + html_escape(which) + ")";
     }
     for (const auto& b : c.at_bounds)
-      params += std::string(params.empty() ? "" : "; ") + "<b class=\"at-bound\">at a bound: " + html_escape(gap::describe(b)) + "</b>";
+      params += std::string(params.empty() ? "" : "; ") + "<b class=\"at-bound\">at a bound: " + html_escape(gap::describe(c.effect, b)) + "</b>";
     h += std::string("<tr class=\"candidate-row") + (step != r.chosen.end() ? " chosen" : "") + "\" data-effect=\"" + gap::to_string(c.effect) +
          "\"><td class=\"num\">" + std::to_string(i + 1) + "</td><td>" + gap::to_string(c.effect) + "</td><td>" +
          html_escape(joined(c.explains, [](auto f) { return gap::to_string(f); })) + "</td><td class=\"num\">" + percent(c.shrinkage) +

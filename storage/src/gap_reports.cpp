@@ -62,6 +62,23 @@ gap::FeatureShaft shaft_of(const std::string& token, std::int64_t id) {
   return token_to_enum(gap::kAllFeatureShafts, token, "feature shaft", id);
 }
 
+json description_json(const gap::FeatureDescription& d) {
+  json parameters = json::array();
+  for (const auto& [name, value] : d.parameters) parameters.push_back({name, number(value)});
+  return {{"kind", gap::to_string(d.kind)}, {"shaft", gap::to_string(d.shaft)}, {"parameters", parameters},
+          {"gap_db", number(d.gap_db)}, {"residual_db", number(d.residual_db)}};
+}
+
+gap::FeatureDescription description_from(const json& j, std::int64_t id) {
+  gap::FeatureDescription d;
+  d.kind = token_to_enum(gap::kAllDescriptionKinds, j.at("kind").get<std::string>(), "feature description", id);
+  d.shaft = shaft_of(j.at("shaft").get<std::string>(), id);
+  for (const auto& p : j.at("parameters")) d.parameters.emplace_back(p.at(0).get<std::string>(), number_from(p.at(1)));
+  d.gap_db = number_from(j.at("gap_db"));
+  d.residual_db = number_from(j.at("residual_db"));
+  return d;
+}
+
 json features_json(const std::vector<gap::GapFeature>& features) {
   json a = json::array();
   for (const auto& f : features) {
@@ -74,7 +91,8 @@ json features_json(const std::vector<gap::GapFeature>& features) {
                  {"order_low", number(f.order_low)}, {"order_high", number(f.order_high)}, {"hz", number(f.hz)},
                  {"hz_low", number(f.hz_low)}, {"hz_high", number(f.hz_high)}, {"size_db", number(f.size_db)},
                  {"size_interval_db", {number(f.size_interval_db.low), number(f.size_interval_db.high)}},
-                 {"p_value", number(f.p_value)}, {"seen_in", seen}});
+                 {"p_value", number(f.p_value)}, {"seen_in", seen}, {"description", description_json(f.description)},
+                 {"explained_by", f.explained_by ? json(gap::to_string(*f.explained_by)) : json(nullptr)}});
   }
   return a;
 }
@@ -98,6 +116,9 @@ std::vector<gap::GapFeature> features_from(const json& a, std::int64_t id) {
       f.seen_in.push_back({s.at("held_out").get<bool>(), s.at("record").get<std::size_t>(), number_from(s.at("speed_hz")),
                            number_from(s.at("torque_nm")), number_from(s.at("order")), number_from(s.at("hz")),
                            number_from(s.at("size_db"))});
+    // Features stored before descriptions were fitted carry none.
+    if (const auto d = j.find("description"); d != j.end()) f.description = description_from(*d, id);
+    if (const auto e = j.find("explained_by"); e != j.end() && !e->is_null()) f.explained_by = effect_of(e->get<std::string>(), id);
     out.push_back(std::move(f));
   }
   return out;

@@ -17,6 +17,7 @@
 
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/evaluation.hpp"
+#include "gearwatch/gap/describe.hpp"
 #include "gearwatch/gap/features.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/twin/errors.hpp"
@@ -220,7 +221,15 @@ std::vector<GapFeature> find_features(const std::vector<PairSpectra>& train, con
       finder.add_draw(test.size() + i, m, t);
     }
   }
-  return finder.features();
+  auto features = finder.features();
+  // Each feature described in a phenomenological form, on the same records (describe.hpp).
+  std::vector<DescribedRecord> described;
+  for (const auto* set : {&test, &train})
+    for (const auto& p : *set)
+      described.push_back({&p.measured_all, &p.twin_all, p.floor, p.measured->input_line_means(), p.measured->output_line_means(),
+                           p.twin.input_line_means(), p.twin.output_line_means()});
+  FeatureDescriber(described, gears, {s.features.min_feature_db}).describe_all(features);
+  return features;
 }
 
 std::vector<FamilyGap> family_gaps(const Assessment& a, const std::array<double, kFamilies>& noise,
@@ -621,6 +630,7 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
   report.after = family_gaps(after, noise, settings, fixed_reason);
   for (const auto& g : report.after)
     if (g.significant) report.unexplained.push_back(g.family);
+  for (auto& f : report.features) f.explained_by = explaining_candidate(report, f, gears);
   // K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the
   // mesh harmonics is absorbed into it; with the chosen effects added the twin's RMS_SA changes and
   // so does the K inferred. Records at different speeds differ in level, so their ratios are pooled

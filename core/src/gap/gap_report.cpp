@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 
 namespace gearwatch::gap {
@@ -76,10 +77,109 @@ std::string describe(const GapFeature& f) {
          ", seen in " + std::to_string(f.seen_in.size()) + (f.seen_in.size() == 1 ? " record" : " records");
 }
 
-std::string describe(const ParameterBound& b) {
-  const bool metres = b.name.size() > 2 && b.name.compare(b.name.size() - 2, 2, "_m") == 0;
-  const std::string value = metres && std::abs(b.bound) < 1e-2 ? format("%.4g µm", b.bound * 1e6) : format("%.4g", b.bound);
-  return b.name + " would need " + (b.upper ? "> " : "< ") + value + (b.upper ? " (the top of its range)" : " (the bottom of its range)");
+namespace {
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() > tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+}  // namespace
+
+BoundReading reading_of(const ParameterBound& b) {
+  // The name's unit suffix gives the unit; the rest, in words, the quantity.
+  struct Unit {
+    const char* suffix;
+    const char* unit;
+    double scale;
+  };
+  static const Unit units[] = {{"_m", "µm", 1e6}, {"_rad", "mrad", 1e3}, {"_db", "dB", 1}, {"_hz", "Hz", 1},
+                               {"_nm", "N·m", 1}, {"_per_hz", "per Hz", 1}};
+  BoundReading r{b.bound, "", b.name};
+  for (const auto& u : units)
+    if (ends_with(b.name, u.suffix)) {
+      r.quantity = b.name.substr(0, b.name.size() - std::string(u.suffix).size());
+      r.unit = u.unit;
+      r.value = b.bound * u.scale;
+      // Metres at a millimetre and beyond read in mm.
+      if (r.unit == "µm" && std::abs(b.bound) >= 1e-3) r.unit = "mm", r.value = b.bound * 1e3;
+      break;
+    }
+  for (char& c : r.quantity)
+    if (c == '_') c = ' ';
+  if (const auto at = r.quantity.find("run out"); at != std::string::npos) r.quantity.replace(at, 7, "run-out");
+  return r;
+}
+
+std::string describe(CandidateEffect effect, const ParameterBound& b) {
+  const BoundReading r = reading_of(b);
+  return std::string(to_string(effect)) + " would need " + (b.upper ? "> " : "< ") + format("%.4g", r.value) +
+         (r.unit.empty() ? "" : " " + r.unit) + " " + r.quantity + " (" + b.name + " at the " + (b.upper ? "top" : "bottom") +
+         " of its range)";
+}
+
+const char* to_string(DescriptionKind kind) noexcept {
+  switch (kind) {
+    case DescriptionKind::none: return "none";
+    case DescriptionKind::resonance: return "resonance";
+    case DescriptionKind::modulation: return "modulation";
+    case DescriptionKind::ghost_line: return "ghost_line";
+    case DescriptionKind::fixed_tone: return "fixed_tone";
+    case DescriptionKind::floor_change: return "floor_change";
+    case DescriptionKind::path_tilt: return "path_tilt";
+  }
+  return "unknown";
+}
+
+double FeatureDescription::parameter(const std::string& name) const noexcept {
+  for (const auto& [n, v] : parameters)
+    if (n == name) return v;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+namespace {
+const char* shaft_words(FeatureShaft shaft) { return shaft == FeatureShaft::output ? "the gear shaft's" : "the pinion shaft's"; }
+
+std::string tone_words(const FeatureDescription& d) {
+  const double f = d.parameter("frequency_hz"), base = d.parameter("fundamental_hz"), k = d.parameter("harmonic"),
+               supply = d.parameter("supply_hz"), amplitude = d.parameter("amplitude_m_s2");
+  std::string s = format("a tone at %.1f Hz fixed in Hz, %.3g m/s² peak", f, amplitude);
+  if (supply > 0) s += format(": supply pick-up, harmonic %.0f of %.0f Hz", k, supply);
+  else if (k > 1) s += format(": harmonic %.0f of %.1f Hz (a fan or another machine)", k, base);
+  else s += " (a fan or another machine)";
+  return s;
+}
+}  // namespace
+
+std::string describe(const FeatureDescription& d) {
+  switch (d.kind) {
+    case DescriptionKind::none: return "no descriptive form removes its gap";
+    case DescriptionKind::resonance:
+      return format("a resonance at %.1f Hz, damping ratio %.3g, %+.1f dB at its peak", d.parameter("frequency_hz"),
+                    d.parameter("damping_ratio"), d.parameter("gain_db"));
+    case DescriptionKind::modulation: {
+      const double am = d.parameter("am_index"), pm = d.parameter("pm_index_rad");
+      const std::string at = std::string(" at ") + shaft_words(d.shaft) + " order";
+      if (!std::isfinite(pm)) return format("a %.3g %% modulation (AM or PM: no phases)", 100 * am) + at;
+      return am >= pm ? format("a %.3g %% AM", 100 * am) + at + format(" (PM %.2g rad)", pm)
+                      : format("a %.3g rad PM", pm) + at + format(" (AM %.2g %%)", 100 * am);
+    }
+    case DescriptionKind::ghost_line:
+      return std::string("a ghost line at ") + (d.shaft == FeatureShaft::output ? "gear" : "pinion") + " order " + format("%.2f", d.parameter("order")) +
+             format(", %.3g m/s² peak", d.parameter("amplitude_m_s2"));
+    case DescriptionKind::fixed_tone: return tone_words(d);
+    case DescriptionKind::floor_change:
+      return format("a broadband floor change of %+.1f dB at 1 kHz, %+.1f dB/decade", d.parameter("level_db"),
+                    d.parameter("slope_db_per_decade"));
+    case DescriptionKind::path_tilt:
+      return format("a transfer-path tilt of %+.2f dB/octave over the mesh harmonics (%+.1f dB at the first)",
+                    d.parameter("tilt_db_per_octave"), d.parameter("level_db"));
+  }
+  return "unknown";
+}
+
+std::string statement(const GapFeature& f) {
+  const std::string who = f.explained_by ? std::string("explained by ") + to_string(*f.explained_by)
+                                         : std::string("not explained by a physical candidate");
+  if (f.description.kind == DescriptionKind::none) return who + "; " + describe(f.description);
+  return who + "; described as " + describe(f.description);
 }
 
 }  // namespace gearwatch::gap

@@ -88,6 +88,37 @@ struct FeatureSighting {
   double size_db = 0;         ///< the largest |g| of its lines/bins there, with its sign
 };
 
+/// The phenomenological form a feature is described by (describe.hpp gives the forms and the rule
+/// that chooses one): what it is, whether or not a physical candidate explains it.
+enum class DescriptionKind : std::uint8_t {
+  none = 0,          ///< no form removes the feature's gap (or it was not described)
+  resonance = 1,     ///< a resonance fixed in Hz: frequency_hz, damping_ratio, gain_db
+  modulation = 2,    ///< a modulation of the mesh at a shaft's order: am_index, pm_index_rad (`shaft`)
+  ghost_line = 3,    ///< a line at a non-integer order: order, amplitude_m_s2
+  fixed_tone = 4,    ///< a tone fixed in Hz: frequency_hz, amplitude_m_s2, fundamental_hz, harmonic, supply_hz
+  floor_change = 5,  ///< a broadband floor change: level_db (at 1 kHz), slope_db_per_decade
+  path_tilt = 6,     ///< a transfer-path tilt over the mesh harmonics: tilt_db_per_octave, level_db
+};
+const char* to_string(DescriptionKind kind) noexcept;
+inline constexpr std::array kAllDescriptionKinds{DescriptionKind::none,       DescriptionKind::resonance,
+                                                 DescriptionKind::modulation, DescriptionKind::ghost_line,
+                                                 DescriptionKind::fixed_tone, DescriptionKind::floor_change,
+                                                 DescriptionKind::path_tilt};
+
+/// A feature described by one form with its parameters in physical units (the unit in each name's
+/// suffix: _hz, _db, _rad, _m_s2 peak; none: a ratio or an order).
+struct FeatureDescription {
+  DescriptionKind kind = DescriptionKind::none;
+  FeatureShaft shaft = FeatureShaft::input;  ///< modulation: whose order; ghost_line: whose orders
+  std::vector<std::pair<std::string, double>> parameters;
+  double gap_db = 0;       ///< RMS of g over the cells the form was judged on, twin alone
+  double residual_db = 0;  ///< the same with the form added
+  /// The parameter's value (NaN when the description has none by that name).
+  double parameter(const std::string& name) const noexcept;
+};
+/// "a 15 % AM at the gear shaft's order (PM 0.002 rad)", "a resonance at 1100 Hz, ζ 0.011, +12.0 dB", ...
+std::string describe(const FeatureDescription& description);
+
 /// A gap at the resolution of a line or a band (features.hpp): adjacent lines/bins of one record
 /// whose measured-vs-twin ratio is significant over all lines and bins (Benjamini–Hochberg) and at
 /// least the practical minimum, joined across records where they sit at one order or one Hz.
@@ -102,7 +133,14 @@ struct GapFeature {
   Interval size_interval_db;       ///< 90 %, from the records' bootstrap over revolutions
   double p_value = 1;              ///< the smallest per-bin p-value among its lines/bins (before BH)
   std::vector<FeatureSighting> seen_in;
+  FeatureDescription description;  ///< what form it has (describe.hpp), explained or not
+  /// The chosen candidate that explains it (describe.hpp: explaining_candidate); none: no physical
+  /// candidate does.
+  std::optional<CandidateEffect> explained_by;
 };
+/// "not explained by a physical candidate; described as a 15 % AM at the gear shaft's order (PM
+/// 0.002 rad)" or "explained by casing_mode; described as a resonance at ...".
+std::string statement(const GapFeature& feature);
 /// "input order 23.4, fixed in orders, +33.1 dB [32.9, 33.3]" (the place the movement points at).
 std::string describe(const GapFeature& feature);
 
@@ -112,8 +150,16 @@ struct ParameterBound {
   double bound = 0;        ///< the end it sits at
   bool upper = true;       ///< true: it would need more than `bound`; false: less
 };
-/// "pinion_run_out_m would need > 300 µm (the top of its range)".
-std::string describe(const ParameterBound& bound);
+/// A bound in the unit people read it in: the value, its unit and the quantity's words
+/// ("gear_run_out_m" at 3e-4: 300, "µm", "gear run-out").
+struct BoundReading {
+  double value = 0;
+  std::string unit;
+  std::string quantity;
+};
+BoundReading reading_of(const ParameterBound& bound);
+/// "eccentricity would need > 300 µm gear run-out (gear_run_out_m at the top of its range)".
+std::string describe(CandidateEffect effect, const ParameterBound& bound);
 
 /// The gap in one family between a measurement and the twin (or the twin plus candidate effects).
 struct FamilyGap {

@@ -1,0 +1,111 @@
+#pragma once
+// Describing a feature (features.hpp) in a phenomenological form with parameters in physical units,
+// whether or not a physical candidate explains it: the report can then say what the gap is
+// ("a 15 % AM at the gear shaft's order") and not only where. Pure computation, no I/O.
+//
+// Forms (docs/gap.md, "Descriptions"), each predicting every cell's measured power from the twin's:
+//  - resonance, fixed in Hz: power × (1 + (G − 1)·L(f)), L = (2ζr)²/((1 − r²)² + (2ζr)²), r = f/f_n:
+//    the normalised second-order band-pass, 1 at f_n and ½ at its half-power points; f_n, ζ, G (dB);
+//  - modulation of the mesh at one shaft's order: the first sidebands n·z ± 1 of that shaft. With
+//    the lines' phases, per mesh harmonic n relative to its carrier, u + conj(l) = m·e^{iφ} (AM) and
+//    u − conj(l) = n·β·e^{iψ} (PM of the mesh, n·β on harmonic n), the twin's own subtracted; m and β
+//    are the carrier-power-weighted means over the harmonics (per record, then over records: a
+//    record's zero angle of the gear is its own). Without phases: one index from the sidebands'
+//    excess power (m²/4 of the carrier each), AM or PM undecided;
+//  - ghost line at a non-integer order / tone fixed in Hz: a non-synchronous tone as RecordSpectra
+//    sees it (add_non_synchronous_tone), at one order (ghost) or one frequency (tone) in every
+//    record, one amplitude; a tone within `supply_tolerance_orders` of a harmonic of 50 or 60 Hz is
+//    supply pick-up, and tones at integer multiples of the lowest tone are its harmonics;
+//  - floor change: the broadband bins × 10^((L + S·log10(f/1 kHz))/10), least squares over every
+//    broadband bin above the comparison's floor;
+//  - path tilt: every line and bin × 10^((c + T·log2(f/f_mesh))/10), f_mesh the first mesh harmonic,
+//    least squares over the mesh harmonics (the path's strongest, cleanest lines).
+// Rule: each form is judged on the feature's window (its extent widened by half its width, at least
+// two input orders, in every record, in Hz for a feature fixed in Hz); it removes the feature's gap
+// when the RMS of g − ĝ over the window's cells at or beyond the practical minimum falls under that
+// minimum; of those, the least BIC = n·ln(max(RSS/n, resolution²)) + k·ln n. Ghost lines are not
+// offered for a feature fixed in Hz, nor tones for one fixed in orders.
+#include <complex>
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <vector>
+
+#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/gap/spectra.hpp"
+#include "gearwatch/rig.hpp"
+
+namespace gearwatch::gap {
+
+/// One record pair a description is fitted on (the pairs the features were found on).
+struct DescribedRecord {
+  const SpectralSummary* measured = nullptr;
+  const SpectralSummary* twin = nullptr;
+  double floor = 0;
+  /// Complex synchronous lines (peak amplitude, phased on the tacho): input orders 1..K and output
+  /// orders 1..M of the measured record and of the twin's. Empty: phases not known.
+  std::vector<std::complex<double>> measured_input, measured_output, twin_input, twin_output;
+};
+
+struct DescriptionSettings {
+  double min_feature_db = 3.0;          ///< the finder's practical minimum: a form must bring the feature under it
+  double resolution_db = 0.05;          ///< RSS floor per cell in the criterion (differences below are not told apart)
+  double supply_tolerance_orders = 0.1; ///< a tone this near k·50/60 Hz (in input orders at the top speed) is supply
+  int max_supply_harmonic = 40;
+};
+
+class FeatureDescriber {
+ public:
+  /// Throws std::invalid_argument for a record without spectra.
+  FeatureDescriber(const std::vector<DescribedRecord>& records, const GearPairSpec& gears, DescriptionSettings settings = {});
+  /// The form the rule chooses for one feature (kind none: no form removes its gap).
+  FeatureDescription describe(const GapFeature& feature) const;
+  /// Every feature's description, then the tones' harmonics and supply pick-up over all of them.
+  void describe_all(std::vector<GapFeature>& features) const;
+
+  enum class CellKind : std::uint8_t { input_line, output_line, broadband };
+  struct Cell {
+    CellKind kind;
+    std::size_t index;  // order − 1 (lines), bin − 1 (broadband)
+    double order;       // centre, input orders
+    double hz;
+    double twin, measured;  // power
+  };
+  /// A form's prediction: the measured power of cell `cell` of record `record`.
+  using Prediction = std::function<double(std::size_t record, std::size_t cell)>;
+  struct Fit {
+    FeatureDescription description;
+    Prediction predict;
+    int complexity = 0;  ///< fitted parameters
+  };
+  /// The global forms (fitted over their whole domain once; exposed for tests).
+  Fit floor_change() const;
+  Fit path_tilt() const;
+  Fit modulation(FeatureShaft shaft) const;
+
+ private:
+  struct RecordCells {
+    const DescribedRecord* source;
+    double speed_hz, floor;
+    std::vector<Cell> cells;
+  };
+  using Window = std::vector<std::pair<std::size_t, std::size_t>>;  // (record, cell)
+  Window window_of(const GapFeature& f) const;
+  double g_of(std::size_t r, std::size_t c, double measured) const;
+  Fit resonance(const GapFeature& f, const Window& w) const;
+  Fit tone(const GapFeature& f, const Window& w, bool fixed_in_hz) const;
+  /// Unit-power responses of a tone at input order `order` in record r, over the window's cells of r.
+  std::vector<double> tone_response(std::size_t r, double order, const Window& w) const;
+  std::vector<RecordCells> records_;
+  std::vector<DescribedRecord> sources_;
+  GearPairSpec gears_;
+  DescriptionSettings settings_;
+  Fit floor_, tilt_, modulation_input_, modulation_output_;
+};
+
+/// The chosen candidate that explains a feature: the first in report.chosen whose families hold the
+/// family the feature's place belongs to (fixed in Hz: fixed_frequency; else its line's family, or
+/// broadband off the integer orders), unless that family stays unexplained. None: no candidate does.
+std::optional<CandidateEffect> explaining_candidate(const GapReport& report, const GapFeature& feature, const GearPairSpec& gears);
+
+}  // namespace gearwatch::gap
