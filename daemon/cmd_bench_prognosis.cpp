@@ -272,7 +272,9 @@ class CampaignBench {
       nlohmann::json updates = nlohmann::json::array();
       for (const auto& u : r.updates)
         updates.push_back({{"kind", wear::to_string(u.kind)}, {"outcome", wear::to_string(u.outcome)}, {"old", u.old_value},
-                           {"new", u.new_value}});
+                           {"new", u.new_value}, {"evidence", u.evidence}});
+      nlohmann::json flags = nlohmann::json::array();
+      for (const auto f : r.forecast.flags) flags.push_back(wear::to_string(f));
       result_.trace.push_back(
           {{"cycles", case_.plan[i].cycles},
            {"truth", {{"combined_mean_depth_m", t.combined_mean_wear_depth_m}, {"max_depth_m", max_depth(t)},
@@ -280,12 +282,15 @@ class CampaignBench {
            {"model", {{"advanced", r.advanced}, {"combined_mean_depth_m", r.summary.combined_mean_depth_m},
                       {"max_depth_m", r.max_depth_m}, {"pitting_density", r.summary.mean_pitting_density},
                       {"k_wear", r.k_wear_si}, {"rms_sa_measured", opt(r.observation.rms_sa)},
-                      {"rms_sa_simulated", opt(r.rms_sa_simulated)}, {"updates", updates}}},
+                      {"rms_sa_simulated", opt(r.rms_sa_simulated)}, {"ics2_low", opt(r.observation.ics2_low)},
+                      {"ics2_density_estimate", opt(r.ics2_density_estimate)}, {"k_pitting", r.k_pitting},
+                      {"updates", updates}}},
            {"forecast", {{"valid", r.forecast.valid},
                          {"pitting_cycles_left", {opt(r.forecast.pitting.cycles_left_low), opt(r.forecast.pitting.cycles_left),
                                                   opt(r.forecast.pitting.cycles_left_high)}},
                          {"wear_cycles_left", {opt(r.forecast.wear.cycles_left_low), opt(r.forecast.wear.cycles_left),
-                                               opt(r.forecast.wear.cycles_left_high)}}}}});
+                                               opt(r.forecast.wear.cycles_left_high)}},
+                         {"flags", flags}, {"evidence", r.forecast.evidence}}}});
     }
   }
 

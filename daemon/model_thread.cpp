@@ -189,7 +189,8 @@ std::string memory_to_json(const wear::ModelMemory& m) {
                {"calibration_inspection_id", m.calibration_inspection_id},
                {"ics2_scale", {{"valid", m.ics2_scale_valid}, {"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density},
                                {"slope", m.ics2_scale_slope}, {"inspections", m.ics2_scale_inspections},
-                               {"baseline_sd", m.ics2_scale_baseline_sd}}},
+                               {"baseline_sd", m.ics2_scale_baseline_sd}, {"density_1", m.ics2_scale_density_1}}},
+               {"k_wear_last_insensitive", m.k_wear_last_insensitive},
                {"log_k_wear", posterior_json(m.log_k_wear)},
                {"log_k_pitting", posterior_json(m.log_k_pitting)},
                {"rms_residuals", residuals},
@@ -229,6 +230,8 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     // Fields added with the posterior (issue 34): an older state lacks them, and gets the defaults.
     m.ics2_scale_inspections = sc.value("inspections", m.ics2_scale_valid ? 2 : 0);
     m.ics2_scale_baseline_sd = sc.value("baseline_sd", 0.0);
+    m.ics2_scale_density_1 = sc.value("density_1", 0.0);
+    m.k_wear_last_insensitive = j.value("k_wear_last_insensitive", false);
     m.log_k_wear = posterior_from(j, "log_k_wear");
     m.log_k_pitting = posterior_from(j, "log_k_pitting");
     if (j.contains("rms_residuals"))

@@ -394,6 +394,31 @@ TEST_CASE("forecast intervals: no interval excludes a pitting limit the ICS2 est
     CHECK(f.pitting.cycles_left_low == 0.0);
     CHECK(f.evidence.find("near end 0") != std::string::npos);
   }
+  SECTION("within reach: 0.15 with SD 0.015 (10 % of it) has its 95 % bound 0.1747 >= 0.17, 0.14 (bound 0.163) has not") {
+    m.ics2_series = {{now - 2e3, 1.6}, {now - 1e3, 1.6}, {now, 1.6}};
+    const Forecast f = TwinModel(twin::GearboxParameters{}, s, twin.simulator(), m).forecast();
+    REQUIRE(f.valid);
+    CHECK(has_flag(f, ForecastFlag::pitting_limit_within_ics2_uncertainty));
+    CHECK_FALSE(has_flag(f, ForecastFlag::pitting_limit_reached_by_ics2));
+    CHECK(f.pitting.cycles_left_low == 0.0);
+    m.ics2_series = {{now - 2e3, 1.5}, {now - 1e3, 1.5}, {now, 1.5}};
+    const Forecast g = TwinModel(twin::GearboxParameters{}, s, twin.simulator(), m).forecast();
+    REQUIRE(g.valid);
+    CHECK_FALSE(has_flag(g, ForecastFlag::pitting_limit_within_ics2_uncertainty));
+    CHECK_FALSE(g.pitting.cycles_left_low);   // flat trend, K_pitting 0: nothing brings the limit nearer
+  }
+  SECTION("k_wear_not_identified: after an insensitive update the K_wear interval is at least the prior's") {
+    m.log_k_wear.var = 0.01;   // a narrow posterior the insensitive update cannot vouch for
+    m.k_wear_last_insensitive = true;
+    const Forecast f = TwinModel(twin::GearboxParameters{}, s, twin.simulator(), m).forecast();
+    REQUIRE(f.valid);
+    CHECK(has_flag(f, ForecastFlag::k_wear_not_identified));
+    CHECK(f.log_sd_wear >= s.prior_log_k_wear_sd);
+    m.k_wear_last_insensitive = false;
+    const Forecast g = TwinModel(twin::GearboxParameters{}, s, twin.simulator(), m).forecast();
+    CHECK_FALSE(has_flag(g, ForecastFlag::k_wear_not_identified));
+    CHECK(g.log_sd_wear < f.log_sd_wear);
+  }
   SECTION("ahead: the Theil-Sen trend of an exact line crosses the limit where the line does") {
     // D = 0.05 + 0.1 (ICS2 − 0.6): 0.08, 0.09, 0.10 now, rising 0.01 per 1000 cycles: the limit 0.17 in 7000 cycles.
     m.ics2_series = {{now - 2e3, 0.9}, {now - 1e3, 1.0}, {now, 1.1}};
@@ -405,4 +430,31 @@ TEST_CASE("forecast intervals: no interval excludes a pitting limit the ICS2 est
     CHECK(*f.pitting.cycles_left_low == Approx(7000.0).epsilon(1e-9));
     CHECK_FALSE(f.pitting.cycles_left);   // the model itself pits nothing (K_pitting 0)
   }
+}
+
+TEST_CASE("forecast intervals: the scale's extrapolated SD, the pitting miss in ln K and the limit within reach in closed form",
+          "[model][updating][intervals]") {
+  // D = (1 - t) A0 + t A1 with 10 % on each area: t = 0 gives A0's, t = 1 A1's, t = 5 both, weighted.
+  CHECK(scale_density_sd(0.01, 0.04, 0.0, 0.1) == Approx(0.001).epsilon(1e-14));
+  CHECK(scale_density_sd(0.01, 0.04, 1.0, 0.1) == Approx(0.004).epsilon(1e-14));
+  CHECK(scale_density_sd(0.01, 0.04, 5.0, 0.1) == Approx(0.1 * std::sqrt(16 * 1e-4 + 25 * 16e-4)).epsilon(1e-14));
+  // Eq. 7.8 at fixed N: 0.10 measured against 0.05 modelled is ln(ln 0.9 / ln 0.95) in ln K, its SD
+  // 0.01 / (0.9 (-ln 0.9)); beyond 2 SD the variance gains the gap squared.
+  const PittingMiss miss = pitting_miss(0.10, 0.01, 0.05, 2.0);
+  const double gap = std::log(std::log(0.9) / std::log(0.95));
+  CHECK(miss.gap == Approx(gap).epsilon(1e-12));
+  CHECK(miss.gap_sd == Approx(0.01 / (0.9 * -std::log(0.9))).epsilon(1e-12));
+  CHECK(miss.missed);
+  CHECK(miss.extra_var == Approx(gap * gap).epsilon(1e-12));
+  const PittingMiss near = pitting_miss(0.10, 0.01, 0.095, 2.0);   // gap 0.053, SD 0.105: inside
+  CHECK_FALSE(near.missed);
+  CHECK(near.extra_var == 0.0);
+  // The variance adds inside the interval: sd = sqrt(var + σ²_A + extra).
+  const LogInterval li = log_interval(LogPosterior{true, 0.0, 0.04, 0.0}, 0.0, 1e6, 1.0, 0.5);
+  CHECK(li.sd == Approx(std::sqrt(0.54)).epsilon(1e-14));
+  CHECK(li.high == Approx(1.6448536269514722 * std::sqrt(0.54)).epsilon(1e-12));
+  // D + z_0.95 σ >= limit.
+  CHECK(limit_within_reach(0.15, 0.015, 0.17));        // 0.1747
+  CHECK_FALSE(limit_within_reach(0.14, 0.014, 0.17));  // 0.1630
+  CHECK(limit_within_reach(0.17 - 1.6448536269514722 * 0.01 + 1e-12, 0.01, 0.17));
 }

@@ -95,3 +95,35 @@ TEST_CASE("Pitting in the blue loop: monotone, bounded by 1, starting at the ded
   CHECK(d[90] < d[i_lpstc]);
   CHECK(d[0] < d[i_lpstc]);
 }
+
+TEST_CASE("a pitting step from a density set off Eq. 7.8's curve decays the unpitted area by exp(-A dN^m)",
+          "[wear][pitting]") {
+  const PittingMaterial material;  // m = 10/9
+  const double m = 10.0 / 9.0;
+  // A density set from an inspection (0.011 at 2.2 M cycles) and a rate far beyond the one that
+  // gave it: the unpitted area 0.989 decays by exp(-A ((2.7e6)^m - (2.2e6)^m)) in closed form.
+  const double d0 = 0.011, n0 = 2.2e6, n1 = 2.7e6;
+  for (double rate : {1e-9, 1e-7, 1e-5}) {
+    double density = d0, cycles = n0, step = 1e3;
+    while (cycles < n1) {
+      const double dn = std::min(step, n1 - cycles);
+      density = pitting_density_step(density, rate, cycles, dn, material);
+      cycles += dn;
+      step *= 1.5;
+    }
+    const double expected = 1.0 - (1.0 - d0) * std::exp(-rate * (std::pow(n1, m) - std::pow(n0, m)));
+    CHECK(density == Approx(expected).epsilon(1e-12));
+  }
+  // Monotone in the rate, reaching any density below 1: the calibration's bisection has a root.
+  double previous = d0;
+  for (double rate : {1e-12, 1e-10, 1e-8, 1e-6, 1e-4}) {
+    const double d = pitting_density_step(d0, rate, n0, n1 - n0, material);
+    CHECK(d > previous);
+    previous = d;
+  }
+  CHECK(previous == Approx(1.0).margin(1e-12));
+  // The closed-form calibration K of forecast_intervals (T = 1): the step through it returns A1.
+  const double a1 = 0.0639;
+  const double k = std::log((1.0 - d0) / (1.0 - a1)) / (std::pow(n1, m) - std::pow(n0, m));
+  CHECK(pitting_density_step(d0, k, n0, n1 - n0, material) == Approx(a1).epsilon(1e-12));
+}

@@ -14,6 +14,9 @@ const char* to_string(ForecastFlag flag) noexcept {
     case ForecastFlag::rms_sa_residuals_exceed_scatter: return "rms_sa_residuals_exceed_scatter";
     case ForecastFlag::ics2_density_ahead_of_model: return "ics2_density_ahead_of_model";
     case ForecastFlag::pitting_limit_reached_by_ics2: return "pitting_limit_reached_by_ics2";
+    case ForecastFlag::pitting_limit_within_ics2_uncertainty: return "pitting_limit_within_ics2_uncertainty";
+    case ForecastFlag::pitting_path_missed_ics2: return "pitting_path_missed_ics2";
+    case ForecastFlag::k_wear_not_identified: return "k_wear_not_identified";
   }
   return "unknown";
 }
@@ -75,14 +78,34 @@ PathMeanMoments path_mean_moments(double q_per_cycle, double cycles) {
   return m;
 }
 
-LogInterval log_interval(const LogPosterior& p, double q_per_cycle, double horizon_cycles, double widen, double coverage) {
+LogInterval log_interval(const LogPosterior& p, double q_per_cycle, double horizon_cycles, double widen, double extra_var,
+                         double coverage) {
   LogInterval out;
   const double z = normal_quantile(0.5 + coverage / 2.0);
   const PathMeanMoments walk = path_mean_moments(q_per_cycle, horizon_cycles);
-  out.sd = widen * std::sqrt(std::max(0.0, p.var + walk.log_var));
+  out.sd = widen * std::sqrt(std::max(0.0, p.var + walk.log_var + extra_var));
   out.low = p.mean + walk.log_mean - z * out.sd;
   out.high = p.mean + walk.log_mean + z * out.sd;
   return out;
+}
+
+double scale_density_sd(double a0, double a1, double t, double rel_sd) {
+  return rel_sd * std::hypot((1.0 - t) * a0, t * a1);
+}
+
+PittingMiss pitting_miss(double d_measured, double sd_measured, double d_model, double gate) {
+  PittingMiss m;
+  if (!(d_measured > 0 && d_measured < 1) || !(d_model >= 0)) return m;
+  m.gap = log_k_gap(d_measured, d_model);
+  const double h = -std::log1p(-d_measured);   // −ln(1 − D)
+  m.gap_sd = sd_measured / ((1.0 - d_measured) * h);
+  m.missed = std::abs(m.gap) > gate * m.gap_sd;
+  if (m.missed) m.extra_var = m.gap * m.gap;
+  return m;
+}
+
+bool limit_within_reach(double estimate, double sd, double limit, double coverage) {
+  return estimate + normal_quantile(0.5 + coverage / 2.0) * std::max(0.0, sd) >= limit;
 }
 
 CalibrationElasticities calibration_elasticities(double a0, double a1) {

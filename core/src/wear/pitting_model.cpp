@@ -41,8 +41,13 @@ double pitting_density_step(double density, double rate, double cycles, double s
   if (!(rate > 0) || !(step_cycles > 0)) return density;
   const double n0 = std::pow(std::max(cycles, 0.0), material.m);
   const double n1 = std::pow(std::max(cycles, 0.0) + step_cycles, material.m);
-  // exp(−A n0) − exp(−A n1) = exp(−A n0) (1 − exp(−A (n1 − n0))): no cancellation for small A.
-  return std::min(1.0, density - std::exp(-rate * n0) * std::expm1(-rate * (n1 - n0)));
+  // The surviving area (1 − D) decays by exp(−A (n1 − n0)) over the step: Eq. 7.8's survival law
+  // applied to the area that is still unpitted. Eq. 7.11's e^{−A N^m} − e^{−A (N+ΔN)^m} is the
+  // same step only while D = 1 − e^{−A N^m}, i.e. while A has been constant since N = 0; after a
+  // change of A (load, width feedback, a K update) or a density set from an inspection, its
+  // increments shrink as A grows (e^{−A N^m} → 0) and the density stalls. expm1: no cancellation
+  // for small A.
+  return std::clamp(density - (1.0 - density) * std::expm1(-rate * (n1 - n0)), 0.0, 1.0);
 }
 
 }  // namespace gearwatch::wear

@@ -596,6 +596,7 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
     const double sd = rms_scatter_sd() / std::abs(e);
     u.evidence += learn(memory_.log_k_wear, std::log(u.new_value), sd * sd, obs.cycles);
   }
+  memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive;
   report.updates.push_back(std::move(u));
 }
 
@@ -801,6 +802,7 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
     memory_.ics2_scale_ics2 = i0;
     memory_.ics2_scale_density = c.a0;
     memory_.ics2_scale_slope = (c.a1 - c.a0) / (i1 - i0);
+    memory_.ics2_scale_density_1 = c.a1;
     memory_.ics2_scale_baseline_sd = 0;
   } else {
     // A one-inspection scale, if any, stays: it is the only ICS2 reading of the density.
@@ -819,7 +821,8 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
   u.evidence = b;
   u.evidence += " " + pitting_change_text(pitting_scale_, u.old_value, u.new_value);
   if (!why.empty()) u.evidence += "; " + why;
-  if (k_new > 0 && c.a1 > c.a0 && c.a1 < 1) {
+  // A K at the bracket's end (bound_reached) did not reproduce the inspections: no measurement of ln K.
+  if (k_new > 0 && u.outcome == UpdateOutcome::converged && c.a1 > c.a0 && c.a1 < 1) {
     const double sd = settings_.inspection_area_relative_sd;
     memory_.pitting_calibration_var = calibration_log_variance(c.a0, c.a1, sd, sd, 0.0);
     u.evidence += learn(memory_.log_k_pitting, std::log(k_new), pitting_measurement_var(), cycles);
@@ -920,6 +923,7 @@ void TwinModel::calibrate_from_one_inspection(const Inspection& first, double cy
   memory_.ics2_scale_density = scale->density;
   memory_.ics2_scale_slope = scale->slope;
   memory_.ics2_scale_baseline_sd = scale->baseline_sd;
+  memory_.ics2_scale_density_1 = 0;
   // The second point: the median ICS2 of the newest three records after the inspection, once a
   // pitting interval after it (and after the last such calibration).
   const double spacing = settings_.pitting_interval_cycles;
@@ -962,7 +966,7 @@ void TwinModel::calibrate_from_one_inspection(const Inspection& first, double cy
   u.evidence = b;
   u.evidence += " " + pitting_change_text(pitting_scale_, u.old_value, u.new_value);
   if (!why.empty()) u.evidence += "; " + why;
-  if (u.new_value > 0) {
+  if (u.new_value > 0 && u.outcome == UpdateOutcome::converged) {
     // A0 scales the ICS2 estimate too: its error is shared (correlation), the ICS2 scatter is not.
     const double sd1 = std::hypot(sd, ics2_rel_sd);
     memory_.pitting_calibration_var = calibration_log_variance(a0, a1, sd, sd1, sd / sd1);
@@ -1148,7 +1152,7 @@ std::string interval_text(const char* what, const LogInterval& li, double widen)
 }
 }  // namespace
 
-void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o) const {
+void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const Ics2Evidence& ev) const {
   const double now = memory_.current.state.cycles, horizon = settings_.forecast_horizon_cycles, q = settings_.log_k_q_per_cycle();
   // The chi-square check of the recent RMS_SA residuals (before any update at their records).
   std::vector<double> recent;
@@ -1166,7 +1170,29 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
                   chk.n, chk.statistic, chk.critical, expected, chk.ratio);
     f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
   }
-  const LogPosterior pw = predict(memory_.log_k_wear, now, q), pp = predict(memory_.log_k_pitting, now, q);
+  LogPosterior pw = predict(memory_.log_k_wear, now, q);
+  const LogPosterior pp = predict(memory_.log_k_pitting, now, q);
+  if (memory_.k_wear_last_insensitive && pw.valid) {
+    // RMS_SA did not determine K_wear at the last update: the updates since the prior carry no
+    // information the model can vouch for, so the interval is at least the prior's.
+    const double prior_var = settings_.prior_log_k_wear_sd * settings_.prior_log_k_wear_sd;
+    f.flags.push_back(ForecastFlag::k_wear_not_identified);
+    char b[200];
+    std::snprintf(b, sizeof b, "K_wear: the last update found RMS_SA insensitive to K_wear: ln K SD %.3g raised to the prior's %.3g",
+                  std::sqrt(pw.var), settings_.prior_log_k_wear_sd);
+    f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+    pw.var = std::max(pw.var, prior_var);
+  }
+  // The model's pitting path against the ICS2-derived density: a miss beyond 2 SD adds its gap².
+  PittingMiss miss;
+  if (ev.valid && pp.valid) miss = pitting_miss(ev.trend, ev.sd, ev.model, 2.0);
+  if (miss.missed) {
+    f.flags.push_back(ForecastFlag::pitting_path_missed_ics2);
+    char b[300];
+    std::snprintf(b, sizeof b, "pitting: the model's density %.4g against the ICS2-derived %.4g (SD %.3g) is a gap of %.3g in ln K (SD %.3g, beyond 2 SD): the K_pitting interval's variance gains %.3g",
+                  ev.model, ev.trend, ev.sd, miss.gap, miss.gap_sd, miss.extra_var);
+    f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+  }
   // The random walk accumulates to each end's own crossing: first to the nominal one, then once
   // more to the crossing the first pass gave (beyond the horizon: the horizon).
   auto until = [&](const std::optional<double>& c) { return c ? *c : horizon; };
@@ -1174,7 +1200,8 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
   LogInterval lw, lp;
   for (int pass = 0; pass < 2; ++pass) {
     const LogInterval w_fast = log_interval(pw, q, until(fast.wear), widen), w_slow = log_interval(pw, q, until(slow.wear), widen);
-    const LogInterval p_fast = log_interval(pp, q, until(fast.pitting), 1.0), p_slow = log_interval(pp, q, until(slow.pitting), 1.0);
+    const LogInterval p_fast = log_interval(pp, q, until(fast.pitting), 1.0, miss.extra_var),
+                      p_slow = log_interval(pp, q, until(slow.pitting), 1.0, miss.extra_var);
     lw = {w_slow.low, w_fast.high, std::max(w_fast.sd, w_slow.sd)};
     lp = {p_slow.low, p_fast.high, std::max(p_fast.sd, p_slow.sd)};
     // The working K lies inside the interval (the twin runs with the update's K, the posterior
@@ -1211,31 +1238,61 @@ std::vector<std::array<double, 2>> TwinModel::ics2_density_series(std::size_t ne
   return out;
 }
 
-void TwinModel::check_ics2_trend(Forecast& f) const {
+double TwinModel::ics2_density_sd(double d) const {
+  const double s = settings_.inspection_area_relative_sd;
+  const double noise = memory_.ics2_scale_slope * memory_.ics2_scale_baseline_sd;
+  const double a0 = memory_.ics2_scale_density, a1 = memory_.ics2_scale_density_1;
+  if (memory_.ics2_scale_inspections == 2 && a1 > a0) {
+    // Two inspections: D = (1 − t) A0 + t A1, t = (D − A0) / (A1 − A0) along the scale.
+    return std::hypot(scale_density_sd(a0, a1, (d - a0) / (a1 - a0), s), noise);
+  }
+  // One inspection: D = A0 (ICS2 − baseline) / (ICS2_0 − baseline): A0's relative error scales D.
+  return std::hypot(s * d, noise);
+}
+
+TwinModel::Ics2Evidence TwinModel::ics2_evidence() const {
+  Ics2Evidence ev;
   const auto series = ics2_density_series(static_cast<std::size_t>(settings_.ics2_trend_records));
-  if (series.size() < 3) return;
-  const double now = memory_.current.state.cycles, limit = settings_.pitting_limit;
+  if (series.size() < 3) return ev;
+  const double now = memory_.current.state.cycles;
   // Centred on now, so the intercept is the trend's density now.
   std::vector<std::array<double, 2>> centred;
   for (const auto& p : series) centred.push_back({p[0] - now, p[1]});
   const RobustLine line = theil_sen(centred);
-  if (!line.valid) return;
-  const double d_trend = line.intercept, d_latest = series.back()[1];
-  const double d_model = mean_of(memory_.current.state.pinion_pitting);
-  // The ICS2 estimate's SD: the inspected area's (it sets the scale) and the ICS2 baseline's scatter.
-  const double sd = std::hypot(settings_.inspection_area_relative_sd * d_trend, memory_.ics2_scale_slope * memory_.ics2_scale_baseline_sd);
-  char b[300];
-  if (std::max(d_trend, d_latest) >= limit) {
+  if (!line.valid) return ev;
+  ev.valid = true;
+  ev.trend = line.intercept;
+  ev.latest = series.back()[1];
+  ev.slope = line.slope;
+  ev.records = series.size();
+  ev.model = mean_of(memory_.current.state.pinion_pitting);
+  ev.sd = ics2_density_sd(std::max(ev.trend, ev.latest));
+  return ev;
+}
+
+void TwinModel::check_ics2_trend(Forecast& f, const Ics2Evidence& ev) const {
+  if (!ev.valid) return;
+  const double limit = settings_.pitting_limit;
+  const double d_trend = ev.trend, d_latest = ev.latest, d_model = ev.model, sd = ev.sd;
+  const double d_high = std::max(d_trend, d_latest);
+  char b[400];
+  if (d_high >= limit) {
     // A limit the measured estimate has reached cannot be excluded by any interval.
     f.flags.push_back(ForecastFlag::pitting_limit_reached_by_ics2);
     f.pitting.cycles_left_low = 0.0;
     std::snprintf(b, sizeof b, "ICS2-derived density %.4g (trend) / %.4g (latest) at or above the limit %.4g: near end 0", d_trend, d_latest, limit);
-  } else if (d_trend - d_model > 2.0 * sd && line.slope > 0) {
+  } else if (limit_within_reach(d_high, sd, limit)) {
+    // The limit lies inside the measured density's own interval: it may be reached already.
+    f.flags.push_back(ForecastFlag::pitting_limit_within_ics2_uncertainty);
+    f.pitting.cycles_left_low = 0.0;
+    std::snprintf(b, sizeof b, "ICS2-derived density %.4g (trend) / %.4g (latest), SD %.3g: its %.0f %% upper bound %.4g reaches the limit %.4g: near end 0",
+                  d_trend, d_latest, sd, 100 * (0.5 + kNominalCoverage / 2), d_high + normal_quantile(0.5 + kNominalCoverage / 2) * sd, limit);
+  } else if (d_trend - d_model > 2.0 * sd && ev.slope > 0) {
     f.flags.push_back(ForecastFlag::ics2_density_ahead_of_model);
-    const double trend_left = (limit - d_trend) / line.slope;
+    const double trend_left = (limit - d_trend) / ev.slope;
     if (!f.pitting.cycles_left_low || trend_left < *f.pitting.cycles_left_low) f.pitting.cycles_left_low = trend_left;
     std::snprintf(b, sizeof b, "ICS2-derived density %.4g (Theil-Sen trend of the last %zu, %.3g per Mcycle) ahead of the model's %.4g by more than 2 SD (%.3g): the trend reaches %.4g in %.4g cycles",
-                  d_trend, series.size(), line.slope * 1e6, d_model, sd, limit, trend_left);
+                  d_trend, ev.records, ev.slope * 1e6, d_model, sd, limit, trend_left);
   } else {
     return;
   }
@@ -1267,8 +1324,9 @@ Forecast TwinModel::forecast() const {
     const Crossing nominal = run_forecast(memory_.k_wear_si, memory_.k_pitting, o, &f.curve);
     f.wear.cycles_left = nominal.wear;
     f.pitting.cycles_left = nominal.pitting;
-    set_intervals(f, nominal, o);
-    check_ics2_trend(f);
+    const Ics2Evidence ev = ics2_evidence();
+    set_intervals(f, nominal, o, ev);
+    check_ics2_trend(f, ev);
     f.valid = true;
   } catch (const std::exception& e) {
     f.failure = e.what();

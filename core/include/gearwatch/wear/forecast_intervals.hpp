@@ -20,10 +20,16 @@ enum class ForecastFlag : std::uint8_t {
   rms_sa_residuals_exceed_scatter,  ///< recent ln(RMS_SA meas / sim) beyond the expected scatter (chi-square, 5 %): widened
   ics2_density_ahead_of_model,      ///< the ICS2-derived density is ahead of the model's: the near end from the ICS2 trend
   pitting_limit_reached_by_ics2,    ///< the ICS2-derived density is at the pitting limit already: near end 0
+  pitting_limit_within_ics2_uncertainty,  ///< the ICS2-derived density's upper bound (interval level) reaches the limit: near end 0
+  pitting_path_missed_ics2,         ///< the model's density misses the ICS2-derived one beyond its SD: K_pitting interval widened
+  k_wear_not_identified,            ///< the last K_wear update found RMS_SA insensitive: K_wear interval no narrower than the prior's
 };
 inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exceed_scatter,
                                               ForecastFlag::ics2_density_ahead_of_model,
-                                              ForecastFlag::pitting_limit_reached_by_ics2};
+                                              ForecastFlag::pitting_limit_reached_by_ics2,
+                                              ForecastFlag::pitting_limit_within_ics2_uncertainty,
+                                              ForecastFlag::pitting_path_missed_ics2,
+                                              ForecastFlag::k_wear_not_identified};
 const char* to_string(ForecastFlag flag) noexcept;
 
 /// Normal belief about ln K: mean, variance, and the cycles it refers to. `valid` false: no belief
@@ -67,15 +73,37 @@ struct PathMeanMoments {
 };
 PathMeanMoments path_mean_moments(double q_per_cycle, double cycles);
 
-/// ln K quantiles for the interval: mean + μ_A ± z_{(1+coverage)/2} sqrt(var + σ²_A), with
-/// (μ_A, σ²_A) the path mean's over T. T is the forecast's cycles to the crossing: what sets a
-/// crossing is the mean of K over the path. `widen` multiplies the SD.
+/// ln K quantiles for the interval: mean + μ_A ± z_{(1+coverage)/2} widen sqrt(var + σ²_A + extra),
+/// with (μ_A, σ²_A) the path mean's over T. T is the forecast's cycles to the crossing: what sets a
+/// crossing is the mean of K over the path. `widen` multiplies the SD; `extra_var` adds a variance
+/// the posterior has not absorbed (a recent miss of the measurements, pitting_miss below).
 struct LogInterval {
   double low = 0, high = 0;   ///< ln K at the slow and the fast end
   double sd = 0;
 };
 LogInterval log_interval(const LogPosterior& p, double q_per_cycle, double horizon_cycles, double widen,
-                         double coverage = kNominalCoverage);
+                         double extra_var = 0, double coverage = kNominalCoverage);
+
+/// SD of a two-inspection scale's density at the ICS2 position t = (ICS2 − ICS2_0) / (ICS2_1 − ICS2_0):
+/// D = (1 − t) A0 + t A1, the areas with independent relative errors `rel_sd`:
+/// sd = rel_sd sqrt((1 − t)² A0² + t² A1²). It grows with the extrapolation beyond the second inspection.
+double scale_density_sd(double a0, double a1, double t, double rel_sd);
+
+/// The model's pitting path against the measured (ICS2-derived) density now, in ln K: at fixed N
+/// Eq. 7.8 gives gap g = ln(−ln(1 − D_meas)) − ln(−ln(1 − D_model)), the change of K that would put
+/// the model on the measurement; its SD from the measurement's, σ_g = σ_D / ((1 − D)(−ln(1 − D)))
+/// at D = D_meas. Beyond `gate` σ_g the model's recent predictions missed the measurement, and
+/// the K_pitting interval's variance gains g² (`extra_var`): the posterior has not absorbed the miss.
+struct PittingMiss {
+  double gap = 0, gap_sd = 0;
+  bool missed = false;
+  double extra_var = 0;
+};
+PittingMiss pitting_miss(double d_measured, double sd_measured, double d_model, double gate);
+
+/// The measured density's upper bound at the interval's level, D + z_{(1+coverage)/2} σ, reaches
+/// the limit: the limit may be reached already, and no interval may exclude that.
+bool limit_within_reach(double estimate, double sd, double limit, double coverage = kNominalCoverage);
 
 /// K_pitting's calibration from two pitted areas A0 at N0, A1 at N1 of one point of Eq. 7.8,
 /// D = 1 − exp(−K T N^m): K = ln((1 − A0)/(1 − A1)) / (T (N1^m − N0^m)). Its elasticities

@@ -36,7 +36,9 @@ double survival_rate(double k_pitting, const LundbergPalmgrenTerms& t, const Pit
 /// Eq. 7.8: D(N) = 1 − exp(−A N^m).
 double pitting_density_direct(double rate, double cycles, const PittingMaterial& material);
 
-/// Eq. 7.11: D_{i+1} = D_i + exp(−A N^m) − exp(−A (N + ΔN)^m), capped at 1.
+/// One step of Eq. 7.8 on the unpitted area: D_{i+1} = 1 − (1 − D_i) exp(−A ((N + ΔN)^m − N^m)).
+/// Equal to Eq. 7.11 (D_i + exp(−A N^m) − exp(−A (N + ΔN)^m)) while D_i = 1 − exp(−A N^m) with A
+/// constant since N = 0; unlike Eq. 7.11 it keeps growing with A after A changed (docs/wear.md).
 double pitting_density_step(double density, double rate, double cycles, double step_cycles,
                             const PittingMaterial& material);
 

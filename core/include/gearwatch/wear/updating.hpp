@@ -247,6 +247,8 @@ struct ModelMemory {
   int ics2_scale_inspections = 0;          ///< 1: the one-inspection scale; 2: two inspections
   double ics2_scale_baseline_sd = 0;       ///< ICS2 SD of the onset baseline (one-inspection scale)
   double last_ics2_calibration_cycles = -1;   ///< the last one-inspection calibration (−1: none)
+  double ics2_scale_density_1 = 0;         ///< A1 of a two-inspection scale (its second point); 0: none
+  bool k_wear_last_insensitive = false;    ///< the last K_wear update found RMS_SA insensitive to K_wear
   /// (cycles, ICS2 low) of the pair's records: ICS2 at an inspection's cycles. The daemon rebuilds
   /// it from the model's stored runs rather than storing it in the state.
   std::vector<std::array<double, 2>> ics2_series;
@@ -397,9 +399,19 @@ class TwinModel {
   struct Crossing {
     std::optional<double> wear, pitting;
   };
+  /// The ICS2-derived density now (Theil–Sen trend of the newest records and the latest), its SD,
+  /// and the model's density: the measured side of the pitting forecast.
+  struct Ics2Evidence {
+    bool valid = false;
+    double trend = 0, latest = 0, slope = 0, sd = 0, model = 0;
+    std::size_t records = 0;
+  };
   Crossing run_forecast(double k_wear, double k_pitting, const WearLoopOptions& o, std::vector<ForecastPoint>* curve) const;
-  void set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o) const;
-  void check_ics2_trend(Forecast& f) const;
+  void set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const Ics2Evidence& ev) const;
+  Ics2Evidence ics2_evidence() const;
+  /// SD of the ICS2-derived density `d`: the scale's inspected areas (extrapolated) and the ICS2 scatter.
+  double ics2_density_sd(double d) const;
+  void check_ics2_trend(Forecast& f, const Ics2Evidence& ev) const;
   /// The ICS2-derived density of the newest ICS2 values of the pair, (cycles, density).
   std::vector<std::array<double, 2>> ics2_density_series(std::size_t newest) const;
   void remember_k(std::vector<double>& recent, double k) const;
