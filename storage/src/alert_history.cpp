@@ -2,21 +2,13 @@
 
 #include <stdexcept>
 
+#include "stored_tokens.hpp"
+
 namespace gearwatch::storage {
 namespace {
 
-template <class Enum, std::size_t N>
-Enum enum_of(const std::array<Enum, N>& all, const std::string& token, const char* domain, const std::string& row) {
-  for (auto v : all)
-    if (token == to_string(v)) return v;
-  throw std::runtime_error(row + ": '" + token + "' is not an " + domain + " this gearwatch knows");
-}
-
-bool has_view(Database& db, const char* name) {
-  Statement s(db, "SELECT 1 FROM sqlite_master WHERE name = ? AND type IN ('table', 'view')");
-  s.bind(1, name);
-  return s.step();
-}
+using detail::enum_of;
+bool has_view(Database& db, const char* name) { return detail::has_object(db, name); }
 
 // Schema 3 added channel, subject and transition together with the active_alerts view.
 bool has_transitions(Database& db) { return has_view(db, "active_alerts"); }

@@ -4,22 +4,13 @@
 #include <map>
 #include <stdexcept>
 
+#include "stored_tokens.hpp"
+
 namespace gearwatch::storage {
 namespace {
 
-// The stored token back to its enum through the enum's one to_string (found by argument lookup).
-template <class Enum, std::size_t N>
-Enum enum_of(const std::array<Enum, N>& all, const std::string& token, const char* domain, const std::string& row) {
-  for (auto v : all)
-    if (token == to_string(v)) return v;
-  throw std::runtime_error(row + ": '" + token + "' is not a " + domain + " this gearwatch knows");
-}
-
-bool has_object(Database& db, const char* name) {
-  Statement s(db, "SELECT 1 FROM sqlite_master WHERE name = ? AND type IN ('table', 'view')");
-  s.bind(1, name);
-  return s.step();
-}
+using detail::enum_of;
+using detail::has_object;
 
 bool has_column(Database& db, const char* object, const char* column) {
   Statement s(db, "SELECT 1 FROM pragma_table_info(?) WHERE name = ?");
