@@ -24,6 +24,7 @@
 #include "gearwatch/rig/rig_simulator.hpp"
 #include "gearwatch/twin/gearbox_model.hpp"
 #include "gearwatch/twin/simulation.hpp"
+#include "constant_speed_record.hpp"
 
 using namespace gearwatch;
 using namespace gearwatch::gap;
@@ -43,25 +44,14 @@ struct Tone {
 /// so the last tacho edge lies inside), optionally with white Gaussian noise.
 Record synthetic_record(double fs, double speed, int revs, const std::vector<Tone>& tones, double noise_sigma = 0,
                         std::uint64_t seed = 1) {
-  Record r;
-  r.sample_rate_hz = fs;
-  const auto n = static_cast<std::size_t>((revs + 0.5) * fs / speed);
-  std::vector<float> x(n, 0.0f);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, noise_sigma > 0 ? noise_sigma : 1.0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double t = static_cast<double>(i) / fs;
+  return test::constant_speed_record(fs, speed, revs, [&](double t) {
     double v = 0;
     for (const auto& tone : tones) v += tone.amplitude * std::cos(2 * kPi * tone.order * speed * t + tone.phase);
     if (noise_sigma > 0) v += gauss(rng);
-    x[i] = static_cast<float>(v);
-  }
-  r.channels = {x};
-  r.channel_numbers = {0};
-  for (int k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(k * fs / speed);
-  r.speed_hz = speed;
-  r.torque_nm = 20;
-  return r;
+    return v;
+  });
 }
 
 /// The "twin": five mesh harmonics, a few shaft-order lines and sidebands on both shafts.

@@ -18,6 +18,7 @@
 #include "gap_print.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/record.hpp"
+#include "constant_speed_record.hpp"
 
 using namespace gearwatch;
 using namespace gearwatch::gap;
@@ -131,25 +132,14 @@ struct Tone {
   bool in_hz = false;
 };
 Record tone_record(double fs, double speed, int revs, const std::vector<Tone>& tones) {
-  Record r;
-  r.sample_rate_hz = fs;
-  const auto n = static_cast<std::size_t>((revs + 0.5) * fs / speed);
-  std::vector<float> x(n, 0.0f);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double t = static_cast<double>(i) / fs;
+  return test::constant_speed_record(fs, speed, revs, [&](double t) {
     double v = 0;
     for (const auto& tone : tones) {
       const double hz = tone.in_hz ? tone.at : tone.at * speed;
       v += tone.amplitude * std::cos(2 * std::numbers::pi * hz * t + 0.3 * tone.at);
     }
-    x[i] = static_cast<float>(v);
-  }
-  r.channels = {x};
-  r.channel_numbers = {0};
-  for (int k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(k * fs / speed);
-  r.speed_hz = speed;
-  r.torque_nm = 20;
-  return r;
+    return v;
+  });
 }
 
 /// The twin's lines in a record: mesh harmonics 1, 0.5, 0.33 and shaft orders 1-3 at 0.05.

@@ -16,6 +16,7 @@
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/gap/evaluation.hpp"
+#include "constant_speed_record.hpp"
 
 using namespace gearwatch;
 using namespace gearwatch::gap;
@@ -272,22 +273,11 @@ namespace {
 /// A constant-speed record of tones at input orders, exactly `revs` revolutions (plus half, so the
 /// last tacho edge lies inside), one edge per revolution.
 Record tone_record(double fs, double speed, int revs, const std::vector<std::pair<double, double>>& order_amplitude) {
-  Record r;
-  r.sample_rate_hz = fs;
-  const auto n = static_cast<std::size_t>((revs + 0.5) * fs / speed);
-  std::vector<float> x(n, 0.0f);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double t = static_cast<double>(i) / fs;
+  return test::constant_speed_record(fs, speed, revs, [&](double t) {
     double v = 0;
     for (const auto& [order, amplitude] : order_amplitude) v += amplitude * std::cos(2 * std::numbers::pi * order * speed * t + 0.3 * order);
-    x[i] = static_cast<float>(v);
-  }
-  r.channels = {x};
-  r.channel_numbers = {0};
-  for (int k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(k * fs / speed);
-  r.speed_hz = speed;
-  r.torque_nm = 20;
-  return r;
+    return v;
+  });
 }
 
 }  // namespace
