@@ -633,13 +633,15 @@ void refuse_foreign_database(const std::string& path, const DatabaseIdentity& id
                         std::to_string(identity.schema_objects) + " tables, views, indexes and triggers); left untouched");
 }
 
+void enable_foreign_keys(Database& db) { db.exec("PRAGMA foreign_keys = ON"); }
+
 void open_and_migrate(Database& db, const Vocabulary& extra) {
   // Identified before anything is written: not even the journal mode of another application's
   // file may change.
   refuse_foreign_database(db.path(), identify_database(db));
   db.exec("PRAGMA journal_mode = WAL");
   db.exec("PRAGMA synchronous = FULL");
-  db.exec("PRAGMA foreign_keys = ON");
+  enable_foreign_keys(db);
   const int have = db.user_version();
   if (have > current_schema_version()) {
     throw SqliteError(0, db.path() + ": schema version " + std::to_string(have) +

@@ -70,4 +70,8 @@ Vocabulary core_vocabulary();
 /// written before it was set).
 void open_and_migrate(Database& db, const Vocabulary& extra = {});
 
+/// Turns on foreign-key checks for this connection (open_and_migrate does it too): for a
+/// connection that writes to a database another process has already migrated.
+void enable_foreign_keys(Database& db);
+
 }  // namespace gearwatch::storage
