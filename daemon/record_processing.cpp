@@ -5,6 +5,8 @@
 #include <limits>
 #include <set>
 
+#include "gearwatch/storage/alert_history.hpp"
+#include "gearwatch/storage/processing_history.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 
 namespace gearwatch::daemon {
@@ -327,58 +329,26 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
 WearHistory load_wear_history(const std::string& database_path) {
   WearHistory history;
   storage::Database db(database_path, storage::Database::Mode::read_only);
-  storage::Statement st(db, R"SQL(
-    SELECT r.input_revolutions, lo.channel, lo.value, hi.value, b.centre_hz, b.value
-    FROM records r
-    JOIN indicator_values lo ON lo.record_id = r.id AND lo.name = 'ics2_low_band'
-    LEFT JOIN indicator_values hi ON hi.record_id = r.id AND hi.channel = lo.channel AND hi.name = 'ics2_high_band'
-    LEFT JOIN band_selections b ON b.record_id = r.id AND b.channel = lo.channel AND b.criterion = 'ics2'
-    WHERE r.analysed = 1 AND r.input_revolutions IS NOT NULL
-      AND r.created_at >= coalesce((SELECT max(detected_at) FROM life_counter_events), '')
-    ORDER BY r.id)SQL");
-  while (st.step()) {
-    auto col = [&](int i) { return st.is_null(i) ? kNaN : st.get_double(i); };
-    history[static_cast<int>(st.get_int(1))].push_back({st.get_double(0), col(2), col(3), col(4), col(5)});
-  }
+  for (const auto& p : storage::load_gear_pair_ics2_history(db))
+    history[static_cast<int>(p.channel)].push_back({p.cycles, p.low_band.value_or(kNaN), p.high_band.value_or(kNaN),
+                                                    p.selected_centre_hz.value_or(kNaN), p.selected_value.value_or(kNaN)});
   return history;
 }
 
 AlertStates load_alert_states(const std::string& database_path) {
-  AlertStates states;
-  std::map<std::string, AlertKind> kinds;
-  for (auto k : kAllAlertKinds) kinds[to_string(k)] = k;
   storage::Database db(database_path, storage::Database::Mode::read_only);
-  storage::Statement st(db, "SELECT kind, channel, active, value, consecutive_present, consecutive_absent, marker, subject"
-                            " FROM alert_state");
-  while (st.step()) {
-    const auto kind = kinds.find(st.get_text(0));
-    if (kind == kinds.end()) continue;  // written by a newer build: not ours to judge
-    AlertState s;
-    s.active = st.get_int(2) != 0;
-    s.value = st.is_null(3) ? "" : st.get_text(3);
-    s.consecutive_present = static_cast<int>(st.get_int(4));
-    s.consecutive_absent = static_cast<int>(st.get_int(5));
-    s.marker = st.get_double(6);
-    states[AlertKey{kind->second, static_cast<int>(st.get_int(1)), st.get_text(7)}] = s;
-  }
-  return states;
+  return storage::load_alert_states(db);
 }
 
 IndicatorBaselines load_baselines(const std::string& database_path, const config::AlertSettings& settings) {
   IndicatorBaselines baselines;
   storage::Database db(database_path, storage::Database::Mode::read_only);
-  storage::Statement st(db, R"SQL(
-    SELECT v.channel, v.name, v.value FROM indicator_values v JOIN records r ON r.id = v.record_id
-    WHERE r.analysed = 1 AND v.value IS NOT NULL
-      AND r.created_at >= coalesce((SELECT max(detected_at) FROM life_counter_events), '')
-    ORDER BY r.id)SQL");
   const std::set<std::string> watched(settings.watched_indicators.begin(), settings.watched_indicators.end());
   const auto n = static_cast<std::size_t>(settings.baseline_records);
-  while (st.step()) {
-    const std::string name = st.get_text(1);
-    if (!watched.count(name)) continue;
-    auto& base = baselines[{static_cast<int>(st.get_int(0)), name}];
-    if (base.size() < n) base.push_back(st.get_double(2));
+  for (auto& v : storage::load_gear_pair_indicator_values(db)) {
+    if (!watched.count(v.name)) continue;
+    auto& base = baselines[{static_cast<int>(v.channel), v.name}];
+    if (base.size() < n) base.push_back(v.value);
   }
   return baselines;
 }

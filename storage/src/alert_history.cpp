@@ -1,7 +1,9 @@
 #include "gearwatch/storage/alert_history.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
+#include "stored_rows.hpp"
 #include "stored_tokens.hpp"
 
 namespace gearwatch::storage {
@@ -13,11 +15,8 @@ bool has_view(Database& db, const char* name) { return detail::has_object(db, na
 // Schema 3 added channel, subject and transition together with the active_alerts view.
 bool has_transitions(Database& db) { return has_view(db, "active_alerts"); }
 
-std::optional<std::int64_t> optional_int(const Statement& s, int col) {
-  if (s.is_null(col)) return std::nullopt;
-  return s.get_int(col);
-}
-std::string text_or_empty(const Statement& s, int col) { return s.is_null(col) ? std::string{} : s.get_text(col); }
+using detail::optional_int;
+using detail::text_or_empty;
 
 std::string alert_columns(Database& db) {
   return has_transitions(db) ? "id, created_at, severity, kind, channel, subject, transition, value, record_id, message"
@@ -66,16 +65,20 @@ std::vector<StoredAlert> load_alerts_since(Database& db, std::int64_t first_reco
   return out;
 }
 
-std::vector<StoredActiveAlert> load_active_alerts(Database& db) {
+namespace {
+
+// The view has neither severity nor message: both come from the alert's newest `raised` transition.
+std::vector<StoredActiveAlert> read_active_alerts(Database& db, const std::optional<AlertKind>& kind) {
   std::vector<StoredActiveAlert> out;
   if (!has_transitions(db)) return out;
   Statement s(db,
-              "SELECT kind, channel, subject, value, raised_at, updated_at,"
+              std::string("SELECT kind, channel, subject, value, raised_at, updated_at,"
               " (SELECT severity FROM alerts a WHERE a.kind = x.kind AND coalesce(a.channel, -1) = coalesce(x.channel, -1)"
               "   AND coalesce(a.subject, '') = coalesce(x.subject, '') AND a.transition = 'raised' ORDER BY a.id DESC LIMIT 1),"
               " (SELECT message FROM alerts a WHERE a.kind = x.kind AND coalesce(a.channel, -1) = coalesce(x.channel, -1)"
               "   AND coalesce(a.subject, '') = coalesce(x.subject, '') AND a.transition = 'raised' ORDER BY a.id DESC LIMIT 1)"
-              " FROM active_alerts x ORDER BY kind, channel, subject");
+              " FROM active_alerts x") + (kind ? " WHERE kind = ?" : "") + " ORDER BY kind, channel, subject");
+  if (kind) s.bind(1, to_string(*kind));
   while (s.step()) {
     StoredActiveAlert a;
     const std::string row = "active alert " + text_or_empty(s, 0);
@@ -90,6 +93,34 @@ std::vector<StoredActiveAlert> load_active_alerts(Database& db) {
     out.push_back(std::move(a));
   }
   return out;
+}
+
+std::optional<AlertKind> known_kind(const std::string& token) {
+  for (auto k : kAllAlertKinds)
+    if (token == to_string(k)) return k;
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<StoredActiveAlert> load_active_alerts(Database& db) { return read_active_alerts(db, std::nullopt); }
+std::vector<StoredActiveAlert> load_active_alerts(Database& db, AlertKind kind) { return read_active_alerts(db, kind); }
+
+std::map<AlertKey, AlertState> load_alert_states(Database& db, const std::vector<AlertKind>& only) {
+  std::map<AlertKey, AlertState> states;
+  Statement s(db, "SELECT kind, channel, active, value, consecutive_present, consecutive_absent, marker, subject FROM alert_state");
+  while (s.step()) {
+    const std::optional<AlertKind> kind = known_kind(s.get_text(0));
+    if (!kind || (!only.empty() && std::find(only.begin(), only.end(), *kind) == only.end())) continue;
+    AlertState a;
+    a.active = s.get_int(2) != 0;
+    a.value = text_or_empty(s, 3);
+    a.consecutive_present = static_cast<int>(s.get_int(4));
+    a.consecutive_absent = static_cast<int>(s.get_int(5));
+    a.marker = s.get_double(6);
+    states[AlertKey{*kind, static_cast<int>(s.get_int(1)), s.get_text(7)}] = a;
+  }
+  return states;
 }
 
 }  // namespace gearwatch::storage

@@ -6,6 +6,7 @@
 // its alerts read as one-off events.
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -50,5 +51,12 @@ struct StoredActiveAlert {
 
 /// The alerts raised now, by kind, channel and subject. Empty before schema version 3.
 std::vector<StoredActiveAlert> load_active_alerts(Database& db);
+/// The alerts of one kind raised now, by channel and subject (other kinds are not read).
+std::vector<StoredActiveAlert> load_active_alerts(Database& db, AlertKind kind);
+
+/// The alert trackers' states as last written back (table alert_state), the one loader of the
+/// processing and model threads: the states of the kinds in `only` (every kind when empty). A
+/// kind this build does not know was written by a newer one and is skipped: not ours to judge.
+std::map<AlertKey, AlertState> load_alert_states(Database& db, const std::vector<AlertKind>& only = {});
 
 }  // namespace gearwatch::storage

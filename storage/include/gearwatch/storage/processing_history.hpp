@@ -1,0 +1,37 @@
+#pragma once
+// Typed readers of what the processing thread needs back at start-up (docs/storage.md): the
+// current gear pair's ICS2 history per channel (for the wear-mechanism verdict) and its indicator
+// values (for the alert baselines). "The current gear pair" is every analysed record made at or
+// after the newest life-counter reset.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gearwatch/storage/sqlite.hpp"
+
+namespace gearwatch::storage {
+
+/// One analysed record's ICS2 bands on one channel.
+struct StoredIcs2Point {
+  std::int64_t channel = 0;
+  double cycles = 0;                        ///< input revolutions of the record
+  std::optional<double> low_band;           ///< ics2_low_band (NULL: not computed)
+  std::optional<double> high_band;          ///< ics2_high_band
+  std::optional<double> selected_centre_hz; ///< the ICS2 band selection's centre
+  std::optional<double> selected_value;     ///< ... and its value
+};
+/// The ICS2 points of the current gear pair's records that have a life position, by record.
+std::vector<StoredIcs2Point> load_gear_pair_ics2_history(Database& db);
+
+/// One indicator value of one analysed record and channel.
+struct StoredIndicatorValue {
+  std::int64_t record_id = 0;
+  std::int64_t channel = 0;
+  std::string name;
+  double value = 0;
+};
+/// Every non-NULL indicator value of the current gear pair's analysed records, by record.
+std::vector<StoredIndicatorValue> load_gear_pair_indicator_values(Database& db);
+
+}  // namespace gearwatch::storage
