@@ -15,7 +15,10 @@
 
 #include "gap_diagnoser.hpp"
 #include "gearwatch/config/twin_config.hpp"
+#include "gearwatch/storage/alert_history.hpp"
 #include "gearwatch/storage/gap_kept_records.hpp"
+#include "gearwatch/storage/inspections.hpp"
+#include "gearwatch/storage/model_history.hpp"
 #include "gearwatch/storage/resume.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/twin/errors.hpp"
@@ -257,42 +260,20 @@ wear::ModelMemory memory_from_json(const std::string& text) {
 StoredModel load_model(const std::string& database_path) {
   StoredModel out;
   storage::Database db(database_path, storage::Database::Mode::read_only);
-  {
-    storage::Statement st(db, "SELECT gear_pair, state FROM model_state ORDER BY gear_pair DESC LIMIT 1");
-    if (st.step()) {
-      out.gear_pair = st.get_int(0);
-      try {
-        out.memory = memory_from_json(st.get_text(1));
-        out.found = true;
-      } catch (const std::exception& e) {
-        out.problem = e.what();
-      }
-    } else {
-      storage::Statement resets(db, "SELECT count(*) FROM life_counter_events");
-      resets.step();
-      out.gear_pair = resets.get_int(0);
+  if (const auto stored = storage::load_newest_model_state(db)) {
+    out.gear_pair = stored->gear_pair;
+    try {
+      out.memory = memory_from_json(stored->state_json);
+      out.found = true;
+    } catch (const std::exception& e) {
+      out.problem = e.what();
     }
+  } else {
+    out.gear_pair = storage::count_life_counter_resets(db);
   }
-  if (out.found) {
-    // The ICS2 series is not in the state (it only grows): the stored runs hold it, exactly.
-    storage::Statement st(db, "SELECT cycles, ics2_low FROM model_runs WHERE gear_pair = ? AND advanced = 1"
-                              " AND cycles IS NOT NULL AND ics2_low IS NOT NULL ORDER BY id");
-    st.bind(1, out.gear_pair);
-    while (st.step()) out.memory.ics2_series.push_back({st.get_double(0), st.get_double(1)});
-  }
-  storage::Statement al(db, "SELECT channel, active, value, consecutive_present, consecutive_absent, marker, subject, kind"
-                            " FROM alert_state WHERE kind IN (?, ?)");
-  al.bind(1, to_string(AlertKind::remaining_life)).bind(2, to_string(AlertKind::twin_drift));
-  while (al.step()) {
-    const AlertKind kind = al.get_text(7) == to_string(AlertKind::twin_drift) ? AlertKind::twin_drift : AlertKind::remaining_life;
-    AlertState s;
-    s.active = al.get_int(1) != 0;
-    s.value = al.is_null(2) ? "" : al.get_text(2);
-    s.consecutive_present = static_cast<int>(al.get_int(3));
-    s.consecutive_absent = static_cast<int>(al.get_int(4));
-    s.marker = al.get_double(5);
-    out.alerts[AlertKey{kind, static_cast<int>(al.get_int(0)), al.get_text(6)}] = s;
-  }
+  // The ICS2 series is not in the state (it only grows): the stored runs hold it, exactly.
+  if (out.found) out.memory.ics2_series = storage::load_advanced_ics2_series(db, out.gear_pair);
+  out.alerts = storage::load_alert_states(db, {AlertKind::remaining_life, AlertKind::twin_drift});
   return out;
 }
 
@@ -429,14 +410,12 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   std::vector<wear::Inspection> inspections;
   try {
     storage::Database db(config_.storage.database, storage::Database::Mode::read_only);
-    storage::Statement st(db, "SELECT id, cycles, pitted_area_fraction, wear_depth_m FROM inspections WHERE coalesce(gear_pair, 0) = ?");
-    st.bind(1, gear_pair_);
-    while (st.step()) {
+    for (const auto& stored : storage::load_gear_pair_inspections(db, gear_pair_)) {
       wear::Inspection i;
-      i.id = st.get_int(0);
-      i.cycles = st.get_double(1);
-      if (!st.is_null(2)) i.pitted_area = st.get_double(2);
-      if (!st.is_null(3)) i.wear_depth_m = st.get_double(3);
+      i.id = stored.id;
+      i.cycles = stored.cycles;
+      i.pitted_area = stored.pitted_area_fraction;
+      i.wear_depth_m = stored.wear_depth_m;
       inspections.push_back(i);
     }
   } catch (const storage::SqliteError& e) {

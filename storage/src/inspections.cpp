@@ -1,6 +1,39 @@
 #include "gearwatch/storage/inspections.hpp"
 
+#include "stored_rows.hpp"
+#include "stored_tokens.hpp"
+
 namespace gearwatch::storage {
+namespace {
+
+// gear_pair came with a later schema: an older database's inspections all belong to the first pair.
+std::string inspection_select(Database& db) {
+  const char* pair = detail::has_column(db, "inspections", "gear_pair") ? "coalesce(gear_pair, 0)" : "0";
+  return std::string("SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note, ") + pair + " FROM inspections";
+}
+
+std::vector<StoredInspection> read_inspections(Statement& s) {
+  std::vector<StoredInspection> out;
+  while (s.step())
+    out.push_back({s.get_int(0), s.get_text(1), s.get_double(2), detail::optional_double(s, 3), detail::optional_double(s, 4),
+                   detail::text_or_empty(s, 5), s.get_int(6)});
+  return out;
+}
+
+}  // namespace
+
+std::vector<StoredInspection> load_inspections(Database& db) {
+  if (!detail::has_object(db, "inspections")) return {};
+  Statement s(db, inspection_select(db) + " ORDER BY cycles, id");
+  return read_inspections(s);
+}
+
+std::vector<StoredInspection> load_gear_pair_inspections(Database& db, std::int64_t gear_pair) {
+  Statement s(db, "SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note, coalesce(gear_pair, 0) FROM inspections"
+                  " WHERE coalesce(gear_pair, 0) = ? ORDER BY id");
+  s.bind(1, gear_pair);
+  return read_inspections(s);
+}
 
 GearPairPosition load_gear_pair_position(Database& db) {
   GearPairPosition p;

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "gearwatch/storage/sqlite.hpp"
 
@@ -23,6 +24,20 @@ struct NewInspection {
   std::string note;                   ///< "" is stored as NULL
   std::int64_t gear_pair = 0;
 };
+/// An inspection as stored (table inspections).
+struct StoredInspection {
+  std::int64_t id = 0;
+  std::string entered_at;
+  double cycles = 0;
+  std::optional<double> pitted_area_fraction, wear_depth_m;
+  std::string note;                   ///< "" when none was stored
+  std::int64_t gear_pair = 0;         ///< NULL (a row from before gear pairs were stored) reads as 0
+};
+/// Every inspection, by cycles (then id). Empty when the database has no inspections table.
+std::vector<StoredInspection> load_inspections(Database& db);
+/// The inspections of one gear pair, by id (the order staff entered them).
+std::vector<StoredInspection> load_gear_pair_inspections(Database& db, std::int64_t gear_pair);
+
 /// Stores one inspection; returns its id.
 std::int64_t insert_inspection(Database& db, const NewInspection& inspection);
 
