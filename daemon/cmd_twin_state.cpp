@@ -1,6 +1,8 @@
 // `gearwatch twin state --db FILE [--format table|json]`: what the model thread knows now (docs/model.md):
 // K_wear, K_pitting, wear depth (mean and root -> tip), pitting density (mean and distribution), the
 // update history, the latest prediction, and wear-depth inspections against the prediction.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -8,6 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_common.hpp"
+#include "gearwatch/storage/inspections.hpp"
+#include "gearwatch/storage/model_history.hpp"
 #include "model_thread.hpp"
 
 namespace gearwatch::cli {
@@ -15,24 +19,28 @@ namespace {
 
 using nlohmann::json;
 
-json column_value(const storage::Statement& st, int i) {
-  if (st.is_null(i)) return nullptr;
-  const storage::ColumnType type = st.column_type(i);
-  if (type == storage::ColumnType::integer) return st.get_int(i);
-  if (type == storage::ColumnType::real) return st.get_double(i);
-  return st.get_text(i);
+json json_of(const storage::StoredValue& v) {
+  if (const auto* i = std::get_if<std::int64_t>(&v)) return *i;
+  if (const auto* d = std::get_if<double>(&v)) return *d;
+  if (const auto* t = std::get_if<std::string>(&v)) return *t;
+  if (const auto* b = std::get_if<storage::Blob>(&v)) return b->bytes;
+  return nullptr;
 }
 
-json rows(storage::Database& db, const std::string& sql, std::int64_t pair) {
-  storage::Statement st(db, sql);
-  st.bind(1, pair);
+json rows(const storage::StoredTable& table) {
   json out = json::array();
-  while (st.step()) {
+  for (const auto& r : table.rows) {
     json row = json::object();
-    for (int i = 0; i < st.column_count(); ++i) row[st.column_name(i)] = column_value(st, i);
+    for (std::size_t i = 0; i < table.columns.size(); ++i) row[table.columns[i]] = json_of(r[i]);
     out.push_back(std::move(row));
   }
   return out;
+}
+
+json inspection_json(const storage::StoredInspection& i) {
+  auto optional = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
+  return {{"id", i.id}, {"cycles", i.cycles}, {"wear_depth_m", optional(i.wear_depth_m)},
+          {"pitted_area_fraction", optional(i.pitted_area_fraction)}, {"note", i.note.empty() ? json(nullptr) : json(i.note)}};
 }
 
 std::string num(const json& v, const char* f = "%.4g", double scale = 1.0) {
@@ -56,14 +64,13 @@ void register_twin_state(CLI::App* twin) {
     json out;
     storage::Database db = open_history(opt->db);
     try {
-      storage::Statement has(db, "SELECT 1 FROM sqlite_master WHERE name = 'model_state'");
-      if (!has.step()) throw CommandError("twin state: this database has no model state (written before schema version 4)");
-      storage::Statement st(db, "SELECT gear_pair, updated_at, state FROM model_state ORDER BY gear_pair DESC LIMIT 1");
-      if (!st.step()) throw CommandError("twin state: the model has not handled a record yet");
-      const std::int64_t pair = st.get_int(0);
+      if (!storage::has_model_state(db)) throw CommandError("twin state: this database has no model state (written before schema version 4)");
+      const std::optional<storage::StoredModelState> stored = storage::load_newest_model_state(db);
+      if (!stored) throw CommandError("twin state: the model has not handled a record yet");
+      const std::int64_t pair = stored->gear_pair;
       wear::ModelMemory m;
       try {
-        m = daemon::memory_from_json(st.get_text(2));
+        m = daemon::memory_from_json(stored->state_json);
       } catch (const std::exception& e) {
         throw CommandError(std::string("twin state: ") + e.what());
       }
@@ -77,7 +84,7 @@ void register_twin_state(CLI::App* twin) {
       for (std::size_t j = 0; j < s.pinion_depth_m.size(); ++j)
         fraction.push_back(s.pinion_depth_m.size() > 1 ? static_cast<double>(j) / static_cast<double>(s.pinion_depth_m.size() - 1) : 0.0);
       out = {{"gear_pair", pair},
-             {"updated_at", st.get_text(1)},
+             {"updated_at", stored->updated_at},
              {"cycles", s.cycles},
              {"k_wear_si", m.k_wear_si},
              {"k_wear_seed_unit", wear::k_wear_seed_from_si(m.k_wear_si)},
@@ -93,29 +100,27 @@ void register_twin_state(CLI::App* twin) {
                           {"max_profile_fraction", sum.max_pitting_fraction}, {"pinion_pitting", s.pinion_pitting}}}};
       if (m.ics2_scale_valid)
         out["ics2_scale"] = {{"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density}, {"slope", m.ics2_scale_slope}};
-      out["updates"] = rows(db, "SELECT id, created_at, cycles, kind, triggered_by, outcome, old_value, new_value, applies_from_cycles,"
-                                " iterations, measured, simulated_before, simulated_after, correlation_before, correlation_after, evidence"
-                                " FROM k_updates WHERE gear_pair = ? ORDER BY id", pair);
-      json latest = rows(db, "SELECT * FROM predictions WHERE gear_pair = ? ORDER BY run_id DESC LIMIT 1", pair);
+      out["updates"] = rows(storage::load_gear_pair_k_updates(db, pair));
+      json latest = rows(storage::load_newest_prediction(db, pair));
       if (!latest.empty()) {
-        storage::Statement curve(db, "SELECT forecast_curve FROM model_runs WHERE id = ?");
-        curve.bind(1, latest[0]["run_id"].get<std::int64_t>());
-        if (curve.step() && !curve.is_null(0)) latest[0]["forecast_curve"] = json::parse(curve.get_text(0));
+        if (const auto curve = storage::load_forecast_curve(db, latest[0]["run_id"].get<std::int64_t>()))
+          latest[0]["forecast_curve"] = json::parse(*curve);
         out["prediction"] = latest[0];
       } else {
         out["prediction"] = nullptr;
       }
       // Wear-depth inspections against the model's mean depth at their cycles (between the two
       // runs around them; the model's depth is linear enough between neighbouring records).
-      json inspections = rows(db, "SELECT id, cycles, wear_depth_m, pitted_area_fraction, note FROM inspections"
-                                  " WHERE coalesce(gear_pair, 0) = ? ORDER BY cycles", pair);
+      std::vector<storage::StoredInspection> stored_inspections = storage::load_gear_pair_inspections(db, pair);
+      std::stable_sort(stored_inspections.begin(), stored_inspections.end(),
+                       [](const auto& a, const auto& b) { return a.cycles < b.cycles; });
+      json inspections = json::array();
+      for (const auto& i : stored_inspections) inspections.push_back(inspection_json(i));
       for (auto& i : inspections) {
         const double c = i["cycles"].get<double>();
-        storage::Statement near(db, "SELECT cycles, wear_mean_m, pitting_mean FROM predictions WHERE gear_pair = ? AND cycles IS NOT NULL"
-                                    " ORDER BY abs(cycles - ?) LIMIT 2");
-        near.bind(1, pair).bind(2, c);
+        const std::vector<storage::PredictionPoint> near = storage::load_predictions_nearest(db, pair, c, 2);
         std::vector<std::array<double, 3>> pts;
-        while (near.step()) pts.push_back({near.get_double(0), near.get_double(1), near.get_double(2)});
+        for (const auto& p : near) pts.push_back({p.cycles, p.wear_mean_m, p.pitting_mean});
         if (pts.empty()) continue;
         auto at = [&](int k) {
           if (pts.size() < 2 || pts[0][0] == pts[1][0]) return pts[0][k];
