@@ -96,7 +96,7 @@ WritableHistory open_history_for_writing(const std::string& path, const std::str
     throw CommandError(held + " at schema version " + std::to_string(db.user_version()) + ", not this gearwatch's " +
                        std::to_string(storage::current_schema_version()) + "; " + command +
                        " does not migrate a database another process holds");
-  db.exec("PRAGMA foreign_keys = ON");
+  storage::enable_foreign_keys(db);
   return {std::nullopt, std::move(db)};
 }
 
@@ -114,34 +114,31 @@ std::string csv_escape(const std::string& s) {
 
 }  // namespace
 
-std::size_t print_query(storage::Database& db, const std::string& sql, const std::vector<std::string>& bindings,
-                        const std::string& format) {
-  storage::Statement st(db, sql);
-  for (std::size_t i = 0; i < bindings.size(); ++i) st.bind(static_cast<int>(i + 1), bindings[i]);
-  const int ncol = st.column_count();
-  std::vector<std::string> names;
-  for (int c = 0; c < ncol; ++c) names.push_back(st.column_name(c));
+std::size_t print_table(const storage::StoredTable& table, const std::string& format) {
+  const int ncol = static_cast<int>(table.columns.size());
+  const std::vector<std::string>& names = table.columns;
   std::vector<std::vector<std::string>> rows;
   nlohmann::json json_rows = nlohmann::json::array();
-  while (st.step()) {
+  for (const auto& stored : table.rows) {
     std::vector<std::string> row;
     nlohmann::json obj = nlohmann::json::object();
-    for (int c = 0; c < ncol; ++c) {
-      const storage::ColumnType type = st.column_type(c);
-      if (type == storage::ColumnType::null) {
+    for (std::size_t c = 0; c < names.size(); ++c) {
+      const storage::StoredValue& v = stored[c];
+      if (storage::is_null(v)) {
         row.emplace_back("");
-        obj[names[static_cast<std::size_t>(c)]] = nullptr;
-      } else if (type == storage::ColumnType::integer) {
-        row.push_back(std::to_string(st.get_int(c)));
-        obj[names[static_cast<std::size_t>(c)]] = st.get_int(c);
-      } else if (type == storage::ColumnType::real) {
+        obj[names[c]] = nullptr;
+      } else if (const auto* i = std::get_if<std::int64_t>(&v)) {
+        row.push_back(std::to_string(*i));
+        obj[names[c]] = *i;
+      } else if (const auto* d = std::get_if<double>(&v)) {
         char buf[32];
-        std::snprintf(buf, sizeof buf, "%.6g", st.get_double(c));
+        std::snprintf(buf, sizeof buf, "%.6g", *d);
         row.emplace_back(buf);
-        obj[names[static_cast<std::size_t>(c)]] = st.get_double(c);
+        obj[names[c]] = *d;
       } else {
-        std::string text = st.get_text(c);
-        obj[names[static_cast<std::size_t>(c)]] = text;
+        const auto* t = std::get_if<std::string>(&v);
+        std::string text = t ? *t : std::get<storage::Blob>(v).bytes;
+        obj[names[c]] = text;
         row.push_back(format == "table" ? printable(text) : std::move(text));
       }
     }

@@ -14,16 +14,15 @@
 #include "gearwatch/config/config.hpp"
 #include "gearwatch/storage/database_lock.hpp"
 #include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/storage/stored_table.hpp"
 
 namespace gearwatch::cli {
 
 /// Loads FILE, or the built-in defaults when `path` is empty. ConfigError -> CommandError.
 config::GearwatchConfig load_config_or_defaults(const std::string& path);
 
-/// Runs `sql` (with optional text bindings) and prints every row in `format`
-/// (table | csv | json). Returns the number of rows.
-std::size_t print_query(storage::Database& db, const std::string& sql, const std::vector<std::string>& bindings,
-                        const std::string& format);
+/// Prints every row of `table` in `format` (table | csv | json). Returns the number of rows.
+std::size_t print_table(const storage::StoredTable& table, const std::string& format);
 
 /// Writes DIR/index.html (DIR created if missing) through a temporary file renamed over it, so a
 /// browser or a web server publishing DIR never sees half a page. CommandError on failure.
