@@ -465,29 +465,20 @@ svg.plot line.feature { stroke-width: 1.5; stroke-dasharray: 5 3; }
 
 GapPageData load_gap_page_data(storage::Database& db, const std::string& database_label, const std::string& generated_at,
                                std::size_t history) {
-  {
-    storage::Statement s(db, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'records'");
-    if (!s.step()) throw std::runtime_error(database_label + " is not a gearwatch database (it has no records table)");
-  }
+  if (!storage::has_table_or_view(db, "records"))
+    throw std::runtime_error(database_label + " is not a gearwatch database (it has no records table)");
   if (!storage::has_gap_report_tables(db))
     throw NoGapReports(database_label + " has no gap reports: it was written by a gearwatch older than schema version 5");
   GapPageData d;
   d.database = database_label;
   d.generated_at = generated_at;
-  {
-    storage::Statement s(db, "SELECT count(*) FROM gap_report_runs");
-    s.step();
-    d.total_reports = static_cast<std::size_t>(s.get_int(0));
-  }
+  d.total_reports = static_cast<std::size_t>(storage::count_gap_reports(db));
   if (d.total_reports == 0)
     throw NoGapReports(database_label + " has no gap reports yet: the daemon stores one every gap.every_records analysed records"
                                         " when [gap] enabled = true (docs/gap-report.md)");
   d.reports = storage::load_gap_reports(db, std::max<std::size_t>(history, 1));
-  storage::Statement drift(db, "SELECT a.subject, a.value, a.raised_at, (SELECT e.message FROM alert_events e WHERE e.kind = a.kind"
-                               " AND e.subject = a.subject AND e.transition = 'raised' ORDER BY e.id DESC LIMIT 1)"
-                               " FROM active_alerts a WHERE a.kind = 'twin_drift' ORDER BY a.subject");
-  while (drift.step())
-    d.active_drift.push_back({drift.get_text(0), drift.get_text(1), drift.is_null(2) ? "" : drift.get_text(2), drift.get_text(3)});
+  for (auto& a : storage::load_active_alerts(db, AlertKind::twin_drift))
+    d.active_drift.push_back({std::move(a.subject), std::move(a.value), std::move(a.raised_at), std::move(a.message)});
   return d;
 }
 

@@ -13,38 +13,8 @@ namespace gearwatch::report {
 namespace {
 
 using storage::Database;
-using storage::Statement;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-// A deferred read transaction: the whole page is one snapshot of the database, and in WAL mode
-// a reader holds no lock the writer waits for (BEGIN IMMEDIATE, as Transaction does, would).
-class ReadSnapshot {
- public:
-  explicit ReadSnapshot(Database& db) : db_(db) { db_.exec("BEGIN"); }
-  ~ReadSnapshot() {
-    try {
-      db_.exec("COMMIT");
-    } catch (...) {  // nothing was written: ending the read cannot lose anything
-    }
-  }
-  ReadSnapshot(const ReadSnapshot&) = delete;
-  ReadSnapshot& operator=(const ReadSnapshot&) = delete;
-
- private:
-  Database& db_;
-};
-
-bool has_object(Database& db, const std::string& name) {
-  Statement s(db, "SELECT 1 FROM sqlite_master WHERE name = ? AND type IN ('table', 'view')");
-  s.bind(1, name);
-  return s.step();
-}
-
-std::optional<double> opt_double(const Statement& s, int col) {
-  if (s.is_null(col)) return std::nullopt;
-  return s.get_double(col);
-}
 
 std::string format_number(double v, int significant = 4) {
   if (!std::isfinite(v)) return "—";
@@ -67,12 +37,12 @@ std::string format_cycles(double cycles) {
   return out;
 }
 
-std::string cell_text(const Statement& s, int col) {
-  const storage::ColumnType type = s.column_type(col);
-  if (type == storage::ColumnType::null) return "—";
-  if (type == storage::ColumnType::real) return format_number(s.get_double(col), 6);
-  if (type == storage::ColumnType::blob) return "(binary)";
-  return s.get_text(col);
+std::string cell_text(const storage::StoredValue& v) {
+  if (storage::is_null(v)) return "—";
+  if (const auto* d = std::get_if<double>(&v)) return format_number(*d, 6);
+  if (const auto* i = std::get_if<std::int64_t>(&v)) return std::to_string(*i);
+  if (const auto* t = std::get_if<std::string>(&v)) return *t;
+  return "(binary)";
 }
 
 // The alert, severity and event colours; the page's stylesheet uses the same ones.
@@ -105,17 +75,13 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
   d.database = database_label;
   d.generated_at = generated_at;
   d.schema_version = db.user_version();
-  ReadSnapshot snapshot(db);
+  const storage::ReadSnapshot snapshot(db);
 
-  {
-    Statement any(db, "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
-    any.step();
-    if (any.get_int(0) == 0) {  // a new, empty file: nothing measured yet
-      for (const auto& name : model_table_names()) d.model_tables.push_back({name, false, {}, {}, 0});
-      return d;
-    }
+  if (storage::has_no_tables(db)) {  // a new, empty file: nothing measured yet
+    for (const auto& name : model_table_names()) d.model_tables.push_back({name, false, {}, {}, 0});
+    return d;
   }
-  if (!has_object(db, "records")) throw std::runtime_error(database_label + " is not a gearwatch database (it has no records table)");
+  if (!storage::has_table_or_view(db, "records")) throw std::runtime_error(database_label + " is not a gearwatch database (it has no records table)");
 
   // Records by id; a cycle count going backwards is a life-counter reset: a new gear pair.
   {
@@ -142,20 +108,13 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
   d.caveats = storage::load_indicator_caveats(db, first_record);
 
   // Only the indicators the plots show: a long history has tens of other values per record.
-  if (has_object(db, "indicators")) {
-    Statement s(db,
-                "SELECT record_id, channel, name, value FROM indicators WHERE record_id >= ? AND value IS NOT NULL"
-                " AND (name IN ('ics2_low_band', 'ics2_high_band', 'ics2_selected_band', 'rms_sa', 'rms_raw', 'kurtosis_raw')"
-                "      OR name LIKE 'mean\\_carrier\\_hz\\_%' ESCAPE '\\')");
-    s.bind(1, first_record);
+  {
     std::set<std::int64_t> channels;
     std::set<std::string> names;
-    while (s.step()) {
-      const std::int64_t channel = s.get_int(1);
-      const std::string name = s.get_text(2);
-      d.values[{channel, name}][s.get_int(0)] = s.get_double(3);
-      channels.insert(channel);
-      names.insert(name);
+    for (auto& v : storage::load_plot_indicator_values(db, first_record)) {
+      d.values[{v.channel, v.name}][v.record_id] = v.value;
+      channels.insert(v.channel);
+      names.insert(std::move(v.name));
     }
     d.channels.assign(channels.begin(), channels.end());
     d.indicator_names.assign(names.begin(), names.end());
@@ -167,82 +126,21 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
   d.alerts = storage::load_newest_alerts(db, kMaxAlertRows);
   d.active_alerts = storage::load_active_alerts(db);
 
-  if (has_object(db, "acquisition_health")) {
-    // By column name, so a snapshot with more counters (a newer schema) still reads.
-    const bool ring_gap_column = [&] {
-      Statement c(db, "SELECT 1 FROM pragma_table_info('acquisition_health') WHERE name = 'ring_gap_samples'");
-      return c.step();
-    }();
-    const std::string ring_lost = ring_gap_column
-                                      ? "ring_gap_samples"
-                                      : "(SELECT coalesce(sum(g.missing_samples), 0) FROM gap_events g JOIN streams st ON st.id = g.stream_key"
-                                        " WHERE st.run_id = h.run_id AND g.cause = 'ring_overflow')";
-    Statement s(db, "SELECT h.*, " + ring_lost + " AS report_ring_lost FROM acquisition_health h ORDER BY run_id DESC");
-    std::map<std::string, int> col;
-    for (int i = 0; i < s.column_count(); ++i) col[s.column_name(i)] = i;
-    auto integer = [&](const char* name) -> std::int64_t {
-      const auto it = col.find(name);
-      return it == col.end() || s.is_null(it->second) ? 0 : s.get_int(it->second);
-    };
-    auto text = [&](const char* name) -> std::string {
-      const auto it = col.find(name);
-      return it == col.end() ? std::string{} : s.get_text(it->second);
-    };
-    while (s.step()) {
-      HealthRow h;
-      h.run_id = integer("run_id");
-      h.run_kind = text("run_kind");
-      h.source = text("source");
-      h.run_started_at = text("run_started_at");
-      h.run_ended_at = text("run_ended_at");
-      h.taken_at = text("taken_at");
-      h.final = integer("final") != 0;
-      h.frames = integer("frames");
-      h.samples = integer("samples");
-      h.lost_samples = integer("gap_samples") + integer("report_ring_lost");
-      h.kernel_drops = integer("kernel_drops");
-      for (const char* name : {"malformed_frames", "malformed_lines", "unknown_ids", "unconfigured_channel_frames", "frames_before_header",
-                               "unsupported_version", "duplicates"}) {
-        const std::int64_t n = integer(name);
-        h.rejected_breakdown.emplace_back(name, n);
-        h.rejected_frames += n;
-      }
-      h.records_rejected = integer("records_rejected");
-      h.storage_rows_rejected = integer("storage_rows_rejected");
-      d.health.push_back(std::move(h));
-    }
-  }
-
-  if (has_object(db, "inspections")) {
-    Statement s(db, "SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note FROM inspections ORDER BY cycles, id");
-    while (s.step())
-      d.inspections.push_back({s.get_int(0), s.get_text(1), s.get_double(2), opt_double(s, 3), opt_double(s, 4), s.get_text(5)});
-  }
+  d.health = storage::load_acquisition_health(db);
+  d.inspections = storage::load_inspections(db);
 
   // The twin's tables are not in the schema yet: shown as stored when a database has them.
   for (const auto& name : model_table_names()) {
     GenericTable t;
     t.name = name;
-    t.present = has_object(db, name);
+    t.present = storage::has_table_or_view(db, name);
     if (t.present) {
-      Statement count(db, "SELECT count(*) FROM \"" + name + "\"");
-      count.step();
-      t.total_rows = count.get_int(0);
-      // rowid order is insertion order; a view or WITHOUT ROWID table is listed as it comes.
-      const bool has_rowid = [&] {
-        try {
-          Statement probe(db, "SELECT rowid FROM \"" + name + "\" LIMIT 0");
-          return true;
-        } catch (const storage::SqliteError&) {
-          return false;
-        }
-      }();
-      Statement s(db, "SELECT * FROM \"" + name + "\"" + (has_rowid ? " ORDER BY rowid DESC" : "") + " LIMIT " +
-                          std::to_string(kMaxGenericRows));
-      for (int i = 0; i < s.column_count(); ++i) t.columns.push_back(s.column_name(i));
-      while (s.step()) {
+      const storage::NewestRows newest = storage::load_newest_rows(db, name, kMaxGenericRows);
+      t.total_rows = newest.total_rows;
+      t.columns = newest.table.columns;
+      for (const auto& stored : newest.table.rows) {
         std::vector<std::string> row;
-        for (int i = 0; i < s.column_count(); ++i) row.push_back(cell_text(s, i));
+        for (const auto& v : stored) row.push_back(cell_text(v));
         t.rows.push_back(std::move(row));
       }
     }

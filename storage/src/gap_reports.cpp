@@ -226,6 +226,12 @@ bool has_gap_report_tables(Database& db) {
   return s.step();
 }
 
+std::int64_t count_gap_reports(Database& db) {
+  Statement s(db, "SELECT count(*) FROM gap_report_runs");
+  s.step();
+  return s.get_int(0);
+}
+
 std::int64_t insert_gap_report(Database& db, const gap::GapReport& r, const GapReportContext& context) {
   json speeds = json::array();
   for (double v : r.speeds_hz) speeds.push_back(number(v));

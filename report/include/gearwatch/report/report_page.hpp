@@ -11,7 +11,9 @@
 
 #include "gearwatch/report/svg_plot.hpp"
 #include "gearwatch/storage/alert_history.hpp"
+#include "gearwatch/storage/inspections.hpp"
 #include "gearwatch/storage/record_reasons.hpp"
+#include "gearwatch/storage/report_history.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 
 namespace gearwatch::report {
@@ -31,25 +33,8 @@ using ActiveAlertRow = storage::StoredActiveAlert;
 
 using WearVerdictRow = storage::StoredWearVerdict;
 
-struct HealthRow {
-  std::int64_t run_id = 0;
-  std::string run_kind, source, run_started_at, run_ended_at, taken_at;
-  bool final = false;
-  std::int64_t frames = 0, samples = 0;
-  std::int64_t lost_samples = 0;  ///< gap_samples + samples of ring-overflow gaps
-  std::int64_t kernel_drops = 0;
-  std::int64_t rejected_frames = 0;  ///< sum of the rejected_breakdown counters
-  std::vector<std::pair<std::string, std::int64_t>> rejected_breakdown;
-  std::int64_t records_rejected = 0, storage_rows_rejected = 0;
-};
-
-struct InspectionRow {
-  std::int64_t id = 0;
-  std::string entered_at;
-  double cycles = 0;
-  std::optional<double> pitted_area_fraction, wear_depth_m;
-  std::string note;
-};
+using HealthRow = storage::StoredHealth;
+using InspectionRow = storage::StoredInspection;
 
 /// A table the schema does not define yet (the twin's k_updates, predictions): listed as it is.
 struct GenericTable {

@@ -37,5 +37,7 @@ std::vector<StoredGapReport> load_gap_reports(Database& db, std::optional<std::s
 
 /// True when the database has the gap report tables (schema version 5 or later).
 bool has_gap_report_tables(Database& db);
+/// Gap reports stored (table gap_report_runs, which must exist: has_gap_report_tables).
+std::int64_t count_gap_reports(Database& db);
 
 }  // namespace gearwatch::storage

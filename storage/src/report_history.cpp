@@ -1,0 +1,120 @@
+#include "gearwatch/storage/report_history.hpp"
+
+#include <map>
+
+#include "stored_rows.hpp"
+#include "stored_tokens.hpp"
+
+namespace gearwatch::storage {
+
+ReadSnapshot::ReadSnapshot(Database& db) : db_(db) { db_.exec("BEGIN"); }
+
+ReadSnapshot::~ReadSnapshot() {
+  try {
+    db_.exec("COMMIT");
+  } catch (...) {  // nothing was written: ending the read cannot lose anything
+  }
+}
+
+bool has_no_tables(Database& db) {
+  Statement s(db, "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
+  s.step();
+  return s.get_int(0) == 0;
+}
+
+bool has_table_or_view(Database& db, const std::string& name) { return detail::has_object(db, name.c_str()); }
+
+std::vector<StoredPlotValue> load_plot_indicator_values(Database& db, std::int64_t first_record) {
+  std::vector<StoredPlotValue> out;
+  if (!detail::has_object(db, "indicators")) return out;
+  Statement s(db,
+              "SELECT record_id, channel, name, value FROM indicators WHERE record_id >= ? AND value IS NOT NULL"
+              " AND (name IN ('ics2_low_band', 'ics2_high_band', 'ics2_selected_band', 'rms_sa', 'rms_raw', 'kurtosis_raw')"
+              "      OR name LIKE 'mean\\_carrier\\_hz\\_%' ESCAPE '\\')");
+  s.bind(1, first_record);
+  while (s.step()) out.push_back({s.get_int(0), s.get_int(1), s.get_text(2), s.get_double(3)});
+  return out;
+}
+
+namespace {
+
+// Read by column name, so a snapshot with more counters (a newer schema) still reads.
+class ColumnsByName {
+ public:
+  explicit ColumnsByName(const Statement& s) : s_(s) {
+    for (int i = 0; i < s.column_count(); ++i) col_[s.column_name(i)] = i;
+  }
+  std::int64_t integer(const char* name) const {
+    const auto it = col_.find(name);
+    return it == col_.end() || s_.is_null(it->second) ? 0 : s_.get_int(it->second);
+  }
+  std::string text(const char* name) const {
+    const auto it = col_.find(name);
+    return it == col_.end() ? std::string{} : s_.get_text(it->second);
+  }
+
+ private:
+  const Statement& s_;
+  std::map<std::string, int> col_;
+};
+
+StoredHealth health_row(const ColumnsByName& c) {
+  StoredHealth h;
+  h.run_id = c.integer("run_id");
+  h.run_kind = c.text("run_kind");
+  h.source = c.text("source");
+  h.run_started_at = c.text("run_started_at");
+  h.run_ended_at = c.text("run_ended_at");
+  h.taken_at = c.text("taken_at");
+  h.final = c.integer("final") != 0;
+  h.frames = c.integer("frames");
+  h.samples = c.integer("samples");
+  h.lost_samples = c.integer("gap_samples") + c.integer("report_ring_lost");
+  h.kernel_drops = c.integer("kernel_drops");
+  for (const char* name : {"malformed_frames", "malformed_lines", "unknown_ids", "unconfigured_channel_frames", "frames_before_header",
+                           "unsupported_version", "duplicates"}) {
+    const std::int64_t n = c.integer(name);
+    h.rejected_breakdown.emplace_back(name, n);
+    h.rejected_frames += n;
+  }
+  h.records_rejected = c.integer("records_rejected");
+  h.storage_rows_rejected = c.integer("storage_rows_rejected");
+  return h;
+}
+
+}  // namespace
+
+std::vector<StoredHealth> load_acquisition_health(Database& db) {
+  std::vector<StoredHealth> out;
+  if (!detail::has_object(db, "acquisition_health")) return out;
+  // Before ring_gap_samples was a counter, ring overflows were stored as gap events only.
+  const std::string ring_lost = detail::has_column(db, "acquisition_health", "ring_gap_samples")
+                                    ? "ring_gap_samples"
+                                    : "(SELECT coalesce(sum(g.missing_samples), 0) FROM gap_events g JOIN streams st ON st.id = g.stream_key"
+                                      " WHERE st.run_id = h.run_id AND g.cause = 'ring_overflow')";
+  Statement s(db, "SELECT h.*, " + ring_lost + " AS report_ring_lost FROM acquisition_health h ORDER BY run_id DESC");
+  const ColumnsByName columns(s);
+  while (s.step()) out.push_back(health_row(columns));
+  return out;
+}
+
+NewestRows load_newest_rows(Database& db, const std::string& name, std::size_t limit) {
+  NewestRows out;
+  Statement count(db, "SELECT count(*) FROM \"" + name + "\"");
+  count.step();
+  out.total_rows = count.get_int(0);
+  // rowid order is insertion order; a view or WITHOUT ROWID table is listed as it comes.
+  const bool has_rowid = [&] {
+    try {
+      Statement probe(db, "SELECT rowid FROM \"" + name + "\" LIMIT 0");
+      return true;
+    } catch (const SqliteError&) {
+      return false;
+    }
+  }();
+  Statement s(db, "SELECT * FROM \"" + name + "\"" + (has_rowid ? " ORDER BY rowid DESC" : "") + " LIMIT " + std::to_string(limit));
+  out.table = detail::read_table(s);
+  return out;
+}
+
+}  // namespace gearwatch::storage
