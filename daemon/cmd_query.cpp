@@ -1,12 +1,25 @@
 // `gearwatch query alerts|active|indicators|health|updates|predictions|inspections|records|gaps|rejected --db FILE
 //  [--since T] [--until T] [--channel C] [--name N] [--limit N] [--format table|csv|json]`.
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "cli_common.hpp"
 #include "gearwatch/storage/staff_queries.hpp"
 #include "utc_time.hpp"
 
 namespace gearwatch::cli {
+
+namespace {
+
+// The views' words through their one to_string, in the order the help lists them.
+std::vector<std::string> view_words() {
+  std::vector<std::string> words;
+  for (auto v : storage::kAllQueryViews) words.emplace_back(storage::to_string(v));
+  return words;
+}
+
+}  // namespace
 
 void register_query(CLI::App& app) {
   struct Options {
@@ -18,7 +31,7 @@ void register_query(CLI::App& app) {
   auto* cmd = app.add_subcommand("query", "Staff queries on the database");
   cmd->add_option("what", opt->what, "alerts | active | indicators | health | updates | predictions | inspections | records | gaps | rejected")
       ->required()
-      ->check(CLI::IsMember({"alerts", "active", "indicators", "health", "updates", "predictions", "inspections", "records", "gaps", "rejected"}));
+      ->check(CLI::IsMember(view_words()));
   cmd->add_option("--db", opt->db, "SQLite database written by `run` or `replay`")->required();
   cmd->add_option("--since", opt->since, "Only rows at or after this UTC time (ISO 8601: 2026-11-01, 2026-11-01T08:00, 2026-11-01T08:00:30)");
   cmd->add_option("--until", opt->until, "Only rows before this UTC time (same forms as --since)");
