@@ -221,12 +221,20 @@ TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance an
   const double order = j["draws"][2]["parameters"]["order"];
   CHECK(std::fmod(order, 1.0) > 0.2);
   CHECK(std::fmod(order, 1.0) < 0.8);
-  // The scores as measured; the issue's targets scaled to these draws (2 effects: both localised and
-  // described; none: no finding) are reported, not asserted: the diagnosis misses them here
-  // (docs/gap.md, the independent bench's figures).
-  const int localised = j["draws"][1]["localised"].get<bool>() + j["draws"][2]["localised"].get<bool>();
-  const int described = j["draws"][1]["described"].get<bool>() + j["draws"][2]["described"].get<bool>();
-  WARN("independent bench, 3 draws: localised " << localised << "/2 (target 2), described " << described
-       << "/2 (target 2), no-effect finding " << j["draws"][0]["any_finding"] << " (target false), attributed "
-       << j["draws"][1]["attributed"] << " (structural resonance: casing_mode)");
+  // The issue's targets scaled to these draws: both effects localised (>= 0.95), the no-effect draw
+  // without any finding (<= 0.05), the resonance attributed to casing_mode (>= 0.90): these hold
+  // and are asserted. Description (>= 0.90, i.e. both) is missed: the ghost tone's feature is
+  // localised but described as `none` (no form removes its gap); reported, not asserted.
+  const json& none = j["draws"][0];
+  const json& resonance = j["draws"][1];
+  const json& ghost = j["draws"][2];
+  CHECK(resonance["localised"] == true);
+  CHECK(ghost["localised"] == true);
+  CHECK(none["any_finding"] == false);
+  CHECK(resonance["attribution_applies"] == true);
+  CHECK(resonance["attributed"] == true);
+  CHECK(ghost["attribution_applies"] == false);
+  const int described = resonance["described"].get<bool>() + ghost["described"].get<bool>();
+  WARN("independent bench, 3 draws: described " << described << "/2 against the target of 2 (>= 0.90); resonance "
+       << resonance["described"] << ", ghost tone " << ghost["described"]);
 }
