@@ -17,6 +17,7 @@
 
 #include "cli_common.hpp"
 #include "commands.hpp"
+#include "gap_bench_independent.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/rig/rig_simulator.hpp"
@@ -64,7 +65,27 @@ struct BenchOptions {
   double min_residual_gap_db = gap::DiagnosisSettings{}.min_residual_gap_db;
   double wear_depth_um = 2;    // pinion wear depth at the sliding extremes, rig and twin alike
   double wear_cycles = 1e6;    // over which the known K_wear produced it
+  std::string generator = "rig";  // rig: the rig simulator's effects; independent: gap_effects.py on the twin
+  std::string generator_script = IndependentBenchOptions{}.script;
+  std::string python;
+  std::string config;
+  bool sample_rate_given = false, seconds_given = false, bootstrap_given = false;
 };
+
+void run_independent(const BenchOptions& o) {
+  IndependentBenchOptions io;
+  io.seeds = o.seeds;
+  io.first_seed = o.first_seed;
+  io.format = o.format;
+  io.config = o.config;
+  io.python = o.python;
+  io.script = o.generator_script;
+  if (o.sample_rate_given) io.sample_rate_hz = o.sample_rate_hz;
+  if (o.seconds_given) io.seconds = o.seconds;
+  if (o.bootstrap_given) io.bootstrap = o.bootstrap;
+  io.torques_nm = o.torques_nm;
+  run_independent_bench(io);
+}
 
 /// RMS_SA(N) (thesis Eq. 7.1) from the diagnosis's own input-order lines, so the elasticity is read
 /// the way the diagnosis reads RMS_SA.
@@ -537,15 +558,27 @@ void add_gap_bench_command(CLI::App& app) {
   cmd->add_option("--torques", opt->torques_nm, "Input torques: every speed runs at each, N m (comma-separated)")
       ->delimiter(',');
   cmd->add_option("--no-effect-runs", opt->no_effect_runs, "Scenarios without effects (default max(2, seeds/5))");
-  cmd->add_option("--first-seed", opt->first_seed, "Seed of the first scenario");
+  cmd->add_option("--first-seed,--seed", opt->first_seed, "Seed of the first scenario (draw)");
   cmd->add_option("--bootstrap", opt->bootstrap, "Bootstrap resamples per diagnosis");
+  cmd->add_option("--generator", opt->generator,
+                  "rig: the rig simulator's effects (default); independent: tests/capture_gen/gap_effects.py on the twin's captures")
+      ->check(CLI::IsMember({"rig", "independent"}));
+  cmd->add_option("--generator-script", opt->generator_script, "The independent generator (default relative to the source tree)");
+  cmd->add_option("--python", opt->python, "Python 3 with numpy and scipy (default $GEARWATCH_PYTHON, /usr/bin/python3, python3)");
+  cmd->add_option("--config", opt->config, "Configuration (independent generator: [gap], [records], [twin]; default built-in)");
   cmd->add_option("--floor-db", opt->floor_db, "Diagnosis floor, dB re the twin's total line power");
   cmd->add_option("--min-gap-db", opt->min_gap_db, "Smallest line-family gap the diagnosis calls significant, dB");
   cmd->add_option("--min-residual-gap-db", opt->min_residual_gap_db,
                   "Smallest broadband or fixed-frequency gap the diagnosis calls significant, dB");
   cmd->add_option("--wear-depth-um", opt->wear_depth_um, "Known wear depth at the sliding extremes (rig and twin), um");
   cmd->add_option("--wear-cycles", opt->wear_cycles, "Cycles over which the known K_wear produced that depth");
-  cmd->callback([opt] { run_bench(*opt); });
+  cmd->callback([opt, cmd] {
+    opt->sample_rate_given = cmd->count("--sample-rate") > 0;
+    opt->seconds_given = cmd->count("--seconds") > 0;
+    opt->bootstrap_given = cmd->count("--bootstrap") > 0;
+    if (opt->generator == "independent") return run_independent(*opt);
+    run_bench(*opt);
+  });
 }
 
 void register_gap(CLI::App& app) {

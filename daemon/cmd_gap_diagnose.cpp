@@ -3,6 +3,7 @@
 // Each capture is cut into records as a replay cuts it; each record is compared with the twin at its
 // own speed, torque and sample rate, at the model's newest stored wear state (--db) or unworn; the
 // report is printed, stored with --db and written as the gap page with --out.
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -18,6 +19,7 @@
 
 #include "cli_common.hpp"
 #include "decoder_setup.hpp"
+#include "gap_diagnose_captures.hpp"
 #include "gap_diagnoser.hpp"
 #include "gap_monitor.hpp"
 #include "gap_print.hpp"
@@ -258,6 +260,19 @@ void run_diagnose(const DiagnoseOptions& o) {
 }
 
 }  // namespace
+
+gap::GapReport diagnose_capture_files(const std::vector<std::string>& training, const std::vector<std::string>& held_out,
+                                      const config::GearwatchConfig& cfg) {
+  DiagnoseOptions o;
+  o.captures = training;
+  o.held_out = held_out;
+  const int channel = daemon::gap_channel(cfg);
+  std::vector<InputRecord> records = read_inputs(o, cfg, channel);
+  split_records(records, held_out.empty() ? 0 : records.size() - std::count_if(records.begin(), records.end(), [](const InputRecord& r) { return !r.held_out; }),
+                cfg.gap.held_out_records);
+  std::string k_wear_note;
+  return diagnose_records(records, cfg, wear_basis(""), k_wear_note);
+}
 
 void add_gap_diagnose_command(CLI::App& app) {
   auto opt = std::make_shared<DiagnoseOptions>();

@@ -4,6 +4,7 @@
 # values only order the tests: a renamed test simply loses its place.
 foreach(name
     "gap: gap bench with a few seeds writes the scores as JSON"
+    "gap independent: the bench on a no-effect draw, a narrow resonance and a ghost tone"
     "daemon's gap diagnosis end to end: rig tooth errors withheld from the twin are found, stored and raise twin drift"
     "rig end to end: K_wear follows the truth's coefficient and the predicted wear depth stays within 5 %"
     "gap: eccentricity fitted on the rig's records recovers the run-outs the rig was given, across speeds"
