@@ -242,7 +242,10 @@ void GearboxDynamics::operator()(const State& x, State& dxdt, double t) const {
 double GearboxDynamics::acceleration(const State& x, double t, int dof) const {
   const Eigen::Map<const Vector21> q(x.data());
   const Eigen::Map<const Vector21> v(x.data() + kDofCount);
-  const double f = mesh_force(q, v, t, nullptr);
+  return acceleration(x, t, dof, mesh_force(q, v, t, nullptr));
+}
+
+double GearboxDynamics::acceleration(const State& x, double t, int dof, double f) const {
   double load = structural_.subtract_row_product(dof, x, external_[dof] - m_.mesh[dof] * f);
   if (harmonic_.frequency_hz > 0) load += harmonic_.amplitude[dof] * std::sin(2.0 * std::numbers::pi * harmonic_.frequency_hz * t);
   return inverse_mass_[dof] * load;

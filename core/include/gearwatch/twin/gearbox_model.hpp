@@ -108,6 +108,9 @@ class GearboxDynamics {
   /// One row of operator()'s accelerations: d²q[dof]/dt² at (x, t) without the other 20 (a
   /// record's sensor read many times per sample needs only its own DOF).
   double acceleration(const State& x, double t, int dof) const;
+  /// The same row with the mesh force already known (MeshState::force at the same x and t), so a
+  /// caller that needs both evaluates the mesh once.
+  double acceleration(const State& x, double t, int dof, double mesh_force) const;
 
   /// Mesh quantities at (x, t).
   struct MeshState {
