@@ -194,6 +194,7 @@ std::string memory_to_json(const wear::ModelMemory& m) {
                                {"slope", m.ics2_scale_slope}, {"inspections", m.ics2_scale_inspections},
                                {"baseline_sd", m.ics2_scale_baseline_sd}, {"density_1", m.ics2_scale_density_1}}},
                {"k_wear_last_insensitive", m.k_wear_last_insensitive},
+               {"k_wear_elasticity", m.k_wear_elasticity},
                {"log_k_wear", posterior_json(m.log_k_wear)},
                {"log_k_pitting", posterior_json(m.log_k_pitting)},
                {"rms_residuals", residuals},
@@ -235,6 +236,7 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     m.ics2_scale_baseline_sd = sc.value("baseline_sd", 0.0);
     m.ics2_scale_density_1 = sc.value("density_1", 0.0);
     m.k_wear_last_insensitive = j.value("k_wear_last_insensitive", false);
+    m.k_wear_elasticity = j.value("k_wear_elasticity", 1.0);
     m.log_k_wear = posterior_from(j, "log_k_wear");
     m.log_k_pitting = posterior_from(j, "log_k_pitting");
     if (j.contains("rms_residuals"))

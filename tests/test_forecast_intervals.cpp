@@ -458,3 +458,31 @@ TEST_CASE("forecast intervals: the scale's extrapolated SD, the pitting miss in 
   CHECK_FALSE(limit_within_reach(0.14, 0.014, 0.17));  // 0.1630
   CHECK(limit_within_reach(0.17 - 1.6448536269514722 * 0.01 + 1e-12, 0.01, 0.17));
 }
+
+TEST_CASE("forecast intervals: the model-form term is the residuals' excess mean square over the scatter, through the elasticity",
+          "[model][updating][intervals]") {
+  // Eight residuals of ±0.3 against a scatter of 0.05: chi-square 8 · 0.09 / 0.0025 = 288 > 15.51
+  // (8 degrees of freedom, 5 %); excess mean square 0.09 − 0.0025 = 0.0875.
+  const std::vector<double> r{0.3, -0.3, 0.3, -0.3, 0.3, -0.3, 0.3, -0.3};
+  const ModelFormTerm a = model_form_term(r, 0.05, 0.5, 0.02, 100.0);
+  CHECK(a.exceeded);
+  CHECK(a.excess_mean_square == Approx(0.0875).epsilon(1e-12));
+  CHECK(a.log_k_var == Approx(0.0875 / 0.25).epsilon(1e-12));
+  // A negative elasticity counts by its size; below the minimum it is the minimum (0.02).
+  CHECK(model_form_term(r, 0.05, -0.5, 0.02, 100.0).log_k_var == Approx(0.35).epsilon(1e-12));
+  CHECK(model_form_term(r, 0.05, 0.001, 0.02, 1000.0).log_k_var == Approx(0.0875 / 4e-4).epsilon(1e-12));
+  // Capped: no more than the caller allows (what brings the variance to the prior's).
+  CHECK(model_form_term(r, 0.05, 0.001, 0.02, 21.2).log_k_var == 21.2);
+  // Residuals at the scatter itself: chi-square 8 < 15.51, no term.
+  const std::vector<double> quiet{0.05, -0.05, 0.05, -0.05, 0.05, -0.05, 0.05, -0.05};
+  const ModelFormTerm b = model_form_term(quiet, 0.05, 0.5, 0.02, 100.0);
+  CHECK_FALSE(b.exceeded);
+  CHECK(b.log_k_var == 0);
+  // Just over the 5 % point: 8 r² / s² = 16 > 15.51 with r = s sqrt(2): excess s² (2 − 1).
+  const double s = 0.05, rr = s * std::sqrt(2.0);
+  const std::vector<double> edge(8, rr);
+  const ModelFormTerm c = model_form_term(edge, s, 1.0, 0.02, 100.0);
+  CHECK(c.exceeded);
+  CHECK(c.log_k_var == Approx(s * s).epsilon(1e-12));
+  CHECK_FALSE(model_form_term({}, 0.05, 1.0, 0.02, 100.0).exceeded);
+}

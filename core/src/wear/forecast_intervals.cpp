@@ -17,6 +17,7 @@ const char* to_string(ForecastFlag flag) noexcept {
     case ForecastFlag::pitting_limit_within_ics2_uncertainty: return "pitting_limit_within_ics2_uncertainty";
     case ForecastFlag::pitting_path_missed_ics2: return "pitting_path_missed_ics2";
     case ForecastFlag::k_wear_not_identified: return "k_wear_not_identified";
+    case ForecastFlag::rms_sa_model_form_disagreement: return "rms_sa_model_form_disagreement";
   }
   return "unknown";
 }
@@ -187,6 +188,21 @@ double scatter_sd(const std::vector<double>& log_residuals, double floor) {
   double s = 0;
   for (double r : log_residuals) s += r * r;
   return std::max(floor, std::sqrt(s / static_cast<double>(log_residuals.size())));
+}
+
+ModelFormTerm model_form_term(const std::vector<double>& log_residuals, double scatter_sd, double elasticity,
+                              double min_elasticity, double cap) {
+  ModelFormTerm t;
+  if (log_residuals.empty() || !(scatter_sd > 0)) return t;
+  if (!residual_scatter_check(log_residuals, scatter_sd).exceeded) return t;
+  double ms = 0;
+  for (const double r : log_residuals) ms += r * r;
+  ms /= static_cast<double>(log_residuals.size());
+  t.exceeded = true;
+  t.excess_mean_square = std::max(0.0, ms - scatter_sd * scatter_sd);
+  const double e = std::max(std::isfinite(elasticity) ? std::abs(elasticity) : 1.0, min_elasticity);
+  t.log_k_var = std::min(t.excess_mean_square / (e * e), cap);
+  return t;
 }
 
 }  // namespace gearwatch::wear

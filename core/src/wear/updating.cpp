@@ -561,7 +561,18 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   // insensitive RMS_SA at the current K changes nothing either: its best K would follow the scatter.
   // (Insensitive at the sensitivity read, the only re-run so far.)
   const bool insensitive_here = u.outcome == UpdateOutcome::insensitive && search.evaluations == 1;
-  const bool keep = !insensitive_here && search.best && std::abs(search.best->sim - measured) < std::abs(simulated - measured);
+  // A K whose RMS_SA still misses the measurement by more than the update threshold is no
+  // measurement of K_wear: the twin's RMS_SA-wear relation does not reach the record from the
+  // anchor (a model-form disagreement, e.g. the measured RMS_SA dipping deeper with wear than the
+  // twin's can). Keeping the closest K anyway ratchets K_wear towards zero over records whose
+  // measurement lies below everything the twin gives, and the depth with it.
+  const bool reproduces = search.best && std::abs(search.best->sim - measured) / measured <= settings_.rms_threshold;
+  const bool keep = !insensitive_here && reproduces && std::abs(search.best->sim - measured) < std::abs(simulated - measured);
+  if (!keep && !insensitive_here && search.best && !reproduces)
+    search.why += std::string(search.why.empty() ? "" : "; ") + "no K_wear tried reproduced the measurement within " +
+                  fmt("%.3g", 100 * settings_.rms_threshold) + " % (closest " +
+                  fmt("%+.3g", 100 * (search.best->sim - measured) / measured) + " % at K_wear " + fmt("%.4g", search.best->k) +
+                  "): a model-form disagreement, not a measurement of K_wear; K_wear left as it was";
   if (keep) {
     WearTrial& best = *search.best;
     memory_ = std::move(best.memory);
@@ -593,10 +604,12 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
     double e = std::log(u.simulated_after / simulated) / std::log(u.new_value / u.old_value);
     if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = u.elasticity;
     if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = 1.0;   // the proportional rule's assumption
+    memory_.k_wear_elasticity = e;
     const double sd = rms_scatter_sd() / std::abs(e);
     u.evidence += learn(memory_.log_k_wear, std::log(u.new_value), sd * sd, obs.cycles);
   }
-  memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive;
+  // Not identified: RMS_SA insensitive, or no K reproduced the record (the interval then widens).
+  memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive || !keep;
   report.updates.push_back(std::move(u));
 }
 
@@ -1178,10 +1191,25 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
     const double prior_var = settings_.prior_log_k_wear_sd * settings_.prior_log_k_wear_sd;
     f.flags.push_back(ForecastFlag::k_wear_not_identified);
     char b[200];
-    std::snprintf(b, sizeof b, "K_wear: the last update found RMS_SA insensitive to K_wear: ln K SD %.3g raised to the prior's %.3g",
+    std::snprintf(b, sizeof b, "K_wear: the last update did not identify K_wear (RMS_SA insensitive, or no K reproduced the record): ln K SD %.3g raised to the prior's %.3g",
                   std::sqrt(pw.var), settings_.prior_log_k_wear_sd);
     f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
     pw.var = std::max(pw.var, prior_var);
+  }
+  // What the twin's RMS_SA-wear relation does not reproduce over the stored records (model-form
+  // error, measured against the scatter) goes into ln K_wear's variance through the elasticity.
+  std::vector<double> all_residuals;
+  for (const auto& r : res) all_residuals.push_back(r[0]);
+  const double prior_var_w = settings_.prior_log_k_wear_sd * settings_.prior_log_k_wear_sd;
+  const ModelFormTerm form =
+      model_form_term(all_residuals, expected, memory_.k_wear_elasticity, settings_.min_wear_elasticity,
+                      std::max(0.0, prior_var_w - pw.var));   // never beyond the prior's: no data leaves K less known
+  if (form.exceeded && pw.valid) {
+    f.flags.push_back(ForecastFlag::rms_sa_model_form_disagreement);
+    char b[300];
+    std::snprintf(b, sizeof b, "RMS_SA: %zu records' ln(meas/sim) exceed the scatter %.3g by a mean square %.3g: at elasticity %.3g the K_wear interval's variance gains %.3g (model-form term)",
+                  all_residuals.size(), expected, form.excess_mean_square, memory_.k_wear_elasticity, form.log_k_var);
+    f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
   }
   // The model's pitting path against the ICS2-derived density: a miss beyond 2 SD adds its gap².
   PittingMiss miss;
@@ -1199,7 +1227,8 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
   Crossing fast = nominal, slow = nominal;
   LogInterval lw, lp;
   for (int pass = 0; pass < 2; ++pass) {
-    const LogInterval w_fast = log_interval(pw, q, until(fast.wear), widen), w_slow = log_interval(pw, q, until(slow.wear), widen);
+    const LogInterval w_fast = log_interval(pw, q, until(fast.wear), widen, form.log_k_var),
+                      w_slow = log_interval(pw, q, until(slow.wear), widen, form.log_k_var);
     const LogInterval p_fast = log_interval(pp, q, until(fast.pitting), 1.0, miss.extra_var),
                       p_slow = log_interval(pp, q, until(slow.pitting), 1.0, miss.extra_var);
     lw = {w_slow.low, w_fast.high, std::max(w_fast.sd, w_slow.sd)};

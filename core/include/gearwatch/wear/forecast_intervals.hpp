@@ -23,13 +23,15 @@ enum class ForecastFlag : std::uint8_t {
   pitting_limit_within_ics2_uncertainty,  ///< the ICS2-derived density's upper bound (interval level) reaches the limit: near end 0
   pitting_path_missed_ics2,         ///< the model's density misses the ICS2-derived one beyond its SD: K_pitting interval widened
   k_wear_not_identified,            ///< the last K_wear update found RMS_SA insensitive: K_wear interval no narrower than the prior's
+  rms_sa_model_form_disagreement,   ///< ln(RMS_SA meas / sim) over the stored records beyond the scatter: model-form variance added
 };
 inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exceed_scatter,
                                               ForecastFlag::ics2_density_ahead_of_model,
                                               ForecastFlag::pitting_limit_reached_by_ics2,
                                               ForecastFlag::pitting_limit_within_ics2_uncertainty,
                                               ForecastFlag::pitting_path_missed_ics2,
-                                              ForecastFlag::k_wear_not_identified};
+                                              ForecastFlag::k_wear_not_identified,
+                                              ForecastFlag::rms_sa_model_form_disagreement};
 const char* to_string(ForecastFlag flag) noexcept;
 
 /// Normal belief about ln K: mean, variance, and the cycles it refers to. `valid` false: no belief
@@ -151,6 +153,21 @@ struct ScatterCheck {
   int n = 0;
 };
 ScatterCheck residual_scatter_check(const std::vector<double>& log_residuals, double expected_sd, double level = 0.05);
+
+/// The model-form term of ln K_wear's variance. The residuals r = ln(RMS_SA meas / sim) of the
+/// stored records (each before any update at its record) hold the measurement's scatter s and what
+/// the twin's RMS_SA-wear relation does not reproduce. When their chi-square against s exceeds its
+/// 5 % point, the excess mean square m = mean(r^2) - s^2 is the model-form variance of ln RMS_SA,
+/// and through the elasticity e = d ln RMS_SA / d ln K it is m / e^2 in ln K (|e| floored at
+/// `min_elasticity`), at most `cap` (the caller's: what brings the variance to the prior's, since no
+/// data can leave K_wear less known than before any). 0 when the chi-square does not exceed.
+struct ModelFormTerm {
+  bool exceeded = false;
+  double excess_mean_square = 0;   ///< m, in (ln RMS_SA)^2
+  double log_k_var = 0;            ///< min(m / e^2, cap)
+};
+ModelFormTerm model_form_term(const std::vector<double>& log_residuals, double scatter_sd, double elasticity,
+                              double min_elasticity, double cap);
 
 /// The RMS of ln(meas / sim) with a floor: the RMS_SA measurement's record-to-record scatter.
 double scatter_sd(const std::vector<double>& log_residuals, double floor);

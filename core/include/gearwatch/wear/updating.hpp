@@ -248,7 +248,8 @@ struct ModelMemory {
   double ics2_scale_baseline_sd = 0;       ///< ICS2 SD of the onset baseline (one-inspection scale)
   double last_ics2_calibration_cycles = -1;   ///< the last one-inspection calibration (−1: none)
   double ics2_scale_density_1 = 0;         ///< A1 of a two-inspection scale (its second point); 0: none
-  bool k_wear_last_insensitive = false;    ///< the last K_wear update found RMS_SA insensitive to K_wear
+  bool k_wear_last_insensitive = false;    ///< the last K_wear update did not identify K_wear (RMS_SA insensitive, or no K reproduced the record)
+  double k_wear_elasticity = 1.0;          ///< d ln RMS_SA / d ln K_wear of the last kept K_wear update (1 before any)
   /// (cycles, ICS2 low) of the pair's records: ICS2 at an inspection's cycles. The daemon rebuilds
   /// it from the model's stored runs rather than storing it in the state.
   std::vector<std::array<double, 2>> ics2_series;
