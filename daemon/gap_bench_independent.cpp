@@ -1,4 +1,4 @@
-// `gearwatch gap bench --generator independent` (docs/gap.md, "The independent bench"): the twin's
+// `gearwatch gap bench --generator independent` (docs/gap-bench.md, "Independent bench scoring rules"): the twin's
 // captures at every operating point, one effect per seed added by tests/capture_gen/gap_effects.py
 // (a python3 subprocess: written apart from the rig and the diagnosis, from textbook forms), each
 // draw diagnosed as `gap diagnose` diagnoses captures, and scored against the draw's truth.json.
@@ -35,7 +35,7 @@ using gap::DescriptionKind;
 using gap::GapFeature;
 
 // ---------------------------------------------------------------------------------------------
-// Scoring: the rules of docs/gap.md, written before any draw was looked at.
+// Scoring: the rules of docs/gap-bench.md, written before any draw was looked at.
 
 struct Place {
   double in_low, in_high;    // extent in input orders

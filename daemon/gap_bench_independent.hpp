@@ -1,7 +1,7 @@
 #pragma once
 // `gearwatch gap bench --generator independent`: the gap diagnosis scored on effects made by a
 // generator written apart from the rig and the diagnosis (tests/capture_gen/gap_effects.py), on
-// the twin's own captures (docs/gap.md, "The independent bench").
+// the twin's own captures (docs/gap-bench.md, "Independent bench scoring rules").
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -34,7 +34,7 @@ struct ExpectedReading {
   std::vector<gap::CandidateEffect> candidates;
 };
 
-/// One draw's truth (truth.json) scored against its report (rules in docs/gap.md).
+/// One draw's truth (truth.json) scored against its report (rules in docs/gap-bench.md).
 struct DrawScore {
   std::string form;
   bool effect = false;          ///< false: a no-effect draw

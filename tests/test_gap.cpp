@@ -752,7 +752,7 @@ TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per
   // and the record's lines keep J0²(k·d/x). Slower ripples leave less, but the spline through the
   // edges also carries an image of the ripple at 1 − x, a second phase modulation the form leaves
   // out: at x = 0.3 (160 revolutions) a record's order-190 line keeps 0.80 of its power where the
-  // form says 0.90 (docs/gap.md).
+  // form says 0.90 (docs/gap-bench.md).
   for (double f_m : {10.0, 20.0}) {
     CAPTURE(f_m);
     const double d = 0.005, x = f_m / f0;
@@ -877,7 +877,7 @@ TEST_CASE("gap: eccentricity fitted on the rig's records recovers the run-outs t
   // sidebands hold 8–28 % more power than the form says at harmonics 2–14 (20 s records), of which
   // 7 % is the rig's train turning 3.4 % more at the gear's 2.9 Hz than the twin's linearised
   // response (its encoder 2.378e-4 against 2.301e-4 rad for 30 µm); the rest is not located
-  // (docs/gap.md). The pinion's, at its own frequency, agrees to 1e-5 (test_rig_simulator).
+  // (docs/gap-bench.md). The pinion's, at its own frequency, agrees to 1e-5 (test_rig_simulator).
   // With the reruns: pinion 19.82 µm (−0.9 %), gear 33.8 µm (+13 %), input sidebands 13.75 -> 0.114
   // dB. The output shaft's sidebands also hold the twin's own leakage from the mesh harmonics beside
   // them, and a run-out's share interferes with it at its phase, which the phase-free form averages
@@ -1132,7 +1132,7 @@ TEST_CASE("gap: gap bench's scenario 21 (casing at 151 and 396 Hz, 67 kg): its c
   // The casing fit's grid has cells ×2.9 apart in Hz. Here its best starts all have both modes in
   // the 396 Hz cell and differ in damping or mass; descents from two of them ended with a mode at
   // 264 Hz. The first mode sits on the first mesh harmonic of the 8 Hz training records (152 Hz).
-  // The scenario's held-out records (11 and 17 Hz) show it too little for a choice (docs/gap.md), so
+  // The scenario's held-out records (11 and 17 Hz) show it too little for a choice (docs/gap-bench.md), so
   // what is checked is the candidate as ranked, against the truth the bench reports beside it.
   const auto r = gearwatch::testing::run_command(std::string(GEARWATCH_BINARY) +
                                                  " gap bench --seeds 1 --first-seed 21 --no-effect-runs 0 --sample-rate 100000 --format json");
