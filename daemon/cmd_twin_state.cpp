@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <optional>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -50,96 +52,119 @@ std::string num(const json& v, const char* f = "%.4g", double scale = 1.0) {
   return b;
 }
 
-}  // namespace
+// The command's steps: read the model's newest state, add what storage holds around it (updates,
+// prediction, inspections against the prediction), then print it as JSON or as a table.
+class TwinStateCommand {
+ public:
+  explicit TwinStateCommand(const std::string& db_path) : db_(open_history(db_path)) {}
 
-void register_twin_state(CLI::App* twin) {
-  struct Options {
-    std::string db, format = "table";
-  };
-  auto opt = std::make_shared<Options>();
-  auto* cmd = twin->add_subcommand("state", "The model's current K values, wear, pitting, updates and predictions");
-  cmd->add_option("--db", opt->db, "SQLite database written by `run` or `replay`")->required();
-  add_format_option(cmd, opt->format, "table", {"table", "json"});
-  cmd->callback([opt] {
-    json out;
-    storage::Database db = open_history(opt->db);
+  json collect() {
     try {
-      if (!storage::has_model_state(db)) throw CommandError("twin state: this database has no model state (written before schema version 4)");
-      const std::optional<storage::StoredModelState> stored = storage::load_newest_model_state(db);
-      if (!stored) throw CommandError("twin state: the model has not handled a record yet");
-      const std::int64_t pair = stored->gear_pair;
-      wear::ModelMemory m;
-      try {
-        m = daemon::memory_from_json(stored->state_json);
-      } catch (const std::exception& e) {
-        throw CommandError(std::string("twin state: ") + e.what());
-      }
-      const wear::WearState& s = m.current.state;
-      const wear::WearSummary sum = wear::summarise(s);
-      const std::vector<double> combined = wear::combined_profile(s);
-      double max_depth = 0;
-      for (double d : s.pinion_depth_m) max_depth = std::max(max_depth, d);
-      for (double d : s.gear_depth_m) max_depth = std::max(max_depth, d);
-      json fraction = json::array();
-      for (std::size_t j = 0; j < s.pinion_depth_m.size(); ++j)
-        fraction.push_back(s.pinion_depth_m.size() > 1 ? static_cast<double>(j) / static_cast<double>(s.pinion_depth_m.size() - 1) : 0.0);
-      out = {{"gear_pair", pair},
-             {"updated_at", stored->updated_at},
-             {"cycles", s.cycles},
-             {"k_wear_si", m.k_wear_si},
-             {"k_wear_seed_unit", wear::k_wear_seed_from_si(m.k_wear_si)},
-             {"k_pitting", m.k_pitting},
-             {"k_wear_updates", m.k_wear_updates},
-             {"k_pitting_updates", m.k_pitting_updates},
-             {"pitting_calibrated", m.pitting_calibrated},
-             {"wear", {{"pinion_mean_m", sum.pinion_mean_depth_m}, {"gear_mean_m", sum.gear_mean_depth_m},
-                       {"combined_mean_m", sum.combined_mean_depth_m}, {"max_m", max_depth}, {"pinion_share", sum.pinion_share},
-                       {"profile_fraction", fraction}, {"combined_depth_m", combined}, {"pinion_depth_m", s.pinion_depth_m},
-                       {"gear_depth_m", s.gear_depth_m}}},
-             {"pitting", {{"mean", sum.mean_pitting_density}, {"max", sum.max_pitting_density},
-                          {"max_profile_fraction", sum.max_pitting_fraction}, {"pinion_pitting", s.pinion_pitting}}}};
-      if (m.ics2_scale_valid)
-        out["ics2_scale"] = {{"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density}, {"slope", m.ics2_scale_slope}};
-      out["updates"] = rows(storage::load_gear_pair_k_updates(db, pair));
-      json latest = rows(storage::load_newest_prediction(db, pair));
-      if (!latest.empty()) {
-        if (const auto curve = storage::load_forecast_curve(db, latest[0]["run_id"].get<std::int64_t>()))
-          latest[0]["forecast_curve"] = json::parse(*curve);
-        out["prediction"] = latest[0];
-      } else {
-        out["prediction"] = nullptr;
-      }
-      // Wear-depth inspections against the model's mean depth at their cycles (between the two
-      // runs around them; the model's depth is linear enough between neighbouring records).
-      std::vector<storage::StoredInspection> stored_inspections = storage::load_gear_pair_inspections(db, pair);
-      std::stable_sort(stored_inspections.begin(), stored_inspections.end(),
-                       [](const auto& a, const auto& b) { return a.cycles < b.cycles; });
-      json inspections = json::array();
-      for (const auto& i : stored_inspections) inspections.push_back(inspection_json(i));
-      for (auto& i : inspections) {
-        const double c = i["cycles"].get<double>();
-        const std::vector<storage::PredictionPoint> near = storage::load_predictions_nearest(db, pair, c, 2);
-        std::vector<std::array<double, 3>> pts;
-        for (const auto& p : near) pts.push_back({p.cycles, p.wear_mean_m, p.pitting_mean});
-        if (pts.empty()) continue;
-        auto at = [&](int k) {
-          if (pts.size() < 2 || pts[0][0] == pts[1][0]) return pts[0][k];
-          const double t = (c - pts[0][0]) / (pts[1][0] - pts[0][0]);
-          return pts[0][k] + std::clamp(t, 0.0, 1.0) * (pts[1][k] - pts[0][k]);
-        };
-        i["predicted_wear_mean_m"] = at(1);
-        i["predicted_pitting_mean"] = at(2);
-        if (i["wear_depth_m"].is_number() && i["wear_depth_m"].get<double>() > 0)
-          i["wear_error_pct"] = 100.0 * (at(1) / i["wear_depth_m"].get<double>() - 1.0);
-      }
-      out["inspections"] = inspections;
+      const storage::StoredModelState stored = newest_state();
+      const wear::ModelMemory m = memory_of(stored);
+      json out = state_json(stored, m);
+      out["updates"] = rows(storage::load_gear_pair_k_updates(db_, stored.gear_pair));
+      out["prediction"] = newest_prediction(stored.gear_pair);
+      out["inspections"] = inspections_against_prediction(stored.gear_pair);
+      return out;
     } catch (const storage::SqliteError& e) {
       throw CommandError(std::string("twin state: ") + e.what());
     }
-    if (opt->format == "json") {
-      std::cout << dump_json(out) << "\n";
-      return;
+  }
+
+  static void print_table(const json& out) {
+    print_model(out);
+    print_profile(out["wear"], out["pitting"]);
+    print_updates(out["updates"]);
+    if (out["prediction"].is_object()) print_prediction(out["prediction"]);
+    if (!out["inspections"].empty()) print_inspections(out["inspections"]);
+  }
+
+ private:
+  storage::StoredModelState newest_state() {
+    if (!storage::has_model_state(db_)) throw CommandError("twin state: this database has no model state (written before schema version 4)");
+    std::optional<storage::StoredModelState> stored = storage::load_newest_model_state(db_);
+    if (!stored) throw CommandError("twin state: the model has not handled a record yet");
+    return *stored;
+  }
+
+  static wear::ModelMemory memory_of(const storage::StoredModelState& stored) {
+    try {
+      return daemon::memory_from_json(stored.state_json);
+    } catch (const std::exception& e) {
+      throw CommandError(std::string("twin state: ") + e.what());
     }
+  }
+
+  static json state_json(const storage::StoredModelState& stored, const wear::ModelMemory& m) {
+    const wear::WearState& s = m.current.state;
+    const wear::WearSummary sum = wear::summarise(s);
+    double max_depth = 0;
+    for (double d : s.pinion_depth_m) max_depth = std::max(max_depth, d);
+    for (double d : s.gear_depth_m) max_depth = std::max(max_depth, d);
+    json fraction = json::array();
+    for (std::size_t j = 0; j < s.pinion_depth_m.size(); ++j)
+      fraction.push_back(s.pinion_depth_m.size() > 1 ? static_cast<double>(j) / static_cast<double>(s.pinion_depth_m.size() - 1) : 0.0);
+    json out = {{"gear_pair", stored.gear_pair},
+                {"updated_at", stored.updated_at},
+                {"cycles", s.cycles},
+                {"k_wear_si", m.k_wear_si},
+                {"k_wear_seed_unit", wear::k_wear_seed_from_si(m.k_wear_si)},
+                {"k_pitting", m.k_pitting},
+                {"k_wear_updates", m.k_wear_updates},
+                {"k_pitting_updates", m.k_pitting_updates},
+                {"pitting_calibrated", m.pitting_calibrated},
+                {"wear", {{"pinion_mean_m", sum.pinion_mean_depth_m}, {"gear_mean_m", sum.gear_mean_depth_m},
+                          {"combined_mean_m", sum.combined_mean_depth_m}, {"max_m", max_depth}, {"pinion_share", sum.pinion_share},
+                          {"profile_fraction", fraction}, {"combined_depth_m", wear::combined_profile(s)},
+                          {"pinion_depth_m", s.pinion_depth_m}, {"gear_depth_m", s.gear_depth_m}}},
+                {"pitting", {{"mean", sum.mean_pitting_density}, {"max", sum.max_pitting_density},
+                             {"max_profile_fraction", sum.max_pitting_fraction}, {"pinion_pitting", s.pinion_pitting}}}};
+    if (m.ics2_scale_valid)
+      out["ics2_scale"] = {{"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density}, {"slope", m.ics2_scale_slope}};
+    return out;
+  }
+
+  json newest_prediction(std::int64_t pair) {
+    json latest = rows(storage::load_newest_prediction(db_, pair));
+    if (latest.empty()) return nullptr;
+    if (const auto curve = storage::load_forecast_curve(db_, latest[0]["run_id"].get<std::int64_t>()))
+      latest[0]["forecast_curve"] = json::parse(*curve);
+    return latest[0];
+  }
+
+  // Wear-depth inspections against the model's mean depth at their cycles (between the two runs
+  // around them; the model's depth is linear enough between neighbouring records).
+  json inspections_against_prediction(std::int64_t pair) {
+    std::vector<storage::StoredInspection> stored = storage::load_gear_pair_inspections(db_, pair);
+    std::stable_sort(stored.begin(), stored.end(), [](const auto& a, const auto& b) { return a.cycles < b.cycles; });
+    json inspections = json::array();
+    for (const auto& stored_inspection : stored) {
+      json i = inspection_json(stored_inspection);
+      add_prediction_at(i, pair);
+      inspections.push_back(std::move(i));
+    }
+    return inspections;
+  }
+
+  void add_prediction_at(json& i, std::int64_t pair) {
+    const double c = i["cycles"].get<double>();
+    const std::vector<storage::PredictionPoint> near = storage::load_predictions_nearest(db_, pair, c, 2);
+    std::vector<std::array<double, 3>> pts;
+    for (const auto& p : near) pts.push_back({p.cycles, p.wear_mean_m, p.pitting_mean});
+    if (pts.empty()) return;
+    auto at = [&](int k) {
+      if (pts.size() < 2 || pts[0][0] == pts[1][0]) return pts[0][k];
+      const double t = (c - pts[0][0]) / (pts[1][0] - pts[0][0]);
+      return pts[0][k] + std::clamp(t, 0.0, 1.0) * (pts[1][k] - pts[0][k]);
+    };
+    i["predicted_wear_mean_m"] = at(1);
+    i["predicted_pitting_mean"] = at(2);
+    if (i["wear_depth_m"].is_number() && i["wear_depth_m"].get<double>() > 0)
+      i["wear_error_pct"] = 100.0 * (at(1) / i["wear_depth_m"].get<double>() - 1.0);
+  }
+
+  static void print_model(const json& out) {
     std::printf("gear pair %lld at %.6g cycles (state of %s)\n", static_cast<long long>(out["gear_pair"].get<std::int64_t>()),
                 out["cycles"].get<double>(), out["updated_at"].get<std::string>().c_str());
     std::printf("K_wear    %.5g m^2/N (%.5g in the thesis's unit), %llu updates\n", out["k_wear_si"].get<double>(),
@@ -147,8 +172,9 @@ void register_twin_state(CLI::App* twin) {
     std::printf("K_pitting %.5g (%s), %llu updates\n", out["k_pitting"].get<double>(),
                 out["pitting_calibrated"].get<bool>() ? "calibrated from inspections" : "not calibrated: needs two pitted-area inspections",
                 static_cast<unsigned long long>(out["k_pitting_updates"].get<std::uint64_t>()));
-    const json& w = out["wear"];
-    const json& p = out["pitting"];
+  }
+
+  static void print_profile(const json& w, const json& p) {
     std::printf("wear depth: combined mean %s um (pinion %s, gear %s), deepest %s um\n", num(w["combined_mean_m"], "%.3f", 1e6).c_str(),
                 num(w["pinion_mean_m"], "%.3f", 1e6).c_str(), num(w["gear_mean_m"], "%.3f", 1e6).c_str(), num(w["max_m"], "%.3f", 1e6).c_str());
     std::printf("pitting density: mean %s %%, max %s %% at profile fraction %s\n", num(p["mean"], "%.3f", 100).c_str(),
@@ -161,31 +187,56 @@ void register_twin_state(CLI::App* twin) {
                   w["pinion_depth_m"][j].get<double>() * 1e6, w["gear_depth_m"][j].get<double>() * 1e6,
                   p["pinion_pitting"][j].get<double>() * 100);
     }
-    std::printf("\nupdates (%zu):\n", out["updates"].size());
-    for (const auto& u : out["updates"])
+  }
+
+  static void print_updates(const json& updates) {
+    std::printf("\nupdates (%zu):\n", updates.size());
+    for (const auto& u : updates)
       std::printf("  %s at %s cycles: %s %s %s -> %s (%s)\n", u["created_at"].get<std::string>().c_str(), num(u["cycles"], "%.6g").c_str(),
                   u["kind"].get<std::string>().c_str(), u["outcome"].get<std::string>().c_str(), num(u["old_value"], "%.5g").c_str(),
                   num(u["new_value"], "%.5g").c_str(), u["evidence"].get<std::string>().c_str());
-    if (out["prediction"].is_object()) {
-      const json& pr = out["prediction"];
-      std::printf("\nprediction at %s cycles (%s Hz, %s N m):\n", num(pr["cycles"], "%.6g").c_str(), num(pr["forecast_speed_hz"]).c_str(),
-                  num(pr["forecast_torque_nm"]).c_str());
-      std::printf("  wear depth %s mm limit: %s cycles left [%s, %s]\n", num(pr["wear_limit_m"], "%.3f", 1e3).c_str(),
-                  num(pr["wear_cycles_left"], "%.4g").c_str(), num(pr["wear_cycles_left_low"], "%.4g").c_str(),
-                  num(pr["wear_cycles_left_high"], "%.4g").c_str());
-      std::printf("  pitting density %s %% limit: %s cycles left [%s, %s]\n", num(pr["pitting_limit"], "%.3g", 100).c_str(),
-                  num(pr["pitting_cycles_left"], "%.4g").c_str(), num(pr["pitting_cycles_left_low"], "%.4g").c_str(),
-                  num(pr["pitting_cycles_left_high"], "%.4g").c_str());
-      std::printf("  (- = not within the forecast horizon)\n");
-    }
-    if (!out["inspections"].empty()) {
-      std::printf("\ninspections against the prediction:\n");
-      for (const auto& i : out["inspections"])
-        std::printf("  at %s cycles: wear %s um (model %s um, %s %%), pitted area %s %% (model %s %%)\n", num(i["cycles"], "%.6g").c_str(),
-                    num(i["wear_depth_m"], "%.3f", 1e6).c_str(), num(i.value("predicted_wear_mean_m", json()), "%.3f", 1e6).c_str(),
-                    num(i.value("wear_error_pct", json()), "%+.1f").c_str(), num(i["pitted_area_fraction"], "%.3f", 100).c_str(),
-                    num(i.value("predicted_pitting_mean", json()), "%.3f", 100).c_str());
-    }
+  }
+
+  static void print_prediction(const json& pr) {
+    std::printf("\nprediction at %s cycles (%s Hz, %s N m):\n", num(pr["cycles"], "%.6g").c_str(), num(pr["forecast_speed_hz"]).c_str(),
+                num(pr["forecast_torque_nm"]).c_str());
+    std::printf("  wear depth %s mm limit: %s cycles left [%s, %s]\n", num(pr["wear_limit_m"], "%.3f", 1e3).c_str(),
+                num(pr["wear_cycles_left"], "%.4g").c_str(), num(pr["wear_cycles_left_low"], "%.4g").c_str(),
+                num(pr["wear_cycles_left_high"], "%.4g").c_str());
+    std::printf("  pitting density %s %% limit: %s cycles left [%s, %s]\n", num(pr["pitting_limit"], "%.3g", 100).c_str(),
+                num(pr["pitting_cycles_left"], "%.4g").c_str(), num(pr["pitting_cycles_left_low"], "%.4g").c_str(),
+                num(pr["pitting_cycles_left_high"], "%.4g").c_str());
+    std::printf("  (- = not within the forecast horizon)\n");
+  }
+
+  static void print_inspections(const json& inspections) {
+    std::printf("\ninspections against the prediction:\n");
+    for (const auto& i : inspections)
+      std::printf("  at %s cycles: wear %s um (model %s um, %s %%), pitted area %s %% (model %s %%)\n", num(i["cycles"], "%.6g").c_str(),
+                  num(i["wear_depth_m"], "%.3f", 1e6).c_str(), num(i.value("predicted_wear_mean_m", json()), "%.3f", 1e6).c_str(),
+                  num(i.value("wear_error_pct", json()), "%+.1f").c_str(), num(i["pitted_area_fraction"], "%.3f", 100).c_str(),
+                  num(i.value("predicted_pitting_mean", json()), "%.3f", 100).c_str());
+  }
+
+  storage::Database db_;
+};
+
+}  // namespace
+
+void register_twin_state(CLI::App* twin) {
+  struct Options {
+    std::string db, format = "table";
+  };
+  auto opt = std::make_shared<Options>();
+  auto* cmd = twin->add_subcommand("state", "The model's current K values, wear, pitting, updates and predictions");
+  cmd->add_option("--db", opt->db, "SQLite database written by `run` or `replay`")->required();
+  add_format_option(cmd, opt->format, "table", {"table", "json"});
+  cmd->callback([opt] {
+    const json out = TwinStateCommand(opt->db).collect();
+    if (opt->format == "json")
+      std::cout << dump_json(out) << "\n";
+    else
+      TwinStateCommand::print_table(out);
   });
 }
 
