@@ -19,7 +19,9 @@
 
 #include "command_runner.hpp"
 #include "gearwatch/rig/campaign.hpp"
+#include "gearwatch/twin/gear_geometry.hpp"
 #include "gearwatch/twin/gearbox_parameters.hpp"
+#include "gearwatch/twin/transmission_error.hpp"
 #include "temp_dir.hpp"
 
 namespace rig = gearwatch::rig;
@@ -118,6 +120,78 @@ TEST_CASE("wear truth forms: the Dowson-Higginson film at the pitch point equals
   CHECK(rig::active_flank_area_m2(kGears) == Approx(1282.791e-6).epsilon(1e-6));
 }
 
+TEST_CASE("wear truth forms: the profile shape is Archard's depth per pass in closed form", "[wear_truth_forms]") {
+  // One pass wears h = K w |v_s| / v_r (the Hertz width cancels), per pinion revolution, ω1 = 1:
+  // pinion ∝ share |s − s_p| / ρ1, gear ∝ share |s − s_p| / ρ2 (z1/z2 passes at (z1/z2)ρ2 rolling).
+  // Known answers independent of the load share: at one contact point s the gear's depth over the
+  // pinion's is ρ1/ρ2; where one pair carries the load (share 1) two pinion points stand as
+  // (|s_a − s_p|/s_a) / (|s_b − s_p|/s_b). The pitch point is the shallowest; the pinion maximum is 1.
+  const auto g = gearwatch::twin::GearGeometry::from_spec(kGears);
+  const int n = 401;
+  const auto shape = rig::archard_profile_shape(kGears, n);
+  const double s_pitch = g.base_radius_pinion * std::tan(g.pressure_angle_rad);
+  CHECK(*std::max_element(shape.pinion.begin(), shape.pinion.end()) == Approx(1.0).epsilon(1e-15));
+  auto s_of = [&](int i) { return g.contact_start + g.active_length() * i / (n - 1.0); };  // pinion fraction i/(n−1)
+  int checked = 0;
+  for (int i = 0; i < n; ++i) {
+    const double s = s_of(i);
+    if (std::abs(s - s_pitch) < 1e-5) continue;
+    // The gear's table is indexed by its own fraction: the point s is gear index n − 1 − i.
+    CHECK(shape.gear[static_cast<std::size_t>(n - 1 - i)] / shape.pinion[static_cast<std::size_t>(i)] ==
+          Approx(s / (g.line_of_action_length - s)).epsilon(1e-12));
+    ++checked;
+  }
+  CHECK(checked > n - 3);
+  // Two points inside the single-pair zone [s_end − p_b, s_start + p_b], one each side of the pitch.
+  const double lo = g.contact_end - g.base_pitch, hi = g.contact_start + g.base_pitch;
+  REQUIRE(lo < s_pitch);
+  REQUIRE(s_pitch < hi);
+  const int ia = static_cast<int>(std::ceil((lo - g.contact_start) / g.active_length() * (n - 1)));
+  const int ib = static_cast<int>(std::floor((hi - g.contact_start) / g.active_length() * (n - 1)));
+  const double sa = s_of(ia), sb = s_of(ib);
+  CHECK(shape.pinion[static_cast<std::size_t>(ia)] / shape.pinion[static_cast<std::size_t>(ib)] ==
+        Approx((std::abs(sa - s_pitch) / sa) / (std::abs(sb - s_pitch) / sb)).epsilon(1e-12));
+  // The dedendum of each flank is the deeper end (specific sliding, thesis §2.1): the pinion's root
+  // (fraction 0) deeper than its tip, the gear's root deeper than its tip.
+  CHECK(shape.pinion.front() > shape.pinion.back());
+  CHECK(shape.gear.front() > shape.gear.back());
+}
+
+TEST_CASE("wear truth forms: the linear law's V shape leaves the double-contact deviation constant", "[wear_truth_forms]") {
+  // Why the V shape |u − u_pitch| hides its wear from the mesh harmonics: with pinion and gear
+  // depths linear in |s − s_p| (slope c), the two pairs of double contact at s and s + p_b stand
+  // on either side of the pitch point and their deviations sum to −c p_b whatever s: under equal
+  // pair stiffnesses the loaded transmission error there does not move. The closed-form shape
+  // (specific sliding and load share) has no such cancellation.
+  namespace twin = gearwatch::twin;
+  const auto g = twin::GearGeometry::from_spec(kGears);
+  rig::WearModelSettings ws;
+  ws.phases = {{0, 1e-12}};
+  const rig::BuiltinWearTruth v(ws, kGears);
+  const auto w = v.at(1e7);   // amplitude 10 µm
+  const twin::GeometricTransmissionError gte(g, w.profile);
+  const double s_pitch = g.base_radius_pinion * std::tan(g.pressure_angle_rad);
+  const double pinion_pitch = g.profile_fraction_pinion(s_pitch), gear_pitch = g.profile_fraction_gear(s_pitch);
+  const double slope = 10e-6 / g.active_length() *
+                       (1.0 / std::max(pinion_pitch, 1 - pinion_pitch) + kRatio / std::max(gear_pitch, 1 - gear_pitch));
+  twin::ToothProfileDeviation c;
+  const auto shape = rig::archard_profile_shape(kGears, 41);
+  for (double d : shape.pinion) c.pinion.push_back(10e-6 * d);   // the pinion's deepest point 10 µm
+  for (double d : shape.gear) c.gear.push_back(10e-6 * d);
+  const twin::GeometricTransmissionError closed(g, c);
+  double min_c = INFINITY, max_c = -INFINITY;
+  for (double f = 0.02; f < 0.98; f += 0.05) {
+    const double s = g.contact_start + f * (g.contact_end - g.base_pitch - g.contact_start);
+    REQUIRE(s < s_pitch);
+    REQUIRE(s + g.base_pitch > s_pitch);
+    CHECK(gte.pair_error(s, 0, 0) + gte.pair_error(s + g.base_pitch, 0, 0) == Approx(-slope * g.base_pitch).epsilon(0.01));
+    const double sum = closed.pair_error(s, 0, 0) + closed.pair_error(s + g.base_pitch, 0, 0);
+    min_c = std::min(min_c, sum);
+    max_c = std::max(max_c, sum);
+  }
+  CHECK(max_c - min_c > 2e-6);   // a fifth of the pinion's deepest point
+}
+
 TEST_CASE("wear truth forms: the depth amplitude is the integral of K dN times T/T_ref", "[wear_truth_forms]") {
   SECTION("a constant lambda: linear in the cycles") {
     // λ = 1.5: f = (2/7)(2.5) = 5/7; at 30 N m against T_ref 20 N m the amplitude is k0·(5/7)·1.5·N.
@@ -127,8 +201,17 @@ TEST_CASE("wear truth forms: the depth amplitude is the integral of K dN times T
       CHECK(t.wear_amplitude_m(n) == Approx(k0 * 5.0 / 7.0 * 1.5 * n).epsilon(1e-12));
       const auto w = t.at(n);
       CHECK(*std::max_element(w.profile.pinion.begin(), w.profile.pinion.end()) == Approx(t.wear_amplitude_m(n)).epsilon(1e-12));
-      CHECK(*std::max_element(w.profile.gear.begin(), w.profile.gear.end()) == Approx(kRatio * t.wear_amplitude_m(n)).epsilon(1e-12));
-      CHECK(w.combined_mean_wear_depth_m == Approx(w.mean_wear_depth_m * (1 + kRatio)).epsilon(1e-14));
+      // The profiles are the amplitude times the unit shape (its pinion maximum 1), and the
+      // combined mean is the pinion's plus the gear's.
+      const auto shape = rig::archard_profile_shape(kGears, 41);
+      for (std::size_t i = 0; i < shape.gear.size(); ++i) {
+        CHECK(w.profile.pinion[i] == Approx(t.wear_amplitude_m(n) * shape.pinion[i]).epsilon(1e-14));
+        CHECK(w.profile.gear[i] == Approx(t.wear_amplitude_m(n) * shape.gear[i]).epsilon(1e-14));
+      }
+      double gear_mean = 0;
+      for (std::size_t i = 0; i < w.profile.gear.size(); ++i)
+        gear_mean += (i == 0 || i + 1 == w.profile.gear.size() ? 0.5 : 1.0) * w.profile.gear[i] / 40.0;
+      CHECK(w.combined_mean_wear_depth_m == Approx(w.mean_wear_depth_m + gear_mean).epsilon(1e-12));
     }
   }
   SECTION("a roughness running in: the mixed regime's integral in closed form") {

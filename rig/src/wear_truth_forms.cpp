@@ -8,6 +8,7 @@
 
 #include "gearwatch/rig/effects.hpp"
 #include "gearwatch/twin/gear_geometry.hpp"
+#include "gearwatch/twin/mesh_stiffness.hpp"
 #include "random.hpp"
 
 namespace gearwatch::rig {
@@ -35,24 +36,61 @@ double gauss_legendre(const F& f, double a, double b, int pieces) {
   return 0.5 * h * sum;
 }
 
-/// The linear profile shape of the built-in law (sliding ∝ distance from the pitch point) at the
-/// amplitude, its pinion mean (trapezoid rule) and the combined mean.
-void fill_linear_profile(WearState& w, double amplitude, double pitch_pinion, double pitch_gear, int n, double ratio) {
-  auto shape = [n](double pitch) {
-    std::vector<double> v(static_cast<std::size_t>(n));
-    const double span = std::max(pitch, 1.0 - pitch);
-    for (int i = 0; i < n; ++i) v[static_cast<std::size_t>(i)] = std::abs(static_cast<double>(i) / (n - 1) - pitch) / span;
-    return v;
+}  // namespace
+
+/// The unit shape of the worn profiles (pinion maximum 1), root → tip at `n` uniform profile
+/// fractions: Archard's depth per pinion revolution in closed form. A flank point passes through the
+/// Hertz strip (half-width a, mean pressure w/(2a)) in 2a/v_r, sliding |v_s| meanwhile, so one pass
+/// wears h = K w |v_s| / v_r: a cancels. With ω1 = 1, v_r1 = ρ1 = s, v_r2 = (z1/z2) ρ2 = (z1/z2)(T1T2 − s),
+/// |v_s| = (1 + z1/z2)|s − s_pitch|, and a gear tooth meets z1/z2 passes per pinion revolution:
+///   pinion ∝ share(s) |s − s_pitch| / ρ1(s),   gear ∝ share(s) |s − s_pitch| / ρ2(s),
+/// share = 1 where one pair carries the load, k/(k + k_other) where two do (single-pair stiffness). The specific sliding
+/// 1/ρ deepens each flank's dedendum (thesis §2.1, §6.2.3: Eqs. 6.2–6.3 for a pass).
+ArchardProfileShape archard_profile_shape(const GearPairSpec& gears, int n) {
+  const auto g = twin::GearGeometry::from_spec(gears);
+  const double s_pitch = g.base_radius_pinion * std::tan(g.pressure_angle_rad);
+  // The pair's share of the load: all of it alone, k/(k + k_other) beside the pair one base pitch
+  // ahead or behind (static sharing by the pairs' stiffnesses, unworn teeth).
+  auto share = [&g](double s) {
+    const double other = s < g.contact_end - g.base_pitch ? s + g.base_pitch
+                         : s > g.contact_start + g.base_pitch ? s - g.base_pitch : NAN;
+    if (std::isnan(other)) return 1.0;
+    const double k = twin::single_pair_stiffness(g, s);
+    return k / (k + twin::single_pair_stiffness(g, other));
   };
-  w.profile.pinion = shape(pitch_pinion);
-  w.profile.gear = shape(pitch_gear);
+  ArchardProfileShape shape;
+  shape.pinion.resize(static_cast<std::size_t>(n));
+  shape.gear.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const double u = static_cast<double>(i) / (n - 1);
+    const double sp = g.contact_start + u * g.active_length();  // pinion fraction u
+    const double sg = g.contact_end - u * g.active_length();    // gear fraction u
+    shape.pinion[static_cast<std::size_t>(i)] = share(sp) * std::abs(sp - s_pitch) / g.curvature_radius_pinion(sp);
+    shape.gear[static_cast<std::size_t>(i)] = share(sg) * std::abs(sg - s_pitch) / g.curvature_radius_gear(sg);
+  }
+  const double top = *std::max_element(shape.pinion.begin(), shape.pinion.end());
+  for (auto& v : shape.pinion) v /= top;
+  for (auto& v : shape.gear) v /= top;
+  return shape;
+}
+
+namespace {
+double trapezoid_mean(const std::vector<double>& v) {
   double sum = 0;
-  for (auto& d : w.profile.pinion) sum += (d *= amplitude);
-  for (auto& d : w.profile.gear) d *= amplitude * ratio;
-  sum -= 0.5 * (w.profile.pinion.front() + w.profile.pinion.back());
-  w.mean_wear_depth_m = sum / (n - 1);
-  w.combined_mean_wear_depth_m = w.mean_wear_depth_m * (1.0 + ratio);
-  if (amplitude == 0) w.profile = {};
+  for (double d : v) sum += d;
+  sum -= 0.5 * (v.front() + v.back());
+  return sum / static_cast<double>(v.size() - 1);
+}
+
+/// The profiles at the amplitude (the pinion's deepest point), their pinion and combined means.
+void fill_archard_profile(WearState& w, double amplitude, const ArchardProfileShape& shape) {
+  if (amplitude == 0) return;
+  w.profile.pinion = shape.pinion;
+  w.profile.gear = shape.gear;
+  for (auto& d : w.profile.pinion) d *= amplitude;
+  for (auto& d : w.profile.gear) d *= amplitude;
+  w.mean_wear_depth_m = trapezoid_mean(w.profile.pinion);
+  w.combined_mean_wear_depth_m = w.mean_wear_depth_m + trapezoid_mean(w.profile.gear);
 }
 
 void validate(const WeibullPittingSettings& s) {
@@ -216,10 +254,7 @@ FormsWearTruth::FormsWearTruth(const FormsSettings& settings, const TorqueSchedu
     : s_(settings), torque_(torque), reference_torque_nm_(reference_torque_nm), profile_points_(profile_points),
       gears_(gears), speed_hz_(speed_hz) {
   validate(s_, torque_, reference_torque_nm_, profile_points_, speed_hz_);
-  const auto g = twin::GearGeometry::from_spec(gears);
-  const double s_pitch = g.base_radius_pinion * std::tan(g.pressure_angle_rad);
-  pitch_fraction_pinion_ = g.profile_fraction_pinion(s_pitch);
-  pitch_fraction_gear_ = g.profile_fraction_gear(s_pitch);
+  shape_ = archard_profile_shape(gears, profile_points_);
   area_m2_ = active_flank_area_m2(gears);
   for (double t : {torque_.torque_nm, torque_.torque_after_nm})
     film_m_.push_back(s_.film.viscosity_pa_s > 0 && t > 0 ? min_film_thickness_m(pitch_contact(gears, speed_hz, t), s_.film) : 0.0);
@@ -276,8 +311,7 @@ double FormsWearTruth::wear_amplitude_m(double cycles) const {
 WearState FormsWearTruth::at(double cycles) const {
   WearState w;
   w.cycles = cycles;
-  const double ratio = static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth;
-  fill_linear_profile(w, wear_amplitude_m(cycles), pitch_fraction_pinion_, pitch_fraction_gear_, profile_points_, ratio);
+  fill_archard_profile(w, wear_amplitude_m(cycles), shape_);
   w.k_wear = s_.k0 * wear_factor(cycles);
   const auto& r = s_.roughness;
   w.roughness = std::max(0.0, (r.at_um(cycles) - r.final_um) + r.index_floor + r.index_per_um_wear * w.mean_wear_depth_m * 1e6);

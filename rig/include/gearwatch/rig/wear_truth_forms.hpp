@@ -135,10 +135,23 @@ class WeibullPitting {
   std::vector<double> initiation_;
 };
 
-/// The forms truth: depth amplitude (at the pinion's sliding extreme)
+/// The worn profiles' shape, root → tip at uniform profile fractions, pinion maximum 1: Archard's
+/// depth per pinion revolution in closed form, h = K w |v_s| / v_r per pass (the Hertz width
+/// cancels), on rigid teeth sharing the load equally where two pairs are in contact:
+///   pinion ∝ share(s) |s − s_pitch| / ρ1(s),  gear ∝ share(s) |s − s_pitch| / ρ2(s)
+/// (the gear's fewer passes, z1/z2, cancel its slower rolling). The truth's own code: the twin's
+/// geometry only. Not the symmetric V |u − u_pitch| of the linear law, whose two pairs' deviations
+/// sum to a constant in double contact, so its wear hardly reaches the mesh harmonics (docs/model.md).
+struct ArchardProfileShape {
+  std::vector<double> pinion;
+  std::vector<double> gear;
+};
+ArchardProfileShape archard_profile_shape(const GearPairSpec& gears, int points);
+
+/// The forms truth: depth amplitude (the pinion's deepest point)
 ///   A(N) = k0 ∫₀ᴺ f(λ(n)) c(n) T(n)/T_ref dn
-/// with f Eq. 2.4 (1 for the constant form) and c the contamination factor, on the linear profile
-/// shape |u − u_pitch| / max|u − u_pitch| (gear depth scaled by z1/z2); pitting by WeibullPitting.
+/// with f Eq. 2.4 (1 for the constant form) and c the contamination factor, on ArchardProfileShape;
+/// pitting by WeibullPitting.
 class FormsWearTruth final : public WearTruth {
  public:
   /// Validates (throws RigParameterError with one line naming the parameter).
@@ -163,7 +176,7 @@ class FormsWearTruth final : public WearTruth {
   GearPairSpec gears_;
   double speed_hz_;
   double area_m2_ = 0;
-  double pitch_fraction_pinion_ = 0.5, pitch_fraction_gear_ = 0.5;
+  ArchardProfileShape shape_;
   std::vector<double> film_m_;   ///< h_min at T1 and T2
   std::unique_ptr<WeibullPitting> pitting_;
 };
