@@ -398,7 +398,12 @@ void ModelThread::start() {
 
 void ModelThread::plan_pair_start(const StoredModel& stored) {
   if (!stored.found && stored.problem.empty()) {
-    pending_pair_ = PendingPair{"the first gear pair of this database; its count before this record is not known", false, false};
+    // The thesis rig's life counter starts at 0 with its pair (the protocol): it counts that pair.
+    // Another pair's counter (a DAQ's, a converted recording's) says nothing of the pair's past.
+    const bool thesis_pair = same_gear_pair(params_.gears, GearPairSpec{});
+    pending_pair_ = PendingPair{thesis_pair ? "the first gear pair of this database, the thesis rig's: its life counter counts its cycles"
+                                            : "the first gear pair of this database; its count before this record is not known",
+                                thesis_pair, false};
   } else if (!stored.found) {
     // Its number is kept, as before there was a pair start: the unusable state's row is replaced.
     pending_pair_ = PendingPair{"the stored state of gear pair " + std::to_string(gear_pair_) + " could not be used (" + stored.problem + ")",
