@@ -62,7 +62,9 @@ class TwinStateCommand {
     try {
       const storage::StoredModelState stored = newest_state();
       const wear::ModelMemory m = memory_of(stored);
+      origin_cycles_ = pair_of(stored).origin_cycles;
       json out = state_json(stored, m);
+      out["pair"] = pair_json(pair_of(stored));
       out["updates"] = rows(storage::load_gear_pair_k_updates(db_, stored.gear_pair));
       out["prediction"] = newest_prediction(stored.gear_pair);
       out["inspections"] = inspections_against_prediction(stored.gear_pair);
@@ -94,6 +96,20 @@ class TwinStateCommand {
     } catch (const std::exception& e) {
       throw CommandError(std::string("twin state: ") + e.what());
     }
+  }
+
+  static daemon::PairStart pair_of(const storage::StoredModelState& stored) {
+    try {
+      return daemon::pair_start_from_json(stored.state_json);
+    } catch (const std::exception& e) {
+      throw CommandError(std::string("twin state: ") + e.what());
+    }
+  }
+
+  static json pair_json(const daemon::PairStart& p) {
+    return {{"origin_life_counter", p.origin_cycles},
+            {"start_reason", p.reason.empty() ? json(nullptr) : json(p.reason)},
+            {"gears", p.gears ? json(daemon::gear_pair_text(*p.gears)) : json(nullptr)}};
   }
 
   static json state_json(const storage::StoredModelState& stored, const wear::ModelMemory& m) {
@@ -147,8 +163,9 @@ class TwinStateCommand {
     return inspections;
   }
 
+  // An inspection's cycles are the life counter's; the model's are the pair's (from its origin).
   void add_prediction_at(json& i, std::int64_t pair) {
-    const double c = i["cycles"].get<double>();
+    const double c = i["cycles"].get<double>() - origin_cycles_;
     const std::vector<storage::PredictionPoint> near = storage::load_predictions_nearest(db_, pair, c, 2);
     std::vector<std::array<double, 3>> pts;
     for (const auto& p : near) pts.push_back({p.cycles, p.wear_mean_m, p.pitting_mean});
@@ -167,6 +184,11 @@ class TwinStateCommand {
   static void print_model(const json& out) {
     std::printf("gear pair %lld at %.6g cycles (state of %s)\n", static_cast<long long>(out["gear_pair"].get<std::int64_t>()),
                 out["cycles"].get<double>(), out["updated_at"].get<std::string>().c_str());
+    const json& p = out["pair"];
+    if (p["gears"].is_string()) std::printf("gears     %s\n", p["gears"].get<std::string>().c_str());
+    if (p["start_reason"].is_string())
+      std::printf("started   at life counter %.0f (its cycle 0): %s\n", p["origin_life_counter"].get<double>(),
+                  p["start_reason"].get<std::string>().c_str());
     std::printf("K_wear    %.5g m^2/N (%.5g in the thesis's unit), %llu updates\n", out["k_wear_si"].get<double>(),
                 out["k_wear_seed_unit"].get<double>(), static_cast<unsigned long long>(out["k_wear_updates"].get<std::uint64_t>()));
     std::printf("K_pitting %.5g (%s), %llu updates\n", out["k_pitting"].get<double>(),
@@ -219,6 +241,7 @@ class TwinStateCommand {
   }
 
   storage::Database db_;
+  double origin_cycles_ = 0;  ///< life counter at the pair's cycle 0
 };
 
 }  // namespace

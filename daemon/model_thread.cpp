@@ -170,7 +170,55 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   return s;
 }
 
-std::string memory_to_json(const wear::ModelMemory& m) {
+namespace {
+json gears_json(const GearPairSpec& g) {
+  return {{"pinion_teeth", g.pinion_teeth}, {"gear_teeth", g.gear_teeth}, {"module_m", g.module_m},
+          {"pressure_angle_deg", g.pressure_angle_deg}, {"face_width_m", g.face_width_m}, {"youngs_modulus_pa", g.youngs_modulus_pa},
+          {"poisson_ratio", g.poisson_ratio}, {"density_kg_m3", g.density_kg_m3}, {"addendum_coefficient", g.addendum_coefficient},
+          {"dedendum_coefficient", g.dedendum_coefficient}};
+}
+
+GearPairSpec gears_from(const json& j) {
+  GearPairSpec g;
+  g.pinion_teeth = j.at("pinion_teeth").get<int>();
+  g.gear_teeth = j.at("gear_teeth").get<int>();
+  g.module_m = j.at("module_m").get<double>();
+  g.pressure_angle_deg = j.at("pressure_angle_deg").get<double>();
+  g.face_width_m = j.at("face_width_m").get<double>();
+  g.youngs_modulus_pa = j.at("youngs_modulus_pa").get<double>();
+  g.poisson_ratio = j.at("poisson_ratio").get<double>();
+  g.density_kg_m3 = j.at("density_kg_m3").get<double>();
+  g.addendum_coefficient = j.at("addendum_coefficient").get<double>();
+  g.dedendum_coefficient = j.at("dedendum_coefficient").get<double>();
+  return g;
+}
+}  // namespace
+
+std::string gear_pair_text(const GearPairSpec& g) {
+  char b[160];
+  std::snprintf(b, sizeof b, "%d/%d teeth, module %.4g mm, face %.4g mm, pressure angle %.4g deg", g.pinion_teeth, g.gear_teeth,
+                g.module_m * 1e3, g.face_width_m * 1e3, g.pressure_angle_deg);
+  return b;
+}
+
+bool same_gear_pair(const GearPairSpec& a, const GearPairSpec& b) { return gears_json(a) == gears_json(b); }
+
+PairStart pair_start_from_json(const std::string& text) {
+  try {
+    const json j = json::parse(text);
+    PairStart p;
+    if (!j.contains("pair")) return p;
+    const json& o = j.at("pair");
+    p.origin_cycles = o.at("origin_cycles").get<double>();
+    p.reason = o.at("reason").get<std::string>();
+    if (o.contains("gears")) p.gears = gears_from(o.at("gears"));
+    return p;
+  } catch (const json::exception& e) {
+    throw std::runtime_error(std::string("model state is not readable: ") + e.what());
+  }
+}
+
+std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
   json intervals = json::array();
   for (const auto& i : m.intervals) intervals.push_back({i.end_cycles, i.speed_hz, i.torque_nm, i.k_wear_si, i.k_pitting});
   json points = json::array();
@@ -179,7 +227,7 @@ std::string memory_to_json(const wear::ModelMemory& m) {
   for (const auto& p : m.recent_operating_points) ops.push_back({p[0], p[1]});
   json residuals = json::array();
   for (const auto& r : m.rms_residuals) residuals.push_back({r[0], r[1]});
-  const json j{{"format", 1},
+  json j{{"format", 1},
                {"started", m.started},
                {"current", snapshot_json(m.current)},
                {"wear_anchor", snapshot_json(m.wear_anchor)},
@@ -207,6 +255,10 @@ std::string memory_to_json(const wear::ModelMemory& m) {
                {"records_used", m.records_used},
                {"k_wear_updates", m.k_wear_updates},
                {"k_pitting_updates", m.k_pitting_updates}};
+  if (pair) {
+    json& p = j["pair"] = {{"origin_cycles", pair->origin_cycles}, {"reason", pair->reason}};
+    if (pair->gears) p["gears"] = gears_json(*pair->gears);
+  }
   return j.dump();
 }
 
@@ -266,6 +318,7 @@ StoredModel load_model(const std::string& database_path) {
     out.gear_pair = stored->gear_pair;
     try {
       out.memory = memory_from_json(stored->state_json);
+      out.pair = pair_start_from_json(stored->state_json);
       out.found = true;
     } catch (const std::exception& e) {
       out.problem = e.what();
@@ -297,28 +350,34 @@ ModelThread::~ModelThread() {
 }
 
 void ModelThread::start() {
-  const twin::GearboxParameters params = model_twin_parameters(config_);
-  const wear::ModelSettings settings = model_settings(config_);
+  params_ = model_twin_parameters(config_);
+  settings_ = model_settings(config_);
   // Built for each record at its rate; built once here so a bad model.simulation_revolutions stops the start.
-  (void)wear::twin_rms_sa_simulator(params, config_.rig, config_.processing, config_.model.simulation_revolutions);
-  const wear::RmsSaSimulator simulator = rms_sa_simulator_at_record_rate(params, config_, record_rate_hz_);
+  (void)wear::twin_rms_sa_simulator(params_, config_.rig, config_.processing, config_.model.simulation_revolutions);
+  simulator_ = rms_sa_simulator_at_record_rate(params_, config_, record_rate_hz_);
+  const twin::GearboxParameters& params = params_;
   StoredModel stored = load_model(config_.storage.database);
   backlog_ = stored_backlog(config_.storage.database, config_);
   if (!backlog_.empty())
     spdlog::warn("model: {} stored records were not handled by the model before (a crash, or the model was off); handling them first",
                  backlog_.size());
   gear_pair_ = stored.gear_pair;
+  pair_ = stored.pair;
+  if (stored.found && !pair_.gears) pair_.gears = params_.gears;  // a state stored before the pair was kept: this configuration's
   alerts_ = AlertTracker(std::move(stored.alerts));
   if (!stored.problem.empty())
     spdlog::error("model: the stored state of gear pair {} cannot be used ({}); starting from an unworn pair", gear_pair_, stored.problem);
   try {
-    model_ = std::make_unique<wear::TwinModel>(params, settings, simulator, stored.found ? stored.memory : wear::ModelMemory{});
+    model_ = std::make_unique<wear::TwinModel>(params_, settings_, simulator_, stored.found ? stored.memory : wear::ModelMemory{});
   } catch (const twin::TwinParameterError& e) {
     if (!stored.found) throw;
     spdlog::error("model: the stored state of gear pair {} does not fit this configuration ({}); starting from an unworn pair",
                   gear_pair_, e.what());
-    model_ = std::make_unique<wear::TwinModel>(params, settings, simulator);
+    stored.found = false;
+    stored.problem = std::string("it does not fit this configuration: ") + e.what();
+    model_ = std::make_unique<wear::TwinModel>(params_, settings_, simulator_);
   }
+  plan_pair_start(stored);
   if (config_.gap.enabled) {
     if (!gap_.diagnose) gap_.diagnose = make_gap_diagnoser(config_, params);
     if (!gap_.diagnose)
@@ -331,10 +390,63 @@ void ModelThread::start() {
     gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
     restore_gap_schedule();
   }
-  if (stored.found)
+  if (stored.found && !pending_pair_)
     spdlog::info("model: gear pair {} continues at {:.6g} cycles (K_wear {:.4g} m²/N, K_pitting {:.4g})", gear_pair_,
                  model_->memory().current.state.cycles, model_->memory().k_wear_si, model_->memory().k_pitting);
   thread_ = std::thread([this] { run(); });
+}
+
+void ModelThread::plan_pair_start(const StoredModel& stored) {
+  if (!stored.found && stored.problem.empty()) {
+    // The thesis rig's life counter starts at 0 with its pair (the protocol): it counts that pair.
+    // Another pair's counter (a DAQ's, a converted recording's) says nothing of the pair's past.
+    const bool thesis_pair = same_gear_pair(params_.gears, GearPairSpec{});
+    pending_pair_ = PendingPair{thesis_pair ? "the first gear pair of this database, the thesis rig's: its life counter counts its cycles"
+                                            : "the first gear pair of this database; its count before this record is not known",
+                                thesis_pair, false};
+  } else if (!stored.found) {
+    // Its number is kept, as before there was a pair start: the unusable state's row is replaced.
+    pending_pair_ = PendingPair{"the stored state of gear pair " + std::to_string(gear_pair_) + " could not be used (" + stored.problem + ")",
+                                false, false};
+  } else if (stored.pair.gears && !same_gear_pair(*stored.pair.gears, params_.gears)) {
+    // A changed [gears] is another gear pair: nothing the model knows of the stored one applies.
+    pending_pair_ = PendingPair{"the configured gear pair (" + gear_pair_text(params_.gears) + ") is not the stored pair's (" +
+                                    gear_pair_text(*stored.pair.gears) + ")",
+                                false, true};
+    model_ = std::make_unique<wear::TwinModel>(params_, settings_, simulator_);
+  }
+  if (pending_pair_ && pending_pair_->new_number)
+    spdlog::warn("model: a new gear pair starts at the next record: {}", pending_pair_->reason);
+}
+
+std::string ModelThread::place_on_pair(wear::ModelObservation& obs, storage::ModelRunResult& msg) {
+  if (!std::isfinite(obs.cycles) || obs.cycles < 0) return {};  // the model reports it as missing_cycles
+  const wear::ModelMemory& m = model_->memory();
+  const double counter = obs.cycles;
+  if (!pending_pair_ && m.started && counter < pair_.origin_cycles + m.current.state.cycles) {
+    char b[160];
+    std::snprintf(b, sizeof b, "the life counter went backwards from %.0f to %.0f", pair_.origin_cycles + m.current.state.cycles, counter);
+    pending_pair_ = PendingPair{b, true, true};
+  }
+  std::string note;
+  if (pending_pair_) {
+    pair_ = PairStart{pending_pair_->counted_by_life_counter ? 0.0 : counter, pending_pair_->reason, params_.gears};
+    model_ = std::make_unique<wear::TwinModel>(params_, settings_, simulator_);
+    if (pending_pair_->new_number) {
+      ++gear_pair_;
+      // The records kept for the next diagnosis belong to the old pair's wear states.
+      if (gap_schedule_) gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
+      msg.alerts = alerts_.clear_all(AlertKind::remaining_life, "new gear pair: the remaining life belonged to the previous pair");
+    }
+    char b[200];
+    std::snprintf(b, sizeof b, "gear pair %lld (%s) starts here, its cycle 0 at life counter %.0f: ", static_cast<long long>(gear_pair_),
+                  gear_pair_text(params_.gears).c_str(), pair_.origin_cycles);
+    note = b + pair_.reason;
+    spdlog::info("model: {}", note);
+    pending_pair_.reset();
+  }
+  obs.cycles = counter - pair_.origin_cycles;
+  return note;
 }
 
 void ModelThread::submit(ModelInput input) {
@@ -409,13 +521,16 @@ void ModelThread::run() {
 }
 
 void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids) {
+  storage::ModelRunResult msg;
+  wear::ModelObservation observation = input.observation;
+  const std::string pair_note = place_on_pair(observation, msg);
   std::vector<wear::Inspection> inspections;
   try {
     storage::Database db(config_.storage.database, storage::Database::Mode::read_only);
     for (const auto& stored : storage::load_gear_pair_inspections(db, gear_pair_)) {
       wear::Inspection i;
       i.id = stored.id;
-      i.cycles = stored.cycles;
+      i.cycles = stored.cycles - pair_.origin_cycles;  // inspections keep the life counter's cycles
       i.pitted_area = stored.pitted_area_fraction;
       i.wear_depth_m = stored.wear_depth_m;
       inspections.push_back(i);
@@ -424,7 +539,6 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
     spdlog::warn("model: inspections not read this time: {}", e.what());
   }
 
-  storage::ModelRunResult msg;
   msg.stream_sequence = input.stream_sequence;
   msg.start_index = input.start_index;
   msg.stored_record_id = input.stored_record_id;
@@ -432,16 +546,17 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   msg.skipped_record_ids = skipped_ids;
   record_rate_hz_ = input.sample_rate_hz;
   try {
-    msg.report = model_->observe(input.observation, inspections);
+    msg.report = model_->observe(observation, inspections);
   } catch (const std::exception& e) {
     // observe() does not throw on bad data; anything else is logged and stored, and the model goes on.
     const auto n = ++counters_.failures;
     if (n <= 10 || n % 1000 == 0) spdlog::error("model: record at {} cycles not handled ({} so far): {}", input.observation.cycles, n, e.what());
     msg.report = wear::ModelRunReport{};
-    msg.report.observation = input.observation;
+    msg.report.observation = observation;
     msg.report.detail = std::string("not handled: ") + e.what();
   }
   ++counters_.handled;
+  if (!pair_note.empty()) msg.report.detail = pair_note + (msg.report.detail.empty() ? "" : "; " + msg.report.detail);
   const wear::ModelRunReport& r = msg.report;
   for (const auto issue : r.issues) {
     const auto n = ++issue_counts_[issue];  // each kind logged once, then every 1000th
@@ -450,10 +565,13 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   for (const auto& u : r.updates)
     spdlog::info("model: {} {} ({}): {}", wear::to_string(u.kind), wear::to_string(u.outcome), wear::to_string(u.trigger), u.evidence);
   if (r.new_gear_pair) {
+    // The model saw its cycles go backwards on the pair's axis (place_on_pair catches the counter's first).
+    pair_ = PairStart{0.0, "the model's cycles went backwards", params_.gears};
     ++gear_pair_;
     // The records kept for the next diagnosis belong to the old pair's wear states.
     if (gap_schedule_) gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
-    msg.alerts = alerts_.clear_all(AlertKind::remaining_life, "new gear pair: the remaining life belonged to the previous pair");
+    auto cleared = alerts_.clear_all(AlertKind::remaining_life, "new gear pair: the remaining life belonged to the previous pair");
+    msg.alerts.insert(msg.alerts.end(), cleared.begin(), cleared.end());
   }
   msg.gear_pair = gear_pair_;
   if (r.advanced && r.forecast.valid) {
@@ -482,8 +600,8 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   msg.alert_states = alerts_.take_changed();
   msg.profile_json = profile_json(r, model_->memory());
   msg.forecast_json = forecast_json(r.forecast);
-  msg.store_state = r.advanced || r.new_gear_pair;
-  if (msg.store_state) msg.state_json = memory_to_json(model_->memory());
+  msg.store_state = r.advanced || r.new_gear_pair || !pair_note.empty();
+  if (msg.store_state) msg.state_json = memory_to_json(model_->memory(), &pair_);
   // The twin's counterpart needs the wear state at this record: only a record the model advanced to has one.
   const bool gap_due = gap_schedule_ && input.samples && r.advanced && add_gap_sample(input, msg);
   writer_.submit(std::move(msg));

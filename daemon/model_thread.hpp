@@ -63,10 +63,27 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config);
 /// it from the processed record. They carry no samples: the gap diagnosis cannot use them.
 std::deque<ModelInput> stored_backlog(const std::string& database_path, const config::GearwatchConfig& config);
 
-/// What the model remembers, as stored in model_state.state (JSON; every double exactly).
-std::string memory_to_json(const wear::ModelMemory& memory);
+/// Where a gear pair's cycle 0 lies on the life counter and why the pair started (docs/model.md,
+/// "A new gear pair"). The model's cycles (model_state, model_runs, k_update_log) are the pair's:
+/// the life counter minus `origin_cycles`; records and inspections keep the counter's.
+struct PairStart {
+  double origin_cycles = 0;                 ///< life counter at the pair's cycle 0
+  std::string reason;                       ///< why the pair started ("" in a state stored before this was kept)
+  std::optional<GearPairSpec> gears;        ///< the gear pair the model was built for (absent in such a state)
+};
+
+/// One line naming a gear pair: "23/46 teeth, module 1.5 mm, face 15 mm, pressure angle 20 deg".
+std::string gear_pair_text(const GearPairSpec& gears);
+/// True when the two specs describe the same gear pair (every field equal).
+bool same_gear_pair(const GearPairSpec& a, const GearPairSpec& b);
+
+/// What the model remembers, as stored in model_state.state (JSON; every double exactly), with
+/// the pair's start when given.
+std::string memory_to_json(const wear::ModelMemory& memory, const PairStart* pair = nullptr);
 /// Throws std::runtime_error when the text is not such a state.
 wear::ModelMemory memory_from_json(const std::string& text);
+/// The pair's start kept in such a state (the defaults when it has none). Throws like memory_from_json.
+PairStart pair_start_from_json(const std::string& text);
 
 /// The model's state as stored: gear pair, memory (ICS2 series rebuilt from model_runs) and the
 /// states of the alerts the model thread owns (remaining_life, twin_drift).
@@ -74,6 +91,7 @@ struct StoredModel {
   std::int64_t gear_pair = 0;
   bool found = false;
   wear::ModelMemory memory;
+  PairStart pair;
   std::map<AlertKey, AlertState> alerts;
   std::string problem;   ///< why a stored state could not be used ("" = fine)
 };
@@ -118,6 +136,12 @@ class ModelThread {
 
  private:
   void run();
+  /// Decides at start whether the next usable record begins a new gear pair (no stored state,
+  /// a stored state that cannot be used, or a stored pair that is not the configured one).
+  void plan_pair_start(const StoredModel& stored);
+  /// The record's cycles on the pair's axis; begins a new pair first when one is due (planned,
+  /// or the life counter went backwards). Returns what the record's run says about it ("" = nothing).
+  std::string place_on_pair(wear::ModelObservation& obs, storage::ModelRunResult& msg);
   void handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids);
   void diagnose_gap();
   /// The counters and records an earlier process kept for the next diagnosis of this gear pair.
@@ -131,7 +155,18 @@ class ModelThread {
   bool lossless_;
   ModelCounters counters_;
   std::unique_ptr<wear::TwinModel> model_;
+  twin::GearboxParameters params_;
+  wear::ModelSettings settings_;
+  wear::RmsSaSimulator simulator_;
   std::int64_t gear_pair_ = 0;
+  PairStart pair_;
+  /// A new pair the next record with a life-counter position begins.
+  struct PendingPair {
+    std::string reason;
+    bool counted_by_life_counter = false;  ///< its cycle 0 is the counter's 0 (else the record's count)
+    bool new_number = true;                ///< false for a database's first pair (it keeps its number)
+  };
+  std::optional<PendingPair> pending_pair_;
   double record_rate_hz_ = 0;  ///< sample rate of the record being handled (model thread only)
   AlertTracker alerts_;
   GapHooks gap_;

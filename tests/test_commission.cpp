@@ -14,6 +14,7 @@
 
 #include "command_runner.hpp"
 #include "gearwatch/config/twin_config.hpp"
+#include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/twin/gear_bodies.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "temp_dir.hpp"
@@ -174,4 +175,115 @@ TEST_CASE("commission: a capture without a usable record is refused with one lin
   CHECK(r.err.find("no complete record") != std::string::npos);
   CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
   CHECK_FALSE(std::filesystem::exists(table));
+}
+
+namespace {
+
+nlohmann::json twin_state(const std::string& db) {
+  const auto r = run_command(std::string(GEARWATCH_BINARY) + " twin state --db " + db + " --format json");
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  return nlohmann::json::parse(r.out);
+}
+
+/// The model's stored runs: gear pair, cycles, detail (oldest first).
+std::vector<nlohmann::json> model_runs(const std::string& db) {
+  const auto r = run_command(std::string(GEARWATCH_BINARY) + " query predictions --db " + db + " --format json");
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  std::vector<nlohmann::json> out;
+  for (const auto& row : nlohmann::json::parse(r.out)) out.push_back(row);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("commission: a new gear pair starts at cycle 0, never worn from a life counter the model did not count", "[commission][cli][model]") {
+  TempDir dir("new_pair");
+  const std::string gw = GEARWATCH_BINARY;
+  const std::string records = "[records]\nlength_s = 2.0\ninterval_s = 2.0\nmin_length_s = 2.0\n"
+                              "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.1\n[rig]\nsample_rate_hz = 25600.0\n";
+  const auto model = dir.path() / "model.toml", thesis = dir.path() / "thesis.toml";
+  write_file(model, std::string(kGears) + records);
+  write_file(thesis, records);  // the thesis's pair: no [gears]
+  // One 2.2 s capture (one 2 s record) at 20 Hz, 20 N m, whose life counter starts at `revs`.
+  auto capture = [&](const std::string& name, long revs) {
+    const auto path = (dir.path() / name).string();
+    const auto sim = run_command(gw + " simulate --out " + path + " --duration 2.2 --speed 20 --torque 20 --sample-rate 25600 "
+                                 "--channels 1 --config " + model.string() + " --start-revs " + std::to_string(revs));
+    REQUIRE(sim.status == 0);
+    return path;
+  };
+  auto replay = [&](const std::string& cap, const std::string& db, const std::filesystem::path& config) {
+    const auto r = run_command(gw + " replay " + cap + " --db " + db + " --config " + config.string());
+    INFO(r.err);
+    REQUIRE(r.status == 0);
+  };
+  const std::string invented = capture("a.log", 1000000), later = capture("b.log", 1100000), other = capture("c.log", 1200000),
+                    reset = capture("d.log", 500000);
+
+  // The first record of a new database is the pair's cycle 0, unworn, and says why (before, the
+  // model wore the pair through the 1e6 revolutions the counter claimed).
+  const std::string db = (dir.path() / "pair.db").string();
+  replay(invented, db, model);
+  auto s = twin_state(db);
+  CHECK(s["gear_pair"] == 0);
+  CHECK(s["cycles"].get<double>() == 0.0);
+  CHECK(s["wear"]["max_m"].get<double>() == 0.0);
+  CHECK(s["pitting"]["max"].get<double>() == 0.0);
+  CHECK(s["pair"]["origin_life_counter"].get<double>() == 1000000.0);
+  CHECK(s["pair"]["gears"] == "23/46 teeth, module 1.5 mm, face 15 mm, pressure angle 20 deg");
+  CHECK(s["pair"]["start_reason"].get<std::string>().find("count before this record is not known") != std::string::npos);
+  const auto table = run_command(gw + " twin state --db " + db);
+  CHECK(table.out.find("started   at life counter 1000000 (its cycle 0): the first gear pair of this database") != std::string::npos);
+
+  // The next record, 100 000 revolutions on: the pair's cycles count from its origin, and its wear
+  // equals that of a database whose pair started at counter 0 and whose second record is at 1e5
+  // (the same unworn start, K and load: the same history shifted along the counter).
+  replay(later, db, model);
+  s = twin_state(db);
+  CHECK(s["cycles"].get<double>() == 100000.0);
+  const std::string from_zero = (dir.path() / "from_zero.db").string();
+  replay(capture("z0.log", 0), from_zero, model);
+  replay(capture("z1.log", 100000), from_zero, model);
+  const auto c5 = twin_state(from_zero);
+  REQUIRE(c5["cycles"].get<double>() == 100000.0);
+  CHECK(c5["pair"]["origin_life_counter"].get<double>() == 0.0);
+  CHECK(s["wear"]["max_m"].get<double>() > 0);
+  CHECK(s["wear"]["max_m"].get<double>() == Approx(c5["wear"]["max_m"].get<double>()).epsilon(1e-9));
+  CHECK(s["k_wear_si"].get<double>() == c5["k_wear_si"].get<double>());
+
+  // Another [gears]: a new gear pair at its first record, whatever the counter says.
+  replay(other, db, thesis);
+  s = twin_state(db);
+  CHECK(s["gear_pair"] == 1);
+  CHECK(s["cycles"].get<double>() == 0.0);
+  CHECK(s["wear"]["max_m"].get<double>() == 0.0);
+  CHECK(s["pair"]["origin_life_counter"].get<double>() == 1200000.0);
+  CHECK(s["pair"]["gears"] == "19/52 teeth, module 2 mm, face 20 mm, pressure angle 20 deg");
+  CHECK(s["pair"]["start_reason"] ==
+        "the configured gear pair (19/52 teeth, module 2 mm, face 20 mm, pressure angle 20 deg) is not the stored pair's "
+        "(23/46 teeth, module 1.5 mm, face 15 mm, pressure angle 20 deg)");
+  // An inspection entered now belongs to the pair the model runs.
+  REQUIRE(run_command(gw + " inspect --db " + db + " --cycles 1200000 --pitted-area 0.0").status == 0);
+  {
+    storage::Database d(db, storage::Database::Mode::read_only);
+    storage::Statement q(d, "SELECT gear_pair FROM inspections");
+    REQUIRE(q.step());
+    CHECK(q.get_int(0) == 1);
+  }
+
+  // The counter going backwards is a pair change the counter itself counts (reset with the pair).
+  replay(reset, db, thesis);
+  s = twin_state(db);
+  CHECK(s["gear_pair"] == 2);
+  CHECK(s["cycles"].get<double>() == 500000.0);
+  CHECK(s["pair"]["origin_life_counter"].get<double>() == 0.0);
+  CHECK(s["pair"]["start_reason"] == "the life counter went backwards from 1200000 to 500000");
+
+  // Each pair's first run says where it started.
+  const auto runs = model_runs(db);
+  REQUIRE(runs.size() == 4);
+  for (std::size_t i : {0u, 2u, 3u}) CHECK(runs[i]["detail"].get<std::string>().find("starts here, its cycle 0 at life counter") != std::string::npos);
+  CHECK(runs[1]["cycles"].get<double>() == 100000.0);
 }

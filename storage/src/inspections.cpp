@@ -1,5 +1,7 @@
 #include "gearwatch/storage/inspections.hpp"
 
+#include <algorithm>
+
 #include "stored_rows.hpp"
 #include "stored_tokens.hpp"
 
@@ -42,6 +44,12 @@ GearPairPosition load_gear_pair_position(Database& db) {
     st.step();
     p.gear_pair = st.get_int(0);
     if (!st.is_null(1)) p.reset_at_cycles = st.get_double(1);
+  }
+  // The model also starts a pair when the configured gear pair changes (no reset): the pair now
+  // installed is the newest of the life-counter resets and the model's pairs.
+  if (detail::has_object(db, "model_state")) {
+    Statement st(db, "SELECT max(gear_pair) FROM model_state");
+    if (st.step() && !st.is_null(0)) p.gear_pair = std::max(p.gear_pair, st.get_int(0));
   }
   Statement newest(db, "SELECT input_revolutions FROM records WHERE input_revolutions IS NOT NULL ORDER BY id DESC LIMIT 1");
   if (newest.step()) p.newest_record_cycles = newest.get_double(0);
