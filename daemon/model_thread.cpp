@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "gap_diagnoser.hpp"
+#include "thread_cpu.hpp"
 #include "gearwatch/config/twin_config.hpp"
 #include "gearwatch/storage/alert_history.hpp"
 #include "gearwatch/storage/gap_kept_records.hpp"
@@ -518,6 +519,7 @@ void ModelThread::run() {
     not_full_.notify_all();
     handle(in, skipped, skipped_ids);
   }
+  counters_.cpu_ns = thread_cpu_ns();
 }
 
 void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids) {
@@ -605,7 +607,11 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   // The twin's counterpart needs the wear state at this record: only a record the model advanced to has one.
   const bool gap_due = gap_schedule_ && input.samples && r.advanced && add_gap_sample(input, msg);
   writer_.submit(std::move(msg));
-  if (gap_due) diagnose_gap();
+  if (gap_due) {
+    const std::uint64_t start = thread_cpu_ns();
+    diagnose_gap();
+    counters_.gap_cpu_ns += thread_cpu_ns() - start;
+  }
 }
 
 void ModelThread::restore_gap_schedule() {

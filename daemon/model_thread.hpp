@@ -113,6 +113,8 @@ struct ModelCounters {
   std::atomic<std::uint64_t> gap_failures{0};      ///< gap diagnoses that threw (logged, nothing stored)
   std::atomic<std::uint64_t> gap_k_wear_skipped{0};  ///< gap reports stored without K_wear (the twin could not tell it)
   std::atomic<std::uint64_t> gap_records_without_channel{0};  ///< records the gap step could not use: no compared channel
+  std::atomic<std::uint64_t> cpu_ns{0};        ///< CPU time of the model thread, set when it ends (gap diagnoses included)
+  std::atomic<std::uint64_t> gap_cpu_ns{0};    ///< CPU time of its gap diagnoses
 };
 
 

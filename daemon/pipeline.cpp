@@ -37,6 +37,7 @@
 #include "model_thread.hpp"
 #include "record_processing.hpp"
 #include "replay_resume.hpp"
+#include "thread_cpu.hpp"
 #include "vocabulary.hpp"
 
 namespace gearwatch::daemon {
@@ -482,6 +483,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     return s;
   };
 
+  std::atomic<std::uint64_t> processing_cpu_ns{0}, acquisition_cpu_ns{0};
   std::thread processing([&] {
     // Acquisition must never wait for the CPU behind indicator computation: processing runs at a
     // lower priority (a thread's nice value on Linux); the ring absorbs the difference.
@@ -518,6 +520,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
       assembler_snapshot = assembler.counters();
     }
     for (auto& f : rejected.take()) writer.submit(std::move(f));
+    processing_cpu_ns = thread_cpu_ns();
   });
 
   // --- acquisition thread
@@ -531,6 +534,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     });
     sd_notify(0, "READY=1");
     io.run();
+    acquisition_cpu_ns = thread_cpu_ns();
     acquisition_done.store(true, std::memory_order_release);
   });
 
@@ -555,6 +559,13 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   result.lost_samples = decoder.counters().gap_samples + assembler_snapshot.ring_gap_samples;
   result.kernel_dropped_frames = source->health().kernel_drops;
   result.run_id = writer.counters().run_id;
+  result.cpu.acquisition_s = 1e-9 * static_cast<double>(acquisition_cpu_ns.load());
+  result.cpu.processing_s = 1e-9 * static_cast<double>(processing_cpu_ns.load());
+  result.cpu.channel_helpers_s = 1e-9 * static_cast<double>(processor.channel_helper_cpu_ns());
+  if (model) {
+    result.cpu.gap_s = 1e-9 * static_cast<double>(model->counters().gap_cpu_ns.load());
+    result.cpu.model_s = 1e-9 * static_cast<double>(model->counters().cpu_ns.load()) - result.cpu.gap_s;
+  }
   if (fatal_storage || writer.counters().lost_at_exit > 0) result.exit_status = 3;
   else if (!end_reason.empty() && end_reason != "stopped") result.exit_status = 2;
   return result;

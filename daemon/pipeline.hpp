@@ -47,6 +47,11 @@ struct PipelineResult {
   std::uint64_t lost_samples = 0;
   std::uint64_t kernel_dropped_frames = 0;  ///< SO_RXQ_OVFL: frames the kernel discarded
   std::uint64_t run_id = 0;
+  /// CPU time per thread (seconds): where a run's time went (bench/bench_replay.cpp). The model's
+  /// excludes its gap diagnoses; the storage writer's is the process's total less these.
+  struct ThreadCpu {
+    double acquisition_s = 0, processing_s = 0, channel_helpers_s = 0, model_s = 0, gap_s = 0;
+  } cpu;
 };
 
 /// Runs until the source ends (replay), a signal arrives, or a fatal storage error. `gap`: the

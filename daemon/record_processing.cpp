@@ -54,7 +54,7 @@ std::optional<dsp::CarrierBand> unseen_band(const dsp::ChannelAnalysis& a) {
 
 RecordProcessor::RecordProcessor(const config::GearwatchConfig& config, ProcessorMemory memory)
     : config_(config),
-      analyzer_(config.rig, config.processing),
+      channels_(config.rig, config.processing, channel_worker_count(config.daemon.channel_workers)),
       estimator_(speed_estimation_settings(config.rig)),
       history_(std::move(memory.wear_history)),
       alerts_(std::move(memory.alerts)),
@@ -295,9 +295,11 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
   }
   const RecordSpeed speed = establish_speed(record, out);
   out.speed_source = speed.source;
+  // The channels are analysed in parallel; what follows (alerts, wear history) goes in channel order.
+  std::vector<dsp::ChannelAnalysis> analyses = channels_.analyze(record, speed.estimated_edges);
   for (std::size_t c = 0; c < record.channels.size(); ++c) {
     const int channel = record.channel_numbers.at(c);
-    dsp::ChannelAnalysis a = analyzer_.analyze(record, c, speed.estimated_edges);
+    dsp::ChannelAnalysis& a = analyses[c];
     if (!speed.estimate_failure.empty())
       for (auto& s : a.skipped)
         if (s.reason == dsp::SkipReason::no_tacho) s.detail = "no speed estimate from the signal either: " + speed.estimate_failure;

@@ -2,13 +2,15 @@
 // Turns an assembled record into what is stored for it: the indicators of every channel
 // (dsp::RecordAnalyzer), the wear-mechanism assessment over the gear pair's history (§4.4), and
 // the alerts these raise or clear (AlertTracker, state reloaded from the database at start).
-// Runs on the processing thread; owns the analyzer's FFT plans and scratch.
+// Runs on the processing thread; owns the analyzers (one per channel worker, each with its FFT
+// plans and scratch).
 #include <map>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "channel_workers.hpp"
 #include "gearwatch/alerts.hpp"
 #include "gearwatch/config/config.hpp"
 #include "gearwatch/dsp/record_analyzer.hpp"
@@ -57,6 +59,8 @@ class RecordProcessor {
   storage::AlertUpdate stream_sample_rate(std::uint32_t stream_rate_hz, const std::string& message);
   const WearHistory& history() const noexcept { return history_; }
   const AlertTracker& alerts() const noexcept { return alerts_; }
+  /// CPU time of the channel workers' helper threads so far (the processing thread's own is its own).
+  std::uint64_t channel_helper_cpu_ns() const noexcept { return channels_.helper_cpu_ns(); }
 
  private:
   RecordSpeed establish_speed(const Record& record, storage::RecordResult& out);
@@ -67,7 +71,7 @@ class RecordProcessor {
   void check_thresholds(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
 
   config::GearwatchConfig config_;
-  dsp::RecordAnalyzer analyzer_;
+  ChannelWorkers channels_;
   dsp::SpeedEstimator estimator_;
   WearHistory history_;
   AlertTracker alerts_;

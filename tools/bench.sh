@@ -6,6 +6,8 @@
 # (cmp=ge: the figure must reach the target; le: stay below it). A benchmark without such a line
 # gets a row with its last output line. Each benchmark's full output is kept in build/bench/<name>.out.
 # Exit status 0 if every target was met.
+# bench_replay (the whole job: a 20-record rig campaign replayed with the model on, then with the gap
+# diagnosis) makes its campaign once and keeps it in build/bench/replay-campaign-20x10s.
 #   tools/bench.sh                 all benchmarks
 #   tools/bench.sh bench_twin ...  only these
 set -euo pipefail

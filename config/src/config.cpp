@@ -242,6 +242,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.number("health_interval_s", cfg.daemon.health_interval_s, 0.1, 86400.0);
     t.number("watchdog_margin", cfg.daemon.watchdog_margin, 0.05, 0.95);
     t.integer("processing_nice", cfg.daemon.processing_nice, 0, 19);
+    t.integer("channel_workers", cfg.daemon.channel_workers, 0, 64);
     t.reject_unknown();
   }
   {

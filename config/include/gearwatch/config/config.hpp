@@ -56,6 +56,9 @@ struct DaemonSettings {
   double health_interval_s = 60.0;                 ///< acquisition_health snapshot period
   double watchdog_margin = 0.5;                    ///< ping at this fraction of WatchdogSec
   int processing_nice = 10;                        ///< nice value of the processing thread (0 = unchanged)
+  /// Threads analysing the channels of a record in parallel, the processing thread included
+  /// (0 = the hardware threads, at most 8; 1 = one channel after another).
+  unsigned channel_workers = 0;
 };
 
 /// Hysteresis of the alerts (docs/daemon.md "Alerts"): consecutive records a condition must be
