@@ -63,7 +63,7 @@ class MosquittoBroker {
       : dir_(std::move(dir)), user_(std::move(user)), password_(std::move(password)), port_(free_loopback_port()) {
     std::filesystem::create_directories(dir_);
     std::ofstream(dir_ / "pw") << "";
-    const auto r = run_command("mosquitto_passwd -b " + (dir_ / "pw").string() + " " + user_ + " " + password_);
+    const auto r = run_command("mosquitto_passwd -b " + (dir_ / "pw").string() + " '" + user_ + "' '" + password_ + "'");
     if (r.status != 0) throw std::runtime_error("mosquitto_passwd: " + r.err);
     // As root, mosquitto drops to `nobody` (the recipe's unprivileged user): it must own its files.
     const bool root = ::geteuid() == 0;
