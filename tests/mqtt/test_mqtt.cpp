@@ -277,7 +277,7 @@ TEST_CASE("mqtt: a wrong password is refused, counted, said in one line and rais
   CHECK(scalar(s.db, "SELECT count(*) FROM outbox WHERE topic = 'alert' AND payload LIKE '%mqtt_refused%'") == 1);
 }
 
-TEST_CASE("mqtt: [mqtt] is off by default; its keys are read and bad ones named", "[mqtt][config]") {
+TEST_CASE("mqtt: the mqtt config table is off by default and names its bad keys", "[mqtt][config]") {
   TempDir dir("mqtt-config");
   auto load = [&](const std::string& text) {
     std::ofstream(dir / "c.toml") << text;
