@@ -35,6 +35,7 @@
 #include "config_reload.hpp"
 #include "decoder_setup.hpp"
 #include "model_thread.hpp"
+#include "mqtt_sender.hpp"
 #include "record_processing.hpp"
 #include "replay_resume.hpp"
 #include "thread_cpu.hpp"
@@ -179,6 +180,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   wopt.retry_initial_ms = static_cast<int>(config.storage.retry_initial_ms);
   wopt.retry_max_ms = static_cast<int>(config.storage.retry_max_ms);
   wopt.vocabulary = acquisition_vocabulary();
+  if (config.mqtt.enabled) wopt.outbox = storage::OutboxIdentity{config.mqtt.site, config.mqtt.gearbox, config.mqtt.outbox_limit};
   require_writable_database(config.storage.database);
   // One writer per database, held until we return: a second run or replay on it is refused here.
   const storage::DatabaseLock writer_lock = storage::DatabaseLock::acquire(config.storage.database);
@@ -187,6 +189,16 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     writer.start();
   } catch (const std::exception& e) {
     throw std::runtime_error("database " + config.storage.database + " cannot be opened for writing: " + e.what());
+  }
+  // The MQTT sender delivers what the outbox holds, older rows of earlier runs first.
+  std::unique_ptr<MqttSender> mqtt;
+  if (config.mqtt.enabled) {
+    mqtt = std::make_unique<MqttSender>(config.mqtt, config.storage.database, writer);
+    try {
+      mqtt->start();
+    } catch (const std::exception& e) {
+      throw std::runtime_error(std::string("mqtt: ") + e.what());
+    }
   }
   // A capture replayed again (after a crash, or given twice, by any path) continues after what it stored.
   const CaptureIdentity capture = from_file ? identify_capture(source_name) : CaptureIdentity{source_name, ""};
@@ -480,6 +492,15 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
                   {"storage_retries", v(w.retries)},
                   {"storage_rows_rejected", v(w.rows_rejected)},
                   {"storage_queue_waits", v(w.queue_waits)}};
+    if (mqtt) {
+      const auto& m = mqtt->counters();
+      s.counters.insert(s.counters.end(), {{"mqtt_published", v(m.published)},
+                                           {"mqtt_delivered", v(m.delivered)},
+                                           {"mqtt_connects", v(m.connects)},
+                                           {"mqtt_connect_failures", v(m.connect_failures)},
+                                           {"mqtt_refused", v(m.refused)},
+                                           {"mqtt_outbox_dropped", v(m.outbox_dropped)}});
+    }
     return s;
   };
 
@@ -542,10 +563,12 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
   acquisition.join();
   processing.join();
   if (model) model->stop();  // drains what it holds
+  if (mqtt) mqtt->close_alerts();  // its alerts need the writer, which stops next
   writer.submit(health(true));
   const std::string run_end_reason = run_end_text(end_reason, stop_signal, mode);
   writer.submit(storage::RunEnded{run_end_reason});
   writer.stop();
+  if (mqtt) mqtt->stop();  // after the writer: the outbox holds every message of the run
 
   PipelineResult result;
   result.end_reason = end_reason;

@@ -7,16 +7,18 @@
 #                                  python3 with numpy for the capture generator tests/capture_gen,
 #                                  scipy and h5py for the import test's independent .mat writers;
 #                                  headless chromium and a font for the report's browser test;
+#                                  the MQTT tests' broker: mosquitto (mosquitto_passwd);
 #                                  the systemd VM's root: debootstrap, and the .deb it installs;
 #                                  the fuzzers: clang-14, libFuzzer and its sanitizer runtimes)
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config git ca-certificates
           libeigen3-dev libboost-dev libfftw3-dev libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev
-          libsystemd-dev libsndfile1-dev libmatio-dev libcli11-dev libtomlplusplus-dev nlohmann-json3-dev catch2)
+          libsystemd-dev libsndfile1-dev libmatio-dev libcli11-dev libtomlplusplus-dev nlohmann-json3-dev catch2
+          libmosquitto-dev)
 package_tools=(dpkg-dev file)
 [ "${1:-}" = "--package" ] && packages+=("${package_tools[@]}")
 [ "${1:-}" = "--test" ] && packages+=(can-utils qemu-system-x86 busybox-static cpio xz-utils python3 python3-numpy python3-scipy python3-h5py
-                                      chromium fonts-dejavu-core
+                                      chromium fonts-dejavu-core mosquitto mosquitto-clients
                                       debootstrap "${package_tools[@]}" clang-14 libfuzzer-14-dev libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do

@@ -76,6 +76,14 @@ class TableReader {
     out = *s;
   }
 
+  void boolean(const std::string& key, bool& out) {
+    const toml::node* n = node(key);
+    if (!n) return;
+    auto b = n->value_exact<bool>();
+    if (!b) fail(n, key, "expected true or false");
+    out = *b;
+  }
+
   void reject_unknown() const {
     if (!table_) return;
     for (const auto& [k, v] : *table_) {
@@ -109,11 +117,37 @@ const toml::array* array_of_tables(const toml::table& root, const std::string& n
   return n->as_array();
 }
 
+void read_mqtt(TableReader t, MqttSettings& m) {
+  t.boolean("enabled", m.enabled);
+  t.string("host", m.host);
+  t.integer("port", m.port, 1, 65535);
+  t.string("prefix", m.prefix);
+  t.string("site", m.site);
+  t.string("gearbox", m.gearbox);
+  const std::pair<const char*, const std::string*> levels[] = {{"prefix", &m.prefix}, {"site", &m.site}, {"gearbox", &m.gearbox}};
+  for (const auto& [key, value] : levels)
+    if (value->find_first_of("+#/") != std::string::npos) t.fail(t.node(key), key, "must not contain '/', '+' or '#' (one topic level)");
+  t.string("client_id", m.client_id, true);
+  t.integer("keepalive_s", m.keepalive_s, 5, 3600);
+  t.string("password_file", m.password_file, true);
+  t.string("ca_file", m.ca_file, true);
+  t.string("cert_file", m.cert_file, true);
+  t.string("key_file", m.key_file, true);
+  if (m.cert_file.empty() != m.key_file.empty()) t.fail(t.node(m.cert_file.empty() ? "key_file" : "cert_file"), m.cert_file.empty() ? "key_file" : "cert_file", "cert_file and key_file go together");
+  if (!m.cert_file.empty() && m.ca_file.empty()) t.fail(t.node("cert_file"), "cert_file", "a client certificate needs TLS: set ca_file");
+  t.integer("outbox_limit", m.outbox_limit, 100, std::int64_t{1} << 40);
+  t.integer("inflight", m.inflight, 1, 1000);
+  t.integer("reconnect_initial_ms", m.reconnect_initial_ms, 10, 600000);
+  t.integer("reconnect_max_ms", m.reconnect_max_ms, 10, 3600000);
+  t.number("drain_timeout_s", m.drain_timeout_s, 0.0, 3600.0);
+  t.reject_unknown();
+}
+
 GearwatchConfig from_table(const toml::table& root, const std::string& file) {
   GearwatchConfig cfg;
   static const std::set<std::string> known{"rig", "gears", "channels", "tachos", "records", "protocol",
                                            "acquisition", "storage", "logging", "daemon", "processing", "twin",
-                                           "alerts", "model", "gap"};
+                                           "alerts", "model", "gap", "mqtt"};
   for (const auto& [k, v] : root) {
     if (!known.count(std::string{k.str()})) {
       throw ConfigError(file + ":" + std::to_string(v.source().begin.line) + ": key '" + std::string{k.str()} + "': unknown table or key");
@@ -226,6 +260,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.integer("retry_max_ms", s.retry_max_ms, 1, 3600000);
     t.reject_unknown();
   }
+  read_mqtt(TableReader(sub_table(root, "mqtt", file), "mqtt.", file), cfg.mqtt);
   {
     TableReader t(sub_table(root, "logging", file), "logging.", file);
     auto& l = cfg.logging;

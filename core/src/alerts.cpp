@@ -19,6 +19,8 @@ const char* to_string(AlertKind kind) noexcept {
     case AlertKind::cycle_count_fault: return "cycle_count_fault";
     case AlertKind::sample_rate_mismatch: return "sample_rate_mismatch";
     case AlertKind::tacho_speed_mismatch: return "tacho_speed_mismatch";
+    case AlertKind::mqtt_refused: return "mqtt_refused";
+    case AlertKind::mqtt_outbox_full: return "mqtt_outbox_full";
   }
   return "unknown";
 }
@@ -62,6 +64,10 @@ AlertSeverity severity_of(AlertKind kind) noexcept {
     case AlertKind::cycle_count_fault: return AlertSeverity::warning;
     case AlertKind::sample_rate_mismatch: return AlertSeverity::warning;
     case AlertKind::tacho_speed_mismatch: return AlertSeverity::warning;
+    // The gearbox is watched as before; only the plant does not hear of it.
+    case AlertKind::mqtt_refused: return AlertSeverity::warning;
+    // Messages are being lost for good: the plant's history of this gearbox gets a hole.
+    case AlertKind::mqtt_outbox_full: return AlertSeverity::alarm;
   }
   return AlertSeverity::warning;
 }

@@ -15,7 +15,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 10> kMigrations{
+constexpr std::array<const char*, 11> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -553,6 +553,30 @@ CREATE TABLE run_channels (
   name TEXT NOT NULL,
   PRIMARY KEY (run_id, channel)
 ) WITHOUT ROWID;
+)SQL",
+    // 10 -> 11: the MQTT outbox (docs/mqtt.md): each message to publish, written in the transaction
+    // of the data it reports, delivered in id order and marked on the broker's acknowledgement.
+    R"SQL(
+CREATE TABLE outbox (
+  id INTEGER PRIMARY KEY,
+  topic TEXT NOT NULL CHECK (topic IN ('alert', 'record', 'wear', 'model', 'health', 'gap')),
+  record_id INTEGER REFERENCES records(id),
+  payload TEXT NOT NULL,
+  created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  delivered_at TEXT
+);
+CREATE INDEX outbox_undelivered ON outbox(id) WHERE delivered_at IS NULL;
+CREATE TABLE outbox_counters (
+  name TEXT PRIMARY KEY,
+  value INTEGER NOT NULL
+) WITHOUT ROWID;
+INSERT INTO outbox_counters(name, value) VALUES ('dropped', 0);
+ALTER TABLE health_snapshots ADD COLUMN mqtt_published INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN mqtt_delivered INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN mqtt_connects INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN mqtt_connect_failures INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN mqtt_refused INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN mqtt_outbox_dropped INTEGER NOT NULL DEFAULT 0;
 )SQL",
 };
 

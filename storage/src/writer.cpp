@@ -44,7 +44,14 @@ void write_part(Database& db, WriterCounters& counters, const char* what, Descri
 
 class BatchWriter {
  public:
-  BatchWriter(Database& db, WriterState& state, WriterCounters& counters) : db_(db), state_(state), counters_(counters) {}
+  BatchWriter(Database& db, WriterState& state, WriterCounters& counters, const std::optional<OutboxIdentity>& outbox)
+      : db_(db), state_(state), counters_(counters) {
+    if (outbox) outbox_.emplace(db, *outbox);
+  }
+  /// Ends the batch: the outbox keeps within its limit in the same transaction.
+  void finish() {
+    if (outbox_) outbox_->enforce_limit();
+  }
 
   void write(const RunStarted& m) {
     Statement s(db_, "INSERT INTO runs(kind, source, config_path, capture_id) VALUES (?, ?, ?, ?)");
@@ -121,6 +128,7 @@ class BatchWriter {
                    else a.bind_null(11);
                    a.run();
                  });
+    if (outbox_) outbox_->record(record_id, m);
     write_alerts(m.alerts, m.alert_states, record_id, context);
   }
   void write(const ModelRunResult& m) {
@@ -182,6 +190,7 @@ class BatchWriter {
         Statement i(db_, "INSERT OR IGNORE INTO model_run_forecast_flags(run_id, flag) VALUES (?, ?)");
         i.bind(1, run_id).bind(2, wear::to_string(flag)).run();
       });
+    if (outbox_) outbox_->model(record_id, run_id, m);
     for (const auto& u : r.updates)
       write_part(db_, counters_, "K update", [&] { return context + ": " + wear::to_string(u.kind) + " " + wear::to_string(u.outcome); }, [&] {
         Statement k(db_, "INSERT INTO k_update_log(run_id, gear_pair, cycles, kind, triggered_by, outcome, old_value, new_value,"
@@ -197,6 +206,7 @@ class BatchWriter {
   void write(const GapReportResult& m) {
     const std::optional<std::int64_t> record_id = find_record(m.has_record, m.stream_sequence, m.start_index);
     const std::int64_t id = insert_gap_report(db_, m.report, GapReportContext{record_id, m.gear_pair});
+    if (outbox_) outbox_->gap(record_id, id, m);
     write_alerts(m.alerts, m.alert_states, record_id, "gap report " + std::to_string(id));
   }
   void write(const AlertUpdate& m) { write_alerts(m.alerts, m.alert_states, std::nullopt, "alert update"); }
@@ -225,6 +235,7 @@ class BatchWriter {
     int i = 3;
     for (const auto& [name, v] : m.counters) s.bind(i++, v);
     s.run();
+    if (outbox_) outbox_->health(m);
   }
 
  private:
@@ -248,6 +259,7 @@ class BatchWriter {
         if (e.key.subject.empty()) a.bind_null(8);
         else a.bind(8, e.key.subject);
         a.run();
+        if (outbox_) outbox_->alerts(record_id, {e});
       });
     for (const auto& [key, st] : states)
       write_part(db_, counters_, "alert state", [&] { return context + ": " + to_string(key.kind); }, [&] {
@@ -277,6 +289,7 @@ class BatchWriter {
   Database& db_;
   WriterState& state_;
   WriterCounters& counters_;
+  std::optional<OutboxWriter> outbox_;
 };
 
 }  // namespace
@@ -325,8 +338,9 @@ void StorageWriter::start() {
       auto commit_range = [&](std::size_t from, std::size_t to) {
         WriterState trial = state;
         Transaction tx(*db);
-        BatchWriter writer(*db, trial, counters_);
+        BatchWriter writer(*db, trial, counters_, options_.outbox);
         for (std::size_t i = from; i < to; ++i) std::visit([&](const auto& msg) { writer.write(msg); }, batch[i]);
+        writer.finish();
         tx.commit();
         state = std::move(trial);
         counters_.messages_committed.fetch_add(to - from, std::memory_order_relaxed);

@@ -34,6 +34,8 @@ enum class AlertKind : std::uint8_t {
   cycle_count_fault,   ///< a record's revolutions cannot be trusted (tacho disagrees with the speed frame, or they go backwards)
   sample_rate_mismatch,///< the stream header's sample rate differs from rig.sample_rate_hz; value = the header's rate
   tacho_speed_mismatch,///< the tacho's mean speed disagrees with the vibration signal's estimate; value = the relative difference
+  mqtt_refused,        ///< the MQTT broker refuses this gearbox (bad credentials, not authorised); value = the broker's reason
+  mqtt_outbox_full,    ///< the MQTT outbox reached its limit and dropped its oldest messages; value = how many so far
 };
 inline constexpr std::array kAllAlertKinds{AlertKind::wear_mechanism,   AlertKind::carrier_band_jump,
                                            AlertKind::sensor_missing,   AlertKind::sensor_flat_line,
@@ -41,7 +43,8 @@ inline constexpr std::array kAllAlertKinds{AlertKind::wear_mechanism,   AlertKin
                                            AlertKind::indicator_threshold, AlertKind::remaining_life,
                                            AlertKind::twin_drift,       AlertKind::tacho_missing,
                                            AlertKind::cycle_count_fault, AlertKind::sample_rate_mismatch,
-                                           AlertKind::tacho_speed_mismatch};
+                                           AlertKind::tacho_speed_mismatch, AlertKind::mqtt_refused,
+                                           AlertKind::mqtt_outbox_full};
 const char* to_string(AlertKind kind) noexcept;
 
 enum class AlertSeverity : std::uint8_t { info, warning, alarm };

@@ -46,6 +46,28 @@ struct StorageSettings {
   std::uint32_t retry_max_ms = 30000;
 };
 
+/// The MQTT publisher (docs/mqtt.md): off by default. Credentials never live in this file:
+/// `password_file` names a file (or, relative, a systemd credential under
+/// $CREDENTIALS_DIRECTORY) holding "username:password" on its first line.
+struct MqttSettings {
+  bool enabled = false;
+  std::string host = "localhost";
+  std::uint32_t port = 1883;
+  std::string prefix = "gearwatch";
+  std::string site = "site";
+  std::string gearbox = "gearbox";                 ///< this gearbox's id in every topic and payload
+  std::string client_id;                           ///< "" = "gearwatch-<site>-<gearbox>"
+  std::uint32_t keepalive_s = 30;
+  std::string password_file;                       ///< "" = no authentication
+  std::string ca_file;                             ///< "" = no TLS
+  std::string cert_file, key_file;                 ///< client certificate and key (TLS)
+  std::uint64_t outbox_limit = 100000;             ///< undelivered messages kept; beyond, the oldest are dropped
+  std::uint32_t inflight = 20;                     ///< messages published and not yet acknowledged
+  std::uint32_t reconnect_initial_ms = 500;
+  std::uint32_t reconnect_max_ms = 30000;
+  double drain_timeout_s = 5.0;                    ///< at stop, how long to wait for the outbox to empty
+};
+
 struct LoggingSettings {
   std::string level = "info";
   std::string sink = "auto";                       ///< auto | journald | stderr
@@ -134,6 +156,7 @@ struct GearwatchConfig {
   ProtocolSettings protocol;
   AcquisitionSettings acquisition;
   StorageSettings storage;
+  MqttSettings mqtt;
   LoggingSettings logging;
   DaemonSettings daemon;
   AlertSettings alerts;

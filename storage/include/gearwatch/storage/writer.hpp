@@ -19,10 +19,12 @@
 #include <deque>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
 #include "gearwatch/storage/messages.hpp"
+#include "gearwatch/storage/outbox.hpp"
 #include "gearwatch/storage/schema.hpp"
 
 namespace gearwatch::storage {
@@ -36,6 +38,9 @@ struct WriterOptions {
   int retry_max_ms = 30000;
   double give_up_after_stop_s = 60.0;   ///< after stop(), retries end after this long
   Vocabulary vocabulary;                ///< domains beyond core's (see open_and_migrate)
+  /// Set when MQTT publishing is on: records, alerts, model runs, gap reports and health
+  /// snapshots then also write their outbox rows in their own transaction (outbox.hpp).
+  std::optional<OutboxIdentity> outbox;
 };
 
 struct WriterCounters {

@@ -1,0 +1,295 @@
+#include "mqtt_sender.hpp"
+
+#include <mosquitto.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "gearwatch/storage/alert_history.hpp"
+#include "gearwatch/storage/schema.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+
+namespace gearwatch::daemon {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr int kQos = 1;
+constexpr auto kConnackWait = std::chrono::seconds(10);
+constexpr auto kDropCheckInterval = std::chrono::seconds(1);
+
+std::string client_id_of(const config::MqttSettings& s) {
+  return s.client_id.empty() ? "gearwatch-" + s.site + "-" + s.gearbox : s.client_id;
+}
+
+std::string status_payload(const config::MqttSettings& s, bool online) {
+  return nlohmann::json{{"gearbox", s.gearbox}, {"site", s.site}, {"state", online ? "online" : "offline"},
+                        {"version", GEARWATCH_APP_VERSION}, {"schema", storage::current_schema_version()}}
+      .dump();
+}
+
+void init_library_once() {
+  static std::once_flag once;
+  std::call_once(once, [] { mosquitto_lib_init(); });
+}
+
+}  // namespace
+
+MqttCredentials read_mqtt_credentials(const std::string& password_file) {
+  std::filesystem::path path(password_file);
+  const char* credentials_dir = std::getenv("CREDENTIALS_DIRECTORY");
+  if (path.is_relative() && credentials_dir && *credentials_dir) path = std::filesystem::path(credentials_dir) / path;
+  std::ifstream in(path);
+  std::string line;
+  if (!in || !std::getline(in, line))
+    throw std::runtime_error("mqtt.password_file " + path.string() + ": cannot be read (expected 'username:password' on its first line)");
+  while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
+  const auto colon = line.find(':');
+  if (colon == std::string::npos || colon == 0)
+    throw std::runtime_error("mqtt.password_file " + path.string() + ": expected 'username:password' on its first line");
+  return {line.substr(0, colon), line.substr(colon + 1)};
+}
+
+std::string mqtt_topic(const config::MqttSettings& s, const std::string& kind) {
+  return s.prefix + "/" + s.site + "/" + s.gearbox + "/" + kind;
+}
+
+// One connection to the broker: a fresh libmosquitto client, its in-flight messages and the rows
+// acknowledged but not yet marked. Destroyed at the first disconnect.
+struct MqttSender::Session {
+  mosquitto* client = nullptr;
+  int connack = -1;                           // -1: no CONNACK yet
+  bool lost = false;
+  std::map<int, std::int64_t> inflight;       // message id -> outbox row id
+  std::vector<std::int64_t> acknowledged;     // rows PUBACKed, not yet marked delivered
+  std::int64_t last_sent = 0;                 // newest row published in this session
+  int status_mid = -1;
+  bool status_acknowledged = false;
+  ~Session() {
+    if (client) mosquitto_destroy(client);
+  }
+};
+
+MqttSender::MqttSender(config::MqttSettings settings, std::string database, storage::StorageWriter& writer)
+    : settings_(std::move(settings)), database_(std::move(database)), writer_(writer) {}
+
+MqttSender::~MqttSender() {
+  if (thread_.joinable()) stop();
+}
+
+void MqttSender::start() {
+  init_library_once();
+  if (!settings_.password_file.empty()) credentials_ = read_mqtt_credentials(settings_.password_file);
+  db_ = std::make_unique<storage::Database>(database_, storage::Database::Mode::read_write);
+  alerts_ = AlertTracker(storage::load_alert_states(*db_, {AlertKind::mqtt_refused, AlertKind::mqtt_outbox_full}));
+  dropped_seen_ = storage::OutboxReader(*db_).dropped();
+  counters_.outbox_dropped = static_cast<std::uint64_t>(dropped_seen_);
+  thread_ = std::thread([this] { run(); });
+}
+
+void MqttSender::close_alerts() {
+  std::lock_guard lock(mutex_);
+  alerts_open_ = false;
+}
+
+void MqttSender::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+    drain_deadline_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(settings_.drain_timeout_s));
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void MqttSender::run() {
+  auto backoff = std::chrono::milliseconds(settings_.reconnect_initial_ms);
+  for (;;) {
+    try {
+      Session session;
+      if (open_session(session)) {
+        backoff = std::chrono::milliseconds(settings_.reconnect_initial_ms);
+        run_session(session);
+      }
+      if (drained(session)) return;
+      check_dropped();
+    } catch (const std::exception& e) {
+      spdlog::error("mqtt: {} — retrying in {} ms", e.what(), backoff.count());
+    }
+    if (!wait_backoff(backoff)) {
+      const auto left = storage::OutboxReader(*db_).undelivered_count();
+      spdlog::warn("mqtt: stopping with {} messages undelivered; they stay in the outbox for the next start", left);
+      return;
+    }
+    backoff = std::min(backoff * 2, std::chrono::milliseconds(settings_.reconnect_max_ms));
+  }
+}
+
+bool MqttSender::open_session(Session& s) {
+  s.client = mosquitto_new(client_id_of(settings_).c_str(), true, &s);
+  if (!s.client) throw std::runtime_error("cannot create an MQTT client");
+  mosquitto_int_option(s.client, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+  if (!settings_.password_file.empty())
+    mosquitto_username_pw_set(s.client, credentials_.username.c_str(), credentials_.password.c_str());
+  if (!settings_.ca_file.empty()) {
+    const char* cert = settings_.cert_file.empty() ? nullptr : settings_.cert_file.c_str();
+    const char* key = settings_.key_file.empty() ? nullptr : settings_.key_file.c_str();
+    if (const int rc = mosquitto_tls_set(s.client, settings_.ca_file.c_str(), nullptr, cert, key, nullptr); rc != MOSQ_ERR_SUCCESS)
+      throw std::runtime_error("TLS files (mqtt.ca_file, cert_file, key_file): " + std::string(mosquitto_strerror(rc)));
+  }
+  const std::string offline = status_payload(settings_, false), status = mqtt_topic(settings_, "status");
+  mosquitto_will_set(s.client, status.c_str(), static_cast<int>(offline.size()), offline.data(), kQos, true);
+  mosquitto_connect_callback_set(s.client, [](mosquitto*, void* obj, int rc) { static_cast<Session*>(obj)->connack = rc; });
+  mosquitto_disconnect_callback_set(s.client, [](mosquitto*, void* obj, int) { static_cast<Session*>(obj)->lost = true; });
+  mosquitto_publish_callback_set(s.client, [](mosquitto*, void* obj, int mid) {
+    auto* session = static_cast<Session*>(obj);
+    if (mid == session->status_mid) session->status_acknowledged = true;
+    const auto it = session->inflight.find(mid);
+    if (it == session->inflight.end()) return;
+    session->acknowledged.push_back(it->second);
+    session->inflight.erase(it);
+  });
+  const std::string where = settings_.host + ":" + std::to_string(settings_.port);
+  if (const int rc = mosquitto_connect(s.client, settings_.host.c_str(), static_cast<int>(settings_.port),
+                                       static_cast<int>(settings_.keepalive_s));
+      rc != MOSQ_ERR_SUCCESS) {
+    if (counters_.connect_failures.fetch_add(1) % 20 == 0)
+      spdlog::warn("mqtt: broker {} unreachable: {}; messages wait in the outbox", where, rc == MOSQ_ERR_ERRNO ? std::strerror(errno) : mosquitto_strerror(rc));
+    return false;
+  }
+  const auto deadline = Clock::now() + kConnackWait;
+  while (s.connack < 0 && !s.lost && Clock::now() < deadline)
+    if (mosquitto_loop(s.client, 100, 1) != MOSQ_ERR_SUCCESS) s.lost = true;
+  if (s.connack == 0) {
+    on_accepted();
+    return true;
+  }
+  if (s.connack > 0) on_refusal(s.connack);
+  else counters_.connect_failures.fetch_add(1);
+  return false;
+}
+
+void MqttSender::run_session(Session& s) {
+  publish_status(s, true);
+  for (;;) {
+    if (mosquitto_loop(s.client, 50, 1) != MOSQ_ERR_SUCCESS || s.lost) {
+      mark_acknowledged(s);
+      spdlog::warn("mqtt: connection to {}:{} lost with {} messages unacknowledged; they will be sent again", settings_.host,
+                   settings_.port, s.inflight.size());
+      return;
+    }
+    mark_acknowledged(s);
+    fill_window(s);
+    check_dropped();
+    std::unique_lock lock(mutex_);
+    if (!stopping_) continue;
+    const bool past_deadline = Clock::now() >= drain_deadline_;
+    lock.unlock();
+    if (past_deadline || drained(s)) break;
+  }
+  publish_status(s, false);
+  const auto deadline = Clock::now() + std::chrono::seconds(1);
+  while (!s.status_acknowledged && !s.lost && Clock::now() < deadline)
+    if (mosquitto_loop(s.client, 50, 1) != MOSQ_ERR_SUCCESS) break;
+  mark_acknowledged(s);
+  mosquitto_disconnect(s.client);
+}
+
+void MqttSender::fill_window(Session& s) {
+  if (s.inflight.size() >= settings_.inflight) return;
+  storage::OutboxReader reader(*db_);
+  for (const auto& m : reader.undelivered_after(s.last_sent, settings_.inflight - s.inflight.size())) {
+    int mid = 0;
+    const std::string topic = mqtt_topic(settings_, storage::to_string(m.topic));
+    if (mosquitto_publish(s.client, &mid, topic.c_str(), static_cast<int>(m.payload.size()), m.payload.data(), kQos, false) !=
+        MOSQ_ERR_SUCCESS)
+      return;  // the loop sees the disconnect; the row goes again in the next session
+    s.inflight[mid] = m.id;
+    s.last_sent = m.id;
+    counters_.published.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+void MqttSender::mark_acknowledged(Session& s) {
+  if (s.acknowledged.empty()) return;
+  storage::OutboxReader(*db_).mark_delivered(s.acknowledged);
+  counters_.delivered.fetch_add(s.acknowledged.size(), std::memory_order_relaxed);
+  s.acknowledged.clear();
+}
+
+// True when stopping and nothing is left to deliver (or the deadline has passed).
+bool MqttSender::drained(Session& s) {
+  {
+    std::lock_guard lock(mutex_);
+    if (!stopping_) return false;
+  }
+  return s.inflight.empty() && storage::OutboxReader(*db_).undelivered_count() == 0;
+}
+
+void MqttSender::publish_status(Session& s, bool online) {
+  const std::string payload = status_payload(settings_, online), topic = mqtt_topic(settings_, "status");
+  mosquitto_publish(s.client, &s.status_mid, topic.c_str(), static_cast<int>(payload.size()), payload.data(), kQos, true);
+}
+
+void MqttSender::on_refusal(int rc) {
+  const auto n = counters_.refused.fetch_add(1) + 1;
+  const std::string why = mosquitto_connack_string(rc);
+  if (n == 1 || n % 100 == 0)
+    spdlog::error("mqtt: broker {}:{} refused client '{}'{}: {} (refusal {}); check mqtt.password_file — messages wait in the outbox",
+                  settings_.host, settings_.port, client_id_of(settings_),
+                  credentials_.username.empty() ? std::string(" without credentials") : " as user '" + credentials_.username + "'", why, n);
+  raise(AlertKind::mqtt_refused, true, why, "the MQTT broker refuses this gearbox: " + why);
+}
+
+void MqttSender::on_accepted() {
+  counters_.connects.fetch_add(1);
+  spdlog::info("mqtt: connected to {}:{} as '{}'", settings_.host, settings_.port, client_id_of(settings_));
+  raise(AlertKind::mqtt_refused, false, "", "the MQTT broker accepts this gearbox again");
+}
+
+void MqttSender::check_dropped() {
+  const auto now = Clock::now();
+  if (now < next_drop_check_) return;
+  next_drop_check_ = now + kDropCheckInterval;
+  const std::int64_t dropped = storage::OutboxReader(*db_).dropped();
+  counters_.outbox_dropped.store(static_cast<std::uint64_t>(dropped), std::memory_order_relaxed);
+  if (dropped <= dropped_seen_) return;
+  const std::string message = "the MQTT outbox reached its limit of " + std::to_string(settings_.outbox_limit) +
+                              " undelivered messages: " + std::to_string(dropped - dropped_seen_) +
+                              " of the oldest dropped (" + std::to_string(dropped) + " in all)";
+  spdlog::error("mqtt: {}", message);
+  dropped_seen_ = dropped;
+  std::lock_guard lock(mutex_);
+  if (!alerts_open_) return;
+  const AlertEvent e = alerts_.occurrence(AlertKey{AlertKind::mqtt_outbox_full, -1}, std::to_string(dropped), message);
+  writer_.submit(storage::AlertUpdate{{e}, alerts_.take_changed()});
+}
+
+void MqttSender::raise(AlertKind kind, bool present, const std::string& value, const std::string& message) {
+  std::lock_guard lock(mutex_);
+  if (!alerts_open_) return;
+  const auto e = alerts_.observe(AlertKey{kind, -1}, present, value, message, AlertHysteresis{1, 1});
+  if (e) writer_.submit(storage::AlertUpdate{{*e}, alerts_.take_changed()});
+}
+
+// Sleeps, or ends early when stopping; false when stopping and the drain deadline has passed
+// (or the outbox is empty: nothing to wait for).
+bool MqttSender::wait_backoff(std::chrono::milliseconds delay) {
+  std::unique_lock lock(mutex_);
+  wake_.wait_for(lock, delay, [&] { return stopping_; });
+  if (!stopping_) return true;
+  if (Clock::now() >= drain_deadline_) return false;
+  lock.unlock();
+  if (storage::OutboxReader(*db_).undelivered_count() == 0) return false;
+  lock.lock();
+  wake_.wait_until(lock, std::min(drain_deadline_, Clock::now() + delay));
+  return Clock::now() < drain_deadline_;
+}
+
+}  // namespace gearwatch::daemon

@@ -1,0 +1,96 @@
+#pragma once
+// The MQTT sender thread (docs/mqtt.md): owns its libmosquitto connection and its own database
+// connection, and delivers the outbox's rows in id order with QoS 1, at most `inflight` of them
+// unacknowledged. A row is marked delivered when its PUBACK arrives. Any disconnect ends the
+// session: the client is destroyed, and the next session (after a backoff) publishes again from
+// the oldest undelivered row, so the order holds and only QoS 1's duplicates can occur.
+// A refusal by the broker (bad credentials, not authorised) is logged in one line, counted and
+// raised as an mqtt_refused alert; a growing outbox drop count raises mqtt_outbox_full. Alerts go
+// through the storage writer (their outbox rows with them) until close_alerts().
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "gearwatch/alerts.hpp"
+#include "gearwatch/config/config.hpp"
+#include "gearwatch/storage/outbox.hpp"
+#include "gearwatch/storage/writer.hpp"
+
+struct mosquitto;
+
+namespace gearwatch::daemon {
+
+struct MqttCounters {
+  std::atomic<std::uint64_t> published{0};         ///< PUBLISH sent (resends included)
+  std::atomic<std::uint64_t> delivered{0};         ///< rows marked delivered (PUBACK)
+  std::atomic<std::uint64_t> connects{0};          ///< sessions accepted by the broker
+  std::atomic<std::uint64_t> connect_failures{0};  ///< unreachable, timed out or lost before CONNACK
+  std::atomic<std::uint64_t> refused{0};           ///< CONNACK refusals (credentials, authorisation)
+  std::atomic<std::uint64_t> outbox_dropped{0};    ///< messages dropped at the outbox limit (database total)
+};
+
+/// "username:password" from the first line of `password_file`; a relative name is looked up in
+/// $CREDENTIALS_DIRECTORY (systemd LoadCredential=) when that is set. Throws std::runtime_error.
+struct MqttCredentials {
+  std::string username, password;
+};
+MqttCredentials read_mqtt_credentials(const std::string& password_file);
+
+/// The topic of one kind of message: <prefix>/<site>/<gearbox>/<kind>.
+std::string mqtt_topic(const config::MqttSettings& s, const std::string& kind);
+
+class MqttSender {
+ public:
+  MqttSender(config::MqttSettings settings, std::string database, storage::StorageWriter& writer);
+  ~MqttSender();
+  MqttSender(const MqttSender&) = delete;
+  MqttSender& operator=(const MqttSender&) = delete;
+
+  /// Reads the credentials (throws on an unreadable file) and starts the thread.
+  void start();
+  /// After this, alerts are only logged: call before the storage writer stops.
+  void close_alerts();
+  /// Delivers what the outbox holds for up to drain_timeout_s, says offline, joins.
+  void stop();
+  const MqttCounters& counters() const noexcept { return counters_; }
+
+ private:
+  struct Session;
+  void run();
+  bool open_session(Session& s);
+  void run_session(Session& s);
+  void fill_window(Session& s);
+  void mark_acknowledged(Session& s);
+  bool drained(Session& s);
+  void publish_status(Session& s, bool online);
+  void on_refusal(int rc);
+  void on_accepted();
+  void check_dropped();
+  void raise(AlertKind kind, bool present, const std::string& value, const std::string& message);
+  bool wait_backoff(std::chrono::milliseconds delay);
+
+  config::MqttSettings settings_;
+  std::string database_;
+  storage::StorageWriter& writer_;
+  MqttCredentials credentials_;
+  MqttCounters counters_;
+  std::unique_ptr<storage::Database> db_;   // the sender thread's own connection
+  AlertTracker alerts_;
+  std::int64_t dropped_seen_ = -1;
+  std::chrono::steady_clock::time_point next_drop_check_{};
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stopping_ = false;
+  bool alerts_open_ = true;
+  std::chrono::steady_clock::time_point drain_deadline_{};
+  std::thread thread_;
+};
+
+}  // namespace gearwatch::daemon

@@ -1,0 +1,75 @@
+#pragma once
+// The MQTT outbox (docs/mqtt.md): store and forward. Every message a gearbox publishes is first a
+// row of table `outbox`, written by OutboxWriter inside the very transaction that stores the data
+// it reports, so a message exists exactly when its data does. The sender thread reads the rows in
+// id order through OutboxReader (its own connection) and marks them delivered on PUBACK.
+//
+// Limit: at most `limit` undelivered rows are kept. When a transaction would leave more, the
+// oldest undelivered rows are deleted in that transaction and counted (outbox_counters 'dropped');
+// the sender turns a growing count into an mqtt_outbox_full alert. Delivered rows are pruned to
+// the newest `limit` as well.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gearwatch/storage/messages.hpp"
+
+namespace gearwatch::storage {
+
+class Database;
+
+/// One topic per kind of message, under <prefix>/<site>/<gearbox>/.
+enum class OutboxTopic : std::uint8_t { alert, record, wear, model, health, gap };
+inline constexpr std::array kAllOutboxTopics{OutboxTopic::alert, OutboxTopic::record, OutboxTopic::wear,
+                                             OutboxTopic::model, OutboxTopic::health, OutboxTopic::gap};
+const char* to_string(OutboxTopic topic) noexcept;
+std::optional<OutboxTopic> parse_outbox_topic(const std::string& text) noexcept;
+
+/// Who publishes: copied into every payload so a fleet consumer can tell gearboxes apart.
+struct OutboxIdentity {
+  std::string site;
+  std::string gearbox;
+  std::uint64_t limit = 100000;  ///< undelivered messages kept
+};
+
+/// Writes outbox rows on the writer's connection, inside the caller's transaction.
+class OutboxWriter {
+ public:
+  OutboxWriter(Database& db, OutboxIdentity identity) : db_(db), identity_(std::move(identity)) {}
+  void record(std::int64_t record_id, const RecordResult& r);
+  void alerts(std::optional<std::int64_t> record_id, const std::vector<AlertEvent>& alerts);
+  void model(std::optional<std::int64_t> record_id, std::int64_t run_id, const ModelRunResult& m);
+  void gap(std::optional<std::int64_t> record_id, std::int64_t report_id, const GapReportResult& g);
+  void health(const HealthSnapshot& h);
+  /// Drops the oldest undelivered rows beyond the limit (counted) and prunes delivered rows.
+  void enforce_limit();
+
+ private:
+  Database& db_;
+  OutboxIdentity identity_;
+};
+
+struct OutboxMessage {
+  std::int64_t id = 0;
+  OutboxTopic topic = OutboxTopic::record;
+  std::string payload;  ///< JSON, as stored and as published
+};
+
+/// The sender's side, on its own connection.
+class OutboxReader {
+ public:
+  explicit OutboxReader(Database& db) : db_(db) {}
+  /// Undelivered rows with id > after, oldest first, at most `limit`.
+  std::vector<OutboxMessage> undelivered_after(std::int64_t after, std::size_t limit);
+  void mark_delivered(const std::vector<std::int64_t>& ids);
+  std::int64_t undelivered_count();
+  /// Messages dropped at the limit since the database was made.
+  std::int64_t dropped();
+
+ private:
+  Database& db_;
+};
+
+}  // namespace gearwatch::storage
