@@ -150,7 +150,7 @@ int main() {
   Ics2Criterion ics2(envelope, plans, first.samples_per_revolution, Ics2Parameters{});
   double full_band = 0.0;  // row 0's ICS2: the analyzer hands over the value it already has
   for (const auto& i : first.indicators)
-    if (i.name == "ics2_full_band") full_band = i.value;
+    if (i.name == dsp::to_string(dsp::Indicator::ics2_full_band)) full_band = i.value;
   ics2.set_whole_signal_value(full_band);
   BandPowerCriterion power;
   KurtosisCriterion kurtosis;

@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "gearwatch/config/config.hpp"
-#include "gearwatch/record.hpp"
+#include "gearwatch/types/record.hpp"
 
 namespace gearwatch::daemon {
 

@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
-#include "gearwatch/record.hpp"
+#include "gearwatch/types/record.hpp"
 #include "gearwatch/rig.hpp"
 
 namespace gearwatch::daemon {

@@ -22,7 +22,8 @@ void register_run(CLI::App& app) {
       throw CommandError(opt->config + ": [acquisition] source = \"candump\" needs capture = FILE for `run` "
                          "(`gearwatch replay CAPTURE` takes it on the command line)");
     if (!opt->db.empty()) cfg.storage.database = opt->db;
-    const bool journald = cfg.logging.sink == "journald" || (cfg.logging.sink == "auto" && logging::running_under_journald());
+    const bool journald = cfg.logging.sink == config::LogSink::journald ||
+                          (cfg.logging.sink == config::LogSink::automatic && logging::running_under_journald());
     logging::setup(journald ? logging::Sink::journald : logging::Sink::stderr_only, cfg.logging.level);
     spdlog::info("gearwatch starting: config {}, database {}", opt->config, cfg.storage.database);
     daemon::PipelineResult r;

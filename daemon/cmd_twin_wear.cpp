@@ -3,11 +3,13 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/types/token.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
 
 namespace gearwatch::cli {
@@ -15,7 +17,8 @@ namespace {
 
 struct WearOptions {
   double k_wear = 0, torque = 0, speed = 0, cycles = 0, k_pitting = 0;
-  std::string format = "table", force_model = "quasi-static";
+  std::string format = "table";
+  std::string force_model = wear::to_string(wear::ForceModel::quasi_static);  ///< a to_string(ForceModel) token (checked by CLI11)
 };
 
 // Limits that catch typing errors, far outside the rig (4 kW motor, ≤ 60 Hz) yet never binding on it.
@@ -41,7 +44,7 @@ void run_wear(const WearOptions& o) {
   options.k_wear_si = wear::k_wear_si_from_seed(o.k_wear);
   options.k_pitting = o.k_pitting;
   options.operating_point = {o.speed, o.torque};
-  options.force_model = o.force_model == "dynamic" ? wear::ForceModel::dynamic : wear::ForceModel::quasi_static;
+  options.force_model = *from_token(wear::kAllForceModels, o.force_model);  // CLI11 checked the token
   bool completed = false;
   std::unique_ptr<wear::BlueLoop> loop;
   try {
@@ -113,9 +116,11 @@ void register_twin_wear(CLI::App* twin) {
   cmd->add_option("--cycles", o->cycles, "Pinion revolutions")->required();
   cmd->add_option("--k-pitting", o->k_pitting, "Lundberg-Palmgren K_pitting (SI, docs/wear.md); 0 = no pitting")->capture_default_str();
   cmd->add_option("--format", o->format, "table | json")->check(CLI::IsMember({"table", "json"}));
+  std::vector<std::string> force_models;
+  for (wear::ForceModel m : wear::kAllForceModels) force_models.emplace_back(wear::to_string(m));
   cmd->add_option("--force-model", o->force_model,
                   "quasi-static (load sharing, ms per step) | dynamic (21-DOF twin per step, much slower)")
-      ->check(CLI::IsMember({"quasi-static", "dynamic"}))
+      ->check(CLI::IsMember(force_models))
       ->capture_default_str();
   cmd->callback([o] { run_wear(*o); });
 }

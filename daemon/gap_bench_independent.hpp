@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::cli {
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "gearwatch/config/config.hpp"
-#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::cli {
 

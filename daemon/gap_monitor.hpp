@@ -11,8 +11,8 @@
 
 #include "gearwatch/alerts.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
-#include "gearwatch/gap/gap_report.hpp"
-#include "gearwatch/record.hpp"
+#include "gearwatch/types/gap_report.hpp"
+#include "gearwatch/types/record.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
 
 namespace gearwatch::daemon {

@@ -23,6 +23,7 @@
 #include "gearwatch/storage/resume.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/types/indicator.hpp"
 
 namespace gearwatch::daemon {
 namespace {
@@ -113,9 +114,9 @@ ModelInput model_input(const storage::RecordResult& record, const config::Gearwa
   for (const auto& ch : record.channels) {
     if (ch.channel != channel) continue;
     for (const auto& [name, v] : ch.values) {
-      if (name == "rms_sa") o.rms_sa = v;
-      else if (name == "ics2_low_band") o.ics2_low = v;
-      else if (name == "input_speed_hz" && !std::isfinite(o.speed_hz)) o.speed_hz = v;
+      if (name == dsp::to_string(dsp::Indicator::rms_sa)) o.rms_sa = v;
+      else if (name == dsp::to_string(dsp::Indicator::ics2_low_band)) o.ics2_low = v;
+      else if (name == dsp::to_string(dsp::Indicator::input_speed_hz) && !std::isfinite(o.speed_hz)) o.speed_hz = v;
     }
   }
   return in;
@@ -144,7 +145,7 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   wear::ModelSettings s;
   s.loop.k_wear_si = wear::k_wear_si_from_seed(m.initial_k_wear);
   s.loop.k_pitting = m.initial_k_pitting;
-  s.loop.force_model = m.force_model == "dynamic" ? wear::ForceModel::dynamic : wear::ForceModel::quasi_static;
+  s.loop.force_model = m.force_model;
   s.loop.simulation.sample_rate_hz = config.rig.sample_rate_hz;
   s.rms_threshold = m.update_threshold;
   s.convergence_tolerance = m.convergence_tolerance;

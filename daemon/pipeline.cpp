@@ -463,43 +463,44 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     auto v = [](const std::atomic<std::uint64_t>& x) { return x.load(std::memory_order_relaxed); };
     storage::HealthSnapshot s;
     s.final = final;
-    s.counters = {{"frames", v(d.frames)},
-                  {"samples", v(d.samples)},
-                  {"kernel_drops", v(h.kernel_drops)},
-                  {"ring_overflows", overflows_lost()},
-                  {"ring_high_water", ring.high_water()},
-                  {"malformed_frames", v(d.malformed_frames)},
-                  {"malformed_lines", v(h.malformed_lines)},
-                  {"unknown_ids", v(d.unknown_ids)},
-                  {"unconfigured_channel_frames", v(d.unconfigured_channel_frames)},
-                  {"frames_before_header", v(d.frames_before_header)},
-                  {"gaps", v(d.gaps)},
-                  {"gap_samples", v(d.gap_samples)},
-                  {"ring_gaps", a.ring_gaps},
-                  {"duplicates", v(d.duplicates)},
-                  {"tacho_edges", v(d.tacho_edges)},
-                  {"tacho_out_of_order", v(d.tacho_out_of_order)},
-                  {"stream_changes", v(d.stream_changes)},
-                  {"life_counter_resets", v(d.life_counter_resets)},
-                  {"unsupported_version", v(d.unsupported_version)},
-                  {"read_errors", v(h.read_errors)},
-                  {"reopens", v(h.reopens)},
-                  {"records_complete", a.records_complete},
-                  {"records_cut", a.records_cut},
-                  {"records_rejected", a.records_rejected},
-                  {"records_restarted_after_gap", a.records_restarted_after_gap},
-                  {"channels_stopped", a.channels_stopped},
-                  {"storage_retries", v(w.retries)},
-                  {"storage_rows_rejected", v(w.rows_rejected)},
-                  {"storage_queue_waits", v(w.queue_waits)}};
+    using C = storage::HealthCounter;
+    s[C::frames] = v(d.frames);
+    s[C::samples] = v(d.samples);
+    s[C::kernel_drops] = v(h.kernel_drops);
+    s[C::ring_overflows] = overflows_lost();
+    s[C::ring_high_water] = ring.high_water();
+    s[C::malformed_frames] = v(d.malformed_frames);
+    s[C::malformed_lines] = v(h.malformed_lines);
+    s[C::unknown_ids] = v(d.unknown_ids);
+    s[C::unconfigured_channel_frames] = v(d.unconfigured_channel_frames);
+    s[C::frames_before_header] = v(d.frames_before_header);
+    s[C::gaps] = v(d.gaps);
+    s[C::gap_samples] = v(d.gap_samples);
+    s[C::ring_gaps] = a.ring_gaps;
+    s[C::duplicates] = v(d.duplicates);
+    s[C::tacho_edges] = v(d.tacho_edges);
+    s[C::tacho_out_of_order] = v(d.tacho_out_of_order);
+    s[C::stream_changes] = v(d.stream_changes);
+    s[C::life_counter_resets] = v(d.life_counter_resets);
+    s[C::unsupported_version] = v(d.unsupported_version);
+    s[C::read_errors] = v(h.read_errors);
+    s[C::reopens] = v(h.reopens);
+    s[C::records_complete] = a.records_complete;
+    s[C::records_cut] = a.records_cut;
+    s[C::records_rejected] = a.records_rejected;
+    s[C::records_restarted_after_gap] = a.records_restarted_after_gap;
+    s[C::channels_stopped] = a.channels_stopped;
+    s[C::storage_retries] = v(w.retries);
+    s[C::storage_rows_rejected] = v(w.rows_rejected);
+    s[C::storage_queue_waits] = v(w.queue_waits);
     if (mqtt) {
       const auto& m = mqtt->counters();
-      s.counters.insert(s.counters.end(), {{"mqtt_published", v(m.published)},
-                                           {"mqtt_delivered", v(m.delivered)},
-                                           {"mqtt_connects", v(m.connects)},
-                                           {"mqtt_connect_failures", v(m.connect_failures)},
-                                           {"mqtt_refused", v(m.refused)},
-                                           {"mqtt_outbox_dropped", v(m.outbox_dropped)}});
+      s[C::mqtt_published] = v(m.published);
+      s[C::mqtt_delivered] = v(m.delivered);
+      s[C::mqtt_connects] = v(m.connects);
+      s[C::mqtt_connect_failures] = v(m.connect_failures);
+      s[C::mqtt_refused] = v(m.refused);
+      s[C::mqtt_outbox_dropped] = v(m.outbox_dropped);
     }
     return s;
   };
@@ -546,12 +547,12 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
 
   // --- acquisition thread
   std::thread acquisition([&] {
-    source->start(on_frame, [&](const std::string& reason) {
-      if (!reason.empty() && reason != "stopped") {
-        spdlog::error("source ended: {}", reason);
-        end_reason = reason;
+    source->start(on_frame, [&](const acq::SourceEnd& end) {
+      if (end.kind == acq::SourceEndKind::failed) {
+        spdlog::error("source ended: {}", end.error);
+        end_reason = end.error;
       }
-      stop_all(reason == "stopped" ? "" : reason);
+      stop_all(end.kind == acq::SourceEndKind::failed ? end.error : "");
     });
     sd_notify(0, "READY=1");
     io.run();
@@ -590,7 +591,7 @@ PipelineResult run_pipeline(const config::GearwatchConfig& config, PipelineMode 
     result.cpu.model_s = 1e-9 * static_cast<double>(model->counters().cpu_ns.load()) - result.cpu.gap_s;
   }
   if (fatal_storage || writer.counters().lost_at_exit > 0) result.exit_status = 3;
-  else if (!end_reason.empty() && end_reason != "stopped") result.exit_status = 2;
+  else if (!end_reason.empty()) result.exit_status = 2;
   return result;
 }
 

@@ -17,8 +17,8 @@
 
 #include "gap_monitor.hpp"
 #include "gearwatch/config/config.hpp"
-#include "gearwatch/dsp/skip_reason.hpp"
 #include "gearwatch/storage/messages.hpp"
+#include "gearwatch/types/skip_reason.hpp"
 
 namespace gearwatch::daemon {
 

@@ -14,7 +14,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-double value_or_nan(const dsp::ChannelAnalysis& a, const std::string& name) { return a.value(name).value_or(kNaN); }
+double value_or_nan(const dsp::ChannelAnalysis& a, dsp::Indicator indicator) { return a.value(indicator).value_or(kNaN); }
 
 double selected_centre(const dsp::ChannelAnalysis& a) {
   for (const auto& b : a.band_selections)
@@ -41,11 +41,11 @@ dsp::SpeedEstimationSettings speed_estimation_settings(const RigSpec& rig) {
 
 // The carrier band this record's analysis could not look at: skipped as above 0.45·fs.
 std::optional<dsp::CarrierBand> unseen_band(const dsp::ChannelAnalysis& a) {
-  auto above = [&](const char* name) {
-    const auto* s = a.skip_reason(name);
+  auto above = [&](dsp::Indicator indicator) {
+    const auto* s = a.skip_reason(indicator);
     return s != nullptr && s->reason == dsp::SkipReason::band_above_nyquist;
   };
-  const bool pitting = above("ics2_low_band"), abrasion = above("ics2_high_band");
+  const bool pitting = above(dsp::Indicator::ics2_low_band), abrasion = above(dsp::Indicator::ics2_high_band);
   if (pitting == abrasion) return std::nullopt;
   return pitting ? dsp::CarrierBand::pitting : dsp::CarrierBand::abrasion;
 }
@@ -233,7 +233,7 @@ void RecordProcessor::observe_channel_alerts(int channel, const dsp::ChannelAnal
 
 void RecordProcessor::assess_wear(int channel, double cycles, const dsp::ChannelAnalysis& a, storage::RecordResult& out) {
   auto& h = history_[channel];
-  h.push_back({cycles, value_or_nan(a, "ics2_low_band"), value_or_nan(a, "ics2_high_band"), selected_centre(a),
+  h.push_back({cycles, value_or_nan(a, dsp::Indicator::ics2_low_band), value_or_nan(a, dsp::Indicator::ics2_high_band), selected_centre(a),
                selected_value(a)});
   const auto window = static_cast<std::size_t>(config_.processing.trend_window_records);
   if (h.size() > window) h.erase(h.begin(), h.end() - static_cast<std::ptrdiff_t>(window));
@@ -306,7 +306,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
     storage::ChannelResult ch;
     ch.channel = channel;
     for (const auto& v : a.indicators) ch.values.emplace_back(v.name, v.value);
-    if (a.mean_speed_hz > 0) ch.values.emplace_back("input_speed_hz", a.mean_speed_hz);
+    if (a.mean_speed_hz > 0) ch.values.emplace_back(dsp::to_string(dsp::Indicator::input_speed_hz), a.mean_speed_hz);
     if (a.samples_per_revolution > 0) {
       ch.values.emplace_back("tsa_averages_input", a.tsa_averages_input);
       ch.values.emplace_back("tsa_averages_output", a.tsa_averages_output);

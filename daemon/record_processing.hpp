@@ -16,8 +16,8 @@
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/dsp/speed_estimation.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
-#include "gearwatch/record.hpp"
 #include "gearwatch/storage/messages.hpp"
+#include "gearwatch/types/record.hpp"
 
 namespace gearwatch::daemon {
 

@@ -17,7 +17,7 @@
 #include <string>
 #include <tuple>
 
-#include "gearwatch/record.hpp"
+#include "gearwatch/types/record.hpp"
 
 namespace gearwatch::daemon {
 

@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "gearwatch/record.hpp"
+#include "gearwatch/types/record.hpp"
 
 namespace gearwatch::test {
 

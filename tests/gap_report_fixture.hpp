@@ -8,7 +8,7 @@
 #include <cmath>
 #include <vector>
 
-#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::testing {
 

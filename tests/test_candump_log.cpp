@@ -1,9 +1,15 @@
 #include "gearwatch/acquisition/candump_log.hpp"
 
+#include <fstream>
 #include <random>
 #include <string>
+#include <vector>
 
+#include <boost/asio/io_context.hpp>
 #include <catch2/catch.hpp>
+
+#include "gearwatch/acquisition/candump_source.hpp"
+#include "temp_dir.hpp"
 
 using namespace gearwatch::acquisition;
 
@@ -152,4 +158,40 @@ TEST_CASE("candump: a remote frame with characters after its length is rejected"
   CHECK(reason == "bad remote-frame length");
   CHECK_FALSE(parse_candump_line("(1.0) can0 123#R55", reason));
   CHECK(reason == "bad remote-frame length");
+}
+
+TEST_CASE("candump source: it ends finished at the log's end and stopped after stop()", "[candump]") {
+  const gearwatch::testing::TempDir dir("candump-end");
+  const auto path = (dir / "a.log").string();
+  {
+    std::ofstream f(path);
+    for (int i = 0; i < 10; ++i) f << "(1436509052.2497" << 10 + i << ") vcan0 044#2A366C2BBA\n";
+  }
+  struct Run {
+    std::size_t frames = 0;
+    std::vector<SourceEnd> ends;
+  };
+  auto run = [&](std::size_t lines_per_chunk, bool stop_at_first_frame) {
+    boost::asio::io_context io;
+    CandumpFileSource source(io, path, {}, lines_per_chunk);
+    Run r;
+    source.start(
+        [&](const CanFrame&) {
+          if (r.frames++ == 0 && stop_at_first_frame) source.stop();
+        },
+        [&](const SourceEnd& end) { r.ends.push_back(end); });
+    io.run();
+    return r;
+  };
+  const Run whole = run(4, false);
+  CHECK(whole.frames == 10);
+  REQUIRE(whole.ends.size() == 1);
+  CHECK(whole.ends[0].kind == SourceEndKind::finished);
+  CHECK(whole.ends[0].error.empty());
+  // Stopped by the first frame's handler: no frame after it, and the end says stopped.
+  const Run stopped = run(4, true);
+  CHECK(stopped.frames == 1);
+  REQUIRE(stopped.ends.size() == 1);
+  CHECK(stopped.ends[0].kind == SourceEndKind::stopped);
+  CHECK(stopped.ends[0].error.empty());
 }

@@ -4,6 +4,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "gearwatch/types/token.hpp"
+
 using namespace gearwatch::config;
 
 namespace {
@@ -183,7 +185,7 @@ TEST_CASE("config: [model] keys, and the errors that name them", "[config][model
   CHECK(c.model.update_threshold == 0.08);
   CHECK(c.model.pitting_limit == 0.2);
   CHECK(c.model.channel == 1);
-  CHECK(c.model.force_model == "dynamic");
+  CHECK(c.model.force_model == gearwatch::wear::ForceModel::dynamic);
   CHECK_THROWS_WITH(parse_config("[model]\nchannel = 5\n", "m.toml"),
                     Catch::Contains("key 'model.channel'") && Catch::Contains("not a configured"));
   CHECK_THROWS_WITH(parse_config("[model]\nconvergence_tolerance = 0.1\n", "m.toml"),
@@ -191,6 +193,25 @@ TEST_CASE("config: [model] keys, and the errors that name them", "[config][model
   CHECK_THROWS_WITH(parse_config("[model]\nwear_limit_fraction = 0.5\n", "m.toml"), Catch::Contains("model.wear_limit_fraction"));
   CHECK_THROWS_WITH(parse_config("[model]\nforce_model = \"fast\"\n", "m.toml"), Catch::Contains("model.force_model"));
   CHECK_THROWS_WITH(parse_config("[model]\nupdate_treshold = 0.05\n", "m.toml"), Catch::Contains("unknown key"));
+}
+
+TEST_CASE("config: logging.sink and model.force_model are read once into their enums", "[config]") {
+  CHECK(parse_config("", "e.toml").logging.sink == LogSink::automatic);
+  CHECK(parse_config("", "e.toml").model.force_model == gearwatch::wear::ForceModel::quasi_static);
+  CHECK(parse_config("[logging]\nsink = \"auto\"\n", "l.toml").logging.sink == LogSink::automatic);
+  CHECK(parse_config("[logging]\nsink = \"journald\"\n", "l.toml").logging.sink == LogSink::journald);
+  CHECK(parse_config("[logging]\nsink = \"stderr\"\n", "l.toml").logging.sink == LogSink::standard_error);
+  CHECK(parse_config("[model]\nforce_model = \"quasi-static\"\n", "m.toml").model.force_model == gearwatch::wear::ForceModel::quasi_static);
+  // A bad value: one line naming the file, the line, the key and what it may be.
+  CHECK_THROWS_WITH(parse_config("[logging]\nsink = \"syslog\"\n", "l.toml"),
+                    Catch::Equals("l.toml:2: key 'logging.sink': expected auto, journald or stderr"));
+  CHECK_THROWS_WITH(parse_config("[logging]\nsink = 3\n", "l.toml"),
+                    Catch::Equals("l.toml:2: key 'logging.sink': expected auto, journald or stderr"));
+  CHECK_THROWS_WITH(parse_config("[model]\nforce_model = \"quasi_static\"\n", "m.toml"),
+                    Catch::Equals("m.toml:2: key 'model.force_model': expected \"quasi-static\" or \"dynamic\""));
+  // The tokens are each value's to_string, and back; none other is read.
+  for (LogSink s : kAllLogSinks) CHECK(gearwatch::from_token(kAllLogSinks, to_string(s)) == s);
+  for (gearwatch::wear::ForceModel m : gearwatch::wear::kAllForceModels) CHECK(gearwatch::from_token(gearwatch::wear::kAllForceModels, gearwatch::wear::to_string(m)) == m);
 }
 
 TEST_CASE("config: [processing] sets the signal-processing settings", "[config]") {

@@ -17,7 +17,7 @@
 
 #include "gap_print.hpp"
 #include "gearwatch/gap/spectra.hpp"
-#include "gearwatch/record.hpp"
+#include "gearwatch/types/record.hpp"
 #include "constant_speed_record.hpp"
 
 using namespace gearwatch;

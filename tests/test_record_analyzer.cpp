@@ -2,6 +2,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -459,4 +460,41 @@ TEST_CASE("Skip reasons: every enum value listed once, distinct snake_case token
                              "too_few_edges", "tacho_irregular", "speed_out_of_range", "too_few_revolutions",
                              "above_nyquist", "band_above_nyquist", "band_empty", "non_finite_result", "not_computed"})
     CHECK(parse_skip_reason(stored).has_value());
+}
+
+TEST_CASE("Record analyzer: the fixed indicator names are the stored spellings, and the analyzer names each", "[dsp][record_analyzer]") {
+  // The stored names (docs/dsp.md), spelled out: a renamed enum value must not rename stored rows.
+  const std::vector<std::pair<Indicator, std::string>> stored{
+      {Indicator::rms_raw, "rms_raw"},
+      {Indicator::kurtosis_raw, "kurtosis_raw"},
+      {Indicator::speed_mean_hz, "speed_mean_hz"},
+      {Indicator::speed_fluctuation, "speed_fluctuation"},
+      {Indicator::gmf1_amplitude, "gmf1_amplitude"},
+      {Indicator::rms_sa, "rms_sa"},
+      {Indicator::rms_residual, "rms_residual"},
+      {Indicator::kurtosis_residual, "kurtosis_residual"},
+      {Indicator::ics2_full_band, "ics2_full_band"},
+      {Indicator::ics2_low_band, "ics2_low_band"},
+      {Indicator::ics2_high_band, "ics2_high_band"},
+      {Indicator::ics2_selected_band, "ics2_selected_band"},
+      {Indicator::kurtosis_selected_band, "kurtosis_selected_band"},
+      {Indicator::sc_gmf_max, "sc_gmf_max"},
+      {Indicator::sc_gmf_mean, "sc_gmf_mean"},
+      {Indicator::sc_gmf_peak_carrier_hz, "sc_gmf_peak_carrier_hz"},
+      {Indicator::input_speed_hz, "input_speed_hz"},
+  };
+  REQUIRE(stored.size() == kAllIndicators.size());
+  for (std::size_t i = 0; i < stored.size(); ++i) {
+    CHECK(kAllIndicators[i] == stored[i].first);
+    CHECK(to_string(stored[i].first) == stored[i].second);
+  }
+  // Every one but the daemon's input_speed_hz is a name the analyzer produces (kurtogram on).
+  SignalProcessingSettings settings;
+  settings.kurtogram_band_selection = true;
+  const RecordAnalyzer analyzer(make_rig(50000), settings);
+  const auto names = analyzer.indicator_names();
+  for (Indicator i : kAllIndicators) {
+    INFO(to_string(i));
+    CHECK(std::count(names.begin(), names.end(), std::string(to_string(i))) == (i == Indicator::input_speed_hz ? 0 : 1));
+  }
 }

@@ -18,7 +18,7 @@
 #include "gearwatch/dsp/decimation.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/gap/spectra.hpp"
-#include "gearwatch/record.hpp"
+#include "gearwatch/types/record.hpp"
 #include "order_lines.hpp"
 
 using namespace gearwatch;

@@ -278,15 +278,16 @@ TEST_CASE("without AF_CAN the source ends with a clear reason and run() returns"
   }
   boost::asio::io_context io;
   SocketCanSource source(io, "vcan0");
-  std::vector<std::string> ends;
+  std::vector<SourceEnd> ends;
   int frames = 0;
-  source.start([&](const CanFrame&) { ++frames; }, [&](const std::string& reason) { ends.push_back(reason); });
+  source.start([&](const CanFrame&) { ++frames; }, [&](const SourceEnd& end) { ends.push_back(end); });
   CHECK(ends.empty());  // never called from inside start()
   const std::size_t handlers = io.run_for(5s);
   CHECK(io.stopped());  // ran out of work by itself: nothing left armed
   CHECK(handlers == 1);
   REQUIRE(ends.size() == 1);
-  CHECK(ends[0].find("no SocketCAN support") != std::string::npos);
+  CHECK(ends[0].kind == SourceEndKind::failed);
+  CHECK(ends[0].error.find("no SocketCAN support") != std::string::npos);
   CHECK(frames == 0);
   CHECK(source.health().frames == 0);
   CHECK(source.health().reopens == 0);
@@ -383,9 +384,9 @@ TEST_CASE("classic and FD frames on vcan0 arrive through SocketCanSource intact"
   boost::asio::io_context io;
   SocketCanSource source(io, "vcan0");
   std::vector<CanFrame> received;
-  std::vector<std::string> ends;
+  std::vector<SourceEnd> ends;
   source.start([&](const CanFrame& f) { received.push_back(f); },
-               [&](const std::string& reason) { ends.push_back(reason); });
+               [&](const SourceEnd& end) { ends.push_back(end); });
   REQUIRE(source.is_open());  // vcan0 is up: opened synchronously, frames queue from now on
   // Root in the VM: SO_RCVBUFFORCE grants the 8 MiB asked, past net.core.rmem_max.
   CHECK(source.granted_receive_buffer() >= SocketCanOptions{}.receive_buffer_bytes);
@@ -406,7 +407,8 @@ TEST_CASE("classic and FD frames on vcan0 arrive through SocketCanSource intact"
   io.run_for(100ms);
   CHECK(io.stopped());  // after stop() nothing is left armed
   REQUIRE(ends.size() == 1);
-  CHECK(ends[0].empty());
+  CHECK(ends[0].kind == SourceEndKind::stopped);
+  CHECK(ends[0].error.empty());
 
   REQUIRE(received.size() == 6 + bulk);
   CHECK(source.health().frames == 6 + bulk);
@@ -449,7 +451,7 @@ TEST_CASE("kernel drops in a full receive buffer are counted exactly", "[.vcan]"
   options.receive_buffer_bytes = 4096;  // tiny on purpose: a burst must overflow it
   SocketCanSource source(io, "vcan0", options);
   std::vector<CanFrame> received;
-  source.start([&](const CanFrame& f) { received.push_back(f); }, [](const std::string&) {});
+  source.start([&](const CanFrame& f) { received.push_back(f); }, [](const SourceEnd&) {});
   REQUIRE(source.is_open());
 
   // Send the burst while nobody reads: the kernel keeps the first frames that fit and drops
@@ -486,9 +488,9 @@ TEST_CASE("stop() delivers the frames already queued and counts the drops no fra
     boost::asio::io_context io;
     SocketCanSource source(io, "vcan0");
     std::vector<CanFrame> received;
-    std::vector<std::string> ends;
+    std::vector<SourceEnd> ends;
     source.start([&](const CanFrame& f) { received.push_back(f); },
-                 [&](const std::string& reason) { ends.push_back(reason); });
+                 [&](const SourceEnd& end) { ends.push_back(end); });
     REQUIRE(source.is_open());
     for (int i = 0; i < 50; ++i) sender.send_classic(0x300, 2, static_cast<std::uint8_t>(i));
     source.stop();  // the io_context never ran: only stop() can deliver them
@@ -503,7 +505,7 @@ TEST_CASE("stop() delivers the frames already queued and counts the drops no fra
     options.receive_buffer_bytes = 4096;
     SocketCanSource source(io, "vcan0", options);
     std::size_t received = 0;
-    source.start([&](const CanFrame&) { ++received; }, [](const std::string&) {});
+    source.start([&](const CanFrame&) { ++received; }, [](const SourceEnd&) {});
     REQUIRE(source.is_open());
     const int burst = 2000;
     for (int i = 0; i < burst; ++i) sender.send_fd(0x100, 64, 0, 0);
@@ -522,9 +524,9 @@ TEST_CASE("an interface that goes down and comes back is reopened with backoff",
   options.reopen_maximum = 160ms;
   SocketCanSource source(io, "vcan0", options);
   std::vector<CanFrame> received;
-  std::vector<std::string> ends;
+  std::vector<SourceEnd> ends;
   source.start([&](const CanFrame& f) { received.push_back(f); },
-               [&](const std::string& reason) { ends.push_back(reason); });
+               [&](const SourceEnd& end) { ends.push_back(end); });
   REQUIRE(source.is_open());
   {
     RawSender sender("vcan0");
@@ -564,7 +566,7 @@ TEST_CASE("an interface that is removed and re-created is reopened", "[.vcan]") 
   options.reopen_maximum = 80ms;
   SocketCanSource source(io, "vcan1", options);
   int frames = 0;
-  source.start([&](const CanFrame&) { ++frames; }, [](const std::string&) {});
+  source.start([&](const CanFrame&) { ++frames; }, [](const SourceEnd&) {});
   REQUIRE(source.is_open());
 
   shell("ip link del vcan1");  // the kernel unbinds the socket with ENODEV
@@ -589,9 +591,9 @@ TEST_CASE("a missing interface is retried on the backoff schedule until it appea
   options.reopen_initial = 10ms;
   options.reopen_maximum = 40ms;
   SocketCanSource source(io, "gwmissing0", options);
-  std::vector<std::string> ends;
+  std::vector<SourceEnd> ends;
   const auto t0 = std::chrono::steady_clock::now();
-  source.start([](const CanFrame&) {}, [&](const std::string& reason) { ends.push_back(reason); });
+  source.start([](const CanFrame&) {}, [&](const SourceEnd& end) { ends.push_back(end); });
   CHECK_FALSE(source.is_open());
   CHECK(source.health().read_errors == 1);  // the first attempt, inside start()
   REQUIRE(run_until(io, [&] { return source.health().read_errors >= 6; }, 5000ms));
@@ -602,7 +604,8 @@ TEST_CASE("a missing interface is retried on the backoff schedule until it appea
   CHECK(ends.empty());  // a missing interface is not fatal: the daemon may start before it exists
   source.stop();
   REQUIRE(ends.size() == 1);
-  CHECK(ends[0].empty());
+  CHECK(ends[0].kind == SourceEndKind::stopped);
+  CHECK(ends[0].error.empty());
   io.restart();
   io.run_for(200ms);
   CHECK(io.stopped());  // the pending reopen timer was cancelled
@@ -612,10 +615,11 @@ TEST_CASE("a non-CAN interface is a permanent error", "[.vcan]") {
   require_interface("lo");
   boost::asio::io_context io;
   SocketCanSource source(io, "lo");
-  std::vector<std::string> ends;
-  source.start([](const CanFrame&) {}, [&](const std::string& reason) { ends.push_back(reason); });
+  std::vector<SourceEnd> ends;
+  source.start([](const CanFrame&) {}, [&](const SourceEnd& end) { ends.push_back(end); });
   io.run_for(1s);
   CHECK(io.stopped());
   REQUIRE(ends.size() == 1);
-  CHECK(ends[0] == "interface lo is not a CAN interface");
+  CHECK(ends[0].kind == SourceEndKind::failed);
+  CHECK(ends[0].error == "interface lo is not a CAN interface");
 }

@@ -16,9 +16,9 @@
 
 #include "temp_dir.hpp"
 
-#include "gearwatch/dsp/skip_reason.hpp"
 #include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/types/skip_reason.hpp"
 
 using namespace gearwatch::storage;
 namespace fs = std::filesystem;
@@ -110,7 +110,11 @@ TEST_CASE("storage: the writer commits everything submitted, in batches", "[stor
   w.start();
   submit_run(w);
   for (int i = 0; i < 300; ++i) w.submit(make_record(static_cast<std::uint64_t>(i) * 1000, 5));
-  w.submit(HealthSnapshot{true, {{"frames", 42}, {"samples", 7}}});
+  HealthSnapshot health;
+  health.final = true;
+  health[HealthCounter::frames] = 42;
+  health[HealthCounter::samples] = 7;
+  w.submit(health);
   w.stop();
   CHECK(w.counters().messages_committed == 303);
   CHECK(w.counters().lost_at_exit == 0);
@@ -120,6 +124,31 @@ TEST_CASE("storage: the writer commits everything submitted, in batches", "[stor
   CHECK(count(db, "SELECT count(*) FROM indicator_skips") == 300);
   CHECK(count(db, "SELECT cycles * 100 FROM indicators WHERE record_id = 300 LIMIT 1") == 299000);
   CHECK(count(db, "SELECT frames FROM acquisition_health") == 42);
+}
+
+TEST_CASE("storage: each health counter is one column of health_snapshots and is stored there", "[storage]") {
+  const gearwatch::testing::TempDir dir("health");
+  const auto path = (dir / "a.db").string();
+  WriterOptions o;
+  o.database = path;
+  StorageWriter w(o);
+  w.start();
+  submit_run(w);
+  HealthSnapshot health;  // counter i holds 1000 + i: a value no other counter has
+  for (std::size_t i = 0; i < kAllHealthCounters.size(); ++i) health[kAllHealthCounters[i]] = 1000 + i;
+  w.submit(health);
+  w.stop();
+  REQUIRE(w.counters().lost_at_exit == 0);
+  Database db(path, Database::Mode::read_only);
+  // The table's columns are id, run_id, taken_at, final and exactly the counters.
+  CHECK(count(db, "SELECT count(*) FROM pragma_table_info('health_snapshots')") ==
+        static_cast<std::int64_t>(kAllHealthCounters.size()) + 4);
+  for (std::size_t i = 0; i < kAllHealthCounters.size(); ++i) {
+    const std::string column = to_string(kAllHealthCounters[i]);
+    INFO(column);
+    CHECK(count(db, "SELECT count(*) FROM pragma_table_info('health_snapshots') WHERE name = '" + column + "'") == 1);
+    CHECK(count(db, "SELECT " + column + " FROM health_snapshots") == static_cast<std::int64_t>(1000 + i));
+  }
 }
 
 TEST_CASE("storage: a locked database delays the writer but loses nothing", "[storage]") {

@@ -60,7 +60,7 @@ void CandumpFileSource::stop() {
 
 void CandumpFileSource::read_chunk() {
   if (stopped_) {
-    if (on_end_) on_end_("stopped");
+    if (on_end_) on_end_({SourceEndKind::stopped, {}});
     on_end_ = nullptr;
     return;
   }
@@ -70,7 +70,7 @@ void CandumpFileSource::read_chunk() {
     if (read == LineRead::end) {
       const bool error = in_.bad();
       stopped_ = true;
-      if (on_end_) on_end_(error ? "read error in " + path_ : std::string{});
+      if (on_end_) on_end_(error ? SourceEnd::failure("read error in " + path_) : SourceEnd{SourceEndKind::finished, {}});
       on_end_ = nullptr;
       return;
     }

@@ -236,7 +236,7 @@ void SocketCanSource::start(FrameHandler on_frame, EndHandler on_end) {
       spdlog::error("socketcan {}: {}", interface_, reason);
       std::weak_ptr<char> alive = alive_;
       boost::asio::post(io_, [this, alive, reason] {
-        if (alive.lock()) finish(reason);
+        if (alive.lock()) finish(SourceEnd::failure(reason));
       });
       break;
     }
@@ -253,17 +253,17 @@ void SocketCanSource::stop() {
     std::error_code ignored;
     if (receive_frames(bound, ignored) == ReceiveEnd::stopped) return;  // the handler stopped us
   }
-  finish({});
+  finish({SourceEndKind::stopped, {}});
 }
 
-void SocketCanSource::finish(const std::string& reason) {
+void SocketCanSource::finish(const SourceEnd& end) {
   running_ = false;
   account_unreported_drops();
   reopen_timer_.cancel();
   boost::system::error_code ignored;
   socket_.close(ignored);
   granted_rcvbuf_ = 0;
-  if (auto on_end = std::exchange(on_end_, nullptr)) on_end(reason);
+  if (auto on_end = std::exchange(on_end_, nullptr)) on_end(end);
 }
 
 SocketCanSource::OpenResult SocketCanSource::open_socket(std::string& reason) {
@@ -495,7 +495,7 @@ void SocketCanSource::try_reopen() {
     }
     case OpenResult::fatal:
       spdlog::error("socketcan {}: {}", interface_, reason);
-      finish(reason);
+      finish(SourceEnd::failure(reason));
       break;
   }
 }

@@ -1,6 +1,7 @@
 #include "gearwatch/config/config.hpp"
 
 #include <algorithm>
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -9,6 +10,8 @@
 #include <sstream>
 
 #include <toml++/toml.h>
+
+#include "gearwatch/types/token.hpp"
 
 namespace gearwatch::config {
 namespace {
@@ -82,6 +85,17 @@ class TableReader {
     auto b = n->value_exact<bool>();
     if (!b) fail(n, key, "expected true or false");
     out = *b;
+  }
+
+  // A string naming one value of an enum (one of `all`'s to_string tokens).
+  template <typename Enum, std::size_t N>
+  void token(const std::string& key, Enum& out, const std::array<Enum, N>& all, const std::string& expected) {
+    const toml::node* n = node(key);
+    if (!n) return;
+    const auto text = n->value_exact<std::string>();
+    const std::optional<Enum> value = text ? from_token(all, *text) : std::nullopt;
+    if (!value) fail(n, key, expected);
+    out = *value;
   }
 
   void reject_unknown() const {
@@ -267,8 +281,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.string("level", l.level);
     static const std::set<std::string> levels{"trace", "debug", "info", "warning", "warn", "error", "critical", "off"};
     if (!levels.count(l.level)) t.fail(t.node("level"), "level", "expected one of trace, debug, info, warn, error, critical, off");
-    t.string("sink", l.sink);
-    if (l.sink != "auto" && l.sink != "journald" && l.sink != "stderr") t.fail(t.node("sink"), "sink", "expected auto, journald or stderr");
+    t.token("sink", l.sink, kAllLogSinks, "expected auto, journald or stderr");
     t.number("rate_limit_s", l.rate_limit_s, 0.0, 86400.0);
     t.reject_unknown();
   }
@@ -371,12 +384,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     if (m.convergence_tolerance > m.update_threshold)
       t.fail(t.node("convergence_tolerance"), "convergence_tolerance", "must not exceed update_threshold");
     t.integer("max_wear_iterations", m.max_wear_iterations, 1, 100);
-    if (const toml::node* n = t.node("k_wear_update")) {
-      const auto text = n->value_exact<std::string>();
-      const auto rule = text ? wear::k_wear_update_rule_from_string(*text) : std::nullopt;
-      if (!rule) t.fail(n, "k_wear_update", "expected \"root_find\" or \"proportional\"");
-      m.k_wear_update = *rule;
-    }
+    t.token("k_wear_update", m.k_wear_update, wear::kAllKWearUpdateRules, "expected \"root_find\" or \"proportional\"");
     t.number("min_wear_elasticity", m.min_wear_elasticity, 0.0, 0.99);
     t.number("pitting_reference_torque_nm", m.pitting_reference_torque_nm, 1e-3, 1e5);
     t.number("correlation_threshold", m.correlation_threshold, 0.01, 0.9999);
@@ -400,9 +408,7 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     t.number("inspection_area_relative_sd", m.inspection_area_relative_sd, 1e-4, 0.9);
     t.integer("disagreement_records", m.disagreement_records, 1, 64);
     t.integer("ics2_onset_records", m.ics2_onset_records, 1, 1000);
-    t.string("force_model", m.force_model);
-    if (m.force_model != "quasi-static" && m.force_model != "dynamic")
-      t.fail(t.node("force_model"), "force_model", "expected \"quasi-static\" or \"dynamic\"");
+    t.token("force_model", m.force_model, wear::kAllForceModels, "expected \"quasi-static\" or \"dynamic\"");
     t.reject_unknown();
   }
   {

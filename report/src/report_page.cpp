@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "gearwatch/types/indicator.hpp"
+
 namespace gearwatch::report {
 namespace {
 
@@ -154,12 +156,16 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
 }
 
 std::vector<PlotFamily> plot_families(const ReportData& data) {
+  using dsp::Indicator;
+  auto name = [](Indicator i) { return std::string(dsp::to_string(i)); };
   std::vector<PlotFamily> families{
       {"ics2", "ICS2 (cyclostationarity of the residual)", "ICS2 (–)", true,
-       {{"ics2_low_band", "low band (pitting)"}, {"ics2_high_band", "high band (abrasion)"}, {"ics2_selected_band", "selected band"}}},
-      {"rms_sa", "RMS_SA (mesh harmonics)", "RMS_SA (m/s²)", false, {{"rms_sa", ""}}},
-      {"rms_raw", "RMS of the raw signal", "RMS (m/s²)", false, {{"rms_raw", ""}}},
-      {"kurtosis_raw", "Kurtosis of the raw signal", "kurtosis (–)", false, {{"kurtosis_raw", ""}}},
+       {{name(Indicator::ics2_low_band), "low band (pitting)"},
+        {name(Indicator::ics2_high_band), "high band (abrasion)"},
+        {name(Indicator::ics2_selected_band), "selected band"}}},
+      {name(Indicator::rms_sa), "RMS_SA (mesh harmonics)", "RMS_SA (m/s²)", false, {{name(Indicator::rms_sa), ""}}},
+      {name(Indicator::rms_raw), "RMS of the raw signal", "RMS (m/s²)", false, {{name(Indicator::rms_raw), ""}}},
+      {name(Indicator::kurtosis_raw), "Kurtosis of the raw signal", "kurtosis (–)", false, {{name(Indicator::kurtosis_raw), ""}}},
   };
   PlotFamily carrier{"mean_carrier", "Mean carrier frequency", "frequency (Hz)", false, {}};
   const std::string prefix = "mean_carrier_hz_";

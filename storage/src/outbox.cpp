@@ -131,7 +131,7 @@ void OutboxWriter::gap(std::optional<std::int64_t> record_id, std::int64_t repor
 
 void OutboxWriter::health(const HealthSnapshot& h) {
   json counters = json::object();
-  for (const auto& [name, v] : h.counters) counters[name] = v;
+  for (HealthCounter c : kAllHealthCounters) counters[to_string(c)] = h[c];
   insert(db_, identity_, OutboxTopic::health, std::nullopt, {{"final", h.final}, {"counters", counters}});
 }
 

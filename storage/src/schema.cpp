@@ -3,13 +3,13 @@
 #include <array>
 #include <string>
 
-#include "gearwatch/alerts.hpp"
-#include "gearwatch/dsp/skip_reason.hpp"
-#include "gearwatch/dsp/speed_estimation.hpp"
-#include "gearwatch/dsp/wear_mechanism.hpp"
-#include "gearwatch/gap/gap_report.hpp"
-#include "gearwatch/record.hpp"
-#include "gearwatch/wear/updating.hpp"
+#include "gearwatch/types/alerts.hpp"
+#include "gearwatch/types/gap_report.hpp"
+#include "gearwatch/types/model_run.hpp"
+#include "gearwatch/types/record.hpp"
+#include "gearwatch/types/skip_reason.hpp"
+#include "gearwatch/types/speed_source.hpp"
+#include "gearwatch/types/wear_mechanism.hpp"
 
 namespace gearwatch::storage {
 namespace {

@@ -7,14 +7,14 @@
 #include <string>
 
 #include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/types/token.hpp"
 
 namespace gearwatch::storage::detail {
 
-/// The stored token back to its enum through the enum's one to_string (found by argument lookup).
+/// The stored token back to its enum through the enum's one to_string (from_token).
 template <class Enum, std::size_t N>
 Enum enum_of(const std::array<Enum, N>& all, const std::string& token, const char* domain, const std::string& row) {
-  for (auto v : all)
-    if (token == to_string(v)) return v;
+  if (const auto value = from_token(all, token)) return *value;
   throw std::runtime_error(row + ": '" + token + "' is not a " + domain + " this gearwatch knows");
 }
 

@@ -226,14 +226,14 @@ class BatchWriter {
   void write(const HealthSnapshot& m) {
     std::string cols = "run_id, final";
     std::string qs = "?, ?";
-    for (const auto& [name, v] : m.counters) {
-      cols += ", " + name;
+    for (HealthCounter c : kAllHealthCounters) {
+      cols += std::string(", ") + to_string(c);
       qs += ", ?";
     }
     Statement s(db_, "INSERT INTO health_snapshots(" + cols + ") VALUES (" + qs + ")");
     s.bind(1, run()).bind(2, m.final ? 1 : 0);
     int i = 3;
-    for (const auto& [name, v] : m.counters) s.bind(i++, v);
+    for (HealthCounter c : kAllHealthCounters) s.bind(i++, m[c]);
     s.run();
     if (outbox_) outbox_->health(m);
   }

@@ -332,7 +332,11 @@ TEST_CASE("mqtt: the outbox keeps its limit by dropping the oldest undelivered m
     gearwatch::storage::StorageWriter w(o);
     w.start();
     w.submit(gearwatch::storage::RunStarted{"replay", "x", "", "", {}});
-    for (std::uint64_t i = 0; i < 130; ++i) w.submit(gearwatch::storage::HealthSnapshot{false, {{"frames", i}}});
+    for (std::uint64_t i = 0; i < 130; ++i) {
+      gearwatch::storage::HealthSnapshot h;
+      h[gearwatch::storage::HealthCounter::frames] = i;
+      w.submit(h);
+    }
     w.stop();
   }
   const auto rows = outbox_rows(db);

@@ -22,22 +22,24 @@ void check_band(const FrequencyBand& b, const std::string& name) {
 
 // Names of indicators computed from the input-shaft TSA and from the residual.
 std::vector<std::string> tsa_names(const SignalProcessingSettings& s) {
-  std::vector<std::string> names{"gmf1_amplitude"};
+  std::vector<std::string> names{to_string(Indicator::gmf1_amplitude)};
   for (int h = 1; h <= s.stored_gmf_harmonics; ++h) names.push_back("gmf_harmonic_" + std::to_string(h));
-  names.emplace_back("rms_sa");
+  names.emplace_back(to_string(Indicator::rms_sa));
   return names;
 }
 
 std::vector<std::string> residual_names(const SignalProcessingSettings& s) {
-  std::vector<std::string> names{"rms_residual",  "kurtosis_residual",  "ics2_full_band",
-                                 "ics2_low_band", "ics2_high_band",     "ics2_selected_band"};
-  if (s.kurtogram_band_selection) names.emplace_back("kurtosis_selected_band");
-  names.insert(names.end(), {"sc_gmf_max", "sc_gmf_mean", "sc_gmf_peak_carrier_hz"});
+  std::vector<std::string> names;
+  for (Indicator i : {Indicator::rms_residual, Indicator::kurtosis_residual, Indicator::ics2_full_band,
+                      Indicator::ics2_low_band, Indicator::ics2_high_band, Indicator::ics2_selected_band})
+    names.emplace_back(to_string(i));
+  if (s.kurtogram_band_selection) names.emplace_back(to_string(Indicator::kurtosis_selected_band));
+  for (Indicator i : {Indicator::sc_gmf_max, Indicator::sc_gmf_mean, Indicator::sc_gmf_peak_carrier_hz}) names.emplace_back(to_string(i));
   for (const auto& r : s.mean_carrier_ranges) names.push_back(mean_carrier_indicator_name(r));
   return names;
 }
 
-std::vector<std::string> speed_names() { return {"speed_mean_hz", "speed_fluctuation"}; }
+std::vector<std::string> speed_names() { return {to_string(Indicator::speed_mean_hz), to_string(Indicator::speed_fluctuation)}; }
 
 struct Moments {
   double rms = 0.0;
@@ -130,7 +132,7 @@ RecordAnalyzer::RecordAnalyzer(const RigSpec& rig, const SignalProcessingSetting
 }
 
 std::vector<std::string> RecordAnalyzer::indicator_names() const {
-  std::vector<std::string> names{"rms_raw", "kurtosis_raw"};
+  std::vector<std::string> names{to_string(Indicator::rms_raw), to_string(Indicator::kurtosis_raw)};
   for (auto& n : speed_names()) names.push_back(n);
   for (auto& n : tsa_names(settings_)) names.push_back(n);
   for (auto& n : residual_names(settings_)) names.push_back(n);
@@ -190,8 +192,8 @@ ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channe
     skip_all(SkipReason::flat_line);
     return out;
   }
-  out.indicators.push_back({"rms_raw", raw.rms});
-  out.indicators.push_back({"kurtosis_raw", raw.kurtosis});
+  out.indicators.push_back({to_string(Indicator::rms_raw), raw.rms});
+  out.indicators.push_back({to_string(Indicator::kurtosis_raw), raw.kurtosis});
 
   std::string failure;
   try {
@@ -255,8 +257,8 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
     return;
   }
   out.mean_speed_hz = mean_speed;
-  add("speed_mean_hz", mean_speed);
-  add("speed_fluctuation", (fastest - slowest) / mean_speed);
+  add(to_string(Indicator::speed_mean_hz), mean_speed);
+  add(to_string(Indicator::speed_fluctuation), (fastest - slowest) / mean_speed);
 
   std::size_t spr = static_cast<std::size_t>(settings_.samples_per_revolution);
   if (spr == 0) spr = std::clamp<std::size_t>(next_smooth_size(static_cast<std::size_t>(std::ceil(fs / slowest))), 64, 1u << 20);
@@ -284,17 +286,17 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
 
   synchronous_harmonic_amplitudes(separation_.input_tsa(), z1, static_cast<std::size_t>(settings_.stored_gmf_harmonics),
                                   plans_, gmf_amplitudes_);
-  if (std::isfinite(gmf_amplitudes_[0])) add("gmf1_amplitude", gmf_amplitudes_[0]);
-  else out.skipped.push_back({"gmf1_amplitude", SkipReason::above_nyquist, {}});
+  if (std::isfinite(gmf_amplitudes_[0])) add(to_string(Indicator::gmf1_amplitude), gmf_amplitudes_[0]);
+  else out.skipped.push_back({to_string(Indicator::gmf1_amplitude), SkipReason::above_nyquist, {}});
   for (std::size_t h = 0; h < gmf_amplitudes_.size(); ++h) {
     const std::string name = "gmf_harmonic_" + std::to_string(h + 1);
     if (std::isfinite(gmf_amplitudes_[h])) add(name, gmf_amplitudes_[h]);
     else out.skipped.push_back({name, SkipReason::above_nyquist, {}});
   }
   try {
-    add("rms_sa", rms_sa(gmf_amplitudes_, static_cast<std::size_t>(settings_.rms_sa_harmonics)));
+    add(to_string(Indicator::rms_sa), rms_sa(gmf_amplitudes_, static_cast<std::size_t>(settings_.rms_sa_harmonics)));
   } catch (const std::invalid_argument&) {
-    out.skipped.push_back({"rms_sa", SkipReason::above_nyquist, {}});
+    out.skipped.push_back({to_string(Indicator::rms_sa), SkipReason::above_nyquist, {}});
   }
 
   if (static_cast<double>(output_revs) < settings_.min_revolutions_for_tsa) {
@@ -302,14 +304,14 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
     return;
   }
   const Moments res = moments(std::span<const double>(residual_.data(), length));
-  add("rms_residual", res.rms);
-  add("kurtosis_residual", res.kurtosis);
+  add(to_string(Indicator::rms_residual), res.rms);
+  add(to_string(Indicator::kurtosis_residual), res.kurtosis);
   // A residual at the level of quantisation and order-tracking error has no structure worth a
   // number: ICS2 of such residue reads anything from 0.3 to 1.3 on a noise-free gear signal.
   if (res.rms < settings_.residual_rms_floor * raw_std_dev) {
     std::vector<std::string> structure;
     for (const auto& n : residual_group)
-      if (n != "rms_residual" && n != "kurtosis_residual") structure.push_back(n);
+      if (n != to_string(Indicator::rms_residual) && n != to_string(Indicator::kurtosis_residual)) structure.push_back(n);
     skip(structure, SkipReason::residual_below_floor);
     return;
   }
@@ -336,7 +338,7 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   for (std::size_t k = 1; k <= last_bin; ++k) total_energy += std::norm(residual_spectrum_[k]);
   const double min_band_fraction = std::pow(10.0, settings_.band_energy_floor_db / 10.0);
   const double full_band = envelope_.full_band_ics2(residual_spectrum_, spectral_length, spectral_revs, ics2).value;
-  add("ics2_full_band", full_band);
+  add(to_string(Indicator::ics2_full_band), full_band);
   // Carrier bands reach up to 0.45·fs (kUsableBandFraction); a band reaching past it keeps the
   // part below when that is at least half of it (the band still stands for its mechanism), noted.
   const double usable_hz = std::min(nyquist_hz, kUsableBandFraction * fs);
@@ -368,8 +370,8 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
     }
     add(name, envelope_.band_ics2(residual_spectrum_, spectral_length, spectral_revs, first, last, ics2).value);
   };
-  band_ics2(settings_.pitting_band, "ics2_low_band");
-  band_ics2(settings_.abrasion_band, "ics2_high_band");
+  band_ics2(settings_.pitting_band, to_string(Indicator::ics2_low_band));
+  band_ics2(settings_.abrasion_band, to_string(Indicator::ics2_high_band));
 
   // Band selection over the 1/3-binary tree (ICS2, and kurtosis for comparison), among the bands
   // above the energy floor. The tree's filters are linear, so it runs on the untapered stretch.
@@ -379,8 +381,8 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
   if (settings_.kurtogram_band_selection) criteria.push_back(&kurtosis_criterion_);
   band_maps_.resize(criteria.size());
   const double equivalent_rate = static_cast<double>(spr) * mean_speed;  // angle-domain samples per second
-  std::vector<std::string> selection_names{"ics2_selected_band"};
-  if (settings_.kurtogram_band_selection) selection_names.emplace_back("kurtosis_selected_band");
+  std::vector<std::string> selection_names{to_string(Indicator::ics2_selected_band)};
+  if (settings_.kurtogram_band_selection) selection_names.emplace_back(to_string(Indicator::kurtosis_selected_band));
   try {
     filter_bank_.analyse(residual, settings_.filter_bank_levels, criteria, band_maps_);
     for (std::size_t i = 1; i < criteria.size(); ++i) {
@@ -411,9 +413,9 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
       peak_bin = k;
     }
   }
-  add("sc_gmf_max", peak);
-  add("sc_gmf_mean", count > 0 ? sum / static_cast<double>(count) : std::nan(""));
-  add("sc_gmf_peak_carrier_hz", static_cast<double>(peak_bin) * mean_speed);
+  add(to_string(Indicator::sc_gmf_max), peak);
+  add(to_string(Indicator::sc_gmf_mean), count > 0 ? sum / static_cast<double>(count) : std::nan(""));
+  add(to_string(Indicator::sc_gmf_peak_carrier_hz), static_cast<double>(peak_bin) * mean_speed);
   for (const auto& range : settings_.mean_carrier_ranges) {
     const std::string name = mean_carrier_indicator_name(range);
     if (range.high_hz > nyquist_hz + 1e-9) {

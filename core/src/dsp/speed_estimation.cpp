@@ -53,14 +53,6 @@ void median_of_three(std::size_t n, Get get, Set set) {
 
 }  // namespace
 
-const char* to_string(SpeedSource source) noexcept {
-  switch (source) {
-    case SpeedSource::tacho: return "tacho";
-    case SpeedSource::signal_estimate: return "signal_estimate";
-  }
-  return "unknown";
-}
-
 double SpeedEstimate::angle_at(double sample) const {
   if (knot_samples.size() < 2) throw std::logic_error("SpeedEstimate::angle_at without an estimate");
   std::size_t hint = 0;

@@ -11,17 +11,6 @@
 
 namespace gearwatch::dsp {
 
-const char* to_string(WearMechanism mechanism) noexcept {
-  switch (mechanism) {
-    case WearMechanism::none: return "none";
-    case WearMechanism::fatigue_pitting: return "fatigue_pitting";
-    case WearMechanism::abrasive_wear: return "abrasive_wear";
-    case WearMechanism::both: return "both";
-    case WearMechanism::undetermined: return "undetermined";
-  }
-  return "undetermined";
-}
-
 namespace {
 
 // Average ranks (1-based), ties share their mean rank.
@@ -241,14 +230,6 @@ double rise_over_lowest(const std::vector<double>& values) {
 }
 
 }  // namespace
-
-const char* to_string(CarrierBand band) noexcept {
-  switch (band) {
-    case CarrierBand::pitting: return "pitting";
-    case CarrierBand::abrasion: return "abrasion";
-  }
-  return "unknown";
-}
 
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings,

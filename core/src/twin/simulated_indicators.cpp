@@ -20,8 +20,8 @@ double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation&
   record.speed_hz = op.input_speed_hz;
   dsp::RecordAnalyzer analyzer(rig, settings);
   const dsp::ChannelAnalysis analysis = analyzer.analyze(record, 0);
-  if (const auto v = analysis.value("rms_sa")) return *v;
-  const dsp::SkippedIndicator* why = analysis.skip_reason("rms_sa");
+  if (const auto v = analysis.value(dsp::Indicator::rms_sa)) return *v;
+  const dsp::SkippedIndicator* why = analysis.skip_reason(dsp::Indicator::rms_sa);
   throw TwinParameterError(std::string("simulated RMS_SA not available: ") + (why ? dsp::to_string(why->reason) : "not computed"));
 }
 

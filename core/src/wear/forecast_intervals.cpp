@@ -9,19 +9,6 @@
 
 namespace gearwatch::wear {
 
-const char* to_string(ForecastFlag flag) noexcept {
-  switch (flag) {
-    case ForecastFlag::rms_sa_residuals_exceed_scatter: return "rms_sa_residuals_exceed_scatter";
-    case ForecastFlag::ics2_density_ahead_of_model: return "ics2_density_ahead_of_model";
-    case ForecastFlag::pitting_limit_reached_by_ics2: return "pitting_limit_reached_by_ics2";
-    case ForecastFlag::pitting_limit_within_ics2_uncertainty: return "pitting_limit_within_ics2_uncertainty";
-    case ForecastFlag::pitting_path_missed_ics2: return "pitting_path_missed_ics2";
-    case ForecastFlag::k_wear_not_identified: return "k_wear_not_identified";
-    case ForecastFlag::rms_sa_model_form_disagreement: return "rms_sa_model_form_disagreement";
-  }
-  return "unknown";
-}
-
 LogPosterior predict(LogPosterior p, double cycles, double q_per_cycle) {
   if (p.valid && cycles > p.cycles) p.var += q_per_cycle * (cycles - p.cycles);
   p.cycles = std::max(p.cycles, cycles);

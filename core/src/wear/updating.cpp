@@ -13,52 +13,6 @@
 
 namespace gearwatch::wear {
 
-const char* to_string(UpdateKind kind) noexcept {
-  switch (kind) {
-    case UpdateKind::k_wear: return "k_wear";
-    case UpdateKind::k_pitting: return "k_pitting";
-  }
-  return "unknown";
-}
-
-const char* to_string(UpdateTrigger trigger) noexcept {
-  switch (trigger) {
-    case UpdateTrigger::rms_sa_mismatch: return "rms_sa_mismatch";
-    case UpdateTrigger::inspection_calibration: return "inspection_calibration";
-    case UpdateTrigger::correlation_below_threshold: return "correlation_below_threshold";
-    case UpdateTrigger::ics2_one_inspection: return "ics2_one_inspection";
-  }
-  return "unknown";
-}
-
-const char* to_string(UpdateOutcome outcome) noexcept {
-  switch (outcome) {
-    case UpdateOutcome::converged: return "converged";
-    case UpdateOutcome::iteration_limit: return "iteration_limit";
-    case UpdateOutcome::not_monotone: return "not_monotone";
-    case UpdateOutcome::bound_reached: return "bound_reached";
-    case UpdateOutcome::set_to_zero: return "set_to_zero";
-    case UpdateOutcome::simulation_failed: return "simulation_failed";
-    case UpdateOutcome::insensitive: return "insensitive";
-  }
-  return "unknown";
-}
-
-const char* to_string(ModelIssue issue) noexcept {
-  switch (issue) {
-    case ModelIssue::missing_cycles: return "missing_cycles";
-    case ModelIssue::missing_operating_point: return "missing_operating_point";
-    case ModelIssue::operating_point_out_of_range: return "operating_point_out_of_range";
-    case ModelIssue::cycles_not_increasing: return "cycles_not_increasing";
-    case ModelIssue::missing_rms_sa: return "missing_rms_sa";
-    case ModelIssue::missing_ics2: return "missing_ics2";
-    case ModelIssue::simulation_failed: return "simulation_failed";
-    case ModelIssue::depth_limit_reached: return "depth_limit_reached";
-    case ModelIssue::coalesced: return "coalesced";
-  }
-  return "unknown";
-}
-
 namespace {
 
 void require(bool ok, const std::string& what) {

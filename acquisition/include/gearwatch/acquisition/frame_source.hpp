@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 
 #include "gearwatch/acquisition/can_frame.hpp"
 
@@ -21,9 +22,31 @@ struct SourceHealth {
 };
 
 using FrameHandler = std::function<void(const CanFrame&)>;
-/// Called once when a finite source (a log file) has delivered everything, or a live source
-/// has stopped. `reason` is empty on a normal end.
-using EndHandler = std::function<void(const std::string& reason)>;
+
+/// How a source ended.
+enum class SourceEndKind : std::uint8_t {
+  finished,  ///< a finite source (a log file) delivered everything
+  stopped,   ///< stop() ended it
+  failed,    ///< an error ended it (SourceEnd::error says which)
+};
+inline const char* to_string(SourceEndKind kind) noexcept {
+  switch (kind) {
+    case SourceEndKind::finished: return "finished";
+    case SourceEndKind::stopped: return "stopped";
+    case SourceEndKind::failed: return "failed";
+  }
+  return "unknown";
+}
+
+struct SourceEnd {
+  SourceEndKind kind = SourceEndKind::finished;
+  std::string error;  ///< why it failed, for people ("" unless kind == failed)
+  static SourceEnd failure(std::string why) { return {SourceEndKind::failed, std::move(why)}; }
+};
+
+/// Called once when a finite source (a log file) has delivered everything, a source was stopped,
+/// or an error ended it.
+using EndHandler = std::function<void(const SourceEnd& end)>;
 
 class FrameSource {
  public:

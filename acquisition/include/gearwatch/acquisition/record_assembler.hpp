@@ -24,8 +24,8 @@
 #include <vector>
 
 #include "gearwatch/acquisition/events.hpp"
-#include "gearwatch/record.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/types/record.hpp"
 
 namespace gearwatch::acquisition {
 

@@ -215,7 +215,7 @@ struct SocketCanOptions {
 /// interface removed or down) is counted in health().read_errors, logged (rate-limited), the
 /// socket is closed and reopened after an exponential backoff; each successful reopen counts in
 /// health().reopens. Only a permanent failure — the kernel has no SocketCAN (EAFNOSUPPORT) or
-/// no permission (EPERM/EACCES) — ends the source, through the EndHandler with a reason.
+/// no permission (EPERM/EACCES) — ends the source, through the EndHandler as `failed` with the reason.
 /// Not thread-safe: start() and stop() run on the io_context's thread; health() from anywhere.
 class SocketCanSource final : public FrameSource {
  public:
@@ -232,7 +232,7 @@ class SocketCanSource final : public FrameSource {
   /// the receive buffer can hold) and accounts the drops no frame has reported yet (SO_MEMINFO),
   /// so nothing received before the stop is lost uncounted. Then cancels the read and any
   /// pending reopen and closes the socket, so io_context::run() returns once nothing else is
-  /// queued, and calls the EndHandler with an empty reason. When called from inside the frame
+  /// queued, and calls the EndHandler with `stopped`. When called from inside the frame
   /// handler it skips the final delivery.
   void stop() override;
   const SourceHealth& health() const override { return health_; }
@@ -259,7 +259,7 @@ class SocketCanSource final : public FrameSource {
   void handle_failure(const std::string& what, const std::error_code& ec);
   void schedule_reopen();
   void try_reopen();
-  void finish(const std::string& reason);
+  void finish(const SourceEnd& end);
 
   boost::asio::io_context& io_;
   std::string interface_;

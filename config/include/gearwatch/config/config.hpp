@@ -2,6 +2,7 @@
 // The daemon's configuration file (TOML). Every key has a default for the thesis's rig, so an
 // empty file is valid; docs/config.md lists the keys. A bad file is refused as a whole with
 // ConfigError naming the file, line and key, before anything starts.
+#include <array>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -9,6 +10,7 @@
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/wear/force_model.hpp"
 #include "gearwatch/wear/k_wear_rule.hpp"
 
 namespace gearwatch::config {
@@ -68,9 +70,25 @@ struct MqttSettings {
   double drain_timeout_s = 5.0;                    ///< at stop, how long to wait for the outbox to empty
 };
 
+/// Where the daemon logs (logging.sink).
+enum class LogSink : std::uint8_t {
+  automatic,       ///< "auto": the journal when stderr is connected to it (under systemd), else stderr
+  journald,
+  standard_error,  ///< "stderr"
+};
+inline constexpr std::array kAllLogSinks{LogSink::automatic, LogSink::journald, LogSink::standard_error};
+constexpr const char* to_string(LogSink sink) noexcept {
+  switch (sink) {
+    case LogSink::automatic: return "auto";
+    case LogSink::journald: return "journald";
+    case LogSink::standard_error: return "stderr";
+  }
+  return "unknown";
+}
+
 struct LoggingSettings {
   std::string level = "info";
-  std::string sink = "auto";                       ///< auto | journald | stderr
+  LogSink sink = LogSink::automatic;               ///< auto | journald | stderr
   double rate_limit_s = 10.0;                      ///< one line per kind of bad input per interval
 };
 
@@ -97,7 +115,9 @@ struct AlertSettings {
   double threshold_sigma = 6.0;
   int threshold_raise_after_records = 2;
   int threshold_clear_after_records = 3;
-  std::vector<std::string> watched_indicators{"rms_raw", "kurtosis_raw", "rms_sa", "ics2_low_band", "ics2_high_band"};
+  std::vector<std::string> watched_indicators{dsp::to_string(dsp::Indicator::rms_raw), dsp::to_string(dsp::Indicator::kurtosis_raw),
+                                              dsp::to_string(dsp::Indicator::rms_sa), dsp::to_string(dsp::Indicator::ics2_low_band),
+                                              dsp::to_string(dsp::Indicator::ics2_high_band)};
 };
 
 /// The digital twin's updating and prediction (docs/model.md): the model thread of the daemon.
@@ -123,7 +143,7 @@ struct ModelConfig {
   int remaining_life_raise_after_records = 2;
   int remaining_life_clear_after_records = 3;
   std::uint32_t queue_capacity = 4;                 ///< records waiting for the model thread (live: coalesced beyond)
-  std::string force_model = "quasi-static";         ///< quasi-static | dynamic (docs/wear.md)
+  wear::ForceModel force_model = wear::ForceModel::quasi_static;   ///< quasi-static | dynamic (docs/wear.md)
   // The forecast interval (docs/model.md, "Posterior and interval"); the reasons are in wear::ModelSettings.
   double prior_log_k_wear_sd = 4.605170185988091;    ///< prior SD of ln K_wear about initial_k_wear (two decades)
   double log_k_drift_per_million_cycles = 0.6931471805599453;   ///< random-walk SD of ln K per million cycles (x2)

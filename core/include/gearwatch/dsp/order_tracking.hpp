@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/dsp/skip_reason.hpp"
+#include "gearwatch/types/skip_reason.hpp"
 
 namespace gearwatch::dsp {
 

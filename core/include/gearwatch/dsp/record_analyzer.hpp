@@ -12,12 +12,13 @@
 #include "gearwatch/dsp/fft.hpp"
 #include "gearwatch/dsp/filter_bank.hpp"
 #include "gearwatch/dsp/order_tracking.hpp"
-#include "gearwatch/dsp/skip_reason.hpp"
 #include "gearwatch/dsp/spectral_coherence.hpp"
 #include "gearwatch/dsp/tsa.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
-#include "gearwatch/record.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/types/indicator.hpp"
+#include "gearwatch/types/record.hpp"
+#include "gearwatch/types/skip_reason.hpp"
 
 namespace gearwatch::dsp {
 
@@ -115,8 +116,10 @@ struct ChannelAnalysis {
   double mean_speed_hz = 0.0;               ///< input shaft, from the tacho (0 = none)
 
   std::optional<double> value(const std::string& name) const;
+  std::optional<double> value(Indicator indicator) const { return value(to_string(indicator)); }
   /// Reason the indicator was skipped, or nullptr.
   const SkippedIndicator* skip_reason(const std::string& name) const;
+  const SkippedIndicator* skip_reason(Indicator indicator) const { return skip_reason(to_string(indicator)); }
 };
 
 class RecordAnalyzer {

@@ -26,17 +26,9 @@
 #include <vector>
 
 #include "gearwatch/dsp/fft.hpp"
+#include "gearwatch/types/speed_source.hpp"
 
 namespace gearwatch::dsp {
-
-/// Where a record's shaft angle came from. Stored with the record (vocabulary domain speed_source).
-enum class SpeedSource : std::uint8_t {
-  tacho,            ///< the configured tacho's edges
-  signal_estimate,  ///< estimated from the vibration signal (no tacho, or the tacho disagreed)
-};
-inline constexpr std::array kAllSpeedSources{SpeedSource::tacho, SpeedSource::signal_estimate};
-/// The stored tokens: tacho, signal_estimate.
-const char* to_string(SpeedSource source) noexcept;
 
 struct SpeedEstimationSettings {
   int pinion_teeth = 19;          ///< z1, on the input shaft (mesh order z1)

@@ -28,6 +28,8 @@
 #include <string>
 #include <vector>
 
+#include "gearwatch/types/wear_mechanism.hpp"
+
 namespace gearwatch::dsp {
 
 struct SignalProcessingSettings;
@@ -39,24 +41,6 @@ struct WearHistoryPoint {
   double selected_centre_hz = 0.0;  ///< centre of the ICS2-selected band; NaN = not available
   double selected_ics2 = std::numeric_limits<double>::quiet_NaN();  ///< ICS2 in that band; NaN = not available
 };
-
-enum class WearMechanism { none, fatigue_pitting, abrasive_wear, both, undetermined };
-/// The stored tokens: none, fatigue_pitting, abrasive_wear, both, undetermined.
-const char* to_string(WearMechanism mechanism) noexcept;
-inline constexpr std::array kAllWearMechanisms{WearMechanism::none, WearMechanism::fatigue_pitting,
-                                               WearMechanism::abrasive_wear, WearMechanism::both,
-                                               WearMechanism::undetermined};
-/// True for the verdicts that mean wear is under way.
-constexpr bool is_wear(WearMechanism m) noexcept {
-  return m == WearMechanism::fatigue_pitting || m == WearMechanism::abrasive_wear || m == WearMechanism::both;
-}
-
-/// The two fixed carrier bands of §4.4 (stored as the wear verdict's unseen band, vocabulary
-/// domain carrier_band).
-enum class CarrierBand { pitting, abrasion };
-inline constexpr std::array kAllCarrierBands{CarrierBand::pitting, CarrierBand::abrasion};
-/// The stored tokens: pitting, abrasion.
-const char* to_string(CarrierBand band) noexcept;
 
 struct TrendTest {
   std::size_t points = 0;

@@ -53,12 +53,12 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/rig.hpp"
 #include "gearwatch/twin/gearbox_model.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "gearwatch/twin/transmission_error.hpp"
+#include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::gap {
 

@@ -31,9 +31,9 @@
 #include <optional>
 #include <vector>
 
-#include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::gap {
 

@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "gearwatch/gap/features.hpp"
-#include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/gap/spectra.hpp"
-#include "gearwatch/record.hpp"
 #include "gearwatch/rig.hpp"
 #include "gearwatch/twin/gearbox_parameters.hpp"
+#include "gearwatch/types/gap_report.hpp"
+#include "gearwatch/types/record.hpp"
 
 namespace gearwatch::gap {
 

@@ -29,9 +29,9 @@
 #include <utility>
 #include <vector>
 
-#include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::gap {
 

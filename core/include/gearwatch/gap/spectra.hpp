@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/gap/gap_report.hpp"
-#include "gearwatch/record.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/types/gap_report.hpp"
+#include "gearwatch/types/record.hpp"
 
 namespace gearwatch::gap {
 

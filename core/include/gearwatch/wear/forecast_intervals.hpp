@@ -10,29 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "gearwatch/types/model_run.hpp"
+
 namespace gearwatch::wear {
-
-/// The interval's nominal coverage: the 5 % and 95 % quantiles of ln K.
-inline constexpr double kNominalCoverage = 0.90;
-
-/// Why a forecast's interval is wider than the posterior alone gives, or where its near end came from.
-enum class ForecastFlag : std::uint8_t {
-  rms_sa_residuals_exceed_scatter,  ///< recent ln(RMS_SA meas / sim) beyond the expected scatter (chi-square, 5 %): widened
-  ics2_density_ahead_of_model,      ///< the ICS2-derived density is ahead of the model's: the near end from the ICS2 trend
-  pitting_limit_reached_by_ics2,    ///< the ICS2-derived density is at the pitting limit already: near end 0
-  pitting_limit_within_ics2_uncertainty,  ///< the ICS2-derived density's upper bound (interval level) reaches the limit: near end 0
-  pitting_path_missed_ics2,         ///< the model's density misses the ICS2-derived one beyond its SD: K_pitting interval widened
-  k_wear_not_identified,            ///< the last K_wear update found RMS_SA insensitive: K_wear interval no narrower than the prior's
-  rms_sa_model_form_disagreement,   ///< ln(RMS_SA meas / sim) over the stored records beyond the scatter: model-form variance added
-};
-inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exceed_scatter,
-                                              ForecastFlag::ics2_density_ahead_of_model,
-                                              ForecastFlag::pitting_limit_reached_by_ics2,
-                                              ForecastFlag::pitting_limit_within_ics2_uncertainty,
-                                              ForecastFlag::pitting_path_missed_ics2,
-                                              ForecastFlag::k_wear_not_identified,
-                                              ForecastFlag::rms_sa_model_form_disagreement};
-const char* to_string(ForecastFlag flag) noexcept;
 
 /// Normal belief about ln K: mean, variance, and the cycles it refers to. `valid` false: no belief
 /// yet (K_pitting before its first calibration).

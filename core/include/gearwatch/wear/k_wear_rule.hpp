@@ -3,8 +3,6 @@
 // rule as a type without the twin behind it.
 #include <array>
 #include <cstdint>
-#include <optional>
-#include <string_view>
 
 namespace gearwatch::wear {
 
@@ -20,13 +18,6 @@ constexpr const char* to_string(KWearUpdateRule rule) noexcept {
     case KWearUpdateRule::proportional: return "proportional";
   }
   return "unknown";
-}
-
-/// The rule named by `text` (one of the to_string tokens), or nullopt.
-constexpr std::optional<KWearUpdateRule> k_wear_update_rule_from_string(std::string_view text) noexcept {
-  for (KWearUpdateRule r : kAllKWearUpdateRules)
-    if (text == to_string(r)) return r;
-  return std::nullopt;
 }
 
 }  // namespace gearwatch::wear

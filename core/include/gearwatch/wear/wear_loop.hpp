@@ -10,16 +10,12 @@
 #include "gearwatch/twin/mesh_stiffness.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "gearwatch/twin/transmission_error.hpp"
+#include "gearwatch/types/wear_state.hpp"
 #include "gearwatch/wear/archard_wear.hpp"
+#include "gearwatch/wear/force_model.hpp"
 #include "gearwatch/wear/pitting_model.hpp"
 
 namespace gearwatch::wear {
-
-/// Where the pair's force over its pass comes from.
-enum class ForceModel {
-  quasi_static,   ///< load sharing from the mesh stiffness and the worn GTE (no dynamics; ~ms per step)
-  dynamic,        ///< the 21-DOF twin's dynamic contact force (one simulated pass; ~0.1–0.3 s per step)
-};
 
 struct WearLoopOptions {
   double k_wear_si = 0;                 ///< Archard K in SI (m²/N); k_wear_si_from_seed() converts the thesis's figures
@@ -38,28 +34,10 @@ struct WearLoopOptions {
   void validate() const;
 };
 
-/// The wear state of the pair (every tooth alike), root → tip at uniform profile fractions.
-struct WearState {
-  double cycles = 0;                    ///< pinion revolutions
-  std::vector<double> pinion_depth_m;
-  std::vector<double> gear_depth_m;
-  std::vector<double> pinion_pitting;   ///< pitting density D per pinion profile point, in [0, 1]
-};
-
 /// The worn profiles as the twin's profile deviation (material removed, root → tip), for the GTE.
 twin::ToothProfileDeviation to_profile_deviation(const WearState& state);
 
-/// Mean depths and the pinion's share (the thesis reports about 73 %), mean pitting density.
-struct WearSummary {
-  double cycles = 0;
-  double pinion_mean_depth_m = 0;
-  double gear_mean_depth_m = 0;
-  double combined_mean_depth_m = 0;     ///< pinion + gear: the mean profile change the mesh sees
-  double pinion_share = 0;              ///< pinion / combined
-  double mean_pitting_density = 0;      ///< over the pinion's active profile
-  double max_pitting_density = 0;
-  double max_pitting_fraction = 0;      ///< profile fraction (0 root .. 1 tip) of the maximum
-};
+/// The state's mean depths, the pinion's share and its pitting density (WearSummary).
 WearSummary summarise(const WearState& state);
 
 /// Combined depth along the line of action, indexed by the pinion's profile fraction (root → tip):

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/alerts.hpp"
 #include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/types/alerts.hpp"
 
 namespace gearwatch::storage {
 

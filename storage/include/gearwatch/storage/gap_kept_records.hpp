@@ -8,9 +8,9 @@
 #include <optional>
 #include <vector>
 
-#include "gearwatch/record.hpp"
 #include "gearwatch/storage/sqlite.hpp"
-#include "gearwatch/wear/wear_loop.hpp"
+#include "gearwatch/types/record.hpp"
+#include "gearwatch/types/wear_state.hpp"
 
 namespace gearwatch::storage {
 

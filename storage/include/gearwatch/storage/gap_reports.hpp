@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/gap/gap_report.hpp"
 #include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::storage {
 

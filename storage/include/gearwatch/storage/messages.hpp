@@ -1,5 +1,7 @@
 #pragma once
 // What the processing thread asks the writer to store. Plain values.
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -8,13 +10,13 @@
 #include <variant>
 #include <vector>
 
-#include "gearwatch/alerts.hpp"
-#include "gearwatch/dsp/speed_estimation.hpp"
-#include "gearwatch/dsp/wear_mechanism.hpp"
-#include "gearwatch/gap/gap_report.hpp"
-#include "gearwatch/record.hpp"
 #include "gearwatch/storage/gap_kept_records.hpp"
-#include "gearwatch/wear/updating.hpp"
+#include "gearwatch/types/alerts.hpp"
+#include "gearwatch/types/gap_report.hpp"
+#include "gearwatch/types/model_run.hpp"
+#include "gearwatch/types/record.hpp"
+#include "gearwatch/types/speed_source.hpp"
+#include "gearwatch/types/wear_mechanism.hpp"
 
 namespace gearwatch::storage {
 
@@ -124,10 +126,90 @@ struct RejectedFrame {
   std::string frame;      ///< the frame as a candump line, or the raw log line
 };
 
-/// Counter values at one moment; column names in health_snapshots.
+/// The acquisition's health counters: one column of health_snapshots each, named by to_string.
+enum class HealthCounter : std::uint8_t {
+  frames,
+  samples,
+  kernel_drops,
+  ring_overflows,
+  ring_high_water,
+  malformed_frames,
+  malformed_lines,
+  unknown_ids,
+  unconfigured_channel_frames,
+  frames_before_header,
+  gaps,
+  gap_samples,
+  ring_gaps,
+  duplicates,
+  tacho_edges,
+  tacho_out_of_order,
+  stream_changes,
+  life_counter_resets,
+  unsupported_version,
+  read_errors,
+  reopens,
+  records_complete,
+  records_cut,
+  records_rejected,
+  records_restarted_after_gap,
+  channels_stopped,
+  storage_retries,
+  storage_rows_rejected,
+  storage_queue_waits,
+  mqtt_published,  ///< MQTT sender (0 with [mqtt] off)
+  mqtt_delivered,
+  mqtt_connects,
+  mqtt_connect_failures,
+  mqtt_refused,
+  mqtt_outbox_dropped,
+};
+inline constexpr std::array kAllHealthCounters{
+    HealthCounter::frames,
+    HealthCounter::samples,
+    HealthCounter::kernel_drops,
+    HealthCounter::ring_overflows,
+    HealthCounter::ring_high_water,
+    HealthCounter::malformed_frames,
+    HealthCounter::malformed_lines,
+    HealthCounter::unknown_ids,
+    HealthCounter::unconfigured_channel_frames,
+    HealthCounter::frames_before_header,
+    HealthCounter::gaps,
+    HealthCounter::gap_samples,
+    HealthCounter::ring_gaps,
+    HealthCounter::duplicates,
+    HealthCounter::tacho_edges,
+    HealthCounter::tacho_out_of_order,
+    HealthCounter::stream_changes,
+    HealthCounter::life_counter_resets,
+    HealthCounter::unsupported_version,
+    HealthCounter::read_errors,
+    HealthCounter::reopens,
+    HealthCounter::records_complete,
+    HealthCounter::records_cut,
+    HealthCounter::records_rejected,
+    HealthCounter::records_restarted_after_gap,
+    HealthCounter::channels_stopped,
+    HealthCounter::storage_retries,
+    HealthCounter::storage_rows_rejected,
+    HealthCounter::storage_queue_waits,
+    HealthCounter::mqtt_published,
+    HealthCounter::mqtt_delivered,
+    HealthCounter::mqtt_connects,
+    HealthCounter::mqtt_connect_failures,
+    HealthCounter::mqtt_refused,
+    HealthCounter::mqtt_outbox_dropped,
+};
+/// The counter's column in health_snapshots.
+const char* to_string(HealthCounter counter) noexcept;
+
+/// Counter values at one moment, every counter (0 unless set).
 struct HealthSnapshot {
   bool final = false;
-  std::vector<std::pair<std::string, std::uint64_t>> counters;
+  std::array<std::uint64_t, kAllHealthCounters.size()> counters{};  ///< by HealthCounter
+  std::uint64_t& operator[](HealthCounter c) { return counters[static_cast<std::size_t>(c)]; }
+  std::uint64_t operator[](HealthCounter c) const { return counters[static_cast<std::size_t>(c)]; }
 };
 
 /// What the model thread made of one record (or of a record it had to skip), with the state it

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/dsp/skip_reason.hpp"
-#include "gearwatch/dsp/speed_estimation.hpp"
-#include "gearwatch/dsp/wear_mechanism.hpp"
-#include "gearwatch/record.hpp"
 #include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/types/record.hpp"
+#include "gearwatch/types/skip_reason.hpp"
+#include "gearwatch/types/speed_source.hpp"
+#include "gearwatch/types/wear_mechanism.hpp"
 
 namespace gearwatch::storage {
 

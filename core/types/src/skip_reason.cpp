@@ -1,4 +1,6 @@
-#include "gearwatch/dsp/skip_reason.hpp"
+#include "gearwatch/types/skip_reason.hpp"
+
+#include "gearwatch/types/token.hpp"
 
 namespace gearwatch::dsp {
 
@@ -38,9 +40,7 @@ const char* to_string(IndicatorNote note) noexcept {
 }
 
 std::optional<SkipReason> parse_skip_reason(std::string_view token) noexcept {
-  for (SkipReason r : kAllSkipReasons)
-    if (token == to_string(r)) return r;
-  return std::nullopt;
+  return from_token(kAllSkipReasons, token);
 }
 
 }  // namespace gearwatch::dsp

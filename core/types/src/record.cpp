@@ -1,4 +1,4 @@
-#include "gearwatch/record.hpp"
+#include "gearwatch/types/record.hpp"
 
 #include <utility>
 

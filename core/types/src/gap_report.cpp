@@ -1,4 +1,4 @@
-#include "gearwatch/gap/gap_report.hpp"
+#include "gearwatch/types/gap_report.hpp"
 
 #include <cmath>
 #include <cstdio>
