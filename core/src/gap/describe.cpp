@@ -400,8 +400,13 @@ FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window&
       for (double place : {best.place - s, best.place + s})
         if (free_place(place))
           if (Tone t = at(place); t.rss < best.rss) best = std::move(t);
-    // Another tone only where it pays for its two parameters (the same criterion as the rule's).
+    // Another tone only where it pays for its two parameters (the same criterion as the rule's) and
+    // changes some cell by the practical minimum: weaker, the finder could not have seen it.
     if (!found.empty() && !(bic(best.rss, found.size() + 1) < bic(current, found.size()))) break;
+    double largest = 0;
+    for (std::size_t e = 0; e < n; ++e)
+      largest = std::max(largest, g_of(w[e].first, w[e].second, base[e] + best.power * best.unit[e]) - g_of(w[e].first, w[e].second, base[e]));
+    if (!found.empty() && largest < settings_.min_feature_db) break;
     add_to_base(best, 1);
     found.push_back(std::move(best));
     // The powers again, each with the others in place (their leakage overlaps).
@@ -546,16 +551,19 @@ void FeatureDescriber::describe_all(std::vector<GapFeature>& features) const {
   };
   for (auto* d : described) {
     const auto hz = tone_frequencies(*d);
-    int supply_tones = 0;
+    const bool listed = d->parameter("tones") >= 1;
+    double supply_power = 0, power = 0;
     for (std::size_t k = 0; k < hz.size(); ++k) {
       const auto [base, h] = harmonic(hz[k]);
-      supply_tones += supply > 0 && base == supply;
-      if (d->parameter("tones") >= 1) set_parameter(*d, "tone_" + std::to_string(k + 1) + "_harmonic", h);
+      const std::string name = "tone_" + std::to_string(k + 1);
+      const double a = listed ? d->parameter(name + "_amplitude_m_s2") : d->parameter("amplitude_m_s2");
+      power += a * a, supply_power += supply > 0 && base == supply ? a * a : 0.0;
+      if (listed) set_parameter(*d, name + "_harmonic", h);
     }
-    // The description is supply pick-up when most of its tones are the supply's harmonics.
+    // The description is supply pick-up when the supply's harmonics carry most of its tones' power.
     const auto [base, h] = harmonic(hz.front());
     if (base > 0) set_parameter(*d, "fundamental_hz", base), set_parameter(*d, "harmonic", h);
-    if (2 * supply_tones > static_cast<int>(hz.size())) set_parameter(*d, "supply_hz", supply);
+    if (2 * supply_power > power && power > 0) set_parameter(*d, "supply_hz", supply);
   }
 }
 
