@@ -5,12 +5,14 @@
 #include <limits>
 #include <numeric>
 #include <stdexcept>
+#include <string>
 #include <tuple>
 
 namespace gearwatch::gap {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr int kMaxTones = 8;  // tones one feature fixed in Hz may hold (a supply's harmonics, a fan's)
 
 double ratio_db(double measured, double model, double floor) { return 10.0 * std::log10((measured + floor) / (model + floor)); }
 
@@ -304,97 +306,141 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
   return fit;
 }
 
-std::vector<double> FeatureDescriber::tone_response(std::size_t r, double order, const Window& w) const {
-  const SpectralSummary& t = *records_[r].source->twin;
-  SpectralSummary unit;
-  unit.speed_hz = t.speed_hz, unit.input_revolutions = t.input_revolutions, unit.output_revolutions = t.output_revolutions;
-  unit.input_lines.assign(t.input_lines.size(), 0.0);
-  unit.output_lines.assign(t.output_lines.size(), 0.0);
-  unit.broadband.assign(t.broadband.size(), 0.0);
-  add_non_synchronous_tone(unit, order, 1.0, gears_);
-  std::vector<double> out;
-  for (const auto& [wr, i] : w) {
-    if (wr != r) continue;
-    const Cell& c = records_[r].cells[i];
-    const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;
-    out.push_back(c.index < v.size() ? v[c.index] : 0.0);
+std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, const Window& w) const {
+  // One unit-power tone per record, as RecordSpectra sees it, read on the window's cells in its order.
+  std::vector<double> out(w.size(), 0.0);
+  std::size_t e = 0;
+  while (e < w.size()) {
+    const std::size_t r = w[e].first;
+    const SpectralSummary& t = *records_[r].source->twin;
+    SpectralSummary unit;
+    unit.speed_hz = t.speed_hz, unit.input_revolutions = t.input_revolutions, unit.output_revolutions = t.output_revolutions;
+    unit.input_lines.assign(t.input_lines.size(), 0.0);
+    unit.output_lines.assign(t.output_lines.size(), 0.0);
+    unit.broadband.assign(t.broadband.size(), 0.0);
+    add_non_synchronous_tone(unit, in_hz ? place / records_[r].speed_hz : place, 1.0, gears_);
+    for (; e < w.size() && w[e].first == r; ++e) {
+      const Cell& c = records_[r].cells[w[e].second];
+      const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;
+      out[e] = c.index < v.size() ? v[c.index] : 0.0;
+    }
   }
   return out;
 }
 
-FeatureDescriber::Fit FeatureDescriber::tone(const GapFeature& f, const Window& w, bool fixed_in_hz) const {
+FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const {
   const double ratio = static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth;
   const double to_input = f.shaft == FeatureShaft::output ? ratio : 1.0;
-  double total = 0;
-  for (const auto& r : records_) total = std::max(total, total_input_line_power(*r.source->twin));
-  // Candidate places: in input orders (ghost) or Hz (tone), across the feature's extent, 0.05 orders apart, then refined by halving.
-  double lo = f.order_low * to_input, hi = f.order_high * to_input;
-  double top_speed = 0;
-  for (const auto& r : records_) top_speed = std::max(top_speed, r.speed_hz);
-  if (fixed_in_hz) lo = f.hz_low, hi = f.hz_high;
-  const double step = fixed_in_hz ? 0.05 * top_speed : 0.05;
-  // Per place: every record's unit responses on the window (in the window's order), then the power.
-  struct Result {
-    double place = 0, power = 0, rss = std::numeric_limits<double>::infinity();
-    std::vector<std::vector<double>> unit;
-  };
-  auto evaluate = [&](double place) {
-    Result res;
-    res.place = place;
-    for (std::size_t r = 0; r < records_.size(); ++r)
-      res.unit.push_back(tone_response(r, fixed_in_hz ? place / records_[r].speed_hz : place, w));
-    auto rss = [&](double log_power) {
-      const double p = std::pow(10.0, log_power);
-      std::vector<std::size_t> at(records_.size(), 0);
-      double s = 0;
-      for (const auto& [r, i] : w) {
-        const Cell& c = records_[r].cells[i];
-        const double d = g_of(r, i, c.measured) - g_of(r, i, c.twin + p * res.unit[r][at[r]++]);
-        s += d * d;
-      }
-      return s;
-    };
-    const double top = std::log10(std::max(total, 1e-300));
-    const double lp = golden_min(rss, top - 14, top + 2, 36);
-    res.power = std::pow(10.0, lp), res.rss = rss(lp);
-    return res;
-  };
-  Result best;
+  double total = 0, top_speed = 0;
+  for (const auto& r : records_) total = std::max(total, total_input_line_power(*r.source->twin)), top_speed = std::max(top_speed, r.speed_hz);
+  const double top = std::log10(std::max(total, 1e-300));
+  // Places: input orders (a ghost) or Hz (a tone) across the feature's extent, 0.05 input orders apart
+  // (at the fastest record in Hz), then refined by halving. Tones are told apart one broadband bin
+  // (one order) apart: nearer, a second tone would only reshape the first one's leakage.
+  // A ghost is searched within two orders of the feature's centre: its |g|-weighted centre sits by the
+  // tone, while its extent grows with how far the tone's leakage stands over the minimum.
+  double lo = fixed_in_hz ? f.hz_low : f.order_low * to_input, hi = fixed_in_hz ? f.hz_high : f.order_high * to_input;
+  if (!fixed_in_hz) lo = std::max(lo, f.order * to_input - 2), hi = std::min(hi, f.order * to_input + 2);
+  const double step = fixed_in_hz ? 0.05 * top_speed : 0.05, separation = fixed_in_hz ? top_speed : 1.0;
   // A ghost sits off the shafts' integer orders: a tone on one is a line the synchronous averages keep.
   auto on_a_line = [&](double place) {
     if (fixed_in_hz) return false;
     const double out = place / ratio;
     return std::abs(place - std::round(place)) < 0.05 || std::abs(out - std::round(out)) < 0.05;
   };
-  for (double place = lo; place <= hi + 1e-9; place += step) {
-    if (on_a_line(place)) continue;
-    auto res = evaluate(place);
-    if (res.rss < best.rss) best = std::move(res);
+  const std::size_t n = w.size();
+  std::vector<double> g(n), base(n);  // measured g; the twin's power with the tones found so far
+  for (std::size_t e = 0; e < n; ++e) {
+    const auto [r, i] = w[e];
+    g[e] = g_of(r, i, records_[r].cells[i].measured), base[e] = records_[r].cells[i].twin;
   }
-  for (double s = step / 2; s > step / 128; s /= 2)
-    for (double place : {best.place - s, best.place + s}) {
-      if (on_a_line(place) || best.unit.empty()) continue;
-      auto res = evaluate(place);
-      if (res.rss < best.rss) best = std::move(res);
+  auto rss_of = [&](const std::vector<double>& unit, double power) {
+    double s = 0;
+    for (std::size_t e = 0; e < n; ++e) {
+      const double d = g[e] - g_of(w[e].first, w[e].second, base[e] + power * unit[e]);
+      s += d * d;
     }
+    return s;
+  };
+  struct Tone {
+    double place = 0, power = 0, rss = std::numeric_limits<double>::infinity();
+    std::vector<double> unit;
+  };
+  auto fit_power = [&](Tone& t) {
+    const double lp = golden_min([&](double x) { return rss_of(t.unit, std::pow(10.0, x)); }, top - 14, top + 2, 36);
+    t.power = std::pow(10.0, lp), t.rss = rss_of(t.unit, t.power);
+  };
+  auto at = [&](double place) {
+    Tone t;
+    t.place = place, t.unit = tone_response(place, fixed_in_hz, w);
+    fit_power(t);
+    return t;
+  };
+  std::vector<Tone> found;
+  auto free_place = [&](double place) {
+    if (on_a_line(place) || !(place > 0)) return false;
+    for (const auto& t : found)
+      if (std::abs(t.place - place) < separation) return false;
+    return true;
+  };
+  auto add_to_base = [&](const Tone& t, double sign) {
+    for (std::size_t e = 0; e < n; ++e) base[e] += sign * t.power * t.unit[e];
+  };
+  const double res2 = settings_.resolution_db * settings_.resolution_db, nn = static_cast<double>(n);
+  auto bic = [&](double rss, std::size_t k) { return nn * std::log(std::max(rss / nn, res2)) + 2.0 * static_cast<double>(k) * std::log(nn); };
+  double current = 0;
+  for (std::size_t e = 0; e < n; ++e) current += (g[e] - g_of(w[e].first, w[e].second, base[e])) * (g[e] - g_of(w[e].first, w[e].second, base[e]));
+  for (int j = 0; j < max_tones; ++j) {
+    Tone best;
+    for (double place = lo; place <= hi + 1e-9; place += step)
+      if (free_place(place))
+        if (Tone t = at(place); t.rss < best.rss) best = std::move(t);
+    if (best.unit.empty()) break;
+    for (double s = step / 2; s > step / 128; s /= 2)
+      for (double place : {best.place - s, best.place + s})
+        if (free_place(place))
+          if (Tone t = at(place); t.rss < best.rss) best = std::move(t);
+    // Another tone only where it pays for its two parameters (the same criterion as the rule's) and
+    // changes some cell by the practical minimum: weaker, the finder could not have seen it.
+    if (!found.empty() && !(bic(best.rss, found.size() + 1) < bic(current, found.size()))) break;
+    double largest = 0;
+    for (std::size_t e = 0; e < n; ++e)
+      largest = std::max(largest, g_of(w[e].first, w[e].second, base[e] + best.power * best.unit[e]) - g_of(w[e].first, w[e].second, base[e]));
+    if (!found.empty() && largest < settings_.min_feature_db) break;
+    add_to_base(best, 1);
+    found.push_back(std::move(best));
+    // The powers again, each with the others in place (their leakage overlaps).
+    for (int pass = 0; pass < 2 && found.size() > 1; ++pass)
+      for (auto& t : found) add_to_base(t, -1), fit_power(t), add_to_base(t, 1);
+    current = found.back().rss;
+    if (found.size() > 1) {
+      current = 0;
+      for (std::size_t e = 0; e < n; ++e) current += std::pow(g[e] - g_of(w[e].first, w[e].second, base[e]), 2);
+    }
+  }
+  std::sort(found.begin(), found.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
   Fit fit;
-  fit.complexity = 2;
-  const double amplitude = std::sqrt(best.power);
+  fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found.size()));
+  const double place = found.empty() ? f.hz : found.front().place, amplitude = found.empty() ? 0.0 : std::sqrt(found.front().power);
   if (fixed_in_hz) {
     fit.description.kind = DescriptionKind::fixed_tone;
-    fit.description.parameters = {{"frequency_hz", best.place}, {"amplitude_m_s2", amplitude}, {"fundamental_hz", best.place},
-                                  {"harmonic", 1.0}, {"supply_hz", 0.0}};
+    fit.description.parameters = {{"frequency_hz", place}, {"amplitude_m_s2", amplitude}, {"fundamental_hz", place},
+                                  {"harmonic", 1.0}, {"supply_hz", 0.0}, {"tones", static_cast<double>(found.size())}};
+    for (std::size_t k = 0; k < found.size(); ++k) {
+      const std::string name = "tone_" + std::to_string(k + 1);
+      fit.description.parameters.emplace_back(name + "_hz", found[k].place);
+      fit.description.parameters.emplace_back(name + "_amplitude_m_s2", std::sqrt(found[k].power));
+      fit.description.parameters.emplace_back(name + "_harmonic", 1.0);
+    }
   } else {
     fit.description.kind = DescriptionKind::ghost_line;
     fit.description.shaft = f.shaft;
-    fit.description.parameters = {{"order", best.place / to_input}, {"amplitude_m_s2", amplitude}};
+    fit.description.parameters = {{"order", place / to_input}, {"amplitude_m_s2", amplitude}};
   }
   // The prediction on the window's cells (the twin's elsewhere).
   std::vector<std::vector<double>> predicted(records_.size());
-  std::vector<std::size_t> at(records_.size(), 0);
   for (std::size_t r = 0; r < records_.size(); ++r) predicted[r].assign(records_[r].cells.size(), kNaN);
-  if (!best.unit.empty())
-    for (const auto& [r, i] : w) predicted[r][i] = records_[r].cells[i].twin + best.power * best.unit[r][at[r]++];
+  for (std::size_t e = 0; e < n; ++e) predicted[w[e].first][w[e].second] = base[e];
   fit.predict = [this, predicted = std::move(predicted)](std::size_t r, std::size_t i) {
     const double p = predicted[r][i];
     return std::isfinite(p) ? p : records_[r].cells[i].twin;
@@ -414,8 +460,15 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   for (const auto& r : records_) top_speed = std::max(top_speed, r.speed_hz);
   const double to_input = f.shaft == FeatureShaft::output ? static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth : 1.0;
   if (f.hz_high <= 2 * f.hz_low) fits.push_back(resonance(f, w));
-  if (f.movement != FeatureMovement::fixed_in_hz && (f.order_high - f.order_low) * to_input <= 4) fits.push_back(tone(f, w, false));
-  if (f.movement != FeatureMovement::fixed_in_orders && f.hz_high - f.hz_low <= 4 * top_speed) fits.push_back(tone(f, w, true));
+  // A ghost where the feature stays at one order however wide its leakage spreads it (searched
+  // about its centre, below); else within four orders as a tone.
+  if (f.movement == FeatureMovement::fixed_in_orders || (f.movement != FeatureMovement::fixed_in_hz && (f.order_high - f.order_low) * to_input <= 4))
+    fits.push_back(tones(f, w, false, 1));
+  // Tones fixed in Hz: up to kMaxTones in a feature fixed in Hz (supply pick-up and its harmonics
+  // join into one band), each within four input orders of the next; else one.
+  const double hz_width = f.hz_high - f.hz_low;
+  if (f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
+  else if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
   double gap_sq = 0;
   std::size_t core = 0;
   for (const auto& [r, i] : w) {
@@ -448,38 +501,69 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   return best;
 }
 
+namespace {
+/// The frequencies of a fixed-tone description's tones (tone_k_hz; frequency_hz for a single one).
+std::vector<double> tone_frequencies(const FeatureDescription& d) {
+  const double count = d.parameter("tones");
+  if (!(count >= 1)) return {d.parameter("frequency_hz")};
+  std::vector<double> out;
+  for (int k = 1; k <= static_cast<int>(count); ++k) out.push_back(d.parameter("tone_" + std::to_string(k) + "_hz"));
+  return out;
+}
+void set_parameter(FeatureDescription& d, const std::string& name, double v) {
+  for (auto& [n, value] : d.parameters)
+    if (n == name) value = v;
+}
+}  // namespace
+
 void FeatureDescriber::describe_all(std::vector<GapFeature>& features) const {
   for (auto& f : features) f.description = describe(f);
   // Tones: supply pick-up when near a harmonic of 50 or 60 Hz (the base more of them sit on), else
-  // harmonics of the lowest tone they are integer multiples of.
+  // harmonics of the lowest tone they are integer multiples of; counted over every tone of every
+  // feature (a supply's harmonics may sit in one feature or several).
   double top_speed = 0;
   for (const auto& r : records_) top_speed = std::max(top_speed, r.speed_hz);
   const double tol = settings_.supply_tolerance_orders * top_speed;
-  std::vector<FeatureDescription*> tones;
+  std::vector<FeatureDescription*> described;
+  std::vector<double> all;
   for (auto& f : features)
-    if (f.description.kind == DescriptionKind::fixed_tone) tones.push_back(&f.description);
+    if (f.description.kind == DescriptionKind::fixed_tone) {
+      described.push_back(&f.description);
+      for (double hz : tone_frequencies(f.description)) all.push_back(hz);
+    }
   auto harmonic_of = [&](double hz, double base) {
     const double k = std::round(hz / base);
     return k >= 1 && k <= settings_.max_supply_harmonic && std::abs(hz - k * base) <= tol ? k : 0.0;
   };
   int on50 = 0, on60 = 0;
-  for (auto* t : tones) on50 += harmonic_of(t->parameter("frequency_hz"), 50) > 0, on60 += harmonic_of(t->parameter("frequency_hz"), 60) > 0;
+  for (double hz : all) on50 += harmonic_of(hz, 50) > 0, on60 += harmonic_of(hz, 60) > 0;
   const double supply = on50 == 0 && on60 == 0 ? 0.0 : on60 > on50 ? 60.0 : 50.0;
   double lowest = std::numeric_limits<double>::infinity();
-  for (auto* t : tones)
-    if (supply == 0 || harmonic_of(t->parameter("frequency_hz"), supply) == 0) lowest = std::min(lowest, t->parameter("frequency_hz"));
-  auto set = [](FeatureDescription& d, const char* name, double v) {
-    for (auto& [n, value] : d.parameters)
-      if (n == name) value = v;
-  };
-  for (auto* t : tones) {
-    const double hz = t->parameter("frequency_hz");
-    if (const double k = supply > 0 ? harmonic_of(hz, supply) : 0.0; k > 0) {
-      set(*t, "fundamental_hz", supply), set(*t, "harmonic", k), set(*t, "supply_hz", supply);
-    } else if (std::isfinite(lowest)) {
+  for (double hz : all)
+    if (supply == 0 || harmonic_of(hz, supply) == 0) lowest = std::min(lowest, hz);
+  auto harmonic = [&](double hz) -> std::pair<double, double> {  // (fundamental, harmonic number); 0: neither
+    if (const double k = supply > 0 ? harmonic_of(hz, supply) : 0.0; k > 0) return {supply, k};
+    if (std::isfinite(lowest)) {
       const double k = std::round(hz / lowest);
-      if (k >= 1 && std::abs(hz - k * lowest) <= tol) set(*t, "fundamental_hz", lowest), set(*t, "harmonic", k);
+      if (k >= 1 && std::abs(hz - k * lowest) <= tol) return {lowest, k};
     }
+    return {0.0, 0.0};
+  };
+  for (auto* d : described) {
+    const auto hz = tone_frequencies(*d);
+    const bool listed = d->parameter("tones") >= 1;
+    double supply_power = 0, power = 0;
+    for (std::size_t k = 0; k < hz.size(); ++k) {
+      const auto [base, h] = harmonic(hz[k]);
+      const std::string name = "tone_" + std::to_string(k + 1);
+      const double a = listed ? d->parameter(name + "_amplitude_m_s2") : d->parameter("amplitude_m_s2");
+      power += a * a, supply_power += supply > 0 && base == supply ? a * a : 0.0;
+      if (listed) set_parameter(*d, name + "_harmonic", h);
+    }
+    // The description is supply pick-up when the supply's harmonics carry most of its tones' power.
+    const auto [base, h] = harmonic(hz.front());
+    if (base > 0) set_parameter(*d, "fundamental_hz", base), set_parameter(*d, "harmonic", h);
+    if (2 * supply_power > power && power > 0) set_parameter(*d, "supply_hz", supply);
   }
 }
 

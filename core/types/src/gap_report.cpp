@@ -139,7 +139,22 @@ const char* shaft_words(FeatureShaft shaft) { return shaft == FeatureShaft::outp
 
 std::string tone_words(const FeatureDescription& d) {
   const double f = d.parameter("frequency_hz"), base = d.parameter("fundamental_hz"), k = d.parameter("harmonic"),
-               supply = d.parameter("supply_hz"), amplitude = d.parameter("amplitude_m_s2");
+               supply = d.parameter("supply_hz"), amplitude = d.parameter("amplitude_m_s2"), count = d.parameter("tones");
+  if (count >= 2) {  // "tones fixed in Hz at 50.0, 100.1 Hz (0.03, 0.02 m/s² peak): supply pick-up, harmonics 1, 2 of 50 Hz"
+    std::string at, amplitudes, harmonics;
+    for (int i = 1; i <= static_cast<int>(count); ++i) {
+      const std::string name = "tone_" + std::to_string(i);
+      const std::string sep = i > 1 ? ", " : "";
+      at += sep + format("%.1f", d.parameter(name + "_hz"));
+      amplitudes += sep + format("%.3g", d.parameter(name + "_amplitude_m_s2"));
+      const double h = d.parameter(name + "_harmonic");
+      harmonics += sep + (h >= 1 ? format("%.0f", h) : std::string("-"));
+    }
+    const std::string s = "tones fixed in Hz at " + at + " Hz (" + amplitudes + " m/s² peak)";
+    if (supply > 0) return s + ": supply pick-up, harmonics " + harmonics + format(" of %.0f Hz", supply);
+    if (base > 0) return s + ": harmonics " + harmonics + format(" of %.1f Hz (a fan or another machine)", base);
+    return s + " (a fan or another machine)";
+  }
   std::string s = format("a tone at %.1f Hz fixed in Hz, %.3g m/s² peak", f, amplitude);
   if (supply > 0) s += format(": supply pick-up, harmonic %.0f of %.0f Hz", k, supply);
   else if (k > 1) s += format(": harmonic %.0f of %.1f Hz (a fan or another machine)", k, base);

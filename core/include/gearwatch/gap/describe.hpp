@@ -93,9 +93,11 @@ class FeatureDescriber {
   Window window_of(const GapFeature& f) const;
   double g_of(std::size_t r, std::size_t c, double measured) const;
   Fit resonance(const GapFeature& f, const Window& w) const;
-  Fit tone(const GapFeature& f, const Window& w, bool fixed_in_hz) const;
-  /// Unit-power responses of a tone at input order `order` in record r, over the window's cells of r.
-  std::vector<double> tone_response(std::size_t r, double order, const Window& w) const;
+  /// Up to max_tones non-synchronous tones (one place and power each), found one at a time where the
+  /// window's g is worst explained, each kept only if it lowers the BIC; powers refitted together.
+  Fit tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const;
+  /// Unit-power responses of a tone at `place` (input order, or Hz in every record) on the window's cells.
+  std::vector<double> tone_response(double place, bool in_hz, const Window& w) const;
   std::vector<RecordCells> records_;
   std::vector<DescribedRecord> sources_;
   GearPairSpec gears_;

@@ -95,7 +95,7 @@ enum class DescriptionKind : std::uint8_t {
   resonance = 1,     ///< a resonance fixed in Hz: frequency_hz, damping_ratio, gain_db
   modulation = 2,    ///< a modulation of the mesh at a shaft's order: am_index, pm_index_rad (`shaft`)
   ghost_line = 3,    ///< a line at a non-integer order: order, amplitude_m_s2
-  fixed_tone = 4,    ///< a tone fixed in Hz: frequency_hz, amplitude_m_s2, fundamental_hz, harmonic, supply_hz
+  fixed_tone = 4,    ///< tones fixed in Hz: frequency_hz, amplitude_m_s2 (the lowest), fundamental_hz, harmonic, supply_hz, tones, tone_k_hz/_amplitude_m_s2/_harmonic
   floor_change = 5,  ///< a broadband floor change: level_db (at 1 kHz), slope_db_per_decade
   path_tilt = 6,     ///< a transfer-path tilt over the mesh harmonics: tilt_db_per_octave, level_db
 };
