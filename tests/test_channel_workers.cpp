@@ -141,7 +141,7 @@ TEST_CASE("channel workers: a record's channels analysed in parallel give the se
   }
 }
 
-TEST_CASE("channel workers: the default is the hardware threads, at most 8; a configured count is kept",
+TEST_CASE("channel workers: the default is the hardware threads, at most 8, and a configured count is kept",
           "[daemon][channel_workers]") {
   const unsigned hw = std::thread::hardware_concurrency();
   CHECK(daemon::channel_worker_count(0) == std::clamp(hw, 1u, 8u));
