@@ -226,11 +226,13 @@ TEST_CASE("mqtt: a replay's records and alerts reach a real broker in order, exa
 }
 
 TEST_CASE("mqtt: the broker stopped during a replay and restarted: nothing lost, nothing reordered", "[mqtt]") {
-  Setup s(kPassword, 60.0, 60);  // 240 records: the replay goes on for seconds after the first deliveries
+  // 480 records: the replay goes on for seconds after the first delivery, also on a loaded machine
+  // (the broker must go away while records are still being stored).
+  Setup s(kPassword, 60.0, 120);
   s.broker.start();
   MqttSubscriber sub(s.broker.port(), kUser, kPassword, "gw/#");
   const pid_t pid = s.start_replay("b");
-  REQUIRE(wait_until([&] { return distinct_data_messages(sub) >= 3; }, 60s));
+  REQUIRE(wait_until([&] { return distinct_data_messages(sub) >= 1; }, 60s));
   s.broker.stop();
   // Data keeps coming into the outbox while the broker is away.
   const auto before = outbox_rows(s.db).size();
@@ -238,8 +240,14 @@ TEST_CASE("mqtt: the broker stopped during a replay and restarted: nothing lost,
   s.broker.start();
   REQUIRE(wait_bounded(pid, 120s) == 0);
   check_delivered_in_order(s.db, sub);
-  // The same process connected twice: the outage was bridged, not avoided.
-  CHECK(scalar(s.db, "SELECT mqtt_connects FROM health_snapshots WHERE final = 1 ORDER BY id DESC LIMIT 1") >= 2);
+  // The outage was bridged by the same process, not avoided: it lost its connection once (one
+  // warning line), and the rows stored while the broker was away were delivered above, which only a
+  // second connection of this process could do (it is the only publisher).
+  const std::string err = s.err("b");
+  INFO(err);
+  std::size_t lost = 0;
+  for (auto at = err.find("mqtt: connection to"); at != std::string::npos; at = err.find("mqtt: connection to", at + 1)) ++lost;
+  CHECK(lost == 1);
 }
 
 TEST_CASE("mqtt: the daemon killed -9 with undelivered messages delivers them after its restart", "[mqtt]") {
