@@ -45,6 +45,30 @@ double band_pass(double hz, double fn, double zeta) {
   return b * b / (a * a + b * b);
 }
 
+// The description of the tones found, ordered by place (input orders for a ghost, Hz for tones
+// fixed in Hz): each tone's place and power (m²/s⁴); the first names the feature.
+FeatureDescription tone_description(const GapFeature& f, bool fixed_in_hz, double to_input,
+                                    const std::vector<std::pair<double, double>>& found) {
+  FeatureDescription d;
+  const double place = found.empty() ? f.hz : found.front().first, amplitude = found.empty() ? 0.0 : std::sqrt(found.front().second);
+  if (!fixed_in_hz) {
+    d.kind = DescriptionKind::ghost_line;
+    d.shaft = f.shaft;
+    d.parameters = {{"order", place / to_input}, {"amplitude_m_s2", amplitude}};
+    return d;
+  }
+  d.kind = DescriptionKind::fixed_tone;
+  d.parameters = {{"frequency_hz", place}, {"amplitude_m_s2", amplitude}, {"fundamental_hz", place},
+                  {"harmonic", 1.0}, {"supply_hz", 0.0}, {"tones", static_cast<double>(found.size())}};
+  for (std::size_t k = 0; k < found.size(); ++k) {
+    const std::string name = "tone_" + std::to_string(k + 1);
+    d.parameters.emplace_back(name + "_hz", found[k].first);
+    d.parameters.emplace_back(name + "_amplitude_m_s2", std::sqrt(found[k].second));
+    d.parameters.emplace_back(name + "_harmonic", 1.0);
+  }
+  return d;
+}
+
 }  // namespace
 
 FeatureDescriber::FeatureDescriber(const std::vector<DescribedRecord>& records, const GearPairSpec& gears, DescriptionSettings settings)
@@ -388,8 +412,12 @@ FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window&
   };
   const double res2 = settings_.resolution_db * settings_.resolution_db, nn = static_cast<double>(n);
   auto bic = [&](double rss, std::size_t k) { return nn * std::log(std::max(rss / nn, res2)) + 2.0 * static_cast<double>(k) * std::log(nn); };
-  double current = 0;
-  for (std::size_t e = 0; e < n; ++e) current += (g[e] - g_of(w[e].first, w[e].second, base[e])) * (g[e] - g_of(w[e].first, w[e].second, base[e]));
+  auto rss_with_base = [&] {
+    double s = 0;
+    for (std::size_t e = 0; e < n; ++e) s += std::pow(g[e] - g_of(w[e].first, w[e].second, base[e]), 2);
+    return s;
+  };
+  double current = rss_with_base();
   for (int j = 0; j < max_tones; ++j) {
     Tone best;
     for (double place = lo; place <= hi + 1e-9; place += step)
@@ -412,31 +440,14 @@ FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window&
     // The powers again, each with the others in place (their leakage overlaps).
     for (int pass = 0; pass < 2 && found.size() > 1; ++pass)
       for (auto& t : found) add_to_base(t, -1), fit_power(t), add_to_base(t, 1);
-    current = found.back().rss;
-    if (found.size() > 1) {
-      current = 0;
-      for (std::size_t e = 0; e < n; ++e) current += std::pow(g[e] - g_of(w[e].first, w[e].second, base[e]), 2);
-    }
+    current = found.size() > 1 ? rss_with_base() : found.back().rss;
   }
   std::sort(found.begin(), found.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
   Fit fit;
   fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found.size()));
-  const double place = found.empty() ? f.hz : found.front().place, amplitude = found.empty() ? 0.0 : std::sqrt(found.front().power);
-  if (fixed_in_hz) {
-    fit.description.kind = DescriptionKind::fixed_tone;
-    fit.description.parameters = {{"frequency_hz", place}, {"amplitude_m_s2", amplitude}, {"fundamental_hz", place},
-                                  {"harmonic", 1.0}, {"supply_hz", 0.0}, {"tones", static_cast<double>(found.size())}};
-    for (std::size_t k = 0; k < found.size(); ++k) {
-      const std::string name = "tone_" + std::to_string(k + 1);
-      fit.description.parameters.emplace_back(name + "_hz", found[k].place);
-      fit.description.parameters.emplace_back(name + "_amplitude_m_s2", std::sqrt(found[k].power));
-      fit.description.parameters.emplace_back(name + "_harmonic", 1.0);
-    }
-  } else {
-    fit.description.kind = DescriptionKind::ghost_line;
-    fit.description.shaft = f.shaft;
-    fit.description.parameters = {{"order", place / to_input}, {"amplitude_m_s2", amplitude}};
-  }
+  std::vector<std::pair<double, double>> places;
+  for (const auto& t : found) places.emplace_back(t.place, t.power);
+  fit.description = tone_description(f, fixed_in_hz, to_input, places);
   // The prediction on the window's cells (the twin's elsewhere).
   std::vector<std::vector<double>> predicted(records_.size());
   for (std::size_t r = 0; r < records_.size(); ++r) predicted[r].assign(records_[r].cells.size(), kNaN);
