@@ -3,6 +3,7 @@
 # when they are missing. Idempotent; needs root (or sudo) only when something is missing.
 #   tools/install-deps.sh          build dependencies
 #   tools/install-deps.sh --package  plus what tools/package.sh needs (dpkg-shlibdeps, file)
+#   tools/install-deps.sh --test-build  build dependencies plus what configuring the tests needs
 #   tools/install-deps.sh --test   plus what the tests need (the vcan VM: qemu, busybox, can-utils;
 #                                  python3 with numpy for the capture generator tests/capture_gen,
 #                                  scipy and h5py for the import test's independent .mat writers;
@@ -16,8 +17,12 @@ packages=(build-essential cmake ninja-build pkg-config git ca-certificates
           libsystemd-dev libsndfile1-dev libmatio-dev libcli11-dev libtomlplusplus-dev nlohmann-json3-dev catch2
           libmosquitto-dev)
 package_tools=(dpkg-dev file)
+# What configuring the tests needs (tests/CMakeLists.txt looks for python3 with numpy); the rest of
+# --test is only needed when the tests run, so tools/test.sh installs it while the build runs.
+test_configure=(python3 python3-numpy)
 [ "${1:-}" = "--package" ] && packages+=("${package_tools[@]}")
-[ "${1:-}" = "--test" ] && packages+=(can-utils qemu-system-x86 busybox-static cpio xz-utils python3 python3-numpy python3-scipy python3-h5py
+[ "${1:-}" = "--test-build" ] && packages+=("${test_configure[@]}")
+[ "${1:-}" = "--test" ] && packages+=("${test_configure[@]}" can-utils qemu-system-x86 busybox-static cpio xz-utils python3-scipy python3-h5py
                                       chromium fonts-dejavu-core mosquitto mosquitto-clients
                                       debootstrap "${package_tools[@]}" clang-14 libfuzzer-14-dev libclang-rt-14-dev)
 missing=()

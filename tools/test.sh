@@ -2,9 +2,25 @@
 # test.sh — builds gearwatch and runs every test with CTest: the Catch2 suite (one CTest test
 # per TEST_CASE) and the real-vcan tests in a qemu VM. Prints CTest's summary
 # ("100% tests passed, 0 tests failed out of N"); exit 0 only if all passed.
+# On a fresh machine the dependencies only the tests use (qemu, chromium, clang, mosquitto …) are
+# downloaded and installed while gearwatch compiles; the tests start once both are done.
 set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
 cd "$top"
-tools/build.sh --test
+tools/install-deps.sh --test-build
+mkdir -p build
+deps_log=build/install-test-deps.log
+tools/install-deps.sh --test >"$deps_log" 2>&1 &
+deps_pid=$!
+# A failed build must not leave the package manager running unattended behind it.
+trap 'wait "$deps_pid" 2>/dev/null || true' EXIT
+tools/build.sh --test-build
+if ! wait "$deps_pid"; then
+  cat "$deps_log" >&2
+  echo "test.sh: installing the test dependencies failed (tools/install-deps.sh --test)" >&2
+  exit 1
+fi
+trap - EXIT
+cat "$deps_log" >&2
 cd build
 ctest --output-on-failure --timeout 900 -j "$(nproc)" "$@"

@@ -16,18 +16,6 @@ constexpr int kIterations = 40;
 // Bins this many floors above it in either spectrum inform the split into order and Hz parts.
 constexpr double kInformativeFloors = 10.0;
 
-struct Point {
-  std::size_t key;     // line identity across records: shaft side and order
-  double hz;
-  double g;            // 10·log10 ratio
-  double model;        // model power
-  double measured;
-  std::size_t family;
-  double speed = 0;
-  bool informative = false;  // above the floor in either spectrum: carries information on the ratio
-  int band = -1;
-};
-
 }  // namespace
 
 double GapEvaluation::energy_share(std::size_t family) const {
@@ -65,16 +53,9 @@ std::string GapEvaluator::fixed_frequency_reason(const std::vector<GapPair>& pai
          (span.size() > 1 ? "each load here has one" : "these are at one");
 }
 
-GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool decompose) const {
-  GapEvaluation e;
+void GapEvaluator::collect_points(const std::vector<GapPair>& pairs, std::size_t max_order, std::size_t keys_per_load,
+                                  std::vector<double>& loads) const {
   const int z1 = gears_.pinion_teeth, z2 = gears_.gear_teeth;
-  std::vector<Point> pts;
-  std::size_t max_order = 0;
-  for (const auto& p : pairs) max_order = std::max({max_order, p.measured->input_lines.size(), p.measured->output_lines.size()});
-  // A line's identity is its shaft and order at one load: how an effect scales a line may change
-  // with the load (a misaligned face carries more of the load as it grows), never with the speed.
-  const std::size_t keys_per_load = 3 * max_order + 2;
-  std::vector<double> loads;
   auto load_group = [&](double torque) {
     const double t = std::isfinite(torque) ? std::round(torque * 100) / 100 : -1.0;
     const auto it = std::find(loads.begin(), loads.end(), t);
@@ -82,6 +63,13 @@ GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool dec
     loads.push_back(t);
     return loads.size() - 1;
   };
+  auto& pts = points_;
+  pts.clear();
+  std::size_t total = 0;
+  for (const auto& p : pairs)
+    total += 2 * std::min(p.measured->input_lines.size(), p.model->input_lines.size()) +
+             std::min(p.measured->output_lines.size(), p.model->output_lines.size());
+  pts.reserve(total);
   for (const auto& p : pairs) {
     const std::size_t key0 = load_group(p.measured->torque_nm) * keys_per_load;
     const auto& m = *p.measured;
@@ -108,6 +96,18 @@ GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool dec
       pts[i].informative = std::max(pts[i].measured, pts[i].model) > kInformativeFloors * p.floor;
     }
   }
+}
+
+GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool decompose) const {
+  GapEvaluation e;
+  std::size_t max_order = 0;
+  for (const auto& p : pairs) max_order = std::max({max_order, p.measured->input_lines.size(), p.measured->output_lines.size()});
+  // A line's identity is its shaft and order at one load: how an effect scales a line may change
+  // with the load (a misaligned face carries more of the load as it grows), never with the speed.
+  const std::size_t keys_per_load = 3 * max_order + 2;
+  std::vector<double> loads;
+  collect_points(pairs, max_order, keys_per_load, loads);
+  auto& pts = points_;
   for (std::size_t f = 0; f < e.resolved.size(); ++f) e.resolved[f] = true;
   const bool resolvable = fixed_frequency_reason(pairs).empty();
   e.resolved[kFixed] = resolvable;
@@ -128,7 +128,10 @@ GapEvaluation GapEvaluator::evaluate(const std::vector<GapPair>& pairs, bool dec
       }
     std::vector<char> usable(bands);
     for (int b = 0; b < bands; ++b) usable[b] = speed_max[b] >= speed_min[b] * min_speed_ratio_;
-    std::vector<double> line(keys_per_load * loads.size(), 0.0), line_n(keys_per_load * loads.size(), 0.0);
+    auto& line = line_;
+    auto& line_n = line_n_;
+    line.assign(keys_per_load * loads.size(), 0.0);
+    line_n.assign(keys_per_load * loads.size(), 0.0);
     band_gain.assign(bands, 0.0);
     std::vector<double> band_sum(bands), band_n(bands);
     for (int it = 0; it < kIterations; ++it) {

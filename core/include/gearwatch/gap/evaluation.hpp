@@ -53,9 +53,29 @@ class GapEvaluator {
   std::string fixed_frequency_reason(const std::vector<GapPair>& pairs) const;
 
  private:
+  /// One line or bin of one pair, as the evaluation compares it.
+  struct Point {
+    std::size_t key;     // line identity across records: shaft side and order
+    double hz;
+    double g;            // 10·log10 ratio
+    double model;        // model power
+    double measured;
+    std::size_t family;
+    double speed = 0;
+    bool informative = false;  // above the floor in either spectrum: carries information on the ratio
+    int band = -1;
+  };
+  void collect_points(const std::vector<GapPair>& pairs, std::size_t max_order, std::size_t keys_per_load,
+                      std::vector<double>& loads) const;
+
   GearPairSpec gears_;
   double bands_per_octave_;
   double min_speed_ratio_;
+  // Scratch reused from one evaluation to the next: a fit evaluates thousands of times, and a
+  // fresh buffer of tens of thousands of points each time costs more in page faults than the
+  // arithmetic. An evaluator is therefore used by one thread at a time.
+  mutable std::vector<Point> points_;
+  mutable std::vector<double> line_, line_n_;
 };
 
 }  // namespace gearwatch::gap
