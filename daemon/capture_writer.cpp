@@ -123,10 +123,11 @@ CaptureSummary write_capture(const CaptureSettings& cs, CaptureSignal& rig, cons
     }
     const bool life_due = i >= next_meta;
     if (life_due) next_meta += per_second;
-    for (double edge : rig.tacho_edges(static_cast<double>(i), static_cast<double>(i + n), cs.edges_per_rev)) {
-      emit(acq::make_tacho_frame(cs.ids, cs.tacho_shaft, edge + cs.first_index), i);
-      ++summary.tacho_edges;
-    }
+    if (cs.tacho)
+      for (double edge : rig.tacho_edges(static_cast<double>(i), static_cast<double>(i + n), cs.edges_per_rev)) {
+          emit(acq::make_tacho_frame(cs.ids, cs.tacho_shaft, edge + cs.first_index), i);
+        ++summary.tacho_edges;
+      }
     rig.generate(i, n, block);
     for (int c = 0; c < channel_count; ++c) {
       const double scale = cs.channel_scales_m_s2_per_lsb.empty() ? cs.scale_m_s2_per_lsb

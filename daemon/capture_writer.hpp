@@ -47,6 +47,7 @@ struct CaptureSettings {
   std::uint32_t first_index = 0;         ///< sample index of sample 0 (u32, wraps)
   int edges_per_rev = 1;
   int tacho_shaft = 0;                   ///< the protocol shaft the input tacho's edges go out on
+  bool tacho = true;                     ///< false: no tacho frames (an accelerometer alone)
   double scale_m_s2_per_lsb = 0.01;
   /// Per channel (m/s² per LSB), e.g. each configured channel's own; empty = scale_m_s2_per_lsb for all.
   std::vector<double> channel_scales_m_s2_per_lsb;

@@ -133,6 +133,7 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
   const rig::EffectSet effects = rig::campaign_effects(spec, seeded, seed);
 
   daemon::CaptureSettings cs;
+  cs.tacho = opt.cs.tacho;
   twin::GearboxParameters params;
   config::GearwatchConfig cfg;
   if (!opt.config.empty()) {
@@ -216,6 +217,8 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--stream-id", opt->cs.stream_id, "Stream id in the header")->capture_default_str();
   cmd->add_option("--first-index", opt->cs.first_index, "Sample index of the first sample (u32)")->capture_default_str();
   cmd->add_option("--interface", opt->cs.interface, "Interface name written in the log")->capture_default_str();
+  cmd->add_flag("--no-tacho", [opt](std::int64_t) { opt->cs.tacho = false; },
+                "Send no tacho frames: an accelerometer alone (the daemon then estimates the speed from the signal)");
   cmd->add_option("--config", opt->config, "Take channel scaling, tacho edges/rev and the twin's [twin] parameters from this config");
   cmd->add_option("--physics", opt->physics,
                   "synthetic: gear-mesh harmonics, modulated resonance and noise of known amplitudes; "

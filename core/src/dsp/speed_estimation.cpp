@@ -204,9 +204,16 @@ void SpeedEstimator::scan_frames(std::span<const float> x, double fs, std::size_
       centres.push_back(g.centre);
       speeds.push_back(g.speed);
     }
+  // The highest bin any search of this scan reads: mesh harmonic H at the fastest speed a frame
+  // may search (the octave checks stay within its range too), plus the parabola's neighbours.
+  double fastest = high;
+  if (guide != nullptr && !speeds.empty()) fastest = std::min(high, 1.25 * *std::max_element(speeds.begin(), speeds.end()));
+  const double df = fs / static_cast<double>(length);
+  const double reach = std::min(static_cast<double>(settings_.pinion_teeth) * settings_.harmonics * fastest, 0.45 * fs);
+  const auto last_bin = static_cast<std::size_t>(std::ceil(reach / df)) + 4;
   std::size_t hint = 0;
   for (std::size_t start = 0; start + length <= x.size(); start += hop) {
-    frame_spectrum(x, start, length);
+    frame_spectrum(x, start, length, last_bin);
     const double centre = static_cast<double>(start) + 0.5 * static_cast<double>(length);
     double from = low, to = high;
     if (guide != nullptr) {
@@ -221,31 +228,39 @@ void SpeedEstimator::scan_frames(std::span<const float> x, double fs, std::size_
   }
 }
 
-void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length) {
-  if (window_.size() != length) {
-    window_.resize(length);
+void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length, std::size_t last_bin) {
+  // The two passes use two frame lengths: each keeps its Hann window from record to record.
+  std::vector<double>& window = windows_[length];
+  if (window.size() != length) {
+    window.resize(length);
     for (std::size_t i = 0; i < length; ++i)
-      window_[i] = 0.5 - 0.5 * std::cos(kTwoPi * static_cast<double>(i) / static_cast<double>(length));
+      window[i] = 0.5 - 0.5 * std::cos(kTwoPi * static_cast<double>(i) / static_cast<double>(length));
   }
   const RealFft& fft = plans_.real(length);
   frame_.resize(length);
-  for (std::size_t i = 0; i < length; ++i) frame_[i] = window_[i] * x[start + i];
+  for (std::size_t i = 0; i < length; ++i) frame_[i] = window[i] * x[start + i];
   spectrum_.resize(fft.spectrum_size());
   fft.forward(frame_, spectrum_);
   const std::size_t bins = spectrum_.size();
+  // Only the bins the search reads (up to last_bin) get a log-SNR, and only those their floor
+  // needs get a power: the mesh harmonics searched lie far below Nyquist, and the logarithm over
+  // the whole spectrum was most of the cost. Bins above stay 0 (never read).
+  const std::size_t used = std::min(bins, last_bin + 1);
+  const std::size_t powered = std::min(bins, used + kFloorHalfWidth);
   power_.resize(bins);
-  for (std::size_t k = 0; k < bins; ++k) power_[k] = std::norm(spectrum_[k]);
+  for (std::size_t k = 0; k < powered; ++k) power_[k] = std::norm(spectrum_[k]);
+  std::fill(power_.begin() + static_cast<std::ptrdiff_t>(powered), power_.end(), 0.0);
   // Log-SNR against a moving mean of the power (the floor), clipped at 0: a harmonic sum of these
   // rewards a shaft speed whose mesh harmonics all stand out, not one very strong line.
-  floor_.assign(bins + 1, 0.0);
-  for (std::size_t k = 0; k < bins; ++k) floor_[k + 1] = floor_[k] + power_[k];
-  std::vector<double> snr(bins);
-  for (std::size_t k = 0; k < bins; ++k) {
+  cumulative_.resize(powered + 1);
+  cumulative_[0] = 0.0;
+  for (std::size_t k = 0; k < powered; ++k) cumulative_[k + 1] = cumulative_[k] + power_[k];
+  floor_.assign(bins, 0.0);  // the clipped log-SNR per bin
+  for (std::size_t k = 0; k < used; ++k) {
     const std::size_t a = k > kFloorHalfWidth ? k - kFloorHalfWidth : 0, b = std::min(bins, k + kFloorHalfWidth + 1);
-    const double mean = (floor_[b] - floor_[a]) / static_cast<double>(b - a);
-    snr[k] = mean > 0.0 && power_[k] > mean ? std::log(power_[k] / mean) : 0.0;
+    const double mean = (cumulative_[b] - cumulative_[a]) / static_cast<double>(b - a);
+    floor_[k] = mean > 0.0 && power_[k] > mean ? std::log(power_[k] / mean) : 0.0;
   }
-  floor_ = std::move(snr);  // floor_ now holds the clipped log-SNR per bin
 }
 
 // The harmonic sum's octave errors. At k times the true speed its harmonics fall on the true mesh

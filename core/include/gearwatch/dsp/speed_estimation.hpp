@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <span>
 #include <string>
 #include <vector>
@@ -84,7 +85,7 @@ class SpeedEstimator {
   bool track_speed(std::span<const float> x, double fs, double low, double high);
   void scan_frames(std::span<const float> x, double fs, std::size_t length, std::size_t hop,
                    const std::vector<Frame>* guide, double low, double high, std::vector<Frame>& frames);
-  void frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length);
+  void frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length, std::size_t last_bin);
   Frame search_frame(double fs, std::size_t length, double low, double high);
   template <class SnrAt>
   double resolve_octave(double speed, double low, double high, double top, SnrAt snr_at) const;
@@ -98,7 +99,8 @@ class SpeedEstimator {
   FftPlanCache plans_;
   RealBuffer frame_;
   ComplexBuffer spectrum_;
-  std::vector<double> power_, floor_, window_;
+  std::vector<double> power_, cumulative_, floor_;
+  std::map<std::size_t, std::vector<double>> windows_;  ///< Hann window per frame length
   std::vector<Frame> coarse_, fine_;
   std::vector<double> segment_re_, segment_im_, grid_re_, grid_im_, phase_;
 };
