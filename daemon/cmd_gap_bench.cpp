@@ -18,6 +18,7 @@
 #include "cli_common.hpp"
 #include "commands.hpp"
 #include "gap_bench_independent.hpp"
+#include "gap_bench_output.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/rig/rig_simulator.hpp"
@@ -318,231 +319,295 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+bool in_truth(const ScenarioResult& r, CandidateEffect c) {
+  return std::any_of(r.truth.begin(), r.truth.end(), [&](rig::Effect e) { return candidate_of(e) == c; });
+}
 
-void run_bench(const BenchOptions& o) {
-  if (o.seeds < 1) throw CommandError("--seeds must be at least 1");
-  if (o.effects != 1 && o.effects != 2) throw CommandError("--effects must be 1 or 2");
-  if (!(o.min_gap_db >= 0) || !std::isfinite(o.min_gap_db) || !(o.min_residual_gap_db >= 0) || !std::isfinite(o.min_residual_gap_db))
-    throw CommandError("--min-gap-db and --min-residual-gap-db must be finite and >= 0");
-  const auto wall0 = std::chrono::steady_clock::now();
-  if (!(o.wear_depth_um > 0) || !(o.wear_cycles > 0)) throw CommandError("--wear-depth-um and --wear-cycles must be > 0");
-  // A known wear state: the rig's linear law, one K over the cycles, giving the asked depth at the
-  // sliding extremes at this torque. Rig and twin share the profile; only the effects differ.
-  rig::WearModelSettings wm;
-  if (o.torques_nm.empty() || std::any_of(o.torques_nm.begin(), o.torques_nm.end(), [](double t) { return !(t > 0); }))
-    throw CommandError("--torques must list loads > 0 N m");
-  // The wear state is reached at the first load; rig and twin share it at every operating point.
-  wm.torque_nm = o.torques_nm.front();
-  const double k_true = o.wear_depth_um * 1e-6 / o.wear_cycles * (wm.reference_torque_nm / wm.torque_nm);
-  wm.phases = {{0.0, k_true}};
-  const rig::WearState wear = rig::BuiltinWearTruth(wm, GearPairSpec{}).at(o.wear_cycles);
-  TwinCache twins(o.sample_rate_hz, o.seconds, wear.profile);
-  RigBaselineCache baseline(o, wear);
-  const auto& all = rig::all_effects();
-  std::vector<ScenarioResult> runs;
-  for (int i = 0; i < o.seeds; ++i) {
-    const std::uint64_t seed = o.first_seed + static_cast<std::uint64_t>(i);
-    std::mt19937_64 rng(seed * 2654435761u);
-    rig::EffectSet fx;
-    // Every effect equally often: seed s takes effect (s − 1) mod 10 (the second, if any, drawn at
-    // random), so a scenario is reproduced by its seed alone.
-    const rig::Effect first = all[static_cast<std::size_t>((seed - 1) % all.size())];
-    fx.enable(first);
-    if (o.effects == 2) {
-      rig::Effect second = first;
-      while (second == first) second = all[std::uniform_int_distribution<std::size_t>(0, all.size() - 1)(rng)];
-      fx.enable(second);
+/// The scoring rule of attribution (docs/gap-bench.md): one true effect is in the first k ranked;
+/// two: top-1 names one of them first, top-2 names both in the first two.
+bool top(const ScenarioResult& r, std::size_t k) {
+  if (!r.detected || r.chosen.empty()) return false;
+  if (r.truth.size() == 1) {
+    for (std::size_t j = 0; j < std::min(k, r.ranked.size()); ++j)
+      if (in_truth(r, r.ranked[j])) return true;
+    return false;
+  }
+  if (k == 1) return in_truth(r, r.ranked[0]);
+  int hits = 0;
+  for (std::size_t j = 0; j < std::min<std::size_t>(2, r.ranked.size()); ++j) hits += in_truth(r, r.ranked[j]);
+  return hits == 2;
+}
+
+/// The scores of a group of scenarios (one effect's, or all).
+struct ScoreRow {
+  int runs = 0, detected = 0, top1 = 0, top2 = 0, localised = 0, collateral = 0;
+  int identifiable = 0, top1_identifiable = 0;
+  std::vector<double> shrink, shrink_identifiable, k_bias_before, k_bias_after;
+  void add(const ScenarioResult& r) {
+    ++runs;
+    detected += r.detected;
+    top1 += top(r, 1);
+    top2 += top(r, 2);
+    localised += r.localised;
+    collateral += r.collateral_beyond_interval;
+    k_bias_before.push_back(std::abs(r.k_ratio_before - 1.0));
+    k_bias_after.push_back(std::abs(r.k_ratio_after - 1.0));
+    shrink.push_back(r.shrinkage);
+    if (r.identifiable) {
+      ++identifiable;
+      top1_identifiable += top(r, 1);
+      shrink_identifiable.push_back(r.shrinkage);
     }
-    fx.randomise(seed);
+  }
+};
+
+/// K_wear bias: median over the scenarios of |K inferred / K true − 1|.
+double k_bias(const std::vector<ScenarioResult>& rs, double ScenarioResult::*ratio) {
+  std::vector<double> v;
+  for (const auto& r : rs) v.push_back(std::abs(r.*ratio - 1.0));
+  return median(v);
+}
+
+/// |K − K_true| / K_true cannot exceed 1 for an underestimate however bad; the factor error
+/// |ln(K / K_true)| treats ×10 and ÷10 alike.
+double k_log_bias(const std::vector<ScenarioResult>& rs, double ScenarioResult::*ratio) {
+  std::vector<double> v;
+  for (const auto& r : rs) v.push_back(std::abs(std::log(r.*ratio)));
+  return median(v);
+}
+
+nlohmann::json scenario_json(const ScenarioResult& r) {
+  nlohmann::json t = nlohmann::json::array(), c = nlohmann::json::array(), rk = nlohmann::json::array();
+  for (auto e : r.truth) t.push_back(rig::effect_name(e));
+  for (auto e : r.chosen) c.push_back(gap::to_string(e));
+  for (std::size_t k = 0; k < std::min<std::size_t>(3, r.ranked.size()); ++k) rk.push_back(gap::to_string(r.ranked[k]));
+  const double mean_elasticity =  // over the held-out records
+      r.elasticities.empty() ? std::numeric_limits<double>::quiet_NaN()
+                             : std::accumulate(r.elasticities.begin(), r.elasticities.end(), 0.0) /
+                                   static_cast<double>(r.elasticities.size());
+  return {{"truth", t}, {"parameters", r.parameters}, {"chosen", c}, {"ranked", rk}, {"detected", r.detected},
+          {"identifiable", r.identifiable}, {"signature_families", r.signature_families},
+          {"shrinkage", number_or_null(r.shrinkage)}, {"collateral_db", r.collateral_db}, {"families", r.families},
+          {"candidates", r.candidates}, {"k_wear_ratio_before", number_or_null(r.k_ratio_before)},
+          {"k_wear_ratio_after", number_or_null(r.k_ratio_after)}, {"rms_sa_elasticity", number_or_null(mean_elasticity)},
+          {"rms_sa_elasticities", r.elasticities}, {"seconds", r.seconds}};
+}
+
+/// `gap bench` with the rig simulator's effects: the known wear state, the effect scenarios and
+/// the no-effect runs, their scores, and the report.
+class RigBench {
+ public:
+  explicit RigBench(const BenchOptions& o) : o_(o), printer_(o.format) {}
+  void run();
+
+ private:
+  void check_options() const;
+  void make_wear_truth();
+  rig::EffectSet draw_effects(std::uint64_t seed) const;
+  void run_effect_scenarios();
+  void run_no_effect_scenarios();
+  void score();
+  nlohmann::json document(double wall) const;
+  BenchTable table(double wall) const;
+
+  const BenchOptions& o_;
+  BenchPrinter printer_;
+  double k_true_ = 0;
+  rig::WearState wear_;
+  std::unique_ptr<TwinCache> twins_;
+  std::unique_ptr<RigBaselineCache> baseline_;
+  std::vector<ScenarioResult> runs_, quiet_;
+  int none_runs_ = 0;
+  std::map<std::string, ScoreRow> rows_;  ///< by the first true effect's name
+  ScoreRow total_;
+  int false_alarms_ = 0;
+};
+
+void RigBench::check_options() const {
+  if (o_.seeds < 1) throw CommandError("--seeds must be at least 1");
+  if (o_.effects != 1 && o_.effects != 2) throw CommandError("--effects must be 1 or 2");
+  if (!(o_.min_gap_db >= 0) || !std::isfinite(o_.min_gap_db) || !(o_.min_residual_gap_db >= 0) ||
+      !std::isfinite(o_.min_residual_gap_db))
+    throw CommandError("--min-gap-db and --min-residual-gap-db must be finite and >= 0");
+  if (!(o_.wear_depth_um > 0) || !(o_.wear_cycles > 0)) throw CommandError("--wear-depth-um and --wear-cycles must be > 0");
+  if (o_.torques_nm.empty() || std::any_of(o_.torques_nm.begin(), o_.torques_nm.end(), [](double t) { return !(t > 0); }))
+    throw CommandError("--torques must list loads > 0 N m");
+}
+
+// A known wear state: the rig's linear law, one K over the cycles, giving the asked depth at the
+// sliding extremes at the first load. Rig and twin share the profile at every operating point;
+// only the effects differ.
+void RigBench::make_wear_truth() {
+  rig::WearModelSettings wm;
+  wm.torque_nm = o_.torques_nm.front();
+  k_true_ = o_.wear_depth_um * 1e-6 / o_.wear_cycles * (wm.reference_torque_nm / wm.torque_nm);
+  wm.phases = {{0.0, k_true_}};
+  wear_ = rig::BuiltinWearTruth(wm, GearPairSpec{}).at(o_.wear_cycles);
+  twins_ = std::make_unique<TwinCache>(o_.sample_rate_hz, o_.seconds, wear_.profile);
+  baseline_ = std::make_unique<RigBaselineCache>(o_, wear_);
+}
+
+// Every effect equally often: seed s takes effect (s − 1) mod 10 (the second, if any, drawn at
+// random), so a scenario is reproduced by its seed alone.
+rig::EffectSet RigBench::draw_effects(std::uint64_t seed) const {
+  const auto& all = rig::all_effects();
+  std::mt19937_64 rng(seed * 2654435761u);
+  rig::EffectSet fx;
+  const rig::Effect first = all[static_cast<std::size_t>((seed - 1) % all.size())];
+  fx.enable(first);
+  if (o_.effects == 2) {
+    rig::Effect second = first;
+    while (second == first) second = all[std::uniform_int_distribution<std::size_t>(0, all.size() - 1)(rng)];
+    fx.enable(second);
+  }
+  fx.randomise(seed);
+  return fx;
+}
+
+void RigBench::run_effect_scenarios() {
+  for (int i = 0; i < o_.seeds; ++i) {
+    const std::uint64_t seed = o_.first_seed + static_cast<std::uint64_t>(i);
+    const rig::EffectSet fx = draw_effects(seed);
     try {
-      runs.push_back(run_scenario(o, fx, wear, k_true, twins, baseline, o.training_speeds_hz, o.held_out_speeds_hz, seed));
+      runs_.push_back(run_scenario(o_, fx, wear_, k_true_, *twins_, *baseline_, o_.training_speeds_hz, o_.held_out_speeds_hz, seed));
     } catch (const std::exception& e) {
       throw CommandError("gap bench seed " + std::to_string(seed) + ": " + e.what());
     }
-    if (o.format == "table")
-      std::cerr << "seed " << seed << " effects " << fx.enabled_effects().size() << " done in " << std::fixed
-                << std::setprecision(1) << runs.back().seconds << " s\n";
+    printer_.progress(seed, "effects " + std::to_string(fx.enabled_effects().size()), runs_.back().seconds);
   }
-  // No-effect runs: the rig without effects is deterministic, so each is at other operating
-  // points (speeds scaled 0.9–1.1, its own twin records).
-  const int none_runs = o.no_effect_runs >= 0 ? o.no_effect_runs : std::max(2, o.seeds / 5);
-  std::vector<ScenarioResult> quiet;
-  for (int i = 0; i < none_runs; ++i) {
-    const double scale = none_runs == 1 ? 1.0 : 0.9 + 0.2 * i / (none_runs - 1);
+}
+
+// The rig without effects is deterministic, so each no-effect run is at other operating points
+// (speeds scaled 0.9–1.1, its own twin records).
+void RigBench::run_no_effect_scenarios() {
+  none_runs_ = o_.no_effect_runs >= 0 ? o_.no_effect_runs : std::max(2, o_.seeds / 5);
+  for (int i = 0; i < none_runs_; ++i) {
+    const double scale = none_runs_ == 1 ? 1.0 : 0.9 + 0.2 * i / (none_runs_ - 1);
     auto scaled = [&](const std::vector<double>& v) {
       std::vector<double> s;
       for (double x : v) s.push_back(std::round(x * scale * 1000) / 1000);
       return s;
     };
-    quiet.push_back(run_scenario(o, rig::EffectSet{}, wear, k_true, twins, baseline, scaled(o.training_speeds_hz), scaled(o.held_out_speeds_hz),
-                                 o.first_seed + 100000 + static_cast<std::uint64_t>(i)));
+    quiet_.push_back(run_scenario(o_, rig::EffectSet{}, wear_, k_true_, *twins_, *baseline_, scaled(o_.training_speeds_hz),
+                                  scaled(o_.held_out_speeds_hz), o_.first_seed + 100000 + static_cast<std::uint64_t>(i)));
   }
+}
 
-  // Scores.
-  auto in_truth = [](const ScenarioResult& r, CandidateEffect c) {
-    return std::any_of(r.truth.begin(), r.truth.end(), [&](rig::Effect e) { return candidate_of(e) == c; });
-  };
-  auto top = [&](const ScenarioResult& r, std::size_t k) {
-    if (!r.detected || r.chosen.empty()) return false;
-    if (r.truth.size() == 1) {
-      for (std::size_t j = 0; j < std::min(k, r.ranked.size()); ++j)
-        if (in_truth(r, r.ranked[j])) return true;
-      return false;
-    }
-    // Two effects: top-1 names one of them first; top-2 names both in the first two.
-    if (k == 1) return in_truth(r, r.ranked[0]);
-    int hits = 0;
-    for (std::size_t j = 0; j < std::min<std::size_t>(2, r.ranked.size()); ++j) hits += in_truth(r, r.ranked[j]);
-    return hits == 2;
-  };
-  struct Row {
-    int runs = 0, detected = 0, top1 = 0, top2 = 0, localised = 0, collateral = 0;
-    int identifiable = 0, top1_identifiable = 0;
-    std::vector<double> shrink, shrink_identifiable, k_bias_before, k_bias_after;
-  };
-  std::map<std::string, Row> rows;
-  Row total;
-  for (const auto& r : runs) {
-    for (auto* row : {&total, &rows[rig::effect_name(r.truth.front())]}) {
-      ++row->runs;
-      row->detected += r.detected;
-      row->top1 += top(r, 1);
-      row->top2 += top(r, 2);
-      row->localised += r.localised;
-      row->collateral += r.collateral_beyond_interval;
-      row->k_bias_before.push_back(std::abs(r.k_ratio_before - 1.0));
-      row->k_bias_after.push_back(std::abs(r.k_ratio_after - 1.0));
-      row->shrink.push_back(r.shrinkage);
-      if (r.identifiable) {
-        ++row->identifiable;
-        row->top1_identifiable += top(r, 1);
-        row->shrink_identifiable.push_back(r.shrinkage);
-      }
-    }
+void RigBench::score() {
+  for (const auto& r : runs_) {
+    total_.add(r);
+    rows_[rig::effect_name(r.truth.front())].add(r);
   }
-  int false_alarms = 0;
-  for (const auto& q : quiet) false_alarms += q.detected;
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-  auto frac = [](int a, int b) { return b ? static_cast<double>(a) / b : std::numeric_limits<double>::quiet_NaN(); };
+  for (const auto& q : quiet_) false_alarms_ += q.detected;
+}
 
-  nlohmann::json j;
-  j["seeds"] = o.seeds;
-  j["effects_per_scenario"] = o.effects;
-  j["sample_rate_hz"] = o.sample_rate_hz;
-  j["record_seconds"] = o.seconds;
-  j["training_speeds_hz"] = o.training_speeds_hz;
-  j["held_out_speeds_hz"] = o.held_out_speeds_hz;
-  j["torques_nm"] = o.torques_nm;
-  j["min_gap_db"] = o.min_gap_db;
-  j["min_residual_gap_db"] = o.min_residual_gap_db;
-  j["top1_accuracy"] = number_or_null(frac(total.top1, total.runs));
-  j["top2_accuracy"] = number_or_null(frac(total.top2, total.runs));
-  j["detection_rate"] = number_or_null(frac(total.detected, total.runs));
-  j["top1_accuracy_when_detected"] = number_or_null(frac(total.top1, total.detected));
-  j["localisation_rate"] = number_or_null(frac(total.localised, total.runs));
+nlohmann::json RigBench::document(double wall) const {
+  nlohmann::json j = bench_document({o_.seeds, o_.sample_rate_hz, o_.seconds, o_.torques_nm, wall});
+  j["effects_per_scenario"] = o_.effects;
+  j["training_speeds_hz"] = o_.training_speeds_hz;
+  j["held_out_speeds_hz"] = o_.held_out_speeds_hz;
+  j["min_gap_db"] = o_.min_gap_db;
+  j["min_residual_gap_db"] = o_.min_residual_gap_db;
+  j["top1_accuracy"] = number_or_null(fraction(total_.top1, total_.runs));
+  j["top2_accuracy"] = number_or_null(fraction(total_.top2, total_.runs));
+  j["detection_rate"] = number_or_null(fraction(total_.detected, total_.runs));
+  j["top1_accuracy_when_detected"] = number_or_null(fraction(total_.top1, total_.detected));
+  j["localisation_rate"] = number_or_null(fraction(total_.localised, total_.runs));
   // Scenarios whose effect leaves a signature at these operating points (the rig with it against
   // the rig without it): attribution is possible only there.
-  j["identifiable_rate"] = number_or_null(frac(total.identifiable, total.runs));
-  j["top1_accuracy_identifiable"] = number_or_null(frac(total.top1_identifiable, total.identifiable));
-  j["median_shrinkage_identifiable"] = number_or_null(median(total.shrink_identifiable));
-  j["median_shrinkage"] = number_or_null(median(total.shrink));
-  j["collateral_beyond_interval_rate"] = number_or_null(frac(total.collateral, total.runs));
-  j["no_effect_runs"] = none_runs;
-  j["false_alarm_rate"] = number_or_null(frac(false_alarms, none_runs));
-  // K_wear bias: median over the effect scenarios of |K inferred / K true − 1|, the twin alone
-  // (before) and with the chosen effects (after); the no-effect runs give the floor of the method.
-  auto bias = [](const std::vector<ScenarioResult>& rs, double ScenarioResult::*ratio) {
-    std::vector<double> v;
-    for (const auto& r : rs) v.push_back(std::abs(r.*ratio - 1.0));
-    return median(v);
-  };
-  const double bias_before = bias(runs, &ScenarioResult::k_ratio_before);
-  const double bias_after = bias(runs, &ScenarioResult::k_ratio_after);
-  j["k_wear_bias_before"] = number_or_null(bias_before);
-  j["k_wear_bias_after"] = number_or_null(bias_after);
-  j["k_wear_bias_no_effect"] = number_or_null(bias(quiet, &ScenarioResult::k_ratio_before));
-  // |K − K_true| / K_true cannot exceed 1 for an underestimate however bad; the factor error
-  // |ln(K / K_true)| treats ×10 and ÷10 alike.
-  auto log_bias = [](const std::vector<ScenarioResult>& rs, double ScenarioResult::*ratio) {
-    std::vector<double> v;
-    for (const auto& r : rs) v.push_back(std::abs(std::log(r.*ratio)));
-    return median(v);
-  };
-  j["k_wear_log_bias_before"] = number_or_null(log_bias(runs, &ScenarioResult::k_ratio_before));
-  j["k_wear_log_bias_after"] = number_or_null(log_bias(runs, &ScenarioResult::k_ratio_after));
+  j["identifiable_rate"] = number_or_null(fraction(total_.identifiable, total_.runs));
+  j["top1_accuracy_identifiable"] = number_or_null(fraction(total_.top1_identifiable, total_.identifiable));
+  j["median_shrinkage_identifiable"] = number_or_null(median(total_.shrink_identifiable));
+  j["median_shrinkage"] = number_or_null(median(total_.shrink));
+  j["collateral_beyond_interval_rate"] = number_or_null(fraction(total_.collateral, total_.runs));
+  j["no_effect_runs"] = none_runs_;
+  j["false_alarm_rate"] = number_or_null(fraction(false_alarms_, none_runs_));
+  // The effect scenarios, twin alone (before) and with the chosen effects (after); the no-effect
+  // runs give the floor of the method.
+  j["k_wear_bias_before"] = number_or_null(k_bias(runs_, &ScenarioResult::k_ratio_before));
+  j["k_wear_bias_after"] = number_or_null(k_bias(runs_, &ScenarioResult::k_ratio_after));
+  j["k_wear_bias_no_effect"] = number_or_null(k_bias(quiet_, &ScenarioResult::k_ratio_before));
+  j["k_wear_log_bias_before"] = number_or_null(k_log_bias(runs_, &ScenarioResult::k_ratio_before));
+  j["k_wear_log_bias_after"] = number_or_null(k_log_bias(runs_, &ScenarioResult::k_ratio_after));
   // Most effects leave the first mesh harmonics alone, so the medians over all scenarios say little
   // about the ones that do: the same over the scenarios whose effect moves K_wear by > 5 %.
   std::vector<ScenarioResult> affected;
-  for (const auto& r : runs)
+  for (const auto& r : runs_)
     if (std::abs(std::log(r.k_ratio_before)) > std::log(1.05)) affected.push_back(r);
   j["k_wear_affected_scenarios"] = affected.size();
-  j["k_wear_bias_before_affected"] = number_or_null(bias(affected, &ScenarioResult::k_ratio_before));
-  j["k_wear_bias_after_affected"] = number_or_null(bias(affected, &ScenarioResult::k_ratio_after));
-  j["k_wear_log_bias_before_affected"] = number_or_null(log_bias(affected, &ScenarioResult::k_ratio_before));
-  j["k_wear_log_bias_after_affected"] = number_or_null(log_bias(affected, &ScenarioResult::k_ratio_after));
-  j["k_wear_true"] = k_true;
-  j["wear_depth_um"] = o.wear_depth_um;
-  j["wear_cycles"] = o.wear_cycles;
-  j["wall_seconds"] = wall;
+  j["k_wear_bias_before_affected"] = number_or_null(k_bias(affected, &ScenarioResult::k_ratio_before));
+  j["k_wear_bias_after_affected"] = number_or_null(k_bias(affected, &ScenarioResult::k_ratio_after));
+  j["k_wear_log_bias_before_affected"] = number_or_null(k_log_bias(affected, &ScenarioResult::k_ratio_before));
+  j["k_wear_log_bias_after_affected"] = number_or_null(k_log_bias(affected, &ScenarioResult::k_ratio_after));
+  j["k_wear_true"] = k_true_;
+  j["wear_depth_um"] = o_.wear_depth_um;
+  j["wear_cycles"] = o_.wear_cycles;
   nlohmann::json per = nlohmann::json::array();
-  for (const auto& [name, row] : rows)
+  for (const auto& [name, row] : rows_)
     per.push_back({{"effect", name},
                    {"runs", row.runs},
                    {"detected", row.detected},
                    {"identifiable", row.identifiable},
-                   {"top1_accuracy_identifiable", number_or_null(frac(row.top1_identifiable, row.identifiable))},
-                   {"top1_accuracy", number_or_null(frac(row.top1, row.runs))},
-                   {"top2_accuracy", number_or_null(frac(row.top2, row.runs))},
-                   {"localisation_rate", number_or_null(frac(row.localised, row.runs))},
+                   {"top1_accuracy_identifiable", number_or_null(fraction(row.top1_identifiable, row.identifiable))},
+                   {"top1_accuracy", number_or_null(fraction(row.top1, row.runs))},
+                   {"top2_accuracy", number_or_null(fraction(row.top2, row.runs))},
+                   {"localisation_rate", number_or_null(fraction(row.localised, row.runs))},
                    {"median_shrinkage", number_or_null(median(row.shrink))},
                    {"k_wear_bias_before", number_or_null(median(row.k_bias_before))},
                    {"k_wear_bias_after", number_or_null(median(row.k_bias_after))}});
   j["per_effect"] = per;
   nlohmann::json scen = nlohmann::json::array();
-  for (const auto& r : runs) {
-    nlohmann::json t = nlohmann::json::array(), c = nlohmann::json::array(), rk = nlohmann::json::array();
-    for (auto e : r.truth) t.push_back(rig::effect_name(e));
-    for (auto e : r.chosen) c.push_back(gap::to_string(e));
-    for (std::size_t k = 0; k < std::min<std::size_t>(3, r.ranked.size()); ++k) rk.push_back(gap::to_string(r.ranked[k]));
-    scen.push_back({{"truth", t}, {"parameters", r.parameters}, {"chosen", c}, {"ranked", rk}, {"detected", r.detected},
-                    {"identifiable", r.identifiable}, {"signature_families", r.signature_families},
-                    {"shrinkage", number_or_null(r.shrinkage)}, {"collateral_db", r.collateral_db}, {"families", r.families}, {"candidates", r.candidates},
-                    {"k_wear_ratio_before", number_or_null(r.k_ratio_before)},
-                    {"k_wear_ratio_after", number_or_null(r.k_ratio_after)},
-                    {"rms_sa_elasticity",  // mean over the held-out records
-                     number_or_null(r.elasticities.empty() ? std::numeric_limits<double>::quiet_NaN()
-                                                           : std::accumulate(r.elasticities.begin(), r.elasticities.end(), 0.0) /
-                                                                 static_cast<double>(r.elasticities.size()))},
-                    {"rms_sa_elasticities", r.elasticities}, {"seconds", r.seconds}});
-  }
+  for (const auto& r : runs_) scen.push_back(scenario_json(r));
   j["scenarios"] = scen;
   nlohmann::json qs = nlohmann::json::array();
-  for (const auto& q : quiet)
+  for (const auto& q : quiet_)
     qs.push_back({{"detected", q.detected}, {"families", q.families}, {"k_wear_ratio_before", number_or_null(q.k_ratio_before)},
                   {"k_wear_ratio_after", number_or_null(q.k_ratio_after)}});
   j["no_effect_scenarios"] = qs;
-  if (o.format == "json") {
-    std::cout << dump_json(j, 2) << "\n";
-    return;
+  return j;
+}
+
+BenchTable RigBench::table(double wall) const {
+  BenchTable table;
+  auto heading = table_stream();
+  heading << "gap bench: " << o_.seeds << " scenarios with " << o_.effects << " effect(s), " << none_runs_ << " without; "
+          << o_.sample_rate_hz << " Hz, " << o_.seconds << " s records; " << wall << " s";
+  table.heading = heading.str();
+  table.columns = "effect              runs identifiable detected top1 top2 localised median_shrinkage";
+  for (const auto& [name, row] : rows_) {
+    auto line = table_stream();
+    line << std::left << std::setw(20) << name << std::right << std::setw(4) << row.runs << std::setw(13) << row.identifiable
+         << std::setw(9) << row.detected << std::setw(5) << fraction(row.top1, row.runs) << std::setw(5)
+         << fraction(row.top2, row.runs) << std::setw(10) << fraction(row.localised, row.runs) << std::setw(17)
+         << median(row.shrink);
+    table.rows.push_back(line.str());
   }
-  std::cout << std::fixed << std::setprecision(2);
-  std::cout << "gap bench: " << o.seeds << " scenarios with " << o.effects << " effect(s), " << none_runs
-            << " without; " << o.sample_rate_hz << " Hz, " << o.seconds << " s records; " << wall << " s\n";
-  std::cout << "effect              runs identifiable detected top1 top2 localised median_shrinkage\n";
-  for (const auto& [name, row] : rows)
-    std::cout << std::left << std::setw(20) << name << std::right << std::setw(4) << row.runs << std::setw(13)
-              << row.identifiable << std::setw(9) << row.detected << std::setw(5) << frac(row.top1, row.runs)
-              << std::setw(5) << frac(row.top2, row.runs)
-              << std::setw(10) << frac(row.localised, row.runs) << std::setw(17) << median(row.shrink) << "\n";
-  std::cout << "top1_accuracy " << frac(total.top1, total.runs) << " (target >= 0.90)\n"
-            << "identifiable_rate " << frac(total.identifiable, total.runs) << ", top1 among them "
-            << frac(total.top1_identifiable, total.identifiable) << "\n"
-            << "top2_accuracy " << frac(total.top2, total.runs) << "\n"
-            << "median_shrinkage " << median(total.shrink) << " (target >= 0.70)\n"
-            << "false_alarm_rate " << frac(false_alarms, none_runs) << " (target <= 0.05)\n"
-            << "k_wear_bias_before " << bias_before << " after " << bias_after
-            << " (median |K inferred / K true - 1|; target: after <= before / 2)\n";
+  auto line = [](auto&&... parts) {
+    auto s = table_stream();
+    (s << ... << parts);
+    return s.str();
+  };
+  table.summary = {
+      line("top1_accuracy ", fraction(total_.top1, total_.runs), " (target >= 0.90)"),
+      line("identifiable_rate ", fraction(total_.identifiable, total_.runs), ", top1 among them ",
+           fraction(total_.top1_identifiable, total_.identifiable)),
+      line("top2_accuracy ", fraction(total_.top2, total_.runs)),
+      line("median_shrinkage ", median(total_.shrink), " (target >= 0.70)"),
+      line("false_alarm_rate ", fraction(false_alarms_, none_runs_), " (target <= 0.05)"),
+      line("k_wear_bias_before ", k_bias(runs_, &ScenarioResult::k_ratio_before), " after ",
+           k_bias(runs_, &ScenarioResult::k_ratio_after), " (median |K inferred / K true - 1|; target: after <= before / 2)")};
+  return table;
+}
+
+void RigBench::run() {
+  check_options();
+  const auto wall0 = std::chrono::steady_clock::now();
+  make_wear_truth();
+  run_effect_scenarios();
+  run_no_effect_scenarios();
+  score();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  printer_.print(document(wall), table(wall));
 }
 
 }  // namespace
@@ -577,7 +642,7 @@ void add_gap_bench_command(CLI::App& app) {
     opt->seconds_given = cmd->count("--seconds") > 0;
     opt->bootstrap_given = cmd->count("--bootstrap") > 0;
     if (opt->generator == "independent") return run_independent(*opt);
-    run_bench(*opt);
+    RigBench(*opt).run();
   });
 }
 

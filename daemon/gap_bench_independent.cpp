@@ -21,6 +21,7 @@
 #include "capture_writer.hpp"
 #include "cli_common.hpp"
 #include "decoder_setup.hpp"
+#include "gap_bench_output.hpp"
 #include "gap_diagnose_captures.hpp"
 #include "gearwatch/config/twin_config.hpp"
 #include "gearwatch/twin/simulation.hpp"
@@ -221,6 +222,30 @@ json run_generator(const std::string& python, const std::string& script, const s
 // ---------------------------------------------------------------------------------------------
 // The bench.
 
+struct Tally {
+  int draws = 0, localised = 0, described = 0, applies = 0, attributed = 0, findings = 0;
+  void add(const DrawScore& s) {
+    ++draws;
+    localised += s.localised;
+    described += s.described;
+    applies += s.attribution_applies;
+    attributed += s.attribution_applies && s.attributed;
+    findings += s.any_finding;
+  }
+};
+
+/// The draws tallied: those with an effect, those without, and per form.
+struct Tallies {
+  Tally effects, none;
+  std::map<std::string, Tally> per_form;
+  explicit Tallies(const std::vector<DrawScore>& scores) {
+    for (const auto& s : scores) {
+      (s.effect ? effects : none).add(s);
+      per_form[s.form].add(s);
+    }
+  }
+};
+
 struct OperatingCapture {
   double speed, torque;
   std::string path;
@@ -228,7 +253,8 @@ struct OperatingCapture {
 
 class IndependentBench {
  public:
-  explicit IndependentBench(const IndependentBenchOptions& o) : o_(o), cfg_(load_config_or_defaults(o.config)) {
+  explicit IndependentBench(const IndependentBenchOptions& o)
+      : o_(o), cfg_(load_config_or_defaults(o.config)), printer_(o.format) {
     if (o_.bootstrap >= 0) cfg_.gap.bootstrap_resamples = o_.bootstrap;
   }
   void run();
@@ -239,9 +265,12 @@ class IndependentBench {
   void write_twin_captures();
   DrawScore run_draw(std::uint64_t seed);
   void print(const std::vector<DrawScore>& scores, double wall) const;
+  json document(const std::vector<DrawScore>& scores, const Tallies& t, double wall) const;
+  BenchTable table(const Tallies& t, double wall) const;
 
   IndependentBenchOptions o_;
   config::GearwatchConfig cfg_;
+  BenchPrinter printer_;
   std::string python_;
   fs::path dir_;
   std::vector<OperatingCapture> twin_;
@@ -305,71 +334,62 @@ DrawScore IndependentBench::run_draw(std::uint64_t seed) {
   return s;
 }
 
-double frac(int a, int b) { return b ? static_cast<double>(a) / b : std::numeric_limits<double>::quiet_NaN(); }
-json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
-struct Tally {
-  int draws = 0, localised = 0, described = 0, applies = 0, attributed = 0, findings = 0;
-  void add(const DrawScore& s) {
-    ++draws;
-    localised += s.localised;
-    described += s.described;
-    applies += s.attribution_applies;
-    attributed += s.attribution_applies && s.attributed;
-    findings += s.any_finding;
-  }
-};
-
-void IndependentBench::print(const std::vector<DrawScore>& scores, double wall) const {
-  Tally effects, none;
-  std::map<std::string, Tally> per;
-  for (const auto& s : scores) {
-    (s.effect ? effects : none).add(s);
-    per[s.form].add(s);
-  }
-  json j;
+json IndependentBench::document(const std::vector<DrawScore>& scores, const Tallies& t, double wall) const {
+  json j = bench_document({o_.seeds, o_.sample_rate_hz, o_.seconds, o_.torques_nm, wall});
   j["generator"] = "independent";
-  j["seeds"] = o_.seeds;
   j["first_seed"] = o_.first_seed;
-  j["sample_rate_hz"] = o_.sample_rate_hz;
-  j["record_seconds"] = o_.seconds;
   j["speeds_hz"] = o_.speeds_hz;
   j["held_out_speed_hz"] = o_.held_out_speed_hz;
-  j["torques_nm"] = o_.torques_nm;
   j["bootstrap_resamples"] = cfg_.gap.bootstrap_resamples;
-  j["effect_draws"] = effects.draws;
-  j["no_effect_draws"] = none.draws;
-  j["localisation_rate"] = number_or_null(frac(effects.localised, effects.draws));
-  j["description_rate"] = number_or_null(frac(effects.described, effects.draws));
-  j["attribution_draws"] = effects.applies;
-  j["attribution_rate"] = number_or_null(frac(effects.attributed, effects.applies));
-  j["no_effect_finding_rate"] = number_or_null(frac(none.findings, none.draws));
-  j["wall_seconds"] = wall;
+  j["effect_draws"] = t.effects.draws;
+  j["no_effect_draws"] = t.none.draws;
+  j["localisation_rate"] = number_or_null(fraction(t.effects.localised, t.effects.draws));
+  j["description_rate"] = number_or_null(fraction(t.effects.described, t.effects.draws));
+  j["attribution_draws"] = t.effects.applies;
+  j["attribution_rate"] = number_or_null(fraction(t.effects.attributed, t.effects.applies));
+  j["no_effect_finding_rate"] = number_or_null(fraction(t.none.findings, t.none.draws));
   json rows = json::array();
-  for (const auto& [form, t] : per)
-    rows.push_back({{"form", form}, {"draws", t.draws}, {"localised", t.localised}, {"described", t.described},
-                    {"attribution_draws", t.applies}, {"attributed", t.attributed}, {"any_finding", t.findings}});
+  for (const auto& [form, f] : t.per_form)
+    rows.push_back({{"form", form}, {"draws", f.draws}, {"localised", f.localised}, {"described", f.described},
+                    {"attribution_draws", f.applies}, {"attributed", f.attributed}, {"any_finding", f.findings}});
   j["per_form"] = rows;
   json draws = json::array();
   for (const auto& s : scores) draws.push_back(s.detail);
   j["draws"] = draws;
-  if (o_.format == "json") {
-    std::cout << dump_json(j, 2) << "\n";
-    return;
+  return j;
+}
+
+BenchTable IndependentBench::table(const Tallies& t, double wall) const {
+  BenchTable table;
+  auto heading = table_stream();
+  heading << "gap bench (independent generator): " << o_.seeds << " draws from seed " << o_.first_seed << " ("
+          << t.effects.draws << " with an effect, " << t.none.draws << " without); " << o_.sample_rate_hz << " Hz, "
+          << o_.seconds << " s records; " << wall << " s";
+  table.heading = heading.str();
+  table.columns = "form                  draws localised described attribution findings";
+  for (const auto& [form, f] : t.per_form) {
+    auto row = table_stream();
+    row << std::left << std::setw(22) << form << std::right << std::setw(5) << f.draws << std::setw(10) << f.localised
+        << std::setw(10) << f.described << std::setw(9) << f.attributed << "/" << f.applies << std::setw(9) << f.findings;
+    table.rows.push_back(row.str());
   }
-  std::cout << std::fixed << std::setprecision(2) << "gap bench (independent generator): " << o_.seeds << " draws from seed "
-            << o_.first_seed << " (" << effects.draws << " with an effect, " << none.draws << " without); "
-            << o_.sample_rate_hz << " Hz, " << o_.seconds << " s records; " << wall << " s\n"
-            << "form                  draws localised described attribution findings\n";
-  for (const auto& [form, t] : per)
-    std::cout << std::left << std::setw(22) << form << std::right << std::setw(5) << t.draws << std::setw(10) << t.localised
-              << std::setw(10) << t.described << std::setw(9) << t.attributed << "/" << t.applies << std::setw(9)
-              << t.findings << "\n";
-  std::cout << "localisation_rate " << frac(effects.localised, effects.draws) << " (target >= 0.95)\n"
-            << "description_rate " << frac(effects.described, effects.draws) << " (target >= 0.90)\n"
-            << "attribution_rate " << frac(effects.attributed, effects.applies) << " over " << effects.applies
-            << " draws where one applies (target >= 0.90)\n"
-            << "no_effect_finding_rate " << frac(none.findings, none.draws) << " (target <= 0.05)\n";
+  auto line = [](auto&&... parts) {
+    auto s = table_stream();
+    (s << ... << parts);
+    return s.str();
+  };
+  const Tally& e = t.effects;
+  table.summary = {line("localisation_rate ", fraction(e.localised, e.draws), " (target >= 0.95)"),
+                   line("description_rate ", fraction(e.described, e.draws), " (target >= 0.90)"),
+                   line("attribution_rate ", fraction(e.attributed, e.applies), " over ", e.applies,
+                        " draws where one applies (target >= 0.90)"),
+                   line("no_effect_finding_rate ", fraction(t.none.findings, t.none.draws), " (target <= 0.05)")};
+  return table;
+}
+
+void IndependentBench::print(const std::vector<DrawScore>& scores, double wall) const {
+  const Tallies t(scores);
+  printer_.print(document(scores, t, wall), table(t, wall));
 }
 
 void IndependentBench::run() {
@@ -385,9 +405,7 @@ void IndependentBench::run() {
       const std::uint64_t seed = o_.first_seed + static_cast<std::uint64_t>(i);
       const auto t0 = std::chrono::steady_clock::now();
       scores.push_back(run_draw(seed));
-      if (o_.format == "table")
-        std::cerr << "seed " << seed << " " << scores.back().form << " done in " << std::fixed << std::setprecision(1)
-                  << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s\n";
+      printer_.progress(seed, scores.back().form, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
   } catch (...) {
     std::error_code ec;

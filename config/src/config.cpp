@@ -157,6 +157,294 @@ void read_mqtt(TableReader t, MqttSettings& m) {
   t.reject_unknown();
 }
 
+void read_rig(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "rig", file), "rig.", file);
+  t.number("sample_rate_hz", cfg.rig.sample_rate_hz, 100.0, 10e6);
+  t.number("min_speed_hz", cfg.rig.min_speed_hz, 0.0, 1000.0);
+  t.number("max_speed_hz", cfg.rig.max_speed_hz, 0.0, 1000.0);
+  if (cfg.rig.max_speed_hz <= cfg.rig.min_speed_hz) t.fail(t.node("max_speed_hz"), "max_speed_hz", "must be above min_speed_hz");
+  t.reject_unknown();
+}
+
+void read_gears(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "gears", file), "gears.", file);
+  auto& g = cfg.rig.gears;
+  t.integer("pinion_teeth", g.pinion_teeth, 5, 500);
+  t.integer("gear_teeth", g.gear_teeth, 5, 1000);
+  double module_mm = g.module_m * 1e3, face_mm = g.face_width_m * 1e3, e_gpa = g.youngs_modulus_pa / 1e9;
+  t.number("module_mm", module_mm, 0.1, 100.0);
+  t.number("pressure_angle_deg", g.pressure_angle_deg, 10.0, 35.0);
+  t.number("face_width_mm", face_mm, 0.5, 2000.0);
+  t.number("youngs_modulus_gpa", e_gpa, 1.0, 1000.0);
+  t.number("poisson_ratio", g.poisson_ratio, 0.0, 0.5);
+  t.number("density_kg_m3", g.density_kg_m3, 100.0, 30000.0);
+  g.module_m = module_mm * 1e-3;
+  g.face_width_m = face_mm * 1e-3;
+  g.youngs_modulus_pa = e_gpa * 1e9;
+  t.reject_unknown();
+}
+
+void read_channels(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+if (const auto* arr = array_of_tables(root, "channels", file)) {
+  cfg.rig.channels.clear();
+  std::set<int> seen;
+  for (const auto& node : *arr) {
+    const auto* tbl = node.as_table();
+    TableReader t(tbl, "channels.", file);
+    ChannelSpec ch;
+    if (!tbl->get("number")) t.fail(tbl, "number", "every [[channels]] entry needs a number (0..7)");
+    t.integer("number", ch.number, 0, 7);
+    t.string("name", ch.name);
+    t.number("scale", ch.scale_m_s2_per_lsb, 1e-12, 1e6);
+    if (!seen.insert(ch.number).second) t.fail(tbl->get("number"), "number", "channel " + std::to_string(ch.number) + " configured twice");
+    t.reject_unknown();
+    cfg.rig.channels.push_back(ch);
+  }
+  if (cfg.rig.channels.empty()) throw ConfigError(file + ": key 'channels': at least one [[channels]] entry is needed");
+}
+}
+
+void read_tachos(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+if (const auto* arr = array_of_tables(root, "tachos", file)) {
+  cfg.rig.tachos.clear();
+  std::set<int> seen;
+  for (const auto& node : *arr) {
+    const auto* tbl = node.as_table();
+    TableReader t(tbl, "tachos.", file);
+    TachoSpec tacho;
+    if (!tbl->get("shaft")) t.fail(tbl, "shaft", "every [[tachos]] entry needs a shaft (0..3)");
+    t.integer("shaft", tacho.shaft, 0, 3);
+    t.string("name", tacho.name);
+    t.integer("edges_per_rev", tacho.edges_per_rev, 1, 100000);
+    t.number("ratio_to_input", tacho.ratio_to_input, 1e-6, 1e6);
+    if (!seen.insert(tacho.shaft).second) t.fail(tbl->get("shaft"), "shaft", "shaft " + std::to_string(tacho.shaft) + " configured twice");
+    t.reject_unknown();
+    cfg.rig.tachos.push_back(tacho);
+  }
+}
+}
+
+void read_records(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "records", file), "records.", file);
+  auto& s = cfg.rig.schedule;
+  t.number("length_s", s.length_s, 0.01, 3600.0);
+  t.number("interval_s", s.interval_s, 0.01, 30.0 * 86400.0);
+  if (t.node("min_length_s")) t.number("min_length_s", s.min_length_s, 0.0, 3600.0);
+  else s.min_length_s = std::min(s.min_length_s, s.length_s);  // the default never exceeds a short length
+  if (s.interval_s < s.length_s) t.fail(t.node("interval_s"), "interval_s", "must be at least length_s (records do not overlap)");
+  if (s.min_length_s > s.length_s) t.fail(t.node("min_length_s"), "min_length_s", "must not exceed length_s");
+  t.reject_unknown();
+}
+
+void read_protocol(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "protocol", file), "protocol.", file);
+  auto& p = cfg.protocol;
+  t.integer("vibration_base_id", p.vibration_base_id, 0, 0x7FF - 7);
+  t.integer("tacho_base_id", p.tacho_base_id, 0, 0x7FF - 3);
+  t.integer("stream_header_id", p.stream_header_id, 0, 0x7FF);
+  t.integer("operating_condition_id", p.operating_condition_id, 0, 0x7FF);
+  t.integer("life_counter_id", p.life_counter_id, 0, 0x7FF);
+  t.reject_unknown();
+}
+
+void read_acquisition(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "acquisition", file), "acquisition.", file);
+  auto& a = cfg.acquisition;
+  std::string source = a.source == SourceKind::socketcan ? "socketcan" : "candump";
+  t.string("source", source);
+  if (source == "socketcan") a.source = SourceKind::socketcan;
+  else if (source == "candump") a.source = SourceKind::candump;
+  else t.fail(t.node("source"), "source", "expected \"socketcan\" or \"candump\", got \"" + source + "\"");
+  t.string("interface", a.interface);
+  t.string("capture", a.capture, true);
+  t.integer("ring_capacity_samples", a.ring_capacity_samples, 1024, std::int64_t{1} << 32);
+  t.integer("receive_buffer_bytes", a.receive_buffer_bytes, 4096, std::int64_t{1} << 30);  // the kernel's own cap
+  t.integer("reopen_initial_ms", a.reopen_initial_ms, 1, 600000);
+  t.integer("reopen_max_ms", a.reopen_max_ms, 1, 3600000);
+  t.reject_unknown();
+}
+
+void read_storage(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "storage", file), "storage.", file);
+  auto& s = cfg.storage;
+  t.string("database", s.database);
+  t.integer("busy_timeout_ms", s.busy_timeout_ms, 0, 600000);
+  t.integer("queue_capacity", s.queue_capacity, 1, 1000000);
+  t.integer("retry_initial_ms", s.retry_initial_ms, 1, 600000);
+  t.integer("retry_max_ms", s.retry_max_ms, 1, 3600000);
+  t.reject_unknown();
+}
+
+void read_logging(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "logging", file), "logging.", file);
+  auto& l = cfg.logging;
+  t.string("level", l.level);
+  static const std::set<std::string> levels{"trace", "debug", "info", "warning", "warn", "error", "critical", "off"};
+  if (!levels.count(l.level)) t.fail(t.node("level"), "level", "expected one of trace, debug, info, warn, error, critical, off");
+  t.token("sink", l.sink, kAllLogSinks, "expected auto, journald or stderr");
+  t.number("rate_limit_s", l.rate_limit_s, 0.0, 86400.0);
+  t.reject_unknown();
+}
+
+void read_daemon(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "daemon", file), "daemon.", file);
+  t.number("health_interval_s", cfg.daemon.health_interval_s, 0.1, 86400.0);
+  t.number("watchdog_margin", cfg.daemon.watchdog_margin, 0.05, 0.95);
+  t.integer("processing_nice", cfg.daemon.processing_nice, 0, 19);
+  t.integer("channel_workers", cfg.daemon.channel_workers, 0, 64);
+  t.reject_unknown();
+}
+
+void read_alerts(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "alerts", file), "alerts.", file);
+  t.integer("wear_clear_after_records", cfg.alerts.wear_clear_after_records, 1, 100000);
+  t.integer("sensor_clear_after_records", cfg.alerts.sensor_clear_after_records, 1, 100000);
+  t.integer("baseline_records", cfg.alerts.baseline_records, 3, 100000);
+  t.number("threshold_sigma", cfg.alerts.threshold_sigma, 1.0, 1000.0);
+  t.integer("threshold_raise_after_records", cfg.alerts.threshold_raise_after_records, 1, 100000);
+  t.integer("threshold_clear_after_records", cfg.alerts.threshold_clear_after_records, 1, 100000);
+  if (const toml::node* n = t.node("watched_indicators")) {
+    const toml::array* a = n->as_array();
+    if (!a) t.fail(n, "watched_indicators", "expected a list of indicator names");
+    cfg.alerts.watched_indicators.clear();
+    for (const auto& item : *a) {
+      const auto name = item.value<std::string>();
+      if (!name || name->empty()) t.fail(&item, "watched_indicators", "expected indicator names (strings)");
+      cfg.alerts.watched_indicators.push_back(*name);
+    }
+  }
+  t.reject_unknown();
+}
+
+void read_processing(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  const toml::table* tbl = sub_table(root, "processing", file);
+  TableReader t(tbl, "processing.", file);
+  auto& p = cfg.processing;
+  t.integer("samples_per_revolution", p.samples_per_revolution, 0, 1 << 20);
+  t.integer("rms_sa_harmonics", p.rms_sa_harmonics, 1, 100);
+  t.integer("stored_gmf_harmonics", p.stored_gmf_harmonics, 1, 100);
+  t.integer("ics2_harmonics", p.ics2_harmonics, 1, 100);
+  t.integer("ics2_tolerance_bins", p.ics2_tolerance_bins, 0, 100);
+  // A band is written [low_hz, high_hz]; errors point at the node's line.
+  auto read_band = [&](const toml::node& n, const std::string& key, const char* expected) {
+    const toml::array* a = n.as_array();
+    const std::optional<double> low = a && a->size() == 2 ? number_of((*a)[0]) : std::nullopt;
+    const std::optional<double> high = a && a->size() == 2 ? number_of((*a)[1]) : std::nullopt;
+    if (!low || !high) t.fail(&n, key, expected);
+    const dsp::FrequencyBand b{*low, *high};
+    if (!(b.low_hz >= 0 && b.high_hz > b.low_hz)) t.fail(&n, key, "needs 0 <= low_hz < high_hz");
+    return b;
+  };
+  if (const toml::node* n = t.node("pitting_band_hz")) p.pitting_band = read_band(*n, "pitting_band_hz", "expected [low_hz, high_hz]");
+  if (const toml::node* n = t.node("abrasion_band_hz")) p.abrasion_band = read_band(*n, "abrasion_band_hz", "expected [low_hz, high_hz]");
+  t.integer("filter_bank_levels", p.filter_bank_levels, 1, 12);
+  if (const toml::node* n = t.node("kurtogram_band_selection")) {
+    auto b = n->value_exact<bool>();
+    if (!b) t.fail(n, "kurtogram_band_selection", "expected true or false");
+    p.kurtogram_band_selection = *b;
+  }
+  if (const toml::node* n = t.node("mean_carrier_ranges_hz")) {
+    const toml::array* a = n->as_array();
+    if (!a || a->empty()) t.fail(n, "mean_carrier_ranges_hz", "expected a list of [low_hz, high_hz] pairs");
+    p.mean_carrier_ranges.clear();
+    for (const auto& item : *a)
+      p.mean_carrier_ranges.push_back(read_band(item, "mean_carrier_ranges_hz", "expected [low_hz, high_hz] pairs"));
+  }
+  t.number("min_revolutions_for_tsa", p.min_revolutions_for_tsa, 1.0, 1e6);
+  t.number("max_clipped_fraction", p.max_clipped_fraction, 0.0, 1.0);
+  t.number("flat_line_max_std_lsb", p.flat_line_max_std_lsb, 0.0, 1000.0);
+  t.number("residual_rms_floor", p.residual_rms_floor, 0.0, 0.999);
+  t.number("band_energy_floor_db", p.band_energy_floor_db, -300.0, 0.0);
+  t.number("trend_significance", p.trend_significance, 1e-6, 0.5);
+  t.number("wear_min_band_share", p.wear_min_band_share, 0.0, 1.0);
+  t.integer("trend_window_records", p.trend_window_records, 3, 1000000);
+  t.integer("band_jump_persistence_records", p.band_jump_persistence_records, 1, 1000);
+  t.number("band_jump_sigma", p.band_jump_sigma, 0.0, 1000.0);
+  t.reject_unknown();
+  try {
+    p.validate(cfg.rig);
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(file + (tbl ? ":" + std::to_string(tbl->source().begin.line) : std::string{}) +
+                      ": [processing]: " + e.what());
+  }
+}
+
+void read_model(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "model", file), "model.", file);
+  auto& m = cfg.model;
+  if (const toml::node* n = t.node("enabled")) {
+    auto b = n->value_exact<bool>();
+    if (!b) t.fail(n, "enabled", "expected true or false");
+    m.enabled = *b;
+  }
+  t.integer("channel", m.channel, -1, 7);
+  if (m.channel >= 0 && std::none_of(cfg.rig.channels.begin(), cfg.rig.channels.end(),
+                                     [&](const ChannelSpec& c) { return c.number == m.channel; }))
+    t.fail(t.node("channel"), "channel", "channel " + std::to_string(m.channel) + " is not a configured [[channels]] entry");
+  t.number("initial_k_wear", m.initial_k_wear, 1e-16, 1e-3);
+  t.number("initial_k_pitting", m.initial_k_pitting, 0.0, 1e300);
+  t.number("update_threshold", m.update_threshold, 1e-4, 0.9);
+  t.number("convergence_tolerance", m.convergence_tolerance, 1e-5, 0.9);
+  if (m.convergence_tolerance > m.update_threshold)
+    t.fail(t.node("convergence_tolerance"), "convergence_tolerance", "must not exceed update_threshold");
+  t.integer("max_wear_iterations", m.max_wear_iterations, 1, 100);
+  t.token("k_wear_update", m.k_wear_update, wear::kAllKWearUpdateRules, "expected \"root_find\" or \"proportional\"");
+  t.number("min_wear_elasticity", m.min_wear_elasticity, 0.0, 0.99);
+  t.number("pitting_reference_torque_nm", m.pitting_reference_torque_nm, 1e-3, 1e5);
+  t.number("correlation_threshold", m.correlation_threshold, 0.01, 0.9999);
+  t.number("pitting_interval_cycles", m.pitting_interval_cycles, 1.0, 1e10);
+  t.number("simulation_revolutions", m.simulation_revolutions, 2.0, 1000.0);
+  if (m.simulation_revolutions < cfg.processing.min_revolutions_for_tsa)
+    t.fail(t.node("simulation_revolutions"), "simulation_revolutions", "must be at least processing.min_revolutions_for_tsa");
+  t.number("min_torque_nm", m.min_torque_nm, 1e-3, 1e5);
+  t.number("max_torque_nm", m.max_torque_nm, 1e-3, 1e5);
+  if (m.max_torque_nm <= m.min_torque_nm) t.fail(t.node("max_torque_nm"), "max_torque_nm", "must be above min_torque_nm");
+  t.number("wear_limit_fraction", m.wear_limit_fraction, 1e-4, 0.15);
+  t.number("pitting_limit", m.pitting_limit, 1e-4, 0.99);
+  t.number("forecast_horizon_cycles", m.forecast_horizon_cycles, 1.0, 1e11);
+  t.number("remaining_life_alert_cycles", m.remaining_life_alert_cycles, 0.0, 1e11);
+  t.integer("remaining_life_raise_after_records", m.remaining_life_raise_after_records, 1, 100000);
+  t.integer("remaining_life_clear_after_records", m.remaining_life_clear_after_records, 1, 100000);
+  t.integer("queue_capacity", m.queue_capacity, 1, 10000);
+  t.number("prior_log_k_wear_sd", m.prior_log_k_wear_sd, 1e-3, 50.0);
+  t.number("log_k_drift_per_million_cycles", m.log_k_drift_per_million_cycles, 0.0, 50.0);
+  t.number("rms_sa_relative_sd_floor", m.rms_sa_relative_sd_floor, 1e-5, 0.9);
+  t.number("inspection_area_relative_sd", m.inspection_area_relative_sd, 1e-4, 0.9);
+  t.integer("disagreement_records", m.disagreement_records, 1, 64);
+  t.integer("ics2_onset_records", m.ics2_onset_records, 1, 1000);
+  t.token("force_model", m.force_model, wear::kAllForceModels, "expected \"quasi-static\" or \"dynamic\"");
+  t.reject_unknown();
+}
+
+void read_gap(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  TableReader t(sub_table(root, "gap", file), "gap.", file);
+  auto& g = cfg.gap;
+  if (const toml::node* n = t.node("enabled")) {
+    auto b = n->value_exact<bool>();
+    if (!b) t.fail(n, "enabled", "expected true or false");
+    g.enabled = *b;
+  }
+  t.integer("every_records", g.every_records, 1, 1000000);
+  t.integer("training_records", g.training_records, 1, 64);
+  t.integer("held_out_records", g.held_out_records, 1, 64);
+  t.integer("channel", g.channel, -1, 7);
+  if (g.channel >= 0 && std::none_of(cfg.rig.channels.begin(), cfg.rig.channels.end(),
+                                     [&](const ChannelSpec& c) { return c.number == g.channel; }))
+    t.fail(t.node("channel"), "channel", "channel " + std::to_string(g.channel) + " is not a configured [[channels]] entry");
+  t.integer("bootstrap_resamples", g.bootstrap_resamples, 20, 100000);
+  t.integer("seed", g.seed, 0, std::numeric_limits<std::int64_t>::max());
+  if (const toml::node* n = t.node("rerun_twin")) {
+    auto b = n->value_exact<bool>();
+    if (!b) t.fail(n, "rerun_twin", "expected true or false");
+    g.rerun_twin = *b;
+  }
+  t.integer("drift_raise_after_reports", g.drift_raise_after_reports, 1, 1000);
+  t.integer("drift_clear_after_reports", g.drift_clear_after_reports, 1, 1000);
+  if (g.enabled && !cfg.model.enabled)
+    t.fail(t.node("enabled"), "enabled", "the gap diagnosis runs in the model thread: it needs [model] enabled = true");
+  t.reject_unknown();
+}
+
 GearwatchConfig from_table(const toml::table& root, const std::string& file) {
   GearwatchConfig cfg;
   static const std::set<std::string> known{"rig", "gears", "channels", "tachos", "records", "protocol",
@@ -168,277 +456,21 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
     }
   }
 
-  {
-    TableReader t(sub_table(root, "rig", file), "rig.", file);
-    t.number("sample_rate_hz", cfg.rig.sample_rate_hz, 100.0, 10e6);
-    t.number("min_speed_hz", cfg.rig.min_speed_hz, 0.0, 1000.0);
-    t.number("max_speed_hz", cfg.rig.max_speed_hz, 0.0, 1000.0);
-    if (cfg.rig.max_speed_hz <= cfg.rig.min_speed_hz) t.fail(t.node("max_speed_hz"), "max_speed_hz", "must be above min_speed_hz");
-    t.reject_unknown();
-  }
-  {
-    TableReader t(sub_table(root, "gears", file), "gears.", file);
-    auto& g = cfg.rig.gears;
-    t.integer("pinion_teeth", g.pinion_teeth, 5, 500);
-    t.integer("gear_teeth", g.gear_teeth, 5, 1000);
-    double module_mm = g.module_m * 1e3, face_mm = g.face_width_m * 1e3, e_gpa = g.youngs_modulus_pa / 1e9;
-    t.number("module_mm", module_mm, 0.1, 100.0);
-    t.number("pressure_angle_deg", g.pressure_angle_deg, 10.0, 35.0);
-    t.number("face_width_mm", face_mm, 0.5, 2000.0);
-    t.number("youngs_modulus_gpa", e_gpa, 1.0, 1000.0);
-    t.number("poisson_ratio", g.poisson_ratio, 0.0, 0.5);
-    t.number("density_kg_m3", g.density_kg_m3, 100.0, 30000.0);
-    g.module_m = module_mm * 1e-3;
-    g.face_width_m = face_mm * 1e-3;
-    g.youngs_modulus_pa = e_gpa * 1e9;
-    t.reject_unknown();
-  }
-  if (const auto* arr = array_of_tables(root, "channels", file)) {
-    cfg.rig.channels.clear();
-    std::set<int> seen;
-    for (const auto& node : *arr) {
-      const auto* tbl = node.as_table();
-      TableReader t(tbl, "channels.", file);
-      ChannelSpec ch;
-      if (!tbl->get("number")) t.fail(tbl, "number", "every [[channels]] entry needs a number (0..7)");
-      t.integer("number", ch.number, 0, 7);
-      t.string("name", ch.name);
-      t.number("scale", ch.scale_m_s2_per_lsb, 1e-12, 1e6);
-      if (!seen.insert(ch.number).second) t.fail(tbl->get("number"), "number", "channel " + std::to_string(ch.number) + " configured twice");
-      t.reject_unknown();
-      cfg.rig.channels.push_back(ch);
-    }
-    if (cfg.rig.channels.empty()) throw ConfigError(file + ": key 'channels': at least one [[channels]] entry is needed");
-  }
-  if (const auto* arr = array_of_tables(root, "tachos", file)) {
-    cfg.rig.tachos.clear();
-    std::set<int> seen;
-    for (const auto& node : *arr) {
-      const auto* tbl = node.as_table();
-      TableReader t(tbl, "tachos.", file);
-      TachoSpec tacho;
-      if (!tbl->get("shaft")) t.fail(tbl, "shaft", "every [[tachos]] entry needs a shaft (0..3)");
-      t.integer("shaft", tacho.shaft, 0, 3);
-      t.string("name", tacho.name);
-      t.integer("edges_per_rev", tacho.edges_per_rev, 1, 100000);
-      t.number("ratio_to_input", tacho.ratio_to_input, 1e-6, 1e6);
-      if (!seen.insert(tacho.shaft).second) t.fail(tbl->get("shaft"), "shaft", "shaft " + std::to_string(tacho.shaft) + " configured twice");
-      t.reject_unknown();
-      cfg.rig.tachos.push_back(tacho);
-    }
-  }
-  {
-    TableReader t(sub_table(root, "records", file), "records.", file);
-    auto& s = cfg.rig.schedule;
-    t.number("length_s", s.length_s, 0.01, 3600.0);
-    t.number("interval_s", s.interval_s, 0.01, 30.0 * 86400.0);
-    if (t.node("min_length_s")) t.number("min_length_s", s.min_length_s, 0.0, 3600.0);
-    else s.min_length_s = std::min(s.min_length_s, s.length_s);  // the default never exceeds a short length
-    if (s.interval_s < s.length_s) t.fail(t.node("interval_s"), "interval_s", "must be at least length_s (records do not overlap)");
-    if (s.min_length_s > s.length_s) t.fail(t.node("min_length_s"), "min_length_s", "must not exceed length_s");
-    t.reject_unknown();
-  }
-  {
-    TableReader t(sub_table(root, "protocol", file), "protocol.", file);
-    auto& p = cfg.protocol;
-    t.integer("vibration_base_id", p.vibration_base_id, 0, 0x7FF - 7);
-    t.integer("tacho_base_id", p.tacho_base_id, 0, 0x7FF - 3);
-    t.integer("stream_header_id", p.stream_header_id, 0, 0x7FF);
-    t.integer("operating_condition_id", p.operating_condition_id, 0, 0x7FF);
-    t.integer("life_counter_id", p.life_counter_id, 0, 0x7FF);
-    t.reject_unknown();
-  }
-  {
-    TableReader t(sub_table(root, "acquisition", file), "acquisition.", file);
-    auto& a = cfg.acquisition;
-    std::string source = a.source == SourceKind::socketcan ? "socketcan" : "candump";
-    t.string("source", source);
-    if (source == "socketcan") a.source = SourceKind::socketcan;
-    else if (source == "candump") a.source = SourceKind::candump;
-    else t.fail(t.node("source"), "source", "expected \"socketcan\" or \"candump\", got \"" + source + "\"");
-    t.string("interface", a.interface);
-    t.string("capture", a.capture, true);
-    t.integer("ring_capacity_samples", a.ring_capacity_samples, 1024, std::int64_t{1} << 32);
-    t.integer("receive_buffer_bytes", a.receive_buffer_bytes, 4096, std::int64_t{1} << 30);  // the kernel's own cap
-    t.integer("reopen_initial_ms", a.reopen_initial_ms, 1, 600000);
-    t.integer("reopen_max_ms", a.reopen_max_ms, 1, 3600000);
-    t.reject_unknown();
-  }
-  {
-    TableReader t(sub_table(root, "storage", file), "storage.", file);
-    auto& s = cfg.storage;
-    t.string("database", s.database);
-    t.integer("busy_timeout_ms", s.busy_timeout_ms, 0, 600000);
-    t.integer("queue_capacity", s.queue_capacity, 1, 1000000);
-    t.integer("retry_initial_ms", s.retry_initial_ms, 1, 600000);
-    t.integer("retry_max_ms", s.retry_max_ms, 1, 3600000);
-    t.reject_unknown();
-  }
+  read_rig(root, file, cfg);
+  read_gears(root, file, cfg);
+  read_channels(root, file, cfg);
+  read_tachos(root, file, cfg);
+  read_records(root, file, cfg);
+  read_protocol(root, file, cfg);
+  read_acquisition(root, file, cfg);
+  read_storage(root, file, cfg);
   read_mqtt(TableReader(sub_table(root, "mqtt", file), "mqtt.", file), cfg.mqtt);
-  {
-    TableReader t(sub_table(root, "logging", file), "logging.", file);
-    auto& l = cfg.logging;
-    t.string("level", l.level);
-    static const std::set<std::string> levels{"trace", "debug", "info", "warning", "warn", "error", "critical", "off"};
-    if (!levels.count(l.level)) t.fail(t.node("level"), "level", "expected one of trace, debug, info, warn, error, critical, off");
-    t.token("sink", l.sink, kAllLogSinks, "expected auto, journald or stderr");
-    t.number("rate_limit_s", l.rate_limit_s, 0.0, 86400.0);
-    t.reject_unknown();
-  }
-  {
-    TableReader t(sub_table(root, "daemon", file), "daemon.", file);
-    t.number("health_interval_s", cfg.daemon.health_interval_s, 0.1, 86400.0);
-    t.number("watchdog_margin", cfg.daemon.watchdog_margin, 0.05, 0.95);
-    t.integer("processing_nice", cfg.daemon.processing_nice, 0, 19);
-    t.integer("channel_workers", cfg.daemon.channel_workers, 0, 64);
-    t.reject_unknown();
-  }
-  {
-    TableReader t(sub_table(root, "alerts", file), "alerts.", file);
-    t.integer("wear_clear_after_records", cfg.alerts.wear_clear_after_records, 1, 100000);
-    t.integer("sensor_clear_after_records", cfg.alerts.sensor_clear_after_records, 1, 100000);
-    t.integer("baseline_records", cfg.alerts.baseline_records, 3, 100000);
-    t.number("threshold_sigma", cfg.alerts.threshold_sigma, 1.0, 1000.0);
-    t.integer("threshold_raise_after_records", cfg.alerts.threshold_raise_after_records, 1, 100000);
-    t.integer("threshold_clear_after_records", cfg.alerts.threshold_clear_after_records, 1, 100000);
-    if (const toml::node* n = t.node("watched_indicators")) {
-      const toml::array* a = n->as_array();
-      if (!a) t.fail(n, "watched_indicators", "expected a list of indicator names");
-      cfg.alerts.watched_indicators.clear();
-      for (const auto& item : *a) {
-        const auto name = item.value<std::string>();
-        if (!name || name->empty()) t.fail(&item, "watched_indicators", "expected indicator names (strings)");
-        cfg.alerts.watched_indicators.push_back(*name);
-      }
-    }
-    t.reject_unknown();
-  }
-  {
-    const toml::table* tbl = sub_table(root, "processing", file);
-    TableReader t(tbl, "processing.", file);
-    auto& p = cfg.processing;
-    t.integer("samples_per_revolution", p.samples_per_revolution, 0, 1 << 20);
-    t.integer("rms_sa_harmonics", p.rms_sa_harmonics, 1, 100);
-    t.integer("stored_gmf_harmonics", p.stored_gmf_harmonics, 1, 100);
-    t.integer("ics2_harmonics", p.ics2_harmonics, 1, 100);
-    t.integer("ics2_tolerance_bins", p.ics2_tolerance_bins, 0, 100);
-    // A band is written [low_hz, high_hz]; errors point at the node's line.
-    auto read_band = [&](const toml::node& n, const std::string& key, const char* expected) {
-      const toml::array* a = n.as_array();
-      const std::optional<double> low = a && a->size() == 2 ? number_of((*a)[0]) : std::nullopt;
-      const std::optional<double> high = a && a->size() == 2 ? number_of((*a)[1]) : std::nullopt;
-      if (!low || !high) t.fail(&n, key, expected);
-      const dsp::FrequencyBand b{*low, *high};
-      if (!(b.low_hz >= 0 && b.high_hz > b.low_hz)) t.fail(&n, key, "needs 0 <= low_hz < high_hz");
-      return b;
-    };
-    if (const toml::node* n = t.node("pitting_band_hz")) p.pitting_band = read_band(*n, "pitting_band_hz", "expected [low_hz, high_hz]");
-    if (const toml::node* n = t.node("abrasion_band_hz")) p.abrasion_band = read_band(*n, "abrasion_band_hz", "expected [low_hz, high_hz]");
-    t.integer("filter_bank_levels", p.filter_bank_levels, 1, 12);
-    if (const toml::node* n = t.node("kurtogram_band_selection")) {
-      auto b = n->value_exact<bool>();
-      if (!b) t.fail(n, "kurtogram_band_selection", "expected true or false");
-      p.kurtogram_band_selection = *b;
-    }
-    if (const toml::node* n = t.node("mean_carrier_ranges_hz")) {
-      const toml::array* a = n->as_array();
-      if (!a || a->empty()) t.fail(n, "mean_carrier_ranges_hz", "expected a list of [low_hz, high_hz] pairs");
-      p.mean_carrier_ranges.clear();
-      for (const auto& item : *a)
-        p.mean_carrier_ranges.push_back(read_band(item, "mean_carrier_ranges_hz", "expected [low_hz, high_hz] pairs"));
-    }
-    t.number("min_revolutions_for_tsa", p.min_revolutions_for_tsa, 1.0, 1e6);
-    t.number("max_clipped_fraction", p.max_clipped_fraction, 0.0, 1.0);
-    t.number("flat_line_max_std_lsb", p.flat_line_max_std_lsb, 0.0, 1000.0);
-    t.number("residual_rms_floor", p.residual_rms_floor, 0.0, 0.999);
-    t.number("band_energy_floor_db", p.band_energy_floor_db, -300.0, 0.0);
-    t.number("trend_significance", p.trend_significance, 1e-6, 0.5);
-    t.number("wear_min_band_share", p.wear_min_band_share, 0.0, 1.0);
-    t.integer("trend_window_records", p.trend_window_records, 3, 1000000);
-    t.integer("band_jump_persistence_records", p.band_jump_persistence_records, 1, 1000);
-    t.number("band_jump_sigma", p.band_jump_sigma, 0.0, 1000.0);
-    t.reject_unknown();
-    try {
-      p.validate(cfg.rig);
-    } catch (const std::invalid_argument& e) {
-      throw ConfigError(file + (tbl ? ":" + std::to_string(tbl->source().begin.line) : std::string{}) +
-                        ": [processing]: " + e.what());
-    }
-  }
-  {
-    TableReader t(sub_table(root, "model", file), "model.", file);
-    auto& m = cfg.model;
-    if (const toml::node* n = t.node("enabled")) {
-      auto b = n->value_exact<bool>();
-      if (!b) t.fail(n, "enabled", "expected true or false");
-      m.enabled = *b;
-    }
-    t.integer("channel", m.channel, -1, 7);
-    if (m.channel >= 0 && std::none_of(cfg.rig.channels.begin(), cfg.rig.channels.end(),
-                                       [&](const ChannelSpec& c) { return c.number == m.channel; }))
-      t.fail(t.node("channel"), "channel", "channel " + std::to_string(m.channel) + " is not a configured [[channels]] entry");
-    t.number("initial_k_wear", m.initial_k_wear, 1e-16, 1e-3);
-    t.number("initial_k_pitting", m.initial_k_pitting, 0.0, 1e300);
-    t.number("update_threshold", m.update_threshold, 1e-4, 0.9);
-    t.number("convergence_tolerance", m.convergence_tolerance, 1e-5, 0.9);
-    if (m.convergence_tolerance > m.update_threshold)
-      t.fail(t.node("convergence_tolerance"), "convergence_tolerance", "must not exceed update_threshold");
-    t.integer("max_wear_iterations", m.max_wear_iterations, 1, 100);
-    t.token("k_wear_update", m.k_wear_update, wear::kAllKWearUpdateRules, "expected \"root_find\" or \"proportional\"");
-    t.number("min_wear_elasticity", m.min_wear_elasticity, 0.0, 0.99);
-    t.number("pitting_reference_torque_nm", m.pitting_reference_torque_nm, 1e-3, 1e5);
-    t.number("correlation_threshold", m.correlation_threshold, 0.01, 0.9999);
-    t.number("pitting_interval_cycles", m.pitting_interval_cycles, 1.0, 1e10);
-    t.number("simulation_revolutions", m.simulation_revolutions, 2.0, 1000.0);
-    if (m.simulation_revolutions < cfg.processing.min_revolutions_for_tsa)
-      t.fail(t.node("simulation_revolutions"), "simulation_revolutions", "must be at least processing.min_revolutions_for_tsa");
-    t.number("min_torque_nm", m.min_torque_nm, 1e-3, 1e5);
-    t.number("max_torque_nm", m.max_torque_nm, 1e-3, 1e5);
-    if (m.max_torque_nm <= m.min_torque_nm) t.fail(t.node("max_torque_nm"), "max_torque_nm", "must be above min_torque_nm");
-    t.number("wear_limit_fraction", m.wear_limit_fraction, 1e-4, 0.15);
-    t.number("pitting_limit", m.pitting_limit, 1e-4, 0.99);
-    t.number("forecast_horizon_cycles", m.forecast_horizon_cycles, 1.0, 1e11);
-    t.number("remaining_life_alert_cycles", m.remaining_life_alert_cycles, 0.0, 1e11);
-    t.integer("remaining_life_raise_after_records", m.remaining_life_raise_after_records, 1, 100000);
-    t.integer("remaining_life_clear_after_records", m.remaining_life_clear_after_records, 1, 100000);
-    t.integer("queue_capacity", m.queue_capacity, 1, 10000);
-    t.number("prior_log_k_wear_sd", m.prior_log_k_wear_sd, 1e-3, 50.0);
-    t.number("log_k_drift_per_million_cycles", m.log_k_drift_per_million_cycles, 0.0, 50.0);
-    t.number("rms_sa_relative_sd_floor", m.rms_sa_relative_sd_floor, 1e-5, 0.9);
-    t.number("inspection_area_relative_sd", m.inspection_area_relative_sd, 1e-4, 0.9);
-    t.integer("disagreement_records", m.disagreement_records, 1, 64);
-    t.integer("ics2_onset_records", m.ics2_onset_records, 1, 1000);
-    t.token("force_model", m.force_model, wear::kAllForceModels, "expected \"quasi-static\" or \"dynamic\"");
-    t.reject_unknown();
-  }
-  {
-    TableReader t(sub_table(root, "gap", file), "gap.", file);
-    auto& g = cfg.gap;
-    if (const toml::node* n = t.node("enabled")) {
-      auto b = n->value_exact<bool>();
-      if (!b) t.fail(n, "enabled", "expected true or false");
-      g.enabled = *b;
-    }
-    t.integer("every_records", g.every_records, 1, 1000000);
-    t.integer("training_records", g.training_records, 1, 64);
-    t.integer("held_out_records", g.held_out_records, 1, 64);
-    t.integer("channel", g.channel, -1, 7);
-    if (g.channel >= 0 && std::none_of(cfg.rig.channels.begin(), cfg.rig.channels.end(),
-                                       [&](const ChannelSpec& c) { return c.number == g.channel; }))
-      t.fail(t.node("channel"), "channel", "channel " + std::to_string(g.channel) + " is not a configured [[channels]] entry");
-    t.integer("bootstrap_resamples", g.bootstrap_resamples, 20, 100000);
-    t.integer("seed", g.seed, 0, std::numeric_limits<std::int64_t>::max());
-    if (const toml::node* n = t.node("rerun_twin")) {
-      auto b = n->value_exact<bool>();
-      if (!b) t.fail(n, "rerun_twin", "expected true or false");
-      g.rerun_twin = *b;
-    }
-    t.integer("drift_raise_after_reports", g.drift_raise_after_reports, 1, 1000);
-    t.integer("drift_clear_after_reports", g.drift_clear_after_reports, 1, 1000);
-    if (g.enabled && !cfg.model.enabled)
-      t.fail(t.node("enabled"), "enabled", "the gap diagnosis runs in the model thread: it needs [model] enabled = true");
-    t.reject_unknown();
-  }
+  read_logging(root, file, cfg);
+  read_daemon(root, file, cfg);
+  read_alerts(root, file, cfg);
+  read_processing(root, file, cfg);
+  read_model(root, file, cfg);
+  read_gap(root, file, cfg);
   // [twin] is read by the twin's own loader (twin_config).
   if (cfg.rig.tachos.empty()) throw ConfigError(file + ": key 'tachos': at least one [[tachos]] entry is needed");
   return cfg;
