@@ -477,7 +477,11 @@ FeatureDescription FeatureDescriber::describe_floor(const GapFeature& f) const {
     }
   FeatureDescription none;
   if (x.empty()) return none;
-  const auto [level, slope] = line_fit(x, y);
+  // A slope needs a span: over less than an octave it trades off with the level (a single band's
+  // line would be any line), so there the change is a level alone.
+  const double span = *std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end());
+  auto [level, slope] = line_fit(x, y);
+  if (span < std::log10(2.0)) level = std::accumulate(y.begin(), y.end(), 0.0) / static_cast<double>(y.size()), slope = 0;
   double gap_sq = 0, rss = 0, core_sq = 0;
   std::size_t core = 0;
   for (std::size_t i = 0; i < x.size(); ++i) {
