@@ -13,7 +13,9 @@
 #include <string>
 #include <vector>
 
+#include "gearwatch/dsp/fft.hpp"
 #include "gearwatch/gap/candidates.hpp"
+#include "gearwatch/gap/describe.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/gap/evaluation.hpp"
 #include "constant_speed_record.hpp"
@@ -224,9 +226,10 @@ TEST_CASE("gap features: with no effect, Benjamini-Hochberg finds something in a
       r.measured.push_back(with_noise(r.twin.back(), rng));
     }
     const auto finders = finders_of(r, rng, {bh_only, FeatureSettings{}});
-    with_feature += finders[0].features().empty() ? 0 : 1;
+    // Features of the lines and bins and of the broadband floors (their bands are cells of the same test).
+    with_feature += finders[0].features().empty() && finders[0].floor_features().empty() ? 0 : 1;
     with_rejection += finders[0].rejected_cells() > 0 ? 1 : 0;
-    with_feature_at_minimum += finders[1].features().empty() ? 0 : 1;
+    with_feature_at_minimum += finders[1].features().empty() && finders[1].floor_features().empty() ? 0 : 1;
   }
   INFO(with_rejection << " draws of " << draws << " with a rejected cell");
   const double limit = draws * 0.05 + 3 * std::sqrt(draws * 0.05 * 0.95);
@@ -365,4 +368,127 @@ TEST_CASE("gap bounded fits: the diagnosis reports a candidate fitted at its bou
       CHECK(f.size_db == Approx(10 * std::log10((1e5 * p + floor) / (p + floor))).margin(0.1));
     }
   CHECK(mesh_features == 5);
+}
+
+namespace {
+
+/// Records made sample by sample: the twin's lines (mesh harmonics 19, 38, 57 at 1, 0.5, 0.33 m/s²
+/// peak, shaft orders 1-3 at 0.05) and, for the measurement, the same plus white Gaussian noise of
+/// RMS `sigma` over the whole band and, between `band_low` and `band_high` Hz, band-limited Gaussian
+/// noise of RMS `band_sigma`·sigma·sqrt(band width / (fs/2)) (an ideal band-pass of white noise of
+/// RMS band_sigma·sigma: its PSD in the band band_sigma² times the white part's).
+Record noisy_lines_record(double fs, double speed, int revs, double sigma, double band_sigma, double band_low, double band_high,
+                          std::mt19937_64& rng) {
+  const auto n = static_cast<std::size_t>((revs + 0.5) * fs / speed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<double> noise(n, 0.0);
+  for (auto& v : noise) v = sigma * normal(rng);
+  if (band_sigma > 0) {
+    dsp::RealFft fft(n);
+    dsp::RealBuffer x(n), y(n);
+    dsp::ComplexBuffer spectrum(fft.spectrum_size());
+    for (auto& v : x) v = band_sigma * sigma * normal(rng);
+    fft.forward(x, spectrum);
+    for (std::size_t k = 0; k < spectrum.size(); ++k) {
+      const double hz = static_cast<double>(k) * fs / static_cast<double>(n);
+      if (hz < band_low || hz >= band_high) spectrum[k] = 0;
+    }
+    fft.inverse(spectrum, y);
+    for (std::size_t i = 0; i < n; ++i) noise[i] += y[i] / static_cast<double>(n);
+  }
+  const std::vector<std::pair<double, double>> lines{{19, 1.0}, {38, 0.5}, {57, 0.33}, {1, 0.05}, {2, 0.05}, {3, 0.05}};
+  std::size_t i = 0;
+  return test::constant_speed_record(fs, speed, revs, [&](double t) {
+    double v = noise[i++];
+    for (const auto& [order, amplitude] : lines) v += amplitude * std::cos(2 * std::numbers::pi * order * speed * t + 0.3 * order);
+    return v;
+  });
+}
+
+struct FloorCase {
+  std::vector<SpectralSummary> measured, twin;
+  std::vector<FeatureFinder> finders;  // one
+};
+
+/// The records at kSpeeds through RecordSpectra, and a finder fed kDraws block-bootstrap draws of
+/// both records of each pair (the diagnosis's draws: blocks of 2 revolutions).
+FloorCase floor_case(double fs, double sigma, double band_sigma, double band_low, double band_high, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<RecordSpectra> measured, twin;
+  FloorCase c;
+  for (double speed : kSpeeds) {
+    twin.emplace_back(noisy_lines_record(fs, speed, 16, 0.0, 0.0, 0, 0, rng), 0, GearPairSpec{});
+    measured.emplace_back(noisy_lines_record(fs, speed, 16, sigma, band_sigma, band_low, band_high, rng), 0, GearPairSpec{});
+    c.measured.push_back(measured.back().summary());
+    c.twin.push_back(twin.back().summary());
+  }
+  std::vector<FeaturePair> pairs;
+  for (std::size_t i = 0; i < kSpeeds.size(); ++i) pairs.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), true, i});
+  c.finders.emplace_back(pairs, GearPairSpec{}, FeatureSettings{});
+  for (int d = 0; d < kDraws; ++d)
+    for (std::size_t i = 0; i < kSpeeds.size(); ++i) {
+      const auto m = measured[i].bootstrap(rng, 2);
+      const auto t = twin[i].bootstrap(rng, 2);
+      c.finders[0].add_draw(i, m, t);
+    }
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("gap features: a broadband floor step under the comparison's floor is a floor feature described with its level",
+          "[gap][gap_features]") {
+  // The measurement: the twin's lines plus white noise of 1e-3 m/s² RMS (the capture's own floor,
+  // which the twin lacks), and from 1500 Hz to the top of the band noise with 9 times that PSD: the
+  // floor 10·log10(1 + 9) = 10 dB up there. Per 1-order bin the noise sits 20-30 dB under the
+  // comparison's fixed floor (−60 dB re the twin's total line power), so no line or bin sees it.
+  const double fs = 10240, corner = 1500, step_db = 10;
+  auto c = floor_case(fs, 1e-3, 3.0, corner, fs, 360);
+  const auto& finder = c.finders[0];
+  INFO("lines and bins:\n" << descriptions(finder.features()) << "floors:\n" << descriptions(finder.floor_features()));
+  CHECK(finder.features().empty());
+  const auto floors = finder.floor_features();
+  REQUIRE(floors.size() == 1);
+  const auto& f = floors.front();
+  CHECK(f.seen_in.size() == kSpeeds.size());
+  // Where: from the band holding the corner (bands are 1/6 octave, 12 %, of whole bins, up to one
+  // bin of the fastest record wider) to the top of the analysed band.
+  CHECK(f.hz_low >= corner / 1.13 - kSpeeds.back());
+  CHECK(f.hz_low <= corner * 1.13 + kSpeeds.back());
+  CHECK(f.hz_high >= 0.45 * fs - kSpeeds.back());
+  // Its size is the largest band's g in each record: the step plus the largest of the medians'
+  // scatter over the ten bands above the corner, so at least the step less 1 dB (the level itself
+  // is the description's, below).
+  CHECK(f.size_db >= step_db - 1.0);
+  // Described: a floor change, its level at the feature's centre within 1 dB of the step (the bands
+  // astride the corner pull the line by a fraction of a dB), nearly flat.
+  std::vector<DescribedRecord> described;
+  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+  const auto d = FeatureDescriber(described, GearPairSpec{}).describe_floor(f);
+  INFO(to_string(d.kind) << ": " << describe(d));
+  REQUIRE(d.kind == DescriptionKind::floor_change);
+  const double at_centre = d.parameter("level_db") + d.parameter("slope_db_per_decade") * std::log10(f.hz / 1000);
+  CHECK(at_centre == Approx(step_db).margin(1.0));
+  CHECK(std::abs(d.parameter("slope_db_per_decade")) < 3.0);  // under 1.5 dB across the half decade the step spans
+}
+
+TEST_CASE("gap features: white noise the twin lacks, over the whole band, is the capture's own floor: no floor feature",
+          "[gap][gap_features]") {
+  // The same records with the white noise alone: the acquisition's floor, which the comparison adds
+  // to the twin's, so nothing is found, in the lines and bins or in the floors.
+  auto c = floor_case(10240, 1e-3, 0.0, 0, 0, 361);
+  const auto& finder = c.finders[0];
+  INFO("lines and bins:\n" << descriptions(finder.features()) << "floors:\n" << descriptions(finder.floor_features()));
+  CHECK(finder.features().empty());
+  CHECK(finder.floor_features().empty());
+  // The acquisition's floor read back: white noise of RMS σ holds σ²/(fs/2) per Hz; a 1-order bin
+  // of the Hann-windowed blocks holds about that times its width in peak-amplitude² terms (×2), so
+  // the estimate sits within a factor 2 of 2σ²·v/(fs/2) (a check on the scale, not a tuned figure).
+  for (std::size_t i = 0; i < kSpeeds.size(); ++i) {
+    const auto floors = compare_floors(c.measured[i], c.twin[i]);
+    const double expected = 2 * 1e-6 * kSpeeds[i] / (10240 / 2.0);
+    INFO("speed " << kSpeeds[i] << ": acquisition " << floors.acquisition << " expected " << expected);
+    CHECK(floors.acquisition > expected / 2);
+    CHECK(floors.acquisition < expected * 2);
+  }
 }

@@ -13,6 +13,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kMaxTones = 8;  // tones one feature fixed in Hz may hold (a supply's harmonics, a fan's)
+// A tone's leakage is followed at most this many input orders each side (a window wider than that
+// holds several tones, each followed over its own neighbourhood).
+constexpr double kMaxToneReachOrders = 12;
 
 double ratio_db(double measured, double model, double floor) { return 10.0 * std::log10((measured + floor) / (model + floor)); }
 
@@ -90,6 +93,7 @@ FeatureDescriber::FeatureDescriber(const std::vector<DescribedRecord>& records, 
     }
     records_.push_back(std::move(r));
   }
+  for (const auto& src : sources_) floors_.push_back(compare_floors(*src.measured, *src.twin, settings_.floor));
   floor_ = floor_change();
   tilt_ = path_tilt();
   modulation_input_ = modulation(FeatureShaft::input);
@@ -342,7 +346,12 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
     unit.input_lines.assign(t.input_lines.size(), 0.0);
     unit.output_lines.assign(t.output_lines.size(), 0.0);
     unit.broadband.assign(t.broadband.size(), 0.0);
-    add_non_synchronous_tone(unit, in_hz ? place / records_[r].speed_hz : place, 1.0, gears_);
+    // The tone's leakage followed over the whole window: a strong tone stands tens of dB over lines
+    // several orders away, further than the default reach (ToneReach) follows it.
+    const double order = in_hz ? place / records_[r].speed_hz : place;
+    double reach = 0;
+    for (std::size_t x = e; x < w.size() && w[x].first == r; ++x) reach = std::max(reach, std::abs(records_[r].cells[w[x].second].order - order));
+    add_non_synchronous_tone(unit, order, 1.0, gears_, 0.0, ToneReach::orders(std::min(reach + 1, kMaxToneReachOrders), gears_));
     for (; e < w.size() && w[e].first == r; ++e) {
       const Cell& c = records_[r].cells[w[e].second];
       const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;
@@ -457,6 +466,39 @@ FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window&
     return std::isfinite(p) ? p : records_[r].cells[i].twin;
   };
   return fit;
+}
+
+FeatureDescription FeatureDescriber::describe_floor(const GapFeature& f) const {
+  std::vector<double> x, y;  // log10(band centre / 1 kHz), g
+  for (const auto& floors : floors_)
+    for (std::size_t b = 0; b < floors.bands.size(); ++b) {
+      const double centre = std::sqrt(floors.bands[b].hz_low * floors.bands[b].hz_high);
+      if (centre >= f.hz_low && centre <= f.hz_high) x.push_back(std::log10(centre / 1000.0)), y.push_back(floors.gap_db(b));
+    }
+  FeatureDescription none;
+  if (x.empty()) return none;
+  // A slope needs a span: over less than an octave it trades off with the level (a single band's
+  // line would be any line), so there the change is a level alone.
+  const double span = *std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end());
+  auto [level, slope] = line_fit(x, y);
+  if (span < std::log10(2.0)) level = std::accumulate(y.begin(), y.end(), 0.0) / static_cast<double>(y.size()), slope = 0;
+  double gap_sq = 0, rss = 0, core_sq = 0;
+  std::size_t core = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double d = y[i] - (level + slope * x[i]);
+    gap_sq += y[i] * y[i], rss += d * d;
+    if (std::abs(y[i]) >= settings_.min_feature_db) core_sq += d * d, ++core;
+  }
+  const double n = static_cast<double>(x.size());
+  none.gap_db = std::sqrt(gap_sq / n);
+  // The rule as for the other forms: the line must bring the bands at the practical minimum under it.
+  if (core == 0 || !(std::sqrt(core_sq / static_cast<double>(core)) < settings_.min_feature_db)) return none;
+  FeatureDescription d;
+  d.kind = DescriptionKind::floor_change;
+  d.parameters = {{"level_db", level}, {"slope_db_per_decade", slope}};
+  d.gap_db = none.gap_db;
+  d.residual_db = std::sqrt(rss / n);
+  return d;
 }
 
 FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
@@ -581,7 +623,8 @@ void FeatureDescriber::describe_all(std::vector<GapFeature>& features) const {
 std::optional<CandidateEffect> explaining_candidate(const GapReport& report, const GapFeature& f, const GearPairSpec& gears) {
   FamilyKind family = FamilyKind::broadband;
   const double nearest = std::round(f.order);
-  if (f.movement == FeatureMovement::fixed_in_hz) family = FamilyKind::fixed_frequency;
+  if (f.description.kind == DescriptionKind::floor_change) family = FamilyKind::broadband;
+  else if (f.movement == FeatureMovement::fixed_in_hz) family = FamilyKind::fixed_frequency;
   else if (f.shaft == FeatureShaft::output && nearest >= 1) family = output_line_family(static_cast<int>(nearest), gears.gear_teeth);
   else if (std::abs(f.order - nearest) <= 0.25 && nearest >= 1) family = input_line_family(static_cast<int>(nearest), gears.pinion_teeth);
   if (std::find(report.unexplained.begin(), report.unexplained.end(), family) != report.unexplained.end()) return std::nullopt;

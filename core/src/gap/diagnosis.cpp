@@ -228,7 +228,16 @@ std::vector<GapFeature> find_features(const std::vector<PairSpectra>& train, con
     for (const auto& p : *set)
       described.push_back({&p.measured_all, &p.twin_all, p.floor, p.measured->input_line_means(), p.measured->output_line_means(),
                            p.twin.input_line_means(), p.twin.output_line_means()});
-  FeatureDescriber(described, gears, {s.features.min_feature_db}).describe_all(features);
+  DescriptionSettings describing;
+  describing.min_feature_db = s.features.min_feature_db;
+  describing.floor = s.features.floor;
+  const FeatureDescriber describer(described, gears, describing);
+  describer.describe_all(features);
+  // The broadband floors' features after the lines' and bins' (their own layer, described as floor changes).
+  for (auto& f : finder.floor_features()) {
+    f.description = describer.describe_floor(f);
+    features.push_back(std::move(f));
+  }
   return features;
 }
 

@@ -34,7 +34,67 @@ double normal_quantile(double coverage) {
 }
 
 
+/// The median of v (reordered).
+double median_of(std::vector<double>& v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  if (v.size() % 2 == 1) return *mid;
+  return 0.5 * (*mid + *std::max_element(v.begin(), mid));
+}
+
 }  // namespace
+
+double FloorComparison::gap_db(std::size_t band) const {
+  const FloorBand& b = bands.at(band);
+  const double tiny = std::numeric_limits<double>::min();  // both empty: equal
+  return 10.0 * std::log10((b.measured + tiny) / (b.twin + acquisition + tiny));
+}
+
+FloorComparison compare_floors(const SpectralSummary& measured, const SpectralSummary& twin, const FloorSettings& s) {
+  FloorComparison out;
+  const std::size_t n = std::min(measured.broadband.size(), twin.broadband.size());
+  const double v = measured.speed_hz;
+  if (n == 0 || !(v > 0) || !(s.bands_per_octave > 0)) return out;
+  // Bin i holds orders [i + 1, i + 2): Hz [(i + 1)·v, (i + 2)·v). Bands close at edges 2^(1/b) apart,
+  // each once it holds min_bins bins; the bins left at the top join the last band.
+  const double step = std::pow(2.0, 1.0 / s.bands_per_octave);
+  std::size_t first = 0;
+  while (first < n && (first + 1.0) * v < s.lowest_hz) ++first;
+  auto add_band = [&](std::size_t a, std::size_t b) { out.bands.push_back({(a + 1.0) * v, (b + 1.0) * v, a, b - a, 0, 0}); };
+  double edge = s.lowest_hz * step;
+  std::size_t a = first;
+  for (std::size_t i = first; i < n; ++i) {
+    const double centre = (i + 1.5) * v;
+    if (centre < edge) continue;
+    if (i - a >= s.min_bins) add_band(a, i), a = i;
+    while (edge <= centre) edge *= step;
+  }
+  if (n - a >= s.min_bins) add_band(a, n);
+  else if (!out.bands.empty()) out.bands.back().count = n - out.bands.back().first, out.bands.back().hz_high = (n + 1.0) * v;
+  std::vector<double> excess, scratch;
+  for (auto& band : out.bands) {
+    scratch.assign(measured.broadband.begin() + static_cast<std::ptrdiff_t>(band.first),
+                   measured.broadband.begin() + static_cast<std::ptrdiff_t>(band.first + band.count));
+    band.measured = median_of(scratch);
+    scratch.assign(twin.broadband.begin() + static_cast<std::ptrdiff_t>(band.first),
+                   twin.broadband.begin() + static_cast<std::ptrdiff_t>(band.first + band.count));
+    band.twin = median_of(scratch);
+    if (band.measured > 0 && band.measured >= s.excess_ratio * band.twin) excess.push_back(band.measured - band.twin);
+  }
+  if (!excess.empty()) {
+    // The low quantile finds the acquisition's level but sits under it by the bands' scatter; its
+    // value is the median of the bands up to a factor of two (the half-power criterion, as the
+    // features' practical minimum) above that quantile: those share the acquisition's floor.
+    std::sort(excess.begin(), excess.end());
+    const auto at = static_cast<std::size_t>(std::floor(std::clamp(s.acquisition_quantile, 0.0, 1.0) * static_cast<double>(excess.size() - 1)));
+    const double low = std::max(0.0, excess[at]);
+    std::vector<double> same;
+    for (double e : excess)
+      if (e <= 2 * low) same.push_back(e);
+    out.acquisition = same.empty() ? low : median_of(same);
+  }
+  return out;
+}
 
 double FeatureFinder::Cell::sd() const { return n > 1 ? std::sqrt(m2 / (n - 1)) : std::numeric_limits<double>::quiet_NaN(); }
 
@@ -77,6 +137,11 @@ FeatureFinder::FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPa
       r.cells.push_back({CellKind::output_line, j - 1, o - 0.5 * ratio, o + 0.5 * ratio, o,
                          ratio_db(m.output_lines[j - 1], t.output_lines[j - 1], p.floor)});
     }
+    const FloorComparison floors = compare_floors(m, t, settings.floor);
+    for (std::size_t b = 0; b < floors.bands.size(); ++b) {
+      const double lo = floors.bands[b].hz_low / r.speed_hz, hi = floors.bands[b].hz_high / r.speed_hz;
+      r.cells.push_back({CellKind::floor_band, b, lo, hi, 0.5 * (lo + hi), floors.gap_db(b)});
+    }
     records_.push_back(std::move(r));
   }
 }
@@ -87,12 +152,14 @@ void FeatureFinder::add_draw(std::size_t pair, const SpectralSummary& measured, 
   auto value = [&](const std::vector<double>& a, const std::vector<double>& b, std::size_t i) {
     return i < a.size() && i < b.size() ? ratio_db(a[i], b[i], floor) : std::numeric_limits<double>::quiet_NaN();
   };
+  const FloorComparison floors = compare_floors(measured, model, settings_.floor);
   for (Cell& c : r.cells) {
     double g = 0;
     switch (c.kind) {
       case CellKind::input_line: g = value(measured.input_lines, model.input_lines, c.index); break;
       case CellKind::output_line: g = value(measured.output_lines, model.output_lines, c.index); break;
       case CellKind::broadband: g = value(measured.broadband, model.broadband, c.index); break;
+      case CellKind::floor_band: g = c.index < floors.bands.size() ? floors.gap_db(c.index) : std::numeric_limits<double>::quiet_NaN(); break;
     }
     if (!std::isfinite(g)) continue;
     c.n += 1;
@@ -208,80 +275,89 @@ std::vector<std::vector<std::size_t>> FeatureFinder::join_clusters(const std::ve
   return out;
 }
 
-std::vector<GapFeature> FeatureFinder::features() const {
+std::vector<GapFeature> FeatureFinder::features() const { return layer_features(false); }
+
+std::vector<GapFeature> FeatureFinder::floor_features() const { return layer_features(true); }
+
+std::vector<GapFeature> FeatureFinder::layer_features(bool floor_layer) const {
   std::size_t rejected = 0;
   const auto flags = counted(rejected);
   std::vector<std::pair<std::size_t, std::size_t>> where;
   const auto p = p_values(where);
-  // Clusters: each record's counted cells in order of their extent, touching ones merged.
-  std::vector<Cluster> clusters;
-  std::vector<std::vector<std::size_t>> by_record(records_.size());
-  for (std::size_t i = 0; i < flags.size(); ++i)
-    if (flags[i]) by_record[where[i].first].push_back(where[i].second);
-  for (std::size_t r = 0; r < records_.size(); ++r) {
-    auto& cells = by_record[r];
-    const auto& all = records_[r].cells;
-    std::sort(cells.begin(), cells.end(), [&](std::size_t a, std::size_t b) { return all[a].low < all[b].low; });
-    for (std::size_t c : cells) {
-      if (!clusters.empty() && clusters.back().record == r && all[c].low <= clusters.back().high + 1e-9) {
-        clusters.back().cells.push_back(c);
-        clusters.back().high = std::max(clusters.back().high, all[c].high);
-      } else {
-        clusters.push_back({r, {c}, all[c].low, all[c].high});
-      }
-    }
-  }
-  const auto groups = join_clusters(clusters);
   // The p-value of each cell, for the feature's smallest.
   std::vector<std::vector<double>> cell_p(records_.size());
   for (std::size_t r = 0; r < records_.size(); ++r) cell_p[r].assign(records_[r].cells.size(), 1.0);
   for (std::size_t i = 0; i < p.size(); ++i) cell_p[where[i].first][where[i].second] = p[i];
-
   std::vector<GapFeature> out;
-  const double z = normal_quantile(settings_.coverage);
-  const double ratio = static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth;
-  for (const auto& group : groups) {
-    GapFeature f;
-    f.p_value = 1.0;
-    double order_lo = std::numeric_limits<double>::infinity(), order_hi = -order_lo;
-    f.hz_low = order_lo, f.hz_high = order_hi;
-    double variance = 0, peak_abs = -1;
-    CellKind peak_kind = CellKind::input_line;
+  // One layer: lines and bins, or the broadband floors' bands (the test above is over both).
+  {
+    // Clusters: each record's counted cells in order of their extent, touching ones merged.
+    std::vector<Cluster> clusters;
+    std::vector<std::vector<std::size_t>> by_record(records_.size());
+    for (std::size_t i = 0; i < flags.size(); ++i)
+      if (flags[i] && (records_[where[i].first].cells[where[i].second].kind == CellKind::floor_band) == floor_layer)
+        by_record[where[i].first].push_back(where[i].second);
     for (std::size_t r = 0; r < records_.size(); ++r) {
-      double weight = 0, centre = 0, peak = 0, peak_sd = 0;
-      for (std::size_t b : group) {
-        if (clusters[b].record != r) continue;
-        for (std::size_t c : clusters[b].cells) {
-          const Cell& cell = records_[r].cells[c];
-          weight += std::abs(cell.g), centre += std::abs(cell.g) * cell.centre;
-          if (std::abs(cell.g) > std::abs(peak)) peak = cell.g, peak_sd = cell.sd();
-          if (std::abs(cell.g) > peak_abs) peak_abs = std::abs(cell.g), peak_kind = cell.kind;
-          f.p_value = std::min(f.p_value, cell_p[r][c]);
-          order_lo = std::min(order_lo, cell.low), order_hi = std::max(order_hi, cell.high);
-          f.hz_low = std::min(f.hz_low, cell.low * records_[r].speed_hz);
-          f.hz_high = std::max(f.hz_high, cell.high * records_[r].speed_hz);
+      auto& cells = by_record[r];
+      const auto& all = records_[r].cells;
+      std::sort(cells.begin(), cells.end(), [&](std::size_t a, std::size_t b) { return all[a].low < all[b].low; });
+      for (std::size_t c : cells) {
+        if (!clusters.empty() && clusters.back().record == r && all[c].low <= clusters.back().high + 1e-9) {
+          clusters.back().cells.push_back(c);
+          clusters.back().high = std::max(clusters.back().high, all[c].high);
+        } else {
+          clusters.push_back({r, {c}, all[c].low, all[c].high});
         }
       }
-      if (weight == 0) continue;
-      const auto& rec = records_[r];
-      f.seen_in.push_back({rec.pair.held_out, rec.pair.record, rec.speed_hz, rec.torque_nm, centre / weight,
-                           centre / weight * rec.speed_hz, peak});
-      variance += std::isfinite(peak_sd) ? peak_sd * peak_sd : 0.0;
     }
-    const double n = static_cast<double>(f.seen_in.size());
-    for (const auto& s : f.seen_in) f.order += s.order / n, f.hz += s.hz / n, f.size_db += s.size_db / n;
-    const double half = z * std::sqrt(variance) / n;
-    f.size_interval_db = {f.size_db - half, f.size_db + half};
-    f.movement = movement_of(f.seen_in, settings_.min_speed_ratio);
-    f.shaft = peak_kind == CellKind::output_line ? FeatureShaft::output : FeatureShaft::input;
-    const double to_shaft = f.shaft == FeatureShaft::output ? 1.0 / ratio : 1.0;
-    f.order *= to_shaft;
-    f.order_low = order_lo * to_shaft, f.order_high = order_hi * to_shaft;
-    out.push_back(std::move(f));
+    for (const auto& group : join_clusters(clusters)) out.push_back(feature_of(clusters, group, cell_p));
   }
   std::stable_sort(out.begin(), out.end(),
                    [](const GapFeature& a, const GapFeature& b) { return std::abs(a.size_db) > std::abs(b.size_db); });
   return out;
+}
+
+GapFeature FeatureFinder::feature_of(const std::vector<Cluster>& clusters, const std::vector<std::size_t>& group,
+                                     const std::vector<std::vector<double>>& cell_p) const {
+  const double z = normal_quantile(settings_.coverage);
+  const double ratio = static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth;
+  GapFeature f;
+  f.p_value = 1.0;
+  double order_lo = std::numeric_limits<double>::infinity(), order_hi = -order_lo;
+  f.hz_low = order_lo, f.hz_high = order_hi;
+  double variance = 0, peak_abs = -1;
+  CellKind peak_kind = CellKind::input_line;
+  for (std::size_t r = 0; r < records_.size(); ++r) {
+    double weight = 0, centre = 0, peak = 0, peak_sd = 0;
+    for (std::size_t b : group) {
+      if (clusters[b].record != r) continue;
+      for (std::size_t c : clusters[b].cells) {
+        const Cell& cell = records_[r].cells[c];
+        weight += std::abs(cell.g), centre += std::abs(cell.g) * cell.centre;
+        if (std::abs(cell.g) > std::abs(peak)) peak = cell.g, peak_sd = cell.sd();
+        if (std::abs(cell.g) > peak_abs) peak_abs = std::abs(cell.g), peak_kind = cell.kind;
+        f.p_value = std::min(f.p_value, cell_p[r][c]);
+        order_lo = std::min(order_lo, cell.low), order_hi = std::max(order_hi, cell.high);
+        f.hz_low = std::min(f.hz_low, cell.low * records_[r].speed_hz);
+        f.hz_high = std::max(f.hz_high, cell.high * records_[r].speed_hz);
+      }
+    }
+    if (weight == 0) continue;
+    const auto& rec = records_[r];
+    f.seen_in.push_back({rec.pair.held_out, rec.pair.record, rec.speed_hz, rec.torque_nm, centre / weight,
+                         centre / weight * rec.speed_hz, peak});
+    variance += std::isfinite(peak_sd) ? peak_sd * peak_sd : 0.0;
+  }
+  const double n = static_cast<double>(f.seen_in.size());
+  for (const auto& s : f.seen_in) f.order += s.order / n, f.hz += s.hz / n, f.size_db += s.size_db / n;
+  const double half = z * std::sqrt(variance) / n;
+  f.size_interval_db = {f.size_db - half, f.size_db + half};
+  f.movement = movement_of(f.seen_in, settings_.min_speed_ratio);
+  f.shaft = peak_kind == CellKind::output_line ? FeatureShaft::output : FeatureShaft::input;
+  const double to_shaft = f.shaft == FeatureShaft::output ? 1.0 / ratio : 1.0;
+  f.order *= to_shaft;
+  f.order_low = order_lo * to_shaft, f.order_high = order_hi * to_shaft;
+  return f;
 }
 
 }  // namespace gearwatch::gap

@@ -282,14 +282,22 @@ SpectralSummary RecordSpectra::bootstrap(std::mt19937_64& rng, std::size_t block
   return summary(d.input_revs, d.output_revs, d.blocks);
 }
 
-void add_tone_to_broadband(SpectralSummary& s, double order, double power) {
+ToneReach ToneReach::orders(double orders, const GearPairSpec& gears) {
+  const double n = std::max(1.0, std::ceil(orders));
+  const double out_per_in = gears.pinion_teeth > 0 ? static_cast<double>(gears.gear_teeth) / gears.pinion_teeth : 1.0;
+  return {static_cast<int>(n) + 1, static_cast<int>(std::ceil(n * out_per_in)) + 1, 2 * static_cast<int>(n) + 1};
+}
+
+void add_tone_to_broadband(SpectralSummary& s, double order, double power, int half_bins) {
   if (!(power > 0)) return;
+  const int count = 2 * std::max(1, half_bins);
   const double centre = 2.0 * order;  // in half-order bins
-  const auto first = static_cast<long>(std::floor(centre)) - 2;
-  double weights[6], total = 0;
+  const auto first = static_cast<long>(std::floor(centre)) - (count / 2 - 1);
+  std::vector<double> weights(static_cast<std::size_t>(count));
+  double total = 0;
   // d steps by whole bins, so sin(π·d) only changes sign from one bin to the next.
   const double sine_at_first = std::sin(std::numbers::pi * (centre - static_cast<double>(first)));
-  for (int i = 0; i < 6; ++i) {
+  for (int i = 0; i < count; ++i) {
     const double d = centre - static_cast<double>(first + i);
     const double sine = i % 2 == 0 ? sine_at_first : -sine_at_first;
     // Hann kernel's power at d bins from the tone: (sinc(d)/(1 − d²))².
@@ -297,24 +305,24 @@ void add_tone_to_broadband(SpectralSummary& s, double order, double power) {
     if (std::abs(d) < 1e-9) w = 1.0;
     else if (std::abs(std::abs(d) - 1.0) < 1e-9) w = 0.25;
     else w = std::pow(sine / (std::numbers::pi * d) / (1.0 - d * d), 2);
-    weights[i] = w;
+    weights[static_cast<std::size_t>(i)] = w;
     total += w;
   }
-  for (int i = 0; i < 6; ++i) {
+  for (int i = 0; i < count; ++i) {
     const long j = first + i;
     const long k = j / 2;  // 1-order bin [k, k+1)
     if (j >= 2 && k >= 1 && k <= static_cast<long>(s.broadband.size()))
-      s.broadband[static_cast<std::size_t>(k - 1)] += power * weights[i] / total;
+      s.broadband[static_cast<std::size_t>(k - 1)] += power * weights[static_cast<std::size_t>(i)] / total;
   }
 }
 
 void add_non_synchronous_tone(SpectralSummary& s, double input_order, double power, const GearPairSpec& gears,
-                              double negligible_power) {
+                              double negligible_power, ToneReach reach) {
   if (!(power > 0) || !(input_order > 0)) return;
   // B/(B − 1) for the B = R − 1 broadband blocks RecordSpectra cuts from R input revolutions.
   const double broadband_bias = s.input_revolutions > 2 ? (s.input_revolutions - 1.0) / (s.input_revolutions - 2.0) : 1.0;
   if (power <= negligible_power || gears.pinion_teeth < 1 || gears.gear_teeth < 1) {
-    add_tone_to_broadband(s, input_order, power * broadband_bias);
+    add_tone_to_broadband(s, input_order, power * broadband_bias, reach.broadband_bins);
     return;
   }
   using Complex = std::complex<double>;
@@ -339,22 +347,22 @@ void add_non_synchronous_tone(SpectralSummary& s, double input_order, double pow
   const auto r_in = static_cast<double>(s.input_revolutions), r_out = static_cast<double>(s.output_revolutions);
   const double output_order = input_order * ratio;
   const auto shared = static_cast<long>(gears.gear_teeth / std::gcd(gears.pinion_teeth, gears.gear_teeth));
-  // Beyond three orders a line holds below 1/(3π·R)² of the tone (1e-3 for R = 4): the neighbours suffice.
-  // Input orders ⌊x⌋ − 2 … ⌊x⌋ + 3, output orders ⌊y⌋ − 3 … ⌊y⌋ + 4 (fewer near order 1).
-  constexpr long kInputLinesFollowed = 6, kOutputLinesFollowed = 8;
-  const long k0 = std::max(1L, static_cast<long>(std::floor(input_order)) - 2), k1 = static_cast<long>(std::floor(input_order)) + 3;
-  const long m0 = std::max(1L, static_cast<long>(std::floor(output_order)) - 3), m1 = static_cast<long>(std::floor(output_order)) + 4;
+  // Beyond three orders a line holds below 1/(3π·R)² of the tone (1e-3 for R = 4): by default the
+  // neighbours suffice. Input orders ⌊x⌋ − (n − 1) … ⌊x⌋ + n, output orders likewise (fewer near order 1).
+  const long n_in = std::max(1, reach.input_lines), n_out = std::max(1, reach.output_lines);
+  const long k0 = std::max(1L, static_cast<long>(std::floor(input_order)) - (n_in - 1)), k1 = static_cast<long>(std::floor(input_order)) + n_in;
+  const long m0 = std::max(1L, static_cast<long>(std::floor(output_order)) - (n_out - 1)), m1 = static_cast<long>(std::floor(output_order)) + n_out;
   // 1. The input synchronous average takes d_k; 2. the output one, of what is left, c_m (it leaves the
   // orders both shafts share to the input side); 3. the input lines are read off the tone less the
   // output average's part, the output lines off the tone less the input average's part (= c_m).
-  Complex input_average[kInputLinesFollowed], output_average[kOutputLinesFollowed];
+  std::vector<Complex> input_average(static_cast<std::size_t>(k1 - k0 + 1)), output_average(static_cast<std::size_t>(m1 - m0 + 1));
   double removed = 0;
   const Kernel tone_on_input = kernel_at(r_in, input_order), tone_on_output = kernel_at(r_out, output_order);
   for (long k = k0; k <= k1; ++k) {
     input_average[k - k0] = tone_on_input(static_cast<double>(k));
     removed += std::norm(input_average[k - k0]);
   }
-  Kernel input_line_on_output[kInputLinesFollowed];  // the input average's line k seen by the output average
+  std::vector<Kernel> input_line_on_output(input_average.size());  // the input average's line k seen by the output average
   input_line_on_output[0] = kernel_at(r_out, static_cast<double>(k0) * ratio);
   const Complex output_step = std::polar(1.0, 2 * std::numbers::pi * r_out * ratio);
   for (long k = k0 + 1; k <= k1; ++k)
@@ -370,8 +378,7 @@ void add_non_synchronous_tone(SpectralSummary& s, double input_order, double pow
     if (m <= static_cast<long>(s.output_lines.size()) && !output_line_is_mesh(static_cast<int>(m), gears.gear_teeth))
       s.output_lines[static_cast<std::size_t>(m - 1)] += power * std::norm(c);
   }
-  Complex input_line[kInputLinesFollowed];
-  std::copy(input_average, input_average + (k1 - k0 + 1), input_line);
+  std::vector<Complex> input_line = input_average;
   Kernel output_line_on_input = kernel_at(r_in, static_cast<double>(m0) / ratio);
   const Complex input_step = std::polar(1.0, 2 * std::numbers::pi * r_in / ratio);
   for (long m = m0; m <= m1; ++m) {
@@ -381,7 +388,7 @@ void add_non_synchronous_tone(SpectralSummary& s, double input_order, double pow
   }
   for (long k = k0; k <= k1 && k <= static_cast<long>(s.input_lines.size()); ++k)
     s.input_lines[static_cast<std::size_t>(k - 1)] += power * std::norm(input_line[k - k0]);
-  add_tone_to_broadband(s, input_order, power * std::max(0.0, 1.0 - removed) * broadband_bias);
+  add_tone_to_broadband(s, input_order, power * std::max(0.0, 1.0 - removed) * broadband_bias, reach.broadband_bins);
 }
 
 }  // namespace gearwatch::gap

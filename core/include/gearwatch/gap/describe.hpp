@@ -17,7 +17,9 @@
 //    record, one amplitude; a tone within `supply_tolerance_orders` of a harmonic of 50 or 60 Hz is
 //    supply pick-up, and tones at integer multiples of the lowest tone are its harmonics;
 //  - floor change: the broadband bins × 10^((L + S·log10(f/1 kHz))/10), least squares over every
-//    broadband bin above the comparison's floor;
+//    broadband bin above the comparison's floor; for a feature of the broadband floors
+//    (FeatureFinder::floor_features) the same line fitted to the floors' g (compare_floors) over
+//    the bands whose centre lies in its extent, the only form offered there (describe_floor);
 //  - path tilt: every line and bin × 10^((c + T·log2(f/f_mesh))/10), f_mesh the first mesh harmonic,
 //    least squares over the mesh harmonics (the path's strongest, cleanest lines).
 // Rule: each form is judged on the feature's window (its extent widened by half its width, at least
@@ -31,6 +33,7 @@
 #include <optional>
 #include <vector>
 
+#include "gearwatch/gap/features.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/rig.hpp"
 #include "gearwatch/types/gap_report.hpp"
@@ -52,6 +55,7 @@ struct DescriptionSettings {
   double resolution_db = 0.05;          ///< RSS floor per cell in the criterion (differences below are not told apart)
   double supply_tolerance_orders = 0.1; ///< a tone this near k·50/60 Hz (in input orders at the top speed) is supply
   int max_supply_harmonic = 40;
+  FloorSettings floor;                  ///< the broadband floors' bands, as the finder's (floor features)
 };
 
 class FeatureDescriber {
@@ -62,6 +66,10 @@ class FeatureDescriber {
   FeatureDescription describe(const GapFeature& feature) const;
   /// Every feature's description, then the tones' harmonics and supply pick-up over all of them.
   void describe_all(std::vector<GapFeature>& features) const;
+  /// A feature of the broadband floors (FeatureFinder::floor_features): a floor change (level at
+  /// 1 kHz, slope per decade) fitted to the floors' g over the bands whose centre lies in its extent
+  /// in Hz, when it brings the bands at the practical minimum under it; else none.
+  FeatureDescription describe_floor(const GapFeature& f) const;
 
   enum class CellKind : std::uint8_t { input_line, output_line, broadband };
   struct Cell {
@@ -103,6 +111,7 @@ class FeatureDescriber {
   GearPairSpec gears_;
   DescriptionSettings settings_;
   Fit floor_, tilt_, modulation_input_, modulation_output_;
+  std::vector<FloorComparison> floors_;  ///< each record's broadband floors (compare_floors)
 };
 
 /// The chosen candidate that explains a feature: the first in report.chosen whose families hold the

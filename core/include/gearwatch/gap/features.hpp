@@ -23,7 +23,9 @@
 //    at the fastest sighting) and beyond one order: fixed in Hz; beyond both: neither; within both
 //    (or one speed): undetermined;
 //  - size: per sighting the largest |g| with its sign, the mean over sightings; its interval the
-//    normal 90 % interval from the cells' bootstrap spreads (records independent).
+//    normal 90 % interval from the cells' bootstrap spreads (records independent);
+//  - broadband floors: each record's floor per band (compare_floors) is one more cell per band in
+//    the same test; floor bands cluster and join among themselves (floor_features()).
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -35,6 +37,42 @@
 
 namespace gearwatch::gap {
 
+/// The per-capture broadband floor (compare_floors).
+struct FloorSettings {
+  double lowest_hz = 10;           ///< bands start here
+  double bands_per_octave = 6;     ///< band edges (a band takes whole bins; narrower ones join the next)
+  std::size_t min_bins = 8;        ///< bins per band at least: a median over fewer is not a floor
+  /// The acquisition's own floor is this quantile of the bands' excess over the twin: the floor a
+  /// capture shows over most of its band is its own, not a gap (assumption: white, and a floor
+  /// change leaves at least this share of the bands alone).
+  double acquisition_quantile = 0.1;
+  /// A band informs the acquisition's floor when its measured floor is this many times the twin's
+  /// (elsewhere the twin's own floor hides it, and the excess is a difference of two large numbers).
+  double excess_ratio = 2;
+};
+
+/// One band of the broadband floors: the median power per 1-order bin over its bins (the median
+/// passes over non-synchronous tones and what leaks from lines).
+struct FloorBand {
+  double hz_low = 0, hz_high = 0;    ///< the band's bins' extent, Hz
+  std::size_t first = 0, count = 0;  ///< broadband bins [first, first + count) (index k − 1 for orders [k, k+1))
+  double measured = 0, twin = 0;
+};
+
+/// A record pair's broadband floors band by band, and the measured capture's own floor per bin
+/// (its acquisition: quantisation, sensor noise) that the twin lacks. A floor change lies where the
+/// measured floor departs from the twin's plus the acquisition's: g = 10·log10(M / (T + A)). This
+/// sees a floor step however far it lies under the comparison's fixed floor (floor_db), which is set
+/// by what a rig shows against the twin and not by the capture. A change over the whole band is
+/// the capture's own floor to this comparison: it cannot be told from the acquisition's.
+struct FloorComparison {
+  std::vector<FloorBand> bands;
+  double acquisition = 0;
+  double gap_db(std::size_t band) const;
+};
+/// Throws nothing: spectra without broadband bins give no bands.
+FloorComparison compare_floors(const SpectralSummary& measured, const SpectralSummary& twin, const FloorSettings& settings = {});
+
 struct FeatureSettings {
   double false_discovery_rate = 0.05;  ///< Benjamini–Hochberg q over all cells
   /// The practical minimum of a feature's cells, dB: a factor of two in power, the half-power
@@ -43,6 +81,7 @@ struct FeatureSettings {
   double min_feature_db = 3.0;
   double min_speed_ratio = 1.05;       ///< sightings at speeds this far apart can tell orders from Hz
   double coverage = 0.90;              ///< of the size's interval
+  FloorSettings floor;                 ///< the broadband floors' bands (floor features)
 };
 
 /// One record pair the features are read from: its spectra over all revolutions and the floor.
@@ -64,13 +103,17 @@ class FeatureFinder {
   /// The features, largest |size| first. Needs ≥ 2 draws of every pair (a pair without its spread
   /// has no p-values and no cells counted).
   std::vector<GapFeature> features() const;
+  /// The features of the broadband floors (compare_floors: one cell per band, in the same
+  /// Benjamini–Hochberg test as the lines and bins), found and joined as features() finds its own;
+  /// largest |size| first.
+  std::vector<GapFeature> floor_features() const;
   /// Cells rejected by Benjamini–Hochberg (before the practical minimum), for tests.
   std::size_t rejected_cells() const;
 
-  enum class CellKind : std::uint8_t { input_line, output_line, broadband };
+  enum class CellKind : std::uint8_t { input_line, output_line, broadband, floor_band };
   struct Cell {
     CellKind kind;
-    std::size_t index;      // order − 1 (lines), bin − 1 (broadband)
+    std::size_t index;      // order − 1 (lines), bin − 1 (broadband), band (floor_band)
     double low, high;       // extent in input orders
     double centre;          // input orders
     double g;               // dB
@@ -84,12 +127,16 @@ class FeatureFinder {
     double speed_hz, torque_nm;
     std::vector<Cell> cells;
   };
-  /// A run of touching counted cells of one record, with its extent in input orders.
+  /// A run of touching counted cells of one record, with its extent in input orders (floor bands
+  /// and lines/bins cluster apart: a floor band spans many lines).
   struct Cluster {
     std::size_t record;
     std::vector<std::size_t> cells;
     double low, high;
   };
+  std::vector<GapFeature> layer_features(bool floor_bands) const;
+  GapFeature feature_of(const std::vector<Cluster>& clusters, const std::vector<std::size_t>& group,
+                        const std::vector<std::vector<double>>& cell_p) const;
   /// The clusters joined into features: repeatedly, of the groups of clusters whose extents overlap
   /// within half a bin in orders, and of those that overlap so in Hz, the one seen in the most
   /// records (then the largest Σ|g|) is a feature, and its clusters leave. A line fixed in orders

@@ -164,9 +164,22 @@ std::shared_ptr<const RunOutResponse> run_out_response(const RecordSpectra& with
 /// of their gap). The other non-mesh orders are the shaft's orders.
 inline constexpr int kSidebandOrders = 1;
 
+/// How far a tone's leakage is followed (add_non_synchronous_tone): lines of each shaft and
+/// half-order broadband bins each side of the tone. The defaults hold what a tone up to about 30 dB
+/// over its neighbours puts there (beyond three orders a line keeps below 1/(3π·R)² of it); a
+/// stronger tone, seen against lines 40 dB under it, leaks measurably further.
+struct ToneReach {
+  int input_lines = 3;      ///< input orders ⌊x⌋ − (n − 1) … ⌊x⌋ + n
+  int output_lines = 4;     ///< output orders ⌊y⌋ − (n − 1) … ⌊y⌋ + n
+  int broadband_bins = 3;   ///< half-order bins each side of the tone's
+  /// A reach of `orders` input orders each side on both shafts and in the broadband part.
+  static ToneReach orders(double orders, const GearPairSpec& gears);
+};
+
 /// Adds a tone of `power` at a fractional input order to the broadband part the way a
-/// non-synchronous tone enters it (the 2-revolution Hann window's spread over half-order bins).
-void add_tone_to_broadband(SpectralSummary& s, double order, double power);
+/// non-synchronous tone enters it (the 2-revolution Hann window's spread over half-order bins,
+/// `half_bins` each side; the shares normalised over the bins followed).
+void add_tone_to_broadband(SpectralSummary& s, double order, double power, int half_bins = 3);
 
 /// Adds a non-synchronous tone of `power` at a fractional input order the way RecordSpectra sees
 /// it. A mean over R whole revolutions is one DFT over R revolutions read at an integer order, so it
@@ -179,7 +192,7 @@ void add_tone_to_broadband(SpectralSummary& s, double order, double power);
 /// next to a mesh harmonic 40 dB above its sidebands, several dB on them. Tones at or below
 /// `negligible_power` go to the broadband part whole (the lines' share of them cannot show).
 void add_non_synchronous_tone(SpectralSummary& s, double input_order, double power, const GearPairSpec& gears,
-                              double negligible_power = 0);
+                              double negligible_power = 0, ToneReach reach = {});
 
 /// Σ of the input-order lines' power: the reference of the comparison's floor and of the forms'
 /// negligible-power thresholds.
