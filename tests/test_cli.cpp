@@ -93,8 +93,17 @@ TEST_CASE("cli: SIGTERM stops `run` cleanly: drained, committed, exit 0", "[cli]
     ::execl(GEARWATCH_BINARY, GEARWATCH_BINARY, "run", "--config", (dir / "run.toml").c_str(), static_cast<char*>(nullptr));
     ::_exit(127);
   }
-  // Let it work for a while, then stop it mid-capture.
-  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  // Let it work until its first record is committed (its signal handlers are in place by then; a
+  // fixed wait sent the signal before them on a loaded machine), then stop it mid-capture.
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  auto records_committed = [&] {
+    const auto r = run("query records --db " + db + " --format json");
+    if (r.status != 0) return false;
+    const auto j = nlohmann::json::parse(r.out, nullptr, false);
+    return j.is_array() && !j.empty();
+  };
+  while (!records_committed() && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
   ::kill(pid, SIGTERM);
   int st = 0;
   ::waitpid(pid, &st, 0);
