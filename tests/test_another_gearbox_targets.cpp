@@ -18,7 +18,7 @@
 #include "command_runner.hpp"
 #include "gearwatch/config/config.hpp"
 #include "gearwatch/dsp/speed_estimation.hpp"
-#include "gearwatch/storage/sqlite.hpp"
+#include "db_column.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -98,13 +98,7 @@ fs::path replay(const TempDir& dir, const std::string& name, const std::vector<f
   return db;
 }
 
-std::vector<std::string> column(const fs::path& db, const std::string& sql) {
-  gearwatch::storage::Database d(db.string(), gearwatch::storage::Database::Mode::read_only);
-  gearwatch::storage::Statement s(d, sql);
-  std::vector<std::string> out;
-  while (s.step()) out.push_back(s.is_null(0) ? "NULL" : s.get_text(0));
-  return out;
-}
+using gearwatch::testing::column;
 
 /// One indicator of channel 0 per record, in record order.
 std::vector<double> indicator(const fs::path& db, const std::string& name) {

@@ -12,7 +12,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "gearwatch/storage/sqlite.hpp"
+#include "db_column.hpp"
 #include "temp_dir.hpp"
 #include <nlohmann/json.hpp>
 
@@ -77,13 +77,7 @@ Replayed replay(const gearwatch::testing::TempDir& dir, const std::string& name,
   return r;
 }
 
-std::vector<std::string> column(const fs::path& db, const std::string& sql) {
-  gearwatch::storage::Database d(db.string(), gearwatch::storage::Database::Mode::read_only);
-  gearwatch::storage::Statement s(d, sql);
-  std::vector<std::string> out;
-  while (s.step()) out.push_back(s.is_null(0) ? "NULL" : s.get_text(0));
-  return out;
-}
+using gearwatch::testing::column;
 
 double value(const fs::path& db, const std::string& name) {
   gearwatch::storage::Database d(db.string(), gearwatch::storage::Database::Mode::read_only);

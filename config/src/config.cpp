@@ -185,43 +185,43 @@ void read_gears(const toml::table& root, const std::string& file, GearwatchConfi
 }
 
 void read_channels(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
-if (const auto* arr = array_of_tables(root, "channels", file)) {
-  cfg.rig.channels.clear();
-  std::set<int> seen;
-  for (const auto& node : *arr) {
-    const auto* tbl = node.as_table();
-    TableReader t(tbl, "channels.", file);
-    ChannelSpec ch;
-    if (!tbl->get("number")) t.fail(tbl, "number", "every [[channels]] entry needs a number (0..7)");
-    t.integer("number", ch.number, 0, 7);
-    t.string("name", ch.name);
-    t.number("scale", ch.scale_m_s2_per_lsb, 1e-12, 1e6);
-    if (!seen.insert(ch.number).second) t.fail(tbl->get("number"), "number", "channel " + std::to_string(ch.number) + " configured twice");
-    t.reject_unknown();
-    cfg.rig.channels.push_back(ch);
+  if (const auto* arr = array_of_tables(root, "channels", file)) {
+    cfg.rig.channels.clear();
+    std::set<int> seen;
+    for (const auto& node : *arr) {
+      const auto* tbl = node.as_table();
+      TableReader t(tbl, "channels.", file);
+      ChannelSpec ch;
+      if (!tbl->get("number")) t.fail(tbl, "number", "every [[channels]] entry needs a number (0..7)");
+      t.integer("number", ch.number, 0, 7);
+      t.string("name", ch.name);
+      t.number("scale", ch.scale_m_s2_per_lsb, 1e-12, 1e6);
+      if (!seen.insert(ch.number).second) t.fail(tbl->get("number"), "number", "channel " + std::to_string(ch.number) + " configured twice");
+      t.reject_unknown();
+      cfg.rig.channels.push_back(ch);
+    }
+    if (cfg.rig.channels.empty()) throw ConfigError(file + ": key 'channels': at least one [[channels]] entry is needed");
   }
-  if (cfg.rig.channels.empty()) throw ConfigError(file + ": key 'channels': at least one [[channels]] entry is needed");
-}
 }
 
 void read_tachos(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
-if (const auto* arr = array_of_tables(root, "tachos", file)) {
-  cfg.rig.tachos.clear();
-  std::set<int> seen;
-  for (const auto& node : *arr) {
-    const auto* tbl = node.as_table();
-    TableReader t(tbl, "tachos.", file);
-    TachoSpec tacho;
-    if (!tbl->get("shaft")) t.fail(tbl, "shaft", "every [[tachos]] entry needs a shaft (0..3)");
-    t.integer("shaft", tacho.shaft, 0, 3);
-    t.string("name", tacho.name);
-    t.integer("edges_per_rev", tacho.edges_per_rev, 1, 100000);
-    t.number("ratio_to_input", tacho.ratio_to_input, 1e-6, 1e6);
-    if (!seen.insert(tacho.shaft).second) t.fail(tbl->get("shaft"), "shaft", "shaft " + std::to_string(tacho.shaft) + " configured twice");
-    t.reject_unknown();
-    cfg.rig.tachos.push_back(tacho);
+  if (const auto* arr = array_of_tables(root, "tachos", file)) {
+    cfg.rig.tachos.clear();
+    std::set<int> seen;
+    for (const auto& node : *arr) {
+      const auto* tbl = node.as_table();
+      TableReader t(tbl, "tachos.", file);
+      TachoSpec tacho;
+      if (!tbl->get("shaft")) t.fail(tbl, "shaft", "every [[tachos]] entry needs a shaft (0..3)");
+      t.integer("shaft", tacho.shaft, 0, 3);
+      t.string("name", tacho.name);
+      t.integer("edges_per_rev", tacho.edges_per_rev, 1, 100000);
+      t.number("ratio_to_input", tacho.ratio_to_input, 1e-6, 1e6);
+      if (!seen.insert(tacho.shaft).second) t.fail(tbl->get("shaft"), "shaft", "shaft " + std::to_string(tacho.shaft) + " configured twice");
+      t.reject_unknown();
+      cfg.rig.tachos.push_back(tacho);
+    }
   }
-}
 }
 
 void read_records(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
