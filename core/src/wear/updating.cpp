@@ -511,10 +511,9 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   else update_k_wear_root_find(search, u);
   u.iterations = search.evaluations;
 
-  // Keep the best K found if it improved on the old one; otherwise nothing changes. An
-  // insensitive RMS_SA at the current K changes nothing either: its best K would follow the scatter.
-  // (Insensitive at the sensitivity read, the only re-run so far.)
-  const bool insensitive_here = u.outcome == UpdateOutcome::insensitive && search.evaluations == 1;
+  // Keep the best K found if it improved on the old one; otherwise nothing changes. An RMS_SA
+  // insensitive to K_wear at the root changes nothing either: its K would follow the scatter.
+  const bool insensitive_here = u.outcome == UpdateOutcome::insensitive;
   // A K whose RMS_SA still misses the measurement by more than the update threshold is no
   // measurement of K_wear: the twin's RMS_SA-wear relation does not reach the record from the
   // anchor (a model-form disagreement, e.g. the measured RMS_SA dipping deeper with wear than the
@@ -551,6 +550,7 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
                 u.old_value, u.new_value);
   u.evidence = b;
   if (std::isfinite(u.elasticity)) u.evidence += "; elasticity d ln RMS_SA / d ln K_wear " + fmt("%.3g", u.elasticity);
+  if (std::isfinite(search.root_elasticity)) u.evidence += " (at the root " + fmt("%.3g", search.root_elasticity) + ")";
   if (!search.why.empty()) u.evidence += "; " + search.why;
   if (keep) {
     // The update is a measurement of ln K_wear: ε / e with ε the RMS_SA's relative scatter and e
@@ -569,11 +569,13 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
 
 std::optional<TwinModel::WearTrial> TwinModel::wear_trial(double k, WearSearch& search, KUpdate& u) {
   ++search.evaluations;
+  search.depth_limited = false;
   memory_ = search.saved;
   WearTrial t;
   t.k = k;
   if (!rerun(search.anchor, Override{k, std::nullopt, search.anchor.state.cycles}, t.state, true)) {
     u.outcome = UpdateOutcome::bound_reached;
+    search.depth_limited = true;
     search.why = "with K_wear = " + fmt("%.4g", k) + " a flank passes the depth limit before the record";
     return std::nullopt;
   }
@@ -629,96 +631,199 @@ void TwinModel::update_k_wear_proportional(WearSearch& search, KUpdate& u) {
 }
 
 namespace {
-// The root-find's points: x = ln K_wear, g = ln(RMS_SA,sim / RMS_SA,meas).
-struct LogPoint {
-  double x = 0, g = 0;
-};
-
-// The tightest pair of points on either side of the root, if any.
-std::optional<std::pair<double, double>> bracket_of(const std::vector<LogPoint>& pts) {
-  std::optional<std::pair<double, double>> best;
-  for (const LogPoint& a : pts)
-    for (const LogPoint& b : pts)
-      if (a.g < 0 && b.g > 0 && (!best || std::abs(a.x - b.x) < best->second - best->first))
-        best = std::pair{std::min(a.x, b.x), std::max(a.x, b.x)};
+// The tightest pair of points on either side of the root, if any: (low, high) with low.g < 0 < high.g.
+std::optional<std::pair<LogKPoint, LogKPoint>> bracket_of(const std::vector<LogKPoint>& pts) {
+  std::optional<std::pair<LogKPoint, LogKPoint>> best;
+  for (const LogKPoint& a : pts)
+    for (const LogKPoint& b : pts)
+      if (a.g < 0 && b.g > 0 && (!best || std::abs(a.x - b.x) < std::abs(best->first.x - best->second.x))) best = std::pair{a, b};
   return best;
 }
+
+// The outermost point in direction dir (+1: largest ln K, −1: smallest) and its finite neighbour inwards.
+std::pair<LogKPoint, std::optional<LogKPoint>> outermost(const std::vector<LogKPoint>& pts, int dir) {
+  std::vector<LogKPoint> sorted = pts;
+  std::sort(sorted.begin(), sorted.end(), [dir](const LogKPoint& a, const LogKPoint& b) { return dir * a.x > dir * b.x; });
+  std::optional<LogKPoint> inner;
+  if (sorted.size() > 1 && std::isfinite(sorted[1].g)) inner = sorted[1];
+  return {sorted.front(), inner};
+}
+
+// Elasticity near x: the slope to the nearest finite point on the other side of the root (the
+// nearest finite point when there is none).
+double elasticity_near(const std::vector<LogKPoint>& pts, const LogKPoint& p) {
+  std::optional<LogKPoint> across, any;
+  for (const LogKPoint& q : pts) {
+    if (!std::isfinite(q.g) || q.x == p.x) continue;
+    if (!any || std::abs(q.x - p.x) < std::abs(any->x - p.x)) any = q;
+    if (q.g * p.g <= 0 && (!across || std::abs(q.x - p.x) < std::abs(across->x - p.x))) across = q;
+  }
+  const std::optional<LogKPoint>& n = across ? across : any;
+  return n ? (p.g - n->g) / (p.x - n->x) : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::string k_of(double x) { return fmt("%.4g", std::exp(x)); }
 }  // namespace
+
+std::optional<double> TwinModel::wear_log_error(double x, WearSearch& search, KUpdate& u) {
+  const std::optional<WearTrial> t = wear_trial(std::exp(x), search, u);
+  if (t) return t->log_error;
+  if (!search.depth_limited) return std::nullopt;   // the simulation failed: the search stops with its reason
+  // The depth limit passed before the record: K is too large, a bracket's upper end.
+  search.why.clear();
+  u.outcome = UpdateOutcome::iteration_limit;
+  return std::numeric_limits<double>::infinity();
+}
 
 void TwinModel::update_k_wear_root_find(WearSearch& search, KUpdate& u) {
   // The sensitivity read: one re-run at the step Eq. 7.13 would take (at least 5 % in K, so the
   // difference is not the blue loop's step-size noise); it is also the first candidate.
+  const double lo = std::log(settings_.k_wear_min_si), hi = std::log(settings_.k_wear_max_si);
   const double x0 = std::log(std::max(search.k0, settings_.k_wear_min_si));
   const double g0 = std::log(search.sim0 / search.measured);
   const double h = std::abs(g0) < 0.05 ? std::copysign(0.05, -g0) : -g0;
-  const double k1 = std::clamp(std::exp(x0 + h), settings_.k_wear_min_si, settings_.k_wear_max_si);
-  if (k1 == search.k0) {
+  const double x1 = std::clamp(x0 + h, lo, hi);
+  if (std::abs(x1 - x0) < 1e-12) {
     u.outcome = UpdateOutcome::bound_reached;
-    search.why = "K_wear at its bound " + fmt("%.4g", search.k0);
+    search.why = "K_wear at its bound " + k_of(x0);
     return;
   }
-  std::optional<WearTrial> t = wear_trial(k1, search, u);
-  if (!t) return;
-  const double x1 = std::log(k1);
-  u.elasticity = (t->log_error - g0) / (x1 - x0);
-  if (wear_converged(*t, search.measured)) {
-    u.outcome = UpdateOutcome::converged;
-    return;
-  }
-  if (!(std::abs(u.elasticity) >= settings_.min_wear_elasticity)) {
-    u.outcome = UpdateOutcome::insensitive;
-    search.why = "RMS_SA barely follows K_wear here (elasticity " + fmt("%.3g", u.elasticity) + ", below " +
-                 fmt("%.3g", settings_.min_wear_elasticity) + "): a " + fmt("%.3g", 100 * settings_.rms_threshold) +
-                 " % mismatch would move K_wear by more than a decade, so K_wear is left as it was";
-    return;
-  }
-  std::vector<LogPoint> pts{{x0, g0}, {x1, t->log_error}};
+  std::vector<LogKPoint> pts{{x0, g0}};
+  const std::optional<double> g1 = wear_log_error(x1, search, u);
+  if (!g1) return;
+  pts.push_back({x1, *g1});
+  if (std::isfinite(*g1)) u.elasticity = (*g1 - g0) / (x1 - x0);
   u.outcome = UpdateOutcome::iteration_limit;
-  while (search.evaluations < settings_.max_wear_iterations) {
-    const LogPoint a = pts[pts.size() - 2], b = pts.back();
-    const auto bracket = bracket_of(pts);
-    // Secant through the last two points; inside a bracket, bisection when it leaves the bracket;
-    // outside one, at most a decade per step.
-    double x = a.g == b.g ? b.x + (b.x - a.x) : b.x - b.g * (b.x - a.x) / (b.g - a.g);
-    if (bracket && !(x > bracket->first && x < bracket->second)) x = 0.5 * (bracket->first + bracket->second);
-    if (!bracket) x = std::clamp(x, b.x - std::log(10.0), b.x + std::log(10.0));
-    const double k = std::clamp(std::exp(x), settings_.k_wear_min_si, settings_.k_wear_max_si);
-    if (std::abs(std::log(k) - b.x) < 1e-12) {   // pinned at a bound it already tried
-      u.outcome = UpdateOutcome::bound_reached;
-      search.why = "K_wear at its bound " + fmt("%.4g", k);
-      return;
+  if (std::abs(std::expm1(*g1)) <= settings_.convergence_tolerance) return finish_root(pts.back(), pts, search, u);
+  // The first direction is where the read brought RMS_SA closer; the other is tried when that one
+  // ends at a bound (RMS_SA need not be monotone in K: early in life it dips before it rises).
+  const int toward = std::abs(*g1) < std::abs(g0) ? (x1 > x0 ? 1 : -1) : (x1 > x0 ? -1 : 1);
+  std::optional<LogKPoint> converged;
+  if (!bracket_of(pts) && !expand_bracket(pts, toward, search, u, converged)) return;
+  if (!converged && !refine_bracket(pts, search, u, converged)) return;
+  finish_root(*converged, pts, search, u);
+}
+
+bool TwinModel::expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch& search, KUpdate& u,
+                               std::optional<LogKPoint>& converged) {
+  // Steps of one decade doubling each time (1, 2, 4, 8 decades: the whole configured range within
+  // a few re-runs), shorter where the secant through the outermost two points predicts the root.
+  const double lo = std::log(settings_.k_wear_min_si), hi = std::log(settings_.k_wear_max_si);
+  bool exhausted[2] = {false, false};
+  double step = std::log(10.0);
+  while (!bracket_of(pts)) {
+    if (search.evaluations >= settings_.max_wear_iterations) {
+      search.why = "no K_wear tried crossed the measurement in " + std::to_string(settings_.max_wear_iterations) +
+                   " twin re-runs (iteration limit; tried K_wear " + k_of(outermost(pts, -1).first.x) + " to " +
+                   k_of(outermost(pts, 1).first.x) + " m^2/N)";
+      return false;
     }
-    const std::optional<WearTrial> best_before = search.best;
-    t = wear_trial(k, search, u);
-    if (!t) return;
-    if (wear_converged(*t, search.measured)) {
-      u.outcome = UpdateOutcome::converged;
-      return;
+    const auto [end, inner] = outermost(pts, dir);
+    double x = end.x + dir * step;
+    if (inner && std::isfinite(end.g) && end.g != inner->g) {
+      const double towards_root = -end.g * (end.x - inner->x) / (end.g - inner->g) * dir;   // secant distance along dir
+      if (towards_root > 0) x = end.x + dir * std::min(step, towards_root);
     }
-    const LogPoint next{std::log(k), t->log_error};
-    const double slope = (next.g - b.g) / (next.x - b.x);
-    if (!bracket && next.g * b.g > 0 && std::abs(slope) < settings_.min_wear_elasticity) {
-      // The measurement lies beyond what any K_wear gives from the anchor (e.g. below the
-      // RMS_SA of the anchor's own profile, which K_wear -> 0 approaches). Going on would drive K
-      // towards a bound where RMS_SA no longer depends on it, and every later update would find
-      // it insensitive there; the best K before the flat stretch is kept instead.
-      search.best = best_before;
-      u.outcome = UpdateOutcome::insensitive;
-      search.why = "RMS_SA stops following K_wear between " + fmt("%.4g", std::exp(b.x)) + " and " + fmt("%.4g", k) +
-                   " m^2/N (elasticity " + fmt("%.3g", slope) + ", below " + fmt("%.3g", settings_.min_wear_elasticity) +
-                   "): no K_wear reaches the measurement from the anchor's state; the closest K before that is kept";
-      return;
+    x = std::clamp(x, lo, hi);
+    if (!std::isfinite(end.g) || std::abs(x - end.x) < 1e-12) {
+      exhausted[dir > 0] = true;
+      if (exhausted[dir < 0]) break;
+      dir = -dir;
+      step = std::log(10.0);
+      continue;
     }
-    if (!bracket && next.g * b.g > 0 && std::abs(next.g) >= std::abs(b.g)) {
-      u.outcome = UpdateOutcome::not_monotone;
-      search.why = "the error grew from " + fmt("%.3g", 100 * std::expm1(b.g)) + " % to " + fmt("%.3g", 100 * std::expm1(next.g)) +
-                   " % along K_wear: RMS_SA turns here and has no root nearby";
-      return;
+    const std::optional<double> g = wear_log_error(x, search, u);
+    if (!g) return false;
+    pts.push_back({x, *g});
+    if (std::abs(std::expm1(*g)) <= settings_.convergence_tolerance) {
+      converged = pts.back();
+      return true;
     }
-    pts.push_back(next);
+    step *= 2;
   }
-  search.why = "no convergence to " + fmt("%.3g", 100 * settings_.convergence_tolerance) + " % in " +
-               std::to_string(settings_.max_wear_iterations) + " twin re-runs";
+  if (bracket_of(pts)) return true;
+  if (refuse_flat(pts, search, u)) return false;
+  u.outcome = UpdateOutcome::bound_reached;
+  search.why = "no K_wear from " + k_of(outermost(pts, -1).first.x) + " to " + k_of(outermost(pts, 1).first.x) +
+               " m^2/N reaches the measurement (bound: the configured K_wear range";
+  search.why += std::isfinite(outermost(pts, 1).first.g) ? ")" : ", or a flank past the depth limit before the record)";
+  return false;
+}
+
+bool TwinModel::refuse_flat(const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u) const {
+  double spread = 0;   // how far RMS_SA moved over the whole range tried
+  for (const LogKPoint& p : pts)
+    if (std::isfinite(p.g)) spread = std::max(spread, std::abs(p.g - pts.front().g));
+  if (spread >= settings_.min_wear_elasticity * std::log(10.0)) return false;
+  u.outcome = UpdateOutcome::insensitive;
+  search.why = "RMS_SA moves by at most " + fmt("%.3g", 100 * std::expm1(spread)) + " % for K_wear from " +
+               k_of(outermost(pts, -1).first.x) + " to " + k_of(outermost(pts, 1).first.x) +
+               " m^2/N: it does not follow K_wear, so K_wear is left as it was";
+  return true;
+}
+
+bool TwinModel::refine_bracket(std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u, std::optional<LogKPoint>& converged) {
+  // Illinois (regula falsi that halves the weight of an end kept twice): superlinear, and the root
+  // never leaves the bracket. Bisection while an end is past the depth limit (no value to interpolate).
+  auto [a, b] = *bracket_of(pts);   // a.g < 0 < b.g
+  int kept_end = 0;                 // −1: a kept last step, +1: b kept
+  double wa = 1, wb = 1;            // Illinois weights of the kept ends
+  while (search.evaluations < settings_.max_wear_iterations) {
+    if (std::isfinite(a.g) && std::isfinite(b.g) && std::abs(b.x - a.x) <= std::log(10.0) &&
+        std::abs((b.g - a.g) / (b.x - a.x)) < settings_.min_wear_elasticity) {
+      u.outcome = UpdateOutcome::insensitive;
+      search.why = "RMS_SA crosses the measurement between K_wear " + k_of(std::min(a.x, b.x)) + " and " +
+                   k_of(std::max(a.x, b.x)) + " m^2/N with elasticity " + fmt("%.3g", (b.g - a.g) / (b.x - a.x)) +
+                   ", below " + fmt("%.3g", settings_.min_wear_elasticity) + ": a mismatch within the " +
+                   fmt("%.3g", 100 * settings_.rms_threshold) + " % threshold would move K_wear by a decade, so K_wear is left as it was";
+      return false;
+    }
+    double x = 0.5 * (a.x + b.x);
+    if (std::isfinite(b.g)) x = (a.x * wb * b.g - b.x * wa * a.g) / (wb * b.g - wa * a.g);
+    if (std::abs(b.x - a.x) < 1e-9) break;
+    const std::optional<double> g = wear_log_error(x, search, u);
+    if (!g) return false;
+    pts.push_back({x, *g});
+    if (std::abs(std::expm1(*g)) <= settings_.convergence_tolerance) {
+      converged = pts.back();
+      return true;
+    }
+    if (*g < 0) {
+      a = pts.back();
+      wa = 1;
+      wb = kept_end == 1 ? 0.5 * wb : 1;
+      kept_end = 1;
+    } else {
+      b = pts.back();
+      wb = 1;
+      wa = kept_end == -1 ? 0.5 * wa : 1;
+      kept_end = -1;
+    }
+  }
+  // A bracket whose upper end is only the depth limit, over which RMS_SA never moved: no root.
+  if (!std::isfinite(b.g) && refuse_flat(pts, search, u)) return false;
+  search.why = std::abs(b.x - a.x) < 1e-9
+                   ? "RMS_SA jumps across the measurement at K_wear " + k_of(a.x) + " m^2/N (no K within the tolerance)"
+                   : "no convergence to " + fmt("%.3g", 100 * settings_.convergence_tolerance) + " % in " +
+                         std::to_string(settings_.max_wear_iterations) + " twin re-runs (iteration limit; the root lies between K_wear " +
+                         k_of(std::min(a.x, b.x)) + " and " + k_of(std::max(a.x, b.x)) + " m^2/N)";
+  if (std::abs(b.x - a.x) < 1e-9) u.outcome = UpdateOutcome::not_monotone;
+  return false;
+}
+
+void TwinModel::finish_root(const LogKPoint& root, const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u) {
+  // Identified only where RMS_SA follows K_wear at the root itself: the start's flatness says
+  // nothing about the root four decades away, the root's does.
+  const double e = elasticity_near(pts, root);
+  search.root_elasticity = e;
+  if (std::isfinite(e) && std::abs(e) < settings_.min_wear_elasticity) {
+    u.outcome = UpdateOutcome::insensitive;
+    search.why = "RMS_SA reaches the measurement at K_wear " + k_of(root.x) + " m^2/N but follows K_wear there with elasticity " +
+                 fmt("%.3g", e) + ", below " + fmt("%.3g", settings_.min_wear_elasticity) + ": a mismatch within the " +
+                 fmt("%.3g", 100 * settings_.rms_threshold) + " % threshold would move K_wear by more than a decade, so K_wear is left as it was";
+    return;
+  }
+  u.outcome = UpdateOutcome::converged;
 }
 
 void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report) {

@@ -128,7 +128,7 @@ struct ModelConfig {
   double initial_k_pitting = 0.0;                   ///< SI (docs/wear.md); two pitted-area inspections calibrate it
   double update_threshold = 0.05;                   ///< |RMS_SA sim − meas| / meas that triggers a K_wear update
   double convergence_tolerance = 0.01;              ///< an update iterates until within this
-  int max_wear_iterations = 8;                      ///< twin re-runs per K_wear update
+  int max_wear_iterations = 16;                     ///< twin re-runs per K_wear update
   wear::KWearUpdateRule k_wear_update = wear::KWearUpdateRule::root_find;   ///< root_find | proportional (Eq. 7.13)
   double min_wear_elasticity = 0.02;                ///< root_find: below this |d ln RMS_SA / d ln K_wear| no update (docs/model.md)
   double pitting_reference_torque_nm = 20.0;        ///< torque of K_pitting's readable scale (docs/model.md)

@@ -87,7 +87,7 @@ struct ModelSettings {
   bool update_k_pitting = true;
   double rms_threshold = 0.05;             ///< relative RMS_SA error that triggers a K_wear update (thesis: 5 %)
   double convergence_tolerance = 0.01;     ///< an update iterates until this (≤ threshold), so it does not sit at the edge
-  int max_wear_iterations = 8;             ///< twin re-runs per K_wear update (the root-find's sensitivity read included)
+  int max_wear_iterations = 16;            ///< twin re-runs per K_wear update (the root-find's sensitivity read included)
   KWearUpdateRule k_wear_update = KWearUpdateRule::root_find;
   /// Root-find: below this |d ln RMS_SA / d ln K_wear| the update is refused (`insensitive`).
   /// Mismatches under `rms_threshold` are taken as the measurement's scatter; with an elasticity
@@ -210,6 +210,12 @@ struct LineSearchResult {
 LineSearchResult golden_section_maximise(const std::function<double(double)>& f, double lo, double hi, double tolerance,
                                          int max_evaluations);
 
+/// A point of the K_wear root-find: x = ln K_wear, g = ln(RMS_SA,sim / RMS_SA,meas); g = +inf where
+/// a flank passes the depth limit before the record (the K is too large: a bracket's upper end).
+struct LogKPoint {
+  double x = 0, g = 0;
+};
+
 class TwinModel {
  public:
   /// Throws TwinParameterError on bad settings or a memory that does not fit them.
@@ -259,12 +265,25 @@ class TwinModel {
     int evaluations = 0;
     std::optional<WearTrial> best;
     std::string why;                       ///< why it stopped, when it did not converge
+    bool depth_limited = false;            ///< the last trial stopped at the depth limit before the record
+    double root_elasticity = std::numeric_limits<double>::quiet_NaN();   ///< root-find: d ln RMS_SA / d ln K near the root
   };
   /// Runs one candidate; on failure sets u.outcome and search.why and returns nullopt.
   std::optional<WearTrial> wear_trial(double k, WearSearch& search, KUpdate& u);
   bool wear_converged(const WearTrial& t, double measured) const;
   void update_k_wear_proportional(WearSearch& search, KUpdate& u);
   void update_k_wear_root_find(WearSearch& search, KUpdate& u);
+  /// ln(RMS_SA,sim / meas) at ln K = x; +inf past the depth limit; nullopt when the simulation failed.
+  std::optional<double> wear_log_error(double x, WearSearch& search, KUpdate& u);
+  /// Geometric steps on ln K (first towards `dir`, then the other way) until the measurement is
+  /// bracketed or converged; false with the reason (iteration limit, bound) when neither.
+  bool expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch& search, KUpdate& u, std::optional<LogKPoint>& converged);
+  /// Insensitive (true, with the reason) when RMS_SA moved by less than min_wear_elasticity · ln 10 over all K tried.
+  bool refuse_flat(const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u) const;
+  /// Illinois inside the bracket; false with the reason (iteration limit, insensitive) when not converged.
+  bool refine_bracket(std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u, std::optional<LogKPoint>& converged);
+  /// Converged at `root`: identified when |d ln RMS_SA / d ln K| there reaches min_wear_elasticity.
+  void finish_root(const LogKPoint& root, const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u);
   void calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report);
   /// Two pitted areas (A0 at N0, A1 at N1): K_pitting by bisection on ln K so that the model, its
   /// profile rescaled to A0 at N0, pits A1 by N1; the current pitting profile from that run.
