@@ -152,6 +152,7 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   s.max_wear_iterations = m.max_wear_iterations;
   s.k_wear_update = m.k_wear_update;
   s.min_wear_elasticity = m.min_wear_elasticity;
+  s.commissioning_records = m.commissioning_records;
   s.pitting_reference_torque_nm = m.pitting_reference_torque_nm;
   s.correlation_threshold = m.correlation_threshold;
   s.pitting_interval_cycles = m.pitting_interval_cycles;
@@ -228,6 +229,8 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
   json ops = json::array();
   for (const auto& p : m.recent_operating_points) ops.push_back({p[0], p[1]});
   json residuals = json::array();
+  json reference_records = json::array();
+  for (const auto& r : m.rms_sa_reference_records) reference_records.push_back({r[0], r[1]});
   for (const auto& r : m.rms_residuals) residuals.push_back({r[0], r[1]});
   json j{{"format", 1},
                {"started", m.started},
@@ -245,6 +248,7 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
                                {"baseline_sd", m.ics2_scale_baseline_sd}, {"density_1", m.ics2_scale_density_1}}},
                {"k_wear_last_insensitive", m.k_wear_last_insensitive},
                {"k_wear_elasticity", m.k_wear_elasticity},
+               {"rms_sa_reference", {{"ratio", m.rms_sa_reference_ratio}, {"records", reference_records}, {"closed", m.rms_sa_reference_closed}}},
                {"log_k_wear", posterior_json(m.log_k_wear)},
                {"log_k_pitting", posterior_json(m.log_k_pitting)},
                {"rms_residuals", residuals},
@@ -291,6 +295,15 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     m.ics2_scale_density_1 = sc.value("density_1", 0.0);
     m.k_wear_last_insensitive = j.value("k_wear_last_insensitive", false);
     m.k_wear_elasticity = j.value("k_wear_elasticity", 1.0);
+    // Added with the commissioning ratio: an older state has none (1, closed: its pair is past commissioning).
+    if (j.contains("rms_sa_reference")) {
+      const json& ref = j.at("rms_sa_reference");
+      m.rms_sa_reference_ratio = ref.at("ratio").get<double>();
+      for (const auto& r : ref.at("records")) m.rms_sa_reference_records.push_back({r.at(0).get<double>(), r.at(1).get<double>()});
+      m.rms_sa_reference_closed = ref.at("closed").get<bool>();
+    } else {
+      m.rms_sa_reference_closed = m.started;
+    }
     m.log_k_wear = posterior_from(j, "log_k_wear");
     m.log_k_pitting = posterior_from(j, "log_k_pitting");
     if (j.contains("rms_residuals"))

@@ -133,6 +133,9 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
   m.ics2_scale_inspections = 1;
   m.ics2_scale_baseline_sd = 1e-3 / 3.0;
   m.last_ics2_calibration_cycles = 6.5e5;
+  m.rms_sa_reference_ratio = 1.0 + 1.0 / 3.0;
+  m.rms_sa_reference_records = {{0.0, std::log(1.0 + 1.0 / 3.0)}, {20.0 / 3.0, -1e-300}};
+  m.rms_sa_reference_closed = true;
   const std::string text = daemon::memory_to_json(m);
   const wear::ModelMemory back = daemon::memory_from_json(text);
   CHECK(daemon::memory_to_json(back) == text);
@@ -141,10 +144,13 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
   CHECK(back.rms_residuals[1][0] == -1e-300);
   CHECK(back.scale_residual_count == 5);
   CHECK(back.last_ics2_calibration_cycles == 6.5e5);
+  CHECK(back.rms_sa_reference_ratio == 1.0 + 1.0 / 3.0);
+  CHECK(back.rms_sa_reference_records == m.rms_sa_reference_records);
+  CHECK(back.rms_sa_reference_closed);
   // A state of an older gearwatch: without the fields added with the posterior.
   nlohmann::json old = nlohmann::json::parse(text);
   for (const char* key : {"log_k_wear", "log_k_pitting", "rms_residuals", "pitting_calibration_var", "scale_residual",
-                          "last_ics2_calibration_cycles"})
+                          "last_ics2_calibration_cycles", "rms_sa_reference"})
     old.erase(key);
   old["ics2_scale"].erase("inspections");
   old["ics2_scale"].erase("baseline_sd");
@@ -154,6 +160,10 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
   CHECK(older.rms_residuals.empty());
   CHECK(older.scale_residual_count == 0);
   CHECK(older.last_ics2_calibration_cycles == -1.0);
+  // A pair stored before the commissioning ratio is past its commissioning: ratio 1, closed.
+  CHECK(older.rms_sa_reference_ratio == 1.0);
+  CHECK(older.rms_sa_reference_records.empty());
+  CHECK(older.rms_sa_reference_closed);
   // The model given it starts the prior about its K_wear, from its cycles on.
   const wear::TwinModel resumed(twin::GearboxParameters{}, s, [](const wear::WearState&, const twin::OperatingPoint&) { return 1.0; }, older);
   CHECK(resumed.memory().log_k_wear.valid);

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <functional>
 #include <set>
+#include <tuple>
 #include <string>
 
 #include <catch2/catch.hpp>
@@ -124,6 +125,9 @@ TEST_CASE("updating: a simulation that does not follow K, or diverges, leaves K 
     CHECK(r.updates[0].evidence.find("does not rise with K_wear") != std::string::npos);
   }
   SECTION("RMS_SA independent of the wear, root-find: insensitive, K unchanged") {
+    // RMS_SA that no K moves is what the commissioning ratio takes as the pair's offset: compared
+    // absolutely (no commissioning), the root-find must refuse the update itself.
+    s.commissioning_records = 0;
     TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 2.0; });
     const auto r = model.observe(observation(5000, 10, 20, 3.0), {});
     REQUIRE(r.updates.size() == 1);
@@ -647,4 +651,93 @@ TEST_CASE("prognosis #1: a K_wear four decades from the start is reached: RMS_SA
   CHECK(r.k_wear_si == u.new_value);
   CHECK(model.memory().k_wear_updates == 1);
   CHECK_FALSE(model.memory().k_wear_last_insensitive);
+}
+
+TEST_CASE("prognosis #1: an RMS_SA offset at zero wear is the pair's commissioning ratio: with the true K at the start K stays and the forecast is the offset-free one",
+          "[model][updating]") {
+  // The measurement is the twin's closed form (RMS_SA = a (K/k_ref)^0.3 + b at the truth's depth)
+  // times 1.45 at every record, the truth's K is the model's start K. At 0 cycles no K_wear can
+  // move RMS_SA (no wear yet): the ratio meas/sim there is the offset, exactly 1.45. Afterwards
+  // the twin times 1.45 matches the measurement to the blue loop's step noise (far below the 5 %
+  // threshold), so no K_wear update is tried and K stays exactly where it started.
+  ModelSettings s = root_find_settings();
+  s.forecast_horizon_cycles = 2e7;
+  REQUIRE(s.commissioning_records == ModelSettings{}.commissioning_records);
+  const double offset = 1.45;   // the measured-to-twin ratio of a new rig gearbox (5.59 / 3.85)
+  PowerLawTwin twin(s, 0.3);
+  auto truth_rms = [&](double cycles, double scale) {
+    if (cycles == 0) return scale * twin.b;   // unworn: a · 0^0.3 + b
+    WearLoopOptions ref = s.loop;             // the truth's depth: its own loop at the start K
+    ref.operating_point = {10, 20};
+    BlueLoop loop(twin::GearboxParameters{}, ref);
+    REQUIRE(loop.run_until(cycles));
+    return scale * twin.rms(depth_mean(loop.state()) / twin.depth_per_k);   // the twin's own form, at the truth's depth
+  };
+  auto run = [&](double scale, int commissioning) {
+    ModelSettings m = s;
+    m.commissioning_records = commissioning;
+    TwinModel model(twin::GearboxParameters{}, m, twin.simulator());
+    ModelRunReport last;
+    int updates = 0;
+    for (const double n : {0.0, 2.5e4, 5e4, 7.5e4, 1e5}) {
+      last = model.observe(observation(n, 10, 20, truth_rms(n, scale)), {});
+      updates += static_cast<int>(last.updates.size());
+    }
+    return std::tuple{model.memory(), last, updates};
+  };
+  const auto [with_offset, report, updates] = run(offset, s.commissioning_records);
+  INFO(report.detail);
+  CHECK(updates == 0);
+  CHECK(with_offset.k_wear_si == s.loop.k_wear_si);   // K kept exactly: no update tried
+  CHECK(with_offset.rms_sa_reference_ratio == Approx(offset).epsilon(1e-12));
+  REQUIRE(with_offset.rms_sa_reference_records.size() == 1);   // only 0 cycles is wear-free
+  CHECK(with_offset.rms_sa_reference_records[0][0] == 0.0);
+  CHECK(with_offset.rms_sa_reference_closed);
+  // The forecast equals the one from the offset-free measurement (ratio 1): no remaining life
+  // shortened by an offset taken for wear.
+  const auto [no_offset, report1, updates1] = run(1.0, s.commissioning_records);
+  CHECK(updates1 == 0);
+  CHECK(no_offset.rms_sa_reference_ratio == Approx(1.0).epsilon(1e-12));
+  CHECK(report.forecast.wear.cycles_left == report1.forecast.wear.cycles_left);
+  CHECK(report.forecast.wear.cycles_left_low == report1.forecast.wear.cycles_left_low);
+  CHECK(report.forecast.k_wear_high == Approx(report1.forecast.k_wear_high).epsilon(1e-12));
+  // Without the ratio (the thesis's absolute comparison) the same data move K_wear: the offset is
+  // read as wear: at 2.5e4 cycles (x = K N / (K0 1e5) = 0.25) 1.45 (0.25^0.3 + 0.5) = 1.68 is
+  // reached at x = 1.75, K = 7 K0; each later record gives about 6 K0.
+  const auto [absolute, report0, updates0] = run(offset, 0);
+  CHECK(updates0 >= 1);
+  CHECK(absolute.k_wear_si > 3 * s.loop.k_wear_si);
+}
+
+TEST_CASE("prognosis #1: with an offset at zero wear and real wear the root-find recovers the true K_wear",
+          "[model][updating]") {
+  // Record 1 at 0 cycles gives the commissioning ratio 1.45 (nothing worn); record 2 at 1e5 cycles
+  // measures 1.45 × the closed form at K* = 3 K0. The root is K* to the same bound as without an
+  // offset: |RMS error| ≤ 1e-6 bounds |ln K − ln K*| by 1e-6 · m / |e a (K*/k_ref)^e| ≤ 1.6e-5.
+  const ModelSettings s = root_find_settings();
+  const double offset = 1.45, k_true = 3e-22;
+  PowerLawTwin twin(s, 0.3);
+  TwinModel model(twin::GearboxParameters{}, s, twin.simulator());
+  const ModelRunReport r0 = model.observe(observation(0, 10, 20, offset * twin.b), {});
+  CHECK(r0.updates.empty());
+  const double measured = offset * twin.rms(k_true);
+  const ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, measured), {});
+  REQUIRE(r.updates.size() == 1);
+  const KUpdate& u = r.updates[0];
+  INFO(u.evidence);
+  CHECK(u.outcome == UpdateOutcome::converged);
+  CHECK(u.measured == measured);   // the raw measurement is stored; the search matched it / 1.45
+  CHECK(u.new_value == Approx(k_true).epsilon(3e-5));
+  CHECK(std::abs(offset * u.simulated_after - measured) / measured <= 1e-6);
+  CHECK(u.evidence.find("commissioning ratio 1.45") != std::string::npos);
+  // The same two records compared absolutely: K is the closed-form root of the raw measurement,
+  // k_ref ((1.45 RMS(K*) − b) / a)^(1/e) = 14.7 k_ref, about 5 K*.
+  ModelSettings abs_settings = s;
+  abs_settings.commissioning_records = 0;
+  TwinModel absolute(twin::GearboxParameters{}, abs_settings, twin.simulator());
+  absolute.observe(observation(0, 10, 20, offset * twin.b), {});
+  const ModelRunReport ra = absolute.observe(observation(twin.cycles, 10, 20, measured), {});
+  REQUIRE_FALSE(ra.updates.empty());
+  CHECK(ra.k_wear_si == Approx(twin.root(measured)).epsilon(3e-5));
+  CHECK(ra.k_wear_si > 3 * k_true);
 }

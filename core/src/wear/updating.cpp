@@ -139,6 +139,7 @@ void ModelSettings::validate() const {
   require(std::isfinite(convergence_tolerance) && convergence_tolerance > 0 && convergence_tolerance <= rms_threshold,
           "convergence tolerance must lie in (0, threshold]");
   require(max_wear_iterations >= 1 && max_wear_iterations <= 100, "K_wear iterations must lie in [1, 100]");
+  require(commissioning_records >= 0 && commissioning_records <= 100, "commissioning records must lie in [0, 100]");
   require(std::isfinite(k_wear_min_si) && k_wear_min_si > 0 && k_wear_max_si > k_wear_min_si && std::isfinite(k_wear_max_si),
           "K_wear bounds must satisfy 0 < min < max");
   require(std::isfinite(correlation_threshold) && correlation_threshold > 0 && correlation_threshold < 1,
@@ -492,9 +493,14 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
     return;
   }
   report.rms_sa_simulated = simulated;
-  const double error = (simulated - measured) / measured;
+  if (commission_rms_sa(obs, measured, simulated, report)) return;
+  // Wear is asked to explain only what the pair's offset at zero wear does not: the twin's RMS_SA
+  // times the commissioning ratio is matched to the measurement, i.e. the twin's to `target`.
+  const double ratio = memory_.rms_sa_reference_ratio;
+  const double target = measured / ratio;
+  const double error = (simulated - target) / target;
   const bool update = settings_.update_k_wear && std::abs(error) > settings_.rms_threshold;
-  remember_residual(std::log(measured / simulated), update);
+  remember_residual(std::log(target / simulated), update);
   if (!update) return;
 
   KUpdate u;
@@ -506,7 +512,7 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   u.measured = measured;
   u.simulated_before = simulated;
   // A failed re-run must not leave recaptured anchors behind: every trial starts from `saved`.
-  WearSearch search{memory_.wear_anchor, memory_, op, measured, memory_.k_wear_si, simulated, 0, std::nullopt, {}};
+  WearSearch search{memory_.wear_anchor, memory_, op, target, memory_.k_wear_si, simulated, 0, std::nullopt, {}};
   if (settings_.k_wear_update == KWearUpdateRule::proportional) update_k_wear_proportional(search, u);
   else update_k_wear_root_find(search, u);
   u.iterations = search.evaluations;
@@ -519,12 +525,12 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   // anchor (a model-form disagreement, e.g. the measured RMS_SA dipping deeper with wear than the
   // twin's can). Keeping the closest K anyway ratchets K_wear towards zero over records whose
   // measurement lies below everything the twin gives, and the depth with it.
-  const bool reproduces = search.best && std::abs(search.best->sim - measured) / measured <= settings_.rms_threshold;
-  const bool keep = !insensitive_here && reproduces && std::abs(search.best->sim - measured) < std::abs(simulated - measured);
+  const bool reproduces = search.best && std::abs(search.best->sim - target) / target <= settings_.rms_threshold;
+  const bool keep = !insensitive_here && reproduces && std::abs(search.best->sim - target) < std::abs(simulated - target);
   if (!keep && !insensitive_here && search.best && !reproduces)
     search.why += std::string(search.why.empty() ? "" : "; ") + "no K_wear tried reproduced the measurement within " +
                   fmt("%.3g", 100 * settings_.rms_threshold) + " % (closest " +
-                  fmt("%+.3g", 100 * (search.best->sim - measured) / measured) + " % at K_wear " + fmt("%.4g", search.best->k) +
+                  fmt("%+.3g", 100 * (search.best->sim - target) / target) + " % at K_wear " + fmt("%.4g", search.best->k) +
                   "): a model-form disagreement, not a measurement of K_wear; K_wear left as it was";
   if (keep) {
     WearTrial& best = *search.best;
@@ -543,9 +549,11 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
     u.simulated_after = simulated;
     if (u.outcome == UpdateOutcome::converged) u.outcome = UpdateOutcome::not_monotone;
   }
-  char b[400];
-  std::snprintf(b, sizeof b, "RMS_SA measured %.5g, simulated %.5g (%+.2f %%) -> %.5g (%+.2f %%) after %d %s, K_wear %.5g -> %.5g m^2/N",
-                measured, simulated, 100 * error, u.simulated_after, 100 * (u.simulated_after - measured) / measured, u.iterations,
+  char b[500];
+  const std::string against =
+      ratio == 1.0 ? fmt("%.5g", measured) : fmt("%.5g", measured) + " / commissioning ratio " + fmt("%.4g", ratio) + " = " + fmt("%.5g", target);
+  std::snprintf(b, sizeof b, "RMS_SA measured %s, simulated %.5g (%+.2f %%) -> %.5g (%+.2f %%) after %d %s, K_wear %.5g -> %.5g m^2/N",
+                against.c_str(), simulated, 100 * error, u.simulated_after, 100 * (u.simulated_after - target) / target, u.iterations,
                 settings_.k_wear_update == KWearUpdateRule::proportional ? "iteration(s) of Eq. 7.13" : "twin re-run(s)",
                 u.old_value, u.new_value);
   u.evidence = b;
@@ -565,6 +573,55 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   // Not identified: RMS_SA insensitive, or no K reproduced the record (the interval then widens).
   memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive || !keep;
   report.updates.push_back(std::move(u));
+}
+
+bool TwinModel::commission_rms_sa(const ModelObservation& obs, double measured, double simulated, ModelRunReport& report) {
+  auto& refs = memory_.rms_sa_reference_records;
+  if (memory_.rms_sa_reference_closed) return false;
+  const twin::OperatingPoint op{obs.speed_hz, obs.torque_nm};
+  if (refs.size() >= static_cast<std::size_t>(settings_.commissioning_records) || wear_can_move_rms_sa(simulated, op)) {
+    // From here on a mismatch may be wear: the ratio (1 when no record qualified) stays as it is.
+    memory_.rms_sa_reference_closed = true;
+    return false;
+  }
+  // No K_wear in the configured range explains a mismatch here: it is the pair's offset at zero
+  // wear (twin against this rig and sensor), a calibration matter, not a measurement of K_wear.
+  refs.push_back({obs.cycles, std::log(measured / simulated)});
+  std::vector<double> logs;
+  for (const auto& r : refs) logs.push_back(r[1]);
+  std::nth_element(logs.begin(), logs.begin() + static_cast<std::ptrdiff_t>(logs.size() / 2), logs.end());
+  double median = logs[logs.size() / 2];
+  if (logs.size() % 2 == 0) median = 0.5 * (median + *std::max_element(logs.begin(), logs.begin() + static_cast<std::ptrdiff_t>(logs.size() / 2)));
+  memory_.rms_sa_reference_ratio = std::exp(median);
+  char b[300];
+  std::snprintf(b, sizeof b,
+                "RMS_SA commissioning: measured %.5g, twin %.5g at %.6g cycles, where no K_wear from %.3g to %.3g m^2/N moves the twin's RMS_SA by %.3g %%: commissioning ratio %.4g (median of %zu record(s) from %.6g cycles); no K_wear update",
+                measured, simulated, obs.cycles, settings_.k_wear_min_si, settings_.k_wear_max_si, 100 * settings_.rms_threshold,
+                memory_.rms_sa_reference_ratio, refs.size(), refs.front()[0]);
+  report.detail += (report.detail.empty() ? "" : "; ") + std::string(b);
+  return true;
+}
+
+bool TwinModel::wear_can_move_rms_sa(double simulated, const twin::OperatingPoint& op) {
+  const ModelMemory saved = memory_;
+  bool moves = false;
+  for (const double k : {settings_.k_wear_min_si, settings_.k_wear_max_si}) {
+    LoopSnapshot out;
+    if (!rerun(memory_.wear_anchor, Override{k, std::nullopt, memory_.wear_anchor.state.cycles}, out, false)) {
+      moves = true;   // a flank past the depth limit: wear explains any mismatch
+      break;
+    }
+    try {
+      const double sim = simulator_(out.state, op);
+      // No answer is no proof of an offset: treated as wear that may move RMS_SA.
+      if (!std::isfinite(sim) || sim <= 0 || std::abs(std::log(sim / simulated)) >= settings_.rms_threshold) moves = true;
+    } catch (const std::exception&) {
+      moves = true;
+    }
+    if (moves) break;
+  }
+  memory_ = saved;
+  return moves;
 }
 
 std::optional<TwinModel::WearTrial> TwinModel::wear_trial(double k, WearSearch& search, KUpdate& u) {

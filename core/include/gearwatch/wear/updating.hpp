@@ -94,6 +94,11 @@ struct ModelSettings {
   /// below rms_threshold / ln 10 (0.0217 at 5 %) a mismatch of that size would move K_wear by more
   /// than a decade, so RMS_SA does not determine K_wear there and an update would follow the scatter.
   double min_wear_elasticity = 0.02;
+  /// The RMS_SA reference (docs/model.md, "Commissioning ratio"): up to this many of a pair's first
+  /// records at which no configured K_wear moves the twin's RMS_SA by the update threshold give
+  /// the pair's commissioning ratio RMS_SA,meas / RMS_SA,sim (their median in the log); K_wear
+  /// updates then match the twin's RMS_SA times that ratio. 0: the thesis's absolute comparison.
+  int commissioning_records = 3;
   double pitting_reference_torque_nm = 20.0;   ///< torque of K_pitting's readable scale (PittingScale)
   double pitting_reference_density = 0.10;     ///< density of K_pitting's readable scale
   double k_wear_min_si = 1e-22, k_wear_max_si = 1e-9;
@@ -192,6 +197,12 @@ struct ModelMemory {
   double ics2_scale_density_1 = 0;         ///< A1 of a two-inspection scale (its second point); 0: none
   bool k_wear_last_insensitive = false;    ///< the last K_wear update did not identify K_wear (RMS_SA insensitive, or no K reproduced the record)
   double k_wear_elasticity = 1.0;          ///< d ln RMS_SA / d ln K_wear of the last kept K_wear update (1 before any)
+  /// The commissioning ratio RMS_SA,meas / RMS_SA,sim the K_wear updates match against (1: none
+  /// established), the (cycles, ln meas/sim) of the records that established it, and whether it is
+  /// closed (a record at which wear can move RMS_SA, or commissioning_records reached).
+  double rms_sa_reference_ratio = 1.0;
+  std::vector<std::array<double, 2>> rms_sa_reference_records;
+  bool rms_sa_reference_closed = false;
   /// (cycles, ICS2 low) of the pair's records: ICS2 at an inspection's cycles. The daemon rebuilds
   /// it from the model's stored runs rather than storing it in the state.
   std::vector<std::array<double, 2>> ics2_series;
@@ -248,6 +259,11 @@ class TwinModel {
   };
   bool rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot& out, bool recapture_anchors);
   void check_k_wear(const ModelObservation& obs, ModelRunReport& report);
+  /// A commissioning record (true): its ln(meas/sim) joins the commissioning ratio, no K_wear update.
+  bool commission_rms_sa(const ModelObservation& obs, double measured, double simulated, ModelRunReport& report);
+  /// Whether K_wear at either end of the configured range, from the wear anchor, moves the twin's
+  /// RMS_SA at this record by the update threshold (or passes the depth limit before it).
+  bool wear_can_move_rms_sa(double simulated, const twin::OperatingPoint& op);
   /// One K_wear candidate: the blue loop re-run from the wear anchor with K, and its RMS_SA.
   struct WearTrial {
     double k = 0, sim = 0;
