@@ -104,7 +104,9 @@ TEST_CASE("updating: Eq. 7.13 iterates K <- K meas/sim exactly, and says why whe
   CHECK(u.new_value < 1.5 / (b * c));
   CHECK(std::abs(u.simulated_after - measured) < std::abs(u.simulated_before - measured));
   CHECK(r.k_wear_si == u.new_value);   // the best K found is kept
-  CHECK(calls == 1 + 6);
+  // One comparison, the commissioning probe (one twin run at K_wear's lower bound: it moves RMS_SA,
+  // so this pair's first record is no commissioning record and no probe follows), six iterations.
+  CHECK(calls == 1 + 1 + 6);
 }
 
 TEST_CASE("updating: a simulation that does not follow K, or diverges, leaves K alone with the reason",
@@ -435,7 +437,7 @@ TEST_CASE("prognosis #1: the K_wear root-find reaches the closed-form root of RM
   const double k0 = s.loop.k_wear_si, k1 = k0 * measured / twin.rms(k0);
   CHECK(u.elasticity == Approx(std::log(twin.rms(k1) / twin.rms(k0)) / std::log(k1 / k0)).epsilon(1e-6));
   CHECK(u.iterations <= 1 + 5);
-  CHECK(twin.calls == 1 + u.iterations);      // one comparison, then one simulation per re-run
+  CHECK(twin.calls == 1 + 1 + u.iterations);  // one comparison, the commissioning probe at K_wear's lower bound, one simulation per re-run
   CHECK(r.k_wear_si == u.new_value);
   CHECK(u.evidence.find("elasticity") != std::string::npos);
 }
