@@ -81,7 +81,7 @@ fs::path model_config(const fs::path& dir, const std::string& model_table) {
   const auto path = dir / "model.toml";
   std::ofstream(path) << "[rig]\nsample_rate_hz = 40000\n[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
                          "[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.5\n"
-                         "[model]\n"
+                         "[model]\ncommissioning_records = 0\n"   // absolute: K_wear updates to resume
                       << model_table;
   return path;
 }
