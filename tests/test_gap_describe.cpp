@@ -193,6 +193,42 @@ TEST_CASE("gap describe: a resonance fixed in Hz is described with its frequency
   CHECK(d.residual_db < 2 * kNoiseDb);  // what is left is the noise
 }
 
+/// (1 + m·cos(θ + φ))·e^{i·n·β·sin(θ + ψ)} on mesh harmonic n, θ the angle of `shaft` in its own
+/// revolutions: by Jacobi–Anger e^{ix·sin u} = Σ_k J_k(x)·e^{iku} (J_{−k} = (−1)^k·J_k), the line k
+/// orders from the carrier gets C_n·(J_k(x)·e^{ikψ} + m/2·(J_{k−1}(x)·e^{i(k−1)ψ}·e^{iφ} +
+/// J_{k+1}(x)·e^{i(k+1)ψ}·e^{−iφ})), x = n·β, for |k| ≤ 4 (the carrier, k = 0, replaced). The
+/// carriers are the twin's mesh harmonics (input orders n·z1; output orders n·z2 on the gear's side).
+void modulate(Pair& p, FeatureShaft shaft, double m, double phi, double beta, double psi) {
+  auto jn = [](int k, double x) { return (k < 0 && (-k) % 2 == 1 ? -1.0 : 1.0) * std::cyl_bessel_j(static_cast<double>(std::abs(k)), x); };
+  const bool input = shaft == FeatureShaft::input;
+  auto& lines = input ? p.measured_input : p.measured_output;
+  const std::size_t z = input ? kZ1 : kZ2;
+  for (std::size_t n = 1; n * z + 4 <= lines.size() && n * kZ1 <= p.twin_input.size(); ++n) {
+    const Complex carrier = p.twin_input[n * kZ1 - 1];
+    const double x = static_cast<double>(n) * beta;
+    for (int k = -4; k <= 4; ++k) {
+      const Complex c = jn(k, x) * std::polar(1.0, k * psi) +
+                        m / 2 * (jn(k - 1, x) * std::polar(1.0, (k - 1) * psi + phi) + jn(k + 1, x) * std::polar(1.0, (k + 1) * psi - phi));
+      if (k == 0) p.measured_input[n * kZ1 - 1] = carrier * c;  // the carrier, on the input side
+      else lines[static_cast<std::size_t>(static_cast<long>(n * z) + k - 1)] += carrier * c;
+    }
+  }
+}
+
+/// The descriptions of the modulation features at the first two mesh harmonics of `shaft`.
+std::vector<FeatureDescription> modulation_descriptions(const std::vector<Pair>& pairs, FeatureShaft shaft, bool with_phases = true) {
+  const FeatureDescriber describer(described(pairs, with_phases), GearPairSpec{});
+  std::vector<FeatureDescription> out;
+  const double to_input = shaft == FeatureShaft::output ? kRatio : 1.0;
+  const double z = shaft == FeatureShaft::output ? kZ2 : kZ1;
+  for (int n = 1; n <= 2; ++n) {
+    const double centre = n * z;
+    out.push_back(describer.describe(feature_at(FeatureMovement::fixed_in_orders, shaft, centre - 1.5, centre + 1.5,
+                                                (centre - 1.5) * to_input * kSpeeds.front(), (centre + 1.5) * to_input * kSpeeds.back())));
+  }
+  return out;
+}
+
 TEST_CASE("gap describe: a 15 % AM at the gear shaft's order is a modulation with its AM index and no PM", "[gap][gap_describe]") {
   // (1 + m·cos(Ω_gear·t + φ)) on the mesh: every mesh harmonic C_n gets C_n·m/2·e^{±iφ} at output
   // orders n·z2 ± 1, m = 0.15, φ = 0.4 rad.
@@ -226,6 +262,16 @@ TEST_CASE("gap describe: a 15 % AM at the gear shaft's order is a modulation wit
     // m/2 per sideband: under 0.015 rad (a tenth of m).
     CHECK(d.parameter("am_index") == Approx(m).epsilon(0.05));
     CHECK(d.parameter("pm_index_rad") < 0.015);
+    CHECK(d.parameter("am_power_share") > 0.99);  // (m/(m + 0.015))² at the least
+  }
+  // With the lines' powers alone AM and PM cannot be told apart: one index from the sidebands'
+  // excess power (its size not asserted: the excess holds the cross term with the twin's own
+  // sidebands, whose phase the powers lack), no PM, and the words say so.
+  for (const auto& d : modulation_descriptions(pairs, FeatureShaft::output, false)) {
+    INFO(text_of(d));
+    REQUIRE(d.kind == DescriptionKind::modulation);
+    CHECK(std::isnan(d.parameter("pm_index_rad")));
+    CHECK(describe(d).find("(AM or PM: no phases)") != std::string::npos);
   }
 }
 
@@ -262,6 +308,54 @@ TEST_CASE("gap describe: a PM at the pinion shaft's order is a modulation with i
     // 2 % on the fifth; with the noise's 2.3 % per sideband, within 5 %. AM under a tenth of β.
     CHECK(d.parameter("pm_index_rad") == Approx(beta).epsilon(0.05));
     CHECK(d.parameter("am_index") < 0.008);
+  }
+}
+
+TEST_CASE("gap describe: a pure PM of 0.3 rad at the gear shaft's order is a PM with its index from the Bessel ratio", "[gap][gap_describe]") {
+  // β = 0.3 rad of the mesh fundamental (n·β on harmonic n), ψ = 0.9 rad; no AM. The first
+  // sidebands stand J1(nβ)/J0(nβ) of the carrier with opposite signs (AM's have the same sign).
+  const double fs = 20000, beta = 0.3;
+  std::mt19937_64 rng(358);
+  std::vector<Pair> pairs;
+  for (double speed : kSpeeds) {
+    pairs.push_back(twin_pair(fs, speed));
+    modulate(pairs.back(), FeatureShaft::output, 0.0, 0.0, beta, 0.9);
+    finish_measurement(pairs.back(), rng);
+  }
+  for (const auto& d : modulation_descriptions(pairs, FeatureShaft::output)) {
+    INFO(text_of(d));
+    REQUIRE(d.kind == DescriptionKind::modulation);
+    CHECK(d.shaft == FeatureShaft::output);
+    // Asked: the index within 10 %. The noise's 2.3 % per sideband amplitude and the twin's own
+    // sidebands (a thirtieth of the carrier in amplitude, subtracted) stay far under it.
+    CHECK(d.parameter("pm_index_rad") == Approx(beta).epsilon(0.10));
+    CHECK(d.parameter("am_index") < 0.1 * beta);
+    CHECK(d.parameter("am_power_share") < 0.1);
+    CHECK(describe(d).rfind("a 0.3", 0) == 0);
+    CHECK(describe(d).find("rad PM at the gear shaft's order") != std::string::npos);
+  }
+}
+
+TEST_CASE("gap describe: AM and PM at once are told apart by the sidebands' phases, the larger named dominant", "[gap][gap_describe]") {
+  // 10 % AM (φ = 0.4) with a 0.05 rad PM (ψ = −0.7) at the gear shaft's order: the AM's first
+  // sidebands m/2 = 0.05 of the carrier, the PM's J1(β)/J0(β) = 0.025: AM carries 80 % of their power.
+  const double fs = 20000, m = 0.10, beta = 0.05;
+  std::mt19937_64 rng(359);
+  std::vector<Pair> pairs;
+  for (double speed : kSpeeds) {
+    pairs.push_back(twin_pair(fs, speed));
+    modulate(pairs.back(), FeatureShaft::output, m, 0.4, beta, -0.7);
+    finish_measurement(pairs.back(), rng);
+  }
+  const double pm_ratio = 2 * std::cyl_bessel_j(1.0, beta) / std::cyl_bessel_j(0.0, beta);
+  for (const auto& d : modulation_descriptions(pairs, FeatureShaft::output)) {
+    INFO(text_of(d));
+    REQUIRE(d.kind == DescriptionKind::modulation);
+    CHECK(d.parameter("am_index") == Approx(m).epsilon(0.10));
+    CHECK(d.parameter("pm_index_rad") == Approx(beta).epsilon(0.10));
+    CHECK(d.parameter("am_power_share") == Approx(m * m / (m * m + pm_ratio * pm_ratio)).margin(0.05));
+    CHECK(describe(d).rfind("AM 10", 0) == 0);
+    CHECK(describe(d).find("AM dominant") != std::string::npos);
   }
 }
 
@@ -335,9 +429,13 @@ TEST_CASE("gap describe: supply tones joined in one feature are one description 
     CHECK(d.parameter("supply_hz") == c.supply);
     for (std::size_t i = 0; i < c.tones.size(); ++i) {
       const std::string name = "tone_" + std::to_string(i + 1);
-      // Each tone's own frequency (0.5 Hz) and amplitude (5 %) are not asserted here: the 50 Hz
-      // case misses them (docs/gap-bench.md, the tone forms' figures); its harmonics are right.
+      INFO(name);
       CHECK(d.parameter(name + "_harmonic") == static_cast<double>(i + 1));
+      // As for the tones one per feature: within 0.5 Hz (the records resolve 0.6–1 Hz) and 5 %. The
+      // places are refitted with the others in place: placed before 150 Hz was, 100 Hz sat 0.83 Hz
+      // toward it.
+      CHECK(d.parameter(name + "_hz") == Approx(c.tones[i].at).margin(0.5));
+      CHECK(d.parameter(name + "_amplitude_m_s2") == Approx(c.tones[i].amplitude).epsilon(0.05));
     }
     CHECK(describe(d).find("supply pick-up, harmonics 1, 2, 3 of " + std::to_string(static_cast<int>(c.supply)) + " Hz") != std::string::npos);
   }
@@ -374,8 +472,11 @@ TEST_CASE("gap describe: a strong ghost tone far over the comparison's floor is 
   INFO(text_of(d));
   REQUIRE(d.kind == DescriptionKind::ghost_line);
   // As for the weaker tone: the order within 0.05 (16 revolutions, half-order broadband bins). The
-  // amplitude was asked within 10 % as for the weaker tone and is MISSED (first run: 0.194 m/s²,
-  // +14 %, 2.25 dB RMS left on the window): not asserted, stated in docs/gap-bench.md.
+  // amplitude was asked within 10 % as for the weaker tone and is MISSED (0.194 m/s², +14 %): not
+  // asserted. Traced: the tone model's broadband part is the Hann kernel about the tone, while the
+  // records' broadband residual also holds the output average's jumps at each output revolution, a
+  // pedestal 20-30 dB over the kernel's sidelobes 2-5 orders out; the power fit in the log raises
+  // the tone to reach it (docs/gap-bench.md).
   CHECK(d.parameter("order") == Approx(order).margin(0.05));
 }
 

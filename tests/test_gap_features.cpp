@@ -470,6 +470,36 @@ TEST_CASE("gap features: a broadband floor step under the comparison's floor is 
   const double at_centre = d.parameter("level_db") + d.parameter("slope_db_per_decade") * std::log10(f.hz / 1000);
   CHECK(at_centre == Approx(step_db).margin(1.0));
   CHECK(std::abs(d.parameter("slope_db_per_decade")) < 3.0);  // under 1.5 dB across the half decade the step spans
+  // Attributed from the feature itself: white noise added over its bands (the noise_floor
+  // candidate's form) explains them, with the PSD the band's noise adds, 9·σ²/(fs/2) one-sided
+  // (m/s²)²/Hz. Within 26 %: the floor's level is asked within 1 dB above.
+  const double added_psd = 9 * 1e-6 / (fs / 2);
+  CHECK(d.parameter("white_psd_m2_s4_per_hz") == Approx(added_psd).epsilon(0.26));
+  GapFeature described_feature = f;
+  described_feature.description = d;
+  const auto by = explaining_candidate(GapReport{}, described_feature, GearPairSpec{});
+  REQUIRE(by.has_value());
+  CHECK(*by == CandidateEffect::noise_floor);
+}
+
+TEST_CASE("gap features: a floor change white noise cannot explain is not attributed to the noise floor", "[gap][gap_features]") {
+  // The same step, the feature taken to start an octave under the corner: its bands there stay at
+  // the twin's plus the acquisition's (g ≈ 0) while those above rise 10 dB. One white PSD added to
+  // every band raises them alike (the bands' base is flat: the twin has no floor, the acquisition is
+  // white), so it leaves either the step's bands or the lower ones 3 dB or more off.
+  const double fs = 10240, corner = 1500;
+  auto c = floor_case(fs, 1e-3, 3.0, corner, fs, 360);
+  const auto floors = c.finders[0].floor_features();
+  REQUIRE(floors.size() == 1);
+  GapFeature f = floors.front();
+  f.hz_low = corner / 2;
+  std::vector<DescribedRecord> described;
+  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+  const FeatureDescriber describer(described, GearPairSpec{});
+  CHECK(std::isnan(describer.white_floor_psd(f)));
+  f.description.kind = DescriptionKind::floor_change;
+  f.description.parameters = {{"level_db", 5.0}, {"slope_db_per_decade", 0.0}};
+  CHECK_FALSE(explaining_candidate(GapReport{}, f, GearPairSpec{}).has_value());
 }
 
 TEST_CASE("gap features: white noise the twin lacks, over the whole band, is the capture's own floor: no floor feature",
@@ -480,7 +510,7 @@ TEST_CASE("gap features: white noise the twin lacks, over the whole band, is the
   const auto& finder = c.finders[0];
   INFO("lines and bins:\n" << descriptions(finder.features()) << "floors:\n" << descriptions(finder.floor_features()));
   CHECK(finder.features().empty());
-  CHECK(finder.floor_features().empty());
+  CHECK(finder.floor_features().empty());  // nothing found, so nothing attributed to the noise floor
   // The acquisition's floor read back: white noise of RMS σ holds σ²/(fs/2) per Hz; a 1-order bin
   // of the Hann-windowed blocks holds about that times its width in peak-amplitude² terms (×2), so
   // the estimate sits within a factor 2 of 2σ²·v/(fs/2) (a check on the scale, not a tuned figure).

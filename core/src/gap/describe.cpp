@@ -1,7 +1,10 @@
 #include "gearwatch/gap/describe.hpp"
 
+#include "gearwatch/gap/candidates.hpp"
+
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -40,6 +43,57 @@ std::pair<double, double> line_fit(const std::vector<double>& x, const std::vect
   for (std::size_t i = 0; i < x.size(); ++i) sxx += (x[i] - mx) * (x[i] - mx), sxy += (x[i] - mx) * (y[i] - my);
   const double slope = sxx > 0 ? sxy / sxx : 0.0;
   return {my - slope * mx, slope};
+}
+
+/// J0's first zero: below it 2·J1(x)/J0(x) rises monotonically from 0 to infinity.
+constexpr double kBesselJ0Zero = 2.404825557695773;
+/// A phase modulation's index is read on harmonics whose index n·β stays under this: nearer J0's
+/// first zero the carrier vanishes and the ratio's inverse is ill-conditioned, beyond it two-valued.
+constexpr double kMaxHarmonicPmIndex = 2.0;
+
+/// The first sidebands of a pure phase modulation of index x, each over the carrier: J1(x)/J0(x);
+/// the upper one +, the lower one − (e^{i·x·sin θ} = Σ J_k(x)·e^{ikθ}, J_{−1} = −J1), so
+/// u − conj(l) = 2·J1(x)/J0(x)·e^{iψ} where AM gives u + conj(l) = m·e^{iφ}.
+double pm_sideband_ratio(double x) { return 2 * std::cyl_bessel_j(1.0, x) / std::cyl_bessel_j(0.0, x); }
+
+/// The index x in [0, J0's first zero) whose 2·J1(x)/J0(x) equals `ratio` (bisection: monotone there).
+double pm_index_of_ratio(double ratio) {
+  if (!(ratio > 0)) return 0.0;
+  double lo = 0, hi = kBesselJ0Zero - 1e-9;
+  for (int i = 0; i < 80; ++i) {
+    const double mid = (lo + hi) / 2;
+    (pm_sideband_ratio(mid) < ratio ? lo : hi) = mid;
+  }
+  return (lo + hi) / 2;
+}
+
+/// One mesh harmonic n and its first sidebands of one shaft: the carrier (measured, complex) and
+/// each sideband over its own record's carrier, measured and the twin's.
+struct ModulatedHarmonic {
+  int n;
+  std::complex<double> carrier_m, u_m, l_m, u_t, l_t;
+  double carrier_power, excess;  ///< measured carrier power; the sidebands' excess power over the twin's
+};
+
+/// The modulation read off the sidebands' phases, the twin's own subtracted: per harmonic
+/// u + conj(l) = m·e^{iφ} (AM) and u − conj(l) = 2·J1(nβ)/J0(nβ)·e^{iψ} (PM of the mesh, nβ on
+/// harmonic n), so `am` = m·e^{iφ} and `pm` = β·e^{iψ}, carrier-power-weighted means over the
+/// harmonics in order while n·β stays under kMaxHarmonicPmIndex (β as read so far). Returns the
+/// weight used (0: none).
+double read_modulation_with_phases(const std::vector<ModulatedHarmonic>& hs, std::complex<double>& am, std::complex<double>& pm) {
+  using Complex = std::complex<double>;
+  Complex sum_a, sum_b;
+  double w = 0;
+  for (const auto& h : hs) {
+    const double n = static_cast<double>(h.n);
+    if (w > 0 && n * std::abs(sum_b) / w > kMaxHarmonicPmIndex) break;
+    const Complex a = (h.u_m + std::conj(h.l_m)) - (h.u_t + std::conj(h.l_t));
+    const Complex b = (h.u_m - std::conj(h.l_m)) - (h.u_t - std::conj(h.l_t));
+    const Complex beta = std::abs(b) > 0 ? pm_index_of_ratio(std::abs(b)) / n * b / std::abs(b) : Complex{};
+    sum_a += h.carrier_power * a, sum_b += h.carrier_power * beta, w += h.carrier_power;
+  }
+  if (w > 0) am = sum_a / w, pm = sum_b / w;
+  return w;
 }
 
 /// The normalised second-order band-pass's power: 1 at r = 1, ½ at its half-power points.
@@ -211,11 +265,7 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
                             ct.size() >= lines_t.size();
     phases = phases && with_phase;
     // Harmonics whose carrier (input order n·zp) stands above the floor and whose sidebands exist.
-    struct Harmonic {
-      int n;
-      Complex carrier_m, u_m, l_m, u_t, l_t;
-      double carrier_power, excess;
-    };
+    using Harmonic = ModulatedHarmonic;
     std::vector<Harmonic> hs;
     for (int n = 1;; ++n) {
       const std::size_t carrier = static_cast<std::size_t>(n * zp) - 1, upper = static_cast<std::size_t>(n * z), lower = upper - 2;
@@ -231,21 +281,16 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
       hs.push_back(h);
     }
     PerRecord& p = per[r];
-    double w = 0, excess = 0;
-    for (const auto& h : hs) {
-      w += h.carrier_power, excess += h.excess;
-      if (!with_phase) continue;
-      const Complex a = (h.u_m + std::conj(h.l_m)) - (h.u_t + std::conj(h.l_t));
-      const Complex b = (h.u_m - std::conj(h.l_m)) - (h.u_t - std::conj(h.l_t));
-      p.a += h.carrier_power * a, p.b += h.carrier_power * b / static_cast<double>(h.n);
-    }
-    if (w <= 0) continue;
-    p.weight = w;
+    const double w = with_phase ? read_modulation_with_phases(hs, p.a, p.b) : 0.0;
+    double w_all = 0, excess = 0;
+    for (const auto& h : hs) w_all += h.carrier_power, excess += h.excess;
+    if (w_all <= 0 || (with_phase && w <= 0)) continue;
     if (with_phase) {
-      p.a /= w, p.b /= w;
+      p.weight = w;
       p.am = std::abs(p.a), p.pm = std::abs(p.b);
     } else {
-      p.am = std::sqrt(std::max(0.0, 2 * excess / w));  // both sidebands m²/4 of the carrier
+      p.weight = w_all;
+      p.am = std::sqrt(std::max(0.0, 2 * excess / w_all));  // both sidebands m²/4 of the carrier
     }
     // The predicted sideband powers of this record.
     const auto& cells = records_[r].cells;
@@ -254,8 +299,12 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
       const std::size_t upper = static_cast<std::size_t>(h.n * z), lower = upper - 2;
       double pu, pl;
       if (with_phase) {
-        pu = std::norm(h.carrier_m * (h.u_t + (p.a + double(h.n) * p.b) / 2.0));
-        pl = std::norm(h.carrier_m * (h.l_t + std::conj((p.a - double(h.n) * p.b) / 2.0)));
+        // PM of index n·β on harmonic n: 2·J1/J0 of the (measured, J0-scaled) carrier, held under
+        // J0's first zero, where the first sidebands alone no longer describe it.
+        const double x = std::min(static_cast<double>(h.n) * std::abs(p.b), kMaxHarmonicPmIndex);
+        const Complex pm = std::abs(p.b) > 0 ? pm_sideband_ratio(x) * p.b / std::abs(p.b) : Complex{};
+        pu = std::norm(h.carrier_m * (h.u_t + (p.a + pm) / 2.0));
+        pl = std::norm(h.carrier_m * (h.l_t + std::conj((p.a - pm) / 2.0)));
       } else {
         pu = lines_t[upper] + p.am * p.am / 4 * h.carrier_power;
         pl = lines_t[lower] + p.am * p.am / 4 * h.carrier_power;
@@ -264,14 +313,17 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
         if (cells[i].kind == kind && (cells[i].index == upper || cells[i].index == lower))
           p.sideband_power.emplace_back(i, cells[i].index == upper ? pu : pl);
     }
-    am_sum += w * p.am, pm_sum += w * (with_phase ? p.pm : 0.0), weight_sum += w;
+    am_sum += p.weight * p.am, pm_sum += p.weight * (with_phase ? p.pm : 0.0), weight_sum += p.weight;
   }
   Fit fit;
   fit.description.kind = DescriptionKind::modulation;
   fit.description.shaft = shaft;
   const double am = weight_sum > 0 ? am_sum / weight_sum : 0.0;
   const double pm = weight_sum > 0 && phases ? pm_sum / weight_sum : kNaN;
-  fit.description.parameters = {{"am_index", am}, {"pm_index_rad", pm}};
+  // The AM's share of the first sidebands' excess power at the mesh fundamental: which one dominates.
+  const double pm_ratio = std::isfinite(pm) ? pm_sideband_ratio(std::min(pm, kMaxHarmonicPmIndex)) : kNaN;
+  const double am_share = std::isfinite(pm_ratio) && am * am + pm_ratio * pm_ratio > 0 ? am * am / (am * am + pm_ratio * pm_ratio) : kNaN;
+  fit.description.parameters = {{"am_index", am}, {"pm_index_rad", pm}, {"am_power_share", am_share}};
   fit.complexity = 2;
   // Each record's cell → predicted power (the twin's elsewhere).
   std::vector<std::vector<double>> predicted(records_.size());
@@ -446,9 +498,22 @@ FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window&
     if (!found.empty() && largest < settings_.min_feature_db) break;
     add_to_base(best, 1);
     found.push_back(std::move(best));
-    // The powers again, each with the others in place (their leakage overlaps).
+    // The powers again, each with the others in place (their leakage overlaps); and the places: a
+    // tone placed before a stronger neighbour was in the base sat where that neighbour's leakage
+    // pulled it (a supply's 100 Hz, placed before 150 Hz, sat 0.8 Hz toward it).
     for (int pass = 0; pass < 2 && found.size() > 1; ++pass)
-      for (auto& t : found) add_to_base(t, -1), fit_power(t), add_to_base(t, 1);
+      for (std::size_t i = 0; i < found.size(); ++i) {
+        add_to_base(found[i], -1);
+        Tone t = std::move(found[i]);
+        found.erase(found.begin() + static_cast<std::ptrdiff_t>(i));  // free_place then ignores it
+        fit_power(t);
+        for (double s = step; s > step / 128; s /= 2)
+          for (double place : {t.place - s, t.place + s})
+            if (free_place(place))
+              if (Tone moved = at(place); moved.rss < t.rss) t = std::move(moved);
+        add_to_base(t, 1);
+        found.insert(found.begin() + static_cast<std::ptrdiff_t>(i), std::move(t));
+      }
     current = found.size() > 1 ? rss_with_base() : found.back().rss;
   }
   std::sort(found.begin(), found.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
@@ -496,9 +561,54 @@ FeatureDescription FeatureDescriber::describe_floor(const GapFeature& f) const {
   FeatureDescription d;
   d.kind = DescriptionKind::floor_change;
   d.parameters = {{"level_db", level}, {"slope_db_per_decade", slope}};
+  if (const double psd = white_floor_psd(f); std::isfinite(psd)) d.parameters.emplace_back("white_psd_m2_s4_per_hz", psd);
   d.gap_db = none.gap_db;
   d.residual_db = std::sqrt(rss / n);
   return d;
+}
+
+double FeatureDescriber::white_floor_psd(const GapFeature& f) const {
+  // The noise_floor candidate's form on the floors: each band's measured floor per 1-order bin is
+  // the twin's plus the acquisition's plus 2·S·speed (noise_floor_per_order_bin), one S for every
+  // record; fitted in the log over the bands centred in the feature's extent, as describe_floor's.
+  struct Band {
+    double base, per_psd, g;  // twin + acquisition; power per unit PSD; measured g
+  };
+  std::vector<Band> bands;
+  for (std::size_t r = 0; r < floors_.size(); ++r)
+    for (std::size_t b = 0; b < floors_[r].bands.size(); ++b) {
+      const FloorBand& band = floors_[r].bands[b];
+      const double centre = std::sqrt(band.hz_low * band.hz_high);
+      if (centre >= f.hz_low && centre <= f.hz_high && band.twin + floors_[r].acquisition > 0)
+        bands.push_back({band.twin + floors_[r].acquisition, noise_floor_per_order_bin(1.0, records_[r].speed_hz), floors_[r].gap_db(b)});
+    }
+  if (bands.empty()) return kNaN;
+  auto residuals = [&](double psd, double& rss, double& core_sq, std::size_t& core) {
+    rss = core_sq = 0, core = 0;
+    for (const auto& b : bands) {
+      const double d = b.g - 10 * std::log10((b.base + psd * b.per_psd) / b.base);
+      rss += d * d;
+      if (std::abs(b.g) >= settings_.min_feature_db) core_sq += d * d, ++core;
+    }
+  };
+  // Added noise only raises a floor: the PSD that brings each band's base to its measured floor
+  // bounds the search (log-spaced golden section between a thousandth of the least and ten times the largest).
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  for (const auto& b : bands) {
+    const double need = b.base * (std::pow(10.0, b.g / 10) - 1) / b.per_psd;
+    if (need > 0) lo = std::min(lo, need), hi = std::max(hi, need);
+  }
+  if (!(hi > 0)) return kNaN;
+  double rss = 0, core_sq = 0;
+  std::size_t core = 0;
+  const double lp = golden_min([&](double x) { residuals(std::pow(10.0, x), rss, core_sq, core); return rss; },
+                               std::log10(lo) - 3, std::log10(hi) + 1, 60);
+  residuals(std::pow(10.0, lp), rss, core_sq, core);
+  // The rule of the forms, over every band of the feature and not only those at the practical
+  // minimum: white noise raises every band alike, so it must not lift the feature's quiet bands
+  // (a change confined to part of them is not white) any more than leave its raised ones.
+  if (core == 0 || !(std::sqrt(rss / static_cast<double>(bands.size())) < settings_.min_feature_db)) return kNaN;
+  return std::pow(10.0, lp);
 }
 
 FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
@@ -621,6 +731,10 @@ void FeatureDescriber::describe_all(std::vector<GapFeature>& features) const {
 }
 
 std::optional<CandidateEffect> explaining_candidate(const GapReport& report, const GapFeature& f, const GearPairSpec& gears) {
+  // A floor change that added white noise explains on its own bands (white_floor_psd) is the noise
+  // floor's, chosen or not: its family's RMS over the whole band rarely reaches significance.
+  if (f.description.kind == DescriptionKind::floor_change && std::isfinite(f.description.parameter("white_psd_m2_s4_per_hz")))
+    return CandidateEffect::noise_floor;
   FamilyKind family = FamilyKind::broadband;
   const double nearest = std::round(f.order);
   if (f.description.kind == DescriptionKind::floor_change) family = FamilyKind::broadband;

@@ -173,8 +173,16 @@ std::string describe(const FeatureDescription& d) {
       const double am = d.parameter("am_index"), pm = d.parameter("pm_index_rad");
       const std::string at = std::string(" at ") + shaft_words(d.shaft) + " order";
       if (!std::isfinite(pm)) return format("a %.3g %% modulation (AM or PM: no phases)", 100 * am) + at;
-      return am >= pm ? format("a %.3g %% AM", 100 * am) + at + format(" (PM %.2g rad)", pm)
-                      : format("a %.3g rad PM", pm) + at + format(" (AM %.2g %%)", 100 * am);
+      // Which one dominates: the AM's share of the first sidebands' power (descriptions stored before
+      // it was kept: AM against PM's small-index sidebands, m against β).
+      const double share = d.parameter("am_power_share");
+      const double am_share = std::isfinite(share) ? share : (am * am + pm * pm > 0 ? am * am / (am * am + pm * pm) : 1.0);
+      // Mixed when the lesser carries a tenth of the sidebands' power or more (10 dB under the other).
+      if (am_share >= 0.1 && am_share <= 0.9)
+        return format("AM %.3g %% and PM %.3g rad", 100 * am, pm) + at +
+               (am_share >= 0.5 ? ", AM" : ", PM") + format(" dominant (%.0f %% of the sidebands' power)", 100 * std::max(am_share, 1 - am_share));
+      return am_share > 0.5 ? format("a %.3g %% AM", 100 * am) + at + format(" (PM %.2g rad)", pm)
+                            : format("a %.3g rad PM", pm) + at + format(" (AM %.2g %%)", 100 * am);
     }
     case DescriptionKind::ghost_line:
       return std::string("a ghost line at ") + (d.shaft == FeatureShaft::output ? "gear" : "pinion") + " order " + format("%.2f", d.parameter("order")) +

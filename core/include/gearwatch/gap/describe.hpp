@@ -69,7 +69,12 @@ class FeatureDescriber {
   /// A feature of the broadband floors (FeatureFinder::floor_features): a floor change (level at
   /// 1 kHz, slope per decade) fitted to the floors' g over the bands whose centre lies in its extent
   /// in Hz, when it brings the bands at the practical minimum under it; else none.
+  /// With the floor change, when the noise_floor candidate's form (a white PSD S added to every
+  /// record, 2·S·speed per 1-order bin) brings the feature's bands at the practical minimum under
+  /// it: `white_psd_m2_s4_per_hz` = S, (m/s²)²/Hz.
   FeatureDescription describe_floor(const GapFeature& f) const;
+  /// The white PSD that explains a floor feature's bands (the rule of the forms), NaN when none does.
+  double white_floor_psd(const GapFeature& f) const;
 
   enum class CellKind : std::uint8_t { input_line, output_line, broadband };
   struct Cell {
@@ -114,9 +119,11 @@ class FeatureDescriber {
   std::vector<FloorComparison> floors_;  ///< each record's broadband floors (compare_floors)
 };
 
-/// The chosen candidate that explains a feature: the first in report.chosen whose families hold the
-/// family the feature's place belongs to (fixed in Hz: fixed_frequency; else its line's family, or
-/// broadband off the integer orders), unless that family stays unexplained. None: no candidate does.
+/// The candidate that explains a feature: noise_floor for a floor change a white PSD explains on its
+/// own bands (`white_psd_m2_s4_per_hz`, describe_floor); else the first chosen candidate in
+/// report.chosen whose families hold the family the feature's place belongs to (fixed in Hz:
+/// fixed_frequency; else its line's family, or broadband off the integer orders), unless that family
+/// stays unexplained. None: no candidate does.
 std::optional<CandidateEffect> explaining_candidate(const GapReport& report, const GapFeature& feature, const GearPairSpec& gears);
 
 }  // namespace gearwatch::gap

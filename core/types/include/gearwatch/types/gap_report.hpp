@@ -93,7 +93,7 @@ struct FeatureSighting {
 enum class DescriptionKind : std::uint8_t {
   none = 0,          ///< no form removes the feature's gap (or it was not described)
   resonance = 1,     ///< a resonance fixed in Hz: frequency_hz, damping_ratio, gain_db
-  modulation = 2,    ///< a modulation of the mesh at a shaft's order: am_index, pm_index_rad (`shaft`)
+  modulation = 2,    ///< a modulation of the mesh at a shaft's order: am_index, pm_index_rad, am_power_share (`shaft`)
   ghost_line = 3,    ///< a line at a non-integer order: order, amplitude_m_s2
   fixed_tone = 4,    ///< tones fixed in Hz: frequency_hz, amplitude_m_s2 (the lowest), fundamental_hz, harmonic, supply_hz, tones, tone_k_hz/_amplitude_m_s2/_harmonic
   floor_change = 5,  ///< a broadband floor change: level_db (at 1 kHz), slope_db_per_decade
