@@ -287,13 +287,22 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
 }
 
 FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Window& w) const {
-  // RSS of g over the window for (f_n, ζ, G dB).
+  // RSS of g over the window for (f_n, ζ, G dB). The search evaluates it thousands of times: the
+  // measured side's g is fixed, and the band-pass depends on (f_n, ζ) alone, so both are computed
+  // once (per window, per (f_n, ζ)) and each evaluation is the same sum on the same values.
+  std::vector<double> g_measured(w.size()), pass(w.size());
+  for (std::size_t e = 0; e < w.size(); ++e) g_measured[e] = g_of(w[e].first, w[e].second, records_[w[e].first].cells[w[e].second].measured);
+  double pass_fn = kNaN, pass_zeta = kNaN;
   auto rss = [&](double fn, double zeta, double gain_db) {
+    if (!(fn == pass_fn && zeta == pass_zeta)) {
+      for (std::size_t e = 0; e < w.size(); ++e) pass[e] = band_pass(records_[w[e].first].cells[w[e].second].hz, fn, zeta);
+      pass_fn = fn, pass_zeta = zeta;
+    }
     const double gm1 = std::pow(10.0, gain_db / 10) - 1;
     double s = 0;
-    for (const auto& [r, i] : w) {
-      const Cell& c = records_[r].cells[i];
-      const double d = g_of(r, i, c.measured) - g_of(r, i, c.twin * (1 + gm1 * band_pass(c.hz, fn, zeta)));
+    for (std::size_t e = 0; e < w.size(); ++e) {
+      const auto [r, i] = w[e];
+      const double d = g_measured[e] - g_of(r, i, records_[r].cells[i].twin * (1 + gm1 * pass[e]));
       s += d * d;
     }
     return s;
