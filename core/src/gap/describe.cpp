@@ -514,6 +514,18 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   const Window w = window_of(f);
   FeatureDescription none;
   if (w.empty()) return none;
+  // The gap first: a window without a cell at the practical minimum is described by no form, so
+  // the local forms' searches are not run for it.
+  double gap_sq = 0;
+  std::size_t core = 0;
+  for (const auto& [r, i] : w) {
+    const double g = g_of(r, i, records_[r].cells[i].measured);
+    gap_sq += g * g;
+    core += std::abs(g) >= settings_.min_feature_db ? 1 : 0;
+  }
+  const double n = static_cast<double>(w.size());
+  none.gap_db = std::sqrt(gap_sq / n);
+  if (core == 0) return none;
   std::vector<Fit> fits{floor_, tilt_, modulation_input_, modulation_output_};
   // The local forms where they can be the one cause: a resonance within an octave (the forms' ζ
   // ≤ 0.3 keeps its 3 dB band there for gains up to 10 dB), a tone within four input orders (its
@@ -531,16 +543,6 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   const double hz_width = f.hz_high - f.hz_low;
   if (f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
   else if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
-  double gap_sq = 0;
-  std::size_t core = 0;
-  for (const auto& [r, i] : w) {
-    const double g = g_of(r, i, records_[r].cells[i].measured);
-    gap_sq += g * g;
-    core += std::abs(g) >= settings_.min_feature_db ? 1 : 0;
-  }
-  const double n = static_cast<double>(w.size());
-  none.gap_db = std::sqrt(gap_sq / n);
-  if (core == 0) return none;
   FeatureDescription best = none;
   double best_bic = std::numeric_limits<double>::infinity();
   for (const auto& fit : fits) {
