@@ -19,15 +19,16 @@ constexpr double kMaxToneReachOrders = 12;
 
 double ratio_db(double measured, double model, double floor) { return 10.0 * std::log10((measured + floor) / (model + floor)); }
 
-/// The minimum of a unimodal f on [lo, hi] (golden section).
+/// The minimum of a unimodal f on [lo, hi] (golden section); f there goes to `value` when given.
 template <class F>
-double golden_min(F&& f, double lo, double hi, int iterations = 40) {
+double golden_min(F&& f, double lo, double hi, int iterations = 40, double* value = nullptr) {
   const double phi = (std::sqrt(5.0) - 1) / 2;
   double a = lo, b = hi, c = b - phi * (b - a), d = a + phi * (b - a), fc = f(c), fd = f(d);
   for (int i = 0; i < iterations; ++i) {
     if (fc < fd) b = d, d = c, fd = fc, c = b - phi * (b - a), fc = f(c);
     else a = c, c = d, fc = fd, d = a + phi * (b - a), fd = f(d);
   }
+  if (value) *value = fc < fd ? fc : fd;
   return fc < fd ? c : d;
 }
 
@@ -307,7 +308,10 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
     }
     return s;
   };
-  auto best_gain = [&](double fn, double zeta) { return golden_min([&](double g) { return rss(fn, zeta, g); }, -30, 40, 20); };
+  // The best gain at (f_n, ζ) and the RSS there (the search's own evaluation of it).
+  auto best_gain = [&](double fn, double zeta, double& v) {
+    return golden_min([&](double g) { return rss(fn, zeta, g); }, -30, 40, 20, &v);
+  };
   double lo = f.hz_low, hi = f.hz_high;
   if (!(hi > lo) || !(lo > 0)) lo = std::max(1.0, f.hz * 0.9), hi = f.hz * 1.1;
   // A grid over f_n in the feature's band and ζ from 0.002 to 0.3 (log), the gain by golden section;
@@ -316,8 +320,9 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
   constexpr int kF = 24, kZeta = 12;
   for (int i = 0; i <= kF; ++i)
     for (int j = 0; j <= kZeta; ++j) {
-      const double fn = lo + (hi - lo) * i / kF, zeta = 0.002 * std::pow(150.0, static_cast<double>(j) / kZeta), g = best_gain(fn, zeta),
-                   v = rss(fn, zeta, g);
+      const double fn = lo + (hi - lo) * i / kF, zeta = 0.002 * std::pow(150.0, static_cast<double>(j) / kZeta);
+      double v = 0;
+      const double g = best_gain(fn, zeta, v);
       if (v < best) best = v, bf = fn, bz = zeta, bg = g;
     }
   double step_f = (hi - lo) / kF, step_lz = std::log(150.0) / kZeta;
@@ -326,7 +331,8 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
     for (const auto& [df, dlz] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}}) {
       const double fn = bf + df * step_f, zeta = bz * std::exp(dlz * step_lz);
       if (!(fn > 0) || zeta < 1e-4 || zeta > 1) continue;
-      const double g = best_gain(fn, zeta), v = rss(fn, zeta, g);
+      double v = 0;
+      const double g = best_gain(fn, zeta, v);
       if (v < best) best = v, bf = fn, bz = zeta, bg = g, moved = true;
     }
     if (!moved) step_f /= 2, step_lz /= 2;
