@@ -261,6 +261,9 @@ ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects
     localise.attribute = false;
     localise.reference_k_wear.reset();
     localise.rerun_twin = nullptr;
+    // Only the families' significance before any candidate is read here; the features (found and
+    // described after it) would be computed and dropped.
+    localise.find_features = false;
     for (const auto& g : gap::diagnose(signature, signature, GearPairSpec{}, localise).before)
       if (g.significant) {
         res.identifiable = true;

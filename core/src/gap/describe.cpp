@@ -22,15 +22,16 @@ constexpr double kMaxToneReachOrders = 12;
 
 double ratio_db(double measured, double model, double floor) { return 10.0 * std::log10((measured + floor) / (model + floor)); }
 
-/// The minimum of a unimodal f on [lo, hi] (golden section).
+/// The minimum of a unimodal f on [lo, hi] (golden section); f there goes to `value` when given.
 template <class F>
-double golden_min(F&& f, double lo, double hi, int iterations = 40) {
+double golden_min(F&& f, double lo, double hi, int iterations = 40, double* value = nullptr) {
   const double phi = (std::sqrt(5.0) - 1) / 2;
   double a = lo, b = hi, c = b - phi * (b - a), d = a + phi * (b - a), fc = f(c), fd = f(d);
   for (int i = 0; i < iterations; ++i) {
     if (fc < fd) b = d, d = c, fd = fc, c = b - phi * (b - a), fc = f(c);
     else a = c, c = d, fc = fd, d = a + phi * (b - a), fd = f(d);
   }
+  if (value) *value = fc < fd ? fc : fd;
   return fc < fd ? c : d;
 }
 
@@ -339,18 +340,30 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
 }
 
 FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Window& w) const {
-  // RSS of g over the window for (f_n, ζ, G dB).
+  // RSS of g over the window for (f_n, ζ, G dB). The search evaluates it thousands of times: the
+  // measured side's g is fixed, and the band-pass depends on (f_n, ζ) alone, so both are computed
+  // once (per window, per (f_n, ζ)) and each evaluation is the same sum on the same values.
+  std::vector<double> g_measured(w.size()), pass(w.size());
+  for (std::size_t e = 0; e < w.size(); ++e) g_measured[e] = g_of(w[e].first, w[e].second, records_[w[e].first].cells[w[e].second].measured);
+  double pass_fn = kNaN, pass_zeta = kNaN;
   auto rss = [&](double fn, double zeta, double gain_db) {
+    if (!(fn == pass_fn && zeta == pass_zeta)) {
+      for (std::size_t e = 0; e < w.size(); ++e) pass[e] = band_pass(records_[w[e].first].cells[w[e].second].hz, fn, zeta);
+      pass_fn = fn, pass_zeta = zeta;
+    }
     const double gm1 = std::pow(10.0, gain_db / 10) - 1;
     double s = 0;
-    for (const auto& [r, i] : w) {
-      const Cell& c = records_[r].cells[i];
-      const double d = g_of(r, i, c.measured) - g_of(r, i, c.twin * (1 + gm1 * band_pass(c.hz, fn, zeta)));
+    for (std::size_t e = 0; e < w.size(); ++e) {
+      const auto [r, i] = w[e];
+      const double d = g_measured[e] - g_of(r, i, records_[r].cells[i].twin * (1 + gm1 * pass[e]));
       s += d * d;
     }
     return s;
   };
-  auto best_gain = [&](double fn, double zeta) { return golden_min([&](double g) { return rss(fn, zeta, g); }, -30, 40, 20); };
+  // The best gain at (f_n, ζ) and the RSS there (the search's own evaluation of it).
+  auto best_gain = [&](double fn, double zeta, double& v) {
+    return golden_min([&](double g) { return rss(fn, zeta, g); }, -30, 40, 20, &v);
+  };
   double lo = f.hz_low, hi = f.hz_high;
   if (!(hi > lo) || !(lo > 0)) lo = std::max(1.0, f.hz * 0.9), hi = f.hz * 1.1;
   // A grid over f_n in the feature's band and ζ from 0.002 to 0.3 (log), the gain by golden section;
@@ -359,8 +372,9 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
   constexpr int kF = 24, kZeta = 12;
   for (int i = 0; i <= kF; ++i)
     for (int j = 0; j <= kZeta; ++j) {
-      const double fn = lo + (hi - lo) * i / kF, zeta = 0.002 * std::pow(150.0, static_cast<double>(j) / kZeta), g = best_gain(fn, zeta),
-                   v = rss(fn, zeta, g);
+      const double fn = lo + (hi - lo) * i / kF, zeta = 0.002 * std::pow(150.0, static_cast<double>(j) / kZeta);
+      double v = 0;
+      const double g = best_gain(fn, zeta, v);
       if (v < best) best = v, bf = fn, bz = zeta, bg = g;
     }
   double step_f = (hi - lo) / kF, step_lz = std::log(150.0) / kZeta;
@@ -369,7 +383,8 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
     for (const auto& [df, dlz] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}}) {
       const double fn = bf + df * step_f, zeta = bz * std::exp(dlz * step_lz);
       if (!(fn > 0) || zeta < 1e-4 || zeta > 1) continue;
-      const double g = best_gain(fn, zeta), v = rss(fn, zeta, g);
+      double v = 0;
+      const double g = best_gain(fn, zeta, v);
       if (v < best) best = v, bf = fn, bz = zeta, bg = g, moved = true;
     }
     if (!moved) step_f /= 2, step_lz /= 2;
@@ -615,6 +630,18 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   const Window w = window_of(f);
   FeatureDescription none;
   if (w.empty()) return none;
+  // The gap first: a window without a cell at the practical minimum is described by no form, so
+  // the local forms' searches are not run for it.
+  double gap_sq = 0;
+  std::size_t core = 0;
+  for (const auto& [r, i] : w) {
+    const double g = g_of(r, i, records_[r].cells[i].measured);
+    gap_sq += g * g;
+    core += std::abs(g) >= settings_.min_feature_db ? 1 : 0;
+  }
+  const double n = static_cast<double>(w.size());
+  none.gap_db = std::sqrt(gap_sq / n);
+  if (core == 0) return none;
   std::vector<Fit> fits{floor_, tilt_, modulation_input_, modulation_output_};
   // The local forms where they can be the one cause: a resonance within an octave (the forms' ζ
   // ≤ 0.3 keeps its 3 dB band there for gains up to 10 dB), a tone within four input orders (its
@@ -632,16 +659,6 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   const double hz_width = f.hz_high - f.hz_low;
   if (f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
   else if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
-  double gap_sq = 0;
-  std::size_t core = 0;
-  for (const auto& [r, i] : w) {
-    const double g = g_of(r, i, records_[r].cells[i].measured);
-    gap_sq += g * g;
-    core += std::abs(g) >= settings_.min_feature_db ? 1 : 0;
-  }
-  const double n = static_cast<double>(w.size());
-  none.gap_db = std::sqrt(gap_sq / n);
-  if (core == 0) return none;
   FeatureDescription best = none;
   double best_bic = std::numeric_limits<double>::infinity();
   for (const auto& fit : fits) {
