@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -196,21 +198,105 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
   std::cout << "wrote " << plan.size() << " records and truth.json to " << opt.out << "\n";
 }
 
-}  // namespace
+/// The capture settings of a single capture: the command line's, with --config's scaling, tacho and ids.
+daemon::CaptureSettings single_capture_settings(const Options& opt) {
+  auto cs = opt.cs;
+  cs.fd = !opt.classic;
+  if (!opt.config.empty()) {
+    const auto cfg = load_config_or_defaults(opt.config);
+    cs.scale_m_s2_per_lsb = cfg.rig.channels.front().scale_m_s2_per_lsb;
+    cs.edges_per_rev = cfg.rig.tachos.front().edges_per_rev;
+    cs.signal.pinion_teeth = cfg.rig.gears.pinion_teeth;
+    cs.ids = daemon::protocol_ids(cfg);
+  }
+  if (!cs.fd && cs.signal.sample_rate_hz * cs.signal.channels > 20000)
+    std::cerr << "gearwatch: note: classic CAN carries ~10 kHz per channel at most; this capture is for bench replay only\n";
+  return cs;
+}
 
-void register_simulate(CLI::App& app) {
-  auto opt = std::make_shared<Options>();
-  auto* cmd = app.add_subcommand("simulate", "Write a rig capture (protocol v1, candump -L log), or a wear campaign");
-  cmd->add_option("--out", opt->out, "Output capture file (a directory with --campaign)")->required();
+twin::GearboxParameters twin_parameters(const Options& opt) {
+  return opt.config.empty() ? twin::GearboxParameters{} : config::load_twin_parameters(opt.config);
+}
+
+/// --physics twin: the twin's casing acceleration y6, one channel.
+daemon::CaptureSummary write_twin_capture(const Options& opt, daemon::CaptureSettings& cs) {
+  if (cs.edges_per_rev != 1) throw CommandError("--physics twin gives one tacho edge per revolution: set edges_per_rev = 1");
+  auto y6 = twin::simulate_casing_signal(twin_parameters(opt), twin::ToothProfileDeviation{},
+                                         twin::OperatingPoint{cs.signal.speed_hz, cs.signal.torque_nm}, cs.duration_s,
+                                         cs.signal.sample_rate_hz);
+  cs.signal.channels = 1;
+  auto signal = daemon::sampled_capture_signal(y6.sample_rate_hz, std::move(y6.acceleration), std::move(y6.tacho_edges));
+  return daemon::write_capture(cs, *signal, opt.out);
+}
+
+/// --physics rig: the rig simulator with the --effects (drawn from the seed when one is given), unworn.
+daemon::CaptureSummary write_rig_capture(const Options& opt, const daemon::CaptureSettings& cs, bool seeded) {
+  if (cs.edges_per_rev != 1) throw CommandError("--physics rig gives one tacho edge per revolution: set edges_per_rev = 1");
+  if (cs.signal.channels > 2) throw CommandError("--physics rig has 1 or 2 channels");
+  const auto params = twin_parameters(opt);
+  const auto fx = make_effects(opt.effects.empty() ? "none" : opt.effects, seeded, cs.signal.seed, {});
+  rig::RigRunSettings run;
+  run.speed_hz = cs.signal.speed_hz;
+  run.torque_nm = cs.signal.torque_nm;
+  run.duration_s = cs.duration_s;
+  run.sample_rate_hz = cs.signal.sample_rate_hz;
+  run.channels = cs.signal.channels;
+  run.seed = cs.signal.seed;
+  RigCaptureSignal signal(rig::simulate_record(params, fx, {}, {}, run));
+  return daemon::write_capture(cs, signal, opt.out);
+}
+
+/// One capture (`--out FILE`) of the chosen physics, and its one-line summary.
+void run_single_capture(const Options& opt, bool seeded, bool effects_given) {
+  if (effects_given && opt.physics != "rig") throw CommandError("--effects needs --physics rig");
+  auto cs = single_capture_settings(opt);
+  daemon::CaptureSummary s;
+  try {
+    if (opt.physics == "twin")
+      s = write_twin_capture(opt, cs);
+    else if (opt.physics == "rig")
+      s = write_rig_capture(opt, cs, seeded);
+    else
+      s = daemon::write_synthetic_capture(cs, opt.out);
+  } catch (const CommandError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw CommandError(e.what());
+  }
+  std::cout << "wrote " << opt.out << ": " << s.frames << " frames, " << s.samples_per_channel << " samples x "
+            << cs.signal.channels << " channels, " << s.tacho_edges << " tacho edges, " << s.clipped_samples
+            << " clipped samples\n";
+}
+
+/// A campaign (`--campaign ... --out DIR`), its errors as one-line command errors.
+void run_campaign_command(const Options& opt, bool seeded, bool channels_given, bool effects_given, bool physics_given) {
+  try {
+    if (physics_given && opt.physics != "rig") throw CommandError("a campaign is made by the rig simulator (--physics rig)");
+    run_campaign(opt, seeded, channels_given, effects_given);
+  } catch (const CommandError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw CommandError(e.what());
+  }
+}
+
+/// The options whose presence (not only their value) decides the run.
+struct SimulateOptions {
+  CLI::Option *seed = nullptr, *channels = nullptr, *effects = nullptr;
+  std::vector<CLI::Option*> single_only;  // options a campaign excludes
+};
+
+/// The single capture's options: length, operating point, frames, signal and stream.
+void add_capture_options(CLI::App* cmd, const std::shared_ptr<Options>& opt, SimulateOptions& given) {
   auto* duration = cmd->add_option("--duration", opt->cs.duration_s, "Seconds of signal")->check(CLI::Range(0.001, 86400.0))->capture_default_str();
   auto* speed = cmd->add_option("--speed", opt->cs.signal.speed_hz, "Input shaft speed, Hz")->check(CLI::Range(0.1, 1000.0))->capture_default_str();
   auto* torque = cmd->add_option("--torque", opt->cs.signal.torque_nm, "Input torque, N·m")->check(CLI::Range(0.0, 10000.0))->capture_default_str();
   auto* fd = cmd->add_flag("--fd", opt->fd, "CAN FD frames, 30 samples each (default)");
   auto* classic = cmd->add_flag("--classic", opt->classic, "Classic CAN frames, 2 samples each")->excludes(fd);
-  auto* channels = cmd->add_option("--channels", opt->cs.signal.channels, "Vibration channels (rig and campaigns: 1 or 2)")->check(CLI::Range(1, 8))->capture_default_str();
+  given.channels = cmd->add_option("--channels", opt->cs.signal.channels, "Vibration channels (rig and campaigns: 1 or 2)")->check(CLI::Range(1, 8))->capture_default_str();
   cmd->add_option("--sample-rate", opt->cs.signal.sample_rate_hz, "Samples per second")->check(CLI::Range(100.0, 1e6))->capture_default_str();
   cmd->add_option("--speed-fluctuation", opt->cs.signal.speed_fluctuation, "Relative 0.5 Hz speed oscillation (synthetic physics)")->check(CLI::Range(0.0, 0.5));
-  auto* seed = cmd->add_option("--seed", opt->cs.signal.seed,
+  given.seed = cmd->add_option("--seed", opt->cs.signal.seed,
                                "Noise seed; with --physics rig or --campaign it also draws the effects' parameters at random, and --campaign random's campaign")
                    ->capture_default_str();
   cmd->add_option("--start-revs", opt->cs.start_revolutions, "Life counter at the first sample")->capture_default_str();
@@ -219,6 +305,11 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--interface", opt->cs.interface, "Interface name written in the log")->capture_default_str();
   cmd->add_flag("--no-tacho", [opt](std::int64_t) { opt->cs.tacho = false; },
                 "Send no tacho frames: an accelerometer alone (the daemon then estimates the speed from the signal)");
+  given.single_only = {duration, speed, torque, classic};
+}
+
+/// Where the signal comes from: configuration, physics, rig effects, a campaign.
+void add_source_options(CLI::App* cmd, const std::shared_ptr<Options>& opt, SimulateOptions& given) {
   cmd->add_option("--config", opt->config, "Take channel scaling, tacho edges/rev and the twin's [twin] parameters from this config");
   cmd->add_option("--physics", opt->physics,
                   "synthetic: gear-mesh harmonics, modulated resonance and noise of known amplitudes; "
@@ -226,76 +317,32 @@ void register_simulate(CLI::App& app) {
                   "rig: the rig simulator (the twin plus the --effects, docs/rig-simulator.md)")
       ->check(CLI::IsMember({"synthetic", "twin", "rig"}))
       ->capture_default_str();
-  auto* effects = cmd->add_option("--effects", opt->effects,
+  given.effects = cmd->add_option("--effects", opt->effects,
                                   "Rig effects: all, none or a comma-separated list (docs/rig-simulator.md)");
   auto* campaign = cmd->add_option("--campaign", opt->campaign, "A wear campaign: lubricated, dry, healthy, random (drawn from --seed) or FILE.toml (docs/campaign-file.md)");
   auto* records = cmd->add_option("--records", opt->records, "Campaign: measured stops (default: the campaign's)")->check(CLI::Range(1, 100000));
   auto* seconds = cmd->add_option("--seconds", opt->seconds, "Campaign: seconds per record (default: the campaign's)")->check(CLI::Range(0.1, 3600.0));
   records->needs(campaign);
   seconds->needs(campaign);
-  for (auto* o : {duration, speed, torque, classic}) o->excludes(campaign);
-  cmd->callback([opt, seed, channels, effects, cmd] {
-    const bool seeded = seed->count() > 0;
-    try {
-      if (!opt->campaign.empty()) {
-        if (cmd->get_option("--physics")->count() > 0 && opt->physics != "rig")
-          throw CommandError("a campaign is made by the rig simulator (--physics rig)");
-        run_campaign(*opt, seeded, channels->count() > 0, effects->count() > 0);
-        return;
-      }
-    } catch (const CommandError&) {
-      throw;
-    } catch (const std::exception& e) {
-      throw CommandError(e.what());
-    }
-    if (effects->count() > 0 && opt->physics != "rig") throw CommandError("--effects needs --physics rig");
-    auto cs = opt->cs;
-    cs.fd = !opt->classic;
-    if (!opt->config.empty()) {
-      const auto cfg = load_config_or_defaults(opt->config);
-      cs.scale_m_s2_per_lsb = cfg.rig.channels.front().scale_m_s2_per_lsb;
-      cs.edges_per_rev = cfg.rig.tachos.front().edges_per_rev;
-      cs.signal.pinion_teeth = cfg.rig.gears.pinion_teeth;
-      cs.ids = daemon::protocol_ids(cfg);
-    }
-    if (!cs.fd && cs.signal.sample_rate_hz * cs.signal.channels > 20000)
-      std::cerr << "gearwatch: note: classic CAN carries ~10 kHz per channel at most; this capture is for bench replay only\n";
-    daemon::CaptureSummary s;
-    try {
-      if (opt->physics == "twin") {
-        if (cs.edges_per_rev != 1) throw CommandError("--physics twin gives one tacho edge per revolution: set edges_per_rev = 1");
-        const auto params = opt->config.empty() ? twin::GearboxParameters{} : config::load_twin_parameters(opt->config);
-        auto y6 = twin::simulate_casing_signal(params, twin::ToothProfileDeviation{},
-                                               twin::OperatingPoint{cs.signal.speed_hz, cs.signal.torque_nm}, cs.duration_s,
-                                               cs.signal.sample_rate_hz);
-        cs.signal.channels = 1;
-        auto signal = daemon::sampled_capture_signal(y6.sample_rate_hz, std::move(y6.acceleration), std::move(y6.tacho_edges));
-        s = daemon::write_capture(cs, *signal, opt->out);
-      } else if (opt->physics == "rig") {
-        if (cs.edges_per_rev != 1) throw CommandError("--physics rig gives one tacho edge per revolution: set edges_per_rev = 1");
-        if (cs.signal.channels > 2) throw CommandError("--physics rig has 1 or 2 channels");
-        const auto params = opt->config.empty() ? twin::GearboxParameters{} : config::load_twin_parameters(opt->config);
-        const auto fx = make_effects(opt->effects.empty() ? "none" : opt->effects, seeded, cs.signal.seed, {});
-        rig::RigRunSettings run;
-        run.speed_hz = cs.signal.speed_hz;
-        run.torque_nm = cs.signal.torque_nm;
-        run.duration_s = cs.duration_s;
-        run.sample_rate_hz = cs.signal.sample_rate_hz;
-        run.channels = cs.signal.channels;
-        run.seed = cs.signal.seed;
-        RigCaptureSignal signal(rig::simulate_record(params, fx, {}, {}, run));
-        s = daemon::write_capture(cs, signal, opt->out);
-      } else {
-        s = daemon::write_synthetic_capture(cs, opt->out);
-      }
-    } catch (const CommandError&) {
-      throw;
-    } catch (const std::exception& e) {
-      throw CommandError(e.what());
-    }
-    std::cout << "wrote " << opt->out << ": " << s.frames << " frames, " << s.samples_per_channel << " samples x "
-              << cs.signal.channels << " channels, " << s.tacho_edges << " tacho edges, " << s.clipped_samples
-              << " clipped samples\n";
+  for (auto* o : given.single_only) o->excludes(campaign);
+}
+
+}  // namespace
+
+void register_simulate(CLI::App& app) {
+  auto opt = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand("simulate", "Write a rig capture (protocol v1, candump -L log), or a wear campaign");
+  cmd->add_option("--out", opt->out, "Output capture file (a directory with --campaign)")->required();
+  SimulateOptions given;
+  add_capture_options(cmd, opt, given);
+  add_source_options(cmd, opt, given);
+  cmd->callback([opt, given, cmd] {
+    const bool seeded = given.seed->count() > 0;
+    if (!opt->campaign.empty())
+      run_campaign_command(*opt, seeded, given.channels->count() > 0, given.effects->count() > 0,
+                           cmd->get_option("--physics")->count() > 0);
+    else
+      run_single_capture(*opt, seeded, given.effects->count() > 0);
   });
 }
 

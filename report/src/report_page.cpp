@@ -72,6 +72,61 @@ std::string utc_now_iso8601() {
   return buf;
 }
 
+namespace {
+
+/// The records of the current gear pair; a cycle count going backwards is a life-counter reset: a
+/// new gear pair.
+void load_current_pair_records(Database& db, ReportData& d) {
+  std::vector<RecordRow> all;
+  for (auto& r : storage::load_record_summaries(db))
+    all.push_back({r.id, r.input_revolutions, std::move(r.created_at), r.analysed, r.end_reason, r.speed_source});
+  d.total_records = static_cast<std::int64_t>(all.size());
+  std::size_t pair_start = 0;
+  std::optional<double> previous;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (!all[i].cycles) continue;
+    if (previous && *all[i].cycles < *previous) {
+      pair_start = i;
+      ++d.gear_pair_number;
+    }
+    previous = all[i].cycles;
+  }
+  d.records.assign(all.begin() + static_cast<std::ptrdiff_t>(pair_start), all.end());
+  if (!d.records.empty()) d.gear_pair_started_at = d.records.front().created_at;
+}
+
+/// Only the indicators the plots show: a long history has tens of other values per record.
+void load_plot_values(Database& db, std::int64_t first_record, ReportData& d) {
+  std::set<std::int64_t> channels;
+  std::set<std::string> names;
+  for (auto& v : storage::load_plot_indicator_values(db, first_record)) {
+    d.values[{v.channel, v.name}][v.record_id] = v.value;
+    channels.insert(v.channel);
+    names.insert(std::move(v.name));
+  }
+  d.channels.assign(channels.begin(), channels.end());
+  d.indicator_names.assign(names.begin(), names.end());
+}
+
+/// The twin's tables are not in the schema yet: shown as stored when a database has them.
+GenericTable load_model_table(Database& db, const std::string& name) {
+  GenericTable t;
+  t.name = name;
+  t.present = storage::has_table_or_view(db, name);
+  if (!t.present) return t;
+  const storage::NewestRows newest = storage::load_newest_rows(db, name, kMaxGenericRows);
+  t.total_rows = newest.total_rows;
+  t.columns = newest.table.columns;
+  for (const auto& stored : newest.table.rows) {
+    std::vector<std::string> row;
+    for (const auto& v : stored) row.push_back(cell_text(v));
+    t.rows.push_back(std::move(row));
+  }
+  return t;
+}
+
+}  // namespace
+
 ReportData load_report_data(Database& db, const std::string& database_label, const std::string& generated_at) {
   ReportData d;
   d.database = database_label;
@@ -85,69 +140,20 @@ ReportData load_report_data(Database& db, const std::string& database_label, con
   }
   if (!storage::has_table_or_view(db, "records")) throw std::runtime_error(database_label + " is not a gearwatch database (it has no records table)");
 
-  // Records by id; a cycle count going backwards is a life-counter reset: a new gear pair.
-  {
-    std::vector<RecordRow> all;
-    for (auto& r : storage::load_record_summaries(db))
-      all.push_back({r.id, r.input_revolutions, std::move(r.created_at), r.analysed, r.end_reason, r.speed_source});
-    d.total_records = static_cast<std::int64_t>(all.size());
-    std::size_t pair_start = 0;
-    std::optional<double> previous;
-    for (std::size_t i = 0; i < all.size(); ++i) {
-      if (!all[i].cycles) continue;
-      if (previous && *all[i].cycles < *previous) {
-        pair_start = i;
-        ++d.gear_pair_number;
-      }
-      previous = all[i].cycles;
-    }
-    d.records.assign(all.begin() + static_cast<std::ptrdiff_t>(pair_start), all.end());
-    if (!d.records.empty()) d.gear_pair_started_at = d.records.front().created_at;
-  }
+  load_current_pair_records(db, d);
   const std::int64_t first_record = d.records.empty() ? std::numeric_limits<std::int64_t>::max() : d.records.front().id;
   d.channel_names = storage::load_channel_names(db);
   d.skips = storage::load_indicator_skips(db, first_record);
   d.caveats = storage::load_indicator_caveats(db, first_record);
-
-  // Only the indicators the plots show: a long history has tens of other values per record.
-  {
-    std::set<std::int64_t> channels;
-    std::set<std::string> names;
-    for (auto& v : storage::load_plot_indicator_values(db, first_record)) {
-      d.values[{v.channel, v.name}][v.record_id] = v.value;
-      channels.insert(v.channel);
-      names.insert(std::move(v.name));
-    }
-    d.channels.assign(channels.begin(), channels.end());
-    d.indicator_names.assign(names.begin(), names.end());
-  }
+  load_plot_values(db, first_record, d);
 
   d.verdicts = storage::load_newest_wear_verdicts(db);
-
   d.total_alerts = storage::count_alerts(db);
   d.alerts = storage::load_newest_alerts(db, kMaxAlertRows);
   d.active_alerts = storage::load_active_alerts(db);
-
   d.health = storage::load_acquisition_health(db);
   d.inspections = storage::load_inspections(db);
-
-  // The twin's tables are not in the schema yet: shown as stored when a database has them.
-  for (const auto& name : model_table_names()) {
-    GenericTable t;
-    t.name = name;
-    t.present = storage::has_table_or_view(db, name);
-    if (t.present) {
-      const storage::NewestRows newest = storage::load_newest_rows(db, name, kMaxGenericRows);
-      t.total_rows = newest.total_rows;
-      t.columns = newest.table.columns;
-      for (const auto& stored : newest.table.rows) {
-        std::vector<std::string> row;
-        for (const auto& v : stored) row.push_back(cell_text(v));
-        t.rows.push_back(std::move(row));
-      }
-    }
-    d.model_tables.push_back(std::move(t));
-  }
+  for (const auto& name : model_table_names()) d.model_tables.push_back(load_model_table(db, name));
 
   // Alert transitions of the current gear pair, for the plots' event lines (the table above
   // holds only the newest rows of the whole history).

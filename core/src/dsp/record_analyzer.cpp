@@ -211,138 +211,193 @@ ChannelAnalysis RecordAnalyzer::analyze(const Record& record, std::size_t channe
   return out;
 }
 
-void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const float> x, double raw_std_dev,
-                                          std::span<const double> input_edges, ChannelAnalysis& out) {
-  const double fs = record.sample_rate_hz;
-  auto skip = [&](const std::vector<std::string>& names, SkipReason reason, const std::string& detail = {}) {
+/// One record's order-domain analysis (the speed, order tracking and synchronous separation, the
+/// residual's envelope, band selection and coherence), its steps in analyze_order_domain's order.
+/// A step that returns false ends the analysis; what it skipped and why is in `out`. Nested in
+/// RecordAnalyzer, so its steps use the analyzer's plans and buffers.
+struct RecordAnalyzer::Context {
+  Context(RecordAnalyzer& analyzer, const Record& r, std::span<const float> samples, double raw_std, ChannelAnalysis& o)
+      : a(analyzer), record(r), x(samples), raw_std_dev(raw_std), out(o) {}
+
+  RecordAnalyzer& a;
+  const Record& record;
+  std::span<const float> x;
+  double raw_std_dev;
+  ChannelAnalysis& out;
+  double fs = record.sample_rate_hz;
+  std::vector<std::string> order_names, residual_group;
+  int z1 = a.rig_.gears.pinion_teeth, z2 = a.rig_.gears.gear_teeth;
+  // The shaft's angle and speed.
+  double total_revs = 0, mean_speed = 0, slowest = 0, fastest = 0;
+  std::size_t spr = 0, input_revs = 0, output_revs = 0, length = 0;
+  // The residual's spectral stretch: the first R' revolutions, R' 7-smooth.
+  std::size_t spectral_revs = 0, spectral_length = 0, last_bin = 0;
+  std::span<const double> residual;
+  Ics2Parameters ics2;
+  double nyquist_hz = 0, usable_hz = 0, bins_per_hz = 0, total_energy = 0, min_band_fraction = 0, full_band = 0;
+
+  void skip(const std::vector<std::string>& names, SkipReason reason, const std::string& detail = {}) {
     for (const auto& n : names) out.skipped.push_back({n, reason, detail});
-  };
-  auto add = [&](const std::string& name, double value) {
+  }
+  void add(const std::string& name, double value) {
     if (std::isfinite(value))
       out.indicators.push_back({name, value});
     else
       out.skipped.push_back({name, SkipReason::non_finite_result, {}});
-  };
-  std::vector<std::string> order_names = speed_names();
-  for (auto& n : tsa_names(settings_)) order_names.push_back(n);
-  const auto residual_group = residual_names(settings_);
-  for (auto& n : residual_group) order_names.push_back(n);
-
-  // Tacho: the given input-shaft edges (a speed estimate), else the input shaft's own tacho if it
-  // has edges, else any other shaft's scaled by its ratio.
-  const TachoSpec* tacho = input_tacho(rig_, record);
-  if (tacho == nullptr && input_edges.empty()) {
-    skip(order_names, SkipReason::no_tacho);
-    return;
-  }
-  const TachoCheck check =
-      input_edges.empty() ? angle_.assign(record.tacho_edges[static_cast<std::size_t>(tacho->shaft)], tacho->edges_per_rev,
-                                          1.0 / tacho->ratio_to_input)
-                          : angle_.assign(input_edges, 1, 1.0);
-  if (!check.ok()) {
-    skip(order_names, *check.failure);
-    return;
-  }
-  angle_.speed_per_revolution(fs, out.speed_profile_hz);
-  const double total_revs = angle_.total_revolutions();
-  const double duration = angle_.time_at(total_revs) - angle_.time_at(0.0);
-  const double mean_speed = total_revs * fs / duration;
-  double slowest = mean_speed, fastest = mean_speed;
-  for (double v : out.speed_profile_hz) {
-    slowest = std::min(slowest, v);
-    fastest = std::max(fastest, v);
-  }
-  if (slowest < rig_.min_speed_hz || fastest > rig_.max_speed_hz) {
-    skip(order_names, SkipReason::speed_out_of_range);
-    return;
-  }
-  out.mean_speed_hz = mean_speed;
-  add(to_string(Indicator::speed_mean_hz), mean_speed);
-  add(to_string(Indicator::speed_fluctuation), (fastest - slowest) / mean_speed);
-
-  std::size_t spr = static_cast<std::size_t>(settings_.samples_per_revolution);
-  if (spr == 0) spr = std::clamp<std::size_t>(next_smooth_size(static_cast<std::size_t>(std::ceil(fs / slowest))), 64, 1u << 20);
-  out.samples_per_revolution = spr;
-  const int z1 = rig_.gears.pinion_teeth, z2 = rig_.gears.gear_teeth;
-  const auto input_revs = static_cast<std::size_t>(std::floor(total_revs + 1e-9));
-  const auto output_revs = static_cast<std::size_t>(std::floor(total_revs * z1 / z2 + 1e-9));
-  if (static_cast<double>(input_revs) < settings_.min_revolutions_for_tsa) {
-    skip(tsa_names(settings_), SkipReason::too_few_revolutions);
-    skip(residual_group, SkipReason::too_few_revolutions);
-    return;
   }
 
-  // Order tracking onto both shafts and the synchronous separation.
-  const std::size_t length = input_revs * spr;
-  input_angle_.resize(length);
-  resampler_.resample(x, angle_, spr, input_revs, input_angle_);
-  output_angle_.resize(output_revs * spr);
-  if (output_revs > 0)
-    output_resampler_.resample(x, angle_, spr, output_revs, output_angle_, static_cast<double>(z2) / z1);
-  residual_.resize(length);
-  const auto separation = separation_.separate(input_angle_, output_angle_, spr, z1, z2, plans_, residual_);
-  out.tsa_averages_input = static_cast<double>(separation.input_averages);
-  out.tsa_averages_output = static_cast<double>(separation.output_averages);
-
-  synchronous_harmonic_amplitudes(separation_.input_tsa(), z1, static_cast<std::size_t>(settings_.stored_gmf_harmonics),
-                                  plans_, gmf_amplitudes_);
-  if (std::isfinite(gmf_amplitudes_[0])) add(to_string(Indicator::gmf1_amplitude), gmf_amplitudes_[0]);
-  else out.skipped.push_back({to_string(Indicator::gmf1_amplitude), SkipReason::above_nyquist, {}});
-  for (std::size_t h = 0; h < gmf_amplitudes_.size(); ++h) {
-    const std::string name = "gmf_harmonic_" + std::to_string(h + 1);
-    if (std::isfinite(gmf_amplitudes_[h])) add(name, gmf_amplitudes_[h]);
-    else out.skipped.push_back({name, SkipReason::above_nyquist, {}});
-  }
-  try {
-    add(to_string(Indicator::rms_sa), rms_sa(gmf_amplitudes_, static_cast<std::size_t>(settings_.rms_sa_harmonics)));
-  } catch (const std::invalid_argument&) {
-    out.skipped.push_back({to_string(Indicator::rms_sa), SkipReason::above_nyquist, {}});
+  void name_groups() {
+    order_names = speed_names();
+    for (auto& n : tsa_names(a.settings_)) order_names.push_back(n);
+    residual_group = residual_names(a.settings_);
+    for (auto& n : residual_group) order_names.push_back(n);
   }
 
-  if (static_cast<double>(output_revs) < settings_.min_revolutions_for_tsa) {
-    skip(residual_group, SkipReason::too_few_revolutions);
-    return;
+  /// Tacho: the given input-shaft edges (a speed estimate), else the input shaft's own tacho if it
+  /// has edges, else any other shaft's scaled by its ratio.
+  bool assign_angle(std::span<const double> input_edges) {
+    const TachoSpec* tacho = input_tacho(a.rig_, record);
+    if (tacho == nullptr && input_edges.empty()) {
+      skip(order_names, SkipReason::no_tacho);
+      return false;
+    }
+    const TachoCheck check =
+        input_edges.empty() ? a.angle_.assign(record.tacho_edges[static_cast<std::size_t>(tacho->shaft)],
+                                              tacho->edges_per_rev, 1.0 / tacho->ratio_to_input)
+                            : a.angle_.assign(input_edges, 1, 1.0);
+    if (!check.ok()) {
+      skip(order_names, *check.failure);
+      return false;
+    }
+    return true;
   }
-  const Moments res = moments(std::span<const double>(residual_.data(), length));
-  add(to_string(Indicator::rms_residual), res.rms);
-  add(to_string(Indicator::kurtosis_residual), res.kurtosis);
-  // A residual at the level of quantisation and order-tracking error has no structure worth a
-  // number: ICS2 of such residue reads anything from 0.3 to 1.3 on a noise-free gear signal.
-  if (res.rms < settings_.residual_rms_floor * raw_std_dev) {
-    std::vector<std::string> structure;
-    for (const auto& n : residual_group)
-      if (n != to_string(Indicator::rms_residual) && n != to_string(Indicator::kurtosis_residual)) structure.push_back(n);
-    skip(structure, SkipReason::residual_below_floor);
-    return;
-  }
-  // The spectral indicators use the first R' revolutions, R' the largest 7-smooth count <= R, so
-  // every transform size factors into small primes (a prime R such as 97 would make FFTW's
-  // transforms several times slower); at most a few percent of the record is left out.
-  const std::size_t spectral_revs = previous_smooth_size(input_revs);
-  const std::size_t spectral_length = spectral_revs * spr;
-  const std::span<const double> residual(residual_.data(), spectral_length);
 
-  // Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier
-  // bands, band-passed by FFT on a tapered copy of the stretch (kEnvelopeTaperFraction: the
-  // stretch does not join end to start, and the step would be a broadband click).
-  const Ics2Parameters ics2{static_cast<double>(z1), settings_.ics2_harmonics, settings_.ics2_tolerance_bins};
-  const RealFft& fft = plans_.real(spectral_length);
-  tapered_residual_.assign(residual.begin(), residual.end());
-  apply_tukey_taper(tapered_residual_, kEnvelopeTaperFraction);
-  residual_spectrum_.resize(fft.spectrum_size());
-  fft.forward(tapered_residual_, residual_spectrum_);
-  const double nyquist_hz = std::min(fs / 2.0, static_cast<double>(spr) / 2.0 * slowest);
-  const double bins_per_hz = static_cast<double>(spectral_revs) / mean_speed;
-  const std::size_t last_bin = spectral_length / 2 - 1;
-  double total_energy = 0.0;  // one-sided, DC and Nyquist bins excluded like the envelopes
-  for (std::size_t k = 1; k <= last_bin; ++k) total_energy += std::norm(residual_spectrum_[k]);
-  const double min_band_fraction = std::pow(10.0, settings_.band_energy_floor_db / 10.0);
-  const double full_band = envelope_.full_band_ics2(residual_spectrum_, spectral_length, spectral_revs, ics2).value;
-  add(to_string(Indicator::ics2_full_band), full_band);
-  // Carrier bands reach up to 0.45·fs (kUsableBandFraction); a band reaching past it keeps the
-  // part below when that is at least half of it (the band still stands for its mechanism), noted.
-  const double usable_hz = std::min(nyquist_hz, kUsableBandFraction * fs);
-  auto band_ics2 = [&](FrequencyBand band, const std::string& name) {
+  /// The speed profile and its indicators, refused outside the rig's speed range.
+  bool speed_indicators() {
+    a.angle_.speed_per_revolution(fs, out.speed_profile_hz);
+    total_revs = a.angle_.total_revolutions();
+    const double duration = a.angle_.time_at(total_revs) - a.angle_.time_at(0.0);
+    mean_speed = total_revs * fs / duration;
+    slowest = mean_speed, fastest = mean_speed;
+    for (double v : out.speed_profile_hz) {
+      slowest = std::min(slowest, v);
+      fastest = std::max(fastest, v);
+    }
+    if (slowest < a.rig_.min_speed_hz || fastest > a.rig_.max_speed_hz) {
+      skip(order_names, SkipReason::speed_out_of_range);
+      return false;
+    }
+    out.mean_speed_hz = mean_speed;
+    add(to_string(Indicator::speed_mean_hz), mean_speed);
+    add(to_string(Indicator::speed_fluctuation), (fastest - slowest) / mean_speed);
+    return true;
+  }
+
+  /// The order-tracking resolution and the whole revolutions of both shafts; enough for a TSA?
+  bool count_revolutions() {
+    spr = static_cast<std::size_t>(a.settings_.samples_per_revolution);
+    if (spr == 0) spr = std::clamp<std::size_t>(next_smooth_size(static_cast<std::size_t>(std::ceil(fs / slowest))), 64, 1u << 20);
+    out.samples_per_revolution = spr;
+    input_revs = static_cast<std::size_t>(std::floor(total_revs + 1e-9));
+    output_revs = static_cast<std::size_t>(std::floor(total_revs * z1 / z2 + 1e-9));
+    if (static_cast<double>(input_revs) < a.settings_.min_revolutions_for_tsa) {
+      skip(tsa_names(a.settings_), SkipReason::too_few_revolutions);
+      skip(residual_group, SkipReason::too_few_revolutions);
+      return false;
+    }
+    return true;
+  }
+
+  /// Order tracking onto both shafts and the synchronous separation.
+  void separate() {
+    length = input_revs * spr;
+    a.input_angle_.resize(length);
+    a.resampler_.resample(x, a.angle_, spr, input_revs, a.input_angle_);
+    a.output_angle_.resize(output_revs * spr);
+    if (output_revs > 0)
+      a.output_resampler_.resample(x, a.angle_, spr, output_revs, a.output_angle_, static_cast<double>(z2) / z1);
+    a.residual_.resize(length);
+    const auto separation = a.separation_.separate(a.input_angle_, a.output_angle_, spr, z1, z2, a.plans_, a.residual_);
+    out.tsa_averages_input = static_cast<double>(separation.input_averages);
+    out.tsa_averages_output = static_cast<double>(separation.output_averages);
+  }
+
+  /// The input-shaft TSA's mesh harmonics and RMS_SA.
+  void tsa_indicators() {
+    auto& gmf = a.gmf_amplitudes_;
+    synchronous_harmonic_amplitudes(a.separation_.input_tsa(), z1, static_cast<std::size_t>(a.settings_.stored_gmf_harmonics),
+                                    a.plans_, gmf);
+    if (std::isfinite(gmf[0])) add(to_string(Indicator::gmf1_amplitude), gmf[0]);
+    else out.skipped.push_back({to_string(Indicator::gmf1_amplitude), SkipReason::above_nyquist, {}});
+    for (std::size_t h = 0; h < gmf.size(); ++h) {
+      const std::string name = "gmf_harmonic_" + std::to_string(h + 1);
+      if (std::isfinite(gmf[h])) add(name, gmf[h]);
+      else out.skipped.push_back({name, SkipReason::above_nyquist, {}});
+    }
+    try {
+      add(to_string(Indicator::rms_sa), rms_sa(gmf, static_cast<std::size_t>(a.settings_.rms_sa_harmonics)));
+    } catch (const std::invalid_argument&) {
+      out.skipped.push_back({to_string(Indicator::rms_sa), SkipReason::above_nyquist, {}});
+    }
+  }
+
+  /// The residual's RMS and kurtosis; its structure only when it stands above the floor.
+  bool residual_moments() {
+    if (static_cast<double>(output_revs) < a.settings_.min_revolutions_for_tsa) {
+      skip(residual_group, SkipReason::too_few_revolutions);
+      return false;
+    }
+    const Moments res = moments(std::span<const double>(a.residual_.data(), length));
+    add(to_string(Indicator::rms_residual), res.rms);
+    add(to_string(Indicator::kurtosis_residual), res.kurtosis);
+    // A residual at the level of quantisation and order-tracking error has no structure worth a
+    // number: ICS2 of such residue reads anything from 0.3 to 1.3 on a noise-free gear signal.
+    if (res.rms < a.settings_.residual_rms_floor * raw_std_dev) {
+      std::vector<std::string> structure;
+      for (const auto& n : residual_group)
+        if (n != to_string(Indicator::rms_residual) && n != to_string(Indicator::kurtosis_residual)) structure.push_back(n);
+      skip(structure, SkipReason::residual_below_floor);
+      return false;
+    }
+    return true;
+  }
+
+  /// The spectral indicators use the first R' revolutions, R' the largest 7-smooth count <= R, so
+  /// every transform size factors into small primes (a prime R such as 97 would make FFTW's
+  /// transforms several times slower); at most a few percent of the record is left out. The
+  /// stretch is transformed tapered (kEnvelopeTaperFraction: it does not join end to start, and
+  /// the step would be a broadband click) for the envelopes' band-passes.
+  void prepare_spectrum() {
+    spectral_revs = previous_smooth_size(input_revs);
+    spectral_length = spectral_revs * spr;
+    residual = std::span<const double>(a.residual_.data(), spectral_length);
+    ics2 = Ics2Parameters{static_cast<double>(z1), a.settings_.ics2_harmonics, a.settings_.ics2_tolerance_bins};
+    const RealFft& fft = a.plans_.real(spectral_length);
+    a.tapered_residual_.assign(residual.begin(), residual.end());
+    apply_tukey_taper(a.tapered_residual_, kEnvelopeTaperFraction);
+    a.residual_spectrum_.resize(fft.spectrum_size());
+    fft.forward(a.tapered_residual_, a.residual_spectrum_);
+    nyquist_hz = std::min(fs / 2.0, static_cast<double>(spr) / 2.0 * slowest);
+    bins_per_hz = static_cast<double>(spectral_revs) / mean_speed;
+    last_bin = spectral_length / 2 - 1;
+    total_energy = 0.0;  // one-sided, DC and Nyquist bins excluded like the envelopes
+    for (std::size_t k = 1; k <= last_bin; ++k) total_energy += std::norm(a.residual_spectrum_[k]);
+    min_band_fraction = std::pow(10.0, a.settings_.band_energy_floor_db / 10.0);
+    // Carrier bands reach up to 0.45·fs (kUsableBandFraction).
+    usable_hz = std::min(nyquist_hz, kUsableBandFraction * fs);
+  }
+
+  /// Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier bands.
+  void envelope_indicators() {
+    full_band = a.envelope_.full_band_ics2(a.residual_spectrum_, spectral_length, spectral_revs, ics2).value;
+    add(to_string(Indicator::ics2_full_band), full_band);
+    band_ics2(a.settings_.pitting_band, to_string(Indicator::ics2_low_band));
+    band_ics2(a.settings_.abrasion_band, to_string(Indicator::ics2_high_band));
+  }
+
+  /// A band reaching past the usable band keeps the part below when that is at least half of it
+  /// (the band still stands for its mechanism), noted.
+  void band_ics2(FrequencyBand band, const std::string& name) {
     if (band.high_hz > usable_hz + 1e-9) {
       const double kept = std::max(0.0, usable_hz - band.low_hz) / (band.high_hz - band.low_hz);
       char text[200];
@@ -363,67 +418,84 @@ void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const 
       return;
     }
     double band_energy = 0.0;
-    for (std::size_t k = first; k <= last; ++k) band_energy += std::norm(residual_spectrum_[k]);
+    for (std::size_t k = first; k <= last; ++k) band_energy += std::norm(a.residual_spectrum_[k]);
     if (!(band_energy > 0.0) || band_energy < min_band_fraction * total_energy) {
       out.skipped.push_back({name, SkipReason::band_below_floor, {}});
       return;
     }
-    add(name, envelope_.band_ics2(residual_spectrum_, spectral_length, spectral_revs, first, last, ics2).value);
-  };
-  band_ics2(settings_.pitting_band, to_string(Indicator::ics2_low_band));
-  band_ics2(settings_.abrasion_band, to_string(Indicator::ics2_high_band));
+    add(name, a.envelope_.band_ics2(a.residual_spectrum_, spectral_length, spectral_revs, first, last, ics2).value);
+  }
 
-  // Band selection over the 1/3-binary tree (ICS2, and kurtosis for comparison), among the bands
-  // above the energy floor. The tree's filters are linear, so it runs on the untapered stretch.
-  Ics2Criterion ics2_criterion(envelope_, plans_, spr, ics2);
-  ics2_criterion.set_whole_signal_value(full_band);
-  std::vector<BandCriterion*> criteria{&power_criterion_, &ics2_criterion};
-  if (settings_.kurtogram_band_selection) criteria.push_back(&kurtosis_criterion_);
-  band_maps_.resize(criteria.size());
-  const double equivalent_rate = static_cast<double>(spr) * mean_speed;  // angle-domain samples per second
-  std::vector<std::string> selection_names{to_string(Indicator::ics2_selected_band)};
-  if (settings_.kurtogram_band_selection) selection_names.emplace_back(to_string(Indicator::kurtosis_selected_band));
-  try {
-    filter_bank_.analyse(residual, settings_.filter_bank_levels, criteria, band_maps_);
-    for (std::size_t i = 1; i < criteria.size(); ++i) {
-      const auto best = band_maps_[i].optimum(usable_hz / equivalent_rate, &band_maps_[0], min_band_fraction);
-      if (!best.found) {
-        skip({selection_names[i - 1]}, SkipReason::all_bands_below_floor);
+  /// Band selection over the 1/3-binary tree (ICS2, and kurtosis for comparison), among the bands
+  /// above the energy floor. The tree's filters are linear, so it runs on the untapered stretch.
+  void band_selection() {
+    Ics2Criterion ics2_criterion(a.envelope_, a.plans_, spr, ics2);
+    ics2_criterion.set_whole_signal_value(full_band);
+    std::vector<BandCriterion*> criteria{&a.power_criterion_, &ics2_criterion};
+    if (a.settings_.kurtogram_band_selection) criteria.push_back(&a.kurtosis_criterion_);
+    auto& maps = a.band_maps_;
+    maps.resize(criteria.size());
+    const double equivalent_rate = static_cast<double>(spr) * mean_speed;  // angle-domain samples per second
+    std::vector<std::string> selection_names{to_string(Indicator::ics2_selected_band)};
+    if (a.settings_.kurtogram_band_selection) selection_names.emplace_back(to_string(Indicator::kurtosis_selected_band));
+    try {
+      a.filter_bank_.analyse(residual, a.settings_.filter_bank_levels, criteria, maps);
+      for (std::size_t i = 1; i < criteria.size(); ++i) {
+        const auto best = maps[i].optimum(usable_hz / equivalent_rate, &maps[0], min_band_fraction);
+        if (!best.found) {
+          skip({selection_names[i - 1]}, SkipReason::all_bands_below_floor);
+          continue;
+        }
+        out.band_selections.push_back({maps[i].criterion, best.level, best.centre_fraction * equivalent_rate,
+                                       best.bandwidth_fraction * equivalent_rate, best.value});
+        add(selection_names[i - 1], best.value);
+      }
+    } catch (const std::invalid_argument& e) {
+      skip(selection_names, SkipReason::filter_bank_error, e.what());
+    }
+  }
+
+  /// Spectral coherence at the gear-mesh order and mean carrier frequencies (Fig. 4.13).
+  void coherence_indicators() {
+    a.coherence_.estimate(residual, spr, z1);
+    const auto gamma = a.coherence_.coherence();
+    const auto nyquist_bin = std::min(gamma.size() - 1, static_cast<std::size_t>(std::floor(nyquist_hz / mean_speed)));
+    double peak = 0.0, sum = 0.0;
+    std::size_t peak_bin = static_cast<std::size_t>(z1), count = 0;
+    for (std::size_t k = static_cast<std::size_t>(z1); k <= nyquist_bin; ++k) {
+      sum += gamma[k];
+      ++count;
+      if (gamma[k] > peak) {
+        peak = gamma[k];
+        peak_bin = k;
+      }
+    }
+    add(to_string(Indicator::sc_gmf_max), peak);
+    add(to_string(Indicator::sc_gmf_mean), count > 0 ? sum / static_cast<double>(count) : std::nan(""));
+    add(to_string(Indicator::sc_gmf_peak_carrier_hz), static_cast<double>(peak_bin) * mean_speed);
+    for (const auto& range : a.settings_.mean_carrier_ranges) {
+      const std::string name = mean_carrier_indicator_name(range);
+      if (range.high_hz > nyquist_hz + 1e-9) {
+        out.skipped.push_back({name, SkipReason::band_above_nyquist, {}});
         continue;
       }
-      out.band_selections.push_back({band_maps_[i].criterion, best.level, best.centre_fraction * equivalent_rate,
-                                     best.bandwidth_fraction * equivalent_rate, best.value});
-      add(selection_names[i - 1], best.value);
+      add(name, a.coherence_.mean_carrier_order(range.low_hz / mean_speed, range.high_hz / mean_speed) * mean_speed);
     }
-  } catch (const std::invalid_argument& e) {
-    skip(selection_names, SkipReason::filter_bank_error, e.what());
   }
+};
 
-  // Spectral coherence at the gear-mesh order and mean carrier frequencies (Fig. 4.13).
-  coherence_.estimate(residual, spr, z1);
-  const auto gamma = coherence_.coherence();
-  const auto nyquist_bin = std::min(gamma.size() - 1, static_cast<std::size_t>(std::floor(nyquist_hz / mean_speed)));
-  double peak = 0.0, sum = 0.0;
-  std::size_t peak_bin = static_cast<std::size_t>(z1), count = 0;
-  for (std::size_t k = static_cast<std::size_t>(z1); k <= nyquist_bin; ++k) {
-    sum += gamma[k];
-    ++count;
-    if (gamma[k] > peak) {
-      peak = gamma[k];
-      peak_bin = k;
-    }
-  }
-  add(to_string(Indicator::sc_gmf_max), peak);
-  add(to_string(Indicator::sc_gmf_mean), count > 0 ? sum / static_cast<double>(count) : std::nan(""));
-  add(to_string(Indicator::sc_gmf_peak_carrier_hz), static_cast<double>(peak_bin) * mean_speed);
-  for (const auto& range : settings_.mean_carrier_ranges) {
-    const std::string name = mean_carrier_indicator_name(range);
-    if (range.high_hz > nyquist_hz + 1e-9) {
-      out.skipped.push_back({name, SkipReason::band_above_nyquist, {}});
-      continue;
-    }
-    add(name, coherence_.mean_carrier_order(range.low_hz / mean_speed, range.high_hz / mean_speed) * mean_speed);
-  }
+void RecordAnalyzer::analyze_order_domain(const Record& record, std::span<const float> x, double raw_std_dev,
+                                          std::span<const double> input_edges, ChannelAnalysis& out) {
+  Context c(*this, record, x, raw_std_dev, out);
+  c.name_groups();
+  if (!c.assign_angle(input_edges) || !c.speed_indicators() || !c.count_revolutions()) return;
+  c.separate();
+  c.tsa_indicators();
+  if (!c.residual_moments()) return;
+  c.prepare_spectrum();
+  c.envelope_indicators();
+  c.band_selection();
+  c.coherence_indicators();
 }
 
 }  // namespace gearwatch::dsp

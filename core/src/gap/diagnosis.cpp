@@ -308,10 +308,20 @@ std::vector<double> per_bin_total(const SpectralSummary& s) {
   return v;
 }
 
-}  // namespace
+/// The 1 − (own families' distance after / before) of a candidate; 0 when they had no distance.
+double shrinkage(const std::vector<FamilyGap>& before, const std::vector<FamilyGap>& after,
+                 const std::vector<FamilyKind>& own) {
+  const double own_before = own_distance(before, own);
+  return own_before > 0 ? 1.0 - own_distance(after, own) / own_before : 0.0;
+}
 
-GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vector<DiagnosisInput>& held_out,
-                   const GearPairSpec& gears, const DiagnosisSettings& settings) {
+bool any_significant(const std::vector<FamilyGap>& gaps) {
+  return std::any_of(gaps.begin(), gaps.end(), [](const FamilyGap& g) { return g.significant; });
+}
+
+/// Settings and sets a diagnosis cannot run with, refused before any work.
+void validate(const std::vector<DiagnosisInput>& training, const std::vector<DiagnosisInput>& held_out,
+              const DiagnosisSettings& settings) {
   if (training.empty()) throw std::invalid_argument("gap diagnosis needs training records: none given");
   if (held_out.empty()) throw std::invalid_argument("gap diagnosis needs held-out records: none given");
   if (settings.bootstrap_resamples < 10) throw std::invalid_argument("gap diagnosis needs >= 10 bootstrap resamples");
@@ -332,373 +342,501 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
     for (double e : settings.rms_sa_wear_elasticities)
       if (!std::isfinite(e)) throw std::invalid_argument("gap diagnosis: every rms_sa_wear_elasticities value must be finite");
   }
-  const twin::GearboxMatrices twin_matrices = [&] {
-    try {
-      return twin::assemble(settings.twin_parameters);
-    } catch (const twin::TwinParameterError& e) {
-      throw std::invalid_argument(std::string("gap diagnosis: the twin's parameters: ") + e.what());
-    }
-  }();
-  // The casing form's path, up to the records' band (one table for every record and re-run).
-  double top_hz = 0;
-  for (const auto* set : {&training, &held_out})
-    for (const auto& in : *set) top_hz = std::max(top_hz, 0.5 * in.twin.sample_rate_hz);
-  const auto bearing_path = bearing_force_path(twin_matrices, std::max(top_hz, 2.0));
-  auto train = reduce(training, gears, settings, twin_matrices, bearing_path, "training");
-  auto test = reduce(held_out, gears, settings, twin_matrices, bearing_path, "held-out");
-  std::vector<SummaryPair> train_pairs;
-  for (const auto& p : train) train_pairs.push_back({p.measured_all, p.twin_all, p.floor});
-  const double fs = test.front().measured_all.sample_rate_hz;
+}
 
-  GapReport report;
-  report.training_records = train.size();
-  report.held_out_records = test.size();
-  std::set<double> speeds;
-  for (const auto* set : {&training, &held_out})
-    for (const auto& in : *set)
-      if (in.measured.input_revolutions) report.input_revolutions = std::max(report.input_revolutions, *in.measured.input_revolutions);
-  for (const auto* set : {&train, &test})
-    for (const auto& p : *set) speeds.insert(std::round(p.measured_all.speed_hz * 100) / 100);
-  report.speeds_hz.assign(speeds.begin(), speeds.end());
+twin::GearboxMatrices assemble_twin(const DiagnosisSettings& settings) {
+  try {
+    return twin::assemble(settings.twin_parameters);
+  } catch (const twin::TwinParameterError& e) {
+    throw std::invalid_argument(std::string("gap diagnosis: the twin's parameters: ") + e.what());
+  }
+}
 
-  const GapEvaluator evaluator(gears, settings.fixed_bands_per_octave);
-  const std::string fixed_reason = evaluator.fixed_frequency_reason(views(test, models_of(test, {}, gears)));
+/// One diagnosis (diagnosis.hpp), its steps in run()'s order: the records reduced to spectra, the
+/// held-out gaps against the twin alone, the dynamic candidates' reruns, each candidate alone, the
+/// greedy attribution, the gaps after it, K_wear and the plots. Lives for one diagnose() call.
+class Diagnosis {
+ public:
+  Diagnosis(const std::vector<DiagnosisInput>& training, const std::vector<DiagnosisInput>& held_out,
+            const GearPairSpec& gears, const DiagnosisSettings& settings)
+      : training_(training), held_out_(held_out), gears_(gears), settings_(settings),
+        evaluator_(gears, settings.fixed_bands_per_octave), bootstrap_(settings) {}
 
-  BootstrapSummaries bootstrap(settings);
-  const auto noise = noise_distance(test, settings, evaluator, bootstrap);
-  const auto before = assess(test, {}, gears, settings.bootstrap_resamples, evaluator, bootstrap);
-  report.before = family_gaps(before, noise, settings, fixed_reason);
-  const double ic_before = information_criterion(before.point, noise, 0, settings);
-  if (settings.find_features) report.features = find_features(train, test, gears, settings, bootstrap);
-  const bool any_significant =
-      std::any_of(report.before.begin(), report.before.end(), [](const FamilyGap& g) { return g.significant; });
+  GapReport run() {
+    prepare();
+    summarise_records();
+    compare();
+    build_reruns();
+    rank_alone();
+    rescore_eccentricity();
+    for (auto& r : ranked_) report_.candidates.push_back(std::move(r.second));
+    attribute();
+    assess_after();
+    infer_k_wear();
+    plot_spectra();
+    plot_bands();
+    return std::move(report_);
+  }
 
-  // Candidates that change the twin's dynamics: the twin re-run over their grid, when the caller
-  // can re-run it.
-  std::map<CandidateEffect, RerunSet> reruns;
-  // The training records with the twin re-run at `v`, added to the set (or the point it has already).
-  auto add_rerun_point = [&](RerunSet& set, const std::vector<double>& v) -> std::size_t {
-    for (std::size_t i = 0; i < set.values.size(); ++i)
-      if (set.values[i] == v) return i;
-    std::vector<SummaryPair> tr;
-    for (std::size_t i = 0; i < train.size(); ++i) {
-      const Record& like = training[i].twin;
-      const auto p = with_rerun_twin(train[i], settings.rerun_twin(set.effect, v, like, twin_duration_s(like, settings)), gears,
-                                     settings);
-      tr.push_back({p.measured_all, p.twin_all, p.floor});
-    }
-    set.values.push_back(v);
-    set.train.push_back(std::move(tr));
-    set.test.emplace_back();
-    return set.values.size() - 1;
+ private:
+  /// A candidate on top of the chosen ones, scored held out without a bootstrap.
+  struct Addition {
+    AppliedEffect effect;
+    std::optional<std::size_t> grid;  // a rerun candidate's grid point
+    double ic = 0, shrink = 0;
+    bool worsens = false;
+    std::vector<FamilyGap> gaps;
   };
-  // Only when some family is significant: the reruns cost a twin simulation per record and grid
-  // value, and without a significant family nothing is chosen (the ranking then scores such a
-  // candidate by its spectral form).
-  if (settings.attribute && settings.rerun_twin && any_significant) {
+  /// A candidate alone, fitted on training, with its held-out assessment.
+  struct AloneFit {
+    Assessment held_out;
+    std::vector<double> values;
+  };
+  using Ranked = std::pair<double, CandidateScore>;
+  static bool by_ic(const Ranked& a, const Ranked& b) { return a.first < b.first; }
+
+  /// Both sets reduced to spectra against the twin, with the casing form's path up to the records'
+  /// band (one table for every record and re-run).
+  void prepare() {
+    const twin::GearboxMatrices twin_matrices = assemble_twin(settings_);
+    double top_hz = 0;
+    for (const auto* set : {&training_, &held_out_})
+      for (const auto& in : *set) top_hz = std::max(top_hz, 0.5 * in.twin.sample_rate_hz);
+    const auto bearing_path = bearing_force_path(twin_matrices, std::max(top_hz, 2.0));
+    train_ = reduce(training_, gears_, settings_, twin_matrices, bearing_path, "training");
+    test_ = reduce(held_out_, gears_, settings_, twin_matrices, bearing_path, "held-out");
+    for (const auto& p : train_) train_pairs_.push_back({p.measured_all, p.twin_all, p.floor});
+    fs_ = test_.front().measured_all.sample_rate_hz;
+  }
+
+  void summarise_records() {
+    report_.training_records = train_.size();
+    report_.held_out_records = test_.size();
+    std::set<double> speeds;
+    for (const auto* set : {&training_, &held_out_})
+      for (const auto& in : *set)
+        if (in.measured.input_revolutions)
+          report_.input_revolutions = std::max(report_.input_revolutions, *in.measured.input_revolutions);
+    for (const auto* set : {&train_, &test_})
+      for (const auto& p : *set) speeds.insert(std::round(p.measured_all.speed_hz * 100) / 100);
+    report_.speeds_hz.assign(speeds.begin(), speeds.end());
+  }
+
+  /// The held-out gaps against the twin alone, their estimation noise, and the features.
+  void compare() {
+    fixed_reason_ = evaluator_.fixed_frequency_reason(views(test_, models_of(test_, {}, gears_)));
+    noise_ = noise_distance(test_, settings_, evaluator_, bootstrap_);
+    before_ = assess(test_, {}, gears_, settings_.bootstrap_resamples, evaluator_, bootstrap_);
+    report_.before = family_gaps(before_, noise_, settings_, fixed_reason_);
+    ic_before_ = information_criterion(before_.point, noise_, 0, settings_);
+    if (settings_.find_features) report_.features = find_features(train_, test_, gears_, settings_, bootstrap_);
+    any_significant_ = any_significant(report_.before);
+  }
+
+  /// Candidates that change the twin's dynamics: the twin re-run over their grid, when the caller
+  /// can re-run it. Only when some family is significant: the reruns cost a twin simulation per
+  /// record and grid value, and without a significant family nothing is chosen (the ranking then
+  /// scores such a candidate by its spectral form).
+  void build_reruns() {
+    if (!settings_.attribute || !settings_.rerun_twin || !any_significant_) return;
     for (CandidateEffect c : kAllCandidateEffects) {
       const auto grid = rerun_grid(c);
       if (grid.empty()) continue;
       RerunSet set;
       set.effect = c;
       for (const auto& v : grid) add_rerun_point(set, v);
-      reruns.emplace(c, std::move(set));
+      reruns_.emplace(c, std::move(set));
     }
   }
-  // The held-out records with the twin re-run at grid value g.
-  auto rerun_test = [&](RerunSet& set, std::size_t g) -> const std::vector<PairSpectra>& {
+
+  /// The training records with the twin re-run at `v`, added to the set (or the point it has already).
+  std::size_t add_rerun_point(RerunSet& set, const std::vector<double>& v) {
+    for (std::size_t i = 0; i < set.values.size(); ++i)
+      if (set.values[i] == v) return i;
+    std::vector<SummaryPair> tr;
+    for (std::size_t i = 0; i < train_.size(); ++i) {
+      const Record& like = training_[i].twin;
+      const auto p = with_rerun_twin(train_[i], settings_.rerun_twin(set.effect, v, like, twin_duration_s(like, settings_)),
+                                     gears_, settings_);
+      tr.push_back({p.measured_all, p.twin_all, p.floor});
+    }
+    set.values.push_back(v);
+    set.train.push_back(std::move(tr));
+    set.test.emplace_back();
+    return set.values.size() - 1;
+  }
+
+  /// The held-out records with the twin re-run at grid value g.
+  const std::vector<PairSpectra>& rerun_test(RerunSet& set, std::size_t g) {
     if (!set.test[g]) {
       std::vector<PairSpectra> te;
-      for (std::size_t i = 0; i < test.size(); ++i) {
-        const Record& like = held_out[i].twin;
-        te.push_back(with_rerun_twin(test[i], settings.rerun_twin(set.effect, set.values[g], like, twin_duration_s(like, settings)),
-                                     gears, settings));
+      for (std::size_t i = 0; i < test_.size(); ++i) {
+        const Record& like = held_out_[i].twin;
+        te.push_back(with_rerun_twin(
+            test_[i], settings_.rerun_twin(set.effect, set.values[g], like, twin_duration_s(like, settings_)), gears_,
+            settings_));
       }
       set.test[g] = std::move(te);
     }
     return *set.test[g];
-  };
-  // The grid value whose rerun twin, with the spectral effects `fx` on top, fits the training records best.
-  auto best_rerun = [&](const RerunSet& set, const std::vector<AppliedEffect>& fx) {
+  }
+
+  /// The grid value whose rerun twin, with the spectral effects `fx` on top, fits the training records best.
+  std::size_t best_rerun(const RerunSet& set, const std::vector<AppliedEffect>& fx) const {
     std::size_t best = 0;
     double best_cost = std::numeric_limits<double>::infinity();
     for (std::size_t g = 0; g < set.values.size(); ++g) {
-      const double cost = training_cost(set.train[g], fx, gears);
+      const double cost = training_cost(set.train[g], fx, gears_);
       if (cost < best_cost) best_cost = cost, best = g;
     }
     return best;
-  };
+  }
 
-  // A chosen rerun candidate's grid value refined on the training records: a compass search in half
-  // and then quarter grid steps (in the log), inside the grid's range. A whole step (×1.8 in angle,
-  // ×2 in relief) moves the first mesh harmonics by a few dB, and K_wear's inference from them
-  // magnifies that; the refinement costs a few reruns of the training records, for one candidate.
-  auto refine_rerun = [&](RerunSet& set, std::size_t start, const std::vector<AppliedEffect>& fx) {
+  /// A chosen rerun candidate's grid value refined on the training records: a compass search in half
+  /// and then quarter grid steps (in the log), inside the grid's range. A whole step (×1.8 in angle,
+  /// ×2 in relief) moves the first mesh harmonics by a few dB, and K_wear's inference from them
+  /// magnifies that; the refinement costs a few reruns of the training records, for one candidate.
+  std::size_t refine_rerun(RerunSet& set, std::size_t start, const std::vector<AppliedEffect>& fx) {
     const auto grid = rerun_grid(set.effect);
     const auto ratios = rerun_grid_ratios(set.effect);
     std::vector<double> low = grid.front(), high = grid.front();  // the grid's range along each parameter
     for (const auto& g : grid)
       for (std::size_t j = 0; j < g.size(); ++j) low[j] = std::min(low[j], g[j]), high[j] = std::max(high[j], g[j]);
     std::size_t best = start;
-    double best_cost = training_cost(set.train[start], fx, gears);
+    double best_cost = training_cost(set.train[start], fx, gears_);
     for (double fraction : {0.5, 0.25})
       for (std::size_t j = 0; j < ratios.size(); ++j)
         for (double direction : {-1.0, 1.0}) {
           auto v = set.values[best];
           v[j] = std::clamp(v[j] * std::pow(ratios[j], direction * fraction), low[j], high[j]);
           const std::size_t point = add_rerun_point(set, v);
-          const double cost = training_cost(set.train[point], fx, gears);
+          const double cost = training_cost(set.train[point], fx, gears_);
           if (cost < best_cost) best_cost = cost, best = point;
         }
     return best;
-  };
+  }
 
-  // Held out, a family outside the candidate's own above its interval before any effect, and by more
-  // than 0.5 dB: a candidate that does this while it shrinks its own families is flagged, and it is
-  // not chosen (an effect that makes the twin worse elsewhere is not the cause; its families stay
-  // unexplained).
-  auto worsens_other_family = [&](const std::vector<FamilyGap>& after, const std::vector<FamilyKind>& own) {
+  /// Held out, a family outside the candidate's own above its interval before any effect, and by more
+  /// than 0.5 dB: a candidate that does this while it shrinks its own families is flagged, and it is
+  /// not chosen (an effect that makes the twin worse elsewhere is not the cause; its families stay
+  /// unexplained).
+  bool worsens_other_family(const std::vector<FamilyGap>& after, const std::vector<FamilyKind>& own) const {
     for (std::size_t f = 0; f < kFamilies && f < after.size(); ++f) {
-      const auto& b = report.before[f];
+      const auto& b = report_.before[f];
       if (std::find(own.begin(), own.end(), b.family) != own.end() || !b.resolved) continue;
       if (after[f].distance_db > b.distance_interval_db.high && after[f].distance_db > b.distance_db + 0.5) return true;
     }
     return false;
-  };
+  }
 
-  // Each candidate alone on the twin: fitted on training, scored held out.
-  std::vector<std::pair<double, CandidateScore>> ranked;
-  std::map<CandidateEffect, std::vector<double>> alone;
-  std::map<CandidateEffect, std::size_t> alone_grid;
-  auto score_alone = [&](CandidateEffect c) {
-    const auto form = candidate_form(c, fs);
+  /// Each candidate alone on the twin: fitted on training, scored held out.
+  void rank_alone() {
+    if (settings_.attribute)
+      for (CandidateEffect c : kAllCandidateEffects) ranked_.push_back(score_alone(c));
+    std::stable_sort(ranked_.begin(), ranked_.end(), by_ic);
+  }
+
+  Ranked score_alone(CandidateEffect c) {
+    const auto form = candidate_form(c, fs_);
     CandidateScore score;
     score.effect = c;
-    Assessment a;
-    std::vector<double> values;
-    if (const auto r = reruns.find(c); r != reruns.end()) {
-      const std::size_t g = best_rerun(r->second, {});
-      alone_grid[c] = g;
-      values = r->second.values[g];
-      a = assess(rerun_test(r->second, g), {}, gears, settings.candidate_bootstrap_resamples, evaluator, bootstrap);
-      const auto names = rerun_parameter_names(c);
-      for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names.at(i), values[i]);
-      score.at_bounds = parameters_at_bounds(c, values, fs, true);
-    } else {
-      values = fit_candidate(c, {}, train_pairs, gears);
-      alone[c] = values;
-      a = assess(test, {{c, values}}, gears, settings.candidate_bootstrap_resamples, evaluator, bootstrap);
-      const auto names = parameter_names(form, values);
-      for (std::size_t i = 0; i < values.size(); ++i) score.parameters.emplace_back(names[i], values[i]);
-      score.at_bounds = parameters_at_bounds(c, values, fs, false);
-    }
+    const auto r = reruns_.find(c);
+    const AloneFit fit = r != reruns_.end() ? fit_rerun_alone(r->second, score) : fit_spectral_alone(c, form, score);
     score.explains = form.explains;
-    score.held_out_after = family_gaps(a, noise, settings, fixed_reason);
-    const double own_before = own_distance(report.before, form.explains);
-    score.shrinkage = own_before > 0 ? 1.0 - own_distance(score.held_out_after, form.explains) / own_before : 0.0;
-    score.information_criterion = information_criterion(a.point, noise, fitted_count(values), settings);
+    score.held_out_after = family_gaps(fit.held_out, noise_, settings_, fixed_reason_);
+    score.shrinkage = shrinkage(report_.before, score.held_out_after, form.explains);
+    score.information_criterion = information_criterion(fit.held_out.point, noise_, fitted_count(fit.values), settings_);
     score.worsens_other_family = score.shrinkage > 0 && worsens_other_family(score.held_out_after, form.explains);
     return std::make_pair(score.information_criterion, std::move(score));
-  };
-  auto by_ic = [](const auto& a, const auto& b) { return a.first < b.first; };
-  if (settings.attribute)
-    for (CandidateEffect c : kAllCandidateEffects) ranked.push_back(score_alone(c));
-  std::stable_sort(ranked.begin(), ranked.end(), by_ic);
-  // The run-out through the twin. The power form gives a pair of first sidebands their mean; the
-  // twin with a run-out gives each line its own (AM and PM out of phase through the time-varying
-  // mesh, several dB apart on the rig's). When the power form ranks eccentricity among the two best
-  // and the twin can be re-run, each record's twin is re-run 4 times (run_out_response_reruns; a 5th
-  // without a run-out when the counterpart is longer than a rerun) for its lines' response, and the
-  // form is fitted again with it.
-  const auto eccentricity_rank = std::find_if(ranked.begin(), ranked.end(), [](const auto& r) {
-    return r.second.effect == CandidateEffect::eccentricity;
-  });
-  if (settings.rerun_twin && any_significant && eccentricity_rank != ranked.end() && eccentricity_rank - ranked.begin() < 2) {
-    const auto runs = run_out_response_reruns();
-    auto attach = [&](std::vector<PairSpectra>& pairs, const std::vector<DiagnosisInput>& inputs) {
-      for (std::size_t i = 0; i < pairs.size(); ++i) {
-        const Record& like = inputs[i].twin;
-        const int channel = std::min<int>(settings.channel, static_cast<int>(like.channels.size()) - 1);
-        const double duration = twin_duration_s(like, settings);
-        std::vector<RecordSpectra> spectra;
-        // The twin without a run-out is the counterpart itself when that is as long as a rerun.
-        const bool counterpart_is_base = like.duration_s() <= duration;
-        for (std::size_t r = counterpart_is_base ? 1 : 0; r < runs.size(); ++r)
-          spectra.emplace_back(settings.rerun_twin(CandidateEffect::eccentricity, runs[r], like, duration), channel, gears,
-                               settings.min_revolutions);
-        const std::size_t u = counterpart_is_base ? 0 : 1;
-        const RecordSpectra& base = counterpart_is_base ? pairs[i].twin : spectra[0];
-        const auto response =
-            run_out_response(base, {&spectra[u], &spectra[u + 1], &spectra[u + 2], &spectra[u + 3]}, kRunOutResponseUnitM);
-        // Bootstrap draws take it from the spectra; the full summary gets it as it is.
-        pairs[i].twin.set_run_out_response(response);
-        pairs[i].twin_all.run_out_response = response;
-      }
-    };
-    attach(train, training);
-    attach(test, held_out);
-    for (std::size_t i = 0; i < train.size(); ++i) train_pairs[i].twin = train[i].twin_all;
-    ranked.erase(eccentricity_rank);
-    ranked.push_back(score_alone(CandidateEffect::eccentricity));
-    std::stable_sort(ranked.begin(), ranked.end(), by_ic);
   }
-  for (auto& r : ranked) report.candidates.push_back(std::move(r.second));
 
-  // The family gaps of one held-out evaluation without a bootstrap (its interval is the point).
-  auto point_gaps = [&](const auto& e) {
+  /// A rerun candidate alone: the grid point that fits the training records best.
+  AloneFit fit_rerun_alone(RerunSet& set, CandidateScore& score) {
+    const CandidateEffect c = set.effect;
+    AloneFit fit;
+    const std::size_t g = best_rerun(set, {});
+    alone_grid_[c] = g;
+    fit.values = set.values[g];
+    fit.held_out = assess(rerun_test(set, g), {}, gears_, settings_.candidate_bootstrap_resamples, evaluator_, bootstrap_);
+    const auto names = rerun_parameter_names(c);
+    for (std::size_t i = 0; i < fit.values.size(); ++i) score.parameters.emplace_back(names.at(i), fit.values[i]);
+    score.at_bounds = parameters_at_bounds(c, fit.values, fs_, true);
+    return fit;
+  }
+
+  /// A spectral candidate alone: its form fitted to the training records.
+  AloneFit fit_spectral_alone(CandidateEffect c, const CandidateForm& form, CandidateScore& score) {
+    AloneFit fit;
+    fit.values = fit_candidate(c, {}, train_pairs_, gears_);
+    alone_[c] = fit.values;
+    fit.held_out = assess(test_, {{c, fit.values}}, gears_, settings_.candidate_bootstrap_resamples, evaluator_, bootstrap_);
+    const auto names = parameter_names(form, fit.values);
+    for (std::size_t i = 0; i < fit.values.size(); ++i) score.parameters.emplace_back(names[i], fit.values[i]);
+    score.at_bounds = parameters_at_bounds(c, fit.values, fs_, false);
+    return fit;
+  }
+
+  /// The run-out through the twin. The power form gives a pair of first sidebands their mean; the
+  /// twin with a run-out gives each line its own (AM and PM out of phase through the time-varying
+  /// mesh, several dB apart on the rig's). When the power form ranks eccentricity among the two best
+  /// and the twin can be re-run, each record's twin is re-run 4 times (run_out_response_reruns; a 5th
+  /// without a run-out when the counterpart is longer than a rerun) for its lines' response, and the
+  /// form is fitted again with it.
+  void rescore_eccentricity() {
+    const auto rank = std::find_if(ranked_.begin(), ranked_.end(), [](const Ranked& r) {
+      return r.second.effect == CandidateEffect::eccentricity;
+    });
+    if (!settings_.rerun_twin || !any_significant_ || rank == ranked_.end() || rank - ranked_.begin() >= 2) return;
+    const auto runs = run_out_response_reruns();
+    attach_run_out_response(train_, training_, runs);
+    attach_run_out_response(test_, held_out_, runs);
+    for (std::size_t i = 0; i < train_.size(); ++i) train_pairs_[i].twin = train_[i].twin_all;
+    ranked_.erase(rank);
+    ranked_.push_back(score_alone(CandidateEffect::eccentricity));
+    std::stable_sort(ranked_.begin(), ranked_.end(), by_ic);
+  }
+
+  void attach_run_out_response(std::vector<PairSpectra>& pairs, const std::vector<DiagnosisInput>& inputs,
+                               const std::array<std::vector<double>, 5>& runs) const {
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      const Record& like = inputs[i].twin;
+      const int channel = std::min<int>(settings_.channel, static_cast<int>(like.channels.size()) - 1);
+      const double duration = twin_duration_s(like, settings_);
+      std::vector<RecordSpectra> spectra;
+      // The twin without a run-out is the counterpart itself when that is as long as a rerun.
+      const bool counterpart_is_base = like.duration_s() <= duration;
+      for (std::size_t r = counterpart_is_base ? 1 : 0; r < runs.size(); ++r)
+        spectra.emplace_back(settings_.rerun_twin(CandidateEffect::eccentricity, runs[r], like, duration), channel, gears_,
+                             settings_.min_revolutions);
+      const std::size_t u = counterpart_is_base ? 0 : 1;
+      const RecordSpectra& base = counterpart_is_base ? pairs[i].twin : spectra[0];
+      const auto response =
+          run_out_response(base, {&spectra[u], &spectra[u + 1], &spectra[u + 2], &spectra[u + 3]}, kRunOutResponseUnitM);
+      // Bootstrap draws take it from the spectra; the full summary gets it as it is.
+      pairs[i].twin.set_run_out_response(response);
+      pairs[i].twin_all.run_out_response = response;
+    }
+  }
+
+  /// The family gaps of one held-out evaluation without a bootstrap (its interval is the point).
+  std::vector<FamilyGap> point_gaps(const GapEvaluation& e) const {
     Assessment a;
     a.point = e;
     for (std::size_t f = 0; f < kFamilies; ++f) a.interval[f] = {e.distance_db(f), e.distance_db(f)};
-    return family_gaps(a, noise, settings, fixed_reason);
-  };
+    return family_gaps(a, noise_, settings_, fixed_reason_);
+  }
 
-  // Greedy addition: the best candidate on top of the ones chosen so far, while it pays. A chosen
-  // rerun candidate replaces the twin the later ones act on (one rerun at a time).
-  std::vector<AppliedEffect> chosen;                 // the spectral effects, applied to the base twin
-  const std::vector<PairSpectra>* test_base = &test;
-  const std::vector<SummaryPair>* train_base = &train_pairs;
-  bool rerun_chosen = false;
-  double ic_current = ic_before;
-  auto current_gaps = report.before;
-  if (any_significant && settings.attribute) {
-    for (int round = 0; round < settings.max_effects; ++round) {
-      // The lowest held-out IC among the candidates that act on a significant family is the
-      // attribution; it is added only if it pays (IC drop) and shrinks its own families. When it
-      // does not, no lesser candidate is tried in its place: the families stay unexplained.
-      double best_ic = std::numeric_limits<double>::infinity(), best_shrink = 0;
-      bool best_worsens = false;
-      std::optional<AppliedEffect> best;
-      std::optional<std::size_t> best_grid;
-      std::vector<FamilyGap> best_gaps;
-      for (CandidateEffect c : kAllCandidateEffects) {
-        if (std::find(report.chosen.begin(), report.chosen.end(), c) != report.chosen.end()) continue;
-        const auto form = candidate_form(c, fs);
-        const auto r = reruns.find(c);
-        if (r != reruns.end() && rerun_chosen) continue;
-        std::vector<double> values;
-        std::optional<std::size_t> grid;
-        std::vector<SpectralSummary> models;
-        if (r != reruns.end()) {
-          grid = chosen.empty() ? alone_grid[c] : best_rerun(r->second, chosen);
-          values = r->second.values[*grid];
-          models = models_of(rerun_test(r->second, *grid), chosen, gears);
-        } else {
-          values = round == 0 ? alone[c] : fit_candidate(c, chosen, *train_base, gears);
-          auto fx = chosen;
-          fx.push_back({c, values});
-          models = models_of(*test_base, fx, gears);
-        }
-        const auto e = evaluator.evaluate(views(*test_base, models), true);
-        const double ic = information_criterion(e, noise, fitted_count(values), settings);
-        const auto gaps = point_gaps(e);
-        const double own_before = own_distance(current_gaps, form.explains);
-        const double shrink = own_before > 0 ? 1.0 - own_distance(gaps, form.explains) / own_before : 0.0;
-        const bool explains_significant = std::any_of(current_gaps.begin(), current_gaps.end(), [&](const FamilyGap& g) {
-          return g.significant &&
-                 std::find(form.explains.begin(), form.explains.end(), g.family) != form.explains.end();
-        });
-        if (explains_significant && ic < best_ic) {
-          best_ic = ic;
-          best_shrink = shrink;
-          best_worsens = worsens_other_family(gaps, form.explains);
-          best = AppliedEffect{c, values};
-          best_grid = grid;
-          best_gaps = gaps;
-        }
-      }
-      if (!best || best_ic > ic_current - settings.accept_ic_drop || best_shrink < settings.min_shrinkage || best_worsens) break;
-      report.chosen.push_back(best->effect);
-      if (best_grid) {
-        auto& set = reruns.at(best->effect);
-        const std::size_t refined = refine_rerun(set, *best_grid, chosen);
-        if (refined != *best_grid) {
-          best_grid = refined;
-          const auto& refined_test = rerun_test(set, refined);
-          const auto e = evaluator.evaluate(views(refined_test, models_of(refined_test, chosen, gears)), true);
-          best_ic = information_criterion(e, noise, fitted_count(set.values[refined]), settings);
-          best_gaps = point_gaps(e);
-          for (auto& candidate : report.candidates)
-            if (candidate.effect == best->effect) {
-              for (std::size_t i = 0; i < candidate.parameters.size() && i < set.values[refined].size(); ++i)
-                candidate.parameters[i].second = set.values[refined][i];
-              candidate.at_bounds = parameters_at_bounds(best->effect, set.values[refined], fs, true);
-            }
-        }
-        test_base = &rerun_test(set, *best_grid);
-        train_base = &set.train[*best_grid];
-        rerun_chosen = true;
-      } else {
-        chosen.push_back(*best);
-      }
-      ic_current = best_ic;
-      current_gaps = best_gaps;
-      if (std::none_of(current_gaps.begin(), current_gaps.end(), [](const FamilyGap& g) { return g.significant; })) break;
+  /// Greedy addition: the best candidate on top of the ones chosen so far, while it pays. A chosen
+  /// rerun candidate replaces the twin the later ones act on (one rerun at a time).
+  void attribute() {
+    ic_current_ = ic_before_;
+    current_gaps_ = report_.before;
+    if (!any_significant_ || !settings_.attribute) return;
+    for (int round = 0; round < settings_.max_effects; ++round) {
+      auto best = best_addition(round);
+      if (!best || best->ic > ic_current_ - settings_.accept_ic_drop || best->shrink < settings_.min_shrinkage ||
+          best->worsens)
+        break;
+      accept(std::move(*best));
+      if (!any_significant(current_gaps_)) break;
     }
   }
-  const auto after = assess(*test_base, chosen, gears, settings.bootstrap_resamples, evaluator, bootstrap);
-  report.after = family_gaps(after, noise, settings, fixed_reason);
-  for (const auto& g : report.after)
-    if (g.significant) report.unexplained.push_back(g.family);
-  for (auto& f : report.features) f.explained_by = explaining_candidate(report, f, gears);
-  // K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the
-  // mesh harmonics is absorbed into it; with the chosen effects added the twin's RMS_SA changes and
-  // so does the K inferred. Records at different speeds differ in level, so their ratios are pooled
-  // in the log (geometric mean), not their energies.
-  if (settings.reference_k_wear) {
-    auto rms_sa = [&](const SpectralSummary& s) { return rms_sa_of_lines(s, gears.pinion_teeth, settings.rms_sa_harmonics); };
-    // Least squares in the log: ln r_i = e_i ln(K/K_ref) (one elasticity for all: the mean log ratio / e).
+
+  /// The lowest held-out IC among the candidates that act on a significant family is the
+  /// attribution; it is added only if it pays (IC drop) and shrinks its own families. When it
+  /// does not, no lesser candidate is tried in its place: the families stay unexplained.
+  std::optional<Addition> best_addition(int round) {
+    std::optional<Addition> best;
+    for (CandidateEffect c : kAllCandidateEffects) {
+      if (std::find(report_.chosen.begin(), report_.chosen.end(), c) != report_.chosen.end()) continue;
+      const auto form = candidate_form(c, fs_);
+      if (reruns_.count(c) && rerun_chosen_) continue;
+      Addition a = try_addition(c, form, round);
+      const double best_ic = best ? best->ic : std::numeric_limits<double>::infinity();
+      if (explains_significant(form.explains) && a.ic < best_ic) {
+        a.worsens = worsens_other_family(a.gaps, form.explains);
+        best = std::move(a);
+      }
+    }
+    return best;
+  }
+
+  /// Candidate `c` on top of the chosen ones: fitted on training, scored held out.
+  Addition try_addition(CandidateEffect c, const CandidateForm& form, int round) {
+    Addition a{{c, {}}, std::nullopt, 0, 0, false, {}};
+    std::vector<SpectralSummary> models;
+    if (const auto r = reruns_.find(c); r != reruns_.end()) {
+      a.grid = chosen_.empty() ? alone_grid_[c] : best_rerun(r->second, chosen_);
+      a.effect.values = r->second.values[*a.grid];
+      models = models_of(rerun_test(r->second, *a.grid), chosen_, gears_);
+    } else {
+      a.effect.values = round == 0 ? alone_[c] : fit_candidate(c, chosen_, *train_base_, gears_);
+      auto fx = chosen_;
+      fx.push_back(a.effect);
+      models = models_of(*test_base_, fx, gears_);
+    }
+    const auto e = evaluator_.evaluate(views(*test_base_, models), true);
+    a.ic = information_criterion(e, noise_, fitted_count(a.effect.values), settings_);
+    a.gaps = point_gaps(e);
+    a.shrink = shrinkage(current_gaps_, a.gaps, form.explains);
+    return a;
+  }
+
+  bool explains_significant(const std::vector<FamilyKind>& explains) const {
+    return std::any_of(current_gaps_.begin(), current_gaps_.end(), [&](const FamilyGap& g) {
+      return g.significant && std::find(explains.begin(), explains.end(), g.family) != explains.end();
+    });
+  }
+
+  void accept(Addition best) {
+    report_.chosen.push_back(best.effect.effect);
+    if (best.grid)
+      accept_rerun(best);
+    else
+      chosen_.push_back(best.effect);
+    ic_current_ = best.ic;
+    current_gaps_ = std::move(best.gaps);
+  }
+
+  /// A chosen rerun candidate, refined; the later candidates act on its twin.
+  void accept_rerun(Addition& best) {
+    auto& set = reruns_.at(best.effect.effect);
+    const std::size_t refined = refine_rerun(set, *best.grid, chosen_);
+    if (refined != *best.grid) {
+      best.grid = refined;
+      const auto& refined_test = rerun_test(set, refined);
+      const auto e = evaluator_.evaluate(views(refined_test, models_of(refined_test, chosen_, gears_)), true);
+      best.ic = information_criterion(e, noise_, fitted_count(set.values[refined]), settings_);
+      best.gaps = point_gaps(e);
+      update_parameters(best.effect.effect, set.values[refined]);
+    }
+    test_base_ = &rerun_test(set, *best.grid);
+    train_base_ = &set.train[*best.grid];
+    rerun_chosen_ = true;
+  }
+
+  /// The candidate's reported parameters after a refinement.
+  void update_parameters(CandidateEffect effect, const std::vector<double>& values) {
+    for (auto& candidate : report_.candidates)
+      if (candidate.effect == effect) {
+        for (std::size_t i = 0; i < candidate.parameters.size() && i < values.size(); ++i)
+          candidate.parameters[i].second = values[i];
+        candidate.at_bounds = parameters_at_bounds(effect, values, fs_, true);
+      }
+  }
+
+  /// The held-out gaps with the chosen effects, what stays unexplained, and the features' candidates.
+  void assess_after() {
+    const auto after = assess(*test_base_, chosen_, gears_, settings_.bootstrap_resamples, evaluator_, bootstrap_);
+    report_.after = family_gaps(after, noise_, settings_, fixed_reason_);
+    for (const auto& g : report_.after)
+      if (g.significant) report_.unexplained.push_back(g.family);
+    for (auto& f : report_.features) f.explained_by = explaining_candidate(report_, f, gears_);
+  }
+
+  /// K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the
+  /// mesh harmonics is absorbed into it; with the chosen effects added the twin's RMS_SA changes and
+  /// so does the K inferred. Records at different speeds differ in level, so their ratios are pooled
+  /// in the log (geometric mean), not their energies. Least squares in the log:
+  /// ln r_i = e_i ln(K/K_ref) (one elasticity for all: the mean log ratio / e).
+  void infer_k_wear() {
+    if (!settings_.reference_k_wear) return;
+    auto rms_sa = [&](const SpectralSummary& s) { return rms_sa_of_lines(s, gears_.pinion_teeth, settings_.rms_sa_harmonics); };
     double num_before = 0, num_after = 0, den = 0;
-    for (std::size_t i = 0; i < test.size(); ++i) {
-      const auto& p = test[i];
+    for (std::size_t i = 0; i < test_.size(); ++i) {
+      const auto& p = test_[i];
       const auto meas = rms_sa(p.measured_all), twin = rms_sa(p.twin_all),
-                 with_fx = rms_sa(apply_effects(chosen, (*test_base)[i].twin_all, gears));
+                 with_fx = rms_sa(apply_effects(chosen_, (*test_base_)[i].twin_all, gears_));
       if (!meas || !twin || !with_fx) continue;
-      const double e = settings.rms_sa_wear_elasticities.empty() ? settings.rms_sa_wear_elasticity
-                                                                 : settings.rms_sa_wear_elasticities[i];
-      if (std::abs(e) < settings.min_rms_sa_wear_elasticity) continue;
+      const double e = settings_.rms_sa_wear_elasticities.empty() ? settings_.rms_sa_wear_elasticity
+                                                                  : settings_.rms_sa_wear_elasticities[i];
+      if (std::abs(e) < settings_.min_rms_sa_wear_elasticity) continue;
       num_before += e * std::log(*meas / *twin);
       num_after += e * std::log(*meas / *with_fx);
       den += e * e;
     }
     if (den > 0) {
-      const double k_ref = *settings.reference_k_wear;
-      report.k_wear_before = inferred_k_wear(std::exp(num_before / den), 1.0, k_ref, 1.0);
-      report.k_wear_after = inferred_k_wear(std::exp(num_after / den), 1.0, k_ref, 1.0);
+      const double k_ref = *settings_.reference_k_wear;
+      report_.k_wear_before = inferred_k_wear(std::exp(num_before / den), 1.0, k_ref, 1.0);
+      report_.k_wear_after = inferred_k_wear(std::exp(num_after / den), 1.0, k_ref, 1.0);
     }
   }
 
-  // Plots: the first held-out record.
-  const auto& p = test.front();
-  const auto twin_after = apply_effects(chosen, test_base->front().twin_all, gears);
-  const std::size_t k = std::min(p.measured_all.input_lines.size(), p.twin_all.input_lines.size());
-  for (std::size_t i = 0; i < k; ++i) {
-    report.order_axis.push_back(static_cast<double>(i + 1));
-    report.hz_axis.push_back(static_cast<double>(i + 1) * p.measured_all.speed_hz);
+  /// Plots: the first held-out record's spectra, measured, twin and twin with the chosen effects.
+  void plot_spectra() {
+    const auto& p = test_.front();
+    const auto twin_after = apply_effects(chosen_, test_base_->front().twin_all, gears_);
+    const std::size_t k = std::min(p.measured_all.input_lines.size(), p.twin_all.input_lines.size());
+    for (std::size_t i = 0; i < k; ++i) {
+      report_.order_axis.push_back(static_cast<double>(i + 1));
+      report_.hz_axis.push_back(static_cast<double>(i + 1) * p.measured_all.speed_hz);
+    }
+    auto cut = [&](std::vector<double> v) {
+      v.resize(k);
+      return v;
+    };
+    report_.measured_order_db = cut(to_db(p.measured_all.input_lines, p.floor));
+    report_.twin_order_db = cut(to_db(p.twin_all.input_lines, p.floor));
+    report_.twin_after_order_db = cut(to_db(twin_after.input_lines, p.floor));
+    report_.measured_hz_db = cut(to_db(per_bin_total(p.measured_all), p.floor));
+    report_.twin_hz_db = cut(to_db(per_bin_total(p.twin_all), p.floor));
+    report_.twin_after_hz_db = cut(to_db(per_bin_total(twin_after), p.floor));
   }
-  auto cut = [&](std::vector<double> v) {
-    v.resize(k);
-    return v;
-  };
-  report.measured_order_db = cut(to_db(p.measured_all.input_lines, p.floor));
-  report.twin_order_db = cut(to_db(p.twin_all.input_lines, p.floor));
-  report.twin_after_order_db = cut(to_db(twin_after.input_lines, p.floor));
-  report.measured_hz_db = cut(to_db(per_bin_total(p.measured_all), p.floor));
-  report.twin_hz_db = cut(to_db(per_bin_total(p.twin_all), p.floor));
-  report.twin_after_hz_db = cut(to_db(per_bin_total(twin_after), p.floor));
-  const int z1 = gears.pinion_teeth;
-  const int m = kSidebandOrders;
-  double shaft_from = 0.5;
-  for (int n = 1; n * z1 <= static_cast<int>(k) && n <= 10; ++n) {
-    report.order_bands.push_back({FamilyKind::input_shaft_orders, {shaft_from, n * z1 - m - 0.5}});
-    report.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 - m - 0.5, n * z1 - 0.5}});
-    report.order_bands.push_back({FamilyKind::mesh_harmonics, {n * z1 - 0.5, n * z1 + 0.5}});
-    report.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 + 0.5, n * z1 + m + 0.5}});
-    shaft_from = n * z1 + m + 0.5;
+
+  /// The plots' family bands: shaft orders, sidebands and mesh harmonics along the order axis, the
+  /// fixed-frequency bands with a gap along the Hz axis.
+  void plot_bands() {
+    const int k = static_cast<int>(report_.order_axis.size());
+    const int z1 = gears_.pinion_teeth;
+    const int m = kSidebandOrders;
+    double shaft_from = 0.5;
+    for (int n = 1; n * z1 <= k && n <= 10; ++n) {
+      report_.order_bands.push_back({FamilyKind::input_shaft_orders, {shaft_from, n * z1 - m - 0.5}});
+      report_.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 - m - 0.5, n * z1 - 0.5}});
+      report_.order_bands.push_back({FamilyKind::mesh_harmonics, {n * z1 - 0.5, n * z1 + 0.5}});
+      report_.order_bands.push_back({FamilyKind::input_sidebands, {n * z1 + 0.5, n * z1 + m + 0.5}});
+      shaft_from = n * z1 + m + 0.5;
+    }
+    for (const auto& band : before_.point.fixed_bands)
+      if (std::abs(band.gain_db) >= min_gap_db_of(settings_, FamilyKind::fixed_frequency))
+        report_.hz_bands.push_back({FamilyKind::fixed_frequency, {band.low_hz, band.high_hz}});
   }
-  for (const auto& band : before.point.fixed_bands)
-    if (std::abs(band.gain_db) >= min_gap_db_of(settings, FamilyKind::fixed_frequency))
-      report.hz_bands.push_back({FamilyKind::fixed_frequency, {band.low_hz, band.high_hz}});
-  return report;
+
+  const std::vector<DiagnosisInput>& training_;
+  const std::vector<DiagnosisInput>& held_out_;
+  const GearPairSpec& gears_;
+  const DiagnosisSettings& settings_;
+  const GapEvaluator evaluator_;
+  BootstrapSummaries bootstrap_;
+  GapReport report_;
+  std::vector<PairSpectra> train_, test_;  // the records reduced; a run-out response attached later
+  std::vector<SummaryPair> train_pairs_;   // the training records' full summaries, for the fits
+  double fs_ = 0;                          // the held-out records' sample rate
+  std::string fixed_reason_;
+  std::array<double, kFamilies> noise_{};
+  Assessment before_;
+  double ic_before_ = 0;
+  bool any_significant_ = false;
+  std::map<CandidateEffect, RerunSet> reruns_;
+  std::vector<Ranked> ranked_;
+  std::map<CandidateEffect, std::vector<double>> alone_;  // the spectral candidates' values alone
+  std::map<CandidateEffect, std::size_t> alone_grid_;     // the rerun candidates' grid point alone
+  // The greedy attribution's state: the spectral effects chosen (applied to the base twin), the
+  // twin they act on (a chosen rerun's), its IC and gaps so far.
+  std::vector<AppliedEffect> chosen_;
+  const std::vector<PairSpectra>* test_base_ = &test_;
+  const std::vector<SummaryPair>* train_base_ = &train_pairs_;
+  bool rerun_chosen_ = false;
+  double ic_current_ = 0;
+  std::vector<FamilyGap> current_gaps_;
+};
+
+}  // namespace
+
+GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vector<DiagnosisInput>& held_out,
+                   const GearPairSpec& gears, const DiagnosisSettings& settings) {
+  validate(training, held_out, settings);
+  return Diagnosis(training, held_out, gears, settings).run();
 }
 
 double min_gap_db_of(const DiagnosisSettings& settings, FamilyKind family) noexcept {
