@@ -11,6 +11,7 @@
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/twin/modal_analysis.hpp"
 #include "gearwatch/twin/simulation.hpp"
+#include "gearwatch/twin/integration.hpp"
 
 using namespace gearwatch;
 using namespace gearwatch::twin;

@@ -5,9 +5,13 @@
 # On a fresh machine the dependencies only the tests use (qemu, chromium, clang, mosquitto …) are
 # downloaded and installed while gearwatch compiles; the tests start once both are done.
 set -euo pipefail
+# Each phase's duration goes to stderr, so a slow run shows where its time went.
+started=$SECONDS
+phase() { echo "test.sh: $1 took $((SECONDS - started)) s" >&2; started=$SECONDS; }
 top=$(cd "$(dirname "$0")/.." && pwd)
 cd "$top"
 tools/install-deps.sh --test-build
+phase "installing the build dependencies"
 mkdir -p build
 deps_log=build/install-test-deps.log
 tools/install-deps.sh --test >"$deps_log" 2>&1 &
@@ -15,12 +19,17 @@ deps_pid=$!
 # A failed build must not leave the package manager running unattended behind it.
 trap 'wait "$deps_pid" 2>/dev/null || true' EXIT
 tools/build.sh --test-build
+phase "building"
 if ! wait "$deps_pid"; then
   cat "$deps_log" >&2
   echo "test.sh: installing the test dependencies failed (tools/install-deps.sh --test)" >&2
   exit 1
 fi
 trap - EXIT
+phase "waiting for the test dependencies after the build"
 cat "$deps_log" >&2
 cd build
-ctest --output-on-failure --timeout 900 -j "$(nproc)" "$@"
+status=0
+ctest --output-on-failure --timeout 900 -j "$(nproc)" "$@" || status=$?
+phase "running the tests"
+exit "$status"

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "gearwatch/dsp/decimation.hpp"
+#include "gearwatch/twin/integration.hpp"
 
 namespace gearwatch::twin {
 

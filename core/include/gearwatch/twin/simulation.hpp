@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "gearwatch/twin/errors.hpp"
 #include "gearwatch/twin/gearbox_model.hpp"
 #include "gearwatch/twin/gearbox_parameters.hpp"
 #include "gearwatch/twin/transmission_error.hpp"
@@ -95,13 +96,6 @@ CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfi
 CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfileDeviation& deviation,
                                     const OperatingPoint& op, double duration_s, const SimulationOptions& options);
 
-/// Integrates an arbitrary GearboxDynamics from `state` at t0, calling observer(state, t) at
-/// t0 + i/rate for i = 0..count-1; dopri5 with dense output and the divergence checks above.
-/// Returns the number of right-hand-side evaluations.
-template <class Observer>
-std::size_t integrate_sampled(const GearboxDynamics& dynamics, State& state, double t0, double rate, std::size_t count,
-                              const SimulationOptions& options, Observer&& observer);
-
 /// RMS of a signal after a 4th-order Butterworth low-pass (two biquads, bilinear transform): the
 /// thesis's 0–2 kHz band RMS of y6 used to tune the mesh (§5.3). The mean is removed first and the
 /// first 5/cutoff seconds (filter start-up) are left out of the RMS.
@@ -122,7 +116,6 @@ MeshTuningResult tune_mesh_to_rms(const GearboxParameters& p, const OperatingPoi
 
 }  // namespace gearwatch::twin
 
-#include "gearwatch/twin/simulation_impl.hpp"
 
 namespace gearwatch::dsp {
 struct SignalProcessingSettings;

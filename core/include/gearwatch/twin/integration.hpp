@@ -1,14 +1,20 @@
 #pragma once
-// Template part of simulation.hpp (include that header, not this one).
+// The twin's integrator as a template over the observer, apart from simulation.hpp so that only
+// the code that integrates pays for compiling Boost.Odeint.
 #include <cmath>
 #include <string>
 
 #include <boost/numeric/odeint.hpp>
 
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/twin/simulation.hpp"
 
 namespace gearwatch::twin {
 
+/// Integrates an arbitrary GearboxDynamics from `state` at t0, calling observer(state, t) at
+/// t0 + i/rate for i = 0..count-1; dopri5 with dense output and the divergence checks
+/// described in simulation.hpp.
+/// Returns the number of right-hand-side evaluations.
 template <class Observer>
 std::size_t integrate_sampled(const GearboxDynamics& dynamics, State& state, double t0, double rate, std::size_t count,
                               const SimulationOptions& options, Observer&& observer) {
