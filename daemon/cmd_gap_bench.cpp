@@ -221,24 +221,22 @@ double family_rms(const std::vector<gap::FamilyGap>& gaps, const std::vector<Fam
   return n ? std::sqrt(s / n) : 0.0;
 }
 
-ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects, const rig::WearState& wear,
-                            double k_true, TwinCache& twins, RigBaselineCache& baseline,
-                            const std::vector<double>& training_speeds, const std::vector<double>& held_speeds,
-                            std::uint64_t seed) {
-  const auto t0 = std::chrono::steady_clock::now();
-  ScenarioResult res;
-  res.truth = effects.enabled_effects();
-  res.parameters = effects.active_parameters();
-  auto make_inputs = [&](const std::vector<double>& speeds, std::uint64_t salt) {
-    std::vector<gap::DiagnosisInput> in;
-    for (double torque : o.torques_nm)
-    for (double speed : speeds) {
+/// A scenario's records at each torque and speed: the rig with the effects against the twin.
+std::vector<gap::DiagnosisInput> scenario_inputs(const BenchOptions& o, const rig::EffectSet& effects,
+                                                 const rig::WearState& wear, TwinCache& twins,
+                                                 const std::vector<double>& speeds, std::uint64_t seed,
+                                                 std::uint64_t salt) {
+  std::vector<gap::DiagnosisInput> in;
+  for (double torque : o.torques_nm)
+    for (double speed : speeds)
       in.push_back({rig_record(o, effects, wear, speed, torque, seed * 101 + salt++), twins.at(speed, torque)});
-    }
-    return in;
-  };
-  const auto training = make_inputs(training_speeds, 0);
-  const auto held_out = make_inputs(held_speeds, 50);
+  return in;
+}
+
+/// The diagnosis's settings for a scenario: the bench's, each held-out record's RMS_SA elasticity,
+/// the twin re-run from the cache, and the true K_wear as the reference.
+gap::DiagnosisSettings scenario_settings(const BenchOptions& o, double k_true, TwinCache& twins,
+                                         const std::vector<gap::DiagnosisInput>& held_out, std::uint64_t seed) {
   gap::DiagnosisSettings ds;
   ds.bootstrap_resamples = o.bootstrap;
   ds.seed = seed;
@@ -250,26 +248,34 @@ ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects
   ds.rerun_twin = [&twins](gap::CandidateEffect c, const std::vector<double>& values, const Record& like, double duration_s) {
     return twins.rerun(c, values, like, duration_s);
   };
-  res.elasticities = ds.rms_sa_wear_elasticities;
   // The twin runs at the true wear state, so the K it was simulated with is the truth.
   ds.reference_k_wear = k_true;
-  const auto report = gap::diagnose(training, held_out, GearPairSpec{}, ds);
-  if (!res.truth.empty()) {
-    std::vector<gap::DiagnosisInput> signature;
-    for (const auto& in : held_out) signature.push_back({in.measured, baseline.at(in.measured.speed_hz, in.measured.torque_nm)});
-    auto localise = ds;
-    localise.attribute = false;
-    localise.reference_k_wear.reset();
-    localise.rerun_twin = nullptr;
-    // Only the families' significance before any candidate is read here; the features (found and
-    // described after it) would be computed and dropped.
-    localise.find_features = false;
-    for (const auto& g : gap::diagnose(signature, signature, GearPairSpec{}, localise).before)
-      if (g.significant) {
-        res.identifiable = true;
-        res.signature_families.push_back(gap::to_string(g.family));
-      }
-  }
+  return ds;
+}
+
+/// The effects' own signature: the held-out records against the rig without the effects, judged by
+/// the diagnosis's significance test alone (no attribution, no K_wear, no reruns).
+void find_signature(const std::vector<gap::DiagnosisInput>& held_out, const gap::DiagnosisSettings& ds,
+                    RigBaselineCache& baseline, ScenarioResult& res) {
+  std::vector<gap::DiagnosisInput> signature;
+  for (const auto& in : held_out) signature.push_back({in.measured, baseline.at(in.measured.speed_hz, in.measured.torque_nm)});
+  auto localise = ds;
+  localise.attribute = false;
+  localise.reference_k_wear.reset();
+  localise.rerun_twin = nullptr;
+  // Only the families' significance before any candidate is read here; the features (found and
+  // described after it) would be computed and dropped.
+  localise.find_features = false;
+  for (const auto& g : gap::diagnose(signature, signature, GearPairSpec{}, localise).before)
+    if (g.significant) {
+      res.identifiable = true;
+      res.signature_families.push_back(gap::to_string(g.family));
+    }
+}
+
+/// What the report says: K_wear against the truth, the candidates, the families before and after,
+/// and the ranking (chosen first, then the others in the report's order).
+void take_report(const gap::GapReport& report, double k_true, ScenarioResult& res) {
   if (report.k_wear_before) res.k_ratio_before = *report.k_wear_before / k_true;
   if (report.k_wear_after) res.k_ratio_after = *report.k_wear_after / k_true;
   res.chosen = report.chosen;
@@ -292,10 +298,21 @@ ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects
   res.ranked = report.chosen;
   for (const auto& c : report.candidates)
     if (std::find(res.ranked.begin(), res.ranked.end(), c.effect) == res.ranked.end()) res.ranked.push_back(c.effect);
+}
+
+/// The families the true effects explain.
+std::vector<FamilyKind> true_families(const std::vector<rig::Effect>& truth, double sample_rate_hz) {
   std::vector<FamilyKind> own;
-  for (auto e : res.truth)
-    for (auto f : gap::candidate_form(candidate_of(e), o.sample_rate_hz).explains)
+  for (auto e : truth)
+    for (auto f : gap::candidate_form(candidate_of(e), sample_rate_hz).explains)
       if (std::find(own.begin(), own.end(), f) == own.end()) own.push_back(f);
+  return own;
+}
+
+/// The report against the truth: detected, localised on the true effects' families, how much of
+/// their gap the chosen effects took away, and how much the other families rose.
+void score_against_truth(const gap::GapReport& report, double sample_rate_hz, ScenarioResult& res) {
+  const std::vector<FamilyKind> own = true_families(res.truth, sample_rate_hz);
   for (const auto& g : report.before) {
     if (!g.significant) continue;
     res.detected = true;
@@ -310,6 +327,24 @@ ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects
     res.collateral_db = std::max(res.collateral_db, a.distance_db - b.distance_db);
     if (a.distance_db > b.distance_interval_db.high) res.collateral_beyond_interval = true;
   }
+}
+
+ScenarioResult run_scenario(const BenchOptions& o, const rig::EffectSet& effects, const rig::WearState& wear,
+                            double k_true, TwinCache& twins, RigBaselineCache& baseline,
+                            const std::vector<double>& training_speeds, const std::vector<double>& held_speeds,
+                            std::uint64_t seed) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ScenarioResult res;
+  res.truth = effects.enabled_effects();
+  res.parameters = effects.active_parameters();
+  const auto training = scenario_inputs(o, effects, wear, twins, training_speeds, seed, 0);
+  const auto held_out = scenario_inputs(o, effects, wear, twins, held_speeds, seed, 50);
+  const gap::DiagnosisSettings ds = scenario_settings(o, k_true, twins, held_out, seed);
+  res.elasticities = ds.rms_sa_wear_elasticities;
+  const auto report = gap::diagnose(training, held_out, GearPairSpec{}, ds);
+  if (!res.truth.empty()) find_signature(held_out, ds, baseline, res);
+  take_report(report, k_true, res);
+  score_against_truth(report, o.sample_rate_hz, res);
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
 }
