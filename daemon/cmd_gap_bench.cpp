@@ -212,15 +212,6 @@ struct ScenarioResult {
   double seconds = 0;
 };
 
-double family_rms(const std::vector<gap::FamilyGap>& gaps, const std::vector<FamilyKind>& families) {
-  double s = 0;
-  int n = 0;
-  for (const auto& g : gaps)
-    if (g.resolved && std::find(families.begin(), families.end(), g.family) != families.end())
-      s += g.distance_db * g.distance_db, ++n;
-  return n ? std::sqrt(s / n) : 0.0;
-}
-
 /// A scenario's records at each torque and speed: the rig with the effects against the twin.
 std::vector<gap::DiagnosisInput> scenario_inputs(const BenchOptions& o, const rig::EffectSet& effects,
                                                  const rig::WearState& wear, TwinCache& twins,
@@ -318,8 +309,8 @@ void score_against_truth(const gap::GapReport& report, double sample_rate_hz, Sc
     res.detected = true;
     if (std::find(own.begin(), own.end(), g.family) != own.end()) res.localised = true;
   }
-  const double before = family_rms(report.before, own);
-  if (res.detected && before > 0) res.shrinkage = 1.0 - family_rms(report.after, own) / before;
+  const double before = gap::families_distance_db(report.before, own);
+  if (res.detected && before > 0) res.shrinkage = 1.0 - gap::families_distance_db(report.after, own) / before;
   for (std::size_t f = 0; f < report.before.size(); ++f) {
     const auto& b = report.before[f];
     const auto& a = report.after[f];

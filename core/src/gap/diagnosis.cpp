@@ -287,15 +287,6 @@ std::size_t fitted_count(const std::vector<double>& values) {
   return static_cast<std::size_t>(std::count_if(values.begin(), values.end(), [](double v) { return v != 0.0; }));
 }
 
-double own_distance(const std::vector<FamilyGap>& gaps, const std::vector<FamilyKind>& families) {
-  double sum = 0;
-  int n = 0;
-  for (const auto& g : gaps)
-    if (g.resolved && std::find(families.begin(), families.end(), g.family) != families.end())
-      sum += g.distance_db * g.distance_db, ++n;
-  return n ? std::sqrt(sum / n) : 0.0;
-}
-
 std::vector<double> to_db(const std::vector<double>& p, double floor) {
   std::vector<double> v(p.size());
   for (std::size_t i = 0; i < p.size(); ++i) v[i] = 10 * std::log10(p[i] + floor);
@@ -311,8 +302,8 @@ std::vector<double> per_bin_total(const SpectralSummary& s) {
 /// The 1 − (own families' distance after / before) of a candidate; 0 when they had no distance.
 double shrinkage(const std::vector<FamilyGap>& before, const std::vector<FamilyGap>& after,
                  const std::vector<FamilyKind>& own) {
-  const double own_before = own_distance(before, own);
-  return own_before > 0 ? 1.0 - own_distance(after, own) / own_before : 0.0;
+  const double own_before = families_distance_db(before, own);
+  return own_before > 0 ? 1.0 - families_distance_db(after, own) / own_before : 0.0;
 }
 
 bool any_significant(const std::vector<FamilyGap>& gaps) {
@@ -837,6 +828,15 @@ GapReport diagnose(const std::vector<DiagnosisInput>& training, const std::vecto
                    const GearPairSpec& gears, const DiagnosisSettings& settings) {
   validate(training, held_out, settings);
   return Diagnosis(training, held_out, gears, settings).run();
+}
+
+double families_distance_db(const std::vector<FamilyGap>& gaps, const std::vector<FamilyKind>& families) {
+  double sum = 0;
+  int n = 0;
+  for (const auto& g : gaps)
+    if (g.resolved && std::find(families.begin(), families.end(), g.family) != families.end())
+      sum += g.distance_db * g.distance_db, ++n;
+  return n ? std::sqrt(sum / n) : 0.0;
 }
 
 double min_gap_db_of(const DiagnosisSettings& settings, FamilyKind family) noexcept {

@@ -103,6 +103,9 @@ struct DiagnosisSettings {
 /// fixed-frequency families, `min_gap_db` for the line families.
 double min_gap_db_of(const DiagnosisSettings& settings, FamilyKind family) noexcept;
 
+/// The root-mean-square distance (dB) of the resolved gaps among `families`; 0 when none is resolved.
+double families_distance_db(const std::vector<FamilyGap>& gaps, const std::vector<FamilyKind>& families);
+
 /// RMS_SA(N) (thesis Eq. 7.1) from a record's input-order lines: the root of the summed power of the
 /// first `harmonics` mesh harmonics (the TSA's harmonics). Empty when the lines do not reach the
 /// N-th harmonic or hold no power there.
