@@ -97,6 +97,118 @@ double read_modulation_with_phases(const std::vector<ModulatedHarmonic>& hs, std
   return w;
 }
 
+/// One record's lines on the shaft a modulation is read on (measured and the twin's; power and,
+/// where known, complex), and whether the phases are known.
+struct ShaftSpectra {
+  const std::vector<double>& lines_m;
+  const std::vector<double>& lines_t;
+  const std::vector<std::complex<double>>& cm;
+  const std::vector<std::complex<double>>& ct;
+  bool with_phase;
+};
+
+ShaftSpectra shaft_spectra(const DescribedRecord& src, bool input) {
+  const auto& m = *src.measured;
+  const auto& t = *src.twin;
+  const auto& lines_m = input ? m.input_lines : m.output_lines;
+  const auto& lines_t = input ? t.input_lines : t.output_lines;
+  const auto& cm = input ? src.measured_input : src.measured_output;
+  const auto& ct = input ? src.twin_input : src.twin_output;
+  const bool with_phase = !src.measured_input.empty() && !src.twin_input.empty() && cm.size() >= lines_m.size() &&
+                          ct.size() >= lines_t.size();
+  return {lines_m, lines_t, cm, ct, with_phase};
+}
+
+/// The mesh harmonics n (carrier at input order n·zp) whose carrier stands above the floor and
+/// whose first sidebands (orders n·z ± 1 of the shaft with z teeth) exist in both records.
+std::vector<ModulatedHarmonic> modulated_harmonics(const DescribedRecord& src, const ShaftSpectra& s, int zp, int z) {
+  using Complex = std::complex<double>;
+  const auto& m = *src.measured;
+  const auto& t = *src.twin;
+  std::vector<ModulatedHarmonic> hs;
+  for (int n = 1;; ++n) {
+    const std::size_t carrier = static_cast<std::size_t>(n * zp) - 1, upper = static_cast<std::size_t>(n * z), lower = upper - 2;
+    if (carrier >= m.input_lines.size() || carrier >= t.input_lines.size() || upper >= s.lines_m.size() ||
+        upper >= s.lines_t.size())
+      break;
+    const double pc = m.input_lines[carrier];
+    if (!(pc > 100 * src.floor)) continue;
+    ModulatedHarmonic h{n, {}, {}, {}, {}, {}, pc, s.lines_m[upper] + s.lines_m[lower] - s.lines_t[upper] - s.lines_t[lower]};
+    if (s.with_phase) {
+      const Complex cmc = src.measured_input[carrier], ctc = src.twin_input[carrier];
+      if (std::abs(cmc) == 0 || std::abs(ctc) == 0) continue;
+      h.carrier_m = cmc, h.u_m = s.cm[upper] / cmc, h.l_m = s.cm[lower] / cmc, h.u_t = s.ct[upper] / ctc, h.l_t = s.ct[lower] / ctc;
+    }
+    hs.push_back(h);
+  }
+  return hs;
+}
+
+/// One record's modulation: A (AM, common to the harmonics) and B (PM of the first harmonic), or
+/// with powers only the index m_eq; its weight; and where each predicted sideband sits.
+struct RecordModulation {
+  std::complex<double> a, b;
+  double am = 0, pm = kNaN, weight = 0;
+  std::vector<std::pair<std::size_t, double>> sideband_power;  // (cell index in the record, predicted power)
+};
+
+/// Reads a record's modulation off its harmonics (with the phases where known, else from the
+/// sidebands' excess power). False: the record holds none to read.
+bool read_record_modulation(const std::vector<ModulatedHarmonic>& hs, bool with_phase, RecordModulation& p) {
+  const double w = with_phase ? read_modulation_with_phases(hs, p.a, p.b) : 0.0;
+  double w_all = 0, excess = 0;
+  for (const auto& h : hs) w_all += h.carrier_power, excess += h.excess;
+  if (w_all <= 0 || (with_phase && w <= 0)) return false;
+  if (with_phase) {
+    p.weight = w;
+    p.am = std::abs(p.a), p.pm = std::abs(p.b);
+  } else {
+    p.weight = w_all;
+    p.am = std::sqrt(std::max(0.0, 2 * excess / w_all));  // both sidebands m²/4 of the carrier
+  }
+  return true;
+}
+
+/// The predicted sideband powers of a record with modulation `p`, on the cells of `kind` they fall in.
+std::vector<std::pair<std::size_t, double>> predicted_sideband_powers(const std::vector<ModulatedHarmonic>& hs,
+                                                                      const ShaftSpectra& s, int z, const RecordModulation& p,
+                                                                      const std::vector<FeatureDescriber::Cell>& cells,
+                                                                      FeatureDescriber::CellKind kind) {
+  using Complex = std::complex<double>;
+  std::vector<std::pair<std::size_t, double>> out;
+  for (const auto& h : hs) {
+    const std::size_t upper = static_cast<std::size_t>(h.n * z), lower = upper - 2;
+    double pu, pl;
+    if (s.with_phase) {
+      // PM of index n·β on harmonic n: 2·J1/J0 of the (measured, J0-scaled) carrier, held under
+      // J0's first zero, where the first sidebands alone no longer describe it.
+      const double x = std::min(static_cast<double>(h.n) * std::abs(p.b), kMaxHarmonicPmIndex);
+      const Complex pm = std::abs(p.b) > 0 ? pm_sideband_ratio(x) * p.b / std::abs(p.b) : Complex{};
+      pu = std::norm(h.carrier_m * (h.u_t + (p.a + pm) / 2.0));
+      pl = std::norm(h.carrier_m * (h.l_t + std::conj((p.a - pm) / 2.0)));
+    } else {
+      pu = s.lines_t[upper] + p.am * p.am / 4 * h.carrier_power;
+      pl = s.lines_t[lower] + p.am * p.am / 4 * h.carrier_power;
+    }
+    for (std::size_t i = 0; i < cells.size(); ++i)
+      if (cells[i].kind == kind && (cells[i].index == upper || cells[i].index == lower))
+        out.emplace_back(i, cells[i].index == upper ? pu : pl);
+  }
+  return out;
+}
+
+/// The modulation form's description: the AM and PM indices and the AM's share of the first
+/// sidebands' excess power at the mesh fundamental (which one dominates).
+FeatureDescription modulation_description(FeatureShaft shaft, double am, double pm) {
+  FeatureDescription d;
+  d.kind = DescriptionKind::modulation;
+  d.shaft = shaft;
+  const double pm_ratio = std::isfinite(pm) ? pm_sideband_ratio(std::min(pm, kMaxHarmonicPmIndex)) : kNaN;
+  const double am_share = std::isfinite(pm_ratio) && am * am + pm_ratio * pm_ratio > 0 ? am * am / (am * am + pm_ratio * pm_ratio) : kNaN;
+  d.parameters = {{"am_index", am}, {"pm_index_rad", pm}, {"am_power_share", am_share}};
+  return d;
+}
+
 /// The normalised second-order band-pass's power: 1 at r = 1, ½ at its half-power points.
 double band_pass(double hz, double fn, double zeta) {
   const double r = hz / fn, a = 1 - r * r, b = 2 * zeta * r;
@@ -241,90 +353,26 @@ FeatureDescriber::Fit FeatureDescriber::path_tilt() const {
 }
 
 FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
-  using Complex = std::complex<double>;
-  const int zp = gears_.pinion_teeth, z = shaft == FeatureShaft::input ? gears_.pinion_teeth : gears_.gear_teeth;
-  // Per record: A (AM, common to the harmonics) and B (PM of the first harmonic), or with powers only
-  // the index m_eq; and where each predicted sideband sits.
-  struct PerRecord {
-    Complex a, b;
-    double am = 0, pm = kNaN, weight = 0;
-    std::vector<std::pair<std::size_t, double>> sideband_power;  // (cell index in the record, predicted power)
-  };
-  std::vector<PerRecord> per(records_.size());
+  const bool input = shaft == FeatureShaft::input;
+  const int zp = gears_.pinion_teeth, z = input ? gears_.pinion_teeth : gears_.gear_teeth;
+  const CellKind kind = input ? CellKind::input_line : CellKind::output_line;
+  std::vector<RecordModulation> per(records_.size());
   double am_sum = 0, pm_sum = 0, weight_sum = 0;
   bool phases = true;
   for (std::size_t r = 0; r < records_.size(); ++r) {
-    const auto& src = *records_[r].source;
-    const auto& m = *src.measured;
-    const auto& t = *src.twin;
-    const bool input = shaft == FeatureShaft::input;
-    const auto& lines_m = input ? m.input_lines : m.output_lines;
-    const auto& lines_t = input ? t.input_lines : t.output_lines;
-    const auto& cm = input ? src.measured_input : src.measured_output;
-    const auto& ct = input ? src.twin_input : src.twin_output;
-    const bool with_phase = !src.measured_input.empty() && !src.twin_input.empty() && cm.size() >= lines_m.size() &&
-                            ct.size() >= lines_t.size();
-    phases = phases && with_phase;
-    // Harmonics whose carrier (input order n·zp) stands above the floor and whose sidebands exist.
-    using Harmonic = ModulatedHarmonic;
-    std::vector<Harmonic> hs;
-    for (int n = 1;; ++n) {
-      const std::size_t carrier = static_cast<std::size_t>(n * zp) - 1, upper = static_cast<std::size_t>(n * z), lower = upper - 2;
-      if (carrier >= m.input_lines.size() || carrier >= t.input_lines.size() || upper >= lines_m.size() || upper >= lines_t.size()) break;
-      const double pc = m.input_lines[carrier];
-      if (!(pc > 100 * src.floor)) continue;
-      Harmonic h{n, {}, {}, {}, {}, {}, pc, lines_m[upper] + lines_m[lower] - lines_t[upper] - lines_t[lower]};
-      if (with_phase) {
-        const Complex cmc = src.measured_input[carrier], ctc = src.twin_input[carrier];
-        if (std::abs(cmc) == 0 || std::abs(ctc) == 0) continue;
-        h.carrier_m = cmc, h.u_m = cm[upper] / cmc, h.l_m = cm[lower] / cmc, h.u_t = ct[upper] / ctc, h.l_t = ct[lower] / ctc;
-      }
-      hs.push_back(h);
-    }
-    PerRecord& p = per[r];
-    const double w = with_phase ? read_modulation_with_phases(hs, p.a, p.b) : 0.0;
-    double w_all = 0, excess = 0;
-    for (const auto& h : hs) w_all += h.carrier_power, excess += h.excess;
-    if (w_all <= 0 || (with_phase && w <= 0)) continue;
-    if (with_phase) {
-      p.weight = w;
-      p.am = std::abs(p.a), p.pm = std::abs(p.b);
-    } else {
-      p.weight = w_all;
-      p.am = std::sqrt(std::max(0.0, 2 * excess / w_all));  // both sidebands m²/4 of the carrier
-    }
-    // The predicted sideband powers of this record.
-    const auto& cells = records_[r].cells;
-    const CellKind kind = input ? CellKind::input_line : CellKind::output_line;
-    for (const auto& h : hs) {
-      const std::size_t upper = static_cast<std::size_t>(h.n * z), lower = upper - 2;
-      double pu, pl;
-      if (with_phase) {
-        // PM of index n·β on harmonic n: 2·J1/J0 of the (measured, J0-scaled) carrier, held under
-        // J0's first zero, where the first sidebands alone no longer describe it.
-        const double x = std::min(static_cast<double>(h.n) * std::abs(p.b), kMaxHarmonicPmIndex);
-        const Complex pm = std::abs(p.b) > 0 ? pm_sideband_ratio(x) * p.b / std::abs(p.b) : Complex{};
-        pu = std::norm(h.carrier_m * (h.u_t + (p.a + pm) / 2.0));
-        pl = std::norm(h.carrier_m * (h.l_t + std::conj((p.a - pm) / 2.0)));
-      } else {
-        pu = lines_t[upper] + p.am * p.am / 4 * h.carrier_power;
-        pl = lines_t[lower] + p.am * p.am / 4 * h.carrier_power;
-      }
-      for (std::size_t i = 0; i < cells.size(); ++i)
-        if (cells[i].kind == kind && (cells[i].index == upper || cells[i].index == lower))
-          p.sideband_power.emplace_back(i, cells[i].index == upper ? pu : pl);
-    }
-    am_sum += p.weight * p.am, pm_sum += p.weight * (with_phase ? p.pm : 0.0), weight_sum += p.weight;
+    const DescribedRecord& src = *records_[r].source;
+    const ShaftSpectra s = shaft_spectra(src, input);
+    phases = phases && s.with_phase;
+    const std::vector<ModulatedHarmonic> hs = modulated_harmonics(src, s, zp, z);
+    RecordModulation& p = per[r];
+    if (!read_record_modulation(hs, s.with_phase, p)) continue;
+    p.sideband_power = predicted_sideband_powers(hs, s, z, p, records_[r].cells, kind);
+    am_sum += p.weight * p.am, pm_sum += p.weight * (s.with_phase ? p.pm : 0.0), weight_sum += p.weight;
   }
   Fit fit;
-  fit.description.kind = DescriptionKind::modulation;
-  fit.description.shaft = shaft;
   const double am = weight_sum > 0 ? am_sum / weight_sum : 0.0;
   const double pm = weight_sum > 0 && phases ? pm_sum / weight_sum : kNaN;
-  // The AM's share of the first sidebands' excess power at the mesh fundamental: which one dominates.
-  const double pm_ratio = std::isfinite(pm) ? pm_sideband_ratio(std::min(pm, kMaxHarmonicPmIndex)) : kNaN;
-  const double am_share = std::isfinite(pm_ratio) && am * am + pm_ratio * pm_ratio > 0 ? am * am / (am * am + pm_ratio * pm_ratio) : kNaN;
-  fit.description.parameters = {{"am_index", am}, {"pm_index_rad", pm}, {"am_power_share", am_share}};
+  fit.description = modulation_description(shaft, am, pm);
   fit.complexity = 2;
   // Each record's cell → predicted power (the twin's elsewhere).
   std::vector<std::vector<double>> predicted(records_.size());
@@ -332,11 +380,15 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
     predicted[r].assign(records_[r].cells.size(), kNaN);
     for (const auto& [i, power] : per[r].sideband_power) predicted[r][i] = power;
   }
-  fit.predict = [this, predicted = std::move(predicted)](std::size_t r, std::size_t i) {
+  fit.predict = twin_elsewhere(std::move(predicted));
+  return fit;
+}
+
+FeatureDescriber::Prediction FeatureDescriber::twin_elsewhere(std::vector<std::vector<double>> predicted) const {
+  return [this, predicted = std::move(predicted)](std::size_t r, std::size_t i) {
     const double p = predicted[r][i];
     return std::isfinite(p) ? p : records_[r].cells[i].twin;
   };
-  return fit;
 }
 
 FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Window& w) const {
@@ -428,124 +480,192 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
   return out;
 }
 
-FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const {
-  const double ratio = static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth;
-  const double to_input = f.shaft == FeatureShaft::output ? ratio : 1.0;
+/// One search for a feature's tones (FeatureDescriber::tones) over its window: the measured g, the
+/// twin's power with the tones found so far (the base), and the tones found.
+class FeatureDescriber::ToneSearch {
+ public:
+  ToneSearch(const FeatureDescriber& d, const GapFeature& f, const Window& w, bool fixed_in_hz);
+  /// Adds the best tone at a time while another pays for itself, refitting the others with it.
+  void run(int max_tones);
+  /// The tones found, ordered by place, and the prediction with them on the window's cells.
+  Fit result();
+
+ private:
+  struct Tone {
+    double place = 0, power = 0, rss = std::numeric_limits<double>::infinity();
+    std::vector<double> unit;
+  };
+  double g_of(std::size_t e, double power) const { return d_.g_of(w_[e].first, w_[e].second, power); }
+  double rss_of(const std::vector<double>& unit, double power) const;
+  double rss_with_base() const;
+  double bic(double rss, std::size_t k) const;
+  bool on_a_line(double place) const;
+  bool free_place(double place) const;
+  void fit_power(Tone& t) const;
+  Tone at(double place) const;
+  Tone best_on_grid() const;
+  void refine(Tone& t, double first_step) const;
+  double largest_change(const Tone& t) const;
+  void add_to_base(const Tone& t, double sign);
+  void refit_together();
+
+  const FeatureDescriber& d_;
+  const GapFeature& f_;
+  const Window& w_;
+  const bool fixed_in_hz_;
+  const std::size_t n_;
+  double ratio_ = 0, to_input_ = 0, top_ = 0, lo_ = 0, hi_ = 0, step_ = 0, separation_ = 0;
+  std::vector<double> g_, base_;  // measured g; the twin's power with the tones found so far
+  std::vector<Tone> found_;
+};
+
+FeatureDescriber::ToneSearch::ToneSearch(const FeatureDescriber& d, const GapFeature& f, const Window& w, bool fixed_in_hz)
+    : d_(d), f_(f), w_(w), fixed_in_hz_(fixed_in_hz), n_(w.size()) {
+  ratio_ = static_cast<double>(d.gears_.pinion_teeth) / d.gears_.gear_teeth;
+  to_input_ = f.shaft == FeatureShaft::output ? ratio_ : 1.0;
   double total = 0, top_speed = 0;
-  for (const auto& r : records_) total = std::max(total, total_input_line_power(*r.source->twin)), top_speed = std::max(top_speed, r.speed_hz);
-  const double top = std::log10(std::max(total, 1e-300));
+  for (const auto& r : d.records_) total = std::max(total, total_input_line_power(*r.source->twin)), top_speed = std::max(top_speed, r.speed_hz);
+  top_ = std::log10(std::max(total, 1e-300));
   // Places: input orders (a ghost) or Hz (a tone) across the feature's extent, 0.05 input orders apart
   // (at the fastest record in Hz), then refined by halving. Tones are told apart one broadband bin
   // (one order) apart: nearer, a second tone would only reshape the first one's leakage.
   // A ghost is searched within two orders of the feature's centre: its |g|-weighted centre sits by the
   // tone, while its extent grows with how far the tone's leakage stands over the minimum.
-  double lo = fixed_in_hz ? f.hz_low : f.order_low * to_input, hi = fixed_in_hz ? f.hz_high : f.order_high * to_input;
-  if (!fixed_in_hz) lo = std::max(lo, f.order * to_input - 2), hi = std::min(hi, f.order * to_input + 2);
-  const double step = fixed_in_hz ? 0.05 * top_speed : 0.05, separation = fixed_in_hz ? top_speed : 1.0;
-  // A ghost sits off the shafts' integer orders: a tone on one is a line the synchronous averages keep.
-  auto on_a_line = [&](double place) {
-    if (fixed_in_hz) return false;
-    const double out = place / ratio;
-    return std::abs(place - std::round(place)) < 0.05 || std::abs(out - std::round(out)) < 0.05;
-  };
-  const std::size_t n = w.size();
-  std::vector<double> g(n), base(n);  // measured g; the twin's power with the tones found so far
-  for (std::size_t e = 0; e < n; ++e) {
+  lo_ = fixed_in_hz ? f.hz_low : f.order_low * to_input_, hi_ = fixed_in_hz ? f.hz_high : f.order_high * to_input_;
+  if (!fixed_in_hz) lo_ = std::max(lo_, f.order * to_input_ - 2), hi_ = std::min(hi_, f.order * to_input_ + 2);
+  step_ = fixed_in_hz ? 0.05 * top_speed : 0.05, separation_ = fixed_in_hz ? top_speed : 1.0;
+  g_.resize(n_), base_.resize(n_);
+  for (std::size_t e = 0; e < n_; ++e) {
     const auto [r, i] = w[e];
-    g[e] = g_of(r, i, records_[r].cells[i].measured), base[e] = records_[r].cells[i].twin;
+    g_[e] = d.g_of(r, i, d.records_[r].cells[i].measured), base_[e] = d.records_[r].cells[i].twin;
   }
-  auto rss_of = [&](const std::vector<double>& unit, double power) {
-    double s = 0;
-    for (std::size_t e = 0; e < n; ++e) {
-      const double d = g[e] - g_of(w[e].first, w[e].second, base[e] + power * unit[e]);
-      s += d * d;
+}
+
+double FeatureDescriber::ToneSearch::rss_of(const std::vector<double>& unit, double power) const {
+  double s = 0;
+  for (std::size_t e = 0; e < n_; ++e) {
+    const double dg = g_[e] - g_of(e, base_[e] + power * unit[e]);
+    s += dg * dg;
+  }
+  return s;
+}
+
+double FeatureDescriber::ToneSearch::rss_with_base() const {
+  double s = 0;
+  for (std::size_t e = 0; e < n_; ++e) s += std::pow(g_[e] - g_of(e, base_[e]), 2);
+  return s;
+}
+
+double FeatureDescriber::ToneSearch::bic(double rss, std::size_t k) const {
+  const double res2 = d_.settings_.resolution_db * d_.settings_.resolution_db, nn = static_cast<double>(n_);
+  return nn * std::log(std::max(rss / nn, res2)) + 2.0 * static_cast<double>(k) * std::log(nn);
+}
+
+/// A ghost sits off the shafts' integer orders: a tone on one is a line the synchronous averages keep.
+bool FeatureDescriber::ToneSearch::on_a_line(double place) const {
+  if (fixed_in_hz_) return false;
+  const double out = place / ratio_;
+  return std::abs(place - std::round(place)) < 0.05 || std::abs(out - std::round(out)) < 0.05;
+}
+
+bool FeatureDescriber::ToneSearch::free_place(double place) const {
+  if (on_a_line(place) || !(place > 0)) return false;
+  for (const auto& t : found_)
+    if (std::abs(t.place - place) < separation_) return false;
+  return true;
+}
+
+void FeatureDescriber::ToneSearch::fit_power(Tone& t) const {
+  const double lp = golden_min([&](double x) { return rss_of(t.unit, std::pow(10.0, x)); }, top_ - 14, top_ + 2, 36);
+  t.power = std::pow(10.0, lp), t.rss = rss_of(t.unit, t.power);
+}
+
+FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::at(double place) const {
+  Tone t;
+  t.place = place, t.unit = d_.tone_response(place, fixed_in_hz_, w_);
+  fit_power(t);
+  return t;
+}
+
+FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::best_on_grid() const {
+  Tone best;
+  for (double place = lo_; place <= hi_ + 1e-9; place += step_)
+    if (free_place(place))
+      if (Tone t = at(place); t.rss < best.rss) best = std::move(t);
+  return best;
+}
+
+/// Moves `t` to a better free place nearby, by halving steps from `first_step`.
+void FeatureDescriber::ToneSearch::refine(Tone& t, double first_step) const {
+  for (double s = first_step; s > step_ / 128; s /= 2)
+    for (double place : {t.place - s, t.place + s})
+      if (free_place(place))
+        if (Tone moved = at(place); moved.rss < t.rss) t = std::move(moved);
+}
+
+/// The largest change of g a tone makes on a cell of the window, over the base.
+double FeatureDescriber::ToneSearch::largest_change(const Tone& t) const {
+  double largest = 0;
+  for (std::size_t e = 0; e < n_; ++e) largest = std::max(largest, g_of(e, base_[e] + t.power * t.unit[e]) - g_of(e, base_[e]));
+  return largest;
+}
+
+void FeatureDescriber::ToneSearch::add_to_base(const Tone& t, double sign) {
+  for (std::size_t e = 0; e < n_; ++e) base_[e] += sign * t.power * t.unit[e];
+}
+
+/// The powers again, each with the others in place (their leakage overlaps); and the places: a
+/// tone placed before a stronger neighbour was in the base sat where that neighbour's leakage
+/// pulled it (a supply's 100 Hz, placed before 150 Hz, sat toward it).
+void FeatureDescriber::ToneSearch::refit_together() {
+  for (int pass = 0; pass < 2 && found_.size() > 1; ++pass)
+    for (std::size_t i = 0; i < found_.size(); ++i) {
+      add_to_base(found_[i], -1);
+      Tone t = std::move(found_[i]);
+      found_.erase(found_.begin() + static_cast<std::ptrdiff_t>(i));  // free_place then ignores it
+      fit_power(t);
+      refine(t, step_);
+      add_to_base(t, 1);
+      found_.insert(found_.begin() + static_cast<std::ptrdiff_t>(i), std::move(t));
     }
-    return s;
-  };
-  struct Tone {
-    double place = 0, power = 0, rss = std::numeric_limits<double>::infinity();
-    std::vector<double> unit;
-  };
-  auto fit_power = [&](Tone& t) {
-    const double lp = golden_min([&](double x) { return rss_of(t.unit, std::pow(10.0, x)); }, top - 14, top + 2, 36);
-    t.power = std::pow(10.0, lp), t.rss = rss_of(t.unit, t.power);
-  };
-  auto at = [&](double place) {
-    Tone t;
-    t.place = place, t.unit = tone_response(place, fixed_in_hz, w);
-    fit_power(t);
-    return t;
-  };
-  std::vector<Tone> found;
-  auto free_place = [&](double place) {
-    if (on_a_line(place) || !(place > 0)) return false;
-    for (const auto& t : found)
-      if (std::abs(t.place - place) < separation) return false;
-    return true;
-  };
-  auto add_to_base = [&](const Tone& t, double sign) {
-    for (std::size_t e = 0; e < n; ++e) base[e] += sign * t.power * t.unit[e];
-  };
-  const double res2 = settings_.resolution_db * settings_.resolution_db, nn = static_cast<double>(n);
-  auto bic = [&](double rss, std::size_t k) { return nn * std::log(std::max(rss / nn, res2)) + 2.0 * static_cast<double>(k) * std::log(nn); };
-  auto rss_with_base = [&] {
-    double s = 0;
-    for (std::size_t e = 0; e < n; ++e) s += std::pow(g[e] - g_of(w[e].first, w[e].second, base[e]), 2);
-    return s;
-  };
+}
+
+void FeatureDescriber::ToneSearch::run(int max_tones) {
   double current = rss_with_base();
   for (int j = 0; j < max_tones; ++j) {
-    Tone best;
-    for (double place = lo; place <= hi + 1e-9; place += step)
-      if (free_place(place))
-        if (Tone t = at(place); t.rss < best.rss) best = std::move(t);
+    Tone best = best_on_grid();
     if (best.unit.empty()) break;
-    for (double s = step / 2; s > step / 128; s /= 2)
-      for (double place : {best.place - s, best.place + s})
-        if (free_place(place))
-          if (Tone t = at(place); t.rss < best.rss) best = std::move(t);
+    refine(best, step_ / 2);
     // Another tone only where it pays for its two parameters (the same criterion as the rule's) and
     // changes some cell by the practical minimum: weaker, the finder could not have seen it.
-    if (!found.empty() && !(bic(best.rss, found.size() + 1) < bic(current, found.size()))) break;
-    double largest = 0;
-    for (std::size_t e = 0; e < n; ++e)
-      largest = std::max(largest, g_of(w[e].first, w[e].second, base[e] + best.power * best.unit[e]) - g_of(w[e].first, w[e].second, base[e]));
-    if (!found.empty() && largest < settings_.min_feature_db) break;
+    if (!found_.empty() && !(bic(best.rss, found_.size() + 1) < bic(current, found_.size()))) break;
+    if (!found_.empty() && largest_change(best) < d_.settings_.min_feature_db) break;
     add_to_base(best, 1);
-    found.push_back(std::move(best));
-    // The powers again, each with the others in place (their leakage overlaps); and the places: a
-    // tone placed before a stronger neighbour was in the base sat where that neighbour's leakage
-    // pulled it (a supply's 100 Hz, placed before 150 Hz, sat 0.8 Hz toward it).
-    for (int pass = 0; pass < 2 && found.size() > 1; ++pass)
-      for (std::size_t i = 0; i < found.size(); ++i) {
-        add_to_base(found[i], -1);
-        Tone t = std::move(found[i]);
-        found.erase(found.begin() + static_cast<std::ptrdiff_t>(i));  // free_place then ignores it
-        fit_power(t);
-        for (double s = step; s > step / 128; s /= 2)
-          for (double place : {t.place - s, t.place + s})
-            if (free_place(place))
-              if (Tone moved = at(place); moved.rss < t.rss) t = std::move(moved);
-        add_to_base(t, 1);
-        found.insert(found.begin() + static_cast<std::ptrdiff_t>(i), std::move(t));
-      }
-    current = found.size() > 1 ? rss_with_base() : found.back().rss;
+    found_.push_back(std::move(best));
+    refit_together();
+    current = found_.size() > 1 ? rss_with_base() : found_.back().rss;
   }
-  std::sort(found.begin(), found.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
+}
+
+FeatureDescriber::Fit FeatureDescriber::ToneSearch::result() {
+  std::sort(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
   Fit fit;
-  fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found.size()));
+  fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found_.size()));
   std::vector<std::pair<double, double>> places;
-  for (const auto& t : found) places.emplace_back(t.place, t.power);
-  fit.description = tone_description(f, fixed_in_hz, to_input, places);
+  for (const auto& t : found_) places.emplace_back(t.place, t.power);
+  fit.description = tone_description(f_, fixed_in_hz_, to_input_, places);
   // The prediction on the window's cells (the twin's elsewhere).
-  std::vector<std::vector<double>> predicted(records_.size());
-  for (std::size_t r = 0; r < records_.size(); ++r) predicted[r].assign(records_[r].cells.size(), kNaN);
-  for (std::size_t e = 0; e < n; ++e) predicted[w[e].first][w[e].second] = base[e];
-  fit.predict = [this, predicted = std::move(predicted)](std::size_t r, std::size_t i) {
-    const double p = predicted[r][i];
-    return std::isfinite(p) ? p : records_[r].cells[i].twin;
-  };
+  std::vector<std::vector<double>> predicted(d_.records_.size());
+  for (std::size_t r = 0; r < d_.records_.size(); ++r) predicted[r].assign(d_.records_[r].cells.size(), kNaN);
+  for (std::size_t e = 0; e < n_; ++e) predicted[w_[e].first][w_[e].second] = base_[e];
+  fit.predict = d_.twin_elsewhere(std::move(predicted));
   return fit;
+}
+
+FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const {
+  ToneSearch search(*this, f, w, fixed_in_hz);
+  search.run(max_tones);
+  return search.result();
 }
 
 FeatureDescription FeatureDescriber::describe_floor(const GapFeature& f) const {

@@ -111,6 +111,9 @@ class FeatureDescriber {
   Fit tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const;
   /// Unit-power responses of a tone at `place` (input order, or Hz in every record) on the window's cells.
   std::vector<double> tone_response(double place, bool in_hz, const Window& w) const;
+  class ToneSearch;
+  /// A prediction of `predicted[record][cell]` where that is finite, the twin's power elsewhere.
+  Prediction twin_elsewhere(std::vector<std::vector<double>> predicted) const;
   std::vector<RecordCells> records_;
   std::vector<DescribedRecord> sources_;
   GearPairSpec gears_;
