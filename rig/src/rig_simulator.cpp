@@ -134,6 +134,286 @@ std::vector<double> band_noise(std::size_t n, double low, double high, double fs
   return x;
 }
 
+/// The run settings simulate_record refuses, each with its reason.
+void validate(const SlidingVibration& sliding, const RigRunSettings& s) {
+  if (!(s.sample_rate_hz >= 100) || !std::isfinite(s.sample_rate_hz)) throw RigParameterError("sample rate must be >= 100 Hz");
+  if (!(s.duration_s > 0) || s.duration_s * s.sample_rate_hz > 2e9) throw RigParameterError("duration must be positive");
+  if (s.channels < 1 || s.channels > 2) throw RigParameterError("channels must be 1 or 2");
+  if (!(s.settle_s >= 0)) throw RigParameterError("settle time must be >= 0");
+  if (!(s.min_ode_rate_hz > 0)) throw RigParameterError("integration rate must be positive");
+  if (!(sliding.pitting_rms_m_s2 >= 0) || !(sliding.abrasion_rms_m_s2 >= 0))
+    throw RigParameterError("sliding vibration RMS must be >= 0");
+  if (s.front_end_oversampling < 0) throw RigParameterError("front-end oversampling must be 0 (automatic) or at least 1");
+}
+
+/// One record's run of the rig (simulate_record): the integration, split where the mesh's pairs
+/// change, read at each sample instant and at the sensor front-end's fine points between them; then
+/// the tacho and what acts on the sampled record (sliding vibration, the mount, the noise).
+class RecordRun {
+ public:
+  RecordRun(const RigDynamics& dyn, const RigRunSettings& s);
+  /// Integrates the settling time (not recorded).
+  void settle();
+  /// Integrates over the record, reading each sample instant.
+  void record_instants();
+  /// The tacho: the encoder angle passes 2πk between two samples.
+  void find_tacho_edges();
+  void add_sliding_vibration(const SlidingVibration& sliding);
+  void apply_mounting(const EffectSet& effects);
+  void add_noise(const EffectSet& effects);
+  RigRecord take();
+
+ private:
+  void rk4(double t, double dt);
+  bool read_fine(double t, double dt);
+  void step(double t, double dt);
+  void read_instant(std::size_t n, double ti);
+  void keep_sample(std::size_t i, double structure_y, double structure_x);
+
+  const RigDynamics& dyn_;
+  const RigRunSettings& s_;
+  const double fs_;
+  const int substeps_;
+  const double h_;
+  const std::size_t count_;
+  // The sensor front-end (dsp::AntiAliasDecimator): the structure's acceleration is read `factor_`
+  // times per sample over the record and the filter's reach on both sides, low-passed and
+  // decimated; sample i of the record is instant pad_ + i of the run. factor 1: read once per sample.
+  const int factor_;
+  std::optional<dsp::AntiAliasDecimator> front_end_;
+  std::size_t pad_ = 0, instants_ = 0, fine_per_sample_ = 0;
+  double fine_h_ = 0;
+
+  RigRecord rec_;
+  RigState y_, k1_, k2_, k3_, k4_, tmp_, k_end_, y_start_, k_start_, y_fine_, dy_fine_;
+  bool k1_ready_ = false;  // k1_ already holds f(t, y) in `segment_` at the start of the next step
+  std::vector<double> fine_[2];
+  std::size_t fine_base_ = 0;  // fine index of the current sample instant
+  double instant_t_ = 0;       // its time
+  int next_fine_;              // the next fine point after it still to be read (1 .. factor - 1; none while settling)
+  RigOutputs fine_out_, out_;
+  detail::MeshSegment segment_;
+  double t0_ = 0;  // the first instant's time, after settling
+  std::vector<double> ch_[2];
+  std::vector<double> sliding_factor_, input_angle_;
+};
+
+RecordRun::RecordRun(const RigDynamics& dyn, const RigRunSettings& s)
+    : dyn_(dyn),
+      s_(s),
+      fs_(s.sample_rate_hz),
+      substeps_(std::max(1, static_cast<int>(std::ceil(s.min_ode_rate_hz / fs_ - 1e-9)))),
+      h_(1.0 / (fs_ * substeps_)),
+      count_(static_cast<std::size_t>(std::ceil(s.duration_s * fs_))),
+      factor_(s.front_end_oversampling > 0 ? s.front_end_oversampling : dsp::front_end_oversampling(fs_)),
+      next_fine_(factor_) {
+  if (factor_ > 1) front_end_.emplace(factor_);
+  pad_ = front_end_ ? front_end_->padding_outputs() : 0;
+  instants_ = count_ + 2 * pad_;
+  fine_per_sample_ = static_cast<std::size_t>(factor_);
+  fine_h_ = 1.0 / (fs_ * factor_);
+  rec_.sample_rate_hz = fs_;
+  y_ = dyn.initial_state();
+  if (front_end_)
+    for (int c = 0; c < s.channels; ++c) fine_[c].assign(instants_ * fine_per_sample_, 0.0);
+  segment_ = dyn.locate(0.0, y_);
+}
+
+void RecordRun::rk4(double t, double dt) {  // k1_ holds f(t, y) in `segment_`
+  tmp_ = y_ + 0.5 * dt * k1_;
+  dyn_.derivative(t + 0.5 * dt, tmp_, k2_, nullptr, &segment_);
+  tmp_ = y_ + 0.5 * dt * k2_;
+  dyn_.derivative(t + 0.5 * dt, tmp_, k3_, nullptr, &segment_);
+  tmp_ = y_ + dt * k3_;
+  dyn_.derivative(t + dt, tmp_, k4_, nullptr, &segment_);
+  y_ += (dt / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+  rec_.rhs_evaluations += 3;
+  ++rec_.integration_steps;
+}
+
+/// Reads the front-end's fine points inside a piece [t, t + dt] that stayed in one segment, on the
+/// cubic Hermite interpolant of the state between its ends (k_start_: f at the start; f at the
+/// end, in the same segment, goes to k_end_), so a sample costs one derivative, not a step.
+bool RecordRun::read_fine(double t, double dt) {
+  if (!front_end_ || next_fine_ >= factor_) return false;
+  const double t_fine = instant_t_ + next_fine_ * fine_h_;
+  if (t_fine > t + dt * (1 + 1e-9)) return false;
+  dyn_.derivative(t + dt, y_, k_end_, nullptr, &segment_);
+  ++rec_.rhs_evaluations;
+  while (next_fine_ < factor_) {
+    const double tf = instant_t_ + next_fine_ * fine_h_;
+    if (tf > t + dt * (1 + 1e-9) + 1e-15) break;
+    const double u = std::clamp((tf - t) / dt, 0.0, 1.0), u2 = u * u, u3 = u2 * u;
+    y_fine_ = (2 * u3 - 3 * u2 + 1) * y_start_ + (u3 - 2 * u2 + u) * dt * k_start_ + (3 * u2 - 2 * u3) * y_ +
+              (u3 - u2) * dt * k_end_;
+    dyn_.derivative(tf, y_fine_, dy_fine_, &fine_out_, &segment_);
+    ++rec_.rhs_evaluations;
+    const std::size_t at = fine_base_ + static_cast<std::size_t>(next_fine_);
+    fine_[0][at] = fine_out_.y6_acc + fine_out_.casing_y;
+    if (s_.channels > 1) fine_[1][at] = fine_out_.x6_acc + fine_out_.casing_x;
+    ++next_fine_;
+  }
+  return true;
+}
+
+/// One step of length dt from t, split where a tooth pair enters or leaves: every stage of a
+/// Runge-Kutta step sees the same pairs in contact, and the switch happens at the located instant.
+void RecordRun::step(double t, double dt) {
+  if (!k1_ready_) {
+    dyn_.derivative(t, y_, k1_, nullptr, &segment_);
+    ++rec_.rhs_evaluations;
+  }
+  k1_ready_ = false;
+  double remaining = dt;
+  for (;;) {
+    const double r = dyn_.mesh_cycle_rate(t, y_);
+    const double phase = dyn_.mesh_cycles(t, y_) - static_cast<double>(segment_.cycle);
+    const double tau = r > 0 ? std::max(0.0, (segment_.hi - phase) / r) : std::numeric_limits<double>::infinity();
+    if (tau < remaining - 1e-6 * h_) {
+      if (tau > 0) {
+        y_start_ = y_;
+        k_start_ = k1_;
+        rk4(t, tau);
+        read_fine(t, tau);
+        t += tau;
+        remaining -= tau;
+      }
+      segment_ = dyn_.next(segment_);
+      dyn_.derivative(t, y_, k1_, nullptr, &segment_);
+      ++rec_.rhs_evaluations;
+    } else {
+      y_start_ = y_;
+      k_start_ = k1_;
+      rk4(t, remaining);
+      if (read_fine(t, remaining)) {
+        k1_ = k_end_;  // f at the step's end in the same segment: the next step's start
+        k1_ready_ = true;
+      }
+      return;
+    }
+  }
+}
+
+void RecordRun::settle() {
+  const auto settle_steps = static_cast<std::size_t>(std::ceil(s_.settle_s / h_ - 1e-9));
+  for (std::size_t i = 0; i < settle_steps; ++i) {
+    step(static_cast<double>(i) * h_, h_);
+    if (!y_.allFinite()) throw twin::TwinDivergenceError("rig integration diverged while settling");
+  }
+  t0_ = static_cast<double>(settle_steps) * h_;
+}
+
+void RecordRun::keep_sample(std::size_t i, double structure_y, double structure_x) {
+  if (!front_end_) {
+    ch_[0][i] = structure_y;
+    if (s_.channels > 1) ch_[1][i] = structure_x;
+  }
+  sliding_factor_[i] = out_.sliding_factor;
+  input_angle_[i] = out_.input_angle;
+  if (s_.keep_diagnostics) {
+    rec_.mesh_deflection_m[i] = out_.deflection;
+    rec_.mesh_force_n[i] = out_.mesh_force;
+    rec_.bearing_force_y_n[i] = out_.bearing_force_y;
+    rec_.casing_y_m_s2[i] = out_.casing_y;
+    rec_.structure_y_m_s2[i] = structure_y;
+    rec_.mesh_cycles[i] = out_.mesh_cycles;
+  }
+}
+
+/// The state's outputs at instant n (time ti): the front-end's first fine point of the instant, and
+/// within the record its sample.
+void RecordRun::read_instant(std::size_t n, double ti) {
+  dyn_.derivative(ti, y_, k1_, &out_, &segment_);
+  ++rec_.rhs_evaluations;
+  k1_ready_ = true;
+  if (!y_.allFinite() || std::abs(out_.deflection) > 1e-3)
+    throw twin::TwinDivergenceError("rig integration diverged at t = " + std::to_string(ti - t0_) + " s");
+  const double structure_y = out_.y6_acc + out_.casing_y, structure_x = out_.x6_acc + out_.casing_x;
+  if (front_end_) {
+    fine_base_ = n * fine_per_sample_;
+    fine_[0][fine_base_] = structure_y;
+    if (s_.channels > 1) fine_[1][fine_base_] = structure_x;
+  }
+  if (n >= pad_ && n < pad_ + count_) keep_sample(n - pad_, structure_y, structure_x);
+}
+
+void RecordRun::record_instants() {
+  for (int c = 0; c < s_.channels; ++c) ch_[c].resize(count_);
+  sliding_factor_.resize(count_);
+  input_angle_.resize(count_);
+  if (s_.keep_diagnostics) {
+    rec_.mesh_deflection_m.resize(count_);
+    rec_.mesh_force_n.resize(count_);
+    rec_.bearing_force_y_n.resize(count_);
+    rec_.casing_y_m_s2.resize(count_);
+    rec_.structure_y_m_s2.resize(count_);
+    rec_.mesh_cycles.resize(count_);
+  }
+  for (std::size_t n = 0; n < instants_; ++n) {
+    const double ti = t0_ + static_cast<double>(n) / fs_;
+    read_instant(n, ti);
+    if (n + 1 == instants_) break;
+    instant_t_ = ti;
+    next_fine_ = 1;
+    for (int k = 0; k < substeps_; ++k) step(ti + static_cast<double>(k) * h_, h_);
+  }
+  if (front_end_) {
+    // The last instant's fine points lie beyond the run; the filter never reaches them (the
+    // padding covers its half length), so they stay 0 unread.
+    for (int c = 0; c < s_.channels; ++c) front_end_->decimate(fine_[c], ch_[c]);
+  }
+  if (s_.keep_diagnostics) rec_.input_angle_rad = input_angle_;
+}
+
+void RecordRun::find_tacho_edges() {
+  for (std::size_t i = 1; i < count_; ++i) {
+    const double a0 = input_angle_[i - 1], a1 = input_angle_[i];
+    const double edge = 2.0 * std::numbers::pi * std::ceil(a0 / (2.0 * std::numbers::pi));
+    if (edge >= a0 && edge < a1) rec_.tacho_edges.push_back(static_cast<double>(i) - 1.0 + (edge - a0) / (a1 - a0));
+  }
+}
+
+/// Sliding-induced vibration: band noise times the mesh's sliding pattern (unit RMS), one
+/// independent realisation per channel and band.
+void RecordRun::add_sliding_vibration(const SlidingVibration& sliding) {
+  if (!(sliding.pitting_rms_m_s2 > 0 || sliding.abrasion_rms_m_s2 > 0)) return;
+  double ss = 0;
+  for (double v : sliding_factor_) ss += v * v;
+  const double norm = ss > 0 ? 1.0 / std::sqrt(ss / static_cast<double>(count_)) : 0.0;
+  for (int c = 0; c < s_.channels; ++c) {
+    detail::Random rng(s_.seed * 0x9E3779B97F4A7C15ull + 101 + static_cast<std::uint64_t>(c));
+    if (sliding.pitting_rms_m_s2 > 0) {
+      const auto n = band_noise(count_, sliding.pitting_band_low_hz, sliding.pitting_band_high_hz, fs_, rng);
+      for (std::size_t i = 0; i < count_; ++i) ch_[c][i] += sliding.pitting_rms_m_s2 * norm * sliding_factor_[i] * n[i];
+    }
+    if (sliding.abrasion_rms_m_s2 > 0) {
+      const auto n = band_noise(count_, sliding.abrasion_band_low_hz, sliding.abrasion_band_high_hz, fs_, rng);
+      for (std::size_t i = 0; i < count_; ++i) ch_[c][i] += sliding.abrasion_rms_m_s2 * norm * sliding_factor_[i] * n[i];
+    }
+  }
+}
+
+void RecordRun::apply_mounting(const EffectSet& effects) {
+  if (!effects.enabled(Effect::mounting)) return;
+  AnalogMount mount(count_, effects.get("mounting.frequency_hz"), effects.get("mounting.damping_ratio"), fs_);
+  for (int c = 0; c < s_.channels; ++c) mount.apply(ch_[c]);
+}
+
+void RecordRun::add_noise(const EffectSet& effects) {
+  if (!effects.enabled(Effect::noise)) return;
+  const double sigma = std::sqrt(effects.get("noise.psd") * fs_ / 2.0);
+  for (int c = 0; c < s_.channels; ++c) {
+    detail::Random rng(s_.seed * 0x2545F4914F6CDD1Dull + 7 + static_cast<std::uint64_t>(c));
+    for (auto& v : ch_[c]) v += sigma * rng.gaussian();
+  }
+}
+
+RigRecord RecordRun::take() {
+  rec_.acceleration.resize(static_cast<std::size_t>(s_.channels));
+  for (int c = 0; c < s_.channels; ++c) rec_.acceleration[static_cast<std::size_t>(c)].assign(ch_[c].begin(), ch_[c].end());
+  return std::move(rec_);
+}
+
 }  // namespace
 
 twin::ToothProfileDeviation truth_profile(const twin::GearboxParameters& params, const EffectSet& effects,
@@ -180,220 +460,16 @@ twin::ToothProfileDeviation truth_profile(const twin::GearboxParameters& params,
 
 RigRecord simulate_record(const twin::GearboxParameters& params, const EffectSet& effects, const WearState& wear,
                           const SlidingVibration& sliding, const RigRunSettings& s) {
-  if (!(s.sample_rate_hz >= 100) || !std::isfinite(s.sample_rate_hz)) throw RigParameterError("sample rate must be >= 100 Hz");
-  if (!(s.duration_s > 0) || s.duration_s * s.sample_rate_hz > 2e9) throw RigParameterError("duration must be positive");
-  if (s.channels < 1 || s.channels > 2) throw RigParameterError("channels must be 1 or 2");
-  if (!(s.settle_s >= 0)) throw RigParameterError("settle time must be >= 0");
-  if (!(s.min_ode_rate_hz > 0)) throw RigParameterError("integration rate must be positive");
-  if (!(sliding.pitting_rms_m_s2 >= 0) || !(sliding.abrasion_rms_m_s2 >= 0))
-    throw RigParameterError("sliding vibration RMS must be >= 0");
-
-  if (s.front_end_oversampling < 0) throw RigParameterError("front-end oversampling must be 0 (automatic) or at least 1");
-
+  validate(sliding, s);
   const RigDynamics dyn(params, effects, truth_profile(params, effects, wear), s.speed_hz, s.torque_nm);
-  const double fs = s.sample_rate_hz;
-  const int substeps = std::max(1, static_cast<int>(std::ceil(s.min_ode_rate_hz / fs - 1e-9)));
-  const double h = 1.0 / (fs * substeps);
-  const auto count = static_cast<std::size_t>(std::ceil(s.duration_s * fs));
-  // The sensor front-end (dsp::AntiAliasDecimator): the structure's acceleration is read `factor`
-  // times per sample over the record and the filter's reach on both sides, low-passed and
-  // decimated; sample i of the record is instant pad + i of the run. factor 1: read once per sample.
-  const int factor = s.front_end_oversampling > 0 ? s.front_end_oversampling : dsp::front_end_oversampling(fs);
-  std::optional<dsp::AntiAliasDecimator> front_end;
-  if (factor > 1) front_end.emplace(factor);
-  const std::size_t pad = front_end ? front_end->padding_outputs() : 0;
-  const std::size_t instants = count + 2 * pad;
-  const auto fine_per_sample = static_cast<std::size_t>(factor);
-  const double fine_h = 1.0 / (fs * factor);
-
-  RigRecord rec;
-  rec.sample_rate_hz = fs;
-  RigState y = dyn.initial_state(), k1, k2, k3, k4, tmp, k_end, y_start, k_start, y_fine, dy_fine;
-  bool k1_ready = false;  // k1 already holds f(t, y) in `segment` at the start of the next step
-
-  std::vector<double> fine[2];
-  if (front_end)
-    for (int c = 0; c < s.channels; ++c) fine[c].assign(instants * fine_per_sample, 0.0);
-  std::size_t fine_base = 0;  // fine index of the current sample instant
-  double instant_t = 0;       // its time
-  int next_fine = factor;     // the next fine point after it still to be read (1 .. factor - 1; none while settling)
-  RigOutputs fine_out;
-
-  detail::MeshSegment segment = dyn.locate(0.0, y);
-  auto rk4 = [&](double t, double dt) {  // k1 holds f(t, y) in `segment`
-    tmp = y + 0.5 * dt * k1;
-    dyn.derivative(t + 0.5 * dt, tmp, k2, nullptr, &segment);
-    tmp = y + 0.5 * dt * k2;
-    dyn.derivative(t + 0.5 * dt, tmp, k3, nullptr, &segment);
-    tmp = y + dt * k3;
-    dyn.derivative(t + dt, tmp, k4, nullptr, &segment);
-    y += (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-    rec.rhs_evaluations += 3;
-    ++rec.integration_steps;
-  };
-  // Reads the front-end's fine points inside a piece [t, t + dt] that stayed in one segment, on the
-  // cubic Hermite interpolant of the state between its ends (k_start: f at the start; f at the
-  // end, in the same segment, goes to k_end), so a sample costs one derivative, not a step.
-  auto read_fine = [&](double t, double dt) -> bool {
-    if (!front_end || next_fine >= factor) return false;
-    const double t_fine = instant_t + next_fine * fine_h;
-    if (t_fine > t + dt * (1 + 1e-9)) return false;
-    dyn.derivative(t + dt, y, k_end, nullptr, &segment);
-    ++rec.rhs_evaluations;
-    while (next_fine < factor) {
-      const double tf = instant_t + next_fine * fine_h;
-      if (tf > t + dt * (1 + 1e-9) + 1e-15) break;
-      const double u = std::clamp((tf - t) / dt, 0.0, 1.0), u2 = u * u, u3 = u2 * u;
-      y_fine = (2 * u3 - 3 * u2 + 1) * y_start + (u3 - 2 * u2 + u) * dt * k_start + (3 * u2 - 2 * u3) * y +
-               (u3 - u2) * dt * k_end;
-      dyn.derivative(tf, y_fine, dy_fine, &fine_out, &segment);
-      ++rec.rhs_evaluations;
-      const std::size_t at = fine_base + static_cast<std::size_t>(next_fine);
-      fine[0][at] = fine_out.y6_acc + fine_out.casing_y;
-      if (s.channels > 1) fine[1][at] = fine_out.x6_acc + fine_out.casing_x;
-      ++next_fine;
-    }
-    return true;
-  };
-  // One step of length dt from t, split where a tooth pair enters or leaves: every stage of a
-  // Runge-Kutta step sees the same pairs in contact, and the switch happens at the located instant.
-  auto step = [&](double t, double dt) {
-    if (!k1_ready) {
-      dyn.derivative(t, y, k1, nullptr, &segment);
-      ++rec.rhs_evaluations;
-    }
-    k1_ready = false;
-    double remaining = dt;
-    for (;;) {
-      const double r = dyn.mesh_cycle_rate(t, y);
-      const double phase = dyn.mesh_cycles(t, y) - static_cast<double>(segment.cycle);
-      const double tau = r > 0 ? std::max(0.0, (segment.hi - phase) / r) : std::numeric_limits<double>::infinity();
-      if (tau < remaining - 1e-6 * h) {
-        if (tau > 0) {
-          y_start = y;
-          k_start = k1;
-          rk4(t, tau);
-          read_fine(t, tau);
-          t += tau;
-          remaining -= tau;
-        }
-        segment = dyn.next(segment);
-        dyn.derivative(t, y, k1, nullptr, &segment);
-        ++rec.rhs_evaluations;
-      } else {
-        y_start = y;
-        k_start = k1;
-        rk4(t, remaining);
-        if (read_fine(t, remaining)) {
-          k1 = k_end;  // f at the step's end in the same segment: the next step's start
-          k1_ready = true;
-        }
-        return;
-      }
-    }
-  };
-
-  // Settle (not recorded).
-  const auto settle_steps = static_cast<std::size_t>(std::ceil(s.settle_s / h - 1e-9));
-  for (std::size_t i = 0; i < settle_steps; ++i) {
-    step(static_cast<double>(i) * h, h);
-    if (!y.allFinite()) throw twin::TwinDivergenceError("rig integration diverged while settling");
-  }
-  const double t0 = static_cast<double>(settle_steps) * h;
-
-  std::vector<double> ch[2];
-  for (int c = 0; c < s.channels; ++c) ch[c].resize(count);
-  std::vector<double> sliding_factor(count), input_angle(count);
-  if (s.keep_diagnostics) {
-    rec.mesh_deflection_m.resize(count);
-    rec.mesh_force_n.resize(count);
-    rec.bearing_force_y_n.resize(count);
-    rec.casing_y_m_s2.resize(count);
-    rec.structure_y_m_s2.resize(count);
-    rec.mesh_cycles.resize(count);
-  }
-  RigOutputs out;
-  for (std::size_t n = 0; n < instants; ++n) {
-    const double ti = t0 + static_cast<double>(n) / fs;
-    dyn.derivative(ti, y, k1, &out, &segment);
-    ++rec.rhs_evaluations;
-    k1_ready = true;
-    if (!y.allFinite() || std::abs(out.deflection) > 1e-3)
-      throw twin::TwinDivergenceError("rig integration diverged at t = " + std::to_string(ti - t0) + " s");
-    const double structure_y = out.y6_acc + out.casing_y, structure_x = out.x6_acc + out.casing_x;
-    if (front_end) {
-      fine_base = n * fine_per_sample;
-      fine[0][fine_base] = structure_y;
-      if (s.channels > 1) fine[1][fine_base] = structure_x;
-    }
-    if (n >= pad && n < pad + count) {
-      const std::size_t i = n - pad;
-      if (!front_end) {
-        ch[0][i] = structure_y;
-        if (s.channels > 1) ch[1][i] = structure_x;
-      }
-      sliding_factor[i] = out.sliding_factor;
-      input_angle[i] = out.input_angle;
-      if (s.keep_diagnostics) {
-        rec.mesh_deflection_m[i] = out.deflection;
-        rec.mesh_force_n[i] = out.mesh_force;
-        rec.bearing_force_y_n[i] = out.bearing_force_y;
-        rec.casing_y_m_s2[i] = out.casing_y;
-        rec.structure_y_m_s2[i] = structure_y;
-        rec.mesh_cycles[i] = out.mesh_cycles;
-      }
-    }
-    if (n + 1 == instants) break;
-    instant_t = ti;
-    next_fine = 1;
-    for (int k = 0; k < substeps; ++k) step(ti + static_cast<double>(k) * h, h);
-  }
-  if (front_end) {
-    // The last instant's fine points lie beyond the run; the filter never reaches them (the
-    // padding covers its half length), so they stay 0 unread.
-    for (int c = 0; c < s.channels; ++c) front_end->decimate(fine[c], ch[c]);
-  }
-  if (s.keep_diagnostics) rec.input_angle_rad = input_angle;
-
-  // Tacho: the encoder angle passes 2πk between two samples.
-  for (std::size_t i = 1; i < count; ++i) {
-    const double a0 = input_angle[i - 1], a1 = input_angle[i];
-    const double edge = 2.0 * std::numbers::pi * std::ceil(a0 / (2.0 * std::numbers::pi));
-    if (edge >= a0 && edge < a1) rec.tacho_edges.push_back(static_cast<double>(i) - 1.0 + (edge - a0) / (a1 - a0));
-  }
-
-  // Sliding-induced vibration: band noise times the mesh's sliding pattern (unit RMS), one
-  // independent realisation per channel and band.
-  if (sliding.pitting_rms_m_s2 > 0 || sliding.abrasion_rms_m_s2 > 0) {
-    double ss = 0;
-    for (double v : sliding_factor) ss += v * v;
-    const double norm = ss > 0 ? 1.0 / std::sqrt(ss / static_cast<double>(count)) : 0.0;
-    for (int c = 0; c < s.channels; ++c) {
-      detail::Random rng(s.seed * 0x9E3779B97F4A7C15ull + 101 + static_cast<std::uint64_t>(c));
-      if (sliding.pitting_rms_m_s2 > 0) {
-        const auto n = band_noise(count, sliding.pitting_band_low_hz, sliding.pitting_band_high_hz, fs, rng);
-        for (std::size_t i = 0; i < count; ++i) ch[c][i] += sliding.pitting_rms_m_s2 * norm * sliding_factor[i] * n[i];
-      }
-      if (sliding.abrasion_rms_m_s2 > 0) {
-        const auto n = band_noise(count, sliding.abrasion_band_low_hz, sliding.abrasion_band_high_hz, fs, rng);
-        for (std::size_t i = 0; i < count; ++i) ch[c][i] += sliding.abrasion_rms_m_s2 * norm * sliding_factor[i] * n[i];
-      }
-    }
-  }
-  if (effects.enabled(Effect::mounting)) {
-    AnalogMount mount(count, effects.get("mounting.frequency_hz"), effects.get("mounting.damping_ratio"), fs);
-    for (int c = 0; c < s.channels; ++c) mount.apply(ch[c]);
-  }
-  if (effects.enabled(Effect::noise)) {
-    const double sigma = std::sqrt(effects.get("noise.psd") * fs / 2.0);
-    for (int c = 0; c < s.channels; ++c) {
-      detail::Random rng(s.seed * 0x2545F4914F6CDD1Dull + 7 + static_cast<std::uint64_t>(c));
-      for (auto& v : ch[c]) v += sigma * rng.gaussian();
-    }
-  }
-  rec.acceleration.resize(static_cast<std::size_t>(s.channels));
-  for (int c = 0; c < s.channels; ++c) rec.acceleration[static_cast<std::size_t>(c)].assign(ch[c].begin(), ch[c].end());
-  return rec;
+  RecordRun run(dyn, s);
+  run.settle();
+  run.record_instants();
+  run.find_tacho_edges();
+  run.add_sliding_vibration(sliding);
+  run.apply_mounting(effects);
+  run.add_noise(effects);
+  return run.take();
 }
 
 }  // namespace gearwatch::rig
