@@ -122,7 +122,8 @@ nlohmann::json truth_limits(const rig::CampaignSpec& spec, const twin::GearboxPa
   return j;
 }
 
-void run_campaign(const Options& opt, bool seeded, bool channels_given, bool effects_given) {
+/// The campaign asked for, with the command line's records, seconds, channels and effects over its own.
+rig::CampaignSpec campaign_of(const Options& opt, bool seeded, bool channels_given, bool effects_given) {
   rig::CampaignSpec spec = campaign_spec(opt, seeded);
   if (opt.records > 0) spec.records = opt.records;
   if (opt.seconds > 0) spec.seconds = opt.seconds;
@@ -131,27 +132,36 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
     spec.channels = opt.cs.signal.channels;
   }
   if (effects_given) spec.effects = opt.effects;
-  const std::uint64_t seed = opt.cs.signal.seed;
-  const rig::EffectSet effects = rig::campaign_effects(spec, seeded, seed);
+  return spec;
+}
 
+/// What a campaign takes from --config (the defaults without one): the captures' scaling, tacho and
+/// protocol ids, and the gearbox the rig simulates.
+struct CampaignSetup {
   daemon::CaptureSettings cs;
-  cs.tacho = opt.cs.tacho;
   twin::GearboxParameters params;
   config::GearwatchConfig cfg;
-  if (!opt.config.empty()) {
-    cfg = load_config_or_defaults(opt.config);
-    cs.scale_m_s2_per_lsb = cfg.rig.channels.front().scale_m_s2_per_lsb;
-    cs.edges_per_rev = cfg.rig.tachos.front().edges_per_rev;
-    cs.ids = daemon::protocol_ids(cfg);
-    params = config::load_twin_parameters(opt.config);
-  }
-  if (cs.edges_per_rev != 1) throw CommandError("the rig simulator's encoder gives one edge per revolution: set edges_per_rev = 1");
-  const auto plan = rig::plan_records(spec);
+};
 
-  // Refuse before writing anything when the records would not fit.
+CampaignSetup campaign_setup(const Options& opt) {
+  CampaignSetup setup;
+  setup.cs.tacho = opt.cs.tacho;
+  if (!opt.config.empty()) {
+    setup.cfg = load_config_or_defaults(opt.config);
+    setup.cs.scale_m_s2_per_lsb = setup.cfg.rig.channels.front().scale_m_s2_per_lsb;
+    setup.cs.edges_per_rev = setup.cfg.rig.tachos.front().edges_per_rev;
+    setup.cs.ids = daemon::protocol_ids(setup.cfg);
+    setup.params = config::load_twin_parameters(opt.config);
+  }
+  if (setup.cs.edges_per_rev != 1) throw CommandError("the rig simulator's encoder gives one edge per revolution: set edges_per_rev = 1");
+  return setup;
+}
+
+/// Refuses before writing anything when the records would not fit on the output's file system.
+void refuse_without_space(const rig::CampaignSpec& spec, const std::vector<rig::PlannedRecord>& plan, const std::string& out_dir) {
   std::uint64_t needed = 65536;
   for (const auto& p : plan) needed += rig::estimated_capture_bytes(spec.seconds, spec.sample_rate_hz, spec.channels, p.speed_hz) + 8192;
-  fs::path probe = fs::absolute(opt.out);
+  fs::path probe = fs::absolute(out_dir);
   while (!probe.empty() && !fs::exists(probe) && probe != probe.parent_path()) probe = probe.parent_path();
   std::error_code ec;
   const auto space = fs::space(probe, ec);
@@ -159,8 +169,12 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
     throw CommandError("campaign " + spec.name + " needs about " + std::to_string(needed / 1000000 + 1) + " MB (" +
                        std::to_string(plan.size()) + " records of " + std::to_string(spec.seconds) + " s) but " +
                        probe.string() + " has " + std::to_string(space.available / 1000000) + " MB free; nothing written");
-  // The wear truth at every record first: a campaign whose flanks wear through is refused before
-  // anything is written.
+}
+
+/// The wear truth at every record, first: a campaign whose flanks wear through is refused before
+/// anything is written.
+std::vector<rig::WearState> wear_at_records(const rig::CampaignSpec& spec, const twin::GearboxParameters& params,
+                                            const std::vector<rig::PlannedRecord>& plan) {
   std::vector<rig::WearState> wear_states;
   try {
     const auto truth = rig::make_wear_truth(spec.wear, params, spec.measurement_speeds_hz.front());
@@ -168,33 +182,54 @@ void run_campaign(const Options& opt, bool seeded, bool channels_given, bool eff
   } catch (const rig::RigParameterError& e) {
     throw CommandError(std::string("campaign ") + spec.name + ": " + e.what() + "; nothing written");
   }
-  fs::create_directories(opt.out);
+  return wear_states;
+}
 
-  std::vector<rig::RecordTruth> truths;
-  for (const auto& p : plan) {
-    rig::RecordTruth t = rig::record_truth(spec, p, wear_states[truths.size()]);
-    RigCaptureSignal signal(rig::simulate_record(params, effects, t.wear, t.sliding, rig::record_run_settings(spec, p, seed)));
-    daemon::CaptureSettings record = cs;
-    record.duration_s = spec.seconds;
-    record.fd = true;
-    record.signal.speed_hz = p.speed_hz;
-    record.signal.torque_nm = p.torque_nm;
-    record.signal.channels = spec.channels;
-    record.start_revolutions = t.life_counter;
-    record.stream_id = static_cast<std::uint16_t>(1 + p.index % 65535);
-    record.start_time_s = 1700000000.0 + p.cycles / p.speed_hz;
-    const auto s = daemon::write_capture(record, signal, (fs::path(opt.out) / p.file_name).string());
-    std::cout << p.file_name << ": " << p.cycles << " cycles, " << p.speed_hz << " Hz, " << p.torque_nm << " N m, pitting " << t.wear.pitting_density
-              << ", mean wear " << t.wear.mean_wear_depth_m * 1e6 << " um, " << s.frames << " frames, " << s.clipped_samples
-              << " clipped samples\n";
-    truths.push_back(std::move(t));
-  }
+/// Simulates and writes one planned record of the campaign, printing its line; its truth.
+rig::RecordTruth write_campaign_record(const Options& opt, const rig::CampaignSpec& spec, const CampaignSetup& setup,
+                                       const rig::EffectSet& effects, std::uint64_t seed, const rig::PlannedRecord& p,
+                                       const rig::WearState& wear) {
+  rig::RecordTruth t = rig::record_truth(spec, p, wear);
+  RigCaptureSignal signal(rig::simulate_record(setup.params, effects, t.wear, t.sliding, rig::record_run_settings(spec, p, seed)));
+  daemon::CaptureSettings record = setup.cs;
+  record.duration_s = spec.seconds;
+  record.fd = true;
+  record.signal.speed_hz = p.speed_hz;
+  record.signal.torque_nm = p.torque_nm;
+  record.signal.channels = spec.channels;
+  record.start_revolutions = t.life_counter;
+  record.stream_id = static_cast<std::uint16_t>(1 + p.index % 65535);
+  record.start_time_s = 1700000000.0 + p.cycles / p.speed_hz;
+  const auto s = daemon::write_capture(record, signal, (fs::path(opt.out) / p.file_name).string());
+  std::cout << p.file_name << ": " << p.cycles << " cycles, " << p.speed_hz << " Hz, " << p.torque_nm << " N m, pitting " << t.wear.pitting_density
+            << ", mean wear " << t.wear.mean_wear_depth_m * 1e6 << " um, " << s.frames << " frames, " << s.clipped_samples
+            << " clipped samples\n";
+  return t;
+}
+
+void write_campaign_truth(const Options& opt, const rig::CampaignSpec& spec, const CampaignSetup& setup,
+                          const rig::EffectSet& effects, std::uint64_t seed, bool seeded,
+                          const std::vector<rig::RecordTruth>& truths) {
   std::ofstream out(fs::path(opt.out) / "truth.json");
-  nlohmann::json truth_doc =
-      nlohmann::json::parse(rig::truth_json(spec, effects, seed, seeded, truths, params.gears.pinion_teeth, params.gears.gear_teeth));
-  truth_doc["limits"] = truth_limits(spec, params, cfg);
+  nlohmann::json truth_doc = nlohmann::json::parse(
+      rig::truth_json(spec, effects, seed, seeded, truths, setup.params.gears.pinion_teeth, setup.params.gears.gear_teeth));
+  truth_doc["limits"] = truth_limits(spec, setup.params, setup.cfg);
   out << truth_doc.dump(2) << "\n";
   if (!out) throw CommandError("cannot write " + (fs::path(opt.out) / "truth.json").string());
+}
+
+void run_campaign(const Options& opt, bool seeded, bool channels_given, bool effects_given) {
+  const rig::CampaignSpec spec = campaign_of(opt, seeded, channels_given, effects_given);
+  const std::uint64_t seed = opt.cs.signal.seed;
+  const rig::EffectSet effects = rig::campaign_effects(spec, seeded, seed);
+  const CampaignSetup setup = campaign_setup(opt);
+  const auto plan = rig::plan_records(spec);
+  refuse_without_space(spec, plan, opt.out);
+  const std::vector<rig::WearState> wear_states = wear_at_records(spec, setup.params, plan);
+  fs::create_directories(opt.out);
+  std::vector<rig::RecordTruth> truths;
+  for (const auto& p : plan) truths.push_back(write_campaign_record(opt, spec, setup, effects, seed, p, wear_states[truths.size()]));
+  write_campaign_truth(opt, spec, setup, effects, seed, seeded, truths);
   std::cout << "wrote " << plan.size() << " records and truth.json to " << opt.out << "\n";
 }
 
