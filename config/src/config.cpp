@@ -184,44 +184,57 @@ void read_gears(const toml::table& root, const std::string& file, GearwatchConfi
   t.reject_unknown();
 }
 
-void read_channels(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
-  if (const auto* arr = array_of_tables(root, "channels", file)) {
-    cfg.rig.channels.clear();
-    std::set<int> seen;
-    for (const auto& node : *arr) {
-      const auto* tbl = node.as_table();
-      TableReader t(tbl, "channels.", file);
-      ChannelSpec ch;
-      if (!tbl->get("number")) t.fail(tbl, "number", "every [[channels]] entry needs a number (0..7)");
-      t.integer("number", ch.number, 0, 7);
-      t.string("name", ch.name);
-      t.number("scale", ch.scale_m_s2_per_lsb, 1e-12, 1e6);
-      if (!seen.insert(ch.number).second) t.fail(tbl->get("number"), "number", "channel " + std::to_string(ch.number) + " configured twice");
-      t.reject_unknown();
-      cfg.rig.channels.push_back(ch);
-    }
-    if (cfg.rig.channels.empty()) throw ConfigError(file + ": key 'channels': at least one [[channels]] entry is needed");
+/// An array of tables of numbered entries ([[channels]], [[tachos]]): its key, the key of the
+/// entry's number with its range, the word a duplicate's message names an entry by, and whether the
+/// array, when present, must hold one entry at least.
+struct NumberedEntries {
+  std::string key, id_key;
+  int id_max;
+  std::string id_word;
+  bool at_least_one;
+};
+
+/// Reads the entries of `e` into `out` (replacing the defaults when the array is present): each
+/// entry's number (`Spec::*id`, required, unique), then its other fields by `read_fields`.
+template <class Spec, class ReadFields>
+void read_numbered_entries(const toml::table& root, const std::string& file, const NumberedEntries& e, int Spec::*id,
+                           std::vector<Spec>& out, ReadFields read_fields) {
+  const auto* arr = array_of_tables(root, e.key, file);
+  if (!arr) return;
+  out.clear();
+  std::set<int> seen;
+  for (const auto& node : *arr) {
+    const auto* tbl = node.as_table();
+    TableReader t(tbl, e.key + ".", file);
+    Spec spec;
+    if (!tbl->get(e.id_key))
+      t.fail(tbl, e.id_key, "every [[" + e.key + "]] entry needs a " + e.id_key + " (0.." + std::to_string(e.id_max) + ")");
+    t.integer(e.id_key, spec.*id, 0, e.id_max);
+    read_fields(t, spec);
+    if (!seen.insert(spec.*id).second)
+      t.fail(tbl->get(e.id_key), e.id_key, e.id_word + " " + std::to_string(spec.*id) + " configured twice");
+    t.reject_unknown();
+    out.push_back(spec);
   }
+  if (e.at_least_one && out.empty())
+    throw ConfigError(file + ": key '" + e.key + "': at least one [[" + e.key + "]] entry is needed");
+}
+
+void read_channels(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
+  read_numbered_entries(root, file, {"channels", "number", 7, "channel", true}, &ChannelSpec::number, cfg.rig.channels,
+                        [](TableReader& t, ChannelSpec& ch) {
+                          t.string("name", ch.name);
+                          t.number("scale", ch.scale_m_s2_per_lsb, 1e-12, 1e6);
+                        });
 }
 
 void read_tachos(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
-  if (const auto* arr = array_of_tables(root, "tachos", file)) {
-    cfg.rig.tachos.clear();
-    std::set<int> seen;
-    for (const auto& node : *arr) {
-      const auto* tbl = node.as_table();
-      TableReader t(tbl, "tachos.", file);
-      TachoSpec tacho;
-      if (!tbl->get("shaft")) t.fail(tbl, "shaft", "every [[tachos]] entry needs a shaft (0..3)");
-      t.integer("shaft", tacho.shaft, 0, 3);
-      t.string("name", tacho.name);
-      t.integer("edges_per_rev", tacho.edges_per_rev, 1, 100000);
-      t.number("ratio_to_input", tacho.ratio_to_input, 1e-6, 1e6);
-      if (!seen.insert(tacho.shaft).second) t.fail(tbl->get("shaft"), "shaft", "shaft " + std::to_string(tacho.shaft) + " configured twice");
-      t.reject_unknown();
-      cfg.rig.tachos.push_back(tacho);
-    }
-  }
+  read_numbered_entries(root, file, {"tachos", "shaft", 3, "shaft", false}, &TachoSpec::shaft, cfg.rig.tachos,
+                        [](TableReader& t, TachoSpec& tacho) {
+                          t.string("name", tacho.name);
+                          t.integer("edges_per_rev", tacho.edges_per_rev, 1, 100000);
+                          t.number("ratio_to_input", tacho.ratio_to_input, 1e-6, 1e6);
+                        });
 }
 
 void read_records(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
