@@ -1,9 +1,10 @@
 // `gearwatch commission --capture BASELINE`: the twin fitted to a gear pair it has never seen
 // (docs/twin.md, "Commissioning"). The twin is built from [gears] (gear bodies from the geometry
-// where [twin] does not give them); its mesh-stiffness scale is fitted to the baseline's spectral
-// shape (the thesis's §5.3 step, made independent of the sensor's sensitivity) and its casing path
-// gain to the baseline's RMS_SA; the other records of the capture check the fit at their own
-// speed and torque. Prints the fitted [twin] table and writes it with --write.
+// where [twin] does not give them); its mesh-stiffness scale is fitted to the pattern of the
+// baseline's mesh harmonics (the thesis's §5.3 step, made independent of the sensor's sensitivity;
+// twin::fit_mesh_pattern) and its casing path gain to the baseline's RMS_SA; the other records of
+// the capture check the fit at their own speed and torque. Prints the fitted [twin] table, what the
+// baseline says about the scale, and writes the table with --write.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -19,7 +20,9 @@
 #include "cli_common.hpp"
 #include "commands.hpp"
 #include "gearwatch/config/twin_config.hpp"
+#include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/twin/mesh_pattern_fit.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "model_thread.hpp"
 #include "record_processing.hpp"
@@ -30,7 +33,6 @@ namespace {
 struct CommissionOptions {
   std::string capture, config, write, format = "table";
   std::vector<std::string> checks;  ///< captures whose records check the fit (held out of it)
-  double cutoff_hz = 2000.0;
 };
 
 /// One record of the capture as the commissioning sees it.
@@ -38,13 +40,15 @@ struct MeasuredRecord {
   std::string capture;
   std::uint64_t start_index = 0;
   double sample_rate_hz = 0, duration_s = 0, speed_hz = 0, torque_nm = 0;
-  double rms_sa = 0;         ///< RMS_SA(N) by the measurement pipeline
-  double low_band_rms = 0;   ///< casing RMS below the cutoff
+  double rms_sa = 0;                  ///< RMS_SA(N) by the measurement pipeline
+  std::vector<double> mesh_harmonics;  ///< gmf_harmonic_1.. of the input TSA (NaN: not computed)
+  double harmonic_floor = 0;           ///< white-noise amplitude of one order in that TSA (0: unknown)
 };
 
 /// The twin at one record's operating point and rate.
 struct TwinReading {
-  double rms_sa = 0, low_band_rms = 0;
+  double rms_sa = 0;
+  std::vector<double> mesh_harmonics;
 };
 
 /// One record after the fit: measured against the commissioned twin.
@@ -54,8 +58,16 @@ struct CheckedRecord {
   double error() const { return simulated_rms_sa / measured.rms_sa - 1.0; }
 };
 
-constexpr double kMeshScaleLow = 0.5, kMeshScaleHigh = 1.5;  // the thesis's plausible range (§5.3)
-constexpr double kTargetError = 0.05;                        // RMS_SA sim vs measured on the baseline
+constexpr double kTargetError = 0.05;  // RMS_SA sim vs measured on the baseline
+
+/// gmf_harmonic_1..count of an indicator list (NaN where absent).
+template <typename Lookup>
+std::vector<double> mesh_harmonics(int count, const Lookup& value) {
+  std::vector<double> out(static_cast<std::size_t>(count), std::nan(""));
+  for (int h = 1; h <= count; ++h)
+    if (const std::optional<double> v = value("gmf_harmonic_" + std::to_string(h))) out[static_cast<std::size_t>(h - 1)] = *v;
+  return out;
+}
 
 class Commissioning {
  public:
@@ -110,11 +122,27 @@ class Commissioning {
       m.torque_nm = in.observation.torque_nm;
       m.rms_sa = *in.observation.rms_sa;
       if (!(m.rms_sa > 0) || !std::isfinite(m.speed_hz) || !std::isfinite(m.torque_nm)) continue;
-      const std::vector<double> x(r.channels[slot].begin(), r.channels[slot].end());
-      m.low_band_rms = twin::lowpass_rms(x, m.sample_rate_hz, options_.cutoff_hz);
+      read_mesh_harmonics(result, channel, m);
       out.push_back(m);
     }
     return out;
+  }
+
+  // The record's mesh harmonics and their floor: white noise of the residual's RMS σ gives one
+  // order of an average over n samples an amplitude of about 2σ/√n.
+  void read_mesh_harmonics(const storage::RecordResult& result, int channel, MeasuredRecord& m) const {
+    for (const storage::ChannelResult& c : result.channels) {
+      if (c.channel != channel) continue;
+      auto value = [&](const std::string& name) -> std::optional<double> {
+        for (const auto& [n, v] : c.values)
+          if (n == name) return v;
+        return std::nullopt;
+      };
+      m.mesh_harmonics = mesh_harmonics(config_.processing.stored_gmf_harmonics, value);
+      const double samples = m.duration_s * m.sample_rate_hz;
+      if (const auto residual = value(dsp::to_string(dsp::Indicator::rms_residual)); residual && samples > 0)
+        m.harmonic_floor = 2.0 * *residual / std::sqrt(samples);
+    }
   }
 
   // Step 2: the twin of the configured gear pair, unfitted (scale 1, gain 1).
@@ -131,50 +159,33 @@ class Commissioning {
     const twin::OperatingPoint op{m.speed_hz, m.torque_nm};
     TwinReading t;
     try {
-      t.rms_sa = twin::simulated_rms_sa(p, {}, op, seconds, rig, config_.processing);
-      const twin::CasingSignal s = twin::simulate_casing_signal(p, {}, op, seconds, m.sample_rate_hz);
-      t.low_band_rms = twin::lowpass_rms(std::vector<double>(s.acceleration.begin(), s.acceleration.end()), m.sample_rate_hz,
-                                         options_.cutoff_hz);
+      const dsp::ChannelAnalysis a = twin::simulated_analysis(p, {}, op, seconds, rig, config_.processing);
+      const std::optional<double> rms_sa = a.value(dsp::Indicator::rms_sa);
+      if (!rms_sa) throw twin::TwinParameterError("the analyser gives no RMS_SA of the twin's signal");
+      t.rms_sa = *rms_sa;
+      t.mesh_harmonics = mesh_harmonics(config_.processing.stored_gmf_harmonics, [&](const std::string& n) { return a.value(n); });
     } catch (const std::exception& e) {
-      throw CommandError(std::string("commission: the twin cannot be run at the baseline: ") + e.what());
+      throw CommandError(std::string("commission: the twin cannot be run at ") + std::to_string(m.speed_hz) + " Hz: " + e.what());
     }
     return t;
   }
 
-  // log(low-band RMS / RMS_SA): independent of any gain on the path, so the scale is fitted to the
-  // spectrum's shape and the gain to its level.
-  double shape_mismatch(double scale) {
-    twin::GearboxParameters p = params_;
-    p.mesh_stiffness_scale = scale;
-    ++simulations_;
-    const TwinReading t = simulate(p, baseline());
-    return std::log(t.low_band_rms / t.rms_sa) - std::log(baseline().low_band_rms / baseline().rms_sa);
-  }
-
-  // Step 3: bisection on the shape mismatch over the plausible range; outside it, the nearer end.
+  // Step 3: the scale whose mesh-harmonic pattern (gain removed) is nearest the baseline's. The
+  // ratio of a low band's RMS to RMS_SA, fitted before, does not see the scale: at the usual
+  // speeds that band holds the first mesh harmonics, which are RMS_SA itself.
   void fit_mesh_stiffness_scale() {
-    double a = kMeshScaleLow, b = kMeshScaleHigh;
-    double fa = shape_mismatch(a), fb = shape_mismatch(b);
-    if (fa * fb > 0) {
-      params_.mesh_stiffness_scale = std::abs(fa) < std::abs(fb) ? a : b;
-      scale_at_bound_ = true;
-      shape_residual_ = std::min(std::abs(fa), std::abs(fb));
-      return;
+    const twin::MeshHarmonicsAt twin_harmonics = [&](double scale) {
+      twin::GearboxParameters p = params_;
+      p.mesh_stiffness_scale = scale;
+      ++simulations_;
+      return simulate(p, baseline()).mesh_harmonics;
+    };
+    try {
+      pattern_ = twin::fit_mesh_pattern(baseline().mesh_harmonics, baseline().harmonic_floor, twin_harmonics);
+    } catch (const std::invalid_argument& e) {
+      throw CommandError(std::string("commission: ") + e.what());
     }
-    double m = 0.5 * (a + b), fm = 0;
-    for (int i = 0; i < 12; ++i) {
-      m = 0.5 * (a + b);
-      fm = shape_mismatch(m);
-      if (std::abs(fm) < 0.005) break;
-      if ((fm > 0) == (fa > 0)) {
-        a = m;
-        fa = fm;
-      } else {
-        b = m;
-      }
-    }
-    params_.mesh_stiffness_scale = m;
-    shape_residual_ = std::abs(fm);
+    params_.mesh_stiffness_scale = pattern_.scale;
   }
 
   // Step 4: RMS_SA is proportional to the path gain, so the gain is the ratio at the fitted scale.
@@ -200,6 +211,58 @@ class Commissioning {
   const MeasuredRecord& baseline() const { return measured_.front(); }
   bool baseline_within_target() const { return std::abs(checked_.front().error()) <= kTargetError; }
 
+  nlohmann::json scale_evidence_json() const {
+    return {{"value", pattern_.scale},
+            {"nearest", pattern_.nearest_scale},
+            {"evidence", twin::to_string(pattern_.evidence)},
+            {"identified", pattern_.evidence == twin::MeshScaleEvidence::identified},
+            {"interval", {pattern_.interval_low, pattern_.interval_high}},
+            {"harmonics", pattern_.harmonics},
+            {"misfit_ln_rms", pattern_.misfit_ln_rms},
+            {"harmonic_floor", baseline().harmonic_floor},
+            {"scan", pattern_.scan}};
+  }
+
+  std::string harmonic_list() const {
+    std::string list;
+    for (int h : pattern_.harmonics) list += (list.empty() ? "" : ",") + std::to_string(h);
+    return list;
+  }
+
+  // What the baseline says about the scale, in one line.
+  std::string scale_evidence_text() const {
+    char line[400];
+    const twin::MeshPatternFit& f = pattern_;
+    const std::size_t n = f.harmonics.size();
+    switch (f.evidence) {
+      case twin::MeshScaleEvidence::identified:
+        std::snprintf(line, sizeof line,
+                      "mesh stiffness scale %.3f from the pattern of mesh harmonics %s (ln misfit %.3f rms); scales %.3f-%.3f fit as well "
+                      "(95 %% profile interval)",
+                      f.scale, harmonic_list().c_str(), f.misfit_ln_rms, f.interval_low, f.interval_high);
+        break;
+      case twin::MeshScaleEvidence::too_few_harmonics:
+        std::snprintf(line, sizeof line,
+                      "mesh stiffness scale NOT IDENTIFIED: only %zu mesh harmonics stand 10x above the baseline's noise floor (3 needed); "
+                      "left at %.3f",
+                      n, f.scale);
+        break;
+      case twin::MeshScaleEvidence::minimum_at_bound:
+        std::snprintf(line, sizeof line,
+                      "mesh stiffness scale NOT IDENTIFIED: the pattern of mesh harmonics %s is nearest at %.3f, an end of the plausible "
+                      "range (ln misfit %.3f rms); scales %.3f-%.3f fit as well; kept at %.3f",
+                      harmonic_list().c_str(), f.nearest_scale, f.misfit_ln_rms, f.interval_low, f.interval_high, f.scale);
+        break;
+      case twin::MeshScaleEvidence::interval_reaches_bound:
+        std::snprintf(line, sizeof line,
+                      "mesh stiffness scale NOT IDENTIFIED: scales %.3f-%.3f fit the pattern of mesh harmonics %s as well as the nearest, "
+                      "%.3f (ln misfit %.3f rms); the baseline cannot tell them apart; kept at %.3f",
+                      f.interval_low, f.interval_high, harmonic_list().c_str(), f.nearest_scale, f.misfit_ln_rms, f.scale);
+        break;
+    }
+    return line;
+  }
+
   nlohmann::json fitted_table() const {
     nlohmann::json t;
     for (const char* name : {"m5", "I5", "m10", "I10", "mesh_stiffness_scale", "casing_path_gain"}) {
@@ -211,6 +274,8 @@ class Commissioning {
 
   std::string twin_table_text() const {
     std::string text = "[twin]   # gearwatch commission --capture " + options_.capture + "\n";
+    if (pattern_.evidence != twin::MeshScaleEvidence::identified)
+      text += std::string("# mesh_stiffness_scale not identified by the baseline (") + twin::to_string(pattern_.evidence) + ")\n";
     const nlohmann::json table = fitted_table();
     for (const auto& [name, value] : table.items()) {
       char line[160];
@@ -232,8 +297,7 @@ class Commissioning {
                        {"gears", {{"pinion_teeth", params_.gears.pinion_teeth}, {"gear_teeth", params_.gears.gear_teeth},
                                   {"module_m", params_.gears.module_m}, {"face_width_m", params_.gears.face_width_m}}},
                        {"twin", fitted_table()},
-                       {"mesh_stiffness_scale_at_bound", scale_at_bound_},
-                       {"shape_residual", shape_residual_},
+                       {"mesh_stiffness_scale", scale_evidence_json()},
                        {"simulations", simulations_},
                        {"baseline_within_target", baseline_within_target()},
                        {"target_error", kTargetError},
@@ -246,10 +310,7 @@ class Commissioning {
     std::printf("baseline: record at sample %llu, %.3f Hz, %.2f N m, %.0f Hz sampling\n",
                 static_cast<unsigned long long>(baseline().start_index), baseline().speed_hz, baseline().torque_nm,
                 baseline().sample_rate_hz);
-    if (scale_at_bound_)
-      std::printf("mesh stiffness scale: the baseline's spectral shape is outside what %.1f-%.1f gives; kept at the nearer end %.2f "
-                  "(log-ratio residual %.3f)\n",
-                  kMeshScaleLow, kMeshScaleHigh, params_.mesh_stiffness_scale, shape_residual_);
+    std::printf("%s\n", scale_evidence_text().c_str());
     std::printf("%-12s %10s %10s %14s %14s %9s\n", "record", "speed Hz", "torque Nm", "RMS_SA meas", "RMS_SA twin", "error");
     for (std::size_t i = 0; i < checked_.size(); ++i) {
       const auto& c = checked_[i];
@@ -289,8 +350,7 @@ class Commissioning {
   std::size_t fitted_records_ = 0;          ///< how many of them come from the baseline capture
   std::vector<CheckedRecord> checked_;
   twin::GearboxParameters params_;
-  bool scale_at_bound_ = false;
-  double shape_residual_ = 0;
+  twin::MeshPatternFit pattern_;
   int simulations_ = 0;
 };
 
@@ -306,8 +366,6 @@ void register_commission(CLI::App& app) {
   cmd->add_option("--check", o->checks, "Further captures whose records check the fitted twin (not used in the fit)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--write", o->write, "Write the fitted [twin] table to this file (whole or not at all)");
-  cmd->add_option("--cutoff", o->cutoff_hz, "Upper edge of the low band whose RMS sets the spectral shape, Hz")
-      ->check(CLI::Range(100.0, 20000.0));
   add_format_option(cmd, o->format);
   cmd->callback([o] { Commissioning(*o).run(); });
 }

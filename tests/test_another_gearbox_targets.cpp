@@ -300,8 +300,10 @@ TEST_CASE("another gearbox: commissioning on a tacho-less baseline of 23/46 at 2
   INFO(j.dump());
   REQUIRE(j["records"].size() == 3);
   // The baseline is fitted (the gain is a ratio: matched to the arithmetic), the issue's target.
-  // Held out of the fit, 25 Hz and 40 Hz at 40 N m read 9.3 % and 8.4 % off on these seeds (docs/twin.md):
-  // over the 5 % and not asserted here.
+  // Held out of the fit, 25 Hz and 40 Hz at 40 N m read 9.3 % and 8.4 % off on these seeds, and
+  // 9.33 % and 8.32 % on fresh seeds with the scale fitted to the mesh-harmonic pattern, which the
+  // baseline does not identify here: the truth's bodies are not the twin's (docs/rig-simulator.md).
+  // Over the 5 % and not asserted here.
   CHECK(std::abs(j["records"][0]["error"].get<double>()) <= 0.05);
   CHECK(j["baseline_within_target"].get<bool>());
   CHECK(j["records"][0]["speed_hz"].get<double>() == Approx(33.0).epsilon(1e-3));

@@ -1,4 +1,4 @@
-// RMS_SA of the simulated signal through the measurement pipeline (no second implementation).
+// The simulated signal's indicators through the measurement pipeline (no second implementation).
 #include <string>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
@@ -6,8 +6,8 @@
 
 namespace gearwatch::twin {
 
-double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
-                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings) {
+dsp::ChannelAnalysis simulated_analysis(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings) {
   const CasingSignal signal = simulate_casing_signal(p, deviation, op, duration_s, rig.sample_rate_hz);
   Record record;
   record.sample_rate_hz = signal.sample_rate_hz;
@@ -19,7 +19,12 @@ double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation&
   record.torque_nm = op.input_torque_nm;
   record.speed_hz = op.input_speed_hz;
   dsp::RecordAnalyzer analyzer(rig, settings);
-  const dsp::ChannelAnalysis analysis = analyzer.analyze(record, 0);
+  return analyzer.analyze(record, 0);
+}
+
+double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings) {
+  const dsp::ChannelAnalysis analysis = simulated_analysis(p, deviation, op, duration_s, rig, settings);
   if (const auto v = analysis.value(dsp::Indicator::rms_sa)) return *v;
   const dsp::SkippedIndicator* why = analysis.skip_reason(dsp::Indicator::rms_sa);
   throw TwinParameterError(std::string("simulated RMS_SA not available: ") + (why ? dsp::to_string(why->reason) : "not computed"));

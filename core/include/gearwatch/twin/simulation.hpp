@@ -119,6 +119,7 @@ MeshTuningResult tune_mesh_to_rms(const GearboxParameters& p, const OperatingPoi
 
 namespace gearwatch::dsp {
 struct SignalProcessingSettings;
+struct ChannelAnalysis;
 }
 
 namespace gearwatch::twin {
@@ -129,5 +130,12 @@ namespace gearwatch::twin {
 /// TwinParameterError when the analyzer skips it (the reason is in the message).
 double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
                         double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings);
+
+/// Every indicator of the simulated casing acceleration by the measurement code (the same Record
+/// and dsp::RecordAnalyzer as simulated_rms_sa, which reads its "rms_sa" from this analysis): the
+/// mesh harmonics of the synchronous average ("gmf_harmonic_N") among them. Never throws on what
+/// the analyser skips; the skips are in the analysis.
+dsp::ChannelAnalysis simulated_analysis(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings);
 
 }  // namespace gearwatch::twin
