@@ -5,4 +5,7 @@ top=$(cd "$(dirname "$0")/.." && pwd)
 cd "$top"
 tools/install-deps.sh "$@"
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build build --parallel "$(nproc)"
+# --test-build (tools/test.sh): only what the tests run; otherwise everything, benchmarks included.
+targets=()
+[ "${1:-}" = "--test-build" ] && targets=(--target test_programs)
+cmake --build build --parallel "$(nproc)" "${targets[@]}"

@@ -3,7 +3,8 @@
 # per TEST_CASE) and the real-vcan tests in a qemu VM. Prints CTest's summary
 # ("100% tests passed, 0 tests failed out of N"); exit 0 only if all passed.
 # On a fresh machine the dependencies only the tests use (qemu, chromium, clang, mosquitto …) are
-# downloaded and installed while gearwatch compiles; the tests start once both are done.
+# downloaded and installed while gearwatch compiles, and so are the test VMs' kernel and the systemd
+# VM's Debian root (network-bound, cached for later runs); the tests start once both are done.
 set -euo pipefail
 # Each phase's duration goes to stderr, so a slow run shows where its time went.
 started=$SECONDS
@@ -14,7 +15,14 @@ tools/install-deps.sh --test-build
 phase "installing the build dependencies"
 mkdir -p build
 deps_log=build/install-test-deps.log
-tools/install-deps.sh --test >"$deps_log" 2>&1 &
+# The VM root needs root (debootstrap); if fetching it fails here, systemd_service_from_deb tries
+# again and reports why.
+prepare_vms() {
+  [ "$(id -u)" -eq 0 ] || return 0
+  tests/systemd/systemd-vm.sh --prepare ||
+    echo "test.sh: preparing the systemd VM's root failed; the systemd test will try again" >&2
+}
+{ tools/install-deps.sh --test && prepare_vms; } >"$deps_log" 2>&1 &
 deps_pid=$!
 # A failed build must not leave the package manager running unattended behind it.
 trap 'wait "$deps_pid" 2>/dev/null || true' EXIT

@@ -6,6 +6,8 @@
 # It works on machines whose own kernel has no CAN and that run no systemd.
 #
 # Usage: tests/systemd/systemd-vm.sh PAYLOAD_DIR [TIMEOUT_S]
+#        tests/systemd/systemd-vm.sh --prepare   only fetch the kernel and cache the base root (steps
+#                                                1-2, no boot): tools/test.sh runs it while it builds
 #   PAYLOAD_DIR/inside.sh   run inside with bash, as root, by a oneshot unit once multi-user.target
 #                           is reached; its output goes to the console (this script's stdout); its
 #                           exit status is printed as "SYSTEMD-VM-EXIT <rc>" and returned
@@ -31,12 +33,17 @@
 # (tools/install-deps.sh --test).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-payload=$(cd "${1:?usage: systemd-vm.sh PAYLOAD_DIR [TIMEOUT_S]}" && pwd)
+prepare_only=0
+if [ "${1:-}" = "--prepare" ]; then
+  prepare_only=1
+else
+  payload=$(cd "${1:?usage: systemd-vm.sh PAYLOAD_DIR [TIMEOUT_S] | --prepare}" && pwd)
+  [ -f "$payload/inside.sh" ] || { echo "systemd-vm: $payload/inside.sh does not exist" >&2; exit 2; }
+fi
 limit=${2:-600}
 cache=${GEARWATCH_SYSTEMD_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/gearwatch-systemd}
 kernel_cache=${GEARWATCH_VCAN_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/gearwatch-vcan}
 mirror=${GEARWATCH_DEBIAN_MIRROR:-http://deb.debian.org/debian}
-[ -f "$payload/inside.sh" ] || { echo "systemd-vm: $payload/inside.sh does not exist" >&2; exit 2; }
 [ "$(id -u)" -eq 0 ] || { echo "systemd-vm: needs root (debootstrap, chroot)" >&2; exit 2; }
 for tool in debootstrap qemu-system-x86_64 cpio; do
   command -v "$tool" >/dev/null ||
@@ -102,6 +109,8 @@ UNIT
 fi
 
 # 3. the base plus the packages' dependencies, cached per Depends
+# (--prepare stops before it: it needs the package's Depends, so a built gearwatch)
+[ "$prepare_only" = 1 ] && { log "kernel and base root cached"; exit 0; }
 debs=()
 [ -d "$payload/debs" ] && for d in "$payload"/debs/*.deb; do [ -f "$d" ] && debs+=("$d"); done
 depends=""
