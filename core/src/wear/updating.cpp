@@ -513,8 +513,17 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   u.simulated_before = simulated;
   // A failed re-run must not leave recaptured anchors behind: every trial starts from `saved`.
   WearSearch search{memory_.wear_anchor, memory_, op, target, memory_.k_wear_si, simulated, 0, std::nullopt, {}};
-  if (settings_.k_wear_update == KWearUpdateRule::proportional) update_k_wear_proportional(search, u);
-  else update_k_wear_root_find(search, u);
+  if (memory_.current.state.cycles <= search.anchor.state.cycles) {
+    // No life between the wear anchor and the record: every K re-runs to the same state, so no
+    // re-run can tell one K from another.
+    u.outcome = UpdateOutcome::insensitive;
+    search.why = "no cycles run since K_wear was last set (" + fmt("%.6g", search.anchor.state.cycles) +
+                 " cycles): K_wear cannot change the twin's state at this record, so K_wear is left as it was";
+  } else if (settings_.k_wear_update == KWearUpdateRule::proportional) {
+    update_k_wear_proportional(search, u);
+  } else {
+    update_k_wear_root_find(search, u);
+  }
   u.iterations = search.evaluations;
 
   // Keep the best K found if it improved on the old one; otherwise nothing changes. An RMS_SA
@@ -526,7 +535,18 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   // twin's can). Keeping the closest K anyway ratchets K_wear towards zero over records whose
   // measurement lies below everything the twin gives, and the depth with it.
   const bool reproduces = search.best && std::abs(search.best->sim - target) / target <= settings_.rms_threshold;
-  const bool keep = !insensitive_here && reproduces && std::abs(search.best->sim - target) < std::abs(simulated - target);
+  // A K at an end of the configured range that ended the search there (no K crossed the
+  // measurement) is the range's guard, not a value the record chose: RMS_SA is as close to the
+  // measurement there as the twin can bring it, which bounds K_wear on one side only. Keeping the
+  // lower end forecasts no wear until the next update (the upper one, wear at the guard's rate);
+  // the last identified K_wear stays and the update counts as not identified.
+  const bool guard_only = u.outcome == UpdateOutcome::bound_reached && search.best &&
+                          (search.best->k <= settings_.k_wear_min_si * (1 + 1e-9) || search.best->k >= settings_.k_wear_max_si * (1 - 1e-9));   // exp(ln K) rounds
+  const bool keep = !insensitive_here && reproduces && !guard_only && std::abs(search.best->sim - target) < std::abs(simulated - target);
+  if (!insensitive_here && reproduces && guard_only)
+    search.why += std::string(search.why.empty() ? "" : "; ") + "the closest K_wear, " + fmt("%.4g", search.best->k) +
+                  " m^2/N (" + fmt("%+.3g", 100 * (search.best->sim - target) / target) +
+                  " %), is an end of the configured range, not a value the record determines: K_wear left as it was";
   if (!keep && !insensitive_here && search.best && !reproduces)
     search.why += std::string(search.why.empty() ? "" : "; ") + "no K_wear tried reproduced the measurement within " +
                   fmt("%.3g", 100 * settings_.rms_threshold) + " % (closest " +
@@ -603,6 +623,8 @@ bool TwinModel::commission_rms_sa(const ModelObservation& obs, double measured, 
 }
 
 bool TwinModel::wear_can_move_rms_sa(double simulated, const twin::OperatingPoint& op) {
+  // No life between the wear anchor and the record: every K re-runs to the same state.
+  if (memory_.current.state.cycles <= memory_.wear_anchor.state.cycles) return false;
   const ModelMemory saved = memory_;
   bool moves = false;
   for (const double k : {settings_.k_wear_min_si, settings_.k_wear_max_si}) {
@@ -789,13 +811,8 @@ bool TwinModel::expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch&
       step = std::log(10.0);
       continue;
     }
-    const std::optional<double> g = wear_log_error(x, search, u);
-    if (!g) return false;
-    pts.push_back({x, *g});
-    if (std::abs(std::expm1(*g)) <= settings_.convergence_tolerance) {
-      converged = pts.back();
-      return true;
-    }
+    const PointResult r = evaluate_point(x, pts, search, u, converged);
+    if (r != PointResult::open) return r == PointResult::converged;
     step *= 2;
   }
   if (bracket_of(pts)) return true;
@@ -805,6 +822,16 @@ bool TwinModel::expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch&
                " m^2/N reaches the measurement (bound: the configured K_wear range";
   search.why += std::isfinite(outermost(pts, 1).first.g) ? ")" : ", or a flank past the depth limit before the record)";
   return false;
+}
+
+TwinModel::PointResult TwinModel::evaluate_point(double x, std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u,
+                                                 std::optional<LogKPoint>& converged) {
+  const std::optional<double> g = wear_log_error(x, search, u);
+  if (!g) return PointResult::failed;
+  pts.push_back({x, *g});
+  if (std::abs(std::expm1(*g)) > settings_.convergence_tolerance) return PointResult::open;
+  converged = pts.back();
+  return PointResult::converged;
 }
 
 bool TwinModel::refuse_flat(const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u) const {
@@ -838,14 +865,9 @@ bool TwinModel::refine_bracket(std::vector<LogKPoint>& pts, WearSearch& search, 
     double x = 0.5 * (a.x + b.x);
     if (std::isfinite(b.g)) x = (a.x * wb * b.g - b.x * wa * a.g) / (wb * b.g - wa * a.g);
     if (std::abs(b.x - a.x) < 1e-9) break;
-    const std::optional<double> g = wear_log_error(x, search, u);
-    if (!g) return false;
-    pts.push_back({x, *g});
-    if (std::abs(std::expm1(*g)) <= settings_.convergence_tolerance) {
-      converged = pts.back();
-      return true;
-    }
-    if (*g < 0) {
+    const PointResult r = evaluate_point(x, pts, search, u, converged);
+    if (r != PointResult::open) return r == PointResult::converged;
+    if (pts.back().g < 0) {
       a = pts.back();
       wa = 1;
       wb = kept_end == 1 ? 0.5 * wb : 1;

@@ -294,6 +294,10 @@ class TwinModel {
   /// Geometric steps on ln K (first towards `dir`, then the other way) until the measurement is
   /// bracketed or converged; false with the reason (iteration limit, bound) when neither.
   bool expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch& search, KUpdate& u, std::optional<LogKPoint>& converged);
+  /// One point of the root-find: ln K = x evaluated and added to `pts`; `converged` set when its
+  /// RMS_SA is within the tolerance; `failed` (reason in u, search) when the twin gave no value.
+  enum class PointResult { failed, converged, open };
+  PointResult evaluate_point(double x, std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u, std::optional<LogKPoint>& converged);
   /// Insensitive (true, with the reason) when RMS_SA moved by less than min_wear_elasticity · ln 10 over all K tried.
   bool refuse_flat(const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u) const;
   /// Illinois inside the bracket; false with the reason (iteration limit, insensitive) when not converged.
