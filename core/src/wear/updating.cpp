@@ -478,29 +478,16 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
 }
 
 void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report) {
-  if (!obs.rms_sa || !std::isfinite(*obs.rms_sa) || *obs.rms_sa <= 0) {
-    add_issue(report, ModelIssue::missing_rms_sa, "no positive RMS_SA: K_wear not checked");
-    return;
-  }
+  const std::optional<double> simulated = simulate_record(obs, report);
+  if (!simulated) return;
   const double measured = *obs.rms_sa;
-  const twin::OperatingPoint op{obs.speed_hz, obs.torque_nm};
-  double simulated = 0;
-  try {
-    simulated = simulator_(memory_.current.state, op);
-    if (!std::isfinite(simulated) || simulated <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
-  } catch (const std::exception& e) {
-    add_issue(report, ModelIssue::simulation_failed, std::string("K_wear not checked: ") + e.what());
-    return;
-  }
-  report.rms_sa_simulated = simulated;
-  if (commission_rms_sa(obs, measured, simulated, report)) return;
+  if (commission_rms_sa(obs, measured, *simulated, report)) return;
   // Wear is asked to explain only what the pair's offset at zero wear does not: the twin's RMS_SA
   // times the commissioning ratio is matched to the measurement, i.e. the twin's to `target`.
   const double ratio = memory_.rms_sa_reference_ratio;
   const double target = measured / ratio;
-  const double error = (simulated - target) / target;
-  const bool update = settings_.update_k_wear && std::abs(error) > settings_.rms_threshold;
-  remember_residual(std::log(target / simulated), update);
+  const bool update = settings_.update_k_wear && std::abs(*simulated - target) / target > settings_.rms_threshold;
+  remember_residual(std::log(target / *simulated), update);
   if (!update) return;
 
   KUpdate u;
@@ -510,9 +497,38 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   u.old_value = memory_.k_wear_si;
   u.applies_from_cycles = memory_.wear_anchor.state.cycles;
   u.measured = measured;
-  u.simulated_before = simulated;
+  u.simulated_before = *simulated;
   // A failed re-run must not leave recaptured anchors behind: every trial starts from `saved`.
-  WearSearch search{memory_.wear_anchor, memory_, op, target, memory_.k_wear_si, simulated, 0, std::nullopt, {}};
+  WearSearch search{memory_.wear_anchor, memory_, {obs.speed_hz, obs.torque_nm}, target, memory_.k_wear_si, *simulated, 0, std::nullopt, {}};
+  search_k_wear(search, u);
+  u.iterations = search.evaluations;
+  const bool keep = keep_k_wear(search, u, *simulated);
+  apply_k_wear_result(keep, search, u, *simulated, report);
+  u.evidence = k_wear_evidence(search, u, ratio, *simulated);
+  if (keep) learn_k_wear(u, *simulated, obs.cycles);
+  // Not identified: RMS_SA insensitive, or no K reproduced the record (the interval then widens).
+  memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive || !keep;
+  report.updates.push_back(std::move(u));
+}
+
+std::optional<double> TwinModel::simulate_record(const ModelObservation& obs, ModelRunReport& report) {
+  if (!obs.rms_sa || !std::isfinite(*obs.rms_sa) || *obs.rms_sa <= 0) {
+    add_issue(report, ModelIssue::missing_rms_sa, "no positive RMS_SA: K_wear not checked");
+    return std::nullopt;
+  }
+  double simulated = 0;
+  try {
+    simulated = simulator_(memory_.current.state, twin::OperatingPoint{obs.speed_hz, obs.torque_nm});
+    if (!std::isfinite(simulated) || simulated <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
+  } catch (const std::exception& e) {
+    add_issue(report, ModelIssue::simulation_failed, std::string("K_wear not checked: ") + e.what());
+    return std::nullopt;
+  }
+  report.rms_sa_simulated = simulated;
+  return simulated;
+}
+
+void TwinModel::search_k_wear(WearSearch& search, KUpdate& u) {
   if (memory_.current.state.cycles <= search.anchor.state.cycles) {
     // No life between the wear anchor and the record: every K re-runs to the same state, so no
     // re-run can tell one K from another.
@@ -524,8 +540,10 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   } else {
     update_k_wear_root_find(search, u);
   }
-  u.iterations = search.evaluations;
+}
 
+bool TwinModel::keep_k_wear(WearSearch& search, const KUpdate& u, double simulated) const {
+  const double target = search.measured;
   // Keep the best K found if it improved on the old one; otherwise nothing changes. An RMS_SA
   // insensitive to K_wear at the root changes nothing either: its K would follow the scatter.
   const bool insensitive_here = u.outcome == UpdateOutcome::insensitive;
@@ -552,6 +570,10 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
                   fmt("%.3g", 100 * settings_.rms_threshold) + " % (closest " +
                   fmt("%+.3g", 100 * (search.best->sim - target) / target) + " % at K_wear " + fmt("%.4g", search.best->k) +
                   "): a model-form disagreement, not a measurement of K_wear; K_wear left as it was";
+  return keep;
+}
+
+void TwinModel::apply_k_wear_result(bool keep, WearSearch& search, KUpdate& u, double simulated, ModelRunReport& report) {
   if (keep) {
     WearTrial& best = *search.best;
     memory_ = std::move(best.memory);
@@ -569,30 +591,33 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
     u.simulated_after = simulated;
     if (u.outcome == UpdateOutcome::converged) u.outcome = UpdateOutcome::not_monotone;
   }
+}
+
+std::string TwinModel::k_wear_evidence(const WearSearch& search, const KUpdate& u, double ratio, double simulated) const {
+  const double measured = u.measured, target = search.measured;
   char b[500];
   const std::string against =
       ratio == 1.0 ? fmt("%.5g", measured) : fmt("%.5g", measured) + " / commissioning ratio " + fmt("%.4g", ratio) + " = " + fmt("%.5g", target);
   std::snprintf(b, sizeof b, "RMS_SA measured %s, simulated %.5g (%+.2f %%) -> %.5g (%+.2f %%) after %d %s, K_wear %.5g -> %.5g m^2/N",
-                against.c_str(), simulated, 100 * error, u.simulated_after, 100 * (u.simulated_after - target) / target, u.iterations,
-                settings_.k_wear_update == KWearUpdateRule::proportional ? "iteration(s) of Eq. 7.13" : "twin re-run(s)",
+                against.c_str(), simulated, 100 * (simulated - target) / target, u.simulated_after, 100 * (u.simulated_after - target) / target,
+                u.iterations, settings_.k_wear_update == KWearUpdateRule::proportional ? "iteration(s) of Eq. 7.13" : "twin re-run(s)",
                 u.old_value, u.new_value);
-  u.evidence = b;
-  if (std::isfinite(u.elasticity)) u.evidence += "; elasticity d ln RMS_SA / d ln K_wear " + fmt("%.3g", u.elasticity);
-  if (std::isfinite(search.root_elasticity)) u.evidence += " (at the root " + fmt("%.3g", search.root_elasticity) + ")";
-  if (!search.why.empty()) u.evidence += "; " + search.why;
-  if (keep) {
-    // The update is a measurement of ln K_wear: ε / e with ε the RMS_SA's relative scatter and e
-    // the elasticity between the old and the new K (the sensitivity read's when that is flat).
-    double e = std::log(u.simulated_after / simulated) / std::log(u.new_value / u.old_value);
-    if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = u.elasticity;
-    if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = 1.0;   // the proportional rule's assumption
-    memory_.k_wear_elasticity = e;
-    const double sd = rms_scatter_sd() / std::abs(e);
-    u.evidence += learn(memory_.log_k_wear, std::log(u.new_value), sd * sd, obs.cycles);
-  }
-  // Not identified: RMS_SA insensitive, or no K reproduced the record (the interval then widens).
-  memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive || !keep;
-  report.updates.push_back(std::move(u));
+  std::string evidence = b;
+  if (std::isfinite(u.elasticity)) evidence += "; elasticity d ln RMS_SA / d ln K_wear " + fmt("%.3g", u.elasticity);
+  if (std::isfinite(search.root_elasticity)) evidence += " (at the root " + fmt("%.3g", search.root_elasticity) + ")";
+  if (!search.why.empty()) evidence += "; " + search.why;
+  return evidence;
+}
+
+void TwinModel::learn_k_wear(KUpdate& u, double simulated, double cycles) {
+  // The update is a measurement of ln K_wear: ε / e with ε the RMS_SA's relative scatter and e
+  // the elasticity between the old and the new K (the sensitivity read's when that is flat).
+  double e = std::log(u.simulated_after / simulated) / std::log(u.new_value / u.old_value);
+  if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = u.elasticity;
+  if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = 1.0;   // the proportional rule's assumption
+  memory_.k_wear_elasticity = e;
+  const double sd = rms_scatter_sd() / std::abs(e);
+  u.evidence += learn(memory_.log_k_wear, std::log(u.new_value), sd * sd, cycles);
 }
 
 bool TwinModel::commission_rms_sa(const ModelObservation& obs, double measured, double simulated, ModelRunReport& report) {
