@@ -409,6 +409,14 @@ ModelSettings root_find_settings() {
   return s;   // k_wear_update: root_find, the default
 }
 
+// One record at the closed-form twin's cycles (10 Hz, 20 N m) measuring `measured`: its report,
+// which must hold exactly one K_wear update.
+ModelRunReport observe_one_update(TwinModel& model, const PowerLawTwin& twin, double measured) {
+  ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, measured), {});
+  REQUIRE(r.updates.size() == 1);
+  return r;
+}
+
 }  // namespace
 
 TEST_CASE("prognosis #1: the K_wear root-find reaches the closed-form root of RMS_SA = a (K/k_ref)^e + b in at most 5 re-runs after the sensitivity read",
@@ -423,8 +431,7 @@ TEST_CASE("prognosis #1: the K_wear root-find reaches the closed-form root of RM
   const double measured = twin.rms(k_true);   // 1.890 for e = 0.3, 1.103 for e = −0.22; the model's K gives 1.5
   INFO("exponent " << exponent);
   TwinModel model(twin::GearboxParameters{}, s, twin.simulator());
-  const ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, measured), {});
-  REQUIRE(r.updates.size() == 1);
+  const ModelRunReport r = observe_one_update(model, twin, measured);
   const KUpdate& u = r.updates[0];
   INFO(u.evidence);
   CHECK(u.outcome == UpdateOutcome::converged);
@@ -451,8 +458,7 @@ TEST_CASE("prognosis #1: where RMS_SA barely follows K_wear at the root the upda
   PowerLawTwin twin(s, 0.005);
   const double measured = 1.6;   // 6.3 % above the model's 1.505: over the 5 % threshold
   TwinModel model(twin::GearboxParameters{}, s, twin.simulator());
-  const ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, measured), {});
-  REQUIRE(r.updates.size() == 1);
+  const ModelRunReport r = observe_one_update(model, twin, measured);
   const KUpdate& u = r.updates[0];
   INFO(u.evidence);
   CHECK(u.outcome == UpdateOutcome::insensitive);
@@ -581,8 +587,7 @@ TEST_CASE("prognosis #1: a measurement beyond the twin's reach ends at the K_wea
   // towards zero record after record) and counts as not identified.
   PowerLawTwin twin(s, 0.3);
   TwinModel model(twin::GearboxParameters{}, s, twin.simulator());
-  const ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, 0.45), {});
-  REQUIRE(r.updates.size() == 1);
+  const ModelRunReport r = observe_one_update(model, twin, 0.45);
   const KUpdate& u = r.updates[0];
   INFO(u.evidence);
   CHECK(u.outcome == UpdateOutcome::bound_reached);
@@ -641,8 +646,7 @@ TEST_CASE("prognosis #1: a K_wear four decades from the start is reached: RMS_SA
   const double k_true = twin.k_ref;
   const double measured = twin.rms(k_true);
   TwinModel model(twin::GearboxParameters{}, s, twin.simulator());
-  const ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, measured), {});
-  REQUIRE(r.updates.size() == 1);
+  const ModelRunReport r = observe_one_update(model, twin, measured);
   const KUpdate& u = r.updates[0];
   INFO(u.evidence);
   CHECK(u.outcome == UpdateOutcome::converged);
@@ -723,8 +727,7 @@ TEST_CASE("prognosis #1: with an offset at zero wear and real wear the root-find
   const ModelRunReport r0 = model.observe(observation(0, 10, 20, offset * twin.b), {});
   CHECK(r0.updates.empty());
   const double measured = offset * twin.rms(k_true);
-  const ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, measured), {});
-  REQUIRE(r.updates.size() == 1);
+  const ModelRunReport r = observe_one_update(model, twin, measured);
   const KUpdate& u = r.updates[0];
   INFO(u.evidence);
   CHECK(u.outcome == UpdateOutcome::converged);
@@ -742,4 +745,39 @@ TEST_CASE("prognosis #1: with an offset at zero wear and real wear the root-find
   REQUIRE_FALSE(ra.updates.empty());
   CHECK(ra.k_wear_si == Approx(twin.root(measured)).epsilon(3e-5));
   CHECK(ra.k_wear_si > 3 * k_true);
+}
+
+TEST_CASE("prognosis #1: an update that ends at the K_wear range's lower end keeps the last identified K_wear, not the range's guard",
+          "[model][updating]") {
+  // RMS_SA = x^0.3 above the knee x = K/k_ref = 1 and x^0.005 below it: below the knee RMS_SA
+  // follows K_wear with elasticity 0.005, under min_wear_elasticity (0.02), as the twin's RMS_SA
+  // does once the wear is too small to show. The model starts at x = 10 (RMS 10^0.3 = 1.995); the
+  // record measures 0.9, below every value down to the range's lower end 1e-30 (x = 1e-8, RMS
+  // 1e-8^0.005 = 0.9120, +1.33 %). No K crosses 0.9, so the search ends at the lower end
+  // (bound_reached), whose RMS_SA is within the 5 % threshold: it bounds K_wear from above only.
+  // Keeping it would forecast no wear until the next update; the last identified K_wear (the
+  // initial one here) stays and the update counts as not identified.
+  const ModelSettings s = root_find_settings();
+  PowerLawTwin twin(s, 0.3);
+  twin.shape = [](double x) { return x >= 1 ? std::pow(x, 0.3) : std::pow(x, 0.005); };
+  ModelSettings start = s;
+  start.loop.k_wear_si = 10 * twin.k_ref;
+  TwinModel model(twin::GearboxParameters{}, start, twin.simulator());
+  const double measured = 0.9;
+  const ModelRunReport r = observe_one_update(model, twin, measured);
+  const KUpdate& u = r.updates[0];
+  INFO(u.evidence);
+  CHECK(twin.rms(s.k_wear_min_si) / measured - 1 == Approx(0.013345).epsilon(1e-4));
+  CHECK(u.outcome == UpdateOutcome::bound_reached);
+  CHECK(u.iterations <= s.max_wear_iterations);
+  CHECK(u.new_value == start.loop.k_wear_si);
+  CHECK(r.k_wear_si == start.loop.k_wear_si);
+  CHECK(u.simulated_after == u.simulated_before);   // the record's own comparison: nothing re-run is kept
+  // The closed form's depth is c·K to first order; at 10 k_ref the load's change with wear shows at 1e-7.
+  CHECK(u.simulated_before == Approx(twin.rms(start.loop.k_wear_si)).epsilon(1e-6));
+  CHECK(model.memory().k_wear_updates == 0);
+  CHECK(model.memory().k_wear_last_insensitive);
+  CHECK(u.evidence.find("the closest K_wear, 1e-30 m^2/N (+1.33 %), is an end of the configured range") != std::string::npos);
+  const auto& flags = r.forecast.flags;
+  CHECK(std::find(flags.begin(), flags.end(), ForecastFlag::k_wear_not_identified) != flags.end());
 }

@@ -478,29 +478,16 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
 }
 
 void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report) {
-  if (!obs.rms_sa || !std::isfinite(*obs.rms_sa) || *obs.rms_sa <= 0) {
-    add_issue(report, ModelIssue::missing_rms_sa, "no positive RMS_SA: K_wear not checked");
-    return;
-  }
+  const std::optional<double> simulated = simulate_record(obs, report);
+  if (!simulated) return;
   const double measured = *obs.rms_sa;
-  const twin::OperatingPoint op{obs.speed_hz, obs.torque_nm};
-  double simulated = 0;
-  try {
-    simulated = simulator_(memory_.current.state, op);
-    if (!std::isfinite(simulated) || simulated <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
-  } catch (const std::exception& e) {
-    add_issue(report, ModelIssue::simulation_failed, std::string("K_wear not checked: ") + e.what());
-    return;
-  }
-  report.rms_sa_simulated = simulated;
-  if (commission_rms_sa(obs, measured, simulated, report)) return;
+  if (commission_rms_sa(obs, measured, *simulated, report)) return;
   // Wear is asked to explain only what the pair's offset at zero wear does not: the twin's RMS_SA
   // times the commissioning ratio is matched to the measurement, i.e. the twin's to `target`.
   const double ratio = memory_.rms_sa_reference_ratio;
   const double target = measured / ratio;
-  const double error = (simulated - target) / target;
-  const bool update = settings_.update_k_wear && std::abs(error) > settings_.rms_threshold;
-  remember_residual(std::log(target / simulated), update);
+  const bool update = settings_.update_k_wear && std::abs(*simulated - target) / target > settings_.rms_threshold;
+  remember_residual(std::log(target / *simulated), update);
   if (!update) return;
 
   KUpdate u;
@@ -510,13 +497,53 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   u.old_value = memory_.k_wear_si;
   u.applies_from_cycles = memory_.wear_anchor.state.cycles;
   u.measured = measured;
-  u.simulated_before = simulated;
+  u.simulated_before = *simulated;
   // A failed re-run must not leave recaptured anchors behind: every trial starts from `saved`.
-  WearSearch search{memory_.wear_anchor, memory_, op, target, memory_.k_wear_si, simulated, 0, std::nullopt, {}};
-  if (settings_.k_wear_update == KWearUpdateRule::proportional) update_k_wear_proportional(search, u);
-  else update_k_wear_root_find(search, u);
+  WearSearch search{memory_.wear_anchor, memory_, {obs.speed_hz, obs.torque_nm}, target, memory_.k_wear_si, *simulated, 0, std::nullopt, {}};
+  search_k_wear(search, u);
   u.iterations = search.evaluations;
+  const bool keep = keep_k_wear(search, u, *simulated);
+  apply_k_wear_result(keep, search, u, *simulated, report);
+  u.evidence = k_wear_evidence(search, u, ratio, *simulated);
+  if (keep) learn_k_wear(u, *simulated, obs.cycles);
+  // Not identified: RMS_SA insensitive, or no K reproduced the record (the interval then widens).
+  memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive || !keep;
+  report.updates.push_back(std::move(u));
+}
 
+std::optional<double> TwinModel::simulate_record(const ModelObservation& obs, ModelRunReport& report) {
+  if (!obs.rms_sa || !std::isfinite(*obs.rms_sa) || *obs.rms_sa <= 0) {
+    add_issue(report, ModelIssue::missing_rms_sa, "no positive RMS_SA: K_wear not checked");
+    return std::nullopt;
+  }
+  double simulated = 0;
+  try {
+    simulated = simulator_(memory_.current.state, twin::OperatingPoint{obs.speed_hz, obs.torque_nm});
+    if (!std::isfinite(simulated) || simulated <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
+  } catch (const std::exception& e) {
+    add_issue(report, ModelIssue::simulation_failed, std::string("K_wear not checked: ") + e.what());
+    return std::nullopt;
+  }
+  report.rms_sa_simulated = simulated;
+  return simulated;
+}
+
+void TwinModel::search_k_wear(WearSearch& search, KUpdate& u) {
+  if (memory_.current.state.cycles <= search.anchor.state.cycles) {
+    // No life between the wear anchor and the record: every K re-runs to the same state, so no
+    // re-run can tell one K from another.
+    u.outcome = UpdateOutcome::insensitive;
+    search.why = "no cycles run since K_wear was last set (" + fmt("%.6g", search.anchor.state.cycles) +
+                 " cycles): K_wear cannot change the twin's state at this record, so K_wear is left as it was";
+  } else if (settings_.k_wear_update == KWearUpdateRule::proportional) {
+    update_k_wear_proportional(search, u);
+  } else {
+    update_k_wear_root_find(search, u);
+  }
+}
+
+bool TwinModel::keep_k_wear(WearSearch& search, const KUpdate& u, double simulated) const {
+  const double target = search.measured;
   // Keep the best K found if it improved on the old one; otherwise nothing changes. An RMS_SA
   // insensitive to K_wear at the root changes nothing either: its K would follow the scatter.
   const bool insensitive_here = u.outcome == UpdateOutcome::insensitive;
@@ -526,12 +553,27 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   // twin's can). Keeping the closest K anyway ratchets K_wear towards zero over records whose
   // measurement lies below everything the twin gives, and the depth with it.
   const bool reproduces = search.best && std::abs(search.best->sim - target) / target <= settings_.rms_threshold;
-  const bool keep = !insensitive_here && reproduces && std::abs(search.best->sim - target) < std::abs(simulated - target);
+  // A K at an end of the configured range that ended the search there (no K crossed the
+  // measurement) is the range's guard, not a value the record chose: RMS_SA is as close to the
+  // measurement there as the twin can bring it, which bounds K_wear on one side only. Keeping the
+  // lower end forecasts no wear until the next update (the upper one, wear at the guard's rate);
+  // the last identified K_wear stays and the update counts as not identified.
+  const bool guard_only = u.outcome == UpdateOutcome::bound_reached && search.best &&
+                          (search.best->k <= settings_.k_wear_min_si * (1 + 1e-9) || search.best->k >= settings_.k_wear_max_si * (1 - 1e-9));   // exp(ln K) rounds
+  const bool keep = !insensitive_here && reproduces && !guard_only && std::abs(search.best->sim - target) < std::abs(simulated - target);
+  if (!insensitive_here && reproduces && guard_only)
+    search.why += std::string(search.why.empty() ? "" : "; ") + "the closest K_wear, " + fmt("%.4g", search.best->k) +
+                  " m^2/N (" + fmt("%+.3g", 100 * (search.best->sim - target) / target) +
+                  " %), is an end of the configured range, not a value the record determines: K_wear left as it was";
   if (!keep && !insensitive_here && search.best && !reproduces)
     search.why += std::string(search.why.empty() ? "" : "; ") + "no K_wear tried reproduced the measurement within " +
                   fmt("%.3g", 100 * settings_.rms_threshold) + " % (closest " +
                   fmt("%+.3g", 100 * (search.best->sim - target) / target) + " % at K_wear " + fmt("%.4g", search.best->k) +
                   "): a model-form disagreement, not a measurement of K_wear; K_wear left as it was";
+  return keep;
+}
+
+void TwinModel::apply_k_wear_result(bool keep, WearSearch& search, KUpdate& u, double simulated, ModelRunReport& report) {
   if (keep) {
     WearTrial& best = *search.best;
     memory_ = std::move(best.memory);
@@ -549,30 +591,33 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
     u.simulated_after = simulated;
     if (u.outcome == UpdateOutcome::converged) u.outcome = UpdateOutcome::not_monotone;
   }
+}
+
+std::string TwinModel::k_wear_evidence(const WearSearch& search, const KUpdate& u, double ratio, double simulated) const {
+  const double measured = u.measured, target = search.measured;
   char b[500];
   const std::string against =
       ratio == 1.0 ? fmt("%.5g", measured) : fmt("%.5g", measured) + " / commissioning ratio " + fmt("%.4g", ratio) + " = " + fmt("%.5g", target);
   std::snprintf(b, sizeof b, "RMS_SA measured %s, simulated %.5g (%+.2f %%) -> %.5g (%+.2f %%) after %d %s, K_wear %.5g -> %.5g m^2/N",
-                against.c_str(), simulated, 100 * error, u.simulated_after, 100 * (u.simulated_after - target) / target, u.iterations,
-                settings_.k_wear_update == KWearUpdateRule::proportional ? "iteration(s) of Eq. 7.13" : "twin re-run(s)",
+                against.c_str(), simulated, 100 * (simulated - target) / target, u.simulated_after, 100 * (u.simulated_after - target) / target,
+                u.iterations, settings_.k_wear_update == KWearUpdateRule::proportional ? "iteration(s) of Eq. 7.13" : "twin re-run(s)",
                 u.old_value, u.new_value);
-  u.evidence = b;
-  if (std::isfinite(u.elasticity)) u.evidence += "; elasticity d ln RMS_SA / d ln K_wear " + fmt("%.3g", u.elasticity);
-  if (std::isfinite(search.root_elasticity)) u.evidence += " (at the root " + fmt("%.3g", search.root_elasticity) + ")";
-  if (!search.why.empty()) u.evidence += "; " + search.why;
-  if (keep) {
-    // The update is a measurement of ln K_wear: ε / e with ε the RMS_SA's relative scatter and e
-    // the elasticity between the old and the new K (the sensitivity read's when that is flat).
-    double e = std::log(u.simulated_after / simulated) / std::log(u.new_value / u.old_value);
-    if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = u.elasticity;
-    if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = 1.0;   // the proportional rule's assumption
-    memory_.k_wear_elasticity = e;
-    const double sd = rms_scatter_sd() / std::abs(e);
-    u.evidence += learn(memory_.log_k_wear, std::log(u.new_value), sd * sd, obs.cycles);
-  }
-  // Not identified: RMS_SA insensitive, or no K reproduced the record (the interval then widens).
-  memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive || !keep;
-  report.updates.push_back(std::move(u));
+  std::string evidence = b;
+  if (std::isfinite(u.elasticity)) evidence += "; elasticity d ln RMS_SA / d ln K_wear " + fmt("%.3g", u.elasticity);
+  if (std::isfinite(search.root_elasticity)) evidence += " (at the root " + fmt("%.3g", search.root_elasticity) + ")";
+  if (!search.why.empty()) evidence += "; " + search.why;
+  return evidence;
+}
+
+void TwinModel::learn_k_wear(KUpdate& u, double simulated, double cycles) {
+  // The update is a measurement of ln K_wear: ε / e with ε the RMS_SA's relative scatter and e
+  // the elasticity between the old and the new K (the sensitivity read's when that is flat).
+  double e = std::log(u.simulated_after / simulated) / std::log(u.new_value / u.old_value);
+  if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = u.elasticity;
+  if (!std::isfinite(e) || std::abs(e) < settings_.min_wear_elasticity) e = 1.0;   // the proportional rule's assumption
+  memory_.k_wear_elasticity = e;
+  const double sd = rms_scatter_sd() / std::abs(e);
+  u.evidence += learn(memory_.log_k_wear, std::log(u.new_value), sd * sd, cycles);
 }
 
 bool TwinModel::commission_rms_sa(const ModelObservation& obs, double measured, double simulated, ModelRunReport& report) {
@@ -603,6 +648,8 @@ bool TwinModel::commission_rms_sa(const ModelObservation& obs, double measured, 
 }
 
 bool TwinModel::wear_can_move_rms_sa(double simulated, const twin::OperatingPoint& op) {
+  // No life between the wear anchor and the record: every K re-runs to the same state.
+  if (memory_.current.state.cycles <= memory_.wear_anchor.state.cycles) return false;
   const ModelMemory saved = memory_;
   bool moves = false;
   for (const double k : {settings_.k_wear_min_si, settings_.k_wear_max_si}) {
@@ -789,13 +836,8 @@ bool TwinModel::expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch&
       step = std::log(10.0);
       continue;
     }
-    const std::optional<double> g = wear_log_error(x, search, u);
-    if (!g) return false;
-    pts.push_back({x, *g});
-    if (std::abs(std::expm1(*g)) <= settings_.convergence_tolerance) {
-      converged = pts.back();
-      return true;
-    }
+    const PointResult r = evaluate_point(x, pts, search, u, converged);
+    if (r != PointResult::open) return r == PointResult::converged;
     step *= 2;
   }
   if (bracket_of(pts)) return true;
@@ -805,6 +847,16 @@ bool TwinModel::expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch&
                " m^2/N reaches the measurement (bound: the configured K_wear range";
   search.why += std::isfinite(outermost(pts, 1).first.g) ? ")" : ", or a flank past the depth limit before the record)";
   return false;
+}
+
+TwinModel::PointResult TwinModel::evaluate_point(double x, std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u,
+                                                 std::optional<LogKPoint>& converged) {
+  const std::optional<double> g = wear_log_error(x, search, u);
+  if (!g) return PointResult::failed;
+  pts.push_back({x, *g});
+  if (std::abs(std::expm1(*g)) > settings_.convergence_tolerance) return PointResult::open;
+  converged = pts.back();
+  return PointResult::converged;
 }
 
 bool TwinModel::refuse_flat(const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u) const {
@@ -838,14 +890,9 @@ bool TwinModel::refine_bracket(std::vector<LogKPoint>& pts, WearSearch& search, 
     double x = 0.5 * (a.x + b.x);
     if (std::isfinite(b.g)) x = (a.x * wb * b.g - b.x * wa * a.g) / (wb * b.g - wa * a.g);
     if (std::abs(b.x - a.x) < 1e-9) break;
-    const std::optional<double> g = wear_log_error(x, search, u);
-    if (!g) return false;
-    pts.push_back({x, *g});
-    if (std::abs(std::expm1(*g)) <= settings_.convergence_tolerance) {
-      converged = pts.back();
-      return true;
-    }
-    if (*g < 0) {
+    const PointResult r = evaluate_point(x, pts, search, u, converged);
+    if (r != PointResult::open) return r == PointResult::converged;
+    if (pts.back().g < 0) {
       a = pts.back();
       wa = 1;
       wb = kept_end == 1 ? 0.5 * wb : 1;

@@ -259,6 +259,8 @@ class TwinModel {
   };
   bool rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot& out, bool recapture_anchors);
   void check_k_wear(const ModelObservation& obs, ModelRunReport& report);
+  /// The twin's RMS_SA at the record; nullopt (the issue in the report) when there is none.
+  std::optional<double> simulate_record(const ModelObservation& obs, ModelRunReport& report);
   /// A commissioning record (true): its ln(meas/sim) joins the commissioning ratio, no K_wear update.
   bool commission_rms_sa(const ModelObservation& obs, double measured, double simulated, ModelRunReport& report);
   /// Whether K_wear at either end of the configured range, from the wear anchor, moves the twin's
@@ -284,6 +286,16 @@ class TwinModel {
     bool depth_limited = false;            ///< the last trial stopped at the depth limit before the record
     double root_elasticity = std::numeric_limits<double>::quiet_NaN();   ///< root-find: d ln RMS_SA / d ln K near the root
   };
+  /// The K_wear search by the configured rule (none where no cycles passed since the wear anchor).
+  void search_k_wear(WearSearch& search, KUpdate& u);
+  /// Whether the best K found is kept: it reproduces the record within the threshold, improves on
+  /// the old K, is identified and is no end of the configured range; the reason in search.why if not.
+  bool keep_k_wear(WearSearch& search, const KUpdate& u, double simulated) const;
+  /// The kept K applied from the wear anchor, or the memory as it was before the search.
+  void apply_k_wear_result(bool keep, WearSearch& search, KUpdate& u, double simulated, ModelRunReport& report);
+  std::string k_wear_evidence(const WearSearch& search, const KUpdate& u, double ratio, double simulated) const;
+  /// A kept update as a measurement of ln K_wear (posterior step, evidence appended).
+  void learn_k_wear(KUpdate& u, double simulated, double cycles);
   /// Runs one candidate; on failure sets u.outcome and search.why and returns nullopt.
   std::optional<WearTrial> wear_trial(double k, WearSearch& search, KUpdate& u);
   bool wear_converged(const WearTrial& t, double measured) const;
@@ -294,6 +306,10 @@ class TwinModel {
   /// Geometric steps on ln K (first towards `dir`, then the other way) until the measurement is
   /// bracketed or converged; false with the reason (iteration limit, bound) when neither.
   bool expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch& search, KUpdate& u, std::optional<LogKPoint>& converged);
+  /// One point of the root-find: ln K = x evaluated and added to `pts`; `converged` set when its
+  /// RMS_SA is within the tolerance; `failed` (reason in u, search) when the twin gave no value.
+  enum class PointResult { failed, converged, open };
+  PointResult evaluate_point(double x, std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u, std::optional<LogKPoint>& converged);
   /// Insensitive (true, with the reason) when RMS_SA moved by less than min_wear_elasticity · ln 10 over all K tried.
   bool refuse_flat(const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u) const;
   /// Illinois inside the bracket; false with the reason (iteration limit, insensitive) when not converged.
