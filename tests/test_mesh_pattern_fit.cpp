@@ -100,7 +100,7 @@ TEST_CASE("Mesh pattern fit: a pattern no scale makes keeps the prior when the i
   CHECK(end.interval_low > 1.0);
 }
 
-TEST_CASE("Mesh pattern fit: harmonics under ten times the floor stay out; fewer than three leave the scale at 1 unfitted",
+TEST_CASE("Mesh pattern fit: harmonics under ten times the floor stay out, and fewer than three leave the scale at 1 unfitted",
           "[commission][mesh_pattern]") {
   std::vector<double> measured = resonance_pattern(1.2);
   const double weakest = *std::min_element(measured.begin(), measured.end());
