@@ -1,5 +1,7 @@
 #include "gearwatch/twin/mesh_pattern_fit.hpp"
 
+#include "gearwatch/numeric/line_search.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -90,27 +92,11 @@ class PatternFitter {
     for (int i = 0; i <= steps; ++i) cost(std::min(s_.high, s_.low + i * s_.grid_step));
   }
 
-  // Golden section between the best scan point's neighbours.
+  // Golden section between the best scan point's neighbours; cost() keeps the best point it saw.
   void refine_minimum() {
-    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-    double a = std::max(s_.low, fit_.scale - s_.grid_step), b = std::min(s_.high, fit_.scale + s_.grid_step);
-    double x1 = b - g * (b - a), x2 = a + g * (b - a);
-    double f1 = cost(x1), f2 = cost(x2);
-    while (b - a > s_.tolerance) {
-      if (f1 <= f2) {
-        b = x2;
-        x2 = x1;
-        f2 = f1;
-        x1 = b - g * (b - a);
-        f1 = cost(x1);
-      } else {
-        a = x1;
-        x1 = x2;
-        f1 = f2;
-        x2 = a + g * (b - a);
-        f2 = cost(x2);
-      }
-    }
+    const double a = std::max(s_.low, fit_.scale - s_.grid_step), b = std::min(s_.high, fit_.scale + s_.grid_step);
+    numeric::golden_section_maximise([this](double x) { return -cost(x); }, a, b, s_.tolerance,
+                                     std::numeric_limits<int>::max());
   }
 
   // Every run whose cost is within the bound, widened to where the cost crosses it between runs.

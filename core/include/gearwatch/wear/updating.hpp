@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "gearwatch/numeric/line_search.hpp"
 #include "gearwatch/twin/gearbox_parameters.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "gearwatch/types/model_run.hpp"
@@ -212,14 +213,9 @@ struct ModelMemory {
 /// Pearson's correlation coefficient of two triples (Eq. 7.15); NaN when either has no spread.
 double pearson3(const std::array<double, 3>& x, const std::array<double, 3>& y);
 
-/// Maximises f on [lo, hi] by golden-section search (f unimodal there), to a bracket of `tolerance`
-/// or `max_evaluations`. Returns the best x evaluated and f(x).
-struct LineSearchResult {
-  double x = 0, value = 0;
-  int evaluations = 0;
-};
-LineSearchResult golden_section_maximise(const std::function<double(double)>& f, double lo, double hi, double tolerance,
-                                         int max_evaluations);
+/// The golden-section line search the updates use (gearwatch/numeric/line_search.hpp).
+using numeric::golden_section_maximise;
+using numeric::LineSearchResult;
 
 /// A point of the K_wear root-find: x = ln K_wear, g = ln(RMS_SA,sim / RMS_SA,meas); g = +inf where
 /// a flank passes the depth limit before the record (the K is too large: a bracket's upper end).
