@@ -203,7 +203,7 @@ TEST_CASE("model thread: every N records the injected diagnosis gets the newest 
                     with_significant({{FamilyKind::input_sidebands, true}, {FamilyKind::output_sidebands, true}}, 1.5)};
   script.reports[1].input_revolutions = 5000;
   {
-    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}});
+    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}, std::nullopt});
     writer.start();
     daemon::ModelThread model(cfg, writer, true, script.hooks());
     model.start();
@@ -253,7 +253,7 @@ TEST_CASE("model thread: every N records the injected diagnosis gets the newest 
   ScriptedDiagnosis again;
   again.reports = {script.reports[2]};
   {
-    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}});
+    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}, std::nullopt});
     writer.start();
     daemon::ModelThread model(cfg, writer, true, again.hooks());
     model.start();
@@ -277,7 +277,7 @@ TEST_CASE("model thread: a diagnosis that throws is counted and stores nothing",
   cfg.storage.database = db.string();
   ScriptedDiagnosis script;  // no reports: every call throws
   {
-    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}});
+    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}, std::nullopt});
     writer.start();
     daemon::ModelThread model(cfg, writer, true, script.hooks());
     model.start();
@@ -509,7 +509,7 @@ std::vector<storage::StoredGapReport> diagnose_through_daemon(const testing::Tem
   auto cfg = config::parse_config("[gap]\nenabled = true\nevery_records = 4\ntraining_records = 2\nheld_out_records = 2\n", "test");
   cfg.storage.database = db.string();
   {
-    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}});
+    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}, std::nullopt});
     writer.start();
     daemon::ModelThread model(cfg, writer, true);
     model.start();

@@ -216,7 +216,7 @@ TEST_CASE("model thread: live it coalesces to the newest record when behind, a r
     const auto db = dir / (lossless ? "lossless.db" : "live.db");
     auto cfg = config::parse_config("[model]\nqueue_capacity = 2\nforecast_horizon_cycles = 1000.0\n", "test");
     cfg.storage.database = db.string();
-    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}});
+    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}, std::nullopt});
     writer.start();
     daemon::ModelThread model(cfg, writer, lossless);
     model.start();
@@ -350,7 +350,7 @@ TEST_CASE("model thread: remaining life below the configured cycles is an alarm,
                                   "remaining_life_alert_cycles = 50000.0\n",
                                   "test");
   cfg.storage.database = db.string();
-  storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}});
+  storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}, std::nullopt});
   writer.start();
   daemon::ModelThread model(cfg, writer, true);
   model.start();

@@ -52,7 +52,7 @@ RecordResult make_record(std::uint64_t start, int values) {
 }
 
 void submit_run(StorageWriter& w) {
-  w.submit(RunStarted{"replay", "test", ""});
+  w.submit(RunStarted{"replay", "test", "", "", {}});
   w.submit(StreamStarted{1, 1, 100000, 2});
 }
 
@@ -385,7 +385,7 @@ TEST_CASE("storage: every wear verdict and alert value is stored, a refused part
   std::uint64_t start = 0;
   for (auto mechanism : gearwatch::dsp::kAllWearMechanisms) {
     auto r = make_record(start += 1000, 3);
-    r.assessments.push_back({0, mechanism, 10, 0.01, 0.5, 0.9, 0.1, 0, "evidence"});
+    r.assessments.push_back({0, mechanism, 10, 0.01, 0.5, 0.9, 0.1, 0, "evidence", std::nullopt});
     gearwatch::AlertEvent e;
     e.key = {gearwatch::AlertKind::wear_mechanism, 0};
     e.value = gearwatch::dsp::to_string(mechanism);
@@ -396,7 +396,7 @@ TEST_CASE("storage: every wear verdict and alert value is stored, a refused part
   // A record with an alert kind outside the enum (what a bug would produce): the alert is
   // refused and counted, the record, its indicators and its assessment are stored.
   auto bad = make_record(start += 1000, 3);
-  bad.assessments.push_back({0, gearwatch::dsp::WearMechanism::both, 10, 0.01, 0.01, 0.9, 0.9, 0, "evidence"});
+  bad.assessments.push_back({0, gearwatch::dsp::WearMechanism::both, 10, 0.01, 0.01, 0.9, 0.9, 0, "evidence", std::nullopt});
   gearwatch::AlertEvent wrong;
   wrong.key = {static_cast<gearwatch::AlertKind>(200), 0};
   bad.alerts.push_back(wrong);
