@@ -1,10 +1,12 @@
 #include "gearwatch/gap/describe.hpp"
 
 #include "gearwatch/gap/candidates.hpp"
+#include "gearwatch/numeric/line_search.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -22,17 +24,13 @@ constexpr double kMaxToneReachOrders = 12;
 
 double ratio_db(double measured, double model, double floor) { return 10.0 * std::log10((measured + floor) / (model + floor)); }
 
-/// The minimum of a unimodal f on [lo, hi] (golden section); f there goes to `value` when given.
-template <class F>
-double golden_min(F&& f, double lo, double hi, int iterations = 40, double* value = nullptr) {
-  const double phi = (std::sqrt(5.0) - 1) / 2;
-  double a = lo, b = hi, c = b - phi * (b - a), d = a + phi * (b - a), fc = f(c), fd = f(d);
-  for (int i = 0; i < iterations; ++i) {
-    if (fc < fd) b = d, d = c, fd = fc, c = b - phi * (b - a), fc = f(c);
-    else a = c, c = d, fc = fd, d = a + phi * (b - a), fd = f(d);
-  }
-  if (value) *value = fc < fd ? fc : fd;
-  return fc < fd ? c : d;
+/// The minimum of a unimodal f on [lo, hi] by the shared golden-section search, with `iterations`
+/// shrinking steps after the first two points; f there goes to `value` when given.
+double golden_min(const std::function<double(double)>& f, double lo, double hi, int iterations = 40,
+                  double* value = nullptr) {
+  const auto best = numeric::golden_section_maximise([&f](double x) { return -f(x); }, lo, hi, 0.0, iterations + 2);
+  if (value) *value = -best.value;
+  return best.x;
 }
 
 /// Least squares of y on [1, x]: (intercept, slope).
