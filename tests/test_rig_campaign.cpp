@@ -80,6 +80,18 @@ TEST_CASE("rig campaign: records at the test's stops, in cycle order, one per me
   CHECK(dense[1].cycles == std::round(38000.0 / 19));
 }
 
+TEST_CASE("rig campaign: integration_rate_hz sets the rig's integration steps of every record, 10 us unless given",
+          "[rig][campaign]") {
+  const std::string head = "[campaign]\nmax_cycles = 1000\n";
+  const auto plain = parse(head);
+  const auto plan = gearwatch::rig::plan_records(plain);
+  REQUIRE(!plan.empty());
+  CHECK(gearwatch::rig::record_run_settings(plain, plan.front(), 7).min_ode_rate_hz == 100000);
+  const auto fine = parse(head + "integration_rate_hz = 200000\n");
+  CHECK(gearwatch::rig::record_run_settings(fine, plan.front(), 7).min_ode_rate_hz == 200000);
+  CHECK_THROWS_WITH(parse(head + "integration_rate_hz = 10000\n"), Contains("line 3") && Contains("campaign.integration_rate_hz"));
+}
+
 TEST_CASE("rig campaign: a campaign file with unknown keys, wrong types or impossible values is refused with key and line",
           "[rig][campaign]") {
   const std::string head = "[campaign]\nmax_cycles = 1000\n";

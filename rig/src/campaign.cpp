@@ -240,6 +240,7 @@ CampaignSpec parse_campaign(const std::string& text, const std::string& source) 
     c.seconds = r.number("seconds", 10, 0.1, 3600);
     c.sample_rate_hz = r.number("sample_rate_hz", 100000, 1000, 1000000);
     c.channels = r.integer("channels", 2, 1, 2);
+    c.integration_rate_hz = r.number("integration_rate_hz", kDefaultIntegrationRateHz, 50000, 2000000);
     r.reject_unknown();
     if (c.stop_interval_cycles > c.max_cycles) {
       const toml::node* n = campaign->get("stop_interval_cycles");
@@ -405,6 +406,7 @@ RigRunSettings record_run_settings(const CampaignSpec& spec, const PlannedRecord
   run.duration_s = spec.seconds;
   run.sample_rate_hz = spec.sample_rate_hz;
   run.channels = spec.channels;
+  run.min_ode_rate_hz = spec.integration_rate_hz;
   run.seed = seed * 1000003ull + static_cast<std::uint64_t>(plan.index);
   return run;
 }
@@ -476,6 +478,7 @@ std::string truth_json(const CampaignSpec& c, const EffectSet& effects, std::uin
                    {"seconds", c.seconds},
                    {"sample_rate_hz", c.sample_rate_hz},
                    {"channels", c.channels},
+                   {"integration_rate_hz", c.integration_rate_hz},
                    {"wear_law", to_string(c.wear.law)}};
   if (c.wear.law == WearLaw::forms) j["truth_forms"] = truth_forms_json(c);
   j["seed"] = seed;

@@ -47,6 +47,10 @@ struct CampaignSpec {
   double seconds = 10;
   double sample_rate_hz = 100000;
   int channels = 2;
+  /// The rig's integration rate (sub-steps per sample: ceil(this / sample rate)). Its fixed steps
+  /// leave an error pattern drifting at frac(step rate / f_mesh)·f_mesh about the mesh harmonics;
+  /// where those harmonics are strong (fast pairs) a finer rate keeps it out of the residual.
+  double integration_rate_hz = kDefaultIntegrationRateHz;
   WearModelSettings wear;
   double pitting_gain_m_s2 = 0;                ///< sliding-vibration RMS per unit pitting density
   double roughness_gain_m_s2 = 0;              ///< sliding-vibration RMS per unit roughness index

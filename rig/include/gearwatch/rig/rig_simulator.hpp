@@ -30,6 +30,9 @@ struct SlidingVibration {
 /// twin's adaptive integration does not have. Halving the step takes that error down 24 dB.
 inline constexpr double kFineOdeRateHz = 200000;
 
+/// The default integration rate (10 µs steps, `bench_rig`'s speed target).
+inline constexpr double kDefaultIntegrationRateHz = 100000;
+
 struct RigRunSettings {
   double speed_hz = 10.0;           ///< mean input speed
   double torque_nm = 20.0;          ///< motor torque (the brake holds it times the ratio); < 0: the load drives
@@ -37,7 +40,7 @@ struct RigRunSettings {
   double sample_rate_hz = 100000.0;
   int channels = 2;                 ///< 1: casing vertical (y6 side); 2: + horizontal (x6 side)
   double settle_s = 0.05;           ///< simulated, not output, before the first sample
-  double min_ode_rate_hz = 100000;  ///< the integration step is at most 1/this (sub-steps per sample)
+  double min_ode_rate_hz = kDefaultIntegrationRateHz;  ///< the integration step is at most 1/this (sub-steps per sample)
   std::uint64_t seed = 1;           ///< noise and sliding-vibration realisations
   bool keep_diagnostics = false;    ///< fill RigRecord's diagnostic signals
   /// The sensor front-end reads the structure's acceleration this many times per sample and
