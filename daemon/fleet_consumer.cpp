@@ -85,6 +85,10 @@ void FleetConsumer::start_session() {
     mosquitto_username_pw_set(client_, settings_.credentials->username.c_str(), settings_.credentials->password.c_str());
   mosquitto_reconnect_delay_set(client_, 1, 10, true);
   mosquitto_connect_callback_set(client_, [](mosquitto*, void* self, int rc) { static_cast<FleetConsumer*>(self)->on_connect(rc); });
+  mosquitto_disconnect_callback_set(client_, [](mosquitto*, void* self, int rc) {
+    // rc 0: our own disconnect at stop; anything else: lost, libmosquitto reconnects.
+    if (rc != 0) static_cast<FleetConsumer*>(self)->log_->warn("broker", std::string("connection to the broker lost: ") + mosquitto_strerror(rc) + "; reconnecting");
+  });
   mosquitto_message_callback_set(client_, [](mosquitto*, void* self, const mosquitto_message* m) {
     static_cast<FleetConsumer*>(self)->enqueue(
         {m->topic, std::string(static_cast<const char*>(m->payload), static_cast<std::size_t>(m->payloadlen))});
