@@ -345,3 +345,48 @@ TEST_CASE("fleet: bad input is counted, kept in fleet.rejects, logged once per k
   CHECK(occurrences(err, "malformed_json: ") == 1);
   CHECK(occurrences(err, "wrong_schema: alert: missing required field 'severity'") == 1);
 }
+
+TEST_CASE("fleet: model runs and gap summaries land in their tables and in the latest views", "[fleet]") {
+  // The replays above run with the model off (cheap); these payloads follow docs/mqtt/model.schema.json
+  // and gap.schema.json field for field.
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  const pid_t consumer = f.consumer("c");
+  f.wait_ready();
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "ingesting") == 1; }, 10s));
+  std::this_thread::sleep_for(500ms);
+  auto model = [](int message_id, int run, const std::string& k_wear) {
+    return R"({"gearbox":"gbB","site":"plant1","message_id":)" + std::to_string(message_id) +
+           R"(,"topic":"model","record_id":12,"record_time":"2026-11-29T10:00:00.000Z","model_run_id":)" + std::to_string(run) +
+           R"(,"gear_pair":0,"advanced":true,"cycles":1.5e6,"k_wear":)" + k_wear +
+           R"(,"k_pitting":null,"wear_mean_depth_m":1.25e-6,"wear_max_depth_m":3.5e-6,"pitting_mean":0.0125,)"
+           R"("forecast":{"valid":true,"wear":{"limit":2e-5,"cycles_left":4.5e7,"cycles_left_low":3e7,"cycles_left_high":6e7},)"
+           R"("pitting":{"limit":0.04,"cycles_left":null,"cycles_left_low":null,"cycles_left_high":null},"failure":"wear"}})";
+  };
+  const std::string gap = R"({"gearbox":"gbB","site":"plant1","message_id":5,"topic":"gap","record_id":12,)"
+                          R"("record_time":"2026-11-29T10:00:00.000Z","gap_report_id":3,"gear_pair":0,"input_revolutions":1.5e6,)"
+                          R"("significant_families":[{"family":"mesh_harmonics","distance_db":4.25}],"chosen_effects":["mesh_stiffness"],)"
+                          R"("unexplained_families":[]})";
+  auto publish = [&](const std::string& topic, const std::string& payload) {
+    std::ofstream(f.dir / "payload", std::ios::binary) << payload;
+    REQUIRE(run_command("mosquitto_pub -h 127.0.0.1 -p " + std::to_string(f.broker.port()) + " -u " + kUser + " -P " + kPassword +
+                        " -q 1 -t " + topic + " -f " + (f.dir / "payload").string())
+                .status == 0);
+  };
+  publish("gw/plant1/gbB/model", model(3, 1, "1.0000000000000002e-17"));
+  publish("gw/plant1/gbB/model", model(4, 2, "2.5e-17"));
+  publish("gw/plant1/gbB/model", model(4, 2, "2.5e-17"));  // a repeat
+  publish("gw/plant1/gbB/gap", gap);
+  REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 3; }, 30s));
+  CHECK(pg_rows(f.uri, "SELECT model_run_id, k_wear, cycles, wear_max_depth_m, k_pitting FROM fleet.model_states ORDER BY model_run_id") ==
+        Rows{"1|" + num(1.0000000000000002e-17) + "|1500000|" + num(3.5e-6) + "|null", "2|" + num(2.5e-17) + "|1500000|" + num(3.5e-6) + "|null"});
+  CHECK(pg_rows(f.uri, "SELECT gearbox, model_run_id, forecast->'wear'->>'cycles_left', forecast->>'failure' FROM fleet.latest_model") ==
+        Rows{"gbB|2|45000000.0|wear"});  // the forecast as the consumer re-serialised it
+  CHECK(pg_rows(f.uri, "SELECT gearbox, gap_report_id, significant_families->0->>'family', chosen_effects->>0 FROM fleet.latest_gap") ==
+        Rows{"gbB|3|mesh_harmonics|mesh_stiffness"});
+  ::kill(consumer, SIGTERM);
+  REQUIRE(wait_bounded(consumer, 30s) == 0);
+  INFO(f.err("c"));
+  CHECK(f.err("c").find("received 4, stored 3, duplicates 1, statuses 0, rejected 0") != std::string::npos);
+}
