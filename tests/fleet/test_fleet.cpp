@@ -19,6 +19,7 @@
 #include <pqxx/pqxx>
 
 #include "command_runner.hpp"
+#include "fleet_messages.hpp"
 #include "fleet/postgres_server.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "mqtt/mqtt_broker.hpp"
@@ -389,4 +390,58 @@ TEST_CASE("fleet: model runs and gap summaries land in their tables and in the l
   REQUIRE(wait_bounded(consumer, 30s) == 0);
   INFO(f.err("c"));
   CHECK(f.err("c").find("received 4, stored 3, duplicates 1, statuses 0, rejected 0") != std::string::npos);
+}
+
+TEST_CASE("fleet: ingest's command line: help, a malformed broker or gearbox, an unreachable database", "[fleet][cli]") {
+  const std::string bin = GEARWATCH_BINARY;
+  const auto help = run_command(bin + " fleet ingest --help");
+  CHECK(help.status == 0);
+  CHECK(help.out.find("--database") != std::string::npos);
+  const auto scheme = run_command(bin + " fleet ingest --broker tcp://h:1 --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(scheme.status == 64);
+  CHECK(scheme.err == "gearwatch: --broker tcp://h:1: expected mqtt://HOST[:PORT]\n");
+  const auto port = run_command(bin + " fleet ingest --broker mqtt://h:99999 --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(port.status == 64);
+  CHECK(port.err == "gearwatch: --broker mqtt://h:99999: port '99999' is not 1..65535\n");
+  const auto gearbox = run_command(bin + " fleet ingest --broker mqtt://h --database postgresql://x@127.0.0.1:1/fleet --gearbox a/b/c");
+  CHECK(gearbox.status == 64);
+  CHECK(gearbox.err == "gearwatch: --gearbox a/b/c: expected SITE/NAME\n");
+  // Nothing listens on the port: refused at start in one line, before any MQTT session exists.
+  const int closed = free_loopback_port();
+  const auto db = run_command(bin + " fleet ingest --broker mqtt://127.0.0.1:1 --database postgresql://x@127.0.0.1:" + std::to_string(closed) + "/fleet");
+  CHECK(db.status == 1);
+  CHECK(db.err.rfind("gearwatch: fleet database: cannot connect: ", 0) == 0);
+  CHECK(occurrences(db.err, "\n") == 1);
+}
+
+TEST_CASE("fleet: a message's topic, bytes and fields decide what it is", "[fleet][parse]") {
+  using gearwatch::daemon::FleetRejection;
+  using gearwatch::daemon::is_utf8;
+  using gearwatch::storage::fleet::RejectReason;
+  // RFC 3629: overlong forms, UTF-16 surrogates and code points past U+10FFFF are not UTF-8.
+  CHECK(is_utf8("gr\xc3\xbc\xc3\x9f" "e \xe2\x82\xac \xf0\x9f\x94\xa7"));
+  CHECK_FALSE(is_utf8("\xc0\xaf"));          // overlong '/'
+  CHECK_FALSE(is_utf8("\xed\xa0\x80"));      // U+D800
+  CHECK_FALSE(is_utf8("\xf4\x90\x80\x80"));  // U+110000
+  CHECK_FALSE(is_utf8("\xe2\x82"));          // cut short
+  CHECK(gearwatch::daemon::utf8_or_replaced("a\xff" "b\xc3\xbc") == "a?b\xc3\xbc");
+  const gearwatch::daemon::FleetAcceptance accept{"plant/gw", {"s1/g1"}};
+  auto reason = [&](const std::string& topic, const std::string& payload) -> std::optional<RejectReason> {
+    const auto r = gearwatch::daemon::parse_fleet_message(accept, topic, payload);
+    if (const auto* j = std::get_if<FleetRejection>(&r)) return j->reason;
+    return std::nullopt;
+  };
+  const std::string status = R"({"gearbox":"g1","site":"s1","state":"online","version":"0.1.0","schema":11})";
+  CHECK(reason("plant/gw/s1/g1/status", status) == std::nullopt);  // a prefix of two levels
+  CHECK(reason("plant/gw/s1/g1/status/x", status) == RejectReason::unknown_topic);
+  CHECK(reason("gw/s1/g1/status", status) == RejectReason::unknown_topic);
+  CHECK(reason("plant/gw/s1/g2/status", status) == RejectReason::unknown_gearbox);
+  // The payload speaks for another gearbox than its topic's: refused, never stored under either.
+  CHECK(reason("plant/gw/s1/g1/status", R"({"gearbox":"g2","site":"s1","state":"online","version":"0.1.0","schema":11})") ==
+        RejectReason::wrong_schema);
+  CHECK(reason("plant/gw/s1/g1/status", R"({"gearbox":"g1","site":"s1","state":"asleep","version":"0.1.0","schema":11})") ==
+        RejectReason::wrong_schema);
+  CHECK(reason("plant/gw/s1/g1/status", R"({"gearbox":"g1","site":"s1","state":"online","version":"0.1.0","schema":"11"})") ==
+        RejectReason::wrong_schema);
+  CHECK(reason("plant/gw/s1/g1/status", "null") == RejectReason::wrong_schema);
 }
