@@ -445,3 +445,31 @@ TEST_CASE("fleet: a message's topic, bytes and fields decide what it is", "[flee
         RejectReason::wrong_schema);
   CHECK(reason("plant/gw/s1/g1/status", "null") == RejectReason::wrong_schema);
 }
+
+TEST_CASE("fleet: the database stopped under a running consumer: the message is held and stored once it is back", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  const pid_t consumer = f.consumer("c");
+  f.wait_ready();
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "ingesting") == 1; }, 10s));
+  std::this_thread::sleep_for(500ms);
+  f.pg->stop();
+  const std::string alert =
+      R"({"gearbox":"gbA","site":"plant1","message_id":1,"topic":"alert","record_id":null,"record_time":"2026-11-29T10:00:00.000Z",)"
+      R"("transition":"event","severity":"info","kind":"sensor_missing","channel":null,"subject":"","value":"","message":"m"})";
+  std::ofstream(f.dir / "payload", std::ios::binary) << alert;
+  REQUIRE(run_command("mosquitto_pub -h 127.0.0.1 -p " + std::to_string(f.broker.port()) + " -u " + kUser + " -P " + kPassword +
+                      " -q 1 -t gw/plant1/gbA/alert -f " + (f.dir / "payload").string())
+              .status == 0);
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "holding the message and retrying") >= 1; }, 20s));
+  f.pg->start();
+  REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.alert_events") == 1; }, 30s));
+  CHECK(::waitpid(consumer, nullptr, WNOHANG) == 0);
+  ::kill(consumer, SIGTERM);
+  REQUIRE(wait_bounded(consumer, 30s) == 0);
+  const std::string err = f.err("c");
+  INFO(err);
+  CHECK(err.find("received 1, stored 1, duplicates 0, statuses 0, rejected 0, database retries ") != std::string::npos);
+  CHECK(err.find("database retries 0") == std::string::npos);
+}
