@@ -145,35 +145,6 @@ FleetCounters FleetConsumer::counters() const {
   return counters_;
 }
 
-// Drains the queue also after stop(): the session is closed by then, nothing more arrives.
-void FleetConsumer::writer_loop() {
-  for (;;) {
-    Inbound m;
-    {
-      std::unique_lock lock(mutex_);
-      arrived_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
-      if (queue_.empty()) return;
-      m = std::move(queue_.front());
-      queue_.pop_front();
-    }
-    space_.notify_one();
-    handle(m);
-  }
-}
-
-void FleetConsumer::handle(const Inbound& m) {
-  const auto parsed = parse_fleet_message(settings_.accept, m.topic, m.payload);
-  if (const auto* r = std::get_if<FleetRejection>(&parsed)) {
-    store_reject(m, r->reason, utf8_or_replaced(r->detail));
-    return;
-  }
-  try {
-    store_message(std::get<FleetMessage>(parsed));
-  } catch (const fleet::FleetRefusedError& e) {
-    store_reject(m, fleet::RejectReason::database_refused, utf8_or_replaced(e.what()));
-  }
-}
-
 // Runs `write` until it succeeds; a lost database connection is retried with a growing pause
 // (the message is held, never dropped), a refusal is the caller's to handle.
 template <class Write>
@@ -202,24 +173,53 @@ void FleetConsumer::with_database(Write&& write) {
   }
 }
 
-void FleetConsumer::store_message(const FleetMessage& message) {
-  if (const auto* s = std::get_if<fleet::StatusMessage>(&message)) {
-    with_database([&](fleet::FleetStore& store) { store.write(*s); });
-    std::lock_guard lock(mutex_);
-    ++counters_.statuses;
+// Drains the queue also after stop(): the session is closed by then, nothing more arrives. Takes
+// what waits, up to a batch: one transaction for many messages while the consumer is behind, one
+// per message when it keeps up.
+void FleetConsumer::writer_loop() {
+  for (;;) {
+    std::vector<Inbound> batch;
+    {
+      std::unique_lock lock(mutex_);
+      arrived_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (queue_.empty()) return;
+      while (!queue_.empty() && batch.size() < settings_.batch_size) {
+        batch.push_back(std::move(queue_.front()));
+        queue_.pop_front();
+      }
+    }
+    space_.notify_all();
+    handle(batch);
+  }
+}
+
+void FleetConsumer::handle(const std::vector<Inbound>& batch) {
+  std::vector<FleetMessage> messages;
+  std::vector<const Inbound*> sources;
+  for (const auto& m : batch) {
+    auto parsed = parse_fleet_message(settings_.accept, m.topic, m.payload);
+    if (const auto* r = std::get_if<FleetRejection>(&parsed)) {
+      store_reject(m, r->reason, utf8_or_replaced(r->detail));
+      continue;
+    }
+    messages.push_back(std::get<FleetMessage>(std::move(parsed)));
+    sources.push_back(&m);
+  }
+  if (messages.empty()) return;
+  std::vector<fleet::BatchOutcome> outcomes;
+  with_database([&](fleet::FleetStore& store) { outcomes = store.write_batch(messages); });
+  if (outcomes.size() != messages.size()) return;  // given up at stop (logged)
+  for (std::size_t i = 0; i < messages.size(); ++i) count(messages[i], outcomes[i], *sources[i]);
+}
+
+void FleetConsumer::count(const FleetMessage& m, const fleet::BatchOutcome& outcome, const Inbound& source) {
+  if (!outcome.written) {
+    store_reject(source, fleet::RejectReason::database_refused, utf8_or_replaced(outcome.refusal));
     return;
   }
-  fleet::WriteOutcome outcome = fleet::WriteOutcome::stored;
-  with_database([&](fleet::FleetStore& store) {
-    outcome = std::visit(
-        [&](const auto& m) -> fleet::WriteOutcome {
-          if constexpr (std::is_same_v<std::decay_t<decltype(m)>, fleet::StatusMessage>) return fleet::WriteOutcome::stored;
-          else return store.write(m);
-        },
-        message);
-  });
   std::lock_guard lock(mutex_);
-  ++(outcome == fleet::WriteOutcome::stored ? counters_.stored : counters_.duplicates);
+  if (std::holds_alternative<fleet::StatusMessage>(m)) ++counters_.statuses;
+  else ++(*outcome.written == fleet::WriteOutcome::stored ? counters_.stored : counters_.duplicates);
 }
 
 void FleetConsumer::store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail) {

@@ -17,6 +17,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "fleet_messages.hpp"
 #include "mqtt_sender.hpp"
@@ -33,6 +34,7 @@ struct FleetIngestSettings {
   std::string database;  ///< libpq connection string or postgresql:// URI
   FleetAcceptance accept{"gearwatch", {}};
   std::size_t queue_capacity = 10000;  ///< beyond it the network thread waits (the broker holds the rest)
+  std::size_t batch_size = 200;        ///< messages per database transaction, at most (fewer when fewer wait)
   int retry_initial_ms = 200, retry_max_ms = 5000;
 };
 
@@ -66,8 +68,8 @@ class FleetConsumer {
   void start_session();
   void enqueue(Inbound m);
   void writer_loop();
-  void handle(const Inbound& m);
-  void store_message(const FleetMessage& m);
+  void handle(const std::vector<Inbound>& batch);
+  void count(const FleetMessage& m, const fleet::BatchOutcome& outcome, const Inbound& source);
   void store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail);
   template <class Write>
   void with_database(Write&& write);

@@ -14,8 +14,7 @@ namespace gearwatch::daemon {
 
 namespace fleet = storage::fleet;
 
-using FleetMessage = std::variant<fleet::RecordMessage, fleet::WearMessage, fleet::AlertMessage, fleet::ModelMessage,
-                                  fleet::GapMessage, fleet::HealthMessage, fleet::StatusMessage>;
+using FleetMessage = fleet::Message;
 
 struct FleetRejection {
   fleet::RejectReason reason;

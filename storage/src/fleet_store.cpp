@@ -287,7 +287,7 @@ int FleetStore::migrate() {
 
 namespace {
 
-std::int64_t upsert_gearbox(pqxx::work& w, const std::string& site, const std::string& gearbox) {
+std::int64_t upsert_gearbox(pqxx::transaction_base& w, const std::string& site, const std::string& gearbox) {
   return w
       .exec_params1("INSERT INTO fleet.gearboxes (site, name) VALUES ($1, $2) "
                     "ON CONFLICT (site, name) DO UPDATE SET last_seen = now() RETURNING id",
@@ -296,7 +296,7 @@ std::int64_t upsert_gearbox(pqxx::work& w, const std::string& site, const std::s
 }
 
 // The ledger: true when (gearbox, message_id) is new, i.e. this message is not a repeat.
-bool first_arrival(pqxx::work& w, std::int64_t gearbox, const MessageHeader& h, const char* topic) {
+bool first_arrival(pqxx::transaction_base& w, std::int64_t gearbox, const MessageHeader& h, const char* topic) {
   const auto r = w.exec_params(
       "INSERT INTO fleet.messages (gearbox_id, message_id, topic, record_id, record_time) VALUES ($1, $2, $3, $4, $5) "
       "ON CONFLICT DO NOTHING",
@@ -304,7 +304,7 @@ bool first_arrival(pqxx::work& w, std::int64_t gearbox, const MessageHeader& h, 
   return r.affected_rows() == 1;
 }
 
-void insert_record(pqxx::work& w, std::int64_t g, const RecordMessage& m) {
+void insert_record(pqxx::transaction_base& w, std::int64_t g, const RecordMessage& m) {
   w.exec_params(
       "INSERT INTO fleet.records (gearbox_id, record_id, message_id, record_time, stream_sequence, start_index, duration_s, "
       "analysed, reject_reason, speed_hz, torque_nm, input_revolutions) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12) "
@@ -324,7 +324,7 @@ void insert_record(pqxx::work& w, std::int64_t g, const RecordMessage& m) {
         g, *m.header.record_id, k.channel, k.name, k.reason, k.detail);
 }
 
-void insert_wear(pqxx::work& w, std::int64_t g, const WearMessage& m) {
+void insert_wear(pqxx::transaction_base& w, std::int64_t g, const WearMessage& m) {
   for (const auto& v : m.verdicts)
     w.exec_params(
         "INSERT INTO fleet.wear_verdicts (gearbox_id, message_id, record_id, channel, mechanism, points, low_band_p, high_band_p, "
@@ -334,7 +334,7 @@ void insert_wear(pqxx::work& w, std::int64_t g, const WearMessage& m) {
 }
 
 // The state follows the newest transition by message id, so a late repeat cannot undo a newer one.
-void update_alert_state(pqxx::work& w, std::int64_t g, const AlertMessage& m) {
+void update_alert_state(pqxx::transaction_base& w, std::int64_t g, const AlertMessage& m) {
   if (m.transition == AlertTransition::event) return;
   w.exec_params(
       "INSERT INTO fleet.alert_state AS s (gearbox_id, kind, channel, subject, active, severity, value, message, since, "
@@ -347,7 +347,7 @@ void update_alert_state(pqxx::work& w, std::int64_t g, const AlertMessage& m) {
       m.header.record_time, m.header.message_id);
 }
 
-void insert_alert(pqxx::work& w, std::int64_t g, const AlertMessage& m) {
+void insert_alert(pqxx::transaction_base& w, std::int64_t g, const AlertMessage& m) {
   w.exec_params(
       "INSERT INTO fleet.alert_events (gearbox_id, message_id, record_id, record_time, transition, severity, kind, channel, "
       "subject, value, message) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11) ON CONFLICT DO NOTHING",
@@ -356,7 +356,7 @@ void insert_alert(pqxx::work& w, std::int64_t g, const AlertMessage& m) {
   update_alert_state(w, g, m);
 }
 
-void insert_model(pqxx::work& w, std::int64_t g, const ModelMessage& m) {
+void insert_model(pqxx::transaction_base& w, std::int64_t g, const ModelMessage& m) {
   w.exec_params(
       "INSERT INTO fleet.model_states (gearbox_id, model_run_id, message_id, record_id, record_time, gear_pair, advanced, cycles, "
       "k_wear, k_pitting, wear_mean_depth_m, wear_max_depth_m, pitting_mean, forecast) "
@@ -366,7 +366,7 @@ void insert_model(pqxx::work& w, std::int64_t g, const ModelMessage& m) {
       number(m.wear_max_depth_m).param(), number(m.pitting_mean).param(), m.forecast_json);
 }
 
-void insert_gap(pqxx::work& w, std::int64_t g, const GapMessage& m) {
+void insert_gap(pqxx::transaction_base& w, std::int64_t g, const GapMessage& m) {
   w.exec_params(
       "INSERT INTO fleet.gap_summaries (gearbox_id, gap_report_id, message_id, record_id, record_time, gear_pair, "
       "input_revolutions, significant_families, chosen_effects, unexplained_families) "
@@ -385,7 +385,7 @@ std::string counters_json(const std::map<std::string, std::int64_t>& counters) {
   return out + "}";
 }
 
-void insert_health(pqxx::work& w, std::int64_t g, const HealthMessage& m) {
+void insert_health(pqxx::transaction_base& w, std::int64_t g, const HealthMessage& m) {
   w.exec_params(
       "INSERT INTO fleet.health_snapshots (gearbox_id, message_id, record_time, final, counters) VALUES ($1, $2, $3, $4, $5::jsonb) "
       "ON CONFLICT DO NOTHING",
@@ -394,45 +394,71 @@ void insert_health(pqxx::work& w, std::int64_t g, const HealthMessage& m) {
 
 }  // namespace
 
-template <class Body>
-WriteOutcome FleetStore::write_message(const MessageHeader& h, const char* topic, Body&& body) {
-  return translated([&] {
-    pqxx::work w(conn_->c);
-    const std::int64_t g = upsert_gearbox(w, h.site, h.gearbox);
-    if (!first_arrival(w, g, h, topic)) return WriteOutcome::duplicate;  // the transaction rolls back: nothing changes
-    body(w, g);
-    w.commit();
-    return WriteOutcome::stored;
-  });
+namespace {
+
+const char* topic_of(const Message& m) {
+  static constexpr const char* kTopics[] = {"record", "wear", "alert", "model", "gap", "health", "status"};
+  return kTopics[m.index()];
 }
 
-WriteOutcome FleetStore::write(const RecordMessage& m) {
-  return write_message(m.header, "record", [&](pqxx::work& w, std::int64_t g) { insert_record(w, g, m); });
-}
-WriteOutcome FleetStore::write(const WearMessage& m) {
-  return write_message(m.header, "wear", [&](pqxx::work& w, std::int64_t g) { insert_wear(w, g, m); });
-}
-WriteOutcome FleetStore::write(const AlertMessage& m) {
-  return write_message(m.header, "alert", [&](pqxx::work& w, std::int64_t g) { insert_alert(w, g, m); });
-}
-WriteOutcome FleetStore::write(const ModelMessage& m) {
-  return write_message(m.header, "model", [&](pqxx::work& w, std::int64_t g) { insert_model(w, g, m); });
-}
-WriteOutcome FleetStore::write(const GapMessage& m) {
-  return write_message(m.header, "gap", [&](pqxx::work& w, std::int64_t g) { insert_gap(w, g, m); });
-}
-WriteOutcome FleetStore::write(const HealthMessage& m) {
-  return write_message(m.header, "health", [&](pqxx::work& w, std::int64_t g) { insert_health(w, g, m); });
-}
-
-void FleetStore::write(const StatusMessage& m) {
-  translated([&] {
-    pqxx::work w(conn_->c);
-    const std::int64_t g = upsert_gearbox(w, m.site, m.gearbox);
+// One message inside the caller's transaction; false when it is a repeat (the caller rolls back
+// its savepoint, so the gearbox's last_seen and the ledger stay as they were).
+bool write_one(pqxx::transaction_base& w, const Message& message) {
+  if (const auto* s = std::get_if<StatusMessage>(&message)) {
+    const std::int64_t g = upsert_gearbox(w, s->site, s->gearbox);
     w.exec_params("UPDATE fleet.gearboxes SET state = $2, version = $3, schema_version = $4, status_at = now() WHERE id = $1", g,
-                  m.state, m.version, m.schema);
+                  s->state, s->version, s->schema);
+    return true;
+  }
+  return std::visit(
+      [&](const auto& m) -> bool {
+        using T = std::decay_t<decltype(m)>;
+        if constexpr (std::is_same_v<T, StatusMessage>) {
+          return true;
+        } else {
+          const std::int64_t g = upsert_gearbox(w, m.header.site, m.header.gearbox);
+          if (!first_arrival(w, g, m.header, topic_of(message))) return false;
+          if constexpr (std::is_same_v<T, RecordMessage>) insert_record(w, g, m);
+          if constexpr (std::is_same_v<T, WearMessage>) insert_wear(w, g, m);
+          if constexpr (std::is_same_v<T, AlertMessage>) insert_alert(w, g, m);
+          if constexpr (std::is_same_v<T, ModelMessage>) insert_model(w, g, m);
+          if constexpr (std::is_same_v<T, GapMessage>) insert_gap(w, g, m);
+          if constexpr (std::is_same_v<T, HealthMessage>) insert_health(w, g, m);
+          return true;
+        }
+      },
+      message);
+}
+
+std::string one_line(std::string what) {
+  while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
+  for (char& c : what)
+    if (c == '\n') c = ' ';
+  return what;
+}
+
+}  // namespace
+
+std::vector<BatchOutcome> FleetStore::write_batch(const std::vector<Message>& messages) {
+  return translated([&] {
+    std::vector<BatchOutcome> out(messages.size());
+    pqxx::work w(conn_->c);
+    for (std::size_t i = 0; i < messages.size(); ++i) {
+      try {
+        pqxx::subtransaction one(w, "message");
+        const bool first = write_one(one, messages[i]);
+        if (first) one.commit();  // a repeat: the savepoint is rolled back as `one` goes
+        out[i].written = first ? WriteOutcome::stored : WriteOutcome::duplicate;
+      } catch (const pqxx::broken_connection&) {
+        throw;
+      } catch (const pqxx::in_doubt_error&) {
+        throw;
+      } catch (const pqxx::sql_error& e) {
+        out[i].refusal = one_line(e.what());
+      }
+    }
     w.commit();
-    return 0;
+    return out;
   });
 }
 

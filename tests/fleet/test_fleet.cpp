@@ -221,8 +221,14 @@ TEST_CASE("fleet: two gearboxes' replays land in PostgreSQL exactly as in their 
   const long long total = f.outbox_rows("gbA") + f.outbox_rows("gbB");
   const auto t0 = std::chrono::steady_clock::now();
   const pid_t second = f.consumer("c2");
-  REQUIRE(wait_until([&] { return f.fleet_messages("gbA") + f.fleet_messages("gbB") == total; }, 60s));
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::optional<std::chrono::steady_clock::time_point> ready;
+  REQUIRE(wait_until([&] {
+    if (!ready && occurrences(read_all(f.dir / "err-c2"), "ingesting") == 1) ready = std::chrono::steady_clock::now();
+    return f.fleet_messages("gbA") + f.fleet_messages("gbB") == total;
+  }, 60s));
+  const auto t1 = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(t1 - t0).count();
+  if (ready) std::cout << "fleet figure: consumer ready (schema checked) after " << std::chrono::duration<double>(*ready - t0).count() << " s" << std::endl;
   std::cout << "fleet figure: " << total << " messages of 2 gearboxes ingested from the broker's backlog in " << seconds << " s ("
             << total / seconds << " messages/s, consumer start included)" << std::endl;
   ::kill(second, SIGTERM);
@@ -379,7 +385,14 @@ TEST_CASE("fleet: model runs and gap summaries land in their tables and in the l
   publish("gw/plant1/gbB/model", model(4, 2, "2.5e-17"));
   publish("gw/plant1/gbB/model", model(4, 2, "2.5e-17"));  // a repeat
   publish("gw/plant1/gbB/gap", gap);
-  REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 3; }, 30s));
+  // Well-formed JSON of the right shape, but a time PostgreSQL cannot read: refused by the database
+  // alone (its savepoint), kept in the rejects; the messages around it are stored.
+  std::string bad_time = model(6, 3, "3e-17");
+  bad_time.replace(bad_time.find("2026-11-29T10:00:00.000Z"), 24, "the 32nd of Nevember");
+  publish("gw/plant1/gbB/model", bad_time);
+  REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 3 &&
+                                  pg_count(f.uri, "SELECT count(*) FROM fleet.rejects WHERE reason = 'database_refused'") == 1; },
+                     30s));
   CHECK(pg_rows(f.uri, "SELECT model_run_id, k_wear, cycles, wear_max_depth_m, k_pitting FROM fleet.model_states ORDER BY model_run_id") ==
         Rows{"1|" + num(1.0000000000000002e-17) + "|1500000|" + num(3.5e-6) + "|null", "2|" + num(2.5e-17) + "|1500000|" + num(3.5e-6) + "|null"});
   CHECK(pg_rows(f.uri, "SELECT gearbox, model_run_id, forecast->'wear'->>'cycles_left', forecast->>'failure' FROM fleet.latest_model") ==
@@ -389,7 +402,7 @@ TEST_CASE("fleet: model runs and gap summaries land in their tables and in the l
   ::kill(consumer, SIGTERM);
   REQUIRE(wait_bounded(consumer, 30s) == 0);
   INFO(f.err("c"));
-  CHECK(f.err("c").find("received 4, stored 3, duplicates 1, statuses 0, rejected 0") != std::string::npos);
+  CHECK(f.err("c").find("received 5, stored 3, duplicates 1, statuses 0, rejected 1 (database_refused 1)") != std::string::npos);
 }
 
 TEST_CASE("fleet: ingest's command line: help, a malformed broker or gearbox, an unreachable database", "[fleet][cli]") {

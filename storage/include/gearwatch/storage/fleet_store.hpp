@@ -13,6 +13,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace gearwatch::storage::fleet {
@@ -115,6 +116,15 @@ struct Reject {
 /// Outcome of writing one data message.
 enum class WriteOutcome : std::uint8_t { stored, duplicate };
 
+/// Any message the store takes as data.
+using Message = std::variant<RecordMessage, WearMessage, AlertMessage, ModelMessage, GapMessage, HealthMessage, StatusMessage>;
+
+/// One message's fate in a batch: stored, a repeat, or refused by the database (with its reason).
+struct BatchOutcome {
+  std::optional<WriteOutcome> written;  ///< empty: refused
+  std::string refusal;                   ///< one line, when refused
+};
+
 /// The database is unreachable or the connection broke: the caller keeps the message and retries.
 struct FleetConnectionError : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -124,7 +134,7 @@ struct FleetRefusedError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// One connection to the fleet database, owned by one thread. Every write is its own transaction.
+/// One connection to the fleet database, owned by one thread. Each call is one transaction.
 class FleetStore {
  public:
   /// Connects (a libpq connection string or postgresql:// URI). Throws FleetConnectionError.
@@ -137,19 +147,15 @@ class FleetStore {
   /// lock so two consumers starting together do not both migrate. Returns the version found.
   int migrate();
 
-  WriteOutcome write(const RecordMessage& m);
-  WriteOutcome write(const WearMessage& m);
-  WriteOutcome write(const AlertMessage& m);
-  WriteOutcome write(const ModelMessage& m);
-  WriteOutcome write(const GapMessage& m);
-  WriteOutcome write(const HealthMessage& m);
-  /// The retained status: the gearbox's row says online/offline, version and schema.
-  void write(const StatusMessage& m);
+  /// Several messages in one transaction (one commit, one WAL flush), each inside its own
+  /// savepoint: a message the database refuses is rolled back alone and reported, the others
+  /// commit. Throws FleetConnectionError (nothing committed: retry the whole batch; the ledger
+  /// makes a retry of an in-doubt commit harmless).
+  std::vector<BatchOutcome> write_batch(const std::vector<Message>& messages);
+  /// A message not stored as data, with its bytes and reason (its own transaction).
   void write(const Reject& r);
 
  private:
-  template <class Body>
-  WriteOutcome write_message(const MessageHeader& h, const char* topic, Body&& body);
 
   std::string connection_string_;
   struct Connection;  ///< the libpqxx connection (storage/src/fleet_store.cpp)
