@@ -41,5 +41,7 @@ void add_bench_prognosis_command(CLI::App& app);
 /// `bench` and all its subcommands.
 void register_bench(CLI::App& app);
 void register_commission(CLI::App& app);
+/// `fleet ingest`: the fleet consumer, MQTT into PostgreSQL (cmd_fleet.cpp, docs/fleet.md).
+void register_fleet(CLI::App& app);
 
 }  // namespace gearwatch::cli

@@ -9,13 +9,14 @@
 #                                  scipy and h5py for the import test's independent .mat writers;
 #                                  headless chromium and a font for the report's browser test;
 #                                  the MQTT tests' broker: mosquitto (mosquitto_passwd);
+#                                  the fleet tests' database server: postgresql (initdb, pg_ctl);
 #                                  the systemd VM's root: debootstrap, and the .deb it installs;
 #                                  the fuzzers: clang-14, libFuzzer and its sanitizer runtimes)
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config git ca-certificates
           libeigen3-dev libboost-dev libfftw3-dev libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev
           libsystemd-dev libsndfile1-dev libmatio-dev libcli11-dev libtomlplusplus-dev nlohmann-json3-dev catch2
-          libmosquitto-dev)
+          libmosquitto-dev libpqxx-dev)
 package_tools=(dpkg-dev file)
 # What configuring the tests needs (tests/CMakeLists.txt looks for python3 with numpy); the rest of
 # --test is only needed when the tests run, so tools/test.sh installs it while the build runs.
@@ -23,7 +24,7 @@ test_configure=(python3 python3-numpy)
 [ "${1:-}" = "--package" ] && packages+=("${package_tools[@]}")
 [ "${1:-}" = "--test-build" ] && packages+=("${test_configure[@]}")
 [ "${1:-}" = "--test" ] && packages+=("${test_configure[@]}" can-utils qemu-system-x86 busybox-static cpio xz-utils python3-scipy python3-h5py
-                                      chromium fonts-dejavu-core mosquitto mosquitto-clients
+                                      chromium fonts-dejavu-core mosquitto mosquitto-clients postgresql
                                       debootstrap "${package_tools[@]}" clang-14 libfuzzer-14-dev libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do

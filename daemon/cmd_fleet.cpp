@@ -1,0 +1,125 @@
+// `gearwatch fleet ingest --broker mqtt://HOST[:PORT] --database postgresql://… [--prefix P]
+//  [--client-id ID] [--password-file F] [--gearbox SITE/NAME]... [--log-level L]` (docs/fleet.md).
+#include <pthread.h>
+#include <signal.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "commands.hpp"
+#include "fleet_consumer.hpp"
+#include "logging.hpp"
+
+namespace gearwatch::cli {
+
+namespace {
+
+struct BrokerAddress {
+  std::string host;
+  int port = 1883;
+};
+
+// mqtt://host[:port]; TLS (mqtts://) is not offered by the consumer yet.
+BrokerAddress parse_broker(const std::string& url) {
+  const std::string scheme = "mqtt://";
+  if (url.rfind(scheme, 0) != 0) throw CommandError("--broker " + url + ": expected mqtt://HOST[:PORT]", 64);
+  std::string rest = url.substr(scheme.size());
+  if (!rest.empty() && rest.back() == '/') rest.pop_back();
+  BrokerAddress a;
+  const auto colon = rest.rfind(':');
+  a.host = rest.substr(0, colon);
+  if (colon != std::string::npos) {
+    const std::string port = rest.substr(colon + 1);
+    try {
+      std::size_t used = 0;
+      a.port = std::stoi(port, &used);
+      if (used != port.size() || a.port < 1 || a.port > 65535) throw std::out_of_range(port);
+    } catch (const std::exception&) {
+      throw CommandError("--broker " + url + ": port '" + port + "' is not 1..65535", 64);
+    }
+  }
+  if (a.host.empty() || a.host.find('/') != std::string::npos) throw CommandError("--broker " + url + ": expected mqtt://HOST[:PORT]", 64);
+  return a;
+}
+
+// Blocked before any thread starts, so every thread inherits the mask and only sigwait sees them.
+sigset_t stop_signals() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  return set;
+}
+
+int wait_for_stop_signal(const sigset_t& set) {
+  int signal = 0;
+  sigwait(&set, &signal);
+  return signal;
+}
+
+}  // namespace
+
+void register_fleet(CLI::App& app) {
+  struct Options {
+    std::string broker, database, prefix = "gearwatch", client_id = "gearwatch-fleet", password_file, log_level = "info";
+    std::vector<std::string> gearboxes;
+  };
+  auto opt = std::make_shared<Options>();
+  auto* fleet_cmd = app.add_subcommand("fleet", "The plant's view: every gearbox's published messages in PostgreSQL");
+  fleet_cmd->require_subcommand(1);
+  auto* cmd = fleet_cmd->add_subcommand("ingest", "Subscribe to every gearbox under the MQTT prefix and store into PostgreSQL, until SIGINT or SIGTERM");
+  cmd->add_option("--broker", opt->broker, "MQTT broker: mqtt://HOST[:PORT] (port 1883 by default)")->required();
+  cmd->add_option("--database", opt->database, "PostgreSQL: a postgresql:// URI or a libpq connection string")->required();
+  cmd->add_option("--prefix", opt->prefix, "Topic prefix the gearboxes publish under (mqtt.prefix)")->capture_default_str();
+  cmd->add_option("--client-id", opt->client_id,
+                  "MQTT client id of the persistent session: keep it, so a restarted consumer gets what arrived while it was away")->capture_default_str();
+  cmd->add_option("--password-file", opt->password_file,
+                  "File whose first line is username:password (a relative name is read from $CREDENTIALS_DIRECTORY)");
+  cmd->add_option("--gearbox", opt->gearboxes, "Accept only these gearboxes, SITE/NAME (repeatable); without it, every gearbox");
+  cmd->add_option("--log-level", opt->log_level, "spdlog level: trace, debug, info, warn, error")->capture_default_str()
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
+  cmd->callback([opt] {
+    logging::setup(logging::running_under_journald() ? logging::Sink::journald : logging::Sink::stderr_only, opt->log_level);
+    daemon::FleetIngestSettings s;
+    const auto broker = parse_broker(opt->broker);
+    s.host = broker.host;
+    s.port = broker.port;
+    s.database = opt->database;
+    s.client_id = opt->client_id;
+    s.accept.prefix = opt->prefix;
+    for (const auto& g : opt->gearboxes) {
+      const auto slash = g.find('/');
+      if (slash == std::string::npos || slash == 0 || slash + 1 == g.size() || g.find('/', slash + 1) != std::string::npos)
+        throw CommandError("--gearbox " + g + ": expected SITE/NAME", 64);
+      s.accept.gearboxes.insert(g);
+    }
+    if (!opt->password_file.empty()) {
+      try {
+        s.credentials = daemon::read_mqtt_credentials(opt->password_file);
+      } catch (const std::exception& e) {
+        throw CommandError(e.what());
+      }
+    }
+    const sigset_t signals = stop_signals();
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+    daemon::FleetConsumer consumer(s);
+    try {
+      consumer.start();
+    } catch (const storage::fleet::FleetConnectionError& e) {
+      throw CommandError(e.what());
+    } catch (const storage::fleet::FleetRefusedError& e) {
+      throw CommandError(std::string("fleet database: ") + e.what());
+    }
+    spdlog::info("fleet: ingesting {}/# from {}:{} into the fleet database (schema version {})", s.accept.prefix, s.host, s.port,
+                 storage::fleet::current_fleet_schema_version());
+    const int signal = wait_for_stop_signal(signals);
+    spdlog::info("fleet: {} received, stopping", signal == SIGINT ? "SIGINT" : "SIGTERM");
+    consumer.stop();
+    spdlog::info("fleet: {}", daemon::to_string(consumer.counters()));
+  });
+}
+
+}  // namespace gearwatch::cli

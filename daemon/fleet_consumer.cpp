@@ -1,0 +1,244 @@
+// The fleet consumer: MQTT session, queue, writer thread (docs/fleet.md).
+#include "fleet_consumer.hpp"
+
+#include <mosquitto.h>
+
+#include <chrono>
+#include <mutex>
+
+#include <spdlog/spdlog.h>
+
+#include "gearwatch/acquisition/socketcan.hpp"
+
+namespace gearwatch::daemon {
+
+namespace acq = gearwatch::acquisition;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+void init_mosquitto_once() {
+  static std::once_flag once;
+  std::call_once(once, [] { mosquitto_lib_init(); });
+}
+
+}  // namespace
+
+// One log line per kind of trouble and interval, with the count of those held back.
+class FleetConsumer::LogLimiter {
+ public:
+  void warn(const std::string& kind, const std::string& line) {
+    std::lock_guard lock(mutex_);
+    auto it = limiters_.find(kind);
+    if (it == limiters_.end()) it = limiters_.emplace(kind, acq::LogRateLimiter(std::chrono::seconds(10))).first;
+    std::uint64_t suppressed = 0;
+    if (!it->second.allow(Clock::now(), suppressed)) return;
+    if (suppressed) spdlog::warn("fleet: {} ({} more like it since the last report)", line, suppressed);
+    else spdlog::warn("fleet: {}", line);
+  }
+
+ private:
+  std::mutex mutex_;
+  std::map<std::string, acq::LogRateLimiter> limiters_;
+};
+
+std::uint64_t FleetCounters::rejected_total() const {
+  std::uint64_t n = 0;
+  for (const auto& [reason, count] : rejected) n += count;
+  return n;
+}
+
+std::string to_string(const FleetCounters& c) {
+  std::string reasons;
+  for (const auto& [reason, count] : c.rejected)
+    if (count) reasons += std::string(reasons.empty() ? "" : ", ") + fleet::to_string(reason) + " " + std::to_string(count);
+  return "received " + std::to_string(c.received) + ", stored " + std::to_string(c.stored) + ", duplicates " +
+         std::to_string(c.duplicates) + ", statuses " + std::to_string(c.statuses) + ", rejected " +
+         std::to_string(c.rejected_total()) + (reasons.empty() ? "" : " (" + reasons + ")") + ", database retries " +
+         std::to_string(c.database_retries) + ", broker connections " + std::to_string(c.connects);
+}
+
+FleetConsumer::FleetConsumer(FleetIngestSettings settings) : settings_(std::move(settings)), log_(std::make_unique<LogLimiter>()) {}
+
+FleetConsumer::~FleetConsumer() { stop(); }
+
+void FleetConsumer::start() {
+  connect_store();
+  const int found = store_->migrate();
+  if (found != fleet::current_fleet_schema_version())
+    spdlog::info("fleet: database schema {} -> {}", found, fleet::current_fleet_schema_version());
+  started_ = true;
+  writer_ = std::thread([this] { writer_loop(); });
+  start_session();
+}
+
+void FleetConsumer::connect_store() { store_ = std::make_unique<fleet::FleetStore>(settings_.database); }
+
+// clean_session false and a fixed client id: the broker keeps this consumer's subscription and
+// queues its QoS 1 messages while it is away; libmosquitto's thread reconnects on its own.
+void FleetConsumer::start_session() {
+  init_mosquitto_once();
+  client_ = mosquitto_new(settings_.client_id.c_str(), false, this);
+  if (!client_) throw std::runtime_error("fleet: cannot create the MQTT client");
+  if (settings_.credentials)
+    mosquitto_username_pw_set(client_, settings_.credentials->username.c_str(), settings_.credentials->password.c_str());
+  mosquitto_reconnect_delay_set(client_, 1, 10, true);
+  mosquitto_connect_callback_set(client_, [](mosquitto*, void* self, int rc) { static_cast<FleetConsumer*>(self)->on_connect(rc); });
+  mosquitto_disconnect_callback_set(client_, [](mosquitto*, void* self, int rc) {
+    // rc 0: our own disconnect at stop; anything else: lost, libmosquitto reconnects.
+    if (rc != 0) static_cast<FleetConsumer*>(self)->log_->warn("broker", std::string("connection to the broker lost: ") + mosquitto_strerror(rc) + "; reconnecting");
+  });
+  mosquitto_message_callback_set(client_, [](mosquitto*, void* self, const mosquitto_message* m) {
+    static_cast<FleetConsumer*>(self)->enqueue(
+        {m->topic, std::string(static_cast<const char*>(m->payload), static_cast<std::size_t>(m->payloadlen))});
+  });
+  const int rc = mosquitto_connect_async(client_, settings_.host.c_str(), settings_.port, 30);
+  if (rc != MOSQ_ERR_SUCCESS)
+    log_->warn("broker", "broker " + settings_.host + ":" + std::to_string(settings_.port) + " unreachable: " + mosquitto_strerror(rc) +
+                             "; retrying");
+  mosquitto_loop_start(client_);
+}
+
+void FleetConsumer::on_connect(int rc) {
+  if (rc != 0) {
+    log_->warn("refused", std::string("the broker refused the session: ") + mosquitto_connack_string(rc));
+    return;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    ++counters_.connects;
+  }
+  // Subscribing again on a resumed session is harmless; under the prefix, everything (unknown
+  // topics too, so they are counted and kept rather than never seen).
+  const std::string filter = settings_.accept.prefix + "/#";
+  mosquitto_subscribe(client_, nullptr, filter.c_str(), 1);
+}
+
+void FleetConsumer::enqueue(Inbound m) {
+  std::unique_lock lock(mutex_);
+  // Back-pressure: the network thread waits, so the broker holds what the database cannot take yet.
+  space_.wait(lock, [&] { return queue_.size() < settings_.queue_capacity || stopping_; });
+  ++counters_.received;
+  queue_.push_back(std::move(m));
+  arrived_.notify_one();
+}
+
+void FleetConsumer::stop() {
+  if (client_) {
+    mosquitto_disconnect(client_);
+    mosquitto_loop_stop(client_, false);
+    mosquitto_destroy(client_);
+    client_ = nullptr;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  arrived_.notify_all();
+  space_.notify_all();
+  if (writer_.joinable()) writer_.join();
+}
+
+FleetCounters FleetConsumer::counters() const {
+  std::lock_guard lock(mutex_);
+  return counters_;
+}
+
+// Runs `write` until it succeeds; a lost database connection is retried with a growing pause
+// (the message is held, never dropped), a refusal is the caller's to handle.
+template <class Write>
+void FleetConsumer::with_database(Write&& write) {
+  int pause_ms = settings_.retry_initial_ms;
+  const auto first_try = Clock::now();
+  for (;;) {
+    try {
+      if (!store_) connect_store();
+      write(*store_);
+      return;
+    } catch (const fleet::FleetConnectionError& e) {
+      store_.reset();
+      {
+        std::lock_guard lock(mutex_);
+        ++counters_.database_retries;
+      }
+      log_->warn("database", std::string(e.what()) + "; holding the message and retrying");
+      if (stop_requested() && Clock::now() - first_try > std::chrono::seconds(30)) {
+        spdlog::error("fleet: stopping with the database unreachable: a message received was not stored");
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(pause_ms));
+      pause_ms = std::min(pause_ms * 2, settings_.retry_max_ms);
+    }
+  }
+}
+
+// Drains the queue also after stop(): the session is closed by then, nothing more arrives. Takes
+// what waits, up to a batch: one transaction for many messages while the consumer is behind, one
+// per message when it keeps up.
+void FleetConsumer::writer_loop() {
+  for (;;) {
+    std::vector<Inbound> batch;
+    {
+      std::unique_lock lock(mutex_);
+      arrived_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (queue_.empty()) return;
+      while (!queue_.empty() && batch.size() < settings_.batch_size) {
+        batch.push_back(std::move(queue_.front()));
+        queue_.pop_front();
+      }
+    }
+    space_.notify_all();
+    handle(batch);
+  }
+}
+
+void FleetConsumer::handle(const std::vector<Inbound>& batch) {
+  std::vector<FleetMessage> messages;
+  std::vector<const Inbound*> sources;
+  for (const auto& m : batch) {
+    auto parsed = parse_fleet_message(settings_.accept, m.topic, m.payload);
+    if (const auto* r = std::get_if<FleetRejection>(&parsed)) {
+      store_reject(m, r->reason, utf8_or_replaced(r->detail));
+      continue;
+    }
+    messages.push_back(std::get<FleetMessage>(std::move(parsed)));
+    sources.push_back(&m);
+  }
+  if (messages.empty()) return;
+  std::vector<fleet::BatchOutcome> outcomes;
+  with_database([&](fleet::FleetStore& store) { outcomes = store.write_batch(messages); });
+  if (outcomes.size() != messages.size()) return;  // given up at stop (logged)
+  for (std::size_t i = 0; i < messages.size(); ++i) count(messages[i], outcomes[i], *sources[i]);
+}
+
+void FleetConsumer::count(const FleetMessage& m, const fleet::BatchOutcome& outcome, const Inbound& source) {
+  if (!outcome.written) {
+    store_reject(source, fleet::RejectReason::database_refused, utf8_or_replaced(outcome.refusal));
+    return;
+  }
+  std::lock_guard lock(mutex_);
+  if (std::holds_alternative<fleet::StatusMessage>(m)) ++counters_.statuses;
+  else ++(*outcome.written == fleet::WriteOutcome::stored ? counters_.stored : counters_.duplicates);
+}
+
+void FleetConsumer::store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail) {
+  {
+    std::lock_guard lock(mutex_);
+    ++counters_.rejected[reason];
+  }
+  log_->warn(fleet::to_string(reason), std::string("rejected a message on ") + utf8_or_replaced(m.topic) + ": " +
+                                            fleet::to_string(reason) + ": " + detail + " (kept in fleet.rejects)");
+  try {
+    with_database([&](fleet::FleetStore& store) { store.write(fleet::Reject{m.topic, m.payload, reason, detail}); });
+  } catch (const fleet::FleetRefusedError& e) {
+    spdlog::error("fleet: the database refused a reject: {}", e.what());
+  }
+}
+
+bool FleetConsumer::stop_requested() const {
+  std::lock_guard lock(mutex_);
+  return stopping_;
+}
+
+}  // namespace gearwatch::daemon

@@ -1,0 +1,93 @@
+#pragma once
+// The fleet consumer (docs/fleet.md): a persistent MQTT session (clean_session false, a fixed
+// client id, QoS 1) on every gearbox under the prefix, and one thread that writes what arrives into
+// the fleet store. The class owns its queue: libmosquitto's network thread pushes, the writer
+// thread pops, parses and writes; bad input is counted, logged (rate-limited) and kept in
+// fleet.rejects; the database going away holds the message and retries.
+//
+// Stop: the session is closed first (the broker keeps what arrives later for this client id),
+// then the writer drains the queue, so what was acknowledged to the broker is in the database.
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "fleet_messages.hpp"
+#include "mqtt_sender.hpp"
+
+struct mosquitto;
+
+namespace gearwatch::daemon {
+
+struct FleetIngestSettings {
+  std::string host = "127.0.0.1";
+  int port = 1883;
+  std::string client_id = "gearwatch-fleet";
+  std::optional<MqttCredentials> credentials;
+  std::string database;  ///< libpq connection string or postgresql:// URI
+  FleetAcceptance accept{"gearwatch", {}};
+  std::size_t queue_capacity = 10000;  ///< beyond it the network thread waits (the broker holds the rest)
+  std::size_t batch_size = 200;        ///< messages per database transaction, at most (fewer when fewer wait)
+  int retry_initial_ms = 200, retry_max_ms = 5000;
+};
+
+struct FleetCounters {
+  std::uint64_t received = 0, stored = 0, duplicates = 0, statuses = 0, database_retries = 0, connects = 0;
+  std::map<fleet::RejectReason, std::uint64_t> rejected;
+  std::uint64_t rejected_total() const;
+};
+/// One line: "received N, stored N, duplicates N, ..., rejected N (reason N, ...)".
+std::string to_string(const FleetCounters& c);
+
+class FleetConsumer {
+ public:
+  explicit FleetConsumer(FleetIngestSettings settings);
+  ~FleetConsumer();
+  FleetConsumer(const FleetConsumer&) = delete;
+  FleetConsumer& operator=(const FleetConsumer&) = delete;
+
+  /// Connects to the database and migrates its fleet schema (throws with one line when it cannot),
+  /// then starts the writer thread and the MQTT session (which retries the broker on its own).
+  void start();
+  /// Closes the session, stores what was received, joins. Idempotent.
+  void stop();
+  FleetCounters counters() const;
+
+ private:
+  struct Inbound {
+    std::string topic, payload;
+  };
+  void connect_store();
+  void start_session();
+  void enqueue(Inbound m);
+  void writer_loop();
+  void handle(const std::vector<Inbound>& batch);
+  void count(const FleetMessage& m, const fleet::BatchOutcome& outcome, const Inbound& source);
+  void store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail);
+  template <class Write>
+  void with_database(Write&& write);
+  void on_connect(int rc);
+  bool stop_requested() const;
+
+  FleetIngestSettings settings_;
+  std::unique_ptr<fleet::FleetStore> store_;
+  mosquitto* client_ = nullptr;
+  std::thread writer_;
+  mutable std::mutex mutex_;
+  std::condition_variable arrived_, space_;
+  std::deque<Inbound> queue_;
+  bool stopping_ = false;
+  bool started_ = false;
+  FleetCounters counters_;  // under mutex_
+  class LogLimiter;
+  std::unique_ptr<LogLimiter> log_;
+};
+
+}  // namespace gearwatch::daemon

@@ -1,0 +1,488 @@
+// The fleet consumer end to end (docs/fleet.md): mosquitto and PostgreSQL started by the test on
+// 127.0.0.1, `gearwatch replay` publishing as gearboxes and `gearwatch fleet ingest` as child
+// processes. What lands in PostgreSQL is compared row by row with each gearbox's own SQLite
+// database, which is the reference: the consumer never reads it.
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <thread>
+
+#include <catch2/catch.hpp>
+#include <pqxx/pqxx>
+
+#include "command_runner.hpp"
+#include "fleet_messages.hpp"
+#include "fleet/postgres_server.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+#include "mqtt/mqtt_broker.hpp"
+#include "temp_dir.hpp"
+
+namespace fs = std::filesystem;
+using gearwatch::storage::Database;
+using gearwatch::storage::Statement;
+using namespace gearwatch::testing;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kUser = "plant", kPassword = "fleet-pw";
+
+std::string num(const std::optional<double>& v) {
+  if (!v) return "null";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", *v);
+  return buf;
+}
+
+// --- The local side: each gearbox's SQLite database, read directly. -------------------------------
+using Rows = std::vector<std::string>;
+
+Rows sqlite_rows(const fs::path& db, const std::string& sql) {
+  Database d(db.string(), Database::Mode::read_only);
+  Statement s(d, sql);
+  Rows rows;
+  while (s.step()) {
+    std::string row;
+    for (int c = 0; c < s.column_count(); ++c) {
+      if (c) row += "|";
+      if (s.is_null(c)) row += "null";
+      else if (s.column_type(c) == gearwatch::storage::ColumnType::real) row += num(s.get_double(c));
+      else row += s.get_text(c);
+    }
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// --- The fleet side: PostgreSQL, read directly. --------------------------------------------------
+Rows pg_rows(const std::string& uri, const std::string& sql) {
+  pqxx::connection c(uri);
+  pqxx::nontransaction n(c);
+  Rows rows;
+  for (const auto& r : n.exec(sql)) {
+    std::string row;
+    for (int i = 0; i < static_cast<int>(r.size()); ++i) {
+      if (i) row += "|";
+      if (r[i].is_null()) row += "null";
+      else if (r[i].type() == 701) row += num(r[i].as<double>());  // float8
+      else if (r[i].type() == 16) row += r[i].as<bool>() ? "1" : "0";
+      else row += r[i].c_str();
+    }
+    rows.push_back(row);
+  }
+  return rows;
+}
+long long pg_count(const std::string& uri, const std::string& sql) {
+  try {
+    return std::stoll(pg_rows(uri, sql).at(0));
+  } catch (const std::exception&) {
+    return -1;  // the schema may not exist yet
+  }
+}
+
+Rows sorted(Rows r) {
+  std::sort(r.begin(), r.end());
+  return r;
+}
+
+int wait_bounded(pid_t pid, std::chrono::seconds timeout) {
+  int status = 0;
+  if (!wait_until([&] { return ::waitpid(pid, &status, WNOHANG) == pid; }, timeout)) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+    return -1;
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+std::string read_all(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+std::size_t occurrences(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+// Broker, database server and captures of one test; everything under one temporary directory.
+struct Fleet {
+  TempDir dir{"fleet"};
+  std::optional<fs::path> pg_bin = postgres_bin_dir();
+  MosquittoBroker broker{dir / "broker", kUser, kPassword};
+  std::optional<PostgresServer> pg;
+  std::string uri;
+
+  bool start() {
+    if (!pg_bin) return false;
+    pg.emplace(dir / "pg", *pg_bin);
+    pg->start();
+    pg->create_database("fleet");
+    uri = pg->uri("fleet");
+    broker.start();
+    std::ofstream(dir / "credentials") << kUser << ":" << kPassword << "\n";
+    return true;
+  }
+  // One gearbox: a simulated capture (its own seed) and a config publishing as plant1/<name>.
+  void make_gearbox(const std::string& name, int seed, int seconds) {
+    const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (dir / (name + ".log")).string() +
+                               " --duration " + std::to_string(seconds) + " --channels 1 --seed " + std::to_string(seed));
+    INFO(r.err);
+    REQUIRE(r.status == 0);
+    std::ofstream(dir / (name + ".toml")) << "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
+                                             "[[channels]]\nnumber = 1\nname = \"casing_x\"\nscale = 0.01\n"
+                                             "[records]\nlength_s = 0.25\ninterval_s = 0.25\nmin_length_s = 0.1\n"
+                                             "[model]\nenabled = false\n[daemon]\nhealth_interval_s = 0.5\n"
+                                             "[mqtt]\nenabled = true\nhost = \"127.0.0.1\"\nport = "
+                                          << broker.port() << "\nprefix = \"gw\"\nsite = \"plant1\"\ngearbox = \"" << name
+                                          << "\"\npassword_file = \"" << (dir / "credentials").string()
+                                          << "\"\nreconnect_initial_ms = 50\nreconnect_max_ms = 300\ndrain_timeout_s = 60\n";
+  }
+  fs::path db(const std::string& name) const { return dir / (name + ".db"); }
+  pid_t replay(const std::string& name) {
+    return spawn({"replay", (dir / (name + ".log")).string(), "--db", db(name).string(), "--config", (dir / (name + ".toml")).string()},
+                 dir / ("out-" + name), dir / ("err-" + name));
+  }
+  pid_t consumer(const std::string& tag) {
+    return spawn({"fleet", "ingest", "--broker", "mqtt://127.0.0.1:" + std::to_string(broker.port()), "--database", uri, "--prefix", "gw",
+                  "--client-id", "fleet-test", "--password-file", (dir / "credentials").string(), "--gearbox", "plant1/gbA",
+                  "--gearbox", "plant1/gbB"},
+                 dir / ("out-" + tag), dir / ("err-" + tag));
+  }
+  // Waits until the consumer has made the schema and its session is subscribed (its first log line
+  // after the subscription is the connection count at stop; the schema is the visible part).
+  void wait_ready() { REQUIRE(wait_until([&] { return pg_count(uri, "SELECT count(*) FROM fleet.gearboxes") >= 0; }, 30s)); }
+  std::string err(const std::string& tag) { return read_all(dir / ("err-" + tag)); }
+  long long outbox_rows(const std::string& name) const { return std::stoll(sqlite_rows(db(name), "SELECT count(*) FROM outbox").at(0)); }
+  long long fleet_messages(const std::string& name) const {
+    return pg_count(uri, "SELECT count(*) FROM fleet.messages m JOIN fleet.gearboxes g ON g.id = m.gearbox_id WHERE g.name = '" + name + "'");
+  }
+};
+
+bool skipped_without_postgres(const Fleet& f) {
+  if (f.pg_bin) return false;
+  std::cout << "SKIPPED: no PostgreSQL server binaries under /usr/lib/postgresql/*/bin (Debian's postgresql package)" << std::endl;
+  return true;
+}
+
+// Every record, indicator value, skipped indicator and alert transition of one gearbox: the same
+// rows, with the same values to the last bit, in its SQLite database and in the fleet database.
+void check_same_as_local(const Fleet& f, const std::string& name) {
+  INFO("gearbox " << name);
+  const std::string where = " JOIN fleet.gearboxes g ON g.id = x.gearbox_id WHERE g.name = '" + name + "'";
+  const auto local_records = sqlite_rows(
+      f.db(name), "SELECT id, start_index, duration_s, analysed, coalesce(reject_reason, ''), speed_hz, torque_nm, input_revolutions "
+                  "FROM records ORDER BY id");
+  REQUIRE(local_records.size() >= 20);
+  CHECK(pg_rows(f.uri, "SELECT record_id, start_index, duration_s, analysed, reject_reason, speed_hz, torque_nm, input_revolutions "
+                       "FROM fleet.records x" + where + " ORDER BY record_id") == local_records);
+  const auto local_values = sorted(sqlite_rows(f.db(name), "SELECT record_id, channel, name, value FROM indicator_values"));
+  REQUIRE(local_values.size() >= 5 * local_records.size());
+  CHECK(sorted(pg_rows(f.uri, "SELECT record_id, channel, x.name, value FROM fleet.indicator_values x" + where)) == local_values);
+  CHECK(sorted(pg_rows(f.uri, "SELECT record_id, channel, x.name, reason FROM fleet.indicator_skips x" + where)) ==
+        sorted(sqlite_rows(f.db(name), "SELECT record_id, channel, name, reason FROM indicator_skips")));
+  const auto local_alerts = sqlite_rows(f.db(name), "SELECT record_id, transition, severity, kind, channel, coalesce(subject, ''), "
+                                                    "coalesce(value, ''), message FROM alert_events ORDER BY id");
+  REQUIRE(!local_alerts.empty());
+  CHECK(pg_rows(f.uri, "SELECT record_id, transition, severity, kind, channel, subject, value, message FROM fleet.alert_events x" + where +
+                           " ORDER BY message_id") == local_alerts);
+  // Every message of the outbox exactly once, by topic.
+  CHECK(pg_rows(f.uri, "SELECT topic, count(*) FROM fleet.messages x" + where + " GROUP BY topic ORDER BY topic") ==
+        sqlite_rows(f.db(name), "SELECT topic, count(*) FROM outbox GROUP BY topic ORDER BY topic"));
+}
+
+}  // namespace
+
+TEST_CASE("fleet: two gearboxes' replays land in PostgreSQL exactly as in their own databases", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  f.make_gearbox("gbA", 21, 8);
+  f.make_gearbox("gbB", 22, 8);
+  // The consumer's session exists before the gearboxes publish; it is away while they do, so the
+  // broker queues everything and the second start ingests a known backlog (the throughput figure).
+  const pid_t first = f.consumer("c1");
+  f.wait_ready();
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c1"), "ingesting") == 1; }, 10s));
+  std::this_thread::sleep_for(500ms);  // the SUBACK
+  ::kill(first, SIGTERM);
+  REQUIRE(wait_bounded(first, 30s) == 0);
+  const pid_t a = f.replay("gbA"), b = f.replay("gbB");
+  REQUIRE(wait_bounded(a, 120s) == 0);
+  REQUIRE(wait_bounded(b, 120s) == 0);
+  const long long total = f.outbox_rows("gbA") + f.outbox_rows("gbB");
+  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t second = f.consumer("c2");
+  std::optional<std::chrono::steady_clock::time_point> ready;
+  REQUIRE(wait_until([&] {
+    if (!ready && occurrences(read_all(f.dir / "err-c2"), "ingesting") == 1) ready = std::chrono::steady_clock::now();
+    return f.fleet_messages("gbA") + f.fleet_messages("gbB") == total;
+  }, 60s));
+  const auto t1 = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(t1 - t0).count();
+  if (ready) std::cout << "fleet figure: consumer ready (schema checked) after " << std::chrono::duration<double>(*ready - t0).count() << " s" << std::endl;
+  std::cout << "fleet figure: " << total << " messages of 2 gearboxes ingested from the broker's backlog in " << seconds << " s ("
+            << total / seconds << " messages/s, consumer start included)" << std::endl;
+  ::kill(second, SIGTERM);
+  REQUIRE(wait_bounded(second, 30s) == 0);
+  check_same_as_local(f, "gbA");
+  check_same_as_local(f, "gbB");
+  // Both gearboxes said online then offline (the retained status), as the daemons last did.
+  CHECK(pg_rows(f.uri, "SELECT name, state, schema_version IS NOT NULL FROM fleet.gearboxes ORDER BY name") ==
+        Rows{"gbA|offline|1", "gbB|offline|1"});
+  INFO(f.err("c2"));
+  CHECK(f.err("c2").find("stored " + std::to_string(total) + ",") != std::string::npos);
+}
+
+TEST_CASE("fleet: a consumer stopped mid-replay and restarted catches up, nothing twice", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  f.make_gearbox("gbA", 23, 20);
+  // A second capture of the same gearbox, replayed into the same database while the consumer is away.
+  const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (f.dir / "later.log").string() +
+                             " --duration 8 --channels 1 --seed 24");
+  REQUIRE(r.status == 0);
+  const pid_t first = f.consumer("c1");
+  f.wait_ready();
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c1"), "ingesting") == 1; }, 10s));
+  std::this_thread::sleep_for(500ms);
+  const pid_t replay = f.replay("gbA");
+  // Stopped while messages arrive: what it acknowledged to the broker it stores before it exits.
+  REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.records") >= 5; }, 60s));
+  ::kill(first, SIGTERM);
+  REQUIRE(wait_bounded(first, 30s) == 0);
+  const long long at_stop = pg_count(f.uri, "SELECT count(*) FROM fleet.messages");
+  REQUIRE(wait_bounded(replay, 120s) == 0);
+  const long long after_first_replay = f.outbox_rows("gbA");
+  const pid_t later = spawn({"replay", (f.dir / "later.log").string(), "--db", f.db("gbA").string(), "--config", (f.dir / "gbA.toml").string()},
+                            f.dir / "out-later", f.dir / "err-later");
+  REQUIRE(wait_bounded(later, 120s) == 0);
+  const long long total = f.outbox_rows("gbA");
+  REQUIRE(total > after_first_replay);  // published while the consumer was away, for sure
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == at_stop);
+  const pid_t second = f.consumer("c2");
+  REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == total; }, 60s));
+  ::kill(second, SIGTERM);
+  REQUIRE(wait_bounded(second, 30s) == 0);
+  check_same_as_local(f, "gbA");
+  // Each message stored by exactly one of the two runs: the counts add up to the outbox.
+  auto stored_by = [&](const std::string& tag) {
+    const std::string e = f.err(tag);
+    const auto at = e.rfind("stored ");
+    REQUIRE(at != std::string::npos);
+    return std::stoll(e.substr(at + 7));
+  };
+  const long long s1 = stored_by("c1"), s2 = stored_by("c2");
+  CHECK(s1 == at_stop);
+  CHECK(s1 + s2 == total);
+  CHECK(s2 >= total - after_first_replay);
+}
+
+TEST_CASE("fleet: bad input is counted, kept in fleet.rejects, logged once per kind, and the consumer goes on", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  const pid_t consumer = f.consumer("c");
+  f.wait_ready();
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "ingesting") == 1; }, 10s));
+  std::this_thread::sleep_for(500ms);
+  const std::string alert =
+      R"({"gearbox":"gbA","site":"plant1","message_id":7,"topic":"alert","record_id":null,"record_time":"2026-11-29T10:00:00.000Z",)"
+      R"("transition":"raised","severity":"alarm","kind":"sensor_missing","channel":1,"subject":"","value":"no signal","message":"m"})";
+  std::string unknown_gearbox = alert;
+  unknown_gearbox.replace(unknown_gearbox.find("gbA"), 3, "gbZ");
+  const std::string wrong_schema = R"({"gearbox":"gbA","site":"plant1","message_id":8,"topic":"alert","record_id":null,)"
+                                   R"("record_time":"2026-11-29T10:00:00.000Z","transition":"raised"})";
+  const std::string not_utf8 = "{\"gearbox\":\"gb\xff\"}";
+  struct Sent {
+    std::string topic, payload;
+  };
+  const std::vector<Sent> bad{{"gw/plant1/gbA/record", "{not json"},
+                              {"gw/plant1/gbA/record", "[1, 2"},
+                              {"gw/plant1/gbA/record", ""},
+                              {"gw/plant1/gbA/alert", wrong_schema},
+                              {"gw/plant1/gbZ/alert", unknown_gearbox},
+                              {"gw/plant1/gbA/alert", not_utf8},
+                              {"gw/plant1/gbA/bogus", "{}"}};
+  auto publish = [&](const Sent& s) {
+    std::ofstream(f.dir / "payload", std::ios::binary) << s.payload;
+    const auto r = run_command("mosquitto_pub -h 127.0.0.1 -p " + std::to_string(f.broker.port()) + " -u " + kUser + " -P " + kPassword +
+                               " -q 1 -t " + s.topic + " -f " + (f.dir / "payload").string());
+    REQUIRE(r.status == 0);
+  };
+  for (const auto& s : bad) publish(s);
+  // A good message after the bad ones, twice (a QoS 1 repeat): stored once.
+  publish({"gw/plant1/gbA/alert", alert});
+  publish({"gw/plant1/gbA/alert", alert});
+  REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.alert_events") == 1 &&
+                                  pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 1 &&
+                                  pg_count(f.uri, "SELECT count(*) FROM fleet.rejects") == 7; },
+                     30s));
+  CHECK(::waitpid(consumer, nullptr, WNOHANG) == 0);  // still running
+  // Each reject with its reason and its payload byte for byte.
+  pqxx::connection c(f.uri);
+  pqxx::nontransaction n(c);
+  const auto rows = n.exec("SELECT topic, reason, payload FROM fleet.rejects ORDER BY id");
+  REQUIRE(rows.size() == bad.size());
+  const std::vector<std::string> reasons{"malformed_json", "malformed_json", "malformed_json", "wrong_schema",
+                                         "unknown_gearbox", "not_utf8",      "unknown_topic"};
+  for (std::size_t i = 0; i < bad.size(); ++i) {
+    INFO("reject " << i);
+    CHECK(rows[static_cast<int>(i)][0].as<std::string>() == bad[i].topic);
+    CHECK(rows[static_cast<int>(i)][1].as<std::string>() == reasons[i]);
+    CHECK(pqxx::binarystring(rows[static_cast<int>(i)][2]).str() == bad[i].payload);
+  }
+  CHECK(pg_rows(f.uri, "SELECT gearbox, kind, channel, value FROM fleet.active_alerts") == Rows{"gbA|sensor_missing|1|no signal"});
+  ::kill(consumer, SIGTERM);
+  REQUIRE(wait_bounded(consumer, 30s) == 0);
+  const std::string err = f.err("c");
+  INFO(err);
+  CHECK(err.find("received 9, stored 1, duplicates 1, statuses 0, rejected 7 (not_utf8 1, malformed_json 3, wrong_schema 1, "
+                 "unknown_topic 1, unknown_gearbox 1)") != std::string::npos);
+  // Rate-limited: one line for the three malformed payloads (they came within the interval).
+  CHECK(occurrences(err, "malformed_json: ") == 1);
+  CHECK(occurrences(err, "wrong_schema: alert: missing required field 'severity'") == 1);
+}
+
+TEST_CASE("fleet: model runs and gap summaries land in their tables and in the latest views", "[fleet]") {
+  // The replays above run with the model off (cheap); these payloads follow docs/mqtt/model.schema.json
+  // and gap.schema.json field for field.
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  const pid_t consumer = f.consumer("c");
+  f.wait_ready();
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "ingesting") == 1; }, 10s));
+  std::this_thread::sleep_for(500ms);
+  auto model = [](int message_id, int run, const std::string& k_wear) {
+    return R"({"gearbox":"gbB","site":"plant1","message_id":)" + std::to_string(message_id) +
+           R"(,"topic":"model","record_id":12,"record_time":"2026-11-29T10:00:00.000Z","model_run_id":)" + std::to_string(run) +
+           R"(,"gear_pair":0,"advanced":true,"cycles":1.5e6,"k_wear":)" + k_wear +
+           R"(,"k_pitting":null,"wear_mean_depth_m":1.25e-6,"wear_max_depth_m":3.5e-6,"pitting_mean":0.0125,)"
+           R"("forecast":{"valid":true,"wear":{"limit":2e-5,"cycles_left":4.5e7,"cycles_left_low":3e7,"cycles_left_high":6e7},)"
+           R"("pitting":{"limit":0.04,"cycles_left":null,"cycles_left_low":null,"cycles_left_high":null},"failure":"wear"}})";
+  };
+  const std::string gap = R"({"gearbox":"gbB","site":"plant1","message_id":5,"topic":"gap","record_id":12,)"
+                          R"("record_time":"2026-11-29T10:00:00.000Z","gap_report_id":3,"gear_pair":0,"input_revolutions":1.5e6,)"
+                          R"("significant_families":[{"family":"mesh_harmonics","distance_db":4.25}],"chosen_effects":["mesh_stiffness"],)"
+                          R"("unexplained_families":[]})";
+  auto publish = [&](const std::string& topic, const std::string& payload) {
+    std::ofstream(f.dir / "payload", std::ios::binary) << payload;
+    REQUIRE(run_command("mosquitto_pub -h 127.0.0.1 -p " + std::to_string(f.broker.port()) + " -u " + kUser + " -P " + kPassword +
+                        " -q 1 -t " + topic + " -f " + (f.dir / "payload").string())
+                .status == 0);
+  };
+  publish("gw/plant1/gbB/model", model(3, 1, "1.0000000000000002e-17"));
+  publish("gw/plant1/gbB/model", model(4, 2, "2.5e-17"));
+  publish("gw/plant1/gbB/model", model(4, 2, "2.5e-17"));  // a repeat
+  publish("gw/plant1/gbB/gap", gap);
+  // Well-formed JSON of the right shape, but a time PostgreSQL cannot read: refused by the database
+  // alone (its savepoint), kept in the rejects; the messages around it are stored.
+  std::string bad_time = model(6, 3, "3e-17");
+  bad_time.replace(bad_time.find("2026-11-29T10:00:00.000Z"), 24, "the 32nd of Nevember");
+  publish("gw/plant1/gbB/model", bad_time);
+  REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 3 &&
+                                  pg_count(f.uri, "SELECT count(*) FROM fleet.rejects WHERE reason = 'database_refused'") == 1; },
+                     30s));
+  CHECK(pg_rows(f.uri, "SELECT model_run_id, k_wear, cycles, wear_max_depth_m, k_pitting FROM fleet.model_states ORDER BY model_run_id") ==
+        Rows{"1|" + num(1.0000000000000002e-17) + "|1500000|" + num(3.5e-6) + "|null", "2|" + num(2.5e-17) + "|1500000|" + num(3.5e-6) + "|null"});
+  CHECK(pg_rows(f.uri, "SELECT gearbox, model_run_id, forecast->'wear'->>'cycles_left', forecast->>'failure' FROM fleet.latest_model") ==
+        Rows{"gbB|2|45000000.0|wear"});  // the forecast as the consumer re-serialised it
+  CHECK(pg_rows(f.uri, "SELECT gearbox, gap_report_id, significant_families->0->>'family', chosen_effects->>0 FROM fleet.latest_gap") ==
+        Rows{"gbB|3|mesh_harmonics|mesh_stiffness"});
+  ::kill(consumer, SIGTERM);
+  REQUIRE(wait_bounded(consumer, 30s) == 0);
+  INFO(f.err("c"));
+  CHECK(f.err("c").find("received 5, stored 3, duplicates 1, statuses 0, rejected 1 (database_refused 1)") != std::string::npos);
+}
+
+TEST_CASE("fleet: ingest's command line: help, a malformed broker or gearbox, an unreachable database", "[fleet][cli]") {
+  const std::string bin = GEARWATCH_BINARY;
+  const auto help = run_command(bin + " fleet ingest --help");
+  CHECK(help.status == 0);
+  CHECK(help.out.find("--database") != std::string::npos);
+  const auto scheme = run_command(bin + " fleet ingest --broker tcp://h:1 --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(scheme.status == 64);
+  CHECK(scheme.err == "gearwatch: --broker tcp://h:1: expected mqtt://HOST[:PORT]\n");
+  const auto port = run_command(bin + " fleet ingest --broker mqtt://h:99999 --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(port.status == 64);
+  CHECK(port.err == "gearwatch: --broker mqtt://h:99999: port '99999' is not 1..65535\n");
+  const auto gearbox = run_command(bin + " fleet ingest --broker mqtt://h --database postgresql://x@127.0.0.1:1/fleet --gearbox a/b/c");
+  CHECK(gearbox.status == 64);
+  CHECK(gearbox.err == "gearwatch: --gearbox a/b/c: expected SITE/NAME\n");
+  // Nothing listens on the port: refused at start in one line, before any MQTT session exists.
+  const int closed = free_loopback_port();
+  const auto db = run_command(bin + " fleet ingest --broker mqtt://127.0.0.1:1 --database postgresql://x@127.0.0.1:" + std::to_string(closed) + "/fleet");
+  CHECK(db.status == 1);
+  CHECK(db.err.rfind("gearwatch: fleet database: cannot connect: ", 0) == 0);
+  CHECK(occurrences(db.err, "\n") == 1);
+}
+
+TEST_CASE("fleet: a message's topic, bytes and fields decide what it is", "[fleet][parse]") {
+  using gearwatch::daemon::FleetRejection;
+  using gearwatch::daemon::is_utf8;
+  using gearwatch::storage::fleet::RejectReason;
+  // RFC 3629: overlong forms, UTF-16 surrogates and code points past U+10FFFF are not UTF-8.
+  CHECK(is_utf8("gr\xc3\xbc\xc3\x9f" "e \xe2\x82\xac \xf0\x9f\x94\xa7"));
+  CHECK_FALSE(is_utf8("\xc0\xaf"));          // overlong '/'
+  CHECK_FALSE(is_utf8("\xed\xa0\x80"));      // U+D800
+  CHECK_FALSE(is_utf8("\xf4\x90\x80\x80"));  // U+110000
+  CHECK_FALSE(is_utf8("\xe2\x82"));          // cut short
+  CHECK(gearwatch::daemon::utf8_or_replaced("a\xff" "b\xc3\xbc") == "a?b\xc3\xbc");
+  const gearwatch::daemon::FleetAcceptance accept{"plant/gw", {"s1/g1"}};
+  auto reason = [&](const std::string& topic, const std::string& payload) -> std::optional<RejectReason> {
+    const auto r = gearwatch::daemon::parse_fleet_message(accept, topic, payload);
+    if (const auto* j = std::get_if<FleetRejection>(&r)) return j->reason;
+    return std::nullopt;
+  };
+  const std::string status = R"({"gearbox":"g1","site":"s1","state":"online","version":"0.1.0","schema":11})";
+  CHECK(reason("plant/gw/s1/g1/status", status) == std::nullopt);  // a prefix of two levels
+  CHECK(reason("plant/gw/s1/g1/status/x", status) == RejectReason::unknown_topic);
+  CHECK(reason("gw/s1/g1/status", status) == RejectReason::unknown_topic);
+  CHECK(reason("plant/gw/s1/g2/status", status) == RejectReason::unknown_gearbox);
+  // The payload speaks for another gearbox than its topic's: refused, never stored under either.
+  CHECK(reason("plant/gw/s1/g1/status", R"({"gearbox":"g2","site":"s1","state":"online","version":"0.1.0","schema":11})") ==
+        RejectReason::wrong_schema);
+  CHECK(reason("plant/gw/s1/g1/status", R"({"gearbox":"g1","site":"s1","state":"asleep","version":"0.1.0","schema":11})") ==
+        RejectReason::wrong_schema);
+  CHECK(reason("plant/gw/s1/g1/status", R"({"gearbox":"g1","site":"s1","state":"online","version":"0.1.0","schema":"11"})") ==
+        RejectReason::wrong_schema);
+  CHECK(reason("plant/gw/s1/g1/status", "null") == RejectReason::wrong_schema);
+}
+
+TEST_CASE("fleet: the database stopped under a running consumer: the message is held and stored once it is back", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  const pid_t consumer = f.consumer("c");
+  f.wait_ready();
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "ingesting") == 1; }, 10s));
+  std::this_thread::sleep_for(500ms);
+  f.pg->stop();
+  const std::string alert =
+      R"({"gearbox":"gbA","site":"plant1","message_id":1,"topic":"alert","record_id":null,"record_time":"2026-11-29T10:00:00.000Z",)"
+      R"("transition":"event","severity":"info","kind":"sensor_missing","channel":null,"subject":"","value":"","message":"m"})";
+  std::ofstream(f.dir / "payload", std::ios::binary) << alert;
+  REQUIRE(run_command("mosquitto_pub -h 127.0.0.1 -p " + std::to_string(f.broker.port()) + " -u " + kUser + " -P " + kPassword +
+                      " -q 1 -t gw/plant1/gbA/alert -f " + (f.dir / "payload").string())
+              .status == 0);
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "holding the message and retrying") >= 1; }, 20s));
+  f.pg->start();
+  REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.alert_events") == 1; }, 30s));
+  CHECK(::waitpid(consumer, nullptr, WNOHANG) == 0);
+  ::kill(consumer, SIGTERM);
+  REQUIRE(wait_bounded(consumer, 30s) == 0);
+  const std::string err = f.err("c");
+  INFO(err);
+  CHECK(err.find("received 1, stored 1, duplicates 0, statuses 0, rejected 0, database retries ") != std::string::npos);
+  CHECK(err.find("database retries 0") == std::string::npos);
+}
