@@ -11,7 +11,6 @@
 #include <numbers>
 #include <random>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "gearwatch/dsp/fft.hpp"
@@ -522,56 +521,4 @@ TEST_CASE("gap features: white noise the twin lacks, over the whole band, is the
     CHECK(floors.acquisition > expected / 2);
     CHECK(floors.acquisition < expected * 2);
   }
-}
-
-TEST_CASE("gap: a non-synchronous tone's lines kept from an earlier call equal the ones computed afresh, whatever the record's revolutions and the reach",
-          "[gap]") {
-  // add_non_synchronous_tone keeps each tone's unit pattern per thread (the fits and the bootstrap
-  // put tones at the same orders again and again). Known answer: each case computed alone on a
-  // fresh thread, whose store is empty. Every line must agree to the last bit, and the key must
-  // tell records of other lengths and other reaches apart.
-  const GearPairSpec gears{};
-  auto summary = [](std::size_t input_revs, std::size_t output_revs) {
-    SpectralSummary s;
-    s.speed_hz = 10;
-    s.sample_rate_hz = 20000;
-    s.input_revolutions = input_revs;
-    s.output_revolutions = output_revs;
-    s.input_lines.assign(900, 1e-6);
-    s.output_lines.assign(2400, 1e-6);
-    s.broadband.assign(900, 1e-7);
-    return s;
-  };
-  struct Case {
-    std::size_t input_revs, output_revs;
-    double order, power;
-    ToneReach reach;
-  };
-  const std::vector<Case> cases{{16, 5, 37.3, 2e-3, {}},
-                                {20, 7, 37.3, 2e-3, {}},
-                                {16, 5, 37.3, 5e-2, ToneReach::orders(6, gears)},
-                                {16, 5, 37.3, 7e-4, {}},
-                                {16, 5, 152.01, 1e-3, {}}};
-  auto apply = [&](const Case& c) {
-    auto s = summary(c.input_revs, c.output_revs);
-    add_non_synchronous_tone(s, c.order, c.power, gears, 0.0, c.reach);
-    return s;
-  };
-  std::vector<SpectralSummary> in_turn;  // one thread: later cases may find an earlier one's pattern
-  for (const auto& c : cases) in_turn.push_back(apply(c));
-  for (const auto& c : cases) in_turn.push_back(apply(c));  // and now every one is kept
-  for (std::size_t i = 0; i < cases.size(); ++i) {
-    INFO("case " << i);
-    SpectralSummary alone;
-    std::thread([&] { alone = apply(cases[i]); }).join();
-    for (const auto* s : {&in_turn[i], &in_turn[i + cases.size()]}) {
-      CHECK(s->input_lines == alone.input_lines);
-      CHECK(s->output_lines == alone.output_lines);
-      CHECK(s->broadband == alone.broadband);
-    }
-    // The tone moved something: a pattern that left the lines alone would pass the comparison too.
-    CHECK(alone.input_lines != summary(cases[i].input_revs, cases[i].output_revs).input_lines);
-  }
-  // Records of other lengths see the same tone differently (the key holds the revolutions).
-  CHECK(in_turn[0].input_lines != in_turn[1].input_lines);
 }

@@ -7,7 +7,6 @@
 #include <numbers>
 #include <set>
 #include <stdexcept>
-#include <unordered_map>
 #include <string>
 
 #include "gearwatch/dsp/order_tracking.hpp"
@@ -57,12 +56,7 @@ class MeshEnvelope {
 double bessel_j0(double z) {
   const double q = z * z / 4.0;
   if (q < 0.01) return 1.0 - q + q * q / 4.0 - q * q * q / 36.0;  // next term q⁴/576 < 2e-11
-  // The same arguments recur: the fit's grid varies the AM share at one depth and frequency, and
-  // the scoring applies one fitted value to every bootstrap draw. Kept per thread, bounded.
-  thread_local std::unordered_map<double, double> kept;
-  if (const auto it = kept.find(z); it != kept.end()) return it->second;
-  if (kept.size() >= (1u << 18)) kept.clear();
-  return kept.emplace(z, std::cyl_bessel_j(0.0, z)).first->second;
+  return std::cyl_bessel_j(0.0, z);
 }
 
 /// dsp::tracking_residual_share read off a table in log x: each call simulates 400 revolutions of

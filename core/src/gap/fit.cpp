@@ -1,6 +1,5 @@
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <numeric>
 #include <stdexcept>
 
@@ -83,14 +82,10 @@ std::vector<double> fit_values(const CandidateForm& form, const std::vector<Appl
     if (form.per_load) v.insert(v.begin(), load_key(training.front().measured.torque_nm));
     return v;
   };
-  // The descent clamps its trial points to the unit box, so points on a face recur (a reflection
-  // and an expansion past the same face land on one point); each is costed once.
-  std::map<std::vector<double>, double> costed;
   auto cost = [&](const std::vector<double>& u) {
-    if (const auto it = costed.find(u); it != costed.end()) return it->second;
     auto fx = base;
     fx.push_back({form.effect, applied(to_value(u))});
-    return costed.emplace(u, cost_of(training, fx, gears, evaluator)).first->second;
+    return cost_of(training, fx, gears, evaluator);
   };
   if (form.effect == CandidateEffect::tip_relief) {
     // Separable in the log domain: each harmonic's gain is the mean log ratio there (floors make

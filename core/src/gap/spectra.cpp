@@ -5,9 +5,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
-#include <map>
 #include <numeric>
-#include <tuple>
 #include <stdexcept>
 
 #include "gearwatch/dsp/fft.hpp"
@@ -290,59 +288,43 @@ ToneReach ToneReach::orders(double orders, const GearPairSpec& gears) {
   return {static_cast<int>(n) + 1, static_cast<int>(std::ceil(n * out_per_in)) + 1, 2 * static_cast<int>(n) + 1};
 }
 
-namespace {
-
-/// The Hann kernel's shares of a tone at `order` over the half-order bins followed (`half_bins`
-/// each side): the part of add_tone_to_broadband that does not depend on the tone's power.
-struct BroadbandSpread {
-  long first = 0;
-  std::vector<double> weights;
-  double total = 0;
-};
-
-BroadbandSpread broadband_spread(double order, int half_bins) {
-  BroadbandSpread b;
+void add_tone_to_broadband(SpectralSummary& s, double order, double power, int half_bins) {
+  if (!(power > 0)) return;
   const int count = 2 * std::max(1, half_bins);
   const double centre = 2.0 * order;  // in half-order bins
-  b.first = static_cast<long>(std::floor(centre)) - (count / 2 - 1);
-  b.weights.resize(static_cast<std::size_t>(count));
+  const auto first = static_cast<long>(std::floor(centre)) - (count / 2 - 1);
+  std::vector<double> weights(static_cast<std::size_t>(count));
+  double total = 0;
   // d steps by whole bins, so sin(π·d) only changes sign from one bin to the next.
-  const double sine_at_first = std::sin(std::numbers::pi * (centre - static_cast<double>(b.first)));
+  const double sine_at_first = std::sin(std::numbers::pi * (centre - static_cast<double>(first)));
   for (int i = 0; i < count; ++i) {
-    const double d = centre - static_cast<double>(b.first + i);
+    const double d = centre - static_cast<double>(first + i);
     const double sine = i % 2 == 0 ? sine_at_first : -sine_at_first;
     // Hann kernel's power at d bins from the tone: (sinc(d)/(1 − d²))².
     double w;
     if (std::abs(d) < 1e-9) w = 1.0;
     else if (std::abs(std::abs(d) - 1.0) < 1e-9) w = 0.25;
     else w = std::pow(sine / (std::numbers::pi * d) / (1.0 - d * d), 2);
-    b.weights[static_cast<std::size_t>(i)] = w;
-    b.total += w;
+    weights[static_cast<std::size_t>(i)] = w;
+    total += w;
   }
-  return b;
-}
-
-void spread_into_broadband(SpectralSummary& s, const BroadbandSpread& b, double power) {
-  if (!(power > 0)) return;
-  for (std::size_t i = 0; i < b.weights.size(); ++i) {
-    const long j = b.first + static_cast<long>(i);
+  for (int i = 0; i < count; ++i) {
+    const long j = first + i;
     const long k = j / 2;  // 1-order bin [k, k+1)
     if (j >= 2 && k >= 1 && k <= static_cast<long>(s.broadband.size()))
-      s.broadband[static_cast<std::size_t>(k - 1)] += power * b.weights[i] / b.total;
+      s.broadband[static_cast<std::size_t>(k - 1)] += power * weights[static_cast<std::size_t>(i)] / total;
   }
 }
 
-/// What a unit-power non-synchronous tone leaves in each shaft's lines (|line|² per unit power), the
-/// share the two averages remove, and its broadband spread: everything of add_non_synchronous_tone
-/// but the power, which scales every entry.
-struct TonePattern {
-  long k0 = 0, m0 = 0;
-  std::vector<double> input_norm, output_norm;  // [k − k0], [m − m0]
-  double removed = 0;
-  BroadbandSpread broadband;
-};
-
-TonePattern tone_pattern(double input_order, double r_in, double r_out, const GearPairSpec& gears, ToneReach reach) {
+void add_non_synchronous_tone(SpectralSummary& s, double input_order, double power, const GearPairSpec& gears,
+                              double negligible_power, ToneReach reach) {
+  if (!(power > 0) || !(input_order > 0)) return;
+  // B/(B − 1) for the B = R − 1 broadband blocks RecordSpectra cuts from R input revolutions.
+  const double broadband_bias = s.input_revolutions > 2 ? (s.input_revolutions - 1.0) / (s.input_revolutions - 2.0) : 1.0;
+  if (power <= negligible_power || gears.pinion_teeth < 1 || gears.gear_teeth < 1) {
+    add_tone_to_broadband(s, input_order, power * broadband_bias, reach.broadband_bins);
+    return;
+  }
   using Complex = std::complex<double>;
   // The mean over R revolutions from angle 0 of e^{i2π·x·φ} read at order k is e^{iπRΔ}·sinc(RΔ)
   // = (e^{i2πRΔ} − 1)/(i2πRΔ), Δ = x − k. R is whole, so along integer k only the 1/Δ changes, and
@@ -362,6 +344,7 @@ TonePattern tone_pattern(double input_order, double r_in, double r_out, const Ge
   };
   auto kernel_at = [](double r, double x) { return Kernel{r, x, std::polar(1.0, 2 * std::numbers::pi * r * x)}; };
   const double ratio = static_cast<double>(gears.gear_teeth) / gears.pinion_teeth;  // output orders per input order
+  const auto r_in = static_cast<double>(s.input_revolutions), r_out = static_cast<double>(s.output_revolutions);
   const double output_order = input_order * ratio;
   const auto shared = static_cast<long>(gears.gear_teeth / std::gcd(gears.pinion_teeth, gears.gear_teeth));
   // Beyond three orders a line holds below 1/(3π·R)² of the tone (1e-3 for R = 4): by default the
@@ -369,23 +352,21 @@ TonePattern tone_pattern(double input_order, double r_in, double r_out, const Ge
   const long n_in = std::max(1, reach.input_lines), n_out = std::max(1, reach.output_lines);
   const long k0 = std::max(1L, static_cast<long>(std::floor(input_order)) - (n_in - 1)), k1 = static_cast<long>(std::floor(input_order)) + n_in;
   const long m0 = std::max(1L, static_cast<long>(std::floor(output_order)) - (n_out - 1)), m1 = static_cast<long>(std::floor(output_order)) + n_out;
-  TonePattern p;
-  p.k0 = k0, p.m0 = m0;
   // 1. The input synchronous average takes d_k; 2. the output one, of what is left, c_m (it leaves the
   // orders both shafts share to the input side); 3. the input lines are read off the tone less the
   // output average's part, the output lines off the tone less the input average's part (= c_m).
   std::vector<Complex> input_average(static_cast<std::size_t>(k1 - k0 + 1)), output_average(static_cast<std::size_t>(m1 - m0 + 1));
+  double removed = 0;
   const Kernel tone_on_input = kernel_at(r_in, input_order), tone_on_output = kernel_at(r_out, output_order);
   for (long k = k0; k <= k1; ++k) {
     input_average[k - k0] = tone_on_input(static_cast<double>(k));
-    p.removed += std::norm(input_average[k - k0]);
+    removed += std::norm(input_average[k - k0]);
   }
   std::vector<Kernel> input_line_on_output(input_average.size());  // the input average's line k seen by the output average
   input_line_on_output[0] = kernel_at(r_out, static_cast<double>(k0) * ratio);
   const Complex output_step = std::polar(1.0, 2 * std::numbers::pi * r_out * ratio);
   for (long k = k0 + 1; k <= k1; ++k)
     input_line_on_output[k - k0] = input_line_on_output[k - k0 - 1].stepped_to(static_cast<double>(k) * ratio, output_step);
-  p.output_norm.resize(output_average.size());
   for (long m = m0; m <= m1; ++m) {
     Complex c{};
     if (m % shared != 0) {
@@ -393,8 +374,9 @@ TonePattern tone_pattern(double input_order, double r_in, double r_out, const Ge
       for (long k = k0; k <= k1; ++k) c -= input_average[k - k0] * input_line_on_output[k - k0](static_cast<double>(m));
     }
     output_average[m - m0] = c;
-    p.removed += std::norm(c);
-    p.output_norm[static_cast<std::size_t>(m - m0)] = std::norm(c);
+    removed += std::norm(c);
+    if (m <= static_cast<long>(s.output_lines.size()) && !output_line_is_mesh(static_cast<int>(m), gears.gear_teeth))
+      s.output_lines[static_cast<std::size_t>(m - 1)] += power * std::norm(c);
   }
   std::vector<Complex> input_line = input_average;
   Kernel output_line_on_input = kernel_at(r_in, static_cast<double>(m0) / ratio);
@@ -404,63 +386,9 @@ TonePattern tone_pattern(double input_order, double r_in, double r_out, const Ge
     if (output_average[m - m0] == Complex{}) continue;
     for (long k = k0; k <= k1; ++k) input_line[k - k0] -= output_average[m - m0] * output_line_on_input(static_cast<double>(k));
   }
-  p.input_norm.resize(input_line.size());
-  for (std::size_t i = 0; i < input_line.size(); ++i) p.input_norm[i] = std::norm(input_line[i]);
-  p.broadband = broadband_spread(input_order, reach.broadband_bins);
-  return p;
-}
-
-/// The tone patterns computed so far, keyed by every input of tone_pattern(). The candidates' fits
-/// and the bootstrap scoring put tones at the same orders (k ± f_m/speed for one trial f_m, on
-/// every draw of a record) over and over; the pattern is a pure function of its key, so a kept one
-/// gives the same lines to the last bit. Per thread (core has no locks), and bounded: emptied when full.
-class TonePatterns {
- public:
-  const TonePattern& at(double input_order, std::size_t r_in, std::size_t r_out, const GearPairSpec& gears, ToneReach reach) {
-    const Key key{input_order, r_in, r_out, gears.pinion_teeth, gears.gear_teeth, reach.input_lines, reach.output_lines,
-                  reach.broadband_bins};
-    if (const auto it = kept_.find(key); it != kept_.end()) return it->second;
-    if (kept_.size() >= kMaxKept) kept_.clear();
-    return kept_
-        .emplace(key, tone_pattern(input_order, static_cast<double>(r_in), static_cast<double>(r_out), gears, reach))
-        .first->second;
-  }
-
- private:
-  using Key = std::tuple<double, std::size_t, std::size_t, int, int, int, int, int>;
-  static constexpr std::size_t kMaxKept = 1 << 16;  // a few tens of MB at most
-  std::map<Key, TonePattern> kept_;
-};
-
-}  // namespace
-
-void add_tone_to_broadband(SpectralSummary& s, double order, double power, int half_bins) {
-  if (!(power > 0)) return;
-  spread_into_broadband(s, broadband_spread(order, half_bins), power);
-}
-
-void add_non_synchronous_tone(SpectralSummary& s, double input_order, double power, const GearPairSpec& gears,
-                              double negligible_power, ToneReach reach) {
-  if (!(power > 0) || !(input_order > 0)) return;
-  // B/(B − 1) for the B = R − 1 broadband blocks RecordSpectra cuts from R input revolutions.
-  const double broadband_bias = s.input_revolutions > 2 ? (s.input_revolutions - 1.0) / (s.input_revolutions - 2.0) : 1.0;
-  if (power <= negligible_power || gears.pinion_teeth < 1 || gears.gear_teeth < 1) {
-    add_tone_to_broadband(s, input_order, power * broadband_bias, reach.broadband_bins);
-    return;
-  }
-  thread_local TonePatterns patterns;
-  const TonePattern& p = patterns.at(input_order, s.input_revolutions, s.output_revolutions, gears, reach);
-  for (std::size_t i = 0; i < p.output_norm.size(); ++i) {
-    const long m = p.m0 + static_cast<long>(i);
-    if (m <= static_cast<long>(s.output_lines.size()) && !output_line_is_mesh(static_cast<int>(m), gears.gear_teeth))
-      s.output_lines[static_cast<std::size_t>(m - 1)] += power * p.output_norm[i];
-  }
-  for (std::size_t i = 0; i < p.input_norm.size(); ++i) {
-    const long k = p.k0 + static_cast<long>(i);
-    if (k > static_cast<long>(s.input_lines.size())) break;
-    s.input_lines[static_cast<std::size_t>(k - 1)] += power * p.input_norm[i];
-  }
-  spread_into_broadband(s, p.broadband, power * std::max(0.0, 1.0 - p.removed) * broadband_bias);
+  for (long k = k0; k <= k1 && k <= static_cast<long>(s.input_lines.size()); ++k)
+    s.input_lines[static_cast<std::size_t>(k - 1)] += power * std::norm(input_line[k - k0]);
+  add_tone_to_broadband(s, input_order, power * std::max(0.0, 1.0 - removed) * broadband_bias, reach.broadband_bins);
 }
 
 }  // namespace gearwatch::gap
