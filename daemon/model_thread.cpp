@@ -248,6 +248,7 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
                                {"baseline_sd", m.ics2_scale_baseline_sd}, {"density_1", m.ics2_scale_density_1}}},
                {"k_wear_last_insensitive", m.k_wear_last_insensitive},
                {"k_wear_elasticity", m.k_wear_elasticity},
+               {"k_wear_identified_si", m.k_wear_identified_si},
                {"rms_sa_reference", {{"ratio", m.rms_sa_reference_ratio}, {"records", reference_records}, {"closed", m.rms_sa_reference_closed}}},
                {"log_k_wear", posterior_json(m.log_k_wear)},
                {"log_k_pitting", posterior_json(m.log_k_pitting)},
@@ -295,6 +296,8 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     m.ics2_scale_density_1 = sc.value("density_1", 0.0);
     m.k_wear_last_insensitive = j.value("k_wear_last_insensitive", false);
     m.k_wear_elasticity = j.value("k_wear_elasticity", 1.0);
+    // Added with the upper-bound rule: an older state's K_wear is its last identified one.
+    m.k_wear_identified_si = j.value("k_wear_identified_si", m.k_wear_si);
     // Added with the commissioning ratio: an older state has none (1, closed: its pair is past commissioning).
     if (j.contains("rms_sa_reference")) {
       const json& ref = j.at("rms_sa_reference");

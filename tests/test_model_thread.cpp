@@ -138,6 +138,7 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
   m.rms_sa_reference_ratio = 1.0 + 1.0 / 3.0;
   m.rms_sa_reference_records = {{0.0, std::log(1.0 + 1.0 / 3.0)}, {20.0 / 3.0, -1e-300}};
   m.rms_sa_reference_closed = true;
+  m.k_wear_identified_si = 3.0e-16 / 7.0;
   const std::string text = daemon::memory_to_json(m);
   const wear::ModelMemory back = daemon::memory_from_json(text);
   CHECK(daemon::memory_to_json(back) == text);
@@ -149,10 +150,11 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
   CHECK(back.rms_sa_reference_ratio == 1.0 + 1.0 / 3.0);
   CHECK(back.rms_sa_reference_records == m.rms_sa_reference_records);
   CHECK(back.rms_sa_reference_closed);
+  CHECK(back.k_wear_identified_si == 3.0e-16 / 7.0);
   // A state of an older gearwatch: without the fields added with the posterior.
   nlohmann::json old = nlohmann::json::parse(text);
   for (const char* key : {"log_k_wear", "log_k_pitting", "rms_residuals", "pitting_calibration_var", "scale_residual",
-                          "last_ics2_calibration_cycles", "rms_sa_reference"})
+                          "last_ics2_calibration_cycles", "rms_sa_reference", "k_wear_identified_si"})
     old.erase(key);
   old["ics2_scale"].erase("inspections");
   old["ics2_scale"].erase("baseline_sd");
@@ -166,6 +168,8 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
   CHECK(older.rms_sa_reference_ratio == 1.0);
   CHECK(older.rms_sa_reference_records.empty());
   CHECK(older.rms_sa_reference_closed);
+  // A state stored before the upper-bound rule: its K_wear is its last identified one.
+  CHECK(older.k_wear_identified_si == older.k_wear_si);
   // The model given it starts the prior about its K_wear, from its cycles on.
   const wear::TwinModel resumed(twin::GearboxParameters{}, s, [](const wear::WearState&, const twin::OperatingPoint&) { return 1.0; }, older);
   CHECK(resumed.memory().log_k_wear.valid);

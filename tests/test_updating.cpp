@@ -781,3 +781,74 @@ TEST_CASE("prognosis #1: an update that ends at the K_wear range's lower end kee
   const auto& flags = r.forecast.flags;
   CHECK(std::find(flags.begin(), flags.end(), ForecastFlag::k_wear_not_identified) != flags.end());
 }
+
+TEST_CASE("prognosis #1: a measurement on the twin's flat part bounds K_wear from above: K_wear = min(last identified, knee), bisected on ln K",
+          "[model][updating]") {
+  // RMS_SA = x^0.3 above the knee x = K/k_ref = 1 and x^0.0005 below it (flat: from the knee down
+  // to the range's lower end 1e-30, x = 1e-8, it falls by 0.92 % only, to 1e-8^0.0005 = 0.990832).
+  // The records measure below every value the twin gives but within the 5 % threshold of its
+  // lowest: no K crosses the measurement, the search ends at the range's lower end. The reference
+  // is then the twin's lowest RMS_SA, L = rms(1e-30); a K whose RMS_SA passes L (1 + 1 %) shows more
+  // wear than the record, so K_wear <= the knee x_up = (1.01 L)^(1/0.3) = 1.00246 (closed form, on
+  // the x^0.3 branch). The bisection on ln K stops at a bracket of 0.1, so the bound read (the
+  // largest K tried within the level) lies in [x_up e^-0.1, x_up].
+  ModelSettings s = root_find_settings();
+  s.convergence_tolerance = 0.01;   // the default
+  PowerLawTwin twin(s, 0.3);
+  twin.shape = [](double x) { return x >= 1 ? std::pow(x, 0.3) : std::pow(x, 0.0005); };
+  const double floor_rms = twin.rms(s.k_wear_min_si);
+  CHECK(floor_rms == Approx(0.990832).epsilon(1e-6));
+  const double x_up = std::pow(floor_rms * 1.01, 1.0 / 0.3);
+  CHECK(x_up == Approx(1.00246).epsilon(1e-5));
+  CHECK(std::string(to_string(UpdateOutcome::upper_bound)) == "upper_bound");
+  auto flags_of = [](const ModelRunReport& r) { return r.forecast.flags; };
+  SECTION("the last identified K above the knee: K_wear set to the knee") {
+    ModelSettings start = s;
+    start.loop.k_wear_si = 10 * twin.k_ref;   // RMS 1.995
+    TwinModel model(twin::GearboxParameters{}, start, twin.simulator());
+    const double measured = 0.95;              // 4.3 % below the twin's lowest
+    const ModelRunReport r = observe_one_update(model, twin, measured);
+    const KUpdate& u = r.updates[0];
+    INFO(u.evidence);
+    CHECK(u.outcome == UpdateOutcome::upper_bound);
+    CHECK(u.iterations <= s.max_wear_iterations);
+    const double x = u.new_value / twin.k_ref;
+    CHECK(x <= x_up * (1 + 1e-6));
+    CHECK(x >= x_up * std::exp(-0.1) * (1 - 1e-6));
+    CHECK(r.k_wear_si == u.new_value);
+    CHECK(u.simulated_after == Approx(twin.rms(u.new_value)).epsilon(1e-6));   // the knee's trial is the state kept
+    CHECK(u.simulated_after <= floor_rms * 1.01 * (1 + 1e-6));
+    CHECK(model.memory().k_wear_identified_si == start.loop.k_wear_si);   // a bound is no estimate
+    CHECK(model.memory().k_wear_last_insensitive);
+    CHECK(model.memory().wear_anchor.state.cycles == twin.cycles);        // the bound holds from the record on
+    CHECK(u.evidence.find("K_wear <= ") != std::string::npos);
+    CHECK(u.evidence.find("lies above it: K_wear set to the bound") != std::string::npos);
+    const auto flags = flags_of(r);
+    CHECK(std::find(flags.begin(), flags.end(), ForecastFlag::k_wear_not_identified) != flags.end());
+  }
+  SECTION("the last identified K below the knee: kept") {
+    ModelSettings start = s;
+    start.loop.k_wear_si = 0.1 * twin.k_ref;   // RMS 0.1^0.0005 = 0.998849: 5.7 % above 0.945, an update
+    TwinModel model(twin::GearboxParameters{}, start, twin.simulator());
+    const double measured = 0.945;             // the twin's lowest is 4.85 % above: within the threshold
+    CHECK(floor_rms / measured - 1 == Approx(0.048499).epsilon(1e-4));
+    const ModelRunReport r = observe_one_update(model, twin, measured);
+    const KUpdate& u = r.updates[0];
+    INFO(u.evidence);
+    CHECK(u.outcome == UpdateOutcome::upper_bound);
+    CHECK(u.iterations <= s.max_wear_iterations);
+    CHECK(u.new_value == start.loop.k_wear_si);
+    CHECK(r.k_wear_si == start.loop.k_wear_si);
+    CHECK(u.simulated_after == u.simulated_before);
+    CHECK(model.memory().k_wear_updates == 0);
+    CHECK(model.memory().k_wear_last_insensitive);
+    // The bound it read is the same knee: printed to 4 digits after "K_wear <= ".
+    const auto at = u.evidence.find("K_wear <= ");
+    REQUIRE(at != std::string::npos);
+    double bound = 0;
+    REQUIRE(std::sscanf(u.evidence.c_str() + at, "K_wear <= %lg", &bound) == 1);
+    CHECK(bound / twin.k_ref <= x_up * 1.0005);
+    CHECK(bound / twin.k_ref >= x_up * std::exp(-0.1) * 0.9995);
+    CHECK(u.evidence.find("lies below it and stays") != std::string::npos);
+  }
+}

@@ -224,6 +224,8 @@ TwinModel::TwinModel(twin::GearboxParameters params, ModelSettings settings, Rms
     loop_ = loop_at(memory_.current);
     // A state stored before the posterior existed: the prior about its K, from its cycles on.
     if (!memory_.log_k_wear.valid) memory_.log_k_wear = wear_prior(settings_, memory_.k_wear_si, memory_.current.state.cycles);
+    // A state stored before the upper-bound rule: its K_wear is the last identified one.
+    if (!(memory_.k_wear_identified_si > 0)) memory_.k_wear_identified_si = memory_.k_wear_si;
   }
 }
 
@@ -233,6 +235,7 @@ void TwinModel::start_new_pair() {
   fresh.wear_anchor = fresh.current;
   fresh.pitting_anchor = fresh.current;
   fresh.k_wear_si = settings_.loop.k_wear_si;
+  fresh.k_wear_identified_si = fresh.k_wear_si;
   fresh.k_pitting = settings_.loop.k_pitting;
   fresh.log_k_wear = wear_prior(settings_, fresh.k_wear_si, 0.0);
   memory_ = std::move(fresh);
@@ -464,14 +467,26 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   u.measured = measured;
   u.simulated_before = *simulated;
   // A failed re-run must not leave recaptured anchors behind: every trial starts from `saved`.
-  WearSearch search{memory_.wear_anchor, memory_, {obs.speed_hz, obs.torque_nm}, target, memory_.k_wear_si, *simulated, 0, std::nullopt, {}};
+  WearSearch search{memory_.wear_anchor, memory_, {obs.speed_hz, obs.torque_nm}, target, memory_.k_wear_si, *simulated, 0, std::nullopt, {}, false, std::numeric_limits<double>::quiet_NaN(), {}, {}};
   search_k_wear(search, u);
-  u.iterations = search.evaluations;
+  const std::string why_of_search = search.why;
   const bool keep = keep_k_wear(search, u, *simulated);
-  apply_k_wear_result(keep, search, u, *simulated, report);
+  std::optional<KneeReading> knee;
+  if (!keep && knee_applies(search, u, *simulated)) {
+    const std::string why_of_keep = search.why;
+    search.why = why_of_search;   // a knee replaces keep_k_wear's "left as it was"
+    std::string no_knee;
+    knee = read_knee(search, u, no_knee);
+    if (!knee) search.why = why_of_keep + (why_of_keep.empty() ? "" : "; ") + no_knee;
+  }
+  u.iterations = search.evaluations;
+  if (knee)
+    apply_k_wear_bound(*knee, search, u, *simulated, report);
+  else
+    apply_k_wear_result(keep, search, u, *simulated, report);
   u.evidence = k_wear_evidence(search, u, ratio, *simulated);
   if (keep) learn_k_wear(u, *simulated, obs.cycles);
-  // Not identified: RMS_SA insensitive, or no K reproduced the record (the interval then widens).
+  // Not identified: RMS_SA insensitive, no K reproduced the record, or only a bound (the interval then widens).
   memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive || !keep;
   report.updates.push_back(std::move(u));
 }
@@ -544,6 +559,7 @@ void TwinModel::apply_k_wear_result(bool keep, WearSearch& search, KUpdate& u, d
     memory_ = std::move(best.memory);
     memory_.current = best.state;
     apply_k(true, best.k, search.anchor.state.cycles);
+    memory_.k_wear_identified_si = best.k;
     memory_.wear_anchor = memory_.current;
     loop_ = loop_at(memory_.current);
     ++memory_.k_wear_updates;
@@ -643,6 +659,7 @@ std::optional<TwinModel::WearTrial> TwinModel::wear_trial(double k, WearSearch& 
   WearTrial t;
   t.k = k;
   if (!rerun(search.anchor, Override{k, std::nullopt, search.anchor.state.cycles}, t.state, true)) {
+    search.points.push_back({std::log(k), std::numeric_limits<double>::infinity()});
     u.outcome = UpdateOutcome::bound_reached;
     search.depth_limited = true;
     search.why = "with K_wear = " + fmt("%.4g", k) + " a flank passes the depth limit before the record";
@@ -658,6 +675,8 @@ std::optional<TwinModel::WearTrial> TwinModel::wear_trial(double k, WearSearch& 
   }
   t.log_error = std::log(t.sim / search.measured);
   t.memory = memory_;
+  search.points.push_back({std::log(k), t.log_error});
+  search.trials.push_back(t);
   if (!search.best || std::abs(t.sim - search.measured) < std::abs(search.best->sim - search.measured)) search.best = t;
   return t;
 }
@@ -893,6 +912,108 @@ void TwinModel::finish_root(const LogKPoint& root, const std::vector<LogKPoint>&
     return;
   }
   u.outcome = UpdateOutcome::converged;
+}
+
+namespace {
+// The knee's bisection stops when the bracket on ln K is this narrow: a tenth of a neper (about
+// 10 % in K), far below the decades that separate a knee from the range's guard.
+constexpr double kKneeLogTolerance = 0.1;
+}  // namespace
+
+bool TwinModel::knee_applies(const WearSearch& search, const KUpdate& u, double simulated) const {
+  // Only a record that asks for less wear than the current K gives: the twin above the measurement.
+  if (!search.best || !(simulated > search.measured)) return false;
+  const double target = search.measured;
+  if (std::abs(search.best->sim - target) / target > settings_.rms_threshold) return false;   // a model-form miss, no bound
+  if (u.outcome == UpdateOutcome::insensitive) return !search.points.empty();
+  return u.outcome == UpdateOutcome::bound_reached && search.best->k <= settings_.k_wear_min_si * (1 + 1e-9);
+}
+
+std::optional<TwinModel::KneeReading> TwinModel::read_knee(WearSearch& search, KUpdate& u, std::string& no_knee) {
+  // The reference: the measurement, or where the twin cannot come down to it, the closest RMS_SA
+  // it gives (its flat part's level). A K whose RMS_SA passes it by more than the convergence
+  // tolerance gives more wear than the record shows.
+  const double reference = std::max(search.measured, search.best->sim);
+  const double level = std::log(reference * (1 + settings_.convergence_tolerance) / search.measured);
+  auto matches = [level](const LogKPoint& p) { return std::isfinite(p.g) && p.g <= level; };
+  std::optional<LogKPoint> a, b;
+  for (const LogKPoint& p : search.points)
+    if (matches(p) && (!a || p.x > a->x)) a = p;
+  if (a)
+    for (const LogKPoint& p : search.points)
+      if (!matches(p) && p.x > a->x && (!b || p.x < b->x)) b = p;
+  if (!a || !b) {
+    no_knee = "no K_wear tried leaves the twin's flat part: no knee to bound K_wear";
+    return std::nullopt;
+  }
+  // Bisection on ln K between the last matching and the first leaving point (the trials restore
+  // the search's outcome and reason: they are not the search's).
+  const UpdateOutcome outcome = u.outcome;
+  const std::string why = search.why;
+  const int before = search.evaluations;
+  while (b->x - a->x > kKneeLogTolerance && search.evaluations < settings_.max_wear_iterations) {
+    const double k = std::exp(0.5 * (a->x + b->x));
+    const std::optional<WearTrial> t = wear_trial(k, search, u);
+    if (!t && !search.depth_limited) break;   // the twin gave no value: the bracket as it is
+    const LogKPoint p{std::log(k), t ? t->log_error : std::numeric_limits<double>::infinity()};
+    (matches(p) ? a : b) = p;
+  }
+  u.outcome = outcome;
+  search.why = why;
+  search.depth_limited = false;
+  if (a->x - std::log(settings_.k_wear_min_si) < kKneeLogTolerance) {
+    no_knee = "the twin's RMS_SA leaves " + fmt("%.5g", reference) + " by " + fmt("%.3g", 100 * settings_.convergence_tolerance) +
+              " % within " + fmt("%.2g", kKneeLogTolerance) + " in ln K of the range's lower end: no knee above the range's guard";
+    return std::nullopt;
+  }
+  const auto trial = std::find_if(search.trials.begin(), search.trials.end(), [&](const WearTrial& t) { return std::log(t.k) == a->x; });
+  if (trial == search.trials.end()) {
+    no_knee = "the knee's trial was not kept";
+    return std::nullopt;
+  }
+  return KneeReading{*trial, *b, reference, search.evaluations - before};
+}
+
+void TwinModel::apply_k_wear_bound(KneeReading& knee, WearSearch& search, KUpdate& u, double simulated, ModelRunReport& report) {
+  const double bound = knee.match.k;
+  const double identified = search.saved.k_wear_identified_si > 0 ? search.saved.k_wear_identified_si : search.saved.k_wear_si;
+  u.outcome = UpdateOutcome::upper_bound;
+  std::string text = "the measurement lies on the twin's flat part: its RMS_SA stays within " +
+                     fmt("%.3g", 100 * settings_.convergence_tolerance) + " % of " + fmt("%.5g", knee.reference) + " up to K_wear " +
+                     fmt("%.4g", bound) + " m^2/N and leaves it by " + k_of(knee.rejected.x) + " m^2/N (" +
+                     std::to_string(knee.reruns) + " bisection re-run(s)): K_wear <= " + fmt("%.4g", bound) + " m^2/N (upper bound)";
+  std::optional<WearTrial> chosen;
+  if (identified < bound) {
+    // The estimate lies within the bound: it stays (re-run only when a bound had replaced it).
+    text += "; the last identified K_wear " + fmt("%.4g", identified) + " m^2/N lies below it and stays";
+    if (identified != search.saved.k_wear_si) {
+      const std::string why = search.why;
+      chosen = wear_trial(identified, search, u);
+      u.outcome = UpdateOutcome::upper_bound;
+      search.why = why;
+      if (!chosen) text += " (its re-run failed: K_wear left as it was)";
+    }
+  } else {
+    text += "; the last identified K_wear " + fmt("%.4g", identified) + " m^2/N lies above it: K_wear set to the bound";
+    chosen = knee.match;
+  }
+  u.iterations = search.evaluations;
+  search.why += (search.why.empty() ? "" : "; ") + text;
+  if (!chosen) {
+    memory_ = search.saved;
+    u.new_value = u.old_value;
+    u.simulated_after = simulated;
+    return;
+  }
+  memory_ = std::move(chosen->memory);
+  memory_.current = chosen->state;
+  apply_k(true, chosen->k, search.anchor.state.cycles);
+  memory_.wear_anchor = memory_.current;
+  loop_ = loop_at(memory_.current);
+  ++memory_.k_wear_updates;
+  u.new_value = chosen->k;
+  u.simulated_after = chosen->sim;
+  report.rms_sa_simulated = chosen->sim;
 }
 
 void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report) {
@@ -1319,7 +1440,7 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
     const double prior_var = settings_.prior_log_k_wear_sd * settings_.prior_log_k_wear_sd;
     f.flags.push_back(ForecastFlag::k_wear_not_identified);
     char b[200];
-    std::snprintf(b, sizeof b, "K_wear: the last update did not identify K_wear (RMS_SA insensitive, or no K reproduced the record): ln K SD %.3g raised to the prior's %.3g",
+    std::snprintf(b, sizeof b, "K_wear: the last update did not identify K_wear (RMS_SA insensitive, no K reproduced the record, or only an upper bound): ln K SD %.3g raised to the prior's %.3g",
                   std::sqrt(pw.var), settings_.prior_log_k_wear_sd);
     f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
     pw.var = std::max(pw.var, prior_var);

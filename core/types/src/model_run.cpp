@@ -42,6 +42,7 @@ const char* to_string(UpdateOutcome outcome) noexcept {
     case UpdateOutcome::set_to_zero: return "set_to_zero";
     case UpdateOutcome::simulation_failed: return "simulation_failed";
     case UpdateOutcome::insensitive: return "insensitive";
+    case UpdateOutcome::upper_bound: return "upper_bound";
   }
   return "unknown";
 }

@@ -198,6 +198,9 @@ struct ModelMemory {
   double ics2_scale_density_1 = 0;         ///< A1 of a two-inspection scale (its second point); 0: none
   bool k_wear_last_insensitive = false;    ///< the last K_wear update did not identify K_wear (RMS_SA insensitive, or no K reproduced the record)
   double k_wear_elasticity = 1.0;          ///< d ln RMS_SA / d ln K_wear of the last kept K_wear update (1 before any)
+  /// The last K_wear an update identified (the initial K before any; 0: unknown, taken as k_wear_si).
+  /// An upper-bound update sets K_wear to min(this, the knee), so a bound never becomes the estimate.
+  double k_wear_identified_si = 0;
   /// The commissioning ratio RMS_SA,meas / RMS_SA,sim the K_wear updates match against (1: none
   /// established), the (cycles, ln meas/sim) of the records that established it, and whether it is
   /// closed (a record at which wear can move RMS_SA, or commissioning_records reached).
@@ -281,7 +284,27 @@ class TwinModel {
     std::string why;                       ///< why it stopped, when it did not converge
     bool depth_limited = false;            ///< the last trial stopped at the depth limit before the record
     double root_elasticity = std::numeric_limits<double>::quiet_NaN();   ///< root-find: d ln RMS_SA / d ln K near the root
+    std::vector<LogKPoint> points;         ///< every K tried: (ln K, ln sim/meas), +inf past the depth limit
+    std::vector<WearTrial> trials;         ///< the trials that gave an RMS_SA (the knee reading picks one)
   };
+  /// The knee reading: the largest K tried whose RMS_SA stays within the convergence tolerance of
+  /// the reference (the measurement, or the twin's closest value when that lies above it), and the
+  /// smallest K above it that leaves it.
+  struct KneeReading {
+    WearTrial match;
+    LogKPoint rejected;
+    double reference = 0;
+    int reruns = 0;
+  };
+  /// Whether the record bounds K_wear from above only: the twin at the current K lies above the
+  /// measurement, the closest K reproduces it within the threshold, and the search ended on the
+  /// flat part (insensitive, or at the range's lower end).
+  bool knee_applies(const WearSearch& search, const KUpdate& u, double simulated) const;
+  /// The knee by bisection on ln K between the points the search has; nullopt (reason appended)
+  /// when there is none or it lies at the range's lower end (the range's guard, not a knee).
+  std::optional<KneeReading> read_knee(WearSearch& search, KUpdate& u, std::string& no_knee);
+  /// K_wear = min(last identified, knee), outcome upper_bound; the forecast still counts it as not identified.
+  void apply_k_wear_bound(KneeReading& knee, WearSearch& search, KUpdate& u, double simulated, ModelRunReport& report);
   /// The K_wear search by the configured rule (none where no cycles passed since the wear anchor).
   void search_k_wear(WearSearch& search, KUpdate& u);
   /// Whether the best K found is kept: it reproduces the record within the threshold, improves on

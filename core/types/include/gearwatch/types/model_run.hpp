@@ -61,11 +61,12 @@ enum class UpdateOutcome : std::uint8_t {
   set_to_zero,        ///< K_pitting: the correlation threshold cannot be reached (§7.3.3, after step 4)
   simulation_failed,  ///< the twin's simulation diverged or could not be analysed: K unchanged
   insensitive,        ///< K_wear: |d ln RMS_SA / d ln K_wear| below the stated minimum: RMS_SA cannot tell K here, K unchanged
+  upper_bound,        ///< K_wear: the measurement lies on the twin's flat part: K_wear <= the knee; K = min(last identified, knee)
 };
 inline constexpr std::array kAllUpdateOutcomes{UpdateOutcome::converged,     UpdateOutcome::iteration_limit,
                                                UpdateOutcome::not_monotone,  UpdateOutcome::bound_reached,
                                                UpdateOutcome::set_to_zero,   UpdateOutcome::simulation_failed,
-                                               UpdateOutcome::insensitive};
+                                               UpdateOutcome::insensitive,   UpdateOutcome::upper_bound};
 const char* to_string(UpdateOutcome outcome) noexcept;
 
 /// Why a record could not be used, in whole or in part.
