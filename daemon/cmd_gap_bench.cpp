@@ -452,10 +452,23 @@ double k_log_bias(const std::vector<ScenarioResult>& rs, double ScenarioResult::
   return median(v);
 }
 
+nlohmann::json effect_names(const std::vector<rig::Effect>& effects) {
+  nlohmann::json names = nlohmann::json::array();
+  for (auto e : effects) names.push_back(rig::effect_name(e));
+  return names;
+}
+
 nlohmann::json outcome_json_names(const std::vector<CandidateEffect>& effects) {
   nlohmann::json names = nlohmann::json::array();
   for (auto e : effects) names.push_back(gap::to_string(e));
   return names;
+}
+
+/// What a scenario's progress line says: the truth, which of it leaves a trace, what was named.
+std::string progress_line(const ScenarioResult& r) {
+  return "truth " + effect_names(r.truth).dump() + " identifiable " + effect_names(r.identifiable_effects).dump() +
+         " detected " + (r.detected ? "yes" : "no") + " chosen " + outcome_json_names(r.chosen).dump() + " shrinkage " +
+         (std::isfinite(r.shrinkage) ? std::to_string(r.shrinkage) : std::string("none"));
 }
 
 /// A scenario as the headline scores read it (gap_bench_scores.hpp).
@@ -467,12 +480,6 @@ RigOutcome outcome_of(const ScenarioResult& r) {
   o.detected = r.detected;
   o.shrinkage = r.shrinkage;
   return o;
-}
-
-nlohmann::json effect_names(const std::vector<rig::Effect>& effects) {
-  nlohmann::json names = nlohmann::json::array();
-  for (auto e : effects) names.push_back(rig::effect_name(e));
-  return names;
 }
 
 nlohmann::json scenario_json(const ScenarioResult& r) {
@@ -574,7 +581,7 @@ void RigBench::run_effect_scenarios() {
     } catch (const std::exception& e) {
       throw CommandError("gap bench seed " + std::to_string(seed) + ": " + e.what());
     }
-    printer_.progress(seed, "effects " + std::to_string(fx.enabled_effects().size()), runs_.back().seconds);
+    printer_.progress(seed, progress_line(runs_.back()), runs_.back().seconds);
   }
 }
 
@@ -591,6 +598,7 @@ void RigBench::run_no_effect_scenarios() {
     };
     quiet_.push_back(run_scenario(o_, rig::EffectSet{}, wear_, k_true_, *twins_, *baseline_, scaled(o_.training_speeds_hz),
                                   scaled(o_.held_out_speeds_hz), o_.first_seed + 100000 + static_cast<std::uint64_t>(i)));
+    printer_.progress(o_.first_seed + 100000 + static_cast<std::uint64_t>(i), progress_line(quiet_.back()), quiet_.back().seconds);
   }
 }
 
