@@ -33,7 +33,6 @@ std::ostringstream table_stream() {
 }
 
 void BenchPrinter::progress(std::uint64_t seed, const std::string& what, double seconds) const {
-  if (json()) return;
   std::cerr << "seed " << seed << " " << what << " done in " << std::fixed << std::setprecision(1) << seconds << " s\n";
 }
 

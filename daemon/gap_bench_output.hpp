@@ -42,7 +42,8 @@ class BenchPrinter {
  public:
   explicit BenchPrinter(std::string format) : format_(std::move(format)) {}
   bool json() const noexcept { return format_ == "json"; }
-  /// "seed 3 <what> done in 12.3 s" on stderr (table format only: JSON output stays one document).
+  /// "seed 3 <what> done in 12.3 s" on stderr, in either format (the JSON document is alone on
+  /// stdout): a long run shows where it is, and what it has scored so far.
   void progress(std::uint64_t seed, const std::string& what, double seconds) const;
   /// The document (format json) or the table, on stdout.
   void print(const nlohmann::json& document, const BenchTable& table) const;

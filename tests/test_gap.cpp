@@ -1194,6 +1194,55 @@ TEST_CASE("gap: gap bench with a few seeds writes the scores as JSON", "[gap]") 
   CHECK(j["k_wear_bias_no_effect"].get<double>() < 0.05);
   CHECK(j["k_wear_bias_before"].is_number());
   CHECK(j["k_wear_bias_after"].is_number());
+
+  // The headline scores (docs/gap-bench.md, "What the records can show") recounted here from the
+  // per-scenario trace: the first named effect among those with a signature of their own; nothing
+  // significant and nothing named without one or without an effect; the median shrinkage over the
+  // identifiable scenarios with one.
+  auto name_of = [&](const nlohmann::json& rig_name) {
+    const std::string n = rig_name;
+    return candidate_of.count(n) ? candidate_of.at(n) : n;
+  };
+  int named = 0, with_trace = 0, silent = 0, without_trace = 0;
+  std::vector<double> shrinks;
+  for (const auto& scenario : j["scenarios"]) {
+    const auto& own = scenario["identifiable_effects"];
+    CHECK(scenario["identifiable"] == !own.empty());
+    if (own.empty()) {
+      ++without_trace;
+      silent += !scenario["detected"].get<bool>() && scenario["chosen"].empty();
+      continue;
+    }
+    ++with_trace;
+    bool first_is_own = false;
+    for (const auto& e : own) first_is_own |= !scenario["chosen"].empty() && scenario["chosen"].front() == name_of(e);
+    named += first_is_own;
+    if (scenario["shrinkage"].is_number()) shrinks.push_back(scenario["shrinkage"]);
+  }
+  int alarms = 0;
+  for (const auto& q : j["no_effect_scenarios"]) alarms += q["detected"].get<bool>() || !q["chosen"].empty();
+  const auto& scores = j["scores"];
+  CHECK(scores["identifiable_named"]["part"] == named);
+  CHECK(scores["identifiable_named"]["whole"] == with_trace);
+  CHECK(scores["non_identifiable_silent"]["part"] == silent);
+  CHECK(scores["non_identifiable_silent"]["whole"] == without_trace);
+  CHECK(scores["no_effect_false_alarms"]["part"] == alarms);
+  CHECK(scores["no_effect_false_alarms"]["whole"] == 1);
+  std::sort(shrinks.begin(), shrinks.end());
+  REQUIRE(scores["shrinkage"]["whole"] == shrinks.size());
+  REQUIRE_FALSE(shrinks.empty());
+  const std::size_t n = shrinks.size();
+  CHECK(scores["shrinkage"]["value"].get<double>() ==
+        Approx(n % 2 ? shrinks[n / 2] : 0.5 * (shrinks[n / 2 - 1] + shrinks[n / 2])).epsilon(1e-12));
+  // One effect per scenario: no two-effect figure.
+  CHECK(scores["both_named"]["whole"] == 0);
+  CHECK(scores["both_named"]["value"].is_null());
+  // The targets scaled to 4 scenarios and 1 no-effect run: >= 95 % of those with a signature is
+  // all of them; the no-effect run silent.
+  CHECK(named == with_trace);
+  CHECK(alarms == 0);
+  CHECK(scores["identifiable_named"]["met"] == (with_trace > 0));
+  CHECK(scores["no_effect_false_alarms"]["met"] == true);
 }
 
 TEST_CASE("gap: gap bench refuses a practical minimum that is negative or not a number, before simulating", "[gap]") {
