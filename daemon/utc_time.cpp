@@ -33,7 +33,7 @@ std::string parse_utc_time(const std::string& text, const std::string& option) {
   if (!date.ok()) throw refuse("no such date");
   const int hour = field(m[4]), minute = field(m[5]), second = field(m[6]);
   if (hour > 23 || minute > 59 || second > 59) throw refuse("no such time of day");
-  char out[32];
+  char out[64];  // room for any int the compiler cannot rule out (the fields are checked above)
   std::snprintf(out, sizeof out, "%s-%s-%sT%02d:%02d:%02d.%03dZ", m[1].str().c_str(), m[2].str().c_str(), m[3].str().c_str(), hour,
                 minute, second, milliseconds(m[7]));
   return out;
