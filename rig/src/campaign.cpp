@@ -217,6 +217,127 @@ CampaignSpec load_campaign_file(const std::string& path) {
   return parse_campaign(text.str(), path);
 }
 
+namespace {
+
+// [campaign]: the schedule, the operating point and the recording.
+void read_campaign_table(const toml::table& campaign, const std::string& source, CampaignSpec& c) {
+  TableReader r(campaign, "campaign.", source);
+  c.name = r.string("name", "campaign");
+  c.max_cycles = r.number("max_cycles", 0, 1, 1e12);
+  if (!campaign.get("max_cycles")) throw CampaignError(source + ": campaign.max_cycles is required");
+  c.stop_interval_cycles = r.number("stop_interval_cycles", c.max_cycles, 1, 1e12);
+  c.torque_nm = r.number("torque_nm", 20, 0, 200);
+  c.measurement_speeds_hz = r.numbers("measurement_speeds_hz", {10.0}, 0.5, 60);
+  c.records = r.integer("records", 20, 1, 100000);
+  c.seconds = r.number("seconds", 10, 0.1, 3600);
+  c.sample_rate_hz = r.number("sample_rate_hz", 100000, 1000, 1000000);
+  c.channels = r.integer("channels", 2, 1, 2);
+  c.integration_rate_hz = r.number("integration_rate_hz", kDefaultIntegrationRateHz, 50000, 2000000);
+  r.reject_unknown();
+  if (c.stop_interval_cycles > c.max_cycles) {
+    const toml::node* n = campaign.get("stop_interval_cycles");
+    throw CampaignError(source + " line " + std::to_string(n ? n->source().begin.line : 0) +
+                        ": campaign.stop_interval_cycles is larger than campaign.max_cycles");
+  }
+}
+
+// [wear] and its [[wear.phase]] entries: the built-in wear truth.
+void read_wear_table(const toml::table& wear, const std::string& source, CampaignSpec& c) {
+  TableReader r(wear, "wear.", source);
+  const std::string law = r.string("law", "linear");
+  if (law == "archard") {
+    c.wear.law = WearLaw::archard;
+  } else if (law != "linear") {
+    r.fail(*wear.get("law"), "law", "must be \"linear\" or \"archard\" (the other forms: --campaign random)");
+  }
+  c.wear.reference_torque_nm = r.number("reference_torque_nm", 20, 0.01, 1000);
+  c.wear.pitting_onset_cycles = r.number("pitting_onset_cycles", 0, 0, 1e12);
+  c.wear.k_pitting = r.number("k_pitting", 0, 0, 10);
+  c.wear.pitting_exponent = r.number("pitting_exponent", 1.5, 0.1, 10);
+  c.wear.max_pitting = r.number("max_pitting", 0.3, 0, 1);
+  c.wear.initial_roughness = r.number("initial_roughness", 0, 0, 100);
+  c.wear.runin_cycles = r.number("runin_cycles", 1e5, 1, 1e12);
+  c.wear.roughness_per_um = r.number("roughness_per_um", 0, 0, 100);
+  if (const toml::node* phases = r.get("phase")) {
+    if (!phases->is_array_of_tables()) r.fail(*phases, "phase", "must be an array of tables ([[wear.phase]])");
+    for (const auto& p : *phases->as_array()) {
+      TableReader pr(*p.as_table(), "wear.phase.", source);
+      WearPhase w;
+      w.from_cycles = pr.number("from_cycles", 0, 0, 1e12);
+      w.k_wear = pr.number("k_wear", 0, 0, 1e-6);
+      pr.reject_unknown();
+      if (!c.wear.phases.empty() && w.from_cycles <= c.wear.phases.back().from_cycles)
+        pr.fail(p.as_table()->get("from_cycles") ? *p.as_table()->get("from_cycles") : p, "from_cycles",
+                "must increase from one phase to the next");
+      c.wear.phases.push_back(w);
+    }
+  }
+  r.reject_unknown();
+}
+
+// [sliding]: the sliding vibration's gains and carrier bands.
+void read_sliding_table(const toml::table& sliding, const std::string& source, CampaignSpec& c) {
+  TableReader r(sliding, "sliding.", source);
+  c.pitting_gain_m_s2 = r.number("pitting_gain_m_s2", 0, 0, 1000);
+  c.roughness_gain_m_s2 = r.number("roughness_gain_m_s2", 0, 0, 1000);
+  for (auto [key, low, high] : {std::tuple{"pitting_band_hz", &c.bands.pitting_band_low_hz, &c.bands.pitting_band_high_hz},
+                                std::tuple{"abrasion_band_hz", &c.bands.abrasion_band_low_hz, &c.bands.abrasion_band_high_hz}}) {
+    const auto band = r.numbers(key, {*low, *high}, 1, 0.5 * c.sample_rate_hz * 0.98);
+    if (band.size() != 2 || !(band[0] < band[1]))
+      r.fail(*sliding.get(key), key, "must be [low, high] with low < high, below half the sample rate");
+    *low = band[0];
+    *high = band[1];
+  }
+  r.reject_unknown();
+}
+
+// [effects]: which rig effects are on and the parameters the file fixes.
+void read_effects_table(const toml::table& effects, const std::string& source, CampaignSpec& c) {
+  TableReader r(effects, "effects.", source);
+  if (const toml::node* n = r.get("enabled")) {
+    if (n->is_string()) {
+      c.effects = n->as_string()->get();
+    } else if (n->is_array()) {
+      c.effects.clear();
+      for (const auto& e : *n->as_array()) {
+        if (!e.is_string()) r.fail(*n, "enabled", "must be \"all\", \"none\" or an array of effect names");
+        c.effects += (c.effects.empty() ? "" : ",") + std::string(e.as_string()->get());
+      }
+      if (c.effects.empty()) c.effects = "none";
+    } else {
+      r.fail(*n, "enabled", "must be \"all\", \"none\" or an array of effect names");
+    }
+    try {
+      EffectSet::parse(c.effects);
+    } catch (const RigParameterError& e) {
+      r.fail(*n, "enabled", std::string(": ") + e.what());
+    }
+  }
+  for (Effect e : all_effects()) {
+    const toml::table* t = r.subtable(effect_name(e));
+    if (!t) continue;
+    TableReader er(*t, std::string("effects.") + effect_name(e) + ".", source);
+    for (const auto& p : effect_parameter_table()) {
+      if (p.effect != e) continue;
+      const std::string key = std::string(p.name).substr(std::string(effect_name(e)).size() + 1);
+      if (const toml::node* n = t->get(key)) {
+        const double v = er.number(key, 0, -1e300, 1e300);
+        try {
+          EffectSet probe;
+          probe.set(p.name, v);
+        } catch (const RigParameterError& ex) {
+          er.fail(*n, key, std::string("refused: ") + ex.what());
+        }
+        c.effect_values[p.name] = v;
+      }
+    }
+    er.reject_unknown();
+  }
+  r.reject_unknown();
+}
+
+}  // namespace
+
 CampaignSpec parse_campaign(const std::string& text, const std::string& source) {
   toml::table root;
   try {
@@ -228,118 +349,13 @@ CampaignSpec parse_campaign(const std::string& text, const std::string& source) 
   TableReader top(root, "", source);
   const toml::table* campaign = top.subtable("campaign");
   if (!campaign) throw CampaignError(source + ": the [campaign] table is missing");
-  {
-    TableReader r(*campaign, "campaign.", source);
-    c.name = r.string("name", "campaign");
-    c.max_cycles = r.number("max_cycles", 0, 1, 1e12);
-    if (!campaign->get("max_cycles")) throw CampaignError(source + ": campaign.max_cycles is required");
-    c.stop_interval_cycles = r.number("stop_interval_cycles", c.max_cycles, 1, 1e12);
-    c.torque_nm = r.number("torque_nm", 20, 0, 200);
-    c.measurement_speeds_hz = r.numbers("measurement_speeds_hz", {10.0}, 0.5, 60);
-    c.records = r.integer("records", 20, 1, 100000);
-    c.seconds = r.number("seconds", 10, 0.1, 3600);
-    c.sample_rate_hz = r.number("sample_rate_hz", 100000, 1000, 1000000);
-    c.channels = r.integer("channels", 2, 1, 2);
-    c.integration_rate_hz = r.number("integration_rate_hz", kDefaultIntegrationRateHz, 50000, 2000000);
-    r.reject_unknown();
-    if (c.stop_interval_cycles > c.max_cycles) {
-      const toml::node* n = campaign->get("stop_interval_cycles");
-      throw CampaignError(source + " line " + std::to_string(n ? n->source().begin.line : 0) +
-                          ": campaign.stop_interval_cycles is larger than campaign.max_cycles");
-    }
-  }
+  read_campaign_table(*campaign, source, c);
   c.wear.torque_nm = c.torque_nm;
-  if (const toml::table* wear = top.subtable("wear")) {
-    TableReader r(*wear, "wear.", source);
-    const std::string law = r.string("law", "linear");
-    if (law == "archard") {
-      c.wear.law = WearLaw::archard;
-    } else if (law != "linear") {
-      r.fail(*wear->get("law"), "law", "must be \"linear\" or \"archard\" (the other forms: --campaign random)");
-    }
-    c.wear.reference_torque_nm = r.number("reference_torque_nm", 20, 0.01, 1000);
-    c.wear.pitting_onset_cycles = r.number("pitting_onset_cycles", 0, 0, 1e12);
-    c.wear.k_pitting = r.number("k_pitting", 0, 0, 10);
-    c.wear.pitting_exponent = r.number("pitting_exponent", 1.5, 0.1, 10);
-    c.wear.max_pitting = r.number("max_pitting", 0.3, 0, 1);
-    c.wear.initial_roughness = r.number("initial_roughness", 0, 0, 100);
-    c.wear.runin_cycles = r.number("runin_cycles", 1e5, 1, 1e12);
-    c.wear.roughness_per_um = r.number("roughness_per_um", 0, 0, 100);
-    if (const toml::node* phases = r.get("phase")) {
-      if (!phases->is_array_of_tables()) r.fail(*phases, "phase", "must be an array of tables ([[wear.phase]])");
-      for (const auto& p : *phases->as_array()) {
-        TableReader pr(*p.as_table(), "wear.phase.", source);
-        WearPhase w;
-        w.from_cycles = pr.number("from_cycles", 0, 0, 1e12);
-        w.k_wear = pr.number("k_wear", 0, 0, 1e-6);
-        pr.reject_unknown();
-        if (!c.wear.phases.empty() && w.from_cycles <= c.wear.phases.back().from_cycles)
-          pr.fail(p.as_table()->get("from_cycles") ? *p.as_table()->get("from_cycles") : p, "from_cycles",
-                  "must increase from one phase to the next");
-        c.wear.phases.push_back(w);
-      }
-    }
-    r.reject_unknown();
-  }
-  if (const toml::table* sliding = top.subtable("sliding")) {
-    TableReader r(*sliding, "sliding.", source);
-    c.pitting_gain_m_s2 = r.number("pitting_gain_m_s2", 0, 0, 1000);
-    c.roughness_gain_m_s2 = r.number("roughness_gain_m_s2", 0, 0, 1000);
-    for (auto [key, low, high] : {std::tuple{"pitting_band_hz", &c.bands.pitting_band_low_hz, &c.bands.pitting_band_high_hz},
-                                  std::tuple{"abrasion_band_hz", &c.bands.abrasion_band_low_hz, &c.bands.abrasion_band_high_hz}}) {
-      const auto band = r.numbers(key, {*low, *high}, 1, 0.5 * c.sample_rate_hz * 0.98);
-      if (band.size() != 2 || !(band[0] < band[1]))
-        r.fail(*sliding->get(key), key, "must be [low, high] with low < high, below half the sample rate");
-      *low = band[0];
-      *high = band[1];
-    }
-    r.reject_unknown();
-  }
+  if (const toml::table* wear = top.subtable("wear")) read_wear_table(*wear, source, c);
+  if (const toml::table* sliding = top.subtable("sliding")) read_sliding_table(*sliding, source, c);
   if (c.bands.abrasion_band_high_hz >= 0.5 * c.sample_rate_hz && c.roughness_gain_m_s2 > 0)
     throw CampaignError(source + ": sliding.abrasion_band_hz reaches above half of campaign.sample_rate_hz");
-  if (const toml::table* effects = top.subtable("effects")) {
-    TableReader r(*effects, "effects.", source);
-    if (const toml::node* n = r.get("enabled")) {
-      if (n->is_string()) {
-        c.effects = n->as_string()->get();
-      } else if (n->is_array()) {
-        c.effects.clear();
-        for (const auto& e : *n->as_array()) {
-          if (!e.is_string()) r.fail(*n, "enabled", "must be \"all\", \"none\" or an array of effect names");
-          c.effects += (c.effects.empty() ? "" : ",") + std::string(e.as_string()->get());
-        }
-        if (c.effects.empty()) c.effects = "none";
-      } else {
-        r.fail(*n, "enabled", "must be \"all\", \"none\" or an array of effect names");
-      }
-      try {
-        EffectSet::parse(c.effects);
-      } catch (const RigParameterError& e) {
-        r.fail(*n, "enabled", std::string(": ") + e.what());
-      }
-    }
-    for (Effect e : all_effects()) {
-      const toml::table* t = r.subtable(effect_name(e));
-      if (!t) continue;
-      TableReader er(*t, std::string("effects.") + effect_name(e) + ".", source);
-      for (const auto& p : effect_parameter_table()) {
-        if (p.effect != e) continue;
-        const std::string key = std::string(p.name).substr(std::string(effect_name(e)).size() + 1);
-        if (const toml::node* n = t->get(key)) {
-          const double v = er.number(key, 0, -1e300, 1e300);
-          try {
-            EffectSet probe;
-            probe.set(p.name, v);
-          } catch (const RigParameterError& ex) {
-            er.fail(*n, key, std::string("refused: ") + ex.what());
-          }
-          c.effect_values[p.name] = v;
-        }
-      }
-      er.reject_unknown();
-    }
-    r.reject_unknown();
-  }
+  if (const toml::table* effects = top.subtable("effects")) read_effects_table(*effects, source, c);
   top.reject_unknown();
   return c;
 }
