@@ -1,6 +1,11 @@
 // The fleet consumer's reading of one message (docs/fleet.md): topic, UTF-8, JSON, schema.
 #include "fleet_messages.hpp"
 
+#include <algorithm>
+#include <string>
+
+#include "gearwatch/types/alerts.hpp"
+
 #include <nlohmann/json.hpp>
 
 namespace gearwatch::daemon {
@@ -102,6 +107,11 @@ fleet::WearMessage wear_message(const json& j) {
   return m;
 }
 
+// One of the daemon's severities, by the enum's own names (kAllAlertSeverities).
+bool is_alert_severity(const std::string& s) {
+  return std::any_of(kAllAlertSeverities.begin(), kAllAlertSeverities.end(), [&](AlertSeverity v) { return s == to_string(v); });
+}
+
 fleet::AlertMessage alert_message(const json& j) {
   fleet::AlertMessage m;
   m.header = header(j);
@@ -109,7 +119,7 @@ fleet::AlertMessage alert_message(const json& j) {
   if (!transition) throw SchemaError("'transition' must be raised, cleared or event");
   m.transition = *transition;
   m.severity = text(j, "severity");
-  if (m.severity != "info" && m.severity != "warning" && m.severity != "alarm") throw SchemaError("'severity' must be info, warning or alarm");
+  if (!is_alert_severity(m.severity)) throw SchemaError("'severity' must be info, warning or alarm");
   m.kind = text(j, "kind");
   if (!field(j, "channel").is_null()) m.channel = channel_number(j);
   m.subject = text(j, "subject");
