@@ -161,6 +161,14 @@ struct Fleet {
   // after the subscription is the connection count at stop; the schema is the visible part).
   void wait_ready() { REQUIRE(wait_until([&] { return pg_count(uri, "SELECT count(*) FROM fleet.gearboxes") >= 0; }, 30s)); }
   std::string err(const std::string& tag) { return read_all(dir / ("err-" + tag)); }
+  // A consumer started and subscribed: the schema made, "ingesting" logged, then time for the SUBACK.
+  pid_t subscribed_consumer(const std::string& tag) {
+    const pid_t pid = consumer(tag);
+    wait_ready();
+    REQUIRE(wait_until([&] { return occurrences(read_all(dir / ("err-" + tag)), "ingesting") == 1; }, 10s));
+    std::this_thread::sleep_for(500ms);
+    return pid;
+  }
   long long outbox_rows(const std::string& name) const { return std::stoll(sqlite_rows(db(name), "SELECT count(*) FROM outbox").at(0)); }
   long long fleet_messages(const std::string& name) const {
     return pg_count(uri, "SELECT count(*) FROM fleet.messages m JOIN fleet.gearboxes g ON g.id = m.gearbox_id WHERE g.name = '" + name + "'");
@@ -209,10 +217,7 @@ TEST_CASE("fleet: two gearboxes' replays land in PostgreSQL exactly as in their 
   f.make_gearbox("gbB", 22, 8);
   // The consumer's session exists before the gearboxes publish; it is away while they do, so the
   // broker queues everything and the second start ingests a known backlog (the throughput figure).
-  const pid_t first = f.consumer("c1");
-  f.wait_ready();
-  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c1"), "ingesting") == 1; }, 10s));
-  std::this_thread::sleep_for(500ms);  // the SUBACK
+  const pid_t first = f.subscribed_consumer("c1");
   ::kill(first, SIGTERM);
   REQUIRE(wait_bounded(first, 30s) == 0);
   const pid_t a = f.replay("gbA"), b = f.replay("gbB");
@@ -251,10 +256,7 @@ TEST_CASE("fleet: a consumer stopped mid-replay and restarted catches up, nothin
   const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (f.dir / "later.log").string() +
                              " --duration 8 --channels 1 --seed 24");
   REQUIRE(r.status == 0);
-  const pid_t first = f.consumer("c1");
-  f.wait_ready();
-  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c1"), "ingesting") == 1; }, 10s));
-  std::this_thread::sleep_for(500ms);
+  const pid_t first = f.subscribed_consumer("c1");
   const pid_t replay = f.replay("gbA");
   // Stopped while messages arrive: what it acknowledged to the broker it stores before it exits.
   REQUIRE(wait_until([&] { return pg_count(f.uri, "SELECT count(*) FROM fleet.records") >= 5; }, 60s));
@@ -291,10 +293,7 @@ TEST_CASE("fleet: bad input is counted, kept in fleet.rejects, logged once per k
   Fleet f;
   if (skipped_without_postgres(f)) return;
   REQUIRE(f.start());
-  const pid_t consumer = f.consumer("c");
-  f.wait_ready();
-  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "ingesting") == 1; }, 10s));
-  std::this_thread::sleep_for(500ms);
+  const pid_t consumer = f.subscribed_consumer("c");
   const std::string alert =
       R"({"gearbox":"gbA","site":"plant1","message_id":7,"topic":"alert","record_id":null,"record_time":"2026-11-29T10:00:00.000Z",)"
       R"("transition":"raised","severity":"alarm","kind":"sensor_missing","channel":1,"subject":"","value":"no signal","message":"m"})";
@@ -359,10 +358,7 @@ TEST_CASE("fleet: model runs and gap summaries land in their tables and in the l
   Fleet f;
   if (skipped_without_postgres(f)) return;
   REQUIRE(f.start());
-  const pid_t consumer = f.consumer("c");
-  f.wait_ready();
-  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "ingesting") == 1; }, 10s));
-  std::this_thread::sleep_for(500ms);
+  const pid_t consumer = f.subscribed_consumer("c");
   auto model = [](int message_id, int run, const std::string& k_wear) {
     return R"({"gearbox":"gbB","site":"plant1","message_id":)" + std::to_string(message_id) +
            R"(,"topic":"model","record_id":12,"record_time":"2026-11-29T10:00:00.000Z","model_run_id":)" + std::to_string(run) +
@@ -463,10 +459,7 @@ TEST_CASE("fleet: the database stopped under a running consumer: the message is 
   Fleet f;
   if (skipped_without_postgres(f)) return;
   REQUIRE(f.start());
-  const pid_t consumer = f.consumer("c");
-  f.wait_ready();
-  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-c"), "ingesting") == 1; }, 10s));
-  std::this_thread::sleep_for(500ms);
+  const pid_t consumer = f.subscribed_consumer("c");
   f.pg->stop();
   const std::string alert =
       R"({"gearbox":"gbA","site":"plant1","message_id":1,"topic":"alert","record_id":null,"record_time":"2026-11-29T10:00:00.000Z",)"
