@@ -543,6 +543,38 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   storage::ModelRunResult msg;
   wear::ModelObservation observation = input.observation;
   const std::string pair_note = place_on_pair(observation, msg);
+  const std::vector<wear::Inspection> inspections = read_inspections();
+  msg.stream_sequence = input.stream_sequence;
+  msg.start_index = input.start_index;
+  msg.stored_record_id = input.stored_record_id;
+  msg.skipped_records = skipped;
+  msg.skipped_record_ids = skipped_ids;
+  record_rate_hz_ = input.sample_rate_hz;
+  msg.report = observe(input, observation, inspections);
+  ++counters_.handled;
+  if (!pair_note.empty()) msg.report.detail = pair_note + (msg.report.detail.empty() ? "" : "; " + msg.report.detail);
+  const wear::ModelRunReport& r = msg.report;
+  log_report(r, input.observation.cycles);
+  if (r.new_gear_pair) start_new_gear_pair(msg);
+  msg.gear_pair = gear_pair_;
+  if (r.advanced && r.forecast.valid) observe_remaining_life(r, msg);
+  msg.alert_states = alerts_.take_changed();
+  msg.profile_json = profile_json(r, model_->memory());
+  msg.forecast_json = forecast_json(r.forecast);
+  msg.store_state = r.advanced || r.new_gear_pair || !pair_note.empty();
+  if (msg.store_state) msg.state_json = memory_to_json(model_->memory(), &pair_);
+  // The twin's counterpart needs the wear state at this record: only a record the model advanced to has one.
+  const bool gap_due = gap_schedule_ && input.samples && r.advanced && add_gap_sample(input, msg);
+  writer_.submit(std::move(msg));
+  if (gap_due) {
+    const std::uint64_t start = thread_cpu_ns();
+    diagnose_gap();
+    counters_.gap_cpu_ns += thread_cpu_ns() - start;
+  }
+}
+
+// The installed pair's inspections on the pair's cycle axis; none this time if the database cannot be read.
+std::vector<wear::Inspection> ModelThread::read_inspections() const {
   std::vector<wear::Inspection> inspections;
   try {
     storage::Database db(config_.storage.database, storage::Database::Mode::read_only);
@@ -557,78 +589,67 @@ void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const s
   } catch (const storage::SqliteError& e) {
     spdlog::warn("model: inspections not read this time: {}", e.what());
   }
+  return inspections;
+}
 
-  msg.stream_sequence = input.stream_sequence;
-  msg.start_index = input.start_index;
-  msg.stored_record_id = input.stored_record_id;
-  msg.skipped_records = skipped;
-  msg.skipped_record_ids = skipped_ids;
-  record_rate_hz_ = input.sample_rate_hz;
+// The model's step on one record: observe() does not throw on bad data; anything else is logged and
+// stored, and the model goes on.
+wear::ModelRunReport ModelThread::observe(const ModelInput& input, const wear::ModelObservation& observation,
+                                          const std::vector<wear::Inspection>& inspections) {
   try {
-    msg.report = model_->observe(observation, inspections);
+    return model_->observe(observation, inspections);
   } catch (const std::exception& e) {
-    // observe() does not throw on bad data; anything else is logged and stored, and the model goes on.
     const auto n = ++counters_.failures;
     if (n <= 10 || n % 1000 == 0) spdlog::error("model: record at {} cycles not handled ({} so far): {}", input.observation.cycles, n, e.what());
-    msg.report = wear::ModelRunReport{};
-    msg.report.observation = observation;
-    msg.report.detail = std::string("not handled: ") + e.what();
+    wear::ModelRunReport failed;
+    failed.observation = observation;
+    failed.detail = std::string("not handled: ") + e.what();
+    return failed;
   }
-  ++counters_.handled;
-  if (!pair_note.empty()) msg.report.detail = pair_note + (msg.report.detail.empty() ? "" : "; " + msg.report.detail);
-  const wear::ModelRunReport& r = msg.report;
+}
+
+void ModelThread::log_report(const wear::ModelRunReport& r, double cycles) {
   for (const auto issue : r.issues) {
     const auto n = ++issue_counts_[issue];  // each kind logged once, then every 1000th
-    if (n == 1 || n % 1000 == 0) spdlog::warn("model: {} (record at {:.6g} cycles; {} so far): {}", wear::to_string(issue), input.observation.cycles, n, r.detail);
+    if (n == 1 || n % 1000 == 0) spdlog::warn("model: {} (record at {:.6g} cycles; {} so far): {}", wear::to_string(issue), cycles, n, r.detail);
   }
   for (const auto& u : r.updates)
     spdlog::info("model: {} {} ({}): {}", wear::to_string(u.kind), wear::to_string(u.outcome), wear::to_string(u.trigger), u.evidence);
-  if (r.new_gear_pair) {
-    // The model saw its cycles go backwards on the pair's axis (place_on_pair catches the counter's first).
-    pair_ = PairStart{0.0, "the model's cycles went backwards", params_.gears};
-    ++gear_pair_;
-    // The records kept for the next diagnosis belong to the old pair's wear states.
-    if (gap_schedule_) gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
-    auto cleared = alerts_.clear_all(AlertKind::remaining_life, "new gear pair: the remaining life belonged to the previous pair");
-    msg.alerts.insert(msg.alerts.end(), cleared.begin(), cleared.end());
-  }
-  msg.gear_pair = gear_pair_;
-  if (r.advanced && r.forecast.valid) {
-    const AlertHysteresis h{config_.model.remaining_life_raise_after_records, config_.model.remaining_life_clear_after_records};
-    const double threshold = config_.model.remaining_life_alert_cycles;
-    auto observe_limit = [&](const char* subject, const wear::LimitForecast& lf, const char* what, double scale, const char* unit) {
-      // Near: the nominal forecast, or a limit the measured ICS2 estimate has reached already.
-      const bool reached = &lf == &r.forecast.pitting &&
-                           std::count(r.forecast.flags.begin(), r.forecast.flags.end(), wear::ForecastFlag::pitting_limit_reached_by_ics2) > 0;
-      const bool near = (lf.cycles_left && *lf.cycles_left < threshold) || reached;
-      char text[400];
-      std::snprintf(text, sizeof text, "%s limit %.4g %s: %s cycles left (%.0f %% interval %s to %s) at %.3g Hz, %.3g N m; alert below %.4g",
-                    what, lf.limit * scale, unit, cycles_text(lf.cycles_left).c_str(), 100 * r.forecast.coverage,
-                    cycles_text(lf.cycles_left_low).c_str(), cycles_text(lf.cycles_left_high).c_str(), r.forecast.speed_hz,
-                    r.forecast.torque_nm, threshold);
-      // The value is the limit, not the cycles left: those change at every record, and a changed
-      // value would be raised again each time.
-      char value[48];
-      std::snprintf(value, sizeof value, "%.4g %s", lf.limit * scale, unit);
-      if (auto e = alerts_.observe(AlertKey{AlertKind::remaining_life, -1, subject}, near, value, text, h))
-        msg.alerts.push_back(std::move(*e));
-    };
-    observe_limit("wear_depth", r.forecast.wear, "wear depth", 1e3, "mm");
-    observe_limit("pitting_density", r.forecast.pitting, "pitting density", 100.0, "%");
-  }
-  msg.alert_states = alerts_.take_changed();
-  msg.profile_json = profile_json(r, model_->memory());
-  msg.forecast_json = forecast_json(r.forecast);
-  msg.store_state = r.advanced || r.new_gear_pair || !pair_note.empty();
-  if (msg.store_state) msg.state_json = memory_to_json(model_->memory(), &pair_);
-  // The twin's counterpart needs the wear state at this record: only a record the model advanced to has one.
-  const bool gap_due = gap_schedule_ && input.samples && r.advanced && add_gap_sample(input, msg);
-  writer_.submit(std::move(msg));
-  if (gap_due) {
-    const std::uint64_t start = thread_cpu_ns();
-    diagnose_gap();
-    counters_.gap_cpu_ns += thread_cpu_ns() - start;
-  }
+}
+
+void ModelThread::start_new_gear_pair(storage::ModelRunResult& msg) {
+  // The model saw its cycles go backwards on the pair's axis (place_on_pair catches the counter's first).
+  pair_ = PairStart{0.0, "the model's cycles went backwards", params_.gears};
+  ++gear_pair_;
+  // The records kept for the next diagnosis belong to the old pair's wear states.
+  if (gap_schedule_) gap_schedule_.emplace(config_.gap.every_records, config_.gap.training_records, config_.gap.held_out_records);
+  auto cleared = alerts_.clear_all(AlertKind::remaining_life, "new gear pair: the remaining life belonged to the previous pair");
+  msg.alerts.insert(msg.alerts.end(), cleared.begin(), cleared.end());
+}
+
+// Remaining-life alerts on both limits, with the configured hysteresis.
+void ModelThread::observe_remaining_life(const wear::ModelRunReport& r, storage::ModelRunResult& msg) {
+  const AlertHysteresis h{config_.model.remaining_life_raise_after_records, config_.model.remaining_life_clear_after_records};
+  const double threshold = config_.model.remaining_life_alert_cycles;
+  auto observe_limit = [&](const char* subject, const wear::LimitForecast& lf, const char* what, double scale, const char* unit) {
+    // Near: the nominal forecast, or a limit the measured ICS2 estimate has reached already.
+    const bool reached = &lf == &r.forecast.pitting &&
+                         std::count(r.forecast.flags.begin(), r.forecast.flags.end(), wear::ForecastFlag::pitting_limit_reached_by_ics2) > 0;
+    const bool near = (lf.cycles_left && *lf.cycles_left < threshold) || reached;
+    char text[400];
+    std::snprintf(text, sizeof text, "%s limit %.4g %s: %s cycles left (%.0f %% interval %s to %s) at %.3g Hz, %.3g N m; alert below %.4g",
+                  what, lf.limit * scale, unit, cycles_text(lf.cycles_left).c_str(), 100 * r.forecast.coverage,
+                  cycles_text(lf.cycles_left_low).c_str(), cycles_text(lf.cycles_left_high).c_str(), r.forecast.speed_hz,
+                  r.forecast.torque_nm, threshold);
+    // The value is the limit, not the cycles left: those change at every record, and a changed
+    // value would be raised again each time.
+    char value[48];
+    std::snprintf(value, sizeof value, "%.4g %s", lf.limit * scale, unit);
+    if (auto e = alerts_.observe(AlertKey{AlertKind::remaining_life, -1, subject}, near, value, text, h))
+      msg.alerts.push_back(std::move(*e));
+  };
+  observe_limit("wear_depth", r.forecast.wear, "wear depth", 1e3, "mm");
+  observe_limit("pitting_density", r.forecast.pitting, "pitting density", 100.0, "%");
 }
 
 void ModelThread::restore_gap_schedule() {

@@ -145,6 +145,12 @@ class ModelThread {
   /// or the life counter went backwards). Returns what the record's run says about it ("" = nothing).
   std::string place_on_pair(wear::ModelObservation& obs, storage::ModelRunResult& msg);
   void handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids);
+  std::vector<wear::Inspection> read_inspections() const;
+  wear::ModelRunReport observe(const ModelInput& input, const wear::ModelObservation& observation,
+                               const std::vector<wear::Inspection>& inspections);
+  void log_report(const wear::ModelRunReport& r, double cycles);
+  void start_new_gear_pair(storage::ModelRunResult& msg);
+  void observe_remaining_life(const wear::ModelRunReport& r, storage::ModelRunResult& msg);
   void diagnose_gap();
   /// The counters and records an earlier process kept for the next diagnosis of this gear pair.
   void restore_gap_schedule();
