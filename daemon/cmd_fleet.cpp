@@ -1,16 +1,24 @@
 // `gearwatch fleet ingest --broker mqtt://HOST[:PORT] --database postgresql://… [--prefix P]
-//  [--client-id ID] [--password-file F] [--gearbox SITE/NAME]... [--log-level L]` (docs/fleet.md).
+//  [--client-id ID] [--password-file F] [--gearbox SITE/NAME]... [--log-level L]` and
+// `gearwatch fleet report --database postgresql://… --out DIR [--indicator NAME] [--channel N]
+//  [--points N]` (docs/fleet.md).
 #include <pthread.h>
 #include <signal.h>
 
+#include <filesystem>
+#include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include <spdlog/spdlog.h>
 
+#include "cli_common.hpp"
 #include "commands.hpp"
 #include "fleet_consumer.hpp"
+#include "gearwatch/report/fleet_page.hpp"
+#include "gearwatch/report/report_page.hpp"
+#include "gearwatch/storage/fleet_overview.hpp"
 #include "logging.hpp"
 
 namespace gearwatch::cli {
@@ -60,16 +68,12 @@ int wait_for_stop_signal(const sigset_t& set) {
   return signal;
 }
 
-}  // namespace
-
-void register_fleet(CLI::App& app) {
+void add_ingest_command(CLI::App* fleet_cmd) {
   struct Options {
     std::string broker, database, prefix = "gearwatch", client_id = "gearwatch-fleet", password_file, log_level = "info";
     std::vector<std::string> gearboxes;
   };
   auto opt = std::make_shared<Options>();
-  auto* fleet_cmd = app.add_subcommand("fleet", "The plant's view: every gearbox's published messages in PostgreSQL");
-  fleet_cmd->require_subcommand(1);
   auto* cmd = fleet_cmd->add_subcommand("ingest", "Subscribe to every gearbox under the MQTT prefix and store into PostgreSQL, until SIGINT or SIGTERM");
   cmd->add_option("--broker", opt->broker, "MQTT broker: mqtt://HOST[:PORT] (port 1883 by default)")->required();
   cmd->add_option("--database", opt->database, "PostgreSQL: a postgresql:// URI or a libpq connection string")->required();
@@ -120,6 +124,64 @@ void register_fleet(CLI::App& app) {
     consumer.stop();
     spdlog::info("fleet: {}", daemon::to_string(consumer.counters()));
   });
+}
+
+// A connection as the page may show it: a URI's password and a key=value string's password= removed.
+std::string without_password(const std::string& connection) {
+  std::string out = connection;
+  const auto scheme = out.find("://");
+  if (scheme != std::string::npos) {
+    const auto at = out.find('@', scheme + 3);
+    const auto colon = out.find(':', scheme + 3);
+    if (at != std::string::npos && colon != std::string::npos && colon < at) out.erase(colon, at - colon);
+  }
+  for (auto key = out.find("password="); key != std::string::npos; key = out.find("password=")) {
+    auto end = out.find_first_of(" &", key);
+    if (end == std::string::npos) end = out.size();
+    else ++end;
+    out.erase(key, end - key);
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == '&' || out.back() == '?')) out.pop_back();
+  return out;
+}
+
+void add_report_command(CLI::App* fleet_cmd) {
+  struct Options {
+    std::string database, out;
+    storage::fleet::OverviewRequest trend;
+  };
+  auto opt = std::make_shared<Options>();
+  auto* cmd = fleet_cmd->add_subcommand("report", "Write the fleet page: every gearbox with its verdict, active alerts, remaining life and a trend, worst first");
+  cmd->add_option("--database", opt->database, "PostgreSQL: a postgresql:// URI or a libpq connection string")->required();
+  cmd->add_option("--out", opt->out, "Output directory of the page, DIR/index.html (created if missing)")->required();
+  cmd->add_option("--indicator", opt->trend.trend_indicator, "Indicator of the trend column (names in docs/dsp.md)")->capture_default_str();
+  cmd->add_option("--channel", opt->trend.trend_channel, "Channel of the trend column")->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--points", opt->trend.trend_points, "Newest records in the trend column")->capture_default_str()->check(CLI::Range(2, 10000));
+  cmd->callback([opt] {
+    report::FleetPageData data;
+    data.database = without_password(opt->database);
+    data.generated_at = report::utc_now_iso8601();
+    data.trend = opt->trend;
+    try {
+      data.gearboxes = storage::fleet::load_fleet_overview(opt->database, opt->trend);
+    } catch (const storage::fleet::FleetConnectionError& e) {
+      throw CommandError(e.what());
+    } catch (const storage::fleet::FleetRefusedError& e) {
+      throw CommandError(e.what());
+    }
+    write_page(opt->out, report::render_fleet_page_html(data));
+    std::cout << "wrote " << (std::filesystem::path(opt->out) / "index.html").string() << ": " << data.gearboxes.size()
+              << " gearboxes, worst first\n";
+  });
+}
+
+}  // namespace
+
+void register_fleet(CLI::App& app) {
+  auto* fleet_cmd = app.add_subcommand("fleet", "The plant's view: every gearbox's published messages in PostgreSQL");
+  fleet_cmd->require_subcommand(1);
+  add_ingest_command(fleet_cmd);
+  add_report_command(fleet_cmd);
 }
 
 }  // namespace gearwatch::cli

@@ -1,6 +1,8 @@
 // The fleet store in PostgreSQL (docs/fleet.md): schema, migrations and the typed writers.
 #include "gearwatch/storage/fleet_store.hpp"
 
+#include "fleet_errors.hpp"
+
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -198,22 +200,8 @@ Nullable number(const std::optional<double>& v) {
 }
 Nullable integer(const std::optional<std::int64_t>& v) { return v ? Nullable{std::to_string(*v)} : Nullable{}; }
 
-template <class F>
-auto translated(F&& f) {
-  try {
-    return f();
-  } catch (const pqxx::broken_connection& e) {
-    throw FleetConnectionError(std::string("fleet database: connection lost: ") + e.what());
-  } catch (const pqxx::in_doubt_error& e) {
-    throw FleetConnectionError(std::string("fleet database: commit in doubt: ") + e.what());
-  } catch (const pqxx::sql_error& e) {
-    std::string what = e.what();
-    while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
-    for (char& c : what)
-      if (c == '\n') c = ' ';
-    throw FleetRefusedError(what);
-  }
-}
+using detail::one_line;
+using detail::translated;
 
 }  // namespace
 
@@ -255,11 +243,7 @@ FleetStore::FleetStore(const std::string& connection) : connection_string_(conne
   try {
     conn_ = std::make_unique<Connection>(connection_string_);
   } catch (const std::exception& e) {
-    std::string what = e.what();
-    while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
-    for (char& c : what)
-      if (c == '\n') c = ' ';
-    throw FleetConnectionError("fleet database: cannot connect: " + what);
+    throw FleetConnectionError("fleet database: cannot connect: " + detail::one_line(e.what()));
   }
 }
 
@@ -428,13 +412,6 @@ bool write_one(pqxx::transaction_base& w, const Message& message) {
         }
       },
       message);
-}
-
-std::string one_line(std::string what) {
-  while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
-  for (char& c : what)
-    if (c == '\n') c = ' ';
-  return what;
 }
 
 }  // namespace

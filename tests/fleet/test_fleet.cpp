@@ -20,7 +20,9 @@
 
 #include "command_runner.hpp"
 #include "fleet_messages.hpp"
+#include "fleet/fleet_page_fixture.hpp"
 #include "fleet/postgres_server.hpp"
+#include "gearwatch/report/fleet_page.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "mqtt/mqtt_broker.hpp"
 #include "temp_dir.hpp"
@@ -478,4 +480,139 @@ TEST_CASE("fleet: the database stopped under a running consumer: the message is 
   INFO(err);
   CHECK(err.find("received 1, stored 1, duplicates 0, statuses 0, rejected 0, database retries ") != std::string::npos);
   CHECK(err.find("database retries 0") == std::string::npos);
+}
+
+// --- The fleet page (docs/fleet.md, "Fleet page") -------------------------------------------------
+
+namespace {
+
+// The data-gearbox attributes of the page's rows, in page order (unescaped back for comparison).
+std::vector<std::string> page_order(const std::string& html) {
+  std::vector<std::string> out;
+  const std::string key = "data-gearbox=\"";
+  for (auto at = html.find(key); at != std::string::npos; at = html.find(key, at + 1)) {
+    std::string name = html.substr(at + key.size(), html.find('"', at + key.size()) - at - key.size());
+    for (const auto& [entity, ch] : std::vector<std::pair<std::string, std::string>>{{"&lt;", "<"}, {"&gt;", ">"}, {"&amp;", "&"}})
+      for (auto e = name.find(entity); e != std::string::npos; e = name.find(entity)) name.replace(e, entity.size(), ch);
+    out.push_back(name);
+  }
+  return out;
+}
+
+// The row of one gearbox (from its <tr to its </tr>).
+std::string page_row(const std::string& html, const std::string& escaped_name) {
+  const auto at = html.find("data-gearbox=\"" + escaped_name + "\"");
+  REQUIRE(at != std::string::npos);
+  return html.substr(at, html.find("</tr>", at) - at);
+}
+
+}  // namespace
+
+TEST_CASE("fleet report: the page lists every gearbox worst first with its verdict, active alerts and remaining life", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  {
+    gearwatch::storage::fleet::FleetStore store(f.uri);
+    store.migrate();
+    write_known_fleet(store);
+  }
+  // A password in the connection (ignored by the test server's trust authentication) never reaches the page.
+  const std::string with_password = "postgresql://gw:s3cret-pw@127.0.0.1:" + std::to_string(f.pg->port()) + "/fleet";
+  const auto out = f.dir / "page";
+  const auto r = run_command(std::string(GEARWATCH_BINARY) + " fleet report --database " + with_password + " --out " + out.string() +
+                             " --points 3");
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  CHECK(r.out == "wrote " + (out / "index.html").string() + ": 5 gearboxes, worst first\n");
+  const std::string html = read_all(out / "index.html");
+  CHECK(page_order(html) == kFleetWorstFirst);
+  CHECK(html.find("s3cret-pw") == std::string::npos);
+  CHECK(html.find("postgresql://gw@127.0.0.1:" + std::to_string(f.pg->port()) + "/fleet") != std::string::npos);
+  CHECK(html.find("5 · 2 with a warning or alarm · 2 with wear under way · 1 offline") != std::string::npos);
+  // The name is escaped wherever it appears; the raw bytes never reach the page.
+  CHECK(html.find("gbWarn<&>") == std::string::npos);
+
+  const std::string pit = page_row(html, "plant2/gbPit");
+  CHECK(html.find("<tr class=\"gearbox-row sev-alarm\" data-gearbox=\"plant2/gbPit\">") != std::string::npos);
+  CHECK(occurrences(pit, "<li class=\"sev-alarm\"") == 1);
+  CHECK(pit.find("<span class=\"mech-wear\">fatigue_pitting</span>") != std::string::npos);
+  CHECK(pit.find("pitting: <b>2 M</b> cycles <span class=\"muted\">(1.5 M – 2.6 M)</span>") != std::string::npos);
+  CHECK(pit.find("depth 4.20 µm · pitting 5.0 %") != std::string::npos);
+
+  // Only the alert still raised is listed: the info alert was raised, then cleared.
+  const std::string warn = page_row(html, "plant2/gbWarn&lt;&amp;&gt;");
+  CHECK(occurrences(warn, "<li class=") == 1);
+  CHECK(occurrences(warn, "<li class=\"sev-warning\"") == 1);
+  CHECK(warn.find("no model run") != std::string::npos);
+
+  const std::string life = page_row(html, "plant1/gbLife");
+  CHECK(life.find("none active") != std::string::npos);
+  CHECK(life.find("pitting: <b>800 k</b> cycles <span class=\"muted\">(600 k – 1.1 M)</span>") != std::string::npos);
+
+  // The trend: the newest 3 of gbQuiet's 4 records on channel 0, at their cycles (records 2–4).
+  const std::string quiet = page_row(html, "plant1/gbQuiet");
+  CHECK(occurrences(quiet, "<circle class=\"pt\"") == 3);
+  CHECK(quiet.find("record 1<") == std::string::npos);
+  CHECK(occurrences(quiet, "<title>record ") == 3);
+  CHECK(quiet.find("wear: <b>9 M</b> cycles</div>") != std::string::npos);
+
+  const std::string off = page_row(html, "plant1/gbOff");
+  CHECK(off.find("<span class=\"state-offline\">offline</span>") != std::string::npos);
+  CHECK(off.find("no model run") != std::string::npos);
+}
+
+TEST_CASE("fleet report: a database without the fleet schema or out of reach is refused in one line", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  const auto page = f.dir / "page";
+  const auto empty = run_command(std::string(GEARWATCH_BINARY) + " fleet report --database " + f.uri + " --out " + page.string());
+  CHECK(empty.status == 1);
+  CHECK(empty.err == "gearwatch: fleet database: it holds no fleet schema (`gearwatch fleet ingest` creates it)\n");
+  CHECK_FALSE(fs::exists(page / "index.html"));
+  f.pg->stop();
+  const auto away = run_command(std::string(GEARWATCH_BINARY) + " fleet report --database " + f.uri + " --out " + page.string());
+  CHECK(away.status == 1);
+  CHECK(away.err.rfind("gearwatch: fleet database: cannot connect: ", 0) == 0);
+  CHECK(std::count(away.err.begin(), away.err.end(), '\n') == 1);
+  CHECK_FALSE(fs::exists(page / "index.html"));
+}
+
+TEST_CASE("fleet report: cycles are written as staff read them and the order follows the urgency fields in turn", "[fleet]") {
+  using gearwatch::report::format_cycles;
+  CHECK(format_cycles(0) == "0");
+  CHECK(format_cycles(9999) == "9999");
+  CHECK(format_cycles(12345) == "12.3 k");
+  CHECK(format_cycles(2.35e6) == "2.35 M");
+  CHECK(format_cycles(1.2e9) == "1.2 G");
+  gearwatch::storage::fleet::GearboxOverview healthy, offline, short_life, wearing, info_only;
+  healthy.gearbox = "healthy";
+  healthy.forecast_valid = true;
+  healthy.cycles = 1.0;
+  healthy.pitting.cycles_left = 5e6;
+  offline = healthy;
+  offline.gearbox = "offline";
+  offline.state = "offline";
+  short_life = healthy;
+  short_life.gearbox = "short";
+  short_life.wear.cycles_left = 1e5;
+  wearing = healthy;
+  wearing.gearbox = "wearing";
+  wearing.verdicts = {{0, "abrasive_wear", ""}};
+  info_only = healthy;
+  info_only.gearbox = "info";
+  info_only.active_alerts = {{"life_counter_reset", "info", "", "0", "", "", std::nullopt}};
+  auto warned = healthy;
+  warned.gearbox = "warned";
+  warned.active_alerts = {{"sensor_flat_line", "warning", "", "", "", "", 0}};
+  // An invalid forecast's cycles do not count as remaining life.
+  auto invalid = short_life;
+  invalid.gearbox = "invalid";
+  invalid.forecast_valid = false;
+  // An info alert alone does not move a gearbox up: it is listed among the healthy ones in their order.
+  const auto order = gearwatch::report::worst_first({healthy, invalid, info_only, offline, short_life, wearing, warned});
+  std::vector<std::string> names;
+  for (const auto& g : order) names.push_back(g.gearbox);
+  CHECK(names == std::vector<std::string>{"warned", "wearing", "short", "offline", "healthy", "info", "invalid"});
 }
