@@ -1,5 +1,6 @@
-// `gearwatch fleet ingest --broker mqtt://HOST[:PORT] --database postgresql://… [--prefix P]
-//  [--client-id ID] [--password-file F] [--gearbox SITE/NAME]... [--log-level L]` and
+// `gearwatch fleet ingest --broker mqtt[s]://HOST[:PORT] --database postgresql://… [--prefix P]
+//  [--client-id ID] [--password-file F] [--ca-file F [--cert-file F --key-file F]]
+//  [--gearbox SITE/NAME]... [--log-level L]` and
 // `gearwatch fleet report --database postgresql://… --out DIR [--indicator NAME] [--channel N]
 //  [--points N]` (docs/fleet.md).
 #include <pthread.h>
@@ -28,15 +29,24 @@ namespace {
 struct BrokerAddress {
   std::string host;
   int port = 1883;
+  bool tls = false;
 };
 
-// mqtt://host[:port]; TLS (mqtts://) is not offered by the consumer yet.
+// mqtt://HOST[:PORT] (1883) or mqtts://HOST[:PORT] (TLS, 8883).
 BrokerAddress parse_broker(const std::string& url) {
-  const std::string scheme = "mqtt://";
-  if (url.rfind(scheme, 0) != 0) throw CommandError("--broker " + url + ": expected mqtt://HOST[:PORT]", 64);
-  std::string rest = url.substr(scheme.size());
-  if (!rest.empty() && rest.back() == '/') rest.pop_back();
+  const std::string usage = "--broker " + url + ": expected mqtt://HOST[:PORT] or mqtts://HOST[:PORT]";
   BrokerAddress a;
+  std::string rest;
+  if (url.rfind("mqtt://", 0) == 0) {
+    rest = url.substr(7);
+  } else if (url.rfind("mqtts://", 0) == 0) {
+    rest = url.substr(8);
+    a.tls = true;
+    a.port = 8883;
+  } else {
+    throw CommandError(usage, 64);
+  }
+  if (!rest.empty() && rest.back() == '/') rest.pop_back();
   const auto colon = rest.rfind(':');
   a.host = rest.substr(0, colon);
   if (colon != std::string::npos) {
@@ -49,7 +59,7 @@ BrokerAddress parse_broker(const std::string& url) {
       throw CommandError("--broker " + url + ": port '" + port + "' is not 1..65535", 64);
     }
   }
-  if (a.host.empty() || a.host.find('/') != std::string::npos) throw CommandError("--broker " + url + ": expected mqtt://HOST[:PORT]", 64);
+  if (a.host.empty() || a.host.find('/') != std::string::npos) throw CommandError(usage, 64);
   return a;
 }
 
@@ -71,17 +81,21 @@ int wait_for_stop_signal(const sigset_t& set) {
 void add_ingest_command(CLI::App* fleet_cmd) {
   struct Options {
     std::string broker, database, prefix = "gearwatch", client_id = "gearwatch-fleet", password_file, log_level = "info";
+    std::string ca_file, cert_file, key_file;
     std::vector<std::string> gearboxes;
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = fleet_cmd->add_subcommand("ingest", "Subscribe to every gearbox under the MQTT prefix and store into PostgreSQL, until SIGINT or SIGTERM");
-  cmd->add_option("--broker", opt->broker, "MQTT broker: mqtt://HOST[:PORT] (port 1883 by default)")->required();
+  cmd->add_option("--broker", opt->broker, "MQTT broker: mqtt://HOST[:PORT] (port 1883) or mqtts://HOST[:PORT] (TLS, port 8883)")->required();
   cmd->add_option("--database", opt->database, "PostgreSQL: a postgresql:// URI or a libpq connection string")->required();
   cmd->add_option("--prefix", opt->prefix, "Topic prefix the gearboxes publish under (mqtt.prefix)")->capture_default_str();
   cmd->add_option("--client-id", opt->client_id,
                   "MQTT client id of the persistent session: keep it, so a restarted consumer gets what arrived while it was away")->capture_default_str();
   cmd->add_option("--password-file", opt->password_file,
                   "File whose first line is username:password (a relative name is read from $CREDENTIALS_DIRECTORY)");
+  cmd->add_option("--ca-file", opt->ca_file, "TLS: the CA certificate that signed the broker's (needed by mqtts://)")->check(CLI::ExistingFile);
+  cmd->add_option("--cert-file", opt->cert_file, "TLS: this consumer's client certificate (with --key-file)")->check(CLI::ExistingFile);
+  cmd->add_option("--key-file", opt->key_file, "TLS: the client certificate's private key (with --cert-file)")->check(CLI::ExistingFile);
   cmd->add_option("--gearbox", opt->gearboxes, "Accept only these gearboxes, SITE/NAME (repeatable); without it, every gearbox");
   cmd->add_option("--log-level", opt->log_level, "spdlog level: trace, debug, info, warn, error")->capture_default_str()
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
@@ -91,6 +105,12 @@ void add_ingest_command(CLI::App* fleet_cmd) {
     const auto broker = parse_broker(opt->broker);
     s.host = broker.host;
     s.port = broker.port;
+    if (broker.tls != !opt->ca_file.empty())
+      throw CommandError(broker.tls ? "--broker " + opt->broker + ": mqtts:// needs --ca-file" : "--ca-file needs an mqtts:// broker", 64);
+    if (opt->cert_file.empty() != opt->key_file.empty()) throw CommandError("--cert-file and --key-file go together", 64);
+    s.ca_file = opt->ca_file;
+    s.cert_file = opt->cert_file;
+    s.key_file = opt->key_file;
     s.database = opt->database;
     s.client_id = opt->client_id;
     s.accept.prefix = opt->prefix;
@@ -116,8 +136,11 @@ void add_ingest_command(CLI::App* fleet_cmd) {
       throw CommandError(e.what());
     } catch (const storage::fleet::FleetRefusedError& e) {
       throw CommandError(std::string("fleet database: ") + e.what());
+    } catch (const std::runtime_error& e) {
+      throw CommandError(e.what());
     }
-    spdlog::info("fleet: ingesting {}/# from {}:{} into the fleet database (schema version {})", s.accept.prefix, s.host, s.port,
+    spdlog::info("fleet: ingesting {}/# from {}:{}{} into the fleet database (schema version {})", s.accept.prefix, s.host, s.port,
+                 s.ca_file.empty() ? "" : " over TLS",
                  storage::fleet::current_fleet_schema_version());
     const int signal = wait_for_stop_signal(signals);
     spdlog::info("fleet: {} received, stopping", signal == SIGINT ? "SIGINT" : "SIGTERM");

@@ -25,6 +25,7 @@
 #include "gearwatch/report/fleet_page.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "mqtt/mqtt_broker.hpp"
+#include "mqtt/test_ca.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -403,14 +404,25 @@ TEST_CASE("fleet: model runs and gap summaries land in their tables and in the l
   CHECK(f.err("c").find("received 5, stored 3, duplicates 1, statuses 0, rejected 1 (database_refused 1)") != std::string::npos);
 }
 
-TEST_CASE("fleet: ingest's command line: help, a malformed broker or gearbox, an unreachable database", "[fleet][cli]") {
+TEST_CASE("fleet: ingest's command line: help, a malformed broker or gearbox, TLS options, an unreachable database", "[fleet][cli]") {
   const std::string bin = GEARWATCH_BINARY;
   const auto help = run_command(bin + " fleet ingest --help");
   CHECK(help.status == 0);
   CHECK(help.out.find("--database") != std::string::npos);
   const auto scheme = run_command(bin + " fleet ingest --broker tcp://h:1 --database postgresql://x@127.0.0.1:1/fleet");
   CHECK(scheme.status == 64);
-  CHECK(scheme.err == "gearwatch: --broker tcp://h:1: expected mqtt://HOST[:PORT]\n");
+  CHECK(scheme.err == "gearwatch: --broker tcp://h:1: expected mqtt://HOST[:PORT] or mqtts://HOST[:PORT]\n");
+  // TLS wants the CA that signed the broker's certificate, and a client certificate its key.
+  const auto no_ca = run_command(bin + " fleet ingest --broker mqtts://h --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(no_ca.status == 64);
+  CHECK(no_ca.err == "gearwatch: --broker mqtts://h: mqtts:// needs --ca-file\n");
+  const auto ca_without_tls = run_command(bin + " fleet ingest --broker mqtt://h --ca-file " + bin + " --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(ca_without_tls.status == 64);
+  CHECK(ca_without_tls.err == "gearwatch: --ca-file needs an mqtts:// broker\n");
+  const auto lone_cert = run_command(bin + " fleet ingest --broker mqtts://h --ca-file " + bin + " --cert-file " + bin +
+                                     " --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(lone_cert.status == 64);
+  CHECK(lone_cert.err == "gearwatch: --cert-file and --key-file go together\n");
   const auto port = run_command(bin + " fleet ingest --broker mqtt://h:99999 --database postgresql://x@127.0.0.1:1/fleet");
   CHECK(port.status == 64);
   CHECK(port.err == "gearwatch: --broker mqtt://h:99999: port '99999' is not 1..65535\n");
@@ -480,6 +492,75 @@ TEST_CASE("fleet: the database stopped under a running consumer: the message is 
   INFO(err);
   CHECK(err.find("received 1, stored 1, duplicates 0, statuses 0, rejected 0, database retries ") != std::string::npos);
   CHECK(err.find("database retries 0") == std::string::npos);
+}
+
+TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gearbox lands as in its own database and another's topics stay out", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  f.broker.stop();  // this test's broker speaks TLS and has an ACL
+  MosquittoBroker tls(f.dir / "tls-broker", "fleet", "fleet-pw");
+  const auto certs = make_test_certificates(f.dir / "tls-broker" / "ca");
+  tls.add_user("gbA", "gbA-pw");
+  // Each gearbox writes under its own topics only; the consumer reads everything under the prefix.
+  tls.use_tls_and_acl(certs.ca, certs.server_cert, certs.server_key,
+                      "user fleet\ntopic read gw/#\n\nuser gbA\ntopic readwrite gw/plant1/gbA/#\n");
+  tls.start();
+  std::ofstream(f.dir / "gbA-credentials") << "gbA:gbA-pw\n";
+  std::ofstream(f.dir / "fleet-credentials") << "fleet:fleet-pw\n";
+  const std::string tls_keys = "ca_file = \"" + certs.ca.string() + "\"\ncert_file = \"" + certs.client_cert.string() + "\"\nkey_file = \"" +
+                               certs.client_key.string() + "\"\n";
+  // gbA publishes as itself; "gbX" holds gbA's credentials but publishes under gw/plant1/gbX/…,
+  // which the ACL does not give gbA.
+  for (const auto& [name, seed] : {std::pair<std::string, int>{"gbA", 21}, {"gbX", 22}}) {
+    const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (f.dir / (name + ".log")).string() +
+                               " --duration 8 --channels 1 --seed " + std::to_string(seed));
+    REQUIRE(r.status == 0);
+    // Channel 1 is configured but not in the capture: its sensor_missing alert is among what must arrive.
+    std::ofstream(f.dir / (name + ".toml")) << "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
+                                               "[[channels]]\nnumber = 1\nname = \"casing_x\"\nscale = 0.01\n"
+                                               "[records]\nlength_s = 0.25\ninterval_s = 0.25\nmin_length_s = 0.1\n"
+                                               "[model]\nenabled = false\n[daemon]\nhealth_interval_s = 0.5\n"
+                                               "[mqtt]\nenabled = true\nhost = \"127.0.0.1\"\nport = "
+                                            << tls.port() << "\nprefix = \"gw\"\nsite = \"plant1\"\ngearbox = \"" << name
+                                            << "\"\npassword_file = \"" << (f.dir / "gbA-credentials").string() << "\"\n" << tls_keys
+                                            << "reconnect_initial_ms = 50\nreconnect_max_ms = 300\ndrain_timeout_s = 60\n";
+  }
+  const auto consumer_args = [&](const std::string& tag, bool client_certificate) {
+    std::vector<std::string> args{"fleet", "ingest", "--broker", "mqtts://127.0.0.1:" + std::to_string(tls.port()), "--database", f.uri,
+                                  "--prefix", "gw", "--client-id", "fleet-tls-" + tag, "--password-file", (f.dir / "fleet-credentials").string(),
+                                  "--ca-file", certs.ca.string()};
+    if (client_certificate) args.insert(args.end(), {"--cert-file", certs.client_cert.string(), "--key-file", certs.client_key.string()});
+    return spawn(args, f.dir / ("out-" + tag), f.dir / ("err-" + tag));
+  };
+  // Without a client certificate the broker refuses the TLS session: nothing is subscribed.
+  const pid_t no_cert = consumer_args("nocert", false);
+  f.wait_ready();
+  std::this_thread::sleep_for(2s);
+  ::kill(no_cert, SIGTERM);
+  REQUIRE(wait_bounded(no_cert, 30s) == 0);
+  CHECK(read_all(f.dir / "err-nocert").find("over TLS") != std::string::npos);
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 0);
+
+  const pid_t consumer = consumer_args("tls", true);
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-tls"), "ingesting") == 1; }, 30s));
+  std::this_thread::sleep_for(1s);
+  const pid_t a = spawn({"replay", (f.dir / "gbA.log").string(), "--db", f.db("gbA").string(), "--config", (f.dir / "gbA.toml").string()},
+                        f.dir / "out-gbA", f.dir / "err-gbA");
+  REQUIRE(wait_bounded(a, 120s) == 0);
+  const pid_t x = spawn({"replay", (f.dir / "gbX.log").string(), "--db", f.db("gbX").string(), "--config", (f.dir / "gbX.toml").string()},
+                        f.dir / "out-gbX", f.dir / "err-gbX");
+  REQUIRE(wait_bounded(x, 120s) == 0);
+  // The broker acknowledged gbX's messages (MQTT 3.1.1 has no refusal of a publish) and dropped them.
+  CHECK(std::stoll(sqlite_rows(f.db("gbX"), "SELECT count(*) FROM outbox WHERE delivered_at IS NULL").at(0)) == 0);
+  const long long expected = f.outbox_rows("gbA");
+  REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == expected; }, 60s));
+  std::this_thread::sleep_for(1s);
+  ::kill(consumer, SIGTERM);
+  REQUIRE(wait_bounded(consumer, 30s) == 0);
+  check_same_as_local(f, "gbA");
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.gearboxes WHERE name = 'gbX'") == 0);
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.rejects") == 0);
 }
 
 // --- The fleet page (docs/fleet.md, "Fleet page") -------------------------------------------------
