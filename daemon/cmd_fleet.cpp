@@ -1,16 +1,25 @@
-// `gearwatch fleet ingest --broker mqtt://HOST[:PORT] --database postgresql://… [--prefix P]
-//  [--client-id ID] [--password-file F] [--gearbox SITE/NAME]... [--log-level L]` (docs/fleet.md).
+// `gearwatch fleet ingest --broker mqtt[s]://HOST[:PORT] --database postgresql://… [--prefix P]
+//  [--client-id ID] [--password-file F] [--ca-file F [--cert-file F --key-file F]]
+//  [--gearbox SITE/NAME]... [--log-level L]` and
+// `gearwatch fleet report --database postgresql://… --out DIR [--indicator NAME] [--channel N]
+//  [--points N]` (docs/fleet.md).
 #include <pthread.h>
 #include <signal.h>
 
+#include <filesystem>
+#include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include <spdlog/spdlog.h>
 
+#include "cli_common.hpp"
 #include "commands.hpp"
 #include "fleet_consumer.hpp"
+#include "gearwatch/report/fleet_page.hpp"
+#include "gearwatch/report/report_page.hpp"
+#include "gearwatch/storage/fleet_overview.hpp"
 #include "logging.hpp"
 
 namespace gearwatch::cli {
@@ -20,15 +29,24 @@ namespace {
 struct BrokerAddress {
   std::string host;
   int port = 1883;
+  bool tls = false;
 };
 
-// mqtt://host[:port]; TLS (mqtts://) is not offered by the consumer yet.
+// mqtt://HOST[:PORT] (1883) or mqtts://HOST[:PORT] (TLS, 8883).
 BrokerAddress parse_broker(const std::string& url) {
-  const std::string scheme = "mqtt://";
-  if (url.rfind(scheme, 0) != 0) throw CommandError("--broker " + url + ": expected mqtt://HOST[:PORT]", 64);
-  std::string rest = url.substr(scheme.size());
-  if (!rest.empty() && rest.back() == '/') rest.pop_back();
+  const std::string usage = "--broker " + url + ": expected mqtt://HOST[:PORT] or mqtts://HOST[:PORT]";
   BrokerAddress a;
+  std::string rest;
+  if (url.rfind("mqtt://", 0) == 0) {
+    rest = url.substr(7);
+  } else if (url.rfind("mqtts://", 0) == 0) {
+    rest = url.substr(8);
+    a.tls = true;
+    a.port = 8883;
+  } else {
+    throw CommandError(usage, 64);
+  }
+  if (!rest.empty() && rest.back() == '/') rest.pop_back();
   const auto colon = rest.rfind(':');
   a.host = rest.substr(0, colon);
   if (colon != std::string::npos) {
@@ -41,7 +59,7 @@ BrokerAddress parse_broker(const std::string& url) {
       throw CommandError("--broker " + url + ": port '" + port + "' is not 1..65535", 64);
     }
   }
-  if (a.host.empty() || a.host.find('/') != std::string::npos) throw CommandError("--broker " + url + ": expected mqtt://HOST[:PORT]", 64);
+  if (a.host.empty() || a.host.find('/') != std::string::npos) throw CommandError(usage, 64);
   return a;
 }
 
@@ -60,24 +78,24 @@ int wait_for_stop_signal(const sigset_t& set) {
   return signal;
 }
 
-}  // namespace
-
-void register_fleet(CLI::App& app) {
+void add_ingest_command(CLI::App* fleet_cmd) {
   struct Options {
     std::string broker, database, prefix = "gearwatch", client_id = "gearwatch-fleet", password_file, log_level = "info";
+    std::string ca_file, cert_file, key_file;
     std::vector<std::string> gearboxes;
   };
   auto opt = std::make_shared<Options>();
-  auto* fleet_cmd = app.add_subcommand("fleet", "The plant's view: every gearbox's published messages in PostgreSQL");
-  fleet_cmd->require_subcommand(1);
   auto* cmd = fleet_cmd->add_subcommand("ingest", "Subscribe to every gearbox under the MQTT prefix and store into PostgreSQL, until SIGINT or SIGTERM");
-  cmd->add_option("--broker", opt->broker, "MQTT broker: mqtt://HOST[:PORT] (port 1883 by default)")->required();
+  cmd->add_option("--broker", opt->broker, "MQTT broker: mqtt://HOST[:PORT] (port 1883) or mqtts://HOST[:PORT] (TLS, port 8883)")->required();
   cmd->add_option("--database", opt->database, "PostgreSQL: a postgresql:// URI or a libpq connection string")->required();
   cmd->add_option("--prefix", opt->prefix, "Topic prefix the gearboxes publish under (mqtt.prefix)")->capture_default_str();
   cmd->add_option("--client-id", opt->client_id,
                   "MQTT client id of the persistent session: keep it, so a restarted consumer gets what arrived while it was away")->capture_default_str();
   cmd->add_option("--password-file", opt->password_file,
                   "File whose first line is username:password (a relative name is read from $CREDENTIALS_DIRECTORY)");
+  cmd->add_option("--ca-file", opt->ca_file, "TLS: the CA certificate that signed the broker's (needed by mqtts://)")->check(CLI::ExistingFile);
+  cmd->add_option("--cert-file", opt->cert_file, "TLS: this consumer's client certificate (with --key-file)")->check(CLI::ExistingFile);
+  cmd->add_option("--key-file", opt->key_file, "TLS: the client certificate's private key (with --cert-file)")->check(CLI::ExistingFile);
   cmd->add_option("--gearbox", opt->gearboxes, "Accept only these gearboxes, SITE/NAME (repeatable); without it, every gearbox");
   cmd->add_option("--log-level", opt->log_level, "spdlog level: trace, debug, info, warn, error")->capture_default_str()
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
@@ -87,6 +105,12 @@ void register_fleet(CLI::App& app) {
     const auto broker = parse_broker(opt->broker);
     s.host = broker.host;
     s.port = broker.port;
+    if (broker.tls != !opt->ca_file.empty())
+      throw CommandError(broker.tls ? "--broker " + opt->broker + ": mqtts:// needs --ca-file" : "--ca-file needs an mqtts:// broker", 64);
+    if (opt->cert_file.empty() != opt->key_file.empty()) throw CommandError("--cert-file and --key-file go together", 64);
+    s.ca_file = opt->ca_file;
+    s.cert_file = opt->cert_file;
+    s.key_file = opt->key_file;
     s.database = opt->database;
     s.client_id = opt->client_id;
     s.accept.prefix = opt->prefix;
@@ -112,14 +136,75 @@ void register_fleet(CLI::App& app) {
       throw CommandError(e.what());
     } catch (const storage::fleet::FleetRefusedError& e) {
       throw CommandError(std::string("fleet database: ") + e.what());
+    } catch (const std::runtime_error& e) {
+      throw CommandError(e.what());
     }
-    spdlog::info("fleet: ingesting {}/# from {}:{} into the fleet database (schema version {})", s.accept.prefix, s.host, s.port,
+    spdlog::info("fleet: ingesting {}/# from {}:{}{} into the fleet database (schema version {})", s.accept.prefix, s.host, s.port,
+                 s.ca_file.empty() ? "" : " over TLS",
                  storage::fleet::current_fleet_schema_version());
     const int signal = wait_for_stop_signal(signals);
     spdlog::info("fleet: {} received, stopping", signal == SIGINT ? "SIGINT" : "SIGTERM");
     consumer.stop();
     spdlog::info("fleet: {}", daemon::to_string(consumer.counters()));
   });
+}
+
+// A connection as the page may show it: a URI's password and a key=value string's password= removed.
+std::string without_password(const std::string& connection) {
+  std::string out = connection;
+  const auto scheme = out.find("://");
+  if (scheme != std::string::npos) {
+    const auto at = out.find('@', scheme + 3);
+    const auto colon = out.find(':', scheme + 3);
+    if (at != std::string::npos && colon != std::string::npos && colon < at) out.erase(colon, at - colon);
+  }
+  for (auto key = out.find("password="); key != std::string::npos; key = out.find("password=")) {
+    auto end = out.find_first_of(" &", key);
+    if (end == std::string::npos) end = out.size();
+    else ++end;
+    out.erase(key, end - key);
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == '&' || out.back() == '?')) out.pop_back();
+  return out;
+}
+
+void add_report_command(CLI::App* fleet_cmd) {
+  struct Options {
+    std::string database, out;
+    storage::fleet::OverviewRequest trend;
+  };
+  auto opt = std::make_shared<Options>();
+  auto* cmd = fleet_cmd->add_subcommand("report", "Write the fleet page: every gearbox with its verdict, active alerts, remaining life and a trend, worst first");
+  cmd->add_option("--database", opt->database, "PostgreSQL: a postgresql:// URI or a libpq connection string")->required();
+  cmd->add_option("--out", opt->out, "Output directory of the page, DIR/index.html (created if missing)")->required();
+  cmd->add_option("--indicator", opt->trend.trend_indicator, "Indicator of the trend column (names in docs/dsp.md)")->capture_default_str();
+  cmd->add_option("--channel", opt->trend.trend_channel, "Channel of the trend column")->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--points", opt->trend.trend_points, "Newest records in the trend column")->capture_default_str()->check(CLI::Range(2, 10000));
+  cmd->callback([opt] {
+    report::FleetPageData data;
+    data.database = without_password(opt->database);
+    data.generated_at = report::utc_now_iso8601();
+    data.trend = opt->trend;
+    try {
+      data.gearboxes = storage::fleet::load_fleet_overview(opt->database, opt->trend);
+    } catch (const storage::fleet::FleetConnectionError& e) {
+      throw CommandError(e.what());
+    } catch (const storage::fleet::FleetRefusedError& e) {
+      throw CommandError(e.what());
+    }
+    write_page(opt->out, report::render_fleet_page_html(data));
+    std::cout << "wrote " << (std::filesystem::path(opt->out) / "index.html").string() << ": " << data.gearboxes.size()
+              << " gearboxes, worst first\n";
+  });
+}
+
+}  // namespace
+
+void register_fleet(CLI::App& app) {
+  auto* fleet_cmd = app.add_subcommand("fleet", "The plant's view: every gearbox's published messages in PostgreSQL");
+  fleet_cmd->require_subcommand(1);
+  add_ingest_command(fleet_cmd);
+  add_report_command(fleet_cmd);
 }
 
 }  // namespace gearwatch::cli

@@ -75,6 +75,15 @@ void FleetConsumer::start() {
 
 void FleetConsumer::connect_store() { store_ = std::make_unique<fleet::FleetStore>(settings_.database); }
 
+// TLS files that libmosquitto cannot read are refused at start, in one line.
+void FleetConsumer::use_tls() {
+  if (settings_.ca_file.empty()) return;
+  const char* cert = settings_.cert_file.empty() ? nullptr : settings_.cert_file.c_str();
+  const char* key = settings_.key_file.empty() ? nullptr : settings_.key_file.c_str();
+  if (const int rc = mosquitto_tls_set(client_, settings_.ca_file.c_str(), nullptr, cert, key, nullptr); rc != MOSQ_ERR_SUCCESS)
+    throw std::runtime_error("fleet: TLS files (--ca-file, --cert-file, --key-file): " + std::string(mosquitto_strerror(rc)));
+}
+
 // clean_session false and a fixed client id: the broker keeps this consumer's subscription and
 // queues its QoS 1 messages while it is away; libmosquitto's thread reconnects on its own.
 void FleetConsumer::start_session() {
@@ -83,6 +92,7 @@ void FleetConsumer::start_session() {
   if (!client_) throw std::runtime_error("fleet: cannot create the MQTT client");
   if (settings_.credentials)
     mosquitto_username_pw_set(client_, settings_.credentials->username.c_str(), settings_.credentials->password.c_str());
+  use_tls();
   mosquitto_reconnect_delay_set(client_, 1, 10, true);
   mosquitto_connect_callback_set(client_, [](mosquitto*, void* self, int rc) { static_cast<FleetConsumer*>(self)->on_connect(rc); });
   mosquitto_disconnect_callback_set(client_, [](mosquitto*, void* self, int rc) {

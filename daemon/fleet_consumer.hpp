@@ -31,6 +31,9 @@ struct FleetIngestSettings {
   int port = 1883;
   std::string client_id = "gearwatch-fleet";
   std::optional<MqttCredentials> credentials;
+  /// TLS: the CA that signed the broker's certificate turns it on; a client certificate and its
+  /// key go together (as the daemon's [mqtt] ca_file, cert_file, key_file).
+  std::string ca_file, cert_file, key_file;
   std::string database;  ///< libpq connection string or postgresql:// URI
   FleetAcceptance accept{"gearwatch", {}};
   std::size_t queue_capacity = 10000;  ///< beyond it the network thread waits (the broker holds the rest)
@@ -66,6 +69,7 @@ class FleetConsumer {
   };
   void connect_store();
   void start_session();
+  void use_tls();
   void enqueue(Inbound m);
   void writer_loop();
   void handle(const std::vector<Inbound>& batch);

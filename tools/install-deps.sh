@@ -8,7 +8,8 @@
 #                                  python3 with numpy for the capture generator tests/capture_gen,
 #                                  scipy and h5py for the import test's independent .mat writers;
 #                                  headless chromium and a font for the report's browser test;
-#                                  the MQTT tests' broker: mosquitto (mosquitto_passwd);
+#                                  the MQTT tests' broker: mosquitto (mosquitto_passwd), and openssl
+#                                  for the test CA of the TLS tests;
 #                                  the fleet tests' database server: postgresql (initdb, pg_ctl);
 #                                  the systemd VM's root: debootstrap, and the .deb it installs;
 #                                  the fuzzers: clang-14, libFuzzer and its sanitizer runtimes)
@@ -24,7 +25,7 @@ test_configure=(python3 python3-numpy)
 [ "${1:-}" = "--package" ] && packages+=("${package_tools[@]}")
 [ "${1:-}" = "--test-build" ] && packages+=("${test_configure[@]}")
 [ "${1:-}" = "--test" ] && packages+=("${test_configure[@]}" can-utils qemu-system-x86 busybox-static cpio xz-utils python3-scipy python3-h5py
-                                      chromium fonts-dejavu-core mosquitto mosquitto-clients postgresql
+                                      chromium fonts-dejavu-core mosquitto mosquitto-clients openssl postgresql
                                       debootstrap "${package_tools[@]}" clang-14 libfuzzer-14-dev libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do

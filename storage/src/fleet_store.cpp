@@ -1,11 +1,14 @@
 // The fleet store in PostgreSQL (docs/fleet.md): schema, migrations and the typed writers.
 #include "gearwatch/storage/fleet_store.hpp"
 
+#include "fleet_errors.hpp"
+
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <utility>
 
+#include <nlohmann/json.hpp>
 #include <pqxx/pqxx>
 
 namespace gearwatch::storage::fleet {
@@ -198,22 +201,8 @@ Nullable number(const std::optional<double>& v) {
 }
 Nullable integer(const std::optional<std::int64_t>& v) { return v ? Nullable{std::to_string(*v)} : Nullable{}; }
 
-template <class F>
-auto translated(F&& f) {
-  try {
-    return f();
-  } catch (const pqxx::broken_connection& e) {
-    throw FleetConnectionError(std::string("fleet database: connection lost: ") + e.what());
-  } catch (const pqxx::in_doubt_error& e) {
-    throw FleetConnectionError(std::string("fleet database: commit in doubt: ") + e.what());
-  } catch (const pqxx::sql_error& e) {
-    std::string what = e.what();
-    while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
-    for (char& c : what)
-      if (c == '\n') c = ' ';
-    throw FleetRefusedError(what);
-  }
-}
+using detail::one_line;
+using detail::translated;
 
 }  // namespace
 
@@ -255,11 +244,7 @@ FleetStore::FleetStore(const std::string& connection) : connection_string_(conne
   try {
     conn_ = std::make_unique<Connection>(connection_string_);
   } catch (const std::exception& e) {
-    std::string what = e.what();
-    while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
-    for (char& c : what)
-      if (c == '\n') c = ' ';
-    throw FleetConnectionError("fleet database: cannot connect: " + what);
+    throw FleetConnectionError("fleet database: cannot connect: " + detail::one_line(e.what()));
   }
 }
 
@@ -312,16 +297,29 @@ void insert_record(pqxx::transaction_base& w, std::int64_t g, const RecordMessag
       g, *m.header.record_id, m.header.message_id, m.header.record_time, m.stream_sequence, m.start_index,
       number(m.duration_s).param(), m.analysed, m.reject_reason, number(m.speed_hz).param(), number(m.torque_nm).param(),
       number(m.input_revolutions).param());
-  for (const auto& v : m.indicators)
+  // One statement per table, whatever the number of indicators: the rows travel as one JSON array
+  // (values as the %.17g text they always were, so a double reads back to the bit).
+  if (!m.indicators.empty()) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (const auto& v : m.indicators) {
+      const auto value = number(v.value);
+      rows.push_back({{"c", v.channel}, {"n", v.name}, {"v", value.text ? nlohmann::json(*value.text) : nlohmann::json(nullptr)}});
+    }
     w.exec_params(
-        "INSERT INTO fleet.indicator_values (gearbox_id, record_id, channel, name, value) VALUES ($1, $2, $3, $4, $5) "
+        "INSERT INTO fleet.indicator_values (gearbox_id, record_id, channel, name, value) "
+        "SELECT $1, $2, (e->>'c')::integer, e->>'n', (e->>'v')::double precision FROM jsonb_array_elements($3::jsonb) e "
         "ON CONFLICT DO NOTHING",
-        g, *m.header.record_id, v.channel, v.name, number(v.value).param());
-  for (const auto& k : m.skipped)
+        g, *m.header.record_id, rows.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  }
+  if (!m.skipped.empty()) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (const auto& k : m.skipped) rows.push_back({{"c", k.channel}, {"n", k.name}, {"r", k.reason}, {"d", k.detail}});
     w.exec_params(
-        "INSERT INTO fleet.indicator_skips (gearbox_id, record_id, channel, name, reason, detail) VALUES ($1, $2, $3, $4, $5, $6) "
+        "INSERT INTO fleet.indicator_skips (gearbox_id, record_id, channel, name, reason, detail) "
+        "SELECT $1, $2, (e->>'c')::integer, e->>'n', e->>'r', e->>'d' FROM jsonb_array_elements($3::jsonb) e "
         "ON CONFLICT DO NOTHING",
-        g, *m.header.record_id, k.channel, k.name, k.reason, k.detail);
+        g, *m.header.record_id, rows.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  }
 }
 
 void insert_wear(pqxx::transaction_base& w, std::int64_t g, const WearMessage& m) {
@@ -428,13 +426,6 @@ bool write_one(pqxx::transaction_base& w, const Message& message) {
         }
       },
       message);
-}
-
-std::string one_line(std::string what) {
-  while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
-  for (char& c : what)
-    if (c == '\n') c = ' ';
-  return what;
 }
 
 }  // namespace

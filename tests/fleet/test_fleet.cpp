@@ -20,9 +20,12 @@
 
 #include "command_runner.hpp"
 #include "fleet_messages.hpp"
+#include "fleet/fleet_page_fixture.hpp"
 #include "fleet/postgres_server.hpp"
+#include "gearwatch/report/fleet_page.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "mqtt/mqtt_broker.hpp"
+#include "mqtt/test_ca.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -401,14 +404,25 @@ TEST_CASE("fleet: model runs and gap summaries land in their tables and in the l
   CHECK(f.err("c").find("received 5, stored 3, duplicates 1, statuses 0, rejected 1 (database_refused 1)") != std::string::npos);
 }
 
-TEST_CASE("fleet: ingest's command line: help, a malformed broker or gearbox, an unreachable database", "[fleet][cli]") {
+TEST_CASE("fleet: ingest's command line: help, a malformed broker or gearbox, TLS options, an unreachable database", "[fleet][cli]") {
   const std::string bin = GEARWATCH_BINARY;
   const auto help = run_command(bin + " fleet ingest --help");
   CHECK(help.status == 0);
   CHECK(help.out.find("--database") != std::string::npos);
   const auto scheme = run_command(bin + " fleet ingest --broker tcp://h:1 --database postgresql://x@127.0.0.1:1/fleet");
   CHECK(scheme.status == 64);
-  CHECK(scheme.err == "gearwatch: --broker tcp://h:1: expected mqtt://HOST[:PORT]\n");
+  CHECK(scheme.err == "gearwatch: --broker tcp://h:1: expected mqtt://HOST[:PORT] or mqtts://HOST[:PORT]\n");
+  // TLS wants the CA that signed the broker's certificate, and a client certificate its key.
+  const auto no_ca = run_command(bin + " fleet ingest --broker mqtts://h --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(no_ca.status == 64);
+  CHECK(no_ca.err == "gearwatch: --broker mqtts://h: mqtts:// needs --ca-file\n");
+  const auto ca_without_tls = run_command(bin + " fleet ingest --broker mqtt://h --ca-file " + bin + " --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(ca_without_tls.status == 64);
+  CHECK(ca_without_tls.err == "gearwatch: --ca-file needs an mqtts:// broker\n");
+  const auto lone_cert = run_command(bin + " fleet ingest --broker mqtts://h --ca-file " + bin + " --cert-file " + bin +
+                                     " --database postgresql://x@127.0.0.1:1/fleet");
+  CHECK(lone_cert.status == 64);
+  CHECK(lone_cert.err == "gearwatch: --cert-file and --key-file go together\n");
   const auto port = run_command(bin + " fleet ingest --broker mqtt://h:99999 --database postgresql://x@127.0.0.1:1/fleet");
   CHECK(port.status == 64);
   CHECK(port.err == "gearwatch: --broker mqtt://h:99999: port '99999' is not 1..65535\n");
@@ -478,4 +492,208 @@ TEST_CASE("fleet: the database stopped under a running consumer: the message is 
   INFO(err);
   CHECK(err.find("received 1, stored 1, duplicates 0, statuses 0, rejected 0, database retries ") != std::string::npos);
   CHECK(err.find("database retries 0") == std::string::npos);
+}
+
+TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gearbox lands as in its own database and another's topics stay out", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  f.broker.stop();  // this test's broker speaks TLS and has an ACL
+  MosquittoBroker tls(f.dir / "tls-broker", "fleet", "fleet-pw");
+  const auto certs = make_test_certificates(f.dir / "tls-broker" / "ca");
+  tls.add_user("gbA", "gbA-pw");
+  // Each gearbox writes under its own topics only; the consumer reads everything under the prefix.
+  tls.use_tls_and_acl(certs.ca, certs.server_cert, certs.server_key,
+                      "user fleet\ntopic read gw/#\n\nuser gbA\ntopic readwrite gw/plant1/gbA/#\n");
+  tls.start();
+  std::ofstream(f.dir / "gbA-credentials") << "gbA:gbA-pw\n";
+  std::ofstream(f.dir / "fleet-credentials") << "fleet:fleet-pw\n";
+  const std::string tls_keys = "ca_file = \"" + certs.ca.string() + "\"\ncert_file = \"" + certs.client_cert.string() + "\"\nkey_file = \"" +
+                               certs.client_key.string() + "\"\n";
+  // gbA publishes as itself; "gbX" holds gbA's credentials but publishes under gw/plant1/gbX/…,
+  // which the ACL does not give gbA.
+  for (const auto& [name, seed] : {std::pair<std::string, int>{"gbA", 21}, {"gbX", 22}}) {
+    const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (f.dir / (name + ".log")).string() +
+                               " --duration 8 --channels 1 --seed " + std::to_string(seed));
+    REQUIRE(r.status == 0);
+    // Channel 1 is configured but not in the capture: its sensor_missing alert is among what must arrive.
+    std::ofstream(f.dir / (name + ".toml")) << "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
+                                               "[[channels]]\nnumber = 1\nname = \"casing_x\"\nscale = 0.01\n"
+                                               "[records]\nlength_s = 0.25\ninterval_s = 0.25\nmin_length_s = 0.1\n"
+                                               "[model]\nenabled = false\n[daemon]\nhealth_interval_s = 0.5\n"
+                                               "[mqtt]\nenabled = true\nhost = \"127.0.0.1\"\nport = "
+                                            << tls.port() << "\nprefix = \"gw\"\nsite = \"plant1\"\ngearbox = \"" << name
+                                            << "\"\npassword_file = \"" << (f.dir / "gbA-credentials").string() << "\"\n" << tls_keys
+                                            << "reconnect_initial_ms = 50\nreconnect_max_ms = 300\ndrain_timeout_s = 60\n";
+  }
+  const auto consumer_args = [&](const std::string& tag, bool client_certificate) {
+    std::vector<std::string> args{"fleet", "ingest", "--broker", "mqtts://127.0.0.1:" + std::to_string(tls.port()), "--database", f.uri,
+                                  "--prefix", "gw", "--client-id", "fleet-tls-" + tag, "--password-file", (f.dir / "fleet-credentials").string(),
+                                  "--ca-file", certs.ca.string()};
+    if (client_certificate) args.insert(args.end(), {"--cert-file", certs.client_cert.string(), "--key-file", certs.client_key.string()});
+    return spawn(args, f.dir / ("out-" + tag), f.dir / ("err-" + tag));
+  };
+  // Without a client certificate the broker refuses the TLS session: nothing is subscribed.
+  const pid_t no_cert = consumer_args("nocert", false);
+  f.wait_ready();
+  std::this_thread::sleep_for(2s);
+  ::kill(no_cert, SIGTERM);
+  REQUIRE(wait_bounded(no_cert, 30s) == 0);
+  CHECK(read_all(f.dir / "err-nocert").find("over TLS") != std::string::npos);
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 0);
+
+  const pid_t consumer = consumer_args("tls", true);
+  REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-tls"), "ingesting") == 1; }, 30s));
+  std::this_thread::sleep_for(1s);
+  const pid_t a = spawn({"replay", (f.dir / "gbA.log").string(), "--db", f.db("gbA").string(), "--config", (f.dir / "gbA.toml").string()},
+                        f.dir / "out-gbA", f.dir / "err-gbA");
+  REQUIRE(wait_bounded(a, 120s) == 0);
+  const pid_t x = spawn({"replay", (f.dir / "gbX.log").string(), "--db", f.db("gbX").string(), "--config", (f.dir / "gbX.toml").string()},
+                        f.dir / "out-gbX", f.dir / "err-gbX");
+  REQUIRE(wait_bounded(x, 120s) == 0);
+  // The broker acknowledged gbX's messages (MQTT 3.1.1 has no refusal of a publish) and dropped them.
+  CHECK(std::stoll(sqlite_rows(f.db("gbX"), "SELECT count(*) FROM outbox WHERE delivered_at IS NULL").at(0)) == 0);
+  const long long expected = f.outbox_rows("gbA");
+  REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == expected; }, 60s));
+  std::this_thread::sleep_for(1s);
+  ::kill(consumer, SIGTERM);
+  REQUIRE(wait_bounded(consumer, 30s) == 0);
+  check_same_as_local(f, "gbA");
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.gearboxes WHERE name = 'gbX'") == 0);
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.rejects") == 0);
+}
+
+// --- The fleet page (docs/fleet.md, "Fleet page") -------------------------------------------------
+
+namespace {
+
+// The data-gearbox attributes of the page's rows, in page order (unescaped back for comparison).
+std::vector<std::string> page_order(const std::string& html) {
+  std::vector<std::string> out;
+  const std::string key = "data-gearbox=\"";
+  for (auto at = html.find(key); at != std::string::npos; at = html.find(key, at + 1)) {
+    std::string name = html.substr(at + key.size(), html.find('"', at + key.size()) - at - key.size());
+    for (const auto& [entity, ch] : std::vector<std::pair<std::string, std::string>>{{"&lt;", "<"}, {"&gt;", ">"}, {"&amp;", "&"}})
+      for (auto e = name.find(entity); e != std::string::npos; e = name.find(entity)) name.replace(e, entity.size(), ch);
+    out.push_back(name);
+  }
+  return out;
+}
+
+// The row of one gearbox (from its <tr to its </tr>).
+std::string page_row(const std::string& html, const std::string& escaped_name) {
+  const auto at = html.find("data-gearbox=\"" + escaped_name + "\"");
+  REQUIRE(at != std::string::npos);
+  return html.substr(at, html.find("</tr>", at) - at);
+}
+
+}  // namespace
+
+TEST_CASE("fleet report: the page lists every gearbox worst first with its verdict, active alerts and remaining life", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  {
+    gearwatch::storage::fleet::FleetStore store(f.uri);
+    store.migrate();
+    write_known_fleet(store);
+  }
+  // A password in the connection (ignored by the test server's trust authentication) never reaches the page.
+  const std::string with_password = "postgresql://gw:s3cret-pw@127.0.0.1:" + std::to_string(f.pg->port()) + "/fleet";
+  const auto out = f.dir / "page";
+  const auto r = run_command(std::string(GEARWATCH_BINARY) + " fleet report --database " + with_password + " --out " + out.string() +
+                             " --points 3");
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  CHECK(r.out == "wrote " + (out / "index.html").string() + ": 5 gearboxes, worst first\n");
+  const std::string html = read_all(out / "index.html");
+  CHECK(page_order(html) == kFleetWorstFirst);
+  CHECK(html.find("s3cret-pw") == std::string::npos);
+  CHECK(html.find("postgresql://gw@127.0.0.1:" + std::to_string(f.pg->port()) + "/fleet") != std::string::npos);
+  CHECK(html.find("5 · 2 with a warning or alarm · 2 with wear under way · 1 offline") != std::string::npos);
+  // The name is escaped wherever it appears; the raw bytes never reach the page.
+  CHECK(html.find("gbWarn<&>") == std::string::npos);
+
+  const std::string pit = page_row(html, "plant2/gbPit");
+  CHECK(html.find("<tr class=\"gearbox-row sev-alarm\" data-gearbox=\"plant2/gbPit\">") != std::string::npos);
+  CHECK(occurrences(pit, "<li class=\"sev-alarm\"") == 1);
+  CHECK(pit.find("<span class=\"mech-wear\">fatigue_pitting</span>") != std::string::npos);
+  CHECK(pit.find("pitting: <b>2 M</b> cycles <span class=\"muted\">(1.5 M – 2.6 M)</span>") != std::string::npos);
+  CHECK(pit.find("depth 4.20 µm · pitting 5.0 %") != std::string::npos);
+
+  // Only the alert still raised is listed: the info alert was raised, then cleared.
+  const std::string warn = page_row(html, "plant2/gbWarn&lt;&amp;&gt;");
+  CHECK(occurrences(warn, "<li class=") == 1);
+  CHECK(occurrences(warn, "<li class=\"sev-warning\"") == 1);
+  CHECK(warn.find("no model run") != std::string::npos);
+
+  const std::string life = page_row(html, "plant1/gbLife");
+  CHECK(life.find("none active") != std::string::npos);
+  CHECK(life.find("pitting: <b>800 k</b> cycles <span class=\"muted\">(600 k – 1.1 M)</span>") != std::string::npos);
+
+  // The trend: the newest 3 of gbQuiet's 4 records on channel 0, at their cycles (records 2–4).
+  const std::string quiet = page_row(html, "plant1/gbQuiet");
+  CHECK(occurrences(quiet, "<circle class=\"pt\"") == 3);
+  CHECK(quiet.find("record 1<") == std::string::npos);
+  CHECK(occurrences(quiet, "<title>record ") == 3);
+  CHECK(quiet.find("wear: <b>9 M</b> cycles</div>") != std::string::npos);
+
+  const std::string off = page_row(html, "plant1/gbOff");
+  CHECK(off.find("<span class=\"state-offline\">offline</span>") != std::string::npos);
+  CHECK(off.find("no model run") != std::string::npos);
+}
+
+TEST_CASE("fleet report: a database without the fleet schema or out of reach is refused in one line", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  const auto page = f.dir / "page";
+  const auto empty = run_command(std::string(GEARWATCH_BINARY) + " fleet report --database " + f.uri + " --out " + page.string());
+  CHECK(empty.status == 1);
+  CHECK(empty.err == "gearwatch: fleet database: it holds no fleet schema (`gearwatch fleet ingest` creates it)\n");
+  CHECK_FALSE(fs::exists(page / "index.html"));
+  f.pg->stop();
+  const auto away = run_command(std::string(GEARWATCH_BINARY) + " fleet report --database " + f.uri + " --out " + page.string());
+  CHECK(away.status == 1);
+  CHECK(away.err.rfind("gearwatch: fleet database: cannot connect: ", 0) == 0);
+  CHECK(std::count(away.err.begin(), away.err.end(), '\n') == 1);
+  CHECK_FALSE(fs::exists(page / "index.html"));
+}
+
+TEST_CASE("fleet report: cycles are written as staff read them and the order follows the urgency fields in turn", "[fleet]") {
+  using gearwatch::report::format_cycles;
+  CHECK(format_cycles(0) == "0");
+  CHECK(format_cycles(9999) == "9999");
+  CHECK(format_cycles(12345) == "12.3 k");
+  CHECK(format_cycles(2.35e6) == "2.35 M");
+  CHECK(format_cycles(1.2e9) == "1.2 G");
+  gearwatch::storage::fleet::GearboxOverview healthy, offline, short_life, wearing, info_only;
+  healthy.gearbox = "healthy";
+  healthy.forecast_valid = true;
+  healthy.cycles = 1.0;
+  healthy.pitting.cycles_left = 5e6;
+  offline = healthy;
+  offline.gearbox = "offline";
+  offline.state = "offline";
+  short_life = healthy;
+  short_life.gearbox = "short";
+  short_life.wear.cycles_left = 1e5;
+  wearing = healthy;
+  wearing.gearbox = "wearing";
+  wearing.verdicts = {{0, "abrasive_wear", ""}};
+  info_only = healthy;
+  info_only.gearbox = "info";
+  info_only.active_alerts = {{"life_counter_reset", "info", "", "0", "", "", std::nullopt}};
+  auto warned = healthy;
+  warned.gearbox = "warned";
+  warned.active_alerts = {{"sensor_flat_line", "warning", "", "", "", "", 0}};
+  // An invalid forecast's cycles do not count as remaining life.
+  auto invalid = short_life;
+  invalid.gearbox = "invalid";
+  invalid.forecast_valid = false;
+  // An info alert alone does not move a gearbox up: it is listed among the healthy ones in their order.
+  const auto order = gearwatch::report::worst_first({healthy, invalid, info_only, offline, short_life, wearing, warned});
+  std::vector<std::string> names;
+  for (const auto& g : order) names.push_back(g.gearbox);
+  CHECK(names == std::vector<std::string>{"warned", "wearing", "short", "offline", "healthy", "info", "invalid"});
 }

@@ -63,18 +63,23 @@ class MosquittoBroker {
       : dir_(std::move(dir)), user_(std::move(user)), password_(std::move(password)), port_(free_loopback_port()) {
     std::filesystem::create_directories(dir_);
     std::ofstream(dir_ / "pw") << "";
-    const auto r = run_command("mosquitto_passwd -b " + (dir_ / "pw").string() + " '" + user_ + "' '" + password_ + "'");
+    add_user(user_, password_);
+    write_config("");
+  }
+  /// Another user of the password file (before start()).
+  void add_user(const std::string& user, const std::string& password) {
+    const auto r = run_command("mosquitto_passwd -b " + (dir_ / "pw").string() + " '" + user + "' '" + password + "'");
     if (r.status != 0) throw std::runtime_error("mosquitto_passwd: " + r.err);
-    // As root, mosquitto drops to `nobody` (the recipe's unprivileged user): it must own its files.
-    const bool root = ::geteuid() == 0;
-    std::ofstream(dir_ / "m.conf") << "listener " << port_ << " 127.0.0.1\nallow_anonymous false\npassword_file " << (dir_ / "pw").string()
-                                   << "\npersistence true\npersistence_location " << dir_.string() << "/\n"
-                                   << (root ? "user nobody\n" : "");
-    if (root) {
-      const passwd* nobody = ::getpwnam("nobody");
-      for (const auto& p : {dir_, dir_ / "pw", dir_ / "m.conf"}) (void)::chown(p.c_str(), nobody->pw_uid, nobody->pw_gid);
-      std::filesystem::permissions(dir_ / "pw", std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
-    }
+    give_to_broker(dir_ / "pw");
+  }
+  /// The listener speaks TLS only, wants a client certificate signed by the test CA, and the ACL
+  /// file's rules apply (before start()).
+  void use_tls_and_acl(const std::filesystem::path& ca, const std::filesystem::path& cert, const std::filesystem::path& key,
+                       const std::string& acl) {
+    std::ofstream(dir_ / "acl") << acl;
+    for (const auto& f : {ca, cert, key, dir_ / "acl"}) give_to_broker(f);
+    write_config("cafile " + ca.string() + "\ncertfile " + cert.string() + "\nkeyfile " + key.string() +
+                 "\nrequire_certificate true\nacl_file " + (dir_ / "acl").string() + "\n");
   }
   ~MosquittoBroker() { stop(); }
   int port() const noexcept { return port_; }
@@ -93,6 +98,23 @@ class MosquittoBroker {
   }
 
  private:
+  // As root, mosquitto drops to `nobody` (the recipe's unprivileged user): it must own its files.
+  void give_to_broker(const std::filesystem::path& p) const {
+    if (::geteuid() != 0) return;
+    const passwd* nobody = ::getpwnam("nobody");
+    (void)::chown(p.c_str(), nobody->pw_uid, nobody->pw_gid);
+    std::filesystem::permissions(p, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  }
+  void write_config(const std::string& listener_options) {
+    const bool root = ::geteuid() == 0;
+    std::ofstream(dir_ / "m.conf") << "listener " << port_ << " 127.0.0.1\n" << listener_options << "allow_anonymous false\npassword_file "
+                                   << (dir_ / "pw").string() << "\npersistence true\npersistence_location " << dir_.string() << "/\n"
+                                   << (root ? "user nobody\n" : "");
+    if (root) {
+      const passwd* nobody = ::getpwnam("nobody");
+      for (const auto& p : {dir_, dir_ / "m.conf"}) (void)::chown(p.c_str(), nobody->pw_uid, nobody->pw_gid);
+    }
+  }
   std::filesystem::path dir_;
   std::string user_, password_;
   int port_;

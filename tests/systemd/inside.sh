@@ -17,6 +17,10 @@
 #     with it): systemd restarts gearwatch, nothing committed is lost, integrity ok;
 #  7. `systemd-analyze security`: overall exposure <= 1.0; with the MQTT drop-in the package ships
 #     (Internet families, the broker's address only) below the 1.6 the unit had without any IP.
+#  8. the fleet consumer's unit (gearwatch-fleet.service): installed disabled with its conffile
+#     fleet.env; started against a database that refuses connections, the hardened process runs
+#     the binary as far as the database (its one-line error in the journal, exit 1), is restarted
+#     by systemd, and stops; its exposure <= 1.0.
 # Prints what it measured and "SYSTEMD TEST: PASS ..." or "SYSTEMD TEST: FAIL: <reason>".
 set -u
 P=/payload
@@ -58,7 +62,7 @@ wait_for() {  # wait_for SECONDS DESCRIPTION COMMAND...: poll every 0.5 s
 step "systemd $(systemctl --version | head -1 | cut -d' ' -f2), kernel $(uname -r), $(nproc) CPUs"
 [ "$(dpkg-query -W -f='${Status}' gearwatch 2>/dev/null)" = "install ok installed" ] || fail "gearwatch is not installed"
 step "package: gearwatch $(dpkg-query -W -f='${Version} ${Architecture}' gearwatch); Depends: $(dpkg-query -W -f='${Depends}' gearwatch)"
-for f in /usr/bin/gearwatch /lib/systemd/system/gearwatch.service /usr/lib/sysctl.d/60-gearwatch.conf \
+for f in /usr/bin/gearwatch /lib/systemd/system/gearwatch.service /lib/systemd/system/gearwatch-fleet.service /usr/lib/sysctl.d/60-gearwatch.conf \
          /etc/gearwatch/gearwatch.toml /usr/share/doc/gearwatch/README.md; do
   dpkg-query -L gearwatch | grep -qx "$f" || fail "the package does not install $f"
   [ -f "$f" ] || fail "$f is missing after installation"
@@ -244,5 +248,25 @@ case $allow in 127.0.0.1|127.0.0.1/32) ;; *) false ;; esac || fail "the MQTT dro
 [ "$(exposure_of)" = "$exposure" ] || fail "removing the MQTT drop-in did not restore the unit's exposure"
 step "systemd-analyze security with the MQTT drop-in (IPAddressAllow=$allow): $mqtt_exposure"
 awk -v e="$mqtt_exposure" -v l=$MQTT_EXPOSURE_LIMIT 'BEGIN { exit !(e <= l) }' || fail "exposure with the MQTT drop-in $mqtt_exposure > $MQTT_EXPOSURE_LIMIT"
-echo "SYSTEMD TEST: PASS: ready in ${ready_s} s on vcan1; reload names what needs a restart; $n_run records = replay, 0 lost; watchdog pinged ${since_ready} s after READY; stop ${stop_s} s, exit 0; vcan1 deleted and re-created: same process reopened it, records went on; SIGKILL -> restarted in ${restart_s} s, integrity ok, nothing committed lost; exposure $exposure ($mqtt_exposure with the MQTT drop-in); $(( $(date +%s) - t_begin )) s in the VM"
+# --- 8. the fleet consumer's unit
+fleet=gearwatch-fleet.service
+[ -f /etc/gearwatch/fleet.env ] || fail "the package does not install /etc/gearwatch/fleet.env"
+dpkg-query -W -f='${Conffiles}\n' gearwatch | grep -q "^ /etc/gearwatch/fleet.env " || fail "/etc/gearwatch/fleet.env is not a conffile"
+[ "$(systemctl is-enabled $fleet 2>&1)" = disabled ] || fail "$fleet is not installed disabled: $(systemctl is-enabled $fleet 2>&1)"
+# Port 1 of loopback refuses at once: the consumer must get as far as connecting to the database.
+sed -i 's|--database [^ ]*|--database postgresql://gearwatch@127.0.0.1:1/fleet|' /etc/gearwatch/fleet.env
+systemctl start $fleet
+fleet_deadline=$(( $(date +%s) + 30 ))
+until [ "$(systemctl show -p NRestarts --value $fleet)" -ge 1 ] 2>/dev/null || [ "$(date +%s)" -ge $fleet_deadline ]; do sleep 0.5; done
+fleet_restarts=$(systemctl show -p NRestarts --value $fleet)
+fleet_journal=$(journalctl -u $fleet --no-pager -o cat)
+systemctl stop $fleet
+systemctl reset-failed $fleet 2>/dev/null || true
+[ "$fleet_restarts" -ge 1 ] || fail "$fleet was not restarted after its failure (NRestarts=$fleet_restarts)"
+echo "$fleet_journal" | grep -q 'gearwatch: fleet database: cannot connect: ' || fail "$fleet's journal lacks the database error: $fleet_journal"
+echo "$fleet_journal" | grep -q 'status=1/FAILURE' || fail "$fleet did not exit 1: $fleet_journal"
+fleet_exposure=$(systemd-analyze security $fleet --no-pager 2>&1 | sed -n 's/.*Overall exposure level.*: \([0-9.]*\).*/\1/p' | head -1)
+awk -v e="$fleet_exposure" -v l=$EXPOSURE_LIMIT 'BEGIN { exit !(e <= l) }' || fail "$fleet exposure '$fleet_exposure' > $EXPOSURE_LIMIT"
+step "fleet consumer unit: disabled on install, database refused -> exit 1 in the journal, restarted $fleet_restarts time(s), stopped; exposure $fleet_exposure"
+echo "SYSTEMD TEST: PASS: ready in ${ready_s} s on vcan1; reload names what needs a restart; $n_run records = replay, 0 lost; watchdog pinged ${since_ready} s after READY; stop ${stop_s} s, exit 0; vcan1 deleted and re-created: same process reopened it, records went on; SIGKILL -> restarted in ${restart_s} s, integrity ok, nothing committed lost; exposure $exposure ($mqtt_exposure with the MQTT drop-in); fleet unit ok, exposure $fleet_exposure; $(( $(date +%s) - t_begin )) s in the VM"
 exit 0

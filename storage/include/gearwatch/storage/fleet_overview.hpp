@@ -1,0 +1,59 @@
+#pragma once
+// The fleet page's reader (docs/fleet.md, "Fleet page"): per gearbox of the fleet database, what
+// staff look at first — its status, its active alerts, each channel's newest wear verdict, the
+// newest model run's remaining life, and a short trend of one indicator. One read-only transaction,
+// so the page shows one moment of a database the consumer keeps writing. SQL in fleet_overview.cpp.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gearwatch::storage::fleet {
+
+struct ActiveAlert {
+  std::string kind, severity, subject, value, message, raised_at;
+  std::optional<int> channel;
+};
+
+struct ChannelVerdict {
+  int channel = 0;
+  std::string mechanism, record_time;  ///< the newest wear verdict of the channel
+};
+
+/// Cycles left to one limit with the interval's near and far ends (docs/model.md); empty: beyond
+/// the forecast's horizon, or no forecast.
+struct RemainingLife {
+  std::optional<double> limit, cycles_left, cycles_left_low, cycles_left_high;
+};
+
+struct TrendPoint {
+  std::int64_t record_id = 0;
+  std::optional<double> cycles;  ///< input revolutions at the record
+  double value = 0;
+};
+
+struct GearboxOverview {
+  std::string site, gearbox, state, version, last_seen;
+  std::optional<std::string> last_record_time;
+  std::vector<ActiveAlert> active_alerts;
+  std::vector<ChannelVerdict> verdicts;
+  // The newest model run (all empty without one).
+  std::optional<double> cycles, wear_max_depth_m, pitting_mean;
+  bool forecast_valid = false;
+  RemainingLife wear, pitting;
+  std::string forecast_failure;  ///< why the forecast is not valid, as published
+  std::vector<TrendPoint> trend;  ///< oldest first
+};
+
+struct OverviewRequest {
+  std::string trend_indicator = "ics2_low_band";
+  int trend_channel = 0;
+  int trend_points = 60;  ///< the newest this many records
+};
+
+/// Every gearbox the fleet database knows, in the database's order (site, name). Throws
+/// FleetConnectionError when the server cannot be reached and FleetRefusedError when the database
+/// holds no fleet schema or one of a newer gearwatch (fleet_store.hpp).
+std::vector<GearboxOverview> load_fleet_overview(const std::string& connection, const OverviewRequest& request);
+
+}  // namespace gearwatch::storage::fleet
