@@ -1237,137 +1237,169 @@ void TwinModel::calibrate_from_one_inspection(const Inspection& first, double cy
   report.updates.push_back(std::move(u));
 }
 
-void TwinModel::check_pitting(const ModelObservation& obs, ModelRunReport& report) {
-  if (!memory_.pitting_calibrated || !obs.ics2_low || !std::isfinite(*obs.ics2_low)) return;
+bool TwinModel::pitting_point_due(const ModelObservation& obs) const {
+  if (!memory_.pitting_calibrated || !obs.ics2_low || !std::isfinite(*obs.ics2_low)) return false;
+  const auto& points = memory_.pitting_points;
+  if (!points.empty() && obs.cycles < points.back().cycles + settings_.pitting_interval_cycles) return false;
+  return obs.cycles > memory_.pitting_anchor.state.cycles;
+}
+
+void TwinModel::record_scale_residual(double ics2, double density_now) {
+  if (!memory_.ics2_scale_valid) return;
+  // The scale's scatter: the ICS2-derived density against the model's at each new point, in ln K.
+  const double d_scale = memory_.ics2_scale_density + memory_.ics2_scale_slope * (ics2 - memory_.ics2_scale_ics2);
+  if (d_scale > 0 && d_scale < 1 && density_now > 0) {
+    const double gap = log_k_gap(d_scale, density_now);
+    memory_.scale_residual_sum_sq += gap * gap;
+    ++memory_.scale_residual_count;
+  }
+}
+
+void TwinModel::push_pitting_point(double cycles, double ics2, double density) {
   auto& points = memory_.pitting_points;
-  if (!points.empty() && obs.cycles < points.back().cycles + settings_.pitting_interval_cycles) return;
-  const LoopSnapshot anchor = memory_.pitting_anchor;
-  if (!(obs.cycles > anchor.state.cycles)) return;
-  const double ics2 = *obs.ics2_low;
-  const double density_now = mean_of(memory_.current.state.pinion_pitting);
-  if (memory_.ics2_scale_valid) {
-    // The scale's scatter: the ICS2-derived density against the model's at each new point, in ln K.
-    const double d_scale = memory_.ics2_scale_density + memory_.ics2_scale_slope * (ics2 - memory_.ics2_scale_ics2);
-    if (d_scale > 0 && d_scale < 1 && density_now > 0) {
-      const double gap = log_k_gap(d_scale, density_now);
-      memory_.scale_residual_sum_sq += gap * gap;
-      ++memory_.scale_residual_count;
-    }
-  }
-  auto push_point = [&](double density) {
-    points.push_back({obs.cycles, ics2, density});
-    if (points.size() > 3) points.erase(points.begin(), points.end() - 3);
-    memory_.pitting_anchor = memory_.current;
-  };
-  if (points.size() < 2) {
-    push_point(density_now);
-    return;
-  }
-  const std::array<double, 3> y{points[points.size() - 2].ics2, points.back().ics2, ics2};
-  auto corr = [&](double d) { return pearson3({points[points.size() - 2].density, points.back().density, d}, y); };
-  const double c_now = corr(density_now);
-  if (std::isfinite(c_now) && c_now >= settings_.correlation_threshold) {
-    push_point(density_now);
-    return;
-  }
+  points.push_back({cycles, ics2, density});
+  if (points.size() > 3) points.erase(points.begin(), points.end() - 3);
+  memory_.pitting_anchor = memory_.current;
+}
+
+double TwinModel::PittingTriple::correlation(double density_now) const {
+  return pearson3({density[0], density[1], density_now}, ics2);
+}
+
+double TwinModel::pitting_density_with(const ModelMemory& saved, double k, int& evaluations, LoopSnapshot* out) {
+  memory_ = saved;
+  LoopSnapshot s;
+  rerun(saved.pitting_anchor, Override{std::nullopt, k, saved.pitting_anchor.state.cycles}, s, false);
+  ++evaluations;
+  if (out) *out = s;
+  return mean_of(s.state.pinion_pitting);
+}
+
+TwinModel::PittingSearch TwinModel::search_k_pitting(const ModelMemory& saved, const PittingTriple& triple) {
   // Eqs. 7.16–7.17: K_pitting maximising C, re-running from the last pitting point.
-  const ModelMemory saved = memory_;
-  int evaluations = 0;
-  auto density_with = [&](double k, LoopSnapshot* out) {
-    memory_ = saved;
-    LoopSnapshot s;
-    rerun(anchor, Override{std::nullopt, k, anchor.state.cycles}, s, false);
-    ++evaluations;
-    if (out) *out = s;
-    return mean_of(s.state.pinion_pitting);
-  };
+  PittingSearch s;
   double k_ref = memory_.k_pitting;
   for (auto it = memory_.recent_k_pitting.rbegin(); !(k_ref > 0) && it != memory_.recent_k_pitting.rend(); ++it) k_ref = *it;
-  const double c_zero = corr(density_with(0.0, nullptr));
-  double best_k = 0, best_c = std::isfinite(c_zero) ? c_zero : -2.0;
-  if (k_ref > 0) {
-    auto f = [&](double x) {
-      const double c = corr(density_with(std::exp(x), nullptr));
-      return std::isfinite(c) ? c : -2.0;
-    };
-    // Bracket the maximum on ln K: walk uphill from the current K by decades.
-    const double step = std::log(10.0);
-    double x0 = std::log(k_ref), f0 = f(x0);
-    double xl = x0 - step, fl = f(xl), xr = x0 + step, fr = f(xr);
-    const int budget = settings_.max_pitting_evaluations;
-    while (evaluations < budget / 2 && (fl > f0 || fr > f0)) {
-      if (fr > f0 && fr >= fl) {
-        xl = x0, fl = f0, x0 = xr, f0 = fr, xr = x0 + step, fr = f(xr);
-      } else {
-        xr = x0, fr = f0, x0 = xl, f0 = fl, xl = x0 - step, fl = f(xl);
-      }
+  const double c_zero = triple.correlation(pitting_density_with(saved, 0.0, s.evaluations, nullptr));
+  s.best_c = std::isfinite(c_zero) ? c_zero : -2.0;
+  if (!(k_ref > 0)) return s;
+  auto f = [&](double x) {
+    const double c = triple.correlation(pitting_density_with(saved, std::exp(x), s.evaluations, nullptr));
+    return std::isfinite(c) ? c : -2.0;
+  };
+  // Bracket the maximum on ln K: walk uphill from the current K by decades.
+  const double step = std::log(10.0);
+  double x0 = std::log(k_ref), f0 = f(x0);
+  double xl = x0 - step, fl = f(xl), xr = x0 + step, fr = f(xr);
+  const int budget = settings_.max_pitting_evaluations;
+  while (s.evaluations < budget / 2 && (fl > f0 || fr > f0)) {
+    if (fr > f0 && fr >= fl) {
+      xl = x0, fl = f0, x0 = xr, f0 = fr, xr = x0 + step, fr = f(xr);
+    } else {
+      xr = x0, fr = f0, x0 = xl, f0 = fl, xl = x0 - step, fl = f(xl);
     }
-    for (auto [x, v] : {std::pair{xl, fl}, std::pair{x0, f0}, std::pair{xr, fr}})
-      if (v > best_c) best_c = v, best_k = std::exp(x);
-    const LineSearchResult r = golden_section_maximise(f, xl, xr, 1e-3, std::max(4, budget - evaluations));
-    if (r.value > best_c) best_c = r.value, best_k = std::exp(r.x);
   }
+  for (auto [x, v] : {std::pair{xl, fl}, std::pair{x0, f0}, std::pair{xr, fr}})
+    if (v > s.best_c) s.best_c = v, s.best_k = std::exp(x);
+  const LineSearchResult r = golden_section_maximise(f, xl, xr, 1e-3, std::max(4, budget - s.evaluations));
+  if (r.value > s.best_c) s.best_c = r.value, s.best_k = std::exp(r.x);
+  return s;
+}
+
+std::string TwinModel::judge_pitting_search(PittingSearch& search, double ics2, double last_ics2, KUpdate& u) const {
+  if (search.best_c >= settings_.correlation_threshold && search.best_k > 0) {
+    u.outcome = UpdateOutcome::converged;
+    return {};
+  }
+  u.outcome = UpdateOutcome::set_to_zero;
+  char b[300];
+  std::snprintf(b, sizeof b, "the best correlation %.4f (K_pitting %.4g) stays below %.2f", search.best_c, search.best_k,
+                settings_.correlation_threshold);
+  std::string why = b;
+  if (ics2 < last_ics2) why += ": ICS2 fell while the model's pitting density cannot decrease";
+  search.best_k = 0;
+  return why;
+}
+
+void TwinModel::apply_k_pitting_search(const ModelMemory& saved, const PittingTriple& triple, PittingSearch& search, KUpdate& u) {
+  const LoopSnapshot anchor = saved.pitting_anchor;
+  LoopSnapshot chosen;
+  const double density_new = pitting_density_with(saved, search.best_k, search.evaluations, &chosen);
+  memory_ = saved;
+  // Re-run for real (anchors inside the stretch are recaptured this time).
+  LoopSnapshot final_state;
+  rerun(anchor, Override{std::nullopt, search.best_k, anchor.state.cycles}, final_state, true);
+  memory_.current = final_state;
+  loop_ = loop_at(memory_.current);
+  apply_k(false, search.best_k, anchor.state.cycles);
+  ++memory_.k_pitting_updates;
+  u.new_value = search.best_k;
+  u.simulated_after = density_new;
+  u.correlation_after = triple.correlation(density_new);
+  if (!std::isfinite(u.correlation_after)) u.correlation_after = 0.0;
+  u.iterations = search.evaluations;
+}
+
+void TwinModel::check_pitting(const ModelObservation& obs, ModelRunReport& report) {
+  if (!pitting_point_due(obs)) return;
+  const double ics2 = *obs.ics2_low;
+  const double density_now = mean_of(memory_.current.state.pinion_pitting);
+  record_scale_residual(ics2, density_now);
+  const auto& points = memory_.pitting_points;
+  if (points.size() < 2) {
+    push_pitting_point(obs.cycles, ics2, density_now);
+    return;
+  }
+  const PittingTriple triple{{points[points.size() - 2].density, points.back().density},
+                             {points[points.size() - 2].ics2, points.back().ics2, ics2}};
+  const double c_now = triple.correlation(density_now);
+  if (std::isfinite(c_now) && c_now >= settings_.correlation_threshold) {
+    push_pitting_point(obs.cycles, ics2, density_now);
+    return;
+  }
+  const ModelMemory saved = memory_;
+  PittingSearch search = search_k_pitting(saved, triple);
   KUpdate u;
   u.kind = UpdateKind::k_pitting;
   u.trigger = UpdateTrigger::correlation_below_threshold;
   u.cycles = obs.cycles;
   u.old_value = saved.k_pitting;
-  u.applies_from_cycles = anchor.state.cycles;
+  u.applies_from_cycles = saved.pitting_anchor.state.cycles;
   u.correlation_before = std::isfinite(c_now) ? c_now : 0.0;
   u.measured = ics2;
   u.simulated_before = density_now;
-  std::string why;
-  if (best_c >= settings_.correlation_threshold && best_k > 0) {
-    u.outcome = UpdateOutcome::converged;
-  } else {
-    u.outcome = UpdateOutcome::set_to_zero;
-    char b[300];
-    std::snprintf(b, sizeof b, "the best correlation %.4f (K_pitting %.4g) stays below %.2f", best_c, best_k,
-                  settings_.correlation_threshold);
-    why = b;
-    if (ics2 < points.back().ics2) why += ": ICS2 fell while the model's pitting density cannot decrease";
-    best_k = 0;
-  }
-  if (best_k == 0 && saved.k_pitting == 0) {
+  const std::string why = judge_pitting_search(search, ics2, saved.pitting_points.back().ics2, u);
+  if (search.best_k == 0 && saved.k_pitting == 0) {
     // Already 0 (§7.3.3: it stays 0 while the threshold cannot be reached): nothing changes.
     memory_ = saved;
-    push_point(density_now);
+    push_pitting_point(obs.cycles, ics2, density_now);
     return;
   }
-  LoopSnapshot chosen;
-  const double density_new = density_with(best_k, &chosen);
-  memory_ = saved;
-  // Re-run for real (anchors inside the stretch are recaptured this time).
-  LoopSnapshot final_state;
-  rerun(anchor, Override{std::nullopt, best_k, anchor.state.cycles}, final_state, true);
-  memory_.current = final_state;
-  loop_ = loop_at(memory_.current);
-  apply_k(false, best_k, anchor.state.cycles);
-  ++memory_.k_pitting_updates;
-  u.new_value = best_k;
-  u.simulated_after = density_new;
-  u.correlation_after = corr(density_new);
-  if (!std::isfinite(u.correlation_after)) u.correlation_after = 0.0;
-  u.iterations = evaluations;
+  apply_k_pitting_search(saved, triple, search, u);
   char b[400];
   std::snprintf(b, sizeof b, "C of (ICS2 %.4g, %.4g, %.4g) and density (%.4g, %.4g, %.4g -> %.4g): %.4f -> %.4f; K_pitting %.5g -> %.5g",
-                y[0], y[1], y[2], points[points.size() - 2].density, points.back().density, density_now, density_new,
+                triple.ics2[0], triple.ics2[1], triple.ics2[2], triple.density[0], triple.density[1], density_now, u.simulated_after,
                 u.correlation_before, u.correlation_after, u.old_value, u.new_value);
   u.evidence = b;
   u.evidence += " " + pitting_change_text(pitting_scale_, u.old_value, u.new_value);
   if (!why.empty()) u.evidence += "; " + why;
   // K = 0 (the thesis's rule) is no measurement of ln K: the posterior keeps the last one.
-  if (best_k > 0) u.evidence += learn(memory_.log_k_pitting, std::log(best_k), pitting_measurement_var(), obs.cycles);
-  push_point(density_new);
+  if (search.best_k > 0) u.evidence += learn(memory_.log_k_pitting, std::log(search.best_k), pitting_measurement_var(), obs.cycles);
+  push_pitting_point(obs.cycles, ics2, u.simulated_after);
   report.updates.push_back(std::move(u));
 }
 
 TwinModel::Crossing TwinModel::run_forecast(double kw, double kp, const WearLoopOptions& o, std::vector<ForecastPoint>* curve) const {
+  return run_forecast(memory_.current, kw, kp, o, curve);
+}
+
+TwinModel::Crossing TwinModel::run_forecast(const LoopSnapshot& from, double kw, double kp, const WearLoopOptions& o,
+                                            std::vector<ForecastPoint>* curve) const {
   Crossing c;
-  const double start = memory_.current.state.cycles;
+  const double start = from.state.cycles;
   const double horizon = settings_.forecast_horizon_cycles;
   BlueLoop loop(params_, o);
-  loop.restore(memory_.current.state, std::clamp(memory_.current.next_step_cycles, o.min_step_cycles, o.max_step_cycles));
+  loop.restore(from.state, std::clamp(from.next_step_cycles, o.min_step_cycles, o.max_step_cycles));
   loop.set_coefficients(kw, kp);
   double prev_cycles = start, prev_depth = max_depth(loop.state()), prev_pit = mean_of(loop.state().pinion_pitting);
   auto check = [&] {
@@ -1414,8 +1446,7 @@ std::string interval_text(const char* what, const LogInterval& li, double widen)
 }
 }  // namespace
 
-void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const Ics2Evidence& ev) const {
-  const double now = memory_.current.state.cycles, horizon = settings_.forecast_horizon_cycles, q = settings_.log_k_q_per_cycle();
+double TwinModel::check_recent_residuals(Forecast& f) const {
   // The chi-square check of the recent RMS_SA residuals (before any update at their records).
   std::vector<double> recent;
   const auto& res = memory_.rms_residuals;
@@ -1424,31 +1455,36 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
     recent.push_back(res[i][0]);
   const double expected = rms_scatter_sd();
   const ScatterCheck chk = residual_scatter_check(recent, expected);
-  const double widen = chk.exceeded ? chk.ratio : 1.0;
-  if (chk.exceeded) {
-    f.flags.push_back(ForecastFlag::rms_sa_residuals_exceed_scatter);
-    char b[300];
-    std::snprintf(b, sizeof b, "RMS_SA: the last %d ln(meas/sim) give chi-square %.3g > %.3g (5 %%) at the expected scatter %.3g: the K_wear interval widened x%.3g",
-                  chk.n, chk.statistic, chk.critical, expected, chk.ratio);
-    f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
-  }
-  LogPosterior pw = predict(memory_.log_k_wear, now, q);
-  const LogPosterior pp = predict(memory_.log_k_pitting, now, q);
-  if (memory_.k_wear_last_insensitive && pw.valid) {
-    // RMS_SA did not determine K_wear at the last update: the updates since the prior carry no
-    // information the model can vouch for, so the interval is at least the prior's.
-    const double prior_var = settings_.prior_log_k_wear_sd * settings_.prior_log_k_wear_sd;
-    f.flags.push_back(ForecastFlag::k_wear_not_identified);
-    char b[200];
-    std::snprintf(b, sizeof b, "K_wear: the last update did not identify K_wear (RMS_SA insensitive, no K reproduced the record, or only an upper bound): ln K SD %.3g raised to the prior's %.3g",
-                  std::sqrt(pw.var), settings_.prior_log_k_wear_sd);
-    f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
-    pw.var = std::max(pw.var, prior_var);
-  }
+  if (!chk.exceeded) return 1.0;
+  f.flags.push_back(ForecastFlag::rms_sa_residuals_exceed_scatter);
+  char b[300];
+  std::snprintf(b, sizeof b, "RMS_SA: the last %d ln(meas/sim) give chi-square %.3g > %.3g (5 %%) at the expected scatter %.3g: the K_wear interval widened x%.3g",
+                chk.n, chk.statistic, chk.critical, expected, chk.ratio);
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+  return chk.ratio;
+}
+
+LogPosterior TwinModel::wear_posterior_now(Forecast& f) const {
+  LogPosterior pw = predict(memory_.log_k_wear, memory_.current.state.cycles, settings_.log_k_q_per_cycle());
+  if (!memory_.k_wear_last_insensitive || !pw.valid) return pw;
+  // RMS_SA did not determine K_wear at the last update: the updates since the prior carry no
+  // information the model can vouch for, so the interval is at least the prior's.
+  const double prior_var = settings_.prior_log_k_wear_sd * settings_.prior_log_k_wear_sd;
+  f.flags.push_back(ForecastFlag::k_wear_not_identified);
+  char b[200];
+  std::snprintf(b, sizeof b, "K_wear: the last update did not identify K_wear (RMS_SA insensitive, no K reproduced the record, or only an upper bound): ln K SD %.3g raised to the prior's %.3g",
+                std::sqrt(pw.var), settings_.prior_log_k_wear_sd);
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+  pw.var = std::max(pw.var, prior_var);
+  return pw;
+}
+
+ModelFormTerm TwinModel::rms_model_form(Forecast& f, const LogPosterior& pw) const {
   // What the twin's RMS_SA-wear relation does not reproduce over the stored records (model-form
   // error, measured against the scatter) goes into ln K_wear's variance through the elasticity.
+  const double expected = rms_scatter_sd();
   std::vector<double> all_residuals;
-  for (const auto& r : res) all_residuals.push_back(r[0]);
+  for (const auto& r : memory_.rms_residuals) all_residuals.push_back(r[0]);
   const double prior_var_w = settings_.prior_log_k_wear_sd * settings_.prior_log_k_wear_sd;
   const ModelFormTerm form =
       model_form_term(all_residuals, expected, memory_.k_wear_elasticity, settings_.min_wear_elasticity,
@@ -1460,26 +1496,34 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
                   all_residuals.size(), expected, form.excess_mean_square, memory_.k_wear_elasticity, form.log_k_var);
     f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
   }
+  return form;
+}
+
+PittingMiss TwinModel::pitting_path_miss(Forecast& f, const LogPosterior& pp, const Ics2Evidence& ev) const {
   // The model's pitting path against the ICS2-derived density: a miss beyond 2 SD adds its gap².
   PittingMiss miss;
   if (ev.valid && pp.valid) miss = pitting_miss(ev.trend, ev.sd, ev.model, 2.0);
-  if (miss.missed) {
-    f.flags.push_back(ForecastFlag::pitting_path_missed_ics2);
-    char b[300];
-    std::snprintf(b, sizeof b, "pitting: the model's density %.4g against the ICS2-derived %.4g (SD %.3g) is a gap of %.3g in ln K (SD %.3g, beyond 2 SD): the K_pitting interval's variance gains %.3g",
-                  ev.model, ev.trend, ev.sd, miss.gap, miss.gap_sd, miss.extra_var);
-    f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
-  }
+  if (!miss.missed) return miss;
+  f.flags.push_back(ForecastFlag::pitting_path_missed_ics2);
+  char b[300];
+  std::snprintf(b, sizeof b, "pitting: the model's density %.4g against the ICS2-derived %.4g (SD %.3g) is a gap of %.3g in ln K (SD %.3g, beyond 2 SD): the K_pitting interval's variance gains %.3g",
+                ev.model, ev.trend, ev.sd, miss.gap, miss.gap_sd, miss.extra_var);
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+  return miss;
+}
+
+void TwinModel::interval_ends(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const IntervalInputs& in,
+                              LogInterval& lw, LogInterval& lp) const {
+  const double horizon = settings_.forecast_horizon_cycles, q = settings_.log_k_q_per_cycle();
   // The random walk accumulates to each end's own crossing: first to the nominal one, then once
   // more to the crossing the first pass gave (beyond the horizon: the horizon).
   auto until = [&](const std::optional<double>& c) { return c ? *c : horizon; };
   Crossing fast = nominal, slow = nominal;
-  LogInterval lw, lp;
   for (int pass = 0; pass < 2; ++pass) {
-    const LogInterval w_fast = log_interval(pw, q, until(fast.wear), widen, form.log_k_var),
-                      w_slow = log_interval(pw, q, until(slow.wear), widen, form.log_k_var);
-    const LogInterval p_fast = log_interval(pp, q, until(fast.pitting), 1.0, miss.extra_var),
-                      p_slow = log_interval(pp, q, until(slow.pitting), 1.0, miss.extra_var);
+    const LogInterval w_fast = log_interval(in.wear, q, until(fast.wear), in.widen, in.wear_form_var),
+                      w_slow = log_interval(in.wear, q, until(slow.wear), in.widen, in.wear_form_var);
+    const LogInterval p_fast = log_interval(in.pitting, q, until(fast.pitting), 1.0, in.pitting_miss_var),
+                      p_slow = log_interval(in.pitting, q, until(slow.pitting), 1.0, in.pitting_miss_var);
     lw = {w_slow.low, w_fast.high, std::max(w_fast.sd, w_slow.sd)};
     lp = {p_slow.low, p_fast.high, std::max(p_fast.sd, p_slow.sd)};
     // The working K lies inside the interval (the twin runs with the update's K, the posterior
@@ -1487,24 +1531,74 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
     const double kw = memory_.k_wear_si, kp = memory_.k_pitting;
     f.k_wear_low = std::min(std::exp(lw.low), kw);
     f.k_wear_high = std::max(std::exp(lw.high), kw);
-    f.k_pitting_low = pp.valid ? std::min(std::exp(lp.low), kp) : kp;
-    f.k_pitting_high = pp.valid ? std::max(std::exp(lp.high), kp) : kp;
+    f.k_pitting_low = in.pitting.valid ? std::min(std::exp(lp.low), kp) : kp;
+    f.k_pitting_high = in.pitting.valid ? std::max(std::exp(lp.high), kp) : kp;
     fast = run_forecast(f.k_wear_high, f.k_pitting_high, o, nullptr);
     slow = run_forecast(f.k_wear_low, f.k_pitting_low, o, nullptr);
   }
-  f.log_sd_wear = lw.sd;
-  f.log_sd_pitting = pp.valid ? lp.sd : 0.0;
   f.wear.cycles_left_low = fast.wear;
   f.wear.cycles_left_high = slow.wear;
   f.pitting.cycles_left_low = fast.pitting;
   f.pitting.cycles_left_high = slow.pitting;
+}
+
+void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const Ics2Evidence& ev) const {
+  IntervalInputs in;
+  in.widen = check_recent_residuals(f);
+  in.wear = wear_posterior_now(f);
+  in.pitting = predict(memory_.log_k_pitting, memory_.current.state.cycles, settings_.log_k_q_per_cycle());
+  in.wear_form_var = rms_model_form(f, in.wear).log_k_var;
+  in.pitting_miss_var = pitting_path_miss(f, in.pitting, ev).extra_var;
+  LogInterval lw, lp;
+  interval_ends(f, nominal, o, in, lw, lp);
+  f.log_sd_wear = lw.sd;
+  f.log_sd_pitting = in.pitting.valid ? lp.sd : 0.0;
+  hold_nominal(f);
+  f.evidence += (f.evidence.empty() ? "" : "; ") + interval_text("K_wear", lw, in.widen);
+  if (in.pitting.valid) f.evidence += "; " + interval_text("K_pitting", lp, 1.0);
+}
+
+void TwinModel::hold_nominal(Forecast& f) {
   // The interval holds the nominal forecast.
   for (LimitForecast* lf : {&f.wear, &f.pitting}) {
     if (lf->cycles_left && (!lf->cycles_left_low || *lf->cycles_left_low > *lf->cycles_left)) lf->cycles_left_low = lf->cycles_left;
     if (lf->cycles_left_high && (!lf->cycles_left || *lf->cycles_left_high < *lf->cycles_left)) lf->cycles_left_high = lf->cycles_left;
   }
-  f.evidence += (f.evidence.empty() ? "" : "; ") + interval_text("K_wear", lw, widen);
-  if (pp.valid) f.evidence += "; " + interval_text("K_pitting", lp, 1.0);
+}
+
+LoopSnapshot TwinModel::with_mean_pitting(double density) const {
+  // The model's pitting profile (its shape along the flank) at the given mean, as the calibration
+  // rescales it to an inspected area.
+  LoopSnapshot s = memory_.current;
+  const double mean = mean_of(s.state.pinion_pitting);
+  for (double& d : s.state.pinion_pitting) d = mean > 0 ? std::min(1.0, d * density / mean) : density;
+  return s;
+}
+
+void TwinModel::check_model_past_pitting_limit(Forecast& f, const WearLoopOptions& o, const Ics2Evidence& ev) const {
+  const double limit = settings_.pitting_limit;
+  if (!ev.valid || !(ev.model >= limit)) return;
+  const double measured = std::max(ev.trend, ev.latest);
+  if (measured >= limit) return;   // both at the limit: 0 left stands
+  // The model's state is at the limit and the measurement is not: the model's own path has run
+  // ahead of what ICS2 reads (a model-form or K error the interval over K from this state cannot
+  // show, since every K starts past the limit). Neither reading is discarded: the near end stays 0
+  // (the model's), the nominal and the far end start from the measured density (its lower bound
+  // for the far end, with the low K), the model's pitting shape kept.
+  f.flags.push_back(ForecastFlag::pitting_limit_reached_by_model_only);
+  const double z = normal_quantile(0.5 + kNominalCoverage / 2);
+  const double low_density = std::max(0.0, measured - z * ev.sd);
+  const std::optional<double> nominal = run_forecast(with_mean_pitting(measured), memory_.k_wear_si, memory_.k_pitting, o, nullptr).pitting;
+  const std::optional<double> far = run_forecast(with_mean_pitting(low_density), f.k_wear_low, f.k_pitting_low, o, nullptr).pitting;
+  f.pitting.cycles_left = nominal;
+  f.pitting.cycles_left_low = 0.0;
+  f.pitting.cycles_left_high = far;
+  if (far && nominal && *far < *nominal) f.pitting.cycles_left_high = nominal;
+  if (!far) f.pitting.cycles_left_high.reset();
+  char b[400];
+  std::snprintf(b, sizeof b, "pitting: the model's density %.4g is at the limit %.4g but the ICS2-derived %.4g (trend %.4g, latest %.4g, SD %.3g) is not: cycles left from the measured density (far end from %.4g at the low K), near end 0",
+                ev.model, limit, measured, ev.trend, ev.latest, ev.sd, low_density);
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
 }
 
 std::vector<std::array<double, 2>> TwinModel::ics2_density_series(std::size_t newest) const {
@@ -1604,6 +1698,7 @@ Forecast TwinModel::forecast() const {
     f.pitting.cycles_left = nominal.pitting;
     const Ics2Evidence ev = ics2_evidence();
     set_intervals(f, nominal, o, ev);
+    check_model_past_pitting_limit(f, o, ev);
     check_ics2_trend(f, ev);
     f.valid = true;
   } catch (const std::exception& e) {

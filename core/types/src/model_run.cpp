@@ -11,6 +11,7 @@ const char* to_string(ForecastFlag flag) noexcept {
     case ForecastFlag::pitting_path_missed_ics2: return "pitting_path_missed_ics2";
     case ForecastFlag::k_wear_not_identified: return "k_wear_not_identified";
     case ForecastFlag::rms_sa_model_form_disagreement: return "rms_sa_model_form_disagreement";
+    case ForecastFlag::pitting_limit_reached_by_model_only: return "pitting_limit_reached_by_model_only";
   }
   return "unknown";
 }

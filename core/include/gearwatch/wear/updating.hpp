@@ -344,7 +344,33 @@ class TwinModel {
   double calibrate_k(const CalibrationPoints& c, double cycles, KUpdate& u, std::string& why, int& evaluations);
   /// One inspection and the ICS2 trend: the onset-baseline scale, and the second point from it.
   void calibrate_from_one_inspection(const Inspection& first, double cycles, ModelRunReport& report);
+  /// §7.3.3 steps 3–4 at a pitting point: Pearson's C of the last three (ICS2, density) pairs, and
+  /// K_pitting maximising it when C is below the threshold (0 when it cannot be reached).
   void check_pitting(const ModelObservation& obs, ModelRunReport& report);
+  /// A pitting point is due: calibrated, an ICS2 value, a pitting interval since the last point.
+  bool pitting_point_due(const ModelObservation& obs) const;
+  /// The ICS2 scale's density against the model's at a new point, in ln K (the scale's scatter).
+  void record_scale_residual(double ics2, double density_now);
+  /// A new pitting point (the last three kept); the pitting anchor moves to the current state.
+  void push_pitting_point(double cycles, double ics2, double density);
+  /// The two previous points' densities and the three ICS2 values of Eq. 7.15.
+  struct PittingTriple {
+    std::array<double, 2> density;
+    std::array<double, 3> ics2;
+    double correlation(double density_now) const;
+  };
+  struct PittingSearch {
+    double best_k = 0, best_c = -2.0;
+    int evaluations = 0;
+  };
+  /// The mean density now with K_pitting = k from the pitting anchor (memory_ reset to `saved`).
+  double pitting_density_with(const ModelMemory& saved, double k, int& evaluations, LoopSnapshot* out);
+  /// Eqs. 7.16–7.17: K = 0, then a bracket walked uphill on ln K by decades and a golden section.
+  PittingSearch search_k_pitting(const ModelMemory& saved, const PittingTriple& triple);
+  /// Converged when the threshold is reached with K > 0; else set_to_zero (best_k 0) and the reason.
+  std::string judge_pitting_search(PittingSearch& search, double ics2, double last_ics2, KUpdate& u) const;
+  /// The search's K re-run from the pitting anchor for real (anchors recaptured) and applied.
+  void apply_k_pitting_search(const ModelMemory& saved, const PittingTriple& triple, PittingSearch& search, KUpdate& u);
   double ics2_at(double cycles) const;
   /// The filter step of ln K_wear / ln K_pitting with a measurement z of variance r; returns the evidence.
   std::string learn(LogPosterior& posterior, double z, double r, double cycles) const;
@@ -362,7 +388,33 @@ class TwinModel {
     std::size_t records = 0;
   };
   Crossing run_forecast(double k_wear, double k_pitting, const WearLoopOptions& o, std::vector<ForecastPoint>* curve) const;
+  /// The forecast run from another start (the current state with another pitting level).
+  Crossing run_forecast(const LoopSnapshot& from, double k_wear, double k_pitting, const WearLoopOptions& o,
+                        std::vector<ForecastPoint>* curve) const;
+  /// The 90 % interval: the posteriors now, the disagreement terms, the ends' forecast runs.
   void set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const Ics2Evidence& ev) const;
+  /// The chi-square check of the recent RMS_SA residuals: the K_wear SD's widening (1: none).
+  double check_recent_residuals(Forecast& f) const;
+  /// ln K_wear's posterior now, no narrower than the prior's when K_wear was not identified.
+  LogPosterior wear_posterior_now(Forecast& f) const;
+  /// The model-form term of ln K_wear from the stored residuals.
+  ModelFormTerm rms_model_form(Forecast& f, const LogPosterior& pw) const;
+  /// The model's pitting path against the ICS2-derived density (the K_pitting variance's gap term).
+  PittingMiss pitting_path_miss(Forecast& f, const LogPosterior& pp, const Ics2Evidence& ev) const;
+  struct IntervalInputs {
+    LogPosterior wear, pitting;
+    double widen = 1.0, wear_form_var = 0, pitting_miss_var = 0;
+  };
+  /// The ends: K at the quantiles with the random walk to each end's own crossing (two passes).
+  void interval_ends(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const IntervalInputs& in, LogInterval& lw,
+                     LogInterval& lp) const;
+  /// The interval holds the nominal forecast.
+  static void hold_nominal(Forecast& f);
+  /// The current state with its pitting profile rescaled to a mean density.
+  LoopSnapshot with_mean_pitting(double density) const;
+  /// The model's density at the pitting limit while the ICS2-derived one is not: no "0 left" from
+  /// the model alone; the nominal and far end from the measured density, flagged.
+  void check_model_past_pitting_limit(Forecast& f, const WearLoopOptions& o, const Ics2Evidence& ev) const;
   Ics2Evidence ics2_evidence() const;
   /// SD of the ICS2-derived density `d`: the scale's inspected areas (extrapolated) and the ICS2 scatter.
   double ics2_density_sd(double d) const;

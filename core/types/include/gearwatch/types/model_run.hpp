@@ -26,6 +26,7 @@ enum class ForecastFlag : std::uint8_t {
   pitting_path_missed_ics2,         ///< the model's density misses the ICS2-derived one beyond its SD: K_pitting interval widened
   k_wear_not_identified,            ///< the last K_wear update found RMS_SA insensitive: K_wear interval no narrower than the prior's
   rms_sa_model_form_disagreement,   ///< ln(RMS_SA meas / sim) over the stored records beyond the scatter: model-form variance added
+  pitting_limit_reached_by_model_only,  ///< the model's density is at the limit, the ICS2-derived one is not: cycles left from the measured density, near end 0
 };
 inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exceed_scatter,
                                               ForecastFlag::ics2_density_ahead_of_model,
@@ -33,7 +34,8 @@ inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exc
                                               ForecastFlag::pitting_limit_within_ics2_uncertainty,
                                               ForecastFlag::pitting_path_missed_ics2,
                                               ForecastFlag::k_wear_not_identified,
-                                              ForecastFlag::rms_sa_model_form_disagreement};
+                                              ForecastFlag::rms_sa_model_form_disagreement,
+                                              ForecastFlag::pitting_limit_reached_by_model_only};
 const char* to_string(ForecastFlag flag) noexcept;
 
 /// Which coefficient an update changed.
