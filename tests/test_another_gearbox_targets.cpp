@@ -370,7 +370,7 @@ std::string joined(const std::vector<std::string>& v) {
 // on seeds 9102/9103); and without a tacho the pitting is not named within the 8 stops (the
 // estimate's angle error smears the mesh lines into the residual where the first mesh harmonic is
 // weak; docs/rig-simulator.md).
-TEST_CASE("another gearbox: the 23/46 pair's pitting verdict at 33 Hz follows the truth - no false call with or without a tacho, pitting named after onset with one",
+TEST_CASE("another gearbox: the 23/46 pair's pitting verdict at 33 Hz follows the truth - no false call with or without a tacho and pitting named after onset with one",
           "[another_gearbox][tacholess][rig][e2e][wear]") {
   const TempDir dir("another-gearbox-pitting");
   for (const bool tacho : {true, false}) {
