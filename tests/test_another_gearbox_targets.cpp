@@ -29,6 +29,7 @@ namespace {
 
 // Fresh seeds for these figures (first run reported in docs/rig-simulator.md).
 constexpr int kSeedSteady = 3611, kSeedFluctuating = 3612, kSeedCommission = 3613, kSeedHealthy = 3615;
+constexpr int kSeedNoPitting = 9111, kSeedPitting = 9112;
 
 const char* kGears = "[gears]\npinion_teeth = 23\ngear_teeth = 46\nmodule_mm = 1.5\nface_width_mm = 15.0\n";
 
@@ -307,4 +308,85 @@ TEST_CASE("another gearbox: commissioning on a tacho-less baseline of 23/46 at 2
   CHECK(std::abs(j["records"][0]["error"].get<double>()) <= 0.05);
   CHECK(j["baseline_within_target"].get<bool>());
   CHECK(j["records"][0]["speed_hz"].get<double>() == Approx(33.0).epsilon(1e-3));
+}
+
+namespace {
+
+// The lubricated campaign of docs/rig-simulator.md ("Another gear pair without a tacho") on the
+// 23/46 pair at 33 Hz: the built-in's wear phases, pitting carriers at 3-9 kHz, 8 stops of 2.2 s,
+// the rig integrating at 200 kHz (its default fixed steps leave sidebands of their own; see there).
+// With k_pitting 0 the same campaign has no pitting at all: the profile's wear alone grows the
+// mesh lines, which is what made the residual's ICS2 rise and read as pitting.
+std::string lubricated_23_46(double k_pitting) {
+  return campaign_header("lub-23-46", 8, 2.2, 33.0, 20.0, 3250000) +
+         "integration_rate_hz = 200000\nstop_interval_cycles = 400000\n[wear]\nlaw = \"archard\"\nreference_torque_nm = 20.0\n"
+         "pitting_onset_cycles = 300000\nk_pitting = " + std::to_string(k_pitting) +
+         "\npitting_exponent = 1.5\nmax_pitting = 0.3\ninitial_roughness = 1.0\nrunin_cycles = 80000\nroughness_per_um = 0.0\n"
+         "[[wear.phase]]\nfrom_cycles = 0\nk_wear = 2.0e-16\n[[wear.phase]]\nfrom_cycles = 230000\nk_wear = 3.0e-17\n"
+         "[[wear.phase]]\nfrom_cycles = 2300000\nk_wear = 6.0e-17\n"
+         "[sliding]\npitting_gain_m_s2 = 20.0\nroughness_gain_m_s2 = 0.0\npitting_band_hz = [3000.0, 9000.0]\n"
+         "abrasion_band_hz = [10000.0, 12000.0]\n[effects]\nenabled = [\"noise\"]\n" + kNoise;
+}
+
+struct PittingVerdicts {
+  std::vector<std::string> mechanisms;  // channel 0, one per record
+  std::ptrdiff_t truth_onset = -1;      // first record the truth has pitting, -1 none
+};
+
+PittingVerdicts pitting_verdicts(const TempDir& dir, const std::string& name, double k_pitting, int seed, bool tacho) {
+  const auto config = daemon_config(dir, 2.0);
+  const auto c = simulate(dir, name, lubricated_23_46(k_pitting), config, seed, tacho);
+  REQUIRE(c.captures.size() == 8);
+  const auto db = replay(dir, name, c.captures, config);
+  CHECK(column(db, "SELECT count(*) FROM records WHERE speed_source = '" + std::string(tacho ? "tacho" : "signal_estimate") + "'") ==
+        std::vector<std::string>{"8"});
+  PittingVerdicts v;
+  v.mechanisms = column(db, "SELECT mechanism FROM wear_mechanism WHERE channel = 0 ORDER BY record_id");
+  const auto& records = c.truth.at("records");
+  for (std::size_t i = 0; i < records.size() && v.truth_onset < 0; ++i)
+    if (records[i].at("pitting_density").get<double>() > 0) v.truth_onset = static_cast<std::ptrdiff_t>(i);
+  return v;
+}
+
+std::ptrdiff_t first_pitting_verdict(const std::vector<std::string>& mechanisms) {
+  const auto at = std::find(mechanisms.begin(), mechanisms.end(), "fatigue_pitting");
+  return at == mechanisms.end() ? -1 : at - mechanisms.begin();
+}
+
+std::string joined(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += x + " ";
+  return s;
+}
+
+}  // namespace
+
+// Issue 36's wear target on the 23/46 pair at 33 Hz, where the mesh lines are strong: a campaign
+// without pitting never called pitting, with the rig's encoder and with the speed from the signal,
+// and with the encoder the pitting named within the campaign, not before the truth's onset. Before
+// the residual's discrete lines were removed, the campaign without pitting was called pitting with
+// the encoder and the pitting was never named. Not asserted, because not met: the issue's 5 records
+// after the onset (on these seeds it is named 6 records after the truth's onset at 0.1 % pitted, 5
+// on seeds 9102/9103); and without a tacho the pitting is not named within the 8 stops (the
+// estimate's angle error smears the mesh lines into the residual where the first mesh harmonic is
+// weak; docs/rig-simulator.md).
+TEST_CASE("another gearbox: the 23/46 pair's pitting verdict at 33 Hz follows the truth - no false call with or without a tacho and pitting named after onset with one",
+          "[another_gearbox][tacholess][rig][e2e][wear]") {
+  const TempDir dir("another-gearbox-pitting");
+  for (const bool tacho : {true, false}) {
+    const auto healthy = pitting_verdicts(dir, tacho ? "nopit-t" : "nopit-n", 0.0, kSeedNoPitting, tacho);
+    INFO((tacho ? "tacho" : "no tacho") << "; without pitting: " << joined(healthy.mechanisms));
+    CHECK(healthy.truth_onset == -1);
+    CHECK(healthy.mechanisms.size() == 8);
+    CHECK(first_pitting_verdict(healthy.mechanisms) == -1);
+  }
+  const auto pitted = pitting_verdicts(dir, "pit-t", 0.034, kSeedPitting, true);
+  INFO("with pitting, the encoder's tacho: " << joined(pitted.mechanisms) << "; the truth's onset at record " << pitted.truth_onset);
+  REQUIRE(pitted.truth_onset >= 0);
+  const auto named = first_pitting_verdict(pitted.mechanisms);
+  CHECK(named >= pitted.truth_onset);
+  CHECK(named < 8);
+  // Once named, the verdict stays (the pitting only grows).
+  for (std::size_t i = named < 0 ? pitted.mechanisms.size() : static_cast<std::size_t>(named); i < pitted.mechanisms.size(); ++i)
+    CHECK(pitted.mechanisms[i] == "fatigue_pitting");
 }

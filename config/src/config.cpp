@@ -367,6 +367,7 @@ void read_processing(const toml::table& root, const std::string& file, Gearwatch
   t.number("max_clipped_fraction", p.max_clipped_fraction, 0.0, 1.0);
   t.number("flat_line_max_std_lsb", p.flat_line_max_std_lsb, 0.0, 1000.0);
   t.number("residual_rms_floor", p.residual_rms_floor, 0.0, 0.999);
+  t.boolean("remove_residual_lines", p.remove_residual_lines);
   t.number("band_energy_floor_db", p.band_energy_floor_db, -300.0, 0.0);
   t.number("trend_significance", p.trend_significance, 1e-6, 0.5);
   t.number("wear_min_band_share", p.wear_min_band_share, 0.0, 1.0);

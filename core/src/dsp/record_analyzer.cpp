@@ -371,6 +371,7 @@ struct RecordAnalyzer::Context {
     spectral_revs = previous_smooth_size(input_revs);
     spectral_length = spectral_revs * spr;
     residual = std::span<const double>(a.residual_.data(), spectral_length);
+    remove_discrete_lines();
     ics2 = Ics2Parameters{static_cast<double>(z1), a.settings_.ics2_harmonics, a.settings_.ics2_tolerance_bins};
     const RealFft& fft = a.plans_.real(spectral_length);
     a.tapered_residual_.assign(residual.begin(), residual.end());
@@ -385,6 +386,15 @@ struct RecordAnalyzer::Context {
     min_band_fraction = std::pow(10.0, a.settings_.band_energy_floor_db / 10.0);
     // Carrier bands reach up to 0.45·fs (kUsableBandFraction).
     usable_hz = std::min(nyquist_hz, kUsableBandFraction * fs);
+  }
+
+  /// The residual's random part (SignalProcessingSettings::remove_residual_lines); a stretch too
+  /// short for the remover's blocks is left whole.
+  void remove_discrete_lines() {
+    if (!a.settings_.remove_residual_lines || spectral_length < 8 * kLineRemovalBlockBins + 2) return;
+    a.random_residual_.assign(residual.begin(), residual.end());
+    a.line_remover_.remove(a.random_residual_, a.plans_);
+    residual = std::span<const double>(a.random_residual_.data(), spectral_length);
   }
 
   /// Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier bands.

@@ -11,6 +11,7 @@
 #include "gearwatch/dsp/envelope.hpp"
 #include "gearwatch/dsp/fft.hpp"
 #include "gearwatch/dsp/filter_bank.hpp"
+#include "gearwatch/dsp/line_removal.hpp"
 #include "gearwatch/dsp/order_tracking.hpp"
 #include "gearwatch/dsp/spectral_coherence.hpp"
 #include "gearwatch/dsp/tsa.hpp"
@@ -56,6 +57,11 @@ struct SignalProcessingSettings {
   /// residual-structure indicators (ICS2, band selection, spectral coherence) are skipped
   /// "residual_below_floor".
   double residual_rms_floor = 0.005;
+  /// The residual's structure indicators (ICS2, band selection, spectral coherence) see its
+  /// random part only: discrete lines the TSA leaves (not synchronous with either shaft) are
+  /// removed first (DiscreteLineRemover, the DRS of thesis §4.3.2's choice). RMS and kurtosis of
+  /// the residual stay those of the TSA residual, the thesis's.
+  bool remove_residual_lines = true;
   /// Bands whose energy is below this many dB of the analysed residual's total energy are not
   /// trusted: a fixed band is skipped "band_below_floor" and tree bands are not selectable
   /// (the tree's 17/25-tap filters leak about -55 dB, so a weaker band may hold only leakage).
@@ -153,7 +159,8 @@ class RecordAnalyzer {
   CyclicCoherenceEstimator coherence_;
   KurtosisCriterion kurtosis_criterion_;
   BandPowerCriterion power_criterion_;
-  RealBuffer input_angle_, output_angle_, residual_, tapered_residual_;
+  DiscreteLineRemover line_remover_;
+  RealBuffer input_angle_, output_angle_, residual_, random_residual_, tapered_residual_;
   std::vector<double> speed_scratch_;
   ComplexBuffer residual_spectrum_;
   std::vector<double> gmf_amplitudes_;
