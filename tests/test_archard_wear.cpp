@@ -1,4 +1,4 @@
-// The improved Archard model (seed Eqs. 6.3–6.4) and the Hertz line contact it uses.
+// The improved Archard model (thesis Eqs. 6.3–6.4) and the Hertz line contact it uses.
 #include "gearwatch/wear/archard_wear.hpp"
 
 #include <cmath>
@@ -124,7 +124,7 @@ TEST_CASE("The pitch point wears only through the contact width (Fig. 6.3): clos
   CHECK(at_pitch < 0.1 * nearby);
 }
 
-TEST_CASE("pass_wear samples both flanks root to tip and the seed-unit conversion is MPa^-1", "[wear][archard]") {
+TEST_CASE("pass_wear samples both flanks root to tip and the thesis-unit conversion is MPa^-1", "[wear][archard]") {
   const twin::GearGeometry g = twin::GearGeometry::from_spec(GearPairSpec{});
   const double force = 1120.0, k = 1e-15;
   PassLoad load{{g.contact_start, g.contact_end}, {force, force}};

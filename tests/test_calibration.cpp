@@ -1,4 +1,4 @@
-// Calibration of the twin to seed Table 5.5 and its leave-two-out cross-validation.
+// Calibration of the twin to thesis Table 5.5 and its leave-two-out cross-validation.
 #include "gearwatch/twin/calibration.hpp"
 
 #include <algorithm>
@@ -62,7 +62,7 @@ TEST_CASE("Full calibration: all 8 Table 5.5 frequencies within 3 % inside the p
   std::vector<int> used_modes;
   for (const auto& p : r.pairing) {
     INFO(p.measured_hz << " Hz paired with mode " << p.model_mode << " at " << p.model_hz << " Hz");
-    CHECK(std::abs(p.error_pct) <= 3.0);   // target of the issue (the seed reached ±8 %)
+    CHECK(std::abs(p.error_pct) <= 3.0);   // target (the thesis reached ±8 %)
     used_modes.push_back(p.model_mode);
   }
   std::sort(used_modes.begin(), used_modes.end());

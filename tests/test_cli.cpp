@@ -129,7 +129,7 @@ TEST_CASE("cli: SIGTERM stops `run` cleanly: drained, committed, exit 0", "[cli]
 
 TEST_CASE("cli: twin tune-mesh recovers a known mesh-stiffness scale from a low-speed capture", "[cli][twin]") {
   // The "measured" record is made by the twin itself with mesh_stiffness_scale = 0.8 (2 Hz,
-  // 20 N·m, as in the seed's §5.3 procedure); tuning the default twin (scale 1.0) against it must
+  // 20 N·m, as in the thesis's §5.3 procedure); tuning the default twin (scale 1.0) against it must
   // find 0.8 back. Tolerance 1 %: the bisection stops within 0.2 % of the target RMS and the
   // capture's 0.01 m/s² quantisation adds < 0.1 %.
   const gearwatch::testing::TempDir dir("tune");

@@ -19,7 +19,7 @@ std::string error_of(const std::string& text) {
 }
 }  // namespace
 
-TEST_CASE("config: an empty file gives the seed rig's defaults", "[config]") {
+TEST_CASE("config: an empty file gives the thesis rig's defaults", "[config]") {
   const auto c = parse_config("", "empty.toml");
   CHECK(c.rig.gears.pinion_teeth == 19);
   CHECK(c.rig.gears.gear_teeth == 52);  // §3.2.1; Table 5.1's "20" is a typesetting slip
@@ -29,7 +29,7 @@ TEST_CASE("config: an empty file gives the seed rig's defaults", "[config]") {
   CHECK(c.rig.gears.youngs_modulus_pa == 205e9);
   CHECK(c.rig.gears.poisson_ratio == 0.29);
   CHECK(c.rig.sample_rate_hz == 100000.0);
-  CHECK(c.rig.schedule.length_s == 10.0);  // seed §3.2.2: 10 s records
+  CHECK(c.rig.schedule.length_s == 10.0);  // thesis §3.2.2: 10 s records
   CHECK(c.rig.channels.size() == 2);
   CHECK(c.rig.tachos.size() == 1);
   CHECK(c.protocol.vibration_base_id == 0x100);
@@ -225,7 +225,7 @@ filter_bank_levels = 5
 trend_significance = 0.01
 )",
                               "p.toml");
-  CHECK(c.processing.rms_sa_harmonics == 6);  // the seed's choice for severe profile change (§7.4.2)
+  CHECK(c.processing.rms_sa_harmonics == 6);  // the thesis's choice for severe profile change (§7.4.2)
   CHECK(c.processing.pitting_band.low_hz == 2500);
   CHECK(c.processing.abrasion_band.high_hz == 36000);
   REQUIRE(c.processing.mean_carrier_ranges.size() == 2);
@@ -233,7 +233,7 @@ trend_significance = 0.01
   CHECK(c.processing.filter_bank_levels == 5);
   CHECK(c.processing.trend_significance == 0.01);
   const auto d = parse_config("", "d.toml");
-  CHECK(d.processing.pitting_band.low_hz == 2000);   // seed §4.4
+  CHECK(d.processing.pitting_band.low_hz == 2000);   // thesis §4.4
   CHECK(d.processing.abrasion_band.low_hz == 20000);
   CHECK(error_of("[processing]\npitting_band_hz = [13000, 2000]\n") ==
         "test.toml:2: key 'processing.pitting_band_hz': needs 0 <= low_hz < high_hz");

@@ -471,7 +471,7 @@ TEST_CASE("gap: candidates fitted by re-running the twin are named, with their v
   // twin runs without it: the fit must return that point exactly and the held-out mesh gap must
   // close to what two identical simulations leave (nothing).
   //  - misalignment 0.1 mrad across the face (2 µm over 20 mm, more than the static deflection at
-  //    the seed's dry-test load of 5 N·m, so part of the face carries the load);
+  //    the thesis's dry-test load of 5 N·m, so part of the face carries the load);
   //  - tip relief 8 µm over 0.2 of the active profile, at the lubricated test's 20 N·m.
   struct Case {
     CandidateEffect effect;

@@ -1,4 +1,4 @@
-// The 21-DOF model: assembly, modal analysis, integration checks, bad input (seed Eqs. 5.1–5.7).
+// The 21-DOF model: assembly, modal analysis, integration checks, bad input (thesis Eqs. 5.1–5.7).
 #include "gearwatch/twin/gearbox_model.hpp"
 
 #include <cmath>
@@ -241,7 +241,7 @@ TEST_CASE("Face misalignment: the mesh force of a Winkler face whose flanks sepa
       CHECK(ms.force == Approx(expected).epsilon(1e-12));
     }
   }
-  // Aligned (the seed's twin): F = K c; and the addition refuses a negative or non-finite width.
+  // Aligned (the thesis's twin): F = K c; and the addition refuses a negative or non-finite width.
   dynamics.set_face_misalignment(0.0);
   const auto aligned = dynamics.mesh_state(state_with_deflection(2e-6), 0.0);
   CHECK(aligned.force == Approx(aligned.stiffness * 2e-6).epsilon(1e-12));

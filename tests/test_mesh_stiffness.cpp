@@ -1,4 +1,4 @@
-// Gear geometry, potential-energy mesh stiffness and mesh damping of the twin (seed §5.2.1).
+// Gear geometry, potential-energy mesh stiffness and mesh damping of the twin (thesis §5.2.1).
 #include "gearwatch/twin/mesh_stiffness.hpp"
 
 #include <algorithm>

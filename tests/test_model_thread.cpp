@@ -348,7 +348,7 @@ TEST_CASE("model thread: remaining life below the configured cycles is an alarm,
           "[model][daemon][alerts]") {
   const gearwatch::testing::TempDir dir("model-alert");
   const auto db = dir / "a.db";
-  // The seed's dry K at 5 N m wears to the 0.314 mm limit in about 28 000 cycles (docs/model.md):
+  // The thesis's dry K at 5 N m wears to the 0.314 mm limit in about 28 000 cycles (docs/model.md):
   // far inside 50 000, so the alarm is due, after two records in a row.
   auto cfg = config::parse_config("[model]\ninitial_k_wear = 1.65e-6\nforecast_horizon_cycles = 100000.0\n"
                                   "remaining_life_alert_cycles = 50000.0\n",

@@ -202,7 +202,7 @@ TEST_CASE("pipeline: indicators of a replayed capture recover the rig signal's k
     CHECK(value(1, "gmf_harmonic_" + std::to_string(h)) == Approx(5.0 * weights[h - 1] / 1.5).epsilon(0.01));
   }
   CHECK(value(0, "input_speed_hz") == Approx(10.0).epsilon(1e-9));
-  // RMS_SA(N = 2), seed Eq. 7.1: sqrt(A_GM1² + A_GM2²) = sqrt(5² + 2.5²) = 5.590.
+  // RMS_SA(N = 2), thesis Eq. 7.1: sqrt(A_GM1² + A_GM2²) = sqrt(5² + 2.5²) = 5.590.
   CHECK(value(0, "rms_sa") == Approx(std::sqrt(25.0 + 6.25)).epsilon(0.01));
 }
 

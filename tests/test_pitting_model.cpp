@@ -1,4 +1,4 @@
-// The Lundberg–Palmgren pitting model (seed Eqs. 7.3–7.12).
+// The Lundberg–Palmgren pitting model (thesis Eqs. 7.3–7.12).
 #include "gearwatch/wear/pitting_model.hpp"
 
 #include <algorithm>
@@ -61,7 +61,7 @@ TEST_CASE("Pitting in the blue loop: monotone, bounded by 1, starting at the ded
   WearLoopOptions o;
   o.k_wear_si = 0.0;  // pitting alone: the load stays the unworn quasi-static one
   o.operating_point = {20.0, 20.0};
-  // D = 15 % at the most loaded point after 2e6 cycles at a fixed width: the seed's regime (17.4 %
+  // D = 15 % at the most loaded point after 2e6 cycles at a fixed width: the thesis's regime (17.4 %
   // at 2.00 M cycles was its scrapping point, §7.4.1).
   const double fixed_width_density = 0.15;
   o.k_pitting = k_for_rate(o.material, -std::log(1.0 - fixed_width_density) / std::pow(2e6, 10.0 / 9.0));

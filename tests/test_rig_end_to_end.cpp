@@ -1,6 +1,6 @@
 // The rig simulator's campaigns through the daemon: `gearwatch simulate --campaign` writes the
 // records, `gearwatch replay` processes them one file per process into one database, and
-// `gearwatch query alerts` must name the campaign's wear mechanism (seed §4.3: pitting -> low
+// `gearwatch query alerts` must name the campaign's wear mechanism (thesis §4.3: pitting -> low
 // carriers, abrasion -> high carriers; a healthy pair neither).
 #include "commands.hpp"
 
@@ -167,7 +167,7 @@ TEST_CASE("rig end to end: defects #7: a lubricated campaign is identified as fa
     CHECK(values == std::vector<std::string>{"fatigue_pitting"});
   }
   const auto pitting = truth_series(r, "pitting_density");
-  CHECK(pitting.back() > 0.15);  // past the seed's ~17 % scrap level at the end
+  CHECK(pitting.back() > 0.15);  // past the thesis's ~17 % scrap level at the end
   // When: the first record with pitting in the truth, and the first alert of each channel.
   const int onset = onset_record(pitting);
   const int first = std::min(alert_record(r, 0), alert_record(r, 1));
@@ -180,7 +180,7 @@ TEST_CASE("rig end to end: defects #7: a lubricated campaign is identified as fa
   // rank test's first step is a fall and a run of 5 rises no longer suffices. Before the records went
   // through the sensor front-end, channel 1 read a tie there (0.0007 and 0.0007) and met 3.
   CHECK(first - onset <= 5);
-  // Low-band ICS2 follows the pitted area better than the raw RMS (the seed: R² 0.91; measured
+  // Low-band ICS2 follows the pitted area better than the raw RMS (the thesis: R² 0.91; measured
   // here 0.911 and 0.909 on channels 0 and 1, raw RMS 0.821 and 0.176).
   for (int channel : {0, 1}) {
     const double r2_ics2 = r_squared(pitting, indicator(r, "ics2_low_band", channel));

@@ -542,7 +542,7 @@ TEST_CASE("rig: sliding vibration adds its RMS in its carrier band, modulated at
   for (double v : d) ss += v * v;
   CHECK(std::sqrt(ss / d.size()) == Approx(2.0).epsilon(0.03));
   // The carrier band is two Butterworth sections each side of 3-9 kHz: the share of power in the
-  // seed's pitting band 2-13 kHz is that of |H(f)|^2 = 1/((1 + (3k/f)^4)^2 (1 + (f/9k)^4)^2).
+  // thesis's pitting band 2-13 kHz is that of |H(f)|^2 = 1/((1 + (3k/f)^4)^2 (1 + (f/9k)^4)^2).
   const auto w = welch(d, nullptr, s.sample_rate_hz, 1000);
   double in_band = 0, total = 0, expected_in = 0, expected_total = 0;
   for (std::size_t k = 1; k < w.psd.size(); ++k) {

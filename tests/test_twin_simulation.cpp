@@ -207,7 +207,7 @@ TEST_CASE("Band RMS: a 4th-order Butterworth low-pass", "[twin]") {
 TEST_CASE("Mesh tuning recovers a known stiffness scale from its y6 band RMS", "[twin]") {
   GearboxParameters p;
   p.mesh_stiffness_scale = 0.8;
-  const OperatingPoint op{2.0, 20.0};  // the seed's low-speed calibration point (§5.3)
+  const OperatingPoint op{2.0, 20.0};  // the thesis's low-speed calibration point (§5.3)
   SimulationOptions o;
   const SimulationResult truth = simulate(p, {}, op, 0.3, o);
   const double target = lowpass_rms(truth.casing_acceleration, o.sample_rate_hz, 2000.0);

@@ -1,7 +1,7 @@
-// The purple loop (seed §7.3.3) against known answers. There is no rig simulator yet, so the truth
+// The purple loop (thesis §7.3.3) against known answers. There is no rig simulator yet, so the truth
 // is the twin itself: a blue loop run with coefficients that change at known cycles, its RMS_SA
 // from the same measurement code (twin's casing signal -> dsp::RecordAnalyzer), and an ICS2 that
-// is linear in its pitting density (the Ch. 4 finding the seed's scale rests on). The model starts
+// is linear in its pitting density (the Ch. 4 finding the thesis's scale rests on). The model starts
 // from wrong coefficients and must find the truth's.
 #include "gearwatch/wear/updating.hpp"
 #include "model_observation.hpp"
@@ -197,7 +197,7 @@ TEST_CASE("updating: records the model cannot use are skipped with their reason"
 
 TEST_CASE("updating: K_wear recovered after each known change of the truth's wear rate, depth within 5 %",
           "[model][updating][slow]") {
-  // The seed's dry test (§7.4.2): 10 Hz, 5 N·m, RMS_SA(N = 6), K_wear 1.65 then 2.19 (seed units,
+  // The thesis's dry test (§7.4.2): 10 Hz, 5 N·m, RMS_SA(N = 6), K_wear 1.65 then 2.19 (thesis units,
   // i.e. 1.65e-12 and 2.19e-12 m²/N here), the change at 3000 cycles; a record every 1000 cycles.
   const twin::GearboxParameters params;
   dsp::SignalProcessingSettings dsp_settings;
@@ -205,7 +205,7 @@ TEST_CASE("updating: K_wear recovered after each known change of the truth's wea
   const RmsSaSimulator sim = twin_rms_sa_simulator(params, RigSpec{}, dsp_settings, 6.0);
   const double k1 = 1.65e-12, k2 = 2.19e-12, change = 3000;
   ModelSettings s;
-  s.loop.k_wear_si = 1.0e-12;  // wrong at the start: the first record calibrates it (the seed's first update)
+  s.loop.k_wear_si = 1.0e-12;  // wrong at the start: the first record calibrates it (the thesis's first update)
   s.update_k_pitting = false;
   s.forecast_horizon_cycles = 2000;
   TwinModel model(params, s, sim);
@@ -242,7 +242,7 @@ TEST_CASE("updating: K_wear recovered after each known change of the truth's wea
   CHECK(std::abs(k_before_change / k1 - 1.0) < 0.10);
   CHECK(std::abs(model.memory().k_wear_si / k2 - 1.0) < 0.10);
   CHECK(updates_after_change >= 1);   // the change was seen
-  CHECK(updates <= 4);                // few updates (the seed: 2 dry, 4 lubricated)
+  CHECK(updates <= 4);                // few updates (the thesis: 2 dry, 4 lubricated)
 }
 
 TEST_CASE("updating: K_pitting calibrated from two inspections, a known change tracked, a falling ICS2 sets it to 0",

@@ -1,4 +1,4 @@
-// The blue loop (seed Fig. 7.1): load sharing, worn profile → GTE, step control, the seed's reported
+// The blue loop (thesis Fig. 7.1): load sharing, worn profile → GTE, step control, the thesis's reported
 // (K, load, speed, cycles) → depth pairs, and `gearwatch twin wear`.
 #include "gearwatch/wear/wear_loop.hpp"
 
@@ -136,12 +136,12 @@ double mean_depth(double k_seed, double torque, double speed, double cycles) {
 }
 }  // namespace
 
-TEST_CASE("The seed's reported (K, load, speed, cycles) -> depth pairs under the MPa^-1 reading", "[wear][loop][seed]") {
-  // Seed §7.4.2 (dry, 10 Hz, 5 N m): "With the help of measured vibration at 0.007 million running
+TEST_CASE("The thesis's reported (K, load, speed, cycles) -> depth pairs under the MPa^-1 reading", "[wear][loop][thesis]") {
+  // Thesis §7.4.2 (dry, 10 Hz, 5 N m): "With the help of measured vibration at 0.007 million running
   // cycles, the wear model parameter was found/calibrated to be 1.65 × 10^-6 Pa^-1, and the
   // predicted mean wear depth was estimated at 12.92 µm."
   const double dry = mean_depth(1.65e-6, 5.0, 10.0, 7000);
-  // Seed §7.4.1 (lubricated, 20 Hz, 20 N m): K_wear 3.55e-10 from 0.27 M cycles, then 4.03e-10 (0.57 M),
+  // Thesis §7.4.1 (lubricated, 20 Hz, 20 N m): K_wear 3.55e-10 from 0.27 M cycles, then 4.03e-10 (0.57 M),
   // 1.44e-10 (1.43 M), 3.97e-10 (2.19 M); §6.3.2: "the mean wear depth (from gear root to tip) of the
   // mating gears should be 48.2 µm" from 0.36 M to 2.58 M cycles.
   WearLoopOptions o;
@@ -158,15 +158,15 @@ TEST_CASE("The seed's reported (K, load, speed, cycles) -> depth pairs under the
   lub.set_coefficients(k_wear_si_from_seed(3.97e-10), 0);
   REQUIRE(lub.run_until(2.58e6));
   const double lubricated = summarise(lub.state()).combined_mean_depth_m - at_start;
-  // Measured (docs/wear.md): dry 54.8 µm (4.2× the seed's), lubricated 13.0 µm (0.27×). The tolerance
-  // is a factor of 4.5 each way, and the two errors have opposite signs: the seed's K values need
+  // Measured (docs/wear.md): dry 54.8 µm (4.2× the thesis's), lubricated 13.0 µm (0.27×). The tolerance
+  // is a factor of 4.5 each way, and the two errors have opposite signs: the thesis's K values need
   // conversions ~16× apart, so no single unit convention reproduces both pairs.
   CHECK(dry / 12.92e-6 > 1.0);
   CHECK(dry / 12.92e-6 < 4.5);
   CHECK(lubricated / 48.2e-6 < 1.0);
   CHECK(lubricated / 48.2e-6 > 1.0 / 4.5);
   CHECK((dry / 12.92e-6) / (lubricated / 48.2e-6) > 10.0);
-  // The pinion's share of the combined depth: the seed reports about 73 % (z2/(z1+z2) = 52/71 = 0.732).
+  // The pinion's share of the combined depth: the thesis reports about 73 % (z2/(z1+z2) = 52/71 = 0.732).
   WearLoopOptions od;
   od.k_wear_si = k_wear_si_from_seed(1.65e-6);
   od.operating_point = {10.0, 5.0};
