@@ -20,9 +20,8 @@
 #include <thread>
 #include <vector>
 
-#include <pqxx/pqxx>
-
 #include "fleet/postgres_server.hpp"
+#include "gearwatch/storage/fleet_overview.hpp"
 #include "mqtt/mqtt_broker.hpp"
 #include "temp_dir.hpp"
 
@@ -94,11 +93,8 @@ struct Row {
 };
 
 long count_stored(const std::string& uri) {
-  pqxx::connection c(uri);
-  pqxx::read_transaction t(c);
-  const auto r = t.exec("SELECT to_regclass('fleet.messages') IS NULL");
-  if (r[0][0].as<bool>()) return -1;
-  return t.exec("SELECT count(*) FROM fleet.messages")[0][0].as<long>();
+  const auto lag = gearwatch::storage::fleet::load_arrival_lag(uri);
+  return lag ? static_cast<long>(lag->messages) : -1;
 }
 
 Row run_one(int n, int seconds, MosquittoBroker& broker, PostgresServer& pg, const TempDir& dir) {
@@ -138,14 +134,10 @@ Row run_one(int n, int seconds, MosquittoBroker& broker, PostgresServer& pg, con
   row.postgres_kib = rss_kib_of("postgres");
   ::kill(consumer, SIGTERM);
   wait_exit(consumer);
-  pqxx::connection c(uri);
-  pqxx::read_transaction t(c);
-  const auto r = t.exec(
-      "SELECT count(*), percentile_cont(0.5) WITHIN GROUP (ORDER BY extract(epoch FROM received_at - record_time)), "
-      "percentile_cont(0.99) WITHIN GROUP (ORDER BY extract(epoch FROM received_at - record_time)) FROM fleet.messages");
-  row.stored = r[0][0].as<long>();
-  row.p50 = r[0][1].is_null() ? 0 : r[0][1].as<double>();
-  row.p99 = r[0][2].is_null() ? 0 : r[0][2].as<double>();
+  const auto lag = gearwatch::storage::fleet::load_arrival_lag(uri).value();
+  row.stored = static_cast<long>(lag.messages);
+  row.p50 = lag.p50_s.value_or(0);
+  row.p99 = lag.p99_s.value_or(0);
   return row;
 }
 

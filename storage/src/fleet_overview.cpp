@@ -138,4 +138,21 @@ std::vector<GearboxOverview> load_fleet_overview(const std::string& connection, 
   });
 }
 
+std::optional<ArrivalLag> load_arrival_lag(const std::string& connection) {
+  std::unique_ptr<pqxx::connection> c;
+  try {
+    c = std::make_unique<pqxx::connection>(connection);
+  } catch (const std::exception& e) {
+    throw FleetConnectionError("fleet database: cannot connect: " + detail::one_line(e.what()));
+  }
+  return detail::translated([&]() -> std::optional<ArrivalLag> {
+    pqxx::read_transaction t(*c);
+    if (t.exec("SELECT to_regclass('fleet.messages')")[0][0].is_null()) return std::nullopt;
+    const auto r = t.exec(
+        "SELECT count(*), percentile_cont(0.5) WITHIN GROUP (ORDER BY extract(epoch FROM received_at - record_time)), "
+        "percentile_cont(0.99) WITHIN GROUP (ORDER BY extract(epoch FROM received_at - record_time)) FROM fleet.messages");
+    return ArrivalLag{r[0][0].as<std::int64_t>(), optional_of<double>(r[0][1]), optional_of<double>(r[0][2])};
+  });
+}
+
 }  // namespace gearwatch::storage::fleet

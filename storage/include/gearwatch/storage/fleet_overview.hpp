@@ -56,4 +56,13 @@ struct OverviewRequest {
 /// holds no fleet schema or one of a newer gearwatch (fleet_store.hpp).
 std::vector<GearboxOverview> load_fleet_overview(const std::string& connection, const OverviewRequest& request);
 
+/// How late the fleet database is: its stored messages and the lag from each message's
+/// record_time (when its gearbox stored it) to the consumer's transaction that stored it.
+struct ArrivalLag {
+  std::int64_t messages = 0;
+  std::optional<double> p50_s, p99_s;
+};
+/// Empty when the database holds no fleet schema yet (a consumer has not started on it).
+std::optional<ArrivalLag> load_arrival_lag(const std::string& connection);
+
 }  // namespace gearwatch::storage::fleet
