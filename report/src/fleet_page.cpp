@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 #include "gearwatch/report/report_page.hpp"
 #include "gearwatch/report/svg_plot.hpp"
@@ -162,9 +163,14 @@ FleetUrgency urgency_of(const GearboxOverview& g) {
 }
 
 std::vector<GearboxOverview> worst_first(std::vector<GearboxOverview> gearboxes) {
-  std::stable_sort(gearboxes.begin(), gearboxes.end(),
-                   [](const GearboxOverview& a, const GearboxOverview& b) { return urgency_of(a).key() < urgency_of(b).key(); });
-  return gearboxes;
+  // Each gearbox's urgency once, then a stable sort of the indices by it.
+  std::vector<std::pair<FleetUrgency, std::size_t>> keyed;
+  for (std::size_t i = 0; i < gearboxes.size(); ++i) keyed.emplace_back(urgency_of(gearboxes[i]), i);
+  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first.key() < b.first.key(); });
+  std::vector<GearboxOverview> out;
+  out.reserve(gearboxes.size());
+  for (const auto& [urgency, i] : keyed) out.push_back(std::move(gearboxes[i]));
+  return out;
 }
 
 std::string format_cycles(double cycles) {

@@ -2,6 +2,7 @@
 // libpqxx's exceptions turned into the fleet store's two (fleet_store.hpp): the connection is gone
 // (retry later) or the database refused (retrying will not help). Shared by the writers and the
 // page's reader; internal to storage/.
+#include <memory>
 #include <string>
 
 #include <pqxx/pqxx>
@@ -16,6 +17,15 @@ inline std::string one_line(std::string what) {
   for (char& c : what)
     if (c == '\n') c = ' ';
   return what;
+}
+
+/// A connection to the fleet database, or FleetConnectionError in one line.
+inline std::unique_ptr<pqxx::connection> connect(const std::string& connection) {
+  try {
+    return std::make_unique<pqxx::connection>(connection);
+  } catch (const std::exception& e) {
+    throw FleetConnectionError("fleet database: cannot connect: " + one_line(e.what()));
+  }
 }
 
 template <class F>

@@ -117,12 +117,7 @@ void read_trends(pqxx::transaction_base& t, const OverviewRequest& q, std::map<s
 }  // namespace
 
 std::vector<GearboxOverview> load_fleet_overview(const std::string& connection, const OverviewRequest& request) {
-  std::unique_ptr<pqxx::connection> c;
-  try {
-    c = std::make_unique<pqxx::connection>(connection);
-  } catch (const std::exception& e) {
-    throw FleetConnectionError("fleet database: cannot connect: " + detail::one_line(e.what()));
-  }
+  const auto c = detail::connect(connection);
   return detail::translated([&] {
     pqxx::transaction<pqxx::isolation_level::repeatable_read, pqxx::readwrite_policy::read_only> t(*c);
     check_schema(t);
@@ -139,12 +134,7 @@ std::vector<GearboxOverview> load_fleet_overview(const std::string& connection, 
 }
 
 std::optional<ArrivalLag> load_arrival_lag(const std::string& connection) {
-  std::unique_ptr<pqxx::connection> c;
-  try {
-    c = std::make_unique<pqxx::connection>(connection);
-  } catch (const std::exception& e) {
-    throw FleetConnectionError("fleet database: cannot connect: " + detail::one_line(e.what()));
-  }
+  const auto c = detail::connect(connection);
   return detail::translated([&]() -> std::optional<ArrivalLag> {
     pqxx::read_transaction t(*c);
     if (t.exec("SELECT to_regclass('fleet.messages')")[0][0].is_null()) return std::nullopt;

@@ -207,8 +207,7 @@ using detail::translated;
 }  // namespace
 
 struct FleetStore::Connection {
-  explicit Connection(const std::string& c) : c(c) {}
-  pqxx::connection c;
+  std::unique_ptr<pqxx::connection> c;
 };
 
 int current_fleet_schema_version() noexcept { return static_cast<int>(kFleetMigrations.size()); }
@@ -241,18 +240,14 @@ const char* to_string(RejectReason r) noexcept {
 }
 
 FleetStore::FleetStore(const std::string& connection) : connection_string_(connection) {
-  try {
-    conn_ = std::make_unique<Connection>(connection_string_);
-  } catch (const std::exception& e) {
-    throw FleetConnectionError("fleet database: cannot connect: " + detail::one_line(e.what()));
-  }
+  conn_ = std::make_unique<Connection>(Connection{detail::connect(connection_string_)});
 }
 
 FleetStore::~FleetStore() = default;
 
 int FleetStore::migrate() {
   return translated([&] {
-    pqxx::work w(conn_->c);
+    pqxx::work w(*conn_->c);
     // One key for "the fleet schema": a second consumer waits here until the first has migrated.
     w.exec("SELECT pg_advisory_xact_lock(4711003900)");
     w.exec("CREATE SCHEMA IF NOT EXISTS fleet");
@@ -433,7 +428,7 @@ bool write_one(pqxx::transaction_base& w, const Message& message) {
 std::vector<BatchOutcome> FleetStore::write_batch(const std::vector<Message>& messages) {
   return translated([&] {
     std::vector<BatchOutcome> out(messages.size());
-    pqxx::work w(conn_->c);
+    pqxx::work w(*conn_->c);
     for (std::size_t i = 0; i < messages.size(); ++i) {
       try {
         pqxx::subtransaction one(w, "message");
@@ -455,7 +450,7 @@ std::vector<BatchOutcome> FleetStore::write_batch(const std::vector<Message>& me
 
 void FleetStore::write(const Reject& r) {
   translated([&] {
-    pqxx::work w(conn_->c);
+    pqxx::work w(*conn_->c);
     w.exec_params("INSERT INTO fleet.rejects (topic, payload, reason, detail) VALUES ($1, $2, $3, $4)", r.topic,
                   pqxx::binarystring(r.payload), to_string(r.reason), r.detail);
     w.commit();

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
-#include <vector>
 
 namespace gearwatch::dsp {
 
@@ -32,7 +31,7 @@ LineRemovalResult DiscreteLineRemover::remove(std::span<double> x, FftPlanCache&
   const std::size_t n = x.size();
   // DC and, for an even length, the Nyquist bin are not tested.
   const std::size_t bins = n % 2 == 0 ? n / 2 - 1 : (n - 1) / 2;
-  if (n < 2 || bins < 4 * block_bins_) throw std::invalid_argument("DiscreteLineRemover: need at least 4 blocks of bins");
+  if (n < min_length()) throw std::invalid_argument("DiscreteLineRemover: need at least 4 blocks of bins");
   const RealFft& fft = plans.real(n);
   spectrum_.resize(fft.spectrum_size());
   power_.assign(x.begin(), x.end());  // forward needs an aligned input
@@ -42,13 +41,13 @@ LineRemovalResult DiscreteLineRemover::remove(std::span<double> x, FftPlanCache&
   for (std::size_t k = 1; k <= bins; ++k) total += (power_[k] = std::norm(spectrum_[k]));
   local_levels(bins);
   const double factor = std::log(static_cast<double>(bins));
-  std::vector<bool> line(bins + 2, false);
+  is_line_.assign(bins + 2, 0);
   for (std::size_t k = 1; k <= bins; ++k)
-    if (power_[k] > factor * level_[k]) line[k - 1] = line[k] = line[k + 1] = true;
+    if (power_[k] > factor * level_[k]) is_line_[k - 1] = is_line_[k] = is_line_[k + 1] = 1;
   LineRemovalResult result;
   double removed = 0.0;
   for (std::size_t k = 1; k <= bins; ++k) {
-    if (!line[k]) continue;
+    if (!is_line_[k]) continue;
     removed += power_[k];
     spectrum_[k] = Complex{};
     ++result.bins_removed;

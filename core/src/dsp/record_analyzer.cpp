@@ -391,7 +391,7 @@ struct RecordAnalyzer::Context {
   /// The residual's random part (SignalProcessingSettings::remove_residual_lines); a stretch too
   /// short for the remover's blocks is left whole.
   void remove_discrete_lines() {
-    if (!a.settings_.remove_residual_lines || spectral_length < 8 * kLineRemovalBlockBins + 2) return;
+    if (!a.settings_.remove_residual_lines || spectral_length < a.line_remover_.min_length()) return;
     a.random_residual_.assign(residual.begin(), residual.end());
     a.line_remover_.remove(a.random_residual_, a.plans_);
     residual = std::span<const double>(a.random_residual_.data(), spectral_length);

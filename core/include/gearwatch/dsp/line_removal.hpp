@@ -8,6 +8,7 @@
 // mesh harmonic. Like DRS, this removes every discrete line, whatever its frequency.
 #include <cstddef>
 #include <span>
+#include <vector>
 
 #include "gearwatch/dsp/fft.hpp"
 
@@ -33,8 +34,9 @@ struct LineRemovalResult {
 class DiscreteLineRemover {
  public:
   explicit DiscreteLineRemover(std::size_t block_bins = kLineRemovalBlockBins);
-  /// x in place; it must hold at least 4 blocks of bins (8 x block_bins samples). Returns what was
-  /// removed.
+  /// The shortest x remove() takes: 4 blocks of bins besides DC and Nyquist.
+  std::size_t min_length() const noexcept { return 8 * block_bins_ + 2; }
+  /// x in place; it must hold at least min_length() samples. Returns what was removed.
   LineRemovalResult remove(std::span<double> x, FftPlanCache& plans);
 
  private:
@@ -42,6 +44,7 @@ class DiscreteLineRemover {
   std::size_t block_bins_;
   ComplexBuffer spectrum_;
   RealBuffer power_, level_, block_;
+  std::vector<unsigned char> is_line_;  ///< per bin, reused: no allocation per record
 };
 
 }  // namespace gearwatch::dsp
