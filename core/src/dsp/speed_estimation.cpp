@@ -155,18 +155,28 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   const std::size_t length =
       std::min(next_power_of_two(static_cast<std::size_t>(std::ceil(kRevsPerFrame * fs / (0.8 * slowest)))), cap);
   scan_frames(x, fs, length, length / 2, &coarse_, low, high, fine_);
-  // The line to demodulate: the lowest harmonic standing within 6 dB of the highest (median over
-  // the frames). A higher harmonic holds the angle more finely, but its phase swings h times as far
-  // under a speed fluctuation, beyond what the coarse track can hand the refinement.
-  std::vector<double> medians;
+  // The line to demodulate: the lowest harmonic standing within 6 dB of the highest above the noise
+  // beside it (median over the frames of line_snr, against the neighbourhood's median power, which
+  // the line and its shaft sidebands do not move). A higher harmonic holds the angle more finely,
+  // but its phase swings h times as far under a speed fluctuation, beyond what the coarse track can
+  // hand the refinement, and a higher line sits nearer the structure's resonances, whose phase moves
+  // with the line's frequency when the speed changes. A line far below the best (a mesh harmonic
+  // the profile's wear has made weak, near a cancellation) is passed over: its phase scatters as
+  // 1/sqrt(2·SNR) and wanders with the load, and the refinement corrects only what is slow against
+  // its window, so the error a weak line puts in the first pass stays through the later ones.
+  std::vector<double> medians, line_medians;
   for (int h = 0; h < settings_.harmonics; ++h) {
-    std::vector<double> snr;
-    for (const auto& f : fine_) snr.push_back(f.snr[static_cast<std::size_t>(h)]);
+    std::vector<double> snr, line;
+    for (const auto& f : fine_) {
+      snr.push_back(f.snr[static_cast<std::size_t>(h)]);
+      line.push_back(f.line_snr[static_cast<std::size_t>(h)]);
+    }
     medians.push_back(median(snr));
+    line_medians.push_back(median(line));
   }
-  const double highest = *std::max_element(medians.begin(), medians.end());
+  const double highest = *std::max_element(line_medians.begin(), line_medians.end());
   int best = 0;
-  while (medians[static_cast<std::size_t>(best)] < highest - kMinLineSnr) ++best;
+  while (line_medians[static_cast<std::size_t>(best)] < highest - kMinLineSnr) ++best;
   const double best_snr = medians[static_cast<std::size_t>(best)];
   if (fine_.size() < 2 || best_snr < kMinLineSnr) {
     char text[160];
@@ -263,6 +273,18 @@ void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start,
   }
 }
 
+// A line's log-SNR against the noise beside it: the median power of the ±kFloorHalfWidth bins
+// around it over ln 2 (the mean of a noise bin's exponentially distributed power), which a few
+// lines and sidebands among them do not move; the moving mean of the search's floor holds the
+// line itself and stops at ln(2·kFloorHalfWidth + 1) however strong the line.
+double SpeedEstimator::line_snr(std::size_t peak) {
+  const std::size_t bins = power_.size();
+  const std::size_t a = peak > kFloorHalfWidth ? peak - kFloorHalfWidth : 0, b = std::min(bins, peak + kFloorHalfWidth + 1);
+  neighbours_.assign(power_.begin() + static_cast<std::ptrdiff_t>(a), power_.begin() + static_cast<std::ptrdiff_t>(b));
+  const double noise = median(neighbours_) / std::numbers::ln2;
+  return noise > 0.0 && power_[peak] > noise ? std::log(power_[peak] / noise) : 0.0;
+}
+
 // The harmonic sum's octave errors. At k times the true speed its harmonics fall on the true mesh
 // harmonics k, 2k, ..., which may outscore 1, 2, 3 (a gearbox whose first mesh harmonic is weak);
 // at 1/k of it, on a signal with fewer mesh harmonics than searched, the true lines score the same
@@ -334,6 +356,7 @@ SpeedEstimator::Frame SpeedEstimator::search_frame(double fs, std::size_t length
   // Each harmonic's line near the chosen speed, refined by a parabola through the log power.
   best.line_speed.assign(static_cast<std::size_t>(harmonics), best.speed);
   best.snr.assign(static_cast<std::size_t>(harmonics), 0.0);
+  best.line_snr.assign(static_cast<std::size_t>(harmonics), 0.0);
   for (int h = 1; h <= harmonics; ++h) {
     const double hz = z1 * h * best.speed;
     if (hz >= top) continue;
@@ -347,6 +370,7 @@ SpeedEstimator::Frame SpeedEstimator::search_frame(double fs, std::size_t length
     const double offset = denom < 0.0 ? std::clamp(0.5 * (a - c) / denom, -0.5, 0.5) : 0.0;
     best.line_speed[static_cast<std::size_t>(h - 1)] = (static_cast<double>(peak) + offset) * df / (z1 * h);
     best.snr[static_cast<std::size_t>(h - 1)] = floor_[peak];
+    best.line_snr[static_cast<std::size_t>(h - 1)] = line_snr(peak);
   }
   return best;
 }

@@ -80,13 +80,15 @@ class SpeedEstimator {
   struct Frame {
     double centre = 0.0;                    // sample position
     double speed = 0.0;                     // chosen shaft speed (Hz)
-    std::vector<double> line_speed, snr;    // per harmonic: refined speed, log-SNR
+    std::vector<double> line_speed, snr;    // per harmonic: refined speed, log-SNR (the search's floor)
+    std::vector<double> line_snr;           // per harmonic: log-SNR against the median beside the line
   };
   bool track_speed(std::span<const float> x, double fs, double low, double high);
   void scan_frames(std::span<const float> x, double fs, std::size_t length, std::size_t hop,
                    const std::vector<Frame>* guide, double low, double high, std::vector<Frame>& frames);
   void frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length, std::size_t last_bin);
   Frame search_frame(double fs, std::size_t length, double low, double high);
+  double line_snr(std::size_t peak);
   template <class SnrAt>
   double resolve_octave(double speed, double low, double high, double top, SnrAt snr_at) const;
   void coarse_angle(std::span<const float> x, double fs);
@@ -99,7 +101,7 @@ class SpeedEstimator {
   FftPlanCache plans_;
   RealBuffer frame_;
   ComplexBuffer spectrum_;
-  std::vector<double> power_, cumulative_, floor_;
+  std::vector<double> power_, cumulative_, floor_, neighbours_;
   std::map<std::size_t, std::vector<double>> windows_;  ///< Hann window per frame length
   std::vector<Frame> coarse_, fine_;
   std::vector<double> segment_re_, segment_im_, grid_re_, grid_im_, phase_;
