@@ -389,4 +389,13 @@ TEST_CASE("another gearbox: the 23/46 pair's pitting verdict at 33 Hz follows th
   // Once named, the verdict stays (the pitting only grows).
   for (std::size_t i = named < 0 ? pitted.mechanisms.size() : static_cast<std::size_t>(named); i < pitted.mechanisms.size(); ++i)
     CHECK(pitted.mechanisms[i] == "fatigue_pitting");
+  // The same without a tacho, on the speed estimated from the signal.
+  const auto estimated = pitting_verdicts(dir, "pit-n", 0.034, kSeedPitting, false);
+  INFO("with pitting, no tacho: " << joined(estimated.mechanisms));
+  const auto named_estimated = first_pitting_verdict(estimated.mechanisms);
+  CHECK(named_estimated >= estimated.truth_onset);
+  CHECK(named_estimated < 8);
+  for (std::size_t i = named_estimated < 0 ? estimated.mechanisms.size() : static_cast<std::size_t>(named_estimated);
+       i < estimated.mechanisms.size(); ++i)
+    CHECK(estimated.mechanisms[i] == "fatigue_pitting");
 }

@@ -17,6 +17,7 @@ constexpr int kGridPerRev = 16;       // demodulation window centres per revolut
 constexpr std::size_t kFloorHalfWidth = 64;  // bins each side of the spectral floor's moving mean
 constexpr double kRevsPerFrame = 4.0; // frames resolve the mesh line from its shaft sidebands
 constexpr double kMinLineSnr = 1.386; // ln 4: the chosen line's median stands 6 dB above the floor
+constexpr double kSteadySpread = 1e-3; // a record's speed spread below which it counts as steady (steady_speed)
 
 // Linear interpolation of y(x) at v, x increasing; clamped outside. `hint` walks forward for
 // increasing queries (reset it to 0 for a new sweep).
@@ -155,15 +156,15 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   const std::size_t length =
       std::min(next_power_of_two(static_cast<std::size_t>(std::ceil(kRevsPerFrame * fs / (0.8 * slowest)))), cap);
   scan_frames(x, fs, length, length / 2, &coarse_, low, high, fine_);
-  // The line to demodulate: the lowest harmonic standing within 6 dB of the highest above the noise
-  // beside it (median over the frames of line_snr, against the neighbourhood's median power, which
-  // the line and its shaft sidebands do not move). A higher harmonic holds the angle more finely,
-  // but its phase swings h times as far under a speed fluctuation, beyond what the coarse track can
-  // hand the refinement, and a higher line sits nearer the structure's resonances, whose phase moves
-  // with the line's frequency when the speed changes. A line far below the best (a mesh harmonic
-  // the profile's wear has made weak, near a cancellation) is passed over: its phase scatters as
-  // 1/sqrt(2·SNR) and wanders with the load, and the refinement corrects only what is slow against
-  // its window, so the error a weak line puts in the first pass stays through the later ones.
+  // The line to demodulate, by its SNR against the noise beside it (median over the frames of
+  // line_snr: against the neighbourhood's median power, which the line and its shaft sidebands do
+  // not move). A line's phase scatters as 1/sqrt(2·SNR), and a line far below the others (a mesh
+  // harmonic the profile's wear has made weak, near a cancellation) also wanders with the load;
+  // the refinement corrects only what is slow against its window, so an error the first pass puts
+  // in stays. At a steady speed the strongest line is taken. When the speed changes, the lowest
+  // within 6 dB of the strongest: a higher line's phase swings h times as far, beyond what the
+  // coarse track can hand the refinement, and it sits nearer the structure's resonances, whose
+  // phase moves with the line's frequency.
   std::vector<double> medians, line_medians;
   for (int h = 0; h < settings_.harmonics; ++h) {
     std::vector<double> snr, line;
@@ -176,7 +177,10 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   }
   const double highest = *std::max_element(line_medians.begin(), line_medians.end());
   int best = 0;
-  while (line_medians[static_cast<std::size_t>(best)] < highest - kMinLineSnr) ++best;
+  if (steady_speed())
+    best = static_cast<int>(std::max_element(line_medians.begin(), line_medians.end()) - line_medians.begin());
+  else
+    while (line_medians[static_cast<std::size_t>(best)] < highest - kMinLineSnr) ++best;
   const double best_snr = medians[static_cast<std::size_t>(best)];
   if (fine_.size() < 2 || best_snr < kMinLineSnr) {
     char text[160];
@@ -271,6 +275,17 @@ void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start,
     const double mean = (cumulative_[b] - cumulative_[a]) / static_cast<double>(b - a);
     floor_[k] = mean > 0.0 && power_[k] > mean ? std::log(power_[k] / mean) : 0.0;
   }
+}
+
+// Steady: the fine track's speeds spread by at most kSteadySpread of their median. A lightly damped
+// resonance (damping ratio ζ ≥ 1 %) turns a line's phase by up to δ/ζ when its frequency moves by a
+// fraction δ; at 1e-3 that stays under 0.1 rad, whatever line is taken.
+bool SpeedEstimator::steady_speed() const {
+  std::vector<double> speeds;
+  for (const auto& f : fine_) speeds.push_back(f.speed);
+  if (speeds.empty()) return false;
+  const auto [lo, hi] = std::minmax_element(speeds.begin(), speeds.end());
+  return *hi - *lo <= kSteadySpread * median(speeds);
 }
 
 // A line's log-SNR against the noise beside it: the median power of the ±kFloorHalfWidth bins

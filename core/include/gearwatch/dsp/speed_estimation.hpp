@@ -8,7 +8,8 @@
 //     1..H stand highest above the local spectral floor (a harmonic sum of log-SNRs, robust to
 //     single strong lines and to the shaft-order sidebands), over the search range; then again with
 //     frames four revolutions long, searched around the first track, and each frame's line refined
-//     by parabolic interpolation. The mesh harmonic h* that stands highest is kept.
+//     by parabolic interpolation. The mesh harmonic h* demodulated: by its SNR against the median
+//     power beside it, the strongest at a steady speed, else the lowest within 6 dB of it.
 //  2. the coarse angle: the track integrated.
 //  3. refinement, `iterations` times: the signal demodulated at order m = z1·h* on the current
 //     angle (x·exp(-i2πmθ)), integrated over the angle with a window of one input-shaft revolution
@@ -89,6 +90,7 @@ class SpeedEstimator {
   void frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length, std::size_t last_bin);
   Frame search_frame(double fs, std::size_t length, double low, double high);
   double line_snr(std::size_t peak);
+  bool steady_speed() const;
   template <class SnrAt>
   double resolve_octave(double speed, double low, double high, double top, SnrAt snr_at) const;
   void coarse_angle(std::span<const float> x, double fs);
