@@ -239,6 +239,10 @@ gap::DiagnosisSettings scenario_settings(const BenchOptions& o, double k_true, T
   ds.floor_db = o.floor_db;
   ds.min_gap_db = o.min_gap_db;
   ds.min_residual_gap_db = o.min_residual_gap_db;
+  // The rig bench scores the families and the chosen effects (docs/gap-bench.md: features count in
+  // none of its figures), so the features would be found, described and dropped. Their bootstrap
+  // draws are fixed by their keys, so leaving them out changes nothing else in the report.
+  ds.find_features = false;
   for (const auto& in : held_out)
     ds.rms_sa_wear_elasticities.push_back(twins.elasticity(in.twin.speed_hz, in.twin.torque_nm, ds.rms_sa_harmonics));
   ds.rerun_twin = [&twins](gap::CandidateEffect c, const std::vector<double>& values, const Record& like, double duration_s) {

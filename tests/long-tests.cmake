@@ -18,8 +18,8 @@ foreach(name
   # machine that comes close to the 600 s every other Catch2 test gets.
   set_tests_properties("${name}" PROPERTIES TIMEOUT 900)
 endforeach()
-gearwatch_long_test(300 "gap: gap bench with a few seeds writes the scores as JSON")
-gearwatch_long_test(200 "periodic gap step: six records replayed one per process give the same stored report as the same six in one replay")
+gearwatch_long_test(250 "periodic gap step: six records replayed one per process give the same stored report as the same six in one replay")
+gearwatch_long_test(230 "gap: gap bench with a few seeds writes the scores as JSON")
 gearwatch_long_test(120 "gap: eccentricity fitted on the rig's records recovers the run-outs the rig was given, across speeds")
 gearwatch_long_test(80 "defects #1: kill -9 while the model lags the committed records, then resume: the model's history equals the uninterrupted one")
 gearwatch_long_test(65 "gap diagnose through the binary: the report printed, stored with --db and read back by gap report, the page written")
