@@ -8,6 +8,7 @@
 #include <complex>
 #include <functional>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -211,6 +212,28 @@ FeatureDescription modulation_description(FeatureShaft shaft, double am, double 
 double band_pass(double hz, double fn, double zeta) {
   const double r = hz / fn, a = 1 - r * r, b = 2 * zeta * r;
   return b * b / (a * a + b * b);
+}
+
+/// A record of a unit-amplitude tone at input order `order` alone, at the speed and whole
+/// revolutions of `like` (constant speed, one tacho edge a revolution), reduced as any record is.
+/// Sampled at a rate that keeps `top_order` and resamples it as finely as the acquisitions do (the
+/// reduction works in orders: the rate only sets how far up the spectra go).
+SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears) {
+  constexpr double kSamplesPerCycle = 20;  // the angular resampler's interpolation stays exact for a tone this oversampled
+  const double speed = like.speed_hz;
+  const double fs = std::min(like.sample_rate_hz, kSamplesPerCycle * (top_order + 4) * speed);
+  const std::size_t revs = like.input_revolutions;
+  Record r;
+  r.sample_rate_hz = fs;
+  r.speed_hz = speed;
+  r.torque_nm = like.torque_nm;
+  const auto n = static_cast<std::size_t>((static_cast<double>(revs) + 0.5) * fs / speed);
+  std::vector<float> x(n);
+  for (std::size_t i = 0; i < n; ++i) x[i] = static_cast<float>(std::cos(2 * std::numbers::pi * order * speed * static_cast<double>(i) / fs));
+  r.channels = {std::move(x)};
+  r.channel_numbers = {0};
+  for (std::size_t k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(static_cast<double>(k) * fs / speed);
+  return RecordSpectra(r, 0, gears).summary();
 }
 
 // The description of the tones found, ordered by place (input orders for a ghost, Hz for tones
@@ -478,6 +501,24 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
   return out;
 }
 
+std::vector<double> FeatureDescriber::tone_as_measured(double order, const Window& w) const {
+  std::vector<double> out(w.size(), 0.0);
+  std::size_t e = 0;
+  while (e < w.size()) {
+    const std::size_t r = w[e].first;
+    std::size_t end = e;
+    double top = order;
+    for (; end < w.size() && w[end].first == r; ++end) top = std::max(top, records_[r].cells[w[end].second].order);
+    const SpectralSummary unit = unit_tone_spectra(order, top + 1, *records_[r].source->twin, gears_);
+    for (; e < end; ++e) {
+      const Cell& c = records_[r].cells[w[e].second];
+      const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;
+      out[e] = c.index < v.size() ? v[c.index] : 0.0;
+    }
+  }
+  return out;
+}
+
 /// One search for a feature's tones (FeatureDescriber::tones) over its window: the measured g, the
 /// twin's power with the tones found so far (the base), and the tones found.
 class FeatureDescriber::ToneSearch {
@@ -506,6 +547,7 @@ class FeatureDescriber::ToneSearch {
   double largest_change(const Tone& t) const;
   void add_to_base(const Tone& t, double sign);
   void refit_together();
+  void ghost_as_measured();
 
   const FeatureDescriber& d_;
   const GapFeature& f_;
@@ -645,7 +687,36 @@ void FeatureDescriber::ToneSearch::run(int max_tones) {
   }
 }
 
+/// A ghost's power and its prediction from the tone as the measurement reduces it. The search's
+/// tone model (add_non_synchronous_tone) places the tone well but leaves out what the shafts'
+/// averages, subtracted in input angle, leave in the broadband blocks: a pedestal a few orders out
+/// that a power fitted in the log chases, and that, for a strong tone, keeps cells at the practical
+/// minimum the form does not reach. The power then comes from the line's own power, which the
+/// reduction conserves: the tone's excess summed over the window's cells (the blocks' scale already
+/// counts the Hann window's noise bandwidth, so a tone's power summed over its bins is its power)
+/// over the share of a unit tone the same cells hold. Lines count with the bins: how the tone's power
+/// splits between the averages and the blocks turns on its order to a thousandth (a tone whole
+/// periods over the record leaves the averages nothing), the sum does not. A line the twin holds
+/// more strongly than the tone reaches it is left out of both sums: its excess would be the cross
+/// term of the two, not the tone's.
+void FeatureDescriber::ToneSearch::ghost_as_measured() {
+  if (fixed_in_hz_ || found_.size() != 1) return;
+  Tone& t = found_.front();
+  add_to_base(t, -1);
+  std::vector<double> unit = d_.tone_as_measured(t.place, w_);
+  double excess = 0, share = 0;
+  for (std::size_t e = 0; e < n_; ++e) {
+    const auto [r, i] = w_[e];
+    const Cell& c = d_.records_[r].cells[i];
+    if (c.kind != CellKind::broadband && !(c.twin <= t.power * unit[e])) continue;
+    excess += c.measured - base_[e], share += unit[e];
+  }
+  if (share > 0 && excess > 0) t.power = excess / share, t.unit = std::move(unit), t.rss = rss_of(t.unit, t.power);
+  add_to_base(t, 1);
+}
+
 FeatureDescriber::Fit FeatureDescriber::ToneSearch::result() {
+  ghost_as_measured();
   std::sort(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
   Fit fit;
   fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found_.size()));
