@@ -474,9 +474,9 @@ TEST_CASE("gap describe: a strong ghost tone far over the comparison's floor is 
   REQUIRE(d.kind == DescriptionKind::ghost_line);
   // As for the weaker tone: the order within 0.05 (16 revolutions, half-order broadband bins), the
   // amplitude within 5 %. The records' broadband residual also holds the output average's jumps at
-  // each output revolution, a pedestal 20-30 dB over the Hann kernel's sidelobes 2-5 orders out: a
-  // power fitted in the log to the tone model (which lacks it) read 14 % high; the power summed
-  // against a unit tone reduced as the records are holds it.
+  // each output revolution, a pedestal over the Hann kernel's sidelobes a few orders out: a power
+  // fitted in the log to the tone model (which lacks it) reads high; the power summed against a unit
+  // tone reduced as the records are holds it.
   CHECK(d.parameter("order") == Approx(order).margin(0.05));
   CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.05));
 }
