@@ -371,12 +371,13 @@ TEST_CASE("gap describe: a ghost tone at input order 37.3 is a ghost line with i
   INFO(text_of(d));
   REQUIRE(d.kind == DescriptionKind::ghost_line);
   // The records hold 16 revolutions: lines 1/16 order apart, and the broadband's half-order Hann
-  // bins split the tone by where it sits in them: the order within 0.05. The amplitude goes through
-  // the tone's model of the averages and the broadband blocks (add_non_synchronous_tone), which
-  // leaves 0.9 dB RMS of shape against these records: within 10 % (5 % was asked first; the first
-  // run read 5.7 % high, and the model's mismatch is not yet traced).
+  // bins split the tone by where it sits in them: the order within 0.05. The amplitude from the
+  // tone's power summed over the window's bins and lines against a unit tone reduced the same way
+  // (the Hann window's noise bandwidth in the blocks' scale): the records hold nothing else off the
+  // integer orders, so what is left is the place's error (0.05 order shifts power between the
+  // averages and the blocks, not out of the sum): within 5 %.
   CHECK(d.parameter("order") == Approx(order).margin(0.05));
-  CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.10));
+  CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.05));
 }
 
 TEST_CASE("gap describe: tones at 50, 100 and 150 Hz are supply pick-up with their harmonics", "[gap][gap_describe]") {
@@ -471,13 +472,32 @@ TEST_CASE("gap describe: a strong ghost tone far over the comparison's floor is 
   const auto d = describer.describe(f);
   INFO(text_of(d));
   REQUIRE(d.kind == DescriptionKind::ghost_line);
-  // As for the weaker tone: the order within 0.05 (16 revolutions, half-order broadband bins). The
-  // amplitude was asked within 10 % as for the weaker tone and is MISSED (0.194 m/s², +14 %): not
-  // asserted. Traced: the tone model's broadband part is the Hann kernel about the tone, while the
-  // records' broadband residual also holds the output average's jumps at each output revolution, a
-  // pedestal 20-30 dB over the kernel's sidelobes 2-5 orders out; the power fit in the log raises
-  // the tone to reach it (docs/gap-bench.md).
+  // As for the weaker tone: the order within 0.05 (16 revolutions, half-order broadband bins), the
+  // amplitude within 5 %. The records' broadband residual also holds the output average's jumps at
+  // each output revolution, a pedestal over the Hann kernel's sidelobes a few orders out: a power
+  // fitted in the log to the tone model (which lacks it) reads high; the power summed against a unit
+  // tone reduced as the records are holds it.
   CHECK(d.parameter("order") == Approx(order).margin(0.05));
+  CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.05));
+}
+
+TEST_CASE("gap describe: a ghost tone over the mesh line it sits beside is a ghost line with its power", "[gap][gap_describe]") {
+  // Input order 19.41 at 0.1 m/s² peak, 0.41 order above the first mesh harmonic (1 m/s²): about 40
+  // dB over the twin in the broadband bins about it. The feature as the finder reported such a tone
+  // on the independent bench: centred 0.24 order off it, over 16-22.5 orders.
+  const double fs = 10240, order = 19.41, amplitude = 0.1;
+  const auto pairs = pairs_from_records(fs, {{order, amplitude}});
+  const FeatureDescriber describer(described(pairs), GearPairSpec{});
+  auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 16, 22.5, 16 * kSpeeds.front(), 22.5 * kSpeeds.back());
+  f.order = 19.65;
+  const auto d = describer.describe(f);
+  INFO(text_of(d));
+  REQUIRE(d.kind == DescriptionKind::ghost_line);
+  // Order: 16 revolutions resolve 1/16 order on the lines and the blocks half an order; the lines
+  // beside the tone interpolate it (their ratio is δ/(1 − δ)): within 0.05. Amplitude: the broadband excess over a unit tone's
+  // share of the same cells, both through the same reduction: within 5 %.
+  CHECK(d.parameter("order") == Approx(order).margin(0.05));
+  CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.05));
 }
 
 TEST_CASE("gap describe: a mesh harmonic changed in every record is not a ghost line", "[gap][gap_describe]") {

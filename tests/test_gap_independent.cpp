@@ -229,20 +229,29 @@ TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance an
   const double order = j["draws"][2]["parameters"]["order"];
   CHECK(std::fmod(order, 1.0) > 0.2);
   CHECK(std::fmod(order, 1.0) < 0.8);
-  // The issue's targets scaled to these draws: both effects localised (>= 0.95), the no-effect draw
-  // without any finding (<= 0.05), the resonance attributed to casing_mode (>= 0.90): these hold
-  // and are asserted. Description (>= 0.90, i.e. both) is missed: the ghost tone's feature is
-  // localised but described as `none` (no form removes its gap); reported, not asserted.
+  // The issue's targets scaled to these draws: both effects localised (>= 0.95), both described
+  // (>= 0.90: the bench's rule, right form and main parameter within 10 %), the no-effect draw
+  // without any finding (<= 0.05), the resonance attributed to casing_mode (>= 0.90).
   const json& none = j["draws"][0];
   const json& resonance = j["draws"][1];
   const json& ghost = j["draws"][2];
   CHECK(resonance["localised"] == true);
   CHECK(ghost["localised"] == true);
+  CHECK(resonance["described"] == true);
+  CHECK(ghost["described"] == true);
   CHECK(none["any_finding"] == false);
   CHECK(resonance["attribution_applies"] == true);
   CHECK(resonance["attributed"] == true);
   CHECK(ghost["attribution_applies"] == false);
-  const int described = resonance["described"].get<bool>() + ghost["described"].get<bool>();
-  WARN("independent bench, 3 draws: described " << described << "/2 against the target of 2 (>= 0.90); resonance "
-       << resonance["described"] << ", ghost tone " << ghost["described"]);
+  // The ghost's order where a localised feature describes it (in its shaft's orders: the gear's are
+  // 19/52 of the pinion's): within the place's resolution, a quarter of the broadband's half-order
+  // bins (the lines beside it interpolate between them; docs/gap-bench.md), 0.125 input order.
+  bool ghost_order_checked = false;
+  for (const auto& f : ghost["features"])
+    if (f["localised"] == true && f["described_as"] == "ghost_line") {
+      const double per = f["where"].get<std::string>().rfind("output", 0) == 0 ? 19.0 / 52.0 : 1.0;
+      CHECK(f["description"]["order"].get<double>() * per == Approx(order).margin(0.125));
+      ghost_order_checked = true;
+    }
+  CHECK(ghost_order_checked);
 }

@@ -8,6 +8,7 @@
 #include <complex>
 #include <functional>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -211,6 +212,28 @@ FeatureDescription modulation_description(FeatureShaft shaft, double am, double 
 double band_pass(double hz, double fn, double zeta) {
   const double r = hz / fn, a = 1 - r * r, b = 2 * zeta * r;
   return b * b / (a * a + b * b);
+}
+
+/// A record of a unit-amplitude tone at input order `order` alone, at the speed and whole
+/// revolutions of `like` (constant speed, one tacho edge a revolution), reduced as any record is.
+/// Sampled at a rate that keeps `top_order` and resamples it as finely as the acquisitions do (the
+/// reduction works in orders: the rate only sets how far up the spectra go).
+SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears) {
+  constexpr double kSamplesPerCycle = 20;  // the angular resampler's interpolation stays exact for a tone this oversampled
+  const double speed = like.speed_hz;
+  const double fs = std::min(like.sample_rate_hz, kSamplesPerCycle * (top_order + 4) * speed);
+  const std::size_t revs = like.input_revolutions;
+  Record r;
+  r.sample_rate_hz = fs;
+  r.speed_hz = speed;
+  r.torque_nm = like.torque_nm;
+  const auto n = static_cast<std::size_t>((static_cast<double>(revs) + 0.5) * fs / speed);
+  std::vector<float> x(n);
+  for (std::size_t i = 0; i < n; ++i) x[i] = static_cast<float>(std::cos(2 * std::numbers::pi * order * speed * static_cast<double>(i) / fs));
+  r.channels = {std::move(x)};
+  r.channel_numbers = {0};
+  for (std::size_t k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(static_cast<double>(k) * fs / speed);
+  return RecordSpectra(r, 0, gears).summary();
 }
 
 // The description of the tones found, ordered by place (input orders for a ghost, Hz for tones
@@ -478,6 +501,24 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
   return out;
 }
 
+std::vector<double> FeatureDescriber::tone_as_measured(double order, const Window& w) const {
+  std::vector<double> out(w.size(), 0.0);
+  std::size_t e = 0;
+  while (e < w.size()) {
+    const std::size_t r = w[e].first;
+    std::size_t end = e;
+    double top = order;
+    for (; end < w.size() && w[end].first == r; ++end) top = std::max(top, records_[r].cells[w[end].second].order);
+    const SpectralSummary unit = unit_tone_spectra(order, top + 1, *records_[r].source->twin, gears_);
+    for (; e < end; ++e) {
+      const Cell& c = records_[r].cells[w[e].second];
+      const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;
+      out[e] = c.index < v.size() ? v[c.index] : 0.0;
+    }
+  }
+  return out;
+}
+
 /// One search for a feature's tones (FeatureDescriber::tones) over its window: the measured g, the
 /// twin's power with the tones found so far (the base), and the tones found.
 class FeatureDescriber::ToneSearch {
@@ -506,6 +547,9 @@ class FeatureDescriber::ToneSearch {
   double largest_change(const Tone& t) const;
   void add_to_base(const Tone& t, double sign);
   void refit_together();
+  Tone as_measured_at(double place) const;
+  double interpolated_place(double near) const;
+  void ghost_as_measured();
 
   const FeatureDescriber& d_;
   const GapFeature& f_;
@@ -513,6 +557,7 @@ class FeatureDescriber::ToneSearch {
   const bool fixed_in_hz_;
   const std::size_t n_;
   double ratio_ = 0, to_input_ = 0, top_ = 0, lo_ = 0, hi_ = 0, step_ = 0, separation_ = 0;
+  double input_revolutions_ = 0, output_revolutions_ = 0;  // the longest record's
   std::vector<double> g_, base_;  // measured g; the twin's power with the tones found so far
   std::vector<Tone> found_;
 };
@@ -522,7 +567,12 @@ FeatureDescriber::ToneSearch::ToneSearch(const FeatureDescriber& d, const GapFea
   ratio_ = static_cast<double>(d.gears_.pinion_teeth) / d.gears_.gear_teeth;
   to_input_ = f.shaft == FeatureShaft::output ? ratio_ : 1.0;
   double total = 0, top_speed = 0;
-  for (const auto& r : d.records_) total = std::max(total, total_input_line_power(*r.source->twin)), top_speed = std::max(top_speed, r.speed_hz);
+  for (const auto& r : d.records_) {
+    const SpectralSummary& t = *r.source->twin;
+    total = std::max(total, total_input_line_power(t)), top_speed = std::max(top_speed, r.speed_hz);
+    input_revolutions_ = std::max(input_revolutions_, static_cast<double>(t.input_revolutions));
+    output_revolutions_ = std::max(output_revolutions_, static_cast<double>(t.output_revolutions));
+  }
   top_ = std::log10(std::max(total, 1e-300));
   // Places: input orders (a ghost) or Hz (a tone) across the feature's extent, 0.05 input orders apart
   // (at the fastest record in Hz), then refined by halving. Tones are told apart one broadband bin
@@ -559,11 +609,14 @@ double FeatureDescriber::ToneSearch::bic(double rss, std::size_t k) const {
   return nn * std::log(std::max(rss / nn, res2)) + 2.0 * static_cast<double>(k) * std::log(nn);
 }
 
-/// A ghost sits off the shafts' integer orders: a tone on one is a line the synchronous averages keep.
+/// A ghost sits off the shafts' integer orders: a tone on one is a line the synchronous averages
+/// keep. On one means within the records' resolution: its phase drifts less than a quarter of a
+/// cycle against the line over the longest record (the average then keeps over 80 % of it).
 bool FeatureDescriber::ToneSearch::on_a_line(double place) const {
   if (fixed_in_hz_) return false;
   const double out = place / ratio_;
-  return std::abs(place - std::round(place)) < 0.05 || std::abs(out - std::round(out)) < 0.05;
+  return std::abs(place - std::round(place)) * input_revolutions_ < 0.25 ||
+         std::abs(out - std::round(out)) * output_revolutions_ < 0.25;
 }
 
 bool FeatureDescriber::ToneSearch::free_place(double place) const {
@@ -645,7 +698,92 @@ void FeatureDescriber::ToneSearch::run(int max_tones) {
   }
 }
 
+/// A ghost's power and its prediction from the tone as the measurement reduces it. The search's
+/// tone model (add_non_synchronous_tone) places the tone well but leaves out what the shafts'
+/// averages, subtracted in input angle, leave in the broadband blocks: a pedestal a few orders out
+/// that a power fitted in the log chases, and that, for a strong tone, keeps cells at the practical
+/// minimum the form does not reach. The power then comes from the line's own power, which the
+/// reduction conserves: the tone's excess summed over the window's cells (the blocks' scale already
+/// counts the Hann window's noise bandwidth, so a tone's power summed over its bins is its power)
+/// over the share of a unit tone the same cells hold. Lines count with the bins: how the tone's power
+/// splits between the averages and the blocks turns on its order to a thousandth (a tone whole
+/// periods over the record leaves the averages nothing), the sum does not. A line under twice the
+/// twin's power (the 3 dB practical minimum) is left out of both sums: on a line the twin holds, the
+/// excess would be the cross term of the two, not the tone's.
+FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::as_measured_at(double place) const {
+  Tone t;
+  t.place = place, t.unit = d_.tone_as_measured(place, w_);
+  double excess = 0, share = 0;
+  for (std::size_t e = 0; e < n_; ++e) {
+    const auto [r, i] = w_[e];
+    const Cell& c = d_.records_[r].cells[i];
+    if (c.kind != CellKind::broadband && !(c.measured >= 2 * c.twin)) continue;
+    excess += c.measured - base_[e], share += t.unit[e];
+  }
+  t.power = share > 0 ? std::max(0.0, excess / share) : 0.0;
+  t.rss = rss_of(t.unit, t.power);
+  return t;
+}
+
+/// A ghost's order from the lines beside it, in every record: a shaft's average over R whole
+/// revolutions reads a tone at order k + δ on its lines k and k + 1 as |sinc(R·δ)| and |sinc(R·(1 − δ))|,
+/// whose ratio is δ/(1 − δ) whatever R (R whole), so δ = ρ/(1 + ρ), ρ the amplitudes' ratio (the
+/// rectangular window's interpolation). Read on both shafts' lines (the gear's lie 0.37 input order
+/// apart) where the tone holds both lines (each at least twice the twin's), about the line nearest
+/// `near` that holds most; the records' readings weighted by the power read. NaN: no pair.
+double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
+  double sum = 0, weight = 0;
+  for (const auto& rec : d_.records_) {
+    const SpectralSummary& m = *rec.source->measured;
+    const SpectralSummary& t = *rec.source->twin;
+    for (const bool input : {true, false}) {
+      const double per = input ? 1.0 : ratio_;  // input orders per order of this shaft
+      const auto& lm = input ? m.input_lines : m.output_lines;
+      const auto& lt = input ? t.input_lines : t.output_lines;
+      auto excess = [&](long k) {  // the tone's power on line k (0: not the tone's, or none)
+        if (k < 1 || k > static_cast<long>(std::min(lm.size(), lt.size()))) return 0.0;
+        if (!input && output_line_is_mesh(static_cast<int>(k), d_.gears_.gear_teeth)) return 0.0;
+        const double pm = lm[static_cast<std::size_t>(k - 1)], pt = lt[static_cast<std::size_t>(k - 1)];
+        return pm >= 2 * pt ? pm - pt : 0.0;
+      };
+      const long k0 = static_cast<long>(std::floor(near / per));
+      long k = k0;
+      for (long j = k0 - 1; j <= k0 + 2; ++j)
+        if (excess(j) > excess(k)) k = j;
+      const double a = excess(k), below = excess(k - 1), above = excess(k + 1);
+      if (!(a > 0) || !(std::max(below, above) > 0)) continue;
+      const double rho = std::sqrt(std::max(below, above) / a);
+      const double delta = rho / (1 + rho);
+      sum += (a + std::max(below, above)) * (static_cast<double>(k) + (above >= below ? delta : -delta)) * per;
+      weight += a + std::max(below, above);
+    }
+  }
+  return weight > 0 ? sum / weight : kNaN;
+}
+
+/// The ghost's place refined and its power taken with the tone as measured (above): how its power
+/// splits between the averages and the blocks turns on the place to a thousandth of an order, which
+/// the search's model does not hold. Started from the lines' interpolation and from the search's
+/// place, each refined by halving steps from a hundredth of an order.
+void FeatureDescriber::ToneSearch::ghost_as_measured() {
+  if (fixed_in_hz_ || found_.size() != 1) return;
+  Tone t = std::move(found_.front());
+  found_.clear();  // free_place then ignores it
+  add_to_base(t, -1);
+  Tone best = as_measured_at(t.place);
+  if (const double at = interpolated_place(t.place); std::isfinite(at) && std::abs(at - t.place) <= 1 && free_place(at))
+    if (Tone moved = as_measured_at(at); moved.rss < best.rss) best = std::move(moved);
+  for (double s = 0.01; s > 0.01 / 64; s /= 2)
+    for (double place : {best.place - s, best.place + s})
+      if (free_place(place))
+        if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
+  if (best.power > 0) t = std::move(best);
+  add_to_base(t, 1);
+  found_.push_back(std::move(t));
+}
+
 FeatureDescriber::Fit FeatureDescriber::ToneSearch::result() {
+  ghost_as_measured();
   std::sort(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
   Fit fit;
   fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found_.size()));

@@ -14,7 +14,9 @@
 //    excess power (m²/4 of the carrier each), AM or PM undecided;
 //  - ghost line at a non-integer order / tone fixed in Hz: a non-synchronous tone as RecordSpectra
 //    sees it (add_non_synchronous_tone), at one order (ghost) or one frequency (tone) in every
-//    record, one amplitude; a tone within `supply_tolerance_orders` of a harmonic of 50 or 60 Hz is
+//    record, one amplitude; a ghost's order then refined from the lines beside it (the rectangular
+//    window's interpolation) and a unit tone's record reduced by RecordSpectra, its power the
+//    excess summed over the window against that unit's share (tone_as_measured); a tone within `supply_tolerance_orders` of a harmonic of 50 or 60 Hz is
 //    supply pick-up, and tones at integer multiples of the lowest tone are its harmonics;
 //  - floor change: the broadband bins × 10^((L + S·log10(f/1 kHz))/10), least squares over every
 //    broadband bin above the comparison's floor; for a feature of the broadband floors
@@ -111,6 +113,10 @@ class FeatureDescriber {
   Fit tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const;
   /// Unit-power responses of a tone at `place` (input order, or Hz in every record) on the window's cells.
   std::vector<double> tone_response(double place, bool in_hz, const Window& w) const;
+  /// Unit-power responses of a tone fixed at input order `order`, through the measurement itself:
+  /// a record of that tone alone at each record's speed and revolutions, reduced by RecordSpectra.
+  /// Unlike tone_response it holds what the averages' subtraction leaves in the broadband blocks.
+  std::vector<double> tone_as_measured(double order, const Window& w) const;
   class ToneSearch;
   /// A prediction of `predicted[record][cell]` where that is finite, the twin's power elsewhere.
   Prediction twin_elsewhere(std::vector<std::vector<double>> predicted) const;
