@@ -1690,21 +1690,21 @@ void TwinModel::apply_ics2_lower_bound(Forecast& f, const WearLoopOptions& o, co
   const double bound = std::max(ev.trend, ev.latest);
   if (!ev.valid || !ev.saturated || bound >= limit) return;   // at the limit: check_ics2_trend's near end 0
   f.flags.push_back(ForecastFlag::ics2_saturated_density_lower_bound);
-  // The measurement says D >= bound and nothing about how far above: the near end and the nominal
-  // come from the model's own state (from the bound where the model lies below it, which the
-  // measurement excludes), the far end from the bound less its SD at the interval's level.
+  // The measurement says D >= bound and nothing about how far above: the density may already be at
+  // the limit, so the near end is 0 (no reading rules the limit out; the model's own state cannot,
+  // its path being a model of the truth, not a measurement of it). The nominal comes from the
+  // model's state (from the bound where the model lies below it, which the measurement excludes),
+  // the far end from the bound less its SD at the interval's level.
   const double z = normal_quantile(0.5 + kNominalCoverage / 2);
   const double far_start = std::max(0.0, bound - z * ev.sd);
-  if (ev.model < bound) {
-    f.pitting.cycles_left = run_forecast(with_mean_pitting(bound), memory_.k_wear_si, memory_.k_pitting, o, nullptr).pitting;
-    f.pitting.cycles_left_low = run_forecast(with_mean_pitting(bound), f.k_wear_high, f.k_pitting_high, o, nullptr).pitting;
-  }
+  if (ev.model < bound) f.pitting.cycles_left = run_forecast(with_mean_pitting(bound), memory_.k_wear_si, memory_.k_pitting, o, nullptr).pitting;
+  f.pitting.cycles_left_low = 0.0;
   // Always from there: below the model's density it widens the interval, above it the
   // measurement has excluded the model's lower state.
   f.pitting.cycles_left_high = run_forecast(with_mean_pitting(far_start), f.k_wear_low, f.k_pitting_low, o, nullptr).pitting;
   hold_nominal(f);
   char b[400];
-  std::snprintf(b, sizeof b, "pitting: ICS2 %.4g at or above its saturation level %.4g: the ICS2-derived density %.4g (trend %.4g, latest %.4g, SD %.3g) is a lower bound; near end and nominal from %s %.4g, far end from %.4g at the low K",
+  std::snprintf(b, sizeof b, "pitting: ICS2 %.4g at or above its saturation level %.4g: the ICS2-derived density %.4g (trend %.4g, latest %.4g, SD %.3g) is a lower bound, its upper end unknown: near end 0, nominal from %s %.4g, far end from %.4g at the low K",
                 ev.ics2, settings_.ics2_saturation, bound, ev.trend, ev.latest, ev.sd, ev.model < bound ? "the bound" : "the model's", std::max(ev.model, bound),
                 far_start);
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
