@@ -170,6 +170,7 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   s.inspection_area_relative_sd = m.inspection_area_relative_sd;
   s.disagreement_records = m.disagreement_records;
   s.ics2_onset_records = m.ics2_onset_records;
+  s.ics2_saturation = wear::ics2_saturation_level(config.processing.ics2_harmonics);   // the analyser's H
   return s;
 }
 

@@ -15,6 +15,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "gearwatch/dsp/wear_mechanism.hpp"
 #include "gearwatch/wear/updating.hpp"
 #include "model_observation.hpp"
 
@@ -379,15 +380,16 @@ TEST_CASE("forecast intervals: no interval excludes a pitting limit the ICS2 est
   TwinModel first(twin::GearboxParameters{}, s, twin.simulator());
   first.observe(observation(1e4, 10, 20), {});
   ModelMemory m = first.memory();
-  // The scale D = 0.05 + 0.1 (ICS2 − 0.6); the model's own density is 0.
+  // The scale D = 0.05 + 2 (ICS2 − 0.03); the model's own density is 0. Every ICS2 below stays
+  // under the saturation level 17/144 = 0.118, so each reading is a density estimate.
   m.ics2_scale_valid = true;
-  m.ics2_scale_ics2 = 0.6;
+  m.ics2_scale_ics2 = 0.03;
   m.ics2_scale_density = 0.05;
-  m.ics2_scale_slope = 0.1;
+  m.ics2_scale_slope = 2.0;
   m.ics2_scale_inspections = 1;
   const double now = m.current.state.cycles;
   SECTION("reached: the latest estimate at 0.19 >= 0.17") {
-    m.ics2_series = {{now - 2e3, 1.0}, {now - 1e3, 1.2}, {now, 2.0}};
+    m.ics2_series = {{now - 2e3, 0.05}, {now - 1e3, 0.06}, {now, 0.1}};
     const Forecast f = TwinModel(twin::GearboxParameters{}, s, twin.simulator(), m).forecast();
     REQUIRE(f.valid);
     CHECK(has_flag(f, ForecastFlag::pitting_limit_reached_by_ics2));
@@ -395,13 +397,13 @@ TEST_CASE("forecast intervals: no interval excludes a pitting limit the ICS2 est
     CHECK(f.evidence.find("near end 0") != std::string::npos);
   }
   SECTION("within reach: 0.15 with SD 0.015 (10 % of it) has its 95 % bound 0.1747 >= 0.17, 0.14 (bound 0.163) has not") {
-    m.ics2_series = {{now - 2e3, 1.6}, {now - 1e3, 1.6}, {now, 1.6}};
+    m.ics2_series = {{now - 2e3, 0.08}, {now - 1e3, 0.08}, {now, 0.08}};
     const Forecast f = TwinModel(twin::GearboxParameters{}, s, twin.simulator(), m).forecast();
     REQUIRE(f.valid);
     CHECK(has_flag(f, ForecastFlag::pitting_limit_within_ics2_uncertainty));
     CHECK_FALSE(has_flag(f, ForecastFlag::pitting_limit_reached_by_ics2));
     CHECK(f.pitting.cycles_left_low == 0.0);
-    m.ics2_series = {{now - 2e3, 1.5}, {now - 1e3, 1.5}, {now, 1.5}};
+    m.ics2_series = {{now - 2e3, 0.075}, {now - 1e3, 0.075}, {now, 0.075}};
     const Forecast g = TwinModel(twin::GearboxParameters{}, s, twin.simulator(), m).forecast();
     REQUIRE(g.valid);
     CHECK_FALSE(has_flag(g, ForecastFlag::pitting_limit_within_ics2_uncertainty));
@@ -420,8 +422,8 @@ TEST_CASE("forecast intervals: no interval excludes a pitting limit the ICS2 est
     CHECK(g.log_sd_wear < f.log_sd_wear);
   }
   SECTION("ahead: the Theil-Sen trend of an exact line crosses the limit where the line does") {
-    // D = 0.05 + 0.1 (ICS2 − 0.6): 0.08, 0.09, 0.10 now, rising 0.01 per 1000 cycles: the limit 0.17 in 7000 cycles.
-    m.ics2_series = {{now - 2e3, 0.9}, {now - 1e3, 1.0}, {now, 1.1}};
+    // D = 0.05 + 2 (ICS2 − 0.03): 0.08, 0.09, 0.10 now, rising 0.01 per 1000 cycles: the limit 0.17 in 7000 cycles.
+    m.ics2_series = {{now - 2e3, 0.045}, {now - 1e3, 0.05}, {now, 0.055}};
     const Forecast f = TwinModel(twin::GearboxParameters{}, s, twin.simulator(), m).forecast();
     REQUIRE(f.valid);
     CHECK(has_flag(f, ForecastFlag::ics2_density_ahead_of_model));
@@ -485,4 +487,45 @@ TEST_CASE("forecast intervals: the model-form term is the residuals' excess mean
   CHECK(c.exceeded);
   CHECK(c.log_k_var == Approx(s * s).epsilon(1e-12));
   CHECK_FALSE(model_form_term({}, 0.05, 1.0, 0.02, 100.0).exceeded);
+}
+
+TEST_CASE("ICS2 saturation: the level is a quarter of fully modulated AM noise's closed form, where the density's elasticity passes 1",
+          "[model][updating][intervals]") {
+  // (a² + a⁴/16) / (1 + a²/2)² at a = 1: (1 + 1/16) / (9/4) = 17/36 with H ≥ 2; a² / (1 + a²/2)² = 4/9 with H = 1.
+  CHECK(ics2_saturation_level(3) == Approx(17.0 / 144.0).epsilon(1e-15));
+  CHECK(ics2_saturation_level(2) == Approx(17.0 / 144.0).epsilon(1e-15));
+  CHECK(ics2_saturation_level(1) == Approx(1.0 / 9.0).epsilon(1e-15));
+  CHECK(ModelSettings{}.ics2_saturation == ics2_saturation_level(3));
+  // a = 1 is the largest for a non-negative envelope: the closed form rises on [0, 1].
+  double previous = -1;
+  for (int i = 0; i <= 100; ++i) {
+    const double v = dsp::am_noise_ics2(i / 100.0, 3);
+    CHECK(v > previous);
+    previous = v;
+  }
+  CHECK(previous == Approx(17.0 / 36.0).epsilon(1e-15));
+  // The mixing model: ICS2 = I_s s², D = κ s / (1 − s) (pitting power ∝ area, s its share). Its
+  // elasticity d ln D / d ln ICS2 by central differences in ln ICS2 against 1 / (2 (1 − s)).
+  const double i_s = 17.0 / 36.0;
+  auto density_at = [&](double ics2) {
+    const double s = std::sqrt(ics2 / i_s);
+    return s / (1.0 - s);
+  };
+  for (double s : {0.05, 0.2, 1.0 / 3.0, 0.5, 0.7, 0.9, 0.99}) {
+    const double x = std::log(i_s * s * s), h = 1e-6;   // truncation h²/6 · (ln D)''' ≤ 1e-9 relative at s = 0.99
+    const double numeric = (std::log(density_at(std::exp(x + h))) - std::log(density_at(std::exp(x - h)))) / (2 * h);
+    INFO("share " << s);
+    CHECK(density_elasticity_of_ics2(s) == Approx(numeric).epsilon(1e-8));
+  }
+  // 1 (a proportional scale's) at the level when I_s is at its largest: there s = 1/2.
+  CHECK(density_elasticity_of_ics2(std::sqrt(ics2_saturation_level(3) / i_s)) == Approx(1.0).epsilon(1e-14));
+  CHECK_THROWS(density_elasticity_of_ics2(1.0));
+  // A proportional scale through a reading at share s0 reads D_true · s (1 − s) / (s0 (1 − s0)):
+  // below the truth (a lower bound) from s = 1 − s0 on, and ever further below as s → 1.
+  const double s0 = 0.3, c = density_at(i_s * s0 * s0) / (i_s * s0 * s0);
+  for (double s : {0.7, 0.8, 0.95}) {
+    const double ics2 = i_s * s * s;
+    CHECK(c * ics2 / density_at(ics2) == Approx(s * (1 - s) / (s0 * (1 - s0))).epsilon(1e-12));
+    CHECK(c * ics2 <= density_at(ics2) * (1 + 1e-12));
+  }
 }

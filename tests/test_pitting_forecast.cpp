@@ -3,13 +3,16 @@
 // Lundberg–Palmgren terms at K = 1 (`BlueLoop::pitting_rates(1)`, a direct computation), the mean
 // density the pair's. Inspections and a linear ICS2 are drawn from it; the model must give the
 // cycles to the limit that the closed form gives, its interval must hold them, and where the
-// model's own density is at the limit while the measured one is not it must not say 0 left.
+// model's own density is at the limit while the measured one is not it must not say 0 left; a
+// saturated ICS2 reading gives a lower bound only: the limit cannot be ruled out (near end 0), and
+// the nominal and far end follow from the model and the bound.
 #include "gearwatch/wear/updating.hpp"
 #include "model_observation.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <numeric>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -66,9 +69,9 @@ ClosedFormPitting truth_for(const ModelSettings& s) {
   return t;
 }
 
-// Tolerance on the cycles to the limit, as a share of them. Eq. 7.12 narrows a pitted point's width
-// by (1 − D_j): p_max and b both grow as (1 − D_j)^(-1/2), so τ0^c V / z0^h grows as
-// (1 − D_j)^(−(c + 2 − h)/2) = (1 − D_j)^-5, i.e. the model pits up to 5 max_j D_j faster than the
+// Tolerance on the cycles to the limit, as a share of them. Eq. 7.12 narrows the tooth's width by
+// (1 − D), D its mean density: p_max and b both grow as (1 − D)^(-1/2), so τ0^c V / z0^h grows as
+// (1 − D)^(−(c + 2 − h)/2) = (1 − D)^-5, i.e. the model pits up to 5 D ≤ 5 max_j D_j faster than the
 // closed form; over N^m the cycles move by at most that over m. Plus 0.1 % for the calibration's
 // bisection, the step interpolation of the crossing and the closed form's 1-cycle bisection.
 double cycles_tolerance(const ClosedFormPitting& t, double n_limit) {
@@ -93,7 +96,7 @@ TEST_CASE("pitting forecast: calibrated on two inspections of a closed-form law,
   const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}}, {2, 7e5, truth.mean(7e5), {}}};
   int checked = 0;
   for (double n = 5e4; n <= 1.8e6; n += 5e4) {
-    const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.1 + 1000 * truth.mean(n)), inspections);
+    const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(n)), inspections);
     if (n < 7e5) continue;
     INFO(n << " cycles: " << r.forecast.evidence);
     REQUIRE(r.forecast.valid);
@@ -118,10 +121,11 @@ TEST_CASE("pitting forecast: the model's density at the limit while ICS2 reads h
   const ClosedFormPitting truth = truth_for(s);
   TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
   const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}}, {2, 7e5, truth.mean(7e5), {}}};
-  // The ICS2 scale from the inspections is D = (ICS2 − 0.1) / 1000; from 1.4 M cycles ICS2 holds at
+  // The ICS2 scale from the inspections is D = (ICS2 − 0.01) / 100 (under the saturation level
+  // 0.118 throughout, so every reading is an estimate); from 1.4 M cycles ICS2 holds at
   // a density of 1e-4 (half the limit), so its trend and latest value are both 1e-4.
   const double measured = 1e-4;
-  auto ics2 = [&](double n) { return 0.1 + 1000 * (n < 1.4e6 ? truth.mean(n) : measured); };
+  auto ics2 = [&](double n) { return 0.01 + 100 * (n < 1.4e6 ? truth.mean(n) : measured); };
   int flagged = 0;
   for (double n = 5e4; n <= 2.2e6; n += 5e4) {
     const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, ics2(n)), inspections);
@@ -161,9 +165,94 @@ TEST_CASE("pitting forecast: the model's density at the limit while ICS2 reads h
   }
   CHECK(flagged >= 5);
   // The measurement at the limit too: 0 left stands, named by the ICS2 flag.
-  const ModelRunReport r = model.observe(observation(2.25e6, kSpeedHz, kTorqueNm, std::nullopt, 0.1 + 1000 * 3e-4), inspections);
+  const ModelRunReport r = model.observe(observation(2.25e6, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * 3e-4), inspections);
   CHECK_FALSE(has_flag(r.forecast, ForecastFlag::pitting_limit_reached_by_model_only));
   CHECK(has_flag(r.forecast, ForecastFlag::pitting_limit_reached_by_ics2));
   REQUIRE(r.forecast.pitting.cycles_left);
   CHECK(*r.forecast.pitting.cycles_left == 0.0);
+}
+
+namespace {
+/// Mean density `later` cycles on, Eq. 7.8 on the unpitted area of each point, from the closed
+/// form's profile at n (coefficient `shape_k`) rescaled to the mean `start`, with coefficient `k`.
+double mean_from(const ClosedFormPitting& truth, double shape_k, double n, double start, double k, double later) {
+  ClosedFormPitting shape = truth;
+  shape.k = shape_k;
+  const double scale = start / shape.mean(n);
+  double sum = 0;
+  for (std::size_t j = 0; j < truth.terms.size(); ++j) {
+    const double d0 = shape.at_point(j, n) * scale;
+    sum += 1.0 - (1.0 - d0) * std::exp(-k * truth.terms[j] * (std::pow(later, truth.m) - std::pow(n, truth.m)));
+  }
+  return sum / static_cast<double>(truth.terms.size());
+}
+}  // namespace
+
+TEST_CASE("pitting forecast: a saturated ICS2 reading bounds the density from below; near end 0, nominal from the model, far end from the bound",
+          "[model][pitting_forecast]") {
+  const ModelSettings s = small_density_settings();
+  const ClosedFormPitting truth = truth_for(s);
+  TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
+  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}}, {2, 7e5, truth.mean(7e5), {}}};
+  const double n = 1e6;
+  for (double c = 5e4; c <= n; c += 5e4) model.observe(observation(c, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(c)), inspections);
+  REQUIRE(model.memory().pitting_calibrated);
+  const double k = model.memory().k_pitting;
+  const double d_model = std::accumulate(model.memory().current.state.pinion_pitting.begin(), model.memory().current.state.pinion_pitting.end(), 0.0) /
+                         static_cast<double>(model.memory().current.state.pinion_pitting.size());
+  // The same state without ICS2 evidence: the model's own interval.
+  ModelMemory none = model.memory();
+  none.ics2_scale_valid = false;
+  const Forecast own = TwinModel(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 1.0; }, none).forecast();
+  REQUIRE(own.valid);
+  REQUIRE(own.pitting.cycles_left);
+  // A flat ICS2 of 0.15 (above 17/144) read through a one-inspection scale as `bound`, SD 10 % of it.
+  auto saturated = [&](double bound) {
+    ModelMemory m = model.memory();
+    m.ics2_scale_valid = true;
+    m.ics2_scale_inspections = 1;
+    m.ics2_scale_ics2 = 0.15;
+    m.ics2_scale_density = bound;
+    m.ics2_scale_slope = 1e-3;
+    m.ics2_scale_baseline_sd = 0;
+    m.ics2_series = {{n - 1e5, 0.15}, {n - 5e4, 0.15}, {n, 0.15}};
+    return TwinModel(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 1.0; }, m).forecast();
+  };
+  const double z = 1.6448536269514722;   // the 95 % quantile: the interval's ends
+  SECTION("the model above the bound: near end 0, nominal the model's own, the far end from the bound less 1.645 SD") {
+    const double bound = 0.5 * d_model;
+    const Forecast f = saturated(bound);
+    INFO(f.evidence);
+    REQUIRE(f.valid);
+    CHECK(has_flag(f, ForecastFlag::ics2_saturated_density_lower_bound));
+    for (ForecastFlag other : {ForecastFlag::pitting_path_missed_ics2, ForecastFlag::pitting_limit_within_ics2_uncertainty,
+                               ForecastFlag::ics2_density_ahead_of_model, ForecastFlag::pitting_limit_reached_by_model_only})
+      CHECK_FALSE(has_flag(f, other));
+    CHECK(f.k_pitting_low == own.k_pitting_low);
+    CHECK(f.k_pitting_high == own.k_pitting_high);
+    CHECK(f.pitting.cycles_left == own.pitting.cycles_left);
+    // The upper end is unknown: the limit may be reached already.
+    CHECK(f.pitting.cycles_left_low == 0.0);
+    const double start = bound * (1 - z * 0.1);
+    const double expected = solve_increasing([&](double later) { return mean_from(truth, k, n, start, f.k_pitting_low, later); },
+                                             s.pitting_limit, n, n + 1e9) - n;
+    REQUIRE(f.pitting.cycles_left_high);
+    CHECK(std::abs(*f.pitting.cycles_left_high - expected) <= cycles_tolerance(truth, n + expected) * (n + expected));
+    REQUIRE(own.pitting.cycles_left_high);
+    CHECK(*f.pitting.cycles_left_high > *own.pitting.cycles_left_high);   // widened
+  }
+  SECTION("the model below the bound: the nominal from the bound with the working K, near end 0") {
+    const double bound = 1.5 * d_model;
+    const Forecast f = saturated(bound);
+    INFO(f.evidence);
+    REQUIRE(f.valid);
+    CHECK(has_flag(f, ForecastFlag::ics2_saturated_density_lower_bound));
+    const double expected = solve_increasing([&](double later) { return mean_from(truth, k, n, bound, k, later); }, s.pitting_limit, n, n + 1e9) - n;
+    REQUIRE(f.pitting.cycles_left);
+    CHECK(std::abs(*f.pitting.cycles_left - expected) <= cycles_tolerance(truth, n + expected) * (n + expected));
+    CHECK(*f.pitting.cycles_left < *own.pitting.cycles_left);
+    CHECK(f.pitting.cycles_left_low == 0.0);
+    REQUIRE(f.pitting.cycles_left_high);
+    CHECK(*f.pitting.cycles_left_high >= *f.pitting.cycles_left);
+  }
 }

@@ -127,3 +127,50 @@ TEST_CASE("a pitting step from a density set off Eq. 7.8's curve decays the unpi
   const double k = std::log((1.0 - d0) / (1.0 - a1)) / (std::pow(n1, m) - std::pow(n0, m));
   CHECK(pitting_density_step(d0, k, n0, n1 - n0, material) == Approx(a1).epsilon(1e-12));
 }
+
+TEST_CASE("Eq. 7.12 narrows the tooth's face width by its pitting density (the mean over the profile), the same at every point",
+          "[wear][pitting]") {
+  // Hertz on a line load F / B: p_max and b grow as B^(-1/2), so τ0^c V / z0^h grows as
+  // B^(−(c + 2 − h)/2) = B^-5 with the classical exponents: B = B0 (1 − D) multiplies the rate A by
+  // (1 − D)^-5 (the force is the unworn pair's: no depth, and pitting does not enter the GTE).
+  WearLoopOptions o;
+  o.k_wear_si = 1e-16;
+  o.k_pitting = 1e-94;
+  o.operating_point = {20.0, 20.0};
+  BlueLoop unpitted(twin::GearboxParameters{}, o);
+  const std::vector<double> rate0 = unpitted.pitting_rates(1.0);
+  const std::size_t n = rate0.size();
+  WearState uniform = unpitted.state(), graded = unpitted.state();
+  for (std::size_t j = 0; j < n; ++j) {
+    uniform.pinion_pitting[j] = 0.2;
+    graded.pinion_pitting[j] = 0.4 * static_cast<double>(j) / static_cast<double>(n - 1);   // root 0 → tip 0.4, mean 0.2
+  }
+  CHECK(pitted_width_factor(uniform) == Approx(0.8).epsilon(1e-15));
+  CHECK(pitted_width_factor(graded) == Approx(0.8).epsilon(1e-14));
+  BlueLoop a(twin::GearboxParameters{}, o), b(twin::GearboxParameters{}, o);
+  a.restore(uniform, 100.0);
+  b.restore(graded, 100.0);
+  const std::vector<double> ra = a.pitting_rates(1.0), rb = b.pitting_rates(1.0);
+  const double expected = std::pow(0.8, -5.0);   // 3.0518
+  int loaded = 0;
+  for (std::size_t j = 0; j < n; ++j) {
+    if (!(rate0[j] > 0)) continue;
+    ++loaded;
+    // Uniform: the point's and the tooth's density agree, so either reading gives (1 − 0.2)^-5.
+    CHECK(ra[j] / rate0[j] == Approx(expected).epsilon(1e-12));
+    // Graded: the tooth's mean 0.2 again, whatever the point's own density. A per-point width
+    // would have given (1 − D_j)^-5 instead, ((1 − 0.2) / (1 − D_j))^5 times this: 4.21 at the tip
+    // (D = 0.4), 0.328 at the root (D = 0).
+    CHECK(rb[j] / rate0[j] == Approx(expected).epsilon(1e-12));
+  }
+  CHECK(loaded > static_cast<int>(n) / 2);
+  // The Archard side takes the same factor: one step from either state wears the flanks alike.
+  a.step(1e3);
+  b.step(1e3);
+  REQUIRE(a.state().cycles == b.state().cycles);
+  for (std::size_t j = 0; j < n; ++j) {
+    CHECK(a.state().pinion_depth_m[j] == Approx(b.state().pinion_depth_m[j]).epsilon(1e-12));
+    CHECK(a.state().gear_depth_m[j] == Approx(b.state().gear_depth_m[j]).epsilon(1e-12));
+  }
+  CHECK(*std::max_element(a.state().pinion_depth_m.begin(), a.state().pinion_depth_m.end()) > 0);
+}

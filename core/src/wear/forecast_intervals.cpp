@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "gearwatch/dsp/wear_mechanism.hpp"
+
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/normal.hpp>
 
@@ -90,6 +92,16 @@ PittingMiss pitting_miss(double d_measured, double sd_measured, double d_model, 
   m.missed = std::abs(m.gap) > gate * m.gap_sd;
   if (m.missed) m.extra_var = m.gap * m.gap;
   return m;
+}
+
+double density_elasticity_of_ics2(double share) {
+  if (!(share >= 0 && share < 1)) throw std::invalid_argument("the pitting share of the band's power must lie in [0, 1)");
+  return 0.5 / (1.0 - share);
+}
+
+double ics2_saturation_level(int harmonics) {
+  if (harmonics < 1) throw std::invalid_argument("ICS2 needs at least one harmonic");
+  return dsp::am_noise_ics2(1.0, harmonics) / 4.0;   // I_s at its largest, at the share 1/2
 }
 
 bool limit_within_reach(double estimate, double sd, double limit, double coverage) {

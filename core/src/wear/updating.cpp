@@ -174,6 +174,7 @@ void ModelSettings::validate() const {
   require(std::isfinite(innovation_gate_sd) && innovation_gate_sd > 0, "innovation gate must be positive");
   require(ics2_onset_records >= 1 && ics2_onset_records <= 1000, "ICS2 onset records must lie in [1, 1000]");
   require(ics2_trend_records >= 3 && ics2_trend_records <= 1000, "ICS2 trend records must lie in [3, 1000]");
+  require(ics2_saturation > 0, "ICS2 saturation level must be positive (infinity: none)");
 }
 
 double pearson3(const std::array<double, 3>& x, const std::array<double, 3>& y) {
@@ -1502,6 +1503,8 @@ ModelFormTerm TwinModel::rms_model_form(Forecast& f, const LogPosterior& pw) con
 PittingMiss TwinModel::pitting_path_miss(Forecast& f, const LogPosterior& pp, const Ics2Evidence& ev) const {
   // The model's pitting path against the ICS2-derived density: a miss beyond 2 SD adds its gap².
   PittingMiss miss;
+  // A saturated reading is a lower bound: a model at or above it has not missed it.
+  if (ev.saturated && ev.model >= std::max(ev.trend, ev.latest)) return miss;
   if (ev.valid && pp.valid) miss = pitting_miss(ev.trend, ev.sd, ev.model, 2.0);
   if (!miss.missed) return miss;
   f.flags.push_back(ForecastFlag::pitting_path_missed_ics2);
@@ -1580,6 +1583,9 @@ void TwinModel::check_model_past_pitting_limit(Forecast& f, const WearLoopOption
   if (!ev.valid || !(ev.model >= limit)) return;
   const double measured = std::max(ev.trend, ev.latest);
   if (measured >= limit) return;   // both at the limit: 0 left stands
+  // A saturated reading bounds the density from below only: a model at the limit does not
+  // contradict it (apply_ics2_lower_bound sets the interval).
+  if (ev.saturated) return;
   // The model's state is at the limit and the measurement is not: the model's own path has run
   // ahead of what ICS2 reads (a model-form or K error the interval over K from this state cannot
   // show, since every K starts past the limit). Neither reading is discarded: the near end stays 0
@@ -1639,6 +1645,12 @@ TwinModel::Ics2Evidence TwinModel::ics2_evidence() const {
   ev.records = series.size();
   ev.model = mean_of(memory_.current.state.pinion_pitting);
   ev.sd = ics2_density_sd(std::max(ev.trend, ev.latest));
+  // The readings in ICS2: the latest, and the trend's density back through the scale.
+  const double trend_ics2 = memory_.ics2_scale_slope > 0
+                                ? memory_.ics2_scale_ics2 + (ev.trend - memory_.ics2_scale_density) / memory_.ics2_scale_slope
+                                : memory_.ics2_series.back()[1];
+  ev.ics2 = std::max(memory_.ics2_series.back()[1], trend_ics2);
+  ev.saturated = ev.ics2 >= settings_.ics2_saturation;
   return ev;
 }
 
@@ -1653,6 +1665,8 @@ void TwinModel::check_ics2_trend(Forecast& f, const Ics2Evidence& ev) const {
     f.flags.push_back(ForecastFlag::pitting_limit_reached_by_ics2);
     f.pitting.cycles_left_low = 0.0;
     std::snprintf(b, sizeof b, "ICS2-derived density %.4g (trend) / %.4g (latest) at or above the limit %.4g: near end 0", d_trend, d_latest, limit);
+  } else if (ev.saturated) {
+    return;   // the upper end is unknown: apply_ics2_lower_bound
   } else if (limit_within_reach(d_high, sd, limit)) {
     // The limit lies inside the measured density's own interval: it may be reached already.
     f.flags.push_back(ForecastFlag::pitting_limit_within_ics2_uncertainty);
@@ -1668,6 +1682,31 @@ void TwinModel::check_ics2_trend(Forecast& f, const Ics2Evidence& ev) const {
   } else {
     return;
   }
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+}
+
+void TwinModel::apply_ics2_lower_bound(Forecast& f, const WearLoopOptions& o, const Ics2Evidence& ev) const {
+  const double limit = settings_.pitting_limit;
+  const double bound = std::max(ev.trend, ev.latest);
+  if (!ev.valid || !ev.saturated || bound >= limit) return;   // at the limit: check_ics2_trend's near end 0
+  f.flags.push_back(ForecastFlag::ics2_saturated_density_lower_bound);
+  // The measurement says D >= bound and nothing about how far above: the density may already be at
+  // the limit, so the near end is 0 (no reading rules the limit out; the model's own state cannot,
+  // its path being a model of the truth, not a measurement of it). The nominal comes from the
+  // model's state (from the bound where the model lies below it, which the measurement excludes),
+  // the far end from the bound less its SD at the interval's level.
+  const double z = normal_quantile(0.5 + kNominalCoverage / 2);
+  const double far_start = std::max(0.0, bound - z * ev.sd);
+  if (ev.model < bound) f.pitting.cycles_left = run_forecast(with_mean_pitting(bound), memory_.k_wear_si, memory_.k_pitting, o, nullptr).pitting;
+  f.pitting.cycles_left_low = 0.0;
+  // Always from there: below the model's density it widens the interval, above it the
+  // measurement has excluded the model's lower state.
+  f.pitting.cycles_left_high = run_forecast(with_mean_pitting(far_start), f.k_wear_low, f.k_pitting_low, o, nullptr).pitting;
+  hold_nominal(f);
+  char b[400];
+  std::snprintf(b, sizeof b, "pitting: ICS2 %.4g at or above its saturation level %.4g: the ICS2-derived density %.4g (trend %.4g, latest %.4g, SD %.3g) is a lower bound, its upper end unknown: near end 0, nominal from %s %.4g, far end from %.4g at the low K",
+                ev.ics2, settings_.ics2_saturation, bound, ev.trend, ev.latest, ev.sd, ev.model < bound ? "the bound" : "the model's", std::max(ev.model, bound),
+                far_start);
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
 }
 
@@ -1700,6 +1739,7 @@ Forecast TwinModel::forecast() const {
     set_intervals(f, nominal, o, ev);
     check_model_past_pitting_limit(f, o, ev);
     check_ics2_trend(f, ev);
+    apply_ics2_lower_bound(f, o, ev);
     f.valid = true;
   } catch (const std::exception& e) {
     f.failure = e.what();

@@ -28,9 +28,18 @@ double sample(const std::vector<double>& table, double u) {
   return table[i] + (u - static_cast<double>(i)) * (table[i + 1] - table[i]);
 }
 
-// A pitted point keeps at least this share of the face width, so its pressure stays finite.
+// A pitted tooth keeps at least this share of the face width, so its pressure stays finite.
 constexpr double kMinWidthFactor = 0.05;
 }  // namespace
+
+double pitted_width_factor(const WearState& state) {
+  // The thesis's Eq. 7.12 (§7.3.2, p. 152): B(N_{i+1}) = B_initial (1 − D(N_i)), B "the designed
+  // gear tooth width". Unlike Eqs. 7.3–7.11, whose every term carries the contact position θ,
+  // Eq. 7.12 has one B for the tooth and D(N_i) without θ: the tooth's pitting density, the
+  // quantity §7.3.3 compares with the pitted area of a mould image (here the mean over the
+  // profile, as summarise() reports it). The "effective contact width" of §7.4.1 is likewise one.
+  return std::max(kMinWidthFactor, 1.0 - mean(state.pinion_pitting));
+}
 
 void WearLoopOptions::validate() const {
   require(std::isfinite(k_wear_si) && k_wear_si >= 0, "K_wear must be finite and non-negative");
@@ -138,12 +147,13 @@ std::vector<double> BlueLoop::pitting_rates(double k_pitting) const {
   std::vector<double> rate(n, 0.0);
   if (!(k_pitting > 0)) return rate;
   const twin::GearGeometry& g = geometry_;
+  const double width_factor = pitted_width_factor(state_);
   for (std::size_t j = 0; j < n; ++j) {
     const double u = static_cast<double>(j) / static_cast<double>(n - 1);
     const double s = g.contact_start + u * g.active_length();
     const double rho1 = s, rho2 = g.line_of_action_length - s;
     const double reduced = rho1 * rho2 / (rho1 + rho2);
-    const double width = g.spec.face_width_m * std::max(kMinWidthFactor, 1.0 - sample(state_.pinion_pitting, u));  // Eq. 7.12
+    const double width = g.spec.face_width_m * width_factor;  // Eq. 7.12: the tooth's width, not the point's
     const LineContact c = line_contact(std::max(0.0, load_.force_at(s)) / width, reduced, g.effective_modulus);
     rate[j] = survival_rate(k_pitting, lundberg_palmgren_terms(c.max_pressure_pa, c.half_width_m, reduced), options_.material);
   }
@@ -174,14 +184,11 @@ StepReport BlueLoop::step(double until_cycles) {
   const double ratio = static_cast<double>(geometry_.spec.pinion_teeth) / geometry_.spec.gear_teeth;
   const double static_force = options_.operating_point.input_torque_nm / geometry_.base_radius_pinion;
 
-  // Rates at the start of the step, from the current load and pitted width.
+  // Rates at the start of the step, from the current load and the tooth's pitted width (Eq. 7.12).
   const WearState start = state_;
-  auto width_factor = [&start](double s_fraction) {
-    return std::max(kMinWidthFactor, 1.0 - sample(start.pinion_pitting, s_fraction));
-  };
-  const twin::GearGeometry& g = geometry_;
-  const PassWear per_pass = pass_wear(g, load_, options_.k_wear_si, options_.profile_points,
-                                      [&](double s) { return width_factor(g.profile_fraction_pinion(s)); });
+  const double width_factor = pitted_width_factor(start);
+  const PassWear per_pass = pass_wear(geometry_, load_, options_.k_wear_si, options_.profile_points,
+                                      [width_factor](double) { return width_factor; });
   const std::vector<double> rate = pitting_rates(options_.k_pitting);
 
   const std::vector<double> positions = pass_positions();

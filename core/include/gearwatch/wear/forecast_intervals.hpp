@@ -87,6 +87,19 @@ PittingMiss pitting_miss(double d_measured, double sd_measured, double d_model, 
 /// the limit: the limit may be reached already, and no interval may exclude that.
 bool limit_within_reach(double estimate, double sd, double limit, double coverage = kNominalCoverage);
 
+/// ICS2 saturation (docs/model.md, "ICS2 saturation"). The pitting band holds the pitting vibration,
+/// noise modulated by the mesh with its own ICS2 I_s, beside stationary content; with s the
+/// pitting share of the band's power, ICS2 = I_s s². With the pitting power proportional to the
+/// pitted area, D ∝ s / (1 − s), so d ln D / d ln ICS2 = 1 / (2 (1 − s)) (this function, s in [0, 1)).
+double density_elasticity_of_ics2(double share);
+/// The level above which an ICS2 reading bounds the density from below only. The elasticity above
+/// passes a proportional scale's 1 at s = 1/2, ICS2 = I_s / 4: beyond it the density grows faster
+/// than any proportional scale through lower points reads it, without bound as s → 1. I_s is not
+/// known; for AM noise (1 + a cos) n with a non-negative envelope (a ≤ 1) the closed form
+/// (a² + a⁴/16) / (1 + a²/2)² (dsp::am_noise_ics2) rises with a, so a = 1 is its largest:
+/// the level is am_noise_ics2(1, H) / 4 (17/144 for H ≥ 2, 1/9 for H = 1).
+double ics2_saturation_level(int harmonics);
+
 /// K_pitting's calibration from two pitted areas A0 at N0, A1 at N1 of one point of Eq. 7.8,
 /// D = 1 − exp(−K T N^m): K = ln((1 − A0)/(1 − A1)) / (T (N1^m − N0^m)). Its elasticities
 /// d ln K / d ln A0 and d ln K / d ln A1, in closed form (A0 < A1 < 1).

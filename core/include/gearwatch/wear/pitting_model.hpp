@@ -4,7 +4,8 @@
 // Per contact position θ (here: a point of the pinion's active profile, root → tip):
 //   τ0 = 0.3 p_max (7.4), z0 = 0.786 b (7.5), V = 2b · z0 · 2π R (7.6), b the Hertz half-width,
 //   R the reduced radius; D(N) = 1 − exp(−K τ0^c N^m V / z0^h) (7.8), accumulated step by step
-//   with Eq. 7.11 while the contact width shrinks with the pitted share, B = B0 (1 − D) (7.12).
+//   with Eq. 7.11 while the face width shrinks with the tooth's pitting density (its mean over the
+//   profile), B = B0 (1 − D) (7.12, p. 152; wear_loop.hpp, pitted_width_factor).
 // Units: τ0 in Pa, z0 in m, V in m³, so K_pitting is in Pa^-c m^(h-3) (the thesis gives no unit and
 // no exponents for its K_pitting = 5.64e-15; see docs/wear.md).
 #include <vector>

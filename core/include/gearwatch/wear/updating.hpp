@@ -134,6 +134,10 @@ struct ModelSettings {
   double innovation_gate_sd = 3.0;         ///< an update's innovation beyond this many SDs raises the prior variance
   int ics2_onset_records = 5;              ///< first ICS2 values of a pair whose median is the ICS2 onset baseline
   int ics2_trend_records = 10;             ///< recent ICS2-derived densities in the robust trend
+  /// ICS2 (low band) at and above which a reading bounds the pitting density from below only
+  /// (ics2_saturation_level, forecast_intervals.hpp): a quarter of fully modulated AM noise's ICS2
+  /// at the analyser's default H = 3. Infinity: every reading is taken as a density estimate.
+  double ics2_saturation = ics2_saturation_level(3);
   /// q: the random walk's variance of ln K per cycle.
   double log_k_q_per_cycle() const { return log_k_drift_per_million_cycles * log_k_drift_per_million_cycles / 1e6; }
   int operating_window_records = 10;       ///< records averaged for the forecast's operating point
@@ -386,6 +390,10 @@ class TwinModel {
     bool valid = false;
     double trend = 0, latest = 0, slope = 0, sd = 0, model = 0;
     std::size_t records = 0;
+    /// The higher of the latest ICS2 and the trend's ICS2 now, and whether it reaches the
+    /// saturation level: then trend and latest are lower bounds of the density.
+    double ics2 = 0;
+    bool saturated = false;
   };
   Crossing run_forecast(double k_wear, double k_pitting, const WearLoopOptions& o, std::vector<ForecastPoint>* curve) const;
   /// The forecast run from another start (the current state with another pitting level).
@@ -419,6 +427,10 @@ class TwinModel {
   /// SD of the ICS2-derived density `d`: the scale's inspected areas (extrapolated) and the ICS2 scatter.
   double ics2_density_sd(double d) const;
   void check_ics2_trend(Forecast& f, const Ics2Evidence& ev) const;
+  /// A saturated reading: the density is at least the ICS2-derived one, its upper end unknown. The
+  /// near end and the nominal from the model's own state (from the lower bound where the model lies
+  /// below it), the far end from the lower bound less its SD at the interval's level, flagged.
+  void apply_ics2_lower_bound(Forecast& f, const WearLoopOptions& o, const Ics2Evidence& ev) const;
   /// The ICS2-derived density of the newest ICS2 values of the pair, (cycles, density).
   std::vector<std::array<double, 2>> ics2_density_series(std::size_t newest) const;
   void remember_k(std::vector<double>& recent, double k) const;

@@ -40,6 +40,11 @@ twin::ToothProfileDeviation to_profile_deviation(const WearState& state);
 /// The state's mean depths, the pinion's share and its pitting density (WearSummary).
 WearSummary summarise(const WearState& state);
 
+/// The share of the face width that carries the load, B / B_initial = 1 − D (the thesis's Eq. 7.12,
+/// §7.3.2, p. 152) with D the tooth's pitting density (the mean over the profile), at least 0.05.
+/// The same factor for every profile point, for the pitting rates and the Archard pressure alike.
+double pitted_width_factor(const WearState& state);
+
 /// Combined depth along the line of action, indexed by the pinion's profile fraction (root → tip):
 /// pinion depth at u plus the gear depth of the flank point it touches (gear fraction 1 − u).
 std::vector<double> combined_profile(const WearState& state);
@@ -73,7 +78,7 @@ class BlueLoop {
   /// have `profile_points` entries; throws TwinParameterError otherwise.
   void restore(const WearState& state, double next_step_cycles);
   /// The Lundberg–Palmgren exponent rate A = K τ0^c V / z0^h (ln(1/S) = A N^m) per pinion profile
-  /// point, at the current force and pitted width (Eq. 7.12), for a given K_pitting.
+  /// point, at the current force and the tooth's pitted width (Eq. 7.12), for a given K_pitting.
   std::vector<double> pitting_rates(double k_pitting) const;
   /// The step the controller tries next (part of what restore() needs to continue exactly).
   double next_step_cycles() const { return next_step_; }

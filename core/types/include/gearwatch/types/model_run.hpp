@@ -27,6 +27,7 @@ enum class ForecastFlag : std::uint8_t {
   k_wear_not_identified,            ///< the last K_wear update found RMS_SA insensitive: K_wear interval no narrower than the prior's
   rms_sa_model_form_disagreement,   ///< ln(RMS_SA meas / sim) over the stored records beyond the scatter: model-form variance added
   pitting_limit_reached_by_model_only,  ///< the model's density is at the limit, the ICS2-derived one is not: cycles left from the measured density, near end 0
+  ics2_saturated_density_lower_bound,   ///< ICS2 at or above its saturation level: the ICS2-derived density is a lower bound, its upper end unknown: near end 0, far end from the bound
 };
 inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exceed_scatter,
                                               ForecastFlag::ics2_density_ahead_of_model,
@@ -35,7 +36,8 @@ inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exc
                                               ForecastFlag::pitting_path_missed_ics2,
                                               ForecastFlag::k_wear_not_identified,
                                               ForecastFlag::rms_sa_model_form_disagreement,
-                                              ForecastFlag::pitting_limit_reached_by_model_only};
+                                              ForecastFlag::pitting_limit_reached_by_model_only,
+                                              ForecastFlag::ics2_saturated_density_lower_bound};
 const char* to_string(ForecastFlag flag) noexcept;
 
 /// Which coefficient an update changed.
