@@ -188,7 +188,7 @@ double mean_from(const ClosedFormPitting& truth, double shape_k, double n, doubl
 }
 }  // namespace
 
-TEST_CASE("pitting forecast: a saturated ICS2 reading bounds the density from below; near end 0, nominal from the model, far end from the bound",
+TEST_CASE("pitting forecast: a saturated ICS2 reading bounds the density from below: near end 0, nominal from the model, far end from the bound",
           "[model][pitting_forecast]") {
   const ModelSettings s = small_density_settings();
   const ClosedFormPitting truth = truth_for(s);
