@@ -5,6 +5,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -46,10 +47,16 @@ Profile run_up(double f0, double duration) {
   return {[=](double t) { return f0 * (t + t * t / (2 * duration)); }, [=](double t) { return f0 * (1 + t / duration); }};
 }
 
-// Mesh harmonics 1..3 (amplitudes 1, 0.5, 0.3), amplitude-modulated by both shafts (depths 0.3 and
-// 0.2), plus white noise of standard deviation 0.5 (the mesh line 1 stands 0.5/0.25 x 12800 ≈
-// 44 dB above the noise per hertz at 25.6 kHz).
-Record gear_signal(const Profile& p, double fs, double duration, unsigned seed = 7) {
+// Mesh harmonics 1..3 of the given amplitudes, amplitude-modulated by both shafts (depths 0.3 and
+// 0.2), plus white noise of standard deviation 0.5; harmonic 1's phase may wander by ±wander rad at
+// 0.7 Hz, as a line near a cancellation of the mesh stiffness's and the profile's contributions
+// moves with the load (the shaft angle does not).
+struct MeshLines {
+  std::array<double, 3> amplitude{1.0, 0.5, 0.3};
+  double first_harmonic_wander_rad = 0.0;
+};
+
+Record mesh_signal(const Profile& p, double fs, double duration, const MeshLines& lines, unsigned seed) {
   const auto n = static_cast<std::size_t>(fs * duration);
   Record r;
   r.sample_rate_hz = fs;
@@ -57,39 +64,28 @@ Record gear_signal(const Profile& p, double fs, double duration, unsigned seed =
   r.channel_numbers = {0};
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal;
-  const double amplitude[3] = {1.0, 0.5, 0.3}, phase[3] = {0.3, 1.1, 2.0};
+  const double phase[3] = {0.3, 1.1, 2.0};
   for (std::size_t i = 0; i < n; ++i) {
-    const double theta = p.angle(static_cast<double>(i) / fs);
+    const double t = static_cast<double>(i) / fs, theta = p.angle(t);
     const double am = (1 + 0.3 * std::cos(2 * kPi * theta + 0.4)) * (1 + 0.2 * std::cos(2 * kPi * theta * kZ1 / kZ2 + 1.3));
+    const double wander[3] = {lines.first_harmonic_wander_rad * std::sin(2 * kPi * 0.7 * t), 0.0, 0.0};
     double v = 0.5 * normal(rng);
-    for (int h = 0; h < 3; ++h) v += amplitude[h] * am * std::cos(2 * kPi * kZ1 * (h + 1) * theta + phase[h]);
+    for (int h = 0; h < 3; ++h) v += lines.amplitude[h] * am * std::cos(2 * kPi * kZ1 * (h + 1) * theta + phase[h] + wander[h]);
     r.channels[0][i] = static_cast<float>(v);
   }
   return r;
 }
 
+// Amplitudes 1, 0.5, 0.3: the mesh line 1 stands 0.5/0.25 x 12800 ≈ 44 dB above the noise per hertz
+// at 25.6 kHz.
+Record gear_signal(const Profile& p, double fs, double duration, unsigned seed = 7) {
+  return mesh_signal(p, fs, duration, MeshLines{}, seed);
+}
+
 // The case of a worn profile: mesh harmonic 1 20 dB under harmonics 2 and 3 (amplitudes
-// 0.1, 1, 1), and its phase wandering by ±0.5 rad at 0.7 Hz, as a line near a cancellation of the
-// mesh stiffness's and the profile's contributions moves with the load (the shaft angle does not).
-// Same shaft modulation and noise as gear_signal.
+// 0.1, 1, 1), its phase wandering by ±0.5 rad.
 Record weak_first_harmonic_signal(const Profile& p, double fs, double duration, unsigned seed = 11) {
-  const auto n = static_cast<std::size_t>(fs * duration);
-  Record r;
-  r.sample_rate_hz = fs;
-  r.channels.assign(1, std::vector<float>(n));
-  r.channel_numbers = {0};
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  const double amplitude[3] = {0.1, 1.0, 1.0}, phase[3] = {0.3, 1.1, 2.0};
-  for (std::size_t i = 0; i < n; ++i) {
-    const double t = static_cast<double>(i) / fs, theta = p.angle(t);
-    const double am = (1 + 0.3 * std::cos(2 * kPi * theta + 0.4)) * (1 + 0.2 * std::cos(2 * kPi * theta * kZ1 / kZ2 + 1.3));
-    const double wander[3] = {0.5 * std::sin(2 * kPi * 0.7 * t), 0.0, 0.0};
-    double v = 0.5 * normal(rng);
-    for (int h = 0; h < 3; ++h) v += amplitude[h] * am * std::cos(2 * kPi * kZ1 * (h + 1) * theta + phase[h] + wander[h]);
-    r.channels[0][i] = static_cast<float>(v);
-  }
-  return r;
+  return mesh_signal(p, fs, duration, MeshLines{{0.1, 1.0, 1.0}, 0.5}, seed);
 }
 
 // Exact tacho edges (one per input revolution, at angles k + 0.2) by Newton on the closed form.
