@@ -19,6 +19,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
+namespace test_acquisition_defects {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using gearwatch::testing::run_command;
 
@@ -373,3 +375,5 @@ TEST_CASE("defects #10: the twin simulates a record's RMS_SA at the record's sam
   record_rate = 100000;
   CHECK(simulator(unworn.state(), op) == at_100k);
 }
+
+}  // namespace test_acquisition_defects

@@ -5,6 +5,8 @@
 #include <set>
 #include <string>
 
+namespace test_alerts {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 
 TEST_CASE("alerts: every kind, severity and transition has one distinct token", "[alerts]") {
@@ -119,3 +121,5 @@ TEST_CASE("alerts: clear_all ends every raised alert of a kind, occurrences are 
   // After the clear, the same verdict raises again (it is a new pair's verdict).
   CHECK(t.observe({AlertKind::wear_mechanism, 0}, true, "fatigue_pitting", "m", {}));
 }
+
+}  // namespace test_alerts

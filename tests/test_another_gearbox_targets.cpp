@@ -21,6 +21,8 @@
 #include "db_column.hpp"
 #include "temp_dir.hpp"
 
+namespace test_another_gearbox_targets {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using gearwatch::testing::run_command;
 using gearwatch::testing::TempDir;
@@ -397,3 +399,5 @@ TEST_CASE("another gearbox: the 23/46 pair's pitting verdict at 33 Hz follows th
        i < estimated.mechanisms.size(); ++i)
     CHECK(estimated.mechanisms[i] == "fatigue_pitting");
 }
+
+}  // namespace test_another_gearbox_targets

@@ -8,6 +8,8 @@
 
 #include "gearwatch/twin/errors.hpp"
 
+namespace test_archard_wear {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::wear;
 
@@ -147,3 +149,5 @@ TEST_CASE("pass_wear samples both flanks root to tip and the thesis-unit convers
   CHECK(k_wear_si_from_seed(1.65e-6) == Approx(1.65e-12).epsilon(1e-14));
   CHECK(k_wear_seed_from_si(k_wear_si_from_seed(3.55e-10)) == Approx(3.55e-10).epsilon(1e-14));
 }
+
+}  // namespace test_archard_wear

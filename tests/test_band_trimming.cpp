@@ -11,6 +11,8 @@
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
 
+namespace test_band_trimming {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::dsp;
 
@@ -139,3 +141,5 @@ TEST_CASE("Wear verdict from the pitting band alone names the abrasion band it c
   CHECK(std::string(to_string(CarrierBand::abrasion)) == "abrasion");
   CHECK(std::string(to_string(CarrierBand::pitting)) == "pitting");
 }
+
+}  // namespace test_band_trimming

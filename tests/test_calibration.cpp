@@ -16,6 +16,8 @@
 #include "gearwatch/twin/modal_analysis.hpp"
 #include "temp_dir.hpp"
 
+namespace test_calibration {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::twin;
 
 namespace {
@@ -194,3 +196,5 @@ TEST_CASE("Calibration rejects bad input", "[twin]") {
   CHECK_THROWS_AS(calibrate(GearboxParameters::prior(), {100, -3}, {true, true}, knobs), TwinParameterError);
   CHECK_THROWS_AS(calibrate(GearboxParameters::prior(), {100, 200}, {false, false}, knobs), TwinParameterError);
 }
+
+}  // namespace test_calibration

@@ -11,6 +11,8 @@
 #include "gearwatch/acquisition/candump_source.hpp"
 #include "temp_dir.hpp"
 
+namespace test_candump_log {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::acquisition;
 
 TEST_CASE("candump: a classic line as can-utils writes it", "[candump]") {
@@ -195,3 +197,5 @@ TEST_CASE("candump source: it ends finished at the log's end and stopped after s
   CHECK(stopped.ends[0].kind == SourceEndKind::stopped);
   CHECK(stopped.ends[0].error.empty());
 }
+
+}  // namespace test_candump_log

@@ -17,6 +17,8 @@
 #include "temp_dir.hpp"
 #include <nlohmann/json.hpp>
 
+namespace test_capture_gen {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -230,3 +232,5 @@ TEST_CASE("capture_gen: ICS2 of AM noise in the pitting band agrees with the clo
   }
   CHECK(std::abs(sum / 4 - mean) <= 3 * sigma / 2);
 }
+
+}  // namespace test_capture_gen

@@ -16,6 +16,8 @@
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 
+namespace test_channel_workers {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 
 namespace {
@@ -149,3 +151,5 @@ TEST_CASE("channel workers: the default is the hardware threads, at most 8, and 
   CHECK(daemon::channel_worker_count(3) == 3);
   CHECK(daemon::channel_worker_count(12) == 12);
 }
+
+}  // namespace test_channel_workers

@@ -16,6 +16,8 @@
 #include "temp_dir.hpp"
 #include <nlohmann/json.hpp>
 
+namespace test_cli {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -147,3 +149,5 @@ TEST_CASE("cli: twin tune-mesh recovers a known mesh-stiffness scale from a low-
   CHECK(j["reached"] == true);
   CHECK(j["mesh_stiffness_scale"].get<double>() == Approx(0.8).epsilon(0.01));
 }
+
+}  // namespace test_cli

@@ -18,6 +18,8 @@
 #include "temp_dir.hpp"
 #include "utc_time.hpp"
 
+namespace test_cli_defects {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using gearwatch::testing::CommandResult;
 using gearwatch::testing::TempDir;
@@ -395,3 +397,5 @@ TEST_CASE("defects (smaller): the replay summary says how many records had every
   REQUIRE(table.status == 0);
   CHECK(table.out.find("1 records (1 analysed, every indicator skipped in 1 of them (flat_line in 1))") != std::string::npos);
 }
+
+}  // namespace test_cli_defects

@@ -19,6 +19,8 @@
 #include "gearwatch/twin/simulation.hpp"
 #include "temp_dir.hpp"
 
+namespace test_commission {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using gearwatch::testing::run_command;
 using gearwatch::testing::TempDir;
@@ -318,3 +320,5 @@ TEST_CASE("commission: the mesh-stiffness scale of a rig baseline follows the ri
     CHECK(m["harmonics"].size() >= 3);
   }
 }
+
+}  // namespace test_commission

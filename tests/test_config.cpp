@@ -6,6 +6,8 @@
 
 #include "gearwatch/types/token.hpp"
 
+namespace test_config {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::config;
 
 namespace {
@@ -252,3 +254,5 @@ TEST_CASE("config: a band edge written as a huge integer is read as a number", "
   CHECK(error_of("[processing]\npitting_band_hz = [5100000200100002000, 300]\n") ==
         "test.toml:2: key 'processing.pitting_band_hz': needs 0 <= low_hz < high_hz");
 }
+
+}  // namespace test_config

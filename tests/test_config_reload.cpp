@@ -3,6 +3,8 @@
 
 #include <catch2/catch.hpp>
 
+namespace test_config_reload {  // this file's own: the test files compile together (unity build)
+
 using gearwatch::daemon::join_keys;
 using gearwatch::daemon::plan_reload;
 
@@ -66,3 +68,5 @@ TEST_CASE("config reload: an invalid new file is refused with file, line and key
   CHECK_THROWS_WITH(plan_reload(kStarted, running(), broken, "plant.toml"),
                     "plant.toml:3: key 'records.interval_s': expected a number");
 }
+
+}  // namespace test_config_reload

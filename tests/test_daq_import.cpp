@@ -23,6 +23,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
+namespace test_daq_import {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using gearwatch::testing::run_command;
 
@@ -375,3 +377,5 @@ TEST_CASE("import readers: a wide int16 .mat, a header-less semicolon CSV with a
   for (std::size_t k = 0; k < edges.size(); ++k) CHECK(edges[k] == Approx(expected[k]).margin(1e-9));
   CHECK(acq::speed_from_edges(edges, 1, 51200.0, 0, 3000) == Approx(51200.0 / 250.5).epsilon(1e-12));
 }
+
+}  // namespace test_daq_import

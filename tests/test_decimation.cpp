@@ -12,6 +12,8 @@
 
 #include <catch2/catch.hpp>
 
+namespace test_decimation {  // this file's own: the test files compile together (unity build)
+
 using gearwatch::dsp::AntiAliasDecimator;
 
 namespace {
@@ -128,3 +130,5 @@ TEST_CASE("The simulators' front-end oversampling reads the model at 400 kHz or 
   CHECK_THROWS_AS(gearwatch::dsp::front_end_oversampling(0), std::invalid_argument);
   CHECK_THROWS_AS(gearwatch::dsp::front_end_oversampling(std::numeric_limits<double>::infinity()), std::invalid_argument);
 }
+
+}  // namespace test_decimation

@@ -16,6 +16,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
+namespace test_end_to_end {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using gearwatch::testing::run_command;
 
@@ -330,3 +332,5 @@ TEST_CASE("end to end: an indicator far above the gear pair's own baseline is an
   CHECK(scalar(db, "SELECT record_id FROM alerts WHERE kind = 'indicator_threshold' AND transition = 'cleared'") == 11);
   CHECK(query(db, "active").empty());
 }
+
+}  // namespace test_end_to_end

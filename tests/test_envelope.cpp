@@ -7,6 +7,8 @@
 #include <random>
 #include <vector>
 
+namespace test_envelope {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::dsp;
 
 namespace {
@@ -161,3 +163,5 @@ TEST_CASE("Tukey taper: weights and the end-discontinuity click it removes", "[d
   CHECK(white_tapered < 1.7e-4);
   CHECK(carrier_tapered == Approx(carrier_raw).epsilon(1e-3));
 }
+
+}  // namespace test_envelope

@@ -10,6 +10,8 @@
 
 #include "gearwatch/dsp/envelope.hpp"
 
+namespace test_fft {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::dsp;
 
 namespace {
@@ -169,3 +171,5 @@ TEST_CASE("Squared-envelope spectrum and band ICS2 match a direct DFT computatio
   for (std::size_t k = 0; k < ses_fast.size(); ++k) err = std::max(err, std::abs(ses_fast[k] - std::abs(ENV[k]) / double(n)));
   CHECK(err < 1e-13);
 }
+
+}  // namespace test_fft

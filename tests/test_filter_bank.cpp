@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+namespace test_filter_bank {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::dsp;
 
 namespace {
@@ -316,3 +318,5 @@ TEST_CASE("Band selection ignores bands below the power floor and says when none
   other.levels = 5;
   CHECK_THROWS_AS(maps[0].optimum(0.5, &other, 0.0), std::invalid_argument);
 }
+
+}  // namespace test_filter_bank

@@ -19,6 +19,8 @@
 #include "gearwatch/wear/updating.hpp"
 #include "model_observation.hpp"
 
+namespace test_forecast_intervals {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::wear;
 
@@ -529,3 +531,5 @@ TEST_CASE("ICS2 saturation: the level is a quarter of fully modulated AM noise's
     CHECK(c * ics2 <= density_at(ics2) * (1 + 1e-12));
   }
 }
+
+}  // namespace test_forecast_intervals

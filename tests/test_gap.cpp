@@ -26,6 +26,8 @@
 #include "gearwatch/twin/simulation.hpp"
 #include "constant_speed_record.hpp"
 
+namespace test_gap {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::gap;
 
@@ -1253,3 +1255,5 @@ TEST_CASE("gap: gap bench refuses a practical minimum that is negative or not a 
     CHECK(r.err.find("--min-gap-db and --min-residual-gap-db must be finite and >= 0") != std::string::npos);
   }
 }
+
+}  // namespace test_gap

@@ -9,6 +9,8 @@
 
 #include "gap_bench_scores.hpp"
 
+namespace test_gap_bench_scores {  // this file's own: the test files compile together (unity build)
+
 using gearwatch::cli::RigFigure;
 using gearwatch::cli::RigOutcome;
 using gearwatch::cli::ScoreFigure;
@@ -115,3 +117,5 @@ TEST_CASE("gap bench scores: a target reached exactly is met, and a figure witho
   CHECK(gearwatch::cli::scores_json(s)["both_named"]["value"].is_null());
   CHECK(gearwatch::cli::scores_lines(s)[4] == "both_named not measured (no such scenario)");
 }
+
+}  // namespace test_gap_bench_scores

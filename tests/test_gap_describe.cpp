@@ -20,6 +20,8 @@
 #include "gearwatch/types/record.hpp"
 #include "constant_speed_record.hpp"
 
+namespace test_gap_describe {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::gap;
 using Complex = std::complex<double>;
@@ -634,3 +636,5 @@ TEST_CASE("gap describe: the report says what an unexplained AM is and what a bo
   stored.report.features[0].explained_by = CandidateEffect::eccentricity;
   CHECK(statement(stored.report.features[0]).rfind("explained by eccentricity; described as a 15 % AM", 0) == 0);
 }
+
+}  // namespace test_gap_describe

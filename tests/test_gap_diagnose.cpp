@@ -27,6 +27,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
+namespace test_gap_diagnose {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -402,3 +404,5 @@ TEST_CASE("periodic gap step: six records replayed one per process give the same
   CHECK(scalar(per_process, "SELECT count(*) FROM gap_report_runs") == 1);
   CHECK(scalar(one_replay, "SELECT count(*) FROM gap_report_runs") == 1);
 }
+
+}  // namespace test_gap_diagnose

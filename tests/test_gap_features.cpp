@@ -20,6 +20,8 @@
 #include "gearwatch/gap/evaluation.hpp"
 #include "constant_speed_record.hpp"
 
+namespace test_gap_features {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::gap;
 
@@ -522,3 +524,5 @@ TEST_CASE("gap features: white noise the twin lacks, over the whole band, is the
     CHECK(floors.acquisition < expected * 2);
   }
 }
+
+}  // namespace test_gap_features

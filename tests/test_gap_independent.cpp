@@ -19,6 +19,8 @@
 #include "gap_bench_independent.hpp"
 #include "temp_dir.hpp"
 
+namespace test_gap_independent {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -255,3 +257,5 @@ TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance an
     }
   CHECK(ghost_order_checked);
 }
+
+}  // namespace test_gap_independent

@@ -23,6 +23,8 @@
 #include "pipeline.hpp"
 #include "temp_dir.hpp"
 
+namespace test_gap_monitor {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using gap::FamilyKind;
 
@@ -573,3 +575,5 @@ TEST_CASE("daemon's gap diagnosis end to end: the rig without effects gives a re
   REQUIRE(s.step());
   CHECK(s.get_int(0) == 0);
 }
+
+}  // namespace test_gap_monitor

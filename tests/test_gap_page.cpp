@@ -14,6 +14,8 @@
 #include "gearwatch/storage/schema.hpp"
 #include "temp_dir.hpp"
 
+namespace test_gap_page {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 
 namespace {
@@ -253,3 +255,5 @@ TEST_CASE("gap page: the features are listed with where, movement, size and reco
   // A candidate fitted at a bound says what it would need.
   CHECK(html.find("at a bound: mount_resonance would need &gt; 2450 Hz frequency (frequency_hz at the top of its range)") != std::string::npos);
 }
+
+}  // namespace test_gap_page

@@ -12,6 +12,8 @@
 #include "gearwatch/storage/writer.hpp"
 #include "temp_dir.hpp"
 
+namespace test_gap_reports {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using gearwatch::storage::Database;
 using gearwatch::storage::Statement;
@@ -310,3 +312,5 @@ TEST_CASE("gap reports: the writer stores a report with its twin_drift transitio
   CHECK(s.get_int(0) == 1);
   CHECK(s.get_text(1) == "12.6 dB");
 }
+
+}  // namespace test_gap_reports

@@ -13,6 +13,8 @@
 #include "gearwatch/twin/simulation.hpp"
 #include "gearwatch/twin/integration.hpp"
 
+namespace test_gearbox_model {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::twin;
 
@@ -323,3 +325,5 @@ TEST_CASE("One DOF's acceleration equals that row of the full right-hand side an
   CHECK(worst_row == 0.0);       // the same terms in the same order
   CHECK(worst_dense < 1e-14);    // the same terms, summed in another order
 }
+
+}  // namespace test_gearbox_model

@@ -22,6 +22,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
+namespace test_integrity {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using gearwatch::storage::Database;
@@ -308,3 +310,5 @@ TEST_CASE("defects #3: the same capture by another relative path or a symlink is
   CHECK(by_path["records"] == 0);
   CHECK(by_path["records_already_stored"] == 6);
 }
+
+}  // namespace test_integrity

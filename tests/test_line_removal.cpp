@@ -9,6 +9,8 @@
 #include <set>
 #include <vector>
 
+namespace test_line_removal {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::dsp;
 
 namespace {
@@ -72,3 +74,5 @@ TEST_CASE("Discrete line removal: white noise keeps all but about one bin in M, 
     CHECK_THROWS_AS(remover.remove(x, plans), std::invalid_argument);
   }
 }
+
+}  // namespace test_line_removal

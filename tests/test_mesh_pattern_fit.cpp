@@ -12,6 +12,8 @@
 
 #include "gearwatch/twin/mesh_pattern_fit.hpp"
 
+namespace test_mesh_pattern_fit {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::twin;
 
 namespace {
@@ -136,3 +138,5 @@ TEST_CASE("Mesh pattern fit: a twin without a harmonic in use, or bad settings, 
   CHECK_THROWS_AS(fit_mesh_pattern(measured, 0.0, [](double s) { return resonance_pattern(s); }, bad), std::invalid_argument);
   CHECK(std::string(to_string(MeshScaleEvidence::interval_reaches_bound)) == "interval_reaches_bound");
 }
+
+}  // namespace test_mesh_pattern_fit

@@ -9,6 +9,8 @@
 
 #include "gearwatch/twin/errors.hpp"
 
+namespace test_mesh_stiffness {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::twin;
 
@@ -155,3 +157,5 @@ TEST_CASE("Non-physical gear data are rejected", "[twin]") {
   o.scale = -1;
   CHECK_THROWS_AS(GearMeshStiffness(seed_pair(), o), TwinParameterError);
 }
+
+}  // namespace test_mesh_stiffness

@@ -14,6 +14,8 @@
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/twin/modal_analysis.hpp"
 
+namespace test_modal_gap {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::twin;
 
 namespace {
@@ -381,3 +383,5 @@ TEST_CASE("Modal fit rejects bad input", "[twin][modal_gap]") {
   CHECK_THROWS_AS(fit_modal_model(prior, {{"x", {"kt12"}, 2, 3, "?"}}, {100, 200}, {true, true}), TwinParameterError);
   CHECK_THROWS_AS(leave_two_out(prior, knobs, {100, 200, 300}), TwinParameterError);
 }
+
+}  // namespace test_modal_gap

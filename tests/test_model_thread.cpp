@@ -18,6 +18,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
+namespace test_model_thread {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using namespace gearwatch;
 using gearwatch::testing::run_command;
@@ -379,3 +381,5 @@ TEST_CASE("model thread: remaining life below the configured cycles is an alarm,
   CHECK(scalar(db, "SELECT max(gear_pair) FROM model_state") == 1);
   CHECK(scalar(db, "SELECT count(*) FROM alerts WHERE kind = 'remaining_life' AND subject = 'pitting_density'") == 0);
 }
+
+}  // namespace test_model_thread

@@ -29,6 +29,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
+namespace test_operations {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
@@ -389,3 +391,5 @@ TEST_CASE("operations: SIGHUP applies the log level, names what needs a restart,
   CHECK(scalar(db, "SELECT count(*) FROM records WHERE sample_count = 50000 AND analysed = 1") == 40);
   CHECK(scalar(db, "SELECT gap_samples + ring_overflows + ring_gaps FROM acquisition_health") == 0);
 }
+
+}  // namespace test_operations

@@ -11,6 +11,8 @@
 
 #include "gearwatch/dsp/fft.hpp"
 
+namespace test_order_tracking {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::dsp;
 
 namespace {
@@ -253,3 +255,5 @@ TEST_CASE("Tracking residual share: all of a deviation at the shaft's own order 
     CHECK(measured == Approx(tracking_residual_share(x)).epsilon(0.005));  // measured: within 6e-5
   }
 }
+
+}  // namespace test_order_tracking

@@ -17,6 +17,8 @@
 #include "logging.hpp"
 #include "record_processing.hpp"
 
+namespace test_pipeline {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 namespace fs = std::filesystem;
 namespace acq = gearwatch::acquisition;
@@ -260,3 +262,5 @@ TEST_CASE("pipeline: lost samples are the samples missing from the stream, in sa
   CHECK(r.lost_samples == 300);  // 10 frames of 30 samples, on channel 0
   CHECK(r.kernel_dropped_frames == 0);
 }
+
+}  // namespace test_pipeline

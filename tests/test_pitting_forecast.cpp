@@ -17,6 +17,8 @@
 
 #include <catch2/catch.hpp>
 
+namespace test_pitting_forecast {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::wear;
 using gearwatch::testing::observation;
@@ -256,3 +258,5 @@ TEST_CASE("pitting forecast: a saturated ICS2 reading bounds the density from be
     CHECK(*f.pitting.cycles_left_high >= *f.pitting.cycles_left);
   }
 }
+
+}  // namespace test_pitting_forecast

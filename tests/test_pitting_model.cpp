@@ -10,6 +10,8 @@
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
 
+namespace test_pitting_model {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::wear;
 
@@ -174,3 +176,5 @@ TEST_CASE("Eq. 7.12 narrows the tooth's face width by its pitting density (the m
   }
   CHECK(*std::max_element(a.state().pinion_depth_m.begin(), a.state().pinion_depth_m.end()) > 0);
 }
+
+}  // namespace test_pitting_model

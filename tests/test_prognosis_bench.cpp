@@ -15,6 +15,8 @@
 
 #include "command_runner.hpp"
 
+namespace test_prognosis_bench {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::daemon::prognosis;
 
 namespace {
@@ -292,3 +294,5 @@ TEST_CASE("prognosis bench: bad options are refused in one line before anything 
   CHECK(dir.err.find(GEARWATCH_SOURCE_DIR) != std::string::npos);
   CHECK(std::count(dir.err.begin(), dir.err.end(), '\n') == 1);
 }
+
+}  // namespace test_prognosis_bench

@@ -9,6 +9,8 @@
 #include "gearwatch/acquisition/candump_log.hpp"
 #include "gearwatch/acquisition/protocol_encoder.hpp"
 
+namespace test_protocol_decoder {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::acquisition;
 
 namespace {
@@ -368,3 +370,5 @@ TEST_CASE("can protocol document: the worked examples decode as the page says", 
   CHECK(h.decoder.counters().duplicates == 0);
   CHECK(h.decoder.counters().malformed_frames == 0);
 }
+
+}  // namespace test_protocol_decoder

@@ -9,6 +9,8 @@
 #include <set>
 #include <vector>
 
+namespace test_record_analyzer {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::dsp;
 
@@ -498,3 +500,5 @@ TEST_CASE("Record analyzer: the fixed indicator names are the stored spellings, 
     CHECK(std::count(names.begin(), names.end(), std::string(to_string(i))) == (i == Indicator::input_speed_hz ? 0 : 1));
   }
 }
+
+}  // namespace test_record_analyzer

@@ -4,6 +4,8 @@
 
 #include <catch2/catch.hpp>
 
+namespace test_record_assembler {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::acquisition;
 
@@ -386,3 +388,5 @@ TEST_CASE("assembler: tacho edges, condition and life counter travel with the re
   // 1000 at index 0, plus the edges at 100.25 ... 900.25 before sample 1000: 9 revolutions.
   CHECK(*r1.input_revolutions == 1009.0);
 }
+
+}  // namespace test_record_assembler

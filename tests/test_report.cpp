@@ -15,6 +15,8 @@
 #include "gearwatch/storage/schema.hpp"
 #include "temp_dir.hpp"
 
+namespace test_report {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using namespace gearwatch::report;
 using gearwatch::testing::run_command;
@@ -489,3 +491,5 @@ TEST_CASE("report: configured channel names, skip reasons with their records and
     CHECK(note.find("<code>abrasive_wear</code> cannot be identified") != std::string::npos);
   }
 }
+
+}  // namespace test_report

@@ -15,6 +15,8 @@
 #include "gearwatch/wear/wear_loop.hpp"
 #include "temp_dir.hpp"
 
+namespace test_rig_campaign {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using gearwatch::testing::run_command;
 using Catch::Matchers::Contains;
@@ -249,3 +251,5 @@ TEST_CASE("rig campaign: the single-capture form with --physics rig carries the 
   CHECK_THAT(r.out, Contains("30000 samples x 2 channels") && Contains("3 tacho edges"));
   CHECK(life_counters(cap).front() == 1234);
 }
+
+}  // namespace test_rig_campaign

@@ -18,6 +18,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 
+namespace test_rig_end_to_end {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using gearwatch::testing::run_command;
 
@@ -286,3 +288,5 @@ TEST_CASE("rig end to end: K_wear follows the truth's coefficient and the predic
   INFO("worst depth error " << worst);
   CHECK(worst > 0);
 }
+
+}  // namespace test_rig_end_to_end

@@ -21,6 +21,8 @@
 #include "gearwatch/types/record.hpp"
 #include "order_lines.hpp"
 
+namespace test_rig_simulator {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using Catch::Matchers::Contains;
 
@@ -890,3 +892,5 @@ TEST_CASE("At 20 kHz the rig's front-end reads at 400 kHz: 4x would leave folded
   CHECK(c.shaft.automatic < -38.0);
   CHECK(c.shaft.automatic - c.shaft.reference < 6.0);
 }
+
+}  // namespace test_rig_simulator

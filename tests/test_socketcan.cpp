@@ -24,6 +24,8 @@
 
 #include <catch2/catch.hpp>
 
+namespace test_socketcan {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::acquisition;
 using namespace std::chrono_literals;
 
@@ -623,3 +625,5 @@ TEST_CASE("a non-CAN interface is a permanent error", "[.vcan]") {
   CHECK(ends[0].kind == SourceEndKind::failed);
   CHECK(ends[0].error == "interface lo is not a CAN interface");
 }
+
+}  // namespace test_socketcan

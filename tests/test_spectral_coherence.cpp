@@ -7,6 +7,8 @@
 #include <random>
 #include <vector>
 
+namespace test_spectral_coherence {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::dsp;
 
 namespace {
@@ -124,3 +126,5 @@ TEST_CASE("Spectral coherence of amplitude-modulated noise has the closed-form l
   CHECK(carrier == Approx(wf / w).margin(5.0));
   CHECK(bias < 0.1);
 }
+
+}  // namespace test_spectral_coherence

@@ -16,6 +16,8 @@
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 
+namespace test_speed_estimation {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::dsp;
 
@@ -297,3 +299,5 @@ TEST_CASE("Speed estimation: noise alone gives a reason, not an angle", "[dsp][s
   CHECK(std::string(to_string(SpeedSource::signal_estimate)) == "signal_estimate");
   CHECK(std::string(to_string(SpeedSource::tacho)) == "tacho");
 }
+
+}  // namespace test_speed_estimation

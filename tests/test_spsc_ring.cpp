@@ -5,6 +5,8 @@
 
 #include <catch2/catch.hpp>
 
+namespace test_spsc_ring {  // this file's own: the test files compile together (unity build)
+
 using gearwatch::acquisition::SpscRing;
 
 TEST_CASE("ring: capacity is a power of two and overflow is counted, never silent", "[ring]") {
@@ -57,3 +59,5 @@ TEST_CASE("ring: the high-water mark is the real fill, not the number of pushes"
   }
   CHECK(ring.high_water() == 3);
 }
+
+}  // namespace test_spsc_ring

@@ -20,6 +20,8 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/types/skip_reason.hpp"
 
+namespace test_storage {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::storage;
 namespace fs = std::filesystem;
 
@@ -415,3 +417,5 @@ TEST_CASE("storage: every wear verdict and alert value is stored, a refused part
   CHECK(count(db, "SELECT count(*) FROM alert_state WHERE kind = 'wear_mechanism' AND active = 1 AND value = 'undetermined'") == 1);
   CHECK(count(db, "SELECT count(*) FROM active_alerts") == 1);
 }
+
+}  // namespace test_storage

@@ -17,6 +17,8 @@
 
 #include "temp_dir.hpp"
 
+namespace test_storage_readers {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::storage;
 
@@ -324,3 +326,5 @@ TEST_CASE("storage readers: a new file has no tables and no gap reports table", 
   REQUIRE(has_gap_report_tables(db));
   CHECK(count_gap_reports(db) == 0);
 }
+
+}  // namespace test_storage_readers

@@ -16,6 +16,8 @@
 #include "temp_dir.hpp"
 #include <nlohmann/json.hpp>
 
+namespace test_tacholess_end_to_end {  // this file's own: the test files compile together (unity build)
+
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -132,3 +134,5 @@ TEST_CASE("tacholess end to end: a capture with no tacho at 25.6 kHz gives the o
         std::vector<std::string>{"band_above_nyquist"});
   CHECK(column(none.db, "SELECT count(*) FROM indicator_skips WHERE reason = 'no_tacho'") == std::vector<std::string>{"0"});
 }
+
+}  // namespace test_tacholess_end_to_end

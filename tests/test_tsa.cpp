@@ -7,6 +7,8 @@
 #include <random>
 #include <vector>
 
+namespace test_tsa {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::dsp;
 
 namespace {
@@ -123,3 +125,5 @@ TEST_CASE("Two-shaft separation removes both shafts' synchronous parts without d
   CHECK(rms(leftover) < bound);
   CHECK(rms(residual) == Approx(sigma).epsilon(bound / sigma + 4.0 / std::sqrt(2.0 * residual.size())));
 }
+
+}  // namespace test_tsa

@@ -11,6 +11,8 @@
 #include "gearwatch/config/config.hpp"
 #include "temp_dir.hpp"
 
+namespace test_twin_config {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 
 TEST_CASE("[twin] overrides parameters, errors name the key and its line", "[twin]") {
@@ -95,3 +97,5 @@ TEST_CASE("docs #33: the example config lists every twin key with its default an
   CHECK(loaded.kt23 == defaults.kt23);
   CHECK_NOTHROW(config::load_config(copy_path));
 }
+
+}  // namespace test_twin_config

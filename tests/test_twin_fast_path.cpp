@@ -14,6 +14,8 @@
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/twin/simulation.hpp"
 
+namespace test_twin_fast_path {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::twin;
 
@@ -100,3 +102,5 @@ TEST_CASE("The fast twin gives the reference integration's record of a worn pini
   for (int i = 0; i <= 20; ++i) wear.pinion.push_back(10e-6 * std::pow(1.0 - i / 20.0, 2));
   compare_with_reference(10.0, wear);
 }
+
+}  // namespace test_twin_fast_path

@@ -10,7 +10,10 @@
 
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/dsp/decimation.hpp"
+#include "gearwatch/dsp/record_analyzer.hpp"
 #include "order_lines.hpp"
+
+namespace test_twin_simulation {  // this file's own: the test files compile together (unity build)
 
 using namespace gearwatch;
 using namespace gearwatch::twin;
@@ -234,8 +237,6 @@ TEST_CASE("Simulation rejects bad operating points", "[twin]") {
   }
 }
 
-#include "gearwatch/dsp/record_analyzer.hpp"
-
 TEST_CASE("Simulated RMS_SA comes from the measurement analyzer and grows with wear", "[twin]") {
   // Known answer by a direct reference computation: the same analyzer on the same simulated
   // signal; and a physical ordering: a worn profile (GTE) raises the mesh-harmonic content.
@@ -339,3 +340,5 @@ TEST_CASE("At 20 kHz the twin's front-end reads at 400 kHz: 4x would leave folde
   CHECK(c.shaft.automatic < -40.0);
   CHECK(c.shaft.reference < -60.0);
 }
+
+}  // namespace test_twin_simulation

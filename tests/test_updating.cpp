@@ -21,6 +21,8 @@
 #include "gearwatch/rig.hpp"
 #include "gearwatch/twin/errors.hpp"
 
+namespace test_updating {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::wear;
 
@@ -852,3 +854,5 @@ TEST_CASE("prognosis #1: a measurement on the twin's flat part bounds K_wear fro
     CHECK(u.evidence.find("lies below it and stays") != std::string::npos);
   }
 }
+
+}  // namespace test_updating

@@ -17,6 +17,8 @@
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/wear/load_sharing.hpp"
 
+namespace test_wear_loop {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch;
 using namespace gearwatch::wear;
 
@@ -219,3 +221,5 @@ TEST_CASE("cli: twin wear --format json equals the library call, bad input exits
     CHECK(std::count(b.err.begin(), b.err.end(), '\n') == 1);
   }
 }
+
+}  // namespace test_wear_loop

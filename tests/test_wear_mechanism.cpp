@@ -10,6 +10,8 @@
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 
+namespace test_wear_mechanism {  // this file's own: the test files compile together (unity build)
+
 using namespace gearwatch::dsp;
 
 TEST_CASE("Mann-Kendall and Spearman statistics match hand computation", "[dsp][wear_mechanism]") {
@@ -399,3 +401,5 @@ TEST_CASE("defects #7: wear_min_band_share outside [0 1] is refused naming the s
     CHECK_NOTHROW(s.validate(rig));
   }
 }
+
+}  // namespace test_wear_mechanism

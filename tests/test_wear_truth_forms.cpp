@@ -24,6 +24,8 @@
 #include "gearwatch/twin/transmission_error.hpp"
 #include "temp_dir.hpp"
 
+namespace test_wear_truth_forms {  // this file's own: the test files compile together (unity build)
+
 namespace rig = gearwatch::rig;
 namespace fs = std::filesystem;
 
@@ -602,3 +604,5 @@ TEST_CASE("random campaigns: gearwatch simulate --campaign random writes the rec
   CHECK_THAT(r.err, Catch::Matchers::Contains("--campaign random needs --seed N"));
   CHECK(!fs::exists(dir / "none"));
 }
+
+}  // namespace test_wear_truth_forms
