@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cstdlib>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +24,15 @@ using Clock = std::chrono::steady_clock;
 constexpr int kQos = 1;
 constexpr auto kConnackWait = std::chrono::seconds(10);
 constexpr auto kDropCheckInterval = std::chrono::seconds(1);
+constexpr auto kRefusalLogInterval = std::chrono::seconds(60);
+// MQTT 5: a PUBACK reason code of 0x80 or more says the broker did not accept the message.
+constexpr int kFirstFailureReason = 0x80;
+
+std::string reason_text(int rc) {
+  char hex[8];
+  std::snprintf(hex, sizeof hex, "0x%02x", rc);
+  return std::string(hex) + " " + mosquitto_reason_string(rc);
+}
 
 std::string client_id_of(const config::MqttSettings& s) {
   return s.client_id.empty() ? "gearwatch-" + s.site + "-" + s.gearbox : s.client_id;
@@ -66,8 +76,15 @@ struct MqttSender::Session {
   mosquitto* client = nullptr;
   int connack = -1;                           // -1: no CONNACK yet
   bool lost = false;
-  std::map<int, std::int64_t> inflight;       // message id -> outbox row id
+  struct Sent {
+    std::int64_t row = 0;
+    storage::OutboxTopic topic = storage::OutboxTopic::record;
+  };
+  std::map<int, Sent> inflight;               // message id -> outbox row
   std::vector<std::int64_t> acknowledged;     // rows PUBACKed, not yet marked delivered
+  std::vector<storage::OutboxRefusal> refused;          // rows the broker refused, not yet marked
+  std::set<storage::OutboxTopic> accepted_topics;       // of the rows in `acknowledged`
+  std::set<storage::OutboxTopic> refused_topics;        // of the rows in `refused`
   std::int64_t last_sent = 0;                 // newest row published in this session
   int status_mid = -1;
   bool status_acknowledged = false;
@@ -87,10 +104,25 @@ void MqttSender::start() {
   init_library_once();
   if (!settings_.password_file.empty()) credentials_ = read_mqtt_credentials(settings_.password_file);
   db_ = std::make_unique<storage::Database>(database_, storage::Database::Mode::read_write);
-  alerts_ = AlertTracker(storage::load_alert_states(*db_, {AlertKind::mqtt_refused, AlertKind::mqtt_outbox_full}));
+  alerts_ = AlertTracker(storage::load_alert_states(
+      *db_, {AlertKind::mqtt_refused, AlertKind::mqtt_outbox_full, AlertKind::mqtt_publish_refused}));
+  const AlertState* refusal = alerts_.state(AlertKey{AlertKind::mqtt_publish_refused, -1});
+  clear_on_any_accept_ = refusal && refusal->active;
   dropped_seen_ = storage::OutboxReader(*db_).dropped();
   counters_.outbox_dropped = static_cast<std::uint64_t>(dropped_seen_);
   thread_ = std::thread([this] { run(); });
+}
+
+void MqttSender::settle() {
+  const auto limit = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(settings_.drain_timeout_s));
+  const auto deadline = Clock::now() + std::min<Clock::duration>(std::chrono::seconds(5), limit);
+  // Idle for longer than one pass of the session loop (mosquitto_loop waits up to 50 ms).
+  int idle_checks = 0;
+  while (Clock::now() < deadline && phase_.load() != Phase::backing_off) {
+    idle_checks = phase_.load() == Phase::connected && idle_.load() ? idle_checks + 1 : 0;
+    if (idle_checks >= 5) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
 }
 
 void MqttSender::close_alerts() {
@@ -106,6 +138,9 @@ void MqttSender::stop() {
   }
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+  if (const auto refused = counters_.publish_refused.load(); refused > 0)
+    spdlog::warn("mqtt: {} messages refused by the broker this run ({} since the database was made); they stay in the outbox marked refused",
+                 refused, storage::OutboxReader(*db_).refused());
 }
 
 void MqttSender::run() {
@@ -113,13 +148,18 @@ void MqttSender::run() {
   for (;;) {
     try {
       Session session;
+      phase_ = Phase::connecting;
       if (open_session(session)) {
+        phase_ = Phase::connected;
         backoff = std::chrono::milliseconds(settings_.reconnect_initial_ms);
         run_session(session);
       }
+      idle_ = false;
+      phase_ = Phase::backing_off;
       if (drained(session)) return;
       check_dropped();
     } catch (const std::exception& e) {
+      phase_ = Phase::backing_off;
       spdlog::error("mqtt: {} — retrying in {} ms", e.what(), backoff.count());
     }
     if (!wait_backoff(backoff)) {
@@ -134,7 +174,9 @@ void MqttSender::run() {
 bool MqttSender::open_session(Session& s) {
   s.client = mosquitto_new(client_id_of(settings_).c_str(), true, &s);
   if (!s.client) throw std::runtime_error("cannot create an MQTT client");
-  mosquitto_int_option(s.client, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+  // MQTT 5, for its PUBACK reason codes: under 3.1.1 a broker acknowledges a publish its ACL
+  // denies like any other and drops it, and the sender would mark it delivered.
+  mosquitto_int_option(s.client, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5);
   if (!settings_.password_file.empty())
     mosquitto_username_pw_set(s.client, credentials_.username.c_str(), credentials_.password.c_str());
   if (!settings_.ca_file.empty()) {
@@ -147,12 +189,18 @@ bool MqttSender::open_session(Session& s) {
   mosquitto_will_set(s.client, status.c_str(), static_cast<int>(offline.size()), offline.data(), kQos, true);
   mosquitto_connect_callback_set(s.client, [](mosquitto*, void* obj, int rc) { static_cast<Session*>(obj)->connack = rc; });
   mosquitto_disconnect_callback_set(s.client, [](mosquitto*, void* obj, int) { static_cast<Session*>(obj)->lost = true; });
-  mosquitto_publish_callback_set(s.client, [](mosquitto*, void* obj, int mid) {
+  mosquitto_publish_v5_callback_set(s.client, [](mosquitto*, void* obj, int mid, int reason, const mosquitto_property*) {
     auto* session = static_cast<Session*>(obj);
     if (mid == session->status_mid) session->status_acknowledged = true;
     const auto it = session->inflight.find(mid);
     if (it == session->inflight.end()) return;
-    session->acknowledged.push_back(it->second);
+    if (reason >= kFirstFailureReason) {
+      session->refused.push_back({it->second.row, reason_text(reason)});
+      session->refused_topics.insert(it->second.topic);
+    } else {
+      session->acknowledged.push_back(it->second.row);
+      session->accepted_topics.insert(it->second.topic);
+    }
     session->inflight.erase(it);
   });
   const std::string where = settings_.host + ":" + std::to_string(settings_.port);
@@ -202,25 +250,74 @@ void MqttSender::run_session(Session& s) {
 }
 
 void MqttSender::fill_window(Session& s) {
-  if (s.inflight.size() >= settings_.inflight) return;
+  if (s.inflight.size() >= settings_.inflight) {
+    idle_ = false;
+    return;
+  }
   storage::OutboxReader reader(*db_);
-  for (const auto& m : reader.undelivered_after(s.last_sent, settings_.inflight - s.inflight.size())) {
+  const auto rows = reader.undelivered_after(s.last_sent, settings_.inflight - s.inflight.size());
+  idle_ = rows.empty() && s.inflight.empty();
+  for (const auto& m : rows) {
     int mid = 0;
     const std::string topic = mqtt_topic(settings_, storage::to_string(m.topic));
     if (mosquitto_publish(s.client, &mid, topic.c_str(), static_cast<int>(m.payload.size()), m.payload.data(), kQos, false) !=
         MOSQ_ERR_SUCCESS)
       return;  // the loop sees the disconnect; the row goes again in the next session
-    s.inflight[mid] = m.id;
+    s.inflight[mid] = {m.id, m.topic};
     s.last_sent = m.id;
     counters_.published.fetch_add(1, std::memory_order_relaxed);
   }
 }
 
 void MqttSender::mark_acknowledged(Session& s) {
+  on_publish_refusals(s);
   if (s.acknowledged.empty()) return;
   storage::OutboxReader(*db_).mark_delivered(s.acknowledged);
   counters_.delivered.fetch_add(s.acknowledged.size(), std::memory_order_relaxed);
   s.acknowledged.clear();
+  on_publish_accepted(s);
+}
+
+// The broker refused these rows: marked refused with its reason (kept, never sent again — a
+// refusal is the broker's configuration, not a transient fault), counted, logged at the first and
+// then at most once a minute, and raised. The alert's own message may be refused too: it only adds
+// to the count, since the alert is already raised with the same value.
+void MqttSender::on_publish_refusals(Session& s) {
+  if (s.refused.empty()) return;
+  storage::OutboxReader(*db_).mark_refused(s.refused);
+  const auto n = counters_.publish_refused.fetch_add(s.refused.size()) + s.refused.size();
+  refusals_unlogged_ += s.refused.size();
+  const std::string reason = s.refused.back().reason;
+  std::string topics;
+  for (const auto t : s.refused_topics) {
+    topics += (topics.empty() ? "" : ", ") + mqtt_topic(settings_, storage::to_string(t));
+    refused_topics_.insert(t);
+  }
+  s.refused.clear();
+  s.refused_topics.clear();
+  if (const auto now = Clock::now(); now >= next_refusal_log_) {
+    spdlog::error("mqtt: broker {}:{} refused {} message(s) as user '{}' on {}: {} ({} this run); they stay in the outbox "
+                  "marked refused — check the broker's ACL",
+                  settings_.host, settings_.port, refusals_unlogged_, credentials_.username, topics, reason, n);
+    refusals_unlogged_ = 0;
+    next_refusal_log_ = now + kRefusalLogInterval;
+  }
+  raise(AlertKind::mqtt_publish_refused, true, reason,
+        "the MQTT broker refuses this gearbox's messages on " + topics + ": " + reason + " (" + std::to_string(n) +
+            " refused so far this run, kept in the local outbox marked refused)");
+}
+
+// A topic that was refused is accepted again (the ACL was fixed): the alert clears.
+void MqttSender::on_publish_accepted(Session& s) {
+  bool again = clear_on_any_accept_ && !s.accepted_topics.empty();
+  for (const auto t : s.accepted_topics) again = again || refused_topics_.count(t) > 0;
+  s.accepted_topics.clear();
+  if (!again) return;
+  refused_topics_.clear();
+  clear_on_any_accept_ = false;
+  raise(AlertKind::mqtt_publish_refused, false, "",
+        "the MQTT broker accepts this gearbox's messages again (" + std::to_string(counters_.publish_refused.load()) +
+            " refused this run)");
 }
 
 // True when stopping and nothing is left to deliver (or the deadline has passed).
@@ -239,7 +336,7 @@ void MqttSender::publish_status(Session& s, bool online) {
 
 void MqttSender::on_refusal(int rc) {
   const auto n = counters_.refused.fetch_add(1) + 1;
-  const std::string why = mosquitto_connack_string(rc);
+  const std::string why = reason_text(rc);  // an MQTT 5 CONNACK reason code
   if (n == 1 || n % 100 == 0)
     spdlog::error("mqtt: broker {}:{} refused client '{}'{}: {} (refusal {}); check mqtt.password_file — messages wait in the outbox",
                   settings_.host, settings_.port, client_id_of(settings_),

@@ -5,7 +5,10 @@
 // session: the client is destroyed, and the next session (after a backoff) publishes again from
 // the oldest undelivered row, so the order holds and only QoS 1's duplicates can occur.
 // A refusal by the broker (bad credentials, not authorised) is logged in one line, counted and
-// raised as an mqtt_refused alert; a growing outbox drop count raises mqtt_outbox_full. Alerts go
+// raised as an mqtt_refused alert; a growing outbox drop count raises mqtt_outbox_full. The
+// client speaks MQTT 5 so that a publish the broker refuses (PUBACK reason >= 0x80, e.g. outside
+// the ACL) is seen: the row is marked refused with the reason, counted, logged (rate-limited) and
+// raised as mqtt_publish_refused, cleared when a topic it was raised for is accepted. Alerts go
 // through the storage writer (their outbox rows with them) until close_alerts().
 #include <atomic>
 #include <chrono>
@@ -14,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -34,6 +38,7 @@ struct MqttCounters {
   std::atomic<std::uint64_t> connect_failures{0};  ///< unreachable, timed out or lost before CONNACK
   std::atomic<std::uint64_t> refused{0};           ///< CONNACK refusals (credentials, authorisation)
   std::atomic<std::uint64_t> outbox_dropped{0};    ///< messages dropped at the outbox limit (database total)
+  std::atomic<std::uint64_t> publish_refused{0};   ///< outbox messages the broker refused (PUBACK reason >= 0x80)
 };
 
 /// "username:password" from the first line of `password_file`; a relative name is looked up in
@@ -55,6 +60,10 @@ class MqttSender {
 
   /// Reads the credentials (throws on an unreadable file) and starts the thread.
   void start();
+  /// Gives the sender up to 5 s (at most drain_timeout_s) to publish what is committed while it
+  /// is connected, so a refusal or a full outbox met now is still raised through the writer.
+  /// Returns at once when it is not connected (backing off after a failure or a refusal).
+  void settle();
   /// After this, alerts are only logged: call before the storage writer stops.
   void close_alerts();
   /// Delivers what the outbox holds for up to drain_timeout_s, says offline, joins.
@@ -72,6 +81,8 @@ class MqttSender {
   void publish_status(Session& s, bool online);
   void on_refusal(int rc);
   void on_accepted();
+  void on_publish_refusals(Session& s);
+  void on_publish_accepted(Session& s);
   void check_dropped();
   void raise(AlertKind kind, bool present, const std::string& value, const std::string& message);
   bool wait_backoff(std::chrono::milliseconds delay);
@@ -84,10 +95,17 @@ class MqttSender {
   std::unique_ptr<storage::Database> db_;   // the sender thread's own connection
   AlertTracker alerts_;
   std::int64_t dropped_seen_ = -1;
+  std::set<storage::OutboxTopic> refused_topics_;   // topics refused since the alert was raised
+  bool clear_on_any_accept_ = false;                // raised by an earlier run: topics unknown
+  std::uint64_t refusals_unlogged_ = 0;
+  std::chrono::steady_clock::time_point next_refusal_log_{};
   std::chrono::steady_clock::time_point next_drop_check_{};
   std::mutex mutex_;
   std::condition_variable wake_;
   bool stopping_ = false;
+  enum class Phase : int { connecting, connected, backing_off };
+  std::atomic<Phase> phase_{Phase::connecting};
+  std::atomic<bool> idle_{false};  // connected, nothing in flight, nothing committed left to send
   bool alerts_open_ = true;
   std::chrono::steady_clock::time_point drain_deadline_{};
   std::thread thread_;

@@ -428,6 +428,7 @@ std::string Pipeline::stop_in_reverse() {
   acquisition_.join();
   processing_.join();
   if (model_) model_->stop();  // drains what it holds
+  if (mqtt_) mqtt_->settle();        // refusals met now are still raised through the writer
   if (mqtt_) mqtt_->close_alerts();  // its alerts need the writer, which stops next
   writer_->submit(health(true));
   std::string run_end_reason = run_end_text(end_reason_, stop_signal_, mode_);
@@ -768,6 +769,7 @@ void Pipeline::add_mqtt_health(storage::HealthSnapshot& s) const {
   s[C::mqtt_connect_failures] = load(m.connect_failures);
   s[C::mqtt_refused] = load(m.refused);
   s[C::mqtt_outbox_dropped] = load(m.outbox_dropped);
+  s[C::mqtt_publish_refused] = load(m.publish_refused);
 }
 
 }  // namespace

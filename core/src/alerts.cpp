@@ -29,6 +29,9 @@ AlertSeverity severity_of(AlertKind kind) noexcept {
     case AlertKind::mqtt_refused: return AlertSeverity::warning;
     // Messages are being lost for good: the plant's history of this gearbox gets a hole.
     case AlertKind::mqtt_outbox_full: return AlertSeverity::alarm;
+    // The broker took the connection but not these messages: they never reach the plant unless
+    // someone fixes the ACL (they stay in the local database, marked refused).
+    case AlertKind::mqtt_publish_refused: return AlertSeverity::alarm;
   }
   return AlertSeverity::warning;
 }

@@ -46,6 +46,7 @@ const char* to_string(HealthCounter counter) noexcept {
     case HealthCounter::mqtt_connect_failures: return "mqtt_connect_failures";
     case HealthCounter::mqtt_refused: return "mqtt_refused";
     case HealthCounter::mqtt_outbox_dropped: return "mqtt_outbox_dropped";
+    case HealthCounter::mqtt_publish_refused: return "mqtt_publish_refused";
   }
   return "unknown";
 }

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include <nlohmann/json.hpp>
+#include <sqlite3.h>
 
 #include "gearwatch/storage/sqlite.hpp"
 
@@ -137,21 +138,21 @@ void OutboxWriter::health(const HealthSnapshot& h) {
 
 void OutboxWriter::enforce_limit() {
   const auto limit = static_cast<std::int64_t>(identity_.limit);
-  Statement count(db_, "SELECT count(*) FROM outbox WHERE delivered_at IS NULL");
+  Statement count(db_, "SELECT count(*) FROM outbox WHERE delivered_at IS NULL AND refused_at IS NULL");
   count.step();
   const std::int64_t excess = count.get_int(0) - limit;
   if (excess > 0) {
-    Statement drop(db_, "DELETE FROM outbox WHERE id IN (SELECT id FROM outbox WHERE delivered_at IS NULL ORDER BY id LIMIT ?)");
+    Statement drop(db_, "DELETE FROM outbox WHERE id IN (SELECT id FROM outbox WHERE delivered_at IS NULL AND refused_at IS NULL ORDER BY id LIMIT ?)");
     drop.bind(1, excess).run();
     Statement counted(db_, "UPDATE outbox_counters SET value = value + ? WHERE name = 'dropped'");
     counted.bind(1, excess).run();
   }
-  Statement prune(db_, "DELETE FROM outbox WHERE delivered_at IS NOT NULL AND id <= (SELECT max(id) FROM outbox) - ?");
+  Statement prune(db_, "DELETE FROM outbox WHERE (delivered_at IS NOT NULL OR refused_at IS NOT NULL) AND id <= (SELECT max(id) FROM outbox) - ?");
   prune.bind(1, 2 * limit).run();
 }
 
 std::vector<OutboxMessage> OutboxReader::undelivered_after(std::int64_t after, std::size_t limit) {
-  Statement s(db_, "SELECT id, topic, payload FROM outbox WHERE delivered_at IS NULL AND id > ? ORDER BY id LIMIT ?");
+  Statement s(db_, "SELECT id, topic, payload FROM outbox WHERE delivered_at IS NULL AND refused_at IS NULL AND id > ? ORDER BY id LIMIT ?");
   s.bind(1, after).bind(2, static_cast<std::int64_t>(limit));
   std::vector<OutboxMessage> out;
   while (s.step()) {
@@ -165,13 +166,31 @@ std::vector<OutboxMessage> OutboxReader::undelivered_after(std::int64_t after, s
 void OutboxReader::mark_delivered(const std::vector<std::int64_t>& ids) {
   if (ids.empty()) return;
   Transaction tx(db_);
-  Statement s(db_, "UPDATE outbox SET delivered_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ? AND delivered_at IS NULL");
+  Statement s(db_, "UPDATE outbox SET delivered_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ? AND delivered_at IS NULL AND refused_at IS NULL");
   for (const auto id : ids) s.bind(1, id).run();
   tx.commit();
 }
 
 std::int64_t OutboxReader::undelivered_count() {
-  Statement s(db_, "SELECT count(*) FROM outbox WHERE delivered_at IS NULL");
+  Statement s(db_, "SELECT count(*) FROM outbox WHERE delivered_at IS NULL AND refused_at IS NULL");
+  return s.step() ? s.get_int(0) : 0;
+}
+
+void OutboxReader::mark_refused(const std::vector<OutboxRefusal>& refusals) {
+  if (refusals.empty()) return;
+  Transaction tx(db_);
+  Statement s(db_, "UPDATE outbox SET refused_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), refused_reason = ?"
+                   " WHERE id = ? AND delivered_at IS NULL AND refused_at IS NULL");
+  Statement counted(db_, "UPDATE outbox_counters SET value = value + 1 WHERE name = 'refused'");
+  for (const auto& r : refusals) {
+    s.bind(1, r.reason).bind(2, r.id).run();
+    if (sqlite3_changes(db_.handle()) > 0) counted.run();
+  }
+  tx.commit();
+}
+
+std::int64_t OutboxReader::refused() {
+  Statement s(db_, "SELECT value FROM outbox_counters WHERE name = 'refused'");
   return s.step() ? s.get_int(0) : 0;
 }
 

@@ -1,5 +1,6 @@
 #include "gearwatch/storage/schema.hpp"
 
+#include <algorithm>
 #include <array>
 #include <string>
 
@@ -15,7 +16,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 11> kMigrations{
+constexpr std::array<const char*, 12> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -578,6 +579,17 @@ ALTER TABLE health_snapshots ADD COLUMN mqtt_connect_failures INTEGER NOT NULL D
 ALTER TABLE health_snapshots ADD COLUMN mqtt_refused INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE health_snapshots ADD COLUMN mqtt_outbox_dropped INTEGER NOT NULL DEFAULT 0;
 )SQL",
+    // 11 -> 12: a message the broker refuses (MQTT 5 PUBACK reason >= 0x80, e.g. outside the ACL)
+    // is marked refused with the broker's reason, kept like a delivered one, never sent again
+    // automatically, and counted for the database's life (docs/mqtt.md).
+    R"SQL(
+ALTER TABLE outbox ADD COLUMN refused_at TEXT;
+ALTER TABLE outbox ADD COLUMN refused_reason TEXT;
+DROP INDEX outbox_undelivered;
+CREATE INDEX outbox_undelivered ON outbox(id) WHERE delivered_at IS NULL AND refused_at IS NULL;
+INSERT INTO outbox_counters(name, value) VALUES ('refused', 0);
+ALTER TABLE health_snapshots ADD COLUMN mqtt_publish_refused INTEGER NOT NULL DEFAULT 0;
+)SQL",
 };
 
 }  // namespace
@@ -659,6 +671,15 @@ void refuse_foreign_database(const std::string& path, const DatabaseIdentity& id
 
 void enable_foreign_keys(Database& db) { db.exec("PRAGMA foreign_keys = ON"); }
 
+void migrate_to_version(Database& db, int version) {
+  for (int v = db.user_version(); v < std::min(version, current_schema_version()); ++v) {
+    Transaction tx(db);
+    db.exec(kMigrations[static_cast<std::size_t>(v)]);
+    db.set_user_version(v + 1);
+    tx.commit();
+  }
+}
+
 void open_and_migrate(Database& db, const Vocabulary& extra) {
   // Identified before anything is written: not even the journal mode of another application's
   // file may change.
@@ -671,12 +692,7 @@ void open_and_migrate(Database& db, const Vocabulary& extra) {
     throw SqliteError(0, db.path() + ": schema version " + std::to_string(have) +
                              " is newer than this gearwatch understands (" + std::to_string(current_schema_version()) + ")");
   }
-  for (int v = have; v < current_schema_version(); ++v) {
-    Transaction tx(db);
-    db.exec(kMigrations[static_cast<std::size_t>(v)]);
-    db.set_user_version(v + 1);
-    tx.commit();
-  }
+  migrate_to_version(db, current_schema_version());
   // The vocabulary is this build's: rewritten at every writable open, so the database accepts
   // exactly the values this binary can produce.
   Vocabulary vocabulary = core_vocabulary();

@@ -551,8 +551,26 @@ TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gea
   const pid_t x = spawn({"replay", (f.dir / "gbX.log").string(), "--db", f.db("gbX").string(), "--config", (f.dir / "gbX.toml").string()},
                         f.dir / "out-gbX", f.dir / "err-gbX");
   REQUIRE(wait_bounded(x, 120s) == 0);
-  // The broker acknowledged gbX's messages (MQTT 3.1.1 has no refusal of a publish) and dropped them.
-  CHECK(std::stoll(sqlite_rows(f.db("gbX"), "SELECT count(*) FROM outbox WHERE delivered_at IS NULL").at(0)) == 0);
+  // The broker refused every one of gbX's messages (MQTT 5 PUBACK 0x87): each outbox row is marked
+  // refused with that reason, none delivered, none waiting; the run counted each once, said so in
+  // one line, and raised one alert (its own message refused too, so counted among them).
+  const auto gbx_count = [&](const std::string& sql) { return std::stoll(sqlite_rows(f.db("gbX"), sql).at(0)); };
+  const long long gbx_messages = gbx_count("SELECT count(*) FROM outbox");
+  CHECK(gbx_count("SELECT count(*) FROM outbox WHERE topic = 'record'") == gbx_count("SELECT count(*) FROM records"));
+  CHECK(gbx_count("SELECT count(*) FROM outbox WHERE refused_reason = '0x87 Not authorized' AND refused_at IS NOT NULL") == gbx_messages);
+  CHECK(gbx_count("SELECT count(*) FROM outbox WHERE delivered_at IS NOT NULL") == 0);
+  CHECK(gbx_count("SELECT value FROM outbox_counters WHERE name = 'refused'") == gbx_messages);
+  const std::string gbx_err = read_all(f.dir / "err-gbX");
+  INFO(gbx_err);
+  CHECK(gbx_err.find("mqtt: " + std::to_string(gbx_messages) + " messages refused by the broker this run") != std::string::npos);
+  CHECK(occurrences(gbx_err, "check the broker's ACL") == 1);
+  CHECK(gbx_count("SELECT count(*) FROM alert_events WHERE kind = 'mqtt_publish_refused' AND transition = 'raised' "
+                  "AND value = '0x87 Not authorized' AND severity = 'alarm'") == 1);
+  CHECK(gbx_count("SELECT count(*) FROM alert_events WHERE kind = 'mqtt_publish_refused'") == 1);
+  CHECK(gbx_count("SELECT count(*) FROM outbox WHERE topic = 'alert' AND payload LIKE '%mqtt_publish_refused%'") == 1);
+  // gbA's messages, all accepted: none refused, no alert.
+  CHECK(std::stoll(sqlite_rows(f.db("gbA"), "SELECT count(*) FROM outbox WHERE refused_at IS NOT NULL").at(0)) == 0);
+  CHECK(std::stoll(sqlite_rows(f.db("gbA"), "SELECT count(*) FROM alert_events WHERE kind = 'mqtt_publish_refused'").at(0)) == 0);
   const long long expected = f.outbox_rows("gbA");
   REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == expected; }, 60s));
   std::this_thread::sleep_for(1s);

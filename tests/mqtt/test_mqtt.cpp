@@ -18,6 +18,7 @@
 #include "command_runner.hpp"
 #include "gearwatch/config/config.hpp"
 #include "gearwatch/storage/outbox.hpp"
+#include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/storage/writer.hpp"
 #include "mqtt/mqtt_broker.hpp"
@@ -277,7 +278,7 @@ TEST_CASE("mqtt: a wrong password is refused, counted, said in one line and rais
   std::size_t refused_lines = 0;
   for (std::size_t at = err.find("refused client"); at != std::string::npos; at = err.find("refused client", at + 1)) ++refused_lines;
   CHECK(refused_lines == 1);
-  CHECK(err.find("not authorised") != std::string::npos);
+  CHECK(err.find("0x87 Not authorized") != std::string::npos);  // the MQTT 5 CONNACK reason
   CHECK(scalar(s.db, "SELECT mqtt_refused FROM health_snapshots WHERE final = 1 ORDER BY id DESC LIMIT 1") >= 1);
   CHECK(scalar(s.db, "SELECT count(*) FROM alert_events WHERE kind = 'mqtt_refused' AND transition = 'raised'") == 1);
   // Nothing was delivered: every message, the refusal's alert among them, waits in the outbox.
@@ -361,4 +362,42 @@ TEST_CASE("mqtt: the outbox keeps its limit by dropping the oldest undelivered m
   reader.mark_delivered({first[0].id, first[1].id});
   CHECK(reader.undelivered_count() == 98);
   CHECK(reader.undelivered_after(0, 1).at(0).id == first[2].id);
+}
+
+TEST_CASE("mqtt: a schema 11 outbox migrates to 12, and a refused row is kept, never sent again and counted once", "[mqtt][storage]") {
+  TempDir dir("mqtt-outbox-migration");
+  const auto path = dir / "v11.db";
+  {
+    Database d(path.string(), Database::Mode::read_write_create);
+    gearwatch::storage::migrate_to_version(d, 11);
+    REQUIRE(d.user_version() == 11);
+    // As a schema 11 daemon left it: row 1 delivered, rows 2, 3 and 4 waiting.
+    Statement add(d, "INSERT INTO outbox(id, topic, payload, delivered_at) VALUES (?, 'health', '{}', ?)");
+    add.bind(1, 1).bind(2, "2026-01-01T00:00:00.000Z").run();
+    for (int id : {2, 3, 4}) add.bind(1, id).bind_null(2).run();
+  }
+  Database d(path.string(), Database::Mode::read_write);
+  gearwatch::storage::open_and_migrate(d);
+  CHECK(d.user_version() == 12);
+  CHECK(scalar(path, "SELECT count(*) FROM outbox") == 4);
+  CHECK(scalar(path, "SELECT count(*) FROM pragma_table_info('health_snapshots') WHERE name = 'mqtt_publish_refused'") == 1);
+  CHECK(scalar(path, "SELECT count(*) FROM outbox WHERE refused_at IS NOT NULL OR refused_reason IS NOT NULL") == 0);
+  gearwatch::storage::OutboxReader reader(d);
+  CHECK(reader.refused() == 0);
+  CHECK(reader.undelivered_count() == 3);
+  const auto ids_waiting = [&] {
+    std::vector<std::int64_t> ids;
+    for (const auto& m : reader.undelivered_after(0, 10)) ids.push_back(m.id);
+    return ids;
+  };
+  CHECK(ids_waiting() == std::vector<std::int64_t>{2, 3, 4});
+  reader.mark_refused({{3, "0x87 Not authorized"}});
+  reader.mark_refused({{3, "0x87 Not authorized"}, {1, "0x87 Not authorized"}});  // again, and a delivered row: no effect
+  reader.mark_delivered({3});                                                       // a refused row stays refused
+  CHECK(reader.refused() == 1);
+  CHECK(reader.undelivered_count() == 2);
+  CHECK(ids_waiting() == std::vector<std::int64_t>{2, 4});
+  CHECK(ids_of(path, "SELECT id FROM outbox WHERE refused_reason = '0x87 Not authorized' AND refused_at IS NOT NULL "
+                     "AND delivered_at IS NULL") == std::vector<std::int64_t>{3});
+  CHECK(ids_of(path, "SELECT id FROM outbox WHERE delivered_at IS NOT NULL") == std::vector<std::int64_t>{1});
 }

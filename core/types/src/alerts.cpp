@@ -19,6 +19,7 @@ const char* to_string(AlertKind kind) noexcept {
     case AlertKind::tacho_speed_mismatch: return "tacho_speed_mismatch";
     case AlertKind::mqtt_refused: return "mqtt_refused";
     case AlertKind::mqtt_outbox_full: return "mqtt_outbox_full";
+    case AlertKind::mqtt_publish_refused: return "mqtt_publish_refused";
   }
   return "unknown";
 }

@@ -163,6 +163,7 @@ enum class HealthCounter : std::uint8_t {
   mqtt_connect_failures,
   mqtt_refused,
   mqtt_outbox_dropped,
+  mqtt_publish_refused,  ///< messages the broker refused (MQTT 5 PUBACK reason >= 0x80), this run
 };
 inline constexpr std::array kAllHealthCounters{
     HealthCounter::frames,
@@ -200,6 +201,7 @@ inline constexpr std::array kAllHealthCounters{
     HealthCounter::mqtt_connect_failures,
     HealthCounter::mqtt_refused,
     HealthCounter::mqtt_outbox_dropped,
+    HealthCounter::mqtt_publish_refused,
 };
 /// The counter's column in health_snapshots.
 const char* to_string(HealthCounter counter) noexcept;

@@ -6,8 +6,9 @@
 //
 // Limit: at most `limit` undelivered rows are kept. When a transaction would leave more, the
 // oldest undelivered rows are deleted in that transaction and counted (outbox_counters 'dropped');
-// the sender turns a growing count into an mqtt_outbox_full alert. Delivered rows are pruned to
-// the newest `limit` as well.
+// the sender turns a growing count into an mqtt_outbox_full alert. Delivered and refused rows are
+// pruned to the newest `limit` as well. A row the broker refused (MQTT 5 PUBACK reason >= 0x80)
+// is marked refused with the reason and counted (outbox_counters 'refused'); it is not sent again.
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -57,13 +58,23 @@ struct OutboxMessage {
   std::string payload;  ///< JSON, as stored and as published
 };
 
-/// The sender's side, on its own connection.
+/// A message the broker refused: its row and the broker's reason ("0x87 Not authorized").
+struct OutboxRefusal {
+  std::int64_t id = 0;
+  std::string reason;
+};
+
+/// The sender's side, on its own connection. "Undelivered" means neither delivered nor refused.
 class OutboxReader {
  public:
   explicit OutboxReader(Database& db) : db_(db) {}
   /// Undelivered rows with id > after, oldest first, at most `limit`.
   std::vector<OutboxMessage> undelivered_after(std::int64_t after, std::size_t limit);
   void mark_delivered(const std::vector<std::int64_t>& ids);
+  /// Marks the rows refused with their reasons (never sent again) and counts each once.
+  void mark_refused(const std::vector<OutboxRefusal>& refusals);
+  /// Messages the broker refused since the database was made (pruned rows included).
+  std::int64_t refused();
   std::int64_t undelivered_count();
   /// Messages dropped at the limit since the database was made.
   std::int64_t dropped();

@@ -69,6 +69,9 @@ Vocabulary core_vocabulary();
 /// it is not empty and not gearwatch's. Sets PRAGMA application_id (also on a gearwatch database
 /// written before it was set).
 void open_and_migrate(Database& db, const Vocabulary& extra = {});
+/// Applies the missing steps up to `version` only (each in its own transaction), writing no
+/// vocabulary: for tests that build a database of an older schema and migrate it.
+void migrate_to_version(Database& db, int version);
 
 /// Turns on foreign-key checks for this connection (open_and_migrate does it too): for a
 /// connection that writes to a database another process has already migrated.

@@ -26,6 +26,7 @@ enum class AlertKind : std::uint8_t {
   tacho_speed_mismatch,///< the tacho's mean speed disagrees with the vibration signal's estimate; value = the relative difference
   mqtt_refused,        ///< the MQTT broker refuses this gearbox (bad credentials, not authorised); value = the broker's reason
   mqtt_outbox_full,    ///< the MQTT outbox reached its limit and dropped its oldest messages; value = how many so far
+  mqtt_publish_refused,///< the MQTT broker refused published messages (MQTT 5 PUBACK reason >= 0x80, e.g. outside the ACL); value = the reason
 };
 inline constexpr std::array kAllAlertKinds{AlertKind::wear_mechanism,   AlertKind::carrier_band_jump,
                                            AlertKind::sensor_missing,   AlertKind::sensor_flat_line,
@@ -34,7 +35,7 @@ inline constexpr std::array kAllAlertKinds{AlertKind::wear_mechanism,   AlertKin
                                            AlertKind::twin_drift,       AlertKind::tacho_missing,
                                            AlertKind::cycle_count_fault, AlertKind::sample_rate_mismatch,
                                            AlertKind::tacho_speed_mismatch, AlertKind::mqtt_refused,
-                                           AlertKind::mqtt_outbox_full};
+                                           AlertKind::mqtt_outbox_full, AlertKind::mqtt_publish_refused};
 const char* to_string(AlertKind kind) noexcept;
 
 enum class AlertSeverity : std::uint8_t { info, warning, alarm };
