@@ -661,6 +661,38 @@ TEST_CASE("prognosis #1: a K_wear four decades from the start is reached: RMS_SA
   CHECK_FALSE(model.memory().k_wear_last_insensitive);
 }
 
+TEST_CASE("prognosis #1: where RMS_SA meets the measurement at two K_wear (it falls with the wear, then rises) the first crossing from the anchor is taken",
+          "[model][updating]") {
+  // RMS_SA = 1 − 0.8 x + 0.2 x², x = K / k_ref: it falls from 1 (no wear) to its minimum 0.2 at
+  // x = 2 and rises; a measurement of 0.4 meets it at x = 1 and x = 3 (x² − 4x + 3 = 0). The truth
+  // is x* = 1: the pair's RMS_SA went down from the anchor's 1 to 0.4. The model starts at x0 = 4
+  // (RMS 1.0): the sensitivity read K1 = K0 · 0.4 / 1.0 (x = 1.6, RMS 0.232) brackets the root at
+  // x = 3 with x0, which the bracket's refinement alone would return: 3× the truth's wear.
+  ModelSettings s = root_find_settings();
+  s.convergence_tolerance = 1e-4;
+  s.k_wear_min_si = 1e-34;
+  PowerLawTwin twin(s, 0.3);
+  twin.k_ref = 1e-26;
+  twin.shape = [](double x) { return 1 - 0.8 * x + 0.2 * x * x; };
+  s.loop.k_wear_si = 4 * twin.k_ref;
+  const double measured = 0.4;
+  REQUIRE(twin.rms(twin.k_ref) == Approx(measured).epsilon(1e-12));
+  REQUIRE(twin.rms(3 * twin.k_ref) == Approx(measured).epsilon(1e-12));
+  TwinModel model(twin::GearboxParameters{}, s, twin.simulator());
+  const ModelRunReport r = observe_one_update(model, twin, measured);
+  const KUpdate& u = r.updates[0];
+  INFO(u.evidence);
+  CHECK(u.outcome == UpdateOutcome::converged);
+  CHECK(std::abs(u.simulated_after - measured) / measured <= 1e-4);
+  // d RMS / d ln x at x = 1 is x (−0.8 + 0.4 x) = −0.4: |Δ ln K| ≤ 1e-4 · 0.4 / 0.4.
+  CHECK(std::abs(std::log(u.new_value / twin.k_ref)) <= 1.5 * 1e-4);
+  CHECK(u.iterations <= s.max_wear_iterations);
+  CHECK(u.evidence.find("the first crossing along the wear path from the anchor") != std::string::npos);
+  CHECK(r.k_wear_si == u.new_value);
+  // The depth the kept K gives is the truth's: c · K* after the record's cycles.
+  CHECK(depth_mean(model.memory().current.state) == Approx(twin.depth_per_k * twin.k_ref).epsilon(2e-4));
+}
+
 TEST_CASE("prognosis #1: an RMS_SA offset at zero wear is the pair's commissioning ratio: with the true K at the start K stays and the forecast is the offset-free one",
           "[model][updating]") {
   // The measurement is the twin's closed form (RMS_SA = a (K/k_ref)^0.3 + b at the truth's depth)

@@ -783,14 +783,60 @@ void TwinModel::update_k_wear_root_find(WearSearch& search, KUpdate& u) {
   pts.push_back({x1, *g1});
   if (std::isfinite(*g1)) u.elasticity = (*g1 - g0) / (x1 - x0);
   u.outcome = UpdateOutcome::iteration_limit;
-  if (std::abs(std::expm1(*g1)) <= settings_.convergence_tolerance) return finish_root(pts.back(), pts, search, u);
+  if (std::abs(std::expm1(*g1)) <= settings_.convergence_tolerance) {
+    LogKPoint root = pts.back();
+    if (seek_first_crossing(pts, root, search, u)) finish_root(root, pts, search, u);
+    return;
+  }
   // The first direction is where the read brought RMS_SA closer; the other is tried when that one
   // ends at a bound (RMS_SA need not be monotone in K: early in life it dips before it rises).
   const int toward = std::abs(*g1) < std::abs(g0) ? (x1 > x0 ? 1 : -1) : (x1 > x0 ? -1 : 1);
   std::optional<LogKPoint> converged;
   if (!bracket_of(pts) && !expand_bracket(pts, toward, search, u, converged)) return;
   if (!converged && !refine_bracket(pts, search, u, converged)) return;
-  finish_root(*converged, pts, search, u);
+  LogKPoint root = *converged;
+  if (seek_first_crossing(pts, root, search, u)) finish_root(root, pts, search, u);
+}
+
+bool TwinModel::seek_first_crossing(std::vector<LogKPoint>& pts, LogKPoint& root, WearSearch& search, KUpdate& u) {
+  // RMS_SA need not be monotone in the wear: it may fall as the profile wears, pass a minimum and
+  // rise, so one measurement can meet it at two K. The wear only grows from the anchor, and the
+  // twin at the anchor's state (the range's lower end) is where RMS_SA starts: the first K along
+  // that path that meets the measurement needs the least wear, and a larger one assumes the pair
+  // passed the minimum and came back to the same level between two records, which nothing in
+  // the record says. The lower end on the other side of the measurement than the K just below
+  // the root proves a crossing below it (continuity).
+  const double lo = std::log(settings_.k_wear_min_si);
+  std::optional<LogKPoint> below, at_lo;
+  for (const LogKPoint& p : pts) {
+    if (!std::isfinite(p.g) || p.x >= root.x) continue;
+    if (!below || p.x > below->x) below = p;
+    if (std::abs(p.x - lo) < 1e-12) at_lo = p;
+  }
+  if (!below || std::abs(root.x - lo) < 1e-12) return true;
+  if (!at_lo) {
+    std::optional<LogKPoint> converged;
+    const PointResult r = evaluate_point(lo, pts, search, u, converged);
+    if (r == PointResult::failed) return false;
+    at_lo = pts.back();
+  }
+  if ((at_lo->g > 0) == (below->g > 0)) return true;   // no sign change below the root: it is the first
+  std::vector<LogKPoint> lower;
+  for (const LogKPoint& p : pts)
+    if (p.x <= below->x) lower.push_back(p);
+  std::optional<LogKPoint> converged;
+  if (std::abs(std::expm1(at_lo->g)) <= settings_.convergence_tolerance) converged = *at_lo;
+  const std::size_t known = lower.size();
+  const bool found = converged || refine_bracket(lower, search, u, converged);
+  pts.insert(pts.end(), lower.begin() + static_cast<std::ptrdiff_t>(known), lower.end());
+  if (!found) return false;
+  const double upper = root.x;
+  root = *converged;
+  for (const WearTrial& t : search.trials)
+    if (std::abs(std::log(t.k) - root.x) < 1e-9) search.best = t;
+  search.why += std::string(search.why.empty() ? "" : "; ") + "RMS_SA meets the measurement at K_wear " + k_of(root.x) + " and " +
+                k_of(upper) + " m^2/N: the first crossing along the wear path from the anchor, the smaller, is taken";
+  return true;
 }
 
 bool TwinModel::expand_bracket(std::vector<LogKPoint>& pts, int dir, WearSearch& search, KUpdate& u,

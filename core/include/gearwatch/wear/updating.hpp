@@ -337,6 +337,11 @@ class TwinModel {
   bool refuse_flat(const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u) const;
   /// Illinois inside the bracket; false with the reason (iteration limit, insensitive) when not converged.
   bool refine_bracket(std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u, std::optional<LogKPoint>& converged);
+  /// Of several K whose RMS_SA meets the measurement, the first along the wear path from the
+  /// anchor (the smallest): `root` replaced, and search.best with it, when the range's lower end
+  /// lies on the other side of the measurement than the K just below the root. False (reason in
+  /// u, search) when the smaller root was bracketed but not reached.
+  bool seek_first_crossing(std::vector<LogKPoint>& pts, LogKPoint& root, WearSearch& search, KUpdate& u);
   /// Converged at `root`: identified when |d ln RMS_SA / d ln K| there reaches min_wear_elasticity.
   void finish_root(const LogKPoint& root, const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u);
   void calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report);
