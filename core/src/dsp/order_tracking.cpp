@@ -4,8 +4,12 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <numbers>
 #include <stdexcept>
+#include <tuple>
 
 namespace gearwatch::dsp {
 
@@ -116,6 +120,55 @@ BandLimitedInterpolator::BandLimitedInterpolator(int zero_crossings, int phases,
   set_cutoff(1.0);
 }
 
+namespace {
+/// The kernel's table for `half` taps each side (from the zero crossings and the cutoff), `phases`,
+/// β and the cutoff: (phases + 1) rows × 2·half taps.
+std::vector<float> kaiser_sinc_table(int phases, double beta, double cutoff, int half) {
+  const int taps = 2 * half;
+  std::vector<float> table(static_cast<std::size_t>(phases + 1) * taps, 0.0f);
+  const double i0_beta = bessel_i0(beta);
+  std::vector<double> row(static_cast<std::size_t>(taps));
+  for (int p = 0; p <= phases; ++p) {
+    const double frac = static_cast<double>(p) / phases;
+    double sum = 0.0;
+    for (int m = 0; m < taps; ++m) {
+      // tap m multiplies sample floor(t) - half + 1 + m, at distance u from t
+      const double u = frac + half - 1 - m;
+      const double v = cutoff * u;
+      const double sinc = std::abs(v) < 1e-12 ? 1.0 : std::sin(std::numbers::pi * v) / (std::numbers::pi * v);
+      const double r = u / half;
+      const double window = std::abs(r) >= 1.0 ? 0.0 : bessel_i0(beta * std::sqrt(1.0 - r * r)) / i0_beta;
+      row[m] = cutoff * sinc * window;
+      sum += row[m];
+    }
+    // Unit DC gain at every phase: removes the small phase-dependent ripple of the truncated kernel.
+    for (int m = 0; m < taps; ++m)
+      table[static_cast<std::size_t>(p) * taps + static_cast<std::size_t>(m)] = static_cast<float>(row[m] / sum);
+  }
+  return table;
+}
+
+/// The tables built so far, shared by every interpolator of the process: a table depends only on
+/// its four parameters, and the resampler quantises the cutoff to 64 values, while the gap
+/// diagnosis builds a resampler per record it reduces (thousands), each rebuilding the same few
+/// tables (hundreds of thousands of Bessel evaluations each) otherwise. Never freed: at most a
+/// few dozen tables of a few hundred kB.
+std::shared_ptr<const std::vector<float>> shared_kaiser_sinc_table(int zero_crossings, int phases, double beta, double cutoff,
+                                                                   int half) {
+  using Key = std::tuple<int, int, double, double>;
+  static std::mutex mutex;
+  static std::map<Key, std::shared_ptr<const std::vector<float>>> tables;
+  const Key key{zero_crossings, phases, beta, cutoff};
+  {
+    std::lock_guard lock(mutex);
+    if (auto it = tables.find(key); it != tables.end()) return it->second;
+  }
+  auto table = std::make_shared<const std::vector<float>>(kaiser_sinc_table(phases, beta, cutoff, half));
+  std::lock_guard lock(mutex);
+  return tables.emplace(key, std::move(table)).first->second;
+}
+}  // namespace
+
 void BandLimitedInterpolator::set_cutoff(double cutoff) {
   if (!(cutoff > 0.0 && cutoff <= 1.0)) throw std::invalid_argument("BandLimitedInterpolator: cutoff in (0,1]");
   if (cutoff == cutoff_) return;
@@ -123,26 +176,7 @@ void BandLimitedInterpolator::set_cutoff(double cutoff) {
   int half = static_cast<int>(std::ceil(zero_crossings_ / cutoff));
   half += half % 2;  // taps_ a multiple of 4 for the four-lane loop (extra taps are window zeros)
   taps_ = 2 * half;
-  table_.assign(static_cast<std::size_t>(phases_ + 1) * taps_, 0.0);
-  const double i0_beta = bessel_i0(beta_);
-  for (int p = 0; p <= phases_; ++p) {
-    const double frac = static_cast<double>(p) / phases_;
-    std::vector<double> row(static_cast<std::size_t>(taps_));
-    double sum = 0.0;
-    for (int m = 0; m < taps_; ++m) {
-      // tap m multiplies sample floor(t) - half + 1 + m, at distance u from t
-      const double u = frac + half - 1 - m;
-      const double v = cutoff * u;
-      const double sinc = std::abs(v) < 1e-12 ? 1.0 : std::sin(std::numbers::pi * v) / (std::numbers::pi * v);
-      const double r = u / half;
-      const double window = std::abs(r) >= 1.0 ? 0.0 : bessel_i0(beta_ * std::sqrt(1.0 - r * r)) / i0_beta;
-      row[m] = cutoff * sinc * window;
-      sum += row[m];
-    }
-    // Unit DC gain at every phase: removes the small phase-dependent ripple of the truncated kernel.
-    for (int m = 0; m < taps_; ++m)
-      table_[static_cast<std::size_t>(p) * taps_ + static_cast<std::size_t>(m)] = static_cast<float>(row[m] / sum);
-  }
+  table_ = shared_kaiser_sinc_table(zero_crossings_, phases_, beta_, cutoff, half);
 }
 
 double BandLimitedInterpolator::operator()(std::span<const float> x, double t) const {
@@ -152,7 +186,7 @@ double BandLimitedInterpolator::operator()(std::span<const float> x, double t) c
   auto p = static_cast<int>(phase_pos);
   if (p >= phases_) p = phases_ - 1;
   const double w = phase_pos - p;
-  const float* row0 = &table_[static_cast<std::size_t>(p) * taps_];
+  const float* row0 = &(*table_)[static_cast<std::size_t>(p) * taps_];
   const float* row1 = row0 + taps_;
   const std::ptrdiff_t first = base - taps_ / 2 + 1;
   const auto n = static_cast<std::ptrdiff_t>(x.size());

@@ -8,6 +8,7 @@
 #include <complex>
 #include <functional>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
@@ -542,6 +543,7 @@ class FeatureDescriber::ToneSearch {
   bool free_place(double place) const;
   void fit_power(Tone& t) const;
   Tone at(double place) const;
+  const std::vector<double>& unit_response(double place) const;
   Tone best_on_grid() const;
   void refine(Tone& t, double first_step) const;
   double largest_change(const Tone& t) const;
@@ -560,6 +562,7 @@ class FeatureDescriber::ToneSearch {
   double input_revolutions_ = 0, output_revolutions_ = 0;  // the longest record's
   std::vector<double> g_, base_;  // measured g; the twin's power with the tones found so far
   std::vector<Tone> found_;
+  mutable std::map<double, std::vector<double>> responses_;  // tone_response by place (unit_response)
 };
 
 FeatureDescriber::ToneSearch::ToneSearch(const FeatureDescriber& d, const GapFeature& f, const Window& w, bool fixed_in_hz)
@@ -633,9 +636,17 @@ void FeatureDescriber::ToneSearch::fit_power(Tone& t) const {
 
 FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::at(double place) const {
   Tone t;
-  t.place = place, t.unit = d_.tone_response(place, fixed_in_hz_, w_);
+  t.place = place, t.unit = unit_response(place);
   fit_power(t);
   return t;
+}
+
+/// A tone's unit response depends on its place and the window alone, not on the tones found: each
+/// tone added searches the same grid again, so every place's response is computed once.
+const std::vector<double>& FeatureDescriber::ToneSearch::unit_response(double place) const {
+  auto it = responses_.find(place);
+  if (it == responses_.end()) it = responses_.emplace(place, d_.tone_response(place, fixed_in_hz_, w_)).first;
+  return it->second;
 }
 
 FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::best_on_grid() const {

@@ -3,6 +3,7 @@
 // number of samples per revolution, with a band-limited (Kaiser-windowed sinc) interpolator.
 #include <cstddef>
 #include <optional>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -86,7 +87,9 @@ class BandLimitedInterpolator {
   double beta_;
   double cutoff_ = 0.0;
   int taps_ = 0;
-  std::vector<float> table_;    // (phases_ + 1) rows x taps_ (taps_ a multiple of 4)
+  /// (phases_ + 1) rows x taps_ (taps_ a multiple of 4), shared by every interpolator with the
+  /// same parameters (built once per process).
+  std::shared_ptr<const std::vector<float>> table_;
 };
 
 /// Resamples a record to a fixed number of samples per revolution of the analysed shaft.
