@@ -887,4 +887,53 @@ TEST_CASE("prognosis #1: a measurement on the twin's flat part bounds K_wear fro
   }
 }
 
+TEST_CASE("prognosis #1: an inspection that calibrates K_pitting at a record leaves that record's K_wear update to run from the last K_wear anchor",
+          "[model][updating]") {
+  // The closed-form twin (e = 0.3) with K_pitting on: a record at 50 000 cycles that the model's K
+  // reproduces exactly (no update; the first inspection), then at 100 000 cycles the second
+  // inspection calibrates K_pitting and RMS_SA measures the true K. No pitting runs before the
+  // calibration (initial K_pitting 0), so the depth at the record is depth_per_k · K over the whole
+  // stretch from 0 cycles and the update's root is the closed form's K* = k_ref ((m − b)/a)^(1/e).
+  ModelSettings s = root_find_settings();
+  s.update_k_pitting = true;
+  s.loop.k_pitting = 0.0;
+  PowerLawTwin twin(s, 0.3);
+  const double k0 = s.loop.k_wear_si, k_true = 3e-22;
+  const double half = 0.5 * twin.cycles;
+  const double measured = twin.rms(k_true);
+  TwinModel model(twin::GearboxParameters{}, s, twin.simulator());
+  std::vector<Inspection> inspections{{1, half, 0.01, {}}};
+  // At half the cycles the model's depth is that of K0 / 2 over the full stretch.
+  const ModelRunReport first = model.observe(observation(half, 10, 20, twin.rms(0.5 * k0)), inspections);
+  INFO(first.detail);
+  REQUIRE(first.updates.empty());
+  REQUIRE(model.memory().wear_anchor.state.cycles == 0.0);
+  inspections.push_back({2, twin.cycles, 0.02, {}});
+  const ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, measured), inspections);
+  INFO(r.detail);
+  REQUIRE(r.updates.size() == 2);
+  const KUpdate& calibration = r.updates[0];
+  const KUpdate& u = r.updates[1];
+  INFO(calibration.evidence);
+  INFO(u.evidence);
+  CHECK(calibration.kind == UpdateKind::k_pitting);
+  CHECK(calibration.trigger == UpdateTrigger::inspection_calibration);
+  CHECK(calibration.outcome == UpdateOutcome::converged);
+  CHECK(u.kind == UpdateKind::k_wear);
+  CHECK(u.cycles == twin.cycles);
+  CHECK(u.applies_from_cycles == 0.0);                  // the last K_wear anchor, not the calibration's record
+  CHECK(u.outcome == UpdateOutcome::converged);
+  CHECK(twin.root(measured) == Approx(k_true).epsilon(1e-12));
+  CHECK(u.new_value == Approx(k_true).epsilon(3e-5));   // |RMS error| ≤ 1e-6 (the first root-find test's bound)
+  CHECK(r.k_wear_si == u.new_value);
+  // The inspected pitting survives the K_wear re-run: the model's mean density is the second
+  // inspection's (the calibration's bisection on ln K stops within 1e-4), at the record and at both anchors.
+  const ModelMemory& m = model.memory();
+  CHECK(r.summary.mean_pitting_density == Approx(0.02).epsilon(1e-3));
+  CHECK(summarise(m.pitting_anchor.state).mean_pitting_density == Approx(0.02).epsilon(1e-3));
+  CHECK(m.wear_anchor.state.cycles == twin.cycles);
+  CHECK(m.pitting_anchor.state.cycles == twin.cycles);
+  CHECK(m.wear_anchor.state.pinion_pitting == m.current.state.pinion_pitting);
+  CHECK(depth_mean(m.current.state) == Approx(twin.depth_per_k * k_true).epsilon(3e-5));
+}
 }  // namespace test_updating

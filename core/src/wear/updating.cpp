@@ -408,6 +408,7 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
     return report;
   }
   memory_.started = true;
+  calibrated_pitting_here_.reset();
   ++memory_.records_used;
   report.advanced = true;
   const twin::OperatingPoint op{obs.speed_hz, obs.torque_nm};
@@ -439,11 +440,29 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
     if (!obs.ics2_low || !std::isfinite(*obs.ics2_low))
       add_issue(report, ModelIssue::missing_ics2, "no ICS2 in the low band: no pitting point from this record");
     check_k_wear(obs, report);
+    accept_calibrated_state();
   }
   prune_intervals();
   report.forecast = forecast();
   finish();
   return report;
+}
+
+void TwinModel::hold_calibrated_pitting(LoopSnapshot& at_record) {
+  if (!calibrated_pitting_here_) return;
+  // The re-run replayed the stretch with the K_pitting of its time; at the record the inspections
+  // set the profile. The re-run recaptured the pitting anchor (here) without it: it gets it back.
+  at_record.state.pinion_pitting = *calibrated_pitting_here_;
+  memory_.pitting_anchor = at_record;
+}
+
+void TwinModel::accept_calibrated_state() {
+  if (!calibrated_pitting_here_) return;
+  // Re-runs replay the life intervals with their stored K_pitting, which cannot reproduce a
+  // profile the inspections set: from here on every re-run starts at this record.
+  memory_.wear_anchor = memory_.current;
+  memory_.pitting_anchor = memory_.current;
+  calibrated_pitting_here_.reset();
 }
 
 void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report) {
@@ -666,6 +685,7 @@ std::optional<TwinModel::WearTrial> TwinModel::wear_trial(double k, WearSearch& 
     search.why = "with K_wear = " + fmt("%.4g", k) + " a flank passes the depth limit before the record";
     return std::nullopt;
   }
+  hold_calibrated_pitting(t.state);
   try {
     t.sim = simulator_(t.state.state, search.op);
     if (!std::isfinite(t.sim) || t.sim <= 0) throw twin::TwinDivergenceError("simulated RMS_SA is not a positive number");
@@ -1209,9 +1229,10 @@ double TwinModel::calibrate_k(const CalibrationPoints& c, double cycles, KUpdate
   loop_ = loop_at(memory_.current);
   memory_.current = LoopSnapshot{loop_.state(), loop_.next_step_cycles()};
   apply_k(false, k_new, cycles);
-  // Calibration accepts the whole state: both anchors move here.
-  memory_.wear_anchor = memory_.current;
+  // The pitting anchor moves here; the wear anchor only after this record's K_wear check, which
+  // re-runs from the last K_wear anchor with this profile set at the record (hold_calibrated_pitting).
   memory_.pitting_anchor = memory_.current;
+  calibrated_pitting_here_ = memory_.current.state.pinion_pitting;
   ++memory_.k_pitting_updates;
   return k_new;
 }

@@ -262,6 +262,11 @@ class TwinModel {
   };
   bool rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot& out, bool recapture_anchors);
   void check_k_wear(const ModelObservation& obs, ModelRunReport& report);
+  /// A K_wear trial's state at a record where a K_pitting calibration set the pitting profile:
+  /// that profile, and the pitting anchor (recaptured by the re-run) on it.
+  void hold_calibrated_pitting(LoopSnapshot& at_record);
+  /// After the record's K_wear check: a calibration here moves both anchors to the record.
+  void accept_calibrated_state();
   /// The twin's RMS_SA at the record; nullopt (the issue in the report) when there is none.
   std::optional<double> simulate_record(const ModelObservation& obs, ModelRunReport& report);
   /// A commissioning record (true): its ln(meas/sim) joins the commissioning ratio, no K_wear update.
@@ -448,6 +453,9 @@ class TwinModel {
   ModelMemory memory_;
   BlueLoop loop_;
   PittingScale pitting_scale_;
+  /// The pitting profile a calibration set at the record being observed (none otherwise): the
+  /// record's K_wear check re-runs from the last K_wear anchor and keeps it at the record.
+  std::optional<std::vector<double>> calibrated_pitting_here_;
 };
 
 }  // namespace gearwatch::wear
