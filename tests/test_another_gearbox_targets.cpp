@@ -37,11 +37,11 @@ constexpr int kSeedNoPitting = 9111, kSeedPitting = 9112;
 const char* kGears = "[gears]\npinion_teeth = 23\ngear_teeth = 46\nmodule_mm = 1.5\nface_width_mm = 15.0\n";
 
 // The daemon's configuration: the nameplate [gears] only, no tacho expected, the model off.
-fs::path daemon_config(const TempDir& dir, double record_s) {
-  const auto path = dir / "daemon.toml";
+fs::path daemon_config(const TempDir& dir, double record_s, bool model_enabled = false, const std::string& name = "daemon.toml") {
+  const auto path = dir / name;
   std::ofstream(path) << kGears << "[rig]\nsample_rate_hz = 25600.0\n[records]\nlength_s = " << record_s
                       << "\ninterval_s = 600.0\nmin_length_s = 1.0\n[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.02\n"
-                      << "[model]\nenabled = false\n";
+                      << "[model]\nenabled = " << (model_enabled ? "true" : "false") << "\n";
   return path;
 }
 
@@ -418,17 +418,8 @@ TEST_CASE("another gearbox: on 23/46 at 25.6 kHz without a tacho and commissione
                                         " --config " + plain.string() + " --write " + table.string());
   INFO(commissioned.err);
   REQUIRE(commissioned.status == 0);
-  const auto config = dir / "model.toml";
-  {
-    std::ifstream p(plain), t(table);
-    std::stringstream text;
-    text << p.rdbuf();
-    std::string s = text.str();
-    const std::string off = "[model]\nenabled = false\n";
-    REQUIRE(s.find(off) != std::string::npos);
-    s.replace(s.find(off), off.size(), "[model]\nenabled = true\n");
-    std::ofstream(config) << s << t.rdbuf();
-  }
+  const auto config = daemon_config(dir, 2.0, true, "model.toml");
+  std::ofstream(config, std::ios::app) << std::ifstream(table).rdbuf();
   const auto db = replay(dir, "kwear", c.captures, config);
   const auto changed = column(db, "SELECT cycles FROM k_updates WHERE kind = 'k_wear' AND new_value <> old_value ORDER BY id");
   const auto cycles = column(db, "SELECT cycles FROM predictions ORDER BY cycles"),

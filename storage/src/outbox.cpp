@@ -1,9 +1,9 @@
 #include "gearwatch/storage/outbox.hpp"
 
 #include <cmath>
+#include <string>
 
 #include <nlohmann/json.hpp>
-#include <sqlite3.h>
 
 #include "gearwatch/storage/sqlite.hpp"
 
@@ -11,6 +11,10 @@ namespace gearwatch::storage {
 namespace {
 
 using nlohmann::json;
+
+// A row waits to be sent while the broker has neither acknowledged nor refused it (the same
+// condition as the partial index outbox_undelivered, schema.cpp).
+const std::string kWaiting = "delivered_at IS NULL AND refused_at IS NULL";
 
 // NaN and infinities are not JSON: an unknown value is null, as in the database.
 json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
@@ -138,11 +142,11 @@ void OutboxWriter::health(const HealthSnapshot& h) {
 
 void OutboxWriter::enforce_limit() {
   const auto limit = static_cast<std::int64_t>(identity_.limit);
-  Statement count(db_, "SELECT count(*) FROM outbox WHERE delivered_at IS NULL AND refused_at IS NULL");
+  Statement count(db_, "SELECT count(*) FROM outbox WHERE " + kWaiting);
   count.step();
   const std::int64_t excess = count.get_int(0) - limit;
   if (excess > 0) {
-    Statement drop(db_, "DELETE FROM outbox WHERE id IN (SELECT id FROM outbox WHERE delivered_at IS NULL AND refused_at IS NULL ORDER BY id LIMIT ?)");
+    Statement drop(db_, "DELETE FROM outbox WHERE id IN (SELECT id FROM outbox WHERE " + kWaiting + " ORDER BY id LIMIT ?)");
     drop.bind(1, excess).run();
     Statement counted(db_, "UPDATE outbox_counters SET value = value + ? WHERE name = 'dropped'");
     counted.bind(1, excess).run();
@@ -152,7 +156,7 @@ void OutboxWriter::enforce_limit() {
 }
 
 std::vector<OutboxMessage> OutboxReader::undelivered_after(std::int64_t after, std::size_t limit) {
-  Statement s(db_, "SELECT id, topic, payload FROM outbox WHERE delivered_at IS NULL AND refused_at IS NULL AND id > ? ORDER BY id LIMIT ?");
+  Statement s(db_, "SELECT id, topic, payload FROM outbox WHERE " + kWaiting + " AND id > ? ORDER BY id LIMIT ?");
   s.bind(1, after).bind(2, static_cast<std::int64_t>(limit));
   std::vector<OutboxMessage> out;
   while (s.step()) {
@@ -166,13 +170,13 @@ std::vector<OutboxMessage> OutboxReader::undelivered_after(std::int64_t after, s
 void OutboxReader::mark_delivered(const std::vector<std::int64_t>& ids) {
   if (ids.empty()) return;
   Transaction tx(db_);
-  Statement s(db_, "UPDATE outbox SET delivered_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ? AND delivered_at IS NULL AND refused_at IS NULL");
+  Statement s(db_, "UPDATE outbox SET delivered_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ? AND " + kWaiting);
   for (const auto id : ids) s.bind(1, id).run();
   tx.commit();
 }
 
 std::int64_t OutboxReader::undelivered_count() {
-  Statement s(db_, "SELECT count(*) FROM outbox WHERE delivered_at IS NULL AND refused_at IS NULL");
+  Statement s(db_, "SELECT count(*) FROM outbox WHERE " + kWaiting);
   return s.step() ? s.get_int(0) : 0;
 }
 
@@ -180,11 +184,11 @@ void OutboxReader::mark_refused(const std::vector<OutboxRefusal>& refusals) {
   if (refusals.empty()) return;
   Transaction tx(db_);
   Statement s(db_, "UPDATE outbox SET refused_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), refused_reason = ?"
-                   " WHERE id = ? AND delivered_at IS NULL AND refused_at IS NULL");
+                   " WHERE id = ? AND " + kWaiting);
   Statement counted(db_, "UPDATE outbox_counters SET value = value + 1 WHERE name = 'refused'");
   for (const auto& r : refusals) {
     s.bind(1, r.reason).bind(2, r.id).run();
-    if (sqlite3_changes(db_.handle()) > 0) counted.run();
+    if (db_.changes() > 0) counted.run();
   }
   tx.commit();
 }

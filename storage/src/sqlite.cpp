@@ -67,6 +67,7 @@ void Database::exec(std::string_view sql) {
 }
 
 std::int64_t Database::last_insert_rowid() const noexcept { return sqlite3_last_insert_rowid(db_); }
+int Database::changes() const noexcept { return sqlite3_changes(db_); }
 
 int Database::user_version() {
   Statement s(*this, "PRAGMA user_version");

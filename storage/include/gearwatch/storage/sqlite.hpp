@@ -38,6 +38,8 @@ class Database {
 
   void exec(std::string_view sql);
   std::int64_t last_insert_rowid() const noexcept;
+  /// Rows changed by the last INSERT, UPDATE or DELETE on this connection.
+  int changes() const noexcept;
   int user_version();
   void set_user_version(int v);
   sqlite3* handle() const noexcept { return db_; }
