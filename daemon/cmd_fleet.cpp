@@ -6,6 +6,8 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -83,6 +85,7 @@ void add_ingest_command(CLI::App* fleet_cmd) {
     std::string broker, database, prefix = "gearwatch", client_id = "gearwatch-fleet", password_file, log_level = "info";
     std::string ca_file, cert_file, key_file;
     std::vector<std::string> gearboxes;
+    double resend_interval_s = 60;
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = fleet_cmd->add_subcommand("ingest", "Subscribe to every gearbox under the MQTT prefix and store into PostgreSQL, until SIGINT or SIGTERM");
@@ -97,6 +100,9 @@ void add_ingest_command(CLI::App* fleet_cmd) {
   cmd->add_option("--cert-file", opt->cert_file, "TLS: this consumer's client certificate (with --key-file)")->check(CLI::ExistingFile);
   cmd->add_option("--key-file", opt->key_file, "TLS: the client certificate's private key (with --cert-file)")->check(CLI::ExistingFile);
   cmd->add_option("--gearbox", opt->gearboxes, "Accept only these gearboxes, SITE/NAME (repeatable); without it, every gearbox");
+  cmd->add_option("--resend-interval-s", opt->resend_interval_s,
+                  "How often, while caught up, missing message ids are looked for and asked for again")
+      ->capture_default_str()->check(CLI::Range(0.1, 86400.0));
   cmd->add_option("--log-level", opt->log_level, "spdlog level: trace, debug, info, warn, error")->capture_default_str()
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
   cmd->callback([opt] {
@@ -114,6 +120,9 @@ void add_ingest_command(CLI::App* fleet_cmd) {
     s.database = opt->database;
     s.client_id = opt->client_id;
     s.accept.prefix = opt->prefix;
+    s.resend_interval = std::chrono::milliseconds(static_cast<std::int64_t>(opt->resend_interval_s * 1000));
+    // The kill -9 test's hook (docs/fleet.md): only this command reads it.
+    if (const char* stall = std::getenv("GEARWATCH_FLEET_TEST_STALL_AFTER"); stall && *stall) s.stall_after = std::stoull(stall);
     for (const auto& g : opt->gearboxes) {
       const auto slash = g.find('/');
       if (slash == std::string::npos || slash == 0 || slash + 1 == g.size() || g.find('/', slash + 1) != std::string::npos)

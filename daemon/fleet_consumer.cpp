@@ -6,6 +6,8 @@
 #include <chrono>
 #include <mutex>
 
+#include <nlohmann/json.hpp>
+
 #include <spdlog/spdlog.h>
 
 #include "gearwatch/acquisition/socketcan.hpp"
@@ -17,6 +19,16 @@ namespace acq = gearwatch::acquisition;
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// The gearbox and id of a data message (a rejected one keeps them, so it is not asked for again).
+std::optional<fleet::MessageHeader> header_of(const FleetMessage& m) {
+  return std::visit(
+      [](const auto& x) -> std::optional<fleet::MessageHeader> {
+        if constexpr (requires { x.header; }) return x.header;
+        else return std::nullopt;
+      },
+      m);
+}
 
 void init_mosquitto_once() {
   static std::once_flag once;
@@ -56,7 +68,9 @@ std::string to_string(const FleetCounters& c) {
   return "received " + std::to_string(c.received) + ", stored " + std::to_string(c.stored) + ", duplicates " +
          std::to_string(c.duplicates) + ", statuses " + std::to_string(c.statuses) + ", rejected " +
          std::to_string(c.rejected_total()) + (reasons.empty() ? "" : " (" + reasons + ")") + ", database retries " +
-         std::to_string(c.database_retries) + ", broker connections " + std::to_string(c.connects);
+         std::to_string(c.database_retries) + ", broker connections " + std::to_string(c.connects) + ", resend requests " +
+         std::to_string(c.resend_requests) + ", lost " + std::to_string(c.lost_messages) + " messages in " +
+         std::to_string(c.lost_ranges) + " ranges";
 }
 
 FleetConsumer::FleetConsumer(FleetIngestSettings settings) : settings_(std::move(settings)), log_(std::make_unique<LogLimiter>()) {}
@@ -100,7 +114,9 @@ void FleetConsumer::start_session() {
     if (rc != 0) static_cast<FleetConsumer*>(self)->log_->warn("broker", std::string("connection to the broker lost: ") + mosquitto_strerror(rc) + "; reconnecting");
   });
   mosquitto_message_callback_set(client_, [](mosquitto*, void* self, const mosquitto_message* m) {
-    static_cast<FleetConsumer*>(self)->enqueue(
+    auto* consumer = static_cast<FleetConsumer*>(self);
+    if (is_resend_request(consumer->settings_.accept, m->topic)) return;
+    consumer->enqueue(
         {m->topic, std::string(static_cast<const char*>(m->payload), static_cast<std::size_t>(m->payloadlen))});
   });
   const int rc = mosquitto_connect_async(client_, settings_.host.c_str(), settings_.port, 30);
@@ -135,7 +151,7 @@ void FleetConsumer::enqueue(Inbound m) {
 }
 
 void FleetConsumer::stop() {
-  if (client_) {
+  if (std::lock_guard lock(client_mutex_); client_) {
     mosquitto_disconnect(client_);
     mosquitto_loop_stop(client_, false);
     mosquitto_destroy(client_);
@@ -187,20 +203,101 @@ void FleetConsumer::with_database(Write&& write) {
 // what waits, up to a batch: one transaction for many messages while the consumer is behind, one
 // per message when it keeps up.
 void FleetConsumer::writer_loop() {
+  auto next_check = Clock::now();
+  std::uint64_t taken = 0;
   for (;;) {
+    if (settings_.stall_after && taken >= *settings_.stall_after) return stall_for_test(taken);
+    if (Clock::now() >= next_check && !stop_requested()) {
+      bool idle = false;
+      {
+        std::lock_guard lock(mutex_);
+        idle = queue_.empty();
+      }
+      if (idle) {
+        ask_for_holes();
+        next_check = Clock::now() + settings_.resend_interval;
+      }
+    }
     std::vector<Inbound> batch;
     {
       std::unique_lock lock(mutex_);
-      arrived_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
-      if (queue_.empty()) return;
-      while (!queue_.empty() && batch.size() < settings_.batch_size) {
+      arrived_.wait_until(lock, next_check, [&] { return stopping_ || !queue_.empty(); });
+      if (queue_.empty() && stopping_) return;
+      std::size_t room = settings_.batch_size;
+      if (settings_.stall_after) room = std::min<std::size_t>(room, *settings_.stall_after - taken);
+      while (!queue_.empty() && batch.size() < room) {
         batch.push_back(std::move(queue_.front()));
         queue_.pop_front();
       }
     }
+    if (batch.empty()) continue;
+    taken += batch.size();
     space_.notify_all();
     handle(batch);
   }
+}
+
+// The test hook: what arrives now stays in the queue, received and acknowledged, never stored.
+void FleetConsumer::stall_for_test(std::uint64_t taken) {
+  std::size_t said = 0;
+  for (;;) {
+    std::unique_lock lock(mutex_);
+    if (stopping_) return;
+    if (queue_.size() != said) {
+      said = queue_.size();
+      spdlog::warn("fleet: test hook: {} messages written, holding {} received messages uncommitted", taken, said);
+    }
+    arrived_.wait_for(lock, std::chrono::milliseconds(100));
+  }
+}
+
+void FleetConsumer::ask_for_holes() {
+  std::vector<fleet::MessageHole> holes;
+  try {
+    with_database([&](fleet::FleetStore& store) { holes = store.holes(); });
+  } catch (const std::exception& e) {
+    log_->warn("holes", std::string("cannot look for missing messages: ") + e.what());
+    return;
+  }
+  // A hole asked for recently waits (the daemon may be away or busy sending it); a new one goes now.
+  constexpr int kReaskIntervals = 10;
+  const auto now = Clock::now();
+  std::erase_if(asked_, [&](const auto& a) { return now - a.second >= kReaskIntervals * settings_.resend_interval; });
+  std::erase_if(holes, [&](const fleet::MessageHole& h) {
+    return !asked_.emplace(std::make_tuple(h.site, h.gearbox, h.from, h.to), now).second;
+  });
+  for (std::size_t first = 0; first < holes.size();) {
+    std::size_t end = first;
+    while (end < holes.size() && holes[end].site == holes[first].site && holes[end].gearbox == holes[first].gearbox) ++end;
+    ask({holes.begin() + static_cast<std::ptrdiff_t>(first), holes.begin() + static_cast<std::ptrdiff_t>(end)});
+    first = end;
+  }
+}
+
+// One request per gearbox, at most kMaxRanges ranges (the rest at the next check).
+void FleetConsumer::ask(const std::vector<fleet::MessageHole>& holes) {
+  constexpr std::size_t kMaxRanges = 100;
+  nlohmann::json ranges = nlohmann::json::array();
+  std::int64_t ids = 0;
+  for (std::size_t i = 0; i < holes.size() && i < kMaxRanges; ++i) {
+    ranges.push_back({holes[i].from, holes[i].to});
+    ids += holes[i].to - holes[i].from + 1;
+  }
+  const auto& g = holes.front();
+  const std::string payload = nlohmann::json{{"site", g.site}, {"gearbox", g.gearbox}, {"ranges", ranges}}.dump();
+  const std::string topic = settings_.accept.prefix + "/" + g.site + "/" + g.gearbox + "/resend";
+  {
+    std::lock_guard lock(client_mutex_);
+    if (!client_) return;
+    mosquitto_publish(client_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 1, false);
+  }
+  {
+    std::lock_guard lock(mutex_);
+    ++counters_.resend_requests;
+  }
+  log_->warn("resend " + g.site + "/" + g.gearbox, "asked " + g.site + "/" + g.gearbox + " to send " + std::to_string(ids) +
+                                                       " missing messages again (first " + std::to_string(g.from) + ".." +
+                                                       std::to_string(g.to) + ", " + std::to_string(ranges.size()) + " ranges)");
 }
 
 void FleetConsumer::handle(const std::vector<Inbound>& batch) {
@@ -224,15 +321,34 @@ void FleetConsumer::handle(const std::vector<Inbound>& batch) {
 
 void FleetConsumer::count(const FleetMessage& m, const fleet::BatchOutcome& outcome, const Inbound& source) {
   if (!outcome.written) {
-    store_reject(source, fleet::RejectReason::database_refused, utf8_or_replaced(outcome.refusal));
+    store_reject(source, fleet::RejectReason::database_refused, utf8_or_replaced(outcome.refusal), header_of(m));
     return;
   }
+  if (const auto* gone = std::get_if<fleet::GoneMessage>(&m)) return count_lost(*gone, *outcome.written);
   std::lock_guard lock(mutex_);
   if (std::holds_alternative<fleet::StatusMessage>(m)) ++counters_.statuses;
   else ++(*outcome.written == fleet::WriteOutcome::stored ? counters_.stored : counters_.duplicates);
 }
 
-void FleetConsumer::store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail) {
+// A daemon named ids it cannot send: recorded (fleet.lost_messages), counted and logged, never silent.
+void FleetConsumer::count_lost(const fleet::GoneMessage& gone, fleet::WriteOutcome outcome) {
+  if (outcome == fleet::WriteOutcome::duplicate) return;  // every range known already
+  std::int64_t ids = 0;
+  std::string ranges;
+  for (const auto& r : gone.ranges) {
+    ids += r.to - r.from + 1;
+    ranges += (ranges.empty() ? "" : ", ") + std::to_string(r.from) + ".." + std::to_string(r.to) + " (" + fleet::to_string(r.reason) + ")";
+  }
+  {
+    std::lock_guard lock(mutex_);
+    counters_.lost_ranges += gone.ranges.size();
+    counters_.lost_messages += static_cast<std::uint64_t>(ids);
+  }
+  spdlog::error("fleet: {}/{} cannot send {} messages again, recorded in fleet.lost_messages: {}", gone.site, gone.gearbox, ids, ranges);
+}
+
+void FleetConsumer::store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail,
+                                 std::optional<fleet::MessageHeader> header) {
   {
     std::lock_guard lock(mutex_);
     ++counters_.rejected[reason];
@@ -240,7 +356,7 @@ void FleetConsumer::store_reject(const Inbound& m, fleet::RejectReason reason, c
   log_->warn(fleet::to_string(reason), std::string("rejected a message on ") + utf8_or_replaced(m.topic) + ": " +
                                             fleet::to_string(reason) + ": " + detail + " (kept in fleet.rejects)");
   try {
-    with_database([&](fleet::FleetStore& store) { store.write(fleet::Reject{m.topic, m.payload, reason, detail}); });
+    with_database([&](fleet::FleetStore& store) { store.write(fleet::Reject{m.topic, m.payload, reason, detail, header}); });
   } catch (const fleet::FleetRefusedError& e) {
     spdlog::error("fleet: the database refused a reject: {}", e.what());
   }

@@ -5,9 +5,14 @@
 // thread pops, parses and writes; bad input is counted, logged (rate-limited) and kept in
 // fleet.rejects; the database going away holds the message and retries.
 //
+// Holes: while the queue is empty, every resend_interval, the ids of each gearbox that neither
+// arrived nor are known lost are asked for again on <prefix>/<site>/<gearbox>/resend; the daemon's
+// resend_gone answer is stored in fleet.lost_messages, counted and logged.
+//
 // Stop: the session is closed first (the broker keeps what arrives later for this client id),
 // then the writer drains the queue, so what was acknowledged to the broker is in the database.
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -17,6 +22,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "fleet_messages.hpp"
@@ -39,10 +45,17 @@ struct FleetIngestSettings {
   std::size_t queue_capacity = 10000;  ///< beyond it the network thread waits (the broker holds the rest)
   std::size_t batch_size = 200;        ///< messages per database transaction, at most (fewer when fewer wait)
   int retry_initial_ms = 200, retry_max_ms = 5000;
+  /// How often, while the queue is empty, the holes are looked for and asked for again.
+  std::chrono::milliseconds resend_interval{60000};
+  /// Test hook (GEARWATCH_FLEET_TEST_STALL_AFTER, read by `fleet ingest` only): write this many
+  /// messages, then hold everything received after them uncommitted, as a kill -9 would find it.
+  std::optional<std::uint64_t> stall_after;
 };
 
 struct FleetCounters {
   std::uint64_t received = 0, stored = 0, duplicates = 0, statuses = 0, database_retries = 0, connects = 0;
+  std::uint64_t resend_requests = 0;              ///< requests published (one per gearbox with holes, each check)
+  std::uint64_t lost_ranges = 0, lost_messages = 0;  ///< new fleet.lost_messages rows and the ids they cover
   std::map<fleet::RejectReason, std::uint64_t> rejected;
   std::uint64_t rejected_total() const;
 };
@@ -72,9 +85,15 @@ class FleetConsumer {
   void use_tls();
   void enqueue(Inbound m);
   void writer_loop();
+  std::vector<Inbound> next_batch();
+  void stall_for_test(std::uint64_t taken);
+  void ask_for_holes();
+  void ask(const std::vector<fleet::MessageHole>& holes);
   void handle(const std::vector<Inbound>& batch);
   void count(const FleetMessage& m, const fleet::BatchOutcome& outcome, const Inbound& source);
-  void store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail);
+  void store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail,
+                    std::optional<fleet::MessageHeader> header = std::nullopt);
+  void count_lost(const fleet::GoneMessage& gone, fleet::WriteOutcome outcome);
   template <class Write>
   void with_database(Write&& write);
   void on_connect(int rc);
@@ -82,7 +101,11 @@ class FleetConsumer {
 
   FleetIngestSettings settings_;
   std::unique_ptr<fleet::FleetStore> store_;
+  // Holes asked for, with when (writer thread only): the same hole is asked again only after
+  // kReaskIntervals intervals, so requests do not pile up while a daemon is away.
+  std::map<std::tuple<std::string, std::string, std::int64_t, std::int64_t>, std::chrono::steady_clock::time_point> asked_;
   mosquitto* client_ = nullptr;
+  std::mutex client_mutex_;  // the writer thread publishes resend requests while stop() may destroy the client
   std::thread writer_;
   mutable std::mutex mutex_;
   std::condition_variable arrived_, space_;

@@ -180,8 +180,21 @@ fleet::HealthMessage health_message(const json& j) {
 }
 
 fleet::StatusMessage status_message(const json& j) {
-  fleet::StatusMessage m{text(j, "site"), text(j, "gearbox"), text(j, "state"), text(j, "version"), whole(j, "schema")};
+  fleet::StatusMessage m{text(j, "site"), text(j, "gearbox"), text(j, "state"), text(j, "version"), whole(j, "schema"), std::nullopt};
   if (m.state != "online" && m.state != "offline") throw SchemaError("'state' must be online or offline");
+  if (j.contains("delivered_through")) m.delivered_through = whole(j, "delivered_through");
+  return m;
+}
+
+fleet::GoneMessage gone_message(const json& j) {
+  fleet::GoneMessage m{text(j, "site"), text(j, "gearbox"), {}};
+  for (const auto& r : array(j, "ranges")) {
+    const auto reason = fleet::parse_lost_reason(text(r, "reason"));
+    if (!reason) throw SchemaError("'reason' must be not_held or refused");
+    fleet::LostRange range{whole(r, "from"), whole(r, "to"), *reason};
+    if (range.from < 1 || range.from > range.to) throw SchemaError("a range must have 1 <= from <= to");
+    m.ranges.push_back(range);
+  }
   return m;
 }
 
@@ -192,11 +205,12 @@ FleetMessage typed_message(const std::string& kind, const json& j) {
   if (kind == "model") return model_message(j);
   if (kind == "gap") return gap_message(j);
   if (kind == "health") return health_message(j);
+  if (kind == "resend_gone") return gone_message(j);
   return status_message(j);
 }
 
 bool known_kind(const std::string& kind) {
-  for (const char* k : {"record", "wear", "alert", "model", "gap", "health", "status"})
+  for (const char* k : {"record", "wear", "alert", "model", "gap", "health", "status", "resend_gone"})
     if (kind == k) return true;
   return false;
 }
@@ -219,7 +233,7 @@ std::optional<TopicLevels> topic_levels(const std::string& prefix, const std::st
 void check_payload_matches_topic(const json& j, const TopicLevels& t) {
   if (text(j, "site") != t.site || text(j, "gearbox") != t.gearbox)
     throw SchemaError("the payload names " + text(j, "site") + "/" + text(j, "gearbox") + " on the topic of " + t.site + "/" + t.gearbox);
-  if (t.kind != "status" && text(j, "topic") != t.kind) throw SchemaError("the payload's 'topic' is '" + text(j, "topic") + "' on a " + t.kind + " topic");
+  if (t.kind != "status" && t.kind != "resend_gone" && text(j, "topic") != t.kind) throw SchemaError("the payload's 'topic' is '" + text(j, "topic") + "' on a " + t.kind + " topic");
 }
 
 }  // namespace
@@ -271,11 +285,17 @@ std::string utf8_or_replaced(const std::string& s) {
   return out;
 }
 
+bool is_resend_request(const FleetAcceptance& accept, const std::string& topic) {
+  const auto levels = topic_levels(accept.prefix, topic);
+  return levels && levels->kind == "resend";
+}
+
 std::variant<FleetMessage, FleetRejection> parse_fleet_message(const FleetAcceptance& accept, const std::string& topic,
                                                                const std::string& payload) {
   const auto levels = topic_levels(accept.prefix, topic);
   if (!levels || !known_kind(levels->kind))
-    return FleetRejection{fleet::RejectReason::unknown_topic, "not <prefix>/<site>/<gearbox>/<record|wear|alert|model|gap|health|status>"};
+    return FleetRejection{fleet::RejectReason::unknown_topic,
+                          "not <prefix>/<site>/<gearbox>/<record|wear|alert|model|gap|health|status|resend_gone>"};
   if (!accept.gearboxes.empty() && accept.gearboxes.count(levels->site + "/" + levels->gearbox) == 0)
     return FleetRejection{fleet::RejectReason::unknown_gearbox, "gearbox " + levels->site + "/" + levels->gearbox + " is not in --gearbox"};
   if (!is_utf8(payload)) return FleetRejection{fleet::RejectReason::not_utf8, "the payload is not UTF-8"};

@@ -31,6 +31,10 @@ struct FleetAcceptance {
 std::variant<FleetMessage, FleetRejection> parse_fleet_message(const FleetAcceptance& accept, const std::string& topic,
                                                                const std::string& payload);
 
+/// A resend request (<prefix>/<site>/<gearbox>/resend): a consumer's, not data; the consumer
+/// passes over them (its own among them, since it subscribes to the whole prefix).
+bool is_resend_request(const FleetAcceptance& accept, const std::string& topic);
+
 /// True when `text` is well-formed UTF-8 (no overlong forms, no surrogates, nothing past U+10FFFF).
 bool is_utf8(const std::string& text) noexcept;
 /// `text` with every byte that is not part of well-formed UTF-8 replaced by '?' (for log lines and details).

@@ -1,11 +1,13 @@
 #include "mqtt_sender.hpp"
 
 #include <mosquitto.h>
+#include <mqtt_protocol.h>
 
 #include <cerrno>
 #include <cstdlib>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -25,6 +27,12 @@ constexpr int kQos = 1;
 constexpr auto kConnackWait = std::chrono::seconds(10);
 constexpr auto kDropCheckInterval = std::chrono::seconds(1);
 constexpr auto kRefusalLogInterval = std::chrono::seconds(60);
+// The broker keeps this daemon's session (its resend subscription and the requests sent to it)
+// this long while the daemon is away: a week of downtime is served when it comes back.
+constexpr int kSessionExpiryS = 7 * 24 * 3600;
+// Rows read for one pass of resend requests (memory bound); the consumer asks again for the rest.
+constexpr std::size_t kResendRows = 5000;
+constexpr auto kSubackWait = std::chrono::seconds(2);
 // MQTT 5: a PUBACK reason code of 0x80 or more says the broker did not accept the message.
 constexpr int kFirstFailureReason = 0x80;
 
@@ -38,9 +46,12 @@ std::string client_id_of(const config::MqttSettings& s) {
   return s.client_id.empty() ? "gearwatch-" + s.site + "-" + s.gearbox : s.client_id;
 }
 
-std::string status_payload(const config::MqttSettings& s, bool online) {
+// delivered_through: every message id up to it has had its answer from the broker, so a consumer
+// also sees a missing tail as a hole (and not what is still on its way).
+std::string status_payload(const config::MqttSettings& s, bool online, std::int64_t delivered_through) {
   return nlohmann::json{{"gearbox", s.gearbox}, {"site", s.site}, {"state", online ? "online" : "offline"},
-                        {"version", GEARWATCH_APP_VERSION}, {"schema", storage::current_schema_version()}}
+                        {"version", GEARWATCH_APP_VERSION}, {"schema", storage::current_schema_version()},
+                        {"delivered_through", delivered_through}}
       .dump();
 }
 
@@ -50,6 +61,42 @@ void init_library_once() {
 }
 
 }  // namespace
+
+const char* to_string(ResendIgnored why) noexcept {
+  switch (why) {
+    case ResendIgnored::malformed: return "malformed";
+    case ResendIgnored::other_gearbox: return "other_gearbox";
+    case ResendIgnored::never_sent: return "never_sent";
+  }
+  return "malformed";
+}
+
+ResendRequest parse_resend_request(const config::MqttSettings& self, const std::string& payload) {
+  ResendRequest r;
+  auto ignored = [&](ResendIgnored why, std::string detail) {
+    r.ranges.clear();
+    r.ignored = why;
+    r.detail = std::move(detail);
+    return r;
+  };
+  const auto j = nlohmann::json::parse(payload, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return ignored(ResendIgnored::malformed, "not a JSON object");
+  const auto site = j.find("site"), gearbox = j.find("gearbox"), ranges = j.find("ranges");
+  if (site == j.end() || gearbox == j.end() || !site->is_string() || !gearbox->is_string())
+    return ignored(ResendIgnored::malformed, "'site' and 'gearbox' must be strings");
+  if (*site != self.site || *gearbox != self.gearbox)
+    return ignored(ResendIgnored::other_gearbox, "the request names " + site->get<std::string>() + "/" + gearbox->get<std::string>() +
+                                                     ", this is " + self.site + "/" + self.gearbox);
+  if (ranges == j.end() || !ranges->is_array()) return ignored(ResendIgnored::malformed, "'ranges' must be an array");
+  for (const auto& range : *ranges) {
+    if (!range.is_array() || range.size() != 2 || !range[0].is_number_integer() || !range[1].is_number_integer())
+      return ignored(ResendIgnored::malformed, "each range must be [from, to], two integers");
+    const auto from = range[0].get<std::int64_t>(), to = range[1].get<std::int64_t>();
+    if (from < 1 || from > to) return ignored(ResendIgnored::malformed, "each range must have 1 <= from <= to");
+    r.ranges.emplace_back(from, to);
+  }
+  return r;
+}
 
 MqttCredentials read_mqtt_credentials(const std::string& password_file) {
   std::filesystem::path path(password_file);
@@ -86,6 +133,9 @@ struct MqttSender::Session {
   std::set<storage::OutboxTopic> accepted_topics;       // of the rows in `acknowledged`
   std::set<storage::OutboxTopic> refused_topics;        // of the rows in `refused`
   std::int64_t last_sent = 0;                 // newest row published in this session
+  std::vector<std::string> resend_requests;   // payloads on the resend topic, not yet taken
+  std::deque<storage::OutboxMessage> resends;  // rows asked for again, not yet published
+  bool subscribed = false;                    // SUBACK of the resend topic seen
   int status_mid = -1;
   bool status_acknowledged = false;
   ~Session() {
@@ -138,6 +188,9 @@ void MqttSender::stop() {
   }
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+  if (const auto asked = counters_.resend_requests.load(), ignored = counters_.resend_ignored.load(); asked + ignored > 0)
+    spdlog::warn("mqtt: resend requests this run: {} taken, {} messages sent again, {} ids named gone, {} ignored", asked,
+                 counters_.resent.load(), counters_.resend_gone.load(), ignored);
   if (const auto refused = counters_.publish_refused.load(); refused > 0)
     spdlog::warn("mqtt: {} messages refused by the broker this run ({} since the database was made); they stay in the outbox marked refused",
                  refused, storage::OutboxReader(*db_).refused());
@@ -172,7 +225,7 @@ void MqttSender::run() {
 }
 
 bool MqttSender::open_session(Session& s) {
-  s.client = mosquitto_new(client_id_of(settings_).c_str(), true, &s);
+  s.client = mosquitto_new(client_id_of(settings_).c_str(), false, &s);
   if (!s.client) throw std::runtime_error("cannot create an MQTT client");
   // MQTT 5, for its PUBACK reason codes: under 3.1.1 a broker acknowledges a publish its ACL
   // denies like any other and drops it, and the sender would mark it delivered.
@@ -185,10 +238,14 @@ bool MqttSender::open_session(Session& s) {
     if (const int rc = mosquitto_tls_set(s.client, settings_.ca_file.c_str(), nullptr, cert, key, nullptr); rc != MOSQ_ERR_SUCCESS)
       throw std::runtime_error("TLS files (mqtt.ca_file, cert_file, key_file): " + std::string(mosquitto_strerror(rc)));
   }
-  const std::string offline = status_payload(settings_, false), status = mqtt_topic(settings_, "status");
+  const std::string offline = status_payload(settings_, false, storage::OutboxReader(*db_).delivered_through());
+  const std::string status = mqtt_topic(settings_, "status");
   mosquitto_will_set(s.client, status.c_str(), static_cast<int>(offline.size()), offline.data(), kQos, true);
   mosquitto_connect_callback_set(s.client, [](mosquitto*, void* obj, int rc) { static_cast<Session*>(obj)->connack = rc; });
   mosquitto_disconnect_callback_set(s.client, [](mosquitto*, void* obj, int) { static_cast<Session*>(obj)->lost = true; });
+  mosquitto_message_callback_set(s.client, [](mosquitto*, void* obj, const mosquitto_message* m) {
+    static_cast<Session*>(obj)->resend_requests.emplace_back(static_cast<const char*>(m->payload), static_cast<std::size_t>(m->payloadlen));
+  });
   mosquitto_publish_v5_callback_set(s.client, [](mosquitto*, void* obj, int mid, int reason, const mosquitto_property*) {
     auto* session = static_cast<Session*>(obj);
     if (mid == session->status_mid) session->status_acknowledged = true;
@@ -204,9 +261,12 @@ bool MqttSender::open_session(Session& s) {
     session->inflight.erase(it);
   });
   const std::string where = settings_.host + ":" + std::to_string(settings_.port);
-  if (const int rc = mosquitto_connect(s.client, settings_.host.c_str(), static_cast<int>(settings_.port),
-                                       static_cast<int>(settings_.keepalive_s));
-      rc != MOSQ_ERR_SUCCESS) {
+  mosquitto_property* connect_properties = nullptr;
+  mosquitto_property_add_int32(&connect_properties, MQTT_PROP_SESSION_EXPIRY_INTERVAL, kSessionExpiryS);
+  const int connected = mosquitto_connect_bind_v5(s.client, settings_.host.c_str(), static_cast<int>(settings_.port),
+                                                  static_cast<int>(settings_.keepalive_s), nullptr, connect_properties);
+  mosquitto_property_free_all(&connect_properties);
+  if (const int rc = connected; rc != MOSQ_ERR_SUCCESS) {
     if (counters_.connect_failures.fetch_add(1) % 20 == 0)
       spdlog::warn("mqtt: broker {} unreachable: {}; messages wait in the outbox", where, rc == MOSQ_ERR_ERRNO ? std::strerror(errno) : mosquitto_strerror(rc));
     return false;
@@ -216,6 +276,17 @@ bool MqttSender::open_session(Session& s) {
     if (mosquitto_loop(s.client, 100, 1) != MOSQ_ERR_SUCCESS) s.lost = true;
   if (s.connack == 0) {
     on_accepted();
+    // Subscribed again each session (harmless on a resumed one); a broker whose ACL denies it only
+    // leaves this gearbox without resends.
+    // The broker hands over what its session kept before the SUBACK: once it is here, requests
+    // sent while the daemon was away are in hand, and a short run's stop cannot miss them.
+    const std::string resend = mqtt_topic(settings_, "resend");
+    mosquitto_subscribe_callback_set(s.client, [](mosquitto*, void* obj, int, int, const int*) { static_cast<Session*>(obj)->subscribed = true; });
+    if (mosquitto_subscribe(s.client, nullptr, resend.c_str(), kQos) == MOSQ_ERR_SUCCESS) {
+      const auto until = Clock::now() + kSubackWait;
+      while (!s.subscribed && !s.lost && Clock::now() < until)
+        if (mosquitto_loop(s.client, 50, 1) != MOSQ_ERR_SUCCESS) s.lost = true;
+    }
     return true;
   }
   if (s.connack > 0) on_refusal(s.connack);
@@ -233,7 +304,9 @@ void MqttSender::run_session(Session& s) {
       return;
     }
     mark_acknowledged(s);
+    take_resend_requests(s);
     fill_window(s);
+    fill_resends(s);
     check_dropped();
     std::unique_lock lock(mutex_);
     if (!stopping_) continue;
@@ -256,7 +329,7 @@ void MqttSender::fill_window(Session& s) {
   }
   storage::OutboxReader reader(*db_);
   const auto rows = reader.undelivered_after(s.last_sent, settings_.inflight - s.inflight.size());
-  idle_ = rows.empty() && s.inflight.empty();
+  idle_ = rows.empty() && s.inflight.empty() && s.resends.empty();
   for (const auto& m : rows) {
     int mid = 0;
     const std::string topic = mqtt_topic(settings_, storage::to_string(m.topic));
@@ -266,6 +339,81 @@ void MqttSender::fill_window(Session& s) {
     s.inflight[mid] = {m.id, m.topic};
     s.last_sent = m.id;
     counters_.published.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+// The requests that arrived, merged: the part above the newest id was never sent (ignored,
+// counted); of the rest, what the outbox cannot serve is named on resend_gone at once and the held
+// rows (up to kResendRows a pass; the consumer asks again for the rest) wait for room in the window.
+void MqttSender::take_resend_requests(Session& s) {
+  if (s.resend_requests.empty()) return;
+  std::vector<std::string> payloads;
+  payloads.swap(s.resend_requests);
+  storage::OutboxReader reader(*db_);
+  const std::int64_t newest = reader.newest_id();
+  std::map<std::int64_t, std::int64_t> wanted;  // from -> to, merged below
+  for (const auto& payload : payloads) {
+    const ResendRequest request = parse_resend_request(settings_, payload);
+    if (request.ignored) {
+      ignore_resend(*request.ignored, request.detail);
+      continue;
+    }
+    counters_.resend_requests.fetch_add(1);
+    for (auto [from, to] : request.ranges) {
+      if (to > newest)
+        ignore_resend(ResendIgnored::never_sent, "ids " + std::to_string(std::max(from, newest + 1)) + ".." + std::to_string(to) +
+                                                     " were never sent (the newest is " + std::to_string(newest) + ")");
+      to = std::min(to, newest);
+      if (from <= to) wanted[from] = std::max(wanted[from], to);
+    }
+  }
+  std::vector<std::pair<std::int64_t, std::int64_t>> merged;
+  for (const auto& [from, to] : wanted) {
+    if (!merged.empty() && from <= merged.back().second + 1) merged.back().second = std::max(merged.back().second, to);
+    else merged.emplace_back(from, to);
+  }
+  if (merged.empty()) return;
+  auto found = reader.resend(merged, kResendRows);
+  if (!found.gone.empty()) publish_gone(s, found.gone);
+  for (auto& m : found.rows) s.resends.push_back(std::move(m));
+}
+
+void MqttSender::publish_gone(Session& s, const std::vector<storage::OutboxGone>& gone) {
+  nlohmann::json ranges = nlohmann::json::array();
+  std::int64_t ids = 0;
+  for (const auto& g : gone) {
+    ranges.push_back({{"from", g.from}, {"to", g.to}, {"reason", storage::to_string(g.reason)}});
+    ids += g.to - g.from + 1;
+  }
+  counters_.resend_gone.fetch_add(static_cast<std::uint64_t>(ids));
+  const std::string payload = nlohmann::json{{"gearbox", settings_.gearbox}, {"site", settings_.site}, {"ranges", ranges}}.dump();
+  const std::string topic = mqtt_topic(settings_, "resend_gone");
+  spdlog::warn("mqtt: asked to send {} messages again that the outbox no longer holds or the broker refused; named on {}", ids, topic);
+  mosquitto_publish(s.client, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), kQos, false);
+}
+
+// Rows asked for again go out after the undelivered ones, in the room the window leaves.
+void MqttSender::fill_resends(Session& s) {
+  while (!s.resends.empty() && s.inflight.size() < settings_.inflight) {
+    const auto& m = s.resends.front();
+    int mid = 0;
+    const std::string topic = mqtt_topic(settings_, storage::to_string(m.topic));
+    if (mosquitto_publish(s.client, &mid, topic.c_str(), static_cast<int>(m.payload.size()), m.payload.data(), kQos, false) !=
+        MOSQ_ERR_SUCCESS)
+      return;  // the loop sees the disconnect; the consumer asks again
+    s.inflight[mid] = {m.id, m.topic};
+    counters_.published.fetch_add(1, std::memory_order_relaxed);
+    counters_.resent.fetch_add(1, std::memory_order_relaxed);
+    s.resends.pop_front();
+  }
+}
+
+void MqttSender::ignore_resend(ResendIgnored why, const std::string& detail) {
+  counters_.resend_ignored.fetch_add(1);
+  if (const auto now = Clock::now(); now >= next_ignored_log_) {
+    spdlog::error("mqtt: ignored a resend request on {}: {}: {} ({} ignored this run)", mqtt_topic(settings_, "resend"), to_string(why),
+                  detail, counters_.resend_ignored.load());
+    next_ignored_log_ = now + kRefusalLogInterval;
   }
 }
 
@@ -326,11 +474,12 @@ bool MqttSender::drained(Session& s) {
     std::lock_guard lock(mutex_);
     if (!stopping_) return false;
   }
-  return s.inflight.empty() && storage::OutboxReader(*db_).undelivered_count() == 0;
+  return s.inflight.empty() && s.resends.empty() && s.resend_requests.empty() && storage::OutboxReader(*db_).undelivered_count() == 0;
 }
 
 void MqttSender::publish_status(Session& s, bool online) {
-  const std::string payload = status_payload(settings_, online), topic = mqtt_topic(settings_, "status");
+  const std::string payload = status_payload(settings_, online, storage::OutboxReader(*db_).delivered_through());
+  const std::string topic = mqtt_topic(settings_, "status");
   mosquitto_publish(s.client, &s.status_mid, topic.c_str(), static_cast<int>(payload.size()), payload.data(), kQos, true);
 }
 

@@ -17,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -39,7 +40,24 @@ struct MqttCounters {
   std::atomic<std::uint64_t> refused{0};           ///< CONNACK refusals (credentials, authorisation)
   std::atomic<std::uint64_t> outbox_dropped{0};    ///< messages dropped at the outbox limit (database total)
   std::atomic<std::uint64_t> publish_refused{0};   ///< outbox messages the broker refused (PUBACK reason >= 0x80)
+  std::atomic<std::uint64_t> resend_requests{0};   ///< resend requests taken (docs/fleet.md)
+  std::atomic<std::uint64_t> resent{0};            ///< outbox rows published again for them
+  std::atomic<std::uint64_t> resend_gone{0};       ///< ids asked for that the outbox cannot serve (named on resend_gone)
+  std::atomic<std::uint64_t> resend_ignored{0};    ///< requests (or ranges) ignored: malformed, another gearbox's, never sent
 };
+
+/// Why a resend request (or one of its ranges) is ignored.
+enum class ResendIgnored : std::uint8_t { malformed, other_gearbox, never_sent };
+const char* to_string(ResendIgnored why) noexcept;
+
+/// A resend request's id ranges, [from, to] each, or why it is ignored (docs/fleet.md):
+/// {"site": S, "gearbox": G, "ranges": [[from, to], ...]} naming this gearbox, 1 <= from <= to.
+struct ResendRequest {
+  std::vector<std::pair<std::int64_t, std::int64_t>> ranges;
+  std::optional<ResendIgnored> ignored;
+  std::string detail;  ///< one line, when ignored
+};
+ResendRequest parse_resend_request(const config::MqttSettings& self, const std::string& payload);
 
 /// "username:password" from the first line of `password_file`; a relative name is looked up in
 /// $CREDENTIALS_DIRECTORY (systemd LoadCredential=) when that is set. Throws std::runtime_error.
@@ -84,6 +102,10 @@ class MqttSender {
   void on_publish_refusals(Session& s);
   void on_publish_accepted(Session& s);
   void check_dropped();
+  void take_resend_requests(Session& s);
+  void publish_gone(Session& s, const std::vector<storage::OutboxGone>& gone);
+  void fill_resends(Session& s);
+  void ignore_resend(ResendIgnored why, const std::string& detail);
   void raise(AlertKind kind, bool present, const std::string& value, const std::string& message);
   bool wait_backoff(std::chrono::milliseconds delay);
 
@@ -99,6 +121,7 @@ class MqttSender {
   bool clear_on_any_accept_ = false;                // raised by an earlier run: topics unknown
   std::uint64_t refusals_unlogged_ = 0;
   std::chrono::steady_clock::time_point next_refusal_log_{};
+  std::chrono::steady_clock::time_point next_ignored_log_{};
   std::chrono::steady_clock::time_point next_drop_check_{};
   std::mutex mutex_;
   std::condition_variable wake_;

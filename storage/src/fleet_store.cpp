@@ -186,6 +186,27 @@ CREATE VIEW fleet.gearbox_status AS
          (SELECT max(r.record_time) FROM fleet.records r WHERE r.gearbox_id = g.id) AS last_record_time,
          (SELECT count(*) FROM fleet.alert_state s WHERE s.gearbox_id = g.id AND s.active) AS active_alerts
   FROM fleet.gearboxes g;
+)SQL",
+    // 1 -> 2: lost messages and what finds them (docs/fleet.md): the newest id each gearbox says it
+    // has published, rejects that keep their gearbox and id, the ranges a daemon can no longer send.
+    R"SQL(
+ALTER TABLE fleet.gearboxes ADD COLUMN delivered_through bigint;
+ALTER TABLE fleet.rejects ADD COLUMN gearbox_id bigint REFERENCES fleet.gearboxes(id), ADD COLUMN message_id bigint;
+CREATE INDEX rejects_message ON fleet.rejects (gearbox_id, message_id) WHERE message_id IS NOT NULL;
+CREATE TABLE fleet.lost_messages (
+  gearbox_id bigint NOT NULL REFERENCES fleet.gearboxes(id),
+  from_id bigint NOT NULL,
+  to_id bigint NOT NULL CHECK (to_id >= from_id),
+  reason text NOT NULL CHECK (reason IN ('not_held', 'refused')),
+  found_at timestamptz NOT NULL DEFAULT now(),
+  PRIMARY KEY (gearbox_id, from_id, to_id)
+);
+CREATE OR REPLACE VIEW fleet.gearbox_status AS
+  SELECT g.site, g.name AS gearbox, g.state, g.version, g.schema_version, g.last_seen,
+         (SELECT max(r.record_time) FROM fleet.records r WHERE r.gearbox_id = g.id) AS last_record_time,
+         (SELECT count(*) FROM fleet.alert_state s WHERE s.gearbox_id = g.id AND s.active) AS active_alerts,
+         (SELECT coalesce(sum(l.to_id - l.from_id + 1), 0) FROM fleet.lost_messages l WHERE l.gearbox_id = g.id) AS lost_messages
+  FROM fleet.gearboxes g;
 )SQL"};
 
 // Any number, also one pqxx would print with fewer digits: %.17g reads back to the same double.
@@ -227,6 +248,14 @@ std::optional<AlertTransition> parse_alert_transition(const std::string& text) n
   return std::nullopt;
 }
 
+const char* to_string(LostReason r) noexcept { return r == LostReason::refused ? "refused" : "not_held"; }
+
+std::optional<LostReason> parse_lost_reason(const std::string& text) noexcept {
+  for (auto r : {LostReason::not_held, LostReason::refused})
+    if (text == to_string(r)) return r;
+  return std::nullopt;
+}
+
 const char* to_string(RejectReason r) noexcept {
   switch (r) {
     case RejectReason::not_utf8: return "not_utf8";
@@ -245,7 +274,9 @@ FleetStore::FleetStore(const std::string& connection) : connection_string_(conne
 
 FleetStore::~FleetStore() = default;
 
-int FleetStore::migrate() {
+int FleetStore::migrate() { return migrate_to(current_fleet_schema_version()); }
+
+int FleetStore::migrate_to(int version) {
   return translated([&] {
     pqxx::work w(*conn_->c);
     // One key for "the fleet schema": a second consumer waits here until the first has migrated.
@@ -255,11 +286,11 @@ int FleetStore::migrate() {
     const auto r = w.exec("SELECT version FROM fleet.schema_version");
     const int found = r.empty() ? 0 : r[0][0].as<int>();
     if (r.empty()) w.exec("INSERT INTO fleet.schema_version VALUES (0)");
-    if (found > current_fleet_schema_version())
+    if (found > version)
       throw FleetRefusedError("fleet database: schema version " + std::to_string(found) + " is newer than this gearwatch's (" +
                               std::to_string(current_fleet_schema_version()) + "); use a newer gearwatch");
-    for (int v = found; v < current_fleet_schema_version(); ++v) w.exec(kFleetMigrations[static_cast<std::size_t>(v)]);
-    w.exec_params("UPDATE fleet.schema_version SET version = $1", current_fleet_schema_version());
+    for (int v = found; v < version; ++v) w.exec(kFleetMigrations[static_cast<std::size_t>(v)]);
+    w.exec_params("UPDATE fleet.schema_version SET version = $1", version);
     w.commit();
     return found;
   });
@@ -385,12 +416,25 @@ void insert_health(pqxx::transaction_base& w, std::int64_t g, const HealthMessag
       g, m.header.message_id, m.header.record_time, m.final, counters_json(m.counters));
 }
 
+// A daemon's resend_gone answer: each range once; false when every range was known already.
+bool insert_lost(pqxx::transaction_base& w, const GoneMessage& m) {
+  const std::int64_t g = upsert_gearbox(w, m.site, m.gearbox);
+  bool any = false;
+  for (const auto& r : m.ranges)
+    any = w.exec_params("INSERT INTO fleet.lost_messages (gearbox_id, from_id, to_id, reason) VALUES ($1, $2, $3, $4) "
+                        "ON CONFLICT DO NOTHING",
+                        g, r.from, r.to, to_string(r.reason))
+              .affected_rows() == 1 ||
+          any;
+  return any;
+}
+
 }  // namespace
 
 namespace {
 
 const char* topic_of(const Message& m) {
-  static constexpr const char* kTopics[] = {"record", "wear", "alert", "model", "gap", "health", "status"};
+  static constexpr const char* kTopics[] = {"record", "wear", "alert", "model", "gap", "health", "status", "resend_gone"};
   return kTopics[m.index()];
 }
 
@@ -399,14 +443,16 @@ const char* topic_of(const Message& m) {
 bool write_one(pqxx::transaction_base& w, const Message& message) {
   if (const auto* s = std::get_if<StatusMessage>(&message)) {
     const std::int64_t g = upsert_gearbox(w, s->site, s->gearbox);
-    w.exec_params("UPDATE fleet.gearboxes SET state = $2, version = $3, schema_version = $4, status_at = now() WHERE id = $1", g,
-                  s->state, s->version, s->schema);
+    w.exec_params("UPDATE fleet.gearboxes SET state = $2, version = $3, schema_version = $4, status_at = now(), "
+                  "delivered_through = greatest(delivered_through, $5) WHERE id = $1",
+                  g, s->state, s->version, s->schema, integer(s->delivered_through).param());
     return true;
   }
+  if (const auto* gone = std::get_if<GoneMessage>(&message)) return insert_lost(w, *gone);
   return std::visit(
       [&](const auto& m) -> bool {
         using T = std::decay_t<decltype(m)>;
-        if constexpr (std::is_same_v<T, StatusMessage>) {
+        if constexpr (std::is_same_v<T, StatusMessage> || std::is_same_v<T, GoneMessage>) {
           return true;
         } else {
           const std::int64_t g = upsert_gearbox(w, m.header.site, m.header.gearbox);
@@ -451,10 +497,39 @@ std::vector<BatchOutcome> FleetStore::write_batch(const std::vector<Message>& me
 void FleetStore::write(const Reject& r) {
   translated([&] {
     pqxx::work w(*conn_->c);
-    w.exec_params("INSERT INTO fleet.rejects (topic, payload, reason, detail) VALUES ($1, $2, $3, $4)", r.topic,
-                  pqxx::binarystring(r.payload), to_string(r.reason), r.detail);
+    const std::optional<std::int64_t> g =
+        r.header ? std::optional<std::int64_t>(upsert_gearbox(w, r.header->site, r.header->gearbox)) : std::nullopt;
+    w.exec_params("INSERT INTO fleet.rejects (topic, payload, reason, detail, gearbox_id, message_id) VALUES ($1, $2, $3, $4, $5, $6)",
+                  r.topic, pqxx::binarystring(r.payload), to_string(r.reason), r.detail, integer(g).param(),
+                  integer(r.header ? std::optional<std::int64_t>(r.header->message_id) : std::nullopt).param());
     w.commit();
     return 0;
+  });
+}
+
+// Seen ids as intervals (stored messages, rejects with their id, lost ranges) plus one past the
+// gearbox's delivered_through; a hole is where an interval starts beyond the reach of all before it.
+std::vector<MessageHole> FleetStore::holes() {
+  return translated([&] {
+    pqxx::read_transaction w(*conn_->c);
+    const auto rows = w.exec(R"SQL(
+WITH seen AS (
+  SELECT gearbox_id, message_id AS lo, message_id AS hi FROM fleet.messages
+  UNION ALL SELECT gearbox_id, message_id, message_id FROM fleet.rejects WHERE message_id IS NOT NULL
+  UNION ALL SELECT gearbox_id, from_id, to_id FROM fleet.lost_messages
+  UNION ALL SELECT id, delivered_through + 1, delivered_through + 1 FROM fleet.gearboxes WHERE delivered_through IS NOT NULL
+), reach AS (
+  SELECT gearbox_id, lo, coalesce(max(hi) OVER (PARTITION BY gearbox_id ORDER BY lo, hi
+                                                ROWS BETWEEN UNBOUNDED PRECEDING AND 1 PRECEDING), 0) AS before
+  FROM seen
+)
+SELECT g.site, g.name, r.before + 1, r.lo - 1 FROM reach r JOIN fleet.gearboxes g ON g.id = r.gearbox_id
+WHERE r.lo > r.before + 1 ORDER BY g.site, g.name, r.lo
+)SQL");
+    std::vector<MessageHole> out;
+    for (const auto& row : rows)
+      out.push_back({row[0].as<std::string>(), row[1].as<std::string>(), row[2].as<std::int64_t>(), row[3].as<std::int64_t>()});
+    return out;
   });
 }
 

@@ -1,5 +1,6 @@
 #include "gearwatch/storage/outbox.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -196,6 +197,74 @@ void OutboxReader::mark_refused(const std::vector<OutboxRefusal>& refusals) {
 std::int64_t OutboxReader::refused() {
   Statement s(db_, "SELECT value FROM outbox_counters WHERE name = 'refused'");
   return s.step() ? s.get_int(0) : 0;
+}
+
+const char* to_string(OutboxGoneReason reason) noexcept {
+  switch (reason) {
+    case OutboxGoneReason::not_held: return "not_held";
+    case OutboxGoneReason::refused: return "refused";
+  }
+  return "not_held";
+}
+
+std::int64_t OutboxReader::newest_id() {
+  // Ids are max(id) + 1 (insert above) and pruning always keeps the newest row, so the newest row
+  // carries the newest id ever given out.
+  Statement s(db_, "SELECT coalesce(max(id), 0) FROM outbox");
+  return s.step() ? s.get_int(0) : 0;
+}
+
+std::int64_t OutboxReader::delivered_through() {
+  Statement s(db_, "SELECT coalesce((SELECT min(id) - 1 FROM outbox WHERE " + kWaiting + "), (SELECT coalesce(max(id), 0) FROM outbox))");
+  return s.step() ? s.get_int(0) : 0;
+}
+
+namespace {
+
+std::vector<OutboxMessage> held_between(Database& db, std::int64_t from, std::int64_t to, std::size_t limit) {
+  Statement s(db, "SELECT id, topic, payload FROM outbox WHERE id BETWEEN ? AND ? AND refused_at IS NULL ORDER BY id LIMIT ?");
+  s.bind(1, from).bind(2, to).bind(3, static_cast<std::int64_t>(limit));
+  std::vector<OutboxMessage> out;
+  while (s.step()) {
+    const auto topic = parse_outbox_topic(s.get_text(1));
+    if (!topic) throw SqliteError(0, "outbox row " + std::to_string(s.get_int(0)) + ": unknown topic " + s.get_text(1));
+    out.push_back({s.get_int(0), *topic, s.get_text(2)});
+  }
+  return out;
+}
+
+// Runs of ids absent from [from, to] (the gaps between consecutive held ids, with to + 1 closing
+// the range), then the refused rows, each run merged.
+void gone_between(Database& db, std::int64_t from, std::int64_t to, std::vector<OutboxGone>& out) {
+  Statement absent(db,
+                   "SELECT prev + 1, id - 1 FROM (SELECT id, lag(id, 1, ?1 - 1) OVER (ORDER BY id) AS prev FROM "
+                   "(SELECT id FROM outbox WHERE id BETWEEN ?1 AND ?2 UNION ALL SELECT ?2 + 1)) WHERE id > prev + 1");
+  absent.bind(1, from).bind(2, to);
+  while (absent.step()) out.push_back({absent.get_int(0), absent.get_int(1), OutboxGoneReason::not_held});
+  Statement refused(db, "SELECT id FROM outbox WHERE id BETWEEN ? AND ? AND refused_at IS NOT NULL ORDER BY id");
+  refused.bind(1, from).bind(2, to);
+  bool first = true;
+  while (refused.step()) {
+    const std::int64_t id = refused.get_int(0);
+    if (!first && out.back().reason == OutboxGoneReason::refused && out.back().to + 1 == id) out.back().to = id;
+    else out.push_back({id, id, OutboxGoneReason::refused});
+    first = false;
+  }
+}
+
+}  // namespace
+
+OutboxResend OutboxReader::resend(const std::vector<std::pair<std::int64_t, std::int64_t>>& ranges, std::size_t limit) {
+  OutboxResend out;
+  Transaction tx(db_);  // one snapshot: a row pruned meanwhile is either served or named gone
+  for (const auto& [from, to] : ranges) {
+    gone_between(db_, from, to, out.gone);
+    if (out.rows.size() < limit)
+      for (auto& m : held_between(db_, from, to, limit - out.rows.size())) out.rows.push_back(std::move(m));
+  }
+  tx.commit();
+  std::sort(out.gone.begin(), out.gone.end(), [](const OutboxGone& a, const OutboxGone& b) { return a.from < b.from; });
+  return out;
 }
 
 std::int64_t OutboxReader::dropped() {

@@ -154,11 +154,22 @@ struct Fleet {
     return spawn({"replay", (dir / (name + ".log")).string(), "--db", db(name).string(), "--config", (dir / (name + ".toml")).string()},
                  dir / ("out-" + name), dir / ("err-" + name));
   }
-  pid_t consumer(const std::string& tag) {
-    return spawn({"fleet", "ingest", "--broker", "mqtt://127.0.0.1:" + std::to_string(broker.port()), "--database", uri, "--prefix", "gw",
-                  "--client-id", "fleet-test", "--password-file", (dir / "credentials").string(), "--gearbox", "plant1/gbA",
-                  "--gearbox", "plant1/gbB"},
-                 dir / ("out-" + tag), dir / ("err-" + tag));
+  pid_t consumer(const std::string& tag, const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> args{"fleet", "ingest", "--broker", "mqtt://127.0.0.1:" + std::to_string(broker.port()), "--database", uri,
+                                  "--prefix", "gw", "--client-id", "fleet-test", "--password-file", (dir / "credentials").string(),
+                                  "--gearbox", "plant1/gbA", "--gearbox", "plant1/gbB"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return spawn(args, dir / ("out-" + tag), dir / ("err-" + tag));
+  }
+  // A consumer with the test hook: it writes `stall_after` messages, then holds what it receives.
+  pid_t stalling_consumer(const std::string& tag, int stall_after) {
+    ::setenv("GEARWATCH_FLEET_TEST_STALL_AFTER", std::to_string(stall_after).c_str(), 1);
+    const pid_t pid = consumer(tag, {"--resend-interval-s", "1"});
+    ::unsetenv("GEARWATCH_FLEET_TEST_STALL_AFTER");
+    wait_ready();
+    REQUIRE(wait_until([&] { return occurrences(read_all(dir / ("err-" + tag)), "ingesting") == 1; }, 10s));
+    std::this_thread::sleep_for(500ms);
+    return pid;
   }
   // Waits until the consumer has made the schema and its session is subscribed (its first log line
   // after the subscription is the connection count at stop; the schema is the visible part).
@@ -714,4 +725,173 @@ TEST_CASE("fleet report: cycles are written as staff read them and the order fol
   std::vector<std::string> names;
   for (const auto& g : order) names.push_back(g.gearbox);
   CHECK(names == std::vector<std::string>{"warned", "wearing", "short", "offline", "healthy", "info", "invalid"});
+}
+
+namespace {
+
+// The newest "holding K received messages uncommitted" of the test hook's lines, or -1.
+long long held_by_hook(const std::string& err) {
+  const std::string mark = "holding ";
+  const auto at = err.rfind(mark);
+  return at == std::string::npos ? -1 : std::stoll(err.substr(at + mark.size()));
+}
+
+long long sqlite_scalar(const fs::path& db, const std::string& sql) { return std::stoll(sqlite_rows(db, sql).at(0)); }
+
+// The kill -9 scene of the resend tests: gbA replayed while a consumer that stores only
+// `stall_after` messages holds the rest; the consumer killed -9 once it holds every data message
+// the daemon published (the daemon's offline status comes last). Returns the newest id stored.
+long long replay_into_stalled_consumer_and_kill(Fleet& f, int stall_after) {
+  const pid_t first = f.stalling_consumer("c1", stall_after);
+  const pid_t replay = f.replay("gbA");
+  REQUIRE(wait_bounded(replay, 120s) == 0);
+  const long long newest = sqlite_scalar(f.db("gbA"), "SELECT max(id) FROM outbox");
+  const bool all_held = wait_until([&] {
+    const long long stored = pg_count(f.uri, "SELECT count(*) FROM fleet.messages");
+    return stored >= 0 && held_by_hook(f.err("c1")) >= newest - stored + 1;
+  }, 30s);
+  INFO("newest " << newest << ", stored " << pg_count(f.uri, "SELECT count(*) FROM fleet.messages") << ", held "
+                 << held_by_hook(f.err("c1")));
+  REQUIRE(all_held);
+  std::this_thread::sleep_for(300ms);
+  ::kill(first, SIGKILL);
+  ::waitpid(first, nullptr, 0);
+  const long long stored_newest = pg_count(f.uri, "SELECT coalesce(max(message_id), 0) FROM fleet.messages");
+  // Messages were received (and acknowledged to the broker) but not stored: lost without a resend.
+  REQUIRE(pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == stored_newest);
+  REQUIRE(stored_newest < newest);
+  return stored_newest;
+}
+
+void publish_as_plant(Fleet& f, const std::string& topic, const std::string& payload) {
+  std::ofstream(f.dir / "payload", std::ios::binary) << payload;
+  REQUIRE(run_command("mosquitto_pub -h 127.0.0.1 -p " + std::to_string(f.broker.port()) + " -u " + kUser + " -P " + kPassword +
+                      " -q 1 -t " + topic + " -f " + (f.dir / "payload").string())
+              .status == 0);
+}
+
+}  // namespace
+
+TEST_CASE("fleet: a consumer killed -9 with messages received and not stored asks for them again and holds each once", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  f.make_gearbox("gbA", 41, 8);
+  const long long stored_before = replay_into_stalled_consumer_and_kill(f, 12);
+  // Requests the daemon must not serve, waiting in its persistent session: another gearbox's, ids
+  // never sent, not JSON. Counted and ignored, the daemon goes on.
+  publish_as_plant(f, "gw/plant1/gbA/resend", R"({"site":"plant1","gearbox":"gbB","ranges":[[1,3]]})");
+  publish_as_plant(f, "gw/plant1/gbA/resend", R"({"site":"plant1","gearbox":"gbA","ranges":[[100000,100005]]})");
+  publish_as_plant(f, "gw/plant1/gbA/resend", "{resend everything");
+  // Restarted: the retained status says what the daemon delivered, the hole is asked for while
+  // the daemon is away; the daemon's next run (the same capture: nothing new to process) serves it.
+  const pid_t second = f.consumer("c2", {"--resend-interval-s", "1"});
+  REQUIRE(wait_until([&] { return f.err("c2").find("asked plant1/gbA to send") != std::string::npos; }, 30s));
+  CHECK(f.err("c2").find("(first " + std::to_string(stored_before + 1) + "..") != std::string::npos);
+  const pid_t again = spawn({"replay", (f.dir / "gbA.log").string(), "--db", f.db("gbA").string(), "--config", (f.dir / "gbA.toml").string()},
+                            f.dir / "out-again", f.dir / "err-again");
+  REQUIRE(wait_bounded(again, 120s) == 0);
+  const long long total = f.outbox_rows("gbA");
+  REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == total; }, 60s));
+  ::kill(second, SIGTERM);
+  REQUIRE(wait_bounded(second, 30s) == 0);
+  // Every message once: the ids, then the data row by row.
+  Rows local_ids = sqlite_rows(f.db("gbA"), "SELECT id, topic FROM outbox ORDER BY id");
+  CHECK(pg_rows(f.uri, "SELECT message_id, topic FROM fleet.messages ORDER BY message_id") == local_ids);
+  check_same_as_local(f, "gbA");
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.lost_messages") == 0);
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.rejects") == 0);
+  const std::string daemon_err = read_all(f.dir / "err-again");
+  INFO(daemon_err);
+  CHECK(daemon_err.find("ids named gone, 3 ignored") != std::string::npos);
+  CHECK(daemon_err.find(" 0 ids named gone") != std::string::npos);
+  CHECK(occurrences(daemon_err, "ignored a resend request") == 1);  // one line, then at most one a minute
+  INFO(f.err("c2"));
+  CHECK(f.err("c2").find("lost 0 messages in 0 ranges") != std::string::npos);
+}
+
+TEST_CASE("fleet: ids the daemon no longer holds are recorded once in fleet.lost_messages with their range and reason", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  f.make_gearbox("gbA", 42, 8);
+  const long long stored_before = replay_into_stalled_consumer_and_kill(f, 6);
+  // The outbox prunes delivered rows beyond its newest 2 x outbox_limit ids; done here by the
+  // test with the outbox's own rule (a window of 20), so the ids gone are known exactly.
+  const long long newest_sent = sqlite_scalar(f.db("gbA"), "SELECT max(id) FROM outbox");
+  REQUIRE(newest_sent - 20 > stored_before);
+  {
+    Database d(f.db("gbA").string(), Database::Mode::read_write);
+    Statement(d, "DELETE FROM outbox WHERE delivered_at IS NOT NULL AND id <= (SELECT max(id) FROM outbox) - 20").run();
+  }
+  const pid_t second = f.consumer("c2", {"--resend-interval-s", "1"});
+  REQUIRE(wait_until([&] { return f.err("c2").find("asked plant1/gbA to send") != std::string::npos; }, 30s));
+  const pid_t again = spawn({"replay", (f.dir / "gbA.log").string(), "--db", f.db("gbA").string(), "--config", (f.dir / "gbA.toml").string()},
+                            f.dir / "out-again", f.dir / "err-again");
+  REQUIRE(wait_bounded(again, 120s) == 0);
+  const long long newest = sqlite_scalar(f.db("gbA"), "SELECT max(id) FROM outbox");
+  // Every id is accounted for: stored, or inside the lost range.
+  const std::string lost_ids = "SELECT coalesce(sum(to_id - from_id + 1), 0) FROM fleet.lost_messages";
+  REQUIRE(wait_until([&] { return f.fleet_messages("gbA") + pg_count(f.uri, lost_ids) == newest; }, 60s));
+  ::kill(second, SIGTERM);
+  REQUIRE(wait_bounded(second, 30s) == 0);
+  const Rows lost = pg_rows(f.uri, "SELECT from_id, to_id, reason FROM fleet.lost_messages");
+  REQUIRE(lost.size() == 1);
+  // From the first id the killed consumer did not store to the newest id pruned.
+  const long long from = stored_before + 1, to = newest_sent - 20;
+  CHECK(lost[0] == std::to_string(from) + "|" + std::to_string(to) + "|not_held");
+  // Those ids are indeed gone from the daemon's outbox; every id above them is stored, once.
+  CHECK(sqlite_scalar(f.db("gbA"), "SELECT count(*) FROM outbox WHERE id BETWEEN " + std::to_string(from) + " AND " + std::to_string(to)) == 0);
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.messages WHERE message_id BETWEEN " + std::to_string(from) + " AND " + std::to_string(to)) == 0);
+  CHECK(pg_count(f.uri, "SELECT count(DISTINCT message_id) FROM fleet.messages") == newest - (to - from + 1));
+  CHECK(pg_rows(f.uri, "SELECT message_id, topic FROM fleet.messages WHERE message_id > " + std::to_string(to) + " ORDER BY message_id") ==
+        sqlite_rows(f.db("gbA"), "SELECT id, topic FROM outbox WHERE id > " + std::to_string(to) + " ORDER BY id"));
+  CHECK(pg_rows(f.uri, "SELECT gearbox, lost_messages FROM fleet.gearbox_status") == Rows{"gbA|" + std::to_string(to - from + 1)});
+  const std::string err = f.err("c2");
+  INFO(err);
+  CHECK(err.find("lost " + std::to_string(to - from + 1) + " messages in 1 ranges") != std::string::npos);
+  CHECK(occurrences(err, "cannot send " + std::to_string(to - from + 1) + " messages again") == 1);
+  CHECK(read_all(f.dir / "err-again").find(std::to_string(to - from + 1) + " ids named gone, 0 ignored") != std::string::npos);
+}
+
+TEST_CASE("fleet: the schema 1 fleet database migrates to 2 with its rows, and its holes are found", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  {
+    gearwatch::storage::fleet::FleetStore store(f.uri);
+    CHECK(store.migrate_to(1) == 0);
+  }
+  {
+    pqxx::connection c(f.uri);
+    pqxx::work w(c);
+    w.exec("INSERT INTO fleet.gearboxes (site, name) VALUES ('plant1', 'gbA')");
+    for (int id : {1, 2, 5, 9})
+      w.exec("INSERT INTO fleet.messages (gearbox_id, message_id, topic, record_time) SELECT id, " + std::to_string(id) +
+             ", 'health', now() FROM fleet.gearboxes");
+    w.exec("INSERT INTO fleet.rejects (topic, payload, reason, detail) VALUES ('gw/x', 'x', 'malformed_json', 'd')");
+    w.commit();
+  }
+  gearwatch::storage::fleet::FleetStore store(f.uri);
+  CHECK(store.migrate() == 1);
+  CHECK(pg_rows(f.uri, "SELECT version FROM fleet.schema_version") == Rows{"2"});
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 4);
+  CHECK(pg_rows(f.uri, "SELECT reason, gearbox_id, message_id FROM fleet.rejects") == Rows{"malformed_json|null|null"});
+  auto holes = [&] {
+    Rows out;
+    for (const auto& h : store.holes()) out.push_back(h.gearbox + "|" + std::to_string(h.from) + "|" + std::to_string(h.to));
+    return out;
+  };
+  CHECK(holes() == Rows{"gbA|3|4", "gbA|6|8"});
+  // A lost range, a reject with its id and the status's delivered_through close and open holes.
+  using namespace gearwatch::storage::fleet;
+  const auto out = store.write_batch({GoneMessage{"plant1", "gbA", {{3, 4, LostReason::not_held}}},
+                                      StatusMessage{"plant1", "gbA", "offline", "x", 12, 12}});
+  CHECK(out.at(0).written == WriteOutcome::stored);
+  MessageHeader h{"plant1", "gbA", 7, std::nullopt, "2026-01-01T00:00:00Z"};
+  store.write(Reject{"gw/plant1/gbA/alert", "{}", RejectReason::database_refused, "d", h});
+  CHECK(holes() == Rows{"gbA|6|6", "gbA|8|8", "gbA|10|12"});
+  // The same answer again adds nothing.
+  CHECK(store.write_batch({GoneMessage{"plant1", "gbA", {{3, 4, LostReason::not_held}}}}).at(0).written == WriteOutcome::duplicate);
+  CHECK(pg_rows(f.uri, "SELECT gearbox, lost_messages FROM fleet.gearbox_status") == Rows{"gbA|2"});
 }

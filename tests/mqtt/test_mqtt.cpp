@@ -401,3 +401,67 @@ TEST_CASE("mqtt: a schema 11 outbox migrates to 12, and a refused row is kept, n
                      "AND delivered_at IS NULL") == std::vector<std::int64_t>{3});
   CHECK(ids_of(path, "SELECT id FROM outbox WHERE delivered_at IS NOT NULL") == std::vector<std::int64_t>{1});
 }
+
+TEST_CASE("mqtt: a resend finds the rows it holds and names the ids it cannot serve with why", "[mqtt][storage]") {
+  // Rows 1..12 as a daemon leaves them (written directly, so every state is known): 3 and 4 pruned,
+  // 7 refused, 9 waiting, the others delivered.
+  TempDir dir("mqtt-outbox-resend");
+  const auto path = dir / "r.db";
+  Database d(path.string(), Database::Mode::read_write_create);
+  gearwatch::storage::open_and_migrate(d);
+  {
+    Statement add(d, "INSERT INTO outbox(id, topic, payload, delivered_at, refused_at, refused_reason) VALUES (?, 'record', ?, ?, ?, ?)");
+    for (int id = 1; id <= 12; ++id) {
+      if (id == 3 || id == 4) continue;
+      add.bind(1, id).bind(2, "{\"message_id\":" + std::to_string(id) + "}");
+      if (id == 9) add.bind_null(3);
+      else add.bind(3, "2026-01-01T00:00:00.000Z");
+      if (id == 7) add.bind(4, "2026-01-01T00:00:00.000Z").bind(5, "0x87 Not authorized");
+      else add.bind_null(4).bind_null(5);
+      add.run();
+    }
+  }
+  gearwatch::storage::OutboxReader reader(d);
+  CHECK(reader.newest_id() == 12);
+  CHECK(reader.delivered_through() == 8);  // 9 still waits
+  const auto found = reader.resend({{2, 8}, {10, 12}}, 100);
+  std::vector<std::int64_t> ids;
+  for (const auto& m : found.rows) ids.push_back(m.id);
+  CHECK(ids == std::vector<std::int64_t>{2, 5, 6, 8, 10, 11, 12});
+  REQUIRE(found.gone.size() == 2);
+  CHECK(found.gone[0].from == 3);
+  CHECK(found.gone[0].to == 4);
+  CHECK(found.gone[0].reason == gearwatch::storage::OutboxGoneReason::not_held);
+  CHECK(found.gone[1].from == 7);
+  CHECK(found.gone[1].to == 7);
+  CHECK(found.gone[1].reason == gearwatch::storage::OutboxGoneReason::refused);
+  CHECK(found.rows.front().payload == "{\"message_id\":2}");
+  // The row limit bounds what one pass reads; the gone runs are all named whatever the limit.
+  const auto two = reader.resend({{1, 12}}, 2);
+  CHECK(two.rows.size() == 2);
+  CHECK(two.rows.back().id == 2);
+  CHECK(two.gone.size() == 2);
+  // A range wholly beyond what is kept (pruned below row 1 here: none) and a range of one held id.
+  CHECK(reader.resend({{9, 9}}, 10).rows.size() == 1);
+  CHECK(reader.resend({{9, 9}}, 10).gone.empty());
+}
+
+TEST_CASE("mqtt: a resend request is read only when it names this gearbox with well-formed ranges", "[mqtt]") {
+  gearwatch::config::MqttSettings self;
+  self.site = "plant1";
+  self.gearbox = "gbA";
+  using gearwatch::daemon::ResendIgnored;
+  const auto ok = gearwatch::daemon::parse_resend_request(self, R"({"site":"plant1","gearbox":"gbA","ranges":[[3,5],[9,9]]})");
+  CHECK(!ok.ignored);
+  CHECK(ok.ranges == std::vector<std::pair<std::int64_t, std::int64_t>>{{3, 5}, {9, 9}});
+  auto why = [&](const std::string& payload) { return gearwatch::daemon::parse_resend_request(self, payload).ignored; };
+  CHECK(why(R"({"site":"plant1","gearbox":"gbB","ranges":[[3,5]]})") == ResendIgnored::other_gearbox);
+  CHECK(why(R"({"site":"plant2","gearbox":"gbA","ranges":[[3,5]]})") == ResendIgnored::other_gearbox);
+  CHECK(why("not json") == ResendIgnored::malformed);
+  CHECK(why(R"([1,2])") == ResendIgnored::malformed);
+  CHECK(why(R"({"site":"plant1","gearbox":"gbA"})") == ResendIgnored::malformed);
+  CHECK(why(R"({"site":"plant1","gearbox":"gbA","ranges":[[5,3]]})") == ResendIgnored::malformed);
+  CHECK(why(R"({"site":"plant1","gearbox":"gbA","ranges":[[0,3]]})") == ResendIgnored::malformed);
+  CHECK(why(R"({"site":"plant1","gearbox":"gbA","ranges":[[1,"3"]]})") == ResendIgnored::malformed);
+  CHECK(why(R"({"site":"plant1","gearbox":"gbA","ranges":[[1,2,3]]})") == ResendIgnored::malformed);
+}

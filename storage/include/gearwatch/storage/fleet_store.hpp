@@ -97,6 +97,29 @@ struct HealthMessage {
 struct StatusMessage {
   std::string site, gearbox, state, version;
   std::int64_t schema = 0;
+  std::optional<std::int64_t> delivered_through;  ///< every id up to it was published (absent from older daemons)
+};
+
+/// Why the messages of a lost range will never arrive (the daemon's resend_gone reasons).
+enum class LostReason : std::uint8_t { not_held, refused };
+const char* to_string(LostReason r) noexcept;
+std::optional<LostReason> parse_lost_reason(const std::string& text) noexcept;
+
+/// A daemon's answer to a resend request (<prefix>/<site>/<gearbox>/resend_gone): ids it cannot send.
+struct LostRange {
+  std::int64_t from = 0, to = 0;
+  LostReason reason = LostReason::not_held;
+};
+struct GoneMessage {
+  std::string site, gearbox;
+  std::vector<LostRange> ranges;
+};
+
+/// Ids of one gearbox that neither arrived nor are known lost, below the newest it is known to
+/// have sent: what the consumer asks for again.
+struct MessageHole {
+  std::string site, gearbox;
+  std::int64_t from = 0, to = 0;
 };
 
 /// Why a message was not stored as data (each goes to fleet.rejects).
@@ -111,13 +134,17 @@ struct Reject {
   std::string payload;  ///< the bytes as received (stored as bytea: they may not be UTF-8)
   RejectReason reason = RejectReason::malformed_json;
   std::string detail;   ///< one line, UTF-8
+  /// The message's gearbox and id when it was read that far (database_refused): counted as seen,
+  /// so it is not asked for again.
+  std::optional<MessageHeader> header;
 };
 
 /// Outcome of writing one data message.
 enum class WriteOutcome : std::uint8_t { stored, duplicate };
 
 /// Any message the store takes as data.
-using Message = std::variant<RecordMessage, WearMessage, AlertMessage, ModelMessage, GapMessage, HealthMessage, StatusMessage>;
+using Message =
+    std::variant<RecordMessage, WearMessage, AlertMessage, ModelMessage, GapMessage, HealthMessage, StatusMessage, GoneMessage>;
 
 /// One message's fate in a batch: stored, a repeat, or refused by the database (with its reason).
 struct BatchOutcome {
@@ -146,6 +173,8 @@ class FleetStore {
   /// Creates the fleet schema or brings it to current_fleet_schema_version(), under an advisory
   /// lock so two consumers starting together do not both migrate. Returns the version found.
   int migrate();
+  /// Brings the schema to `version` only (for the migration test). Returns the version found.
+  int migrate_to(int version);
 
   /// Several messages in one transaction (one commit, one WAL flush), each inside its own
   /// savepoint: a message the database refuses is rolled back alone and reported, the others
@@ -154,6 +183,8 @@ class FleetStore {
   std::vector<BatchOutcome> write_batch(const std::vector<Message>& messages);
   /// A message not stored as data, with its bytes and reason (its own transaction).
   void write(const Reject& r);
+  /// Every gearbox's holes (docs/fleet.md), oldest first.
+  std::vector<MessageHole> holes();
 
  private:
 

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gearwatch/storage/messages.hpp"
@@ -64,6 +65,23 @@ struct OutboxRefusal {
   std::string reason;
 };
 
+/// Why ids asked for again cannot be sent: the outbox no longer holds them (pruned beyond the
+/// newest 2 x limit, or dropped at the limit), or the broker refused them (sending again would be
+/// refused again).
+enum class OutboxGoneReason : std::uint8_t { not_held, refused };
+const char* to_string(OutboxGoneReason reason) noexcept;
+
+/// A run of ids [from, to] that a resend cannot serve.
+struct OutboxGone {
+  std::int64_t from = 0, to = 0;
+  OutboxGoneReason reason = OutboxGoneReason::not_held;
+};
+
+struct OutboxResend {
+  std::vector<OutboxMessage> rows;
+  std::vector<OutboxGone> gone;
+};
+
 /// The sender's side, on its own connection. "Undelivered" means neither delivered nor refused.
 class OutboxReader {
  public:
@@ -78,6 +96,15 @@ class OutboxReader {
   std::int64_t undelivered_count();
   /// Messages dropped at the limit since the database was made.
   std::int64_t dropped();
+  /// Every id up to this one has had the broker's answer (delivered or refused) or is gone: the
+  /// id below the oldest waiting row, or the newest id when none waits.
+  std::int64_t delivered_through();
+  /// The newest id the outbox has given out (0 when none): ids above it were never sent.
+  std::int64_t newest_id();
+  /// What a resend request for `ranges` (each [from, to], at most the newest id) finds, read in
+  /// one transaction so both parts agree: the rows held and not refused, delivered or not, oldest
+  /// first and at most `limit` of them; and the runs of ids that cannot be served.
+  OutboxResend resend(const std::vector<std::pair<std::int64_t, std::int64_t>>& ranges, std::size_t limit);
 
  private:
   Database& db_;
