@@ -286,10 +286,15 @@ void FleetConsumer::ask(const std::vector<fleet::MessageHole>& holes) {
   const auto& g = holes.front();
   const std::string payload = nlohmann::json{{"site", g.site}, {"gearbox", g.gearbox}, {"ranges", ranges}}.dump();
   const std::string topic = settings_.accept.prefix + "/" + g.site + "/" + g.gearbox + "/resend";
+  int rc = MOSQ_ERR_NO_CONN;
   {
     std::lock_guard lock(client_mutex_);
-    if (!client_) return;
-    mosquitto_publish(client_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 1, false);
+    if (client_) rc = mosquitto_publish(client_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 1, false);
+  }
+  if (rc != MOSQ_ERR_SUCCESS) {  // not connected: asked again at the next check
+    for (const auto& h : holes) asked_.erase(std::make_tuple(h.site, h.gearbox, h.from, h.to));
+    log_->warn("resend", std::string("cannot ask for missing messages now: ") + mosquitto_strerror(rc));
+    return;
   }
   {
     std::lock_guard lock(mutex_);
