@@ -2,6 +2,7 @@
 #include "fleet_consumer.hpp"
 
 #include <mosquitto.h>
+#include <mqtt_protocol.h>
 
 #include <chrono>
 #include <mutex>
@@ -69,7 +70,7 @@ std::string to_string(const FleetCounters& c) {
          std::to_string(c.duplicates) + ", statuses " + std::to_string(c.statuses) + ", rejected " +
          std::to_string(c.rejected_total()) + (reasons.empty() ? "" : " (" + reasons + ")") + ", database retries " +
          std::to_string(c.database_retries) + ", broker connections " + std::to_string(c.connects) + ", resend requests " +
-         std::to_string(c.resend_requests) + ", lost " + std::to_string(c.lost_messages) + " messages in " +
+          std::to_string(c.resend_requests) + " (refused " + std::to_string(c.resend_refused) + "), lost " + std::to_string(c.lost_messages) + " messages in " +
          std::to_string(c.lost_ranges) + " ranges";
 }
 
@@ -104,6 +105,12 @@ void FleetConsumer::start_session() {
   init_mosquitto_once();
   client_ = mosquitto_new(settings_.client_id.c_str(), false, this);
   if (!client_) throw std::runtime_error("fleet: cannot create the MQTT client");
+  // MQTT 5, as the daemons: the broker's PUBACK says when it refuses a resend request (ACL), and
+  // the subscription can leave out this client's own requests (no local).
+  mosquitto_int_option(client_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5);
+  mosquitto_publish_v5_callback_set(client_, [](mosquitto*, void* self, int, int reason, const mosquitto_property*) {
+    if (reason >= 0x80) static_cast<FleetConsumer*>(self)->on_request_refused(reason);
+  });
   if (settings_.credentials)
     mosquitto_username_pw_set(client_, settings_.credentials->username.c_str(), settings_.credentials->password.c_str());
   use_tls();
@@ -119,7 +126,12 @@ void FleetConsumer::start_session() {
     consumer->enqueue(
         {m->topic, std::string(static_cast<const char*>(m->payload), static_cast<std::size_t>(m->payloadlen))});
   });
-  const int rc = mosquitto_connect_async(client_, settings_.host.c_str(), settings_.port, 30);
+  // MQTT 5 keeps a session only as long as its expiry says: "never expires", as clean_session
+  // false did under 3.1.1. libmosquitto keeps the properties for its reconnects.
+  mosquitto_property* properties = nullptr;
+  mosquitto_property_add_int32(&properties, MQTT_PROP_SESSION_EXPIRY_INTERVAL, 0xFFFFFFFFu);
+  const int rc = mosquitto_connect_bind_v5(client_, settings_.host.c_str(), settings_.port, 30, nullptr, properties);
+  mosquitto_property_free_all(&properties);
   if (rc != MOSQ_ERR_SUCCESS)
     log_->warn("broker", "broker " + settings_.host + ":" + std::to_string(settings_.port) + " unreachable: " + mosquitto_strerror(rc) +
                              "; retrying");
@@ -128,7 +140,7 @@ void FleetConsumer::start_session() {
 
 void FleetConsumer::on_connect(int rc) {
   if (rc != 0) {
-    log_->warn("refused", std::string("the broker refused the session: ") + mosquitto_connack_string(rc));
+    log_->warn("refused", std::string("the broker refused the session: ") + mosquitto_reason_string(rc));
     return;
   }
   {
@@ -138,7 +150,17 @@ void FleetConsumer::on_connect(int rc) {
   // Subscribing again on a resumed session is harmless; under the prefix, everything (unknown
   // topics too, so they are counted and kept rather than never seen).
   const std::string filter = settings_.accept.prefix + "/#";
-  mosquitto_subscribe(client_, nullptr, filter.c_str(), 1);
+  mosquitto_subscribe_v5(client_, nullptr, filter.c_str(), 1, MQTT_SUB_OPT_NO_LOCAL, nullptr);
+}
+
+// The broker refused a resend request (its ACL lacks write on <prefix>/+/+/resend): counted, logged.
+void FleetConsumer::on_request_refused(int reason) {
+  {
+    std::lock_guard lock(mutex_);
+    ++counters_.resend_refused;
+  }
+  log_->warn("resend refused", std::string("the broker refused a resend request: ") + mosquitto_reason_string(reason) +
+                                   "; let this consumer write <prefix>/+/+/resend (its ACL) or the holes stay open");
 }
 
 void FleetConsumer::enqueue(Inbound m) {

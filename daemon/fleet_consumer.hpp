@@ -55,6 +55,7 @@ struct FleetIngestSettings {
 struct FleetCounters {
   std::uint64_t received = 0, stored = 0, duplicates = 0, statuses = 0, database_retries = 0, connects = 0;
   std::uint64_t resend_requests = 0;              ///< requests published (one per gearbox with holes, each check)
+  std::uint64_t resend_refused = 0;               ///< of them refused by the broker (PUBACK reason >= 0x80)
   std::uint64_t lost_ranges = 0, lost_messages = 0;  ///< new fleet.lost_messages rows and the ids they cover
   std::map<fleet::RejectReason, std::uint64_t> rejected;
   std::uint64_t rejected_total() const;
@@ -97,6 +98,7 @@ class FleetConsumer {
   template <class Write>
   void with_database(Write&& write);
   void on_connect(int rc);
+  void on_request_refused(int reason);
   bool stop_requested() const;
 
   FleetIngestSettings settings_;

@@ -542,6 +542,7 @@ TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gea
                                   "--prefix", "gw", "--client-id", "fleet-tls-" + tag, "--password-file", (f.dir / "fleet-credentials").string(),
                                   "--ca-file", certs.ca.string()};
     if (client_certificate) args.insert(args.end(), {"--cert-file", certs.client_cert.string(), "--key-file", certs.client_key.string()});
+    args.insert(args.end(), {"--resend-interval-s", "1"});
     return spawn(args, f.dir / ("out-" + tag), f.dir / ("err-" + tag));
   };
   // Without a client certificate the broker refuses the TLS session: nothing is subscribed.
@@ -584,9 +585,26 @@ TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gea
   CHECK(std::stoll(sqlite_rows(f.db("gbA"), "SELECT count(*) FROM alert_events WHERE kind = 'mqtt_publish_refused'").at(0)) == 0);
   const long long expected = f.outbox_rows("gbA");
   REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == expected; }, 60s));
-  std::this_thread::sleep_for(1s);
+  // A hole made by the test (a message four ids beyond the newest): the consumer asks for the ids
+  // between, and the broker refuses the request (its ACL gives the consumer read only): counted and
+  // said in one line, the consumer goes on.
+  const std::string beyond = std::to_string(expected + 5);
+  pg_rows(f.uri, "INSERT INTO fleet.messages (gearbox_id, message_id, topic, record_time) SELECT id, " + beyond +
+                     ", 'health', now() FROM fleet.gearboxes WHERE name = 'gbA' RETURNING message_id");
+  REQUIRE(wait_until([&] { return f.err("tls").find("the broker refused a resend request: Not authorized") != std::string::npos; }, 30s));
   ::kill(consumer, SIGTERM);
   REQUIRE(wait_bounded(consumer, 30s) == 0);
+  pg_rows(f.uri, "DELETE FROM fleet.messages WHERE message_id = " + beyond + " RETURNING message_id");
+  INFO(f.err("tls"));
+  // Every request refused (the same hole is asked again after ten intervals, so one or two).
+  const std::string tls_err = f.err("tls");
+  const auto asked_at = tls_err.rfind("resend requests ");
+  REQUIRE(asked_at != std::string::npos);
+  const long long asked = std::stoll(tls_err.substr(asked_at + 16));
+  CHECK(asked >= 1);
+  CHECK(tls_err.find("resend requests " + std::to_string(asked) + " (refused " + std::to_string(asked) + "), lost 0 messages in 0 ranges") !=
+        std::string::npos);
+  CHECK(occurrences(tls_err, "the broker refused a resend request") <= asked);  // rate-limited: one line per 10 s
   check_same_as_local(f, "gbA");
   CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.gearboxes WHERE name = 'gbX'") == 0);
   CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.rejects") == 0);
