@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <memory>
 #include <string>
 
@@ -327,16 +326,14 @@ void run_calibrate(const CalibrateOptions& o) {
 }
 
 struct ModalGapCommandOptions {
-  std::string format = "table";
-  twin::HeldOutIdentity identity = twin::HeldOutIdentity::start_pairing;
-  twin::HeldOutPrediction prediction = twin::HeldOutPrediction::ensemble;
+  std::string format = "table", identity = "start-pairing", prediction = "ensemble";
   int starts = twin::ModalFitOptions{}.starts;
 };
 
 // The command line's tokens for the two held-out choices (to_string gives their prose names).
-const std::map<std::string, twin::HeldOutIdentity> kHeldOutIdentityTokens{
+const TokenTable<twin::HeldOutIdentity> kHeldOutIdentityTokens{
     {"start-pairing", twin::HeldOutIdentity::start_pairing}, {"full-fit-shape", twin::HeldOutIdentity::full_fit_shape}};
-const std::map<std::string, twin::HeldOutPrediction> kHeldOutPredictionTokens{
+const TokenTable<twin::HeldOutPrediction> kHeldOutPredictionTokens{
     {"ensemble", twin::HeldOutPrediction::ensemble}, {"best-fit", twin::HeldOutPrediction::best_fit}};
 
 nlohmann::json leave_out_json(const twin::LeaveOutScore& s) {
@@ -467,8 +464,8 @@ void print_modal_gap_knobs_and_seeds(const twin::ModalGapReport& r) {
 void run_modal_gap(const ModalGapCommandOptions& o) {
   twin::ModalGapOptions options;
   options.fit.starts = o.starts;
-  options.fit.prediction = o.prediction;
-  options.identity = o.identity;
+  options.fit.prediction = value_of(kHeldOutPredictionTokens, o.prediction);
+  options.identity = value_of(kHeldOutIdentityTokens, o.identity);
   const twin::ModalGapReport r = twin::table_5_5_modal_gap(options);
   if (o.format == "json") {
     std::printf("%s\n", dump_json(modal_gap_json(r, options, o.starts), 2).c_str());
@@ -535,12 +532,12 @@ void register_twin(CLI::App& app) {
   gap->add_option("--starts", go->starts, "Starts per fit")->check(CLI::Range(1, 100))->capture_default_str();
   gap->add_option("--held-out-identity", go->identity,
                   "How a held-out value names its model mode: start-pairing (as twin modes) | full-fit-shape")
-      ->transform(CLI::CheckedTransformer(kHeldOutIdentityTokens))
-      ->default_str("start-pairing");
+      ->check(CLI::IsMember(tokens_of(kHeldOutIdentityTokens)))
+      ->capture_default_str();
   gap->add_option("--prediction", go->prediction,
                   "A held-out value from the lowest-cost fit (best-fit) or the near-equal fits' weighted median (ensemble)")
-      ->transform(CLI::CheckedTransformer(kHeldOutPredictionTokens))
-      ->default_str("ensemble");
+      ->check(CLI::IsMember(tokens_of(kHeldOutPredictionTokens)))
+      ->capture_default_str();
   gap->callback([go] { run_modal_gap(*go); });
 
   register_twin_wear(twin);
