@@ -24,7 +24,7 @@ static double rig_rms(const twin::GearboxParameters& p, const twin::ToothProfile
   Record r; r.sample_rate_hz = rr.sample_rate_hz; r.channels.push_back(rr.acceleration[0]); r.channel_numbers.push_back(0);
   r.tacho_edges[0] = rr.tacho_edges;
   dsp::RecordAnalyzer a(rs, set);
-  auto v = a.analyze(r, 0).value("rms_sa");
+  auto v = a.analyze(r, 0).value(dsp::Indicator::rms_sa);
   return v ? *v : NAN;
 }
 [[maybe_unused]] static double mean(const std::vector<double>& v) { double s=0; for (size_t i=0;i<v.size();++i) s += (i==0||i+1==v.size()?0.5:1)*v[i]; return s/(v.size()-1); }

@@ -78,91 +78,130 @@ CaptureSummary write_synthetic_capture(const CaptureSettings& cs, const std::str
   return write_capture(cs, *signal, path);
 }
 
-CaptureSummary write_capture(const CaptureSettings& cs, CaptureSignal& rig, const std::string& path) {
-  namespace acq = gearwatch::acquisition;
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "wb"), &std::fclose);
-  if (!file) throw std::runtime_error("cannot write " + path);
-  std::vector<char> buffer(1 << 20);
-  std::setvbuf(file.get(), buffer.data(), _IOFBF, buffer.size());
+namespace {
 
-  const double fs = rig.sample_rate_hz();
-  const int channel_count = rig.channels();
-  const auto total = static_cast<std::uint64_t>(std::llround(cs.duration_s * fs));
-  const std::size_t per_frame = cs.fd ? 30 : 2;
-  const auto per_second = static_cast<std::uint64_t>(fs);
-  CaptureSummary summary;
-  std::string line;
-  auto emit = [&](acq::CanFrame f, std::uint64_t at_sample) {
-    f.timestamp_s = cs.start_time_s + static_cast<double>(at_sample) / fs;
-    acq::format_candump_line(f, cs.interface, line);
-    line.push_back('\n');
-    if (std::fwrite(line.data(), 1, line.size(), file.get()) != line.size()) throw std::runtime_error("write error on " + path);
-    ++summary.frames;
-  };
+namespace acq = gearwatch::acquisition;
 
-  std::vector<std::vector<double>> block;
-  std::vector<std::int16_t> quantised(per_frame);
-  const double full_scale = 32767.0;
-  std::uint64_t next_meta = 0;
-  for (std::uint64_t i = 0; i < total; i += per_frame) {
-    const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(per_frame, total - i));
-    const auto index32 = static_cast<std::uint32_t>(cs.first_index + i);
-    if (i >= next_meta) {
-      // Header, operating condition and life counter at the start and once a second.
-      emit(acq::make_stream_header(cs.ids, static_cast<std::uint32_t>(fs), static_cast<std::uint8_t>(channel_count),
-                                   cs.stream_id),
-           i);
-      const double speed = rig.speed_hz_at(i);
-      auto cond = acq::make_operating_condition(cs.ids, static_cast<float>(cs.signal.torque_nm),
-                                                static_cast<float>(std::isfinite(speed) ? speed : cs.signal.speed_hz), index32);
-      if (!cs.fd) {  // classic frames carry at most 8 bytes: the form without an index
-        cond.fd = false;
-        cond.len = 8;
+// Writes one capture: blocks of a frame's samples, with the header, the operating condition and
+// the life counter at the start and once a second, and the tacho edges of each block.
+class CaptureFileWriter {
+ public:
+  CaptureFileWriter(const CaptureSettings& cs, CaptureSignal& rig, const std::string& path)
+      : cs_(cs), rig_(rig), path_(path), file_(std::fopen(path.c_str(), "wb"), &std::fclose),
+        fs_(rig.sample_rate_hz()), channel_count_(rig.channels()), per_frame_(cs.fd ? 30 : 2),
+        quantised_(per_frame_) {
+    if (!file_) throw std::runtime_error("cannot write " + path);
+    std::setvbuf(file_.get(), buffer_.data(), _IOFBF, buffer_.size());
+  }
+
+  CaptureSummary write() {
+    const auto total = static_cast<std::uint64_t>(std::llround(cs_.duration_s * fs_));
+    const auto per_second = static_cast<std::uint64_t>(fs_);
+    std::uint64_t next_meta = 0;
+    for (std::uint64_t i = 0; i < total; i += per_frame_) {
+      const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(per_frame_, total - i));
+      const auto index32 = static_cast<std::uint32_t>(cs_.first_index + i);
+      const bool meta_due = i >= next_meta;
+      if (meta_due) {
+        write_stream_header_and_condition(i, index32);
+        next_meta += per_second;
       }
-      emit(cond, i);
+      if (cs_.tacho) write_tacho_edges(i, n);
+      rig_.generate(i, n, block_);
+      for (int c = 0; c < channel_count_; ++c) write_vibration(c, i, n, index32);
+      if (meta_due) write_life_counter(i, n);
     }
-    const bool life_due = i >= next_meta;
-    if (life_due) next_meta += per_second;
-    if (cs.tacho)
-      for (double edge : rig.tacho_edges(static_cast<double>(i), static_cast<double>(i + n), cs.edges_per_rev)) {
-          emit(acq::make_tacho_frame(cs.ids, cs.tacho_shaft, edge + cs.first_index), i);
-        ++summary.tacho_edges;
-      }
-    rig.generate(i, n, block);
-    for (int c = 0; c < channel_count; ++c) {
-      const double scale = cs.channel_scales_m_s2_per_lsb.empty() ? cs.scale_m_s2_per_lsb
-                                                                  : cs.channel_scales_m_s2_per_lsb.at(static_cast<std::size_t>(c));
-      for (std::size_t k = 0; k < n; ++k) {
-        double q = std::round(block[static_cast<std::size_t>(c)][k] / scale);
-        if (std::fabs(q) > full_scale) {
-          q = std::copysign(full_scale, q);
-          ++summary.clipped_samples;
-        }
-        quantised[k] = static_cast<std::int16_t>(q);
-      }
-      // An FD frame must have a valid FD length; a short final block is sent as classic-sized
-      // FD frames of 2 samples (8 bytes, always valid).
-      if (cs.fd && n != per_frame) {
-        for (std::size_t k = 0; k < n; k += 2) {
-          const std::size_t m = std::min<std::size_t>(2, n - k);
-          emit(acq::make_vibration_frame(cs.ids, c, static_cast<std::uint32_t>(index32 + k),
-                                         std::span<const std::int16_t>(quantised.data() + k, m), true),
-               i + k);
-        }
-      } else {
-        emit(acq::make_vibration_frame(cs.ids, c, index32, std::span<const std::int16_t>(quantised.data(), n), cs.fd), i);
-      }
+    summary_.samples_per_channel = total;
+    if (std::fflush(file_.get()) != 0) throw std::runtime_error("write error on " + path_);
+    return summary_;
+  }
+
+ private:
+  void emit(acq::CanFrame f, std::uint64_t at_sample) {
+    f.timestamp_s = cs_.start_time_s + static_cast<double>(at_sample) / fs_;
+    acq::format_candump_line(f, cs_.interface, line_);
+    line_.push_back('\n');
+    if (std::fwrite(line_.data(), 1, line_.size(), file_.get()) != line_.size()) throw std::runtime_error("write error on " + path_);
+    ++summary_.frames;
+  }
+
+  void write_stream_header_and_condition(std::uint64_t i, std::uint32_t index32) {
+    emit(acq::make_stream_header(cs_.ids, static_cast<std::uint32_t>(fs_), static_cast<std::uint8_t>(channel_count_),
+                                 cs_.stream_id),
+         i);
+    const double speed = rig_.speed_hz_at(i);
+    auto cond = acq::make_operating_condition(cs_.ids, static_cast<float>(cs_.signal.torque_nm),
+                                              static_cast<float>(std::isfinite(speed) ? speed : cs_.signal.speed_hz), index32);
+    if (!cs_.fd) {  // classic frames carry at most 8 bytes: the form without an index
+      cond.fd = false;
+      cond.len = 8;
     }
-    if (life_due) {
-      // The odometer after this block's samples: every revolution completed up to its last sample.
-      const double last = static_cast<double>(i + n - 1) / fs;
-      const double revs = static_cast<double>(cs.start_revolutions) + std::floor(rig.input_revolutions_at(last) + 1e-9);
-      emit(acq::make_life_counter(cs.ids, static_cast<std::uint64_t>(revs)), i + n - 1);
+    emit(cond, i);
+  }
+
+  void write_tacho_edges(std::uint64_t i, std::size_t n) {
+    for (double edge : rig_.tacho_edges(static_cast<double>(i), static_cast<double>(i + n), cs_.edges_per_rev)) {
+      emit(acq::make_tacho_frame(cs_.ids, cs_.tacho_shaft, edge + cs_.first_index), i);
+      ++summary_.tacho_edges;
     }
   }
-  summary.samples_per_channel = total;
-  if (std::fflush(file.get()) != 0) throw std::runtime_error("write error on " + path);
-  return summary;
+
+  // Channel c's block in LSB of its scale, clipped (and counted) at full scale.
+  void quantise(int c, std::size_t n) {
+    constexpr double kFullScale = 32767.0;
+    const double scale = cs_.channel_scales_m_s2_per_lsb.empty() ? cs_.scale_m_s2_per_lsb
+                                                                 : cs_.channel_scales_m_s2_per_lsb.at(static_cast<std::size_t>(c));
+    for (std::size_t k = 0; k < n; ++k) {
+      double q = std::round(block_[static_cast<std::size_t>(c)][k] / scale);
+      if (std::fabs(q) > kFullScale) {
+        q = std::copysign(kFullScale, q);
+        ++summary_.clipped_samples;
+      }
+      quantised_[k] = static_cast<std::int16_t>(q);
+    }
+  }
+
+  void write_vibration(int c, std::uint64_t i, std::size_t n, std::uint32_t index32) {
+    quantise(c, n);
+    // An FD frame must have a valid FD length; a short final block is sent as classic-sized
+    // FD frames of 2 samples (8 bytes, always valid).
+    if (cs_.fd && n != per_frame_) {
+      for (std::size_t k = 0; k < n; k += 2) {
+        const std::size_t m = std::min<std::size_t>(2, n - k);
+        emit(acq::make_vibration_frame(cs_.ids, c, static_cast<std::uint32_t>(index32 + k),
+                                       std::span<const std::int16_t>(quantised_.data() + k, m), true),
+             i + k);
+      }
+    } else {
+      emit(acq::make_vibration_frame(cs_.ids, c, index32, std::span<const std::int16_t>(quantised_.data(), n), cs_.fd), i);
+    }
+  }
+
+  // The odometer after this block's samples: every revolution completed up to its last sample.
+  void write_life_counter(std::uint64_t i, std::size_t n) {
+    const double last = static_cast<double>(i + n - 1) / fs_;
+    const double revs = static_cast<double>(cs_.start_revolutions) + std::floor(rig_.input_revolutions_at(last) + 1e-9);
+    emit(acq::make_life_counter(cs_.ids, static_cast<std::uint64_t>(revs)), i + n - 1);
+  }
+
+  const CaptureSettings& cs_;
+  CaptureSignal& rig_;
+  const std::string& path_;
+  std::vector<char> buffer_ = std::vector<char>(1 << 20);   // before file_: closed before it is freed
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file_;
+  const double fs_;
+  const int channel_count_;
+  const std::size_t per_frame_;
+  CaptureSummary summary_;
+  std::string line_;
+  std::vector<std::vector<double>> block_;
+  std::vector<std::int16_t> quantised_;
+};
+
+}  // namespace
+
+CaptureSummary write_capture(const CaptureSettings& cs, CaptureSignal& rig, const std::string& path) {
+  return CaptureFileWriter(cs, rig, path).write();
 }
 
 }  // namespace gearwatch::daemon

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -72,6 +73,27 @@ auto load_page_data(const std::string& path, Load&& load) {
   } catch (const std::runtime_error& e) {
     throw CommandError(e.what());
   }
+}
+
+/// A command-line option's tokens and the enum values they stand for, in the order --help lists
+/// them. The option stays text for CLI11 (its check: CLI::IsMember(tokens_of(table))); the code
+/// reads the enum (value_of), so nothing compares the text.
+template <class Enum>
+using TokenTable = std::vector<std::pair<std::string, Enum>>;
+
+template <class Enum>
+std::vector<std::string> tokens_of(const TokenTable<Enum>& table) {
+  std::vector<std::string> out;
+  for (const auto& [token, value] : table) out.push_back(token);
+  return out;
+}
+
+/// The value of a token CLI11 has checked against tokens_of(table); std::logic_error otherwise.
+template <class Enum>
+Enum value_of(const TokenTable<Enum>& table, const std::string& token) {
+  for (const auto& [t, value] : table)
+    if (t == token) return value;
+  throw std::logic_error("'" + token + "' is not one of the option's tokens");
 }
 
 /// Adds --format with the allowed values (the help lists exactly these).

@@ -62,11 +62,17 @@ class RigCaptureSignal final : public daemon::CaptureSignal {
   rig::RigRecord r_;
 };
 
+/// Where a single capture's signal comes from (--physics).
+enum class CapturePhysics { synthetic, twin, rig };
+const TokenTable<CapturePhysics> kCapturePhysicsTokens{
+    {"synthetic", CapturePhysics::synthetic}, {"twin", CapturePhysics::twin}, {"rig", CapturePhysics::rig}};
+
 struct Options {
   std::string out, config;
   daemon::CaptureSettings cs;
   bool classic = false, fd = false;
-  std::string physics = "synthetic";
+  std::string physics = "synthetic";   ///< a token of kCapturePhysicsTokens (checked by CLI11)
+  CapturePhysics physics_kind() const { return value_of(kCapturePhysicsTokens, physics); }
   std::string campaign, effects;
   int records = 0;
   double seconds = 0;
@@ -283,13 +289,13 @@ daemon::CaptureSummary write_rig_capture(const Options& opt, const daemon::Captu
 
 /// One capture (`--out FILE`) of the chosen physics, and its one-line summary.
 void run_single_capture(const Options& opt, bool seeded, bool effects_given) {
-  if (effects_given && opt.physics != "rig") throw CommandError("--effects needs --physics rig");
+  if (effects_given && opt.physics_kind() != CapturePhysics::rig) throw CommandError("--effects needs --physics rig");
   auto cs = single_capture_settings(opt);
   daemon::CaptureSummary s;
   try {
-    if (opt.physics == "twin")
+    if (opt.physics_kind() == CapturePhysics::twin)
       s = write_twin_capture(opt, cs);
-    else if (opt.physics == "rig")
+    else if (opt.physics_kind() == CapturePhysics::rig)
       s = write_rig_capture(opt, cs, seeded);
     else
       s = daemon::write_synthetic_capture(cs, opt.out);
@@ -306,7 +312,7 @@ void run_single_capture(const Options& opt, bool seeded, bool effects_given) {
 /// A campaign (`--campaign ... --out DIR`), its errors as one-line command errors.
 void run_campaign_command(const Options& opt, bool seeded, bool channels_given, bool effects_given, bool physics_given) {
   try {
-    if (physics_given && opt.physics != "rig") throw CommandError("a campaign is made by the rig simulator (--physics rig)");
+    if (physics_given && opt.physics_kind() != CapturePhysics::rig) throw CommandError("a campaign is made by the rig simulator (--physics rig)");
     run_campaign(opt, seeded, channels_given, effects_given);
   } catch (const CommandError&) {
     throw;
@@ -350,7 +356,7 @@ void add_source_options(CLI::App* cmd, const std::shared_ptr<Options>& opt, Simu
                   "synthetic: gear-mesh harmonics, modulated resonance and noise of known amplitudes; "
                   "twin: the 21-DOF twin's casing acceleration y6 (one channel, no wear); "
                   "rig: the rig simulator (the twin plus the --effects, docs/rig-simulator.md)")
-      ->check(CLI::IsMember({"synthetic", "twin", "rig"}))
+      ->check(CLI::IsMember(tokens_of(kCapturePhysicsTokens)))
       ->capture_default_str();
   given.effects = cmd->add_option("--effects", opt->effects,
                                   "Rig effects: all, none or a comma-separated list (docs/rig-simulator.md)");

@@ -263,10 +263,9 @@ void read_protocol(const toml::table& root, const std::string& file, GearwatchCo
 void read_acquisition(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
   TableReader t(sub_table(root, "acquisition", file), "acquisition.", file);
   auto& a = cfg.acquisition;
-  std::string source = a.source == SourceKind::socketcan ? "socketcan" : "candump";
+  std::string source = to_string(a.source);
   t.string("source", source);
-  if (source == "socketcan") a.source = SourceKind::socketcan;
-  else if (source == "candump") a.source = SourceKind::candump;
+  if (const auto kind = from_token(kAllSourceKinds, source)) a.source = *kind;
   else t.fail(t.node("source"), "source", "expected \"socketcan\" or \"candump\", got \"" + source + "\"");
   t.string("interface", a.interface);
   t.string("capture", a.capture, true);
@@ -492,6 +491,14 @@ GearwatchConfig from_table(const toml::table& root, const std::string& file) {
 }
 
 }  // namespace
+
+const char* to_string(SourceKind kind) noexcept {
+  switch (kind) {
+    case SourceKind::socketcan: return "socketcan";
+    case SourceKind::candump: return "candump";
+  }
+  return "?";
+}
 
 GearwatchConfig parse_config(const std::string& text, const std::string& name) {
   try {

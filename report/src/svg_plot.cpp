@@ -193,107 +193,148 @@ std::size_t SvgPlot::unplottable_points() const {
   return n;
 }
 
-std::string SvgPlot::render(std::string_view css_id) const {
+namespace {
+// An axis's ticks with their labels; each axis gets its labels from one tick set, so they share
+// one format.
+std::vector<std::pair<double, std::string>> axis_ticks(const Axis& a) {
+  std::vector<std::pair<double, std::string>> out;
+  if (a.scale == AxisScale::log) {
+    for (const double v : log_ticks(a.lo, a.hi)) out.emplace_back(v, format_log_tick(v));
+  } else {
+    const auto t = linear_ticks(a.lo, a.hi);
+    for (const double v : t.values) out.emplace_back(v, format_linear_tick(v, t));
+  }
+  return out;
+}
+}  // namespace
+
+SvgPlot::PlotBox SvgPlot::box() const {
   const auto& L = layout_;
-  const double plot_left = L.left, plot_right = L.width - L.right, plot_top = L.top, plot_bottom = L.height - L.bottom;
+  return {L.left, L.width - L.right, L.top, L.height - L.bottom};
+}
+
+std::string SvgPlot::frame_svg(std::string_view css_id) const {
+  const auto& L = layout_;
+  const PlotBox b = box();
   const std::string id = html_escape(css_id);
   std::string svg;
   svg += "<svg class=\"plot\" id=\"" + id + "\" viewBox=\"0 0 " + coord(L.width) + " " + coord(L.height) + "\" width=\"" +
          coord(L.width) + "\" height=\"" + coord(L.height) + "\" role=\"img\" aria-label=\"" + html_escape(title_) + "\">\n";
-  svg += "<text class=\"plot-title\" x=\"" + coord(plot_left) + "\" y=\"" + coord(kTitleBaseline) + "\">" + html_escape(title_) + "</text>\n";
-  svg += "<rect class=\"frame\" x=\"" + coord(plot_left) + "\" y=\"" + coord(plot_top) + "\" width=\"" + coord(plot_right - plot_left) +
-         "\" height=\"" + coord(plot_bottom - plot_top) + "\"/>\n";
+  svg += "<text class=\"plot-title\" x=\"" + coord(b.left) + "\" y=\"" + coord(kTitleBaseline) + "\">" + html_escape(title_) + "</text>\n";
+  svg += "<rect class=\"frame\" x=\"" + coord(b.left) + "\" y=\"" + coord(b.top) + "\" width=\"" + coord(b.right - b.left) +
+         "\" height=\"" + coord(b.bottom - b.top) + "\"/>\n";
+  return svg;
+}
 
-  // Ticks and grid. Each axis gets its labels from one tick set, so they share one format.
-  auto axis_ticks = [](const Axis& a) {
-    std::vector<std::pair<double, std::string>> out;
-    if (a.scale == AxisScale::log) {
-      for (const double v : log_ticks(a.lo, a.hi)) out.emplace_back(v, format_log_tick(v));
-    } else {
-      const auto t = linear_ticks(a.lo, a.hi);
-      for (const double v : t.values) out.emplace_back(v, format_linear_tick(v, t));
-    }
-    return out;
-  };
-  svg += "<g class=\"x-axis\">";
+std::string SvgPlot::x_axis_svg() const {
+  const PlotBox b = box();
+  std::string svg = "<g class=\"x-axis\">";
   for (const auto& [v, text] : axis_ticks(x_)) {
     const std::string px = coord(x_to_px(v));
-    svg += "<line class=\"grid\" x1=\"" + px + "\" y1=\"" + coord(plot_top) + "\" x2=\"" + px + "\" y2=\"" + coord(plot_bottom) + "\"/>";
-    svg += "<text class=\"tick\" x=\"" + px + "\" y=\"" + coord(plot_bottom + 15) + "\" text-anchor=\"middle\">" + html_escape(text) + "</text>";
+    svg += "<line class=\"grid\" x1=\"" + px + "\" y1=\"" + coord(b.top) + "\" x2=\"" + px + "\" y2=\"" + coord(b.bottom) + "\"/>";
+    svg += "<text class=\"tick\" x=\"" + px + "\" y=\"" + coord(b.bottom + 15) + "\" text-anchor=\"middle\">" + html_escape(text) + "</text>";
   }
-  svg += "<text class=\"axis-label\" x=\"" + coord((plot_left + plot_right) / 2) + "\" y=\"" + coord(L.height - 8) +
+  svg += "<text class=\"axis-label\" x=\"" + coord((b.left + b.right) / 2) + "\" y=\"" + coord(layout_.height - 8) +
          "\" text-anchor=\"middle\">" + html_escape(x_.label) + "</text></g>\n";
-  svg += "<g class=\"y-axis\">";
+  return svg;
+}
+
+std::string SvgPlot::y_axis_svg() const {
+  const PlotBox b = box();
+  std::string svg = "<g class=\"y-axis\">";
   for (const auto& [v, text] : axis_ticks(y_)) {
     const std::string py = coord(y_to_px(v));
-    svg += "<line class=\"grid\" x1=\"" + coord(plot_left) + "\" y1=\"" + py + "\" x2=\"" + coord(plot_right) + "\" y2=\"" + py + "\"/>";
-    svg += "<text class=\"tick\" x=\"" + coord(plot_left - 6) + "\" y=\"" + coord(y_to_px(v) + 4) + "\" text-anchor=\"end\">" +
+    svg += "<line class=\"grid\" x1=\"" + coord(b.left) + "\" y1=\"" + py + "\" x2=\"" + coord(b.right) + "\" y2=\"" + py + "\"/>";
+    svg += "<text class=\"tick\" x=\"" + coord(b.left - 6) + "\" y=\"" + coord(y_to_px(v) + 4) + "\" text-anchor=\"end\">" +
            html_escape(text) + "</text>";
   }
-  const double mid_y = (plot_top + plot_bottom) / 2;
+  const double mid_y = (b.top + b.bottom) / 2;
   svg += "<text class=\"axis-label\" transform=\"translate(14 " + coord(mid_y) + ") rotate(-90)\" text-anchor=\"middle\">" +
          html_escape(y_.label + (y_.scale == AxisScale::log ? " (log scale)" : "")) + "</text></g>\n";
+  return svg;
+}
 
-  // Bands first, clipped to the axis, so lines and events stay on top of the shading.
+// The bands, clipped to the x axis.
+std::string SvgPlot::bands_svg() const {
+  const PlotBox box_px = box();
+  std::string svg;
   for (const auto& b : bands_) {
     if (!std::isfinite(b.lo) || !std::isfinite(b.hi)) continue;
     const double lo = std::max(std::min(b.lo, b.hi), x_.lo), hi = std::min(std::max(b.lo, b.hi), x_.hi);
     if (!(hi > lo) || (x_.scale == AxisScale::log && !(lo > 0))) continue;
     const double x0 = x_to_px(lo), x1 = x_to_px(hi);
-    svg += "<rect class=\"band " + html_escape(b.css_class) + "\" x=\"" + coord(x0) + "\" y=\"" + coord(plot_top) + "\" width=\"" +
-           coord(std::max(x1 - x0, 1.0)) + "\" height=\"" + coord(plot_bottom - plot_top) + "\" fill=\"" + html_escape(b.colour) +
+    svg += "<rect class=\"band " + html_escape(b.css_class) + "\" x=\"" + coord(x0) + "\" y=\"" + coord(box_px.top) + "\" width=\"" +
+           coord(std::max(x1 - x0, 1.0)) + "\" height=\"" + coord(box_px.bottom - box_px.top) + "\" fill=\"" + html_escape(b.colour) +
            "\"><title>" + html_escape(b.title) + "</title></rect>\n";
   }
+  return svg;
+}
 
-  // Events under the data, so the points stay visible and hoverable.
+std::string SvgPlot::events_svg() const {
+  const PlotBox b = box();
+  std::string svg;
   for (const auto& e : events_) {
     if (!std::isfinite(e.x) || (x_.scale == AxisScale::log && !(e.x > 0))) continue;
     const std::string px = coord(x_to_px(e.x));
-    svg += "<line class=\"ev " + html_escape(e.css_class) + "\" x1=\"" + px + "\" y1=\"" + coord(plot_top) + "\" x2=\"" + px + "\" y2=\"" +
-           coord(plot_bottom) + "\" stroke=\"" + html_escape(e.colour) + "\"><title>" + html_escape(e.title) + "</title></line>\n";
+    svg += "<line class=\"ev " + html_escape(e.css_class) + "\" x1=\"" + px + "\" y1=\"" + coord(b.top) + "\" x2=\"" + px + "\" y2=\"" +
+           coord(b.bottom) + "\" stroke=\"" + html_escape(e.colour) + "\"><title>" + html_escape(e.title) + "</title></line>\n";
   }
+  return svg;
+}
 
+std::string SvgPlot::series_svg(const PlotSeries& s) const {
+  std::string svg = "<g class=\"series\" data-name=\"" + html_escape(s.name) + "\" stroke=\"" + html_escape(s.colour) +
+                    "\" fill=\"" + html_escape(s.colour) + "\">\n";
+  // One polyline per run of consecutive values: a missing value is a visible gap.
+  std::string run;
+  std::size_t run_points = 0;
+  auto flush = [&] {
+    if (run_points > 1) svg += "<polyline fill=\"none\" points=\"" + run + "\"/>\n";
+    run.clear();
+    run_points = 0;
+  };
+  for (const auto& p : s.points) {
+    if (!placeable(p)) {
+      flush();
+      continue;
+    }
+    if (run_points++) run += ' ';
+    run += coord(x_to_px(p.x)) + "," + coord(y_to_px(p.y));
+  }
+  flush();
+  for (const auto& p : s.points) {
+    if (!s.markers || !placeable(p)) continue;
+    svg += "<circle class=\"pt\" cx=\"" + coord(x_to_px(p.x)) + "\" cy=\"" + coord(y_to_px(p.y)) + "\" r=\"2.5\"><title>" +
+           html_escape(p.title) + "</title></circle>\n";
+  }
+  svg += "</g>\n";
+  return svg;
+}
+
+// On its own row under the title, so long titles and labels never collide; none for one
+// unlabelled series.
+std::string SvgPlot::legend_svg() const {
+  if (!(series_.size() > 1 || (series_.size() == 1 && !series_[0].label.empty()))) return {};
+  double x = box().left;
+  std::string legend;
   for (const auto& s : series_) {
-    svg += "<g class=\"series\" data-name=\"" + html_escape(s.name) + "\" stroke=\"" + html_escape(s.colour) + "\" fill=\"" +
-           html_escape(s.colour) + "\">\n";
-    // One polyline per run of consecutive values: a missing value is a visible gap.
-    std::string run;
-    std::size_t run_points = 0;
-    auto flush = [&] {
-      if (run_points > 1) svg += "<polyline fill=\"none\" points=\"" + run + "\"/>\n";
-      run.clear();
-      run_points = 0;
-    };
-    for (const auto& p : s.points) {
-      if (!placeable(p)) {
-        flush();
-        continue;
-      }
-      if (run_points++) run += ' ';
-      run += coord(x_to_px(p.x)) + "," + coord(y_to_px(p.y));
-    }
-    flush();
-    for (const auto& p : s.points) {
-      if (!s.markers || !placeable(p)) continue;
-      svg += "<circle class=\"pt\" cx=\"" + coord(x_to_px(p.x)) + "\" cy=\"" + coord(y_to_px(p.y)) + "\" r=\"2.5\"><title>" +
-             html_escape(p.title) + "</title></circle>\n";
-    }
-    svg += "</g>\n";
+    legend += "<line x1=\"" + coord(x) + "\" y1=\"" + coord(kLegendBaseline - 4) + "\" x2=\"" + coord(x + 16) + "\" y2=\"" +
+              coord(kLegendBaseline - 4) + "\" stroke=\"" + html_escape(s.colour) + "\" stroke-width=\"2\"/>";
+    x += 22;
+    legend += "<text class=\"legend\" x=\"" + coord(x) + "\" y=\"" + coord(kLegendBaseline) + "\">" + html_escape(s.label) + "</text>";
+    x += text_width(s.label) + 16;
   }
+  return "<g class=\"legend\">" + legend + "</g>\n";
+}
 
-  // Legend on its own row under the title, so long titles and labels never collide.
-  if (series_.size() > 1 || (series_.size() == 1 && !series_[0].label.empty())) {
-    double x = plot_left;
-    std::string legend;
-    for (const auto& s : series_) {
-      legend += "<line x1=\"" + coord(x) + "\" y1=\"" + coord(kLegendBaseline - 4) + "\" x2=\"" + coord(x + 16) + "\" y2=\"" +
-                coord(kLegendBaseline - 4) + "\" stroke=\"" + html_escape(s.colour) + "\" stroke-width=\"2\"/>";
-      x += 22;
-      legend += "<text class=\"legend\" x=\"" + coord(x) + "\" y=\"" + coord(kLegendBaseline) + "\">" + html_escape(s.label) + "</text>";
-      x += text_width(s.label) + 16;
-    }
-    svg += "<g class=\"legend\">" + legend + "</g>\n";
-  }
+std::string SvgPlot::render(std::string_view css_id) const {
+  std::string svg = frame_svg(css_id) + x_axis_svg() + y_axis_svg();
+  // Bands first, so lines and events stay on top of the shading; events under the data, so the
+  // points stay visible and hoverable.
+  svg += bands_svg();
+  svg += events_svg();
+  for (const auto& s : series_) svg += series_svg(s);
+  svg += legend_svg();
   svg += "</svg>\n";
   return svg;
 }

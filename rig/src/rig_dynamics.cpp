@@ -145,91 +145,115 @@ MeshSegment RigDynamics::next(const MeshSegment& s) const {
   return {s.cycle + 1, 0.0, exit_phase_};
 }
 
-void RigDynamics::derivative(double t, const RigState& y, RigState& dy, RigOutputs* out, const MeshSegment* segment) const {
+RigDynamics::MeshPosition RigDynamics::mesh_position(double pinion_angle, const MeshSegment* segment) const {
+  MeshPosition m;
+  m.cycles = pinion_angle / pitch_angle_;
+  if (segment) {
+    m.cycle = segment->cycle;
+    m.phase = std::clamp(m.cycles - static_cast<double>(m.cycle), segment->lo, segment->hi - 1e-12);
+  } else {
+    const double cycle_floor = std::floor(m.cycles);
+    m.phase = m.cycles - cycle_floor;
+    m.cycle = static_cast<long long>(cycle_floor);
+  }
+  return m;
+}
+
+// The run-out of eccentric shafts along the line of action, and its rate: all pairs share it.
+void RigDynamics::shaft_run_out(const RigState& y, const Nominal& nom, double pinion_angle, double& e, double& e_rate) const {
+  e = 0;
+  e_rate = 0;
+  if (ecc_pinion_ == 0 && ecc_gear_ == 0) return;
+  const double pinion_speed = nom.speed + y[kRigDof + twin::theta5];
+  const double gear_angle = nom.angle * ratio_ + y[twin::theta10];
+  const double gear_speed = nom.speed * ratio_ + y[kRigDof + twin::theta10];
+  const double ap = pinion_angle + ecc_pinion_phase_, ag = gear_angle + ecc_gear_phase_;
+  e = -(ecc_pinion_ * std::sin(ap) + ecc_gear_ * std::sin(ag));
+  e_rate = -(ecc_pinion_ * std::cos(ap) * pinion_speed + ecc_gear_ * std::cos(ag) * gear_speed);
+}
+
+// The mesh (Eqs. 5.3–5.4 per pair) with the GTE of the worn, erroneous, relieved teeth and the
+// run-out of eccentric shafts.
+RigDynamics::MeshContact RigDynamics::mesh_contact(const RigState& y, const Nominal& nom, const MeshSegment* segment) const {
   const auto q = y.head<N>();
   const auto v = y.segment<N>(kRigDof);
-  const Nominal nom = nominal(t);
-
-  // Mesh (Eqs. 5.3–5.4 per pair) with the GTE of the worn, erroneous, relieved teeth and the
-  // run-out of eccentric shafts, which all pairs share.
-  const double delta = m_.mesh.dot(q);
+  MeshContact mc;
+  mc.delta = m_.mesh.dot(q);
   const double delta_rate = m_.mesh.dot(v);
   const double pinion_angle = nom.angle + q[twin::theta5];
-  const double cycles = pinion_angle / pitch_angle_;
-  long long cycle;
-  double phase;
-  if (segment) {
-    cycle = segment->cycle;
-    phase = std::clamp(cycles - static_cast<double>(cycle), segment->lo, segment->hi - 1e-12);
-  } else {
-    const double cycle_floor = std::floor(cycles);
-    phase = cycles - cycle_floor;
-    cycle = static_cast<long long>(cycle_floor);
-  }
-  double e_shaft = 0, e_shaft_rate = 0;
-  if (ecc_pinion_ != 0 || ecc_gear_ != 0) {
-    const double pinion_speed = nom.speed + v[twin::theta5];
-    const double gear_angle = nom.angle * ratio_ + q[twin::theta10];
-    const double gear_speed = nom.speed * ratio_ + v[twin::theta10];
-    const double ap = pinion_angle + ecc_pinion_phase_, ag = gear_angle + ecc_gear_phase_;
-    e_shaft = -(ecc_pinion_ * std::sin(ap) + ecc_gear_ * std::sin(ag));
-    e_shaft_rate = -(ecc_pinion_ * std::cos(ap) * pinion_speed + ecc_gear_ * std::cos(ag) * gear_speed);
-  }
+  const MeshPosition pos = mesh_position(pinion_angle, segment);
+  mc.cycles = pos.cycles;
+  double e_shaft, e_shaft_rate;
+  shaft_run_out(y, nom, pinion_angle, e_shaft, e_shaft_rate);
   double positions[3];
-  const int pairs = mesh_->pairs_in_contact(phase, positions);
+  const int pairs = mesh_->pairs_in_contact(pos.phase, positions);
   const double contact_speed = mesh_->geometry().base_radius_pinion * (nom.speed + v[twin::theta5]);
-  double force = 0, sliding = 0;
   for (int j = 0; j < pairs; ++j) {
     const double k = mesh_->pair_stiffness(positions[j]);
     double e = e_shaft, e_rate = e_shaft_rate;
     if (!gte_->is_zero()) {
-      const int pt = static_cast<int>((cycle - j) % z1_), gt = static_cast<int>((cycle - j) % z2_);
+      const int pt = static_cast<int>((pos.cycle - j) % z1_), gt = static_cast<int>((pos.cycle - j) % z2_);
       e += gte_->pair_error(positions[j], pt, gt);
       e_rate += gte_->pair_error_slope(positions[j], pt, gt) * contact_speed;
     }
-    force += pair_force(k, delta + e, delta_rate + e_rate);
-    sliding += std::abs(positions[j] - s_pitch_);
+    mc.force += pair_force(k, mc.delta + e, delta_rate + e_rate);
+    mc.sliding += std::abs(positions[j] - s_pitch_);
   }
+  return mc;
+}
 
-  twin::Vector21 load = external_ - m_.mesh * force - fictitious_ * nom.acceleration;
+twin::Vector21 RigDynamics::structural_load(double t, const RigState& y, const Nominal& nom, double mesh_force) const {
+  twin::Vector21 load = external_ - m_.mesh * mesh_force - fictitious_ * nom.acceleration;
   load[twin::theta1] += j_equivalent_ * nom.acceleration;  // the VFD drives the commanded speed ripple
   if (load_depth_ != 0) {
     load[twin::theta13] -= brake_torque_ * load_depth_ * std::sin(load_omega_ * t);
-    load[twin::theta1] -= loop_kp_ * v[twin::theta1] + loop_ki_ * (q[twin::theta1] - q1_static_);
+    load[twin::theta1] -= loop_kp_ * y[kRigDof + twin::theta1] + loop_ki_ * (y[twin::theta1] - q1_static_);
   }
-  Eigen::Matrix<double, 2 * N, 1> qv;
-  qv << q, v;
-  dy.head<N>() = v;
-  dy.segment<N>(kRigDof) = linear_ * qv + inverse_mass_.cwiseProduct(load);
+  return load;
+}
 
-  double bearing_y = 0, bearing_x = 0;
+// Casing modes: η̈ + 2ζω η̇ + ω² η = F_bearings / m (one-way: the casing is heavy next to the
+// bearing pedestals, its motion does not feed back).
+RigDynamics::CasingResponse RigDynamics::casing_response(const RigState& y, RigState& dy) const {
+  CasingResponse r;
   for (int i = 0; i < 4; ++i) {
-    bearing_y += ky_[i] * q[kBearingY[i]];
-    bearing_x += kx_[i] * q[kBearingX[i]];
+    r.bearing_y += ky_[i] * y[kBearingY[i]];
+    r.bearing_x += kx_[i] * y[kBearingX[i]];
   }
-  // Casing modes: η̈ + 2ζω η̇ + ω² η = F_bearings / m (one-way: the casing is heavy next to the
-  // bearing pedestals, its motion does not feed back).
-  double casing_acc[kCasingDof] = {0, 0, 0, 0};
   for (int c = 0; c < kCasingDof; ++c) {
     const int s = N + c;
     if (casing_) {
       const double w = casing_omega_[c % 2];
-      const double f = c < 2 ? bearing_y : bearing_x;
-      casing_acc[c] = f / casing_mass_ - 2.0 * casing_zeta_ * w * y[kRigDof + s] - w * w * y[s];
+      const double f = c < 2 ? r.bearing_y : r.bearing_x;
+      r.acc[c] = f / casing_mass_ - 2.0 * casing_zeta_ * w * y[kRigDof + s] - w * w * y[s];
     }
     dy[s] = y[kRigDof + s];
-    dy[kRigDof + s] = casing_acc[c];
+    dy[kRigDof + s] = r.acc[c];
   }
+  return r;
+}
+
+void RigDynamics::derivative(double t, const RigState& y, RigState& dy, RigOutputs* out, const MeshSegment* segment) const {
+  const auto q = y.head<N>();
+  const auto v = y.segment<N>(kRigDof);
+  const Nominal nom = nominal(t);
+  const MeshContact mc = mesh_contact(y, nom, segment);
+  const twin::Vector21 load = structural_load(t, y, nom, mc.force);
+  Eigen::Matrix<double, 2 * N, 1> qv;
+  qv << q, v;
+  dy.head<N>() = v;
+  dy.segment<N>(kRigDof) = linear_ * qv + inverse_mass_.cwiseProduct(load);
+  const CasingResponse casing = casing_response(y, dy);
   if (out) {
-    out->casing_y = casing_acc[0] + casing_acc[1];
-    out->casing_x = casing_acc[2] + casing_acc[3];
+    out->casing_y = casing.acc[0] + casing.acc[1];
+    out->casing_x = casing.acc[2] + casing.acc[3];
     out->y6_acc = dy[kRigDof + twin::y6];
     out->x6_acc = dy[kRigDof + twin::x6];
-    out->mesh_force = force;
-    out->deflection = delta;
-    out->bearing_force_y = bearing_y;
-    out->mesh_cycles = cycles;
-    out->sliding_factor = sliding / base_pitch_;
+    out->mesh_force = mc.force;
+    out->deflection = mc.delta;
+    out->bearing_force_y = casing.bearing_y;
+    out->mesh_cycles = mc.cycles;
+    out->sliding_factor = mc.sliding / base_pitch_;
     out->input_angle = nom.angle + q[twin::theta7];
   }
 }

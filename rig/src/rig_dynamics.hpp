@@ -62,6 +62,24 @@ class RigDynamics {
   };
   Nominal nominal(double t) const;
   double pair_force(double k, double compression, double compression_rate) const;
+  // The steps of derivative().
+  struct MeshPosition {
+    double cycles = 0;   // pinion angle / base-pitch angle
+    long long cycle = 0;
+    double phase = 0;    // within the cycle, held inside the segment when one is given
+  };
+  struct MeshContact {
+    double delta = 0, cycles = 0, force = 0, sliding = 0;
+  };
+  struct CasingResponse {
+    double acc[kCasingDof] = {0, 0, 0, 0};
+    double bearing_y = 0, bearing_x = 0;
+  };
+  MeshPosition mesh_position(double pinion_angle, const MeshSegment* segment) const;
+  void shaft_run_out(const RigState& y, const Nominal& nom, double pinion_angle, double& e, double& e_rate) const;
+  MeshContact mesh_contact(const RigState& y, const Nominal& nom, const MeshSegment* segment) const;
+  twin::Vector21 structural_load(double t, const RigState& y, const Nominal& nom, double mesh_force) const;
+  CasingResponse casing_response(const RigState& y, RigState& dy) const;
   RigState static_state();
   RigState initial_;
 

@@ -299,91 +299,127 @@ std::int64_t insert_gap_report(Database& db, const gap::GapReport& r, const GapR
   return id;
 }
 
-std::vector<StoredGapReport> load_gap_reports(Database& db, std::optional<std::size_t> newest) {
+namespace {
+
+// The runs of gap_report_runs (the newest `newest` of them when given), oldest first, without
+// their families, candidates and chosen effects.
+std::vector<StoredGapReport> load_gap_report_runs(Database& db, std::optional<std::size_t> newest) {
   std::vector<StoredGapReport> out;
-  if (!has_gap_report_tables(db)) return out;
-  {
-    std::string sql = "SELECT id, created_at, record_id, gear_pair, input_revolutions, speeds_hz, training_records, held_out_records,"
-                      " k_wear_before, k_wear_after, plot FROM gap_report_runs";
-    if (newest) sql += " WHERE id IN (SELECT id FROM gap_report_runs ORDER BY id DESC LIMIT " + std::to_string(*newest) + ")";
-    sql += " ORDER BY id";
-    Statement s(db, sql);
-    while (s.step()) {
-      StoredGapReport g;
-      g.id = s.get_int(0);
-      g.created_at = s.get_text(1);
-      if (!s.is_null(2)) g.context.record_id = s.get_int(2);
-      g.context.gear_pair = s.get_int(3);
-      gap::GapReport& r = g.report;
-      r.input_revolutions = double_or_nan(s, 4);
-      try {
-        r.speeds_hz = numbers_from(json::parse(s.get_text(5)));
-      } catch (const json::exception& e) {
-        throw std::runtime_error("gap report " + std::to_string(g.id) + ": speeds are not readable: " + e.what());
-      }
-      r.training_records = static_cast<std::size_t>(s.get_int(6));
-      r.held_out_records = static_cast<std::size_t>(s.get_int(7));
-      r.k_wear_before = optional_double(s, 8);
-      r.k_wear_after = optional_double(s, 9);
-      if (!s.is_null(10)) plot_from(s.get_text(10), r, g.id);
-      out.push_back(std::move(g));
-    }
-  }
-  Statement families(db, "SELECT family, before_position, before_resolved, before_unresolved_reason, before_distance_db,"
-                         " before_interval_low_db, before_interval_high_db, before_energy_share, before_significant,"
-                         " after_position, after_resolved, after_unresolved_reason, after_distance_db, after_interval_low_db,"
-                         " after_interval_high_db, after_energy_share, after_significant, unexplained_position"
-                         " FROM gap_report_families WHERE report_id = ?");
-  Statement candidates(db, "SELECT rank, effect, shrinkage, information_criterion, worsens_other_family, parameters"
-                           " FROM gap_report_candidates WHERE report_id = ? ORDER BY rank");
-  Statement candidate_families(db, "SELECT family, explains_position, held_out_position, resolved, unresolved_reason, distance_db,"
-                                   " interval_low_db, interval_high_db, energy_share, significant"
-                                   " FROM gap_candidate_families WHERE report_id = ? AND rank = ?");
-  Statement chosen(db, "SELECT effect FROM gap_report_chosen WHERE report_id = ? ORDER BY step");
-  for (StoredGapReport& g : out) {
+  std::string sql = "SELECT id, created_at, record_id, gear_pair, input_revolutions, speeds_hz, training_records, held_out_records,"
+                    " k_wear_before, k_wear_after, plot FROM gap_report_runs";
+  if (newest) sql += " WHERE id IN (SELECT id FROM gap_report_runs ORDER BY id DESC LIMIT " + std::to_string(*newest) + ")";
+  sql += " ORDER BY id";
+  Statement s(db, sql);
+  while (s.step()) {
+    StoredGapReport g;
+    g.id = s.get_int(0);
+    g.created_at = s.get_text(1);
+    if (!s.is_null(2)) g.context.record_id = s.get_int(2);
+    g.context.gear_pair = s.get_int(3);
     gap::GapReport& r = g.report;
-    // Positions put each list back in the diagnosis's order.
+    r.input_revolutions = double_or_nan(s, 4);
+    try {
+      r.speeds_hz = numbers_from(json::parse(s.get_text(5)));
+    } catch (const json::exception& e) {
+      throw std::runtime_error("gap report " + std::to_string(g.id) + ": speeds are not readable: " + e.what());
+    }
+    r.training_records = static_cast<std::size_t>(s.get_int(6));
+    r.held_out_records = static_cast<std::size_t>(s.get_int(7));
+    r.k_wear_before = optional_double(s, 8);
+    r.k_wear_after = optional_double(s, 9);
+    if (!s.is_null(10)) plot_from(s.get_text(10), r, g.id);
+    out.push_back(std::move(g));
+  }
+  return out;
+}
+
+// Fills a loaded run's families, candidates and chosen effects; positions put each list back in
+// the diagnosis's order.
+class GapReportDetails {
+ public:
+  explicit GapReportDetails(Database& db)
+      : families_(db, "SELECT family, before_position, before_resolved, before_unresolved_reason, before_distance_db,"
+                      " before_interval_low_db, before_interval_high_db, before_energy_share, before_significant,"
+                      " after_position, after_resolved, after_unresolved_reason, after_distance_db, after_interval_low_db,"
+                      " after_interval_high_db, after_energy_share, after_significant, unexplained_position"
+                      " FROM gap_report_families WHERE report_id = ?"),
+        candidates_(db, "SELECT rank, effect, shrinkage, information_criterion, worsens_other_family, parameters"
+                        " FROM gap_report_candidates WHERE report_id = ? ORDER BY rank"),
+        candidate_families_(db, "SELECT family, explains_position, held_out_position, resolved, unresolved_reason, distance_db,"
+                                " interval_low_db, interval_high_db, energy_share, significant"
+                                " FROM gap_candidate_families WHERE report_id = ? AND rank = ?"),
+        chosen_(db, "SELECT effect FROM gap_report_chosen WHERE report_id = ? ORDER BY step") {}
+
+  void fill(StoredGapReport& g) {
+    read_families(g);
+    read_candidates(g);
+    read_chosen(g);
+  }
+
+ private:
+  void read_families(StoredGapReport& g) {
+    gap::GapReport& r = g.report;
     std::map<std::int64_t, gap::FamilyGap> before, after;
     std::map<std::int64_t, gap::FamilyKind> unexplained;
-    families.bind(1, g.id);
-    while (families.step()) {
-      const gap::FamilyKind kind = family_of(families.get_text(0), g.id);
-      if (!families.is_null(1)) before[families.get_int(1)] = read_gap(families, 2, kind);
-      if (!families.is_null(9)) after[families.get_int(9)] = read_gap(families, 10, kind);
-      if (!families.is_null(17)) unexplained[families.get_int(17)] = kind;
+    families_.bind(1, g.id);
+    while (families_.step()) {
+      const gap::FamilyKind kind = family_of(families_.get_text(0), g.id);
+      if (!families_.is_null(1)) before[families_.get_int(1)] = read_gap(families_, 2, kind);
+      if (!families_.is_null(9)) after[families_.get_int(9)] = read_gap(families_, 10, kind);
+      if (!families_.is_null(17)) unexplained[families_.get_int(17)] = kind;
     }
-    families.reset();
+    families_.reset();
     for (auto& [pos, gap_value] : before) r.before.push_back(gap_value);
     for (auto& [pos, gap_value] : after) r.after.push_back(gap_value);
     for (auto& [pos, kind] : unexplained) r.unexplained.push_back(kind);
-
-    candidates.bind(1, g.id);
-    while (candidates.step()) {
-      gap::CandidateScore c;
-      const std::int64_t rank = candidates.get_int(0);
-      c.effect = effect_of(candidates.get_text(1), g.id);
-      c.shrinkage = double_or_nan(candidates, 2);
-      c.information_criterion = double_or_nan(candidates, 3);
-      c.worsens_other_family = candidates.get_int(4) != 0;
-      parameters_from(candidates.get_text(5), g.id, c);
-      std::map<std::int64_t, gap::FamilyKind> explains;
-      std::map<std::int64_t, gap::FamilyGap> held_out;
-      candidate_families.bind(1, g.id).bind(2, rank);
-      while (candidate_families.step()) {
-        const gap::FamilyKind kind = family_of(candidate_families.get_text(0), g.id);
-        if (!candidate_families.is_null(1)) explains[candidate_families.get_int(1)] = kind;
-        if (!candidate_families.is_null(2)) held_out[candidate_families.get_int(2)] = read_gap(candidate_families, 3, kind);
-      }
-      candidate_families.reset();
-      for (auto& [pos, kind] : explains) c.explains.push_back(kind);
-      for (auto& [pos, gap_value] : held_out) c.held_out_after.push_back(gap_value);
-      r.candidates.push_back(std::move(c));
-    }
-    candidates.reset();
-    chosen.bind(1, g.id);
-    while (chosen.step()) r.chosen.push_back(effect_of(chosen.get_text(0), g.id));
-    chosen.reset();
   }
+
+  void read_candidates(StoredGapReport& g) {
+    candidates_.bind(1, g.id);
+    while (candidates_.step()) {
+      gap::CandidateScore c;
+      const std::int64_t rank = candidates_.get_int(0);
+      c.effect = effect_of(candidates_.get_text(1), g.id);
+      c.shrinkage = double_or_nan(candidates_, 2);
+      c.information_criterion = double_or_nan(candidates_, 3);
+      c.worsens_other_family = candidates_.get_int(4) != 0;
+      parameters_from(candidates_.get_text(5), g.id, c);
+      read_candidate_families(g.id, rank, c);
+      g.report.candidates.push_back(std::move(c));
+    }
+    candidates_.reset();
+  }
+
+  void read_candidate_families(std::int64_t report_id, std::int64_t rank, gap::CandidateScore& c) {
+    std::map<std::int64_t, gap::FamilyKind> explains;
+    std::map<std::int64_t, gap::FamilyGap> held_out;
+    candidate_families_.bind(1, report_id).bind(2, rank);
+    while (candidate_families_.step()) {
+      const gap::FamilyKind kind = family_of(candidate_families_.get_text(0), report_id);
+      if (!candidate_families_.is_null(1)) explains[candidate_families_.get_int(1)] = kind;
+      if (!candidate_families_.is_null(2)) held_out[candidate_families_.get_int(2)] = read_gap(candidate_families_, 3, kind);
+    }
+    candidate_families_.reset();
+    for (auto& [pos, kind] : explains) c.explains.push_back(kind);
+    for (auto& [pos, gap_value] : held_out) c.held_out_after.push_back(gap_value);
+  }
+
+  void read_chosen(StoredGapReport& g) {
+    chosen_.bind(1, g.id);
+    while (chosen_.step()) g.report.chosen.push_back(effect_of(chosen_.get_text(0), g.id));
+    chosen_.reset();
+  }
+
+  Statement families_, candidates_, candidate_families_, chosen_;
+};
+
+}  // namespace
+
+std::vector<StoredGapReport> load_gap_reports(Database& db, std::optional<std::size_t> newest) {
+  if (!has_gap_report_tables(db)) return {};
+  std::vector<StoredGapReport> out = load_gap_report_runs(db, newest);
+  GapReportDetails details(db);
+  for (StoredGapReport& g : out) details.fill(g);
   return out;
 }
 

@@ -1,6 +1,7 @@
 #include "gearwatch/storage/record_reasons.hpp"
 
 #include <algorithm>
+#include <array>
 #include <map>
 #include <stdexcept>
 
@@ -68,40 +69,46 @@ std::vector<ChannelNaming> load_channel_names(Database& db) {
   return out;
 }
 
-std::vector<IndicatorSkip> load_indicator_skips(Database& db, std::int64_t first_record) {
-  std::vector<IndicatorSkip> out;
-  if (!has_object(db, "indicator_skips")) return out;
-  const char* detail = has_column(db, "indicator_skips", "detail") ? "detail" : "NULL";  // schema 3
-  Statement s(db, std::string("SELECT record_id, channel, name, reason, ") + detail +
-                      " FROM indicator_skips WHERE record_id >= ? ORDER BY record_id, channel, name");
+namespace {
+
+// The rows of indicator_skips or indicator_notes, which share their columns (record, channel,
+// indicator, a token of `all`, detail), from first_record on; `sql` selects them in that order.
+template <class Row, class Kind, std::size_t N>
+std::vector<Row> load_indicator_rows(Database& db, const std::string& sql, std::int64_t first_record,
+                                     const std::array<Kind, N>& all, const char* domain, const char* row_kind,
+                                     Kind Row::*kind) {
+  std::vector<Row> out;
+  Statement s(db, sql);
   s.bind(1, first_record);
   while (s.step()) {
-    IndicatorSkip k;
+    Row k;
     k.record_id = s.get_int(0);
     k.channel = s.get_int(1);
     k.indicator = s.get_text(2);
-    k.reason = enum_of(dsp::kAllSkipReasons, s.get_text(3), "skip reason", row_name("skip", k.record_id, k.channel));
+    k.*kind = enum_of(all, s.get_text(3), domain, row_name(row_kind, k.record_id, k.channel));
     k.detail = text_or_empty(s, 4);
     out.push_back(std::move(k));
   }
   return out;
 }
 
+}  // namespace
+
+std::vector<IndicatorSkip> load_indicator_skips(Database& db, std::int64_t first_record) {
+  if (!has_object(db, "indicator_skips")) return {};
+  const char* detail = has_column(db, "indicator_skips", "detail") ? "detail" : "NULL";  // schema 3
+  return load_indicator_rows(db,
+                             std::string("SELECT record_id, channel, name, reason, ") + detail +
+                                 " FROM indicator_skips WHERE record_id >= ? ORDER BY record_id, channel, name",
+                             first_record, dsp::kAllSkipReasons, "skip reason", "skip", &IndicatorSkip::reason);
+}
+
 std::vector<IndicatorCaveat> load_indicator_caveats(Database& db, std::int64_t first_record) {
-  std::vector<IndicatorCaveat> out;
-  if (!has_object(db, "indicator_notes")) return out;  // schema 7
-  Statement s(db, "SELECT record_id, channel, name, note, detail FROM indicator_notes WHERE record_id >= ? ORDER BY record_id, channel, name");
-  s.bind(1, first_record);
-  while (s.step()) {
-    IndicatorCaveat k;
-    k.record_id = s.get_int(0);
-    k.channel = s.get_int(1);
-    k.indicator = s.get_text(2);
-    k.note = enum_of(dsp::kAllIndicatorNotes, s.get_text(3), "indicator note", row_name("note", k.record_id, k.channel));
-    k.detail = text_or_empty(s, 4);
-    out.push_back(std::move(k));
-  }
-  return out;
+  if (!has_object(db, "indicator_notes")) return {};  // schema 7
+  return load_indicator_rows(db,
+                             "SELECT record_id, channel, name, note, detail FROM indicator_notes WHERE record_id >= ? "
+                             "ORDER BY record_id, channel, name",
+                             first_record, dsp::kAllIndicatorNotes, "indicator note", "note", &IndicatorCaveat::note);
 }
 
 std::vector<StoredWearVerdict> load_newest_wear_verdicts(Database& db) {

@@ -301,6 +301,131 @@ StorageWriter::~StorageWriter() {
   if (thread_.joinable()) stop();
 }
 
+// The writer thread's loop: takes a batch from the queue, commits it in one transaction and, on a
+// transient failure, keeps what is left of it and retries with a doubling back-off (until the
+// deadline after stop).
+class StorageWriter::Loop {
+ public:
+  Loop(StorageWriter& writer, std::unique_ptr<Database> db)
+      : w_(writer), db_(std::move(db)), backoff_(writer.options_.retry_initial_ms) {}
+
+  void run() {
+    for (;;) {
+      if (!take_batch()) return;
+      std::size_t done = 0;  // messages of the batch committed or dropped so far
+      try {
+        write_batch(done);
+        batch_.clear();
+        backoff_ = std::chrono::milliseconds(w_.options_.retry_initial_ms);
+      } catch (const SqliteError& e) {
+        if (!wait_to_retry(e, done)) return;
+      }
+    }
+  }
+
+ private:
+  // Tops the batch up from the queue (waiting while both are empty); false once stopped and empty.
+  bool take_batch() {
+    {
+      std::unique_lock lock(w_.mutex_);
+      if (batch_.empty()) {
+        w_.not_empty_.wait(lock, [&] { return !w_.queue_.empty() || w_.terminate_; });
+        if (w_.queue_.empty() && w_.terminate_) return false;
+      }
+      while (!w_.queue_.empty() && batch_.size() < w_.options_.max_batch) {
+        batch_.push_back(std::move(w_.queue_.front()));
+        w_.queue_.pop_front();
+      }
+      if (w_.terminate_ && !stop_deadline_)
+        stop_deadline_ = Clock::now() + std::chrono::milliseconds(static_cast<long>(w_.options_.give_up_after_stop_s * 1000));
+    }
+    w_.not_full_.notify_all();
+    return true;
+  }
+
+  // Commits batch[from, to) in one transaction; the derived state is kept only on commit.
+  void commit_range(std::size_t from, std::size_t to) {
+    WriterState trial = state_;
+    Transaction tx(*db_);
+    BatchWriter writer(*db_, trial, w_.counters_, w_.options_.outbox);
+    for (std::size_t i = from; i < to; ++i) std::visit([&](const auto& msg) { writer.write(msg); }, batch_[i]);
+    writer.finish();
+    tx.commit();
+    state_ = std::move(trial);
+    w_.counters_.messages_committed.fetch_add(to - from, std::memory_order_relaxed);
+    w_.counters_.transactions.fetch_add(1, std::memory_order_relaxed);
+    w_.counters_.run_id.store(static_cast<std::uint64_t>(state_.run_id), std::memory_order_relaxed);
+  }
+
+  // The whole batch in one transaction; a message refused for good is dropped, counted and
+  // logged, the rest written. A transient failure is thrown with `done` saying how far it got.
+  void write_batch(std::size_t& done) {
+    try {
+      commit_range(0, batch_.size());
+      done = batch_.size();
+    } catch (const SqliteError& e) {
+      if (e.transient()) throw;
+      if (batch_.size() == 1) {
+        drop_single(e);
+        done = 1;
+      } else {
+        write_one_by_one(done);
+      }
+    }
+  }
+
+  void drop_single(const SqliteError& e) {
+    spdlog::critical("storage: {} — message not written", e.what());
+    w_.counters_.lost_at_exit.fetch_add(1, std::memory_order_relaxed);
+    if (w_.on_fatal_ && e.code() != 0 && (e.code() & 0xFF) != 19 /* SQLITE_CONSTRAINT */) w_.on_fatal_(e.what());
+  }
+
+  // One bad message must not take its batch with it: write them one by one and drop only what
+  // fails on its own (a transient failure still goes to the retry).
+  void write_one_by_one(std::size_t& done) {
+    for (; done < batch_.size(); ++done) {
+      try {
+        commit_range(done, done + 1);
+      } catch (const SqliteError& one) {
+        if (one.transient()) throw;
+        spdlog::error("storage: message dropped: {}", one.what());
+        w_.counters_.lost_at_exit.fetch_add(1, std::memory_order_relaxed);
+      }
+    }
+  }
+
+  // After a transient failure: keeps the unwritten rest, logs (at most every 10 s) and sleeps
+  // the back-off; false (everything left counted as lost) once the deadline after stop passed.
+  bool wait_to_retry(const SqliteError& e, std::size_t done) {
+    batch_.erase(batch_.begin(), batch_.begin() + static_cast<std::ptrdiff_t>(done));
+    w_.counters_.retries.fetch_add(1, std::memory_order_relaxed);
+    const auto now = Clock::now();
+    if (now - last_log_ > std::chrono::seconds(10)) {
+      spdlog::error("storage: {} — keeping {} messages in memory, retrying in {} ms", e.what(), batch_.size(),
+                    backoff_.count());
+      last_log_ = now;
+    }
+    if (stop_deadline_ && now > *stop_deadline_) {
+      std::lock_guard lock(w_.mutex_);
+      const auto lost = batch_.size() + w_.queue_.size();
+      spdlog::critical("storage: giving up after stop: {} messages could not be written ({})", lost, e.what());
+      w_.counters_.lost_at_exit.fetch_add(lost, std::memory_order_relaxed);
+      return false;
+    }
+    std::this_thread::sleep_for(backoff_);
+    backoff_ = std::min(backoff_ * 2, std::chrono::milliseconds(w_.options_.retry_max_ms));
+    return true;
+  }
+
+  StorageWriter& w_;
+  std::unique_ptr<Database> db_;
+  WriterState state_;
+  std::deque<Message> batch_;
+  std::chrono::milliseconds backoff_;
+  Clock::time_point last_log_{};
+  std::optional<Clock::time_point> stop_deadline_;
+};
+
 void StorageWriter::start() {
   std::promise<void> opened;
   auto ready = opened.get_future();
@@ -314,87 +439,7 @@ void StorageWriter::start() {
       return;
     }
     p.set_value();
-    WriterState state;
-    std::deque<Message> batch;
-    auto backoff = std::chrono::milliseconds(options_.retry_initial_ms);
-    Clock::time_point last_log{};
-    std::optional<Clock::time_point> stop_deadline;
-    for (;;) {
-      {
-        std::unique_lock lock(mutex_);
-        if (batch.empty()) {
-          not_empty_.wait(lock, [&] { return !queue_.empty() || terminate_; });
-          if (queue_.empty() && terminate_) return;
-        }
-        while (!queue_.empty() && batch.size() < options_.max_batch) {
-          batch.push_back(std::move(queue_.front()));
-          queue_.pop_front();
-        }
-        if (terminate_ && !stop_deadline)
-          stop_deadline = Clock::now() + std::chrono::milliseconds(static_cast<long>(options_.give_up_after_stop_s * 1000));
-      }
-      not_full_.notify_all();
-      // Commits batch[from, to) in one transaction; the derived state is kept only on commit.
-      auto commit_range = [&](std::size_t from, std::size_t to) {
-        WriterState trial = state;
-        Transaction tx(*db);
-        BatchWriter writer(*db, trial, counters_, options_.outbox);
-        for (std::size_t i = from; i < to; ++i) std::visit([&](const auto& msg) { writer.write(msg); }, batch[i]);
-        writer.finish();
-        tx.commit();
-        state = std::move(trial);
-        counters_.messages_committed.fetch_add(to - from, std::memory_order_relaxed);
-        counters_.transactions.fetch_add(1, std::memory_order_relaxed);
-        counters_.run_id.store(static_cast<std::uint64_t>(state.run_id), std::memory_order_relaxed);
-      };
-      std::size_t done = 0;  // messages of the batch committed or dropped so far
-      try {
-        try {
-          commit_range(0, batch.size());
-          done = batch.size();
-        } catch (const SqliteError& e) {
-          if (e.transient()) throw;
-          if (batch.size() == 1) {
-            spdlog::critical("storage: {} — message not written", e.what());
-            counters_.lost_at_exit.fetch_add(1, std::memory_order_relaxed);
-            if (on_fatal_ && e.code() != 0 && (e.code() & 0xFF) != 19 /* SQLITE_CONSTRAINT */) on_fatal_(e.what());
-            done = 1;
-          } else {
-            // One bad message must not take its batch with it: write them one by one and drop
-            // only what fails on its own (a transient failure still goes to the retry below).
-            for (; done < batch.size(); ++done) {
-              try {
-                commit_range(done, done + 1);
-              } catch (const SqliteError& one) {
-                if (one.transient()) throw;
-                spdlog::error("storage: message dropped: {}", one.what());
-                counters_.lost_at_exit.fetch_add(1, std::memory_order_relaxed);
-              }
-            }
-          }
-        }
-        batch.clear();
-        backoff = std::chrono::milliseconds(options_.retry_initial_ms);
-      } catch (const SqliteError& e) {
-        batch.erase(batch.begin(), batch.begin() + static_cast<std::ptrdiff_t>(done));
-        counters_.retries.fetch_add(1, std::memory_order_relaxed);
-        const auto now = Clock::now();
-        if (now - last_log > std::chrono::seconds(10)) {
-          spdlog::error("storage: {} — keeping {} messages in memory, retrying in {} ms", e.what(), batch.size(),
-                        backoff.count());
-          last_log = now;
-        }
-        if (stop_deadline && now > *stop_deadline) {
-          std::lock_guard lock(mutex_);
-          const auto lost = batch.size() + queue_.size();
-          spdlog::critical("storage: giving up after stop: {} messages could not be written ({})", lost, e.what());
-          counters_.lost_at_exit.fetch_add(lost, std::memory_order_relaxed);
-          return;
-        }
-        std::this_thread::sleep_for(backoff);
-        backoff = std::min(backoff * 2, std::chrono::milliseconds(options_.retry_max_ms));
-      }
-    }
+    Loop(*this, std::move(db)).run();
   });
   try {
     ready.get();

@@ -150,9 +150,11 @@ std::vector<CalibrationKnob> default_calibration_knobs() {
   };
 }
 
-CalibrationResult calibrate(const GearboxParameters& prior, const std::vector<double>& measured_hz,
-                            const std::vector<bool>& use, const std::vector<CalibrationKnob>& knobs,
-                            const CalibrationOptions& options) {
+namespace {
+
+void check_calibration_inputs(const GearboxParameters& prior, const std::vector<double>& measured_hz,
+                              const std::vector<bool>& use, const std::vector<CalibrationKnob>& knobs,
+                              const CalibrationOptions& options) {
   prior.validate();
   if (measured_hz.empty()) throw TwinParameterError("calibration: no measured frequencies");
   if (use.size() != measured_hz.size()) throw TwinParameterError("calibration: use mask size differs from the data");
@@ -164,33 +166,84 @@ CalibrationResult calibrate(const GearboxParameters& prior, const std::vector<do
     if (k.fields.empty() || !(k.low > 0) || !(k.high > k.low))
       throw TwinParameterError("calibration: knob " + k.name + " has no fields or an empty range");
   if (options.starts < 1 || options.frequency_sigma <= 0) throw TwinParameterError("calibration: bad options");
+}
 
-  const Problem problem(prior, measured_hz, use, knobs, options);
+// Start 0 is the prior's centre, start 1 the parameter sheet's hint, later ones random inside the box.
+Eigen::VectorXd start_point(const Problem& problem, int start, std::mt19937& rng) {
   const auto n = static_cast<Eigen::Index>(problem.knob_count());
+  Eigen::VectorXd x0(n);
+  for (Eigen::Index j = 0; j < n; ++j) x0[j] = problem.centre(static_cast<std::size_t>(j));
+  if (start == 1) {
+    // The parameter sheet's hint: soft couplings on the input side (elastomer-insert values).
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const std::string& name = problem.knobs()[static_cast<std::size_t>(j)].name;
+      if (name == "kt12") x0[j] = std::log(250.0);
+      if (name == "kt23") x0[j] = std::log(100.0);
+      if (name == "kt12_13") x0[j] = std::log(2.8e4);
+      if (name == "k_bearing_x") x0[j] = std::log(1.5e7);
+      if (name == "k_bearing_y") x0[j] = std::log(1e9);
+    }
+  } else if (start > 1) {
+    for (Eigen::Index j = 0; j < n; ++j) {
+      std::uniform_real_distribution<double> u(0.15, 0.85);
+      x0[j] = problem.lo(static_cast<std::size_t>(j)) +
+              u(rng) * (problem.hi(static_cast<std::size_t>(j)) - problem.lo(static_cast<std::size_t>(j)));
+    }
+  }
+  return x0;
+}
+
+// One measured frequency's model mode in the best fit, with its error, shape and sensitivities.
+ModePairing pairing_of(const Problem& problem, const FitOutcome& best, const ModalEvaluation& e,
+                       const std::vector<Mode>& modes, const std::vector<double>& measured_hz,
+                       const std::vector<bool>& use, std::size_t i) {
+  ModePairing pair;
+  pair.measured_index = static_cast<int>(i);
+  pair.measured_hz = measured_hz[i];
+  pair.model_mode = best.pairing[i];
+  pair.model_hz = e.frequencies[pair.model_mode];
+  pair.error_pct = 100.0 * (pair.model_hz - measured_hz[i]) / measured_hz[i];
+  pair.used_in_fit = use[i];
+  const Mode& mode = modes[static_cast<std::size_t>(pair.model_mode)];
+  pair.dominant_element = mode.dominant_element;
+  pair.dominant_share = mode.dominant_share;
+  pair.torsional_kinetic_share = mode.torsional_kinetic_share;
+  pair.mac_to_start = modal_assurance(best.start_shapes.col(static_cast<Eigen::Index>(i)), e.shapes.col(pair.model_mode), e.mass);
+  const Eigen::VectorXd s = problem.log_sensitivity(e, pair.model_mode);
+  std::vector<std::pair<std::string, double>> sens;
+  for (Eigen::Index j = 0; j < static_cast<Eigen::Index>(problem.knob_count()); ++j) sens.emplace_back(problem.knobs()[static_cast<std::size_t>(j)].name, s[j]);
+  std::sort(sens.begin(), sens.end(), [](const auto& a, const auto& b) { return std::abs(a.second) > std::abs(b.second); });
+  sens.resize(std::min<std::size_t>(2, sens.size()));
+  pair.top_sensitivities = sens;
+  return pair;
+}
+
+KnobChange knob_change(const Problem& problem, const FitOutcome& best, std::size_t j) {
+  const auto& k = problem.knobs()[j];
+  const auto jj = static_cast<Eigen::Index>(j);
+  KnobChange c;
+  c.name = k.name;
+  c.prior_value = std::exp(problem.centre(j));
+  c.fitted_value = std::exp(best.x[jj]);
+  c.low = k.low;
+  c.high = k.high;
+  c.factor = c.fitted_value / c.prior_value;
+  c.at_bound = best.x[jj] <= problem.lo(j) + 1e-9 || best.x[jj] >= problem.hi(j) - 1e-9;
+  return c;
+}
+
+}  // namespace
+
+CalibrationResult calibrate(const GearboxParameters& prior, const std::vector<double>& measured_hz,
+                            const std::vector<bool>& use, const std::vector<CalibrationKnob>& knobs,
+                            const CalibrationOptions& options) {
+  check_calibration_inputs(prior, measured_hz, use, knobs, options);
+  const Problem problem(prior, measured_hz, use, knobs, options);
   std::mt19937 rng(options.seed);
   FitOutcome best;
   int best_start = 0;
   for (int start = 0; start < options.starts; ++start) {
-    Eigen::VectorXd x0(n);
-    for (Eigen::Index j = 0; j < n; ++j) x0[j] = problem.centre(static_cast<std::size_t>(j));
-    if (start == 1) {
-      // The parameter sheet's hint: soft couplings on the input side (elastomer-insert values).
-      for (Eigen::Index j = 0; j < n; ++j) {
-        const std::string& name = problem.knobs()[static_cast<std::size_t>(j)].name;
-        if (name == "kt12") x0[j] = std::log(250.0);
-        if (name == "kt23") x0[j] = std::log(100.0);
-        if (name == "kt12_13") x0[j] = std::log(2.8e4);
-        if (name == "k_bearing_x") x0[j] = std::log(1.5e7);
-        if (name == "k_bearing_y") x0[j] = std::log(1e9);
-      }
-    } else if (start > 1) {
-      for (Eigen::Index j = 0; j < n; ++j) {
-        std::uniform_real_distribution<double> u(0.15, 0.85);
-        x0[j] = problem.lo(static_cast<std::size_t>(j)) +
-                u(rng) * (problem.hi(static_cast<std::size_t>(j)) - problem.lo(static_cast<std::size_t>(j)));
-      }
-    }
-    FitOutcome fit = detail::fit_from(problem, x0);
+    FitOutcome fit = detail::fit_from(problem, start_point(problem, start, rng));
     if (fit.cost < best.cost) {
       best = std::move(fit);
       best_start = start;
@@ -206,39 +259,11 @@ CalibrationResult calibrate(const GearboxParameters& prior, const std::vector<do
   const ModalEvaluation e = problem.evaluate(best.x);
   const std::vector<Mode> modes = modal_analysis(result.parameters);
   for (std::size_t i = 0; i < measured_hz.size(); ++i) {
-    ModePairing pair;
-    pair.measured_index = static_cast<int>(i);
-    pair.measured_hz = measured_hz[i];
-    pair.model_mode = best.pairing[i];
-    pair.model_hz = e.frequencies[pair.model_mode];
-    pair.error_pct = 100.0 * (pair.model_hz - measured_hz[i]) / measured_hz[i];
-    pair.used_in_fit = use[i];
-    const Mode& mode = modes[static_cast<std::size_t>(pair.model_mode)];
-    pair.dominant_element = mode.dominant_element;
-    pair.dominant_share = mode.dominant_share;
-    pair.torsional_kinetic_share = mode.torsional_kinetic_share;
-    pair.mac_to_start = modal_assurance(best.start_shapes.col(static_cast<Eigen::Index>(i)), e.shapes.col(pair.model_mode), e.mass);
-    const Eigen::VectorXd s = problem.log_sensitivity(e, pair.model_mode);
-    std::vector<std::pair<std::string, double>> sens;
-    for (Eigen::Index j = 0; j < n; ++j) sens.emplace_back(problem.knobs()[static_cast<std::size_t>(j)].name, s[j]);
-    std::sort(sens.begin(), sens.end(), [](const auto& a, const auto& b) { return std::abs(a.second) > std::abs(b.second); });
-    sens.resize(std::min<std::size_t>(2, sens.size()));
-    pair.top_sensitivities = sens;
+    ModePairing pair = pairing_of(problem, best, e, modes, measured_hz, use, i);
     if (use[i]) result.max_abs_error_pct = std::max(result.max_abs_error_pct, std::abs(pair.error_pct));
-    result.pairing.push_back(pair);
+    result.pairing.push_back(std::move(pair));
   }
-  for (Eigen::Index j = 0; j < n; ++j) {
-    const auto& k = problem.knobs()[static_cast<std::size_t>(j)];
-    KnobChange c;
-    c.name = k.name;
-    c.prior_value = std::exp(problem.centre(static_cast<std::size_t>(j)));
-    c.fitted_value = std::exp(best.x[j]);
-    c.low = k.low;
-    c.high = k.high;
-    c.factor = c.fitted_value / c.prior_value;
-    c.at_bound = best.x[j] <= problem.lo(static_cast<std::size_t>(j)) + 1e-9 || best.x[j] >= problem.hi(static_cast<std::size_t>(j)) - 1e-9;
-    result.knobs.push_back(c);
-  }
+  for (std::size_t j = 0; j < problem.knob_count(); ++j) result.knobs.push_back(knob_change(problem, best, j));
   return result;
 }
 

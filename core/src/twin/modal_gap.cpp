@@ -513,143 +513,220 @@ const char* to_string(ModalGapStatus status) {
   return "?";
 }
 
-ModalGapReport modal_gap_analysis(const StructuralModel& baseline, const std::vector<ModalKnob>& knobs,
-                                  const std::vector<StructuralCandidate>& candidates,
-                                  const std::vector<double>& measured_hz, const ModalGapOptions& options) {
-  ModalGapReport report;
-  report.measured_hz = measured_hz;
-  report.baseline_knobs = knobs;
-  report.target_median_fold_pct = options.target_median_fold_pct;
-  report.baseline = leave_two_out(baseline, knobs, measured_hz, options.fit, options.identity);
-  const std::vector<bool> all(measured_hz.size(), true);
-  report.baseline_fit = fit_modal_model(baseline, knobs, measured_hz, all, options.fit);
+namespace {
+
+// modal_gap_analysis's steps: the baseline, the greedy selection of effects, the final fit, the
+// spread over the starts' seeds, the softest corners and each measured mode's verdict.
+class ModalGapAnalysis {
+ public:
+  ModalGapAnalysis(const StructuralModel& baseline, const std::vector<ModalKnob>& knobs,
+                   const std::vector<StructuralCandidate>& candidates, const std::vector<double>& measured_hz,
+                   const ModalGapOptions& options)
+      : baseline_(baseline), knobs_(knobs), candidates_(candidates), measured_hz_(measured_hz), options_(options),
+        all_(measured_hz.size(), true) {}
+
+  ModalGapReport run() {
+    score_baseline();
+    select_effects();
+    fit_final();
+    spread_over_seeds();
+    check_corners();
+    judge_modes();
+    return std::move(report_);
+  }
+
+ private:
+  // An option of candidates scored on top of what is adopted.
+  struct ScoredOption {
+    LeaveOutScore score;
+    StructuralModel model;
+    std::vector<ModalKnob> knobs;
+  };
+
+  void score_baseline() {
+    report_.measured_hz = measured_hz_;
+    report_.baseline_knobs = knobs_;
+    report_.target_median_fold_pct = options_.target_median_fold_pct;
+    report_.baseline = leave_two_out(baseline_, knobs_, measured_hz_, options_.fit, options_.identity);
+    report_.baseline_fit = fit_modal_model(baseline_, knobs_, measured_hz_, all_, options_.fit);
+    model_ = baseline_;
+    current_knobs_ = knobs_;
+    current_ = report_.baseline;
+  }
+
+  bool available(std::size_t c) const {
+    return std::find(used_groups_.begin(), used_groups_.end(), candidates_[c].exclusive_group) == used_groups_.end();
+  }
+
+  // Every remaining candidate, and every pair of them from different groups.
+  std::vector<std::vector<std::size_t>> step_options() const {
+    std::vector<std::vector<std::size_t>> out;
+    for (std::size_t c = 0; c < candidates_.size(); ++c)
+      if (available(c)) out.push_back({c});
+    for (std::size_t c = 0; c < candidates_.size(); ++c)
+      for (std::size_t d = c + 1; d < candidates_.size(); ++d)
+        if (available(c) && available(d) && candidates_[c].exclusive_group != candidates_[d].exclusive_group)
+          out.push_back({c, d});
+    return out;
+  }
+
+  // Applies an option's candidates to the current model and scores it; its row goes to the report.
+  ScoredOption score_option(const std::vector<std::size_t>& option, int step) {
+    ScoredOption o{{}, model_, current_knobs_};
+    CandidateScore cs;
+    for (std::size_t c : option) {
+      candidates_[c].apply(o.model, o.knobs);
+      cs.name += (cs.name.empty() ? "" : " + ") + candidates_[c].name;
+      cs.description += (cs.description.empty() ? "" : "; ") + candidates_[c].description;
+      cs.added_knobs += candidates_[c].added_knobs;
+    }
+    o.score = leave_two_out(o.model, o.knobs, measured_hz_, options_.fit, options_.identity);
+    cs.step = step;
+    cs.median_fold_before_pct = current_.median_fold_error_pct;
+    cs.median_fold_after_pct = o.score.median_fold_error_pct;
+    cs.worst_after_pct = o.score.worst_abs_error_pct;
+    report_.candidates.push_back(cs);
+    return o;
+  }
 
   // Greedy forward selection. Each step scores every remaining candidate, and every pair of them,
   // on top of what is adopted: two effects may only help together (one frees the knob the other
   // needs). An option of n effects must bring the median fold down to adopt_ratio^n of the current
   // figure, so more knobs need a larger gain.
-  StructuralModel model = baseline;
-  std::vector<ModalKnob> current_knobs = knobs;
-  LeaveOutScore current = report.baseline;
-  std::vector<std::string> used_groups;
-  auto available = [&](std::size_t c) {
-    return std::find(used_groups.begin(), used_groups.end(), candidates[c].exclusive_group) == used_groups.end();
-  };
-  for (int step = 1;; ++step) {
-    std::vector<std::vector<std::size_t>> step_options;
-    for (std::size_t c = 0; c < candidates.size(); ++c)
-      if (available(c)) step_options.push_back({c});
-    for (std::size_t c = 0; c < candidates.size(); ++c)
-      for (std::size_t d = c + 1; d < candidates.size(); ++d)
-        if (available(c) && available(d) && candidates[c].exclusive_group != candidates[d].exclusive_group)
-          step_options.push_back({c, d});
-    int best = -1;
-    double best_ratio = 1;
-    LeaveOutScore best_score;
-    StructuralModel best_model;
-    std::vector<ModalKnob> best_knobs;
-    for (std::size_t o = 0; o < step_options.size(); ++o) {
-      StructuralModel m = model;
-      std::vector<ModalKnob> k = current_knobs;
-      CandidateScore cs;
-      for (std::size_t c : step_options[o]) {
-        candidates[c].apply(m, k);
-        cs.name += (cs.name.empty() ? "" : " + ") + candidates[c].name;
-        cs.description += (cs.description.empty() ? "" : "; ") + candidates[c].description;
-        cs.added_knobs += candidates[c].added_knobs;
+  void select_effects() {
+    for (int step = 1;; ++step) {
+      const auto options = step_options();
+      int best = -1;
+      double best_ratio = 1;
+      ScoredOption best_option;
+      for (std::size_t o = 0; o < options.size(); ++o) {
+        ScoredOption scored = score_option(options[o], step);
+        const double needed = std::pow(options_.adopt_ratio, static_cast<double>(options[o].size()));
+        const double ratio = scored.score.median_fold_error_pct / std::max(current_.median_fold_error_pct, 1e-300);
+        if (ratio <= needed && (best < 0 || ratio / needed < best_ratio)) {
+          best = static_cast<int>(o);
+          best_ratio = ratio / needed;
+          best_option = std::move(scored);
+        }
       }
-      const LeaveOutScore s = leave_two_out(m, k, measured_hz, options.fit, options.identity);
-      cs.step = step;
-      cs.median_fold_before_pct = current.median_fold_error_pct;
-      cs.median_fold_after_pct = s.median_fold_error_pct;
-      cs.worst_after_pct = s.worst_abs_error_pct;
-      report.candidates.push_back(cs);
-      const double needed = std::pow(options.adopt_ratio, static_cast<double>(step_options[o].size()));
-      const double ratio = s.median_fold_error_pct / std::max(current.median_fold_error_pct, 1e-300);
-      if (ratio <= needed && (best < 0 || ratio / needed < best_ratio)) {
-        best = static_cast<int>(o);
-        best_ratio = ratio / needed;
-        best_score = s;
-        best_model = m;
-        best_knobs = k;
-      }
+      if (best < 0) return;
+      adopt(options[static_cast<std::size_t>(best)], report_.candidates.size() - options.size() + static_cast<std::size_t>(best),
+            std::move(best_option));
     }
-    if (best < 0) break;
-    const std::size_t first = report.candidates.size() - step_options.size();
-    report.candidates[first + static_cast<std::size_t>(best)].adopted = true;
-    for (std::size_t c : step_options[static_cast<std::size_t>(best)]) {
-      used_groups.push_back(candidates[c].exclusive_group);
-      report.adopted.push_back(candidates[c].name);
-    }
-    model = best_model;
-    current_knobs = best_knobs;
-    current = best_score;
-  }
-  report.final_knobs = current_knobs;
-  report.final_score = current;
-  report.final_fit = report.adopted.empty() ? report.baseline_fit : fit_modal_model(model, current_knobs, measured_hz, all, options.fit);
-  report.knobs_inside_priors = true;
-  for (std::size_t j = 0; j < current_knobs.size(); ++j) {
-    const double f = report.final_fit.factors[j];
-    if (f < current_knobs[j].low * (1 - 1e-9) || f > current_knobs[j].high * (1 + 1e-9)) report.knobs_inside_priors = false;
-  }
-  report.seeds.push_back(options.fit.seed);
-  std::vector<LeaveOutScore> before_by_seed = {report.baseline}, after_by_seed = {current};
-  for (unsigned seed : options.spread_seeds) {
-    ModalFitOptions fit = options.fit;
-    fit.seed = seed;
-    report.seeds.push_back(seed);
-    before_by_seed.push_back(leave_two_out(baseline, knobs, measured_hz, fit, options.identity));
-    after_by_seed.push_back(report.adopted.empty() ? before_by_seed.back()
-                                                   : leave_two_out(model, current_knobs, measured_hz, fit, options.identity));
-  }
-  for (std::size_t k = 0; k < before_by_seed.size(); ++k) {
-    report.baseline_fold_by_seed.push_back(before_by_seed[k].median_fold_error_pct);
-    report.final_fold_by_seed.push_back(after_by_seed[k].median_fold_error_pct);
-  }
-  report.target_met = report.knobs_inside_priors &&
-                      *std::max_element(report.final_fold_by_seed.begin(), report.final_fold_by_seed.end()) <=
-                          options.target_median_fold_pct;
-
-  report.corners.push_back(corner_check("grouped twin", baseline, knobs, measured_hz));
-  for (const auto& cand : candidates) {
-    StructuralModel m = baseline;
-    std::vector<ModalKnob> k = knobs;
-    cand.apply(m, k);
-    report.corners.push_back(corner_check(cand.name, m, k, measured_hz));
   }
 
-  const auto modes_before = structural_modes(report.baseline_fit.model);
-  const auto modes_after = structural_modes(report.final_fit.model);
-  for (std::size_t i = 0; i < measured_hz.size(); ++i) {
-    ModalGapMode m;
-    m.measured_hz = measured_hz[i];
-    m.median_error_before_pct = report.baseline.median_by_frequency_pct[i];
-    m.worst_error_before_pct = report.baseline.worst_by_frequency_pct[i];
-    m.median_error_after_pct = current.median_by_frequency_pct[i];
-    m.worst_error_after_pct = current.worst_by_frequency_pct[i];
-    const StructuralMode& before = modes_before[static_cast<std::size_t>(report.baseline_fit.paired_mode[i])];
-    const StructuralMode& after = modes_after[static_cast<std::size_t>(report.final_fit.paired_mode[i])];
-    m.element_before = before.dominant_element;
-    m.share_before = before.dominant_share;
-    m.element_after = after.dominant_element;
-    m.share_after = after.dominant_share;
-    m.fitted_hz_after = report.final_fit.model_hz[i];
-    // The verdict holds at every seed of the starts, or it is not given.
-    for (std::size_t k = 0; k < before_by_seed.size(); ++k) {
-      m.worst_seed_median_before_pct = std::max(m.worst_seed_median_before_pct, before_by_seed[k].median_by_frequency_pct[i]);
-      m.worst_seed_median_after_pct = std::max(m.worst_seed_median_after_pct, after_by_seed[k].median_by_frequency_pct[i]);
+  void adopt(const std::vector<std::size_t>& option, std::size_t row, ScoredOption scored) {
+    report_.candidates[row].adopted = true;
+    for (std::size_t c : option) {
+      used_groups_.push_back(candidates_[c].exclusive_group);
+      report_.adopted.push_back(candidates_[c].name);
     }
-    if (m.worst_seed_median_before_pct <= options.explained_within_pct) {
+    model_ = std::move(scored.model);
+    current_knobs_ = std::move(scored.knobs);
+    current_ = std::move(scored.score);
+  }
+
+  void fit_final() {
+    report_.final_knobs = current_knobs_;
+    report_.final_score = current_;
+    report_.final_fit = report_.adopted.empty() ? report_.baseline_fit
+                                                : fit_modal_model(model_, current_knobs_, measured_hz_, all_, options_.fit);
+    report_.knobs_inside_priors = true;
+    for (std::size_t j = 0; j < current_knobs_.size(); ++j) {
+      const double f = report_.final_fit.factors[j];
+      if (f < current_knobs_[j].low * (1 - 1e-9) || f > current_knobs_[j].high * (1 + 1e-9)) report_.knobs_inside_priors = false;
+    }
+  }
+
+  // The same scores with the random starts drawn from the other seeds.
+  void spread_over_seeds() {
+    report_.seeds.push_back(options_.fit.seed);
+    before_by_seed_ = {report_.baseline};
+    after_by_seed_ = {current_};
+    for (unsigned seed : options_.spread_seeds) {
+      ModalFitOptions fit = options_.fit;
+      fit.seed = seed;
+      report_.seeds.push_back(seed);
+      before_by_seed_.push_back(leave_two_out(baseline_, knobs_, measured_hz_, fit, options_.identity));
+      after_by_seed_.push_back(report_.adopted.empty() ? before_by_seed_.back()
+                                                       : leave_two_out(model_, current_knobs_, measured_hz_, fit, options_.identity));
+    }
+    for (std::size_t k = 0; k < before_by_seed_.size(); ++k) {
+      report_.baseline_fold_by_seed.push_back(before_by_seed_[k].median_fold_error_pct);
+      report_.final_fold_by_seed.push_back(after_by_seed_[k].median_fold_error_pct);
+    }
+    report_.target_met = report_.knobs_inside_priors &&
+                         *std::max_element(report_.final_fold_by_seed.begin(), report_.final_fold_by_seed.end()) <=
+                             options_.target_median_fold_pct;
+  }
+
+  void check_corners() {
+    report_.corners.push_back(corner_check("grouped twin", baseline_, knobs_, measured_hz_));
+    for (const auto& cand : candidates_) {
+      StructuralModel m = baseline_;
+      std::vector<ModalKnob> k = knobs_;
+      cand.apply(m, k);
+      report_.corners.push_back(corner_check(cand.name, m, k, measured_hz_));
+    }
+  }
+
+  void judge_modes() {
+    const auto modes_before = structural_modes(report_.baseline_fit.model);
+    const auto modes_after = structural_modes(report_.final_fit.model);
+    for (std::size_t i = 0; i < measured_hz_.size(); ++i) {
+      ModalGapMode m;
+      m.measured_hz = measured_hz_[i];
+      m.median_error_before_pct = report_.baseline.median_by_frequency_pct[i];
+      m.worst_error_before_pct = report_.baseline.worst_by_frequency_pct[i];
+      m.median_error_after_pct = current_.median_by_frequency_pct[i];
+      m.worst_error_after_pct = current_.worst_by_frequency_pct[i];
+      const StructuralMode& before = modes_before[static_cast<std::size_t>(report_.baseline_fit.paired_mode[i])];
+      const StructuralMode& after = modes_after[static_cast<std::size_t>(report_.final_fit.paired_mode[i])];
+      m.element_before = before.dominant_element;
+      m.share_before = before.dominant_share;
+      m.element_after = after.dominant_element;
+      m.share_after = after.dominant_share;
+      m.fitted_hz_after = report_.final_fit.model_hz[i];
+      judge_mode(m, i);
+      report_.modes.push_back(m);
+    }
+  }
+
+  // The verdict holds at every seed of the starts, or it is not given.
+  void judge_mode(ModalGapMode& m, std::size_t i) const {
+    for (std::size_t k = 0; k < before_by_seed_.size(); ++k) {
+      m.worst_seed_median_before_pct = std::max(m.worst_seed_median_before_pct, before_by_seed_[k].median_by_frequency_pct[i]);
+      m.worst_seed_median_after_pct = std::max(m.worst_seed_median_after_pct, after_by_seed_[k].median_by_frequency_pct[i]);
+    }
+    if (m.worst_seed_median_before_pct <= options_.explained_within_pct) {
       m.status = ModalGapStatus::explained_by_twin;
-      m.worse_with_effects = m.worst_seed_median_after_pct > options.explained_within_pct;
-    } else if (m.worst_seed_median_after_pct <= options.explained_within_pct) {
+      m.worse_with_effects = m.worst_seed_median_after_pct > options_.explained_within_pct;
+    } else if (m.worst_seed_median_after_pct <= options_.explained_within_pct) {
       m.status = ModalGapStatus::explained_by_effect;
-      m.effect = join(report.adopted);
+      m.effect = join(report_.adopted);
     }
-    report.modes.push_back(m);
   }
-  return report;
+
+  const StructuralModel& baseline_;
+  const std::vector<ModalKnob>& knobs_;
+  const std::vector<StructuralCandidate>& candidates_;
+  const std::vector<double>& measured_hz_;
+  const ModalGapOptions& options_;
+  const std::vector<bool> all_;
+  ModalGapReport report_;
+  StructuralModel model_;
+  std::vector<ModalKnob> current_knobs_;
+  LeaveOutScore current_;
+  std::vector<std::string> used_groups_;
+  std::vector<LeaveOutScore> before_by_seed_, after_by_seed_;
+};
+
+}  // namespace
+
+ModalGapReport modal_gap_analysis(const StructuralModel& baseline, const std::vector<ModalKnob>& knobs,
+                                  const std::vector<StructuralCandidate>& candidates,
+                                  const std::vector<double>& measured_hz, const ModalGapOptions& options) {
+  return ModalGapAnalysis(baseline, knobs, candidates, measured_hz, options).run();
 }
 
 ModalGapReport table_5_5_modal_gap(const ModalGapOptions& options) {

@@ -12,10 +12,12 @@ namespace gearwatch::twin {
 
 namespace {
 
-// casing_only: what a record needs (the casing acceleration and the tacho), nothing else kept, so
-// that the front-end's oversampled run does not hold every state signal `factor` times over.
-SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
-                                double duration_s, const SimulationOptions& options, bool casing_only) {
+// The settling run's output grid: coarse, the same checks.
+double settle_rate(const SimulationOptions& options) { return std::max(options.sample_rate_hz / 10.0, 1000.0); }
+
+// The checks before anything is built; the number of samples to record.
+double checked_sample_count(const GearboxParameters& p, const OperatingPoint& op, double duration_s,
+                            const SimulationOptions& options) {
   p.validate();
   if (!std::isfinite(duration_s) || duration_s <= 0) throw TwinParameterError("simulation duration must be positive");
   if (!std::isfinite(op.input_speed_hz) || op.input_speed_hz <= 0) throw TwinParameterError("input speed must be positive");
@@ -23,6 +25,82 @@ SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDe
   if (!(options.sample_rate_hz > 0)) throw TwinParameterError("sample rate must be positive");
   const double samples_d = std::ceil(duration_s * options.sample_rate_hz);
   if (samples_d > 2e9) throw TwinParameterError("simulation too long for one run");
+  return samples_d;
+}
+
+// Integrates the settling time without recording; the right-hand side's evaluations.
+std::size_t settle(const GearboxDynamics& dynamics, State& state, const SimulationOptions& options) {
+  if (!(options.settle_s > 0)) return 0;
+  const double rate = settle_rate(options);
+  const auto settle_count = static_cast<std::size_t>(std::ceil(options.settle_s * rate)) + 1;
+  return integrate_sampled(dynamics, state, 0.0, rate, settle_count, options, [](const State&, double) {});
+}
+
+// The time of the first recorded sample: the end of the settling grid.
+double record_start_s(const SimulationOptions& options) {
+  return options.settle_s > 0 ? std::ceil(options.settle_s * settle_rate(options)) / settle_rate(options) : 0.0;
+}
+
+void reserve_signals(SimulationResult& result, std::size_t count, bool casing_only) {
+  result.casing_acceleration.reserve(count);
+  if (casing_only) return;
+  result.time_s.reserve(count);
+  result.mesh_force_n.reserve(count);
+  result.mesh_stiffness_n_m.reserve(count);
+  result.transmission_error_m.reserve(count);
+  result.gte_m.reserve(count);
+  result.pairs_in_contact.reserve(count);
+}
+
+// Follows one tooth pair over a full pass: the pair that enters in the first full cycle.
+class ContactProfileTracker {
+ public:
+  explicit ContactProfileTracker(const GearGeometry& geometry) : geometry_(geometry) {}
+
+  void observe(const GearboxDynamics::MeshState& ms, ContactForceProfile& prof) {
+    if (done_) return;
+    if (tracked_cycle_ < 0 && ms.phase < 0.5) tracked_cycle_ = ms.cycle + 1;  // the next pair to enter
+    if (tracked_cycle_ < 0) return;
+    const long long j = tracked_cycle_ <= ms.cycle ? ms.cycle - tracked_cycle_ : -1;
+    if (j >= 0 && j < ms.pairs) {
+      const double s = ms.positions[j];
+      const HertzContact h = hertz_contact(geometry_, s, ms.pair_force[j]);
+      prof.position_m.push_back(s);
+      prof.pinion_fraction.push_back(geometry_.profile_fraction_pinion(s));
+      prof.force_n.push_back(ms.pair_force[j]);
+      prof.max_pressure_pa.push_back(h.max_pressure_pa);
+      prof.half_width_m.push_back(h.half_width_m);
+    } else if (j >= ms.pairs) {
+      done_ = true;
+    }
+  }
+
+ private:
+  const GearGeometry& geometry_;
+  long long tracked_cycle_ = -1;
+  bool done_ = false;
+};
+
+// Tacho: the input shaft angle Ω t + q1 passes 2π k; edges at fractional sample positions.
+std::vector<double> tacho_edges(double input_speed_hz, double t0, double sample_rate_hz,
+                                const std::vector<double>& input_angle_deviation) {
+  std::vector<double> edges;
+  const double omega = 2.0 * std::numbers::pi * input_speed_hz;
+  for (std::size_t i = 1; i < input_angle_deviation.size(); ++i) {
+    const double a0 = omega * (t0 + (static_cast<double>(i) - 1.0) / sample_rate_hz) + input_angle_deviation[i - 1];
+    const double a1 = omega * (t0 + static_cast<double>(i) / sample_rate_hz) + input_angle_deviation[i];
+    const double k = std::ceil(a0 / (2.0 * std::numbers::pi));
+    const double edge = 2.0 * std::numbers::pi * k;
+    if (edge >= a0 && edge < a1) edges.push_back(static_cast<double>(i) - 1.0 + (edge - a0) / (a1 - a0));
+  }
+  return edges;
+}
+
+// casing_only: what a record needs (the casing acceleration and the tacho), nothing else kept, so
+// that the front-end's oversampled run does not hold every state signal `factor` times over.
+SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                                double duration_s, const SimulationOptions& options, bool casing_only) {
+  const double samples_d = checked_sample_count(p, op, duration_s, options);
   const GearGeometry geometry = GearGeometry::from_spec(p.gears);
   MeshStiffnessOptions mo;
   mo.scale = p.mesh_stiffness_scale;
@@ -40,30 +118,13 @@ SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDe
   result.sample_rate_hz = options.sample_rate_hz;
   result.brake_torque_nm = dynamics.brake_torque_nm();
   State state = dynamics.static_equilibrium();
-  // Settle: integrate without recording (coarse output grid, same checks).
-  if (options.settle_s > 0) {
-    const double settle_rate = std::max(options.sample_rate_hz / 10.0, 1000.0);
-    const auto settle_count = static_cast<std::size_t>(std::ceil(options.settle_s * settle_rate)) + 1;
-    result.rhs_evaluations += integrate_sampled(dynamics, state, 0.0, settle_rate, settle_count, options, [](const State&, double) {});
-  }
-  const double t0 = options.settle_s > 0 ? std::ceil(options.settle_s * std::max(options.sample_rate_hz / 10.0, 1000.0)) /
-                                               std::max(options.sample_rate_hz / 10.0, 1000.0)
-                                         : 0.0;
+  result.rhs_evaluations += settle(dynamics, state, options);
+  const double t0 = record_start_s(options);
   const auto count = static_cast<std::size_t>(samples_d);
-  result.casing_acceleration.reserve(count);
-  if (!casing_only) {
-    result.time_s.reserve(count);
-    result.mesh_force_n.reserve(count);
-    result.mesh_stiffness_n_m.reserve(count);
-    result.transmission_error_m.reserve(count);
-    result.gte_m.reserve(count);
-    result.pairs_in_contact.reserve(count);
-  }
+  reserve_signals(result, count, casing_only);
   std::vector<double> input_angle_deviation;
   input_angle_deviation.reserve(count);
-  // Follow one tooth pair over a full pass: the pair that enters in the first full cycle.
-  long long tracked_cycle = -1;
-  bool profile_done = false;
+  ContactProfileTracker profile(geometry);
   const double path_gain = p.casing_path_gain;  // the sensor's path; 1 leaves y6 as it is
   result.rhs_evaluations += integrate_sampled(dynamics, state, t0, options.sample_rate_hz, count, options, [&](const State& x, double t) {
     if (casing_only) {
@@ -80,34 +141,9 @@ SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDe
     result.transmission_error_m.push_back(ms.deflection);
     result.gte_m.push_back(ms.gte);
     result.pairs_in_contact.push_back(ms.pairs);
-    if (!profile_done) {
-      if (tracked_cycle < 0 && ms.phase < 0.5) tracked_cycle = ms.cycle + 1;  // the next pair to enter
-      if (tracked_cycle >= 0) {
-        const long long j = tracked_cycle <= ms.cycle ? ms.cycle - tracked_cycle : -1;
-        if (j >= 0 && j < ms.pairs) {
-          auto& prof = result.contact_profile;
-          const double s = ms.positions[j];
-          const HertzContact h = hertz_contact(geometry, s, ms.pair_force[j]);
-          prof.position_m.push_back(s);
-          prof.pinion_fraction.push_back(geometry.profile_fraction_pinion(s));
-          prof.force_n.push_back(ms.pair_force[j]);
-          prof.max_pressure_pa.push_back(h.max_pressure_pa);
-          prof.half_width_m.push_back(h.half_width_m);
-        } else if (j >= ms.pairs) {
-          profile_done = true;
-        }
-      }
-    }
+    profile.observe(ms, result.contact_profile);
   });
-  // Tacho: the input shaft angle Ω t + q1 passes 2π k; edges at fractional sample positions.
-  const double omega = 2.0 * std::numbers::pi * op.input_speed_hz;
-  for (std::size_t i = 1; i < count; ++i) {
-    const double a0 = omega * (t0 + (static_cast<double>(i) - 1.0) / options.sample_rate_hz) + input_angle_deviation[i - 1];
-    const double a1 = omega * (t0 + static_cast<double>(i) / options.sample_rate_hz) + input_angle_deviation[i];
-    const double k = std::ceil(a0 / (2.0 * std::numbers::pi));
-    const double edge = 2.0 * std::numbers::pi * k;
-    if (edge >= a0 && edge < a1) result.tacho_edges.push_back(static_cast<double>(i) - 1.0 + (edge - a0) / (a1 - a0));
-  }
+  result.tacho_edges = tacho_edges(op.input_speed_hz, t0, options.sample_rate_hz, input_angle_deviation);
   return result;
 }
 

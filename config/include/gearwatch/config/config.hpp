@@ -29,6 +29,9 @@ struct ProtocolSettings {
 };
 
 enum class SourceKind { socketcan, candump };
+inline constexpr std::array kAllSourceKinds{SourceKind::socketcan, SourceKind::candump};
+/// The token of acquisition.source.
+const char* to_string(SourceKind kind) noexcept;
 
 struct AcquisitionSettings {
   SourceKind source = SourceKind::socketcan;

@@ -115,6 +115,19 @@ class SvgPlot {
 
  private:
   bool placeable(const PlotPoint& p) const;
+  /// The plot area's edges in pixels.
+  struct PlotBox {
+    double left, right, top, bottom;
+  };
+  PlotBox box() const;
+  // The parts render() draws, in its order.
+  std::string frame_svg(std::string_view css_id) const;
+  std::string x_axis_svg() const;
+  std::string y_axis_svg() const;
+  std::string bands_svg() const;
+  std::string events_svg() const;
+  std::string series_svg(const PlotSeries& s) const;
+  std::string legend_svg() const;
   std::string title_;
   Axis x_, y_;
   Layout layout_;

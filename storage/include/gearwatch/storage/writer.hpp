@@ -75,8 +75,7 @@ class StorageWriter {
   std::size_t queued() const;
 
  private:
-  void run();
-  bool write_batch(class Database& db, std::deque<Message>& batch);
+  class Loop;  ///< the writer thread's loop (writer.cpp)
 
   WriterOptions options_;
   ErrorHandler on_fatal_;
