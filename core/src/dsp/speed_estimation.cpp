@@ -161,7 +161,8 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   // not move). A line's phase scatters as 1/sqrt(2·SNR), and a line far below the others (a mesh
   // harmonic the profile's wear has made weak, near a cancellation) also wanders with the load;
   // the refinement corrects only what is slow against its window, so an error the first pass puts
-  // in stays. At a steady speed the strongest line is taken. When the speed changes, the lowest
+  // in stays. At a steady speed the line whose angle is most precise (steadiest_line): a phase
+  // error φ at harmonic h is an angle error φ/(2π·z1·h). When the speed changes, the lowest
   // within 6 dB of the strongest: a higher line's phase swings h times as far, beyond what the
   // coarse track can hand the refinement, and it sits nearer the structure's resonances, whose
   // phase moves with the line's frequency.
@@ -177,8 +178,9 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   }
   const double highest = *std::max_element(line_medians.begin(), line_medians.end());
   int best = 0;
-  if (steady_speed())
-    best = static_cast<int>(std::max_element(line_medians.begin(), line_medians.end()) - line_medians.begin());
+  const auto strongest = static_cast<std::size_t>(std::max_element(line_medians.begin(), line_medians.end()) - line_medians.begin());
+  if (steady_speed(strongest))
+    best = steadiest_line(line_medians);
   else
     while (line_medians[static_cast<std::size_t>(best)] < highest - kMinLineSnr) ++best;
   const double best_snr = medians[static_cast<std::size_t>(best)];
@@ -277,15 +279,37 @@ void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start,
   }
 }
 
-// Steady: the fine track's speeds spread by at most kSteadySpread of their median. A lightly damped
+// Steady: the speeds of the strongest line (each frame's, refined by the parabola) spread by at
+// most kSteadySpread of their median. Not the harmonic search's speeds: where only a few of the
+// harmonics searched stand out, its score is flat across a bin of the lowest line, and those speeds
+// scatter by that much at a constant speed. A lightly damped
 // resonance (damping ratio ζ ≥ 1 %) turns a line's phase by up to δ/ζ when its frequency moves by a
 // fraction δ; at 1e-3 that stays under 0.1 rad, whatever line is taken.
-bool SpeedEstimator::steady_speed() const {
+bool SpeedEstimator::steady_speed(std::size_t line) const {
   std::vector<double> speeds;
-  for (const auto& f : fine_) speeds.push_back(f.speed);
+  for (const auto& f : fine_) speeds.push_back(f.line_speed[line]);
   if (speeds.empty()) return false;
   const auto [lo, hi] = std::minmax_element(speeds.begin(), speeds.end());
   return *hi - *lo <= kSteadySpread * median(speeds);
+}
+
+// The harmonic (0-based) whose demodulated angle scatters least: the phase of a line of SNR ρ
+// scatters as 1/sqrt(2ρ) whatever its order, so the angle error of harmonic h goes as
+// 1/(h·sqrt(ρ_h)); the largest ln ρ_h + 2 ln h wins, among lines standing kMinLineSnr above the
+// noise (below, the phase is no longer a small, Gaussian error). The strongest line is not the
+// best one when a strong low harmonic competes with a somewhat weaker high one (a pitted flank's
+// noise masks the upper harmonics partly): the low one's angle is h_high/h_low times coarser.
+int SpeedEstimator::steadiest_line(const std::vector<double>& line_log_snr) {
+  int best = static_cast<int>(std::max_element(line_log_snr.begin(), line_log_snr.end()) - line_log_snr.begin());
+  double best_score = line_log_snr[static_cast<std::size_t>(best)] + 2.0 * std::log(best + 1.0);
+  for (std::size_t h = 0; h < line_log_snr.size(); ++h) {
+    const double score = line_log_snr[h] + 2.0 * std::log(static_cast<double>(h) + 1.0);
+    if (line_log_snr[h] >= kMinLineSnr && score > best_score) {
+      best_score = score;
+      best = static_cast<int>(h);
+    }
+  }
+  return best;
 }
 
 // A line's log-SNR against the noise beside it: the median power of the ±kFloorHalfWidth bins
