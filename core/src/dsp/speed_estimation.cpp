@@ -127,8 +127,9 @@ const SpeedEstimate& SpeedEstimator::estimate(std::span<const float> x, double f
     return fail(text);
   }
   if (!synthesise_edges(x.size())) return fail("the estimated angle covers fewer than two revolutions");
-  const double revs = result_.knot_revs.back() - result_.knot_revs.front();
-  result_.mean_speed_hz = revs * fs / (result_.knot_samples.back() - result_.knot_samples.front());
+  whole_window_span(window);
+  const double first = result_.whole_window_first, last = result_.whole_window_last;
+  result_.mean_speed_hz = (result_.angle_at(last) - result_.angle_at(first)) * fs / (last - first);
   result_.ok = true;
   return result_;
 }
@@ -161,7 +162,8 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   // not move). A line's phase scatters as 1/sqrt(2·SNR), and a line far below the others (a mesh
   // harmonic the profile's wear has made weak, near a cancellation) also wanders with the load;
   // the refinement corrects only what is slow against its window, so an error the first pass puts
-  // in stays. At a steady speed the strongest line is taken. When the speed changes, the lowest
+  // in stays. At a steady speed the line whose angle is most precise (finest_angle_line): a phase
+  // error φ at harmonic h is an angle error φ/(2π·z1·h). When the speed changes, the lowest
   // within 6 dB of the strongest: a higher line's phase swings h times as far, beyond what the
   // coarse track can hand the refinement, and it sits nearer the structure's resonances, whose
   // phase moves with the line's frequency.
@@ -177,8 +179,9 @@ bool SpeedEstimator::track_speed(std::span<const float> x, double fs, double low
   }
   const double highest = *std::max_element(line_medians.begin(), line_medians.end());
   int best = 0;
-  if (steady_speed())
-    best = static_cast<int>(std::max_element(line_medians.begin(), line_medians.end()) - line_medians.begin());
+  const auto strongest = static_cast<std::size_t>(std::max_element(line_medians.begin(), line_medians.end()) - line_medians.begin());
+  if (steady_speed(strongest))
+    best = finest_angle_line(line_medians);
   else
     while (line_medians[static_cast<std::size_t>(best)] < highest - kMinLineSnr) ++best;
   const double best_snr = medians[static_cast<std::size_t>(best)];
@@ -277,15 +280,38 @@ void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start,
   }
 }
 
-// Steady: the fine track's speeds spread by at most kSteadySpread of their median. A lightly damped
-// resonance (damping ratio ζ ≥ 1 %) turns a line's phase by up to δ/ζ when its frequency moves by a
-// fraction δ; at 1e-3 that stays under 0.1 rad, whatever line is taken.
-bool SpeedEstimator::steady_speed() const {
+// Steady: the speeds of the strongest line (each frame's, refined by the parabola) spread by at
+// most kSteadySpread of their median. Not the harmonic search's speeds: where only a few of the
+// harmonics searched stand out, its score is flat across a bin of the lowest line, and those speeds
+// scatter by that much at a constant speed. A lightly damped resonance (damping ratio ζ ≥ 1 %)
+// turns a line's phase by up to δ/ζ when its frequency moves by a fraction δ; at 1e-3 that stays
+// under 0.1 rad, whatever line is taken.
+bool SpeedEstimator::steady_speed(std::size_t line) const {
   std::vector<double> speeds;
-  for (const auto& f : fine_) speeds.push_back(f.speed);
+  for (const auto& f : fine_) speeds.push_back(f.line_speed[line]);
   if (speeds.empty()) return false;
   const auto [lo, hi] = std::minmax_element(speeds.begin(), speeds.end());
   return *hi - *lo <= kSteadySpread * median(speeds);
+}
+
+// The harmonic (0-based) whose demodulated angle scatters least: the phase of a line of SNR ρ
+// scatters as 1/sqrt(2ρ) whatever its order, so the angle error of harmonic h goes as
+// 1/(h·sqrt(ρ_h)); the largest ln ρ_h + 2 ln h wins, among lines standing kMinLineSnr above the
+// noise (below, the phase is no longer a small, Gaussian error). The strongest line is not the
+// best one when a strong low harmonic competes with a somewhat weaker high one (a pitted flank's
+// noise masks the upper harmonics partly): at equal SNR the low one's angle is h_high/h_low times
+// coarser.
+int SpeedEstimator::finest_angle_line(const std::vector<double>& line_log_snr) {
+  int best = static_cast<int>(std::max_element(line_log_snr.begin(), line_log_snr.end()) - line_log_snr.begin());
+  double best_score = line_log_snr[static_cast<std::size_t>(best)] + 2.0 * std::log(best + 1.0);
+  for (std::size_t h = 0; h < line_log_snr.size(); ++h) {
+    const double score = line_log_snr[h] + 2.0 * std::log(static_cast<double>(h) + 1.0);
+    if (line_log_snr[h] >= kMinLineSnr && score > best_score) {
+      best_score = score;
+      best = static_cast<int>(h);
+    }
+  }
+  return best;
 }
 
 // A line's log-SNR against the noise beside it: the median power of the ±kFloorHalfWidth bins
@@ -539,6 +565,21 @@ bool SpeedEstimator::synthesise_edges(std::size_t /*samples*/) {
   return result_.edges.size() >= 2;
 }
 
+// The samples where the angle lies half a demodulation window (`window` revolutions) inside either
+// end of the estimate. The record holds at least four windows (estimate), so the span is not empty.
+void SpeedEstimator::whole_window_span(double window) {
+  const auto& samples = result_.knot_samples;
+  const auto& revs = result_.knot_revs;
+  auto sample_at = [&](double angle) {
+    const auto it = std::lower_bound(revs.begin(), revs.end(), angle);
+    const auto i = static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(it - revs.begin(), 1, static_cast<std::ptrdiff_t>(revs.size()) - 1));
+    const double w = (angle - revs[i - 1]) / (revs[i] - revs[i - 1]);
+    return samples[i - 1] + w * (samples[i] - samples[i - 1]);
+  };
+  result_.whole_window_first = sample_at(revs.front() + 0.5 * window);
+  result_.whole_window_last = sample_at(revs.back() - 0.5 * window);
+}
+
 double speed_tolerance(const SpeedEstimate& estimate, double revolutions, int pinion_teeth) {
   const double resolution = 4.0 * estimate.relative_standard_error(revolutions);
   const double slip = 0.1 / (static_cast<double>(pinion_teeth) * revolutions);
@@ -553,9 +594,17 @@ SpeedCheck check_tacho(std::span<const double> tacho_edges, double input_revs_pe
   const double tacho_revs = static_cast<double>(tacho_edges.size() - 1) * input_revs_per_edge;
   c.tacho_speed_hz = tacho_revs * fs / span;
   if (!estimate.ok) return c;
-  const double signal_revs = estimate.angle_at(tacho_edges.back()) - estimate.angle_at(tacho_edges.front());
-  c.signal_speed_hz = signal_revs * fs / span;
-  c.relative_difference = (tacho_revs - signal_revs) / signal_revs;
+  // Compared over the tacho edges where the estimate's whole window fits (its angle near the ends
+  // is less exact); the whole record's when fewer than two edges lie there.
+  const auto from = std::lower_bound(tacho_edges.begin(), tacho_edges.end(), estimate.whole_window_first);
+  const auto to = std::upper_bound(tacho_edges.begin(), tacho_edges.end(), estimate.whole_window_last);
+  const bool inside = to - from >= 2;
+  const double first = inside ? *from : tacho_edges.front(), last = inside ? *(to - 1) : tacho_edges.back();
+  const double inner_revs = static_cast<double>(inside ? to - from - 1 : static_cast<std::ptrdiff_t>(tacho_edges.size()) - 1) *
+                            input_revs_per_edge;
+  const double signal_revs = estimate.angle_at(last) - estimate.angle_at(first);
+  c.signal_speed_hz = signal_revs * fs / (last - first);
+  c.relative_difference = (inner_revs - signal_revs) / signal_revs;
   c.tolerance = speed_tolerance(estimate, signal_revs, pinion_teeth);
   c.mismatch = std::abs(c.relative_difference) > c.tolerance;
   c.gross = std::abs(c.relative_difference) > kGrossSpeedDifference;

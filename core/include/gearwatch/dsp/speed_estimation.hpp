@@ -9,7 +9,8 @@
 //     single strong lines and to the shaft-order sidebands), over the search range; then again with
 //     frames four revolutions long, searched around the first track, and each frame's line refined
 //     by parabolic interpolation. The mesh harmonic h* demodulated: by its SNR against the median
-//     power beside it, the strongest at a steady speed, else the lowest within 6 dB of it.
+//     power beside it: at a steady speed the one whose angle is most precise (largest h²·SNR),
+//     else the lowest within 6 dB of the strongest.
 //  2. the coarse angle: the track integrated.
 //  3. refinement, `iterations` times: the signal demodulated at order m = z1·h* on the current
 //     angle (x·exp(-i2πmθ)), integrated over the angle with a window of one input-shaft revolution
@@ -49,7 +50,11 @@ struct SpeedEstimate {
   bool ok = false;
   std::string failure;                 ///< why not ("" when ok)
   int harmonic = 0;                    ///< mesh harmonic h* demodulated
-  double mean_speed_hz = 0.0;          ///< input shaft, over the record
+  double mean_speed_hz = 0.0;          ///< input shaft, over the whole-window span below
+  /// Sample positions between which the whole demodulation window fits in the record: there the
+  /// window nulls the shaft sidebands and the other mesh harmonics; nearer the ends it is cut short
+  /// and a stronger neighbouring harmonic leaks into the line's phase.
+  double whole_window_first = 0.0, whole_window_last = 0.0;
   double phase_noise_rad = 0.0;        ///< scatter of independent window phases (last pass)
   /// Standard error of a mean speed taken between two angles of the estimate (relative): the two
   /// ends' angle errors, sqrt(2)·phase_noise / (2π m), over the revolutions between them; see
@@ -90,7 +95,9 @@ class SpeedEstimator {
   void frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length, std::size_t last_bin);
   Frame search_frame(double fs, std::size_t length, double low, double high);
   double line_snr(std::size_t peak);
-  bool steady_speed() const;
+  bool steady_speed(std::size_t line) const;
+  static int finest_angle_line(const std::vector<double>& line_log_snr);
+  void whole_window_span(double window);
   template <class SnrAt>
   double resolve_octave(double speed, double low, double high, double top, SnrAt snr_at) const;
   void coarse_angle(std::span<const float> x, double fs);
