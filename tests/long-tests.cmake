@@ -32,3 +32,4 @@ gearwatch_long_test(40 "rig end to end: K_wear follows the truth's coefficient a
 gearwatch_long_test(40 "gap independent: the bench on a no-effect draw, a narrow resonance and a ghost tone")
 gearwatch_long_test(35 "prognosis bench: two campaigns through the binary, scores recomputed from the trace")
 gearwatch_long_test(35 "model thread: a campaign replayed one file per process ends in the state of one long replay")
+gearwatch_long_test(35 "prognosis #3: a saturated ICS2 in the correlation triple leaves K_pitting as the inspections set it")

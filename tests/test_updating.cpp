@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <set>
 #include <tuple>
 #include <string>
@@ -259,6 +260,7 @@ TEST_CASE("updating: K_pitting calibrated from two inspections, a known change t
   s.update_k_wear = false;
   s.pitting_interval_cycles = 2e5;
   s.forecast_horizon_cycles = 2e5;
+  s.ics2_saturation = std::numeric_limits<double>::infinity();   // this truth's ICS2 is linear in D at every level
   TwinModel model(params, s, [](const WearState&, const twin::OperatingPoint&) -> double { throw std::logic_error("not used"); });
   WearLoopOptions to = s.loop;
   to.k_pitting = kp1;
@@ -935,5 +937,82 @@ TEST_CASE("prognosis #1: an inspection that calibrates K_pitting at a record lea
   CHECK(m.pitting_anchor.state.cycles == twin.cycles);
   CHECK(m.wear_anchor.state.pinion_pitting == m.current.state.pinion_pitting);
   CHECK(depth_mean(m.current.state) == Approx(twin.depth_per_k * k_true).epsilon(3e-5));
+}
+namespace {
+struct SaturatedRun {
+  double k_calibrated = 0, k_end = 0;
+  int saturated_updates = 0, other_changes = 0, wrong_saturated = 0;
+  double density_at_first_saturated = 0, density_end = 0;
+};
+
+/// The K_pitting change of the test above (1e-94, ten times that from 1.0 M cycles), with an ICS2
+/// linear in D up to 0.13 and flat there: it reaches the default saturation level 17/144 at 0.8 M.
+SaturatedRun run_saturating_ics2(double saturation) {
+  const twin::GearboxParameters params;
+  const double kp1 = 1e-94, kp2 = 1e-93, kw = 3.55e-16;
+  ModelSettings s;
+  s.loop.k_wear_si = kw;
+  s.update_k_wear = false;
+  s.pitting_interval_cycles = 2e5;
+  s.forecast_horizon_cycles = 2e5;
+  s.ics2_saturation = saturation;
+  TwinModel model(params, s, [](const WearState&, const twin::OperatingPoint&) -> double { throw std::logic_error("not used"); });
+  WearLoopOptions to = s.loop;
+  to.k_pitting = kp1;
+  to.operating_point = {20, 20};
+  BlueLoop reference(params, to);
+  REQUIRE(reference.run_until(8e5));
+  const double d08 = summarise(reference.state()).mean_pitting_density;
+  REQUIRE(d08 > 0);
+  BlueLoop truth(params, to);
+  std::vector<Inspection> inspections;
+  SaturatedRun out;
+  for (int i = 1; i <= 36; ++i) {
+    const double cycles = 5e4 * i;
+    if (cycles > 1e6 && truth.options().k_pitting == kp1) {
+      REQUIRE(truth.run_until(1e6));
+      truth.set_coefficients(kw, kp2);
+    }
+    REQUIRE(truth.run_until(cycles));
+    const double density = summarise(truth.state()).mean_pitting_density;
+    if (cycles == 2e5 || cycles == 4e5) inspections.push_back({static_cast<std::int64_t>(i), cycles, density, {}});
+    const double ics2 = std::min(0.13, 0.001 + 0.129 * density / d08);
+    const ModelRunReport r = model.observe(observation(cycles, 20, 20, std::nullopt, ics2), inspections);
+    for (const auto& u : r.updates) {
+      INFO(cycles << " cycles: " << u.evidence);
+      if (u.trigger == UpdateTrigger::inspection_calibration) out.k_calibrated = u.new_value;
+      if (u.trigger != UpdateTrigger::correlation_below_threshold) continue;
+      if (u.outcome == UpdateOutcome::insensitive) {
+        if (++out.saturated_updates == 1) out.density_at_first_saturated = r.summary.mean_pitting_density;
+        if (!(u.new_value == u.old_value && u.evidence.find("saturation level 0.1181") != std::string::npos && u.measured >= saturation))
+          ++out.wrong_saturated;
+      } else if (u.new_value != u.old_value) {
+        ++out.other_changes;
+      }
+    }
+    out.k_end = r.k_pitting;
+    out.density_end = r.summary.mean_pitting_density;
+  }
+  return out;
+}
+}  // namespace
+
+TEST_CASE("prognosis #3: a saturated ICS2 in the correlation triple leaves K_pitting as the inspections set it",
+          "[model][updating]") {
+  // Known answer: from the first triple holding a reading at or above 17/144 no K_pitting search
+  // runs (an `insensitive` update says so), so K_pitting ends exactly at its calibrated value and
+  // the model's density keeps growing. The same readings without a saturation level let Eqs.
+  // 7.16-7.17 fit K to the flat reading: K changes.
+  const SaturatedRun with = run_saturating_ics2(ics2_saturation_level(3));
+  REQUIRE(with.k_calibrated > 0);
+  CHECK(with.saturated_updates >= 3);
+  CHECK(with.wrong_saturated == 0);
+  CHECK(with.other_changes == 0);
+  CHECK(with.k_end == with.k_calibrated);
+  CHECK(with.density_end > with.density_at_first_saturated);
+  const SaturatedRun without = run_saturating_ics2(std::numeric_limits<double>::infinity());
+  CHECK(without.saturated_updates == 0);
+  CHECK(without.other_changes >= 1);
+  CHECK(without.k_end != without.k_calibrated);
 }
 }  // namespace test_updating

@@ -1408,6 +1408,34 @@ void TwinModel::apply_k_pitting_search(const ModelMemory& saved, const PittingTr
   u.iterations = search.evaluations;
 }
 
+bool TwinModel::saturated_triple(const PittingTriple& triple, double cycles, double density_now, double c_now,
+                                 ModelRunReport& report) {
+  // At or above the saturation level an ICS2 reading bounds the density from below only
+  // (Assumptions): it no longer grows in proportion to the pitted area, so Eq. 7.15's linearity
+  // test fails there whatever K_pitting is, and Eqs. 7.16-7.17 would fit K to a flat reading
+  // (K cut to a stall, or to 0). No search: K_pitting stays; the point is kept for the next triple.
+  const double ics2_max = *std::max_element(triple.ics2.begin(), triple.ics2.end());
+  if (!(ics2_max >= settings_.ics2_saturation)) return false;
+  KUpdate u;
+  u.kind = UpdateKind::k_pitting;
+  u.trigger = UpdateTrigger::correlation_below_threshold;
+  u.outcome = UpdateOutcome::insensitive;
+  u.cycles = cycles;
+  u.old_value = u.new_value = memory_.k_pitting;
+  u.applies_from_cycles = memory_.pitting_anchor.state.cycles;
+  u.correlation_before = u.correlation_after = std::isfinite(c_now) ? c_now : 0.0;
+  u.measured = triple.ics2[2];
+  u.simulated_before = u.simulated_after = density_now;
+  char b[400];
+  std::snprintf(b, sizeof b, "C of (ICS2 %.4g, %.4g, %.4g) and density (%.4g, %.4g, %.4g): %.4f below %.2f, but ICS2 %.4g is at or above its saturation level %.4g: a lower bound of the density, no test of K_pitting; K_pitting %.5g kept",
+                triple.ics2[0], triple.ics2[1], triple.ics2[2], triple.density[0], triple.density[1], density_now,
+                u.correlation_before, settings_.correlation_threshold, ics2_max, settings_.ics2_saturation, memory_.k_pitting);
+  u.evidence = b;
+  push_pitting_point(cycles, triple.ics2[2], density_now);
+  report.updates.push_back(std::move(u));
+  return true;
+}
+
 void TwinModel::check_pitting(const ModelObservation& obs, ModelRunReport& report) {
   if (!pitting_point_due(obs)) return;
   const double ics2 = *obs.ics2_low;
@@ -1425,6 +1453,7 @@ void TwinModel::check_pitting(const ModelObservation& obs, ModelRunReport& repor
     push_pitting_point(obs.cycles, ics2, density_now);
     return;
   }
+  if (saturated_triple(triple, obs.cycles, density_now, c_now, report)) return;
   const ModelMemory saved = memory_;
   PittingSearch search = search_k_pitting(saved, triple);
   KUpdate u;

@@ -373,6 +373,9 @@ class TwinModel {
     std::array<double, 3> ics2;
     double correlation(double density_now) const;
   };
+  /// A triple with an ICS2 at or above `ics2_saturation`: no K_pitting search; an `insensitive`
+  /// update says why and the point is kept. True when it was.
+  bool saturated_triple(const PittingTriple& triple, double cycles, double density_now, double c_now, ModelRunReport& report);
   struct PittingSearch {
     double best_k = 0, best_c = -2.0;
     int evaluations = 0;

@@ -64,7 +64,7 @@ enum class UpdateOutcome : std::uint8_t {
   bound_reached,      ///< K hit its configured bound (or the inspections cannot be matched)
   set_to_zero,        ///< K_pitting: the correlation threshold cannot be reached (§7.3.3, after step 4)
   simulation_failed,  ///< the twin's simulation diverged or could not be analysed: K unchanged
-  insensitive,        ///< K_wear: |d ln RMS_SA / d ln K_wear| below the stated minimum: RMS_SA cannot tell K here, K unchanged
+  insensitive,        ///< K_wear: |d ln RMS_SA / d ln K_wear| below the stated minimum: RMS_SA cannot tell K here; K_pitting: an ICS2 of the triple at its saturation level (a lower bound). K unchanged
   upper_bound,        ///< K_wear: the measurement lies on the twin's flat part: K_wear <= the knee; K = min(last identified, knee)
 };
 inline constexpr std::array kAllUpdateOutcomes{UpdateOutcome::converged,     UpdateOutcome::iteration_limit,
