@@ -7,6 +7,7 @@ function(gearwatch_long_test cost name)
   set_tests_properties("${name}" PROPERTIES COST ${cost})
 endfunction()
 foreach(name
+    "periodic gap step: six records replayed one per process give the same stored report as the same six in one replay"
     "gap: gap bench with a few seeds writes the scores as JSON"
     "gap independent: the bench on a no-effect draw, a narrow resonance and a ghost tone"
     "daemon's gap diagnosis end to end: rig tooth errors withheld from the twin are found, stored and raise twin drift"
