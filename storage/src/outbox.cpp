@@ -17,6 +17,17 @@ using nlohmann::json;
 // condition as the partial index outbox_undelivered, schema.cpp).
 const std::string kWaiting = "delivered_at IS NULL AND refused_at IS NULL";
 
+// The rows of a `SELECT id, topic, payload FROM outbox ...`, in the statement's order.
+std::vector<OutboxMessage> read_messages(Statement& s) {
+  std::vector<OutboxMessage> out;
+  while (s.step()) {
+    const auto topic = parse_outbox_topic(s.get_text(1));
+    if (!topic) throw SqliteError(0, "outbox row " + std::to_string(s.get_int(0)) + ": unknown topic " + s.get_text(1));
+    out.push_back({s.get_int(0), *topic, s.get_text(2)});
+  }
+  return out;
+}
+
 // NaN and infinities are not JSON: an unknown value is null, as in the database.
 json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 json number_or_null(const std::optional<double>& v) { return v ? number_or_null(*v) : json(nullptr); }
@@ -159,13 +170,7 @@ void OutboxWriter::enforce_limit() {
 std::vector<OutboxMessage> OutboxReader::undelivered_after(std::int64_t after, std::size_t limit) {
   Statement s(db_, "SELECT id, topic, payload FROM outbox WHERE " + kWaiting + " AND id > ? ORDER BY id LIMIT ?");
   s.bind(1, after).bind(2, static_cast<std::int64_t>(limit));
-  std::vector<OutboxMessage> out;
-  while (s.step()) {
-    const auto topic = parse_outbox_topic(s.get_text(1));
-    if (!topic) throw SqliteError(0, "outbox row " + std::to_string(s.get_int(0)) + ": unknown topic " + s.get_text(1));
-    out.push_back({s.get_int(0), *topic, s.get_text(2)});
-  }
-  return out;
+  return read_messages(s);
 }
 
 void OutboxReader::mark_delivered(const std::vector<std::int64_t>& ids) {
@@ -224,13 +229,7 @@ namespace {
 std::vector<OutboxMessage> held_between(Database& db, std::int64_t from, std::int64_t to, std::size_t limit) {
   Statement s(db, "SELECT id, topic, payload FROM outbox WHERE id BETWEEN ? AND ? AND refused_at IS NULL ORDER BY id LIMIT ?");
   s.bind(1, from).bind(2, to).bind(3, static_cast<std::int64_t>(limit));
-  std::vector<OutboxMessage> out;
-  while (s.step()) {
-    const auto topic = parse_outbox_topic(s.get_text(1));
-    if (!topic) throw SqliteError(0, "outbox row " + std::to_string(s.get_int(0)) + ": unknown topic " + s.get_text(1));
-    out.push_back({s.get_int(0), *topic, s.get_text(2)});
-  }
-  return out;
+  return read_messages(s);
 }
 
 // Runs of ids absent from [from, to] (the gaps between consecutive held ids, with to + 1 closing
