@@ -331,15 +331,21 @@ void MqttSender::fill_window(Session& s) {
   const auto rows = reader.undelivered_after(s.last_sent, settings_.inflight - s.inflight.size());
   idle_ = rows.empty() && s.inflight.empty() && s.resends.empty();
   for (const auto& m : rows) {
-    int mid = 0;
-    const std::string topic = mqtt_topic(settings_, storage::to_string(m.topic));
-    if (mosquitto_publish(s.client, &mid, topic.c_str(), static_cast<int>(m.payload.size()), m.payload.data(), kQos, false) !=
-        MOSQ_ERR_SUCCESS)
-      return;  // the loop sees the disconnect; the row goes again in the next session
-    s.inflight[mid] = {m.id, m.topic};
+    if (!publish_row(s, m)) return;  // the loop sees the disconnect; the row goes again in the next session
     s.last_sent = m.id;
-    counters_.published.fetch_add(1, std::memory_order_relaxed);
   }
+}
+
+// One outbox row onto its topic, in flight until its PUBACK. False when the client could not send.
+bool MqttSender::publish_row(Session& s, const storage::OutboxMessage& m) {
+  int mid = 0;
+  const std::string topic = mqtt_topic(settings_, storage::to_string(m.topic));
+  if (mosquitto_publish(s.client, &mid, topic.c_str(), static_cast<int>(m.payload.size()), m.payload.data(), kQos, false) !=
+      MOSQ_ERR_SUCCESS)
+    return false;
+  s.inflight[mid] = {m.id, m.topic};
+  counters_.published.fetch_add(1, std::memory_order_relaxed);
+  return true;
 }
 
 // The requests that arrived, merged: the part above the newest id was never sent (ignored,
@@ -395,14 +401,7 @@ void MqttSender::publish_gone(Session& s, const std::vector<storage::OutboxGone>
 // Rows asked for again go out after the undelivered ones, in the room the window leaves.
 void MqttSender::fill_resends(Session& s) {
   while (!s.resends.empty() && s.inflight.size() < settings_.inflight) {
-    const auto& m = s.resends.front();
-    int mid = 0;
-    const std::string topic = mqtt_topic(settings_, storage::to_string(m.topic));
-    if (mosquitto_publish(s.client, &mid, topic.c_str(), static_cast<int>(m.payload.size()), m.payload.data(), kQos, false) !=
-        MOSQ_ERR_SUCCESS)
-      return;  // the loop sees the disconnect; the consumer asks again
-    s.inflight[mid] = {m.id, m.topic};
-    counters_.published.fetch_add(1, std::memory_order_relaxed);
+    if (!publish_row(s, s.resends.front())) return;  // the loop sees the disconnect; the consumer asks again
     counters_.resent.fetch_add(1, std::memory_order_relaxed);
     s.resends.pop_front();
   }

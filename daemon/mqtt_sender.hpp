@@ -94,6 +94,7 @@ class MqttSender {
   bool open_session(Session& s);
   void run_session(Session& s);
   void fill_window(Session& s);
+  bool publish_row(Session& s, const storage::OutboxMessage& m);
   void mark_acknowledged(Session& s);
   bool drained(Session& s);
   void publish_status(Session& s, bool online);
