@@ -364,7 +364,7 @@ void FleetConsumer::count_lost(const fleet::GoneMessage& gone, fleet::WriteOutco
   std::string ranges;
   for (const auto& r : gone.ranges) {
     ids += r.to - r.from + 1;
-    ranges += (ranges.empty() ? "" : ", ") + std::to_string(r.from) + ".." + std::to_string(r.to) + " (" + fleet::to_string(r.reason) + ")";
+    ranges += (ranges.empty() ? "" : ", ") + std::to_string(r.from) + ".." + std::to_string(r.to) + " (" + storage::to_string(r.reason) + ")";
   }
   {
     std::lock_guard lock(mutex_);

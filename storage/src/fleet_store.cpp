@@ -248,8 +248,6 @@ std::optional<AlertTransition> parse_alert_transition(const std::string& text) n
   return std::nullopt;
 }
 
-const char* to_string(LostReason r) noexcept { return r == LostReason::refused ? "refused" : "not_held"; }
-
 std::optional<LostReason> parse_lost_reason(const std::string& text) noexcept {
   for (auto r : {LostReason::not_held, LostReason::refused})
     if (text == to_string(r)) return r;

@@ -16,6 +16,8 @@
 #include <variant>
 #include <vector>
 
+#include "gearwatch/storage/outbox_gone_reason.hpp"
+
 namespace gearwatch::storage::fleet {
 
 /// The fleet schema's version, kept in fleet.schema_version; migrate() brings a database to it.
@@ -100,9 +102,9 @@ struct StatusMessage {
   std::optional<std::int64_t> delivered_through;  ///< every id up to it was published (absent from older daemons)
 };
 
-/// Why the messages of a lost range will never arrive (the daemon's resend_gone reasons).
-enum class LostReason : std::uint8_t { not_held, refused };
-const char* to_string(LostReason r) noexcept;
+/// Why the messages of a lost range will never arrive: the reasons the daemon's outbox gives on
+/// resend_gone (one vocabulary for both ends, storage::to_string).
+using LostReason = storage::OutboxGoneReason;
 std::optional<LostReason> parse_lost_reason(const std::string& text) noexcept;
 
 /// A daemon's answer to a resend request (<prefix>/<site>/<gearbox>/resend_gone): ids it cannot send.

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "gearwatch/storage/messages.hpp"
+#include "gearwatch/storage/outbox_gone_reason.hpp"
 
 namespace gearwatch::storage {
 
@@ -64,12 +65,6 @@ struct OutboxRefusal {
   std::int64_t id = 0;
   std::string reason;
 };
-
-/// Why ids asked for again cannot be sent: the outbox no longer holds them (pruned beyond the
-/// newest 2 x limit, or dropped at the limit), or the broker refused them (sending again would be
-/// refused again).
-enum class OutboxGoneReason : std::uint8_t { not_held, refused };
-const char* to_string(OutboxGoneReason reason) noexcept;
 
 /// A run of ids [from, to] that a resend cannot serve.
 struct OutboxGone {
