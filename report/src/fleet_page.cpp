@@ -33,6 +33,7 @@ ul.fleet-alerts li { margin: 0 0 4px; padding: 2px 6px; border-left: 4px solid #
 ul.fleet-alerts li.sev-alarm { border-left-color: #d32f2f; background: #ffebee; }
 ul.fleet-alerts li.sev-warning { border-left-color: #ef6c00; background: #fff3e0; }
 .state-offline { color: #b71c1c; font-weight: 600; }
+.missing { color: #ef6c00; } .lost { color: #b71c1c; }
 .mech-wear { font-weight: 600; color: #b71c1c; }
 table.fleet svg { width: 100%; height: auto; }
 )CSS";
@@ -57,12 +58,31 @@ const char* severity_class(int rank) {
   return kClass[std::clamp(rank, 0, 3)];
 }
 
+std::string count_of(std::int64_t n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+// What did not arrive: holes still asked for, and ranges the gearbox said it cannot send, with why.
+std::string render_undelivered(const storage::fleet::UndeliveredMessages& u) {
+  std::string h;
+  if (u.missing > 0)
+    h += "<br><span class=\"missing\">missing " + count_of(u.missing, "message", "messages") + " in " +
+         count_of(u.missing_ranges, "range", "ranges") + ", asked for again</span>";
+  if (u.lost > 0) {
+    std::string why;
+    for (const auto reason : u.lost_reasons) why += (why.empty() ? "" : ", ") + std::string(storage::to_string(reason));
+    h += "<br><span class=\"lost\">lost " + count_of(u.lost, "message", "messages") + " in " + count_of(u.lost_ranges, "range", "ranges") +
+         " (" + html_escape(why) + ")</span>";
+  }
+  return h;
+}
+
 std::string render_status(const GearboxOverview& g) {
   std::string h = "<td class=\"status\"><span class=\"state-" + html_escape(g.state.empty() ? "unknown" : g.state) + "\">" +
                   html_escape(g.state.empty() ? "no status message yet" : g.state) + "</span>";
   if (!g.version.empty()) h += " <span class=\"muted\">gearwatch " + html_escape(g.version) + "</span>";
-  h += "<br><span class=\"muted\">last record " + html_escape(g.last_record_time.value_or("none")) + "</span></td>";
-  return h;
+  h += "<br><span class=\"muted\">last record " + html_escape(g.last_record_time.value_or("none")) + "</span>";
+  return h + render_undelivered(g.undelivered) + "</td>";
 }
 
 std::string render_verdicts(const GearboxOverview& g) {
@@ -185,12 +205,13 @@ std::string format_cycles(double cycles) {
 
 std::string render_fleet_page_html(const FleetPageData& d) {
   const auto boxes = worst_first(d.gearboxes);
-  std::size_t alarmed = 0, wearing = 0, offline = 0;
+  std::size_t alarmed = 0, wearing = 0, offline = 0, undelivered = 0;
   for (const auto& g : boxes) {
     const auto u = urgency_of(g);
     alarmed += u.alert_rank <= 1;
     wearing += u.verdict_rank == 0;
     offline += u.offline_rank == 0;
+    undelivered += g.undelivered.missing > 0 || g.undelivered.lost > 0;
   }
   std::string h;
   h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
@@ -201,7 +222,8 @@ std::string render_fleet_page_html(const FleetPageData& d) {
   h += "<header class=\"summary\">\n<h1>Fleet: every gearbox, worst first</h1>\n<dl class=\"facts\">\n";
   h += "<dt>database</dt><dd>" + html_escape(d.database) + "</dd>\n<dt>written</dt><dd>" + html_escape(d.generated_at) + "</dd>\n";
   h += "<dt>gearboxes</dt><dd id=\"fleet-counts\">" + std::to_string(boxes.size()) + " · " + std::to_string(alarmed) +
-       " with a warning or alarm · " + std::to_string(wearing) + " with wear under way · " + std::to_string(offline) + " offline</dd>\n";
+       " with a warning or alarm · " + std::to_string(wearing) + " with wear under way · " + std::to_string(offline) + " offline · " + std::to_string(undelivered) +
+       " with messages missing or lost</dd>\n";
   h += "<dt>trend</dt><dd>" + html_escape(d.trend.trend_indicator) + ", channel " + std::to_string(d.trend.trend_channel) + ", the newest " +
        std::to_string(d.trend.trend_points) + " records, against input revolutions (the record's id where a record has none)</dd>\n"
        "</dl>\n</header>\n";

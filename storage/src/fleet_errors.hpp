@@ -4,6 +4,7 @@
 // page's reader; internal to storage/.
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <pqxx/pqxx>
 
@@ -40,5 +41,9 @@ auto translated(F&& f) {
     throw FleetRefusedError(one_line(e.what()));
   }
 }
+
+/// Every gearbox's holes (FleetStore::holes) inside the caller's transaction, so the fleet page
+/// reads them at the same moment as the rest (defined in fleet_store.cpp).
+std::vector<MessageHole> read_holes(pqxx::transaction_base& t);
 
 }  // namespace gearwatch::storage::fleet::detail

@@ -114,6 +114,28 @@ void read_trends(pqxx::transaction_base& t, const OverviewRequest& q, std::map<s
     boxes.at(row[0].as<std::int64_t>()).trend.push_back({row[1].as<std::int64_t>(), optional_of<double>(row[2]), row[3].as<double>()});
 }
 
+void read_lost(pqxx::transaction_base& t, std::map<std::int64_t, GearboxOverview>& boxes) {
+  const auto rows = t.exec("SELECT gearbox_id, reason, count(*), sum(to_id - from_id + 1) FROM fleet.lost_messages "
+                           "GROUP BY gearbox_id, reason ORDER BY gearbox_id, reason");
+  for (const auto& row : rows) {
+    auto& u = boxes.at(row[0].as<std::int64_t>()).undelivered;
+    u.lost_ranges += row[2].as<std::int64_t>();
+    u.lost += row[3].as<std::int64_t>();
+    if (const auto reason = parse_lost_reason(row[1].c_str())) u.lost_reasons.push_back(*reason);
+  }
+}
+
+// The holes by name: the reader keys gearboxes by id, the holes name site and gearbox.
+void read_missing(pqxx::transaction_base& t, std::map<std::int64_t, GearboxOverview>& boxes) {
+  const auto holes = detail::read_holes(t);
+  for (auto& [id, g] : boxes)
+    for (const auto& h : holes)
+      if (h.site == g.site && h.gearbox == g.gearbox) {
+        ++g.undelivered.missing_ranges;
+        g.undelivered.missing += h.to - h.from + 1;
+      }
+}
+
 }  // namespace
 
 std::vector<GearboxOverview> load_fleet_overview(const std::string& connection, const OverviewRequest& request) {
@@ -127,6 +149,8 @@ std::vector<GearboxOverview> load_fleet_overview(const std::string& connection, 
     read_verdicts(t, boxes);
     read_models(t, boxes);
     read_trends(t, request, boxes);
+    read_lost(t, boxes);
+    read_missing(t, boxes);
     std::vector<GearboxOverview> out;
     for (const auto id : order) out.push_back(std::move(boxes.at(id)));
     return out;

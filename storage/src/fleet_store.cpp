@@ -505,12 +505,19 @@ void FleetStore::write(const Reject& r) {
   });
 }
 
-// Seen ids as intervals (stored messages, rejects with their id, lost ranges) plus one past the
-// gearbox's delivered_through; a hole is where an interval starts beyond the reach of all before it.
 std::vector<MessageHole> FleetStore::holes() {
   return translated([&] {
     pqxx::read_transaction w(*conn_->c);
-    const auto rows = w.exec(R"SQL(
+    return detail::read_holes(w);
+  });
+}
+
+namespace detail {
+
+// Seen ids as intervals (stored messages, rejects with their id, lost ranges) plus one past the
+// gearbox's delivered_through; a hole is where an interval starts beyond the reach of all before it.
+std::vector<MessageHole> read_holes(pqxx::transaction_base& t) {
+  const auto rows = t.exec(R"SQL(
 WITH seen AS (
   SELECT gearbox_id, message_id AS lo, message_id AS hi FROM fleet.messages
   UNION ALL SELECT gearbox_id, message_id, message_id FROM fleet.rejects WHERE message_id IS NOT NULL
@@ -524,11 +531,12 @@ WITH seen AS (
 SELECT g.site, g.name, r.before + 1, r.lo - 1 FROM reach r JOIN fleet.gearboxes g ON g.id = r.gearbox_id
 WHERE r.lo > r.before + 1 ORDER BY g.site, g.name, r.lo
 )SQL");
-    std::vector<MessageHole> out;
-    for (const auto& row : rows)
-      out.push_back({row[0].as<std::string>(), row[1].as<std::string>(), row[2].as<std::int64_t>(), row[3].as<std::int64_t>()});
-    return out;
-  });
+  std::vector<MessageHole> out;
+  for (const auto& row : rows)
+    out.push_back({row[0].as<std::string>(), row[1].as<std::string>(), row[2].as<std::int64_t>(), row[3].as<std::int64_t>()});
+  return out;
 }
+
+}  // namespace detail
 
 }  // namespace gearwatch::storage::fleet

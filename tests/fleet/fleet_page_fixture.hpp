@@ -2,10 +2,12 @@
 // A known fleet for the fleet page (docs/fleet.md, "Fleet page"): five gearboxes written through the
 // fleet store's typed writers, each built so that one field of the page's order decides its place.
 //   plant2/gbPit      alarm (wear_mechanism) active, channel 0 fatigue_pitting, 2.0 M pitting cycles left
-//   plant2/gbWarn<&>  warning active, an info alert raised and cleared, abrasive_wear, no model run
+//   plant2/gbWarn<&>  warning active, an info alert raised and cleared, abrasive_wear, no model run,
+//                     ids 6-8 answered gone (not_held): 3 lost in 1 range
 //   plant1/gbLife     nothing active, verdict none, 0.8 M pitting cycles left (0.6–1.1 M)
 //   plant1/gbQuiet    nothing active, verdict none, 5 M pitting / 9 M wear cycles left, a 4-record trend
-//   plant1/gbOff      offline, nothing published but its status
+//   plant1/gbOff      offline, nothing arrived but its status, which says ids up to 3 were sent:
+//                     3 missing in 1 range
 // Worst first: gbPit, gbWarn<&>, gbLife, gbQuiet, gbOff.
 #include <string>
 #include <vector>
@@ -103,7 +105,8 @@ inline void write_known_fleet(storage::fleet::FleetStore& store) {
   m.push_back(alert("plant2", "gbWarn<&>", 3, raised, "info", "life_counter_reset", std::nullopt, "0"));
   m.push_back(alert("plant2", "gbWarn<&>", 4, raised, "warning", "wear_mechanism", 0, "abrasive_wear"));
   m.push_back(alert("plant2", "gbWarn<&>", 5, cleared, "info", "life_counter_reset", std::nullopt, "0"));
-  m.push_back(StatusMessage{"plant1", "gbOff", "offline", "0.1.0", 11});
+  m.push_back(GoneMessage{"plant2", "gbWarn<&>", {{6, 8, LostReason::not_held}}});
+  m.push_back(StatusMessage{"plant1", "gbOff", "offline", "0.1.0", 11, 3});
   for (const auto& outcome : store.write_batch(m))
     if (!outcome.written) throw std::runtime_error("fleet fixture refused: " + outcome.refusal);
 }

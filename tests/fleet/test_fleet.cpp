@@ -657,7 +657,8 @@ TEST_CASE("fleet report: the page lists every gearbox worst first with its verdi
   CHECK(page_order(html) == kFleetWorstFirst);
   CHECK(html.find("s3cret-pw") == std::string::npos);
   CHECK(html.find("postgresql://gw@127.0.0.1:" + std::to_string(f.pg->port()) + "/fleet") != std::string::npos);
-  CHECK(html.find("5 · 2 with a warning or alarm · 2 with wear under way · 1 offline") != std::string::npos);
+  CHECK(html.find("5 · 2 with a warning or alarm · 2 with wear under way · 1 offline · 2 with messages missing or lost") !=
+        std::string::npos);
   // The name is escaped wherever it appears; the raw bytes never reach the page.
   CHECK(html.find("gbWarn<&>") == std::string::npos);
 
@@ -673,6 +674,9 @@ TEST_CASE("fleet report: the page lists every gearbox worst first with its verdi
   CHECK(occurrences(warn, "<li class=") == 1);
   CHECK(occurrences(warn, "<li class=\"sev-warning\"") == 1);
   CHECK(warn.find("no model run") != std::string::npos);
+  // Ids 6-8 answered gone; nothing is missing below its newest id.
+  CHECK(warn.find("<span class=\"lost\">lost 3 messages in 1 range (not_held)</span>") != std::string::npos);
+  CHECK(warn.find("missing") == std::string::npos);
 
   const std::string life = page_row(html, "plant1/gbLife");
   CHECK(life.find("none active") != std::string::npos);
@@ -688,6 +692,14 @@ TEST_CASE("fleet report: the page lists every gearbox worst first with its verdi
   const std::string off = page_row(html, "plant1/gbOff");
   CHECK(off.find("<span class=\"state-offline\">offline</span>") != std::string::npos);
   CHECK(off.find("no model run") != std::string::npos);
+  // Its status says ids up to 3 were sent and none arrived: 1-3 are asked for again, none lost.
+  CHECK(off.find("<span class=\"missing\">missing 3 messages in 1 range, asked for again</span>") != std::string::npos);
+  CHECK(off.find("lost") == std::string::npos);
+  for (const auto* whole : {"plant2/gbPit", "plant1/gbLife", "plant1/gbQuiet"}) {
+    const std::string row = page_row(html, whole);
+    CHECK(row.find("class=\"missing\"") == std::string::npos);
+    CHECK(row.find("class=\"lost\"") == std::string::npos);
+  }
 }
 
 TEST_CASE("fleet report: a database without the fleet schema or out of reach is refused in one line", "[fleet]") {

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "gearwatch/storage/outbox_gone_reason.hpp"
+
 namespace gearwatch::storage::fleet {
 
 struct ActiveAlert {
@@ -32,6 +34,14 @@ struct TrendPoint {
   double value = 0;
 };
 
+/// Ids of a gearbox that did not arrive (docs/fleet.md, "Lost messages"): holes the consumer
+/// still asks for, and ranges the daemon answered it cannot send.
+struct UndeliveredMessages {
+  std::int64_t missing = 0, missing_ranges = 0;  ///< holes below the newest id known sent, asked for again
+  std::int64_t lost = 0, lost_ranges = 0;        ///< fleet.lost_messages
+  std::vector<OutboxGoneReason> lost_reasons;    ///< the distinct reasons of the lost ranges
+};
+
 struct GearboxOverview {
   std::string site, gearbox, state, version, last_seen;
   std::optional<std::string> last_record_time;
@@ -43,6 +53,7 @@ struct GearboxOverview {
   RemainingLife wear, pitting;
   std::string forecast_failure;  ///< why the forecast is not valid, as published
   std::vector<TrendPoint> trend;  ///< oldest first
+  UndeliveredMessages undelivered;
 };
 
 struct OverviewRequest {
