@@ -86,6 +86,7 @@ void add_ingest_command(CLI::App* fleet_cmd) {
     std::string ca_file, cert_file, key_file;
     std::vector<std::string> gearboxes;
     double resend_interval_s = 60;
+    std::int64_t resend_give_up_s = 7 * 24 * 3600;
   };
   auto opt = std::make_shared<Options>();
   auto* cmd = fleet_cmd->add_subcommand("ingest", "Subscribe to every gearbox under the MQTT prefix and store into PostgreSQL, until SIGINT or SIGTERM");
@@ -103,6 +104,10 @@ void add_ingest_command(CLI::App* fleet_cmd) {
   cmd->add_option("--resend-interval-s", opt->resend_interval_s,
                   "How often, while caught up, missing message ids are looked for and asked for again")
       ->capture_default_str()->check(CLI::Range(0.1, 86400.0));
+  cmd->add_option("--resend-give-up-s", opt->resend_give_up_s,
+                  "Missing ids asked for this long without an answer are recorded lost (no_answer); the default is how long "
+                  "the broker keeps a stopped daemon's session")
+      ->capture_default_str()->check(CLI::Range(std::int64_t{1}, std::int64_t{365} * 24 * 3600));
   cmd->add_option("--log-level", opt->log_level, "spdlog level: trace, debug, info, warn, error")->capture_default_str()
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
   cmd->callback([opt] {
@@ -121,6 +126,7 @@ void add_ingest_command(CLI::App* fleet_cmd) {
     s.client_id = opt->client_id;
     s.accept.prefix = opt->prefix;
     s.resend_interval = std::chrono::milliseconds(static_cast<std::int64_t>(opt->resend_interval_s * 1000));
+    s.resend_give_up = std::chrono::seconds(opt->resend_give_up_s);
     // The kill -9 test's hook (docs/fleet.md): only this command reads it.
     if (const char* stall = std::getenv("GEARWATCH_FLEET_TEST_STALL_AFTER"); stall && *stall) s.stall_after = std::stoull(stall);
     for (const auto& g : opt->gearboxes) {

@@ -274,13 +274,15 @@ void FleetConsumer::stall_for_test(std::uint64_t taken) {
 }
 
 void FleetConsumer::ask_for_holes() {
-  std::vector<fleet::MessageHole> holes;
+  fleet::FleetStore::HoleCheck check;
   try {
-    with_database([&](fleet::FleetStore& store) { holes = store.holes(); });
+    with_database([&](fleet::FleetStore& store) { check = store.check_holes(settings_.resend_give_up); });
   } catch (const std::exception& e) {
     log_->warn("holes", std::string("cannot look for missing messages: ") + e.what());
     return;
   }
+  for (const auto& h : check.given_up) count_unanswered(h);
+  auto& holes = check.to_ask;
   // A hole asked for recently waits (the daemon may be away or busy sending it); a new one goes now.
   constexpr int kReaskIntervals = 10;
   const auto now = Clock::now();
@@ -372,6 +374,20 @@ void FleetConsumer::count_lost(const fleet::GoneMessage& gone, fleet::WriteOutco
     counters_.lost_messages += static_cast<std::uint64_t>(ids);
   }
   spdlog::error("fleet: {}/{} cannot send {} messages again, recorded in fleet.lost_messages: {}", gone.site, gone.gearbox, ids, ranges);
+}
+
+// A hole asked for since the give-up time without an answer: recorded lost (no_answer), counted
+// and logged once; if its gearbox comes back and sends the ids, they are stored all the same.
+void FleetConsumer::count_unanswered(const fleet::MessageHole& h) {
+  const std::int64_t ids = h.to - h.from + 1;
+  {
+    std::lock_guard lock(mutex_);
+    ++counters_.lost_ranges;
+    counters_.lost_messages += static_cast<std::uint64_t>(ids);
+  }
+  spdlog::error("fleet: {}/{} has not answered requests for {} missing messages ({}..{}) for {} s; recorded in fleet.lost_messages as "
+                "no_answer (stored all the same if they come)",
+                h.site, h.gearbox, ids, h.from, h.to, settings_.resend_give_up.count());
 }
 
 void FleetConsumer::store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail,

@@ -7,7 +7,8 @@
 //
 // Holes: while the queue is empty, every resend_interval, the ids of each gearbox that neither
 // arrived nor are known lost are asked for again on <prefix>/<site>/<gearbox>/resend; the daemon's
-// resend_gone answer is stored in fleet.lost_messages, counted and logged.
+// resend_gone answer is stored in fleet.lost_messages, counted and logged; a hole nobody answers
+// within resend_give_up is recorded there as no_answer.
 //
 // Stop: the session is closed first (the broker keeps what arrives later for this client id),
 // then the writer drains the queue, so what was acknowledged to the broker is in the database.
@@ -47,6 +48,9 @@ struct FleetIngestSettings {
   int retry_initial_ms = 200, retry_max_ms = 5000;
   /// How often, while the queue is empty, the holes are looked for and asked for again.
   std::chrono::milliseconds resend_interval{60000};
+  /// A hole asked for this long without an answer is recorded lost (no_answer). The default is the
+  /// daemon's MQTT session expiry: past it the broker no longer keeps the request for the daemon.
+  std::chrono::seconds resend_give_up{7 * 24 * 3600};
   /// Test hook (GEARWATCH_FLEET_TEST_STALL_AFTER, read by `fleet ingest` only): write this many
   /// messages, then hold everything received after them uncommitted, as a kill -9 would find it.
   std::optional<std::uint64_t> stall_after;
@@ -95,6 +99,7 @@ class FleetConsumer {
   void store_reject(const Inbound& m, fleet::RejectReason reason, const std::string& detail,
                     std::optional<fleet::MessageHeader> header = std::nullopt);
   void count_lost(const fleet::GoneMessage& gone, fleet::WriteOutcome outcome);
+  void count_unanswered(const fleet::MessageHole& h);
   template <class Write>
   void with_database(Write&& write);
   void on_connect(int rc);

@@ -189,7 +189,7 @@ fleet::StatusMessage status_message(const json& j) {
 fleet::GoneMessage gone_message(const json& j) {
   fleet::GoneMessage m{text(j, "site"), text(j, "gearbox"), {}};
   for (const auto& r : array(j, "ranges")) {
-    const auto reason = fleet::parse_lost_reason(text(r, "reason"));
+    const auto reason = fleet::parse_gone_reason(text(r, "reason"));
     if (!reason) throw SchemaError("'reason' must be not_held or refused");
     fleet::LostRange range{whole(r, "from"), whole(r, "to"), *reason};
     if (range.from < 1 || range.from > range.to) throw SchemaError("a range must have 1 <= from <= to");

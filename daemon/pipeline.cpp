@@ -770,6 +770,10 @@ void Pipeline::add_mqtt_health(storage::HealthSnapshot& s) const {
   s[C::mqtt_refused] = load(m.refused);
   s[C::mqtt_outbox_dropped] = load(m.outbox_dropped);
   s[C::mqtt_publish_refused] = load(m.publish_refused);
+  s[C::mqtt_resend_requests] = load(m.resend_requests);
+  s[C::mqtt_resent] = load(m.resent);
+  s[C::mqtt_resend_gone] = load(m.resend_gone);
+  s[C::mqtt_resend_ignored] = load(m.resend_ignored);
 }
 
 }  // namespace

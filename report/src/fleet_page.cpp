@@ -70,7 +70,7 @@ std::string render_undelivered(const storage::fleet::UndeliveredMessages& u) {
          count_of(u.missing_ranges, "range", "ranges") + ", asked for again</span>";
   if (u.lost > 0) {
     std::string why;
-    for (const auto reason : u.lost_reasons) why += (why.empty() ? "" : ", ") + std::string(storage::to_string(reason));
+    for (const auto reason : u.lost_reasons) why += (why.empty() ? "" : ", ") + std::string(storage::fleet::to_string(reason));
     h += "<br><span class=\"lost\">lost " + count_of(u.lost, "message", "messages") + " in " + count_of(u.lost_ranges, "range", "ranges") +
          " (" + html_escape(why) + ")</span>";
   }

@@ -115,7 +115,7 @@ void read_trends(pqxx::transaction_base& t, const OverviewRequest& q, std::map<s
 }
 
 void read_lost(pqxx::transaction_base& t, std::map<std::int64_t, GearboxOverview>& boxes) {
-  const auto rows = t.exec("SELECT gearbox_id, reason, count(*), sum(to_id - from_id + 1) FROM fleet.lost_messages "
+  const auto rows = t.exec("SELECT gearbox_id, reason, count(*), sum(missing) FROM fleet.lost_ids WHERE missing > 0 "
                            "GROUP BY gearbox_id, reason ORDER BY gearbox_id, reason");
   for (const auto& row : rows) {
     auto& u = boxes.at(row[0].as<std::int64_t>()).undelivered;

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 #include <utility>
 
 #include <nlohmann/json.hpp>
@@ -207,6 +208,31 @@ CREATE OR REPLACE VIEW fleet.gearbox_status AS
          (SELECT count(*) FROM fleet.alert_state s WHERE s.gearbox_id = g.id AND s.active) AS active_alerts,
          (SELECT coalesce(sum(l.to_id - l.from_id + 1), 0) FROM fleet.lost_messages l WHERE l.gearbox_id = g.id) AS lost_messages
   FROM fleet.gearboxes g;
+)SQL",
+    // 2 -> 3: holes nobody answers (docs/fleet.md, "No answer"): when each open hole was first asked
+    // for, the reason no_answer, and lost_messages counting only the ids of a range not stored
+    // since (a daemon that comes back may still send them).
+    R"SQL(
+CREATE TABLE fleet.asked_holes (
+  gearbox_id bigint NOT NULL REFERENCES fleet.gearboxes(id),
+  from_id bigint NOT NULL,
+  to_id bigint NOT NULL CHECK (to_id >= from_id),
+  first_asked_at timestamptz NOT NULL,
+  PRIMARY KEY (gearbox_id, from_id)
+);
+ALTER TABLE fleet.lost_messages DROP CONSTRAINT lost_messages_reason_check;
+ALTER TABLE fleet.lost_messages ADD CONSTRAINT lost_messages_reason_check CHECK (reason IN ('not_held', 'refused', 'no_answer'));
+CREATE OR REPLACE VIEW fleet.lost_ids AS
+  SELECT l.gearbox_id, l.from_id, l.to_id, l.reason, l.found_at,
+         l.to_id - l.from_id + 1 - (SELECT count(*) FROM fleet.messages m
+                                    WHERE m.gearbox_id = l.gearbox_id AND m.message_id BETWEEN l.from_id AND l.to_id) AS missing
+  FROM fleet.lost_messages l;
+CREATE OR REPLACE VIEW fleet.gearbox_status AS
+  SELECT g.site, g.name AS gearbox, g.state, g.version, g.schema_version, g.last_seen,
+         (SELECT max(r.record_time) FROM fleet.records r WHERE r.gearbox_id = g.id) AS last_record_time,
+         (SELECT count(*) FROM fleet.alert_state s WHERE s.gearbox_id = g.id AND s.active) AS active_alerts,
+         (SELECT coalesce(sum(l.missing), 0) FROM fleet.lost_ids l WHERE l.gearbox_id = g.id) AS lost_messages
+  FROM fleet.gearboxes g;
 )SQL"};
 
 // Any number, also one pqxx would print with fewer digits: %.17g reads back to the same double.
@@ -248,10 +274,29 @@ std::optional<AlertTransition> parse_alert_transition(const std::string& text) n
   return std::nullopt;
 }
 
+std::optional<OutboxGoneReason> parse_gone_reason(const std::string& text) noexcept {
+  for (auto r : {OutboxGoneReason::not_held, OutboxGoneReason::refused})
+    if (text == storage::to_string(r)) return r;
+  return std::nullopt;
+}
+
+const char* to_string(LostReason r) noexcept {
+  switch (r) {
+    case LostReason::not_held: return "not_held";
+    case LostReason::refused: return "refused";
+    case LostReason::no_answer: return "no_answer";
+  }
+  return "not_held";
+}
+
 std::optional<LostReason> parse_lost_reason(const std::string& text) noexcept {
-  for (auto r : {LostReason::not_held, LostReason::refused})
+  for (auto r : kAllLostReasons)
     if (text == to_string(r)) return r;
   return std::nullopt;
+}
+
+LostReason lost_reason_of(OutboxGoneReason r) noexcept {
+  return r == OutboxGoneReason::refused ? LostReason::refused : LostReason::not_held;
 }
 
 const char* to_string(RejectReason r) noexcept {
@@ -418,12 +463,17 @@ void insert_health(pqxx::transaction_base& w, std::int64_t g, const HealthMessag
 bool insert_lost(pqxx::transaction_base& w, const GoneMessage& m) {
   const std::int64_t g = upsert_gearbox(w, m.site, m.gearbox);
   bool any = false;
-  for (const auto& r : m.ranges)
+  for (const auto& r : m.ranges) {
+    // The daemon's answer replaces a "no answer" it overlaps; ids of it outside the answer become
+    // holes again and are asked for.
+    w.exec_params("DELETE FROM fleet.lost_messages WHERE gearbox_id = $1 AND reason = 'no_answer' AND from_id <= $3 AND to_id >= $2", g,
+                  r.from, r.to);
     any = w.exec_params("INSERT INTO fleet.lost_messages (gearbox_id, from_id, to_id, reason) VALUES ($1, $2, $3, $4) "
                         "ON CONFLICT DO NOTHING",
-                        g, r.from, r.to, to_string(r.reason))
+                        g, r.from, r.to, to_string(lost_reason_of(r.reason)))
               .affected_rows() == 1 ||
           any;
+  }
   return any;
 }
 
@@ -509,6 +559,53 @@ std::vector<MessageHole> FleetStore::holes() {
   return translated([&] {
     pqxx::read_transaction w(*conn_->c);
     return detail::read_holes(w);
+  });
+}
+
+namespace {
+
+// When the hole was first asked for: the earliest of the asked holes it overlaps, else now.
+bool asked_long_ago(pqxx::transaction_base& w, std::int64_t gearbox, const MessageHole& h, std::chrono::seconds give_up_after,
+                    std::string& first_asked) {
+  const auto r = w.exec_params(
+      "SELECT coalesce(min(first_asked_at), now()), coalesce(min(first_asked_at), now()) <= now() - make_interval(secs => $4) "
+      "FROM fleet.asked_holes WHERE gearbox_id = $1 AND from_id <= $3 AND to_id >= $2",
+      gearbox, h.from, h.to, static_cast<double>(give_up_after.count()));
+  first_asked = r[0][0].c_str();
+  return r[0][1].as<bool>();
+}
+
+std::int64_t gearbox_id(pqxx::transaction_base& w, const MessageHole& h) {
+  return w.exec_params("SELECT id FROM fleet.gearboxes WHERE site = $1 AND name = $2", h.site, h.gearbox)[0][0].as<std::int64_t>();
+}
+
+}  // namespace
+
+// The asked holes are rewritten as the holes are now, each with its inherited first time.
+FleetStore::HoleCheck FleetStore::check_holes(std::chrono::seconds give_up_after) {
+  return translated([&] {
+    pqxx::work w(*conn_->c);
+    HoleCheck out;
+    std::vector<std::tuple<std::int64_t, MessageHole, std::string>> still_open;
+    for (const auto& h : detail::read_holes(w)) {
+      const auto g = gearbox_id(w, h);
+      std::string first_asked;
+      if (asked_long_ago(w, g, h, give_up_after, first_asked)) {
+        w.exec_params("INSERT INTO fleet.lost_messages (gearbox_id, from_id, to_id, reason) VALUES ($1, $2, $3, 'no_answer') "
+                      "ON CONFLICT DO NOTHING",
+                      g, h.from, h.to);
+        out.given_up.push_back(h);
+      } else {
+        still_open.emplace_back(g, h, first_asked);
+        out.to_ask.push_back(h);
+      }
+    }
+    w.exec("DELETE FROM fleet.asked_holes");
+    for (const auto& [g, h, first_asked] : still_open)
+      w.exec_params("INSERT INTO fleet.asked_holes (gearbox_id, from_id, to_id, first_asked_at) VALUES ($1, $2, $3, $4::timestamptz)", g,
+                    h.from, h.to, first_asked);
+    w.commit();
+    return out;
   });
 }
 

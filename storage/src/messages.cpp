@@ -47,6 +47,10 @@ const char* to_string(HealthCounter counter) noexcept {
     case HealthCounter::mqtt_refused: return "mqtt_refused";
     case HealthCounter::mqtt_outbox_dropped: return "mqtt_outbox_dropped";
     case HealthCounter::mqtt_publish_refused: return "mqtt_publish_refused";
+    case HealthCounter::mqtt_resend_requests: return "mqtt_resend_requests";
+    case HealthCounter::mqtt_resent: return "mqtt_resent";
+    case HealthCounter::mqtt_resend_gone: return "mqtt_resend_gone";
+    case HealthCounter::mqtt_resend_ignored: return "mqtt_resend_ignored";
   }
   return "unknown";
 }

@@ -16,7 +16,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 12> kMigrations{
+constexpr std::array<const char*, 13> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -589,6 +589,14 @@ DROP INDEX outbox_undelivered;
 CREATE INDEX outbox_undelivered ON outbox(id) WHERE delivered_at IS NULL AND refused_at IS NULL;
 INSERT INTO outbox_counters(name, value) VALUES ('refused', 0);
 ALTER TABLE health_snapshots ADD COLUMN mqtt_publish_refused INTEGER NOT NULL DEFAULT 0;
+)SQL",
+    // 12 -> 13: the daemon's side of the fleet's resend requests in its health snapshots
+    // (docs/fleet.md, "Lost messages"), beside the other mqtt_* counters.
+    R"SQL(
+ALTER TABLE health_snapshots ADD COLUMN mqtt_resend_requests INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN mqtt_resent INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN mqtt_resend_gone INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE health_snapshots ADD COLUMN mqtt_resend_ignored INTEGER NOT NULL DEFAULT 0;
 )SQL",
 };
 

@@ -105,7 +105,7 @@ inline void write_known_fleet(storage::fleet::FleetStore& store) {
   m.push_back(alert("plant2", "gbWarn<&>", 3, raised, "info", "life_counter_reset", std::nullopt, "0"));
   m.push_back(alert("plant2", "gbWarn<&>", 4, raised, "warning", "wear_mechanism", 0, "abrasive_wear"));
   m.push_back(alert("plant2", "gbWarn<&>", 5, cleared, "info", "life_counter_reset", std::nullopt, "0"));
-  m.push_back(GoneMessage{"plant2", "gbWarn<&>", {{6, 8, LostReason::not_held}}});
+  m.push_back(GoneMessage{"plant2", "gbWarn<&>", {{6, 8, OutboxGoneReason::not_held}}});
   m.push_back(StatusMessage{"plant1", "gbOff", "offline", "0.1.0", 11, 3});
   for (const auto& outcome : store.write_batch(m))
     if (!outcome.written) throw std::runtime_error("fleet fixture refused: " + outcome.refusal);

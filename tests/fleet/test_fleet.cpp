@@ -836,6 +836,20 @@ TEST_CASE("fleet: a consumer killed -9 with messages received and not stored ask
   CHECK(daemon_err.find("ids named gone, 3 ignored") != std::string::npos);
   CHECK(daemon_err.find(" 0 ids named gone") != std::string::npos);
   CHECK(occurrences(daemon_err, "ignored a resend request") == 1);  // one line, then at most one a minute
+  // The run's final health snapshot carries the resend counters. It is taken once the sender has
+  // settled, so the three requests waiting in the session are in it; the consumer, asking every
+  // second, may still send one after it, which only the stop line counts.
+  const std::string final_snapshot = " FROM health_snapshots WHERE final = 1 ORDER BY id DESC LIMIT 1";
+  CHECK(sqlite_scalar(f.db("gbA"), "SELECT mqtt_resend_ignored" + final_snapshot) == 3);
+  CHECK(sqlite_scalar(f.db("gbA"), "SELECT mqtt_resend_gone" + final_snapshot) == 0);
+  const auto stop_line_at = daemon_err.find("resend requests this run: ");
+  REQUIRE(stop_line_at != std::string::npos);
+  const long long taken = std::stoll(daemon_err.substr(stop_line_at + 26));
+  const long long snapshot_taken = sqlite_scalar(f.db("gbA"), "SELECT mqtt_resend_requests" + final_snapshot);
+  CHECK(snapshot_taken >= 1);
+  CHECK(snapshot_taken <= taken);
+  // The hole's ids were sent again, at least once each.
+  CHECK(sqlite_scalar(f.db("gbA"), "SELECT mqtt_resent" + final_snapshot) >= total - stored_before);
   INFO(f.err("c2"));
   CHECK(f.err("c2").find("lost 0 messages in 0 ranges") != std::string::npos);
 }
@@ -884,7 +898,39 @@ TEST_CASE("fleet: ids the daemon no longer holds are recorded once in fleet.lost
   CHECK(read_all(f.dir / "err-again").find(std::to_string(to - from + 1) + " ids named gone, 0 ignored") != std::string::npos);
 }
 
-TEST_CASE("fleet: the schema 1 fleet database migrates to 2 with its rows, and its holes are found", "[fleet]") {
+TEST_CASE("fleet: a hole its daemon does not answer within the give-up time is recorded lost once and its ids still land when the daemon returns", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  f.make_gearbox("gbA", 44, 8);
+  const long long stored_before = replay_into_stalled_consumer_and_kill(f, 6);
+  // The daemon stays away: the hole is asked for, then given up after 2 s.
+  const pid_t second = f.consumer("c2", {"--resend-interval-s", "1", "--resend-give-up-s", "2"});
+  const std::string lost_rows = "SELECT from_id, to_id, reason FROM fleet.lost_messages";
+  REQUIRE(wait_until([&] { return !pg_rows(f.uri, lost_rows).empty(); }, 60s));
+  const long long sent = pg_count(f.uri, "SELECT delivered_through FROM fleet.gearboxes WHERE name = 'gbA'");
+  CHECK(sent == f.outbox_rows("gbA"));
+  const long long gap = sent - stored_before;
+  CHECK(pg_rows(f.uri, lost_rows) == Rows{std::to_string(stored_before + 1) + "|" + std::to_string(sent) + "|no_answer"});
+  CHECK(pg_rows(f.uri, "SELECT gearbox, lost_messages FROM fleet.gearbox_status") == Rows{"gbA|" + std::to_string(gap)});
+  // The daemon's next run serves the request it was sent while away: every id lands, none lost now.
+  const pid_t again = spawn({"replay", (f.dir / "gbA.log").string(), "--db", f.db("gbA").string(), "--config", (f.dir / "gbA.toml").string()},
+                            f.dir / "out-again", f.dir / "err-again");
+  REQUIRE(wait_bounded(again, 120s) == 0);
+  const long long total = f.outbox_rows("gbA");  // the second run's own messages too
+  REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == total; }, 60s));
+  ::kill(second, SIGTERM);
+  REQUIRE(wait_bounded(second, 30s) == 0);
+  CHECK(pg_rows(f.uri, "SELECT message_id, topic FROM fleet.messages ORDER BY message_id") ==
+        sqlite_rows(f.db("gbA"), "SELECT id, topic FROM outbox ORDER BY id"));
+  CHECK(pg_rows(f.uri, "SELECT gearbox, lost_messages FROM fleet.gearbox_status") == Rows{"gbA|0"});
+  const std::string err = f.err("c2");
+  INFO(err);
+  CHECK(occurrences(err, "has not answered requests for " + std::to_string(gap) + " missing messages") == 1);
+  CHECK(err.find("lost " + std::to_string(gap) + " messages in 1 ranges") != std::string::npos);
+}
+
+TEST_CASE("fleet: the schema 1 fleet database migrates to the current schema with its rows, and its holes are found", "[fleet]") {
   Fleet f;
   if (skipped_without_postgres(f)) return;
   REQUIRE(f.start());
@@ -904,7 +950,7 @@ TEST_CASE("fleet: the schema 1 fleet database migrates to 2 with its rows, and i
   }
   gearwatch::storage::fleet::FleetStore store(f.uri);
   CHECK(store.migrate() == 1);
-  CHECK(pg_rows(f.uri, "SELECT version FROM fleet.schema_version") == Rows{"2"});
+  CHECK(pg_rows(f.uri, "SELECT version FROM fleet.schema_version") == Rows{"3"});
   CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 4);
   CHECK(pg_rows(f.uri, "SELECT reason, gearbox_id, message_id FROM fleet.rejects") == Rows{"malformed_json|null|null"});
   auto holes = [&] {
@@ -915,13 +961,63 @@ TEST_CASE("fleet: the schema 1 fleet database migrates to 2 with its rows, and i
   CHECK(holes() == Rows{"gbA|3|4", "gbA|6|8"});
   // A lost range, a reject with its id and the status's delivered_through close and open holes.
   using namespace gearwatch::storage::fleet;
-  const auto out = store.write_batch({GoneMessage{"plant1", "gbA", {{3, 4, LostReason::not_held}}},
+  const auto out = store.write_batch({GoneMessage{"plant1", "gbA", {{3, 4, OutboxGoneReason::not_held}}},
                                       StatusMessage{"plant1", "gbA", "offline", "x", 12, 12}});
   CHECK(out.at(0).written == WriteOutcome::stored);
   MessageHeader h{"plant1", "gbA", 7, std::nullopt, "2026-01-01T00:00:00Z"};
   store.write(Reject{"gw/plant1/gbA/alert", "{}", RejectReason::database_refused, "d", h});
   CHECK(holes() == Rows{"gbA|6|6", "gbA|8|8", "gbA|10|12"});
   // The same answer again adds nothing.
-  CHECK(store.write_batch({GoneMessage{"plant1", "gbA", {{3, 4, LostReason::not_held}}}}).at(0).written == WriteOutcome::duplicate);
+  CHECK(store.write_batch({GoneMessage{"plant1", "gbA", {{3, 4, OutboxGoneReason::not_held}}}}).at(0).written == WriteOutcome::duplicate);
   CHECK(pg_rows(f.uri, "SELECT gearbox, lost_messages FROM fleet.gearbox_status") == Rows{"gbA|2"});
+}
+
+TEST_CASE("fleet: holes asked for past the give-up time are recorded lost as no_answer and ids that come later are not counted lost", "[fleet]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  using namespace gearwatch::storage::fleet;
+  FleetStore store(f.uri);
+  store.migrate();
+  // Ids 1, 2, 5 stored; the status says up to 9 were sent: holes 3..4 and 6..9.
+  std::vector<Message> m;
+  for (int id : {1, 2, 5}) m.push_back(HealthMessage{{"plant1", "gbA", id, std::nullopt, "2026-01-01T00:00:00Z"}, false, {}});
+  m.push_back(StatusMessage{"plant1", "gbA", "offline", "x", 13, 9});
+  for (const auto& o : store.write_batch(m)) REQUIRE(o.written);
+  const auto names = [](const std::vector<MessageHole>& holes) {
+    Rows out;
+    for (const auto& h : holes) out.push_back(std::to_string(h.from) + ".." + std::to_string(h.to));
+    return out;
+  };
+  // First look: both asked for, nothing given up; their first time is kept.
+  auto look = store.check_holes(std::chrono::hours(1));
+  CHECK(names(look.to_ask) == Rows{"3..4", "6..9"});
+  CHECK(look.given_up.empty());
+  const Rows first_asked = pg_rows(f.uri, "SELECT from_id, to_id, first_asked_at FROM fleet.asked_holes ORDER BY from_id");
+  REQUIRE(first_asked.size() == 2);
+  // Id 6 arrives: the hole 6..9 shrinks to 7..9 and keeps its first time.
+  REQUIRE(store.write_batch({HealthMessage{{"plant1", "gbA", 6, std::nullopt, "2026-01-01T00:00:00Z"}, false, {}}}).at(0).written);
+  look = store.check_holes(std::chrono::hours(1));
+  CHECK(names(look.to_ask) == Rows{"3..4", "7..9"});
+  const Rows after = pg_rows(f.uri, "SELECT from_id, to_id, first_asked_at FROM fleet.asked_holes ORDER BY from_id");
+  REQUIRE(after.size() == 2);
+  CHECK(after[0] == first_asked[0]);
+  CHECK(after[1].substr(after[1].rfind('|')) == first_asked[1].substr(first_asked[1].rfind('|')));
+  CHECK(after[1].rfind("7|9|", 0) == 0);
+  // Past the give-up time: both recorded lost, no hole left to ask for.
+  look = store.check_holes(std::chrono::seconds(0));
+  CHECK(look.to_ask.empty());
+  CHECK(names(look.given_up) == Rows{"3..4", "7..9"});
+  CHECK(store.holes().empty());
+  CHECK(pg_rows(f.uri, "SELECT from_id, to_id, reason FROM fleet.lost_messages ORDER BY from_id") == Rows{"3|4|no_answer", "7|9|no_answer"});
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.asked_holes") == 0);
+  CHECK(pg_rows(f.uri, "SELECT gearbox, lost_messages FROM fleet.gearbox_status") == Rows{"gbA|5"});
+  // The gearbox comes back and sends 8: stored, and no longer counted lost.
+  REQUIRE(store.write_batch({HealthMessage{{"plant1", "gbA", 8, std::nullopt, "2026-01-01T00:00:00Z"}, false, {}}}).at(0).written ==
+          WriteOutcome::stored);
+  CHECK(pg_rows(f.uri, "SELECT gearbox, lost_messages FROM fleet.gearbox_status") == Rows{"gbA|4"});
+  // Its own answer for 3..4 replaces the no_answer there.
+  REQUIRE(store.write_batch({GoneMessage{"plant1", "gbA", {{3, 4, OutboxGoneReason::not_held}}}}).at(0).written == WriteOutcome::stored);
+  CHECK(pg_rows(f.uri, "SELECT from_id, to_id, reason FROM fleet.lost_messages ORDER BY from_id") == Rows{"3|4|not_held", "7|9|no_answer"});
+  CHECK(store.holes().empty());
 }

@@ -364,7 +364,7 @@ TEST_CASE("mqtt: the outbox keeps its limit by dropping the oldest undelivered m
   CHECK(reader.undelivered_after(0, 1).at(0).id == first[2].id);
 }
 
-TEST_CASE("mqtt: a schema 11 outbox migrates to 12, and a refused row is kept, never sent again and counted once", "[mqtt][storage]") {
+TEST_CASE("mqtt: a schema 11 outbox migrates to the current schema, and a refused row is kept, never sent again and counted once", "[mqtt][storage]") {
   TempDir dir("mqtt-outbox-migration");
   const auto path = dir / "v11.db";
   {
@@ -378,9 +378,12 @@ TEST_CASE("mqtt: a schema 11 outbox migrates to 12, and a refused row is kept, n
   }
   Database d(path.string(), Database::Mode::read_write);
   gearwatch::storage::open_and_migrate(d);
-  CHECK(d.user_version() == 12);
+  CHECK(d.user_version() == 13);
   CHECK(scalar(path, "SELECT count(*) FROM outbox") == 4);
   CHECK(scalar(path, "SELECT count(*) FROM pragma_table_info('health_snapshots') WHERE name = 'mqtt_publish_refused'") == 1);
+  // Version 13: the resend counters.
+  CHECK(scalar(path, "SELECT count(*) FROM pragma_table_info('health_snapshots') WHERE name IN "
+                     "('mqtt_resend_requests', 'mqtt_resent', 'mqtt_resend_gone', 'mqtt_resend_ignored')") == 4);
   CHECK(scalar(path, "SELECT count(*) FROM outbox WHERE refused_at IS NOT NULL OR refused_reason IS NOT NULL") == 0);
   gearwatch::storage::OutboxReader reader(d);
   CHECK(reader.refused() == 0);

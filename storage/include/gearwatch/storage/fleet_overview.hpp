@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/storage/outbox_gone_reason.hpp"
+#include "gearwatch/storage/fleet_store.hpp"
 
 namespace gearwatch::storage::fleet {
 
@@ -38,8 +38,8 @@ struct TrendPoint {
 /// still asks for, and ranges the daemon answered it cannot send.
 struct UndeliveredMessages {
   std::int64_t missing = 0, missing_ranges = 0;  ///< holes below the newest id known sent, asked for again
-  std::int64_t lost = 0, lost_ranges = 0;        ///< fleet.lost_messages
-  std::vector<OutboxGoneReason> lost_reasons;    ///< the distinct reasons of the lost ranges
+  std::int64_t lost = 0, lost_ranges = 0;        ///< fleet.lost_ids: the ranges' ids not stored since
+  std::vector<LostReason> lost_reasons;          ///< the distinct reasons of those ranges
 };
 
 struct GearboxOverview {

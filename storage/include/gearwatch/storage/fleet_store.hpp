@@ -7,6 +7,7 @@
 // repeat (QoS 1 allows them) and changes nothing. The data tables carry their own natural keys
 // (gearbox, record_id), (gearbox, model_run_id), … with ON CONFLICT DO NOTHING, so a message can
 // never add a row twice even if the ledger were bypassed.
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -102,15 +103,23 @@ struct StatusMessage {
   std::optional<std::int64_t> delivered_through;  ///< every id up to it was published (absent from older daemons)
 };
 
-/// Why the messages of a lost range will never arrive: the reasons the daemon's outbox gives on
-/// resend_gone (one vocabulary for both ends, storage::to_string).
-using LostReason = storage::OutboxGoneReason;
+/// A daemon's reason on resend_gone: its outbox's own vocabulary.
+using storage::OutboxGoneReason;
+/// Reads one from a message.
+std::optional<OutboxGoneReason> parse_gone_reason(const std::string& text) noexcept;
+
+/// Why the ids of a fleet.lost_messages range are not expected any more: the daemon's own answer
+/// (not_held, refused), or no answer to the consumer's requests within its give-up time.
+enum class LostReason : std::uint8_t { not_held, refused, no_answer };
+inline constexpr LostReason kAllLostReasons[] = {LostReason::not_held, LostReason::refused, LostReason::no_answer};
+const char* to_string(LostReason r) noexcept;
 std::optional<LostReason> parse_lost_reason(const std::string& text) noexcept;
+LostReason lost_reason_of(OutboxGoneReason r) noexcept;
 
 /// A daemon's answer to a resend request (<prefix>/<site>/<gearbox>/resend_gone): ids it cannot send.
 struct LostRange {
   std::int64_t from = 0, to = 0;
-  LostReason reason = LostReason::not_held;
+  OutboxGoneReason reason = OutboxGoneReason::not_held;
 };
 struct GoneMessage {
   std::string site, gearbox;
@@ -187,6 +196,14 @@ class FleetStore {
   void write(const Reject& r);
   /// Every gearbox's holes (docs/fleet.md), oldest first.
   std::vector<MessageHole> holes();
+  /// The consumer's periodic look (docs/fleet.md, "No answer"), one transaction: every hole, with
+  /// when it was first asked for (a hole inherits the time of the holes it overlaps, so a hole that
+  /// shrinks keeps its age); holes first asked for at least give_up_after ago are recorded lost
+  /// (no_answer) and returned apart.
+  struct HoleCheck {
+    std::vector<MessageHole> to_ask, given_up;
+  };
+  HoleCheck check_holes(std::chrono::seconds give_up_after);
 
  private:
 

@@ -164,6 +164,10 @@ enum class HealthCounter : std::uint8_t {
   mqtt_refused,
   mqtt_outbox_dropped,
   mqtt_publish_refused,  ///< messages the broker refused (MQTT 5 PUBACK reason >= 0x80), this run
+  mqtt_resend_requests,  ///< resend requests taken from the fleet consumer (docs/fleet.md), this run
+  mqtt_resent,           ///< outbox rows published again for them
+  mqtt_resend_gone,      ///< ids asked for that the outbox cannot serve (named on resend_gone)
+  mqtt_resend_ignored,   ///< requests or ranges ignored: malformed, another gearbox's, never sent
 };
 inline constexpr std::array kAllHealthCounters{
     HealthCounter::frames,
@@ -202,6 +206,10 @@ inline constexpr std::array kAllHealthCounters{
     HealthCounter::mqtt_refused,
     HealthCounter::mqtt_outbox_dropped,
     HealthCounter::mqtt_publish_refused,
+    HealthCounter::mqtt_resend_requests,
+    HealthCounter::mqtt_resent,
+    HealthCounter::mqtt_resend_gone,
+    HealthCounter::mqtt_resend_ignored,
 };
 /// The counter's column in health_snapshots.
 const char* to_string(HealthCounter counter) noexcept;
