@@ -229,7 +229,7 @@ int main() {
   for (const auto& i : first.indicators) std::printf("  %-28s %.6g\n", i.name.c_str(), i.value);
   for (const auto& s : first.skipped) std::printf("  skipped %-20s %s %s\n", s.name.c_str(), to_string(s.reason), s.detail.c_str());
   for (const auto& b : first.band_selections)
-    std::printf("  band (%s): level %.3f centre %.0f Hz bandwidth %.0f Hz value %.4g\n", b.criterion.c_str(), b.level,
+    std::printf("  band (%s): level %.3f centre %.0f Hz bandwidth %.0f Hz value %.4g\n", to_string(b.criterion), b.level,
                 b.centre_hz, b.bandwidth_hz, b.value);
   // Machine-readable lines for tools/bench.sh.
   std::printf("BENCH name=indicators_record_wall figure=%.3f unit=s target=1 cmp=le met=%d\n", t_analysis.wall,

@@ -18,13 +18,13 @@ double value_or_nan(const dsp::ChannelAnalysis& a, dsp::Indicator indicator) { r
 
 double selected_centre(const dsp::ChannelAnalysis& a) {
   for (const auto& b : a.band_selections)
-    if (b.criterion == "ics2") return b.centre_hz;
+    if (b.criterion == dsp::BandSelectionCriterion::ics2) return b.centre_hz;
   return kNaN;
 }
 
 double selected_value(const dsp::ChannelAnalysis& a) {
   for (const auto& b : a.band_selections)
-    if (b.criterion == "ics2") return b.value;
+    if (b.criterion == dsp::BandSelectionCriterion::ics2) return b.value;
   return kNaN;
 }
 
@@ -314,7 +314,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
     }
     for (const auto& s : a.skipped) ch.skipped.push_back({s.name, dsp::to_string(s.reason), s.detail});
     for (const auto& n : a.notes) ch.notes.push_back({n.name, dsp::to_string(n.note), n.detail});
-    for (const auto& b : a.band_selections) ch.bands.push_back({b.criterion, b.level, b.centre_hz, b.bandwidth_hz, b.value});
+    for (const auto& b : a.band_selections) ch.bands.push_back({dsp::to_string(b.criterion), b.level, b.centre_hz, b.bandwidth_hz, b.value});
     observe_channel_alerts(channel, a, out);
     check_thresholds(channel, a, out);
     // Wear mechanism over the history of this gear pair (needs a place in its life).
