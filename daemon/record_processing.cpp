@@ -181,10 +181,8 @@ RecordSpeed RecordProcessor::establish_speed(const Record& record, storage::Reco
   return speed;
 }
 
-void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage::RecordResult& out) {
+std::optional<AlertEvent> observe_speed_mismatch(AlertTracker& alerts, const dsp::SpeedCheck& check) {
   char value[32], text[320];
-  // Two significant digits: the value of a raised alert changes (and is raised again) only when
-  // the disagreement does, not with the estimate's last digits from record to record.
   std::snprintf(value, sizeof value, "%+.2g", check.relative_difference);
   std::snprintf(text, sizeof text,
                 "tacho mean speed %.6g Hz, vibration signal %.6g Hz: %+.4f %% (tolerance %.4f %%)%s", check.tacho_speed_hz,
@@ -192,8 +190,12 @@ void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage:
                 !check.mismatch ? "; the tacho agrees again"
                 : check.gross   ? "; too far apart for a tacho's error (another line followed?): the record is analysed on the tacho"
                                 : "; the record is analysed on the signal's estimate");
-  if (auto e = alerts_.observe(AlertKey{AlertKind::tacho_speed_mismatch, -1}, check.mismatch, value, text, AlertHysteresis{1, 1}))
-    out.alerts.push_back(std::move(*e));
+  return alerts.observe_measured(AlertKey{AlertKind::tacho_speed_mismatch, -1}, check.mismatch, check.relative_difference, value,
+                                 text, AlertHysteresis{1, 1}, kSpeedMismatchReraiseChange);
+}
+
+void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage::RecordResult& out) {
+  if (auto e = observe_speed_mismatch(alerts_, check)) out.alerts.push_back(std::move(*e));
 }
 
 void RecordProcessor::observe_cycle_count(const Record& record, storage::RecordResult& out) {
