@@ -72,61 +72,88 @@ Record synthetic_record() {
   return r;
 }
 
-}  // namespace
+// The machine may be shared: every repetition times one FFT and one measured step back to back,
+// and we report the best wall time of each (least disturbed) and the thread CPU time (insensitive
+// to other processes), with the ratio computed both ways.
+struct Timing {
+  double wall = 1e9, cpu = 1e9;
+};
 
-int main() {
+void measure(Timing& t, auto&& f) {
+  timespec c0{}, c1{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
+  const auto w0 = Clock::now();
+  f();
+  const double wall = seconds_since(w0);
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
+  const double cpu = double(c1.tv_sec - c0.tv_sec) + 1e-9 * double(c1.tv_nsec - c0.tv_nsec);
+  t.wall = std::min(t.wall, wall);
+  t.cpu = std::min(t.cpu, cpu);
+}
+
+// The bench's steps in the order main runs them, each printing its own lines. The members are
+// what the steps share, named as the one-function bench named its locals.
+class IndicatorBench {
+ public:
+  IndicatorBench();
+  void time_full_set();
+  void print_full_set() const;
+  void time_band_selection();
+  void time_speed_estimation();
+  void run_peer() const;
+  void print_indicators() const;
+  void print_bench_lines() const;
+
+ private:
   const Record record = synthetic_record();
   RigSpec rig;
   SignalProcessingSettings settings;
-  RecordAnalyzer analyzer(rig, settings);
+  RecordAnalyzer analyzer{rig, settings};
 
   // Reference: one 2^20-point real-to-complex FFTW transform (FFTW_ESTIMATE plans, as the
   // analyzer uses), best of 20 after a warm-up, and a complex one for context.
   const std::size_t n_fft = std::size_t{1} << 20;
-  RealFft fft(n_fft);
-  ComplexFft cfft(n_fft);
-  RealBuffer in(n_fft);
-  ComplexBuffer out(fft.spectrum_size()), cin(n_fft), cout(n_fft);
+  RealFft fft{n_fft};
+  ComplexFft cfft{n_fft};
+  RealBuffer in;
+  ComplexBuffer out, cin, cout;
+  Timing t_fft, t_cfft, t_analysis;
+
+  ChannelAnalysis first;
+  double t_first = 0.0, t_median = 0.0, ratio_wall = 0.0, ratio_cpu = 0.0;
+  std::vector<double> x;
+  int levels = 0;
+  double tree_ratio = 0.0, speed_ratio = 0.0;
+};
+
+IndicatorBench::IndicatorBench() : in(n_fft), out(fft.spectrum_size()), cin(n_fft), cout(n_fft) {
   std::mt19937_64 rng(2);
   std::normal_distribution<double> normal;
   for (auto& v : in) v = normal(rng);
   for (auto& v : cin) v = Complex(normal(rng), normal(rng));
-  // The machine may be shared: every repetition times one FFT and one analysis back to back, and
-  // we report the best wall time of each (least disturbed) and the thread CPU time (insensitive
-  // to other processes), with the ratio computed both ways.
-  struct Timing {
-    double wall = 1e9, cpu = 1e9;
-  };
-  auto measure = [](Timing& t, auto&& f) {
-    timespec c0{}, c1{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
-    const auto w0 = Clock::now();
-    f();
-    const double wall = seconds_since(w0);
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
-    const double cpu = double(c1.tv_sec - c0.tv_sec) + 1e-9 * double(c1.tv_nsec - c0.tv_nsec);
-    t.wall = std::min(t.wall, wall);
-    t.cpu = std::min(t.cpu, cpu);
-  };
+}
+
+void IndicatorBench::time_full_set() {
   fft.forward(in, out);
-  Timing t_fft, t_cfft, t_analysis;
   // First call (creates the plans for this record length).
   auto t0 = Clock::now();
-  ChannelAnalysis first = analyzer.analyze(record, 0);
-  const double t_first = seconds_since(t0);
+  first = analyzer.analyze(record, 0);
+  t_first = seconds_since(t0);
   std::vector<double> walls;
   for (int i = 0; i < 7; ++i) {
     for (int k = 0; k < 5; ++k) measure(t_fft, [&] { fft.forward(in, out); });
     measure(t_cfft, [&] { cfft.forward(cin, cout); });
-    const double before = t_analysis.wall;
     const auto w0 = Clock::now();
     measure(t_analysis, [&] { first = analyzer.analyze(record, 0); });
     walls.push_back(seconds_since(w0));
-    (void)before;
   }
   std::sort(walls.begin(), walls.end());
-  const double t_median = walls[walls.size() / 2];
+  t_median = walls[walls.size() / 2];
+  ratio_wall = t_analysis.wall / t_fft.wall;
+  ratio_cpu = t_analysis.cpu / t_fft.cpu;
+}
 
+void IndicatorBench::print_full_set() const {
   std::printf("record: %zu samples at %.0f Hz, %zu samples/rev, %.0f input / %.0f output averages\n",
               record.sample_count(), record.sample_rate_hz, first.samples_per_revolution, first.tsa_averages_input,
               first.tsa_averages_output);
@@ -136,15 +163,16 @@ int main() {
   std::printf("full indicator set:              %8.1f ms   %8.1f ms   (wall median of 7: %.1f ms)\n",
               t_analysis.wall * 1e3, t_analysis.cpu * 1e3, t_median * 1e3);
   std::printf("full indicator set, first call:  %8.1f ms (includes FFTW planning)\n", t_first * 1e3);
-  const double ratio_wall = t_analysis.wall / t_fft.wall, ratio_cpu = t_analysis.cpu / t_fft.cpu;
   std::printf("ratio to one r2c FFT:            %8.1f x    %8.1f x   (target <= 40)\n", ratio_wall, ratio_cpu);
   std::printf("ratio to one c2c FFT:            %8.1f x    %8.1f x\n", t_analysis.wall / t_cfft.wall,
               t_analysis.cpu / t_cfft.cpu);
   std::printf("target 1 s: %s; target 40x: %s\n", t_analysis.wall <= 1.0 ? "met" : "NOT met",
               std::max(ratio_wall, ratio_cpu) <= 40.0 ? "met" : "NOT met");
+}
 
-  // --- band selection alone, on the same 1 M samples
-  std::vector<double> x(record.channels[0].begin(), record.channels[0].end());
+// Band selection alone, on the same 1 M samples.
+void IndicatorBench::time_band_selection() {
+  x.assign(record.channels[0].begin(), record.channels[0].end());
   FftPlanCache plans;
   SquaredEnvelopeAnalyzer envelope(plans);
   Ics2Criterion ics2(envelope, plans, first.samples_per_revolution, Ics2Parameters{});
@@ -158,7 +186,7 @@ int main() {
   std::vector<BandMap> maps(3), kurtosis_map(1);
   std::array<BandCriterion*, 3> criteria{&power, &ics2, &kurtosis};
   std::array<BandCriterion*, 1> kurtosis_only{&kurtosis};
-  const int levels = settings.filter_bank_levels;
+  levels = settings.filter_bank_levels;
   BandMap::Optimum best_ics2, best_kurtosis;
   Timing t_tree, t_kurtogram;
   auto select = [&] {
@@ -172,7 +200,7 @@ int main() {
     measure(t_tree, select);
     measure(t_kurtogram, [&] { bank.analyse(x, levels, kurtosis_only, kurtosis_map); });
   }
-  const double tree_ratio = std::max(t_tree.wall / t_fft.wall, t_tree.cpu / t_fft.cpu);
+  tree_ratio = std::max(t_tree.wall / t_fft.wall, t_tree.cpu / t_fft.cpu);
   const double kurtogram_ratio = std::max(t_kurtogram.wall / t_fft.wall, t_kurtogram.cpu / t_fft.cpu);
   std::printf("band selection, tree to level %d, power + ICS2 + kurtosis:  %8.1f ms   %8.1f ms   = %.1f x r2c FFT (target <= 3)\n",
               levels, t_tree.wall * 1e3, t_tree.cpu * 1e3, tree_ratio);
@@ -182,9 +210,11 @@ int main() {
               t_kurtogram.wall * 1e3, t_kurtogram.cpu * 1e3, kurtogram_ratio);
   std::printf("full indicator set against issue 11's target: %.1f x (target <= 20): %s\n", std::max(ratio_wall, ratio_cpu),
               std::max(ratio_wall, ratio_cpu) <= 20.0 ? "met" : "NOT met");
+}
 
-  // --- speed from the signal (tacholess order tracking) on the same record: every step, from the
-  // short-time spectra to the synthetic edges (issue 36: target <= 5 r2c FFTs).
+// Speed from the signal (tacholess order tracking) on the same record: every step, from the
+// short-time spectra to the synthetic edges (issue 36: target <= 5 r2c FFTs).
+void IndicatorBench::time_speed_estimation() {
   SpeedEstimationSettings speed_settings;
   speed_settings.pinion_teeth = rig.gears.pinion_teeth;
   speed_settings.gear_teeth = rig.gears.gear_teeth;
@@ -198,7 +228,7 @@ int main() {
     measure(t_fft, [&] { fft.forward(in, out); });
     measure(t_speed, [&] { estimator.estimate(samples, record.sample_rate_hz); });
   }
-  const double speed_ratio = std::max(t_speed.wall / t_fft.wall, t_speed.cpu / t_fft.cpu);
+  speed_ratio = std::max(t_speed.wall / t_fft.wall, t_speed.cpu / t_fft.cpu);
   const auto& tacho = record.tacho_edges[0];
   const double tacho_speed = double(tacho.size() - 1) * record.sample_rate_hz / (tacho.back() - tacho.front());
   const SpeedCheck check = check_tacho(tacho, 1.0, estimate, record.sample_rate_hz, rig.gears.pinion_teeth);
@@ -206,8 +236,10 @@ int main() {
               "mean %.6f Hz (tacho %.6f Hz, difference %+.2e, tolerance %.2e)\n",
               t_speed.wall * 1e3, t_speed.cpu * 1e3, speed_ratio, estimate.ok ? "ok" : estimate.failure.c_str(),
               estimate.harmonic, estimate.mean_speed_hz, tacho_speed, check.relative_difference, check.tolerance);
+}
 
-  // --- the peer's fast kurtogram on the same samples, when one is named
+// The peer's fast kurtogram on the same samples, when one is named.
+void IndicatorBench::run_peer() const {
   if (const char* peer = std::getenv("GEARWATCH_PEER_FAST_KURTOGRAM")) {
     const char* python = std::getenv("GEARWATCH_PYTHON");
     const std::string record_file =
@@ -225,13 +257,19 @@ int main() {
   } else {
     std::printf("peer fast kurtogram: not run (set GEARWATCH_PEER_FAST_KURTOGRAM to its fast_kurtogram.py)\n");
   }
+}
+
+void IndicatorBench::print_indicators() const {
   std::printf("indicators: %zu computed, %zu skipped\n", first.indicators.size(), first.skipped.size());
   for (const auto& i : first.indicators) std::printf("  %-28s %.6g\n", i.name.c_str(), i.value);
   for (const auto& s : first.skipped) std::printf("  skipped %-20s %s %s\n", s.name.c_str(), to_string(s.reason), s.detail.c_str());
   for (const auto& b : first.band_selections)
-    std::printf("  band (%s): level %.3f centre %.0f Hz bandwidth %.0f Hz value %.4g\n", b.criterion.c_str(), b.level,
+    std::printf("  band (%s): level %.3f centre %.0f Hz bandwidth %.0f Hz value %.4g\n", to_string(b.criterion), b.level,
                 b.centre_hz, b.bandwidth_hz, b.value);
-  // Machine-readable lines for tools/bench.sh.
+}
+
+// Machine-readable lines for tools/bench.sh.
+void IndicatorBench::print_bench_lines() const {
   std::printf("BENCH name=indicators_record_wall figure=%.3f unit=s target=1 cmp=le met=%d\n", t_analysis.wall,
               t_analysis.wall <= 1.0 ? 1 : 0);
   const double ratio = std::max(ratio_wall, ratio_cpu);
@@ -243,5 +281,18 @@ int main() {
               tree_ratio <= 3.0 ? 1 : 0);
   std::printf("BENCH name=speed_estimation_per_fft figure=%.1f unit=x_r2c_fft target=5 cmp=le met=%d\n", speed_ratio,
               speed_ratio <= 5.0 ? 1 : 0);
+}
+
+}  // namespace
+
+int main() {
+  IndicatorBench bench;
+  bench.time_full_set();
+  bench.print_full_set();
+  bench.time_band_selection();
+  bench.time_speed_estimation();
+  bench.run_peer();
+  bench.print_indicators();
+  bench.print_bench_lines();
   return 0;
 }

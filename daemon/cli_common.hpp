@@ -88,11 +88,18 @@ std::vector<std::string> tokens_of(const TokenTable<Enum>& table) {
   return out;
 }
 
+/// The value of `token` in the table, or nullopt (an option whose other values are free text).
+template <class Enum>
+std::optional<Enum> find_value(const TokenTable<Enum>& table, const std::string& token) {
+  for (const auto& [t, value] : table)
+    if (t == token) return value;
+  return std::nullopt;
+}
+
 /// The value of a token CLI11 has checked against tokens_of(table); std::logic_error otherwise.
 template <class Enum>
 Enum value_of(const TokenTable<Enum>& table, const std::string& token) {
-  for (const auto& [t, value] : table)
-    if (t == token) return value;
+  if (const auto value = find_value(table, token)) return *value;
   throw std::logic_error("'" + token + "' is not one of the option's tokens");
 }
 

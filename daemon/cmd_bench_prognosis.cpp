@@ -97,7 +97,7 @@ struct CampaignCase {
 CampaignCase make_campaign_case(std::uint64_t seed, int records, double seconds, CampaignSet set) {
   CampaignCase c;
   c.seed = seed;
-  c.spec = set == CampaignSet::random ? rig::random_campaign(seed) : rig::builtin_campaign(seed % 2 == 1 ? "lubricated" : "dry");
+  c.spec = set == CampaignSet::random ? rig::random_campaign(seed) : rig::builtin_campaign(seed % 2 == 1 ? rig::BuiltinCampaign::lubricated : rig::BuiltinCampaign::dry);
   if (records > 0) c.spec.records = records;
   c.spec.seconds = seconds;
   c.plan = rig::plan_records(c.spec);

@@ -226,7 +226,7 @@ json inputs_json(const std::vector<InputRecord>& records) {
 
 void run_diagnose(const DiagnoseOptions& o) {
   auto cfg = load_config_or_defaults(o.config);
-  logging::setup(logging::Sink::stderr_only, cfg.logging.level == "info" ? "warn" : cfg.logging.level);
+  logging::setup(logging::Sink::stderr_only, logging::summary_command_level(cfg.logging.level));
   const int channel = daemon::gap_channel(cfg);
   std::vector<InputRecord> records = read_inputs(o, cfg, channel);
   std::size_t given_held_out = 0;

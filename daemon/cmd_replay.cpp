@@ -51,7 +51,7 @@ void register_replay(CLI::App& app) {
     cfg.acquisition.source = config::SourceKind::candump;
     cfg.acquisition.capture = opt->capture;
     cfg.storage.database = opt->db;
-    logging::setup(logging::Sink::stderr_only, cfg.logging.level == "info" ? "warn" : cfg.logging.level);
+    logging::setup(logging::Sink::stderr_only, logging::summary_command_level(cfg.logging.level));
     daemon::PipelineResult r;
     try {
       // A recording given for a capture would only fill the database with malformed lines.

@@ -86,15 +86,25 @@ rig::EffectSet make_effects(const std::string& list, bool seeded, std::uint64_t 
   return fx;
 }
 
+/// The words --campaign takes besides a file name: a built-in campaign, or one drawn from the seed.
+enum class CampaignWord { lubricated, dry, healthy, random };
+const TokenTable<CampaignWord> kCampaignWords{{rig::to_string(rig::BuiltinCampaign::lubricated), CampaignWord::lubricated},
+                                              {rig::to_string(rig::BuiltinCampaign::dry), CampaignWord::dry},
+                                              {rig::to_string(rig::BuiltinCampaign::healthy), CampaignWord::healthy},
+                                              {"random", CampaignWord::random}};
+
 /// The campaign named on the command line: built in, drawn at random from the seed, or a file.
 rig::CampaignSpec campaign_spec(const Options& opt, bool seeded) {
-  if (opt.campaign == "lubricated" || opt.campaign == "dry" || opt.campaign == "healthy")
-    return rig::builtin_campaign(opt.campaign);
-  if (opt.campaign == "random") {
-    if (!seeded) throw CommandError("--campaign random needs --seed N (the campaign is drawn from it)");
-    return rig::random_campaign(opt.cs.signal.seed);
+  const auto word = find_value(kCampaignWords, opt.campaign);
+  if (!word) return rig::load_campaign_file(opt.campaign);
+  switch (*word) {
+    case CampaignWord::lubricated: return rig::builtin_campaign(rig::BuiltinCampaign::lubricated);
+    case CampaignWord::dry: return rig::builtin_campaign(rig::BuiltinCampaign::dry);
+    case CampaignWord::healthy: return rig::builtin_campaign(rig::BuiltinCampaign::healthy);
+    case CampaignWord::random: break;
   }
-  return rig::load_campaign_file(opt.campaign);
+  if (!seeded) throw CommandError("--campaign random needs --seed N (the campaign is drawn from it)");
+  return rig::random_campaign(opt.cs.signal.seed);
 }
 
 double deepest_flank_point(const rig::WearState& w) {

@@ -43,7 +43,7 @@ struct Reloadable {
 
 const std::vector<Reloadable>& reloadables() {
   static const std::vector<Reloadable> all{
-      {"logging.level", [](const config::GearwatchConfig& c) { return c.logging.level; }},
+      {"logging.level", [](const config::GearwatchConfig& c) { return std::string(config::to_string(c.logging.level)); }},
   };
   return all;
 }

@@ -21,6 +21,12 @@ void setup(Sink sink, const std::string& level) {
   spdlog::set_default_logger(logger);
 }
 
+void setup(Sink sink, config::LogLevel level) { setup(sink, std::string(config::to_string(level))); }
+
+config::LogLevel summary_command_level(config::LogLevel configured) {
+  return configured == config::LogLevel::info ? config::LogLevel::warn : configured;
+}
+
 bool running_under_journald() { return std::getenv("JOURNAL_STREAM") != nullptr; }
 
 }  // namespace gearwatch::logging

@@ -35,6 +35,7 @@
 #include "gearwatch/storage/writer.hpp"
 #include "config_reload.hpp"
 #include "decoder_setup.hpp"
+#include "logging.hpp"
 #include "model_thread.hpp"
 #include "mqtt_sender.hpp"
 #include "record_processing.hpp"
@@ -142,9 +143,9 @@ std::string sample_rate_message(const acq::StreamInfo& s, double configured_hz) 
          configured + "; its samples are analysed at " + rate;
 }
 
-// The spdlog level a command runs at: replay is quiet at "info" (its summary is on stdout).
-std::string effective_level(const std::string& level, PipelineMode mode) {
-  return mode == PipelineMode::replay && level == "info" ? "warn" : level;
+// The spdlog level a command runs at: replay's summary is on stdout.
+config::LogLevel effective_level(config::LogLevel level, PipelineMode mode) {
+  return mode == PipelineMode::replay ? logging::summary_command_level(level) : level;
 }
 
 // What runs.end_reason says: the source's error, else the signal that stopped the run, else (a
@@ -560,14 +561,15 @@ void Pipeline::reload() {
   std::string applied;
   for (const auto& key : plan.apply) {
     if (key == "logging.level")
-      applied += (applied.empty() ? "" : ", ") + key + " (" + running_config_.logging.level + " -> " + plan.next.logging.level + ")";
+      applied += (applied.empty() ? "" : ", ") + key + " (" + config::to_string(running_config_.logging.level) + " -> " +
+                 config::to_string(plan.next.logging.level) + ")";
   }
   // Said before the new level is in force, so a quieter level does not hide it.
   spdlog::info("SIGHUP: configuration {} reloaded; applied: {}", config_.source_path, applied.empty() ? "none" : applied);
   for (const auto& key : plan.apply) {
     if (key == "logging.level") {
       running_config_.logging.level = plan.next.logging.level;
-      spdlog::set_level(spdlog::level::from_str(effective_level(plan.next.logging.level, mode_)));
+      spdlog::set_level(spdlog::level::from_str(config::to_string(effective_level(plan.next.logging.level, mode_))));
     }
   }
   if (!plan.restart_required.empty()) {

@@ -18,13 +18,13 @@ double value_or_nan(const dsp::ChannelAnalysis& a, dsp::Indicator indicator) { r
 
 double selected_centre(const dsp::ChannelAnalysis& a) {
   for (const auto& b : a.band_selections)
-    if (b.criterion == "ics2") return b.centre_hz;
+    if (b.criterion == dsp::BandSelectionCriterion::ics2) return b.centre_hz;
   return kNaN;
 }
 
 double selected_value(const dsp::ChannelAnalysis& a) {
   for (const auto& b : a.band_selections)
-    if (b.criterion == "ics2") return b.value;
+    if (b.criterion == dsp::BandSelectionCriterion::ics2) return b.value;
   return kNaN;
 }
 
@@ -181,10 +181,8 @@ RecordSpeed RecordProcessor::establish_speed(const Record& record, storage::Reco
   return speed;
 }
 
-void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage::RecordResult& out) {
+std::optional<AlertEvent> observe_speed_mismatch(AlertTracker& alerts, const dsp::SpeedCheck& check) {
   char value[32], text[320];
-  // Two significant digits: the value of a raised alert changes (and is raised again) only when
-  // the disagreement does, not with the estimate's last digits from record to record.
   std::snprintf(value, sizeof value, "%+.2g", check.relative_difference);
   std::snprintf(text, sizeof text,
                 "tacho mean speed %.6g Hz, vibration signal %.6g Hz: %+.4f %% (tolerance %.4f %%)%s", check.tacho_speed_hz,
@@ -192,8 +190,12 @@ void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage:
                 !check.mismatch ? "; the tacho agrees again"
                 : check.gross   ? "; too far apart for a tacho's error (another line followed?): the record is analysed on the tacho"
                                 : "; the record is analysed on the signal's estimate");
-  if (auto e = alerts_.observe(AlertKey{AlertKind::tacho_speed_mismatch, -1}, check.mismatch, value, text, AlertHysteresis{1, 1}))
-    out.alerts.push_back(std::move(*e));
+  return alerts.observe_measured(AlertKey{AlertKind::tacho_speed_mismatch, -1}, check.mismatch, check.relative_difference, value,
+                                 text, AlertHysteresis{1, 1}, kSpeedMismatchReraiseChange);
+}
+
+void RecordProcessor::observe_speed_check(const dsp::SpeedCheck& check, storage::RecordResult& out) {
+  if (auto e = observe_speed_mismatch(alerts_, check)) out.alerts.push_back(std::move(*e));
 }
 
 void RecordProcessor::observe_cycle_count(const Record& record, storage::RecordResult& out) {
@@ -314,7 +316,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
     }
     for (const auto& s : a.skipped) ch.skipped.push_back({s.name, dsp::to_string(s.reason), s.detail});
     for (const auto& n : a.notes) ch.notes.push_back({n.name, dsp::to_string(n.note), n.detail});
-    for (const auto& b : a.band_selections) ch.bands.push_back({b.criterion, b.level, b.centre_hz, b.bandwidth_hz, b.value});
+    for (const auto& b : a.band_selections) ch.bands.push_back({dsp::to_string(b.criterion), b.level, b.centre_hz, b.bandwidth_hz, b.value});
     observe_channel_alerts(channel, a, out);
     check_thresholds(channel, a, out);
     // Wear mechanism over the history of this gear pair (needs a place in its life).

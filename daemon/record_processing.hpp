@@ -41,6 +41,15 @@ struct RecordSpeed {
   std::string estimate_failure;             ///< why no estimate ("" when there is one)
 };
 
+/// A raised tacho_speed_mismatch is raised again only when the relative difference moved by more
+/// than this fraction of its value at the last raise (docs/daemon.md): its two printed digits
+/// flip at a rounding boundary (9.8e-5, 1.0e-4) with the estimate's last digits, which is the same
+/// disagreement; a quarter is a change staff can read off the two values.
+inline constexpr double kSpeedMismatchReraiseChange = 0.25;
+
+/// The tacho check's alert (raised, raised again with a moved value, cleared), or nothing.
+std::optional<AlertEvent> observe_speed_mismatch(AlertTracker& alerts, const dsp::SpeedCheck& check);
+
 class RecordProcessor {
  public:
   explicit RecordProcessor(const config::GearwatchConfig& config, ProcessorMemory memory = {});

@@ -35,7 +35,7 @@ TEST_CASE("config reload: the log level is applied, every other change is named 
       "[[channels]]\nnumber = 1\nname = \"casing_x\"\nscale = 0.02\n"
       "[alerts]\nthreshold_sigma = 5.0\n";
   const auto plan = plan_reload(kStarted, running(), edited, "plant.toml");
-  CHECK(plan.next.logging.level == "debug");
+  CHECK(plan.next.logging.level == gearwatch::config::LogLevel::debug);
   CHECK(plan.apply == std::vector<std::string>{"logging.level"});
   // Sorted; an array entry by position; a key added counts as changed.
   CHECK(plan.restart_required ==
@@ -56,7 +56,7 @@ TEST_CASE("config reload: a removed key and a removed channel need a restart", "
 
 TEST_CASE("config reload: a level applied by an earlier reload is not applied again", "[reload]") {
   auto now = running();
-  now.logging.level = "warn";  // what the first SIGHUP applied
+  now.logging.level = gearwatch::config::LogLevel::warn;  // what the first SIGHUP applied
   const std::string edited = std::string(kStarted).replace(std::string(kStarted).find("\"info\""), 6, "\"warn\"");
   const auto plan = plan_reload(kStarted, now, edited, "plant.toml");
   CHECK(plan.apply.empty());

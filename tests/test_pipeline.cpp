@@ -263,4 +263,47 @@ TEST_CASE("pipeline: lost samples are the samples missing from the stream, in sa
   CHECK(r.kernel_dropped_frames == 0);
 }
 
+TEST_CASE("pipeline: a tacho mismatch on a rounding boundary of its two digits is raised once and again when it moves by a quarter",
+          "[pipeline][alerts]") {
+  AlertTracker alerts;
+  int raised = 0;
+  std::vector<std::string> raised_values;
+  auto record = [&](double relative_difference, bool mismatch = true) {
+    dsp::SpeedCheck check;
+    check.mismatch = mismatch;
+    check.tacho_speed_hz = 10.0 * (1.0 + relative_difference);
+    check.signal_speed_hz = 10.0;
+    check.relative_difference = relative_difference;
+    check.tolerance = 5e-5;
+    const auto e = daemon::observe_speed_mismatch(alerts, check);
+    if (e && e->transition == AlertTransition::raised) {
+      ++raised;
+      raised_values.push_back(e->value);
+    }
+    return e;
+  };
+  // Printed with two digits these read +9.8e-05, +0.0001, +0.0001 and +9.9e-05: each flip across
+  // the boundary changed the text, and a tracker comparing the text raised the alert five times.
+  for (double v : {9.8e-5, 1.0e-4, 9.8e-5, 1.0e-4, 1.02e-4, 9.9e-5}) record(v);
+  CHECK(raised == 1);
+  CHECK(raised_values == std::vector<std::string>{"+9.8e-05"});
+  // Doubled since the raise (9.8e-5): raised again, with the new value.
+  record(1.96e-4);
+  CHECK(raised == 2);
+  CHECK(raised_values.back() == "+0.0002");
+  // Against the new raise's 1.96e-4: 24 % more is the same condition, 26 % more is a new value.
+  record(1.96e-4 * 1.24);
+  CHECK(raised == 2);
+  record(1.96e-4 * 1.26);
+  CHECK(raised == 3);
+  CHECK(raised_values.back() == "+0.00025");
+  // A sign change is always a move; clearing reports the value last raised.
+  record(-2.5e-4);
+  CHECK(raised == 4);
+  const auto cleared = record(-2.5e-4, false);
+  REQUIRE(cleared);
+  CHECK(cleared->transition == AlertTransition::cleared);
+  CHECK(cleared->value == "-0.00025");
+}
+
 }  // namespace test_pipeline

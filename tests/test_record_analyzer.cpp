@@ -134,7 +134,7 @@ TEST_CASE("Record analyzer: known indicators on a synthetic gearbox record", "[d
   CHECK(low > 20 * high);
   REQUIRE(a.band_selections.size() == 2);
   const auto& sel = a.band_selections[0];
-  CHECK(sel.criterion == "ics2");
+  CHECK(std::string(to_string(sel.criterion)) == "ics2");
   CHECK(sel.centre_hz - sel.bandwidth_hz / 2 <= 6000.0 + 200.0);  // band edges are nominal
   CHECK(sel.centre_hz + sel.bandwidth_hz / 2 >= 6000.0 - 200.0);
   CHECK(*a.value("ics2_selected_band") >= low * 0.9);  // a narrower band around the burst does at least as well

@@ -290,9 +290,12 @@ void read_storage(const toml::table& root, const std::string& file, GearwatchCon
 void read_logging(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
   TableReader t(sub_table(root, "logging", file), "logging.", file);
   auto& l = cfg.logging;
-  t.string("level", l.level);
-  static const std::set<std::string> levels{"trace", "debug", "info", "warning", "warn", "error", "critical", "off"};
-  if (!levels.count(l.level)) t.fail(t.node("level"), "level", "expected one of trace, debug, info, warn, error, critical, off");
+  // Read as text first, so a non-string or an empty level keeps the string reader's message.
+  std::string level = to_string(l.level);
+  t.string("level", level);
+  const auto parsed = from_token(kAllLogLevels, level);
+  if (!parsed) t.fail(t.node("level"), "level", "expected one of trace, debug, info, warn, error, critical, off");
+  l.level = *parsed;
   t.token("sink", l.sink, kAllLogSinks, "expected auto, journald or stderr");
   t.number("rate_limit_s", l.rate_limit_s, 0.0, 86400.0);
   t.reject_unknown();

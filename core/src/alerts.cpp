@@ -1,6 +1,8 @@
 #include "gearwatch/alerts.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 
 namespace gearwatch {
 
@@ -63,6 +65,26 @@ std::optional<AlertEvent> AlertTracker::observe(AlertKey key, bool present, cons
   e.severity = AlertSeverity::info;
   e.value = s.value;
   s.value.clear();
+  return e;
+}
+
+namespace {
+
+// The value the raised alert was last raised with: its marker, or (for a state stored before the
+// marker was kept) its stored text read back.
+double raised_value(const AlertState& s) { return s.marker != 0.0 ? s.marker : std::strtod(s.value.c_str(), nullptr); }
+
+}  // namespace
+
+std::optional<AlertEvent> AlertTracker::observe_measured(AlertKey key, bool present, double value, const std::string& value_text,
+                                                         const std::string& message, AlertHysteresis hysteresis,
+                                                         double reraise_change) {
+  const AlertState& s = states_[key];
+  const double then = raised_value(s);
+  const bool moved = std::abs(value - then) > reraise_change * std::abs(then);
+  const bool same_condition = present && s.active && !moved;
+  auto e = observe(key, present, same_condition ? s.value : value_text, message, hysteresis);
+  if (e && e->transition == AlertTransition::raised) states_[key].marker = value;
   return e;
 }
 

@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
+#include "gearwatch/types/token.hpp"
+
 namespace gearwatch::rig {
 namespace {
 
@@ -198,16 +200,40 @@ std::string pad(double v, int width) {
 
 }  // namespace
 
-std::string builtin_campaign_text(const std::string& name) {
-  if (name == "lubricated") return kLubricated;
-  if (name == "dry") return kDry;
-  if (name == "healthy") return kHealthy;
+const char* to_string(BuiltinCampaign campaign) noexcept {
+  switch (campaign) {
+    case BuiltinCampaign::lubricated: return "lubricated";
+    case BuiltinCampaign::dry: return "dry";
+    case BuiltinCampaign::healthy: return "healthy";
+  }
+  return "unknown";
+}
+
+std::string builtin_campaign_text(BuiltinCampaign campaign) {
+  switch (campaign) {
+    case BuiltinCampaign::lubricated: return kLubricated;
+    case BuiltinCampaign::dry: return kDry;
+    case BuiltinCampaign::healthy: return kHealthy;
+  }
+  return {};
+}
+
+CampaignSpec builtin_campaign(BuiltinCampaign campaign) {
+  return parse_campaign(builtin_campaign_text(campaign), std::string("built-in campaign ") + to_string(campaign));
+}
+
+namespace {
+
+BuiltinCampaign builtin_campaign_named(const std::string& name) {
+  if (const auto c = from_token(kAllBuiltinCampaigns, name)) return *c;
   throw CampaignError("unknown campaign '" + name + "' (built in: lubricated, dry, healthy; or a .toml file)");
 }
 
-CampaignSpec builtin_campaign(const std::string& name) {
-  return parse_campaign(builtin_campaign_text(name), "built-in campaign " + name);
-}
+}  // namespace
+
+std::string builtin_campaign_text(const std::string& name) { return builtin_campaign_text(builtin_campaign_named(name)); }
+
+CampaignSpec builtin_campaign(const std::string& name) { return builtin_campaign(builtin_campaign_named(name)); }
 
 CampaignSpec load_campaign_file(const std::string& path) {
   std::ifstream in(path);

@@ -35,6 +35,12 @@ class AlertTracker {
   /// Returns the event to store when the alert is raised, changes value, or clears.
   std::optional<AlertEvent> observe(AlertKey key, bool present, const std::string& value, const std::string& message,
                                     AlertHysteresis hysteresis);
+  /// The same for a condition with a measured value, stored as `value_text`. While raised, it is
+  /// raised again only when the value moved by more than `reraise_change` (a fraction of the value
+  /// at the last raise, which the state's marker keeps): a value sitting on a rounding boundary
+  /// of its text is one condition, not a stream of changes.
+  std::optional<AlertEvent> observe_measured(AlertKey key, bool present, double value, const std::string& value_text,
+                                             const std::string& message, AlertHysteresis hysteresis, double reraise_change);
   /// A one-off occurrence: an `event` transition, always reported.
   AlertEvent occurrence(AlertKey key, const std::string& value, const std::string& message);
   /// Clears every raised alert of `kind` (a new gear pair ends the old pair's wear alerts).

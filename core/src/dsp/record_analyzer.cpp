@@ -447,7 +447,11 @@ struct RecordAnalyzer::Context {
     maps.resize(criteria.size());
     const double equivalent_rate = static_cast<double>(spr) * mean_speed;  // angle-domain samples per second
     std::vector<std::string> selection_names{to_string(Indicator::ics2_selected_band)};
-    if (a.settings_.kurtogram_band_selection) selection_names.emplace_back(to_string(Indicator::kurtosis_selected_band));
+    std::vector<BandSelectionCriterion> selected_by{BandSelectionCriterion::ics2};
+    if (a.settings_.kurtogram_band_selection) {
+      selection_names.emplace_back(to_string(Indicator::kurtosis_selected_band));
+      selected_by.push_back(BandSelectionCriterion::kurtosis);
+    }
     try {
       a.filter_bank_.analyse(residual, a.settings_.filter_bank_levels, criteria, maps);
       for (std::size_t i = 1; i < criteria.size(); ++i) {
@@ -456,7 +460,7 @@ struct RecordAnalyzer::Context {
           skip({selection_names[i - 1]}, SkipReason::all_bands_below_floor);
           continue;
         }
-        out.band_selections.push_back({maps[i].criterion, best.level, best.centre_fraction * equivalent_rate,
+        out.band_selections.push_back({selected_by[i - 1], best.level, best.centre_fraction * equivalent_rate,
                                        best.bandwidth_fraction * equivalent_rate, best.value});
         add(selection_names[i - 1], best.value);
       }

@@ -25,4 +25,12 @@ const char* to_string(Indicator indicator) noexcept {
   return "unknown";
 }
 
+const char* to_string(BandSelectionCriterion criterion) noexcept {
+  switch (criterion) {
+    case BandSelectionCriterion::ics2: return "ics2";
+    case BandSelectionCriterion::kurtosis: return "kurtosis";
+  }
+  return "unknown";
+}
+
 }  // namespace gearwatch::dsp

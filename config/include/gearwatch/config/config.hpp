@@ -89,8 +89,28 @@ constexpr const char* to_string(LogSink sink) noexcept {
   return "unknown";
 }
 
+/// The spdlog level the daemon logs at (logging.level). `warning` is spdlog's own name for `warn`,
+/// accepted and kept as written.
+enum class LogLevel : std::uint8_t { trace, debug, info, warning, warn, error, critical, off };
+inline constexpr std::array kAllLogLevels{LogLevel::trace, LogLevel::debug,    LogLevel::info, LogLevel::warning,
+                                          LogLevel::warn,  LogLevel::error, LogLevel::critical, LogLevel::off};
+/// The level's name as written in the file, which spdlog reads too (spdlog::level::from_str).
+constexpr const char* to_string(LogLevel level) noexcept {
+  switch (level) {
+    case LogLevel::trace: return "trace";
+    case LogLevel::debug: return "debug";
+    case LogLevel::info: return "info";
+    case LogLevel::warning: return "warning";
+    case LogLevel::warn: return "warn";
+    case LogLevel::error: return "error";
+    case LogLevel::critical: return "critical";
+    case LogLevel::off: return "off";
+  }
+  return "unknown";
+}
+
 struct LoggingSettings {
-  std::string level = "info";
+  LogLevel level = LogLevel::info;
   LogSink sink = LogSink::automatic;               ///< auto | journald | stderr
   double rate_limit_s = 10.0;                      ///< one line per kind of bad input per interval
 };

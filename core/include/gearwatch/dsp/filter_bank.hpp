@@ -13,6 +13,7 @@
 
 #include "gearwatch/dsp/envelope.hpp"
 #include "gearwatch/dsp/fft.hpp"
+#include "gearwatch/types/indicator.hpp"
 
 namespace gearwatch::dsp {
 
@@ -38,7 +39,7 @@ class BandCriterion {
 /// complex mean; 0 for an all-zero or sub-epsilon-power segment.
 class KurtosisCriterion final : public BandCriterion {
  public:
-  const char* name() const noexcept override { return "kurtosis"; }
+  const char* name() const noexcept override { return to_string(BandSelectionCriterion::kurtosis); }
   double evaluate(const FilterBankNode& node) override;
 };
 
@@ -62,7 +63,7 @@ class Ics2Criterion final : public BandCriterion {
   Ics2Criterion(SquaredEnvelopeAnalyzer& envelope, FftPlanCache& plans, std::size_t samples_per_rev,
                 Ics2Parameters parameters)
       : envelope_(&envelope), plans_(&plans), samples_per_rev_(samples_per_rev), parameters_(parameters) {}
-  const char* name() const noexcept override { return "ics2"; }
+  const char* name() const noexcept override { return to_string(BandSelectionCriterion::ics2); }
   double evaluate(const FilterBankNode& node) override;
   /// Row 0 (the whole real signal) is the full-band ICS2 its caller usually has already; giving
   /// it here skips recomputing it (three transforms of the whole record).

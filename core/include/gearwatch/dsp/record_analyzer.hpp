@@ -103,7 +103,7 @@ struct IndicatorNoteEntry {
   std::string detail;
 };
 struct BandSelection {
-  std::string criterion;    ///< "ics2" or "kurtosis"
+  BandSelectionCriterion criterion = BandSelectionCriterion::ics2;   ///< stored as to_string(criterion)
   double level = 0.0;
   double centre_hz = 0.0;
   double bandwidth_hz = 0.0;

@@ -2,6 +2,7 @@
 // Wear campaigns for the rig simulator: the thesis's two endurance tests (Table 3.1) and a healthy
 // reference, or a campaign file (docs/campaign-file.md); the records they produce, in cycle order;
 // and the truth.json that records what was simulated (the daemon never reads it).
+#include <array>
 #include <cstdint>
 #include <map>
 #include <stdexcept>
@@ -62,9 +63,17 @@ struct CampaignSpec {
   TorqueSchedule torque_schedule() const { return {torque_nm, load_change_cycles, torque_after_nm}; }
 };
 
-/// "lubricated", "dry", "healthy"; throws CampaignError for another name.
-CampaignSpec builtin_campaign(const std::string& name);
+/// The built-in campaigns: the thesis's two endurance tests and a healthy reference.
+enum class BuiltinCampaign : std::uint8_t { lubricated, dry, healthy };
+inline constexpr std::array kAllBuiltinCampaigns{BuiltinCampaign::lubricated, BuiltinCampaign::dry, BuiltinCampaign::healthy};
+/// Its name ("lubricated", "dry", "healthy"), as the command line and campaign.name say it.
+const char* to_string(BuiltinCampaign campaign) noexcept;
+
+CampaignSpec builtin_campaign(BuiltinCampaign campaign);
 /// The built-in campaign's TOML text (what docs/campaign-file.md shows).
+std::string builtin_campaign_text(BuiltinCampaign campaign);
+/// The same by name; throws CampaignError for a name that is not built in.
+CampaignSpec builtin_campaign(const std::string& name);
 std::string builtin_campaign_text(const std::string& name);
 /// Parses a campaign; `source` names it in errors. Unknown keys, wrong types and impossible values
 /// are refused with the key and its line.

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "gearwatch/storage/fleet_store.hpp"
+#include "gearwatch/types/indicator.hpp"
 
 namespace gearwatch::storage::fleet {
 
@@ -57,7 +58,7 @@ struct GearboxOverview {
 };
 
 struct OverviewRequest {
-  std::string trend_indicator = "ics2_low_band";
+  std::string trend_indicator = dsp::to_string(dsp::Indicator::ics2_low_band);  ///< any stored name (docs/dsp.md)
   int trend_channel = 0;
   int trend_points = 60;  ///< the newest this many records
 };

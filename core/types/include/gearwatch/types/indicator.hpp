@@ -49,4 +49,15 @@ inline constexpr std::array kAllIndicators{
 /// The stored name, e.g. "rms_sa".
 const char* to_string(Indicator indicator) noexcept;
 
+/// The criterion a band of the filter-bank tree was selected by (stored as its to_string in
+/// band_selections.criterion; the filter bank's criteria carry the same names). Existing names
+/// never change spelling.
+enum class BandSelectionCriterion : std::uint8_t {
+  ics2,       ///< ICS2 of the band's squared envelope (ics2_selected_band)
+  kurtosis,   ///< the kurtogram's kurtosis (kurtosis_selected_band, when enabled)
+};
+inline constexpr std::array kAllBandSelectionCriteria{BandSelectionCriterion::ics2, BandSelectionCriterion::kurtosis};
+/// The stored name, e.g. "ics2".
+const char* to_string(BandSelectionCriterion criterion) noexcept;
+
 }  // namespace gearwatch::dsp
