@@ -84,6 +84,8 @@ mech=[r[0] for r in c.execute("SELECT mechanism FROM wear_mechanism WHERE channe
 ics=[r[0] for r in c.execute("SELECT value FROM indicators WHERE channel=0 AND name='ics2_low_band' ORDER BY record_id")]
 src=[r[0] for r in c.execute("SELECT speed_source FROM records ORDER BY id")]
 first=next((i for i,m in enumerate(mech) if m=='fatigue_pitting'),-1)
-print(f"{d}: onset {onset} first_named {first} after {first-onset if first>=0 and onset>=0 else 'n/a'}")
+# Records counted from 1, as in docs/rig-simulator.md; 0 = never.
+print(f"{d}: pitting onset at record {onset+1}, fatigue_pitting first named at record {first+1}, "
+      f"{first-onset if first>=0 and onset>=0 else 'n/a'} records after the onset")
 print(" mech", ' '.join(mech)); print(" ics2_low", ' '.join(f'{v:.4g}' for v in ics)); print(" src", ' '.join(src))
 P
