@@ -1,6 +1,7 @@
 #include "gearwatch/dsp/speed_estimation.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -50,6 +51,48 @@ void median_of_three(std::size_t n, Get get, Set set) {
   std::vector<double> v(n);
   for (std::size_t i = 0; i < n; ++i) v[i] = get(i);
   for (std::size_t i = 1; i + 1 < n; ++i) set(i, std::max(std::min(v[i - 1], v[i]), std::min(std::max(v[i - 1], v[i]), v[i + 1])));
+}
+
+// Σ x[n]·exp(i(p0 + n·dp)) over a knot interval. kLanes rotators, each stepping kLanes samples,
+// run side by side: one rotator is a chain of dependent multiplies that leaves the core idle
+// between them, and this sum is the estimator's largest cost (three passes over the record).
+constexpr std::size_t kLanes = 8;
+std::pair<double, double> rotate_and_sum(std::span<const float> x, double p0, double dp) {
+  std::array<double, kLanes> zr{}, zi{}, ar{}, ai{};
+  for (std::size_t l = 0; l < kLanes; ++l) {
+    zr[l] = std::cos(p0 + static_cast<double>(l) * dp);
+    zi[l] = std::sin(p0 + static_cast<double>(l) * dp);
+  }
+  const double rr = std::cos(static_cast<double>(kLanes) * dp), ri = std::sin(static_cast<double>(kLanes) * dp);
+  std::size_t n = 0;
+  for (; n + kLanes <= x.size(); n += kLanes)
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const double v = x[n + l];
+      ar[l] += v * zr[l];
+      ai[l] += v * zi[l];
+      const double t = zr[l] * rr - zi[l] * ri;
+      zi[l] = zr[l] * ri + zi[l] * rr;
+      zr[l] = t;
+    }
+  double sr = 0.0, si = 0.0;
+  for (std::size_t l = 0; l < kLanes; ++l) {
+    sr += ar[l];
+    si += ai[l];
+  }
+  for (std::size_t l = 0; n < x.size(); ++n, ++l) {  // the tail: lane l is at sample n
+    sr += x[n] * zr[l];
+    si += x[n] * zi[l];
+  }
+  return {sr, si};
+}
+
+// Sizes v to `size` with zeros from `from` on; `written` (where the caller's nonzero values ended
+// last time) bounds the zeroing, so a frame's bins above what it reads are not cleared per frame.
+void zero_from(std::vector<double>& v, std::size_t size, std::size_t from, std::size_t& written) {
+  v.resize(size);  // new elements are zero; those kept beyond `written` still are
+  const std::size_t end = std::min(written, size);
+  if (from < end) std::fill(v.begin() + static_cast<std::ptrdiff_t>(from), v.begin() + static_cast<std::ptrdiff_t>(end), 0.0);
+  written = std::min(from, size);
 }
 
 }  // namespace
@@ -264,15 +307,15 @@ void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start,
   // the whole spectrum was most of the cost. Bins above stay 0 (never read).
   const std::size_t used = std::min(bins, last_bin + 1);
   const std::size_t powered = std::min(bins, used + kFloorHalfWidth);
-  power_.resize(bins);
+  zero_from(power_, bins, powered, power_written_);
   for (std::size_t k = 0; k < powered; ++k) power_[k] = std::norm(spectrum_[k]);
-  std::fill(power_.begin() + static_cast<std::ptrdiff_t>(powered), power_.end(), 0.0);
   // Log-SNR against a moving mean of the power (the floor), clipped at 0: a harmonic sum of these
   // rewards a shaft speed whose mesh harmonics all stand out, not one very strong line.
   cumulative_.resize(powered + 1);
   cumulative_[0] = 0.0;
   for (std::size_t k = 0; k < powered; ++k) cumulative_[k + 1] = cumulative_[k] + power_[k];
-  floor_.assign(bins, 0.0);  // the clipped log-SNR per bin
+  zero_from(floor_, bins, used, floor_written_);  // the clipped log-SNR per bin
+  scored_bins_ = used;
   for (std::size_t k = 0; k < used; ++k) {
     const std::size_t a = k > kFloorHalfWidth ? k - kFloorHalfWidth : 0, b = std::min(bins, k + kFloorHalfWidth + 1);
     const double mean = (cumulative_[b] - cumulative_[a]) / static_cast<double>(b - a);
@@ -379,15 +422,26 @@ SpeedEstimator::Frame SpeedEstimator::search_frame(double fs, std::size_t length
     if (k + 1 >= bins) return 0.0;
     return std::max(floor_[k], floor_[k + 1]);
   };
+  // What each bin adds to a speed's score: snr_at's value above the line level, lines only, not
+  // noise. Read once per bin here instead of once per harmonic and trial speed below.
+  // floor_ is 0 from scored_bins_ on, so are these.
+  const std::size_t scored = std::min(scored_bins_, bins - 1);
+  zero_from(line_score_, bins, scored, line_score_written_);
+  for (std::size_t k = 0; k < scored; ++k) line_score_[k] = std::max(0.0, std::max(floor_[k], floor_[k + 1]) - kMinLineSnr);
+  // Weights 0.84^(h-1) (Hermes' subharmonic summation): a speed k times too low also meets the
+  // true lines, at harmonics k, 2k, ..., and must not tie with the true one.
+  std::array<double, 10> weights{};
+  double weight = 1.0;
+  for (int h = 1; h <= harmonics; ++h, weight *= 0.84) weights[static_cast<std::size_t>(h - 1)] = weight;
   Frame best;
   double best_score = -1.0;
   const double step = 0.5 * df / (z1 * harmonics);  // the highest harmonic moves half a bin
   for (double f = low; f <= high; f += step) {
-    // Weights 0.84^(h-1) (Hermes' subharmonic summation): a speed k times too low also meets the
-    // true lines, at harmonics k, 2k, ..., and must not tie with the true one.
-    double score = 0.0, weight = 1.0;
-    for (int h = 1; h <= harmonics; ++h, weight *= 0.84)
-      if (z1 * h * f < top) score += weight * std::max(0.0, snr_at(z1 * h * f) - kMinLineSnr);  // lines only, not noise
+    double score = 0.0;
+    for (int h = 1; h <= harmonics; ++h) {
+      const double hz = z1 * h * f;
+      if (hz < top) score += weights[static_cast<std::size_t>(h - 1)] * line_score_[static_cast<std::size_t>(hz / df)];
+    }
     if (score > best_score) {
       best_score = score;
       best.speed = f;
@@ -456,17 +510,7 @@ void SpeedEstimator::demodulate(std::span<const float> x, int order) {
     const double cycles = order * revs[s];
     const double p0 = -kTwoPi * (cycles - std::floor(cycles));
     const double dp = -kTwoPi * order * (revs[s + 1] - revs[s]) / span;
-    double zr = std::cos(p0), zi = std::sin(p0);
-    const double rr = std::cos(dp), ri = std::sin(dp);
-    double ar = 0.0, ai = 0.0;
-    for (std::size_t n = first; n < last; ++n) {
-      const double v = x[n];
-      ar += v * zr;
-      ai += v * zi;
-      const double t = zr * rr - zi * ri;
-      zi = zr * ri + zi * rr;
-      zr = t;
-    }
+    const auto [ar, ai] = rotate_and_sum(x.subspan(first, last - first), p0, dp);
     const double weight = (revs[s + 1] - revs[s]) / span;  // dθ per sample
     segment_re_[s] = ar * weight;
     segment_im_[s] = ai * weight;

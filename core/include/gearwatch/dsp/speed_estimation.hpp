@@ -110,7 +110,9 @@ class SpeedEstimator {
   FftPlanCache plans_;
   RealBuffer frame_;
   ComplexBuffer spectrum_;
-  std::vector<double> power_, cumulative_, floor_, neighbours_;
+  std::vector<double> power_, cumulative_, floor_, line_score_, neighbours_;
+  std::size_t power_written_ = 0, floor_written_ = 0, line_score_written_ = 0;  ///< see zero_from
+  std::size_t scored_bins_ = 0;  ///< floor_ holds log-SNRs below this bin, zeros above
   std::map<std::size_t, std::vector<double>> windows_;  ///< Hann window per frame length
   std::vector<Frame> coarse_, fine_;
   std::vector<double> segment_re_, segment_im_, grid_re_, grid_im_, phase_;
