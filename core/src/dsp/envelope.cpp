@@ -25,25 +25,64 @@ void apply_tukey_taper(std::span<double> x, double fraction) noexcept {
   if (n % 2 == 1 && ramp > n / 2) x[n / 2] *= tukey_weight(n / 2, n, fraction);
 }
 
-Ics2Result ics2_from_ses(std::span<const double> ses, double bins_per_order, const Ics2Parameters& p) {
+namespace {
+
+// ICS2 from SES magnitudes read through `magnitude(bin)` over bins 0..size-1: ics2_from_ses and the
+// analyzer's own paths share it, the latter reading only the bins it needs from the spectrum.
+template <class Magnitude>
+Ics2Result ics2_from_magnitudes(Magnitude&& magnitude, std::size_t size, double bins_per_order, const Ics2Parameters& p) {
   if (p.harmonics < 1 || p.tolerance_bins < 0 || !(p.cyclic_order > 0.0) || !(bins_per_order > 0.0))
     throw std::invalid_argument("ics2_from_ses: bad parameters");
   Ics2Result result;
-  if (ses.empty() || !(ses[0] > 0.0)) return result;
-  const double dc2 = ses[0] * ses[0];
+  if (size == 0) return result;
+  const double dc = magnitude(std::size_t{0});
+  if (!(dc > 0.0)) return result;
+  const double dc2 = dc * dc;
   double sum = 0.0;
   for (int h = 1; h <= p.harmonics; ++h) {
     const auto centre = static_cast<long>(std::lround(h * p.cyclic_order * bins_per_order));
     const long lo = centre - p.tolerance_bins, hi = centre + p.tolerance_bins;
-    if (lo < 1 || hi >= static_cast<long>(ses.size())) break;
+    if (lo < 1 || hi >= static_cast<long>(size)) break;
     double peak = 0.0;
-    for (long n = lo; n <= hi; ++n) peak = std::max(peak, ses[static_cast<std::size_t>(n)]);
+    for (long n = lo; n <= hi; ++n) peak = std::max(peak, magnitude(static_cast<std::size_t>(n)));
     sum += peak * peak;
     result.harmonics_used = h;
   }
   result.value = sum / dc2;
   return result;
 }
+
+}  // namespace
+
+Ics2Result ics2_from_ses(std::span<const double> ses, double bins_per_order, const Ics2Parameters& p) {
+  return ics2_from_magnitudes([&](std::size_t k) { return ses[k]; }, ses.size(), bins_per_order, p);
+}
+
+namespace {
+
+// r2c of envelope[0, n) into spectrum.
+void ses_spectrum(FftPlanCache& plans, const RealBuffer& envelope, std::size_t n, ComplexBuffer& spectrum) {
+  const RealFft& fft = plans.real(n);
+  spectrum.resize(fft.spectrum_size());
+  fft.forward(std::span<const double>(envelope.data(), n), spectrum);
+}
+
+// sqrt(norm) rather than abs: std::abs(complex) calls hypot, which is several times slower and
+// whose overflow protection is not needed at these magnitudes.
+double ses_bin_magnitude(const Complex& bin, double scale) { return std::sqrt(std::norm(bin)) * scale; }
+
+// ICS2 of the squared envelope in `envelope` (its whole length). Only the bins ICS2 reads (DC and
+// the windows around the harmonics) become magnitudes: the values ses() gives at those bins.
+Ics2Result ses_ics2(FftPlanCache& plans, const RealBuffer& envelope, ComplexBuffer& spectrum, double bins_per_order,
+                    const Ics2Parameters& p) {
+  const std::size_t n = envelope.size();
+  ses_spectrum(plans, envelope, n, spectrum);
+  const double scale = 1.0 / static_cast<double>(n);
+  return ics2_from_magnitudes([&](std::size_t k) { return ses_bin_magnitude(spectrum[k], scale); }, spectrum.size(),
+                              bins_per_order, p);
+}
+
+}  // namespace
 
 Ics2Result SquaredEnvelopeAnalyzer::band_ics2(std::span<const Complex> spectrum, std::size_t signal_size,
                                               std::size_t revolutions, std::size_t first_bin,
@@ -65,8 +104,7 @@ Ics2Result SquaredEnvelopeAnalyzer::band_ics2(std::span<const Complex> spectrum,
   inverse.backward(baseband_, analytic_);
   envelope_.resize(grid);
   for (std::size_t i = 0; i < grid; ++i) envelope_[i] = std::norm(analytic_[i]);
-  const auto magnitude = ses(envelope_);
-  return ics2_from_ses(magnitude, static_cast<double>(revolutions), p);
+  return ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);
 }
 
 Ics2Result SquaredEnvelopeAnalyzer::full_band_ics2(std::span<const Complex> spectrum, std::size_t n,
@@ -85,8 +123,7 @@ Ics2Result SquaredEnvelopeAnalyzer::full_band_ics2(std::span<const Complex> spec
   fft.inverse(baseband_, quadrature_);
   envelope_.resize(n);
   for (std::size_t i = 0; i < n; ++i) envelope_[i] = in_phase_[i] * in_phase_[i] + quadrature_[i] * quadrature_[i];
-  const auto magnitude = ses(envelope_);
-  return ics2_from_ses(magnitude, static_cast<double>(revolutions), p);
+  return ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);
 }
 
 Ics2Result SquaredEnvelopeAnalyzer::complex_ics2(std::span<const Complex> c, double revolutions,
@@ -94,24 +131,18 @@ Ics2Result SquaredEnvelopeAnalyzer::complex_ics2(std::span<const Complex> c, dou
   if (c.size() < 2) return {};
   envelope_.resize(c.size());
   for (std::size_t i = 0; i < c.size(); ++i) envelope_[i] = std::norm(c[i]);
-  const auto magnitude = ses(envelope_);
-  return ics2_from_ses(magnitude, revolutions, p);
+  return ses_ics2(*plans_, envelope_, ses_spectrum_, revolutions, p);
 }
 
 std::span<const double> SquaredEnvelopeAnalyzer::ses(std::span<const double> squared_envelope) {
   const std::size_t n = squared_envelope.size();
-  const RealFft& fft = plans_->real(n);
-  ses_spectrum_.resize(fft.spectrum_size());
   if (squared_envelope.data() != envelope_.data()) {
     envelope_.assign(squared_envelope.begin(), squared_envelope.end());
   }
-  fft.forward(std::span<const double>(envelope_.data(), n), ses_spectrum_);
-  ses_magnitude_.resize(fft.spectrum_size());
+  ses_spectrum(*plans_, envelope_, n, ses_spectrum_);
+  ses_magnitude_.resize(ses_spectrum_.size());
   const double scale = 1.0 / static_cast<double>(n);
-  // sqrt(norm) rather than abs: std::abs(complex) calls hypot, which is several times slower and
-  // whose overflow protection is not needed at these magnitudes.
-  for (std::size_t k = 0; k < ses_magnitude_.size(); ++k)
-    ses_magnitude_[k] = std::sqrt(std::norm(ses_spectrum_[k])) * scale;
+  for (std::size_t k = 0; k < ses_magnitude_.size(); ++k) ses_magnitude_[k] = ses_bin_magnitude(ses_spectrum_[k], scale);
   return ses_magnitude_;
 }
 

@@ -102,13 +102,6 @@ __attribute__((target_clones("avx2", "default"))) void fir_body_2(const Complex*
   fir_body<2>(c, f, factor, phase, out, first, end);
 }
 
-__attribute__((target_clones("avx2", "default"))) void fir_body_3(const Complex* c, const FusedTaps<3>& f,
-                                                                   std::size_t factor, std::size_t phase,
-                                                                   Complex* const* out, std::size_t first,
-                                                                   std::size_t end) {
-  fir_body<3>(c, f, factor, phase, out, first, end);
-}
-
 // out[k][m] = sum_i filters[k][i] * c[factor*m + phase - i] (causal filter, zero initial state,
 // keeping every factor-th output from `phase`): MATLAB filter() followed by x(phase+1:factor:end).
 // The filters run fused over the same input (each sample loaded once). The reductions are
@@ -129,8 +122,88 @@ void decimating_fir(std::span<const Complex> c, const FusedTaps<Filters>& f,
     }
     ++first;
   }
-  if constexpr (Filters == 2) fir_body_2(c.data(), f, factor, phase, out.data(), first, out_length);
-  else fir_body_3(c.data(), f, factor, phase, out.data(), first, out_length);
+  static_assert(Filters == 2, "the ternary split has its own polyphase form (ternary_fir)");
+  fir_body_2(c.data(), f, factor, phase, out.data(), first, out_length);
+}
+
+// The ternary split's three filters are one prototype u[i] = q[i] e^{2 pi j i/12} modulated by
+// w^{i t}, w = e^{2 pi j/6}, t = 0, 1, 2. Grouping the taps by i mod 6 gives six partial sums
+// P_r = sum_{i = r mod 6} u[i] c[3m+2-i] (25 complex products instead of 75), and
+// out_t = sum_r w^{r t} P_r, a three-point transform of A_r = P_r + P_{r+3} (t = 0, 2) and
+// B_r = P_r - P_{r+3} (t = 1).
+using v2d = double __attribute__((vector_size(16)));
+constexpr std::size_t kTernaryTaps = 25;
+
+struct TernaryPolyphase {
+  v2d re[kTernaryTaps], im[kTernaryTaps];  // u[i] as (re, re) and (im, im)
+};
+
+TernaryPolyphase ternary_polyphase(std::span<const Complex> first_filter) {
+  TernaryPolyphase f{};
+  for (std::size_t i = 0; i < kTernaryTaps; ++i) {
+    f.re[i] = v2d{first_filter[i].real(), first_filter[i].real()};
+    f.im[i] = v2d{first_filter[i].imag(), first_filter[i].imag()};
+  }
+  return f;
+}
+
+template <std::size_t R>
+__attribute__((always_inline)) inline void ternary_phase(const double* newest, const TernaryPolyphase& f, v2d& re,
+                                                         v2d& im) {
+  for (std::size_t i = R; i < kTernaryTaps; i += 6) {
+    v2d x;
+    __builtin_memcpy(&x, newest - 2 * i, sizeof x);  // c[3m+2-i]
+    re += x * f.re[i];
+    im += x * f.im[i];
+  }
+}
+
+__attribute__((always_inline)) inline Complex ternary_sum(v2d re, v2d im) { return Complex(re[0] - im[1], re[1] + im[0]); }
+
+__attribute__((target_clones("avx2", "default"))) void ternary_body(const Complex* c, const TernaryPolyphase& f,
+                                                                     Complex* const* out, std::size_t first,
+                                                                     std::size_t end) {
+  // w^1, w^2 and w^4 as (cos, sin); products written out (std::complex's operator* checks for
+  // infinities and NaN through a library call).
+  const double h = std::sqrt(3.0) / 2.0;
+  auto times = [](const Complex& a, double cr, double ci) {
+    return Complex(a.real() * cr - a.imag() * ci, a.real() * ci + a.imag() * cr);
+  };
+  for (std::size_t m = first; m < end; ++m) {
+    const double* newest = reinterpret_cast<const double*>(c + 3 * m + 2);
+    v2d re[6] = {}, im[6] = {};
+    ternary_phase<0>(newest, f, re[0], im[0]);
+    ternary_phase<1>(newest, f, re[1], im[1]);
+    ternary_phase<2>(newest, f, re[2], im[2]);
+    ternary_phase<3>(newest, f, re[3], im[3]);
+    ternary_phase<4>(newest, f, re[4], im[4]);
+    ternary_phase<5>(newest, f, re[5], im[5]);
+    Complex p[6];
+    for (std::size_t r = 0; r < 6; ++r) p[r] = ternary_sum(re[r], im[r]);
+    const Complex a0 = p[0] + p[3], a1 = p[1] + p[4], a2 = p[2] + p[5];
+    const Complex b0 = p[0] - p[3], b1 = p[1] - p[4], b2 = p[2] - p[5];
+    out[0][m] = a0 + a1 + a2;
+    out[1][m] = b0 + times(b1, 0.5, h) + times(b2, -0.5, h);
+    out[2][m] = a0 + times(a1, -0.5, h) + times(a2, -0.5, -h);
+  }
+}
+
+// The ternary split (factor 3, phase 2) through the polyphase form; the start-up outputs, whose
+// window reaches before the node's first sample, directly.
+void ternary_fir(std::span<const Complex> c, const TernaryPolyphase& f,
+                 const std::array<std::span<const Complex>, 3>& filters, const std::array<Complex*, 3>& out,
+                 std::size_t out_length) {
+  std::size_t first = 0;
+  while (first < out_length && 3 * first + 2 + 1 < kTernaryTaps) {
+    const std::size_t last = 3 * first + 2;
+    for (std::size_t k = 0; k < 3; ++k) {
+      Complex acc{};
+      for (std::size_t i = 0; i <= last && i < filters[k].size(); ++i) acc += filters[k][i] * c[last - i];
+      out[k][first] = acc;
+    }
+    ++first;
+  }
+  ternary_body(c.data(), f, out.data(), first, out_length);
 }
 
 }  // namespace
@@ -243,10 +316,10 @@ void OneThirdBinaryFilterBank::ternary_split(int depth, int band, std::span<cons
   const int band_count = 3 << depth;
   const int decimation = 3 << depth;
   const std::array<std::span<const Complex>, 3> filters{ternary_[0], ternary_[1], ternary_[2]};
-  static const auto fused = fuse<3>(filters);
+  static const auto polyphase = ternary_polyphase(ternary_[0]);
   const std::array<Complex*, 3> out{ternary_scratch_.data(), ternary_scratch_.data() + out_length,
                                     ternary_scratch_.data() + 2 * out_length};
-  decimating_fir<3>(node, fused, filters, 3, 2, out, out_length);
+  ternary_fir(node, polyphase, filters, out, out_length);
   for (int t = 0; t < 3; ++t) {
     const std::size_t trim = std::min<std::size_t>(16, out_length);  // len(h) - 1, as the reference
     evaluate(row, 3 * band + t, band_count, decimation, false,
