@@ -137,7 +137,8 @@ class TwinStateCommand {
                 {"pitting", {{"mean", sum.mean_pitting_density}, {"max", sum.max_pitting_density},
                              {"max_profile_fraction", sum.max_pitting_fraction}, {"pinion_pitting", s.pinion_pitting}}}};
     if (m.ics2_scale_valid)
-      out["ics2_scale"] = {{"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density}, {"slope", m.ics2_scale_slope}};
+      out["ics2_scale"] = {{"form", wear::to_string(m.ics2_scale_form)}, {"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density},
+                           {"slope", m.ics2_scale_slope}, {"baseline", m.ics2_scale_baseline}};
     return out;
   }
 

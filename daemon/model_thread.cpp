@@ -246,7 +246,8 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
                {"calibration_inspection_id", m.calibration_inspection_id},
                {"ics2_scale", {{"valid", m.ics2_scale_valid}, {"ics2", m.ics2_scale_ics2}, {"density", m.ics2_scale_density},
                                {"slope", m.ics2_scale_slope}, {"inspections", m.ics2_scale_inspections},
-                               {"baseline_sd", m.ics2_scale_baseline_sd}, {"density_1", m.ics2_scale_density_1}}},
+                               {"baseline_sd", m.ics2_scale_baseline_sd}, {"density_1", m.ics2_scale_density_1},
+                               {"form", wear::to_string(m.ics2_scale_form)}, {"baseline", m.ics2_scale_baseline}}},
                {"k_wear_last_insensitive", m.k_wear_last_insensitive},
                {"k_wear_elasticity", m.k_wear_elasticity},
                {"k_wear_identified_si", m.k_wear_identified_si},
@@ -295,6 +296,11 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     m.ics2_scale_inspections = sc.value("inspections", m.ics2_scale_valid ? 2 : 0);
     m.ics2_scale_baseline_sd = sc.value("baseline_sd", 0.0);
     m.ics2_scale_density_1 = sc.value("density_1", 0.0);
+    // Added with the square-root one-inspection scale: an older state's scale is linear.
+    const auto form = wear::ics2_scale_form_from_string(sc.value("form", std::string("linear")));
+    if (!form) throw std::runtime_error("unknown ICS2 scale form " + sc.at("form").dump());
+    m.ics2_scale_form = *form;
+    m.ics2_scale_baseline = sc.value("baseline", 0.0);
     m.k_wear_last_insensitive = j.value("k_wear_last_insensitive", false);
     m.k_wear_elasticity = j.value("k_wear_elasticity", 1.0);
     // Added with the upper-bound rule: an older state's K_wear is its last identified one.

@@ -130,15 +130,40 @@ TEST_CASE("forecast intervals: K_pitting's calibration elasticities equal finite
   CHECK(log_k_gap(d2, d1) == Approx(std::log(2.0)).epsilon(1e-9));
 }
 
-TEST_CASE("forecast intervals: the one-inspection ICS2 scale recovers a linear ICS2 series exactly",
+TEST_CASE("forecast intervals: the one-inspection ICS2 scale reads the model's own ICS2 form - the square root of the rise",
           "[model][updating][intervals]") {
-  // ICS2 = 0.1 + 10 D; the pair's first records are unpitted, the inspection finds A0 = 0.04.
-  const std::vector<double> first{0.1, 0.1, 0.1, 0.1, 0.1};
-  const auto scale = one_inspection_scale(first, 0.1 + 10 * 0.04, 0.04, 3.0);
+  // The model's ICS2 form at a small pitting share s: ICS2 − baseline = I_s s², D ∝ s, so
+  // ICS2 = 0.01 + 40 D². The pair's first records are unpitted, the inspection finds A0 = 0.04.
+  const std::vector<double> first{0.01, 0.01, 0.01, 0.01, 0.01};
+  auto ics2_of = [](double d) { return 0.01 + 40.0 * d * d; };
+  const auto scale = one_inspection_scale(first, ics2_of(0.04), 0.04, 3.0);
   REQUIRE(scale);
-  CHECK(scale->baseline == 0.1);
+  CHECK(scale->form == Ics2ScaleForm::square_root);
+  CHECK(scale->baseline == 0.01);
   CHECK(scale->baseline_sd == 0.0);
-  for (double d : {0.0, 0.02, 0.09, 0.17}) CHECK(scale->density + scale->slope * (0.1 + 10 * d - scale->ics2) == Approx(d).margin(1e-15));
+  for (double d : {0.0, 0.02, 0.09, 0.17}) {
+    CHECK(scale->density_at(ics2_of(d)) == Approx(d).margin(1e-15));
+    CHECK(scale->ics2_for(d) == Approx(ics2_of(d)).epsilon(1e-14));
+  }
+  // At three times the inspected density the rise is nine times: 0.12, where a line through the
+  // baseline and the inspection reads 0.04 × 9 = 0.36.
+  CHECK(scale->density_at(ics2_of(0.12)) == Approx(0.12).epsilon(1e-14));
+  // Below the baseline: no pitting.
+  CHECK(scale->density_at(0.005) == 0.0);
+  // The ICS2 scatter σ through the scale at density d: sqrt(d² + A0² σ / (ICS2_0 − baseline)) − d.
+  const double sigma = 1e-3, rise0 = 40.0 * 0.04 * 0.04;
+  for (double d : {0.0, 0.04, 0.1})
+    CHECK(scale->density_noise(d, sigma) == Approx(std::sqrt(d * d + 0.04 * 0.04 * sigma / rise0) - d).epsilon(1e-12));
+  // The linear form (two inspections) is unchanged: D = density + slope (ICS2 − ics2), its inverse, slope × σ.
+  Ics2Scale line;
+  line.ics2 = 0.03;
+  line.density = 0.05;
+  line.slope = 2.0;
+  CHECK(line.density_at(0.08) == Approx(0.15).epsilon(1e-15));
+  CHECK(line.ics2_for(0.15) == Approx(0.08).epsilon(1e-15));
+  CHECK(line.density_noise(0.15, 1e-3) == Approx(2e-3).epsilon(1e-15));
+  CHECK(ics2_scale_form_from_string(to_string(Ics2ScaleForm::square_root)) == Ics2ScaleForm::square_root);
+  CHECK_FALSE(ics2_scale_form_from_string("cubic"));
   // A rise within 3 baseline SDs is no scale: SD = 1.4826 MAD = 1.4826 × 0.01.
   CHECK_FALSE(one_inspection_scale({0.09, 0.11, 0.1, 0.12, 0.08}, 0.1 + 3 * 1.4826 * 0.01 * 0.99, 0.04, 3.0));
   CHECK(one_inspection_scale({0.09, 0.11, 0.1, 0.12, 0.08}, 0.1 + 3 * 1.4826 * 0.01 * 1.01, 0.04, 3.0));
@@ -152,7 +177,8 @@ TEST_CASE("forecast intervals: the one-inspection ICS2 scale recovers a linear I
 
 TEST_CASE("forecast intervals: before the second inspection, one inspection and the ICS2 trend give the pitting point",
           "[model][updating][intervals]") {
-  // The truth pits from 0.3 M cycles on (K_pitting 1e-94 from there), ICS2 = 0.1 + 10 D exactly,
+  // The truth pits from 0.3 M cycles on (K_pitting 1e-94 from there), ICS2 = 0.01 + 40 D² exactly
+  // (the model's ICS2 form at a small pitting share),
   // one inspection at 0.6 M cycles, records every 50 000 cycles at 20 Hz, 20 N m.
   const twin::GearboxParameters params;
   const double kp = 1e-94, kw = 3.55e-16;
@@ -179,10 +205,10 @@ TEST_CASE("forecast intervals: before the second inspection, one inspection and 
     const double density = summarise(truth.state()).mean_pitting_density;
     truth_density[cycles] = density;
     if (cycles == 6e5) inspections.push_back({1, cycles, density, {}});
-    const ModelRunReport r = model.observe(observation(cycles, 20, 20, std::nullopt, 0.1 + 10 * density), inspections);
+    const ModelRunReport r = model.observe(observation(cycles, 20, 20, std::nullopt, 0.01 + 40 * density * density), inspections);
     INFO(cycles << " cycles: " << r.detail);
     if (cycles >= 6e5) {
-      // The one-inspection scale reads the truth's density exactly (a linear ICS2).
+      // The one-inspection scale reads the truth's density exactly (ICS2 quadratic in D).
       REQUIRE(r.ics2_density_estimate);
       CHECK(*r.ics2_density_estimate == Approx(density).epsilon(1e-9));
     }

@@ -136,6 +136,8 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
   m.scale_residual_count = 5;
   m.ics2_scale_inspections = 1;
   m.ics2_scale_baseline_sd = 1e-3 / 3.0;
+  m.ics2_scale_form = wear::Ics2ScaleForm::square_root;
+  m.ics2_scale_baseline = 2e-3 / 3.0;
   m.last_ics2_calibration_cycles = 6.5e5;
   m.rms_sa_reference_ratio = 1.0 + 1.0 / 3.0;
   m.rms_sa_reference_records = {{0.0, std::log(1.0 + 1.0 / 3.0)}, {20.0 / 3.0, -1e-300}};
@@ -153,6 +155,8 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
   CHECK(back.rms_sa_reference_records == m.rms_sa_reference_records);
   CHECK(back.rms_sa_reference_closed);
   CHECK(back.k_wear_identified_si == 3.0e-16 / 7.0);
+  CHECK(back.ics2_scale_form == wear::Ics2ScaleForm::square_root);
+  CHECK(back.ics2_scale_baseline == 2e-3 / 3.0);
   // A state of an older gearwatch: without the fields added with the posterior.
   nlohmann::json old = nlohmann::json::parse(text);
   for (const char* key : {"log_k_wear", "log_k_pitting", "rms_residuals", "pitting_calibration_var", "scale_residual",
@@ -160,7 +164,12 @@ TEST_CASE("model thread: the posterior and residuals round-trip, and a state sto
     old.erase(key);
   old["ics2_scale"].erase("inspections");
   old["ics2_scale"].erase("baseline_sd");
+  old["ics2_scale"].erase("form");
+  old["ics2_scale"].erase("baseline");
   const wear::ModelMemory older = daemon::memory_from_json(old.dump());
+  // A scale stored before the square-root one-inspection scale was linear.
+  CHECK(older.ics2_scale_form == wear::Ics2ScaleForm::linear);
+  CHECK(older.ics2_scale_baseline == 0.0);
   CHECK_FALSE(older.log_k_wear.valid);
   CHECK_FALSE(older.log_k_pitting.valid);
   CHECK(older.rms_residuals.empty());

@@ -228,6 +228,8 @@ TEST_CASE("prognosis bench: two campaigns through the binary, scores recomputed 
   REQUIRE(r.status == 0);
   const auto j = nlohmann::json::parse(r.out);
   REQUIRE(j["campaigns"].size() == 2);
+  // The bench's wear limit (100 um by default: inside the campaigns' depths) is the model's and the scores'.
+  CHECK(j["settings"]["wear_limit_m"].get<double>() == Approx(1e-4).epsilon(1e-12));
   const auto& summary = j["summary"];
   REQUIRE(summary["targets"].size() == 5);
   const std::vector<std::string> names{"depth_error_max", "pitting_cycles_left_error_max", "wear_cycles_left_error_max",
@@ -279,7 +281,8 @@ TEST_CASE("prognosis bench: two campaigns through the binary, scores recomputed 
 
 TEST_CASE("prognosis bench: bad options are refused in one line before anything is simulated", "[prognosis_bench][cli]") {
   const std::string bench = std::string(GEARWATCH_BINARY) + " bench prognosis";
-  for (const char* bad : {" --campaigns 0", " --records 1", " --jobs 0", " --seconds 0.1", " --inspection-sd -0.1"}) {
+  for (const char* bad : {" --campaigns 0", " --records 1", " --jobs 0", " --seconds 0.1", " --inspection-sd -0.1",
+                          " --wear-limit-um -1", " --wear-limit-um 500"}) {
     INFO(bad);
     const auto r = gearwatch::testing::run_command(bench + bad);
     CHECK(r.status == 64);  // the parser's refusal (EX_USAGE)

@@ -139,10 +139,44 @@ double median_of(std::vector<double> v) {
 }
 }  // namespace
 
+const char* to_string(Ics2ScaleForm form) {
+  switch (form) {
+    case Ics2ScaleForm::linear: return "linear";
+    case Ics2ScaleForm::square_root: return "square_root";
+  }
+  return "linear";
+}
+
+std::optional<Ics2ScaleForm> ics2_scale_form_from_string(const std::string& text) {
+  for (const Ics2ScaleForm f : {Ics2ScaleForm::linear, Ics2ScaleForm::square_root})
+    if (text == to_string(f)) return f;
+  return std::nullopt;
+}
+
+double Ics2Scale::density_at(double ics2_reading) const {
+  if (form == Ics2ScaleForm::linear) return density + slope * (ics2_reading - ics2);
+  const double rise = ics2_reading - baseline, rise0 = ics2 - baseline;
+  return rise > 0 && rise0 > 0 ? density * std::sqrt(rise / rise0) : 0.0;
+}
+
+double Ics2Scale::ics2_for(double d) const {
+  if (form == Ics2ScaleForm::linear) return slope > 0 ? ics2 + (d - density) / slope : ics2;
+  if (!(d > 0) || !(density > 0)) return baseline;
+  const double r = d / density;
+  return baseline + (ics2 - baseline) * r * r;
+}
+
+double Ics2Scale::density_noise(double d, double ics2_sd) const {
+  if (form == Ics2ScaleForm::linear) return std::abs(slope) * ics2_sd;
+  const double at = ics2_for(d);
+  return std::abs(density_at(at + ics2_sd) - density_at(at));
+}
+
 std::optional<Ics2Scale> one_inspection_scale(const std::vector<double>& first_ics2, double ics2_at_inspection, double area,
                                               double min_rise_sd) {
   if (first_ics2.empty() || !std::isfinite(ics2_at_inspection) || !(area > 0 && area < 1)) return std::nullopt;
   Ics2Scale s;
+  s.form = Ics2ScaleForm::square_root;
   s.baseline = median_of(first_ics2);
   std::vector<double> dev;
   for (double v : first_ics2) dev.push_back(std::abs(v - s.baseline));
@@ -151,7 +185,7 @@ std::optional<Ics2Scale> one_inspection_scale(const std::vector<double>& first_i
   if (!(rise > 0) || rise <= min_rise_sd * s.baseline_sd) return std::nullopt;
   s.ics2 = ics2_at_inspection;
   s.density = area;
-  s.slope = area / rise;
+  s.slope = 0;
   return s;
 }
 

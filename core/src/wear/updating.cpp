@@ -379,8 +379,7 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
     report.k_wear_si = memory_.k_wear_si;
     report.k_pitting = memory_.k_pitting;
     if (obs.ics2_low && memory_.ics2_scale_valid)
-      report.ics2_density_estimate =
-          memory_.ics2_scale_density + memory_.ics2_scale_slope * (*obs.ics2_low - memory_.ics2_scale_ics2);
+      report.ics2_density_estimate = ics2_scale().density_at(*obs.ics2_low);
   };
   // --- can this record be used at all?
   if (!std::isfinite(obs.cycles) || obs.cycles < 0) {
@@ -1131,6 +1130,8 @@ void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, do
     memory_.ics2_scale_ics2 = i0;
     memory_.ics2_scale_density = c.a0;
     memory_.ics2_scale_slope = (c.a1 - c.a0) / (i1 - i0);
+    memory_.ics2_scale_form = Ics2ScaleForm::linear;
+    memory_.ics2_scale_baseline = 0;
     memory_.ics2_scale_density_1 = c.a1;
     memory_.ics2_scale_baseline_sd = 0;
   } else {
@@ -1252,6 +1253,8 @@ void TwinModel::calibrate_from_one_inspection(const Inspection& first, double cy
   memory_.ics2_scale_ics2 = scale->ics2;
   memory_.ics2_scale_density = scale->density;
   memory_.ics2_scale_slope = scale->slope;
+  memory_.ics2_scale_form = scale->form;
+  memory_.ics2_scale_baseline = scale->baseline;
   memory_.ics2_scale_baseline_sd = scale->baseline_sd;
   memory_.ics2_scale_density_1 = 0;
   // The second point: the median ICS2 of the newest three records after the inspection, once a
@@ -1266,9 +1269,9 @@ void TwinModel::calibrate_from_one_inspection(const Inspection& first, double cy
   std::sort(newest.begin(), newest.end());
   const double n1 = newest[1][1];   // the point sits at the median record's cycles
   const std::array<double, 2> recent{newest[1][0], n1};
-  const double a1 = scale->density + scale->slope * (recent[0] - scale->ics2);
+  const double a1 = scale->density_at(recent[0]);
   // The median of three normal values has an SD of about 1.16 of one (the sample median's small-n factor).
-  const double ics2_rel_sd = a1 > 0 ? scale->slope * 1.16 * scale->baseline_sd / a1 : 0.0;
+  const double ics2_rel_sd = a1 > 0 ? scale->density_noise(a1, 1.16 * scale->baseline_sd) / a1 : 0.0;
   const double sd = settings_.inspection_area_relative_sd;
   // Growth beyond what the ICS2 scatter gives: otherwise no second point.
   if (!(a1 > a0 * (1.0 + 2.0 * ics2_rel_sd)) || !(a1 < 1)) return;
@@ -1290,7 +1293,7 @@ void TwinModel::calibrate_from_one_inspection(const Inspection& first, double cy
   u.correlation_after = recent[0];
   char b[500];
   std::snprintf(b, sizeof b, "one inspection: pitted area %.4g at %.6g cycles; ICS2 onset baseline %.4g (SD %.3g, median of the first %d), %.4g at the inspection; "
-                "scale D = %.4g (ICS2 - %.4g) / (%.4g - %.4g); median ICS2 of the newest three %.4g -> density %.4g at %.6g cycles; model %.4g there; K_pitting %.5g -> %.5g",
+                "scale D = %.4g sqrt((ICS2 - %.4g) / (%.4g - %.4g)); median ICS2 of the newest three %.4g -> density %.4g at %.6g cycles; model %.4g there; K_pitting %.5g -> %.5g",
                 a0, n0, scale->baseline, scale->baseline_sd, settings_.ics2_onset_records, scale->ics2, a0, scale->baseline, scale->ics2,
                 scale->baseline, recent[0], a1, n1, u.simulated_after, u.old_value, u.new_value);
   u.evidence = b;
@@ -1315,7 +1318,7 @@ bool TwinModel::pitting_point_due(const ModelObservation& obs) const {
 void TwinModel::record_scale_residual(double ics2, double density_now) {
   if (!memory_.ics2_scale_valid) return;
   // The scale's scatter: the ICS2-derived density against the model's at each new point, in ln K.
-  const double d_scale = memory_.ics2_scale_density + memory_.ics2_scale_slope * (ics2 - memory_.ics2_scale_ics2);
+  const double d_scale = ics2_scale().density_at(ics2);
   if (d_scale > 0 && d_scale < 1 && density_now > 0) {
     const double gap = log_k_gap(d_scale, density_now);
     memory_.scale_residual_sum_sq += gap * gap;
@@ -1707,20 +1710,31 @@ std::vector<std::array<double, 2>> TwinModel::ics2_density_series(std::size_t ne
   std::vector<std::array<double, 2>> out;
   if (!memory_.ics2_scale_valid) return out;
   const auto& s = memory_.ics2_series;
-  for (std::size_t i = s.size() > newest ? s.size() - newest : 0; i < s.size(); ++i)
-    out.push_back({s[i][0], memory_.ics2_scale_density + memory_.ics2_scale_slope * (s[i][1] - memory_.ics2_scale_ics2)});
+  const Ics2Scale scale = ics2_scale();
+  for (std::size_t i = s.size() > newest ? s.size() - newest : 0; i < s.size(); ++i) out.push_back({s[i][0], scale.density_at(s[i][1])});
   return out;
+}
+
+Ics2Scale TwinModel::ics2_scale() const {
+  Ics2Scale scale;
+  scale.form = memory_.ics2_scale_form;
+  scale.ics2 = memory_.ics2_scale_ics2;
+  scale.density = memory_.ics2_scale_density;
+  scale.slope = memory_.ics2_scale_slope;
+  scale.baseline = memory_.ics2_scale_baseline;
+  scale.baseline_sd = memory_.ics2_scale_baseline_sd;
+  return scale;
 }
 
 double TwinModel::ics2_density_sd(double d) const {
   const double s = settings_.inspection_area_relative_sd;
-  const double noise = memory_.ics2_scale_slope * memory_.ics2_scale_baseline_sd;
+  const double noise = ics2_scale().density_noise(d, memory_.ics2_scale_baseline_sd);
   const double a0 = memory_.ics2_scale_density, a1 = memory_.ics2_scale_density_1;
   if (memory_.ics2_scale_inspections == 2 && a1 > a0) {
     // Two inspections: D = (1 − t) A0 + t A1, t = (D − A0) / (A1 − A0) along the scale.
     return std::hypot(scale_density_sd(a0, a1, (d - a0) / (a1 - a0), s), noise);
   }
-  // One inspection: D = A0 (ICS2 − baseline) / (ICS2_0 − baseline): A0's relative error scales D.
+  // One inspection: D = A0 sqrt((ICS2 − baseline) / (ICS2_0 − baseline)): A0's relative error scales D.
   return std::hypot(s * d, noise);
 }
 
@@ -1742,9 +1756,9 @@ TwinModel::Ics2Evidence TwinModel::ics2_evidence() const {
   ev.model = mean_of(memory_.current.state.pinion_pitting);
   ev.sd = ics2_density_sd(std::max(ev.trend, ev.latest));
   // The readings in ICS2: the latest, and the trend's density back through the scale.
-  const double trend_ics2 = memory_.ics2_scale_slope > 0
-                                ? memory_.ics2_scale_ics2 + (ev.trend - memory_.ics2_scale_density) / memory_.ics2_scale_slope
-                                : memory_.ics2_series.back()[1];
+  const Ics2Scale scale = ics2_scale();
+  const double trend_ics2 = scale.form == Ics2ScaleForm::square_root || scale.slope > 0 ? scale.ics2_for(ev.trend)
+                                                                                          : memory_.ics2_series.back()[1];
   ev.ics2 = std::max(memory_.ics2_series.back()[1], trend_ics2);
   ev.saturated = ev.ics2 >= settings_.ics2_saturation;
   return ev;

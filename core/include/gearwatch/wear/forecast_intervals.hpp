@@ -118,13 +118,34 @@ double calibration_log_variance(double a0, double a1, double sd0, double sd1, do
 /// densities' ln(−ln(1 − D)) is their difference in ln K.
 double log_k_gap(double density_a, double density_b);
 
-/// The ICS2 <-> density scale through one inspection: D = A0 (ICS2 − ICS2_on) / (ICS2_0 − ICS2_on),
-/// ICS2_on the onset baseline. nullopt when ICS2_0 does not rise materially above the baseline
-/// (by more than `min_rise_sd` baseline SDs, or not at all when the baseline has no spread).
+/// The form of an ICS2 <-> density scale. `linear`: D = density + slope (ICS2 − ics2), the thesis's
+/// correlation through two inspections (Eqs. 7.15–7.17). `square_root`: D = density
+/// sqrt((ICS2 − baseline) / (ics2 − baseline)), the one-inspection scale: the model's own ICS2 form
+/// (ICS2 saturation below) has ICS2 − baseline = I_s s² and D ∝ s / (1 − s), so at a small pitting
+/// share s the density grows as the square root of the ICS2 rise. Its leading order needs no I_s
+/// (which is not known); up to the saturation level (s = 1/2) it reads low by at most (1 − s0)/(1 − s)
+/// ≤ 2, and from there on a reading is a lower bound anyway. A linear scale through one point
+/// instead reads the rise's square: 9× the density at 3× the inspected one.
+enum class Ics2ScaleForm : std::uint8_t { linear, square_root };
+const char* to_string(Ics2ScaleForm form);
+std::optional<Ics2ScaleForm> ics2_scale_form_from_string(const std::string& text);
+
+/// An ICS2 <-> density scale. nullopt from one_inspection_scale when ICS2_0 does not rise
+/// materially above the baseline (by more than `min_rise_sd` baseline SDs, or not at all when the
+/// baseline has no spread).
 struct Ics2Scale {
-  double ics2 = 0, density = 0, slope = 0;   ///< D = density + slope (ICS2 − ics2)
-  double baseline = 0, baseline_sd = 0;
+  Ics2ScaleForm form = Ics2ScaleForm::linear;
+  double ics2 = 0, density = 0, slope = 0;   ///< the scale's point (ICS2, D); slope: linear only
+  double baseline = 0, baseline_sd = 0;      ///< the onset baseline (square_root)
+  /// D at an ICS2 reading (square_root: 0 at or below the baseline).
+  double density_at(double ics2_reading) const;
+  /// The ICS2 reading of a density (the inverse of density_at; square_root: D ≤ 0 gives the baseline).
+  double ics2_for(double d) const;
+  /// The density's change for an ICS2 change of `ics2_sd` above the reading of density d: the
+  /// ICS2 scatter through the scale (linear: slope × ics2_sd).
+  double density_noise(double d, double ics2_sd) const;
 };
+/// The one-inspection scale (form square_root) through the inspected area A0 at ICS2_0.
 /// The baseline: the median of the first `records` ICS2 values of the pair (a new pair starts
 /// unpitted, so its first records hold ICS2 at its noise level; the median ignores one outlier);
 /// its SD from their MAD (1.4826 MAD, the normal's).

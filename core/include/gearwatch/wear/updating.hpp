@@ -184,7 +184,9 @@ struct ModelMemory {
   bool pitting_calibrated = false;
   std::int64_t calibration_inspection_id = 0; ///< the newer inspection of the last calibration
   bool ics2_scale_valid = false;
-  double ics2_scale_ics2 = 0, ics2_scale_density = 0, ics2_scale_slope = 0;  ///< D = density + slope (ICS2 − ics2)
+  double ics2_scale_ics2 = 0, ics2_scale_density = 0, ics2_scale_slope = 0;  ///< linear: D = density + slope (ICS2 − ics2)
+  Ics2ScaleForm ics2_scale_form = Ics2ScaleForm::linear;   ///< square_root: the one-inspection scale (forecast_intervals.hpp)
+  double ics2_scale_baseline = 0;          ///< the onset baseline ICS2 of a square_root scale
   std::vector<double> recent_k_wear, recent_k_pitting;   ///< the last spread_updates values set by updates (not the initial guess)
   std::vector<std::array<double, 2>> recent_operating_points;  ///< (speed, torque) of the last records
   /// The posteriors of ln K_wear (prior at the start of a pair) and ln K_pitting (none before
@@ -439,6 +441,8 @@ class TwinModel {
   Ics2Evidence ics2_evidence() const;
   /// SD of the ICS2-derived density `d`: the scale's inspected areas (extrapolated) and the ICS2 scatter.
   double ics2_density_sd(double d) const;
+  /// The ICS2 <-> density scale the memory holds (valid only with memory_.ics2_scale_valid).
+  Ics2Scale ics2_scale() const;
   void check_ics2_trend(Forecast& f, const Ics2Evidence& ev) const;
   /// A saturated reading: the density is at least the ICS2-derived one, its upper end unknown. The
   /// near end and the nominal from the model's own state (from the lower bound where the model lies
