@@ -1,6 +1,7 @@
 // Issue 33: the command line as a new user and as an adversary meet it — refusals of files that
 // are not gearwatch's history, malformed times, JSON on any bytes, one-line parse errors.
 // Each test drives the real binary where the user meets the defect.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -340,12 +341,27 @@ TEST_CASE("defects (smaller): --format offers exactly what each command prints",
 TEST_CASE("defects (smaller): docs/cli.md names every subcommand and option the help offers for twin", "[cli][defects]") {
   const std::string doc = bytes_of(fs::path(GEARWATCH_SOURCE_DIR) / "docs" / "cli.md");
   CHECK(doc.find("`gearwatch twin wear --k-wear") != std::string::npos);
-  const auto line_of = [&](const std::string& start) { return doc.substr(doc.find(start), doc.find('\n', doc.find(start)) - doc.find(start)); };
-  const std::string simulate = line_of("| `gearwatch twin simulate");
+  // A command's entry: its list item, from "- `gearwatch …" to the next item, its wrapped lines
+  // joined with single spaces as Markdown reads them.
+  const auto entry_of = [&](const std::string& start) {
+    const auto at = doc.find(start);
+    REQUIRE(at != std::string::npos);
+    const auto end = std::min(doc.find("\n- ", at), doc.find("\n\n", at));
+    std::string entry;
+    for (const char c : doc.substr(at, end - at)) {
+      if (c == '\n' || (c == ' ' && !entry.empty() && entry.back() == ' ')) {
+        if (entry.empty() || entry.back() != ' ') entry += ' ';
+        continue;
+      }
+      entry += c;
+    }
+    return entry;
+  };
+  const std::string simulate = entry_of("- `gearwatch twin simulate");
   CHECK(simulate.find("--config FILE") != std::string::npos);
   CHECK(simulate.find("--sample-rate HZ") != std::string::npos);
-  CHECK(line_of("| `gearwatch twin state").find("csv") == std::string::npos);
-  CHECK(line_of("| `gearwatch replay").find("csv") == std::string::npos);
+  CHECK(entry_of("- `gearwatch twin state").find("csv") == std::string::npos);
+  CHECK(entry_of("- `gearwatch replay").find("csv") == std::string::npos);
 }
 
 TEST_CASE("defects (smaller): a replay without --config warns nothing and records why its run ended", "[cli][defects]") {
