@@ -80,87 +80,102 @@ int wait_for_stop_signal(const sigset_t& set) {
   return signal;
 }
 
-void add_ingest_command(CLI::App* fleet_cmd) {
-  struct Options {
-    std::string broker, database, prefix = "gearwatch", client_id = "gearwatch-fleet", password_file, log_level = "info";
-    std::string ca_file, cert_file, key_file;
-    std::vector<std::string> gearboxes;
-    double resend_interval_s = 60;
-    std::int64_t resend_give_up_s = 7 * 24 * 3600;
-  };
-  auto opt = std::make_shared<Options>();
-  auto* cmd = fleet_cmd->add_subcommand("ingest", "Subscribe to every gearbox under the MQTT prefix and store into PostgreSQL, until SIGINT or SIGTERM");
-  cmd->add_option("--broker", opt->broker, "MQTT broker: mqtt://HOST[:PORT] (port 1883) or mqtts://HOST[:PORT] (TLS, port 8883)")->required();
-  cmd->add_option("--database", opt->database, "PostgreSQL: a postgresql:// URI or a libpq connection string")->required();
-  cmd->add_option("--prefix", opt->prefix, "Topic prefix the gearboxes publish under (mqtt.prefix)")->capture_default_str();
-  cmd->add_option("--client-id", opt->client_id,
+struct IngestOptions {
+  std::string broker, database, prefix = "gearwatch", client_id = "gearwatch-fleet", password_file, log_level = "info";
+  std::string ca_file, cert_file, key_file;
+  std::vector<std::string> gearboxes;
+  double resend_interval_s = 60;
+  std::int64_t resend_give_up_s = 7 * 24 * 3600;
+};
+
+void add_ingest_options(CLI::App* cmd, IngestOptions& o) {
+  cmd->add_option("--broker", o.broker, "MQTT broker: mqtt://HOST[:PORT] (port 1883) or mqtts://HOST[:PORT] (TLS, port 8883)")->required();
+  cmd->add_option("--database", o.database, "PostgreSQL: a postgresql:// URI or a libpq connection string")->required();
+  cmd->add_option("--prefix", o.prefix, "Topic prefix the gearboxes publish under (mqtt.prefix)")->capture_default_str();
+  cmd->add_option("--client-id", o.client_id,
                   "MQTT client id of the persistent session: keep it, so a restarted consumer gets what arrived while it was away")->capture_default_str();
-  cmd->add_option("--password-file", opt->password_file,
+  cmd->add_option("--password-file", o.password_file,
                   "File whose first line is username:password (a relative name is read from $CREDENTIALS_DIRECTORY)");
-  cmd->add_option("--ca-file", opt->ca_file, "TLS: the CA certificate that signed the broker's (needed by mqtts://)")->check(CLI::ExistingFile);
-  cmd->add_option("--cert-file", opt->cert_file, "TLS: this consumer's client certificate (with --key-file)")->check(CLI::ExistingFile);
-  cmd->add_option("--key-file", opt->key_file, "TLS: the client certificate's private key (with --cert-file)")->check(CLI::ExistingFile);
-  cmd->add_option("--gearbox", opt->gearboxes, "Accept only these gearboxes, SITE/NAME (repeatable); without it, every gearbox");
-  cmd->add_option("--resend-interval-s", opt->resend_interval_s,
+  cmd->add_option("--ca-file", o.ca_file, "TLS: the CA certificate that signed the broker's (needed by mqtts://)")->check(CLI::ExistingFile);
+  cmd->add_option("--cert-file", o.cert_file, "TLS: this consumer's client certificate (with --key-file)")->check(CLI::ExistingFile);
+  cmd->add_option("--key-file", o.key_file, "TLS: the client certificate's private key (with --cert-file)")->check(CLI::ExistingFile);
+  cmd->add_option("--gearbox", o.gearboxes, "Accept only these gearboxes, SITE/NAME (repeatable); without it, every gearbox");
+  cmd->add_option("--resend-interval-s", o.resend_interval_s,
                   "How often, while caught up, missing message ids are looked for and asked for again")
       ->capture_default_str()->check(CLI::Range(0.1, 86400.0));
-  cmd->add_option("--resend-give-up-s", opt->resend_give_up_s,
+  cmd->add_option("--resend-give-up-s", o.resend_give_up_s,
                   "Missing ids asked for this long without an answer are recorded lost (no_answer); the default is how long "
                   "the broker keeps a stopped daemon's session")
       ->capture_default_str()->check(CLI::Range(std::int64_t{1}, std::int64_t{365} * 24 * 3600));
-  cmd->add_option("--log-level", opt->log_level, "spdlog level: trace, debug, info, warn, error")->capture_default_str()
+  cmd->add_option("--log-level", o.log_level, "spdlog level: trace, debug, info, warn, error")->capture_default_str()
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
+}
+
+// The command line's words as the consumer's settings; a malformed one is a CommandError (exit 64).
+daemon::FleetIngestSettings ingest_settings(const IngestOptions& o) {
+  daemon::FleetIngestSettings s;
+  const auto broker = parse_broker(o.broker);
+  s.host = broker.host;
+  s.port = broker.port;
+  if (broker.tls != !o.ca_file.empty())
+    throw CommandError(broker.tls ? "--broker " + o.broker + ": mqtts:// needs --ca-file" : "--ca-file needs an mqtts:// broker", 64);
+  if (o.cert_file.empty() != o.key_file.empty()) throw CommandError("--cert-file and --key-file go together", 64);
+  s.ca_file = o.ca_file;
+  s.cert_file = o.cert_file;
+  s.key_file = o.key_file;
+  s.database = o.database;
+  s.client_id = o.client_id;
+  s.accept.prefix = o.prefix;
+  s.resend_interval = std::chrono::milliseconds(static_cast<std::int64_t>(o.resend_interval_s * 1000));
+  s.resend_give_up = std::chrono::seconds(o.resend_give_up_s);
+  // The kill -9 test's hook (docs/fleet.md): only this command reads it.
+  if (const char* stall = std::getenv("GEARWATCH_FLEET_TEST_STALL_AFTER"); stall && *stall) s.stall_after = std::stoull(stall);
+  for (const auto& g : o.gearboxes) {
+    const auto slash = g.find('/');
+    if (slash == std::string::npos || slash == 0 || slash + 1 == g.size() || g.find('/', slash + 1) != std::string::npos)
+      throw CommandError("--gearbox " + g + ": expected SITE/NAME", 64);
+    s.accept.gearboxes.insert(g);
+  }
+  if (!o.password_file.empty()) {
+    try {
+      s.credentials = daemon::read_mqtt_credentials(o.password_file);
+    } catch (const std::exception& e) {
+      throw CommandError(e.what());
+    }
+  }
+  return s;
+}
+
+// Runs the consumer until SIGINT or SIGTERM.
+void run_ingest(const daemon::FleetIngestSettings& s) {
+  const sigset_t signals = stop_signals();
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  daemon::FleetConsumer consumer(s);
+  try {
+    consumer.start();
+  } catch (const storage::fleet::FleetConnectionError& e) {
+    throw CommandError(e.what());
+  } catch (const storage::fleet::FleetRefusedError& e) {
+    throw CommandError(std::string("fleet database: ") + e.what());
+  } catch (const std::runtime_error& e) {
+    throw CommandError(e.what());
+  }
+  spdlog::info("fleet: ingesting {}/# from {}:{}{} into the fleet database (schema version {})", s.accept.prefix, s.host, s.port,
+               s.ca_file.empty() ? "" : " over TLS",
+               storage::fleet::current_fleet_schema_version());
+  const int signal = wait_for_stop_signal(signals);
+  spdlog::info("fleet: {} received, stopping", signal == SIGINT ? "SIGINT" : "SIGTERM");
+  consumer.stop();
+  spdlog::info("fleet: {}", daemon::to_string(consumer.counters()));
+}
+
+void add_ingest_command(CLI::App* fleet_cmd) {
+  auto opt = std::make_shared<IngestOptions>();
+  auto* cmd = fleet_cmd->add_subcommand("ingest", "Subscribe to every gearbox under the MQTT prefix and store into PostgreSQL, until SIGINT or SIGTERM");
+  add_ingest_options(cmd, *opt);
   cmd->callback([opt] {
     logging::setup(logging::running_under_journald() ? logging::Sink::journald : logging::Sink::stderr_only, opt->log_level);
-    daemon::FleetIngestSettings s;
-    const auto broker = parse_broker(opt->broker);
-    s.host = broker.host;
-    s.port = broker.port;
-    if (broker.tls != !opt->ca_file.empty())
-      throw CommandError(broker.tls ? "--broker " + opt->broker + ": mqtts:// needs --ca-file" : "--ca-file needs an mqtts:// broker", 64);
-    if (opt->cert_file.empty() != opt->key_file.empty()) throw CommandError("--cert-file and --key-file go together", 64);
-    s.ca_file = opt->ca_file;
-    s.cert_file = opt->cert_file;
-    s.key_file = opt->key_file;
-    s.database = opt->database;
-    s.client_id = opt->client_id;
-    s.accept.prefix = opt->prefix;
-    s.resend_interval = std::chrono::milliseconds(static_cast<std::int64_t>(opt->resend_interval_s * 1000));
-    s.resend_give_up = std::chrono::seconds(opt->resend_give_up_s);
-    // The kill -9 test's hook (docs/fleet.md): only this command reads it.
-    if (const char* stall = std::getenv("GEARWATCH_FLEET_TEST_STALL_AFTER"); stall && *stall) s.stall_after = std::stoull(stall);
-    for (const auto& g : opt->gearboxes) {
-      const auto slash = g.find('/');
-      if (slash == std::string::npos || slash == 0 || slash + 1 == g.size() || g.find('/', slash + 1) != std::string::npos)
-        throw CommandError("--gearbox " + g + ": expected SITE/NAME", 64);
-      s.accept.gearboxes.insert(g);
-    }
-    if (!opt->password_file.empty()) {
-      try {
-        s.credentials = daemon::read_mqtt_credentials(opt->password_file);
-      } catch (const std::exception& e) {
-        throw CommandError(e.what());
-      }
-    }
-    const sigset_t signals = stop_signals();
-    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-    daemon::FleetConsumer consumer(s);
-    try {
-      consumer.start();
-    } catch (const storage::fleet::FleetConnectionError& e) {
-      throw CommandError(e.what());
-    } catch (const storage::fleet::FleetRefusedError& e) {
-      throw CommandError(std::string("fleet database: ") + e.what());
-    } catch (const std::runtime_error& e) {
-      throw CommandError(e.what());
-    }
-    spdlog::info("fleet: ingesting {}/# from {}:{}{} into the fleet database (schema version {})", s.accept.prefix, s.host, s.port,
-                 s.ca_file.empty() ? "" : " over TLS",
-                 storage::fleet::current_fleet_schema_version());
-    const int signal = wait_for_stop_signal(signals);
-    spdlog::info("fleet: {} received, stopping", signal == SIGINT ? "SIGINT" : "SIGTERM");
-    consumer.stop();
-    spdlog::info("fleet: {}", daemon::to_string(consumer.counters()));
+    run_ingest(ingest_settings(*opt));
   });
 }
 
