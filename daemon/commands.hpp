@@ -41,6 +41,8 @@ void add_bench_prognosis_command(CLI::App& app);
 /// `bench` and all its subcommands.
 void register_bench(CLI::App& app);
 void register_commission(CLI::App& app);
+/// `publish`: the MQTT sender in a unit of its own (cmd_publish.cpp, docs/mqtt.md).
+void register_publish(CLI::App& app);
 /// `fleet ingest`: the fleet consumer, MQTT into PostgreSQL (cmd_fleet.cpp, docs/fleet.md).
 void register_fleet(CLI::App& app);
 

@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
   gearwatch::cli::register_bench(app);
   gearwatch::cli::register_commission(app);
   gearwatch::cli::register_fleet(app);
+  gearwatch::cli::register_publish(app);
   app.set_version_flag("--version", version_text(), "Print gearwatch's version and the database schema version it writes, and exit");
   try {
     app.parse(argc, argv);

@@ -62,6 +62,22 @@ void init_library_once() {
 
 }  // namespace
 
+void add_mqtt_counters(const MqttCounters& m, storage::HealthSnapshot& s) {
+  using C = storage::HealthCounter;
+  const auto load = [](const std::atomic<std::uint64_t>& v) { return v.load(std::memory_order_relaxed); };
+  s[C::mqtt_published] = load(m.published);
+  s[C::mqtt_delivered] = load(m.delivered);
+  s[C::mqtt_connects] = load(m.connects);
+  s[C::mqtt_connect_failures] = load(m.connect_failures);
+  s[C::mqtt_refused] = load(m.refused);
+  s[C::mqtt_outbox_dropped] = load(m.outbox_dropped);
+  s[C::mqtt_publish_refused] = load(m.publish_refused);
+  s[C::mqtt_resend_requests] = load(m.resend_requests);
+  s[C::mqtt_resent] = load(m.resent);
+  s[C::mqtt_resend_gone] = load(m.resend_gone);
+  s[C::mqtt_resend_ignored] = load(m.resend_ignored);
+}
+
 const char* to_string(ResendIgnored why) noexcept {
   switch (why) {
     case ResendIgnored::malformed: return "malformed";

@@ -46,6 +46,9 @@ struct MqttCounters {
   std::atomic<std::uint64_t> resend_ignored{0};    ///< requests (or ranges) ignored: malformed, another gearbox's, never sent
 };
 
+/// The sender's counters into a health snapshot's mqtt_* counters (storage::kMqttHealthCounters).
+void add_mqtt_counters(const MqttCounters& m, storage::HealthSnapshot& s);
+
 /// Why a resend request (or one of its ranges) is ignored.
 enum class ResendIgnored : std::uint8_t { malformed, other_gearbox, never_sent };
 const char* to_string(ResendIgnored why) noexcept;

@@ -354,8 +354,9 @@ void Pipeline::open_storage() {
 }
 
 // The MQTT sender delivers what the outbox holds, older rows of earlier runs first.
+// With [mqtt] sender = "publisher", `gearwatch publish` delivers it from a unit of its own.
 void Pipeline::start_mqtt() {
-  if (!config_.mqtt.enabled) return;
+  if (!config_.mqtt.enabled || config_.mqtt.sender != config::MqttSender::daemon) return;
   mqtt_ = std::make_unique<MqttSender>(config_.mqtt, config_.storage.database, *writer_);
   try {
     mqtt_->start();
@@ -762,20 +763,7 @@ void Pipeline::add_acquisition_health(storage::HealthSnapshot& s) {
 }
 
 void Pipeline::add_mqtt_health(storage::HealthSnapshot& s) const {
-  if (!mqtt_) return;
-  using C = storage::HealthCounter;
-  const auto& m = mqtt_->counters();
-  s[C::mqtt_published] = load(m.published);
-  s[C::mqtt_delivered] = load(m.delivered);
-  s[C::mqtt_connects] = load(m.connects);
-  s[C::mqtt_connect_failures] = load(m.connect_failures);
-  s[C::mqtt_refused] = load(m.refused);
-  s[C::mqtt_outbox_dropped] = load(m.outbox_dropped);
-  s[C::mqtt_publish_refused] = load(m.publish_refused);
-  s[C::mqtt_resend_requests] = load(m.resend_requests);
-  s[C::mqtt_resent] = load(m.resent);
-  s[C::mqtt_resend_gone] = load(m.resend_gone);
-  s[C::mqtt_resend_ignored] = load(m.resend_ignored);
+  if (mqtt_) add_mqtt_counters(mqtt_->counters(), s);
 }
 
 }  // namespace

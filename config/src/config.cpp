@@ -133,6 +133,7 @@ const toml::array* array_of_tables(const toml::table& root, const std::string& n
 
 void read_mqtt(TableReader t, MqttSettings& m) {
   t.boolean("enabled", m.enabled);
+  t.token("sender", m.sender, kAllMqttSenders, "expected daemon or publisher");
   t.string("host", m.host);
   t.integer("port", m.port, 1, 65535);
   t.string("prefix", m.prefix);

@@ -16,7 +16,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 13> kMigrations{
+constexpr std::array<const char*, 14> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -597,6 +597,29 @@ ALTER TABLE health_snapshots ADD COLUMN mqtt_resend_requests INTEGER NOT NULL DE
 ALTER TABLE health_snapshots ADD COLUMN mqtt_resent INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE health_snapshots ADD COLUMN mqtt_resend_gone INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE health_snapshots ADD COLUMN mqtt_resend_ignored INTEGER NOT NULL DEFAULT 0;
+)SQL",
+    // 13 -> 14: `gearwatch publish`, the sender in a unit of its own ([mqtt] sender = "publisher"),
+    // stores its counters here: it acquires nothing, so it has no run (docs/mqtt.md).
+    R"SQL(
+CREATE TABLE publisher_health (
+  id INTEGER PRIMARY KEY,
+  at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+  pid INTEGER NOT NULL,
+  final INTEGER NOT NULL CHECK (final IN (0, 1)),
+  mqtt_published INTEGER NOT NULL DEFAULT 0,
+  mqtt_delivered INTEGER NOT NULL DEFAULT 0,
+  mqtt_connects INTEGER NOT NULL DEFAULT 0,
+  mqtt_connect_failures INTEGER NOT NULL DEFAULT 0,
+  mqtt_refused INTEGER NOT NULL DEFAULT 0,
+  mqtt_outbox_dropped INTEGER NOT NULL DEFAULT 0,
+  mqtt_publish_refused INTEGER NOT NULL DEFAULT 0,
+  mqtt_resend_requests INTEGER NOT NULL DEFAULT 0,
+  mqtt_resent INTEGER NOT NULL DEFAULT 0,
+  mqtt_resend_gone INTEGER NOT NULL DEFAULT 0,
+  mqtt_resend_ignored INTEGER NOT NULL DEFAULT 0
+);
+CREATE VIEW mqtt_publisher AS
+  SELECT * FROM publisher_health WHERE id = (SELECT max(id) FROM publisher_health);
 )SQL",
 };
 

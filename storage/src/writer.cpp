@@ -237,6 +237,19 @@ class BatchWriter {
     s.run();
     if (outbox_) outbox_->health(m);
   }
+  void write(const PublisherHealth& m) {
+    std::string cols = "pid, final";
+    std::string qs = "?, ?";
+    for (HealthCounter c : kMqttHealthCounters) {
+      cols += std::string(", ") + to_string(c);
+      qs += ", ?";
+    }
+    Statement s(db_, "INSERT INTO publisher_health(" + cols + ") VALUES (" + qs + ")");
+    s.bind(1, m.pid).bind(2, m.final ? 1 : 0);
+    int i = 3;
+    for (HealthCounter c : kMqttHealthCounters) s.bind(i++, m.counters[c]);
+    s.run();
+  }
 
  private:
   void write_alerts(const std::vector<AlertEvent>& alerts, const std::vector<std::pair<AlertKey, AlertState>>& states,

@@ -468,3 +468,59 @@ TEST_CASE("mqtt: a resend request is read only when it names this gearbox with w
   CHECK(why(R"({"site":"plant1","gearbox":"gbA","ranges":[[1,"3"]]})") == ResendIgnored::malformed);
   CHECK(why(R"({"site":"plant1","gearbox":"gbA","ranges":[[1,2,3]]})") == ResendIgnored::malformed);
 }
+
+TEST_CASE("mqtt: with sender = publisher the daemon only fills the outbox and gearwatch publish delivers it in order with its own counters", "[mqtt]") {
+  Setup s;
+  std::ofstream(s.config, std::ios::app) << "sender = \"publisher\"\n";
+  s.broker.start();
+  MqttSubscriber sub(s.broker.port(), kUser, kPassword, "gw/#");
+  // The publisher comes up before the daemon has created the database, and waits for it.
+  const pid_t publisher = spawn({"publish", "--config", s.config.string(), "--db", s.db.string()}, s.dir / "out-pub",
+                                s.dir / "err-pub");
+  const pid_t replay = s.start_replay("p");
+  REQUIRE(wait_bounded(replay, 120s) == 0);
+  // The daemon sent nothing itself: its counters stay 0, and every row is the publisher's to deliver.
+  CHECK(scalar(s.db, "SELECT mqtt_published + mqtt_connects FROM health_snapshots WHERE final = 1 ORDER BY id DESC LIMIT 1") == 0);
+  REQUIRE(wait_until([&] { return scalar(s.db, "SELECT count(*) FROM outbox WHERE delivered_at IS NULL") == 0; }, 30s));
+
+  // A second publisher on the same database is refused in one line: every message would go twice.
+  const auto second = run_command(std::string(GEARWATCH_BINARY) + " publish --config " + s.config.string() + " --db " + s.db.string());
+  CHECK(second.status == 1);
+  CHECK(second.err.find("gearwatch: another `gearwatch publish` (pid " + std::to_string(publisher) + ") delivers") == 0);
+  CHECK(std::count(second.err.begin(), second.err.end(), '\n') == 1);
+
+  ::kill(publisher, SIGTERM);
+  REQUIRE(wait_bounded(publisher, 30s) == 0);
+  check_delivered_in_order(s.db, sub);
+  // Its counters: one session, every outbox row delivered once, the last row final.
+  const auto rows = static_cast<std::int64_t>(outbox_rows(s.db).size());
+  CHECK(scalar(s.db, "SELECT final FROM mqtt_publisher") == 1);
+  CHECK(scalar(s.db, "SELECT mqtt_connects FROM mqtt_publisher") == 1);
+  CHECK(scalar(s.db, "SELECT mqtt_delivered FROM mqtt_publisher") == rows);
+  CHECK(scalar(s.db, "SELECT mqtt_published FROM mqtt_publisher") == rows);
+  // The retained status is the publisher's: online while it ran, offline when it stopped.
+  std::vector<std::string> states;
+  for (const auto& m : sub.messages())
+    if (m.topic == "gw/plant1/gb7/status") states.push_back(json::parse(m.payload).at("state"));
+  REQUIRE(states.size() >= 2);
+  CHECK(states.front() == "online");
+  CHECK(states.back() == "offline");
+}
+
+TEST_CASE("mqtt: gearwatch publish refuses a config whose daemon sends itself or that has mqtt off", "[mqtt]") {
+  TempDir dir("mqtt-publish-refusals");
+  const auto refused = [&](const std::string& toml) {
+    std::ofstream(dir / "c.toml") << toml;
+    return run_command(std::string(GEARWATCH_BINARY) + " publish --config " + (dir / "c.toml").string() + " --db " + (dir / "gw.db").string());
+  };
+  const auto daemon_sends = refused("[mqtt]\nenabled = true\n");
+  CHECK(daemon_sends.status == 1);
+  CHECK(daemon_sends.err == "gearwatch: [mqtt] sender = \"daemon\": the daemon delivers the outbox itself; set sender = \"publisher\" for `gearwatch publish`\n");
+  const auto off = refused("[mqtt]\nsender = \"publisher\"\n");
+  CHECK(off.status == 1);
+  CHECK(off.err == "gearwatch: [mqtt] enabled = false: there is nothing to publish\n");
+  const auto typo = refused("[mqtt]\nenabled = true\nsender = \"publish\"\n");
+  CHECK(typo.status != 0);
+  CHECK(typo.err.find("expected daemon or publisher") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "gw.db"));  // none of them created a database
+}

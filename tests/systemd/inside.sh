@@ -16,11 +16,15 @@
 #     a record of it is committed (its record in progress and the backlog not yet analysed die
 #     with it): systemd restarts gearwatch, nothing committed is lost, integrity ok;
 #  7. `systemd-analyze security`: overall exposure <= 1.0; with the MQTT drop-in the package ships
-#     (Internet families, the broker's address only) below the 1.6 the unit had without any IP.
+#     for a daemon that sends itself (Internet families, the broker's address only) <= 1.5.
 #  8. the fleet consumer's unit (gearwatch-fleet.service): installed disabled with its conffile
 #     fleet.env; started against a database that refuses connections, the hardened process runs
 #     the binary as far as the database (its one-line error in the journal, exit 1), is restarted
 #     by systemd, and stops; its exposure <= 1.0.
+#  9. the MQTT publisher's unit (gearwatch-publisher.service, [mqtt] sender = "publisher"):
+#     installed disabled; started with a broker that refuses connections it reaches READY on the
+#     daemon's database, counts the failed connections, stops with exit 0 and stores its final
+#     counters in publisher_health; its exposure <= 1.0 with IP, the daemon's without IP.
 # Prints what it measured and "SYSTEMD TEST: PASS ..." or "SYSTEMD TEST: FAIL: <reason>".
 set -u
 P=/payload
@@ -62,7 +66,7 @@ wait_for() {  # wait_for SECONDS DESCRIPTION COMMAND...: poll every 0.5 s
 step "systemd $(systemctl --version | head -1 | cut -d' ' -f2), kernel $(uname -r), $(nproc) CPUs"
 [ "$(dpkg-query -W -f='${Status}' gearwatch 2>/dev/null)" = "install ok installed" ] || fail "gearwatch is not installed"
 step "package: gearwatch $(dpkg-query -W -f='${Version} ${Architecture}' gearwatch); Depends: $(dpkg-query -W -f='${Depends}' gearwatch)"
-for f in /usr/bin/gearwatch /lib/systemd/system/gearwatch.service /lib/systemd/system/gearwatch-fleet.service /usr/lib/sysctl.d/60-gearwatch.conf \
+for f in /usr/bin/gearwatch /lib/systemd/system/gearwatch.service /lib/systemd/system/gearwatch-fleet.service /lib/systemd/system/gearwatch-publisher.service /usr/lib/sysctl.d/60-gearwatch.conf \
          /etc/gearwatch/gearwatch.toml /usr/share/doc/gearwatch/README.md; do
   dpkg-query -L gearwatch | grep -qx "$f" || fail "the package does not install $f"
   [ -f "$f" ] || fail "$f is missing after installation"
@@ -268,5 +272,25 @@ echo "$fleet_journal" | grep -q 'status=1/FAILURE' || fail "$fleet did not exit 
 fleet_exposure=$(systemd-analyze security $fleet --no-pager 2>&1 | sed -n 's/.*Overall exposure level.*: \([0-9.]*\).*/\1/p' | head -1)
 awk -v e="$fleet_exposure" -v l=$EXPOSURE_LIMIT 'BEGIN { exit !(e <= l) }' || fail "$fleet exposure '$fleet_exposure' > $EXPOSURE_LIMIT"
 step "fleet consumer unit: disabled on install, database refused -> exit 1 in the journal, restarted $fleet_restarts time(s), stopped; exposure $fleet_exposure"
-echo "SYSTEMD TEST: PASS: ready in ${ready_s} s on vcan1; reload names what needs a restart; $n_run records = replay, 0 lost; watchdog pinged ${since_ready} s after READY; stop ${stop_s} s, exit 0; vcan1 deleted and re-created: same process reopened it, records went on; SIGKILL -> restarted in ${restart_s} s, integrity ok, nothing committed lost; exposure $exposure ($mqtt_exposure with the MQTT drop-in); fleet unit ok, exposure $fleet_exposure; $(( $(date +%s) - t_begin )) s in the VM"
+# --- 9. the MQTT publisher's unit
+publisher=gearwatch-publisher.service
+[ "$(systemctl is-enabled $publisher 2>&1)" = disabled ] || fail "$publisher is not installed disabled: $(systemctl is-enabled $publisher 2>&1)"
+cp $cfg /tmp/gearwatch.toml.before-publisher
+printf '\n[mqtt]\nenabled = true\nsender = "publisher"\nhost = "127.0.0.1"\nport = 1\nreconnect_initial_ms = 100\nreconnect_max_ms = 200\n' >>$cfg
+t0=$(now)
+systemctl start $publisher || fail "$publisher did not start: $(journalctl -u $publisher --no-pager -o cat | tail -5)"
+publisher_ready_s=$(elapsed "$t0" "$(now)")
+sleep 2
+[ "$(systemctl show -p ActiveState --value $publisher)" = active ] || fail "$publisher is not active after READY"
+systemctl stop $publisher
+publisher_journal=$(journalctl -u $publisher --no-pager -o cat)
+[ "$(systemctl show -p ExecMainStatus --value $publisher)" = 0 ] || fail "$publisher did not exit 0: $publisher_journal"
+cp /tmp/gearwatch.toml.before-publisher $cfg
+echo "$publisher_journal" | grep -q "publish: delivering .*'s outbox to 127.0.0.1:1" || fail "$publisher's journal lacks its start line: $publisher_journal"
+publisher_final=$(sql "SELECT final, mqtt_connect_failures, mqtt_delivered FROM publisher_health ORDER BY id DESC LIMIT 1")
+case $publisher_final in 1\|[1-9]*\|0) ;; *) fail "publisher_health's last row is not a final one with failed connections: '$publisher_final'" ;; esac
+publisher_exposure=$(systemd-analyze security $publisher --no-pager 2>&1 | sed -n 's/.*Overall exposure level.*: \([0-9.]*\).*/\1/p' | head -1)
+awk -v e="$publisher_exposure" -v l=$EXPOSURE_LIMIT 'BEGIN { exit !(e <= l) }' || fail "$publisher exposure '$publisher_exposure' > $EXPOSURE_LIMIT"
+step "publisher unit: disabled on install, READY in $publisher_ready_s s, broker refused (final, connect failures, delivered: $publisher_final), stopped with exit 0; exposure $publisher_exposure"
+echo "SYSTEMD TEST: PASS: ready in ${ready_s} s on vcan1; reload names what needs a restart; $n_run records = replay, 0 lost; watchdog pinged ${since_ready} s after READY; stop ${stop_s} s, exit 0; vcan1 deleted and re-created: same process reopened it, records went on; SIGKILL -> restarted in ${restart_s} s, integrity ok, nothing committed lost; exposure $exposure ($mqtt_exposure with the MQTT drop-in); fleet unit ok, exposure $fleet_exposure; publisher unit ok, exposure $publisher_exposure; $(( $(date +%s) - t_begin )) s in the VM"
 exit 0

@@ -54,8 +54,23 @@ struct StorageSettings {
 /// The MQTT publisher (docs/mqtt.md): off by default. Credentials never live in this file:
 /// `password_file` names a file (or, relative, a systemd credential under
 /// $CREDENTIALS_DIRECTORY) holding "username:password" on its first line.
+/// Which process delivers the outbox to the broker (mqtt.sender, docs/mqtt.md).
+enum class MqttSender : std::uint8_t {
+  daemon,     ///< "daemon": the daemon's own sender thread (its unit then needs IP: the drop-in)
+  publisher,  ///< "publisher": `gearwatch publish` in its own unit; the daemon only fills the outbox
+};
+inline constexpr std::array kAllMqttSenders{MqttSender::daemon, MqttSender::publisher};
+constexpr const char* to_string(MqttSender sender) noexcept {
+  switch (sender) {
+    case MqttSender::daemon: return "daemon";
+    case MqttSender::publisher: return "publisher";
+  }
+  return "unknown";
+}
+
 struct MqttSettings {
   bool enabled = false;
+  MqttSender sender = MqttSender::daemon;
   std::string host = "localhost";
   std::uint32_t port = 1883;
   std::string prefix = "gearwatch";

@@ -222,6 +222,23 @@ struct HealthSnapshot {
   std::uint64_t operator[](HealthCounter c) const { return counters[static_cast<std::size_t>(c)]; }
 };
 
+/// The MQTT sender's counters: in health_snapshots when the daemon sends ([mqtt] sender =
+/// "daemon"), in publisher_health when `gearwatch publish` does.
+inline constexpr std::array kMqttHealthCounters{
+    HealthCounter::mqtt_published,       HealthCounter::mqtt_delivered,       HealthCounter::mqtt_connects,
+    HealthCounter::mqtt_connect_failures, HealthCounter::mqtt_refused,        HealthCounter::mqtt_outbox_dropped,
+    HealthCounter::mqtt_publish_refused, HealthCounter::mqtt_resend_requests, HealthCounter::mqtt_resent,
+    HealthCounter::mqtt_resend_gone,     HealthCounter::mqtt_resend_ignored,
+};
+
+/// `gearwatch publish`'s counters at one moment (table publisher_health; no run: the publisher
+/// acquires nothing). Only the kMqttHealthCounters of `counters` are stored.
+struct PublisherHealth {
+  bool final = false;
+  std::int64_t pid = 0;
+  HealthSnapshot counters;
+};
+
 /// What the model thread made of one record (or of a record it had to skip), with the state it
 /// leaves behind: all written in one transaction, so a restart continues exactly here.
 struct ModelRunResult {
@@ -259,6 +276,6 @@ struct GapReportResult {
 };
 
 using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, AlertUpdate, GapEvent,
-                             LifeCounterEvent, RejectedFrame, HealthSnapshot, ModelRunResult, GapReportResult>;
+                             LifeCounterEvent, RejectedFrame, HealthSnapshot, PublisherHealth, ModelRunResult, GapReportResult>;
 
 }  // namespace gearwatch::storage
