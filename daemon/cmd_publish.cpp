@@ -20,9 +20,7 @@ void register_publish(CLI::App& app) {
   cmd->callback([opt] {
     auto cfg = load_config_or_defaults(opt->config);
     if (!opt->db.empty()) cfg.storage.database = opt->db;
-    const bool journald = cfg.logging.sink == config::LogSink::journald ||
-                          (cfg.logging.sink == config::LogSink::automatic && logging::running_under_journald());
-    logging::setup(journald ? logging::Sink::journald : logging::Sink::stderr_only, cfg.logging.level);
+    logging::setup(logging::service_sink(cfg.logging.sink), cfg.logging.level);
     try {
       daemon::Publisher publisher(cfg);
       const int status = publisher.run();

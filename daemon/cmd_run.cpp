@@ -22,9 +22,7 @@ void register_run(CLI::App& app) {
       throw CommandError(opt->config + ": [acquisition] source = \"candump\" needs capture = FILE for `run` "
                          "(`gearwatch replay CAPTURE` takes it on the command line)");
     if (!opt->db.empty()) cfg.storage.database = opt->db;
-    const bool journald = cfg.logging.sink == config::LogSink::journald ||
-                          (cfg.logging.sink == config::LogSink::automatic && logging::running_under_journald());
-    logging::setup(journald ? logging::Sink::journald : logging::Sink::stderr_only, cfg.logging.level);
+    logging::setup(logging::service_sink(cfg.logging.sink), cfg.logging.level);
     spdlog::info("gearwatch starting: config {}, database {}", opt->config, cfg.storage.database);
     daemon::PipelineResult r;
     try {

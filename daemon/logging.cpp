@@ -29,4 +29,10 @@ config::LogLevel summary_command_level(config::LogLevel configured) {
 
 bool running_under_journald() { return std::getenv("JOURNAL_STREAM") != nullptr; }
 
+Sink service_sink(config::LogSink configured) {
+  const bool journald = configured == config::LogSink::journald ||
+                        (configured == config::LogSink::automatic && running_under_journald());
+  return journald ? Sink::journald : Sink::stderr_only;
+}
+
 }  // namespace gearwatch::logging

@@ -21,4 +21,8 @@ config::LogLevel summary_command_level(config::LogLevel configured);
 /// True when stderr is connected to the journal (systemd sets JOURNAL_STREAM).
 bool running_under_journald();
 
+/// Where a service command (`run`, `publish`) logs: logging.sink, `auto` deciding by
+/// running_under_journald().
+Sink service_sink(config::LogSink configured);
+
 }  // namespace gearwatch::logging

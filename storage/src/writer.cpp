@@ -224,34 +224,31 @@ class BatchWriter {
     s.bind(1, run()).bind(2, m.kind).bind(3, m.reason).bind(4, m.frame).run();
   }
   void write(const HealthSnapshot& m) {
-    std::string cols = "run_id, final";
-    std::string qs = "?, ?";
-    for (HealthCounter c : kAllHealthCounters) {
-      cols += std::string(", ") + to_string(c);
-      qs += ", ?";
-    }
-    Statement s(db_, "INSERT INTO health_snapshots(" + cols + ") VALUES (" + qs + ")");
-    s.bind(1, run()).bind(2, m.final ? 1 : 0);
-    int i = 3;
-    for (HealthCounter c : kAllHealthCounters) s.bind(i++, m[c]);
-    s.run();
+    insert_counters("health_snapshots", "run_id", run(), m.final, kAllHealthCounters, m);
     if (outbox_) outbox_->health(m);
   }
   void write(const PublisherHealth& m) {
-    std::string cols = "pid, final";
-    std::string qs = "?, ?";
-    for (HealthCounter c : kMqttHealthCounters) {
-      cols += std::string(", ") + to_string(c);
-      qs += ", ?";
-    }
-    Statement s(db_, "INSERT INTO publisher_health(" + cols + ") VALUES (" + qs + ")");
-    s.bind(1, m.pid).bind(2, m.final ? 1 : 0);
-    int i = 3;
-    for (HealthCounter c : kMqttHealthCounters) s.bind(i++, m.counters[c]);
-    s.run();
+    insert_counters("publisher_health", "pid", m.pid, m.final, kMqttHealthCounters, m.counters);
   }
 
  private:
+  // One row of counters: (owner column, final, one column per counter named by its to_string).
+  template <std::size_t N>
+  void insert_counters(const char* table, const char* owner_column, std::int64_t owner, bool final,
+                       const std::array<HealthCounter, N>& which, const HealthSnapshot& values) {
+    std::string cols = std::string(owner_column) + ", final";
+    std::string qs = "?, ?";
+    for (HealthCounter c : which) {
+      cols += std::string(", ") + to_string(c);
+      qs += ", ?";
+    }
+    Statement s(db_, std::string("INSERT INTO ") + table + "(" + cols + ") VALUES (" + qs + ")");
+    s.bind(1, owner).bind(2, final ? 1 : 0);
+    int i = 3;
+    for (HealthCounter c : which) s.bind(i++, values[c]);
+    s.run();
+  }
+
   void write_alerts(const std::vector<AlertEvent>& alerts, const std::vector<std::pair<AlertKey, AlertState>>& states,
                     std::optional<std::int64_t> record_id, const std::string& context) {
     if (alerts.empty() && states.empty()) return;

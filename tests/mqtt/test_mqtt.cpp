@@ -131,6 +131,14 @@ std::vector<json> first_arrivals(const std::vector<ReceivedMessage>& got) {
   return out;
 }
 
+// The retained status messages' states, in arrival order.
+std::vector<std::string> status_states(const MqttSubscriber& sub) {
+  std::vector<std::string> states;
+  for (const auto& m : sub.messages())
+    if (m.topic == "gw/plant1/gb7/status") states.push_back(json::parse(m.payload).at("state"));
+  return states;
+}
+
 std::size_t distinct_data_messages(const MqttSubscriber& sub) { return first_arrivals(sub.messages()).size(); }
 
 // Every outbox row delivered, received once at least, in id order, byte for byte; the record
@@ -211,9 +219,7 @@ TEST_CASE("mqtt: a replay's records and alerts reach a real broker in order, exa
   check_delivered_in_order(s.db, sub);
   CHECK(scalar(s.db, "SELECT count(*) FROM outbox WHERE delivered_at IS NULL") == 0);
   // The retained status: online while it ran, offline when it stopped.
-  std::vector<std::string> states;
-  for (const auto& m : sub.messages())
-    if (m.topic == "gw/plant1/gb7/status") states.push_back(json::parse(m.payload).at("state"));
+  const auto states = status_states(sub);
   REQUIRE(states.size() >= 2);
   CHECK(states.front() == "online");
   CHECK(states.back() == "offline");
@@ -502,9 +508,7 @@ TEST_CASE("mqtt: with sender = publisher the daemon only fills the outbox and ge
   CHECK(scalar(s.db, "SELECT mqtt_delivered FROM mqtt_publisher") == rows);
   CHECK(scalar(s.db, "SELECT mqtt_published FROM mqtt_publisher") == rows);
   // The retained status is the publisher's: online while it ran, offline when it stopped.
-  std::vector<std::string> states;
-  for (const auto& m : sub.messages())
-    if (m.topic == "gw/plant1/gb7/status") states.push_back(json::parse(m.payload).at("state"));
+  const auto states = status_states(sub);
   REQUIRE(states.size() >= 2);
   CHECK(states.front() == "online");
   CHECK(states.back() == "offline");
