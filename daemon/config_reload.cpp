@@ -6,6 +6,8 @@
 
 #include <toml++/toml.h>
 
+#include "gearwatch/types/token.hpp"
+
 namespace gearwatch::daemon {
 namespace {
 
@@ -36,39 +38,31 @@ std::map<std::string, std::string> leaves(const std::string& text, const std::st
   return out;
 }
 
-struct Reloadable {
-  std::string key;
-  std::string (*value)(const config::GearwatchConfig&);
-};
-
-const std::vector<Reloadable>& reloadables() {
-  static const std::vector<Reloadable> all{
-      {"logging.level", [](const config::GearwatchConfig& c) { return std::string(config::to_string(c.logging.level)); }},
-  };
-  return all;
-}
-
 }  // namespace
 
-const std::vector<std::string>& reloadable_keys() {
-  static const std::vector<std::string> keys = [] {
-    std::vector<std::string> k;
-    for (const auto& r : reloadables()) k.push_back(r.key);
-    return k;
-  }();
-  return keys;
+const char* to_string(ReloadableKey key) {
+  switch (key) {
+    case ReloadableKey::logging_level: return "logging.level";
+  }
+  return "unknown";
+}
+
+std::string reloadable_value(ReloadableKey key, const config::GearwatchConfig& config) {
+  switch (key) {
+    case ReloadableKey::logging_level: return config::to_string(config.logging.level);
+  }
+  return {};
 }
 
 ReloadPlan plan_reload(const std::string& started_text, const config::GearwatchConfig& running, const std::string& new_text,
                        const std::string& name) {
   ReloadPlan plan{config::parse_config(new_text, name), {}, {}};
-  for (const auto& r : reloadables())
-    if (r.value(running) != r.value(plan.next)) plan.apply.push_back(r.key);
+  for (const ReloadableKey key : kAllReloadableKeys)
+    if (reloadable_value(key, running) != reloadable_value(key, plan.next)) plan.apply.push_back(key);
   const auto before = leaves(started_text, name);
   const auto after = leaves(new_text, name);
-  const auto& reloadable = reloadable_keys();
   auto consider = [&](const std::string& key) {
-    if (std::find(reloadable.begin(), reloadable.end(), key) == reloadable.end()) plan.restart_required.push_back(key);
+    if (!from_token(kAllReloadableKeys, key)) plan.restart_required.push_back(key);
   };
   for (const auto& [key, value] : before) {
     const auto it = after.find(key);

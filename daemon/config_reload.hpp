@@ -3,6 +3,7 @@
 // validated; the settings that can change safely while running are applied, every other changed
 // key is named as needing a restart, and the daemon keeps running on its current settings.
 // An invalid new file changes nothing (the running settings stay, the error is logged).
+#include <array>
 #include <string>
 #include <vector>
 
@@ -10,14 +11,21 @@
 
 namespace gearwatch::daemon {
 
-/// Keys applied at run time on SIGHUP. Everything else (the interface, records, channels,
+/// A setting applied at run time on SIGHUP. Everything else (the interface, records, channels,
 /// processing, alerts, storage, the model...) shapes threads, records or histories already under
 /// way, so it takes a restart.
-const std::vector<std::string>& reloadable_keys();
+enum class ReloadableKey { logging_level };
+inline constexpr std::array<ReloadableKey, 1> kAllReloadableKeys{ReloadableKey::logging_level};
+
+/// The key's dotted name in the configuration file ("logging.level").
+const char* to_string(ReloadableKey key);
+
+/// The key's value in force in `config`, printed as the file spells it ("info").
+std::string reloadable_value(ReloadableKey key, const config::GearwatchConfig& config);
 
 struct ReloadPlan {
   config::GearwatchConfig next;                 ///< the new file, validated
-  std::vector<std::string> apply;               ///< changed keys applied now (from reloadable_keys())
+  std::vector<ReloadableKey> apply;             ///< changed keys applied now
   std::vector<std::string> restart_required;    ///< changed keys that take effect only after a restart
 };
 

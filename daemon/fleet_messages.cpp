@@ -25,37 +25,27 @@ const json& field(const json& j, const char* name) {
   if (it == j.end()) throw SchemaError(std::string("missing required field '") + name + "'");
   return *it;
 }
-std::string text(const json& j, const char* name) {
+// The field `name` when `is_kind` holds for it; else "'name' must be <what>".
+const json& checked(const json& j, const char* name, bool (json::*is_kind)() const noexcept, const char* what) {
   const json& v = field(j, name);
-  if (!v.is_string()) throw SchemaError(std::string("'") + name + "' must be a string");
-  return v.get<std::string>();
-}
-std::int64_t whole(const json& j, const char* name) {
-  const json& v = field(j, name);
-  if (!v.is_number_integer()) throw SchemaError(std::string("'") + name + "' must be an integer");
-  return v.get<std::int64_t>();
-}
-std::optional<std::int64_t> whole_or_null(const json& j, const char* name) {
-  const json& v = field(j, name);
-  if (v.is_null()) return std::nullopt;
-  return whole(j, name);
-}
-bool flag(const json& j, const char* name) {
-  const json& v = field(j, name);
-  if (!v.is_boolean()) throw SchemaError(std::string("'") + name + "' must be a boolean");
-  return v.get<bool>();
-}
-std::optional<double> number_or_null(const json& j, const char* name) {
-  const json& v = field(j, name);
-  if (v.is_null()) return std::nullopt;
-  if (!v.is_number()) throw SchemaError(std::string("'") + name + "' must be a number or null");
-  return v.get<double>();
-}
-const json& array(const json& j, const char* name) {
-  const json& v = field(j, name);
-  if (!v.is_array()) throw SchemaError(std::string("'") + name + "' must be an array");
+  if (!(v.*is_kind)()) throw SchemaError(std::string("'") + name + "' must be " + what);
   return v;
 }
+std::string text(const json& j, const char* name) { return checked(j, name, &json::is_string, "a string").get<std::string>(); }
+std::int64_t whole(const json& j, const char* name) {
+  return checked(j, name, &json::is_number_integer, "an integer").get<std::int64_t>();
+}
+std::optional<std::int64_t> whole_or_null(const json& j, const char* name) {
+  if (field(j, name).is_null()) return std::nullopt;
+  return whole(j, name);
+}
+bool flag(const json& j, const char* name) { return checked(j, name, &json::is_boolean, "a boolean").get<bool>(); }
+std::optional<double> number_or_null(const json& j, const char* name) {
+  if (field(j, name).is_null()) return std::nullopt;
+  return checked(j, name, &json::is_number, "a number or null").get<double>();
+}
+const json& array(const json& j, const char* name) { return checked(j, name, &json::is_array, "an array"); }
+const json& object(const json& j, const char* name) { return checked(j, name, &json::is_object, "an object"); }
 int channel_number(const json& j) {
   const std::int64_t c = whole(j, "channel");
   if (c < 0 || c > 255) throw SchemaError("'channel' out of range 0..255");
@@ -87,8 +77,7 @@ fleet::RecordMessage record_message(const json& j) {
   m.input_revolutions = number_or_null(j, "input_revolutions");
   for (const json& ch : array(j, "channels")) {
     const int c = channel_number(ch);
-    const json& values = field(ch, "indicators");
-    if (!values.is_object()) throw SchemaError("'indicators' must be an object");
+    const json& values = object(ch, "indicators");
     for (const auto& [name, value] : values.items()) {
       if (!value.is_null() && !value.is_number()) throw SchemaError("indicator '" + name + "' must be a number or null");
       m.indicators.push_back({c, name, value.is_null() ? std::nullopt : std::optional<double>(value.get<double>())});
@@ -140,8 +129,7 @@ fleet::ModelMessage model_message(const json& j) {
   m.wear_mean_depth_m = number_or_null(j, "wear_mean_depth_m");
   m.wear_max_depth_m = number_or_null(j, "wear_max_depth_m");
   m.pitting_mean = number_or_null(j, "pitting_mean");
-  const json& forecast = field(j, "forecast");
-  if (!forecast.is_object()) throw SchemaError("'forecast' must be an object");
+  const json& forecast = object(j, "forecast");
   m.forecast_json = forecast.dump();
   return m;
 }
@@ -169,8 +157,7 @@ fleet::HealthMessage health_message(const json& j) {
   fleet::HealthMessage m;
   m.header = header(j);
   m.final = flag(j, "final");
-  const json& counters = field(j, "counters");
-  if (!counters.is_object()) throw SchemaError("'counters' must be an object");
+  const json& counters = object(j, "counters");
   for (const auto& [name, value] : counters.items()) {
     if (!identifier(name)) throw SchemaError("counter name '" + name + "' is not an identifier");
     if (!value.is_number_integer()) throw SchemaError("counter '" + name + "' must be an integer");

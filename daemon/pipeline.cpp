@@ -229,6 +229,7 @@ class Pipeline {
   void wait_for_signal();
   void arm_watchdog();
   void reload();
+  void apply_reloaded(ReloadableKey key, const config::GearwatchConfig& next);
   void acquisition_thread();
 
   // Processing side: the assembler's callbacks and the thread's loop.
@@ -560,19 +561,12 @@ void Pipeline::reload() {
     return;
   }
   std::string applied;
-  for (const auto& key : plan.apply) {
-    if (key == "logging.level")
-      applied += (applied.empty() ? "" : ", ") + key + " (" + config::to_string(running_config_.logging.level) + " -> " +
-                 config::to_string(plan.next.logging.level) + ")";
-  }
+  for (const ReloadableKey key : plan.apply)
+    applied += (applied.empty() ? "" : ", ") + std::string(to_string(key)) + " (" + reloadable_value(key, running_config_) +
+               " -> " + reloadable_value(key, plan.next) + ")";
   // Said before the new level is in force, so a quieter level does not hide it.
   spdlog::info("SIGHUP: configuration {} reloaded; applied: {}", config_.source_path, applied.empty() ? "none" : applied);
-  for (const auto& key : plan.apply) {
-    if (key == "logging.level") {
-      running_config_.logging.level = plan.next.logging.level;
-      spdlog::set_level(spdlog::level::from_str(config::to_string(effective_level(plan.next.logging.level, mode_))));
-    }
-  }
+  for (const ReloadableKey key : plan.apply) apply_reloaded(key, plan.next);
   if (!plan.restart_required.empty()) {
     spdlog::warn("SIGHUP: restart required to apply: {} (still running on the values it started with)",
                  join_keys(plan.restart_required));
@@ -580,6 +574,15 @@ void Pipeline::reload() {
       sd_notify(0, ("STATUS=restart required to apply: " + join_keys(plan.restart_required)).c_str());
   } else if (mode_ == PipelineMode::live) {
     sd_notify(0, "STATUS=running; configuration reloaded");
+  }
+}
+
+void Pipeline::apply_reloaded(ReloadableKey key, const config::GearwatchConfig& next) {
+  switch (key) {
+    case ReloadableKey::logging_level:
+      running_config_.logging.level = next.logging.level;
+      spdlog::set_level(spdlog::level::from_str(config::to_string(effective_level(next.logging.level, mode_))));
+      return;
   }
 }
 

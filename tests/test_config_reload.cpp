@@ -36,7 +36,8 @@ TEST_CASE("config reload: the log level is applied, every other change is named 
       "[alerts]\nthreshold_sigma = 5.0\n";
   const auto plan = plan_reload(kStarted, running(), edited, "plant.toml");
   CHECK(plan.next.logging.level == gearwatch::config::LogLevel::debug);
-  CHECK(plan.apply == std::vector<std::string>{"logging.level"});
+  CHECK(plan.apply == std::vector<gearwatch::daemon::ReloadableKey>{gearwatch::daemon::ReloadableKey::logging_level});
+  CHECK(std::string(to_string(gearwatch::daemon::ReloadableKey::logging_level)) == "logging.level");
   // Sorted; an array entry by position; a key added counts as changed.
   CHECK(plan.restart_required ==
         std::vector<std::string>{"alerts.threshold_sigma", "channels[1].scale", "records.interval_s", "records.length_s"});

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <thread>
 
@@ -58,6 +59,25 @@ void submit_run(StorageWriter& w) {
   w.submit(StreamStarted{1, 1, 100000, 2});
 }
 
+// A writer started on a new database a.db in a new temporary directory, with one run submitted;
+// `adjust` changes the options first.
+struct WriterWithRun {
+  explicit WriterWithRun(const char* dir_name, const std::function<void(WriterOptions&)>& adjust = {})
+      : dir(dir_name), path((dir / "a.db").string()), writer(options(path, adjust)) {
+    writer.start();
+    submit_run(writer);
+  }
+  static WriterOptions options(const std::string& database, const std::function<void(WriterOptions&)>& adjust) {
+    WriterOptions o;
+    o.database = database;
+    if (adjust) adjust(o);
+    return o;
+  }
+  const gearwatch::testing::TempDir dir;
+  const std::string path;
+  StorageWriter writer;
+};
+
 }  // namespace
 
 TEST_CASE("storage: a new database is migrated to the current schema with its views", "[storage]") {
@@ -103,14 +123,9 @@ TEST_CASE("storage: a transaction rolls back unless committed", "[storage]") {
 }
 
 TEST_CASE("storage: the writer commits everything submitted, in batches", "[storage]") {
-  const gearwatch::testing::TempDir dir("writer");
-  const auto path = (dir / "a.db").string();
-  WriterOptions o;
-  o.database = path;
-  o.queue_capacity = 8;  // small: exercises the waiting producer
-  StorageWriter w(o);
-  w.start();
-  submit_run(w);
+  WriterWithRun run("writer", [](WriterOptions& o) { o.queue_capacity = 8; });  // small: exercises the waiting producer
+  const auto& path = run.path;
+  auto& w = run.writer;
   for (int i = 0; i < 300; ++i) w.submit(make_record(static_cast<std::uint64_t>(i) * 1000, 5));
   HealthSnapshot health;
   health.final = true;
@@ -129,13 +144,9 @@ TEST_CASE("storage: the writer commits everything submitted, in batches", "[stor
 }
 
 TEST_CASE("storage: each health counter is one column of health_snapshots and is stored there", "[storage]") {
-  const gearwatch::testing::TempDir dir("health");
-  const auto path = (dir / "a.db").string();
-  WriterOptions o;
-  o.database = path;
-  StorageWriter w(o);
-  w.start();
-  submit_run(w);
+  WriterWithRun run("health");
+  const auto& path = run.path;
+  auto& w = run.writer;
   HealthSnapshot health;  // counter i holds 1000 + i: a value no other counter has
   for (std::size_t i = 0; i < kAllHealthCounters.size(); ++i) health[kAllHealthCounters[i]] = 1000 + i;
   w.submit(health);
@@ -234,14 +245,9 @@ TEST_CASE("storage: an unusable database path is an error at start", "[storage]"
 }
 
 TEST_CASE("storage: readers query while the writer commits (WAL)", "[storage]") {
-  const gearwatch::testing::TempDir dir("readers");
-  const auto path = (dir / "a.db").string();
-  WriterOptions o;
-  o.database = path;
-  o.busy_timeout_ms = 50;
-  StorageWriter w(o);
-  w.start();
-  submit_run(w);
+  WriterWithRun run("readers", [](WriterOptions& o) { o.busy_timeout_ms = 50; });
+  const auto& path = run.path;
+  auto& w = run.writer;
   w.submit(make_record(0, 2));
   while (w.counters().messages_committed < 3) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   // A staff member's long query: a read transaction held open across the writer's commits.
@@ -261,13 +267,9 @@ TEST_CASE("storage: readers query while the writer commits (WAL)", "[storage]") 
 }
 
 TEST_CASE("storage: a message that can never be written is dropped alone, not with its batch", "[storage]") {
-  const gearwatch::testing::TempDir dir("poison");
-  const auto path = (dir / "a.db").string();
-  WriterOptions o;
-  o.database = path;
-  StorageWriter w(o);
-  w.start();
-  submit_run(w);
+  WriterWithRun run("poison");
+  const auto& path = run.path;
+  auto& w = run.writer;
   for (int i = 0; i < 40; ++i) {
     RecordResult r = make_record(static_cast<std::uint64_t>(i), 2);
     if (i == 17) r.stream_sequence = 99;  // a stream that was never started
@@ -377,13 +379,9 @@ TEST_CASE("storage: a record's speed source, indicator notes and unseen band are
 }
 
 TEST_CASE("storage: every wear verdict and alert value is stored, a refused part loses nothing else", "[storage][vocabulary]") {
-  const gearwatch::testing::TempDir dir("verdicts");
-  const auto path = (dir / "a.db").string();
-  WriterOptions o;
-  o.database = path;
-  StorageWriter w(o);
-  w.start();
-  submit_run(w);
+  WriterWithRun run("verdicts");
+  const auto& path = run.path;
+  auto& w = run.writer;
   std::uint64_t start = 0;
   for (auto mechanism : gearwatch::dsp::kAllWearMechanisms) {
     auto r = make_record(start += 1000, 3);

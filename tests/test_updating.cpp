@@ -33,6 +33,42 @@ using gearwatch::testing::observation;
 
 double depth_mean(const WearState& s) { return summarise(s).combined_mean_depth_m; }
 
+// The K_pitting change both pitting-change tests run (20 Hz, 20 N·m, lubricated-like K_wear): the
+// truth's K_pitting is kPittingBefore, ten times that from 1.0 M cycles; the model updates
+// K_pitting only, with pitting points every 0.2 M cycles.
+constexpr double kPittingBefore = 1e-94, kPittingAfter = 1e-93, kPittingChangeKWear = 3.55e-16;
+
+ModelSettings pitting_change_settings(double ics2_saturation) {
+  ModelSettings s;
+  s.loop.k_wear_si = kPittingChangeKWear;
+  s.update_k_wear = false;
+  s.pitting_interval_cycles = 2e5;
+  s.forecast_horizon_cycles = 2e5;
+  s.ics2_saturation = ics2_saturation;
+  return s;
+}
+
+WearLoopOptions pitting_change_truth_options(const ModelSettings& s) {
+  WearLoopOptions to = s.loop;
+  to.k_pitting = kPittingBefore;
+  to.operating_point = {20, 20};
+  return to;
+}
+
+// Runs the truth to record i (50 000 cycles each; K_pitting changes past 1.0 M cycles) and takes
+// the inspections at 0.2 and 0.4 M cycles; returns the truth's mean pitting density there.
+double advance_pitting_truth(BlueLoop& truth, int i, std::vector<Inspection>& inspections) {
+  const double cycles = 5e4 * i;
+  if (cycles > 1e6 && truth.options().k_pitting == kPittingBefore) {
+    REQUIRE(truth.run_until(1e6));
+    truth.set_coefficients(kPittingChangeKWear, kPittingAfter);
+  }
+  REQUIRE(truth.run_until(cycles));
+  const double density = summarise(truth.state()).mean_pitting_density;
+  if (cycles == 2e5 || cycles == 4e5) inspections.push_back({static_cast<std::int64_t>(i), cycles, density, {}});
+  return density;
+}
+
 }  // namespace
 
 TEST_CASE("updating: enums have distinct tokens and complete lists", "[model][updating]") {
@@ -254,30 +290,17 @@ TEST_CASE("updating: K_pitting calibrated from two inspections, a known change t
   // 1.0 M cycles; ICS2 = 0.1 + 10·D (linear in the pitted area); inspections at 0.2 and 0.4 M
   // cycles; pitting points every 0.2 M cycles, records every 50 000.
   const twin::GearboxParameters params;
-  const double kp1 = 1e-94, kp2 = 1e-93, kw = 3.55e-16;
-  ModelSettings s;
-  s.loop.k_wear_si = kw;
-  s.update_k_wear = false;
-  s.pitting_interval_cycles = 2e5;
-  s.forecast_horizon_cycles = 2e5;
-  s.ics2_saturation = std::numeric_limits<double>::infinity();   // this truth's ICS2 is linear in D at every level
+  const double kp1 = kPittingBefore, kp2 = kPittingAfter;
+  // This truth's ICS2 is linear in D at every level: no saturation.
+  const ModelSettings s = pitting_change_settings(std::numeric_limits<double>::infinity());
   TwinModel model(params, s, [](const WearState&, const twin::OperatingPoint&) -> double { throw std::logic_error("not used"); });
-  WearLoopOptions to = s.loop;
-  to.k_pitting = kp1;
-  to.operating_point = {20, 20};
-  BlueLoop truth(params, to);
+  BlueLoop truth(params, pitting_change_truth_options(s));
   std::vector<Inspection> inspections;
   double ics2_peak = 0;
   bool calibrated = false, change_tracked = false, set_to_zero = false;
   for (int i = 1; i <= 36; ++i) {
     const double cycles = 5e4 * i;
-    if (cycles > 1e6 && truth.options().k_pitting == kp1) {
-      REQUIRE(truth.run_until(1e6));
-      truth.set_coefficients(kw, kp2);
-    }
-    REQUIRE(truth.run_until(cycles));
-    const double density = summarise(truth.state()).mean_pitting_density;
-    if (cycles == 2e5 || cycles == 4e5) inspections.push_back({static_cast<std::int64_t>(i), cycles, density, {}});
+    const double density = advance_pitting_truth(truth, i, inspections);
     double ics2 = 0.1 + 10 * density;
     if (cycles <= 1.4e6) ics2_peak = ics2;
     else ics2 = ics2_peak - 0.05 * (cycles - 1.4e6) / 5e4;   // from 1.4 M cycles ICS2 falls
@@ -949,17 +972,9 @@ struct SaturatedRun {
 /// linear in D up to 0.13 and flat there: it reaches the default saturation level 17/144 at 0.8 M.
 SaturatedRun run_saturating_ics2(double saturation) {
   const twin::GearboxParameters params;
-  const double kp1 = 1e-94, kp2 = 1e-93, kw = 3.55e-16;
-  ModelSettings s;
-  s.loop.k_wear_si = kw;
-  s.update_k_wear = false;
-  s.pitting_interval_cycles = 2e5;
-  s.forecast_horizon_cycles = 2e5;
-  s.ics2_saturation = saturation;
+  const ModelSettings s = pitting_change_settings(saturation);
   TwinModel model(params, s, [](const WearState&, const twin::OperatingPoint&) -> double { throw std::logic_error("not used"); });
-  WearLoopOptions to = s.loop;
-  to.k_pitting = kp1;
-  to.operating_point = {20, 20};
+  const WearLoopOptions to = pitting_change_truth_options(s);
   BlueLoop reference(params, to);
   REQUIRE(reference.run_until(8e5));
   const double d08 = summarise(reference.state()).mean_pitting_density;
@@ -969,13 +984,7 @@ SaturatedRun run_saturating_ics2(double saturation) {
   SaturatedRun out;
   for (int i = 1; i <= 36; ++i) {
     const double cycles = 5e4 * i;
-    if (cycles > 1e6 && truth.options().k_pitting == kp1) {
-      REQUIRE(truth.run_until(1e6));
-      truth.set_coefficients(kw, kp2);
-    }
-    REQUIRE(truth.run_until(cycles));
-    const double density = summarise(truth.state()).mean_pitting_density;
-    if (cycles == 2e5 || cycles == 4e5) inspections.push_back({static_cast<std::int64_t>(i), cycles, density, {}});
+    const double density = advance_pitting_truth(truth, i, inspections);
     const double ics2 = std::min(0.13, 0.001 + 0.129 * density / d08);
     const ModelRunReport r = model.observe(observation(cycles, 20, 20, std::nullopt, ics2), inspections);
     for (const auto& u : r.updates) {

@@ -98,6 +98,17 @@ class TableReader {
     out = *value;
   }
 
+  // The same, read as text first: a non-string or an empty value keeps the string reader's
+  // message, and an unknown word fails with `expected(word)`.
+  template <typename Enum, std::size_t N, typename Expected>
+  void text_token(const std::string& key, Enum& out, const std::array<Enum, N>& all, Expected expected) {
+    std::string text = to_string(out);
+    string(key, text);
+    const std::optional<Enum> value = from_token(all, text);
+    if (!value) fail(node(key), key, expected(text));
+    out = *value;
+  }
+
   void reject_unknown() const {
     if (!table_) return;
     for (const auto& [k, v] : *table_) {
@@ -264,10 +275,8 @@ void read_protocol(const toml::table& root, const std::string& file, GearwatchCo
 void read_acquisition(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
   TableReader t(sub_table(root, "acquisition", file), "acquisition.", file);
   auto& a = cfg.acquisition;
-  std::string source = to_string(a.source);
-  t.string("source", source);
-  if (const auto kind = from_token(kAllSourceKinds, source)) a.source = *kind;
-  else t.fail(t.node("source"), "source", "expected \"socketcan\" or \"candump\", got \"" + source + "\"");
+  t.text_token("source", a.source, kAllSourceKinds,
+                [](const std::string& got) { return "expected \"socketcan\" or \"candump\", got \"" + got + "\""; });
   t.string("interface", a.interface);
   t.string("capture", a.capture, true);
   t.integer("ring_capacity_samples", a.ring_capacity_samples, 1024, std::int64_t{1} << 32);
@@ -291,12 +300,8 @@ void read_storage(const toml::table& root, const std::string& file, GearwatchCon
 void read_logging(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
   TableReader t(sub_table(root, "logging", file), "logging.", file);
   auto& l = cfg.logging;
-  // Read as text first, so a non-string or an empty level keeps the string reader's message.
-  std::string level = to_string(l.level);
-  t.string("level", level);
-  const auto parsed = from_token(kAllLogLevels, level);
-  if (!parsed) t.fail(t.node("level"), "level", "expected one of trace, debug, info, warn, error, critical, off");
-  l.level = *parsed;
+  t.text_token("level", l.level, kAllLogLevels,
+                [](const std::string&) { return "expected one of trace, debug, info, warn, error, critical, off"; });
   t.token("sink", l.sink, kAllLogSinks, "expected auto, journald or stderr");
   t.number("rate_limit_s", l.rate_limit_s, 0.0, 86400.0);
   t.reject_unknown();

@@ -174,7 +174,7 @@ std::vector<PlotFamily> plot_families(const ReportData& data) {
       {name(Indicator::kurtosis_raw), "Kurtosis of the raw signal", "kurtosis (–)", false, {{name(Indicator::kurtosis_raw), ""}}},
   };
   PlotFamily carrier{"mean_carrier", "Mean carrier frequency", "frequency (Hz)", false, {}};
-  const std::string prefix = "mean_carrier_hz_";
+  const std::string prefix(dsp::kMeanCarrierIndicatorPrefix);
   for (const auto& name : data.indicator_names) {
     if (name.rfind(prefix, 0) != 0) continue;
     // mean_carrier_hz_<lo>_<hi> -> "<lo>–<hi> Hz"

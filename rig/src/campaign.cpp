@@ -15,19 +15,36 @@
 namespace gearwatch::rig {
 namespace {
 
+// The lubricated test's schedule, which the healthy reference keeps.
+const char* kLubricatedSchedule = R"(max_cycles = 3250000
+stop_interval_cycles = 100000
+torque_nm = 20.0
+measurement_speeds_hz = [10.0]
+records = 20
+seconds = 10.0
+)";
+
+// The end of both thesis campaigns: the thesis rig's sliding-signal gains and carrier bands, and
+// the effects they enable.
+const char* kThesisSlidingAndEffects = R"([sliding]
+pitting_gain_m_s2 = 20.0
+roughness_gain_m_s2 = 4.0
+pitting_band_hz = [3000.0, 9000.0]
+abrasion_band_hz = [22000.0, 34000.0]
+
+[effects]
+enabled = ["noise"]
+)";
+
 // The thesis's tests (Table 3.1), compressed to `records` measured stops. Values documented in
 // docs/campaign-file.md.
 const char* kLubricated = R"(# The thesis's lubricated test (Table 3.1, test 1): pre-roughened pair, 20 N m, 3.25 M cycles,
 # stopped every 0.1 M cycles; fatigue pitting after the run-in.
 [campaign]
 name = "lubricated"
-max_cycles = 3250000
-stop_interval_cycles = 100000
-torque_nm = 20.0
-measurement_speeds_hz = [10.0]
-records = 20
-seconds = 10.0
+)";
 
+const char* kLubricatedRest = R"(
 [wear]
 law = "archard"         # the project's Archard model, K in m^2/N
 reference_torque_nm = 20.0
@@ -51,14 +68,6 @@ k_wear = 3.0e-17
 from_cycles = 2300000
 k_wear = 6.0e-17
 
-[sliding]
-pitting_gain_m_s2 = 20.0
-roughness_gain_m_s2 = 4.0
-pitting_band_hz = [3000.0, 9000.0]
-abrasion_band_hz = [22000.0, 34000.0]
-
-[effects]
-enabled = ["noise"]
 )";
 
 const char* kDry = R"(# The thesis's dry test (Table 3.1, test 2): new pair, no lubricant, 5 N m, 38 000 cycles,
@@ -83,26 +92,14 @@ roughness_per_um = 0.12
 from_cycles = 0
 k_wear = 1.0e-13
 
-[sliding]
-pitting_gain_m_s2 = 20.0
-roughness_gain_m_s2 = 4.0
-pitting_band_hz = [3000.0, 9000.0]
-abrasion_band_hz = [22000.0, 34000.0]
-
-[effects]
-enabled = ["noise"]
 )";
 
 const char* kHealthy = R"(# A healthy reference: the lubricated test's schedule with no wear, no pitting, smooth flanks.
 [campaign]
 name = "healthy"
-max_cycles = 3250000
-stop_interval_cycles = 100000
-torque_nm = 20.0
-measurement_speeds_hz = [10.0]
-records = 20
-seconds = 10.0
+)";
 
+const char* kHealthyRest = R"(
 [wear]
 k_pitting = 0.0
 initial_roughness = 0.0
@@ -209,11 +206,12 @@ const char* to_string(BuiltinCampaign campaign) noexcept {
   return "unknown";
 }
 
+// Each text is put together from its parts above: the head, the schedule, the rest, the end.
 std::string builtin_campaign_text(BuiltinCampaign campaign) {
   switch (campaign) {
-    case BuiltinCampaign::lubricated: return kLubricated;
-    case BuiltinCampaign::dry: return kDry;
-    case BuiltinCampaign::healthy: return kHealthy;
+    case BuiltinCampaign::lubricated: return std::string(kLubricated) + kLubricatedSchedule + kLubricatedRest + kThesisSlidingAndEffects;
+    case BuiltinCampaign::dry: return std::string(kDry) + kThesisSlidingAndEffects;
+    case BuiltinCampaign::healthy: return std::string(kHealthy) + kLubricatedSchedule + kHealthyRest;
   }
   return {};
 }

@@ -1,11 +1,15 @@
 #include "gearwatch/storage/gap_reports.hpp"
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <stdexcept>
+#include <utility>
 
 #include <nlohmann/json.hpp>
+
+#include "stored_tokens.hpp"
 
 namespace gearwatch::storage {
 namespace {
@@ -15,10 +19,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 template <class Enum, std::size_t N>
 Enum token_to_enum(const std::array<Enum, N>& all, const std::string& token, const char* domain, std::int64_t report_id) {
-  for (auto v : all)
-    if (token == gap::to_string(v)) return v;
-  throw std::runtime_error("gap report " + std::to_string(report_id) + ": '" + token + "' is not a " + domain +
-                           " this gearwatch knows");
+  return detail::enum_of(all, token, domain, "gap report " + std::to_string(report_id));
 }
 
 gap::FamilyKind family_of(const std::string& token, std::int64_t id) {
@@ -79,6 +80,18 @@ gap::FeatureDescription description_from(const json& j, std::int64_t id) {
   return d;
 }
 
+// A feature's numbers by their stored names: features_json writes and features_from reads this one list.
+constexpr std::array<std::pair<const char*, double gap::GapFeature::*>, 8> kFeatureNumbers{{
+    {"order", &gap::GapFeature::order},
+    {"order_low", &gap::GapFeature::order_low},
+    {"order_high", &gap::GapFeature::order_high},
+    {"hz", &gap::GapFeature::hz},
+    {"hz_low", &gap::GapFeature::hz_low},
+    {"hz_high", &gap::GapFeature::hz_high},
+    {"size_db", &gap::GapFeature::size_db},
+    {"p_value", &gap::GapFeature::p_value},
+}};
+
 json features_json(const std::vector<gap::GapFeature>& features) {
   json a = json::array();
   for (const auto& f : features) {
@@ -87,12 +100,12 @@ json features_json(const std::vector<gap::GapFeature>& features) {
       seen.push_back({{"held_out", s.held_out}, {"record", s.record}, {"speed_hz", number(s.speed_hz)},
                       {"torque_nm", number(s.torque_nm)}, {"order", number(s.order)}, {"hz", number(s.hz)},
                       {"size_db", number(s.size_db)}});
-    a.push_back({{"movement", gap::to_string(f.movement)}, {"shaft", gap::to_string(f.shaft)}, {"order", number(f.order)},
-                 {"order_low", number(f.order_low)}, {"order_high", number(f.order_high)}, {"hz", number(f.hz)},
-                 {"hz_low", number(f.hz_low)}, {"hz_high", number(f.hz_high)}, {"size_db", number(f.size_db)},
-                 {"size_interval_db", {number(f.size_interval_db.low), number(f.size_interval_db.high)}},
-                 {"p_value", number(f.p_value)}, {"seen_in", seen}, {"description", description_json(f.description)},
-                 {"explained_by", f.explained_by ? json(gap::to_string(*f.explained_by)) : json(nullptr)}});
+    json feature = {{"movement", gap::to_string(f.movement)}, {"shaft", gap::to_string(f.shaft)},
+                    {"size_interval_db", {number(f.size_interval_db.low), number(f.size_interval_db.high)}},
+                    {"seen_in", seen}, {"description", description_json(f.description)},
+                    {"explained_by", f.explained_by ? json(gap::to_string(*f.explained_by)) : json(nullptr)}};
+    for (const auto& [name, member] : kFeatureNumbers) feature[name] = number(f.*member);
+    a.push_back(std::move(feature));
   }
   return a;
 }
@@ -103,15 +116,8 @@ std::vector<gap::GapFeature> features_from(const json& a, std::int64_t id) {
     gap::GapFeature f;
     f.movement = movement_of(j.at("movement").get<std::string>(), id);
     f.shaft = shaft_of(j.at("shaft").get<std::string>(), id);
-    f.order = number_from(j.at("order"));
-    f.order_low = number_from(j.at("order_low"));
-    f.order_high = number_from(j.at("order_high"));
-    f.hz = number_from(j.at("hz"));
-    f.hz_low = number_from(j.at("hz_low"));
-    f.hz_high = number_from(j.at("hz_high"));
-    f.size_db = number_from(j.at("size_db"));
+    for (const auto& [name, member] : kFeatureNumbers) f.*member = number_from(j.at(name));
     f.size_interval_db = {number_from(j.at("size_interval_db").at(0)), number_from(j.at("size_interval_db").at(1))};
-    f.p_value = number_from(j.at("p_value"));
     for (const auto& s : j.at("seen_in"))
       f.seen_in.push_back({s.at("held_out").get<bool>(), s.at("record").get<std::size_t>(), number_from(s.at("speed_hz")),
                            number_from(s.at("torque_nm")), number_from(s.at("order")), number_from(s.at("hz")),
@@ -124,32 +130,28 @@ std::vector<gap::GapFeature> features_from(const json& a, std::int64_t id) {
   return out;
 }
 
+// The plot's spectra by their stored names: plot_json writes and plot_from reads this one list.
+constexpr std::array<std::pair<const char*, std::vector<double> gap::GapReport::*>, 8> kPlotSpectra{{
+    {"order_axis", &gap::GapReport::order_axis},
+    {"measured_order_db", &gap::GapReport::measured_order_db},
+    {"twin_order_db", &gap::GapReport::twin_order_db},
+    {"twin_after_order_db", &gap::GapReport::twin_after_order_db},
+    {"hz_axis", &gap::GapReport::hz_axis},
+    {"measured_hz_db", &gap::GapReport::measured_hz_db},
+    {"twin_hz_db", &gap::GapReport::twin_hz_db},
+    {"twin_after_hz_db", &gap::GapReport::twin_after_hz_db},
+}};
+
 std::string plot_json(const gap::GapReport& r) {
-  return json{{"order_axis", numbers(r.order_axis)},
-              {"measured_order_db", numbers(r.measured_order_db)},
-              {"twin_order_db", numbers(r.twin_order_db)},
-              {"twin_after_order_db", numbers(r.twin_after_order_db)},
-              {"hz_axis", numbers(r.hz_axis)},
-              {"measured_hz_db", numbers(r.measured_hz_db)},
-              {"twin_hz_db", numbers(r.twin_hz_db)},
-              {"twin_after_hz_db", numbers(r.twin_after_hz_db)},
-              {"order_bands", bands(r.order_bands)},
-              {"hz_bands", bands(r.hz_bands)},
-              {"features", features_json(r.features)}}
-      .dump();
+  json plot{{"order_bands", bands(r.order_bands)}, {"hz_bands", bands(r.hz_bands)}, {"features", features_json(r.features)}};
+  for (const auto& [name, member] : kPlotSpectra) plot[name] = numbers(r.*member);
+  return plot.dump();
 }
 
 void plot_from(const std::string& text, gap::GapReport& r, std::int64_t id) {
   try {
     const json j = json::parse(text);
-    r.order_axis = numbers_from(j.at("order_axis"));
-    r.measured_order_db = numbers_from(j.at("measured_order_db"));
-    r.twin_order_db = numbers_from(j.at("twin_order_db"));
-    r.twin_after_order_db = numbers_from(j.at("twin_after_order_db"));
-    r.hz_axis = numbers_from(j.at("hz_axis"));
-    r.measured_hz_db = numbers_from(j.at("measured_hz_db"));
-    r.twin_hz_db = numbers_from(j.at("twin_hz_db"));
-    r.twin_after_hz_db = numbers_from(j.at("twin_after_hz_db"));
+    for (const auto& [name, member] : kPlotSpectra) r.*member = numbers_from(j.at(name));
     r.order_bands = bands_from(j.at("order_bands"), id);
     r.hz_bands = bands_from(j.at("hz_bands"), id);
     // Reports stored before features were found carry none.

@@ -1,6 +1,11 @@
 #include "gearwatch/storage/report_history.hpp"
 
+#include <array>
 #include <map>
+#include <string_view>
+
+#include "gearwatch/storage/messages.hpp"
+#include "gearwatch/types/indicator.hpp"
 
 #include "stored_rows.hpp"
 #include "stored_tokens.hpp"
@@ -24,14 +29,36 @@ bool has_no_tables(Database& db) {
 
 bool has_table_or_view(Database& db, const std::string& name) { return detail::has_object(db, name.c_str()); }
 
+namespace {
+
+// The indicators the report plots by name (the mean-carrier ones are found by their prefix).
+constexpr std::array kPlotIndicators{dsp::Indicator::ics2_low_band, dsp::Indicator::ics2_high_band,
+                                     dsp::Indicator::ics2_selected_band, dsp::Indicator::rms_sa,
+                                     dsp::Indicator::rms_raw, dsp::Indicator::kurtosis_raw};
+
+// A LIKE pattern (ESCAPE '\') matching every text that starts with `prefix`.
+std::string like_prefix(std::string_view prefix) {
+  std::string pattern;
+  for (const char c : prefix) {
+    if (c == '\\' || c == '_' || c == '%') pattern += '\\';
+    pattern += c;
+  }
+  return pattern + '%';
+}
+
+}  // namespace
+
 std::vector<StoredPlotValue> load_plot_indicator_values(Database& db, std::int64_t first_record) {
   std::vector<StoredPlotValue> out;
   if (!detail::has_object(db, "indicators")) return out;
   Statement s(db,
               "SELECT record_id, channel, name, value FROM indicators WHERE record_id >= ? AND value IS NOT NULL"
-              " AND (name IN ('ics2_low_band', 'ics2_high_band', 'ics2_selected_band', 'rms_sa', 'rms_raw', 'kurtosis_raw')"
-              "      OR name LIKE 'mean\\_carrier\\_hz\\_%' ESCAPE '\\')");
+              " AND (name IN (?, ?, ?, ?, ?, ?) OR name LIKE ? ESCAPE '\\')");
   s.bind(1, first_record);
+  int column = 2;
+  for (const dsp::Indicator indicator : kPlotIndicators) s.bind(column++, to_string(indicator));
+  const std::string mean_carrier = like_prefix(dsp::kMeanCarrierIndicatorPrefix);
+  s.bind(column, mean_carrier);
   while (s.step()) out.push_back({s.get_int(0), s.get_int(1), s.get_text(2), s.get_double(3)});
   return out;
 }
@@ -48,6 +75,7 @@ class ColumnsByName {
     const auto it = col_.find(name);
     return it == col_.end() || s_.is_null(it->second) ? 0 : s_.get_int(it->second);
   }
+  std::int64_t integer(HealthCounter counter) const { return integer(to_string(counter)); }
   std::string text(const char* name) const {
     const auto it = col_.find(name);
     return it == col_.end() ? std::string{} : s_.get_text(it->second);
@@ -67,18 +95,19 @@ StoredHealth health_row(const ColumnsByName& c) {
   h.run_ended_at = c.text("run_ended_at");
   h.taken_at = c.text("taken_at");
   h.final = c.integer("final") != 0;
-  h.frames = c.integer("frames");
-  h.samples = c.integer("samples");
-  h.lost_samples = c.integer("gap_samples") + c.integer("report_ring_lost");
-  h.kernel_drops = c.integer("kernel_drops");
-  for (const char* name : {"malformed_frames", "malformed_lines", "unknown_ids", "unconfigured_channel_frames", "frames_before_header",
-                           "unsupported_version", "duplicates"}) {
-    const std::int64_t n = c.integer(name);
-    h.rejected_breakdown.emplace_back(name, n);
+  using C = HealthCounter;
+  h.frames = c.integer(C::frames);
+  h.samples = c.integer(C::samples);
+  h.lost_samples = c.integer(C::gap_samples) + c.integer("report_ring_lost");
+  h.kernel_drops = c.integer(C::kernel_drops);
+  for (const C counter : {C::malformed_frames, C::malformed_lines, C::unknown_ids, C::unconfigured_channel_frames,
+                          C::frames_before_header, C::unsupported_version, C::duplicates}) {
+    const std::int64_t n = c.integer(counter);
+    h.rejected_breakdown.emplace_back(to_string(counter), n);
     h.rejected_frames += n;
   }
-  h.records_rejected = c.integer("records_rejected");
-  h.storage_rows_rejected = c.integer("storage_rows_rejected");
+  h.records_rejected = c.integer(C::records_rejected);
+  h.storage_rows_rejected = c.integer(C::storage_rows_rejected);
   return h;
 }
 

@@ -2,6 +2,8 @@
 
 #include <limits>
 
+#include "gearwatch/types/indicator.hpp"
+
 namespace gearwatch::storage {
 namespace {
 
@@ -53,10 +55,10 @@ std::vector<StoredRunRecord> load_run_records(Database& db, std::int64_t run_id)
   std::vector<StoredRunRecord> out;
   Statement st(db, R"SQL(
     SELECT s.sequence, s.stream_id, r.start_index, r.sample_count, r.input_revolutions, r.speed_hz, r.torque_nm,
-           (SELECT v.channel FROM indicator_values v WHERE v.record_id = r.id AND v.name = 'rms_raw' ORDER BY v.channel LIMIT 1),
-           (SELECT v.value FROM indicator_values v WHERE v.record_id = r.id AND v.name = 'rms_raw' ORDER BY v.channel LIMIT 1)
-    FROM records r JOIN streams s ON s.id = r.stream_key WHERE s.run_id = ? ORDER BY r.id)SQL");
-  st.bind(1, run_id);
+           (SELECT v.channel FROM indicator_values v WHERE v.record_id = r.id AND v.name = ?1 ORDER BY v.channel LIMIT 1),
+           (SELECT v.value FROM indicator_values v WHERE v.record_id = r.id AND v.name = ?1 ORDER BY v.channel LIMIT 1)
+    FROM records r JOIN streams s ON s.id = r.stream_key WHERE s.run_id = ?2 ORDER BY r.id)SQL");
+  st.bind(1, to_string(dsp::Indicator::rms_raw)).bind(2, run_id);
   while (st.step()) {
     StoredRunRecord r;
     r.stream_sequence = static_cast<std::uint64_t>(st.get_int(0));

@@ -76,7 +76,7 @@ Moments moments(std::span<const T> x) {
 }  // namespace
 
 std::string mean_carrier_indicator_name(const FrequencyBand& range) {
-  return "mean_carrier_hz_" + std::to_string(std::llround(range.low_hz)) + "_" +
+  return std::string(kMeanCarrierIndicatorPrefix) + std::to_string(std::llround(range.low_hz)) + "_" +
          std::to_string(std::llround(range.high_hz));
 }
 

@@ -5,6 +5,7 @@
 // by dsp/record_analyzer.hpp. Existing names never change spelling.
 #include <array>
 #include <cstdint>
+#include <string_view>
 
 namespace gearwatch::dsp {
 
@@ -48,6 +49,10 @@ inline constexpr std::array kAllIndicators{
 };
 /// The stored name, e.g. "rms_sa".
 const char* to_string(Indicator indicator) noexcept;
+
+/// The stored name's prefix of the mean-carrier indicators, "mean_carrier_hz_<low>_<high>"
+/// (dsp/record_analyzer.hpp names them; the report and storage find them by it).
+inline constexpr std::string_view kMeanCarrierIndicatorPrefix = "mean_carrier_hz_";
 
 /// The criterion a band of the filter-bank tree was selected by (stored as its to_string in
 /// band_selections.criterion; the filter bank's criteria carry the same names). Existing names
