@@ -160,7 +160,7 @@ struct WmBet {
   double lambda, weight;
 };
 constexpr WmBet kWmChangeBets[] = {{0.35, 0.25}, {1.0, 0.25}, {3.0, 0.5}};
-// The detector before this change: one trend martingale from the first point (b = 1 only).
+// For comparison: a single trend martingale from the first point (b = 1 only), bets 0.1 ... 3.
 constexpr WmBet kWmTrendBets[] = {{0.1, 0.1}, {0.2, 0.1}, {0.35, 0.1}, {0.6, 0.1}, {1.0, 0.1}, {3.0, 0.5}};
 
 template <typename Bets>
@@ -247,7 +247,7 @@ TEST_CASE("A ramp after a flat baseline of any length is named within 4 rising p
     // longer baseline costs ln(b(b+1)) in the prior but makes each new maximum rarer (1 / j), which wins.
     CHECK(k == (n <= 51 ? 4 : 3));
   }
-  // The trend martingale from the first point (the detector before) loses its bets on the
+  // A single trend martingale from the first point loses its bets on the
   // baseline's noise: with the same tied baseline it needs 4, 5, 6, 8, 11 rising points after
   // 2, 3, 8, 20, 30 records.
   CHECK(wm_closed_form_delay(2, false, kWmTrendBets, false) == 4);
