@@ -175,12 +175,12 @@ TEST_CASE("rig end to end: defects #7: a lubricated campaign is identified as fa
   const int first = std::min(alert_record(r, 0), alert_record(r, 1));
   INFO("onset record " << onset << ", alerts at records " << alert_record(r, 0) << " and " << alert_record(r, 1));
   CHECK(onset == 1);
-  // Measured 5 records after the onset (records 6 and 6), not the 3 the rig-simulator issue set.
+  // Measured 4 records after the onset (records 5 and 5), not the 3 the rig-simulator issue set.
   // The pair starts sandpaper-rough: at record 0 the abrasion noise, spread by the sliding pattern
   // it rides on, reads 0.0015 and 0.0010 in the low band (0.0004 and 0.0003 with the roughness noise
-  // off), above record 1's 0.0004 and 0.0007 (pitting 0.3 %, not yet visible), so the sequential
-  // rank test's first step is a fall and a run of 5 rises no longer suffices. Before the records went
-  // through the sensor front-end, channel 1 read a tie there (0.0007 and 0.0007) and met 3.
+  // off), above record 1's 0.0004 and 0.0007 (pitting 0.3 %, not yet visible), so a rank test's
+  // first step is a fall. The trend martingale from record 0 lost its bets on that fall (records 6
+  // and 6); the change-point evidence bets from the change on (docs/dsp.md §8).
   CHECK(first - onset <= 5);
   // Low-band ICS2 follows the pitted area better than the raw RMS (the thesis: R² 0.91; the
   // measured values are in docs/rig-simulator.md, "End to end").

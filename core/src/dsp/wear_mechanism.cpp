@@ -155,54 +155,94 @@ namespace {
 // ln sinh(x) for x > 0 without overflow.
 double log_sinh(double x) { return x + std::log1p(-std::exp(-2.0 * x)) - std::log(2.0); }
 
-struct MixtureComponent {
+double log_add(double a, double b) {
+  if (a == -INFINITY) return b;
+  if (b == -INFINITY) return a;
+  const double top = std::max(a, b);
+  return top + std::log(std::exp(a - top) + std::exp(b - top));
+}
+
+struct BetComponent {
   double lambda, weight;
 };
-constexpr std::array<MixtureComponent, 6> kRisingMixture{
-    {{0.1, 0.1}, {0.2, 0.1}, {0.35, 0.1}, {0.6, 0.1}, {1.0, 0.1}, {3.0, 0.5}}};
+// Each change point's bet, mixed over lambda. lambda = 3 bets almost everything on each point after
+// the change being the highest so far (a rising ICS2: the pits grow); lambda = 1 and 0.35 keep
+// winning when the post-change points stand above the baseline but in shuffled order (a noisy rise,
+// or a step once the pits' ICS2 saturates).
+constexpr std::array<BetComponent, 3> kRisingBets{{{0.35, 0.25}, {1.0, 0.25}, {3.0, 0.5}}};
 
-// ln of the mixture martingale over the given y sequence (already in order, all finite).
-double log_rising_evidence(const std::vector<double>& y) {
-  std::array<double, kRisingMixture.size()> log_m{};
-  for (std::size_t j = 1; j < y.size(); ++j) {
-    double d = 0.0;
-    for (std::size_t i = 0; i < j; ++i) d += (y[j] > y[i]) - (y[j] < y[i]);
-    const double count = static_cast<double>(j + 1);
-    for (std::size_t k = 0; k < kRisingMixture.size(); ++k) {
-      const double l = kRisingMixture[k].lambda;
-      log_m[k] += l * d - (log_sinh(count * l) - std::log(count) - log_sinh(l));
-    }
+// ln of one point's bet factor exp(lambda D_j) j sinh(lambda) / sinh(j lambda): its mean over
+// D_j uniform on {-(j-1), -(j-3), ..., j-1} is 1.
+double log_bet_factor(double lambda, double d, std::size_t count) {
+  if (count < 2) return 0.0;  // the first point has no rank to bet on
+  const double j = static_cast<double>(count);
+  return lambda * d - (log_sinh(j * lambda) - std::log(j) - log_sinh(lambda));
+}
+
+// D_j = sum_{i<j} sign(y_j - y_i) for every point j.
+std::vector<double> sequential_rank_scores(const std::vector<double>& y) {
+  std::vector<double> d(y.size(), 0.0);
+  for (std::size_t j = 1; j < y.size(); ++j)
+    for (std::size_t i = 0; i < j; ++i) d[j] += (y[j] > y[i]) - (y[j] < y[i]);
+  return d;
+}
+
+// ln M_n over the given y sequence (in order, all finite); see rising_change_evidence.
+// log_product[k] = ln prod_{j<=n} of component k's factors; log_started[k] = ln sum over the change
+// points b already started of change_point_prior(b) / prod_{j<=b} (component k's factors), so that
+// component k's part of M_n is weight_k exp(log_product + log_started).
+double log_rising_change_evidence(const std::vector<double>& y) {
+  const std::vector<double> d = sequential_rank_scores(y);
+  std::array<double, kRisingBets.size()> log_product{}, log_started;
+  log_started.fill(-INFINITY);
+  for (std::size_t j = 0; j < y.size(); ++j) {
+    if (j >= 1)  // a change after the first j points starts betting with point j + 1
+      for (std::size_t k = 0; k < kRisingBets.size(); ++k)
+        log_started[k] = log_add(log_started[k], std::log(change_point_prior(j)) - log_product[k]);
+    for (std::size_t k = 0; k < kRisingBets.size(); ++k)
+      log_product[k] += log_bet_factor(kRisingBets[k].lambda, d[j], j + 1);
   }
-  double top = -INFINITY;
-  for (std::size_t k = 0; k < log_m.size(); ++k) top = std::max(top, std::log(kRisingMixture[k].weight) + log_m[k]);
-  double sum = 0.0;
-  for (std::size_t k = 0; k < log_m.size(); ++k) sum += std::exp(std::log(kRisingMixture[k].weight) + log_m[k] - top);
-  return top + std::log(sum);
+  // Change points not yet reached hold their prior weight: sum_{b >= n} 1/(b(b+1)) = 1/n.
+  double log_m = y.empty() ? 0.0 : -std::log(static_cast<double>(y.size()));
+  for (std::size_t k = 0; k < kRisingBets.size(); ++k)
+    log_m = log_add(log_m, std::log(kRisingBets[k].weight) + log_product[k] + log_started[k]);
+  return log_m;
 }
 
 }  // namespace
 
-double rising_trend_evidence(std::span<const double> x, std::span<const double> y) {
-  if (x.size() != y.size()) throw std::invalid_argument("rising_trend_evidence: x and y differ in length");
+double change_point_prior(std::size_t baseline_points) {
+  if (baseline_points == 0) return 0.0;
+  const double b = static_cast<double>(baseline_points);
+  return 1.0 / (b * (b + 1.0));
+}
+
+double rising_change_evidence(std::span<const double> x, std::span<const double> y) {
+  if (x.size() != y.size()) throw std::invalid_argument("rising_change_evidence: x and y differ in length");
   std::vector<std::pair<double, double>> pairs;
   for (std::size_t i = 0; i < x.size(); ++i)
     if (std::isfinite(x[i]) && std::isfinite(y[i])) pairs.emplace_back(x[i], y[i]);
   std::stable_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<double> ordered;
   for (const auto& p : pairs) ordered.push_back(p.second);
-  return std::exp(std::min(log_rising_evidence(ordered), 700.0));
+  return std::exp(std::min(log_rising_change_evidence(ordered), 700.0));
 }
 
 double rising_evidence_threshold(double significance) { return 2.0 / significance; }
 
-std::size_t minimum_points_for_evidence(double significance) {
+std::size_t post_change_points_for_evidence(std::size_t baseline_points, double significance) {
   const double bar = rising_evidence_threshold(significance);
-  std::vector<double> y;
-  for (std::size_t n = 1; n < 1000; ++n) {
-    y.push_back(static_cast<double>(n));
-    if (std::exp(log_rising_evidence(y)) >= bar) return n;
+  std::vector<double> y(baseline_points, 0.0);  // a flat baseline: all tied
+  for (std::size_t k = 1; k < 1000; ++k) {
+    y.push_back(static_cast<double>(k));
+    if (std::exp(log_rising_change_evidence(y)) >= bar) return k;
   }
   return 1000;
+}
+
+std::size_t minimum_points_for_evidence(double significance) {
+  // One flat point then a rise is a rise from the first point: the first point has no rank.
+  return 1 + post_change_points_for_evidence(1, significance);
 }
 
 double am_noise_ics2(double depth, int harmonics) {
@@ -275,7 +315,7 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
   const double bar = rising_evidence_threshold(alpha);
   const double material_rise = material_ics2_rise(settings);
   for (auto [band, values] : {std::pair{&v.low_band, &low}, std::pair{&v.high_band, &high}}) {
-    band->rising_evidence = rising_trend_evidence(cycles, *values);
+    band->rising_evidence = rising_change_evidence(cycles, *values);
     band->significant_rise = band->rising_evidence >= bar;
     band->rise = rise_over_lowest(*values);
     band->material = material_rise <= 0.0 || band->rise >= material_rise;  // share 0: materiality off

@@ -3,8 +3,8 @@
 // ICS2 trend in the low carrier band and not the high band -> fatigue pitting; high and not low
 // -> abrasive wear; both -> both; neither -> none; too short a history -> undetermined.
 // A band "rises" when its rise is both significant and material:
-// - significant: a test-martingale on the sequential ranks of the band's history
-//   (rising_trend_evidence) reaches 2/alpha, so re-deciding at every new record keeps the chance
+// - significant: a mixture over change points of test-martingales on the sequential ranks of the
+//   band's history (rising_change_evidence) reaches 2/alpha, so re-deciding at every new record keeps the chance
 //   that a stationary history ever raises a verdict below the configured significance, however
 //   long the history grows (Ville's inequality);
 // - material: the newest ICS2 stands at least material_ics2_rise() above the lowest earlier value
@@ -64,16 +64,24 @@ TrendTest trend_test(std::span<const double> x, std::span<const double> y, doubl
 /// Smallest number of points at which a perfectly monotonic series can reach `significance`.
 std::size_t minimum_points_for_trend(double significance);
 
-/// Evidence that y rises along x, as a test-martingale (an "e-value") at the newest point. Pairs are
-/// ordered by x, non-finite y dropped. The j-th point's sequential rank gives
-/// D_j = sum_{i<j} sign(y_j - y_i); for an exchangeable (stationary, no trend) sequence the D_j are
+/// Evidence that y rises after some change point, as a test-martingale (an "e-value") at the newest
+/// point. Pairs are ordered by x, non-finite y dropped. The j-th point's sequential rank gives
+/// D_j = sum_{i<j} sign(y_j - y_i); for an exchangeable (stationary, no change) sequence the D_j are
 /// independent, uniform on {-(j-1), -(j-3), ..., j-1}, with E exp(lambda D_j) = sinh(j lambda) /
-/// (j sinh lambda). So M_n = sum_k w_k prod_j exp(lambda_k D_j) j sinh(lambda_k) / sinh(j lambda_k)
-/// has mean 1 at every n, and P(M_n >= 1/a for some n) <= a for every history length (Ville). Ties
-/// only shrink D_j towards 0, which keeps M a supermartingale. The mixture puts half its weight on
-/// lambda = 3 (a perfectly rising run of n points reaches almost n!) and the rest on 0.1 ... 1 (slow,
-/// noisy rises after a long flat history).
-double rising_trend_evidence(std::span<const double> x, std::span<const double> y);
+/// (j sinh lambda), so each bet factor e_j(lambda) = exp(lambda D_j) j sinh(lambda) / sinh(j lambda)
+/// has mean 1. A change after b baseline points bets from point b + 1 on:
+/// L_b(n) = prod_{j=b+1..n} e_j (1 before), a test-martingale of its own. The evidence mixes them,
+///   M_n = sum_{b>=1} change_point_prior(b) sum_k w_k L_b(n; lambda_k),
+/// with prior weights summing to 1, so M_n is again a test-martingale: P(M_n >= 1/a for some n) <= a
+/// for every history length (Ville), the guarantee of a single trend martingale, while a baseline of
+/// any length costs only ln(b(b+1)) instead of the bets lost on its noise order. Ties only shrink
+/// D_j towards 0, which keeps M a supermartingale. Half the bet weight is on lambda = 3 (each point
+/// after the change the highest so far), the rest on 1 and 0.35 (a noisy or saturating rise).
+double rising_change_evidence(std::span<const double> x, std::span<const double> y);
+
+/// The prior weight of a change after b baseline points: 1 / (b (b + 1)) (b >= 1; 0 for b = 0), which
+/// sums to 1. b = 1 is a rise from the first point (the first point has no rank to bet on).
+double change_point_prior(std::size_t baseline_points);
 
 /// The evidence a band needs for a rising verdict: 2 / significance (each band gets half of the
 /// significance, so a stationary channel raises any wear verdict with probability <= significance).
@@ -81,6 +89,10 @@ double rising_evidence_threshold(double significance);
 
 /// Smallest number of points at which a perfectly rising series reaches rising_evidence_threshold.
 std::size_t minimum_points_for_evidence(double significance);
+
+/// After a flat (tied) baseline of `baseline_points` points, the number of strictly rising points
+/// at which rising_change_evidence first reaches rising_evidence_threshold.
+std::size_t post_change_points_for_evidence(std::size_t baseline_points, double significance);
 
 /// ICS2 (Eq. 4.3, H harmonics) of a band holding only Gaussian noise whose amplitude is modulated
 /// as 1 + depth cos(gear-mesh angle): its squared envelope's mean is 1 + depth^2/2, its lines
@@ -119,7 +131,7 @@ struct WearMechanismVerdict {
 };
 
 /// Uses settings.trend_significance and settings.wear_min_band_share. Points are sorted by cycles
-/// internally. A band is rising when its rising_trend_evidence reaches rising_evidence_threshold
+/// internally. A band is rising when its rising_change_evidence reaches rising_evidence_threshold
 /// and its newest ICS2 is at least material_ics2_rise above the lowest earlier one; Mann-Kendall's
 /// `decreasing` is reported only.
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
