@@ -133,6 +133,8 @@ struct CampaignResult {
   std::size_t inspections = 0;
   std::size_t depth_from_record = 0;      // first record whose depth is scored
   std::vector<double> depth_errors;
+  std::size_t depth_interval_scored = 0;  // scored depth records with a depth interval
+  std::size_t depth_interval_covered = 0; // of those, whose interval holds the truth's mean depth
   pg::LimitScore pitting, wear;
   std::optional<double> pitting_crossing, wear_crossing;   // the truth's, cycles
   StageSeconds stages;
@@ -266,7 +268,12 @@ class CampaignBench {
     result_.depth_from_record = changed >= 2 ? from : 0;
     for (std::size_t i = result_.depth_from_record; i < reports_.size(); ++i) {
       const double truth = states_[i].combined_mean_wear_depth_m;
-      if (truth > 0) result_.depth_errors.push_back(pg::relative_error(reports_[i].summary.combined_mean_depth_m, truth));
+      if (!(truth > 0)) continue;
+      result_.depth_errors.push_back(pg::relative_error(reports_[i].summary.combined_mean_depth_m, truth));
+      const wear::Forecast& f = reports_[i].forecast;
+      if (!f.valid || !(f.depth_high_m > 0)) continue;
+      ++result_.depth_interval_scored;
+      if (f.depth_low_m <= truth && truth <= f.depth_high_m) ++result_.depth_interval_covered;
     }
   }
 
@@ -297,6 +304,8 @@ class CampaignBench {
                                                   opt(r.forecast.pitting.cycles_left_high)}},
                          {"wear_cycles_left", {opt(r.forecast.wear.cycles_left_low), opt(r.forecast.wear.cycles_left),
                                                opt(r.forecast.wear.cycles_left_high)}},
+                         {"combined_mean_depth_m", {r.forecast.depth_low_m, r.forecast.depth_mean_m, r.forecast.depth_high_m}},
+                         {"shape_depth_ratio", r.forecast.shape_depth_ratio},
                          {"flags", flags}, {"evidence", r.forecast.evidence}}}});
     }
   }
@@ -399,6 +408,7 @@ struct TargetRow {
 
 struct Summary {
   pg::ErrorSummary depth, pitting_cycles, wear_cycles;
+  std::size_t depth_interval_scored = 0, depth_interval_covered = 0;
   pg::LimitScore pitting, wear, limits;
   std::vector<TargetRow> targets;
   std::size_t failed = 0;
@@ -422,6 +432,8 @@ Summary summarise(const std::vector<CampaignResult>& results) {
     }
     ++ran;
     depth.insert(depth.end(), r.depth_errors.begin(), r.depth_errors.end());
+    s.depth_interval_scored += r.depth_interval_scored;
+    s.depth_interval_covered += r.depth_interval_covered;
     pitting.push_back(r.pitting);
     wear.push_back(r.wear);
     s.mean_campaign_seconds += r.seconds;
@@ -467,6 +479,12 @@ nlohmann::json errors_json(const pg::ErrorSummary& e) {
           {"median_abs", number_or_null(e.median_abs)}};
 }
 
+/// The depth interval's share of scored records holding the truth's combined mean depth.
+nlohmann::json depth_interval_json(std::size_t scored, std::size_t covered) {
+  return {{"scored", scored}, {"covered", covered},
+          {"coverage", number_or_null(scored ? static_cast<double>(covered) / static_cast<double>(scored) : std::nan(""))}};
+}
+
 nlohmann::json limit_json(const pg::LimitScore& l, const std::optional<double>& crossing, bool with_crossing) {
   nlohmann::json errors = nlohmann::json::array();
   for (double e : l.errors) errors.push_back(number_or_null(e));
@@ -497,6 +515,7 @@ nlohmann::json campaign_json(const CampaignResult& r) {
             {"depth_scored_from_record", r.depth_from_record},
             {"depth_errors", depth},
             {"depth", errors_json(pg::summarise_errors(r.depth_errors, kDepthTarget))},
+            {"depth_interval", depth_interval_json(r.depth_interval_scored, r.depth_interval_covered)},
             {"pitting", limit_json(r.pitting, r.pitting_crossing, true)},
             {"wear", limit_json(r.wear, r.wear_crossing, true)},
             {"stage_seconds", stages_json(r.stages)},
@@ -518,6 +537,7 @@ nlohmann::json report_json(const BenchSetup& setup, const std::vector<CampaignRe
                         {"config", o.config.empty() ? "built-in defaults (the demo's)" : o.config}}},
           {"campaigns", campaigns},
           {"summary", {{"depth", errors_json(s.depth)},
+                       {"depth_interval", depth_interval_json(s.depth_interval_scored, s.depth_interval_covered)},
                        {"pitting", limit_json(s.pitting, std::nullopt, false)},
                        {"wear", limit_json(s.wear, std::nullopt, false)},
                        {"failed_campaigns", s.failed},
@@ -562,6 +582,11 @@ void print_table(const std::vector<CampaignResult>& results, const Summary& s, d
               "pitting %s (%zu), wear %s (%zu)\n",
               results.size(), s.failed, percent(s.depth.median_abs).c_str(), s.depth.count, percent(s.pitting_cycles.median_abs).c_str(),
               s.pitting_cycles.count, percent(s.wear_cycles.median_abs).c_str(), s.wear_cycles.count);
+  std::printf("depth interval (nominal %.0f%%) holds the truth's mean depth in %s of %zu scored records\n", 100 * wear::kNominalCoverage,
+              percent(s.depth_interval_scored ? static_cast<double>(s.depth_interval_covered) / static_cast<double>(s.depth_interval_scored)
+                                              : std::nan(""))
+                  .c_str(),
+              s.depth_interval_scored);
   for (const auto& t : s.targets) {
     const bool count_only = t.name == "intervals_excluding_a_reached_limit";
     const std::string value = count_only ? std::to_string(static_cast<long>(t.value)) : percent(t.value);

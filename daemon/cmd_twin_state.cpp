@@ -223,6 +223,9 @@ class TwinStateCommand {
   static void print_prediction(const json& pr) {
     std::printf("\nprediction at %s cycles (%s Hz, %s N m):\n", num(pr["cycles"], "%.6g").c_str(), num(pr["forecast_speed_hz"]).c_str(),
                 num(pr["forecast_torque_nm"]).c_str());
+    std::printf("  combined mean depth %s um [%s, %s] (the interval spans the profile shapes RMS_SA cannot tell apart)\n",
+                num(pr.value("wear_mean_m", json()), "%.3f", 1e6).c_str(), num(pr.value("wear_mean_low_m", json()), "%.3f", 1e6).c_str(),
+                num(pr.value("wear_mean_high_m", json()), "%.3f", 1e6).c_str());
     std::printf("  wear depth %s mm limit: %s cycles left [%s, %s]\n", num(pr["wear_limit_m"], "%.3f", 1e3).c_str(),
                 num(pr["wear_cycles_left"], "%.4g").c_str(), num(pr["wear_cycles_left_low"], "%.4g").c_str(),
                 num(pr["wear_cycles_left_high"], "%.4g").c_str());

@@ -251,6 +251,8 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
                {"k_wear_last_insensitive", m.k_wear_last_insensitive},
                {"k_wear_elasticity", m.k_wear_elasticity},
                {"k_wear_identified_si", m.k_wear_identified_si},
+               {"profile_shape", {{"depth_ratio", m.shape_depth_ratio}, {"peak_ratio", m.shape_peak_ratio},
+                                  {"depth_elasticity", m.shape_depth_elasticity}, {"cycles", m.shape_cycles}}},
                {"rms_sa_reference", {{"ratio", m.rms_sa_reference_ratio}, {"records", reference_records}, {"closed", m.rms_sa_reference_closed}}},
                {"log_k_wear", posterior_json(m.log_k_wear)},
                {"log_k_pitting", posterior_json(m.log_k_pitting)},
@@ -305,6 +307,14 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     m.k_wear_elasticity = j.value("k_wear_elasticity", 1.0);
     // Added with the upper-bound rule: an older state's K_wear is its last identified one.
     m.k_wear_identified_si = j.value("k_wear_identified_si", m.k_wear_si);
+    // Added with the profile-shape term: an older state has none until its next kept K_wear update.
+    if (j.contains("profile_shape")) {
+      const json& ps = j.at("profile_shape");
+      m.shape_depth_ratio = ps.at("depth_ratio").get<double>();
+      m.shape_peak_ratio = ps.at("peak_ratio").get<double>();
+      m.shape_depth_elasticity = ps.at("depth_elasticity").get<double>();
+      m.shape_cycles = ps.at("cycles").get<double>();
+    }
     // Added with the commissioning ratio: an older state has none (1, closed: its pair is past commissioning).
     if (j.contains("rms_sa_reference")) {
       const json& ref = j.at("rms_sa_reference");

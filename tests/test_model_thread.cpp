@@ -104,7 +104,13 @@ TEST_CASE("model thread: the stored state round-trips every double exactly", "[m
   m.pitting_points = {{1.0 / 3.0, 1e-300, 0.1 + 0.2}, {2.0 / 3.0, 5e-324, 1.0 - 1e-16}};
   m.recent_k_wear = {1.65e-12, std::nextafter(1.65e-12, 1.0)};
   m.calibration_inspection_id = 123456789012345;
+  m.shape_depth_ratio = 1.0 / 3.0 + 1.0, m.shape_peak_ratio = 0.1 + 3.4, m.shape_depth_elasticity = std::nextafter(0.9, 1.0);
+  m.shape_cycles = 2.0 / 3.0 * 1e6;
   const wear::ModelMemory back = daemon::memory_from_json(daemon::memory_to_json(m));
+  CHECK(back.shape_depth_ratio == 1.0 / 3.0 + 1.0);
+  CHECK(back.shape_peak_ratio == 0.1 + 3.4);
+  CHECK(back.shape_depth_elasticity == std::nextafter(0.9, 1.0));
+  CHECK(back.shape_cycles == 2.0 / 3.0 * 1e6);
   CHECK(daemon::memory_to_json(back) == daemon::memory_to_json(m));
   CHECK(back.current.state.pinion_depth_m == m.current.state.pinion_depth_m);
   CHECK(back.current.state.cycles == m.current.state.cycles);

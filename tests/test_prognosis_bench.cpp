@@ -189,6 +189,17 @@ void check_depth_scores(const nlohmann::json& c) {
     if (truth > 0) expected.push_back(error_json(trace[i]["model"]["combined_mean_depth_m"], truth));
   }
   check_equal_numbers(c["depth_errors"], expected);
+  // The depth interval's coverage over the same records: [low, high] of the forecast's depth holds the truth.
+  std::size_t scored = 0, covered = 0;
+  for (std::size_t i = c["depth_scored_from_record"]; i < trace.size(); ++i) {
+    const double truth = trace[i]["truth"]["combined_mean_depth_m"];
+    const auto& f = trace[i]["forecast"];
+    if (!(truth > 0) || !f["valid"].get<bool>() || !(f["combined_mean_depth_m"][2].get<double>() > 0)) continue;
+    ++scored;
+    if (f["combined_mean_depth_m"][0].get<double>() <= truth && truth <= f["combined_mean_depth_m"][2].get<double>()) ++covered;
+  }
+  CHECK(c["depth_interval"]["scored"] == scored);
+  CHECK(c["depth_interval"]["covered"] == covered);
 }
 
 /// The pitting forecasts' errors and coverage, recomputed from the trace and the truth's crossing.

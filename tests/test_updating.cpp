@@ -144,8 +144,11 @@ TEST_CASE("updating: Eq. 7.13 iterates K <- K meas/sim exactly, and says why whe
   CHECK(std::abs(u.simulated_after - measured) < std::abs(u.simulated_before - measured));
   CHECK(r.k_wear_si == u.new_value);   // the best K found is kept
   // One comparison, the commissioning probe (one twin run at K_wear's lower bound: it moves RMS_SA,
-  // so this pair's first record is no commissioning record and no probe follows), six iterations.
-  CHECK(calls == 1 + 1 + 6);
+  // so this pair's first record is no commissioning record and no probe follows), six iterations,
+  // and the profile-shape reading of the kept K: this RMS_SA sees only the mean depth, so the
+  // concentrated shape at the model's mean gives the model's RMS_SA at its first run (ρ = 1).
+  CHECK(calls == 1 + 1 + 6 + 1);
+  CHECK(r.forecast.shape_depth_ratio == Approx(1.0).epsilon(1e-12));
 }
 
 TEST_CASE("updating: a simulation that does not follow K, or diverges, leaves K alone with the reason",
@@ -471,7 +474,10 @@ TEST_CASE("prognosis #1: the K_wear root-find reaches the closed-form root of RM
   const double k0 = s.loop.k_wear_si, k1 = k0 * measured / twin.rms(k0);
   CHECK(u.elasticity == Approx(std::log(twin.rms(k1) / twin.rms(k0)) / std::log(k1 / k0)).epsilon(1e-6));
   CHECK(u.iterations <= 1 + 5);
-  CHECK(twin.calls == 1 + 1 + u.iterations);  // one comparison, the commissioning probe at K_wear's lower bound, one simulation per re-run
+  // One comparison, the commissioning probe at K_wear's lower bound, one simulation per re-run, and
+  // the profile-shape reading of the kept K (this RMS_SA follows the mean depth only: one run, ρ = 1).
+  CHECK(twin.calls == 1 + 1 + u.iterations + 1);
+  CHECK(r.forecast.shape_depth_ratio == Approx(1.0).epsilon(1e-12));
   CHECK(r.k_wear_si == u.new_value);
   CHECK(u.evidence.find("elasticity") != std::string::npos);
 }

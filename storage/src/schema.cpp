@@ -16,7 +16,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 14> kMigrations{
+constexpr std::array<const char*, 15> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -598,7 +598,26 @@ ALTER TABLE health_snapshots ADD COLUMN mqtt_resent INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE health_snapshots ADD COLUMN mqtt_resend_gone INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE health_snapshots ADD COLUMN mqtt_resend_ignored INTEGER NOT NULL DEFAULT 0;
 )SQL",
-    // 13 -> 14: `gearwatch publish`, the sender in a unit of its own ([mqtt] sender = "publisher"),
+    // 13 -> 14: the combined mean depth's interval (docs/model.md, "Profile-shape term"): RMS_SA
+    // fixes a depth only for a given profile shape, so the depth is given over the shapes' range.
+    R"SQL(
+ALTER TABLE model_runs ADD COLUMN wear_mean_low_m REAL;
+ALTER TABLE model_runs ADD COLUMN wear_mean_high_m REAL;
+DROP VIEW predictions;
+CREATE VIEW predictions AS
+  SELECT m.id AS run_id, m.created_at, m.record_id, m.gear_pair, m.cycles, m.speed_hz, m.torque_nm,
+         m.k_wear, m.k_pitting, m.rms_sa_measured, m.rms_sa_simulated, m.ics2_low, m.ics2_density_estimate,
+         m.wear_mean_m, m.wear_max_m, m.pitting_mean, m.pitting_max,
+         m.wear_limit_m, m.wear_cycles_left, m.wear_cycles_left_low, m.wear_cycles_left_high,
+         m.pitting_limit, m.pitting_cycles_left, m.pitting_cycles_left_low, m.pitting_cycles_left_high,
+         m.forecast_speed_hz, m.forecast_torque_nm, m.forecast_failure,
+         (SELECT group_concat(i.issue, ',') FROM model_run_issues i WHERE i.run_id = m.id) AS issues, m.detail,
+         m.interval_coverage,
+         (SELECT group_concat(f.flag, ',') FROM model_run_forecast_flags f WHERE f.run_id = m.id) AS forecast_flags,
+         m.forecast_evidence, m.wear_mean_low_m, m.wear_mean_high_m
+  FROM model_runs m WHERE m.advanced = 1;
+)SQL",
+    // 14 -> 15: `gearwatch publish`, the sender in a unit of its own ([mqtt] sender = "publisher"),
     // stores its counters here: it acquires nothing, so it has no run (docs/mqtt.md).
     R"SQL(
 CREATE TABLE publisher_health (

@@ -144,8 +144,8 @@ class BatchWriter {
                 " pinion_wear_mean_m, gear_wear_mean_m, pitting_mean, pitting_max, pitting_max_fraction, forecast_speed_hz,"
                 " forecast_torque_nm, wear_limit_m, wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit,"
                 " pitting_cycles_left, pitting_cycles_left_low, pitting_cycles_left_high, forecast_failure, profile, forecast_curve, detail,"
-                " interval_coverage, forecast_evidence)"
-                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                " interval_coverage, forecast_evidence, wear_mean_low_m, wear_mean_high_m)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
     s.bind(1, record_id).bind(2, m.gear_pair).bind(3, r.observation.cycles).bind(4, r.observation.speed_hz)
         .bind(5, r.observation.torque_nm).bind(6, advanced ? 1 : 0).bind(7, m.skipped_records);
     if (m.skipped_record_ids.empty()) s.bind_null(8);
@@ -169,6 +169,7 @@ class BatchWriter {
     s.bind(36, opt(f.valid, f.coverage));
     if (!f.valid || f.evidence.empty()) s.bind_null(37);
     else s.bind(37, f.evidence);
+    s.bind(38, opt(f.valid && f.depth_high_m > 0, f.depth_low_m)).bind(39, opt(f.valid && f.depth_high_m > 0, f.depth_high_m));
     s.run();
     const std::int64_t run_id = db_.last_insert_rowid();
     if (m.store_state) {

@@ -384,9 +384,9 @@ TEST_CASE("mqtt: a schema 11 outbox migrates to the current schema, and a refuse
   }
   Database d(path.string(), Database::Mode::read_write);
   gearwatch::storage::open_and_migrate(d);
-  CHECK(d.user_version() == 14);
+  CHECK(d.user_version() == 15);
   CHECK(scalar(path, "SELECT count(*) FROM outbox") == 4);
-  // Version 14: the publisher's own counters, the same mqtt_* columns as health_snapshots'.
+  // Version 15: the publisher's own counters, the same mqtt_* columns as health_snapshots'.
   CHECK(scalar(path, "SELECT count(*) FROM pragma_table_info('publisher_health') p JOIN pragma_table_info('health_snapshots') h"
                      " ON p.name = h.name WHERE p.name LIKE 'mqtt_%'") == 11);
   CHECK(scalar(path, "SELECT count(*) FROM pragma_table_info('health_snapshots') WHERE name = 'mqtt_publish_refused'") == 1);

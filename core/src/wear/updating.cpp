@@ -10,6 +10,7 @@
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/rig.hpp"
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/wear/profile_shape.hpp"
 
 namespace gearwatch::wear {
 
@@ -43,6 +44,10 @@ void add_issue(ModelRunReport& r, ModelIssue issue, const std::string& text) {
 }
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Twin runs the profile-shape reading may take (a secant on ln depth from the model's mean;
+// RMS_SA is close to proportional to the depth, so it needs about three).
+constexpr int kShapeMatchEvaluations = 8;
 
 // "speed 90 Hz outside the model's [0.5, 60] Hz", the torque likewise, or both joined by
 // "and"; empty when both lie inside their ranges. Only what is out of range is named.
@@ -504,7 +509,10 @@ void TwinModel::check_k_wear(const ModelObservation& obs, ModelRunReport& report
   else
     apply_k_wear_result(keep, search, u, *simulated, report);
   u.evidence = k_wear_evidence(search, u, ratio, *simulated);
-  if (keep) learn_k_wear(u, *simulated, obs.cycles);
+  if (keep) {
+    learn_k_wear(u, *simulated, obs.cycles);
+    read_profile_shape(obs, u.simulated_after, u);
+  }
   // Not identified: RMS_SA insensitive, no K reproduced the record, or only a bound (the interval then widens).
   memory_.k_wear_last_insensitive = u.outcome == UpdateOutcome::insensitive || !keep;
   report.updates.push_back(std::move(u));
@@ -618,6 +626,44 @@ void TwinModel::learn_k_wear(KUpdate& u, double simulated, double cycles) {
   memory_.k_wear_elasticity = e;
   const double sd = rms_scatter_sd() / std::abs(e);
   u.evidence += learn(memory_.log_k_wear, std::log(u.new_value), sd * sd, cycles);
+}
+
+void TwinModel::read_profile_shape(const ModelObservation& obs, double simulated, KUpdate& u) {
+  // RMS_SA fixes a mean depth only for a given profile shape (docs/model.md, "Profile-shape term").
+  // The other end of what the model's own Archard law can give: no load-sharing feedback, the
+  // wear concentrated where the unworn pair's load and sliding put it. Its mean depth at the
+  // RMS_SA the model's profile gives here (the model's, not the measured: only the shape differs).
+  const double model_mean = summarise(memory_.current.state).combined_mean_depth_m;
+  if (!(model_mean > 0) || !(simulated > 0)) return;
+  WearLoopOptions o = settings_.loop;
+  o.operating_point = {obs.speed_hz, obs.torque_nm};
+  std::string note;
+  try {
+    const BlueLoop unworn(params_, o);
+    const WearState unit = concentrated_wear_shape(unworn.geometry(), unworn.current_load(), o.profile_points);
+    const double peak = peak_to_mean(unit);
+    const twin::OperatingPoint op{obs.speed_hz, obs.torque_nm};
+    auto rms = [&](const WearState& w) { return simulator_(w, op); };
+    const ShapeDepthMatch m = match_shape_to_rms_sa(unit, simulated, model_mean, rms, settings_.convergence_tolerance,
+                                                    kShapeMatchEvaluations, o.depth_limit_m / peak);
+    if (!m.valid) {
+      note = "profile shape: not read (" + m.why + "); the last reading kept";
+    } else {
+      memory_.shape_depth_ratio = m.mean_depth_m / model_mean;
+      memory_.shape_peak_ratio = peak;
+      memory_.shape_depth_elasticity =
+          std::isfinite(m.depth_elasticity) && m.depth_elasticity > settings_.min_wear_elasticity ? m.depth_elasticity : 1.0;
+      memory_.shape_cycles = obs.cycles;
+      char b[300];
+      std::snprintf(b, sizeof b, "profile shape: at RMS_SA %.5g the concentrated-wear shape (deepest point %.3g x its mean) has mean depth %.4g um, %.3g x the model's %.4g um (%d twin runs; d ln RMS_SA / d ln depth %.3g)",
+                    simulated, peak, 1e6 * m.mean_depth_m, memory_.shape_depth_ratio, 1e6 * model_mean, m.evaluations,
+                    memory_.shape_depth_elasticity);
+      note = b;
+    }
+  } catch (const std::exception& e) {
+    note = std::string("profile shape: not read (") + e.what() + "); the last reading kept";
+  }
+  u.evidence += (u.evidence.empty() ? "" : "; ") + note;
 }
 
 bool TwinModel::commission_rms_sa(const ModelObservation& obs, double measured, double simulated, ModelRunReport& report) {
@@ -1615,7 +1661,8 @@ PittingMiss TwinModel::pitting_path_miss(Forecast& f, const LogPosterior& pp, co
 }
 
 void TwinModel::interval_ends(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const IntervalInputs& in,
-                              LogInterval& lw, LogInterval& lp) const {
+                              LogInterval& lw, LogInterval& lp, std::vector<ForecastPoint>* fast_curve,
+                              std::vector<ForecastPoint>* slow_curve) const {
   const double horizon = settings_.forecast_horizon_cycles, q = settings_.log_k_q_per_cycle();
   // The random walk accumulates to each end's own crossing: first to the nominal one, then once
   // more to the crossing the first pass gave (beyond the horizon: the horizon).
@@ -1635,8 +1682,11 @@ void TwinModel::interval_ends(Forecast& f, const Crossing& nominal, const WearLo
     f.k_wear_high = std::max(std::exp(lw.high), kw);
     f.k_pitting_low = in.pitting.valid ? std::min(std::exp(lp.low), kp) : kp;
     f.k_pitting_high = in.pitting.valid ? std::max(std::exp(lp.high), kp) : kp;
-    fast = run_forecast(f.k_wear_high, f.k_pitting_high, o, nullptr);
-    slow = run_forecast(f.k_wear_low, f.k_pitting_low, o, nullptr);
+    const bool last = pass == 1;
+    if (last && fast_curve) fast_curve->clear();
+    if (last && slow_curve) slow_curve->clear();
+    fast = run_forecast(f.k_wear_high, f.k_pitting_high, o, last ? fast_curve : nullptr);
+    slow = run_forecast(f.k_wear_low, f.k_pitting_low, o, last ? slow_curve : nullptr);
   }
   f.wear.cycles_left_low = fast.wear;
   f.wear.cycles_left_high = slow.wear;
@@ -1652,10 +1702,12 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
   in.wear_form_var = rms_model_form(f, in.wear).log_k_var;
   in.pitting_miss_var = pitting_path_miss(f, in.pitting, ev).extra_var;
   LogInterval lw, lp;
-  interval_ends(f, nominal, o, in, lw, lp);
+  std::vector<ForecastPoint> fast_curve, slow_curve;
+  interval_ends(f, nominal, o, in, lw, lp, &fast_curve, &slow_curve);
   f.log_sd_wear = lw.sd;
   f.log_sd_pitting = in.pitting.valid ? lp.sd : 0.0;
   hold_nominal(f);
+  apply_profile_shape(f, fast_curve, slow_curve);
   f.evidence += (f.evidence.empty() ? "" : "; ") + interval_text("K_wear", lw, in.widen);
   if (in.pitting.valid) f.evidence += "; " + interval_text("K_pitting", lp, 1.0);
 }
@@ -1666,6 +1718,49 @@ void TwinModel::hold_nominal(Forecast& f) {
     if (lf->cycles_left && (!lf->cycles_left_low || *lf->cycles_left_low > *lf->cycles_left)) lf->cycles_left_low = lf->cycles_left;
     if (lf->cycles_left_high && (!lf->cycles_left || *lf->cycles_left_high < *lf->cycles_left)) lf->cycles_left_high = lf->cycles_left;
   }
+}
+
+void TwinModel::apply_profile_shape(Forecast& f, const std::vector<ForecastPoint>& fast, const std::vector<ForecastPoint>& slow) const {
+  // The depth read from RMS_SA holds for the model's shape; the concentrated-wear shape at the same
+  // RMS_SA has ρ times its mean (docs/model.md, "Profile-shape term"). Each shape's own interval
+  // (the RMS_SA scatter through d ln RMS_SA / d ln depth) and their union is the depth interval.
+  const double now = memory_.current.state.cycles, mean = summarise(memory_.current.state).combined_mean_depth_m;
+  const double rho = memory_.shape_depth_ratio;
+  const double log_sd = rms_scatter_sd() / std::max(std::abs(memory_.shape_depth_elasticity), settings_.min_wear_elasticity);
+  const std::array<double, 2> depth = shape_depth_interval(mean, rho, log_sd, kNominalCoverage);
+  f.depth_mean_m = mean;
+  f.depth_low_m = depth[0];
+  f.depth_high_m = depth[1];
+  if (!(rho > 0) || !(memory_.shape_peak_ratio > 0)) return;
+  f.shape_depth_ratio = rho;
+  f.shape_peak_ratio = memory_.shape_peak_ratio;
+  f.flags.push_back(ForecastFlag::wear_profile_shape_unidentified);
+  // The concentrated shape keeps its form (no feedback moves it), so its deepest point is its peak
+  // ratio times its mean, and its mean follows the model's path times ρ (the same K and operating
+  // history, read through the other shape): its crossing along the fast, nominal and slow paths.
+  const double factor = rho * memory_.shape_peak_ratio, limit = settings_.wear_limit_m;
+  auto path = [&](const std::vector<ForecastPoint>& curve) {
+    std::vector<std::array<double, 2>> p{{0.0, mean}};
+    for (const ForecastPoint& q : curve) p.push_back({q.cycles - now, q.mean_depth_m});
+    return p;
+  };
+  const std::optional<double> near = scaled_path_crossing(path(fast), factor, limit);
+  const std::optional<double> at_nominal = scaled_path_crossing(path(f.curve), factor, limit);
+  const std::optional<double> far = scaled_path_crossing(path(slow), factor, limit);
+  // The slow run stops once it has told its story; a concentrated crossing not on its path is then
+  // unknown, and the far end stays the model's.
+  const bool slow_to_horizon = !slow.empty() && slow.back().cycles >= now + settings_.forecast_horizon_cycles * (1 - 1e-9);
+  if (near && (!f.wear.cycles_left_low || *near < *f.wear.cycles_left_low)) f.wear.cycles_left_low = near;
+  if (f.wear.cycles_left_high) {
+    if (far && *far > *f.wear.cycles_left_high) f.wear.cycles_left_high = far;
+    else if (!far && slow_to_horizon) f.wear.cycles_left_high.reset();
+  }
+  auto cycles_text = [](const std::optional<double>& c) { return c ? fmt("%.4g", *c) : std::string("beyond the horizon"); };
+  char b[500];
+  std::snprintf(b, sizeof b, "profile shape (read at %.4g cycles): RMS_SA cannot tell the worn profile's shape; the concentrated-wear shape at the same RMS_SA has %.3g x the model's mean depth and its deepest point %.3g x its mean: depth %.4g um, interval %.4g to %.4g um; its wear limit crossing %s / %s / %s cycles (fast / nominal / slow K) joins the wear interval",
+                memory_.shape_cycles, rho, memory_.shape_peak_ratio, 1e6 * mean, 1e6 * depth[0], 1e6 * depth[1], cycles_text(near).c_str(),
+                cycles_text(at_nominal).c_str(), cycles_text(far).c_str());
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
 }
 
 LoopSnapshot TwinModel::with_mean_pitting(double density) const {

@@ -13,6 +13,7 @@ const char* to_string(ForecastFlag flag) noexcept {
     case ForecastFlag::rms_sa_model_form_disagreement: return "rms_sa_model_form_disagreement";
     case ForecastFlag::pitting_limit_reached_by_model_only: return "pitting_limit_reached_by_model_only";
     case ForecastFlag::ics2_saturated_density_lower_bound: return "ics2_saturated_density_lower_bound";
+    case ForecastFlag::wear_profile_shape_unidentified: return "wear_profile_shape_unidentified";
   }
   return "unknown";
 }

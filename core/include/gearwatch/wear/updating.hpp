@@ -213,6 +213,11 @@ struct ModelMemory {
   double rms_sa_reference_ratio = 1.0;
   std::vector<std::array<double, 2>> rms_sa_reference_records;
   bool rms_sa_reference_closed = false;
+  /// The profile-shape term (profile_shape.hpp), read at the last kept K_wear update: the
+  /// concentrated-wear shape's combined mean depth over the model's at the model's RMS_SA (0: not
+  /// read), that shape's deepest point over its mean, d ln RMS_SA / d ln depth there (1 when not
+  /// read) and the update's cycles (−1: none).
+  double shape_depth_ratio = 0, shape_peak_ratio = 0, shape_depth_elasticity = 1.0, shape_cycles = -1;
   /// (cycles, ICS2 low) of the pair's records: ICS2 at an inspection's cycles. The daemon rebuilds
   /// it from the model's stored runs rather than storing it in the state.
   std::vector<std::array<double, 2>> ics2_series;
@@ -326,6 +331,9 @@ class TwinModel {
   std::string k_wear_evidence(const WearSearch& search, const KUpdate& u, double ratio, double simulated) const;
   /// A kept update as a measurement of ln K_wear (posterior step, evidence appended).
   void learn_k_wear(KUpdate& u, double simulated, double cycles);
+  /// The profile-shape term at a kept update: the concentrated-wear shape at this record's operating
+  /// point matched to the model's RMS_SA (`simulated`); stored in the memory, evidence appended.
+  void read_profile_shape(const ModelObservation& obs, double simulated, KUpdate& u);
   /// Runs one candidate; on failure sets u.outcome and search.why and returns nullopt.
   std::optional<WearTrial> wear_trial(double k, WearSearch& search, KUpdate& u);
   bool wear_converged(const WearTrial& t, double measured) const;
@@ -430,9 +438,13 @@ class TwinModel {
   };
   /// The ends: K at the quantiles with the random walk to each end's own crossing (two passes).
   void interval_ends(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const IntervalInputs& in, LogInterval& lw,
-                     LogInterval& lp) const;
+                     LogInterval& lp, std::vector<ForecastPoint>* fast_curve = nullptr,
+                     std::vector<ForecastPoint>* slow_curve = nullptr) const;
   /// The interval holds the nominal forecast.
   static void hold_nominal(Forecast& f);
+  /// The depth interval and the wear interval's ends widened by the profile-shape term (the
+  /// concentrated shape's deepest point along the model's mean-depth paths, nominal, fast and slow).
+  void apply_profile_shape(Forecast& f, const std::vector<ForecastPoint>& fast, const std::vector<ForecastPoint>& slow) const;
   /// The current state with its pitting profile rescaled to a mean density.
   LoopSnapshot with_mean_pitting(double density) const;
   /// The model's density at the pitting limit while the ICS2-derived one is not: no "0 left" from

@@ -28,6 +28,7 @@ enum class ForecastFlag : std::uint8_t {
   rms_sa_model_form_disagreement,   ///< ln(RMS_SA meas / sim) over the stored records beyond the scatter: model-form variance added
   pitting_limit_reached_by_model_only,  ///< the model's density is at the limit, the ICS2-derived one is not: cycles left from the measured density, near end 0
   ics2_saturated_density_lower_bound,   ///< ICS2 at or above its saturation level: the ICS2-derived density is a lower bound, its upper end unknown: near end 0, far end from the bound
+  wear_profile_shape_unidentified,  ///< RMS_SA cannot tell the worn profile's shape: depth and wear interval span the model's and the concentrated-wear shape
 };
 inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exceed_scatter,
                                               ForecastFlag::ics2_density_ahead_of_model,
@@ -37,7 +38,8 @@ inline constexpr std::array kAllForecastFlags{ForecastFlag::rms_sa_residuals_exc
                                               ForecastFlag::k_wear_not_identified,
                                               ForecastFlag::rms_sa_model_form_disagreement,
                                               ForecastFlag::pitting_limit_reached_by_model_only,
-                                              ForecastFlag::ics2_saturated_density_lower_bound};
+                                              ForecastFlag::ics2_saturated_density_lower_bound,
+                                              ForecastFlag::wear_profile_shape_unidentified};
 const char* to_string(ForecastFlag flag) noexcept;
 
 /// Which coefficient an update changed.
@@ -137,6 +139,11 @@ struct Forecast {
   double coverage = kNominalCoverage;      ///< the interval's nominal coverage
   double log_sd_wear = 0, log_sd_pitting = 0;   ///< SD of ln K behind each interval (widening included)
   LimitForecast wear, pitting;
+  /// The combined mean depth now and its interval (the RMS_SA scatter and the profile-shape term).
+  double depth_mean_m = 0, depth_low_m = 0, depth_high_m = 0;
+  /// The profile-shape term: the concentrated-wear shape's mean depth over the model's at one
+  /// RMS_SA (0: not read), and its deepest point over its mean.
+  double shape_depth_ratio = 0, shape_peak_ratio = 0;
   std::vector<ForecastFlag> flags;         ///< why the interval is wider or nearer than the posterior alone
   std::string evidence;                    ///< one line: the numbers behind the flags
   std::vector<ForecastPoint> curve;        ///< at the nominal K
