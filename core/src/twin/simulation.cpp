@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <numeric>
 #include <numbers>
 
 #include "gearwatch/dsp/decimation.hpp"
 #include "gearwatch/twin/integration.hpp"
+#include "gearwatch/twin/modal_analysis.hpp"
 
 namespace gearwatch::twin {
 
@@ -41,21 +43,36 @@ double record_start_s(const SimulationOptions& options) {
   return options.settle_s > 0 ? std::ceil(options.settle_s * settle_rate(options)) / settle_rate(options) : 0.0;
 }
 
-void reserve_signals(SimulationResult& result, std::size_t count, bool casing_only) {
-  result.casing_acceleration.reserve(count);
+// Sized, not reserved: the periodic path writes samples out of order.
+void size_signals(SimulationResult& result, std::size_t count, bool casing_only) {
+  result.casing_acceleration.resize(count);
   if (casing_only) return;
-  result.time_s.reserve(count);
-  result.mesh_force_n.reserve(count);
-  result.mesh_stiffness_n_m.reserve(count);
-  result.transmission_error_m.reserve(count);
-  result.gte_m.reserve(count);
-  result.pairs_in_contact.reserve(count);
+  result.time_s.resize(count);
+  result.mesh_force_n.resize(count);
+  result.mesh_stiffness_n_m.resize(count);
+  result.transmission_error_m.resize(count);
+  result.gte_m.resize(count);
+  result.pairs_in_contact.resize(count);
+}
+
+// The slowest elastic mode of the linearised model (Hz): the periodicity check must watch at least
+// half its period, or a transient in it could look periodic between two boundaries.
+double slowest_elastic_mode_hz(const GearboxMatrices& m) {
+  Eigen::VectorXd frequencies;
+  Eigen::MatrixXd shapes;
+  solve_modes(m.mass, m.linearised_stiffness(), frequencies, shapes);
+  const double rigid_below = 1e-3 * frequencies.maxCoeff();  // the free rotation solves to ~0 Hz
+  for (Eigen::Index i = 0; i < frequencies.size(); ++i)
+    if (frequencies[i] > rigid_below) return frequencies[i];
+  return frequencies.maxCoeff();
 }
 
 // Follows one tooth pair over a full pass: the pair that enters in the first full cycle.
 class ContactProfileTracker {
  public:
   explicit ContactProfileTracker(const GearGeometry& geometry) : geometry_(geometry) {}
+
+  bool done() const { return done_; }
 
   void observe(const GearboxDynamics::MeshState& ms, ContactForceProfile& prof) {
     if (done_) return;
@@ -121,33 +138,79 @@ SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDe
   result.rhs_evaluations += settle(dynamics, state, options);
   const double t0 = record_start_s(options);
   const auto count = static_cast<std::size_t>(samples_d);
-  reserve_signals(result, count, casing_only);
-  std::vector<double> input_angle_deviation;
-  input_angle_deviation.reserve(count);
+  size_signals(result, count, casing_only);
+  std::vector<double> input_angle_deviation(count);
   ContactProfileTracker profile(geometry);
   const double path_gain = p.casing_path_gain;  // the sensor's path; 1 leaves y6 as it is
-  result.rhs_evaluations += integrate_sampled(dynamics, state, t0, options.sample_rate_hz, count, options, [&](const State& x, double t) {
+  double period_square_sum = 0;  // of the casing acceleration since the last period boundary
+  std::size_t period_samples = 0;
+  auto observe = [&](const State& x, double t, std::size_t i, bool in_order) {
+    if (in_order) ++period_samples;
     if (casing_only) {
-      result.casing_acceleration.push_back(path_gain * dynamics.acceleration(x, t, y6));
-      input_angle_deviation.push_back(x[theta1]);
+      const double a = path_gain * dynamics.acceleration(x, t, y6);
+      result.casing_acceleration[i] = a;
+      input_angle_deviation[i] = x[theta1];
+      if (in_order) period_square_sum += a * a;
       return;
     }
     const auto ms = dynamics.mesh_state(x, t);
-    result.casing_acceleration.push_back(path_gain * dynamics.acceleration(x, t, y6, ms.force));
-    input_angle_deviation.push_back(x[theta1]);
-    result.time_s.push_back(t - t0);
-    result.mesh_force_n.push_back(ms.force);
-    result.mesh_stiffness_n_m.push_back(ms.stiffness);
-    result.transmission_error_m.push_back(ms.deflection);
-    result.gte_m.push_back(ms.gte);
-    result.pairs_in_contact.push_back(ms.pairs);
-    profile.observe(ms, result.contact_profile);
-  });
+    const double a = path_gain * dynamics.acceleration(x, t, y6, ms.force);
+    result.casing_acceleration[i] = a;
+    input_angle_deviation[i] = x[theta1];
+    result.time_s[i] = t - t0;
+    result.mesh_force_n[i] = ms.force;
+    result.mesh_stiffness_n_m[i] = ms.stiffness;
+    result.transmission_error_m[i] = ms.deflection;
+    result.gte_m[i] = ms.gte;
+    result.pairs_in_contact[i] = ms.pairs;
+    if (in_order) {
+      period_square_sum += a * a;
+      profile.observe(ms, result.contact_profile);
+    }
+  };
+  if (!options.periodic) {
+    std::size_t i = 0;
+    result.rhs_evaluations += integrate_sampled(dynamics, state, t0, options.sample_rate_hz, count, options,
+                                                [&](const State& x, double t) { observe(x, t, i++, true); });
+  } else {
+    // The check (SimulationOptions::periodic_tolerance, periodic_tacho_tolerance_samples): the casing
+    // acceleration at two boundaries against its RMS over the last period, and the input shaft's
+    // angle against the angle it turns in that fraction of a sample (what moves a tacho edge).
+    const double tolerance = options.periodic_tolerance;
+    const double angle_tolerance =
+        options.periodic_tacho_tolerance_samples * 2.0 * std::numbers::pi * op.input_speed_hz / options.sample_rate_hz;
+    PeriodicTiling tiling;
+    tiling.period_s = periodic_inputs_period_s(p, deviation, op, options);
+    const double watch_s = 0.5 / slowest_elastic_mode_hz(matrices);
+    tiling.agreeing_periods = static_cast<std::size_t>(std::ceil(watch_s / tiling.period_s)) + 1;
+    tiling.agrees = [&](const State& earlier, const State& later, double b) {
+      const double rms = period_samples > 0 ? std::sqrt(period_square_sum / static_cast<double>(period_samples)) : 0.0;
+      period_square_sum = 0;
+      period_samples = 0;
+      if (!casing_only && !profile.done()) return false;
+      const double da = path_gain * (dynamics.acceleration(later, b, y6) - dynamics.acceleration(earlier, b, y6));
+      return rms > 0 && std::abs(da) <= tolerance * rms && std::abs(later[theta1] - earlier[theta1]) <= angle_tolerance;
+    };
+    const SampledRun run = integrate_sampled_periodic(dynamics, state, t0, options.sample_rate_hz, count, options, tiling, observe);
+    result.rhs_evaluations += run.evaluations;
+    result.tiled = run.tiled;
+    result.tiled_from_s = run.tiled ? run.tiled_from_s - t0 : 0.0;
+  }
   result.tacho_edges = tacho_edges(op.input_speed_hz, t0, options.sample_rate_hz, input_angle_deviation);
   return result;
 }
 
 }  // namespace
+
+double periodic_inputs_period_s(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                                const SimulationOptions& options) {
+  if (!std::isfinite(op.input_speed_hz) || op.input_speed_hz <= 0) throw TwinParameterError("input speed must be positive");
+  const long long z1 = p.gears.pinion_teeth, z2 = p.gears.gear_teeth;
+  long long mesh_periods = 1;
+  if (!deviation.pinion_per_tooth.empty() || options.shaft_run_out.pinion_m != 0) mesh_periods = std::lcm(mesh_periods, z1);
+  if (!deviation.gear_per_tooth.empty() || options.shaft_run_out.gear_m != 0) mesh_periods = std::lcm(mesh_periods, z2);
+  return static_cast<double>(mesh_periods) / (static_cast<double>(z1) * op.input_speed_hz);
+}
 
 SimulationResult simulate(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
                           double duration_s, const SimulationOptions& options) {
@@ -186,6 +249,7 @@ CasingSignal simulate_casing_signal(const GearboxParameters& p, const ToothProfi
   const std::size_t pad = front_end.padding_outputs();
   SimulationOptions fine = options;
   fine.sample_rate_hz = fs * factor;
+  fine.periodic_tacho_tolerance_samples = options.periodic_tacho_tolerance_samples * factor;  // in the record's samples
   const std::size_t fine_count = (count + 2 * pad) * static_cast<std::size_t>(factor);
   const SimulationResult r = run_simulation(p, deviation, op, (static_cast<double>(fine_count) - 0.5) / fine.sample_rate_hz, fine, true);
   if (r.casing_acceleration.size() != fine_count) throw TwinParameterError("front-end: unexpected oversampled length");

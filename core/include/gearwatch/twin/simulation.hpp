@@ -40,12 +40,32 @@ struct SimulationOptions {
   /// the band. simulate() always samples directly.
   int front_end_oversampling = 0;
 
-  /// The reference integration (the default), named for the tests and benchmarks comparing with it.
-  static SimulationOptions reference() { return SimulationOptions{}; }
-  /// The fast integration: the same dopri5 at a relative tolerance of 1e-4, fewer than half the
-  /// steps; its casing acceleration stays within the bounds docs/twin.md states of reference()'s.
-  static SimulationOptions fast() {
+  /// The periodic path (on by default): every input the twin takes (constant speed and torque, the
+  /// tooth profiles, misalignment, run-out) repeats with the period periodic_inputs_period_s()
+  /// gives, so once the start-up transient has died out the record repeats with it. The run is
+  /// integrated until consecutive period boundaries agree (periodic_tolerance), one more period
+  /// is integrated as the template, and every later sample is read off the template's dense
+  /// output at its own time less whole periods. A run that never agrees, or whose record is too
+  /// short for a template and one repeat, is the full integration, step for step.
+  bool periodic = true;
+  /// The periodicity check between period boundaries: the casing acceleration within this fraction
+  /// of its RMS over a period, the same bound as fast()'s on the whole record's difference.
+  double periodic_tolerance = 1e-3;
+  /// And the input shaft's angle within the angle it turns in this many samples: a third of the
+  /// tacho bound docs/twin.md states (the tiled record differs by the transient at two times).
+  double periodic_tacho_tolerance_samples = 3e-3;
+
+  /// The reference integration: the full record integrated step by step (no periodic path), named
+  /// for the tests and benchmarks comparing with it.
+  static SimulationOptions reference() {
     SimulationOptions o;
+    o.periodic = false;
+    return o;
+  }
+  /// The fast integration: the reference's dopri5 at a relative tolerance of 1e-4, fewer than half
+  /// the steps; its casing acceleration stays within the bounds docs/twin.md states of reference()'s.
+  static SimulationOptions fast() {
+    SimulationOptions o = reference();
     o.relative_tolerance = 1e-4;
     return o;
   }
@@ -75,7 +95,17 @@ struct SimulationResult {
   ContactForceProfile contact_profile;       ///< the first full tooth-pair pass after settling
   double brake_torque_nm = 0;
   std::size_t rhs_evaluations = 0;
+  /// The periodic path was taken: samples from `tiled_from_s` (from the record's start) on are the
+  /// template period's.
+  bool tiled = false;
+  double tiled_from_s = 0;
 };
+
+/// The period every input of a run repeats with: one mesh period for uniform tooth profiles and no
+/// run-out; a pinion turn (z1 mesh periods) with per-tooth pinion profiles or a pinion run-out; a
+/// gear turn (z2) likewise; the hunting period (lcm(z1, z2) mesh periods) with both.
+double periodic_inputs_period_s(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                                const SimulationOptions& options);
 
 /// Simulates `duration_s` of steady running after `settle_s`, starting from the static equilibrium
 /// of the linearised model. Throws TwinParameterError (bad input) or TwinDivergenceError.

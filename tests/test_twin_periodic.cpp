@@ -1,0 +1,200 @@
+// The twin's periodic path (SimulationOptions::periodic, the default) against the full reference
+// integration (SimulationOptions::reference()) on the same parameters.
+// Bounds, fixed before the comparison: the casing acceleration's RMS difference within 1e-3 of the
+// reference's RMS (fast()'s bound) and its largest difference within 1e-2 of it; its RMS, the 0-2 kHz
+// band RMS, the first three mesh harmonics' amplitudes (those above 1e-3 of the RMS) and RMS_SA within 1e-3 relative; the tacho
+// edges within 1e-2 samples (the reference carries the start-up's free oscillation of the lightly
+// damped lowest torsional mode, which a template read after the check leaves out).
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <numbers>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "gearwatch/dsp/record_analyzer.hpp"
+#include "gearwatch/twin/simulation.hpp"
+
+namespace test_twin_periodic {  // this file's own: the test files compile together (unity build)
+
+using namespace gearwatch;
+using namespace gearwatch::twin;
+
+namespace {
+
+constexpr double kRelative = 1e-3;
+constexpr double kLargest = 1e-2;
+constexpr double kEdgeSamples = 1e-2;
+
+double periodic_rms(const std::vector<float>& x) {
+  double sum = 0;
+  for (float v : x) sum += static_cast<double>(v) * v;
+  return std::sqrt(sum / static_cast<double>(x.size()));
+}
+
+// Amplitude of the h-th mesh harmonic by a direct DFT over the whole number of mesh periods the
+// record holds (the mesh frequency is z1 × the input speed).
+double periodic_mesh_harmonic(const std::vector<float>& x, double fs, double mesh_hz, int h) {
+  const double f = h * mesh_hz;
+  const auto periods = std::floor(static_cast<double>(x.size()) / fs * mesh_hz);
+  const auto n = static_cast<std::size_t>(std::floor(periods * fs / mesh_hz));
+  std::complex<double> sum = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    sum += static_cast<double>(x[i]) * std::polar(1.0, -2.0 * std::numbers::pi * f * static_cast<double>(i) / fs);
+  return 2.0 * std::abs(sum) / static_cast<double>(n);
+}
+
+double periodic_rms_sa(const CasingSignal& s) {
+  Record record;
+  record.sample_rate_hz = s.sample_rate_hz;
+  record.channels.push_back(s.acceleration);
+  record.channel_numbers.push_back(0);
+  record.tacho_edges[0] = s.tacho_edges;
+  dsp::RecordAnalyzer analyzer(RigSpec{}, dsp::SignalProcessingSettings{});
+  const auto value = analyzer.analyze(record, 0).value("rms_sa");
+  REQUIRE(value.has_value());
+  return *value;
+}
+
+// 10 µm at the pinion's root falling to 0 at the tip, as the RMS_SA test wears it.
+ToothProfileDeviation periodic_wear() {
+  ToothProfileDeviation wear;
+  for (int i = 0; i <= 20; ++i) wear.pinion.push_back(10e-6 * std::pow(1.0 - i / 20.0, 2));
+  return wear;
+}
+
+// Pits on two pinion teeth: 5 µm deep over the middle fifth of the profile (pitting at the pitch
+// line), every other tooth ideal; so the inputs repeat with a pinion turn, not a mesh period.
+ToothProfileDeviation periodic_pitting(int pinion_teeth) {
+  ToothProfileDeviation pits;
+  pits.pinion_per_tooth.assign(static_cast<std::size_t>(pinion_teeth), std::vector<double>(21, 0.0));
+  for (int tooth : {3, 11})
+    for (int i = 8; i <= 12; ++i) pits.pinion_per_tooth[static_cast<std::size_t>(tooth)][static_cast<std::size_t>(i)] = 5e-6;
+  return pits;
+}
+
+// The record both ways (simulate_casing_signal: the front-end's record with the default settling),
+// compared within the bounds above.
+void compare_periodic_with_reference(double speed_hz, const ToothProfileDeviation& deviation, double duration_s) {
+  const GearboxParameters p;
+  const OperatingPoint op{speed_hz, 20.0};
+  const double fs = 100000.0;
+  SimulationOptions periodic;  // the default
+  periodic.sample_rate_hz = fs;
+  SimulationOptions reference = SimulationOptions::reference();
+  reference.sample_rate_hz = fs;
+  REQUIRE(periodic.periodic);
+  REQUIRE_FALSE(reference.periodic);
+  const CasingSignal a = simulate_casing_signal(p, deviation, op, duration_s, periodic);
+  const CasingSignal r = simulate_casing_signal(p, deviation, op, duration_s, reference);
+  REQUIRE(a.acceleration.size() == r.acceleration.size());
+  const double r_rms = periodic_rms(r.acceleration);
+  double diff = 0, largest = 0;
+  for (std::size_t i = 0; i < r.acceleration.size(); ++i) {
+    const double d = static_cast<double>(a.acceleration[i]) - r.acceleration[i];
+    diff += d * d;
+    largest = std::max(largest, std::abs(d));
+  }
+  CHECK(std::sqrt(diff / static_cast<double>(r.acceleration.size())) <= kRelative * r_rms);
+  CHECK(largest <= kLargest * r_rms);
+  CHECK(periodic_rms(a.acceleration) == Approx(r_rms).epsilon(kRelative));
+  const std::vector<double> a64(a.acceleration.begin(), a.acceleration.end());
+  const std::vector<double> r64(r.acceleration.begin(), r.acceleration.end());
+  CHECK(lowpass_rms(a64, fs, 2000.0) == Approx(lowpass_rms(r64, fs, 2000.0)).epsilon(kRelative));
+  const double mesh_hz = speed_hz * p.gears.pinion_teeth;
+  int lines = 0;
+  for (int h = 1; h <= 3; ++h) {
+    const double ref_amplitude = periodic_mesh_harmonic(r.acceleration, fs, mesh_hz, h);
+    if (ref_amplitude <= 1e-3 * r_rms) continue;  // compared only where a line is there, not the floor
+    ++lines;
+    CHECK(periodic_mesh_harmonic(a.acceleration, fs, mesh_hz, h) == Approx(ref_amplitude).epsilon(kRelative));
+  }
+  CHECK(lines >= 1);
+  REQUIRE(a.tacho_edges.size() == r.tacho_edges.size());
+  double worst_edge = 0;
+  for (std::size_t i = 0; i < r.tacho_edges.size(); ++i) worst_edge = std::max(worst_edge, std::abs(a.tacho_edges[i] - r.tacho_edges[i]));
+  CHECK(worst_edge <= kEdgeSamples);
+  CHECK(periodic_rms_sa(a) == Approx(periodic_rms_sa(r)).epsilon(kRelative));
+}
+
+// The same parameters through simulate() at the record's rate: the periodic path is taken for them.
+SimulationResult periodic_run(double speed_hz, const ToothProfileDeviation& deviation, double duration_s,
+                              const GearboxParameters& p = {}) {
+  SimulationOptions o;
+  o.sample_rate_hz = 100000.0;
+  return simulate(p, deviation, {speed_hz, 20.0}, duration_s, o);
+}
+
+}  // namespace
+
+TEST_CASE("The period every twin input repeats with: a mesh period - a shaft turn - the hunting period", "[twin][twin-periodic]") {
+  const GearboxParameters p;  // 19 / 52 teeth
+  REQUIRE(p.gears.pinion_teeth == 19);
+  REQUIRE(p.gears.gear_teeth == 52);
+  const OperatingPoint op{10.0, 20.0};
+  SimulationOptions o;
+  CHECK(periodic_inputs_period_s(p, periodic_wear(), op, o) == Approx(1.0 / 190.0).epsilon(1e-15));
+  CHECK(periodic_inputs_period_s(p, periodic_pitting(19), op, o) == Approx(0.1).epsilon(1e-15));
+  o.face_misalignment_rad = 1e-4;  // a flank separation: the same on every pair
+  CHECK(periodic_inputs_period_s(p, {}, op, o) == Approx(1.0 / 190.0).epsilon(1e-15));
+  o.shaft_run_out.gear_m = 1e-6;  // the gear's turn: 52 mesh periods
+  CHECK(periodic_inputs_period_s(p, {}, op, o) == Approx(52.0 / 190.0).epsilon(1e-15));
+  // Pinion teeth and the gear's run-out: lcm(19, 52) = 988 mesh periods, 52 pinion turns (5.2 s).
+  CHECK(periodic_inputs_period_s(p, periodic_pitting(19), op, o) == Approx(5.2).epsilon(1e-15));
+}
+
+TEST_CASE("The periodic twin gives the full integration's record at 10 Hz with wear", "[twin][twin-periodic]") {
+  // 2 s: after a worn start the 22 Hz torsional mode rings for about a second (docs/twin.md).
+  REQUIRE(periodic_run(10.0, periodic_wear(), 2.0).tiled);
+  compare_periodic_with_reference(10.0, periodic_wear(), 2.0);
+}
+
+TEST_CASE("The periodic twin gives the full integration's record at 20 Hz with wear", "[twin][twin-periodic]") {
+  REQUIRE(periodic_run(20.0, periodic_wear(), 1.0).tiled);
+  compare_periodic_with_reference(20.0, periodic_wear(), 1.0);
+}
+
+TEST_CASE("The periodic twin gives the full integration's record of pitted pinion teeth at 10 and 20 Hz", "[twin][twin-periodic]") {
+  ToothProfileDeviation worn_and_pitted = periodic_pitting(19);
+  worn_and_pitted.gear = periodic_wear().pinion;  // and a worn gear on every tooth
+  for (double speed_hz : {10.0, 20.0}) {
+    INFO("input speed " << speed_hz << " Hz");
+    REQUIRE(periodic_run(speed_hz, worn_and_pitted, 1.5).tiled);
+    compare_periodic_with_reference(speed_hz, worn_and_pitted, 1.5);
+  }
+}
+
+TEST_CASE("A twin run whose inputs do not repeat within the record is the full integration sample for sample", "[twin][twin-periodic]") {
+  // Pitted pinion teeth and a gear run-out repeat only every hunting period, 5.2 s at 10 Hz: a 1 s
+  // record holds no template and one repeat.
+  SimulationOptions periodic;
+  periodic.shaft_run_out.gear_m = 2e-6;
+  SimulationOptions reference = SimulationOptions::reference();
+  reference.shaft_run_out = periodic.shaft_run_out;
+  const SimulationResult a = simulate(GearboxParameters{}, periodic_pitting(19), {10.0, 20.0}, 1.0, periodic);
+  const SimulationResult r = simulate(GearboxParameters{}, periodic_pitting(19), {10.0, 20.0}, 1.0, reference);
+  CHECK_FALSE(a.tiled);
+  REQUIRE(a.casing_acceleration.size() == r.casing_acceleration.size());
+  CHECK(a.casing_acceleration == r.casing_acceleration);
+  CHECK(a.transmission_error_m == r.transmission_error_m);
+  CHECK(a.tacho_edges == r.tacho_edges);
+  CHECK(a.rhs_evaluations == r.rhs_evaluations);
+}
+
+TEST_CASE("A twin run whose start-up transient does not die out is the full integration sample for sample", "[twin][twin-periodic]") {
+  // Structural damping a hundredth of the calibrated one: the pedestal modes ring for seconds, so no
+  // period boundaries agree within the record and the check never lets the template start.
+  GearboxParameters p;
+  p.structural_damping_ratio = 5e-4;
+  SimulationOptions reference = SimulationOptions::reference();
+  const SimulationResult a = periodic_run(10.0, {}, 0.5, p);
+  const SimulationResult r = simulate(p, {}, {10.0, 20.0}, 0.5, reference);
+  CHECK_FALSE(a.tiled);
+  REQUIRE(a.casing_acceleration.size() == r.casing_acceleration.size());
+  CHECK(a.casing_acceleration == r.casing_acceleration);
+  CHECK(a.tacho_edges == r.tacho_edges);
+  CHECK(a.rhs_evaluations == r.rhs_evaluations);
+}
+
+}  // namespace test_twin_periodic
