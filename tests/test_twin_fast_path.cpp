@@ -13,45 +13,18 @@
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/twin/simulation.hpp"
+#include "twin_signal_measures.hpp"
 
 namespace test_twin_fast_path {  // this file's own: the test files compile together (unity build)
 
 using namespace gearwatch;
 using namespace gearwatch::twin;
+using namespace gearwatch::testing;
 
 namespace {
 
 constexpr double kRelative = 1e-3;
 
-double rms(const std::vector<float>& x) {
-  double sum = 0;
-  for (float v : x) sum += static_cast<double>(v) * v;
-  return std::sqrt(sum / static_cast<double>(x.size()));
-}
-
-// Amplitude of the h-th mesh harmonic by a direct DFT over the whole number of mesh periods the
-// record holds (the mesh frequency is z1 × the input speed).
-double mesh_harmonic(const std::vector<float>& x, double fs, double mesh_hz, int h) {
-  const double f = h * mesh_hz;
-  const auto periods = std::floor(static_cast<double>(x.size()) / fs * mesh_hz);
-  const auto n = static_cast<std::size_t>(std::floor(periods * fs / mesh_hz));
-  std::complex<double> sum = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    sum += static_cast<double>(x[i]) * std::polar(1.0, -2.0 * std::numbers::pi * f * static_cast<double>(i) / fs);
-  return 2.0 * std::abs(sum) / static_cast<double>(n);
-}
-
-double rms_sa(const CasingSignal& s) {
-  Record record;
-  record.sample_rate_hz = s.sample_rate_hz;
-  record.channels.push_back(s.acceleration);
-  record.channel_numbers.push_back(0);
-  record.tacho_edges[0] = s.tacho_edges;
-  dsp::RecordAnalyzer analyzer(RigSpec{}, dsp::SignalProcessingSettings{});
-  const auto value = analyzer.analyze(record, 0).value("rms_sa");
-  REQUIRE(value.has_value());
-  return *value;
-}
 
 void compare_with_reference(double speed_hz, const ToothProfileDeviation& deviation) {
   const GearboxParameters p;
@@ -65,26 +38,26 @@ void compare_with_reference(double speed_hz, const ToothProfileDeviation& deviat
   const CasingSignal a = simulate_casing_signal(p, deviation, op, 1.0, fast);
   const CasingSignal r = simulate_casing_signal(p, deviation, op, 1.0, reference);
   REQUIRE(a.acceleration.size() == r.acceleration.size());
-  const double r_rms = rms(r.acceleration);
+  const double r_rms = signal_rms(r.acceleration);
   double diff = 0;
   for (std::size_t i = 0; i < r.acceleration.size(); ++i) {
     const double d = static_cast<double>(a.acceleration[i]) - r.acceleration[i];
     diff += d * d;
   }
   CHECK(std::sqrt(diff / static_cast<double>(r.acceleration.size())) <= kRelative * r_rms);
-  CHECK(rms(a.acceleration) == Approx(r_rms).epsilon(kRelative));
+  CHECK(signal_rms(a.acceleration) == Approx(r_rms).epsilon(kRelative));
   const std::vector<double> a64(a.acceleration.begin(), a.acceleration.end());
   const std::vector<double> r64(r.acceleration.begin(), r.acceleration.end());
   CHECK(lowpass_rms(a64, fs, 2000.0) == Approx(lowpass_rms(r64, fs, 2000.0)).epsilon(kRelative));
   const double mesh_hz = speed_hz * p.gears.pinion_teeth;
   for (int h = 1; h <= 3; ++h) {
-    const double ref_amplitude = mesh_harmonic(r.acceleration, fs, mesh_hz, h);
+    const double ref_amplitude = mesh_harmonic_amplitude(r.acceleration, fs, mesh_hz, h);
     REQUIRE(ref_amplitude > 1e-3 * r_rms);  // a line that is there, not the noise floor
-    CHECK(mesh_harmonic(a.acceleration, fs, mesh_hz, h) == Approx(ref_amplitude).epsilon(kRelative));
+    CHECK(mesh_harmonic_amplitude(a.acceleration, fs, mesh_hz, h) == Approx(ref_amplitude).epsilon(kRelative));
   }
   REQUIRE(a.tacho_edges.size() == r.tacho_edges.size());
   for (std::size_t i = 0; i < r.tacho_edges.size(); ++i) CHECK(a.tacho_edges[i] == Approx(r.tacho_edges[i]).margin(1e-6));
-  CHECK(rms_sa(a) == Approx(rms_sa(r)).epsilon(kRelative));
+  CHECK(simulated_signal_rms_sa(a) == Approx(simulated_signal_rms_sa(r)).epsilon(kRelative));
 }
 
 }  // namespace

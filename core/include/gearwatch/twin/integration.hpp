@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <boost/numeric/odeint.hpp>
@@ -13,6 +14,24 @@
 #include "gearwatch/twin/simulation.hpp"
 
 namespace gearwatch::twin {
+
+namespace detail {
+
+/// The divergence checks on one output sample: a non-finite state, or a mesh deflection beyond
+/// options.deflection_limit_m, throws TwinDivergenceError.
+inline void check_sample(const Vector21& mesh, const SimulationOptions& options, const State& x, double t) {
+  double sum = 0;  // one test per sample: a NaN or an infinity anywhere makes the sum non-finite
+  for (double v : x) sum += v;
+  if (!std::isfinite(sum))
+    for (double v : x)
+      if (!std::isfinite(v)) throw TwinDivergenceError("integration diverged: non-finite state at t = " + std::to_string(t) + " s");
+  const double delta = mesh.dot(Eigen::Map<const Vector21>(x.data()));
+  if (std::abs(delta) > options.deflection_limit_m)
+    throw TwinDivergenceError("integration diverged: mesh deflection " + std::to_string(delta) + " m at t = " +
+                              std::to_string(t) + " s exceeds the limit");
+}
+
+}  // namespace detail
 
 /// Integrates an arbitrary GearboxDynamics from `state` at t0, calling observer(state, t) at
 /// t0 + i/rate for i = 0..count-1; dopri5 with dense output and the divergence checks
@@ -35,15 +54,7 @@ std::size_t integrate_sampled(const GearboxDynamics& dynamics, State& state, dou
   for (std::size_t i = 0; i < count; ++i) times[i] = t0 + static_cast<double>(i) / rate;
   const Vector21& g = dynamics.matrices().mesh;
   auto checked_observer = [&](const State& x, double t) {
-    double sum = 0;  // one test per sample: a NaN or an infinity anywhere makes the sum non-finite
-    for (double v : x) sum += v;
-    if (!std::isfinite(sum))
-      for (double v : x)
-        if (!std::isfinite(v)) throw TwinDivergenceError("integration diverged: non-finite state at t = " + std::to_string(t) + " s");
-    const double delta = g.dot(Eigen::Map<const Vector21>(x.data()));
-    if (std::abs(delta) > options.deflection_limit_m)
-      throw TwinDivergenceError("integration diverged: mesh deflection " + std::to_string(delta) + " m at t = " +
-                                std::to_string(t) + " s exceeds the limit");
+    detail::check_sample(g, options, x, t);
     observer(x, t);
   };
   auto stepper = odeint::make_dense_output(options.absolute_tolerance, options.relative_tolerance,
@@ -81,148 +92,179 @@ struct SampledRun {
 /// integrate_sampled with the periodic path: the same dopri5 steps as integrate_sampled (its
 /// dense-output loop, written out so that it can pause), observer(x, t, i, in_order) at sample i.
 /// Checks each period boundary t0 + kT; once `agreeing_periods` boundaries in a row agree with the
-/// first of them, the
-/// next period [b, b + T] is integrated as the template and every later sample i is read off its
-/// dense output at t_i − kT (the state repeats with T), with in_order false. If the template's own
-/// end does not agree with its start, the tiled samples are dropped and the integration carries on
-/// (observer called again for them), so a run that never agrees is exactly the full integration.
-/// The calc_state calls the checks add do not change the steps (dense output is read-only).
+/// first of them, the next period [b, b + T] is integrated as the template and every later sample
+/// i is read off its dense output at t_i − kT (the state repeats with T), with in_order false. If
+/// the template's own end does not agree with its start, the tiled samples are dropped and the
+/// integration carries on (observer called again for them), so a run that never agrees is exactly
+/// the full integration. The calc_state calls the checks add do not change the steps (dense
+/// output is read-only).
 template <class Observer>
-SampledRun integrate_sampled_periodic(const GearboxDynamics& dynamics, State& state, double t0, double rate, std::size_t count,
-                                      const SimulationOptions& options, const PeriodicTiling& tiling, Observer&& observer) {
-  namespace odeint = boost::numeric::odeint;
-  if (!(rate > 0) || !std::isfinite(rate)) throw TwinParameterError("sample rate must be positive");
-  if (!(tiling.period_s > 0) || !std::isfinite(tiling.period_s)) throw TwinParameterError("tiling period must be positive");
-  for (double v : state)
-    if (!std::isfinite(v)) throw TwinDivergenceError("initial state is not finite");
-  SampledRun run;
-  if (count == 0) return run;
-  auto system = [&](const State& x, State& dxdt, double t) {
-    ++run.evaluations;
-    dynamics(x, dxdt, t);
-  };
-  const Vector21& g = dynamics.matrices().mesh;
-  auto check = [&](const State& x, double t) {
-    double sum = 0;
-    for (double v : x) sum += v;
-    if (!std::isfinite(sum))
-      for (double v : x)
-        if (!std::isfinite(v)) throw TwinDivergenceError("integration diverged: non-finite state at t = " + std::to_string(t) + " s");
-    const double delta = g.dot(Eigen::Map<const Vector21>(x.data()));
-    if (std::abs(delta) > options.deflection_limit_m)
-      throw TwinDivergenceError("integration diverged: mesh deflection " + std::to_string(delta) + " m at t = " +
-                                std::to_string(t) + " s exceeds the limit");
-  };
-  auto time_of = [&](std::size_t i) { return t0 + static_cast<double>(i) / rate; };
-  const double period = tiling.period_s;
-  const double last_time = time_of(count - 1);
-  auto stepper = odeint::make_dense_output(options.absolute_tolerance, options.relative_tolerance,
-                                           odeint::runge_kutta_dopri5<State>());
-  auto leq = [](double a, double b, double dt) { return odeint::detail::less_eq_with_sign(a, b, dt); };
-  stepper.initialize(state, t0, 0.1 / rate);
-  check(state, t0);
-  observer(static_cast<const State&>(state), t0, std::size_t{0}, true);
-  std::size_t next = 1;             // the next sample in order
-  int steps_since_output = 0;
-  std::size_t boundary = 1;         // the next boundary is t0 + boundary·T
-  State boundary_state = state, x{};
-  std::size_t agreeing = 0;
-  // The template: [start, start + T); later samples from `first_tiled` on, one cursor per repeat k.
-  bool templating = false;
-  double template_start = 0;
-  std::size_t first_tiled = count;
+class PeriodicSampler {
+ public:
+  PeriodicSampler(const GearboxDynamics& dynamics, double t0, double rate, std::size_t count,
+                  const SimulationOptions& options, const PeriodicTiling& tiling, Observer& observer)
+      : dynamics_(dynamics), t0_(t0), rate_(rate), count_(count), options_(options), tiling_(tiling),
+        observer_(observer), period_(tiling.period_s),
+        stepper_(boost::numeric::odeint::make_dense_output(options.absolute_tolerance, options.relative_tolerance,
+                                                           boost::numeric::odeint::runge_kutta_dopri5<State>())) {
+    if (!(rate > 0) || !std::isfinite(rate)) throw TwinParameterError("sample rate must be positive");
+    if (!(period_ > 0) || !std::isfinite(period_)) throw TwinParameterError("tiling period must be positive");
+  }
+
+  SampledRun run(State& state) {
+    for (double v : state)
+      if (!std::isfinite(v)) throw TwinDivergenceError("initial state is not finite");
+    if (count_ == 0) return run_;
+    start(state);
+    while (templating_ || next_ < count_) {
+      step();
+      const double now = stepper_.current_time(), dt = stepper_.current_time_step();
+      emit_in_order(templating_ ? first_tiled_ : count_, now, dt);
+      if (!templating_) check_boundaries(now, dt);
+      if (!templating_) continue;
+      emit_repeats(now, dt);
+      if (now < template_start_ + period_) continue;
+      if (template_closes()) break;
+      resume_in_order(now, dt);
+    }
+    state = stepper_.current_state();
+    return run_;
+  }
+
+ private:
+  using Stepper = decltype(boost::numeric::odeint::make_dense_output(
+      1.0, 1.0, boost::numeric::odeint::runge_kutta_dopri5<State>()));
   struct Repeat {
-    std::size_t next, end;
+    std::size_t next, end;  // the samples [next, end) read off the template shifted by `shift`
     double shift;
   };
-  std::vector<Repeat> repeats;
-  auto start_template = [&](double start) {
-    first_tiled = static_cast<std::size_t>(std::max(0.0, std::ceil((start + period - t0) * rate)));
-    while (first_tiled < count && time_of(first_tiled) < start + period) ++first_tiled;
-    if (first_tiled >= count) return;
-    templating = true;
-    template_start = start;
-    repeats.clear();
-    for (std::size_t k = 1, i = first_tiled; i < count; ++k) {
-      const double shift = static_cast<double>(k) * period;
-      std::size_t end = i;
-      while (end < count && time_of(end) < start + shift + period) ++end;
-      repeats.push_back({i, end, shift});
-      i = end;
-    }
-  };
-  auto step = [&]() {
-    if (++steps_since_output > options.max_steps_per_sample)
-      throw TwinDivergenceError("integration stalled: more than " + std::to_string(options.max_steps_per_sample) +
+
+  double time_of(std::size_t i) const { return t0_ + static_cast<double>(i) / rate_; }
+  static bool leq(double a, double b, double dt) { return boost::numeric::odeint::detail::less_eq_with_sign(a, b, dt); }
+  double last_time() const { return time_of(count_ - 1); }
+
+  void start(const State& state) {
+    stepper_.initialize(state, t0_, 0.1 / rate_);
+    detail::check_sample(dynamics_.matrices().mesh, options_, state, t0_);
+    observer_(state, t0_, std::size_t{0}, true);
+    boundary_state_ = state;
+  }
+
+  // One dopri5 step, the last one shortened to end on the last sample; bounded per sample.
+  void step() {
+    namespace odeint = boost::numeric::odeint;
+    if (++steps_since_output_ > options_.max_steps_per_sample)
+      throw TwinDivergenceError("integration stalled: more than " + std::to_string(options_.max_steps_per_sample) +
                                 " steps between two samples");
+    auto system = [this](const State& x, State& dxdt, double t) {
+      ++run_.evaluations;
+      dynamics_(x, dxdt, t);
+    };
     try {
-      if (leq(stepper.current_time() + stepper.current_time_step(), last_time, stepper.current_time_step())) {
-        stepper.do_step(system);
-      } else {
-        stepper.initialize(stepper.current_state(), stepper.current_time(), last_time - stepper.current_time());
-        stepper.do_step(system);
-      }
+      if (!leq(stepper_.current_time() + stepper_.current_time_step(), last_time(), stepper_.current_time_step()))
+        stepper_.initialize(stepper_.current_state(), stepper_.current_time(), last_time() - stepper_.current_time());
+      stepper_.do_step(system);
     } catch (const odeint::step_adjustment_error& e) {
       throw TwinDivergenceError(std::string("integration diverged: ") + e.what());
     }
-  };
-  while (templating || next < count) {
-    step();
-    const double now = stepper.current_time(), dt = stepper.current_time_step();
-    const std::size_t order_end = templating ? first_tiled : count;
-    while (next < order_end && leq(time_of(next), now, dt)) {
-      stepper.calc_state(time_of(next), x);
-      check(x, time_of(next));
-      observer(static_cast<const State&>(x), time_of(next), next, true);
-      ++next;
-      steps_since_output = 0;
-    }
-    while (!templating && leq(t0 + static_cast<double>(boundary) * period, now, dt)) {
-      const double b = t0 + static_cast<double>(boundary) * period;
-      stepper.calc_state(b, x);
-      // Each boundary against the first of the run of agreeing ones (the anchor), not against the
-      // one before: a slow transient moves little in one period but its whole swing in half its own.
-      if (tiling.agrees && tiling.agrees(boundary_state, x, b)) {
-        ++agreeing;
+  }
+
+  // Sample i read off the current step's dense output at `read_at` (its own time, or less k periods).
+  void emit(std::size_t i, double read_at, bool in_order) {
+    stepper_.calc_state(read_at, x_);
+    detail::check_sample(dynamics_.matrices().mesh, options_, x_, time_of(i));
+    observer_(static_cast<const State&>(x_), time_of(i), i, in_order);
+    steps_since_output_ = 0;
+  }
+
+  void emit_in_order(std::size_t end, double now, double dt) {
+    for (; next_ < end && leq(time_of(next_), now, dt); ++next_) emit(next_, time_of(next_), true);
+  }
+
+  // Each boundary against the first of the run of agreeing ones (the anchor), not against the one
+  // before: a slow transient moves little in one period but its whole swing in half its own.
+  void check_boundaries(double now, double dt) {
+    while (!templating_ && leq(t0_ + static_cast<double>(boundary_) * period_, now, dt)) {
+      const double b = t0_ + static_cast<double>(boundary_) * period_;
+      stepper_.calc_state(b, x_);
+      if (tiling_.agrees && tiling_.agrees(boundary_state_, x_, b)) {
+        ++agreeing_;
       } else {
-        agreeing = 0;
-        boundary_state = x;
+        agreeing_ = 0;
+        boundary_state_ = x_;
       }
-      ++boundary;
+      ++boundary_;
       // The template must start inside this step (its dense output is read from here on).
-      if (agreeing >= tiling.agreeing_periods && b + period > now && b + 2 * period <= last_time) start_template(b);
-    }
-    if (!templating) continue;
-    for (Repeat& r : repeats)
-      while (r.next < r.end && leq(time_of(r.next) - r.shift, now, dt)) {
-        stepper.calc_state(time_of(r.next) - r.shift, x);
-        check(x, time_of(r.next));
-        observer(static_cast<const State&>(x), time_of(r.next), r.next, false);
-        ++r.next;
-        steps_since_output = 0;
-      }
-    if (now < template_start + period) continue;
-    // Every mapped time lies before the template's end, so all are read off by this step.
-    stepper.calc_state(template_start + period, x);
-    if (tiling.agrees && tiling.agrees(boundary_state, x, template_start + period)) {
-      run.tiled = true;
-      run.tiled_from_s = template_start + period;
-      break;
-    }
-    // The template's end disagrees: carry on in order from its end (the tiled samples are read again).
-    templating = false;
-    agreeing = 0;
-    boundary_state = x;
-    boundary = static_cast<std::size_t>(std::llround((template_start + period - t0) / period)) + 1;
-    while (next < count && leq(time_of(next), now, dt)) {
-      stepper.calc_state(time_of(next), x);
-      check(x, time_of(next));
-      observer(static_cast<const State&>(x), time_of(next), next, true);
-      ++next;
+      if (agreeing_ >= tiling_.agreeing_periods && b + period_ > now && b + 2 * period_ <= last_time()) start_template(b);
     }
   }
-  state = stepper.current_state();
-  return run;
+
+  // The template [start, start + T); the later samples from `first_tiled_` on, one cursor per repeat k.
+  void start_template(double start) {
+    first_tiled_ = static_cast<std::size_t>(std::max(0.0, std::ceil((start + period_ - t0_) * rate_)));
+    while (first_tiled_ < count_ && time_of(first_tiled_) < start + period_) ++first_tiled_;
+    if (first_tiled_ >= count_) return;
+    templating_ = true;
+    template_start_ = start;
+    repeats_.clear();
+    for (std::size_t k = 1, i = first_tiled_; i < count_; ++k) {
+      const double shift = static_cast<double>(k) * period_;
+      std::size_t end = i;
+      while (end < count_ && time_of(end) < start + shift + period_) ++end;
+      repeats_.push_back({i, end, shift});
+      i = end;
+    }
+  }
+
+  void emit_repeats(double now, double dt) {
+    for (Repeat& r : repeats_)
+      for (; r.next < r.end && leq(time_of(r.next) - r.shift, now, dt); ++r.next) emit(r.next, time_of(r.next) - r.shift, false);
+  }
+
+  // Every mapped time lies before the template's end, so all are read off by now: the run is tiled
+  // when the template's end agrees with the anchor.
+  bool template_closes() {
+    stepper_.calc_state(template_start_ + period_, x_);
+    if (!(tiling_.agrees && tiling_.agrees(boundary_state_, x_, template_start_ + period_))) return false;
+    run_.tiled = true;
+    run_.tiled_from_s = template_start_ + period_;
+    return true;
+  }
+
+  // The template's end disagrees: carry on in order from its end (the tiled samples are read again).
+  void resume_in_order(double now, double dt) {
+    templating_ = false;
+    agreeing_ = 0;
+    boundary_state_ = x_;
+    boundary_ = static_cast<std::size_t>(std::llround((template_start_ + period_ - t0_) / period_)) + 1;
+    emit_in_order(count_, now, dt);
+  }
+
+  const GearboxDynamics& dynamics_;
+  const double t0_, rate_;
+  const std::size_t count_;
+  const SimulationOptions& options_;
+  const PeriodicTiling& tiling_;
+  Observer& observer_;
+  const double period_;
+  Stepper stepper_;
+  SampledRun run_;
+  State x_{}, boundary_state_{};
+  std::size_t next_ = 1;           // the next sample in order
+  int steps_since_output_ = 0;
+  std::size_t boundary_ = 1;       // the next boundary is t0 + boundary·T
+  std::size_t agreeing_ = 0;
+  bool templating_ = false;
+  double template_start_ = 0;
+  std::size_t first_tiled_ = count_;
+  std::vector<Repeat> repeats_;
+};
+
+template <class Observer>
+SampledRun integrate_sampled_periodic(const GearboxDynamics& dynamics, State& state, double t0, double rate, std::size_t count,
+                                      const SimulationOptions& options, const PeriodicTiling& tiling, Observer&& observer) {
+  PeriodicSampler<std::remove_reference_t<Observer>> sampler(dynamics, t0, rate, count, options, tiling, observer);
+  return sampler.run(state);
 }
 
 }  // namespace gearwatch::twin
