@@ -113,8 +113,89 @@ std::vector<double> tacho_edges(double input_speed_hz, double t0, double sample_
   return edges;
 }
 
-// casing_only: what a record needs (the casing acceleration and the tacho), nothing else kept, so
-// that the front-end's oversampled run does not hold every state signal `factor` times over.
+// Writes each output sample into the result: the casing acceleration and the input shaft's angle
+// always, the mesh's signals and the contact profile unless casing_only (what a record needs:
+// the front-end's oversampled run then does not hold every state signal `factor` times over).
+// It also keeps the casing acceleration's square sum since the last period boundary, which the
+// periodic path's check reads.
+class SampleRecorder {
+ public:
+  SampleRecorder(const GearboxDynamics& dynamics, const GearGeometry& geometry, SimulationResult& result, std::size_t count,
+                 double t0, double path_gain, bool casing_only)
+      : dynamics_(dynamics), profile_(geometry), result_(result), input_angle_deviation_(count), t0_(t0),
+        path_gain_(path_gain), casing_only_(casing_only) {}
+
+  void operator()(const State& x, double t, std::size_t i, bool in_order) {
+    if (in_order) ++period_samples_;
+    if (casing_only_) {
+      const double a = path_gain_ * dynamics_.acceleration(x, t, y6);
+      result_.casing_acceleration[i] = a;
+      input_angle_deviation_[i] = x[theta1];
+      if (in_order) period_square_sum_ += a * a;
+      return;
+    }
+    const auto ms = dynamics_.mesh_state(x, t);
+    const double a = path_gain_ * dynamics_.acceleration(x, t, y6, ms.force);
+    result_.casing_acceleration[i] = a;
+    input_angle_deviation_[i] = x[theta1];
+    result_.time_s[i] = t - t0_;
+    result_.mesh_force_n[i] = ms.force;
+    result_.mesh_stiffness_n_m[i] = ms.stiffness;
+    result_.transmission_error_m[i] = ms.deflection;
+    result_.gte_m[i] = ms.gte;
+    result_.pairs_in_contact[i] = ms.pairs;
+    if (in_order) {
+      period_square_sum_ += a * a;
+      profile_.observe(ms, result_.contact_profile);
+    }
+  }
+
+  /// The casing acceleration's RMS over the in-order samples since the last call (0 if none).
+  double take_period_rms() {
+    const double rms = period_samples_ > 0 ? std::sqrt(period_square_sum_ / static_cast<double>(period_samples_)) : 0.0;
+    period_square_sum_ = 0;
+    period_samples_ = 0;
+    return rms;
+  }
+  /// The contact profile is complete (or not wanted): the run may be tiled.
+  bool profile_done() const { return casing_only_ || profile_.done(); }
+  const std::vector<double>& input_angle_deviation() const { return input_angle_deviation_; }
+
+ private:
+  const GearboxDynamics& dynamics_;
+  ContactProfileTracker profile_;
+  SimulationResult& result_;
+  std::vector<double> input_angle_deviation_;
+  const double t0_, path_gain_;
+  const bool casing_only_;
+  double period_square_sum_ = 0;
+  std::size_t period_samples_ = 0;
+};
+
+// The periodic path's description. The check (SimulationOptions::periodic_tolerance,
+// periodic_tacho_tolerance_samples): the casing acceleration at two boundaries against its RMS
+// over the last period, and the input shaft's angle against the angle it turns in that fraction of
+// a sample (what moves a tacho edge).
+PeriodicTiling periodic_tiling(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                               const SimulationOptions& options, const GearboxDynamics& dynamics, const GearboxMatrices& matrices,
+                               SampleRecorder& recorder) {
+  const double tolerance = options.periodic_tolerance;
+  const double angle_tolerance =
+      options.periodic_tacho_tolerance_samples * 2.0 * std::numbers::pi * op.input_speed_hz / options.sample_rate_hz;
+  const double path_gain = p.casing_path_gain;
+  PeriodicTiling tiling;
+  tiling.period_s = periodic_inputs_period_s(p, deviation, op, options);
+  const double watch_s = 0.5 / slowest_elastic_mode_hz(matrices);
+  tiling.agreeing_periods = static_cast<std::size_t>(std::ceil(watch_s / tiling.period_s)) + 1;
+  tiling.agrees = [&dynamics, &recorder, tolerance, angle_tolerance, path_gain](const State& earlier, const State& later, double b) {
+    const double rms = recorder.take_period_rms();
+    if (!recorder.profile_done()) return false;
+    const double da = path_gain * (dynamics.acceleration(later, b, y6) - dynamics.acceleration(earlier, b, y6));
+    return rms > 0 && std::abs(da) <= tolerance * rms && std::abs(later[theta1] - earlier[theta1]) <= angle_tolerance;
+  };
+  return tiling;
+}
+
 SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
                                 double duration_s, const SimulationOptions& options, bool casing_only) {
   const double samples_d = checked_sample_count(p, op, duration_s, options);
@@ -139,64 +220,19 @@ SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDe
   const double t0 = record_start_s(options);
   const auto count = static_cast<std::size_t>(samples_d);
   size_signals(result, count, casing_only);
-  std::vector<double> input_angle_deviation(count);
-  ContactProfileTracker profile(geometry);
-  const double path_gain = p.casing_path_gain;  // the sensor's path; 1 leaves y6 as it is
-  double period_square_sum = 0;  // of the casing acceleration since the last period boundary
-  std::size_t period_samples = 0;
-  auto observe = [&](const State& x, double t, std::size_t i, bool in_order) {
-    if (in_order) ++period_samples;
-    if (casing_only) {
-      const double a = path_gain * dynamics.acceleration(x, t, y6);
-      result.casing_acceleration[i] = a;
-      input_angle_deviation[i] = x[theta1];
-      if (in_order) period_square_sum += a * a;
-      return;
-    }
-    const auto ms = dynamics.mesh_state(x, t);
-    const double a = path_gain * dynamics.acceleration(x, t, y6, ms.force);
-    result.casing_acceleration[i] = a;
-    input_angle_deviation[i] = x[theta1];
-    result.time_s[i] = t - t0;
-    result.mesh_force_n[i] = ms.force;
-    result.mesh_stiffness_n_m[i] = ms.stiffness;
-    result.transmission_error_m[i] = ms.deflection;
-    result.gte_m[i] = ms.gte;
-    result.pairs_in_contact[i] = ms.pairs;
-    if (in_order) {
-      period_square_sum += a * a;
-      profile.observe(ms, result.contact_profile);
-    }
-  };
+  SampleRecorder recorder(dynamics, geometry, result, count, t0, p.casing_path_gain, casing_only);
   if (!options.periodic) {
     std::size_t i = 0;
     result.rhs_evaluations += integrate_sampled(dynamics, state, t0, options.sample_rate_hz, count, options,
-                                                [&](const State& x, double t) { observe(x, t, i++, true); });
+                                                [&](const State& x, double t) { recorder(x, t, i++, true); });
   } else {
-    // The check (SimulationOptions::periodic_tolerance, periodic_tacho_tolerance_samples): the casing
-    // acceleration at two boundaries against its RMS over the last period, and the input shaft's
-    // angle against the angle it turns in that fraction of a sample (what moves a tacho edge).
-    const double tolerance = options.periodic_tolerance;
-    const double angle_tolerance =
-        options.periodic_tacho_tolerance_samples * 2.0 * std::numbers::pi * op.input_speed_hz / options.sample_rate_hz;
-    PeriodicTiling tiling;
-    tiling.period_s = periodic_inputs_period_s(p, deviation, op, options);
-    const double watch_s = 0.5 / slowest_elastic_mode_hz(matrices);
-    tiling.agreeing_periods = static_cast<std::size_t>(std::ceil(watch_s / tiling.period_s)) + 1;
-    tiling.agrees = [&](const State& earlier, const State& later, double b) {
-      const double rms = period_samples > 0 ? std::sqrt(period_square_sum / static_cast<double>(period_samples)) : 0.0;
-      period_square_sum = 0;
-      period_samples = 0;
-      if (!casing_only && !profile.done()) return false;
-      const double da = path_gain * (dynamics.acceleration(later, b, y6) - dynamics.acceleration(earlier, b, y6));
-      return rms > 0 && std::abs(da) <= tolerance * rms && std::abs(later[theta1] - earlier[theta1]) <= angle_tolerance;
-    };
-    const SampledRun run = integrate_sampled_periodic(dynamics, state, t0, options.sample_rate_hz, count, options, tiling, observe);
+    const PeriodicTiling tiling = periodic_tiling(p, deviation, op, options, dynamics, matrices, recorder);
+    const SampledRun run = integrate_sampled_periodic(dynamics, state, t0, options.sample_rate_hz, count, options, tiling, recorder);
     result.rhs_evaluations += run.evaluations;
     result.tiled = run.tiled;
     result.tiled_from_s = run.tiled ? run.tiled_from_s - t0 : 0.0;
   }
-  result.tacho_edges = tacho_edges(op.input_speed_hz, t0, options.sample_rate_hz, input_angle_deviation);
+  result.tacho_edges = tacho_edges(op.input_speed_hz, t0, options.sample_rate_hz, recorder.input_angle_deviation());
   return result;
 }
 
