@@ -1,4 +1,4 @@
-// The twin's periodic path (SimulationOptions::periodic, the default) against the full reference
+// The twin's periodic path (SimulationOptions::periodic_path(), opt-in) against the full reference
 // integration (SimulationOptions::reference()) on the same parameters.
 // Bounds, fixed before the comparison: the casing acceleration's RMS difference within 1e-3 of the
 // reference's RMS (fast()'s bound) and its largest difference within 1e-2 of it; its RMS, the 0-2 kHz
@@ -53,7 +53,7 @@ void compare_periodic_with_reference(double speed_hz, const ToothProfileDeviatio
   const GearboxParameters p;
   const OperatingPoint op{speed_hz, 20.0};
   const double fs = 100000.0;
-  SimulationOptions periodic;  // the default
+  SimulationOptions periodic = SimulationOptions::periodic_path();
   periodic.sample_rate_hz = fs;
   SimulationOptions reference = SimulationOptions::reference();
   reference.sample_rate_hz = fs;
@@ -94,7 +94,7 @@ void compare_periodic_with_reference(double speed_hz, const ToothProfileDeviatio
 // The same parameters through simulate() at the record's rate: the periodic path is taken for them.
 SimulationResult periodic_run(double speed_hz, const ToothProfileDeviation& deviation, double duration_s,
                               const GearboxParameters& p = {}) {
-  SimulationOptions o;
+  SimulationOptions o = SimulationOptions::periodic_path();
   o.sample_rate_hz = 100000.0;
   return simulate(p, deviation, {speed_hz, 20.0}, duration_s, o);
 }
@@ -141,7 +141,7 @@ TEST_CASE("The periodic twin gives the full integration's record of pitted pinio
 TEST_CASE("A twin run whose inputs do not repeat within the record is the full integration sample for sample", "[twin][twin-periodic]") {
   // Pitted pinion teeth and a gear run-out repeat only every hunting period, 5.2 s at 10 Hz: a 1 s
   // record holds no template and one repeat.
-  SimulationOptions periodic;
+  SimulationOptions periodic = SimulationOptions::periodic_path();
   periodic.shaft_run_out.gear_m = 2e-6;
   SimulationOptions reference = SimulationOptions::reference();
   reference.shaft_run_out = periodic.shaft_run_out;

@@ -40,14 +40,18 @@ struct SimulationOptions {
   /// the band. simulate() always samples directly.
   int front_end_oversampling = 0;
 
-  /// The periodic path (on by default): every input the twin takes (constant speed and torque, the
+  /// The periodic path (opt-in, periodic_path()): every input the twin takes (constant speed and torque, the
   /// tooth profiles, misalignment, run-out) repeats with the period periodic_inputs_period_s()
   /// gives, so once the start-up transient has died out the record repeats with it. The run is
   /// integrated until consecutive period boundaries agree (periodic_tolerance), one more period
   /// is integrated as the template, and every later sample is read off the template's dense
   /// output at its own time less whole periods. A run that never agrees, or whose record is too
   /// short for a template and one repeat, is the full integration, step for step.
-  bool periodic = true;
+  /// Off by default: where it tiles, the start-up transient's remnant (within periodic_tolerance)
+  /// is left out after the template, so a record's content depends on its length, and the gap
+  /// diagnosis, which compares a measured record with a twin counterpart of another length, reads
+  /// that remnant as broadband findings on the twin's own records (docs/twin.md).
+  bool periodic = false;
   /// The periodicity check between period boundaries: the casing acceleration within this fraction
   /// of its RMS over a period, the same bound as fast()'s on the whole record's difference.
   double periodic_tolerance = 1e-3;
@@ -60,6 +64,12 @@ struct SimulationOptions {
   static SimulationOptions reference() {
     SimulationOptions o;
     o.periodic = false;
+    return o;
+  }
+  /// The periodic path on (see `periodic`).
+  static SimulationOptions periodic_path() {
+    SimulationOptions o;
+    o.periodic = true;
     return o;
   }
   /// The fast integration: the reference's dopri5 at a relative tolerance of 1e-4, fewer than half
