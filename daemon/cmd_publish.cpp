@@ -23,10 +23,7 @@ void register_publish(CLI::App& app) {
     logging::setup(logging::service_sink(cfg.logging.sink), cfg.logging.level);
     try {
       daemon::Publisher publisher(cfg);
-      const int status = publisher.run();
-      if (status != 0) throw CommandError("publish stopped with an error", status);
-    } catch (const CommandError&) {
-      throw;
+      publisher.run();
     } catch (const std::exception& e) {
       throw CommandError(e.what());
     }

@@ -27,10 +27,10 @@ Publisher::Publisher(config::GearwatchConfig config, PublisherOptions options)
 
 Publisher::~Publisher() = default;
 
-int Publisher::run() {
+void Publisher::run() {
   check_config();
   handle_signals();
-  if (!wait_for_database()) return 0;  // stopped while waiting: nothing was started
+  if (!wait_for_database()) return;  // stopped while waiting: nothing was started
   take_publisher_lock();
   open_writer();
   start_sender();
@@ -39,7 +39,6 @@ int Publisher::run() {
   arm_watchdog();
   io_.run();
   stop_in_reverse();
-  return 0;
 }
 
 // Publishing needs [mqtt] on, and the daemon told not to send itself (else every message twice).

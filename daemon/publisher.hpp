@@ -34,9 +34,9 @@ class Publisher {
   Publisher(const Publisher&) = delete;
   Publisher& operator=(const Publisher&) = delete;
 
-  /// Runs until SIGTERM or SIGINT; returns the exit status (0 after a clean stop).
-  /// Throws std::runtime_error (one line) when the config or the database cannot be used.
-  int run();
+  /// Runs until SIGTERM or SIGINT (or returns at once when stopped while waiting for the
+  /// database). Throws std::runtime_error (one line) when the config or the database cannot be used.
+  void run();
 
  private:
   void check_config() const;
