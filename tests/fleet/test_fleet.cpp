@@ -149,6 +149,24 @@ struct Fleet {
                                           << "\"\npassword_file = \"" << (dir / "credentials").string()
                                           << "\"\nreconnect_initial_ms = 50\nreconnect_max_ms = 300\ndrain_timeout_s = 60\n";
   }
+  // One gearbox with the model on: a 4 s capture at 20 Hz and 40 kHz (the pitting band analysed), 1 s
+  // records, so the daemon's model thread runs on every record and publishes each run on /model; a
+  // second configured channel the capture does not carry raises sensor_missing (alerts beside the runs).
+  void make_model_gearbox(const std::string& name, int seed) {
+    const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (dir / (name + ".log")).string() +
+                               " --duration 4.0 --speed 20 --torque 16 --sample-rate 40000 --channels 1 --seed " + std::to_string(seed));
+    INFO(r.err);
+    REQUIRE(r.status == 0);
+    std::ofstream(dir / (name + ".toml")) << "[rig]\nsample_rate_hz = 40000\n[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
+                                             "[[channels]]\nnumber = 1\nname = \"casing_x\"\nscale = 0.01\n"
+                                             "[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.5\n"
+                                             "[model]\nforecast_horizon_cycles = 100000.0\ncommissioning_records = 0\n"
+                                             "[daemon]\nhealth_interval_s = 0.5\n"
+                                             "[mqtt]\nenabled = true\nhost = \"127.0.0.1\"\nport = "
+                                          << broker.port() << "\nprefix = \"gw\"\nsite = \"plant1\"\ngearbox = \"" << name
+                                          << "\"\npassword_file = \"" << (dir / "credentials").string()
+                                          << "\"\nreconnect_initial_ms = 50\nreconnect_max_ms = 300\ndrain_timeout_s = 60\n";
+  }
   fs::path db(const std::string& name) const { return dir / (name + ".db"); }
   pid_t replay(const std::string& name) {
     return spawn({"replay", (dir / (name + ".log")).string(), "--db", db(name).string(), "--config", (dir / (name + ".toml")).string()},
@@ -197,13 +215,13 @@ bool skipped_without_postgres(const Fleet& f) {
 
 // Every record, indicator value, skipped indicator and alert transition of one gearbox: the same
 // rows, with the same values to the last bit, in its SQLite database and in the fleet database.
-void check_same_as_local(const Fleet& f, const std::string& name) {
+void check_same_as_local(const Fleet& f, const std::string& name, std::size_t min_records = 20) {
   INFO("gearbox " << name);
   const std::string where = " JOIN fleet.gearboxes g ON g.id = x.gearbox_id WHERE g.name = '" + name + "'";
   const auto local_records = sqlite_rows(
       f.db(name), "SELECT id, start_index, duration_s, analysed, coalesce(reject_reason, ''), speed_hz, torque_nm, input_revolutions "
                   "FROM records ORDER BY id");
-  REQUIRE(local_records.size() >= 20);
+  REQUIRE(local_records.size() >= min_records);
   CHECK(pg_rows(f.uri, "SELECT record_id, start_index, duration_s, analysed, reject_reason, speed_hz, torque_nm, input_revolutions "
                        "FROM fleet.records x" + where + " ORDER BY record_id") == local_records);
   const auto local_values = sorted(sqlite_rows(f.db(name), "SELECT record_id, channel, name, value FROM indicator_values"));
@@ -1021,4 +1039,56 @@ TEST_CASE("fleet: holes asked for past the give-up time are recorded lost as no_
   REQUIRE(store.write_batch({GoneMessage{"plant1", "gbA", {{3, 4, OutboxGoneReason::not_held}}}}).at(0).written == WriteOutcome::stored);
   CHECK(pg_rows(f.uri, "SELECT from_id, to_id, reason FROM fleet.lost_messages ORDER BY from_id") == Rows{"3|4|not_held", "7|9|no_answer"});
   CHECK(store.holes().empty());
+}
+
+TEST_CASE("fleet: a daemon's own model runs land in fleet.model_states as in its model_runs and the page shows the newest forecast",
+          "[fleet][model]") {
+  Fleet f;
+  if (skipped_without_postgres(f)) return;
+  REQUIRE(f.start());
+  f.make_model_gearbox("gbA", 31);
+  const pid_t consumer = f.subscribed_consumer("c");
+  const pid_t replay = f.replay("gbA");
+  REQUIRE(wait_bounded(replay, 240s) == 0);
+  const long long total = f.outbox_rows("gbA");
+  REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == total; }, 60s));
+  ::kill(consumer, SIGTERM);
+  REQUIRE(wait_bounded(consumer, 30s) == 0);
+
+  // Every run of the daemon's model, each value to the last bit, the forecast's too.
+  const auto local = sqlite_rows(f.db("gbA"),
+                                 "SELECT id, record_id, gear_pair, advanced, cycles, k_wear, k_pitting, wear_mean_m, wear_max_m, pitting_mean,"
+                                 " wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_cycles_left,"
+                                 " pitting_cycles_left_low, pitting_cycles_left_high, coalesce(forecast_failure, '') FROM model_runs ORDER BY id");
+  REQUIRE(local.size() == 4);
+  CHECK(std::stoll(sqlite_rows(f.db("gbA"), "SELECT count(*) FROM model_runs WHERE advanced = 1").at(0)) == 4);
+  const std::string left = "(forecast->'wear'->>'cycles_left')::float8, (forecast->'wear'->>'cycles_left_low')::float8,"
+                           " (forecast->'wear'->>'cycles_left_high')::float8, (forecast->'pitting'->>'cycles_left')::float8,"
+                           " (forecast->'pitting'->>'cycles_left_low')::float8, (forecast->'pitting'->>'cycles_left_high')::float8";
+  CHECK(pg_rows(f.uri, "SELECT model_run_id, record_id, gear_pair, advanced, cycles, k_wear, k_pitting, wear_mean_depth_m, wear_max_depth_m,"
+                       " pitting_mean, " + left + ", forecast->>'failure' FROM fleet.model_states ORDER BY model_run_id") == local);
+  CHECK(pg_rows(f.uri, "SELECT gearbox, model_run_id FROM fleet.latest_model") == Rows{"gbA|4"});
+  check_same_as_local(f, "gbA", 4);
+
+  // The fleet page's remaining life is the newest run's, as the local database holds it.
+  Database local_db(f.db("gbA").string(), Database::Mode::read_only);
+  Statement newest(local_db, "SELECT forecast_failure IS NULL, pitting_cycles_left, wear_cycles_left, wear_max_m FROM model_runs"
+                             " ORDER BY id DESC LIMIT 1");
+  REQUIRE(newest.step());
+  REQUIRE(newest.get_int(0) == 1);  // a valid forecast
+  auto life = [&](const char* mode, int column) {
+    return std::string(mode) + ": " + (newest.is_null(column) ? "<span class=\"muted\">beyond the horizon</span>"
+                                                              : "<b>" + gearwatch::report::format_cycles(newest.get_double(column)) + "</b> cycles");
+  };
+  char depth[64];
+  std::snprintf(depth, sizeof depth, "depth %.2f µm", newest.get_double(3) * 1e6);
+  const auto page = f.dir / "page";
+  const auto r = run_command(std::string(GEARWATCH_BINARY) + " fleet report --database " + f.uri + " --out " + page.string());
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  const std::string row = page_row(read_all(page / "index.html"), "plant1/gbA");
+  INFO(row);
+  CHECK(row.find(life("pitting", 1)) != std::string::npos);
+  CHECK(row.find(life("wear", 2)) != std::string::npos);
+  CHECK(row.find(depth) != std::string::npos);
 }
