@@ -161,6 +161,8 @@ struct Fleet {
                                              "[[channels]]\nnumber = 1\nname = \"casing_x\"\nscale = 0.01\n"
                                              "[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.5\n"
                                              "[model]\nforecast_horizon_cycles = 100000.0\ncommissioning_records = 0\n"
+                                             "[gap]\nenabled = true\nevery_records = 4\ntraining_records = 3\nheld_out_records = 1\n"
+                                             "rerun_twin = false\n"
                                              "[daemon]\nhealth_interval_s = 0.5\n"
                                              "[mqtt]\nenabled = true\nhost = \"127.0.0.1\"\nport = "
                                           << broker.port() << "\nprefix = \"gw\"\nsite = \"plant1\"\ngearbox = \"" << name
@@ -1069,6 +1071,18 @@ TEST_CASE("fleet: a daemon's own model runs land in fleet.model_states as in its
                        " pitting_mean, " + left + ", forecast->>'failure' FROM fleet.model_states ORDER BY model_run_id") == local);
   CHECK(pg_rows(f.uri, "SELECT gearbox, model_run_id FROM fleet.latest_model") == Rows{"gbA|4"});
   check_same_as_local(f, "gbA", 4);
+  // Its gap report (spectral only, after 4 records: 3 training, 1 held out): the families it found
+  // significant with their distances, the effects chosen and the families left unexplained.
+  REQUIRE(sqlite_rows(f.db("gbA"), "SELECT id, record_id, gear_pair, input_revolutions FROM gap_report_runs ORDER BY id") ==
+          pg_rows(f.uri, "SELECT gap_report_id, record_id, gear_pair, input_revolutions FROM fleet.gap_summaries ORDER BY gap_report_id"));
+  CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.gap_summaries") == 1);
+  CHECK(pg_rows(f.uri, "SELECT e->>'family', (e->>'distance_db')::float8 FROM fleet.gap_summaries, jsonb_array_elements(significant_families)"
+                       " WITH ORDINALITY AS a(e, n) ORDER BY n") ==
+        sqlite_rows(f.db("gbA"), "SELECT family, before_distance_db FROM gap_report_families WHERE before_significant = 1 ORDER BY before_position"));
+  CHECK(pg_rows(f.uri, "SELECT e FROM fleet.gap_summaries, jsonb_array_elements_text(chosen_effects) WITH ORDINALITY AS a(e, n) ORDER BY n") ==
+        sqlite_rows(f.db("gbA"), "SELECT effect FROM gap_report_chosen ORDER BY step"));
+  CHECK(pg_rows(f.uri, "SELECT e FROM fleet.gap_summaries, jsonb_array_elements_text(unexplained_families) WITH ORDINALITY AS a(e, n) ORDER BY n") ==
+        sqlite_rows(f.db("gbA"), "SELECT family FROM gap_report_families WHERE unexplained_position IS NOT NULL ORDER BY unexplained_position"));
 
   // The fleet page's remaining life is the newest run's, as the local database holds it.
   Database local_db(f.db("gbA").string(), Database::Mode::read_only);
