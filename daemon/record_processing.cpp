@@ -106,25 +106,26 @@ storage::AlertUpdate RecordProcessor::life_counter_reset(std::uint64_t previous_
   return u;
 }
 
-storage::AlertUpdate RecordProcessor::sensor_presence(int channel, bool present, const std::string& how,
-                                                      const std::string& message) {
+storage::AlertUpdate RecordProcessor::definite_presence(AlertKind kind, int subject, bool present, const std::string& how,
+                                                        const std::string& message) {
   storage::AlertUpdate u;
-  // Presence events are definite (the stream header, or frames stopping past the slack): no
-  // hysteresis beyond the assembler's own.
-  if (auto e = alerts_.observe(AlertKey{AlertKind::sensor_missing, channel}, !present, how, message, AlertHysteresis{1, 1}))
+  if (auto e = alerts_.observe(AlertKey{kind, subject}, !present, how, message, AlertHysteresis{1, 1}))
     u.alerts.push_back(std::move(*e));
   u.alert_states = alerts_.take_changed();
   return u;
 }
 
+storage::AlertUpdate RecordProcessor::sensor_presence(int channel, bool present, const std::string& how,
+                                                      const std::string& message) {
+  // Presence events are definite (the stream header, or frames stopping past the slack): no
+  // hysteresis beyond the assembler's own.
+  return definite_presence(AlertKind::sensor_missing, channel, present, how, message);
+}
+
 storage::AlertUpdate RecordProcessor::tacho_presence(int shaft, bool present, const std::string& how,
                                                      const std::string& message) {
-  storage::AlertUpdate u;
   // Definite like a channel's presence: the assembler already waited two edge intervals.
-  if (auto e = alerts_.observe(AlertKey{AlertKind::tacho_missing, shaft}, !present, how, message, AlertHysteresis{1, 1}))
-    u.alerts.push_back(std::move(*e));
-  u.alert_states = alerts_.take_changed();
-  return u;
+  return definite_presence(AlertKind::tacho_missing, shaft, present, how, message);
 }
 
 storage::AlertUpdate RecordProcessor::stream_sample_rate(std::uint32_t stream_rate_hz, const std::string& message) {

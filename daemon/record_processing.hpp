@@ -78,6 +78,10 @@ class RecordProcessor {
   void observe_channel_alerts(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
   void assess_wear(int channel, double cycles, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
   void check_thresholds(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out);
+  /// A presence event that is definite when it comes (no hysteresis beyond its source's own): the
+  /// alert `kind` on `subject` raised while absent, cleared when present.
+  storage::AlertUpdate definite_presence(AlertKind kind, int subject, bool present, const std::string& how,
+                                         const std::string& message);
 
   config::GearwatchConfig config_;
   ChannelWorkers channels_;

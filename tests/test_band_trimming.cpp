@@ -4,12 +4,12 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
-#include <numbers>
-#include <random>
 #include <vector>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
+
+#include "am_noise_record.hpp"
 
 namespace test_band_trimming {  // this file's own: the test files compile together (unity build)
 
@@ -17,7 +17,6 @@ using namespace gearwatch;
 using namespace gearwatch::dsp;
 
 namespace {
-constexpr double kPi = std::numbers::pi;
 
 // One accelerometer at 25.6 kHz, input shaft at a constant 10 Hz, 10 s: Gaussian noise
 // band-limited (brick wall) to 4-11 kHz, amplitude-modulated at the mesh frequency (19 x 10 Hz)
@@ -25,33 +24,14 @@ constexpr double kPi = std::numbers::pi;
 Record am_noise_record(unsigned seed, double a) {
   const double fs = 25600.0, f0 = 10.0;
   const std::size_t n = 256000;
-  FftPlanCache plans;
-  const RealFft& fft = plans.real(n);
-  ComplexBuffer spectrum(fft.spectrum_size());
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  for (std::size_t k = 0; k < spectrum.size(); ++k) {
-    const double f = double(k) * fs / double(n);
-    spectrum[k] = f >= 4000.0 && f <= 11000.0 ? Complex(normal(rng), normal(rng)) : Complex{};
-  }
-  RealBuffer x(n);
-  fft.inverse(spectrum, x);
-  double power = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    x[i] *= 1.0 + a * std::cos(2 * kPi * 19.0 * f0 * double(i) / fs);
-    power += x[i] * x[i];
-  }
+  const auto noise = gearwatch::test::band_limited_am_noise(seed, fs, n, f0, a);
   Record r;
   r.sample_rate_hz = fs;
   r.channels.assign(1, std::vector<float>(n));
   r.channel_numbers = {0};
-  const double scale = 30.0 / std::sqrt(power / double(n));  // 30 m/s² RMS
-  for (std::size_t i = 0; i < n; ++i) r.channels[0][i] = float(x[i] * scale);
-  for (int k = 0;; ++k) {
-    const double t = (k + 0.3) / f0 * fs;
-    if (t > double(n - 1)) break;
-    r.tacho_edges[0].push_back(t);
-  }
+  const double scale = 30.0 / noise.rms;  // 30 m/s² RMS
+  for (std::size_t i = 0; i < n; ++i) r.channels[0][i] = float(noise.x[i] * scale);
+  r.tacho_edges[0] = gearwatch::test::steady_tacho_edges(f0, fs, n);
   return r;
 }
 

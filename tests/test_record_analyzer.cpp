@@ -9,6 +9,8 @@
 #include <set>
 #include <vector>
 
+#include "am_noise_record.hpp"
+
 namespace test_record_analyzer {  // this file's own: the test files compile together (unity build)
 
 using namespace gearwatch;
@@ -272,33 +274,14 @@ namespace {
 Record am_noise_capture(unsigned seed) {
   const double fs = 100000.0, f0 = 10.0, a = 0.5, lsb = 0.01;
   const std::size_t n = 1000000;
-  FftPlanCache plans;
-  const RealFft& fft = plans.real(n);
-  ComplexBuffer spectrum(fft.spectrum_size());
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  for (std::size_t k = 0; k < spectrum.size(); ++k) {
-    const double f = double(k) * fs / double(n);
-    spectrum[k] = f >= 4000.0 && f <= 11000.0 ? Complex(normal(rng), normal(rng)) : Complex{};
-  }
-  RealBuffer x(n);
-  fft.inverse(spectrum, x);
-  double power = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    x[i] *= 1.0 + a * std::cos(2 * kPi * 19.0 * f0 * double(i) / fs);
-    power += x[i] * x[i];
-  }
-  const double scale = 3000.0 / std::sqrt(power / double(n));
+  const auto noise = gearwatch::test::band_limited_am_noise(seed, fs, n, f0, a);
+  const double scale = 3000.0 / noise.rms;
   Record r;
   r.sample_rate_hz = fs;
   r.channels.assign(1, std::vector<float>(n));
   r.channel_numbers = {0};
-  for (std::size_t i = 0; i < n; ++i) r.channels[0][i] = float(double(std::lround(x[i] * scale)) * lsb);
-  for (int k = 0;; ++k) {
-    const double t = (k + 0.3) / f0 * fs;
-    if (t > double(n - 1)) break;
-    r.tacho_edges[0].push_back(t);
-  }
+  for (std::size_t i = 0; i < n; ++i) r.channels[0][i] = float(double(std::lround(noise.x[i] * scale)) * lsb);
+  r.tacho_edges[0] = gearwatch::test::steady_tacho_edges(f0, fs, n);
   return r;
 }
 

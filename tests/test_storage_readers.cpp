@@ -287,6 +287,14 @@ TEST_CASE("storage readers: the report's health, plotted values and newest rows"
   CHECK(health[1].lost_samples == 7);
   CHECK(health[1].rejected_frames == 5);
   CHECK(health[1].records_rejected == 1);
+  // Samples a ring overflow lost are stored only as gap events: they add to the run's lost samples;
+  // a protocol gap is in gap_samples already.
+  h.db.exec("INSERT INTO gap_events(stream_key, channel, first_missing_index, missing_samples, cause) VALUES"
+            " (1, 0, 10, 40, 'ring_overflow'), (1, 0, 100, 5, 'protocol')");
+  const auto with_overflow = load_acquisition_health(h.db);
+  REQUIRE(with_overflow.size() == 2);
+  CHECK(with_overflow[1].lost_samples == 7 + 40);
+  CHECK(with_overflow[0].lost_samples == 0);
 
   h.record(1, "2026-01-01T00:00:00Z", "10");
   h.record(2, "2026-01-02T00:00:00Z", "20");

@@ -7,10 +7,6 @@
 
 namespace gearwatch::acquisition {
 
-const char* to_string(GapCause cause) noexcept {
-  return cause == GapCause::ring_overflow ? "ring_overflow" : "protocol";
-}
-
 const char* to_string(ChannelStatus status) noexcept {
   switch (status) {
     case ChannelStatus::missing_from_stream: return "missing_from_stream";

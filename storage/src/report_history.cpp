@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "gearwatch/storage/messages.hpp"
+#include "gearwatch/types/gap_cause.hpp"
 #include "gearwatch/types/indicator.hpp"
 
 #include "stored_rows.hpp"
@@ -116,12 +117,13 @@ StoredHealth health_row(const ColumnsByName& c) {
 std::vector<StoredHealth> load_acquisition_health(Database& db) {
   std::vector<StoredHealth> out;
   if (!detail::has_object(db, "acquisition_health")) return out;
-  // Before ring_gap_samples was a counter, ring overflows were stored as gap events only.
-  const std::string ring_lost = detail::has_column(db, "acquisition_health", "ring_gap_samples")
-                                    ? "ring_gap_samples"
-                                    : "(SELECT coalesce(sum(g.missing_samples), 0) FROM gap_events g JOIN streams st ON st.id = g.stream_key"
-                                      " WHERE st.run_id = h.run_id AND g.cause = 'ring_overflow')";
-  Statement s(db, "SELECT h.*, " + ring_lost + " AS report_ring_lost FROM acquisition_health h ORDER BY run_id DESC");
+  // The samples a ring overflow lost are stored only as gap events (the health row counts the
+  // overflows, not their samples); they are added to the run's lost samples here.
+  Statement s(db,
+              "SELECT h.*, (SELECT coalesce(sum(g.missing_samples), 0) FROM gap_events g JOIN streams st"
+              " ON st.id = g.stream_key WHERE st.run_id = h.run_id AND g.cause = ?) AS report_ring_lost"
+              " FROM acquisition_health h ORDER BY run_id DESC");
+  s.bind(1, acquisition::to_string(acquisition::GapCause::ring_overflow));
   const ColumnsByName columns(s);
   while (s.step()) out.push_back(health_row(columns));
   return out;

@@ -81,162 +81,200 @@ double tracking_residual(double x) {
   return std::exp((1 - w) * log_share[i] + w * log_share[i + 1]);
 }
 
-void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSummary& s, const GearPairSpec& gears) {
-  const int z1 = gears.pinion_teeth, z2 = gears.gear_teeth;
-  const double out_speed = s.speed_hz * z1 / z2;
-  const auto& v = e.values;
-  auto mesh_gain = [&](auto gain_db_of_harmonic) {
-    for (std::size_t n = 1; n * z1 <= s.input_lines.size(); ++n)
-      s.input_lines[n * z1 - 1] *= std::pow(10.0, gain_db_of_harmonic(static_cast<int>(n)) / 10.0);
-  };
-  switch (e.effect) {
-    case CandidateEffect::casing_mode:
-    case CandidateEffect::mount_resonance: {
-      const BearingForcePath* path = twin.bearing_force_path.get();
-      if (e.effect == CandidateEffect::casing_mode && path == nullptr)
-        throw std::invalid_argument("casing_mode needs the twin's bearing-force path on its spectra");
-      auto gain = [&](double f) {
-        return e.effect == CandidateEffect::casing_mode ? casing_modes_gain(path->at(f), f, v[0], v[1], v[2], v[3])
-                                                         : transmissibility_power(f, v[0], v[1]);
-      };
-      // A bin 120 dB under the twin's total stays under the comparison's floor (60 dB down) unless
-      // the casing lifts it a thousandfold in amplitude, when the strong lines beside it say so to
-      // the fit already. The noise-free twin has most of its bins there; skipping them saves work.
-      const double total = total_input_line_power(twin);
-      const double too_small_to_move = 1e-12 * total;
-      auto scale = [&](double& power, double f) {
-        if (power > too_small_to_move) power *= gain(f);
-      };
-      for (std::size_t k = 1; k <= s.input_lines.size(); ++k) {
-        scale(s.input_lines[k - 1], k * s.speed_hz);
-        // The broadband bin holds orders [k, k + 1).
-        scale(s.broadband[k - 1], (k + 0.5) * s.speed_hz);
-      }
-      for (std::size_t m = 1; m <= s.output_lines.size(); ++m) scale(s.output_lines[m - 1], m * out_speed);
-      break;
+/// One effect's form applied to the spectra `s`, starting from `twin` (the twin's spectra with the
+/// effects of the earlier stages): a step per family of forms.
+class EffectApplier {
+ public:
+  EffectApplier(const AppliedEffect& e, const SpectralSummary& twin, SpectralSummary& s, const GearPairSpec& gears)
+      : e_(e), v_(e.values), twin_(twin), s_(s), gears_(gears), z1_(gears.pinion_teeth), z2_(gears.gear_teeth),
+        out_speed_(s.speed_hz * z1_ / z2_) {}
+
+  void apply() {
+    switch (e_.effect) {
+      case CandidateEffect::casing_mode:
+      case CandidateEffect::mount_resonance: return resonance();
+      case CandidateEffect::noise_floor: return noise_floor();
+      case CandidateEffect::eccentricity:
+        if (twin_.run_out_response) return run_out_through_twin(*twin_.run_out_response);
+        return run_out_sidebands();
+      case CandidateEffect::tooth_errors: return tooth_errors();
+      case CandidateEffect::speed_fluctuation:
+      case CandidateEffect::load_fluctuation: return fluctuation();
+      case CandidateEffect::tip_relief:
+        return mesh_gain([&](int n) { return static_cast<std::size_t>(n) <= v_.size() ? v_[static_cast<std::size_t>(n - 1)] : 0.0; });
+      case CandidateEffect::misalignment: return mesh_gain([&](int) { return v_[0]; });
+      case CandidateEffect::backlash: return mesh_gain([&](int n) { return v_[0] * n; });
     }
-    case CandidateEffect::noise_floor: {
-      // A white floor of one-sided PSD S is white in Hz, not in orders: a bin one shaft order wide
-      // is `speed` Hz wide and holds 2·S·speed (peak-amplitude² convention, as a tone of amplitude A
-      // holds A²). A synchronous line is the mean of R one-revolution DFTs, each bin a shaft order
-      // wide; the output shaft's orders are z1/z2 as wide in Hz as the input's.
-      const double per_input_order = noise_floor_per_order_bin(v[0], s.speed_hz);
-      for (auto& b : s.broadband) b += per_input_order;
-      for (auto& p : s.input_lines) p += per_input_order / std::max(1.0, s.input_line_averages);
-      const double per_output_order = noise_floor_per_order_bin(v[0], out_speed);
-      for (std::size_t m = 1; m <= s.output_lines.size(); ++m)
-        if (m % static_cast<std::size_t>(z2) != 0)
-          s.output_lines[m - 1] += per_output_order / std::max(1.0, s.output_line_averages);
-      break;
-    }
-    case CandidateEffect::eccentricity: {
-      if (twin.run_out_response) {
-        // The twin's own response to each run-out, line by line (lower and upper sidebands apart,
-        // each through the twin's dynamics at its own frequency). A run-out e at phase φ changes
-        // line k by e·(cos φ·R0 + sin φ·R1); its power, over the phase the lines' powers cannot
-        // tell, is e²·(|R0|² + |R1|²)/2, and its cross term with the twin's own line averages out.
-        const RunOutResponse& r = *twin.run_out_response;
-        auto add = [&](std::vector<double>& lines, const std::array<std::vector<std::complex<double>>, 4>& per_m, bool output) {
-          std::size_t n = lines.size();
-          for (const auto& d : per_m) n = std::min(n, d.size());
-          const double pinion = v[0] * v[0] / 2, gear = v[1] * v[1] / 2;
-          for (std::size_t k = 0; k < n; ++k) {
-            if (output && output_line_is_mesh(static_cast<int>(k + 1), z2)) continue;
-            lines[k] += pinion * (std::norm(per_m[0][k]) + std::norm(per_m[1][k])) +
-                        gear * (std::norm(per_m[2][k]) + std::norm(per_m[3][k]));
-          }
-        };
-        add(s.input_lines, r.input_per_m, false);
-        add(s.output_lines, r.output_per_m, true);
-        break;
-      }
-      // A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM, the
-      // same share at every harmonic) and turns the pinion against the tacho (PM of index n·b at
-      // harmonic n, as the mesh phase is n·z1 times the pinion's angle). The mean of a modulated
-      // line's two first sidebands is ((a² + (n·b)²)/4)·P(n·GMF), whatever the phase between them.
-      auto share = [](const RunOutSensitivity& r, double run_out_m, std::size_t n) {
-        const double am = r.am_per_m * run_out_m, pm = r.pm_per_harmonic_per_m * run_out_m * static_cast<double>(n);
-        return (am * am + pm * pm) / 4.0;
-      };
-      for (std::size_t n = 1; n * z1 <= twin.input_lines.size(); ++n) {
-        const double mesh_power = twin.input_lines[n * z1 - 1];
-        const double ai = share(twin.pinion_run_out, v[0], n), ao = share(twin.gear_run_out, v[1], n);
-        for (int side : {-1, 1}) {
-          const auto ki = static_cast<std::ptrdiff_t>(n * z1) + side;
-          if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s.input_lines.size())) s.input_lines[ki - 1] += ai * mesh_power;
-          const auto ko = static_cast<std::ptrdiff_t>(n * z2) + side;
-          if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s.output_lines.size())) s.output_lines[ko - 1] += ao * mesh_power;
-        }
-      }
-      break;
-    }
-    case CandidateEffect::tooth_errors: {
-      const MeshEnvelope env(twin, z1);
-      for (std::size_t k = 1; k <= s.input_lines.size(); ++k)
-        if (k % static_cast<std::size_t>(z1) != 0) s.input_lines[k - 1] += v[0] * env.at(static_cast<double>(k));
-      for (std::size_t m = 1; m <= s.output_lines.size(); ++m)
-        if (m % static_cast<std::size_t>(z2) != 0) s.output_lines[m - 1] += v[1] * env.at(static_cast<double>(m) * z1 / z2);
-      // The pairing of pinion and gear teeth repeats only after z1·z2 meshes (the hunting period):
-      // what the pairs add together is synchronous with neither shaft and stays in the residual,
-      // through the same transfer path.
-      for (std::size_t k = 1; k <= s.broadband.size(); ++k) s.broadband[k - 1] += v[2] * env.at(static_cast<double>(k) + 0.5);
-      break;
-    }
-    case CandidateEffect::speed_fluctuation:
-    case CandidateEffect::load_fluctuation: {
-      // A speed ripple of depth d at f_m turns the shaft d/x rad ahead and back (x = f_m over the
-      // shaft's speed); the one-edge tacho follows all but the share r(x) of that angle, which stays
-      // in the tracked signal as a phase modulation of index order·(d/x)·r(x). On top, the transfer
-      // path in Hz sees the speed change: a share μ of every line is amplitude-modulated. The load
-      // ripple's form is one phase modulation growing with order, a share 1 − exp(−(β·order)²).
-      const double x = v[1] / s.speed_hz;
-      const bool speed = e.effect == CandidateEffect::speed_fluctuation;
-      const double pm_per_order = speed ? v[0] / x * tracking_residual(x) : 0.0;
-      auto share = [&](double order) {
-        if (!speed) return 1.0 - std::exp(-(v[0] * order) * (v[0] * order));
-        const double carrier = bessel_j0(pm_per_order * order);
-        return 1.0 - (1.0 - v[2]) * carrier * carrier;
-      };
-      // The modulated share leaves the line for sidebands f_m away (in orders: f_m / speed), half each
-      // side (x orders away); being off the integer orders they land mostly in the broadband part, and
-      // partly in the neighbouring lines (a few dB on sidebands 40 dB below a mesh harmonic).
-      // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
-      // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
-      // following a tone through both averages is most of this form's cost.
-      const double total = total_input_line_power(twin);
-      const double negligible = 1e-7 * total;
-      // A line 90 dB below the total cannot move a bin: all of it in one bin at the floor (60 dB
-      // down) is 0.004 dB. The twin has no noise, so most of its lines are that far down.
-      const double too_small_to_move = 1e-9 * total;
-      for (std::size_t k = 1; k <= s.input_lines.size(); ++k) {
-        const double power = twin.input_lines[k - 1];
-        if (!(power > too_small_to_move)) continue;
-        const double moved = power * share(static_cast<double>(k));
-        s.input_lines[k - 1] -= moved;
-        add_non_synchronous_tone(s, static_cast<double>(k) - x, moved / 2, gears, negligible);
-        add_non_synchronous_tone(s, static_cast<double>(k) + x, moved / 2, gears, negligible);
-      }
-      for (std::size_t m = 1; m <= s.output_lines.size(); ++m) {
-        const double power = twin.output_lines[m - 1];
-        if (!(power > too_small_to_move)) continue;
-        const double order = static_cast<double>(m) * z1 / z2;
-        const double moved = power * share(order);
-        s.output_lines[m - 1] -= moved;
-        add_non_synchronous_tone(s, order - x, moved / 2, gears, negligible);
-        add_non_synchronous_tone(s, order + x, moved / 2, gears, negligible);
-      }
-      break;
-    }
-    case CandidateEffect::tip_relief:
-      mesh_gain([&](int n) { return static_cast<std::size_t>(n) <= v.size() ? v[static_cast<std::size_t>(n - 1)] : 0.0; });
-      break;
-    case CandidateEffect::misalignment:
-      mesh_gain([&](int) { return v[0]; });
-      break;
-    case CandidateEffect::backlash:
-      mesh_gain([&](int n) { return v[0] * n; });
-      break;
   }
+
+ private:
+  /// A gain in dB on each mesh harmonic n (the forms that change the mesh force's harmonics).
+  template <class GainDb>
+  void mesh_gain(GainDb gain_db_of_harmonic) {
+    for (std::size_t n = 1; n * z1_ <= s_.input_lines.size(); ++n)
+      s_.input_lines[n * z1_ - 1] *= std::pow(10.0, gain_db_of_harmonic(static_cast<int>(n)) / 10.0);
+  }
+
+  /// The power gain of the casing's modes or of the mount's resonance at f Hz.
+  double resonance_gain(const BearingForcePath* path, double f) const {
+    return e_.effect == CandidateEffect::casing_mode ? casing_modes_gain(path->at(f), f, v_[0], v_[1], v_[2], v_[3])
+                                                     : transmissibility_power(f, v_[0], v_[1]);
+  }
+
+  void resonance() {
+    const BearingForcePath* path = twin_.bearing_force_path.get();
+    if (e_.effect == CandidateEffect::casing_mode && path == nullptr)
+      throw std::invalid_argument("casing_mode needs the twin's bearing-force path on its spectra");
+    // A bin 120 dB under the twin's total stays under the comparison's floor (60 dB down) unless
+    // the casing lifts it a thousandfold in amplitude, when the strong lines beside it say so to
+    // the fit already. The noise-free twin has most of its bins there; skipping them saves work.
+    const double total = total_input_line_power(twin_);
+    const double too_small_to_move = 1e-12 * total;
+    auto scale = [&](double& power, double f) {
+      if (power > too_small_to_move) power *= resonance_gain(path, f);
+    };
+    for (std::size_t k = 1; k <= s_.input_lines.size(); ++k) {
+      scale(s_.input_lines[k - 1], k * s_.speed_hz);
+      // The broadband bin holds orders [k, k + 1).
+      scale(s_.broadband[k - 1], (k + 0.5) * s_.speed_hz);
+    }
+    for (std::size_t m = 1; m <= s_.output_lines.size(); ++m) scale(s_.output_lines[m - 1], m * out_speed_);
+  }
+
+  void noise_floor() {
+    // A white floor of one-sided PSD S is white in Hz, not in orders: a bin one shaft order wide
+    // is `speed` Hz wide and holds 2·S·speed (peak-amplitude² convention, as a tone of amplitude A
+    // holds A²). A synchronous line is the mean of R one-revolution DFTs, each bin a shaft order
+    // wide; the output shaft's orders are z1/z2 as wide in Hz as the input's.
+    const double per_input_order = noise_floor_per_order_bin(v_[0], s_.speed_hz);
+    for (auto& b : s_.broadband) b += per_input_order;
+    for (auto& p : s_.input_lines) p += per_input_order / std::max(1.0, s_.input_line_averages);
+    const double per_output_order = noise_floor_per_order_bin(v_[0], out_speed_);
+    for (std::size_t m = 1; m <= s_.output_lines.size(); ++m)
+      if (m % static_cast<std::size_t>(z2_) != 0)
+        s_.output_lines[m - 1] += per_output_order / std::max(1.0, s_.output_line_averages);
+  }
+
+  /// The twin's own response to each run-out, line by line (lower and upper sidebands apart, each
+  /// through the twin's dynamics at its own frequency). A run-out e at phase φ changes line k by
+  /// e·(cos φ·R0 + sin φ·R1); its power, over the phase the lines' powers cannot tell, is
+  /// e²·(|R0|² + |R1|²)/2, and its cross term with the twin's own line averages out.
+  void run_out_through_twin(const RunOutResponse& r) {
+    add_run_out_response(s_.input_lines, r.input_per_m, false);
+    add_run_out_response(s_.output_lines, r.output_per_m, true);
+  }
+
+  void add_run_out_response(std::vector<double>& lines, const std::array<std::vector<std::complex<double>>, 4>& per_m,
+                            bool output) const {
+    std::size_t n = lines.size();
+    for (const auto& d : per_m) n = std::min(n, d.size());
+    const double pinion = v_[0] * v_[0] / 2, gear = v_[1] * v_[1] / 2;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (output && output_line_is_mesh(static_cast<int>(k + 1), z2_)) continue;
+      lines[k] += pinion * (std::norm(per_m[0][k]) + std::norm(per_m[1][k])) +
+                  gear * (std::norm(per_m[2][k]) + std::norm(per_m[3][k]));
+    }
+  }
+
+  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM, the
+  /// same share at every harmonic) and turns the pinion against the tacho (PM of index n·b at
+  /// harmonic n, as the mesh phase is n·z1 times the pinion's angle). The mean of a modulated
+  /// line's two first sidebands is ((a² + (n·b)²)/4)·P(n·GMF), whatever the phase between them.
+  static double run_out_sideband_share(const RunOutSensitivity& r, double run_out_m, std::size_t n) {
+    const double am = r.am_per_m * run_out_m, pm = r.pm_per_harmonic_per_m * run_out_m * static_cast<double>(n);
+    return (am * am + pm * pm) / 4.0;
+  }
+
+  void run_out_sidebands() {
+    for (std::size_t n = 1; n * z1_ <= twin_.input_lines.size(); ++n) {
+      const double mesh_power = twin_.input_lines[n * z1_ - 1];
+      const double ai = run_out_sideband_share(twin_.pinion_run_out, v_[0], n);
+      const double ao = run_out_sideband_share(twin_.gear_run_out, v_[1], n);
+      for (int side : {-1, 1}) {
+        const auto ki = static_cast<std::ptrdiff_t>(n * z1_) + side;
+        if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s_.input_lines.size())) s_.input_lines[ki - 1] += ai * mesh_power;
+        const auto ko = static_cast<std::ptrdiff_t>(n * z2_) + side;
+        if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s_.output_lines.size())) s_.output_lines[ko - 1] += ao * mesh_power;
+      }
+    }
+  }
+
+  void tooth_errors() {
+    const MeshEnvelope env(twin_, z1_);
+    for (std::size_t k = 1; k <= s_.input_lines.size(); ++k)
+      if (k % static_cast<std::size_t>(z1_) != 0) s_.input_lines[k - 1] += v_[0] * env.at(static_cast<double>(k));
+    for (std::size_t m = 1; m <= s_.output_lines.size(); ++m)
+      if (m % static_cast<std::size_t>(z2_) != 0) s_.output_lines[m - 1] += v_[1] * env.at(static_cast<double>(m) * z1_ / z2_);
+    // The pairing of pinion and gear teeth repeats only after z1·z2 meshes (the hunting period):
+    // what the pairs add together is synchronous with neither shaft and stays in the residual,
+    // through the same transfer path.
+    for (std::size_t k = 1; k <= s_.broadband.size(); ++k) s_.broadband[k - 1] += v_[2] * env.at(static_cast<double>(k) + 0.5);
+  }
+
+  /// A speed ripple of depth d at f_m turns the shaft d/x rad ahead and back (x = f_m over the
+  /// shaft's speed); the one-edge tacho follows all but the share r(x) of that angle, which stays
+  /// in the tracked signal as a phase modulation of index order·(d/x)·r(x). On top, the transfer
+  /// path in Hz sees the speed change: a share μ of every line is amplitude-modulated. The load
+  /// ripple's form is one phase modulation growing with order, a share 1 − exp(−(β·order)²).
+  struct ModulatedShare {
+    bool speed;
+    double pm_per_order;
+    const std::vector<double>& v;
+    double operator()(double order) const {
+      if (!speed) return 1.0 - std::exp(-(v[0] * order) * (v[0] * order));
+      const double carrier = bessel_j0(pm_per_order * order);
+      return 1.0 - (1.0 - v[2]) * carrier * carrier;
+    }
+  };
+
+  /// The powers below which a line is left alone and a moved tone is dropped.
+  struct MoveThresholds {
+    double too_small_to_move, negligible;
+  };
+
+  void fluctuation() {
+    const double x = v_[1] / s_.speed_hz;
+    const bool speed = e_.effect == CandidateEffect::speed_fluctuation;
+    const ModulatedShare share{speed, speed ? v_[0] / x * tracking_residual(x) : 0.0, v_};
+    // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
+    // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
+    // following a tone through both averages is most of this form's cost.
+    const double total = total_input_line_power(twin_);
+    // A line 90 dB below the total cannot move a bin: all of it in one bin at the floor (60 dB
+    // down) is 0.004 dB. The twin has no noise, so most of its lines are that far down.
+    const MoveThresholds limits{1e-9 * total, 1e-7 * total};
+    move_to_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share, x, limits);
+    move_to_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share, x, limits);
+  }
+
+  /// The modulated share leaves line k (order k·num/den) for sidebands f_m away (in orders: f_m /
+  /// speed), half each side (x orders away); being off the integer orders they land mostly in the
+  /// broadband part, and partly in the neighbouring lines (a few dB on sidebands 40 dB below a
+  /// mesh harmonic).
+  void move_to_sidebands(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
+                         const ModulatedShare& share, double x, const MoveThresholds& limits) {
+    for (std::size_t k = 1; k <= lines.size(); ++k) {
+      const double power = twin_lines[k - 1];
+      if (!(power > limits.too_small_to_move)) continue;
+      const double order = static_cast<double>(k) * num / den;
+      const double moved = power * share(order);
+      lines[k - 1] -= moved;
+      add_non_synchronous_tone(s_, order - x, moved / 2, gears_, limits.negligible);
+      add_non_synchronous_tone(s_, order + x, moved / 2, gears_, limits.negligible);
+    }
+  }
+
+  const AppliedEffect& e_;
+  const std::vector<double>& v_;
+  const SpectralSummary& twin_;
+  SpectralSummary& s_;
+  const GearPairSpec& gears_;
+  const int z1_, z2_;
+  const double out_speed_;
+};
+
+void apply_one(const AppliedEffect& e, const SpectralSummary& twin, SpectralSummary& s, const GearPairSpec& gears) {
+  EffectApplier(e, twin, s, gears).apply();
 }
 
 }  // namespace

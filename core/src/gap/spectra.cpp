@@ -59,6 +59,124 @@ bool is_sideband_order(int order, int teeth) noexcept {
   const int from_below = order % teeth;
   return from_below <= kSidebandOrders || teeth - from_below <= kSidebandOrders;
 }
+
+/// The record's `channel`, checked: a sample rate, the channel present, every sample finite.
+const std::vector<float>& checked_channel(const Record& record, int channel) {
+  if (!(record.sample_rate_hz > 0)) throw std::invalid_argument("record has no sample rate");
+  if (channel < 0 || static_cast<std::size_t>(channel) >= record.channels.size())
+    throw std::invalid_argument("record has no channel " + std::to_string(channel));
+  const auto& x = record.channels[static_cast<std::size_t>(channel)];
+  for (float v : x)
+    if (!std::isfinite(v)) throw std::invalid_argument("record has non-finite samples");
+  return x;
+}
+
+/// The whole revolutions of each shaft and the input shaft's mean speed over its whole revolutions.
+struct WholeRevolutions {
+  std::size_t input = 0, output = 0;
+  double speed_hz = 0;
+};
+
+WholeRevolutions whole_revolutions(const dsp::ShaftAngle& angle, double ratio, double sample_rate_hz,
+                                   std::size_t min_revolutions) {
+  WholeRevolutions r;
+  const double total = angle.total_revolutions();
+  r.input = static_cast<std::size_t>(std::floor(total + 1e-9));
+  r.output = static_cast<std::size_t>(std::floor(total / ratio + 1e-9));
+  if (r.input < min_revolutions)
+    throw std::invalid_argument("record too short: " + std::to_string(r.input) + " whole input revolutions, need " +
+                                std::to_string(min_revolutions));
+  if (r.output < 2)
+    throw std::invalid_argument("record too short: " + std::to_string(r.output) +
+                                " whole output revolutions, need 2 for the output shaft's lines");
+  const double seconds = (angle.time_at(static_cast<double>(r.input)) - angle.time_at(0.0)) / sample_rate_hz;
+  r.speed_hz = static_cast<double>(r.input) / seconds;
+  return r;
+}
+
+/// Samples per revolution of each shaft's angle domain and the lines each keeps.
+struct AngleResolution {
+  std::size_t spr = 0, spr_out = 0, k_in = 0, k_out = 0;
+};
+
+AngleResolution angle_resolution(const dsp::ShaftAngle& angle, double sample_rate_hz, double speed_hz, double ratio) {
+  AngleResolution a;
+  // Resolution: the angle domain keeps the whole acquired band at the slowest revolution.
+  std::vector<double> per_rev;
+  angle.speed_per_revolution(sample_rate_hz, per_rev);
+  const double slowest = per_rev.empty() ? speed_hz : *std::min_element(per_rev.begin(), per_rev.end());
+  a.spr = dsp::next_smooth_size(static_cast<std::size_t>(std::ceil(sample_rate_hz / slowest)));
+  const double top_hz = kUsableBandFraction * sample_rate_hz;
+  a.k_in = std::min(a.spr / 2 - 1, static_cast<std::size_t>(std::floor(top_hz / speed_hz)));
+  // The output shaft turns z2/z1 times slower: as many more samples per revolution keep the band.
+  a.spr_out = dsp::next_smooth_size(static_cast<std::size_t>(std::ceil(a.spr * ratio)));
+  a.k_out = std::min(a.spr_out / 2 - 1, static_cast<std::size_t>(std::floor(top_hz / (speed_hz / ratio))));
+  return a;
+}
+
+/// The signal split by shaft: the input shaft's part (input revolutions, spr each), the output
+/// shaft's part (output revolutions, spr_out each) and the residual that holds neither.
+struct ShaftParts {
+  dsp::RealBuffer input_only, output_only, residual;
+};
+
+/// Each shaft's lines are read with the other shaft's synchronous part removed: an input line is
+/// not periodic on the output shaft (and vice versa), so with a few revolutions its leakage
+/// would not average out and a change on one shaft would show on the other.
+ShaftParts separate_shafts(const std::vector<float>& x, const dsp::ShaftAngle& angle, const AngleResolution& a,
+                           const WholeRevolutions& revs, double ratio, const GearPairSpec& gears,
+                           dsp::FftPlanCache& plans) {
+  const std::size_t spr = a.spr;
+  dsp::AngularResampler resampler;
+  dsp::RealBuffer in_angle(revs.input * spr), out_angle(revs.output * spr);
+  ShaftParts parts{dsp::RealBuffer(in_angle.size()), dsp::RealBuffer(revs.output * a.spr_out),
+                   dsp::RealBuffer(in_angle.size())};
+  resampler.resample(x, angle, spr, revs.input, in_angle);
+  resampler.resample(x, angle, spr, revs.output, out_angle, ratio);
+  dsp::SynchronousSeparation separation;
+  separation.separate(in_angle, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, parts.residual);
+  const std::vector<double> tsa_in(separation.input_tsa().begin(), separation.input_tsa().end());
+  dsp::RealBuffer output_part(in_angle.size());
+  std::vector<float> output_only(in_angle.size());
+  for (std::size_t j = 0; j < in_angle.size(); ++j) {
+    output_part[j] = in_angle[j] - tsa_in[j % spr];
+    output_only[j] = static_cast<float>(output_part[j]);
+  }
+  // The output-only signal is sampled uniformly in input angle: its "tacho" is every spr samples.
+  std::vector<double> grid_edges(revs.input + 1);
+  for (std::size_t r = 0; r <= revs.input; ++r) grid_edges[r] = static_cast<double>(r * spr);
+  dsp::ShaftAngle grid;
+  grid.assign(grid_edges, 1, 1.0);
+  resampler.resample(output_only, grid, a.spr_out, revs.output, parts.output_only, ratio);
+  // Second pass: the output shaft's average taken without the input lines (the first pass took it
+  // from the raw signal, where an input line 0.2 output orders from an output line leaks in as 1/R),
+  // so that the residual holds neither shaft's lines.
+  resampler.resample(output_only, grid, spr, revs.output, out_angle, ratio);
+  separation.separate(output_part, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, parts.residual);
+  for (std::size_t j = 0; j < in_angle.size(); ++j) parts.input_only[j] = tsa_in[j % spr] + parts.residual[j];
+  return parts;
+}
+
+/// Broadband: 2-revolution Hann blocks of the residual, 50 % overlap, bins 1 .. 2·k_in + 1.
+void broadband_block_dft(const dsp::RealBuffer& residual, std::size_t spr, std::size_t blocks, std::size_t k_in,
+                         dsp::FftPlanCache& plans, std::vector<std::complex<double>>& out) {
+  const std::size_t n = 2 * spr;
+  const auto& fft2 = plans.real(n);
+  dsp::RealBuffer in(n);
+  dsp::ComplexBuffer spectrum(fft2.spectrum_size());
+  std::vector<double> window(n);
+  for (std::size_t i = 0; i < n; ++i) window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / n);
+  // Peak-amplitude scale of a bin-centred tone (2/Σw), and the window's noise bandwidth (1.5
+  // bins) so that a tone's power summed over the bins it spreads into counts once.
+  const double scale = 4.0 / static_cast<double>(n) / std::sqrt(1.5);
+  const std::size_t bins = 2 * k_in + 1;
+  out.assign(blocks * bins, {});
+  for (std::size_t b = 0; b < blocks; ++b) {
+    for (std::size_t i = 0; i < n; ++i) in[i] = residual[b * spr + i] * window[i];
+    fft2.forward(in, spectrum);
+    for (std::size_t j = 1; j <= bins; ++j) out[b * bins + j - 1] = spectrum[j] * scale;
+  }
+}
 }  // namespace
 
 FamilyKind input_line_family(int order, int pinion_teeth) noexcept {
@@ -75,90 +193,24 @@ FamilyKind output_line_family(int order, int gear_teeth) noexcept {
 RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSpec& gears,
                              std::size_t min_revolutions, int edges_per_rev)
     : sample_rate_hz_(record.sample_rate_hz), torque_nm_(record.torque_nm), pinion_teeth_(gears.pinion_teeth), gear_teeth_(gears.gear_teeth) {
-  if (!(record.sample_rate_hz > 0)) throw std::invalid_argument("record has no sample rate");
-  if (channel < 0 || static_cast<std::size_t>(channel) >= record.channels.size())
-    throw std::invalid_argument("record has no channel " + std::to_string(channel));
-  const auto& x = record.channels[static_cast<std::size_t>(channel)];
-  for (float v : x)
-    if (!std::isfinite(v)) throw std::invalid_argument("record has non-finite samples");
+  const auto& x = checked_channel(record, channel);
   dsp::ShaftAngle angle;
   const auto check = angle.assign(record.tacho_edges[0], edges_per_rev, 1.0);
   if (!check.ok()) throw std::invalid_argument("record's input tacho is unusable: " + check.reason);
-  const double total = angle.total_revolutions();
-  in_revs_ = static_cast<std::size_t>(std::floor(total + 1e-9));
   const double ratio = static_cast<double>(gears.gear_teeth) / gears.pinion_teeth;
-  out_revs_ = static_cast<std::size_t>(std::floor(total / ratio + 1e-9));
-  if (in_revs_ < min_revolutions)
-    throw std::invalid_argument("record too short: " + std::to_string(in_revs_) + " whole input revolutions, need " +
-                                std::to_string(min_revolutions));
-  if (out_revs_ < 2)
-    throw std::invalid_argument("record too short: " + std::to_string(out_revs_) +
-                                " whole output revolutions, need 2 for the output shaft's lines");
-  const double seconds = (angle.time_at(static_cast<double>(in_revs_)) - angle.time_at(0.0)) / sample_rate_hz_;
-  speed_hz_ = static_cast<double>(in_revs_) / seconds;
-  // Resolution: the angle domain keeps the whole acquired band at the slowest revolution.
-  std::vector<double> per_rev;
-  angle.speed_per_revolution(sample_rate_hz_, per_rev);
-  const double slowest = per_rev.empty() ? speed_hz_ : *std::min_element(per_rev.begin(), per_rev.end());
-  const std::size_t spr = dsp::next_smooth_size(static_cast<std::size_t>(std::ceil(sample_rate_hz_ / slowest)));
-  const double top_hz = kUsableBandFraction * sample_rate_hz_;
-  k_in_ = std::min(spr / 2 - 1, static_cast<std::size_t>(std::floor(top_hz / speed_hz_)));
-  // The output shaft turns z2/z1 times slower: as many more samples per revolution keep the band.
-  const std::size_t spr_out = dsp::next_smooth_size(static_cast<std::size_t>(std::ceil(spr * ratio)));
-  k_out_ = std::min(spr_out / 2 - 1, static_cast<std::size_t>(std::floor(top_hz / (speed_hz_ / ratio))));
-
+  const WholeRevolutions revs = whole_revolutions(angle, ratio, sample_rate_hz_, min_revolutions);
+  in_revs_ = revs.input;
+  out_revs_ = revs.output;
+  speed_hz_ = revs.speed_hz;
+  const AngleResolution a = angle_resolution(angle, sample_rate_hz_, speed_hz_, ratio);
+  k_in_ = a.k_in;
+  k_out_ = a.k_out;
   dsp::FftPlanCache plans;
-  dsp::AngularResampler resampler;
-  dsp::RealBuffer in_angle(in_revs_ * spr), out_angle(out_revs_ * spr), out_angle_fine(out_revs_ * spr_out);
-  resampler.resample(x, angle, spr, in_revs_, in_angle);
-  resampler.resample(x, angle, spr, out_revs_, out_angle, ratio);
-  // Each shaft's lines are read with the other shaft's synchronous part removed: an input line is
-  // not periodic on the output shaft (and vice versa), so with a few revolutions its leakage
-  // would not average out and a change on one shaft would show on the other.
-  dsp::SynchronousSeparation separation;
-  dsp::RealBuffer residual(in_angle.size());
-  separation.separate(in_angle, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, residual);
-  const std::vector<double> tsa_in(separation.input_tsa().begin(), separation.input_tsa().end());
-  dsp::RealBuffer output_part(in_angle.size());
-  std::vector<float> output_only(in_angle.size());
-  for (std::size_t j = 0; j < in_angle.size(); ++j) {
-    output_part[j] = in_angle[j] - tsa_in[j % spr];
-    output_only[j] = static_cast<float>(output_part[j]);
-  }
-  // The output-only signal is sampled uniformly in input angle: its "tacho" is every spr samples.
-  std::vector<double> grid_edges(in_revs_ + 1);
-  for (std::size_t r = 0; r <= in_revs_; ++r) grid_edges[r] = static_cast<double>(r * spr);
-  dsp::ShaftAngle grid;
-  grid.assign(grid_edges, 1, 1.0);
-  resampler.resample(output_only, grid, spr_out, out_revs_, out_angle_fine, ratio);
-  // Second pass: the output shaft's average taken without the input lines (the first pass took it
-  // from the raw signal, where an input line 0.2 output orders from an output line leaks in as 1/R),
-  // so that the residual holds neither shaft's lines.
-  resampler.resample(output_only, grid, spr, out_revs_, out_angle, ratio);
-  separation.separate(output_part, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, residual);
-  dsp::RealBuffer input_only(in_angle.size());
-  for (std::size_t j = 0; j < in_angle.size(); ++j) input_only[j] = tsa_in[j % spr] + residual[j];
-  const auto& fft = plans.real(spr);
-  per_revolution_dft(input_only, spr, in_revs_, k_in_, fft, in_dft_);
-  per_revolution_dft(out_angle_fine, spr_out, out_revs_, k_out_, plans.real(spr_out), out_dft_);
-  // Broadband: 2-revolution Hann blocks, 50 % overlap.
-  const std::size_t n = 2 * spr;
+  const ShaftParts parts = separate_shafts(x, angle, a, revs, ratio, gears, plans);
+  per_revolution_dft(parts.input_only, a.spr, in_revs_, k_in_, plans.real(a.spr), in_dft_);
+  per_revolution_dft(parts.output_only, a.spr_out, out_revs_, k_out_, plans.real(a.spr_out), out_dft_);
   blocks_ = in_revs_ - 1;
-  const auto& fft2 = plans.real(n);
-  dsp::RealBuffer in(n);
-  dsp::ComplexBuffer spectrum(fft2.spectrum_size());
-  std::vector<double> window(n);
-  for (std::size_t i = 0; i < n; ++i) window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / n);
-  // Peak-amplitude scale of a bin-centred tone (2/Σw), and the window's noise bandwidth (1.5
-  // bins) so that a tone's power summed over the bins it spreads into counts once.
-  const double scale = 4.0 / static_cast<double>(n) / std::sqrt(1.5);
-  const std::size_t bins = 2 * k_in_ + 1;
-  block_dft_.assign(blocks_ * bins, {});
-  for (std::size_t b = 0; b < blocks_; ++b) {
-    for (std::size_t i = 0; i < n; ++i) in[i] = residual[b * spr + i] * window[i];
-    fft2.forward(in, spectrum);
-    for (std::size_t j = 1; j <= bins; ++j) block_dft_[b * bins + j - 1] = spectrum[j] * scale;
-  }
+  broadband_block_dft(parts.residual, a.spr, blocks_, k_in_, plans, block_dft_);
 }
 
 double total_input_line_power(const SpectralSummary& s) noexcept {

@@ -25,6 +25,7 @@
 
 #include "gearwatch/acquisition/events.hpp"
 #include "gearwatch/rig.hpp"
+#include "gearwatch/types/gap_cause.hpp"
 #include "gearwatch/types/record.hpp"
 
 namespace gearwatch::acquisition {
@@ -35,10 +36,6 @@ struct StreamInfo {
   std::uint8_t channel_count = 0;
   std::uint64_t sequence = 0;       ///< 1 for the first stream of this run, then 2, 3...
 };
-
-enum class GapCause : std::uint8_t { protocol = 0, ring_overflow = 1 };
-inline constexpr std::array kAllGapCauses{GapCause::protocol, GapCause::ring_overflow};
-const char* to_string(GapCause cause) noexcept;
 
 struct GapInfo {
   int channel = 0;                  ///< protocol channel number
