@@ -197,7 +197,7 @@ void IndicatorBench::time_band_selection() {
   BandMap::Optimum best_ics2, best_kurtosis;
   Timing t_tree, t_kurtogram, t_filtering, t_power, t_ics2;
   auto select = [&] {
-    bank.analyse(x, levels, criteria, maps);
+    bank.analyse(x, levels, criteria, maps, BandGate{0, max_high_fraction, floor_fraction});
     best_ics2 = maps[1].optimum(max_high_fraction, &maps[0], floor_fraction);
     best_kurtosis = maps[2].optimum(max_high_fraction, &maps[0], floor_fraction);
   };
