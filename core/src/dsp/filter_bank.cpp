@@ -211,20 +211,18 @@ void ternary_fir(std::span<const Complex> c, const TernaryPolyphase& f,
 // over the few bands it is computed on.)
 NodeMoments node_moments(std::span<const Complex> c) {
   double sum_re = 0.0, sum_im = 0.0, power = 0.0;
-  bool nonzero = false;
   const double* in = reinterpret_cast<const double*>(c.data());
   for (std::size_t i = 0; i < c.size(); ++i) {
     const double re = in[2 * i], im = in[2 * i + 1];
     sum_re += re;
     sum_im += im;
-    const double p = re * re + im * im;  // std::norm's formula
-    power += p;
-    nonzero |= (re != 0.0) | (im != 0.0);
+    power += re * re + im * im;  // std::norm's formula
   }
   NodeMoments m;
   m.sum = Complex(sum_re, sum_im);
   m.power_sum = power;
-  m.all_zero = !nonzero;
+  // A positive power means some sample is not zero; otherwise (all zero, underflow, NaN) look.
+  m.all_zero = !(power > 0.0) && std::all_of(c.begin(), c.end(), [](const Complex& v) { return v == Complex{}; });
   return m;
 }
 
