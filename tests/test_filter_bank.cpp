@@ -319,4 +319,56 @@ TEST_CASE("Band selection ignores bands below the power floor and says when none
   CHECK_THROWS_AS(maps[0].optimum(0.5, &other, 0.0), std::invalid_argument);
 }
 
+TEST_CASE("Band gate: the optima and the power map as without it and the other bands not evaluated", "[dsp][filter_bank]") {
+  // Reference: the same bank without the gate, where optimum() applies the same rule afterwards.
+  const std::size_t spr = 512, revs = 64, n = spr * revs;
+  std::mt19937_64 rng(23);
+  std::normal_distribution<double> normal;
+  std::vector<double> x(n);
+  double y1 = 0, y2 = 0;
+  const double fc = 0.12, r = 0.97;
+  const double a1 = -2 * r * std::cos(2 * std::numbers::pi * fc), a2 = r * r;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double y = normal(rng) - a1 * y1 - a2 * y2;
+    y2 = y1;
+    y1 = y;
+    x[i] = 0.01 * normal(rng) + (1 + 0.5 * std::cos(2 * std::numbers::pi * 19 * double(i) / double(spr))) * y;
+  }
+  FftPlanCache plans;
+  SquaredEnvelopeAnalyzer envelope(plans);
+  Ics2Criterion ics2(envelope, plans, spr, Ics2Parameters{19.0, 3, 3});
+  BandPowerCriterion power;
+  KurtosisCriterion kurtosis;
+  BandCriterion* criteria[] = {&power, &ics2, &kurtosis};
+  OneThirdBinaryFilterBank bank;
+  std::vector<BandMap> plain(3), gated(3);
+  const double max_high = 0.4, floor_fraction = 1e-3;
+  bank.analyse(x, 5, criteria, plain);
+  bank.analyse(x, 5, criteria, gated, BandGate{0, max_high, floor_fraction});
+  CHECK(gated[0].values == plain[0].values);
+  std::size_t not_evaluated = 0;
+  for (std::size_t i = 0; i < plain[1].values.size(); ++i) {
+    if (std::isnan(gated[1].values[i])) {
+      ++not_evaluated;
+      CHECK(std::isnan(gated[2].values[i]));
+    } else {
+      CHECK(gated[1].values[i] == plain[1].values[i]);
+      CHECK(gated[2].values[i] == plain[2].values[i]);
+    }
+  }
+  WARN("band gate: " << not_evaluated << " of " << plain[1].values.size() << " map entries not evaluated");
+  CHECK(not_evaluated > 0);
+  for (std::size_t m : {1u, 2u}) {
+    const auto a = plain[m].optimum(max_high, &plain[0], floor_fraction);
+    const auto b = gated[m].optimum(max_high, &gated[0], floor_fraction);
+    CHECK(a.found == b.found);
+    CHECK(a.row == b.row);
+    CHECK(a.first_column == b.first_column);
+    CHECK(a.value == b.value);
+  }
+  BandCriterion* no_power[] = {&ics2};
+  std::vector<BandMap> one(1);
+  CHECK_THROWS_AS(bank.analyse(x, 5, no_power, one, BandGate{1, 0.5, 0.0}), std::invalid_argument);
+}
+
 }  // namespace test_filter_bank

@@ -206,6 +206,26 @@ void ternary_fir(std::span<const Complex> c, const TernaryPolyphase& f,
   ternary_body(c.data(), f, out.data(), first, out_length);
 }
 
+// One read of the node for power and kurtosis: the sums each would take, in the same order, so
+// their values do not change. (|c|^2 is not kept: writing it costs more than ICS2's own pass
+// over the few bands it is computed on.)
+NodeMoments node_moments(std::span<const Complex> c) {
+  double sum_re = 0.0, sum_im = 0.0, power = 0.0;
+  const double* in = reinterpret_cast<const double*>(c.data());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const double re = in[2 * i], im = in[2 * i + 1];
+    sum_re += re;
+    sum_im += im;
+    power += re * re + im * im;  // std::norm's formula
+  }
+  NodeMoments m;
+  m.sum = Complex(sum_re, sum_im);
+  m.power_sum = power;
+  // A positive power means some sample is not zero; otherwise (all zero, underflow, NaN) look.
+  m.all_zero = !(power > 0.0) && std::all_of(c.begin(), c.end(), [](const Complex& v) { return v == Complex{}; });
+  return m;
+}
+
 }  // namespace
 
 OneThirdBinaryFilterBank::OneThirdBinaryFilterBank() {
@@ -259,15 +279,18 @@ BandMap::Optimum BandMap::optimum(double max_high_fraction, const BandMap* power
 }
 
 void OneThirdBinaryFilterBank::analyse(std::span<const double> x, int levels, std::span<BandCriterion* const> criteria,
-                                       std::span<BandMap> maps) {
+                                       std::span<BandMap> maps, const std::optional<BandGate>& gate) {
   if (levels < 1 || levels > 16) throw std::invalid_argument("filter bank: levels must be 1..16");
   if (maps.size() < criteria.size()) throw std::invalid_argument("filter bank: one map per criterion");
   // The deepest binary node must keep samples after its 16-sample trim.
   if (x.size() < (static_cast<std::size_t>(32) << levels))
     throw std::invalid_argument("filter bank: signal too short for " + std::to_string(levels) + " levels");
+  if (gate && gate->power_criterion >= criteria.size())
+    throw std::invalid_argument("filter bank: the gate's power criterion is not among the criteria");
   levels_ = levels;
   criteria_ = criteria;
   maps_ = maps;
+  gate_ = gate;
   const std::size_t columns = static_cast<std::size_t>(3) << levels;
   for (std::size_t i = 0; i < criteria.size(); ++i) {
     maps[i].levels = levels;
@@ -301,13 +324,30 @@ void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int d
   node.decimation = decimation;
   node.real = real;
   node.samples = trimmed;
+  if (criteria_.empty()) return;
+  const NodeMoments moments = node_moments(trimmed);
+  node.moments = &moments;
   const std::size_t columns = static_cast<std::size_t>(3) << levels_;
   const std::size_t span = columns / static_cast<std::size_t>(band_count);
-  for (std::size_t i = 0; i < criteria_.size(); ++i) {
-    const double value = criteria_[i]->evaluate(node);
-    double* out = &maps_[i].values[static_cast<std::size_t>(row) * columns + static_cast<std::size_t>(band) * span];
+  const std::size_t first_column = static_cast<std::size_t>(band) * span;
+  auto store = [&](std::size_t i, double value) {
+    double* out = &maps_[i].values[static_cast<std::size_t>(row) * columns + first_column];
     std::fill(out, out + span, value);
+  };
+  if (!gate_) {
+    for (std::size_t i = 0; i < criteria_.size(); ++i) store(i, criteria_[i]->evaluate(node));
+    return;
   }
+  const std::size_t p = gate_->power_criterion;
+  const double power = criteria_[p]->evaluate(node);
+  store(p, power);
+  if (row == 0) gate_min_power_ = gate_->min_power_fraction * power;
+  // BandMap::optimum's eligibility, on the same map entries.
+  const bool eligible = maps_[p].band_high_fraction(static_cast<std::size_t>(row), first_column) <=
+                            gate_->max_high_fraction + 1e-12 &&
+                        power >= gate_min_power_ && power > 0.0;
+  for (std::size_t i = 0; i < criteria_.size(); ++i)
+    if (i != p) store(i, eligible ? criteria_[i]->evaluate(node) : std::numeric_limits<double>::quiet_NaN());
 }
 
 void OneThirdBinaryFilterBank::ternary_split(int depth, int band, std::span<const Complex> node) {
@@ -353,9 +393,14 @@ double KurtosisCriterion::evaluate(const FilterBankNode& node) {
   if (c.empty()) return 0.0;
   Complex mean{};
   bool all_zero = true;
-  for (const Complex& v : c) {
-    mean += v;
-    if (v != Complex{}) all_zero = false;
+  if (node.moments != nullptr) {
+    mean = node.moments->sum;
+    all_zero = node.moments->all_zero;
+  } else {
+    for (const Complex& v : c) {
+      mean += v;
+      if (v != Complex{}) all_zero = false;
+    }
   }
   if (all_zero) return 0.0;
   mean /= static_cast<double>(c.size());
@@ -374,7 +419,9 @@ double KurtosisCriterion::evaluate(const FilterBankNode& node) {
 double BandPowerCriterion::evaluate(const FilterBankNode& node) {
   if (node.samples.empty()) return 0.0;
   double sum = 0.0;
-  for (const Complex& v : node.samples) sum += std::norm(v);
+  if (node.moments != nullptr) sum = node.moments->power_sum;
+  else
+    for (const Complex& v : node.samples) sum += std::norm(v);
   return (node.real ? 1.0 : 2.0) * sum / static_cast<double>(node.samples.size());
 }
 

@@ -453,7 +453,9 @@ struct RecordAnalyzer::Context {
       selected_by.push_back(BandSelectionCriterion::kurtosis);
     }
     try {
-      a.filter_bank_.analyse(residual, a.settings_.filter_bank_levels, criteria, maps);
+      // ICS2 and kurtosis only on the bands the selection may pick (the power map is criteria[0]).
+      a.filter_bank_.analyse(residual, a.settings_.filter_bank_levels, criteria, maps,
+                             BandGate{0, usable_hz / equivalent_rate, min_band_fraction});
       for (std::size_t i = 1; i < criteria.size(); ++i) {
         const auto best = maps[i].optimum(usable_hz / equivalent_rate, &maps[0], min_band_fraction);
         if (!best.found) {

@@ -17,6 +17,15 @@
 
 namespace gearwatch::dsp {
 
+/// Sums over a node's samples, taken by the bank in one pass for power and kurtosis (each would
+/// otherwise read the node again): the complex sum, the sum of |c|^2 (in index order, as the
+/// criteria's own loops add them) and whether every sample is zero.
+struct NodeMoments {
+  Complex sum{};
+  double power_sum = 0.0;
+  bool all_zero = true;
+};
+
 /// One band of the tree as seen by a criterion.
 struct FilterBankNode {
   int row = 0;                 ///< 0 whole signal; 2k-1 binary depth k; 2k ternary split of depth k-1
@@ -26,6 +35,18 @@ struct FilterBankNode {
   int decimation = 1;          ///< input samples per node sample
   bool real = false;           ///< only row 0: the raw (mean-removed) real signal
   std::span<const Complex> samples;  ///< after the transient trim (real parts only when `real`)
+  /// Given by the bank (null when a caller builds a node itself): the samples' sums, valid
+  /// during evaluate().
+  const NodeMoments* moments = nullptr;
+};
+
+/// Which bands a selection may pick (BandMap::optimum's rule, applied while the tree runs): the
+/// gated criteria are not evaluated on the others, whose map entries are NaN ("not computed";
+/// optimum never picks a NaN). The power criterion itself is never gated.
+struct BandGate {
+  std::size_t power_criterion = 0;  ///< index of the BandPowerCriterion among the criteria
+  double max_high_fraction = 0.5;
+  double min_power_fraction = 0.0;
 };
 
 class BandCriterion {
@@ -119,8 +140,9 @@ class OneThirdBinaryFilterBank {
   /// Decomposes x to `levels` binary depths (ternary splits down to depth levels-2) and evaluates
   /// every criterion on every band; maps[i] receives criteria[i]'s map. Reuses its buffers.
   /// Throws std::invalid_argument when levels < 1 or x is too short for the deepest level.
+  /// With a gate, the other criteria run only on the bands the gate lets through.
   void analyse(std::span<const double> x, int levels, std::span<BandCriterion* const> criteria,
-               std::span<BandMap> maps);
+               std::span<BandMap> maps, const std::optional<BandGate>& gate = std::nullopt);
 
   /// The filters as built (reference: filters.csv): binary low (17 taps), binary high (16),
   /// ternary 1..3 (25 each).
@@ -138,6 +160,8 @@ class OneThirdBinaryFilterBank {
   int levels_ = 0;
   std::span<BandCriterion* const> criteria_;
   std::span<BandMap> maps_;
+  std::optional<BandGate> gate_;
+  double gate_min_power_ = 0.0;
   ComplexBuffer root_;
   std::vector<ComplexBuffer> low_children_, high_children_;
   ComplexBuffer ternary_scratch_;
