@@ -1,4 +1,4 @@
-// The twin's periodic path (the default, SimulationOptions::periodic_path()) against the full
+// The twin's periodic path (opt-in, SimulationOptions::periodic_path()) against the full
 // reference integration (SimulationOptions::reference()) on the same parameters, after the
 // reference's start-up transient: the periodic path reads every sample off the steady state, the
 // reference carries the start's free oscillation of the lightly damped lowest torsional mode, so the
@@ -66,7 +66,7 @@ void compare_periodic_with_reference(double speed_hz, const ToothProfileDeviatio
   const GearboxParameters p;
   const OperatingPoint op{speed_hz, 20.0};
   const double fs = 100000.0;
-  SimulationOptions periodic;  // the default
+  SimulationOptions periodic = SimulationOptions::periodic_path();
   periodic.sample_rate_hz = fs;
   SimulationOptions reference = SimulationOptions::reference();
   reference.sample_rate_hz = fs;
@@ -110,7 +110,7 @@ void compare_periodic_with_reference(double speed_hz, const ToothProfileDeviatio
 // The same parameters through simulate() at the record's rate: the periodic path is taken for them.
 SimulationResult periodic_run(double speed_hz, const ToothProfileDeviation& deviation, double duration_s,
                               const GearboxParameters& p = {}) {
-  SimulationOptions o;  // the default: the periodic path
+  SimulationOptions o = SimulationOptions::periodic_path();
   o.sample_rate_hz = 100000.0;
   return simulate(p, deviation, {speed_hz, 20.0}, duration_s, o);
 }
@@ -182,7 +182,7 @@ TEST_CASE("A twin run whose start-up transient does not die out is the full inte
   GearboxParameters p;
   p.structural_damping_ratio = 5e-4;
   SimulationOptions reference = SimulationOptions::reference();
-  SimulationOptions periodic;
+  SimulationOptions periodic = SimulationOptions::periodic_path();
   periodic.periodic_search_s = 0;
   const SimulationResult a = simulate(p, {}, {10.0, 20.0}, 0.5, periodic);
   const SimulationResult r = simulate(p, {}, {10.0, 20.0}, 0.5, reference);
