@@ -1,5 +1,5 @@
 // The twin's fast integration (SimulationOptions::fast()) against the reference one
-// (SimulationOptions::reference(), the default): the same record within stated bounds.
+// (SimulationOptions::reference(), the full integration): the same record within stated bounds.
 // Bounds, fixed before the comparison: the casing acceleration sample by sample within 1e-3 of the
 // reference's RMS; its RMS, the 0-2 kHz band RMS, the first three mesh harmonics' amplitudes and
 // RMS_SA within 1e-3 relative; the tacho edges within 1e-6 samples.

@@ -116,8 +116,6 @@ std::vector<double> tacho_edges(double input_speed_hz, double t0, double sample_
 // Writes each output sample into the result: the casing acceleration and the input shaft's angle
 // always, the mesh's signals and the contact profile unless casing_only (what a record needs:
 // the front-end's oversampled run then does not hold every state signal `factor` times over).
-// It also keeps the casing acceleration's square sum since the last period boundary, which the
-// periodic path's check reads.
 class SampleRecorder {
  public:
   SampleRecorder(const GearboxDynamics& dynamics, const GearGeometry& geometry, SimulationResult& result, std::size_t count,
@@ -126,37 +124,22 @@ class SampleRecorder {
         path_gain_(path_gain), casing_only_(casing_only) {}
 
   void operator()(const State& x, double t, std::size_t i, bool in_order) {
-    if (in_order) ++period_samples_;
+    input_angle_deviation_[i] = x[theta1];
     if (casing_only_) {
-      const double a = path_gain_ * dynamics_.acceleration(x, t, y6);
-      result_.casing_acceleration[i] = a;
-      input_angle_deviation_[i] = x[theta1];
-      if (in_order) period_square_sum_ += a * a;
+      result_.casing_acceleration[i] = path_gain_ * dynamics_.acceleration(x, t, y6);
       return;
     }
     const auto ms = dynamics_.mesh_state(x, t);
-    const double a = path_gain_ * dynamics_.acceleration(x, t, y6, ms.force);
-    result_.casing_acceleration[i] = a;
-    input_angle_deviation_[i] = x[theta1];
+    result_.casing_acceleration[i] = path_gain_ * dynamics_.acceleration(x, t, y6, ms.force);
     result_.time_s[i] = t - t0_;
     result_.mesh_force_n[i] = ms.force;
     result_.mesh_stiffness_n_m[i] = ms.stiffness;
     result_.transmission_error_m[i] = ms.deflection;
     result_.gte_m[i] = ms.gte;
     result_.pairs_in_contact[i] = ms.pairs;
-    if (in_order) {
-      period_square_sum_ += a * a;
-      profile_.observe(ms, result_.contact_profile);
-    }
+    if (in_order) profile_.observe(ms, result_.contact_profile);
   }
 
-  /// The casing acceleration's RMS over the in-order samples since the last call (0 if none).
-  double take_period_rms() {
-    const double rms = period_samples_ > 0 ? std::sqrt(period_square_sum_ / static_cast<double>(period_samples_)) : 0.0;
-    period_square_sum_ = 0;
-    period_samples_ = 0;
-    return rms;
-  }
   /// The contact profile is complete (or not wanted): the run may be tiled.
   bool profile_done() const { return casing_only_ || profile_.done(); }
   const std::vector<double>& input_angle_deviation() const { return input_angle_deviation_; }
@@ -168,32 +151,84 @@ class SampleRecorder {
   std::vector<double> input_angle_deviation_;
   const double t0_, path_gain_;
   const bool casing_only_;
-  double period_square_sum_ = 0;
-  std::size_t period_samples_ = 0;
 };
 
-// The periodic path's description. The check (SimulationOptions::periodic_tolerance,
+// The periodic path's check (SimulationOptions::periodic_tolerance,
 // periodic_tacho_tolerance_samples): the casing acceleration at two boundaries against its RMS
-// over the last period, and the input shaft's angle against the angle it turns in that fraction of
-// a sample (what moves a tacho edge).
+// over the last period (from every sample time the sampler watches, also past the record's end),
+// and the input shaft's angle against the angle it turns in that fraction of a sample (what moves
+// a tacho edge).
+class PeriodicCheck {
+ public:
+  PeriodicCheck(const GearboxDynamics& dynamics, const SampleRecorder& recorder, double path_gain, double tolerance,
+                double angle_tolerance)
+      : dynamics_(dynamics), recorder_(recorder), path_gain_(path_gain), tolerance_(tolerance),
+        angle_tolerance_(angle_tolerance) {}
+
+  void watch(const State& x, double t) {
+    const double a = path_gain_ * dynamics_.acceleration(x, t, y6);
+    square_sum_ += a * a;
+    ++samples_;
+  }
+
+  bool agrees(const State& earlier, const State& later, double b) {
+    const double rms = take_period_rms();
+    if (!recorder_.profile_done()) return false;
+    const double da = path_gain_ * (dynamics_.acceleration(later, b, y6) - dynamics_.acceleration(earlier, b, y6));
+    return rms > 0 && std::abs(da) <= tolerance_ * rms && std::abs(later[theta1] - earlier[theta1]) <= angle_tolerance_;
+  }
+
+ private:
+  // The casing acceleration's RMS over the samples watched since the last call (0 if none).
+  double take_period_rms() {
+    const double rms = samples_ > 0 ? std::sqrt(square_sum_ / static_cast<double>(samples_)) : 0.0;
+    square_sum_ = 0;
+    samples_ = 0;
+    return rms;
+  }
+
+  const GearboxDynamics& dynamics_;
+  const SampleRecorder& recorder_;
+  const double path_gain_, tolerance_, angle_tolerance_;
+  double square_sum_ = 0;
+  std::size_t samples_ = 0;
+};
+
+// The periodic path's description: the inputs' period, how many boundaries must agree (half the
+// slowest elastic mode's period watched), how far past the record the search may go.
 PeriodicTiling periodic_tiling(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
-                               const SimulationOptions& options, const GearboxDynamics& dynamics, const GearboxMatrices& matrices,
-                               SampleRecorder& recorder) {
-  const double tolerance = options.periodic_tolerance;
-  const double angle_tolerance =
-      options.periodic_tacho_tolerance_samples * 2.0 * std::numbers::pi * op.input_speed_hz / options.sample_rate_hz;
-  const double path_gain = p.casing_path_gain;
+                               const SimulationOptions& options, const GearboxMatrices& matrices, PeriodicCheck& check,
+                               const SampleRecorder& recorder) {
   PeriodicTiling tiling;
   tiling.period_s = periodic_inputs_period_s(p, deviation, op, options);
   const double watch_s = 0.5 / slowest_elastic_mode_hz(matrices);
   tiling.agreeing_periods = static_cast<std::size_t>(std::ceil(watch_s / tiling.period_s)) + 1;
-  tiling.agrees = [&dynamics, &recorder, tolerance, angle_tolerance, path_gain](const State& earlier, const State& later, double b) {
-    const double rms = recorder.take_period_rms();
-    if (!recorder.profile_done()) return false;
-    const double da = path_gain * (dynamics.acceleration(later, b, y6) - dynamics.acceleration(earlier, b, y6));
-    return rms > 0 && std::abs(da) <= tolerance * rms && std::abs(later[theta1] - earlier[theta1]) <= angle_tolerance;
-  };
+  tiling.search_s = options.periodic_search_s;
+  tiling.watch = [&check](const State& x, double t) { check.watch(x, t); };
+  tiling.agrees = [&check](const State& earlier, const State& later, double b) { return check.agrees(earlier, later, b); };
+  tiling.ready = [&recorder] { return recorder.profile_done(); };
   return tiling;
+}
+
+// The record read off the steady state's template (PeriodicSampler); the full integration again
+// when a template was read and rejected.
+void sample_periodic(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
+                     const SimulationOptions& options, const GearboxDynamics& dynamics, const GearboxMatrices& matrices,
+                     State& state, double t0, std::size_t count, SampleRecorder& recorder, SimulationResult& result) {
+  const double angle_tolerance =
+      options.periodic_tacho_tolerance_samples * 2.0 * std::numbers::pi * op.input_speed_hz / options.sample_rate_hz;
+  PeriodicCheck check(dynamics, recorder, p.casing_path_gain, options.periodic_tolerance, angle_tolerance);
+  const PeriodicTiling tiling = periodic_tiling(p, deviation, op, options, matrices, check, recorder);
+  const State initial = state;
+  const SampledRun run = integrate_sampled_periodic(dynamics, state, t0, options.sample_rate_hz, count, options, tiling, recorder);
+  result.rhs_evaluations += run.evaluations;
+  result.tiled = run.tiled;
+  result.template_start_s = run.tiled ? run.template_start_s - t0 : 0.0;
+  if (!run.discarded) return;
+  state = initial;
+  std::size_t i = 0;
+  result.rhs_evaluations += integrate_sampled(dynamics, state, t0, options.sample_rate_hz, count, options,
+                                              [&](const State& x, double t) { recorder(x, t, i++, true); });
 }
 
 SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
@@ -221,16 +256,12 @@ SimulationResult run_simulation(const GearboxParameters& p, const ToothProfileDe
   const auto count = static_cast<std::size_t>(samples_d);
   size_signals(result, count, casing_only);
   SampleRecorder recorder(dynamics, geometry, result, count, t0, p.casing_path_gain, casing_only);
-  if (!options.periodic) {
+  if (options.periodic) {
+    sample_periodic(p, deviation, op, options, dynamics, matrices, state, t0, count, recorder, result);
+  } else {
     std::size_t i = 0;
     result.rhs_evaluations += integrate_sampled(dynamics, state, t0, options.sample_rate_hz, count, options,
                                                 [&](const State& x, double t) { recorder(x, t, i++, true); });
-  } else {
-    const PeriodicTiling tiling = periodic_tiling(p, deviation, op, options, dynamics, matrices, recorder);
-    const SampledRun run = integrate_sampled_periodic(dynamics, state, t0, options.sample_rate_hz, count, options, tiling, recorder);
-    result.rhs_evaluations += run.evaluations;
-    result.tiled = run.tiled;
-    result.tiled_from_s = run.tiled ? run.tiled_from_s - t0 : 0.0;
   }
   result.tacho_edges = tacho_edges(op.input_speed_hz, t0, options.sample_rate_hz, recorder.input_angle_deviation());
   return result;

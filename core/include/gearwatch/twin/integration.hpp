@@ -76,28 +76,42 @@ std::size_t integrate_sampled(const GearboxDynamics& dynamics, State& state, dou
 struct PeriodicTiling {
   double period_s = 0;
   /// Consecutive period boundaries whose states must each agree with the one before (the check
-  /// below) before one more period is integrated as the template of the rest of the record.
+  /// below) before one more period is integrated as the template of the whole record.
   std::size_t agreeing_periods = 1;
+  /// The search for the steady state may integrate past the record's end up to this time from the
+  /// record's start (a record shorter than the check needs is read off the template all the same).
+  double search_s = 0;
+  /// watch(state, t): every sample time of the search and the template, in order, also past the
+  /// record's end (the check's measure over a period is taken from these).
+  std::function<void(const State&, double)> watch;
   /// agrees(anchor state, state at b, b): the periodicity check between the first boundary of a run
   /// of agreeing ones and a later one.
   std::function<bool(const State&, const State&, double)> agrees;
+  /// ready(): the check can still agree once the record's own samples are over (false: the search
+  /// stops at the record's end).
+  std::function<bool()> ready;
 };
 
 struct SampledRun {
   std::size_t evaluations = 0;     ///< right-hand-side evaluations
-  bool tiled = false;              ///< the samples after `tiled_from_s` came from the template period
-  double tiled_from_s = 0;         ///< the template period's end (the first tiled sample is at or after it)
+  bool tiled = false;              ///< every sample was read off the steady-state template
+  double template_start_s = 0;     ///< the template period's start (possibly past the record's end)
+  /// A template was read and then rejected, so the samples are neither the template's nor the full
+  /// integration's: the caller integrates the record again in full.
+  bool discarded = false;
 };
 
 /// integrate_sampled with the periodic path: the same dopri5 steps as integrate_sampled (its
-/// dense-output loop, written out so that it can pause), observer(x, t, i, in_order) at sample i.
-/// Checks each period boundary t0 + kT; once `agreeing_periods` boundaries in a row agree with the
-/// first of them, the next period [b, b + T] is integrated as the template and every later sample
-/// i is read off its dense output at t_i − kT (the state repeats with T), with in_order false. If
-/// the template's own end does not agree with its start, the tiled samples are dropped and the
-/// integration carries on (observer called again for them), so a run that never agrees is exactly
-/// the full integration. The calc_state calls the checks add do not change the steps (dense
-/// output is read-only).
+/// dense-output loop, written out so that it can pause). The search: the record's samples in order
+/// (observer(x, t, i, true)), checking each period boundary t0 + kT, past the record's end if need
+/// be (PeriodicTiling::search_s). Once `agreeing_periods` boundaries in a row agree with the first
+/// of them, the next period [b, b + T] is integrated as the template and every sample i of the
+/// record, from the first, is read off its dense output at t_i − kT with the k that puts it in
+/// [b, b + T) (the state repeats with T), observer(x, t_i, i, false): the record holds no
+/// start-up transient and its content does not depend on its length. A search that never agrees
+/// leaves the full integration (sample for sample when the search stays inside the record: the
+/// same steps). The calc_state calls the checks add do not change the steps (dense output is
+/// read-only).
 template <class Observer>
 class PeriodicSampler {
  public:
@@ -109,6 +123,11 @@ class PeriodicSampler {
                                                            boost::numeric::odeint::runge_kutta_dopri5<State>())) {
     if (!(rate > 0) || !std::isfinite(rate)) throw TwinParameterError("sample rate must be positive");
     if (!(period_ > 0) || !std::isfinite(period_)) throw TwinParameterError("tiling period must be positive");
+    search_end_ = count_ > 0 ? last_time() : t0_;
+    // Past the record only when the check fits in the search: the anchor, the agreeing boundaries
+    // and the template.
+    const double needs = t0_ + static_cast<double>(tiling.agreeing_periods + 2) * period_;
+    if (needs <= t0_ + tiling.search_s) search_end_ = std::max(search_end_, t0_ + tiling.search_s);
   }
 
   SampledRun run(State& state) {
@@ -116,17 +135,18 @@ class PeriodicSampler {
       if (!std::isfinite(v)) throw TwinDivergenceError("initial state is not finite");
     if (count_ == 0) return run_;
     start(state);
-    while (templating_ || next_ < count_) {
+    while (templating_ || keep_searching()) {
       step();
       const double now = stepper_.current_time(), dt = stepper_.current_time_step();
-      emit_in_order(templating_ ? first_tiled_ : count_, now, dt);
+      watch_in_order(now, dt);
       if (!templating_) check_boundaries(now, dt);
       if (!templating_) continue;
-      emit_repeats(now, dt);
+      emit_template(now, dt);
       if (now < template_start_ + period_) continue;
       if (template_closes()) break;
-      resume_in_order(now, dt);
+      resume_search();
     }
+    run_.discarded = discarded_ && !run_.tiled;
     state = stepper_.current_state();
     return run_;
   }
@@ -142,15 +162,24 @@ class PeriodicSampler {
   double time_of(std::size_t i) const { return t0_ + static_cast<double>(i) / rate_; }
   static bool leq(double a, double b, double dt) { return boost::numeric::odeint::detail::less_eq_with_sign(a, b, dt); }
   double last_time() const { return time_of(count_ - 1); }
+  bool recording() const { return !templating_ && !discarded_ && next_ < count_; }
+
+  // The record's samples are not over, or the search may go on past them.
+  bool keep_searching() const {
+    if (next_ < count_) return true;
+    return stepper_.current_time() < search_end_ && (!tiling_.ready || tiling_.ready());
+  }
 
   void start(const State& state) {
     stepper_.initialize(state, t0_, 0.1 / rate_);
     detail::check_sample(dynamics_.matrices().mesh, options_, state, t0_);
+    if (tiling_.watch) tiling_.watch(state, t0_);
     observer_(state, t0_, std::size_t{0}, true);
     boundary_state_ = state;
   }
 
-  // One dopri5 step, the last one shortened to end on the last sample; bounded per sample.
+  // One dopri5 step; while the search ends with the record, the last one is shortened to end on
+  // its last sample (as integrate_sampled's); bounded per sample.
   void step() {
     namespace odeint = boost::numeric::odeint;
     if (++steps_since_output_ > options_.max_steps_per_sample)
@@ -161,24 +190,26 @@ class PeriodicSampler {
       dynamics_(x, dxdt, t);
     };
     try {
-      if (!leq(stepper_.current_time() + stepper_.current_time_step(), last_time(), stepper_.current_time_step()))
-        stepper_.initialize(stepper_.current_state(), stepper_.current_time(), last_time() - stepper_.current_time());
+      const double now = stepper_.current_time(), dt = stepper_.current_time_step();
+      if (!templating_ && search_end_ <= last_time() && !leq(now + dt, last_time(), dt))
+        stepper_.initialize(stepper_.current_state(), now, last_time() - now);
       stepper_.do_step(system);
     } catch (const odeint::step_adjustment_error& e) {
       throw TwinDivergenceError(std::string("integration diverged: ") + e.what());
     }
   }
 
-  // Sample i read off the current step's dense output at `read_at` (its own time, or less k periods).
-  void emit(std::size_t i, double read_at, bool in_order) {
-    stepper_.calc_state(read_at, x_);
-    detail::check_sample(dynamics_.matrices().mesh, options_, x_, time_of(i));
-    observer_(static_cast<const State&>(x_), time_of(i), i, in_order);
-    steps_since_output_ = 0;
-  }
-
-  void emit_in_order(std::size_t end, double now, double dt) {
-    for (; next_ < end && leq(time_of(next_), now, dt); ++next_) emit(next_, time_of(next_), true);
+  // Every sample time up to now, in order, also past the record: the check's watch; while the
+  // search is on, the record's own samples too.
+  void watch_in_order(double now, double dt) {
+    for (; leq(time_of(next_), now, dt); ++next_) {
+      const double t = time_of(next_);
+      stepper_.calc_state(t, x_);
+      detail::check_sample(dynamics_.matrices().mesh, options_, x_, t);
+      steps_since_output_ = 0;
+      if (tiling_.watch) tiling_.watch(static_cast<const State&>(x_), t);
+      if (recording()) observer_(static_cast<const State&>(x_), t, next_, true);
+    }
   }
 
   // Each boundary against the first of the run of agreeing ones (the anchor), not against the one
@@ -195,30 +226,41 @@ class PeriodicSampler {
       }
       ++boundary_;
       // The template must start inside this step (its dense output is read from here on).
-      if (agreeing_ >= tiling_.agreeing_periods && b + period_ > now && b + 2 * period_ <= last_time()) start_template(b);
+      if (agreeing_ >= tiling_.agreeing_periods && b + period_ > now) start_template(b);
     }
   }
 
-  // The template [start, start + T); the later samples from `first_tiled_` on, one cursor per repeat k.
+  // The period of the template [start, start + T) that holds t − k·T.
+  long long repeat_of(double t, double start) const {
+    auto k = static_cast<long long>(std::floor((t - start) / period_));
+    if (t - static_cast<double>(k) * period_ < start) --k;
+    if (t - static_cast<double>(k) * period_ >= start + period_) ++k;
+    return k;
+  }
+
+  // The template [start, start + T); every sample of the record, one cursor per run of samples
+  // with the same k (k < 0 before the template).
   void start_template(double start) {
-    first_tiled_ = static_cast<std::size_t>(std::max(0.0, std::ceil((start + period_ - t0_) * rate_)));
-    while (first_tiled_ < count_ && time_of(first_tiled_) < start + period_) ++first_tiled_;
-    if (first_tiled_ >= count_) return;
     templating_ = true;
     template_start_ = start;
     repeats_.clear();
-    for (std::size_t k = 1, i = first_tiled_; i < count_; ++k) {
-      const double shift = static_cast<double>(k) * period_;
-      std::size_t end = i;
-      while (end < count_ && time_of(end) < start + shift + period_) ++end;
-      repeats_.push_back({i, end, shift});
+    for (std::size_t i = 0; i < count_;) {
+      const long long k = repeat_of(time_of(i), start);
+      std::size_t end = i + 1;
+      while (end < count_ && repeat_of(time_of(end), start) == k) ++end;
+      repeats_.push_back({i, end, static_cast<double>(k) * period_});
       i = end;
     }
   }
 
-  void emit_repeats(double now, double dt) {
+  void emit_template(double now, double dt) {
     for (Repeat& r : repeats_)
-      for (; r.next < r.end && leq(time_of(r.next) - r.shift, now, dt); ++r.next) emit(r.next, time_of(r.next) - r.shift, false);
+      for (; r.next < r.end && leq(time_of(r.next) - r.shift, now, dt); ++r.next) {
+        const double t = time_of(r.next);
+        stepper_.calc_state(t - r.shift, x_);
+        detail::check_sample(dynamics_.matrices().mesh, options_, x_, t);
+        observer_(static_cast<const State&>(x_), t, r.next, false);
+      }
   }
 
   // Every mapped time lies before the template's end, so all are read off by now: the run is tiled
@@ -227,17 +269,18 @@ class PeriodicSampler {
     stepper_.calc_state(template_start_ + period_, x_);
     if (!(tiling_.agrees && tiling_.agrees(boundary_state_, x_, template_start_ + period_))) return false;
     run_.tiled = true;
-    run_.tiled_from_s = template_start_ + period_;
+    run_.template_start_s = template_start_;
     return true;
   }
 
-  // The template's end disagrees: carry on in order from its end (the tiled samples are read again).
-  void resume_in_order(double now, double dt) {
+  // The template's end disagrees: the samples read off it are discarded and the search carries on
+  // from its end (the caller integrates the record again if no later template closes).
+  void resume_search() {
     templating_ = false;
+    discarded_ = true;
     agreeing_ = 0;
     boundary_state_ = x_;
     boundary_ = static_cast<std::size_t>(std::llround((template_start_ + period_ - t0_) / period_)) + 1;
-    emit_in_order(count_, now, dt);
   }
 
   const GearboxDynamics& dynamics_;
@@ -250,13 +293,14 @@ class PeriodicSampler {
   Stepper stepper_;
   SampledRun run_;
   State x_{}, boundary_state_{};
-  std::size_t next_ = 1;           // the next sample in order
+  double search_end_ = 0;          // the search stops here (the record's last sample or later)
+  std::size_t next_ = 1;           // the next sample time in order (past count_ after the record)
   int steps_since_output_ = 0;
   std::size_t boundary_ = 1;       // the next boundary is t0 + boundary·T
   std::size_t agreeing_ = 0;
   bool templating_ = false;
+  bool discarded_ = false;
   double template_start_ = 0;
-  std::size_t first_tiled_ = count_;
   std::vector<Repeat> repeats_;
 };
 
