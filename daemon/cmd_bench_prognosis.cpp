@@ -59,6 +59,9 @@ struct PrognosisOptions {
   std::string config;
   std::string format = "table";
   double inspection_sd = 0.10;
+  /// Relative SD of an inspection's combined mean wear depth (the thesis's mould, its LSCM profile):
+  /// the truth's depth is measured with it, and the model is told it (the engineer states it).
+  double inspection_depth_sd = 0.05;
   /// The wear limit (deepest flank point) of the model and of the scores. The random campaigns'
   /// truths are drawn to the thesis's depths, 10–40 µm combined mean at their last record, whose
   /// deepest point (the closed-form Archard shape, 3.6 times the mean) ends at 35–142 µm: the
@@ -180,14 +183,16 @@ class CampaignBench {
       states_.push_back(truth->at(p.cycles));
       density.push_back(states_.back().pitting_density);
     }
-    // The pitted area measured with a relative error of inspection_sd (normal), seeded by the campaign.
-    std::mt19937_64 rng(case_.seed * 7919u + 17u);
-    std::normal_distribution<double> error(0.0, setup_.options.inspection_sd);
+    // The pitted area and the combined mean wear depth measured with relative errors of
+    // inspection_sd and inspection_depth_sd (normal), each from its own stream seeded by the campaign.
+    std::mt19937_64 rng(case_.seed * 7919u + 17u), depth_rng(case_.seed * 7919u + 29u);
+    std::normal_distribution<double> error(0.0, setup_.options.inspection_sd), depth_error(0.0, setup_.options.inspection_depth_sd);
     for (const std::size_t stop : pg::inspection_stops(density, kInspectionLevels)) {
       wear::Inspection in;
       in.id = static_cast<std::int64_t>(inspections_.size() + 1);
       in.cycles = case_.plan[stop].cycles;
       in.pitted_area = std::clamp(density[stop] * (1.0 + error(rng)), 0.0, 1.0);
+      in.wear_depth_m = std::max(0.0, states_[stop].combined_mean_wear_depth_m * (1.0 + depth_error(depth_rng)));
       inspections_.push_back({stop, in});
     }
     result_.inspections = inspections_.size();
@@ -269,8 +274,11 @@ class CampaignBench {
     for (std::size_t i = result_.depth_from_record; i < reports_.size(); ++i) {
       const double truth = states_[i].combined_mean_wear_depth_m;
       if (!(truth > 0)) continue;
-      result_.depth_errors.push_back(pg::relative_error(reports_[i].summary.combined_mean_depth_m, truth));
+      // The model's depth estimate: the forecast's (calibrated by inspected depths where there are
+      // any; the model state's otherwise).
       const wear::Forecast& f = reports_[i].forecast;
+      const double estimate = f.valid && f.depth_mean_m > 0 ? f.depth_mean_m : reports_[i].summary.combined_mean_depth_m;
+      result_.depth_errors.push_back(pg::relative_error(estimate, truth));
       if (!f.valid || !(f.depth_high_m > 0)) continue;
       ++result_.depth_interval_scored;
       if (f.depth_low_m <= truth && truth <= f.depth_high_m) ++result_.depth_interval_covered;
@@ -306,6 +314,7 @@ class CampaignBench {
                                                opt(r.forecast.wear.cycles_left_high)}},
                          {"combined_mean_depth_m", {r.forecast.depth_low_m, r.forecast.depth_mean_m, r.forecast.depth_high_m}},
                          {"shape_depth_ratio", r.forecast.shape_depth_ratio},
+                         {"depth_ratio", r.forecast.depth_ratio}, {"depth_ratio_log_sd", r.forecast.depth_ratio_log_sd},
                          {"flags", flags}, {"evidence", r.forecast.evidence}}}});
     }
   }
@@ -532,7 +541,8 @@ nlohmann::json report_json(const BenchSetup& setup, const std::vector<CampaignRe
   nlohmann::json campaigns = nlohmann::json::array();
   for (const auto& r : results) campaigns.push_back(campaign_json(r));
   return {{"settings", {{"campaigns", o.campaigns}, {"first_seed", o.seed}, {"records", o.records}, {"seconds", o.seconds},
-                        {"jobs", o.jobs}, {"inspection_relative_sd", o.inspection_sd}, {"inspection_levels", kInspectionLevels},
+                        {"jobs", o.jobs}, {"inspection_relative_sd", o.inspection_sd},
+                        {"inspection_depth_relative_sd", o.inspection_depth_sd}, {"inspection_levels", kInspectionLevels},
                         {"wear_limit_m", setup.settings.wear_limit_m}, {"pitting_limit", setup.settings.pitting_limit},
                         {"config", o.config.empty() ? "built-in defaults (the demo's)" : o.config}}},
           {"campaigns", campaigns},
@@ -608,6 +618,7 @@ BenchSetup make_setup(const PrognosisOptions& o) {
     setup.params = daemon::model_twin_parameters(setup.config);
     setup.settings = daemon::model_settings(setup.config);
     if (o.wear_limit_um > 0) setup.settings.wear_limit_m = o.wear_limit_um * 1e-6;
+    setup.settings.inspection_depth_relative_sd = o.inspection_depth_sd;
     setup.settings.validate();
   } catch (const std::exception& e) {
     throw CommandError(std::string("the model's settings: ") + e.what());
@@ -653,6 +664,10 @@ void add_bench_prognosis_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--inspection-sd", opt->inspection_sd, "Relative standard deviation of an inspection's pitted area")
       ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--inspection-depth-sd", opt->inspection_depth_sd,
+                  "Relative standard deviation of an inspection's combined mean wear depth (stated to the model)")
+      ->check(CLI::Range(1e-4, 0.9))
       ->capture_default_str();
   cmd->add_option("--wear-limit-um", opt->wear_limit_um,
                   "Wear limit (deepest flank point) of the model and the scores, um; 0: the configured one")

@@ -31,7 +31,7 @@ void register_inspect(CLI::App& app) {
   cmd->add_option("--db", opt->db, "SQLite database written by `run` or `replay`")->required();
   cmd->add_option("--cycles", opt->cycles, "Input-shaft revolutions at the inspection")->required();
   cmd->add_option("--pitted-area", opt->pitted_area, "Pitted area as a fraction of the flank area (0..1)");
-  cmd->add_option("--wear-depth", opt->wear_depth, "Mean wear depth in metres (e.g. 12e-6)");
+  cmd->add_option("--wear-depth", opt->wear_depth, "Combined mean wear depth (pinion mean + gear mean, as the model gives it) in metres (e.g. 12e-6)");
   cmd->add_option("--note", opt->note, "Free text");
   cmd->callback([opt] {
     if (!opt->pitted_area && !opt->wear_depth) throw CommandError("give --pitted-area and/or --wear-depth");

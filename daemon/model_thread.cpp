@@ -168,6 +168,7 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   s.log_k_drift_per_million_cycles = m.log_k_drift_per_million_cycles;
   s.rms_sa_relative_sd_floor = m.rms_sa_relative_sd_floor;
   s.inspection_area_relative_sd = m.inspection_area_relative_sd;
+  s.inspection_depth_relative_sd = m.inspection_depth_relative_sd;
   s.disagreement_records = m.disagreement_records;
   s.ics2_onset_records = m.ics2_onset_records;
   s.ics2_saturation = wear::ics2_saturation_level(config.processing.ics2_harmonics);   // the analyser's H
@@ -232,6 +233,9 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
   json residuals = json::array();
   json reference_records = json::array();
   for (const auto& r : m.rms_sa_reference_records) reference_records.push_back({r[0], r[1]});
+  json depth_points = json::array();
+  for (const auto& d : m.depth_ratio_points)
+    depth_points.push_back({{"inspection_id", d.inspection_id}, {"cycles", d.cycles}, {"log_ratio", d.log_ratio}, {"var", d.var}});
   for (const auto& r : m.rms_residuals) residuals.push_back({r[0], r[1]});
   json j{{"format", 1},
                {"started", m.started},
@@ -253,6 +257,7 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
                {"k_wear_identified_si", m.k_wear_identified_si},
                {"profile_shape", {{"depth_ratio", m.shape_depth_ratio}, {"peak_ratio", m.shape_peak_ratio},
                                   {"depth_elasticity", m.shape_depth_elasticity}, {"cycles", m.shape_cycles}}},
+               {"depth_ratio_points", depth_points},
                {"rms_sa_reference", {{"ratio", m.rms_sa_reference_ratio}, {"records", reference_records}, {"closed", m.rms_sa_reference_closed}}},
                {"log_k_wear", posterior_json(m.log_k_wear)},
                {"log_k_pitting", posterior_json(m.log_k_pitting)},
@@ -315,6 +320,10 @@ wear::ModelMemory memory_from_json(const std::string& text) {
       m.shape_depth_elasticity = ps.at("depth_elasticity").get<double>();
       m.shape_cycles = ps.at("cycles").get<double>();
     }
+    // Added with the depth calibration: an older state has read no inspected depth.
+    for (const json& d : j.value("depth_ratio_points", json::array()))
+      m.depth_ratio_points.push_back({d.at("inspection_id").get<std::int64_t>(), d.at("cycles").get<double>(),
+                                      d.at("log_ratio").get<double>(), d.at("var").get<double>()});
     // Added with the commissioning ratio: an older state has none (1, closed: its pair is past commissioning).
     if (j.contains("rms_sa_reference")) {
       const json& ref = j.at("rms_sa_reference");

@@ -186,7 +186,11 @@ void check_depth_scores(const nlohmann::json& c) {
   nlohmann::json expected = nlohmann::json::array();
   for (std::size_t i = c["depth_scored_from_record"]; i < trace.size(); ++i) {
     const double truth = trace[i]["truth"]["combined_mean_depth_m"];
-    if (truth > 0) expected.push_back(error_json(trace[i]["model"]["combined_mean_depth_m"], truth));
+    // The model's depth estimate: the forecast's (calibrated by inspected depths where any), else the state's.
+    const auto& f = trace[i]["forecast"];
+    const double forecast_mean = f["combined_mean_depth_m"][1].get<double>();
+    const double estimate = f["valid"].get<bool>() && forecast_mean > 0 ? forecast_mean : trace[i]["model"]["combined_mean_depth_m"].get<double>();
+    if (truth > 0) expected.push_back(error_json(estimate, truth));
   }
   check_equal_numbers(c["depth_errors"], expected);
   // The depth interval's coverage over the same records: [low, high] of the forecast's depth holds the truth.
@@ -293,7 +297,7 @@ TEST_CASE("prognosis bench: two campaigns through the binary, scores recomputed 
 TEST_CASE("prognosis bench: bad options are refused in one line before anything is simulated", "[prognosis_bench][cli]") {
   const std::string bench = std::string(GEARWATCH_BINARY) + " bench prognosis";
   for (const char* bad : {" --campaigns 0", " --records 1", " --jobs 0", " --seconds 0.1", " --inspection-sd -0.1",
-                          " --wear-limit-um -1", " --wear-limit-um 500"}) {
+                          " --wear-limit-um -1", " --wear-limit-um 500", " --inspection-depth-sd 0", " --inspection-depth-sd 1"}) {
     INFO(bad);
     const auto r = gearwatch::testing::run_command(bench + bad);
     CHECK(r.status == 64);  // the parser's refusal (EX_USAGE)

@@ -433,6 +433,7 @@ void read_model(const toml::table& root, const std::string& file, GearwatchConfi
   t.number("log_k_drift_per_million_cycles", m.log_k_drift_per_million_cycles, 0.0, 50.0);
   t.number("rms_sa_relative_sd_floor", m.rms_sa_relative_sd_floor, 1e-5, 0.9);
   t.number("inspection_area_relative_sd", m.inspection_area_relative_sd, 1e-4, 0.9);
+  t.number("inspection_depth_relative_sd", m.inspection_depth_relative_sd, 1e-4, 0.9);
   t.integer("disagreement_records", m.disagreement_records, 1, 64);
   t.integer("ics2_onset_records", m.ics2_onset_records, 1, 1000);
   t.token("force_model", m.force_model, wear::kAllForceModels, "expected \"quasi-static\" or \"dynamic\"");

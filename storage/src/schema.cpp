@@ -16,7 +16,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 15> kMigrations{
+constexpr std::array<const char*, 16> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -639,6 +639,29 @@ CREATE TABLE publisher_health (
 );
 CREATE VIEW mqtt_publisher AS
   SELECT * FROM publisher_health WHERE id = (SELECT max(id) FROM publisher_health);
+)SQL",
+    // 15 -> 16: the depth calibrated by inspected wear depths (docs/model.md, "Depth calibration"):
+    // the depth estimate (the model's mean times ρ), ρ's posterior median and ln SD, and how many
+    // inspected depths it rests on; NULL without depth inspections.
+    R"SQL(
+ALTER TABLE model_runs ADD COLUMN wear_mean_estimate_m REAL;
+ALTER TABLE model_runs ADD COLUMN wear_depth_ratio REAL;
+ALTER TABLE model_runs ADD COLUMN wear_depth_ratio_log_sd REAL;
+ALTER TABLE model_runs ADD COLUMN wear_depth_inspections INTEGER;
+DROP VIEW predictions;
+CREATE VIEW predictions AS
+  SELECT m.id AS run_id, m.created_at, m.record_id, m.gear_pair, m.cycles, m.speed_hz, m.torque_nm,
+         m.k_wear, m.k_pitting, m.rms_sa_measured, m.rms_sa_simulated, m.ics2_low, m.ics2_density_estimate,
+         m.wear_mean_m, m.wear_max_m, m.pitting_mean, m.pitting_max,
+         m.wear_limit_m, m.wear_cycles_left, m.wear_cycles_left_low, m.wear_cycles_left_high,
+         m.pitting_limit, m.pitting_cycles_left, m.pitting_cycles_left_low, m.pitting_cycles_left_high,
+         m.forecast_speed_hz, m.forecast_torque_nm, m.forecast_failure,
+         (SELECT group_concat(i.issue, ',') FROM model_run_issues i WHERE i.run_id = m.id) AS issues, m.detail,
+         m.interval_coverage,
+         (SELECT group_concat(f.flag, ',') FROM model_run_forecast_flags f WHERE f.run_id = m.id) AS forecast_flags,
+         m.forecast_evidence, m.wear_mean_low_m, m.wear_mean_high_m,
+         m.wear_mean_estimate_m, m.wear_depth_ratio, m.wear_depth_ratio_log_sd, m.wear_depth_inspections
+  FROM model_runs m WHERE m.advanced = 1;
 )SQL",
 };
 

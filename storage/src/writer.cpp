@@ -144,8 +144,10 @@ class BatchWriter {
                 " pinion_wear_mean_m, gear_wear_mean_m, pitting_mean, pitting_max, pitting_max_fraction, forecast_speed_hz,"
                 " forecast_torque_nm, wear_limit_m, wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit,"
                 " pitting_cycles_left, pitting_cycles_left_low, pitting_cycles_left_high, forecast_failure, profile, forecast_curve, detail,"
-                " interval_coverage, forecast_evidence, wear_mean_low_m, wear_mean_high_m)"
-                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                " interval_coverage, forecast_evidence, wear_mean_low_m, wear_mean_high_m, wear_mean_estimate_m, wear_depth_ratio,"
+                " wear_depth_ratio_log_sd, wear_depth_inspections)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?,"
+                " ?, ?, ?, ?)");
     s.bind(1, record_id).bind(2, m.gear_pair).bind(3, r.observation.cycles).bind(4, r.observation.speed_hz)
         .bind(5, r.observation.torque_nm).bind(6, advanced ? 1 : 0).bind(7, m.skipped_records);
     if (m.skipped_record_ids.empty()) s.bind_null(8);
@@ -170,6 +172,10 @@ class BatchWriter {
     if (!f.valid || f.evidence.empty()) s.bind_null(37);
     else s.bind(37, f.evidence);
     s.bind(38, opt(f.valid && f.depth_high_m > 0, f.depth_low_m)).bind(39, opt(f.valid && f.depth_high_m > 0, f.depth_high_m));
+    const bool calibrated = f.valid && f.depth_inspections > 0;
+    s.bind(40, opt(calibrated, f.depth_mean_m)).bind(41, opt(calibrated, f.depth_ratio)).bind(42, opt(calibrated, f.depth_ratio_log_sd));
+    if (calibrated) s.bind(43, static_cast<std::int64_t>(f.depth_inspections));
+    else s.bind_null(43);
     s.run();
     const std::int64_t run_id = db_.last_insert_rowid();
     if (m.store_state) {

@@ -172,6 +172,8 @@ void ModelSettings::validate() const {
   require(std::isfinite(log_k_drift_per_million_cycles) && log_k_drift_per_million_cycles >= 0, "ln K drift must be non-negative");
   require(std::isfinite(rms_sa_relative_sd_floor) && rms_sa_relative_sd_floor > 0 && rms_sa_relative_sd_floor < 1,
           "RMS_SA scatter floor must lie in (0, 1)");
+  require(std::isfinite(inspection_depth_relative_sd) && inspection_depth_relative_sd > 0 && inspection_depth_relative_sd < 1,
+          "inspection depth SD must lie in (0, 1)");
   require(std::isfinite(inspection_area_relative_sd) && inspection_area_relative_sd > 0 && inspection_area_relative_sd < 1,
           "inspection area SD must lie in (0, 1)");
   require(disagreement_records >= 1 && disagreement_records <= 1000, "disagreement records must lie in [1, 1000]");
@@ -411,6 +413,8 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
     finish();
     return report;
   }
+  const double prev_cycles = memory_.current.state.cycles;
+  const double prev_mean = summarise(memory_.current.state).combined_mean_depth_m;
   memory_.started = true;
   calibrated_pitting_here_.reset();
   ++memory_.records_used;
@@ -445,6 +449,7 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
       add_issue(report, ModelIssue::missing_ics2, "no ICS2 in the low band: no pitting point from this record");
     check_k_wear(obs, report);
     accept_calibrated_state();
+    read_depth_inspections(inspections, prev_cycles, prev_mean, report);
   }
   prune_intervals();
   report.forecast = forecast();
@@ -1128,6 +1133,68 @@ void TwinModel::apply_k_wear_bound(KneeReading& knee, WearSearch& search, KUpdat
   report.rms_sa_simulated = chosen->sim;
 }
 
+void TwinModel::read_depth_inspections(const std::vector<Inspection>& inspections, double prev_cycles, double prev_mean,
+                                       ModelRunReport& report) {
+  const double now = memory_.current.state.cycles, now_mean = summarise(memory_.current.state).combined_mean_depth_m;
+  auto& points = memory_.depth_ratio_points;
+  for (const Inspection& i : inspections) {
+    if (!i.wear_depth_m || i.cycles > now) continue;   // no depth, or after the record: it waits
+    if (std::any_of(points.begin(), points.end(), [&](const DepthRatioMeasurement& m) { return m.inspection_id == i.id; })) continue;
+    const double model = model_mean_at(i.cycles, prev_cycles, prev_mean, now, now_mean);
+    if (!(*i.wear_depth_m > 0) || !std::isfinite(*i.wear_depth_m) || !(model > 0)) {
+      // Never a reading: a depth of 0 (or a model without wear there) gives no ratio.
+      report.detail += (report.detail.empty() ? "" : "\n") + fmt("inspection %.0f", static_cast<double>(i.id)) +
+                       ": wear depth not used for the depth calibration (measured or model depth not positive)";
+      continue;
+    }
+    points.push_back(depth_ratio_measurement(i.id, i.cycles, *i.wear_depth_m, model, settings_.inspection_depth_relative_sd));
+  }
+}
+
+LogPosterior TwinModel::depth_ratio_now() const {
+  if (memory_.depth_ratio_points.empty()) return {};
+  // The prior: the shape range the depth interval spans without inspections (profile_shape.hpp);
+  // without a shape reading the depth is as unknown as K_wear (depth ∝ K along a path).
+  const double log_sd = rms_scatter_sd() / std::max(std::abs(memory_.shape_depth_elasticity), settings_.min_wear_elasticity);
+  const LogPosterior prior = shape_range_prior(memory_.shape_depth_ratio, log_sd, kNominalCoverage, settings_.prior_log_k_wear_sd);
+  return depth_ratio_posterior(prior, memory_.depth_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
+}
+
+bool TwinModel::apply_depth_calibration(Forecast& f, const WearLoopOptions& o) const {
+  const LogPosterior p = depth_ratio_now();
+  if (!p.valid) return false;
+  const WearState& now = memory_.current.state;
+  const double mean = summarise(now).combined_mean_depth_m;
+  const CalibratedDepth d = calibrated_depth(mean, p, kNominalCoverage);
+  f.depth_mean_m = d.estimate_m;
+  f.depth_low_m = d.low_m;
+  f.depth_high_m = d.high_m;
+  f.depth_inspections = static_cast<int>(memory_.depth_ratio_points.size());
+  f.depth_ratio = d.ratio;
+  f.depth_ratio_log_sd = std::sqrt(p.var);
+  // The inspection measures the mean; the deepest point over the mean is still the shape's: the
+  // model's own now, and the concentrated shape's where it was read (the ends take the farther).
+  const double model_peak = mean > 0 ? max_depth(now) / mean : 1.0;
+  const double c = memory_.shape_peak_ratio > 0 && model_peak > 0 ? memory_.shape_peak_ratio / model_peak : 1.0;
+  const double limit = settings_.wear_limit_m;
+  // The model's path only paces the wear: it runs past its own depth limit when ρ is small, up to
+  // a bound beyond which the crossing counts as past the horizon.
+  WearLoopOptions deep = o;
+  deep.depth_limit_m = std::max(o.depth_limit_m, 4.0 * limit);
+  auto crossing = [&](double kw, double kp, double factor) {
+    return run_forecast(memory_.current, kw, kp, deep, nullptr, limit / factor).wear;
+  };
+  f.wear.cycles_left = crossing(memory_.k_wear_si, memory_.k_pitting, d.ratio);
+  f.wear.cycles_left_low = crossing(f.k_wear_high, f.k_pitting_high, d.ratio_high * std::max(1.0, c));
+  f.wear.cycles_left_high = crossing(f.k_wear_low, f.k_pitting_low, d.ratio_low * std::min(1.0, c));
+  char b[400];
+  std::snprintf(b, sizeof b, "depth calibration: %zu inspected wear depths give rho %.4g (ln SD %.3g; prior from the shape range, rho_s %.3g): depth %.4g um, interval %.4g to %.4g um; wear crossings at limit / rho (ends: deepest point x %.3g of the model's shape)",
+                memory_.depth_ratio_points.size(), d.ratio, f.depth_ratio_log_sd, memory_.shape_depth_ratio, 1e6 * d.estimate_m,
+                1e6 * d.low_m, 1e6 * d.high_m, c);
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+  return true;
+}
+
 void TwinModel::calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report) {
   std::vector<Inspection> pitted;
   for (const Inspection& i : inspections)
@@ -1541,6 +1608,11 @@ TwinModel::Crossing TwinModel::run_forecast(double kw, double kp, const WearLoop
 
 TwinModel::Crossing TwinModel::run_forecast(const LoopSnapshot& from, double kw, double kp, const WearLoopOptions& o,
                                             std::vector<ForecastPoint>* curve) const {
+  return run_forecast(from, kw, kp, o, curve, settings_.wear_limit_m);
+}
+
+TwinModel::Crossing TwinModel::run_forecast(const LoopSnapshot& from, double kw, double kp, const WearLoopOptions& o,
+                                            std::vector<ForecastPoint>* curve, double wear_limit) const {
   Crossing c;
   const double start = from.state.cycles;
   const double horizon = settings_.forecast_horizon_cycles;
@@ -1555,11 +1627,11 @@ TwinModel::Crossing TwinModel::run_forecast(const LoopSnapshot& from, double kw,
       const double frac = after > before ? (limit - before) / (after - before) : 0.0;
       out = std::max(0.0, prev_cycles + std::clamp(frac, 0.0, 1.0) * (cyc - prev_cycles) - start);
     };
-    cross(c.wear, prev_depth, d, settings_.wear_limit_m);
+    cross(c.wear, prev_depth, d, wear_limit);
     cross(c.pitting, prev_pit, p, settings_.pitting_limit);
     prev_cycles = cyc, prev_depth = d, prev_pit = p;
   };
-  if (prev_depth >= settings_.wear_limit_m) c.wear = 0.0;
+  if (prev_depth >= wear_limit) c.wear = 0.0;
   if (prev_pit >= settings_.pitting_limit) c.pitting = 0.0;
   // Past both limits (or past the wear limit when nothing pits) the run has told its story.
   auto told = [&] { return c.wear && (c.pitting || !(kp > 0)); };
@@ -1707,7 +1779,8 @@ void TwinModel::set_intervals(Forecast& f, const Crossing& nominal, const WearLo
   f.log_sd_wear = lw.sd;
   f.log_sd_pitting = in.pitting.valid ? lp.sd : 0.0;
   hold_nominal(f);
-  apply_profile_shape(f, fast_curve, slow_curve);
+  if (apply_depth_calibration(f, o)) hold_nominal(f);
+  else apply_profile_shape(f, fast_curve, slow_curve);
   f.evidence += (f.evidence.empty() ? "" : "; ") + interval_text("K_wear", lw, in.widen);
   if (in.pitting.valid) f.evidence += "; " + interval_text("K_pitting", lp, 1.0);
 }

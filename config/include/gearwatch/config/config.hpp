@@ -188,6 +188,7 @@ struct ModelConfig {
   double log_k_drift_per_million_cycles = 0.6931471805599453;   ///< random-walk SD of ln K per million cycles (x2)
   double rms_sa_relative_sd_floor = 0.01;           ///< floor of RMS_SA's relative record-to-record scatter
   double inspection_area_relative_sd = 0.10;        ///< relative SD of an inspected pitted area
+  double inspection_depth_relative_sd = 0.05;       ///< relative SD of an inspected combined mean wear depth
   int disagreement_records = 8;                     ///< records in the chi-square check of RMS_SA residuals
   int ics2_onset_records = 5;                       ///< first ICS2 values of a pair: their median is the onset baseline
 };

@@ -33,6 +33,7 @@
 #include "gearwatch/twin/gearbox_parameters.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "gearwatch/types/model_run.hpp"
+#include "gearwatch/wear/depth_calibration.hpp"
 #include "gearwatch/wear/forecast_intervals.hpp"
 #include "gearwatch/wear/k_wear_rule.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
@@ -129,6 +130,9 @@ struct ModelSettings {
   /// Relative SD of an inspected pitted area: pits outlined on a mould (replica) image, whose
   /// edges are a matter of judgement; 10 % is a stated choice, not a measured figure.
   double inspection_area_relative_sd = 0.10;
+  /// Relative SD of an inspected combined mean wear depth (a mould's profile against the unworn
+  /// one, the thesis's LSCM profiles): a stated choice, not a measured figure.
+  double inspection_depth_relative_sd = 0.05;
   int disagreement_records = 8;            ///< recent records in the chi-square check of RMS_SA residuals
   int scatter_records = 64;                ///< records whose residuals (without an update) give the RMS_SA scatter
   double innovation_gate_sd = 3.0;         ///< an update's innovation beyond this many SDs raises the prior variance
@@ -221,6 +225,9 @@ struct ModelMemory {
   /// (cycles, ICS2 low) of the pair's records: ICS2 at an inspection's cycles. The daemon rebuilds
   /// it from the model's stored runs rather than storing it in the state.
   std::vector<std::array<double, 2>> ics2_series;
+  /// The inspected wear depths as readings of ln ρ = ln(measured / model combined mean depth) at
+  /// their cycles, taken when each inspection was first seen (depth_calibration.hpp).
+  std::vector<DepthRatioMeasurement> depth_ratio_points;
   std::uint64_t records_used = 0, k_wear_updates = 0, k_pitting_updates = 0;
 };
 
@@ -360,6 +367,15 @@ class TwinModel {
   /// Converged at `root`: identified when |d ln RMS_SA / d ln K| there reaches min_wear_elasticity.
   void finish_root(const LogKPoint& root, const std::vector<LogKPoint>& pts, WearSearch& search, KUpdate& u);
   void calibrate_pitting(const std::vector<Inspection>& inspections, double cycles, ModelRunReport& report);
+  /// Inspections with a wear depth not yet read: each a reading of ln ρ against the model's combined
+  /// mean depth at its cycles (linear between the previous record's state and the current one).
+  void read_depth_inspections(const std::vector<Inspection>& inspections, double prev_cycles, double prev_mean,
+                              ModelRunReport& report);
+  /// The posterior of ln ρ now (valid false without depth inspections).
+  LogPosterior depth_ratio_now() const;
+  /// With depth inspections: the depth estimate and interval and the wear forecast's nominal and
+  /// ends from the calibrated ρ (the model's crossing of limit / ρ); false (nothing changed) without.
+  bool apply_depth_calibration(Forecast& f, const WearLoopOptions& o) const;
   /// Two pitted areas (A0 at N0, A1 at N1): K_pitting by bisection on ln K so that the model, its
   /// profile rescaled to A0 at N0, pits A1 by N1; the current pitting profile from that run.
   struct CalibrationPoints {
@@ -422,6 +438,9 @@ class TwinModel {
   /// The forecast run from another start (the current state with another pitting level).
   Crossing run_forecast(const LoopSnapshot& from, double k_wear, double k_pitting, const WearLoopOptions& o,
                         std::vector<ForecastPoint>* curve) const;
+  /// The same with another wear limit on the model's deepest point (the calibrated crossing).
+  Crossing run_forecast(const LoopSnapshot& from, double k_wear, double k_pitting, const WearLoopOptions& o,
+                        std::vector<ForecastPoint>* curve, double wear_limit) const;
   /// The 90 % interval: the posteriors now, the disagreement terms, the ends' forecast runs.
   void set_intervals(Forecast& f, const Crossing& nominal, const WearLoopOptions& o, const Ics2Evidence& ev) const;
   /// The chi-square check of the recent RMS_SA residuals: the K_wear SD's widening (1: none).

@@ -144,6 +144,11 @@ struct Forecast {
   /// The profile-shape term: the concentrated-wear shape's mean depth over the model's at one
   /// RMS_SA (0: not read), and its deepest point over its mean.
   double shape_depth_ratio = 0, shape_peak_ratio = 0;
+  /// The depth calibration by inspected wear depths (0 inspections: none): the posterior median of
+  /// ρ (true combined mean depth over the model's) and the SD of ln ρ. With it, depth_mean_m is the
+  /// model's mean times ρ and the wear forecast is the model's crossing of limit / ρ.
+  int depth_inspections = 0;
+  double depth_ratio = 0, depth_ratio_log_sd = 0;
   std::vector<ForecastFlag> flags;         ///< why the interval is wider or nearer than the posterior alone
   std::string evidence;                    ///< one line: the numbers behind the flags
   std::vector<ForecastPoint> curve;        ///< at the nominal K

@@ -1,0 +1,229 @@
+// The depth calibration by inspected wear depths (docs/model.md, "Depth calibration") against known
+// answers: the closed-form normal posterior of ln ρ with and without the random walk, the prior
+// from the shape range, the interval's coverage where the truth is the model itself (the ratio
+// drawn from the prior, walking, measured with the stated relative noise), and the model's use of
+// it: the depth estimate and the wear crossing at limit / ρ.
+#include "gearwatch/wear/depth_calibration.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <random>
+#include <unistd.h>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "gearwatch/storage/messages.hpp"
+#include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/storage/writer.hpp"
+#include "gearwatch/wear/updating.hpp"
+#include "model_observation.hpp"
+
+namespace test_depth_calibration {  // this file's own: the test files compile together (unity build)
+
+using namespace gearwatch;
+using namespace gearwatch::wear;
+
+namespace {
+
+// The model's settings for the TwinModel cases: no updates (no twin needed), one profile resolution.
+ModelSettings depth_case_settings() {
+  ModelSettings s;
+  s.loop.k_wear_si = 2e-15;
+  s.loop.profile_points = 21;
+  s.update_k_wear = false;
+  s.update_k_pitting = false;
+  s.wear_limit_m = 40e-6;
+  s.forecast_horizon_cycles = 2e7;
+  return s;
+}
+
+double depth_case_rms(const WearState&, const twin::OperatingPoint&) { return 1.0; }
+
+}  // namespace
+
+TEST_CASE("depth calibration: the log variance of a relative error is ln(1 + s^2)", "[model][depth_calibration]") {
+  CHECK(log_relative_variance(0.05) == Approx(std::log(1.0025)).epsilon(1e-12));
+  const DepthRatioMeasurement m = depth_ratio_measurement(7, 1e6, 30e-6, 20e-6, 0.1);
+  CHECK(m.inspection_id == 7);
+  CHECK(m.cycles == 1e6);
+  CHECK(m.log_ratio == Approx(std::log(1.5)).epsilon(1e-15));
+  CHECK(m.var == Approx(std::log(1.01)).epsilon(1e-15));
+}
+
+TEST_CASE("depth calibration: the prior's central interval is the shape range", "[model][depth_calibration]") {
+  const double z = 1.6448536269514722;   // the normal's 95 % point: a central 90 %
+  const LogPosterior p = shape_range_prior(2.0, 0.1, 0.90, 4.6);
+  REQUIRE(p.valid);
+  CHECK(p.mean - z * std::sqrt(p.var) == Approx(-z * 0.1).epsilon(1e-12));
+  CHECK(p.mean + z * std::sqrt(p.var) == Approx(std::log(2.0) + z * 0.1).epsilon(1e-12));
+  // A shape below the model's: the range's low end is ln ρ_s.
+  const LogPosterior q = shape_range_prior(0.5, 0.0, 0.90, 4.6);
+  CHECK(q.mean == Approx(std::log(0.5) / 2).epsilon(1e-12));
+  CHECK(std::sqrt(q.var) == Approx(-std::log(0.5) / (2 * z)).epsilon(1e-12));
+  // No shape reading: N(0, fallback²).
+  const LogPosterior none = shape_range_prior(0.0, 0.1, 0.90, 4.6);
+  CHECK(none.mean == 0.0);
+  CHECK(none.var == Approx(4.6 * 4.6).epsilon(1e-15));
+}
+
+TEST_CASE("depth calibration: the posterior of ln rho in closed form", "[model][depth_calibration]") {
+  LogPosterior prior;
+  prior.valid = true;
+  prior.mean = 0.2;
+  prior.var = 0.09;
+  const double z1 = std::log(1.3), r1 = std::log1p(0.05 * 0.05), z2 = std::log(1.45), r2 = std::log1p(0.1 * 0.1);
+  const std::vector<DepthRatioMeasurement> ms{{2, 2e6, z2, r2}, {1, 1e6, z1, r1}};   // out of order: sorted by cycles
+  SECTION("no random walk: precision-weighted mean") {
+    const LogPosterior p = depth_ratio_posterior(prior, ms, 0.0, 3e6);
+    const double var = 1.0 / (1.0 / 0.09 + 1.0 / r1 + 1.0 / r2);
+    CHECK(p.valid);
+    CHECK(p.var == Approx(var).epsilon(1e-12));
+    CHECK(p.mean == Approx(var * (0.2 / 0.09 + z1 / r1 + z2 / r2)).epsilon(1e-12));
+    CHECK(p.cycles == 3e6);
+  }
+  SECTION("a random walk between the readings and on to now") {
+    const double q = 0.3 / 1e6;
+    const LogPosterior p = depth_ratio_posterior(prior, ms, q, 3e6);
+    const double v1 = 1.0 / (1.0 / 0.09 + 1.0 / r1), m1 = v1 * (0.2 / 0.09 + z1 / r1);
+    const double v1p = v1 + q * 1e6;
+    const double v2 = 1.0 / (1.0 / v1p + 1.0 / r2), m2 = v2 * (m1 / v1p + z2 / r2);
+    CHECK(p.mean == Approx(m2).epsilon(1e-12));
+    CHECK(p.var == Approx(v2 + q * 1e6).epsilon(1e-12));
+  }
+  SECTION("no readings: no posterior") { CHECK_FALSE(depth_ratio_posterior(prior, {}, 0.0, 3e6).valid); }
+}
+
+TEST_CASE("depth calibration: the calibrated depth and its interval", "[model][depth_calibration]") {
+  LogPosterior p;
+  p.valid = true;
+  p.mean = std::log(1.2);
+  p.var = 0.04;
+  const CalibratedDepth d = calibrated_depth(20e-6, p, 0.90);
+  const double z = 1.6448536269514722;
+  CHECK(d.estimate_m == Approx(24e-6).epsilon(1e-12));
+  CHECK(d.low_m == Approx(24e-6 * std::exp(-z * 0.2)).epsilon(1e-12));
+  CHECK(d.high_m == Approx(24e-6 * std::exp(z * 0.2)).epsilon(1e-12));
+  CHECK(d.ratio == Approx(1.2).epsilon(1e-12));
+}
+
+TEST_CASE("depth calibration: the model's mean at an inspection between records", "[model][depth_calibration]") {
+  CHECK(model_mean_at(1.5e6, 1e6, 10e-6, 2e6, 14e-6) == Approx(12e-6).epsilon(1e-12));
+  CHECK(model_mean_at(2e6, 1e6, 10e-6, 2e6, 14e-6) == 14e-6);
+  CHECK(model_mean_at(0.5e6, 1e6, 10e-6, 2e6, 14e-6) == Approx(5e-6).epsilon(1e-12));   // from the unworn start
+  CHECK(model_mean_at(0.5e6, 0.0, 0.0, 2e6, 14e-6) == Approx(3.5e-6).epsilon(1e-12));
+}
+
+TEST_CASE("depth calibration: the 90 % interval holds a truth drawn from the model's own assumptions",
+          "[model][depth_calibration]") {
+  // The truth is the model itself: ln ρ drawn from the prior, walking with q between the readings
+  // and on to now, each reading the true depth times (1 + ε), ε normal with the stated SD.
+  std::mt19937_64 rng(20260);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const double q = std::pow(std::log(2.0), 2) / 1e6, sd = 0.05;
+  const LogPosterior prior = shape_range_prior(1.6, 0.03, 0.90, 4.6);
+  const std::vector<double> at{0.8e6, 1.6e6};
+  const double now = 2.5e6, model_mean = 20e-6;
+  const int trials = 4000;
+  int covered = 0;
+  for (int t = 0; t < trials; ++t) {
+    double log_rho = prior.mean + std::sqrt(prior.var) * n01(rng), last = at.front();
+    std::vector<DepthRatioMeasurement> ms;
+    for (std::size_t k = 0; k < at.size(); ++k) {
+      log_rho += std::sqrt(q * (at[k] - last)) * n01(rng);
+      last = at[k];
+      const double measured = model_mean * std::exp(log_rho) * (1.0 + sd * n01(rng));
+      ms.push_back(depth_ratio_measurement(static_cast<std::int64_t>(k + 1), at[k], measured, model_mean, sd));
+    }
+    log_rho += std::sqrt(q * (now - last)) * n01(rng);
+    const CalibratedDepth d = calibrated_depth(model_mean, depth_ratio_posterior(prior, ms, q, now), 0.90);
+    const double truth = model_mean * std::exp(log_rho);
+    if (d.low_m <= truth && truth <= d.high_m) ++covered;
+  }
+  // Binomial SD at 4000 trials: 0.47 %; ±1.5 % is over three SDs.
+  CHECK(static_cast<double>(covered) / trials == Approx(0.90).margin(0.015));
+}
+
+TEST_CASE("depth calibration: the model's depth and wear crossing follow the inspected depth",
+          "[model][depth_calibration]") {
+  const ModelSettings s = depth_case_settings();
+  const auto obs = testing::observation(4e5, 20, 20);
+  TwinModel plain(twin::GearboxParameters{}, s, depth_case_rms);
+  const ModelRunReport r0 = plain.observe(obs, {});
+  REQUIRE(r0.forecast.valid);
+  const double mean = r0.summary.combined_mean_depth_m;
+  REQUIRE(mean > 0);
+  CHECK(r0.forecast.depth_inspections == 0);
+  CHECK(r0.forecast.depth_mean_m == mean);   // without depth inspections: the model's own
+
+  Inspection in;
+  in.id = 3;
+  in.cycles = 4e5;
+  in.wear_depth_m = 1.5 * mean;
+  TwinModel calibrated(twin::GearboxParameters{}, s, depth_case_rms);
+  const ModelRunReport r1 = calibrated.observe(obs, {in});
+  REQUIRE(r1.forecast.valid);
+  // No K_wear update read a shape: the prior is N(0, prior_log_k_wear_sd²).
+  const double v0 = s.prior_log_k_wear_sd * s.prior_log_k_wear_sd, r = std::log1p(s.inspection_depth_relative_sd * s.inspection_depth_relative_sd);
+  const double var = 1.0 / (1.0 / v0 + 1.0 / r), mu = var * std::log(1.5) / r;
+  CHECK(r1.forecast.depth_inspections == 1);
+  CHECK(r1.forecast.depth_ratio == Approx(std::exp(mu)).epsilon(1e-9));
+  CHECK(r1.forecast.depth_ratio_log_sd == Approx(std::sqrt(var)).epsilon(1e-9));
+  CHECK(r1.forecast.depth_mean_m == Approx(mean * std::exp(mu)).epsilon(1e-9));
+  CHECK(r1.summary.combined_mean_depth_m == mean);   // the model's own state is not changed
+  // The nominal wear crossing is the model's crossing of limit / ρ: a model whose limit is that.
+  ModelSettings scaled = s;
+  scaled.wear_limit_m = s.wear_limit_m / r1.forecast.depth_ratio;
+  TwinModel reference(twin::GearboxParameters{}, scaled, depth_case_rms);
+  const ModelRunReport r2 = reference.observe(obs, {});
+  REQUIRE(r2.forecast.wear.cycles_left);
+  REQUIRE(r1.forecast.wear.cycles_left);
+  REQUIRE(r0.forecast.wear.cycles_left);
+  CHECK(*r1.forecast.wear.cycles_left == Approx(*r2.forecast.wear.cycles_left).epsilon(1e-9));
+  CHECK(*r1.forecast.wear.cycles_left < *r0.forecast.wear.cycles_left);
+  REQUIRE(r1.forecast.wear.cycles_left_low);
+  CHECK(*r1.forecast.wear.cycles_left_low <= *r1.forecast.wear.cycles_left);
+  // The reading stays with the memory: the next record does not read the inspection again.
+  const ModelRunReport r3 = calibrated.observe(testing::observation(5e5, 20, 20), {in});
+  CHECK(calibrated.memory().depth_ratio_points.size() == 1);
+  CHECK(r3.forecast.depth_inspections == 1);
+}
+
+TEST_CASE("depth calibration: the calibrated depth is stored in the predictions view", "[model][depth_calibration][storage]") {
+  const std::filesystem::path db =
+      std::filesystem::temp_directory_path() / ("gearwatch-depth-calibration-" + std::to_string(::getpid()) + ".db");
+  std::filesystem::remove(db);
+  storage::ModelRunResult m;
+  m.has_record = false;
+  m.gear_pair = 0;
+  m.report.advanced = true;
+  m.report.observation = testing::observation(1e6, 20, 20);
+  Forecast& f = m.report.forecast;
+  f.valid = true;
+  f.depth_mean_m = 24e-6, f.depth_low_m = 20e-6, f.depth_high_m = 29e-6;
+  f.depth_inspections = 2, f.depth_ratio = 1.2, f.depth_ratio_log_sd = 0.05;
+  storage::ModelRunResult plain = m;
+  plain.report.forecast.depth_inspections = 0, plain.report.forecast.depth_ratio = 0, plain.report.forecast.depth_ratio_log_sd = 0;
+  {
+    storage::StorageWriter writer(storage::WriterOptions{db.string(), 5000, 256, 512, 200, 30000, 60.0, {}, std::nullopt});
+    writer.start();
+    writer.submit(m);
+    writer.submit(plain);
+    writer.stop();
+  }
+  {
+    storage::Database d(db.string(), storage::Database::Mode::read_only);
+    storage::Statement s(d, "SELECT wear_mean_estimate_m, wear_depth_ratio, wear_depth_ratio_log_sd, wear_depth_inspections"
+                            " FROM predictions ORDER BY run_id");
+    REQUIRE(s.step());
+    CHECK(s.get_double(0) == 24e-6);
+    CHECK(s.get_double(1) == 1.2);
+    CHECK(s.get_double(2) == 0.05);
+    CHECK(s.get_int(3) == 2);
+    REQUIRE(s.step());   // without depth inspections: NULL
+    for (int c = 0; c < 4; ++c) CHECK(s.is_null(c));
+  }
+  std::filesystem::remove(db);
+}
+
+}  // namespace test_depth_calibration
