@@ -134,40 +134,38 @@ struct Fleet {
     std::ofstream(dir / "credentials") << kUser << ":" << kPassword << "\n";
     return true;
   }
-  // One gearbox: a simulated capture (its own seed) and a config publishing as plant1/<name>.
-  void make_gearbox(const std::string& name, int seed, int seconds) {
-    const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (dir / (name + ".log")).string() +
-                               " --duration " + std::to_string(seconds) + " --channels 1 --seed " + std::to_string(seed));
+  // One gearbox's capture: `simulate` with its seed and the given options.
+  void simulate_gearbox(const std::string& name, int seed, const std::string& options) {
+    const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (dir / (name + ".log")).string() + " " + options +
+                               " --channels 1 --seed " + std::to_string(seed));
     INFO(r.err);
     REQUIRE(r.status == 0);
+  }
+  // The gearbox's config: two accelerometers configured (the captures carry one, so sensor_missing
+  // is raised: alerts beside the records), `tables`, and [mqtt] publishing as plant1/<name>.
+  void write_gearbox_config(const std::string& name, const std::string& tables) {
     std::ofstream(dir / (name + ".toml")) << "[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
                                              "[[channels]]\nnumber = 1\nname = \"casing_x\"\nscale = 0.01\n"
-                                             "[records]\nlength_s = 0.25\ninterval_s = 0.25\nmin_length_s = 0.1\n"
-                                             "[model]\nenabled = false\n[daemon]\nhealth_interval_s = 0.5\n"
-                                             "[mqtt]\nenabled = true\nhost = \"127.0.0.1\"\nport = "
-                                          << broker.port() << "\nprefix = \"gw\"\nsite = \"plant1\"\ngearbox = \"" << name
-                                          << "\"\npassword_file = \"" << (dir / "credentials").string()
+                                          << tables << "[daemon]\nhealth_interval_s = 0.5\n"
+                                          << "[mqtt]\nenabled = true\nhost = \"127.0.0.1\"\nport = " << broker.port()
+                                          << "\nprefix = \"gw\"\nsite = \"plant1\"\ngearbox = \"" << name << "\"\npassword_file = \""
+                                          << (dir / "credentials").string()
                                           << "\"\nreconnect_initial_ms = 50\nreconnect_max_ms = 300\ndrain_timeout_s = 60\n";
   }
+  // One gearbox: a simulated capture (its own seed), 0.25 s records, the model off.
+  void make_gearbox(const std::string& name, int seed, int seconds) {
+    simulate_gearbox(name, seed, "--duration " + std::to_string(seconds));
+    write_gearbox_config(name, "[records]\nlength_s = 0.25\ninterval_s = 0.25\nmin_length_s = 0.1\n[model]\nenabled = false\n");
+  }
   // One gearbox with the model on: a 4 s capture at 20 Hz and 40 kHz (the pitting band analysed), 1 s
-  // records, so the daemon's model thread runs on every record and publishes each run on /model; a
-  // second configured channel the capture does not carry raises sensor_missing (alerts beside the runs).
+  // records, so the daemon's model thread runs on every record and publishes each run on /model, and
+  // the gap step (spectral only) reports once after 4 records on /gap.
   void make_model_gearbox(const std::string& name, int seed) {
-    const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (dir / (name + ".log")).string() +
-                               " --duration 4.0 --speed 20 --torque 16 --sample-rate 40000 --channels 1 --seed " + std::to_string(seed));
-    INFO(r.err);
-    REQUIRE(r.status == 0);
-    std::ofstream(dir / (name + ".toml")) << "[rig]\nsample_rate_hz = 40000\n[[channels]]\nnumber = 0\nname = \"casing_y\"\nscale = 0.01\n"
-                                             "[[channels]]\nnumber = 1\nname = \"casing_x\"\nscale = 0.01\n"
-                                             "[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.5\n"
-                                             "[model]\nforecast_horizon_cycles = 100000.0\ncommissioning_records = 0\n"
-                                             "[gap]\nenabled = true\nevery_records = 4\ntraining_records = 3\nheld_out_records = 1\n"
-                                             "rerun_twin = false\n"
-                                             "[daemon]\nhealth_interval_s = 0.5\n"
-                                             "[mqtt]\nenabled = true\nhost = \"127.0.0.1\"\nport = "
-                                          << broker.port() << "\nprefix = \"gw\"\nsite = \"plant1\"\ngearbox = \"" << name
-                                          << "\"\npassword_file = \"" << (dir / "credentials").string()
-                                          << "\"\nreconnect_initial_ms = 50\nreconnect_max_ms = 300\ndrain_timeout_s = 60\n";
+    simulate_gearbox(name, seed, "--duration 4.0 --speed 20 --torque 16 --sample-rate 40000");
+    write_gearbox_config(name, "[rig]\nsample_rate_hz = 40000\n"
+                               "[records]\nlength_s = 1.0\ninterval_s = 1.0\nmin_length_s = 0.5\n"
+                               "[model]\nforecast_horizon_cycles = 100000.0\ncommissioning_records = 0\n"
+                               "[gap]\nenabled = true\nevery_records = 4\ntraining_records = 3\nheld_out_records = 1\nrerun_twin = false\n");
   }
   fs::path db(const std::string& name) const { return dir / (name + ".db"); }
   pid_t replay(const std::string& name) {

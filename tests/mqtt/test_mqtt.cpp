@@ -384,7 +384,7 @@ TEST_CASE("mqtt: a schema 11 outbox migrates to the current schema, and a refuse
   }
   Database d(path.string(), Database::Mode::read_write);
   gearwatch::storage::open_and_migrate(d);
-  CHECK(d.user_version() == 15);
+  CHECK(d.user_version() == gearwatch::storage::current_schema_version());
   CHECK(scalar(path, "SELECT count(*) FROM outbox") == 4);
   // Version 15: the publisher's own counters, the same mqtt_* columns as health_snapshots'.
   CHECK(scalar(path, "SELECT count(*) FROM pragma_table_info('publisher_health') p JOIN pragma_table_info('health_snapshots') h"

@@ -375,6 +375,14 @@ double TwinModel::ics2_at(double cycles) const {
   return lo[1] + (cycles - lo[0]) / (hi[0] - lo[0]) * (hi[1] - lo[1]);
 }
 
+namespace {
+// The forecast's operating point is read from the newest `window` records (operating_window_records).
+void remember_operating_point(std::vector<std::array<double, 2>>& points, const ModelObservation& obs, std::size_t window) {
+  points.push_back({obs.speed_hz, obs.torque_nm});
+  if (points.size() > window) points.erase(points.begin(), points.end() - static_cast<std::ptrdiff_t>(window));
+}
+}  // namespace
+
 ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector<Inspection>& inspections) {
   ModelRunReport report;
   report.observation = obs;
@@ -420,11 +428,7 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
   ++memory_.records_used;
   report.advanced = true;
   const twin::OperatingPoint op{obs.speed_hz, obs.torque_nm};
-  memory_.recent_operating_points.push_back({obs.speed_hz, obs.torque_nm});
-  const auto window = static_cast<std::size_t>(settings_.operating_window_records);
-  if (memory_.recent_operating_points.size() > window)
-    memory_.recent_operating_points.erase(memory_.recent_operating_points.begin(),
-                                          memory_.recent_operating_points.end() - static_cast<std::ptrdiff_t>(window));
+  remember_operating_point(memory_.recent_operating_points, obs, static_cast<std::size_t>(settings_.operating_window_records));
   if (obs.ics2_low && std::isfinite(*obs.ics2_low)) memory_.ics2_series.push_back({obs.cycles, *obs.ics2_low});
 
   // --- blue loop to the record, at its speed and torque, with the current coefficients
