@@ -206,25 +206,10 @@ void ternary_fir(std::span<const Complex> c, const TernaryPolyphase& f,
   ternary_body(c.data(), f, out.data(), first, out_length);
 }
 
-// One read of the node for power and kurtosis: the sums each would take, in the same order, so
-// their values do not change. (|c|^2 is not kept: writing it costs more than ICS2's own pass
-// over the few bands it is computed on.)
-NodeMoments node_moments(std::span<const Complex> c) {
-  double sum_re = 0.0, sum_im = 0.0, power = 0.0;
-  const double* in = reinterpret_cast<const double*>(c.data());
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    const double re = in[2 * i], im = in[2 * i + 1];
-    sum_re += re;
-    sum_im += im;
-    power += re * re + im * im;  // std::norm's formula
-  }
-  NodeMoments m;
-  m.sum = Complex(sum_re, sum_im);
-  m.power_sum = power;
-  // A positive power means some sample is not zero; otherwise (all zero, underflow, NaN) look.
-  m.all_zero = !(power > 0.0) && std::all_of(c.begin(), c.end(), [](const Complex& v) { return v == Complex{}; });
-  return m;
-}
+// BandMap::optimum's eligibility, one rule for the optimum and for the gate that skips the bands it
+// cannot pick: the band ends inside the usable band, and its power is positive and above the floor.
+bool within_usable_band(double high_fraction, double max_high_fraction) { return high_fraction <= max_high_fraction + 1e-12; }
+bool above_power_floor(double power, double min_power) { return power >= min_power && power > 0.0; }
 
 }  // namespace
 
@@ -264,8 +249,8 @@ BandMap::Optimum BandMap::optimum(double max_high_fraction, const BandMap* power
   best.value = -std::numeric_limits<double>::infinity();
   for (std::size_t r = 0; r < rows(); ++r)
     for (std::size_t c = 0; c < columns(); ++c)
-      if (at(r, c) > best.value && band_high_fraction(r, c) <= max_high_fraction + 1e-12 &&
-          (power == nullptr || (power->at(r, c) >= min_power && power->at(r, c) > 0.0))) {
+      if (at(r, c) > best.value && within_usable_band(band_high_fraction(r, c), max_high_fraction) &&
+          (power == nullptr || above_power_floor(power->at(r, c), min_power))) {
         best.found = true;
         best.value = at(r, c);
         best.row = static_cast<int>(r);
@@ -325,8 +310,6 @@ void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int d
   node.real = real;
   node.samples = trimmed;
   if (criteria_.empty()) return;
-  const NodeMoments moments = node_moments(trimmed);
-  node.moments = &moments;
   const std::size_t columns = static_cast<std::size_t>(3) << levels_;
   const std::size_t span = columns / static_cast<std::size_t>(band_count);
   const std::size_t first_column = static_cast<std::size_t>(band) * span;
@@ -342,10 +325,9 @@ void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int d
   const double power = criteria_[p]->evaluate(node);
   store(p, power);
   if (row == 0) gate_min_power_ = gate_->min_power_fraction * power;
-  // BandMap::optimum's eligibility, on the same map entries.
-  const bool eligible = maps_[p].band_high_fraction(static_cast<std::size_t>(row), first_column) <=
-                            gate_->max_high_fraction + 1e-12 &&
-                        power >= gate_min_power_ && power > 0.0;
+  const bool eligible =
+      within_usable_band(maps_[p].band_high_fraction(static_cast<std::size_t>(row), first_column), gate_->max_high_fraction) &&
+      above_power_floor(power, gate_min_power_);
   for (std::size_t i = 0; i < criteria_.size(); ++i)
     if (i != p) store(i, eligible ? criteria_[i]->evaluate(node) : std::numeric_limits<double>::quiet_NaN());
 }
@@ -393,14 +375,9 @@ double KurtosisCriterion::evaluate(const FilterBankNode& node) {
   if (c.empty()) return 0.0;
   Complex mean{};
   bool all_zero = true;
-  if (node.moments != nullptr) {
-    mean = node.moments->sum;
-    all_zero = node.moments->all_zero;
-  } else {
-    for (const Complex& v : c) {
-      mean += v;
-      if (v != Complex{}) all_zero = false;
-    }
+  for (const Complex& v : c) {
+    mean += v;
+    if (v != Complex{}) all_zero = false;
   }
   if (all_zero) return 0.0;
   mean /= static_cast<double>(c.size());
@@ -419,9 +396,7 @@ double KurtosisCriterion::evaluate(const FilterBankNode& node) {
 double BandPowerCriterion::evaluate(const FilterBankNode& node) {
   if (node.samples.empty()) return 0.0;
   double sum = 0.0;
-  if (node.moments != nullptr) sum = node.moments->power_sum;
-  else
-    for (const Complex& v : node.samples) sum += std::norm(v);
+  for (const Complex& v : node.samples) sum += std::norm(v);
   return (node.real ? 1.0 : 2.0) * sum / static_cast<double>(node.samples.size());
 }
 

@@ -17,15 +17,6 @@
 
 namespace gearwatch::dsp {
 
-/// Sums over a node's samples, taken by the bank in one pass for power and kurtosis (each would
-/// otherwise read the node again): the complex sum, the sum of |c|^2 (in index order, as the
-/// criteria's own loops add them) and whether every sample is zero.
-struct NodeMoments {
-  Complex sum{};
-  double power_sum = 0.0;
-  bool all_zero = true;
-};
-
 /// One band of the tree as seen by a criterion.
 struct FilterBankNode {
   int row = 0;                 ///< 0 whole signal; 2k-1 binary depth k; 2k ternary split of depth k-1
@@ -35,9 +26,6 @@ struct FilterBankNode {
   int decimation = 1;          ///< input samples per node sample
   bool real = false;           ///< only row 0: the raw (mean-removed) real signal
   std::span<const Complex> samples;  ///< after the transient trim (real parts only when `real`)
-  /// Given by the bank (null when a caller builds a node itself): the samples' sums, valid
-  /// during evaluate().
-  const NodeMoments* moments = nullptr;
 };
 
 /// Which bands a selection may pick (BandMap::optimum's rule, applied while the tree runs): the
