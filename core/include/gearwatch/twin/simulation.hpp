@@ -49,14 +49,15 @@ struct SimulationOptions {
   /// the template's dense output at its own time shifted by whole periods. The record is the
   /// steady state: no start-up transient, and its content does not depend on its length (the gap
   /// diagnosis compares records with twin counterparts of other lengths). A run that never agrees
-  /// is the full integration. Off by default: as the default it still failed the independent gap
-  /// bench's no-effect draw (docs/twin.md).
+  /// is the full integration. Off by default: the gap diagnosis's records (the rig's) hold the
+  /// start-up transient, which a steady-state counterpart lacks (docs/twin.md, Periodic path).
   bool periodic = false;
   /// How far past the record's start the search for the steady state may integrate when the record
   /// is shorter (s): after a worn start the lowest torsional mode rings for about a second.
   double periodic_search_s = 3.0;
   /// The periodicity check between period boundaries: the casing acceleration within this fraction
-  /// of its RMS over a period, the same bound as fast()'s on the whole record's difference.
+  /// of its RMS over a period, the same bound as fast()'s on the whole record's difference, and the
+  /// whole state's difference in the energy norm within its square of the vibration's kinetic energy.
   double periodic_tolerance = 1e-3;
   /// And the input shaft's angle within the angle it turns in this many samples: a third of the
   /// tacho bound docs/twin.md states (the tiled record differs by the transient at two times).
