@@ -15,7 +15,7 @@
 
 using namespace gearwatch;
 
-static double rig_rms(const twin::GearboxParameters& p, const twin::ToothProfileDeviation& d, double T, const RigSpec& rs,
+static double rig_rms(const twin::GearboxParameters& p, const twin::ToothProfileDeviation& d, double T, const GearboxSpec& rs,
                       const dsp::SignalProcessingSettings& set) {
   rig::WearState w; w.profile = d;
   rig::RigRunSettings run; run.speed_hz = 10; run.torque_nm = T; run.duration_s = 0.8; run.channels = 1;
@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
   const double T = argc > 1 ? atof(argv[1]) : 7.5;
   const int N = argc > 2 ? atoi(argv[2]) : 2;
   twin::GearboxParameters p;
-  RigSpec rs; rs.channels = {ChannelSpec{0, "y6", 0.0}};
+  GearboxSpec rs; rs.channels = {ChannelSpec{0, "y6", 0.0}};
   dsp::SignalProcessingSettings set; set.rms_sa_harmonics = N;
   twin::OperatingPoint op{10.0, T};
   std::vector<double> targets = {0, 0.5e-6, 1e-6, 2.5e-6, 5e-6, 10e-6, 20e-6, 40e-6};

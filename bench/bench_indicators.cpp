@@ -106,7 +106,7 @@ class IndicatorBench {
 
  private:
   const Record record = synthetic_record();
-  RigSpec rig;
+  GearboxSpec rig;
   SignalProcessingSettings settings;
   RecordAnalyzer analyzer{rig, settings};
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/wear/updating.hpp"
 
 using namespace gearwatch;
@@ -33,7 +33,7 @@ int main() {
     std::printf("== %s\n", g.name);
     dsp::SignalProcessingSettings dsp_settings;
     dsp_settings.rms_sa_harmonics = g.harmonics;
-    const RmsSaSimulator sim = twin_rms_sa_simulator(params, RigSpec{}, dsp_settings, 6.0);
+    const RmsSaSimulator sim = twin_rms_sa_simulator(params, GearboxSpec{}, dsp_settings, 6.0);
 
     // One blue-loop step (quasi-static force, 101 profile points), averaged over a run.
     WearLoopOptions o;

@@ -14,18 +14,18 @@ namespace {
 
 class SyntheticCaptureSignal final : public CaptureSignal {
  public:
-  explicit SyntheticCaptureSignal(const SyntheticRigSettings& s) : settings_(s), rig_(s) {}
+  explicit SyntheticCaptureSignal(const rig::SyntheticSignalSettings& s) : settings_(s), generator_(s) {}
   int channels() const override { return settings_.channels; }
   double sample_rate_hz() const override { return settings_.sample_rate_hz; }
-  double input_revolutions_at(double t) const override { return rig_.input_revolutions_at(t); }
+  double input_revolutions_at(double t) const override { return generator_.input_revolutions_at(t); }
   void generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) override {
-    rig_.generate(first, count, out);
+    generator_.generate(first, count, out);
   }
-  std::vector<double> tacho_edges(double from, double to, int epr) const override { return rig_.tacho_edges(from, to, epr); }
+  std::vector<double> tacho_edges(double from, double to, int epr) const override { return generator_.tacho_edges(from, to, epr); }
 
  private:
-  SyntheticRigSettings settings_;
-  SyntheticRig rig_;
+  rig::SyntheticSignalSettings settings_;
+  rig::SyntheticSignal generator_;
 };
 
 class SampledCaptureSignal final : public CaptureSignal {
@@ -64,7 +64,7 @@ class SampledCaptureSignal final : public CaptureSignal {
 
 }  // namespace
 
-std::unique_ptr<CaptureSignal> synthetic_capture_signal(const SyntheticRigSettings& settings) {
+std::unique_ptr<CaptureSignal> synthetic_capture_signal(const rig::SyntheticSignalSettings& settings) {
   return std::make_unique<SyntheticCaptureSignal>(settings);
 }
 
@@ -87,7 +87,7 @@ namespace acq = gearwatch::acquisition;
 class CaptureFileWriter {
  public:
   CaptureFileWriter(const CaptureSettings& cs, CaptureSignal& rig, const std::string& path)
-      : cs_(cs), rig_(rig), path_(path), file_(std::fopen(path.c_str(), "wb"), &std::fclose),
+      : cs_(cs), generator_(rig), path_(path), file_(std::fopen(path.c_str(), "wb"), &std::fclose),
         fs_(rig.sample_rate_hz()), channel_count_(rig.channels()), per_frame_(cs.fd ? 30 : 2),
         quantised_(per_frame_) {
     if (!file_) throw std::runtime_error("cannot write " + path);
@@ -107,7 +107,7 @@ class CaptureFileWriter {
         next_meta += per_second;
       }
       if (cs_.tacho) write_tacho_edges(i, n);
-      rig_.generate(i, n, block_);
+      generator_.generate(i, n, block_);
       for (int c = 0; c < channel_count_; ++c) write_vibration(c, i, n, index32);
       if (meta_due) write_life_counter(i, n);
     }
@@ -129,7 +129,7 @@ class CaptureFileWriter {
     emit(acq::make_stream_header(cs_.ids, static_cast<std::uint32_t>(fs_), static_cast<std::uint8_t>(channel_count_),
                                  cs_.stream_id),
          i);
-    const double speed = rig_.speed_hz_at(i);
+    const double speed = generator_.speed_hz_at(i);
     auto cond = acq::make_operating_condition(cs_.ids, static_cast<float>(cs_.signal.torque_nm),
                                               static_cast<float>(std::isfinite(speed) ? speed : cs_.signal.speed_hz), index32);
     if (!cs_.fd) {  // classic frames carry at most 8 bytes: the form without an index
@@ -140,7 +140,7 @@ class CaptureFileWriter {
   }
 
   void write_tacho_edges(std::uint64_t i, std::size_t n) {
-    for (double edge : rig_.tacho_edges(static_cast<double>(i), static_cast<double>(i + n), cs_.edges_per_rev)) {
+    for (double edge : generator_.tacho_edges(static_cast<double>(i), static_cast<double>(i + n), cs_.edges_per_rev)) {
       emit(acq::make_tacho_frame(cs_.ids, cs_.tacho_shaft, edge + cs_.first_index), i);
       ++summary_.tacho_edges;
     }
@@ -180,12 +180,12 @@ class CaptureFileWriter {
   // The odometer after this block's samples: every revolution completed up to its last sample.
   void write_life_counter(std::uint64_t i, std::size_t n) {
     const double last = static_cast<double>(i + n - 1) / fs_;
-    const double revs = static_cast<double>(cs_.start_revolutions) + std::floor(rig_.input_revolutions_at(last) + 1e-9);
+    const double revs = static_cast<double>(cs_.start_revolutions) + std::floor(generator_.input_revolutions_at(last) + 1e-9);
     emit(acq::make_life_counter(cs_.ids, static_cast<std::uint64_t>(revs)), i + n - 1);
   }
 
   const CaptureSettings& cs_;
-  CaptureSignal& rig_;
+  CaptureSignal& generator_;
   const std::string& path_;
   std::vector<char> buffer_ = std::vector<char>(1 << 20);   // before file_: closed before it is freed
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> file_;

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "gearwatch/acquisition/protocol_decoder.hpp"
-#include "gearwatch/synthetic_rig.hpp"
+#include "gearwatch/rig/synthetic_signal.hpp"
 
 namespace gearwatch::daemon {
 
@@ -29,8 +29,8 @@ class CaptureSignal {
   virtual double speed_hz_at(std::uint64_t /*index*/) const { return std::numeric_limits<double>::quiet_NaN(); }
 };
 
-/// The synthetic rig of known content (core/synthetic_rig.hpp).
-std::unique_ptr<CaptureSignal> synthetic_capture_signal(const SyntheticRigSettings& settings);
+/// The synthetic signal of known content (rig/synthetic_signal.hpp).
+std::unique_ptr<CaptureSignal> synthetic_capture_signal(const rig::SyntheticSignalSettings& settings);
 
 /// A precomputed single-channel signal with its input-shaft edges (one per revolution), e.g. the
 /// twin's casing acceleration y6. Edges per revolution other than 1 are refused.
@@ -38,7 +38,7 @@ std::unique_ptr<CaptureSignal> sampled_capture_signal(double sample_rate_hz, std
                                                       std::vector<double> input_edges);
 
 struct CaptureSettings {
-  SyntheticRigSettings signal;           ///< speed, torque, rate, channels (and the synthetic content)
+  rig::SyntheticSignalSettings signal;           ///< speed, torque, rate, channels (and the synthetic content)
   double duration_s = 10.0;
   bool fd = true;
   std::uint16_t stream_id = 1;

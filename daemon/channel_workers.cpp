@@ -41,7 +41,7 @@ unsigned channel_worker_count(unsigned configured) {
 // A thread with its own analyzer and its own queue of channels to analyse.
 class ChannelWorkers::Helper {
  public:
-  Helper(const RigSpec& rig, const dsp::SignalProcessingSettings& settings, std::atomic<std::uint64_t>& cpu_ns)
+  Helper(const GearboxSpec& rig, const dsp::SignalProcessingSettings& settings, std::atomic<std::uint64_t>& cpu_ns)
       : analyzer_(rig, settings), cpu_ns_(cpu_ns) {}
   ~Helper() {
     {
@@ -94,7 +94,7 @@ class ChannelWorkers::Helper {
   std::thread thread_;
 };
 
-ChannelWorkers::ChannelWorkers(const RigSpec& rig, const dsp::SignalProcessingSettings& settings, unsigned workers)
+ChannelWorkers::ChannelWorkers(const GearboxSpec& rig, const dsp::SignalProcessingSettings& settings, unsigned workers)
     : own_(rig, settings) {
   for (unsigned i = 1; i < std::max(1u, workers); ++i) helpers_.push_back(std::make_unique<Helper>(rig, settings, helper_cpu_ns_));
 }

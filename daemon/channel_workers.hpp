@@ -23,7 +23,7 @@
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/types/record.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 
 namespace gearwatch::daemon {
 
@@ -35,7 +35,7 @@ inline constexpr unsigned kMaxDefaultChannelWorkers = 8;
 class ChannelWorkers {
  public:
   /// `workers`: threads analysing channels, the calling thread included (1 = serial, no helper).
-  ChannelWorkers(const RigSpec& rig, const dsp::SignalProcessingSettings& settings, unsigned workers);
+  ChannelWorkers(const GearboxSpec& rig, const dsp::SignalProcessingSettings& settings, unsigned workers);
   ~ChannelWorkers();
   ChannelWorkers(const ChannelWorkers&) = delete;
   ChannelWorkers& operator=(const ChannelWorkers&) = delete;

@@ -153,7 +153,7 @@ class Commissioning {
   }
 
   TwinReading simulate(const twin::GearboxParameters& p, const MeasuredRecord& m) const {
-    RigSpec rig = config_.rig;
+    GearboxSpec rig = config_.rig;
     rig.sample_rate_hz = m.sample_rate_hz;
     const double seconds = config_.model.simulation_revolutions / m.speed_hz;
     const twin::OperatingPoint op{m.speed_hz, m.torque_nm};

@@ -201,7 +201,7 @@ void require_generator(const std::string& python, const std::string& script) {
 }
 
 json run_generator(const std::string& python, const std::string& script, const std::vector<std::string>& inputs,
-                   const fs::path& out_dir, std::uint64_t seed, const RigSpec& rig) {
+                   const fs::path& out_dir, std::uint64_t seed, const GearboxSpec& rig) {
   std::string cmd = quoted(python) + " " + quoted(script) + " --seed " + std::to_string(seed) + " --out-dir " +
                     quoted(out_dir.string()) + " --pinion-teeth " + std::to_string(rig.gears.pinion_teeth) +
                     " --gear-teeth " + std::to_string(rig.gears.gear_teeth) + " --scale " +

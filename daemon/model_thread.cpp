@@ -24,6 +24,7 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/types/indicator.hpp"
+#include "gearwatch/types/log_rate.hpp"
 
 namespace gearwatch::daemon {
 namespace {
@@ -380,7 +381,7 @@ wear::RmsSaSimulator rms_sa_simulator_at_record_rate(const twin::GearboxParamete
                                                      const double& rate_hz) {
   return [params, rig = config.rig, processing = config.processing, revolutions = config.model.simulation_revolutions,
           &rate_hz](const wear::WearState& state, const twin::OperatingPoint& op) {
-    RigSpec at_rate = rig;
+    GearboxSpec at_rate = rig;
     if (rate_hz > 0) at_rate.sample_rate_hz = rate_hz;
     return wear::twin_rms_sa_simulator(params, at_rate, processing, revolutions)(state, op);
   };
@@ -626,7 +627,7 @@ wear::ModelRunReport ModelThread::observe(const ModelInput& input, const wear::M
     return model_->observe(observation, inspections);
   } catch (const std::exception& e) {
     const auto n = ++counters_.failures;
-    if (n <= 10 || n % 1000 == 0) spdlog::error("model: record at {} cycles not handled ({} so far): {}", input.observation.cycles, n, e.what());
+    if (log_occurrence(n)) spdlog::error("model: record at {} cycles not handled ({} so far): {}", input.observation.cycles, n, e.what());
     wear::ModelRunReport failed;
     failed.observation = observation;
     failed.detail = std::string("not handled: ") + e.what();
@@ -697,7 +698,7 @@ bool ModelThread::add_gap_sample(const ModelInput& input, storage::ModelRunResul
   std::optional<Record> kept = kept_gap_record(*input.samples, gap_channel(config_));
   if (!kept) {
     const auto n = ++counters_.gap_records_without_channel;
-    if (n <= 10 || n % 1000 == 0)
+    if (log_occurrence(n))
       spdlog::warn("gap: record at {:.6g} cycles does not carry channel {}: not used by the gap step ({} so far)",
                    input.observation.cycles, gap_channel(config_), n);
     return false;
@@ -723,12 +724,12 @@ void ModelThread::diagnose_gap() {
                                    config_.processing.rms_sa_harmonics);
     if (!run.k_wear_skipped.empty()) {
       const auto n = ++counters_.gap_k_wear_skipped;
-      if (n <= 10 || n % 1000 == 0) spdlog::warn("gap: report without K_wear ({} so far): {}", n, run.k_wear_skipped);
+      if (log_occurrence(n)) spdlog::warn("gap: report without K_wear ({} so far): {}", n, run.k_wear_skipped);
     }
     msg.report = std::move(run.report);
   } catch (const std::exception& e) {
     const auto n = ++counters_.gap_failures;
-    if (n <= 10 || n % 1000 == 0)
+    if (log_occurrence(n))
       spdlog::error("gap: no diagnosis at {:.6g} cycles ({} failed so far): {}", newest.measured->input_revolutions.value_or(kNaN), n, e.what());
     return;
   }

@@ -79,7 +79,7 @@ class BadInputLog {
   explicit BadInputLog(double interval_s)
       : interval_(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(interval_s))) {}
   void warn(const std::string& kind, const std::string& message) {
-    // Called from the acquisition thread (bad frames) and the processing thread (gaps, sensors).
+    // Called from the acquisition thread (bad frames) and the processing thread (dropouts, sensors).
     std::lock_guard lock(mutex_);
     auto it = limiters_.find(kind);
     if (it == limiters_.end()) it = limiters_.emplace(kind, acq::LogRateLimiter(interval_)).first;
@@ -235,7 +235,7 @@ class Pipeline {
   // Processing side: the assembler's callbacks and the thread's loop.
   void on_record(Record&& r, bool analysable);
   void on_stream(const acq::StreamInfo& s);
-  void on_gap(const acq::GapInfo& g);
+  void on_dropout(const acq::DropoutInfo& g);
   void on_life_counter(const acq::LifeCounterReset& l);
   void on_channel_status(const acq::ChannelStatusChange& c);
   void on_tacho_status(const acq::TachoStatusChange& t);
@@ -315,7 +315,7 @@ Pipeline::Pipeline(const config::GearwatchConfig& config, PipelineMode mode, Gap
                  acq::RecordAssembler::Callbacks{
                      [this](Record&& r, bool analysable) { on_record(std::move(r), analysable); },
                      [this](const acq::StreamInfo& s) { on_stream(s); },
-                     [this](const acq::GapInfo& g) { on_gap(g); },
+                     [this](const acq::DropoutInfo& g) { on_dropout(g); },
                      [this](const acq::LifeCounterReset& l) { on_life_counter(l); },
                      [this](const acq::ChannelStatusChange& c) { on_channel_status(c); },
                      [this](const acq::TachoStatusChange& t) { on_tacho_status(t); }}) {}
@@ -451,7 +451,7 @@ PipelineResult Pipeline::result(const std::string& run_end_reason) const {
   result.records_already_stored = records_already_stored_;
   result.frames = decoder_.counters().frames;
   result.samples = decoder_.counters().samples;
-  result.lost_samples = decoder_.counters().gap_samples + assembler_snapshot_.ring_gap_samples;
+  result.lost_samples = decoder_.counters().dropout_samples + assembler_snapshot_.ring_dropout_samples;
   result.kernel_dropped_frames = source_->health().kernel_drops;
   result.run_id = writer_->counters().run_id;
   result.cpu.acquisition_s = 1e-9 * static_cast<double>(acquisition_cpu_ns_.load());
@@ -628,12 +628,12 @@ void Pipeline::on_stream(const acq::StreamInfo& s) {
   submit_if_any(processor_->stream_sample_rate(s.sample_rate_hz, rate_message));
 }
 
-void Pipeline::on_gap(const acq::GapInfo& g) {
+void Pipeline::on_dropout(const acq::DropoutInfo& g) {
   if (resume_.before_resume_point(current_sequence_, current_stream_id_, g.first_missing)) return;
-  bad_input_log_.warn("gap", "channel " + std::to_string(g.channel) + ": " + std::to_string(g.missing) +
+  bad_input_log_.warn("dropout", "channel " + std::to_string(g.channel) + ": " + std::to_string(g.missing) +
                                  " samples missing from index " + std::to_string(g.first_missing) + " (" +
                                  acq::to_string(g.cause) + ")");
-  writer_->submit(storage::GapEvent{current_sequence_, g.channel, g.first_missing, g.missing, acq::to_string(g.cause)});
+  writer_->submit(storage::DropoutEvent{current_sequence_, g.channel, g.first_missing, g.missing, g.cause});
 }
 
 void Pipeline::on_life_counter(const acq::LifeCounterReset& l) {
@@ -747,9 +747,9 @@ void Pipeline::add_acquisition_health(storage::HealthSnapshot& s) {
   s[C::unknown_ids] = load(d.unknown_ids);
   s[C::unconfigured_channel_frames] = load(d.unconfigured_channel_frames);
   s[C::frames_before_header] = load(d.frames_before_header);
-  s[C::gaps] = load(d.gaps);
-  s[C::gap_samples] = load(d.gap_samples);
-  s[C::ring_gaps] = a.ring_gaps;
+  s[C::dropouts] = load(d.dropouts);
+  s[C::dropout_samples] = load(d.dropout_samples);
+  s[C::ring_dropouts] = a.ring_dropouts;
   s[C::duplicates] = load(d.duplicates);
   s[C::tacho_edges] = load(d.tacho_edges);
   s[C::tacho_out_of_order] = load(d.tacho_out_of_order);
@@ -761,7 +761,7 @@ void Pipeline::add_acquisition_health(storage::HealthSnapshot& s) {
   s[C::records_complete] = a.records_complete;
   s[C::records_cut] = a.records_cut;
   s[C::records_rejected] = a.records_rejected;
-  s[C::records_restarted_after_gap] = a.records_restarted_after_gap;
+  s[C::records_restarted_after_dropout] = a.records_restarted_after_dropout;
   s[C::channels_stopped] = a.channels_stopped;
 }
 

@@ -4,7 +4,7 @@
 // thread (SQLite). Used by `gearwatch run` (live, SocketCAN or a log) and `gearwatch replay`.
 //
 // Overflow policies: a live source never waits — when the ring is full the event is dropped and
-// counted (ring_overflows; the processing side records the hole as a gap with cause
+// counted (ring_overflows; the processing side records the hole as a dropout with cause
 // ring_overflow). A file source waits for room, so a replay loses nothing. The writer's queue
 // makes processing wait (storage_queue_waits).
 // SIGHUP reloads what can change while running and logs what needs a restart (config_reload.hpp).
@@ -42,7 +42,7 @@ struct PipelineResult {
   RecordsWithoutIndicators records_without_indicators;
   /// Records of a capture replayed again that an earlier run had already stored (not stored twice).
   std::uint64_t records_already_stored = 0;
-  /// Samples that never reached a record slot: gaps in the protocol (a frame dropped by the
+  /// Samples that never reached a record slot: dropouts in the protocol (a frame dropped by the
   /// kernel or the front-end shows up here) plus holes left by ring overflows.
   std::uint64_t lost_samples = 0;
   std::uint64_t kernel_dropped_frames = 0;  ///< SO_RXQ_OVFL: frames the kernel discarded

@@ -30,7 +30,7 @@ double selected_value(const dsp::ChannelAnalysis& a) {
 
 
 
-dsp::SpeedEstimationSettings speed_estimation_settings(const RigSpec& rig) {
+dsp::SpeedEstimationSettings speed_estimation_settings(const GearboxSpec& rig) {
   dsp::SpeedEstimationSettings s;
   s.pinion_teeth = rig.gears.pinion_teeth;
   s.gear_teeth = rig.gears.gear_teeth;
@@ -291,7 +291,7 @@ storage::RecordResult RecordProcessor::process(const Record& record, bool analys
   out.input_revolutions = record.input_revolutions;
   observe_cycle_count(record, out);
   if (!analysable) {
-    out.reject_reason = record.end == RecordEnd::cut_at_gap ? "shorter than records.min_length_s after a gap"
+    out.reject_reason = record.end == RecordEnd::cut_at_dropout ? "shorter than records.min_length_s after a gap"
                                                              : "shorter than records.min_length_s at stream end";
     out.alert_states = alerts_.take_changed();
     return out;

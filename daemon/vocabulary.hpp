@@ -10,7 +10,7 @@ namespace gearwatch::daemon {
 inline storage::Vocabulary acquisition_vocabulary() {
   storage::Vocabulary v;
   for (auto k : acquisition::kAllRejectKinds) v["rejected_frame_kind"].emplace_back(acquisition::to_string(k));
-  for (auto c : acquisition::kAllGapCauses) v["gap_cause"].emplace_back(acquisition::to_string(c));
+  for (auto c : acquisition::kAllDropoutCauses) v[storage::kDropoutCauseDomain].emplace_back(acquisition::to_string(c));
   return v;
 }
 

@@ -1,7 +1,7 @@
 // libFuzzer target: the protocol v1 frame decoder (acquisition ProtocolDecoder::decode).
 // The input is a sequence of frames (see next_frame); the first byte chooses the configured
 // channels and shafts. Beyond "never crashes" (ASan, UBSan), it checks that what the decoder
-// hands downstream agrees with its own counters and with the receiver rules: sample and gap
+// hands downstream agrees with its own counters and with the receiver rules: sample and dropout
 // events of a channel tile its sample clock without overlap, tacho edges strictly increase.
 #include <cstddef>
 #include <cstdint>
@@ -48,7 +48,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (size < 1) return 0;
   const std::uint8_t channel_mask = data[0] | 0x01, shaft_mask = (data[0] >> 4) | 0x01;
   struct Seen {
-    std::uint64_t samples = 0, sample_events = 0, gaps = 0, gap_samples = 0, edges = 0, stream_starts = 0, resets = 0;
+    std::uint64_t samples = 0, sample_events = 0, dropouts = 0, dropout_samples = 0, edges = 0, stream_starts = 0, resets = 0;
     std::optional<std::uint64_t> next_index[8];
     std::optional<double> last_edge[4];
   } seen;
@@ -64,12 +64,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         ++seen.sample_events;
         break;
       }
-      case acq::EventKind::gap: {
+      case acq::EventKind::dropout: {
         auto& next = seen.next_index[e.channel];
-        if (e.channel >= 8 || !next || e.index != *next || e.missing == 0) violated("a gap that does not start where the channel stopped");
+        if (e.channel >= 8 || !next || e.index != *next || e.missing == 0) violated("a dropout that does not start where the channel stopped");
         next = e.index + e.missing;
-        ++seen.gaps;
-        seen.gap_samples += e.missing;
+        ++seen.dropouts;
+        seen.dropout_samples += e.missing;
         break;
       }
       case acq::EventKind::tacho_edge: {
@@ -110,7 +110,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (c.frames != decoded) violated("frames counter != frames decoded");
   if (c.samples != seen.samples) violated("samples counter != samples handed downstream");
   if (c.sample_frames < seen.sample_events) violated("fewer sample frames counted than sample events");
-  if (c.gaps != seen.gaps || c.gap_samples != seen.gap_samples) violated("gap counters != gap events");
+  if (c.dropouts != seen.dropouts || c.dropout_samples != seen.dropout_samples) violated("dropout counters != dropout events");
   if (c.tacho_edges != seen.edges) violated("tacho_edges counter != edge events");
   if (c.life_counter_resets != seen.resets) violated("life_counter_resets counter != reset events");
   if (seen.stream_starts != (seen.stream_starts ? 1 + c.stream_changes : 0)) violated("stream starts != 1 + stream_changes");

@@ -268,7 +268,7 @@ TEST_CASE("defects #9: revolutions that go backwards within a stream leave the r
   // says 1: the assembler counts 40 rev/s. Life counter 100 at sample 0, 115 at sample 1500.
   using namespace gearwatch;
   using namespace gearwatch::acquisition;
-  RigSpec rig;
+  GearboxSpec rig;
   rig.sample_rate_hz = 1000;
   rig.channels = {{0, "a", 0.5}};
   rig.tachos = {{0, "input", 1, 1.0}};
@@ -363,7 +363,7 @@ TEST_CASE("defects #10: the twin simulates a record's RMS_SA at the record's sam
   const wear::BlueLoop unworn(params, wear::WearLoopOptions{});
   const twin::OperatingPoint op{10, 5};
   auto direct = [&](double rate_hz) {
-    RigSpec rig = config.rig;
+    GearboxSpec rig = config.rig;
     rig.sample_rate_hz = rate_hz;
     return wear::twin_rms_sa_simulator(params, rig, config.processing, config.model.simulation_revolutions)(unworn.state(), op);
   };

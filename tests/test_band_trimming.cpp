@@ -35,8 +35,8 @@ Record am_noise_record(unsigned seed, double a) {
   return r;
 }
 
-RigSpec rig_at(double fs) {
-  RigSpec rig;
+GearboxSpec rig_at(double fs) {
+  GearboxSpec rig;
   rig.sample_rate_hz = fs;
   return rig;
 }

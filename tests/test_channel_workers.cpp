@@ -103,7 +103,7 @@ void require_identical(const dsp::ChannelAnalysis& serial, const dsp::ChannelAna
 TEST_CASE("channel workers: a record's channels analysed in parallel give the serial indicators bit for bit",
           "[daemon][channel_workers]") {
   const double fs = 50000.0;
-  RigSpec rig;
+  GearboxSpec rig;
   rig.sample_rate_hz = fs;
   dsp::SignalProcessingSettings settings;
   settings.pitting_band = {2000, 13000};

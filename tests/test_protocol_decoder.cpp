@@ -76,14 +76,14 @@ TEST_CASE("decoder: a forward jump is a gap, counted and announced, never filled
   h.header();
   h.samples(0, 0);
   h.samples(0, 90);  // 30..89 missing
-  REQUIRE(h.count(EventKind::gap) == 1);
+  REQUIRE(h.count(EventKind::dropout) == 1);
   const AcquisitionEvent* gap = nullptr;
   for (const auto& e : h.events)
-    if (e.kind == EventKind::gap) gap = &e;
+    if (e.kind == EventKind::dropout) gap = &e;
   CHECK(gap->index == 30);
   CHECK(gap->missing == 60);
-  CHECK(h.decoder.counters().gaps == 1);
-  CHECK(h.decoder.counters().gap_samples == 60);
+  CHECK(h.decoder.counters().dropouts == 1);
+  CHECK(h.decoder.counters().dropout_samples == 60);
   CHECK(h.count(EventKind::samples) == 2);  // nothing invented
 }
 
@@ -99,7 +99,7 @@ TEST_CASE("decoder: repeated and backward frames are dropped and counted", "[dec
   CHECK(h.decoder.counters().duplicates == 2);
   CHECK(h.count(EventKind::samples) == 2);
   h.samples(0, 60);  // continues normally
-  CHECK(h.decoder.counters().gaps == 0);
+  CHECK(h.decoder.counters().dropouts == 0);
 }
 
 TEST_CASE("decoder: malformed payloads are dropped with a reason", "[decoder]") {
@@ -178,7 +178,7 @@ TEST_CASE("decoder: u32 index wrap-around is continuous", "[decoder]") {
   const std::uint32_t last = 0xFFFFFFFFu - 29;  // this frame covers ...FFE2..FFFF
   h.samples(0, last);
   h.samples(0, 0);  // wrapped
-  CHECK(h.decoder.counters().gaps == 0);
+  CHECK(h.decoder.counters().dropouts == 0);
   CHECK(h.decoder.counters().duplicates == 0);
   CHECK(h.events.back().index == (std::uint64_t{1} << 32));
 }
@@ -366,7 +366,7 @@ TEST_CASE("can protocol document: the worked examples decode as the page says", 
 
   // Example 2 says the channel's next frame is expected at 1030: one there is neither gap nor repeat.
   REQUIRE_FALSE(h.samples(0, 1030));
-  CHECK(h.decoder.counters().gaps == 0);
+  CHECK(h.decoder.counters().dropouts == 0);
   CHECK(h.decoder.counters().duplicates == 0);
   CHECK(h.decoder.counters().malformed_frames == 0);
 }

@@ -66,8 +66,8 @@ Record make_record(const SyntheticRig& p, std::vector<double>* stochastic = null
   return r;
 }
 
-RigSpec make_rig(double fs) {
-  RigSpec rig;
+GearboxSpec make_rig(double fs) {
+  GearboxSpec rig;
   rig.sample_rate_hz = fs;
   return rig;
 }
@@ -150,7 +150,7 @@ TEST_CASE("Record analyzer: known indicators on a synthetic gearbox record", "[d
 TEST_CASE("Record analyzer: bad input gives reasons, never a crash", "[dsp][record_analyzer]") {
   SyntheticRig p;
   p.duration = 2.0;
-  const RigSpec rig = make_rig(p.fs);
+  const GearboxSpec rig = make_rig(p.fs);
   RecordAnalyzer analyzer(rig, SignalProcessingSettings{});
   auto reason = [](const ChannelAnalysis& a, const std::string& name) {
     const auto* s = a.skip_reason(name);
@@ -229,7 +229,7 @@ TEST_CASE("Record analyzer: bad input gives reasons, never a crash", "[dsp][reco
 }
 
 TEST_CASE("Signal-processing settings are validated with the setting's name", "[dsp][record_analyzer]") {
-  const RigSpec rig;
+  const GearboxSpec rig;
   auto message = [&](SignalProcessingSettings s) -> std::string {
     try {
       s.validate(rig);
@@ -389,7 +389,7 @@ TEST_CASE("Record analyzer: a residual at the numerical floor gives residual_bel
 TEST_CASE("Record analyzer: a flat channel gives flat_line, a live one does not", "[dsp][record_analyzer]") {
   SyntheticRig p;
   p.duration = 2.0;
-  const RigSpec rig = make_rig(p.fs);
+  const GearboxSpec rig = make_rig(p.fs);
   const double lsb = rig.channels[0].scale_m_s2_per_lsb;
   RecordAnalyzer analyzer(rig, SignalProcessingSettings{});
   Record r = make_record(p);
@@ -411,7 +411,7 @@ TEST_CASE("Record analyzer: a flat channel gives flat_line, a live one does not"
     CHECK(*a.value("rms_raw") == Approx(2.0 * lsb).epsilon(0.05));
   }
   SECTION("without a channel scale only an exactly constant channel is flat") {
-    RigSpec unscaled = rig;
+    GearboxSpec unscaled = rig;
     unscaled.channels.clear();
     RecordAnalyzer a(unscaled, SignalProcessingSettings{});
     for (std::size_t i = 0; i < r.channels[0].size(); ++i) r.channels[0][i] = float(double(i % 2) * lsb);

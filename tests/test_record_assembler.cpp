@@ -14,9 +14,9 @@ namespace {
 // A 1 kHz, two-channel stream whose sample value encodes its index, so every sample of every
 // record can be checked exactly: value(ch, i) = (i % 1000 + 1000·ch) · scale.
 struct Stream {
-  RigSpec rig;
+  GearboxSpec rig;
   std::vector<std::pair<Record, bool>> records;
-  std::vector<GapInfo> gaps;
+  std::vector<DropoutInfo> gaps;
   std::vector<StreamInfo> streams;
   std::vector<ChannelStatusChange> statuses;
   std::unique_ptr<RecordAssembler> assembler;
@@ -29,7 +29,7 @@ struct Stream {
     assembler = std::make_unique<RecordAssembler>(
         rig, RecordAssembler::Callbacks{[this](Record&& r, bool ok) { records.emplace_back(std::move(r), ok); },
                                         [this](const StreamInfo& s) { streams.push_back(s); },
-                                        [this](const GapInfo& g) { gaps.push_back(g); }, {},
+                                        [this](const DropoutInfo& g) { gaps.push_back(g); }, {},
                                         [this](const ChannelStatusChange& c) { statuses.push_back(c); }, {}});
   }
   void start(std::uint16_t id = 1, std::uint8_t channel_count = 2) {
@@ -72,7 +72,7 @@ struct Stream {
   }
   void gap_event(int ch, std::uint64_t index, std::uint64_t missing) {
     AcquisitionEvent e;
-    e.kind = EventKind::gap;
+    e.kind = EventKind::dropout;
     e.channel = static_cast<std::uint8_t>(ch);
     e.index = index;
     e.missing = missing;
@@ -136,7 +136,7 @@ TEST_CASE("assembler: a gap in one channel cuts the record, the schedule goes on
   REQUIRE(s.records.size() == 4);
   const auto& cut = s.records[1];
   CHECK(cut.first.start_index == 1000);
-  CHECK(cut.first.end == RecordEnd::cut_at_gap);
+  CHECK(cut.first.end == RecordEnd::cut_at_dropout);
   CHECK(cut.first.sample_count() == 300);  // both channels cut where channel 1 stopped
   CHECK(cut.second);                        // 0.3 s >= 0.2 s: analysed
   CHECK(Stream::values_match(cut.first));
@@ -144,8 +144,8 @@ TEST_CASE("assembler: a gap in one channel cuts the record, the schedule goes on
   CHECK(s.records[2].first.end == RecordEnd::complete);
   CHECK(s.records[3].first.start_index == 3000);
   REQUIRE(s.gaps.size() == 1);
-  CHECK(s.gaps[0].cause == GapCause::protocol);
-  CHECK(s.assembler->counters().ring_gaps == 0);
+  CHECK(s.gaps[0].cause == DropoutCause::protocol);
+  CHECK(s.assembler->counters().ring_dropouts == 0);
 }
 
 TEST_CASE("assembler: a record cut shorter than min_length is kept but not analysable", "[assembler]") {
@@ -171,12 +171,12 @@ TEST_CASE("assembler: a hole nobody announced is a ring-overflow gap", "[assembl
   s.run(530, 1000);  // 500..529 vanished between decoder and assembler
   s.assembler->finish();
   REQUIRE(s.gaps.size() == 2);  // one per channel
-  CHECK(s.gaps[0].cause == GapCause::ring_overflow);
+  CHECK(s.gaps[0].cause == DropoutCause::ring_overflow);
   CHECK(s.gaps[0].first_missing == 500);
   CHECK(s.gaps[0].missing == 30);
-  CHECK(s.assembler->counters().ring_gap_samples == 60);
+  CHECK(s.assembler->counters().ring_dropout_samples == 60);
   REQUIRE(s.records.size() == 1);
-  CHECK(s.records[0].first.end == RecordEnd::cut_at_gap);
+  CHECK(s.records[0].first.end == RecordEnd::cut_at_dropout);
   CHECK(s.records[0].first.sample_count() == 500);
 }
 
@@ -264,7 +264,7 @@ TEST_CASE("assembler: a record rejected at a gap restarts right after it when a 
     REQUIRE(s.records.size() >= 3);
     CHECK(s.records[0].first.start_index == 0);
     CHECK(s.records[0].first.sample_count() == 300);
-    CHECK(s.records[0].first.end == RecordEnd::cut_at_gap);
+    CHECK(s.records[0].first.end == RecordEnd::cut_at_dropout);
     CHECK_FALSE(s.records[0].second);
     CHECK(s.records[1].first.start_index == 310);  // right after the gap
     CHECK(s.records[1].first.sample_count() == 1000);
@@ -272,7 +272,7 @@ TEST_CASE("assembler: a record rejected at a gap restarts right after it when a 
     CHECK(s.records[1].second);
     CHECK(Stream::values_match(s.records[1].first));
     CHECK(s.records[2].first.start_index == 10000);  // the schedule is kept
-    CHECK(s.assembler->counters().records_restarted_after_gap == 1);
+    CHECK(s.assembler->counters().records_restarted_after_dropout == 1);
   }
   SECTION("does not fit: the schedule goes on") {
     Stream s(1.0, 1.2, 0.8);  // every 1200: 310 + 1000 > 1200
@@ -284,7 +284,7 @@ TEST_CASE("assembler: a record rejected at a gap restarts right after it when a 
     REQUIRE(s.records.size() >= 2);
     CHECK_FALSE(s.records[0].second);
     CHECK(s.records[1].first.start_index == 1200);
-    CHECK(s.assembler->counters().records_restarted_after_gap == 0);
+    CHECK(s.assembler->counters().records_restarted_after_dropout == 0);
   }
   SECTION("a gap in one channel only: the restart waits for its end") {
     Stream s(1.0, 10.0, 0.8);

@@ -139,8 +139,8 @@ Errors errors(const SpeedEstimate& e, const Profile& p, double fs) {
   return out;
 }
 
-RigSpec rig(double fs) {
-  RigSpec r;
+GearboxSpec rig(double fs) {
+  GearboxSpec r;
   r.sample_rate_hz = fs;
   r.gears.pinion_teeth = kZ1;
   r.gears.gear_teeth = kZ2;

@@ -241,7 +241,7 @@ TEST_CASE("Simulated RMS_SA comes from the measurement analyzer and grows with w
   // Known answer by a direct reference computation: the same analyzer on the same simulated
   // signal; and a physical ordering: a worn profile (GTE) raises the mesh-harmonic content.
   const GearboxParameters p;
-  const RigSpec rig;
+  const GearboxSpec rig;
   const dsp::SignalProcessingSettings settings;
   const OperatingPoint op{10.0, 20.0};
   const double healthy = simulated_rms_sa(p, {}, op, 1.0, rig, settings);

@@ -19,7 +19,7 @@
 
 #include "gearwatch/config/config.hpp"
 #include "gearwatch/dsp/record_analyzer.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/twin/errors.hpp"
 
 namespace test_updating {  // this file's own: the test files compile together (unity build)
@@ -244,7 +244,7 @@ TEST_CASE("updating: K_wear recovered after each known change of the truth's wea
   const twin::GearboxParameters params;
   dsp::SignalProcessingSettings dsp_settings;
   dsp_settings.rms_sa_harmonics = 6;
-  const RmsSaSimulator sim = twin_rms_sa_simulator(params, RigSpec{}, dsp_settings, 6.0);
+  const RmsSaSimulator sim = twin_rms_sa_simulator(params, GearboxSpec{}, dsp_settings, 6.0);
   const double k1 = 1.65e-12, k2 = 2.19e-12, change = 3000;
   ModelSettings s;
   s.loop.k_wear_si = 1.0e-12;  // wrong at the start: the first record calibrates it (the thesis's first update)

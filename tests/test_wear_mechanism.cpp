@@ -541,7 +541,7 @@ TEST_CASE("defects #7: the floor against ICS2's estimation noise and the share l
 }
 
 TEST_CASE("defects #7: wear_min_band_share outside [0 1] is refused naming the setting", "[dsp][wear_mechanism]") {
-  const gearwatch::RigSpec rig;
+  const gearwatch::GearboxSpec rig;
   SignalProcessingSettings s;
   CHECK_NOTHROW(s.validate(rig));  // default 0.5
   for (double bad : {-0.1, 1.5, std::nan("")}) {

@@ -38,7 +38,7 @@ inline double simulated_signal_rms_sa(const twin::CasingSignal& s) {
   record.channels.push_back(s.acceleration);
   record.channel_numbers.push_back(0);
   record.tacho_edges[0] = s.tacho_edges;
-  dsp::RecordAnalyzer analyzer(RigSpec{}, dsp::SignalProcessingSettings{});
+  dsp::RecordAnalyzer analyzer(GearboxSpec{}, dsp::SignalProcessingSettings{});
   const auto value = analyzer.analyze(record, 0).value("rms_sa");
   REQUIRE(value.has_value());
   return *value;

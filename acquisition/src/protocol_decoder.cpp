@@ -100,14 +100,14 @@ RejectReason ProtocolDecoder::on_samples(const CanFrame& frame, unsigned channel
     }
     if (first > *next) {
       const std::uint64_t missing = first - *next;
-      counters_.gaps.fetch_add(1, std::memory_order_relaxed);
-      counters_.gap_samples.fetch_add(missing, std::memory_order_relaxed);
-      AcquisitionEvent gap;
-      gap.kind = EventKind::gap;
-      gap.channel = static_cast<std::uint8_t>(channel);
-      gap.index = *next;
-      gap.missing = missing;
-      sink_(gap);
+      counters_.dropouts.fetch_add(1, std::memory_order_relaxed);
+      counters_.dropout_samples.fetch_add(missing, std::memory_order_relaxed);
+      AcquisitionEvent dropout;
+      dropout.kind = EventKind::dropout;
+      dropout.channel = static_cast<std::uint8_t>(channel);
+      dropout.index = *next;
+      dropout.missing = missing;
+      sink_(dropout);
     }
   }
   next = first + n;

@@ -21,7 +21,7 @@ const char* to_string(TachoStatus status) noexcept {
   return status == TachoStatus::resumed ? "resumed" : "missing";
 }
 
-RecordAssembler::RecordAssembler(const RigSpec& rig, Callbacks callbacks) : rig_(rig), callbacks_(std::move(callbacks)) {
+RecordAssembler::RecordAssembler(const GearboxSpec& rig, Callbacks callbacks) : rig_(rig), callbacks_(std::move(callbacks)) {
   slot_of_channel_.fill(-1);
   for (std::size_t i = 0; i < rig_.channels.size(); ++i) {
     slot_of_channel_.at(static_cast<std::size_t>(rig_.channels[i].number)) = static_cast<int>(i);
@@ -61,11 +61,11 @@ void RecordAssembler::consume(const AcquisitionEvent& e) {
       if (callbacks_.on_life_counter_reset)
         callbacks_.on_life_counter_reset({e.index, e.life.previous_revolutions, e.life.revolutions});
       break;
-    case EventKind::gap: {
+    case EventKind::dropout: {
       const int slot = e.channel < 8 ? slot_of_channel_[e.channel] : -1;
       if (slot >= 0) next_seen_[static_cast<std::size_t>(slot)] = e.index + e.missing;
-      gap_end_ = std::max(gap_end_, e.index + e.missing);
-      if (callbacks_.on_gap) callbacks_.on_gap({e.channel, e.index, e.missing, GapCause::protocol});
+      dropout_end_ = std::max(dropout_end_, e.index + e.missing);
+      if (callbacks_.on_dropout) callbacks_.on_dropout({e.channel, e.index, e.missing, DropoutCause::protocol});
       break;
     }
   }
@@ -98,7 +98,7 @@ void RecordAssembler::note_progress(std::uint64_t first, std::uint64_t last) {
 void RecordAssembler::check_silent_channels() {
   // Between channels, place_samples sees one fall behind the others. When none delivers at all,
   // only the tacho's clock shows the stream going on without them. They are reported, and the
-  // record in progress waits as before: when samples come back, a gap cuts it as usual.
+  // record in progress waits as before: when samples come back, a dropout cuts it as usual.
   bool any_active = false;
   for (std::size_t slot = 0; slot < rig_.channels.size(); ++slot) {
     if (slot_state_[slot] != SlotState::active || silence_reported_[slot]) continue;
@@ -159,7 +159,7 @@ void RecordAssembler::on_stream_start(const AcquisitionEvent& e) {
   edge_rate_fault_.clear();
   next_start_.reset();
   scheduled_start_.reset();
-  gap_end_ = 0;
+  dropout_end_ = 0;
   next_seen_.fill(std::nullopt);
   for (auto& p : pending_) p.clear();
   for (auto& q : edges_) q.clear();
@@ -236,10 +236,10 @@ void RecordAssembler::on_samples(const AcquisitionEvent& e) {
   // Continuity as seen after the ring: a jump the decoder did not announce was lost in the ring.
   if (next_seen_[s] && e.index > *next_seen_[s]) {
     const std::uint64_t missing = e.index - *next_seen_[s];
-    ++counters_.ring_gaps;
-    counters_.ring_gap_samples += missing;
-    if (callbacks_.on_gap) callbacks_.on_gap({e.channel, *next_seen_[s], missing, GapCause::ring_overflow});
-    gap_end_ = std::max(gap_end_, e.index);
+    ++counters_.ring_dropouts;
+    counters_.ring_dropout_samples += missing;
+    if (callbacks_.on_dropout) callbacks_.on_dropout({e.channel, *next_seen_[s], missing, DropoutCause::ring_overflow});
+    dropout_end_ = std::max(dropout_end_, e.index);
   }
   next_seen_[s] = e.index + e.count;
   note_progress(e.index, e.index + e.count);
@@ -267,13 +267,13 @@ void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, st
       // Start at the schedule, or later when the samples at the scheduled start are missing.
       std::uint64_t start = std::max(*next_start_, idx);
       if (scheduled_start_ && start + length_ > *scheduled_start_) {
-        // The restart after a gap no longer fits a whole record before the schedule: keep to it.
+        // The restart after a dropout no longer fits a whole record before the schedule: keep to it.
         next_start_ = scheduled_start_;
         scheduled_start_.reset();
         if (idx + (count - offset) <= *next_start_) return;
         start = std::max(*next_start_, idx);
       } else if (scheduled_start_) {
-        ++counters_.records_restarted_after_gap;
+        ++counters_.records_restarted_after_dropout;
       }
       open_record(start);
     }
@@ -289,8 +289,8 @@ void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, st
                 rest.samples.begin());
       pending_[s].push_back(rest);
       if (filled_min() >= target) {
-        // Every channel has reached the (possibly gap-shortened) end.
-        finalize(open_.cut < length_ ? RecordEnd::cut_at_gap : RecordEnd::complete);
+        // Every channel has reached the (possibly dropout-shortened) end.
+        finalize(open_.cut < length_ ? RecordEnd::cut_at_dropout : RecordEnd::complete);
         flush_pending();
       } else if (idx > open_.start + target + slack_) {
         // Another channel fell silent for longer than the slack: it is cut out of the record
@@ -299,7 +299,7 @@ void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, st
         for (std::size_t k = 0; k < open_.buffers.size(); ++k)
           if (slot_state_[k] == SlotState::active && open_.buffers[k].size() < target)
             set_slot_state(k, SlotState::absent, ChannelStatus::stopped, open_.start + open_.buffers[k].size());
-        finalize(open_.cut < length_ ? RecordEnd::cut_at_gap : RecordEnd::complete);
+        finalize(open_.cut < length_ ? RecordEnd::cut_at_dropout : RecordEnd::complete);
         flush_pending();
       }
       return;
@@ -324,7 +324,7 @@ void RecordAssembler::place_samples(std::size_t s, const AcquisitionEvent& e, st
     for (std::size_t i = 0; i < take; ++i) buf.push_back(static_cast<float>(e.samples[offset + i] * scale));
     offset += take;
     if (filled_min() >= std::min(open_.cut, length_)) {
-      finalize(open_.cut < length_ ? RecordEnd::cut_at_gap : RecordEnd::complete);
+      finalize(open_.cut < length_ ? RecordEnd::cut_at_dropout : RecordEnd::complete);
       flush_pending();
     }
   }
@@ -382,10 +382,10 @@ void RecordAssembler::finalize(RecordEnd end) {
   else ++counters_.records_cut;
   next_start_ = open_.regular_next;
   scheduled_start_.reset();
-  if (!analysable && end == RecordEnd::cut_at_gap) {
-    // A too-short record cut at a gap would cost a whole interval of monitoring: start again
-    // right after the gap when a full record fits before the schedule's next start.
-    const std::uint64_t restart = std::max(open_.start + consumed, gap_end_);
+  if (!analysable && end == RecordEnd::cut_at_dropout) {
+    // A too-short record cut at a dropout would cost a whole interval of monitoring: start again
+    // right after the dropout when a full record fits before the schedule's next start.
+    const std::uint64_t restart = std::max(open_.start + consumed, dropout_end_);
     if (restart + length_ <= open_.regular_next) {
       next_start_ = restart;
       scheduled_start_ = open_.regular_next;

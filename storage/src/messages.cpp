@@ -21,9 +21,9 @@ const char* to_string(HealthCounter counter) noexcept {
     case HealthCounter::unknown_ids: return "unknown_ids";
     case HealthCounter::unconfigured_channel_frames: return "unconfigured_channel_frames";
     case HealthCounter::frames_before_header: return "frames_before_header";
-    case HealthCounter::gaps: return "gaps";
-    case HealthCounter::gap_samples: return "gap_samples";
-    case HealthCounter::ring_gaps: return "ring_gaps";
+    case HealthCounter::dropouts: return "gaps";
+    case HealthCounter::dropout_samples: return "gap_samples";
+    case HealthCounter::ring_dropouts: return "ring_gaps";
     case HealthCounter::duplicates: return "duplicates";
     case HealthCounter::tacho_edges: return "tacho_edges";
     case HealthCounter::tacho_out_of_order: return "tacho_out_of_order";
@@ -35,7 +35,7 @@ const char* to_string(HealthCounter counter) noexcept {
     case HealthCounter::records_complete: return "records_complete";
     case HealthCounter::records_cut: return "records_cut";
     case HealthCounter::records_rejected: return "records_rejected";
-    case HealthCounter::records_restarted_after_gap: return "records_restarted_after_gap";
+    case HealthCounter::records_restarted_after_dropout: return "records_restarted_after_gap";
     case HealthCounter::channels_stopped: return "channels_stopped";
     case HealthCounter::storage_retries: return "storage_retries";
     case HealthCounter::storage_rows_rejected: return "storage_rows_rejected";

@@ -5,7 +5,7 @@
 #include <string_view>
 
 #include "gearwatch/storage/messages.hpp"
-#include "gearwatch/types/gap_cause.hpp"
+#include "gearwatch/types/dropout_cause.hpp"
 #include "gearwatch/types/indicator.hpp"
 
 #include "stored_rows.hpp"
@@ -99,7 +99,7 @@ StoredHealth health_row(const ColumnsByName& c) {
   using C = HealthCounter;
   h.frames = c.integer(C::frames);
   h.samples = c.integer(C::samples);
-  h.lost_samples = c.integer(C::gap_samples) + c.integer("report_ring_lost");
+  h.lost_samples = c.integer(C::dropout_samples) + c.integer("report_ring_lost");
   h.kernel_drops = c.integer(C::kernel_drops);
   for (const C counter : {C::malformed_frames, C::malformed_lines, C::unknown_ids, C::unconfigured_channel_frames,
                           C::frames_before_header, C::unsupported_version, C::duplicates}) {
@@ -117,13 +117,13 @@ StoredHealth health_row(const ColumnsByName& c) {
 std::vector<StoredHealth> load_acquisition_health(Database& db) {
   std::vector<StoredHealth> out;
   if (!detail::has_object(db, "acquisition_health")) return out;
-  // The samples a ring overflow lost are stored only as gap events (the health row counts the
+  // The samples a ring overflow lost are stored only as dropout events (the health row counts the
   // overflows, not their samples); they are added to the run's lost samples here.
   Statement s(db,
               "SELECT h.*, (SELECT coalesce(sum(g.missing_samples), 0) FROM gap_events g JOIN streams st"
               " ON st.id = g.stream_key WHERE st.run_id = h.run_id AND g.cause = ?) AS report_ring_lost"
               " FROM acquisition_health h ORDER BY run_id DESC");
-  s.bind(1, acquisition::to_string(acquisition::GapCause::ring_overflow));
+  s.bind(1, acquisition::to_string(acquisition::DropoutCause::ring_overflow));
   const ColumnsByName columns(s);
   while (s.step()) out.push_back(health_row(columns));
   return out;

@@ -12,6 +12,7 @@
 #include "gearwatch/storage/gap_reports.hpp"
 #include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/types/log_rate.hpp"
 
 namespace gearwatch::storage {
 namespace {
@@ -37,7 +38,7 @@ void write_part(Database& db, WriterCounters& counters, const char* what, Descri
   } catch (const SqliteError& e) {
     if (e.transient()) throw;
     const auto n = counters.rows_rejected.fetch_add(1, std::memory_order_relaxed) + 1;
-    if (n <= 10 || n % 1000 == 0)
+    if (log_occurrence(n))
       spdlog::critical("storage: {} of {} refused ({} refused so far), the rest is stored: {}", what, describe(), n, e.what());
   }
 }
@@ -74,6 +75,22 @@ class BatchWriter {
         .bind(4, static_cast<std::int64_t>(m.sample_rate_hz)).bind(5, static_cast<std::int64_t>(m.channel_count)).run();
     state_.stream_keys[m.sequence] = db_.last_insert_rowid();
   }
+  // A record's skipped indicators and its indicator notes: one row per channel and indicator with
+  // a token (`token` of each row) and an optional detail, each row on its own (write_part).
+  template <class Row>
+  void write_indicator_flags(const char* sql, const char* what, std::int64_t record_id, const std::string& context,
+                             const std::vector<ChannelResult>& channels, std::vector<Row> ChannelResult::*rows,
+                             std::string Row::*token) {
+    Statement s(db_, sql);
+    for (const auto& ch : channels)
+      for (const auto& k : ch.*rows)
+        write_part(db_, counters_, what, [&] { return context + " channel " + std::to_string(ch.channel) + " " + k.name + ": " + k.*token; }, [&] {
+                     s.bind(1, record_id).bind(2, ch.channel).bind(3, k.name).bind(4, k.*token);
+                     if (k.detail.empty()) s.bind_null(5);
+                     else s.bind(5, k.detail);
+                     s.run();
+                   });
+  }
   void write(const RecordResult& m) {
     Statement s(db_,
                 "INSERT INTO records(stream_key, start_index, sample_count, duration_s, end_reason, analysed, reject_reason,"
@@ -98,24 +115,10 @@ class BatchWriter {
     }
     const std::string context = "record " + std::to_string(record_id) + " (stream " + std::to_string(m.stream_sequence) +
                                 ", index " + std::to_string(m.start_index) + ")";
-    Statement skip(db_, "INSERT OR REPLACE INTO indicator_skips(record_id, channel, name, reason, detail) VALUES (?, ?, ?, ?, ?)");
-    for (const auto& ch : m.channels)
-      for (const auto& k : ch.skipped)
-        write_part(db_, counters_, "skip reason", [&] { return context + " channel " + std::to_string(ch.channel) + " " + k.name + ": " + k.reason; }, [&] {
-                     skip.bind(1, record_id).bind(2, ch.channel).bind(3, k.name).bind(4, k.reason);
-                     if (k.detail.empty()) skip.bind_null(5);
-                     else skip.bind(5, k.detail);
-                     skip.run();
-                   });
-    Statement note(db_, "INSERT OR REPLACE INTO indicator_notes(record_id, channel, name, note, detail) VALUES (?, ?, ?, ?, ?)");
-    for (const auto& ch : m.channels)
-      for (const auto& k : ch.notes)
-        write_part(db_, counters_, "indicator note", [&] { return context + " channel " + std::to_string(ch.channel) + " " + k.name + ": " + k.note; }, [&] {
-                     note.bind(1, record_id).bind(2, ch.channel).bind(3, k.name).bind(4, k.note);
-                     if (k.detail.empty()) note.bind_null(5);
-                     else note.bind(5, k.detail);
-                     note.run();
-                   });
+    write_indicator_flags("INSERT OR REPLACE INTO indicator_skips(record_id, channel, name, reason, detail) VALUES (?, ?, ?, ?, ?)",
+                          "skip reason", record_id, context, m.channels, &ChannelResult::skipped, &SkippedRow::reason);
+    write_indicator_flags("INSERT OR REPLACE INTO indicator_notes(record_id, channel, name, note, detail) VALUES (?, ?, ?, ?, ?)",
+                          "indicator note", record_id, context, m.channels, &ChannelResult::notes, &NoteRow::note);
     for (const auto& w : m.assessments)
       write_part(db_, counters_, "wear assessment", [&] { return context + " channel " + std::to_string(w.channel) + ": " + dsp::to_string(w.mechanism); }, [&] {
                    Statement a(db_, "INSERT OR REPLACE INTO wear_mechanism_assessments(record_id, channel, mechanism, points, low_band_p,"
@@ -217,10 +220,10 @@ class BatchWriter {
     write_alerts(m.alerts, m.alert_states, record_id, "gap report " + std::to_string(id));
   }
   void write(const AlertUpdate& m) { write_alerts(m.alerts, m.alert_states, std::nullopt, "alert update"); }
-  void write(const GapEvent& m) {
+  void write(const DropoutEvent& m) {
     Statement s(db_, "INSERT INTO gap_events(stream_key, channel, first_missing_index, missing_samples, cause) VALUES (?, ?, ?, ?, ?)");
     s.bind(1, stream(m.stream_sequence)).bind(2, m.channel).bind(3, m.first_missing_index).bind(4, m.missing_samples)
-        .bind(5, m.cause).run();
+        .bind(5, acquisition::to_string(m.cause)).run();
   }
   void write(const LifeCounterEvent& m) {
     Statement s(db_, "INSERT INTO life_counter_events(stream_key, sample_index, previous_revolutions, revolutions) VALUES (?, ?, ?, ?)");

@@ -5,6 +5,7 @@
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace gearwatch::dsp {
 
@@ -33,122 +34,86 @@ void require_aligned(const void* p, const char* what) {
   require(fftw_alignment_of(const_cast<double*>(static_cast<const double*>(p))) == 0, what);
 }
 
-void destroy(void*& plan) {
+void destroy(void* plan) {
   if (plan != nullptr) {
     std::lock_guard lock(fftw_planner_mutex());
     fftw_destroy_plan(static_cast<fftw_plan>(plan));
-    plan = nullptr;
   }
 }
 
 }  // namespace
 
-RealFft::RealFft(std::size_t n) : n_(n) {
+FftwPlan::~FftwPlan() { destroy(plan_); }
+
+FftwPlan& FftwPlan::operator=(FftwPlan&& other) noexcept {
+  if (this != &other) {
+    destroy(plan_);
+    plan_ = std::exchange(other.plan_, nullptr);
+    n_ = std::exchange(other.n_, 0);
+  }
+  return *this;
+}
+
+RealFft::RealFft(std::size_t n) {
   require(n >= 2, "RealFft: size must be at least 2");
   RealBuffer real(n);
   ComplexBuffer spectrum(n / 2 + 1);
   std::lock_guard lock(fftw_planner_mutex());
   const int size = static_cast<int>(n);
-  forward_plan_ = fftw_plan_dft_r2c_1d(size, real.data(),
-                                       reinterpret_cast<fftw_complex*>(spectrum.data()), FFTW_ESTIMATE);
-  inverse_plan_ = fftw_plan_dft_c2r_1d(size, reinterpret_cast<fftw_complex*>(spectrum.data()), real.data(),
-                                       FFTW_ESTIMATE);
-  if (forward_plan_ == nullptr || inverse_plan_ == nullptr) throw std::runtime_error("FFTW planning failed");
-}
-
-RealFft::~RealFft() {
-  destroy(forward_plan_);
-  destroy(inverse_plan_);
-}
-
-RealFft::RealFft(RealFft&& other) noexcept
-    : n_(other.n_), forward_plan_(other.forward_plan_), inverse_plan_(other.inverse_plan_) {
-  other.forward_plan_ = other.inverse_plan_ = nullptr;
-  other.n_ = 0;
-}
-
-RealFft& RealFft::operator=(RealFft&& other) noexcept {
-  if (this != &other) {
-    destroy(forward_plan_);
-    destroy(inverse_plan_);
-    n_ = other.n_;
-    forward_plan_ = other.forward_plan_;
-    inverse_plan_ = other.inverse_plan_;
-    other.forward_plan_ = other.inverse_plan_ = nullptr;
-    other.n_ = 0;
-  }
-  return *this;
+  forward_plan_ = FftwPlan(fftw_plan_dft_r2c_1d(size, real.data(), reinterpret_cast<fftw_complex*>(spectrum.data()),
+                                                FFTW_ESTIMATE),
+                           n);
+  inverse_plan_ = FftwPlan(fftw_plan_dft_c2r_1d(size, reinterpret_cast<fftw_complex*>(spectrum.data()), real.data(),
+                                                FFTW_ESTIMATE),
+                           n);
+  if (!forward_plan_ || !inverse_plan_) throw std::runtime_error("FFTW planning failed");
 }
 
 void RealFft::forward(std::span<const double> in, std::span<Complex> out) const {
-  require(in.size() == n_ && out.size() >= n_ / 2 + 1, "RealFft::forward: buffer size mismatch");
+  require(in.size() == size() && out.size() >= spectrum_size(), "RealFft::forward: buffer size mismatch");
   require_aligned(in.data(), "RealFft::forward: input not SIMD-aligned");
   require_aligned(out.data(), "RealFft::forward: output not SIMD-aligned");
-  fftw_execute_dft_r2c(static_cast<fftw_plan>(forward_plan_), const_cast<double*>(in.data()),
+  fftw_execute_dft_r2c(static_cast<fftw_plan>(forward_plan_.get()), const_cast<double*>(in.data()),
                        reinterpret_cast<fftw_complex*>(out.data()));
 }
 
 void RealFft::inverse(std::span<Complex> in, std::span<double> out) const {
-  require(in.size() >= n_ / 2 + 1 && out.size() == n_, "RealFft::inverse: buffer size mismatch");
+  require(in.size() >= spectrum_size() && out.size() == size(), "RealFft::inverse: buffer size mismatch");
   require_aligned(in.data(), "RealFft::inverse: input not SIMD-aligned");
   require_aligned(out.data(), "RealFft::inverse: output not SIMD-aligned");
-  fftw_execute_dft_c2r(static_cast<fftw_plan>(inverse_plan_), reinterpret_cast<fftw_complex*>(in.data()),
+  fftw_execute_dft_c2r(static_cast<fftw_plan>(inverse_plan_.get()), reinterpret_cast<fftw_complex*>(in.data()),
                        out.data());
 }
 
-ComplexFft::ComplexFft(std::size_t n) : n_(n) {
+ComplexFft::ComplexFft(std::size_t n) {
   require(n >= 1, "ComplexFft: size must be at least 1");
   ComplexBuffer a(n), b(n);
   std::lock_guard lock(fftw_planner_mutex());
   const int size = static_cast<int>(n);
   auto* pa = reinterpret_cast<fftw_complex*>(a.data());
   auto* pb = reinterpret_cast<fftw_complex*>(b.data());
-  forward_plan_ = fftw_plan_dft_1d(size, pa, pb, FFTW_FORWARD, FFTW_ESTIMATE);
-  backward_plan_ = fftw_plan_dft_1d(size, pa, pb, FFTW_BACKWARD, FFTW_ESTIMATE);
-  if (forward_plan_ == nullptr || backward_plan_ == nullptr) throw std::runtime_error("FFTW planning failed");
-}
-
-ComplexFft::~ComplexFft() {
-  destroy(forward_plan_);
-  destroy(backward_plan_);
-}
-
-ComplexFft::ComplexFft(ComplexFft&& other) noexcept
-    : n_(other.n_), forward_plan_(other.forward_plan_), backward_plan_(other.backward_plan_) {
-  other.forward_plan_ = other.backward_plan_ = nullptr;
-  other.n_ = 0;
-}
-
-ComplexFft& ComplexFft::operator=(ComplexFft&& other) noexcept {
-  if (this != &other) {
-    destroy(forward_plan_);
-    destroy(backward_plan_);
-    n_ = other.n_;
-    forward_plan_ = other.forward_plan_;
-    backward_plan_ = other.backward_plan_;
-    other.forward_plan_ = other.backward_plan_ = nullptr;
-    other.n_ = 0;
-  }
-  return *this;
+  forward_plan_ = FftwPlan(fftw_plan_dft_1d(size, pa, pb, FFTW_FORWARD, FFTW_ESTIMATE), n);
+  backward_plan_ = FftwPlan(fftw_plan_dft_1d(size, pa, pb, FFTW_BACKWARD, FFTW_ESTIMATE), n);
+  if (!forward_plan_ || !backward_plan_) throw std::runtime_error("FFTW planning failed");
 }
 
 namespace {
-void execute_c2c(void* plan, std::size_t n, std::span<const Complex> in, std::span<Complex> out) {
-  require(in.size() == n && out.size() == n, "ComplexFft: buffer size mismatch");
+void execute_c2c(const FftwPlan& plan, std::span<const Complex> in, std::span<Complex> out) {
+  require(in.size() == plan.size() && out.size() == plan.size(), "ComplexFft: buffer size mismatch");
   require(in.data() != out.data(), "ComplexFft: plans are out-of-place; input and output must differ");
   require_aligned(in.data(), "ComplexFft: input not SIMD-aligned");
   require_aligned(out.data(), "ComplexFft: output not SIMD-aligned");
-  fftw_execute_dft(static_cast<fftw_plan>(plan),
+  fftw_execute_dft(static_cast<fftw_plan>(plan.get()),
                    reinterpret_cast<fftw_complex*>(const_cast<Complex*>(in.data())),
                    reinterpret_cast<fftw_complex*>(out.data()));
 }
 }  // namespace
 
 void ComplexFft::forward(std::span<const Complex> in, std::span<Complex> out) const {
-  execute_c2c(forward_plan_, n_, in, out);
+  execute_c2c(forward_plan_, in, out);
 }
 void ComplexFft::backward(std::span<const Complex> in, std::span<Complex> out) const {
-  execute_c2c(backward_plan_, n_, in, out);
+  execute_c2c(backward_plan_, in, out);
 }
 
 const RealFft& FftPlanCache::real(std::size_t n) {

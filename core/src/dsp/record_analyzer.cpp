@@ -80,7 +80,7 @@ std::string mean_carrier_indicator_name(const FrequencyBand& range) {
          std::to_string(std::llround(range.high_hz));
 }
 
-void SignalProcessingSettings::validate(const RigSpec& rig) const {
+void SignalProcessingSettings::validate(const GearboxSpec& rig) const {
   require(samples_per_revolution == 0 ||
               (is_smooth_size(static_cast<std::size_t>(std::max(samples_per_revolution, 1))) &&
                samples_per_revolution >= 64 && samples_per_revolution <= (1 << 20)),
@@ -126,7 +126,7 @@ const SkippedIndicator* ChannelAnalysis::skip_reason(const std::string& name) co
   return nullptr;
 }
 
-RecordAnalyzer::RecordAnalyzer(const RigSpec& rig, const SignalProcessingSettings& settings)
+RecordAnalyzer::RecordAnalyzer(const GearboxSpec& rig, const SignalProcessingSettings& settings)
     : rig_(rig), settings_(settings), envelope_(plans_), coherence_(plans_) {
   settings_.validate(rig_);
 }
@@ -139,7 +139,7 @@ std::vector<std::string> RecordAnalyzer::indicator_names() const {
   return names;
 }
 
-const TachoSpec* input_tacho(const RigSpec& rig, const Record& record) {
+const TachoSpec* input_tacho(const GearboxSpec& rig, const Record& record) {
   const TachoSpec* tacho = nullptr;
   for (const auto& t : rig.tachos) {
     if (t.shaft < 0 || t.shaft >= kMaxShafts || record.tacho_edges[static_cast<std::size_t>(t.shaft)].empty()) continue;

@@ -7,7 +7,7 @@
 namespace gearwatch::twin {
 
 dsp::ChannelAnalysis simulated_analysis(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
-                                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings) {
+                                        double duration_s, const GearboxSpec& rig, const dsp::SignalProcessingSettings& settings) {
   const CasingSignal signal = simulate_casing_signal(p, deviation, op, duration_s, rig.sample_rate_hz);
   Record record;
   record.sample_rate_hz = signal.sample_rate_hz;
@@ -23,7 +23,7 @@ dsp::ChannelAnalysis simulated_analysis(const GearboxParameters& p, const ToothP
 }
 
 double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
-                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings) {
+                        double duration_s, const GearboxSpec& rig, const dsp::SignalProcessingSettings& settings) {
   const dsp::ChannelAnalysis analysis = simulated_analysis(p, deviation, op, duration_s, rig, settings);
   if (const auto v = analysis.value(dsp::Indicator::rms_sa)) return *v;
   const dsp::SkippedIndicator* why = analysis.skip_reason(dsp::Indicator::rms_sa);

@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/twin/errors.hpp"
 #include "gearwatch/wear/profile_shape.hpp"
 
@@ -66,9 +66,9 @@ std::string out_of_range_text(const ModelObservation& obs, const ModelSettings& 
 
 }  // namespace
 
-RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const RigSpec& rig,
+RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const GearboxSpec& rig,
                                      const dsp::SignalProcessingSettings& settings, double revolutions) {
-  RigSpec sim_rig = rig;
+  GearboxSpec sim_rig = rig;
   // One float channel without an i16 scale: the analyzer then has no full scale to call clipped.
   const int number = rig.channels.empty() ? 0 : rig.channels.front().number;
   sim_rig.channels = {ChannelSpec{number, "twin_y6", 0.0}};

@@ -7,7 +7,7 @@ namespace gearwatch {
 const char* to_string(RecordEnd end) noexcept {
   switch (end) {
     case RecordEnd::complete: return "complete";
-    case RecordEnd::cut_at_gap: return "cut_at_gap";
+    case RecordEnd::cut_at_dropout: return "cut_at_gap";  // the stored token (docs/storage.md, "Stored names")
     case RecordEnd::stream_end: return "stream_end";
   }
   return "unknown";

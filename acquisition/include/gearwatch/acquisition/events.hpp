@@ -15,7 +15,7 @@ enum class EventKind : std::uint8_t {
   stream_start,     ///< a new stream begins (first header, or stream id / sample rate changed)
   condition,        ///< operating condition from `index` on
   life_counter,     ///< odometer reading `revolutions`, placed at `index` (latest sample index seen)
-  gap,              ///< channel `channel` misses `missing` samples from `index` on
+  dropout,          ///< channel `channel` misses `missing` samples from `index` on
   life_counter_reset///< the odometer went backwards: `revolutions` new, `previous_revolutions` old
 };
 
@@ -31,7 +31,7 @@ struct AcquisitionEvent {
     std::array<std::int16_t, kMaxSamplesPerEvent> samples;
     double fraction;                 ///< tacho_edge: fractional part in [0, 1)
     struct { float torque_nm; float speed_hz; } condition;
-    std::uint64_t missing;           ///< gap
+    std::uint64_t missing;           ///< dropout
     struct { std::uint64_t revolutions; std::uint64_t previous_revolutions; } life;
   };
   AcquisitionEvent() : samples{} {}

@@ -31,8 +31,8 @@ struct DecoderCounters {
   std::atomic<std::uint64_t> unknown_ids{0};         ///< ids outside the protocol (and RTR/error/extended frames)
   std::atomic<std::uint64_t> unconfigured_channel_frames{0};  ///< protocol channels not in the config
   std::atomic<std::uint64_t> frames_before_header{0};///< dropped: no stream header seen yet
-  std::atomic<std::uint64_t> gaps{0};                ///< forward index jumps
-  std::atomic<std::uint64_t> gap_samples{0};         ///< samples missing in those jumps
+  std::atomic<std::uint64_t> dropouts{0};            ///< forward index jumps
+  std::atomic<std::uint64_t> dropout_samples{0};     ///< samples missing in those jumps
   std::atomic<std::uint64_t> duplicates{0};          ///< repeated or backward sample frames, dropped
   std::atomic<std::uint64_t> tacho_edges{0};
   std::atomic<std::uint64_t> tacho_out_of_order{0};  ///< edges not strictly increasing, dropped

@@ -1,8 +1,8 @@
 #pragma once
 // Cuts records out of the decoded event stream (processing thread): a record of length L starts
-// every interval I on the sample clock (thesis §3.2.2). A record never spans a gap: it is cut at
-// the gap (kept if at least min_length long, otherwise rejected). After a rejected one, a new
-// record starts right after the gap when a full L fits before the next scheduled start; else the
+// every interval I on the sample clock (thesis §3.2.2). A record never spans a dropout: it is cut at
+// the dropout (kept if at least min_length long, otherwise rejected). After a rejected one, a new
+// record starts right after the dropout when a full L fits before the next scheduled start; else the
 // schedule continues. A configured channel that the stream does not announce, or whose frames
 // stop for more than the slack (1 s), is left out of the records (reported through
 // on_channel_status) while the other channels' records go on; it rejoins at the next record
@@ -24,8 +24,8 @@
 #include <vector>
 
 #include "gearwatch/acquisition/events.hpp"
-#include "gearwatch/rig.hpp"
-#include "gearwatch/types/gap_cause.hpp"
+#include "gearwatch/gearbox_spec.hpp"
+#include "gearwatch/types/dropout_cause.hpp"
 #include "gearwatch/types/record.hpp"
 
 namespace gearwatch::acquisition {
@@ -37,11 +37,11 @@ struct StreamInfo {
   std::uint64_t sequence = 0;       ///< 1 for the first stream of this run, then 2, 3...
 };
 
-struct GapInfo {
+struct DropoutInfo {
   int channel = 0;                  ///< protocol channel number
   std::uint64_t first_missing = 0;  ///< unwrapped sample index
   std::uint64_t missing = 0;        ///< samples
-  GapCause cause = GapCause::protocol;
+  DropoutCause cause = DropoutCause::protocol;
 };
 
 struct LifeCounterReset {
@@ -88,11 +88,11 @@ inline constexpr double kEdgeRateTolerance = 0.1;
 
 struct AssemblerCounters {
   std::uint64_t records_complete = 0;
-  std::uint64_t records_cut = 0;      ///< cut at a gap or stream end, analysed
+  std::uint64_t records_cut = 0;      ///< cut at a dropout or stream end, analysed
   std::uint64_t records_rejected = 0; ///< shorter than min_length: stored, not analysed
-  std::uint64_t ring_gaps = 0;        ///< discontinuities caused by ring overflow
-  std::uint64_t ring_gap_samples = 0;
-  std::uint64_t records_restarted_after_gap = 0;  ///< records started right after a gap that cut a too-short one
+  std::uint64_t ring_dropouts = 0;        ///< discontinuities caused by ring overflow
+  std::uint64_t ring_dropout_samples = 0;
+  std::uint64_t records_restarted_after_dropout = 0;  ///< records started right after a dropout that cut a too-short one
   std::uint64_t channels_stopped = 0;             ///< channels cut out of records because their frames stopped (or never came)
   std::uint64_t tachos_missing = 0;               ///< times a configured tacho's edges stopped while samples went on
   std::uint64_t cycle_count_faults = 0;           ///< records whose revolutions failed their check (not used)
@@ -104,13 +104,13 @@ class RecordAssembler {
     /// A finished record. `analysable` is false when it is shorter than min_length.
     std::function<void(Record&&, bool analysable)> on_record;
     std::function<void(const StreamInfo&)> on_stream;
-    std::function<void(const GapInfo&)> on_gap;
+    std::function<void(const DropoutInfo&)> on_dropout;
     std::function<void(const LifeCounterReset&)> on_life_counter_reset;
     std::function<void(const ChannelStatusChange&)> on_channel_status;
     std::function<void(const TachoStatusChange&)> on_tacho_status;
   };
 
-  RecordAssembler(const RigSpec& rig, Callbacks callbacks);
+  RecordAssembler(const GearboxSpec& rig, Callbacks callbacks);
 
   void consume(const AcquisitionEvent& event);
   /// End of input (replay EOF or shutdown): the record in progress ends as `stream_end`.
@@ -122,7 +122,7 @@ class RecordAssembler {
   struct Open {
     bool active = false;
     std::uint64_t start = 0;
-    std::size_t cut = 0;                      ///< valid length limit (L, or the first gap)
+    std::size_t cut = 0;                      ///< valid length limit (L, or the first dropout)
     std::vector<std::vector<float>> buffers;  ///< one per configured channel
     float torque = 0, speed = 0;
     bool have_condition = false;
@@ -145,7 +145,7 @@ class RecordAssembler {
   void check_tachos();
   void check_cycle_count(Record& r);
 
-  RigSpec rig_;
+  GearboxSpec rig_;
   Callbacks callbacks_;
   AssemblerCounters counters_;
   std::array<int, 8> slot_of_channel_{};
@@ -157,8 +157,8 @@ class RecordAssembler {
   bool in_stream_ = false;
   std::size_t length_ = 0, interval_ = 0, min_length_ = 0, slack_ = 0;
   std::optional<std::uint64_t> next_start_;
-  std::optional<std::uint64_t> scheduled_start_;  ///< the schedule's start while a restart after a gap is pending
-  std::uint64_t gap_end_ = 0;                     ///< first index after the latest gap (any channel)
+  std::optional<std::uint64_t> scheduled_start_;  ///< the schedule's start while a restart after a dropout is pending
+  std::uint64_t dropout_end_ = 0;                     ///< first index after the latest dropout (any channel)
   std::array<SlotState, 8> slot_state_{};
   std::array<std::optional<std::uint64_t>, 8> next_seen_{};
   std::array<std::deque<double>, kMaxShafts> edges_{};

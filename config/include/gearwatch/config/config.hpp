@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/wear/force_model.hpp"
 #include "gearwatch/wear/k_wear_rule.hpp"
 
@@ -211,7 +211,7 @@ struct GapConfig {
 };
 
 struct GearwatchConfig {
-  RigSpec rig;
+  GearboxSpec rig;
   dsp::SignalProcessingSettings processing;
   ProtocolSettings protocol;
   AcquisitionSettings acquisition;

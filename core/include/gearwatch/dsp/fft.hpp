@@ -8,6 +8,7 @@
 #include <memory>
 #include <mutex>
 #include <span>
+#include <utility>
 #include <vector>
 
 namespace gearwatch::dsp {
@@ -46,19 +47,38 @@ void FftwAllocator<T>::deallocate(T* p, std::size_t) noexcept {
 using RealBuffer = std::vector<double, FftwAllocator<double>>;
 using ComplexBuffer = std::vector<Complex, FftwAllocator<Complex>>;
 
+/// Owns one FFTW plan of a transform size (an fftw_plan, kept as void* so that FFTW's header stays
+/// out of this one): destroyed under fftw_planner_mutex(), movable (the moved-from handle holds no
+/// plan and size 0), not copyable. Every FFT class holds its plans through it, so none writes its
+/// own destructor or moves.
+class FftwPlan {
+ public:
+  FftwPlan() = default;
+  FftwPlan(void* plan, std::size_t n) noexcept : plan_(plan), n_(n) {}
+  ~FftwPlan();
+  FftwPlan(FftwPlan&& other) noexcept
+      : plan_(std::exchange(other.plan_, nullptr)), n_(std::exchange(other.n_, 0)) {}
+  FftwPlan& operator=(FftwPlan&& other) noexcept;
+  FftwPlan(const FftwPlan&) = delete;
+  FftwPlan& operator=(const FftwPlan&) = delete;
+
+  void* get() const noexcept { return plan_; }
+  std::size_t size() const noexcept { return n_; }
+  explicit operator bool() const noexcept { return plan_ != nullptr; }
+
+ private:
+  void* plan_ = nullptr;
+  std::size_t n_ = 0;
+};
+
 /// Real-to-complex forward and complex-to-real inverse transform of one size (unnormalised, as
 /// FFTW: inverse(forward(x)) = n·x). Movable, not copyable.
 class RealFft {
  public:
   explicit RealFft(std::size_t n);
-  ~RealFft();
-  RealFft(RealFft&& other) noexcept;
-  RealFft& operator=(RealFft&& other) noexcept;
-  RealFft(const RealFft&) = delete;
-  RealFft& operator=(const RealFft&) = delete;
 
-  std::size_t size() const noexcept { return n_; }
-  std::size_t spectrum_size() const noexcept { return n_ / 2 + 1; }
+  std::size_t size() const noexcept { return forward_plan_.size(); }
+  std::size_t spectrum_size() const noexcept { return size() / 2 + 1; }
   /// in: size() samples; out: spectrum_size() bins. Both SIMD-aligned (RealBuffer/ComplexBuffer
   /// or an offset that keeps the alignment), else std::invalid_argument. Input is preserved.
   void forward(std::span<const double> in, std::span<Complex> out) const;
@@ -66,30 +86,23 @@ class RealFft {
   void inverse(std::span<Complex> in, std::span<double> out) const;
 
  private:
-  std::size_t n_ = 0;
-  void* forward_plan_ = nullptr;
-  void* inverse_plan_ = nullptr;
+  FftwPlan forward_plan_;
+  FftwPlan inverse_plan_;
 };
 
 /// Complex-to-complex transform of one size, out-of-place; sign -1 forward, +1 backward.
 class ComplexFft {
  public:
   explicit ComplexFft(std::size_t n);
-  ~ComplexFft();
-  ComplexFft(ComplexFft&& other) noexcept;
-  ComplexFft& operator=(ComplexFft&& other) noexcept;
-  ComplexFft(const ComplexFft&) = delete;
-  ComplexFft& operator=(const ComplexFft&) = delete;
 
-  std::size_t size() const noexcept { return n_; }
+  std::size_t size() const noexcept { return forward_plan_.size(); }
   /// in and out must not overlap (out-of-place plans) and be aligned.
   void forward(std::span<const Complex> in, std::span<Complex> out) const;
   void backward(std::span<const Complex> in, std::span<Complex> out) const;
 
  private:
-  std::size_t n_ = 0;
-  void* forward_plan_ = nullptr;
-  void* backward_plan_ = nullptr;
+  FftwPlan forward_plan_;
+  FftwPlan backward_plan_;
 };
 
 /// Plans keyed by size, created on first use and kept: after the first record of a given length

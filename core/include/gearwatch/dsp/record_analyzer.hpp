@@ -16,7 +16,7 @@
 #include "gearwatch/dsp/spectral_coherence.hpp"
 #include "gearwatch/dsp/tsa.hpp"
 #include "gearwatch/dsp/wear_mechanism.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/types/indicator.hpp"
 #include "gearwatch/types/record.hpp"
 #include "gearwatch/types/skip_reason.hpp"
@@ -85,7 +85,7 @@ struct SignalProcessingSettings {
   /// A band above the Nyquist frequency is NOT an error here: Nyquist depends on the record (its
   /// rate and, in the angle domain, its speed), so such a band marks that indicator skipped
   /// ("band_above_nyquist") at analysis time.
-  void validate(const RigSpec& rig) const;
+  void validate(const GearboxSpec& rig) const;
 };
 
 struct IndicatorValue {
@@ -131,7 +131,7 @@ struct ChannelAnalysis {
 class RecordAnalyzer {
  public:
   /// Validates the settings against the rig (std::invalid_argument).
-  RecordAnalyzer(const RigSpec& rig, const SignalProcessingSettings& settings);
+  RecordAnalyzer(const GearboxSpec& rig, const SignalProcessingSettings& settings);
   /// Never throws on bad data: every indicator is either in `indicators` or in `skipped` with a
   /// reason. Throws only std::out_of_range for a channel index the record does not have.
   /// `input_edges`, when not empty, replaces the record's tacho: input-shaft edges, one per
@@ -147,7 +147,7 @@ class RecordAnalyzer {
   void analyze_order_domain(const Record& record, std::span<const float> x, double raw_std_dev,
                             std::span<const double> input_edges, ChannelAnalysis& out);
 
-  RigSpec rig_;
+  GearboxSpec rig_;
   SignalProcessingSettings settings_;
   FftPlanCache plans_;
   ShaftAngle angle_;
@@ -169,7 +169,7 @@ class RecordAnalyzer {
 
 /// The tacho the analysis uses for a record: the input shaft's own if it has edges, else any
 /// other configured shaft's with edges (scaled by its ratio); nullptr when no tacho has edges.
-const TachoSpec* input_tacho(const RigSpec& rig, const Record& record);
+const TachoSpec* input_tacho(const GearboxSpec& rig, const Record& record);
 
 /// The highest carrier frequency analysed at a sample rate: 0.45·fs. Above it a converter's
 /// anti-alias filter is in its transition band (flat to ~0.45·fs, stopped by ~0.55·fs in the

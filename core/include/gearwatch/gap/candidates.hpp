@@ -54,7 +54,7 @@
 #include <vector>
 
 #include "gearwatch/gap/spectra.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/twin/gearbox_model.hpp"
 #include "gearwatch/twin/simulation.hpp"
 #include "gearwatch/twin/transmission_error.hpp"

@@ -37,7 +37,7 @@
 
 #include "gearwatch/gap/features.hpp"
 #include "gearwatch/gap/spectra.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::gap {

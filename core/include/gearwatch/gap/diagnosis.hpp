@@ -10,7 +10,7 @@
 
 #include "gearwatch/gap/features.hpp"
 #include "gearwatch/gap/spectra.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/twin/gearbox_parameters.hpp"
 #include "gearwatch/types/gap_report.hpp"
 #include "gearwatch/types/record.hpp"

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "gearwatch/gap/spectra.hpp"
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/types/gap_report.hpp"
 
 namespace gearwatch::gap {

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/types/gap_report.hpp"
 #include "gearwatch/types/record.hpp"
 

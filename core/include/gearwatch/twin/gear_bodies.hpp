@@ -7,7 +7,7 @@
 #include <set>
 #include <string>
 
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/twin/gearbox_parameters.hpp"
 
 namespace gearwatch::twin {

@@ -2,7 +2,7 @@
 // Geometry of a standard (unshifted) involute spur pair, from the rig's GearPairSpec.
 // Positions along the line of action are measured from T1, the tangency point of the line of
 // action on the pinion's base circle (so the pinion's roll distance), in metres.
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 
 namespace gearwatch::twin {
 

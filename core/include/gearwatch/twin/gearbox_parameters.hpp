@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 
 namespace gearwatch::twin {
 

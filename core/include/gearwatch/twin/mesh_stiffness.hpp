@@ -34,8 +34,8 @@ inline constexpr double kIsoSinglePairStiffness = 2.65e8;
 
 struct MeshStiffnessOptions {
   double scale = 1.0;                 ///< calibration scale on the level (thesis Fig. 5.15)
-  /// The potential-energy curve (no fillet-foundation term, as Eq. 5.12) is ~2.9× stiffer than the
-  /// ISO 6336 value for this pair; like the thesis (Fig. 5.15) the *shape* is kept and its peak is
+  /// The potential-energy curve (no fillet-foundation term, as Eq. 5.12) is stiffer than the
+  /// ISO 6336 value for this pair (by how much: docs/twin.md, Design); like the thesis (Fig. 5.15) the *shape* is kept and its peak is
   /// normalised to this level before `scale` applies. 0 keeps the raw potential-energy level.
   double normalise_peak_to = kIsoSinglePairStiffness;
   /// Gradual engagement: the pair stiffness rises/falls smoothly (cosine ramp) over this length at

@@ -174,13 +174,13 @@ namespace gearwatch::twin {
 /// dsp::RecordAnalyzer, which returns its "rms_sa" indicator (N from `settings`). Throws
 /// TwinParameterError when the analyzer skips it (the reason is in the message).
 double simulated_rms_sa(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
-                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings);
+                        double duration_s, const GearboxSpec& rig, const dsp::SignalProcessingSettings& settings);
 
 /// Every indicator of the simulated casing acceleration by the measurement code (the same Record
 /// and dsp::RecordAnalyzer as simulated_rms_sa, which reads its "rms_sa" from this analysis): the
 /// mesh harmonics of the synchronous average ("gmf_harmonic_N") among them. Never throws on what
 /// the analyser skips; the skips are in the analysis.
 dsp::ChannelAnalysis simulated_analysis(const GearboxParameters& p, const ToothProfileDeviation& deviation, const OperatingPoint& op,
-                                        double duration_s, const RigSpec& rig, const dsp::SignalProcessingSettings& settings);
+                                        double duration_s, const GearboxSpec& rig, const dsp::SignalProcessingSettings& settings);
 
 }  // namespace gearwatch::twin

@@ -39,7 +39,7 @@
 #include "gearwatch/wear/wear_loop.hpp"
 
 namespace gearwatch {
-struct RigSpec;
+struct GearboxSpec;
 }
 namespace gearwatch::dsp {
 struct SignalProcessingSettings;
@@ -55,7 +55,7 @@ using RmsSaSimulator = std::function<double(const WearState&, const twin::Operat
 /// twin's settling) at the rig's sample rate, as a float Record with exact tacho edges, through
 /// dsp::RecordAnalyzer with `settings` (its rms_sa_harmonics is the N of Eq. 7.1). The channel has
 /// no i16 scale: a simulated signal is never clipped.
-RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const RigSpec& rig,
+RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const GearboxSpec& rig,
                                      const dsp::SignalProcessingSettings& settings, double revolutions);
 
 /// K_pitting on a scale a reader can check. Inside, K_pitting multiplies τ0^c V / z0^h with τ0 in

@@ -9,7 +9,7 @@
 #include <memory>
 #include <vector>
 
-#include "gearwatch/rig.hpp"
+#include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/rig/wear_state.hpp"
 
 namespace gearwatch::rig {

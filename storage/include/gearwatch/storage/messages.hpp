@@ -12,6 +12,7 @@
 
 #include "gearwatch/storage/gap_kept_records.hpp"
 #include "gearwatch/types/alerts.hpp"
+#include "gearwatch/types/dropout_cause.hpp"
 #include "gearwatch/types/gap_report.hpp"
 #include "gearwatch/types/model_run.hpp"
 #include "gearwatch/types/record.hpp"
@@ -108,11 +109,13 @@ struct AlertUpdate {
   std::vector<std::pair<AlertKey, AlertState>> alert_states;
 };
 
-struct GapEvent {
+/// Samples missing from a stream (acquisition's dropout), stored in the table `gap_events`
+/// (a released name kept: docs/storage.md, "Stored names").
+struct DropoutEvent {
   std::uint64_t stream_sequence = 0;
   int channel = 0;
   std::uint64_t first_missing_index = 0, missing_samples = 0;
-  std::string cause;
+  acquisition::DropoutCause cause = acquisition::DropoutCause::protocol;
 };
 
 struct LifeCounterEvent {
@@ -138,9 +141,9 @@ enum class HealthCounter : std::uint8_t {
   unknown_ids,
   unconfigured_channel_frames,
   frames_before_header,
-  gaps,
-  gap_samples,
-  ring_gaps,
+  dropouts,
+  dropout_samples,
+  ring_dropouts,
   duplicates,
   tacho_edges,
   tacho_out_of_order,
@@ -152,7 +155,7 @@ enum class HealthCounter : std::uint8_t {
   records_complete,
   records_cut,
   records_rejected,
-  records_restarted_after_gap,
+  records_restarted_after_dropout,
   channels_stopped,
   storage_retries,
   storage_rows_rejected,
@@ -180,9 +183,9 @@ inline constexpr std::array kAllHealthCounters{
     HealthCounter::unknown_ids,
     HealthCounter::unconfigured_channel_frames,
     HealthCounter::frames_before_header,
-    HealthCounter::gaps,
-    HealthCounter::gap_samples,
-    HealthCounter::ring_gaps,
+    HealthCounter::dropouts,
+    HealthCounter::dropout_samples,
+    HealthCounter::ring_dropouts,
     HealthCounter::duplicates,
     HealthCounter::tacho_edges,
     HealthCounter::tacho_out_of_order,
@@ -194,7 +197,7 @@ inline constexpr std::array kAllHealthCounters{
     HealthCounter::records_complete,
     HealthCounter::records_cut,
     HealthCounter::records_rejected,
-    HealthCounter::records_restarted_after_gap,
+    HealthCounter::records_restarted_after_dropout,
     HealthCounter::channels_stopped,
     HealthCounter::storage_retries,
     HealthCounter::storage_rows_rejected,
@@ -211,7 +214,9 @@ inline constexpr std::array kAllHealthCounters{
     HealthCounter::mqtt_resend_gone,
     HealthCounter::mqtt_resend_ignored,
 };
-/// The counter's column in health_snapshots.
+/// The counter's column in health_snapshots. The four dropout counters keep their released
+/// column names (gaps, gap_samples, ring_gaps, records_restarted_after_gap): docs/storage.md,
+/// "Stored names".
 const char* to_string(HealthCounter counter) noexcept;
 
 /// Counter values at one moment, every counter (0 unless set).
@@ -275,7 +280,7 @@ struct GapReportResult {
   std::vector<std::pair<AlertKey, AlertState>> alert_states;
 };
 
-using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, AlertUpdate, GapEvent,
+using Message = std::variant<RunStarted, RunEnded, StreamStarted, RecordResult, AlertUpdate, DropoutEvent,
                              LifeCounterEvent, RejectedFrame, HealthSnapshot, PublisherHealth, ModelRunResult, GapReportResult>;
 
 }  // namespace gearwatch::storage

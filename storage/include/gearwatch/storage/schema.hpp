@@ -61,9 +61,15 @@ using Vocabulary = std::map<std::string, std::vector<std::string>>;
 /// model_update_outcome, model_issue (gearwatch/wear/updating.hpp).
 Vocabulary core_vocabulary();
 
+/// The vocabulary domain of acquisition::DropoutCause. The database was released calling
+/// acquisition's dropouts "gaps"; staff's queries use those names, so they are kept (the table
+/// gap_events, this domain, the health columns gaps, gap_samples, ring_gaps and
+/// records_restarted_after_gap, the end reason cut_at_gap): docs/storage.md, "Stored names".
+inline constexpr const char* kDropoutCauseDomain = "gap_cause";
+
 /// Sets WAL mode and synchronous=FULL (a committed transaction survives a crash or power
 /// loss), migrates, and writes the vocabulary (core's plus `extra`: the domains of the layers
-/// above core: rejected_frame_kind, gap_cause). A domain absent from the
+/// above core: rejected_frame_kind, kDropoutCauseDomain). A domain absent from the
 /// vocabulary is not checked. Throws SqliteError if the file is newer than this build knows, and
 /// ForeignDatabase — before anything is written, so the file stays byte for byte as it was — if
 /// it is not empty and not gearwatch's. Sets PRAGMA application_id (also on a gearwatch database

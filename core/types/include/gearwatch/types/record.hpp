@@ -12,16 +12,16 @@ namespace gearwatch {
 
 inline constexpr int kMaxShafts = 4;
 
-/// How a record ended. A record containing a gap is never analysed as if continuous:
-/// it is cut at the gap (analysed if still long enough) or rejected.
+/// How a record ended. A record containing a dropout (missing samples) is never analysed as
+/// if continuous: it is cut at the dropout (analysed if still long enough) or rejected.
 enum class RecordEnd : std::uint8_t {
   complete = 0,     ///< the configured length was reached
-  cut_at_gap = 1,   ///< a gap ended it early; the samples before the gap are kept
+  cut_at_dropout = 1,  ///< a dropout ended it early; the samples before it are kept
   stream_end = 2,   ///< the stream changed or the source ended; kept if long enough
 };
 
 const char* to_string(RecordEnd end) noexcept;
-inline constexpr std::array kAllRecordEnds{RecordEnd::complete, RecordEnd::cut_at_gap, RecordEnd::stream_end};
+inline constexpr std::array kAllRecordEnds{RecordEnd::complete, RecordEnd::cut_at_dropout, RecordEnd::stream_end};
 
 /// Why a record's input revolutions failed the assembler's check (they are then not used).
 enum class CycleCountFault : std::uint8_t {

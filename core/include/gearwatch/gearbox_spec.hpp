@@ -1,5 +1,6 @@
 #pragma once
-// Description of the monitored rig: the gear pair, the sensors and how records are cut.
+// Description of the monitored gearbox (GearboxSpec): the gear pair, the sensors and how records
+// are cut. "rig" in code is rig/, the truth simulator; the configuration keeps its [rig] table.
 // Defaults are the thesis's UNSW spur rig (§3.2.1, Table 5.1; 52 teeth on the gear, see
 // docs/config.md). Plain values; parsing lives in config/.
 #include <cstdint>
@@ -38,10 +39,10 @@ struct TachoSpec {
 struct RecordSchedule {
   double length_s = 10.0;             ///< the thesis: 10 s records
   double interval_s = 600.0;          ///< one record every interval (start to start)
-  double min_length_s = 2.0;          ///< a record cut at a gap is analysed only if this long
+  double min_length_s = 2.0;          ///< a record cut at a dropout is analysed only if this long
 };
 
-struct RigSpec {
+struct GearboxSpec {
   GearPairSpec gears;
   double sample_rate_hz = 100000.0;
   std::vector<ChannelSpec> channels{ChannelSpec{0, "casing_y", 0.01}, ChannelSpec{1, "casing_x", 0.01}};

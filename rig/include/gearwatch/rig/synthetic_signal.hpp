@@ -2,14 +2,15 @@
 // A simple synthetic gearbox vibration source for captures and tests: gear-mesh harmonics
 // amplitude-modulated by the input shaft, a mesh-modulated resonance excited by noise
 // (a cyclostationary component), and broadband noise, with exact tacho edge positions.
-// Deterministic for a given seed. The twin-based rig simulator supersedes its physics; this one
-// exists so captures with known content can be made without the twin.
+// Deterministic for a given seed. It lives with the rig simulator, the other signal generator
+// (rig_simulator.hpp), which supersedes its physics; this one makes captures of known content
+// without the twin. No diagnosis code uses it.
 #include <cstdint>
 #include <vector>
 
-namespace gearwatch {
+namespace gearwatch::rig {
 
-struct SyntheticRigSettings {
+struct SyntheticSignalSettings {
   double sample_rate_hz = 100000.0;
   double speed_hz = 10.0;              ///< nominal input-shaft speed
   double torque_nm = 20.0;
@@ -24,9 +25,9 @@ struct SyntheticRigSettings {
   std::uint64_t seed = 1;
 };
 
-class SyntheticRig {
+class SyntheticSignal {
  public:
-  explicit SyntheticRig(const SyntheticRigSettings& settings);
+  explicit SyntheticSignal(const SyntheticSignalSettings& settings);
 
   /// Input-shaft angle in revolutions at time t (seconds), from 0 at t = 0.
   double input_revolutions_at(double t) const noexcept;
@@ -38,7 +39,7 @@ class SyntheticRig {
   std::vector<double> tacho_edges(double from_sample, double to_sample, int edges_per_rev) const;
 
  private:
-  SyntheticRigSettings s_;
+  SyntheticSignalSettings s_;
   std::uint64_t rng_state_;
   std::uint64_t next_index_ = 0;
   struct Resonator { double y1 = 0, y2 = 0; };
@@ -47,4 +48,4 @@ class SyntheticRig {
   double gaussian();
 };
 
-}  // namespace gearwatch
+}  // namespace gearwatch::rig

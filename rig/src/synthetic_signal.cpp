@@ -1,17 +1,17 @@
-#include "gearwatch/synthetic_rig.hpp"
+#include "gearwatch/rig/synthetic_signal.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
 
-namespace gearwatch {
+namespace gearwatch::rig {
 namespace {
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kFluctuationHz = 0.5;
 }  // namespace
 
-SyntheticRig::SyntheticRig(const SyntheticRigSettings& settings) : s_(settings), rng_state_(settings.seed * 0x9E3779B97F4A7C15ull + 1) {
+SyntheticSignal::SyntheticSignal(const SyntheticSignalSettings& settings) : s_(settings), rng_state_(settings.seed * 0x9E3779B97F4A7C15ull + 1) {
   if (s_.sample_rate_hz <= 0 || s_.speed_hz <= 0 || s_.channels < 1 || s_.pinion_teeth < 1)
     throw std::invalid_argument("synthetic rig: sample rate, speed, channels and teeth must be positive");
   if (std::fabs(s_.speed_fluctuation) >= 1.0) throw std::invalid_argument("synthetic rig: speed fluctuation must be below 100 %");
@@ -28,7 +28,7 @@ SyntheticRig::SyntheticRig(const SyntheticRigSettings& settings) : s_(settings),
   gain_ = 1.0 / std::sqrt(var);
 }
 
-double SyntheticRig::gaussian() {
+double SyntheticSignal::gaussian() {
   // splitmix64 + Box–Muller: fast, portable, and identical on every platform for a given seed.
   auto next = [this] {
     std::uint64_t z = (rng_state_ += 0x9E3779B97F4A7C15ull);
@@ -40,13 +40,13 @@ double SyntheticRig::gaussian() {
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(kTwoPi * u2);
 }
 
-double SyntheticRig::input_revolutions_at(double t) const noexcept {
+double SyntheticSignal::input_revolutions_at(double t) const noexcept {
   // speed(t) = f0 (1 + e sin(2π fm t))  =>  θ(t) = f0 (t + e (1 - cos(2π fm t)) / (2π fm))
   const double f0 = s_.speed_hz, e = s_.speed_fluctuation;
   return f0 * (t + e * (1.0 - std::cos(kTwoPi * kFluctuationHz * t)) / (kTwoPi * kFluctuationHz));
 }
 
-void SyntheticRig::generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) {
+void SyntheticSignal::generate(std::uint64_t first, std::size_t count, std::vector<std::vector<double>>& out) {
   if (first != next_index_) throw std::logic_error("synthetic rig: blocks must be consecutive");
   next_index_ = first + count;
   out.resize(static_cast<std::size_t>(s_.channels));
@@ -74,7 +74,7 @@ void SyntheticRig::generate(std::uint64_t first, std::size_t count, std::vector<
   }
 }
 
-std::vector<double> SyntheticRig::tacho_edges(double from_sample, double to_sample, int edges_per_rev) const {
+std::vector<double> SyntheticSignal::tacho_edges(double from_sample, double to_sample, int edges_per_rev) const {
   std::vector<double> edges;
   const double fs = s_.sample_rate_hz;
   const double theta0 = input_revolutions_at(from_sample / fs) * edges_per_rev;
@@ -96,4 +96,4 @@ std::vector<double> SyntheticRig::tacho_edges(double from_sample, double to_samp
   return edges;
 }
 
-}  // namespace gearwatch
+}  // namespace gearwatch::rig
