@@ -14,9 +14,10 @@
 namespace gearwatch::dsp {
 
 /// The rate the simulators' front-ends read their model at, at least. What still folds is what
-/// the mesh puts near this rate: at 8 Hz and 20 N·m, read at 80 kHz (4 × 20 kHz) the first mesh
-/// harmonic's sidebands carry folded lines 46 dB under it, above the gap diagnosis's comparison
-/// floor (60 dB under the total); read at 400 kHz they are 83–88 dB under it.
+/// the mesh puts near this rate, and that must stay under the gap diagnosis's comparison floor
+/// (`gap::DiagnosisSettings::floor_db` under the total): read at only 4 × a low record rate the
+/// folded lines beside the first mesh harmonic's sidebands rise above that floor, read this fast
+/// they stay well under it (docs/twin.md "Sensor front-end").
 inline constexpr double kFrontEndMinimumFineRateHz = 400000.0;
 
 /// The oversampling a simulated front-end uses at a record rate: the smallest factor ≥ 4 that reads
