@@ -1046,6 +1046,10 @@ std::optional<CandidateEffect> explaining_candidate(const GapReport& report, con
   FamilyKind family = FamilyKind::broadband;
   const double nearest = std::round(f.order);
   if (f.description.kind == DescriptionKind::floor_change) family = FamilyKind::broadband;
+  // A modulation's gap is in its shaft's first sidebands n·z ± 1; a feature holding a pair of them
+  // has its centre on the carrier between them, a mesh order, whose family is not the sidebands'.
+  else if (f.description.kind == DescriptionKind::modulation)
+    family = f.description.shaft == FeatureShaft::output ? FamilyKind::output_sidebands : FamilyKind::input_sidebands;
   else if (f.movement == FeatureMovement::fixed_in_hz) family = FamilyKind::fixed_frequency;
   else if (f.shaft == FeatureShaft::output && nearest >= 1) family = output_line_family(static_cast<int>(nearest), gears.gear_teeth);
   else if (std::abs(f.order - nearest) <= 0.25 && nearest >= 1) family = input_line_family(static_cast<int>(nearest), gears.pinion_teeth);
