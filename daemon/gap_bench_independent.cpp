@@ -406,6 +406,8 @@ void IndependentBench::run() {
       const auto t0 = std::chrono::steady_clock::now();
       scores.push_back(run_draw(seed));
       printer_.progress(seed, scores.back().form, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      // The draw's scored detail as one line too, so a run stopped early still gives the draws it finished.
+      std::cerr << "draw " << scores.back().detail.dump() << "\n";
     }
   } catch (...) {
     std::error_code ec;

@@ -573,6 +573,39 @@ TEST_CASE("gap describe: a transfer-path tilt is described in dB per octave over
   CHECK(d.parameter("level_db") == Approx(0).margin(0.2));
 }
 
+TEST_CASE("gap describe: a falling tilt that takes the high mesh harmonics to the comparison's floor is read whole", "[gap][gap_describe]") {
+  // Every line and bin × 10^(−3·log2(f/f_mesh)/10), on a twin whose mesh harmonics fall as 1/n⁴ in
+  // power: the 17th stands 10.5 dB over the comparison's floor in the twin and the tilt takes it
+  // 12.3 dB down, under the floor, where g reads −8.7 dB. A line through g reads the tilt flat
+  // (about −2.5 dB/octave here); the form's power, through the same floor, does not.
+  const double fs = 20000, tilt = -3;
+  std::mt19937_64 rng(358);
+  std::vector<Pair> pairs;
+  for (double speed : kSpeeds) {
+    Pair p = twin_pair(fs, speed);
+    for (std::size_t k = kZ1 - 1; k < p.twin_input.size(); k += kZ1) {
+      const double n = static_cast<double>(k + 1) / kZ1;
+      p.twin_input[k] = std::polar(1.0 / (n * n), std::arg(p.twin_input[k]));
+      p.twin.input_lines[k] = std::norm(p.twin_input[k]);
+    }
+    p.measured = p.twin, p.measured_input = p.twin_input;
+    const double mesh = kZ1 * speed;
+    scale_cells(p, [&](double hz) { return std::pow(10.0, tilt * std::log2(hz / mesh) / 10); });
+    finish_measurement(p, rng);
+    pairs.push_back(std::move(p));
+  }
+  const FeatureDescriber describer(described(pairs), GearPairSpec{});
+  // The fourth mesh harmonic, −6 dB.
+  const auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 75.5, 76.5, 75.5 * kSpeeds.front(), 76.5 * kSpeeds.back());
+  const auto d = describer.describe(f);
+  INFO(text_of(d));
+  REQUIRE(d.kind == DescriptionKind::path_tilt);
+  // The harmonics 10 dB or more over the floor in the twin (1-17 in every record), 0.2 dB each: the
+  // same tolerances as the rising tilt's, 0.1 dB/octave and 0.2 dB at the first harmonic.
+  CHECK(d.parameter("tilt_db_per_octave") == Approx(tilt).margin(0.1));
+  CHECK(d.parameter("level_db") == Approx(0).margin(0.2));
+}
+
 TEST_CASE("gap describe: a line changed at an integer order in every record has no form", "[gap][gap_describe]") {
   // Input order 40, +10 dB in every record: no resonance sits at 360–640 Hz at once, a ghost is off
   // the integer orders, no sideband, floor or tilt.

@@ -484,6 +484,39 @@ TEST_CASE("gap features: a broadband floor step under the comparison's floor is 
   CHECK(*by == CandidateEffect::noise_floor);
 }
 
+TEST_CASE("gap features: a modulation centred on its carrier is the sidebands' and explained by the candidate chosen for them", "[gap][gap_features]") {
+  // A 19 % AM at the gear shaft's order puts its gap on the output sidebands 1299 and 1301 about the
+  // mesh order 1300 (25·52); the feature holding both has its centre on 1300, the carrier, whose
+  // family is the output shaft orders. So on the pinion's: 37 and 39 about 38 (2·19), the mesh family.
+  // Eccentricity chosen, explaining both sidebands' families, explains both features.
+  GapReport report;
+  report.chosen = {CandidateEffect::eccentricity};
+  CandidateScore ecc;
+  ecc.effect = CandidateEffect::eccentricity;
+  ecc.explains = {FamilyKind::input_sidebands, FamilyKind::output_sidebands};
+  report.candidates = {ecc};
+  for (const auto shaft : {FeatureShaft::output, FeatureShaft::input}) {
+    GapFeature f;
+    f.shaft = shaft, f.movement = FeatureMovement::fixed_in_orders;
+    f.order = shaft == FeatureShaft::output ? 1300.0 : 38.0;
+    f.order_low = f.order - 1.5, f.order_high = f.order + 1.5;
+    f.description.kind = DescriptionKind::modulation;
+    f.description.shaft = shaft;
+    f.description.parameters = {{"am_index", 0.19}, {"pm_index_rad", 0.0}};
+    INFO("shaft " << to_string(shaft));
+    const auto by = explaining_candidate(report, f, GearPairSpec{});
+    REQUIRE(by.has_value());
+    CHECK(*by == CandidateEffect::eccentricity);
+    // Its sidebands still significant after the choice: nothing explains it.
+    GapReport left = report;
+    left.unexplained = {shaft == FeatureShaft::output ? FamilyKind::output_sidebands : FamilyKind::input_sidebands};
+    CHECK_FALSE(explaining_candidate(left, f, GearPairSpec{}).has_value());
+    // Described otherwise, the same place is the carrier's family, which eccentricity does not act on.
+    f.description.kind = DescriptionKind::none;
+    CHECK_FALSE(explaining_candidate(report, f, GearPairSpec{}).has_value());
+  }
+}
+
 TEST_CASE("gap features: a floor change white noise cannot explain is not attributed to the noise floor", "[gap][gap_features]") {
   // The same step, the feature taken to start an octave under the corner: its bands there stay at
   // the twin's plus the acquisition's (g ≈ 0) while those above rise 10 dB. One white PSD added to

@@ -356,17 +356,41 @@ FeatureDescriber::Fit FeatureDescriber::floor_change() const {
 
 FeatureDescriber::Fit FeatureDescriber::path_tilt() const {
   std::vector<double> x, y;
+  // Mesh harmonics above the comparison's floor: log2(harmonic), twin, g, floor.
+  std::vector<std::tuple<double, double, double, double>> lines;
   for (const auto& r : records_)
     for (const auto& c : r.cells)
       if (c.kind == CellKind::input_line && (c.index + 1) % static_cast<std::size_t>(gears_.pinion_teeth) == 0 &&
-          c.twin >= 10 * r.floor && c.measured > 0)
-        x.push_back(std::log2((c.index + 1.0) / gears_.pinion_teeth)), y.push_back(ratio_db(c.measured, c.twin, r.floor));
-  const auto [level, tilt] = line_fit(x, y);
+          c.twin >= 10 * r.floor && c.measured > 0) {
+        const double octaves = std::log2((c.index + 1.0) / gears_.pinion_teeth), g = ratio_db(c.measured, c.twin, r.floor);
+        x.push_back(octaves), y.push_back(g), lines.emplace_back(octaves, c.twin, g, r.floor);
+      }
+  auto [level, tilt] = line_fit(x, y);
+  // The comparison's floor compresses g where a tilt takes a harmonic toward it (a falling tilt on
+  // the high harmonics, 10 dB over the floor: −12 dB reads about −8), so the line through g reads
+  // the tilt flat. As for the floor's fit: the line starts, then the RSS in g of the tilt through
+  // the same floor.
+  auto rss = [&](double l, double t) {
+    double sum = 0;
+    for (const auto& [o, twin, g, fl] : lines) {
+      const double d = g - ratio_db(twin * std::pow(10.0, (l + t * o) / 10), twin, fl);
+      sum += d * d;
+    }
+    return sum;
+  };
+  // Level and tilt trade off over harmonics all on one side of the first (log2 n from 0 to 4 or
+  // more), so one at a time creeps: the tilt by golden section, the best level for each.
+  if (lines.size() >= 2) {
+    const double l0 = level, t0 = tilt;
+    auto best_level = [&](double t) { return golden_min([&](double l) { return rss(l, t); }, l0 - 6, l0 + 6, 40); };
+    tilt = golden_min([&](double t) { return rss(best_level(t), t); }, t0 - 4, t0 + 4, 40);
+    level = best_level(tilt);
+  }
   Fit fit;
   fit.description.kind = DescriptionKind::path_tilt;
   fit.description.parameters = {{"tilt_db_per_octave", tilt}, {"level_db", level}};
   fit.complexity = 2;
-  fit.predict = [this, level = level, tilt = tilt](std::size_t r, std::size_t i) {
+  fit.predict = [this, level, tilt](std::size_t r, std::size_t i) {
     const Cell& c = records_[r].cells[i];
     const double mesh_hz = gears_.pinion_teeth * records_[r].speed_hz;
     return c.twin * std::pow(10.0, (level + tilt * std::log2(c.hz / mesh_hz)) / 10);
@@ -1022,6 +1046,10 @@ std::optional<CandidateEffect> explaining_candidate(const GapReport& report, con
   FamilyKind family = FamilyKind::broadband;
   const double nearest = std::round(f.order);
   if (f.description.kind == DescriptionKind::floor_change) family = FamilyKind::broadband;
+  // A modulation's gap is in its shaft's first sidebands n·z ± 1; a feature holding a pair of them
+  // has its centre on the carrier between them, a mesh order, whose family is not the sidebands'.
+  else if (f.description.kind == DescriptionKind::modulation)
+    family = f.description.shaft == FeatureShaft::output ? FamilyKind::output_sidebands : FamilyKind::input_sidebands;
   else if (f.movement == FeatureMovement::fixed_in_hz) family = FamilyKind::fixed_frequency;
   else if (f.shaft == FeatureShaft::output && nearest >= 1) family = output_line_family(static_cast<int>(nearest), gears.gear_teeth);
   else if (std::abs(f.order - nearest) <= 0.25 && nearest >= 1) family = input_line_family(static_cast<int>(nearest), gears.pinion_teeth);
