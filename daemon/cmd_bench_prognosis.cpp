@@ -80,6 +80,11 @@ constexpr double kCyclesTarget = 0.20;
 constexpr double kCoverageTarget = 0.85;
 /// The engineer inspects at the first stop past 1 % pitted area, then at the first later one past 4 %.
 const std::vector<double> kInspectionLevels{0.01, 0.04};
+/// A maintenance plan also inspects for wear: at the first stop whose deepest flank point passes a
+/// quarter of the wear limit, then at the first later one past half of it (a plan's rule, stated
+/// before the fresh-seed run; campaigns that never pit are inspected too). These inspections take
+/// the wear depths only: the pitting levels stay the pitted-area calibration points.
+const std::vector<double> kWearInspectionFractions{0.25, 0.5};
 /// Forecasts are scored from the first record where the truth's pitting density passes 5 % (resp.
 /// its deepest flank point half the wear limit).
 constexpr double kPittingScoreFrom = 0.05;
@@ -183,16 +188,30 @@ class CampaignBench {
       states_.push_back(truth->at(p.cycles));
       density.push_back(states_.back().pitting_density);
     }
-    // The pitted area and the combined mean wear depth measured with relative errors of
-    // inspection_sd and inspection_depth_sd (normal), each from its own stream seeded by the campaign.
-    std::mt19937_64 rng(case_.seed * 7919u + 17u), depth_rng(case_.seed * 7919u + 29u);
-    std::normal_distribution<double> error(0.0, setup_.options.inspection_sd), depth_error(0.0, setup_.options.inspection_depth_sd);
-    for (const std::size_t stop : pg::inspection_stops(density, kInspectionLevels)) {
+    // The pitted area, the combined mean wear depth and the deepest flank point measured with
+    // relative errors of inspection_sd and inspection_depth_sd (normal), each from its own stream
+    // seeded by the campaign; the inspection states the depths' SD.
+    std::vector<double> deepest;
+    for (const auto& st : states_) deepest.push_back(max_depth(st));
+    std::vector<double> wear_levels;
+    for (const double f : kWearInspectionFractions) wear_levels.push_back(f * setup_.settings.wear_limit_m);
+    const std::vector<std::size_t> pitting_stops = pg::inspection_stops(density, kInspectionLevels);
+    std::vector<std::size_t> stops = pitting_stops;
+    for (const std::size_t stop : pg::inspection_stops(deepest, wear_levels)) stops.push_back(stop);
+    std::sort(stops.begin(), stops.end());
+    stops.erase(std::unique(stops.begin(), stops.end()), stops.end());
+    std::mt19937_64 rng(case_.seed * 7919u + 17u), depth_rng(case_.seed * 7919u + 29u), deepest_rng(case_.seed * 7919u + 41u);
+    const double depth_sd = setup_.options.inspection_depth_sd;
+    std::normal_distribution<double> error(0.0, setup_.options.inspection_sd), depth_error(0.0, depth_sd);
+    for (const std::size_t stop : stops) {
       wear::Inspection in;
       in.id = static_cast<std::int64_t>(inspections_.size() + 1);
       in.cycles = case_.plan[stop].cycles;
-      in.pitted_area = std::clamp(density[stop] * (1.0 + error(rng)), 0.0, 1.0);
+      if (std::find(pitting_stops.begin(), pitting_stops.end(), stop) != pitting_stops.end())
+        in.pitted_area = std::clamp(density[stop] * (1.0 + error(rng)), 0.0, 1.0);
       in.wear_depth_m = std::max(0.0, states_[stop].combined_mean_wear_depth_m * (1.0 + depth_error(depth_rng)));
+      in.wear_depth_max_m = std::max(0.0, deepest[stop] * (1.0 + depth_error(deepest_rng)));
+      in.wear_depth_relative_sd = depth_sd;
       inspections_.push_back({stop, in});
     }
     result_.inspections = inspections_.size();
@@ -315,6 +334,7 @@ class CampaignBench {
                          {"combined_mean_depth_m", {r.forecast.depth_low_m, r.forecast.depth_mean_m, r.forecast.depth_high_m}},
                          {"shape_depth_ratio", r.forecast.shape_depth_ratio},
                          {"depth_ratio", r.forecast.depth_ratio}, {"depth_ratio_log_sd", r.forecast.depth_ratio_log_sd},
+                         {"peak_ratio", r.forecast.peak_ratio}, {"peak_ratio_log_sd", r.forecast.peak_ratio_log_sd},
                          {"flags", flags}, {"evidence", r.forecast.evidence}}}});
     }
   }
@@ -543,6 +563,7 @@ nlohmann::json report_json(const BenchSetup& setup, const std::vector<CampaignRe
   return {{"settings", {{"campaigns", o.campaigns}, {"first_seed", o.seed}, {"records", o.records}, {"seconds", o.seconds},
                         {"jobs", o.jobs}, {"inspection_relative_sd", o.inspection_sd},
                         {"inspection_depth_relative_sd", o.inspection_depth_sd}, {"inspection_levels", kInspectionLevels},
+                        {"wear_inspection_limit_fractions", kWearInspectionFractions},
                         {"wear_limit_m", setup.settings.wear_limit_m}, {"pitting_limit", setup.settings.pitting_limit},
                         {"config", o.config.empty() ? "built-in defaults (the demo's)" : o.config}}},
           {"campaigns", campaigns},
@@ -666,7 +687,7 @@ void add_bench_prognosis_command(CLI::App& app) {
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   cmd->add_option("--inspection-depth-sd", opt->inspection_depth_sd,
-                  "Relative standard deviation of an inspection's combined mean wear depth (stated to the model)")
+                  "Relative standard deviation of an inspection's combined mean wear depth and deepest point (stated to the model)")
       ->check(CLI::Range(1e-4, 0.9))
       ->capture_default_str();
   cmd->add_option("--wear-limit-um", opt->wear_limit_um,

@@ -42,6 +42,7 @@ json rows(const storage::StoredTable& table) {
 json inspection_json(const storage::StoredInspection& i) {
   auto optional = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
   return {{"id", i.id}, {"cycles", i.cycles}, {"wear_depth_m", optional(i.wear_depth_m)},
+          {"wear_depth_max_m", optional(i.wear_depth_max_m)}, {"wear_depth_relative_sd", optional(i.wear_depth_relative_sd)},
           {"pitted_area_fraction", optional(i.pitted_area_fraction)}, {"note", i.note.empty() ? json(nullptr) : json(i.note)}};
 }
 

@@ -611,6 +611,8 @@ std::vector<wear::Inspection> ModelThread::read_inspections() const {
       i.cycles = stored.cycles - pair_.origin_cycles;  // inspections keep the life counter's cycles
       i.pitted_area = stored.pitted_area_fraction;
       i.wear_depth_m = stored.wear_depth_m;
+      i.wear_depth_max_m = stored.wear_depth_max_m;
+      i.wear_depth_relative_sd = stored.wear_depth_relative_sd;
       inspections.push_back(i);
     }
   } catch (const storage::SqliteError& e) {

@@ -13,6 +13,8 @@
 #include <catch2/catch.hpp>
 
 #include "command_runner.hpp"
+#include "gearwatch/storage/inspections.hpp"
+#include "gearwatch/storage/sqlite.hpp"
 #include "temp_dir.hpp"
 #include <nlohmann/json.hpp>
 
@@ -79,6 +81,18 @@ TEST_CASE("cli: simulate, replay, query and inspect work together", "[cli]") {
   CHECK(qi[0]["pitted_area_fraction"] == 0.021);
   CHECK(qi[0]["note"] == "tooth 3 pitted");
   CHECK(run("inspect --db " + db + " --cycles 5").status != 0);            // nothing to record
+  // The deepest point and the depths' own SD: stored with the mean; refused without it or out of range.
+  CHECK(run("inspect --db " + db + " --cycles 5 --wear-depth-max 40e-6").status != 0);
+  CHECK(run("inspect --db " + db + " --cycles 5 --wear-depth 10e-6 --depth-sd 1.5").status != 0);
+  REQUIRE(run("inspect --db " + db + " --cycles 5 --wear-depth 10e-6 --wear-depth-max 36e-6 --depth-sd 0.08").status == 0);
+  {
+    gearwatch::storage::Database d(db, gearwatch::storage::Database::Mode::read_only);
+    const auto rows = gearwatch::storage::load_inspections(d);
+    REQUIRE(rows.size() == 2);
+    CHECK(rows[0].wear_depth_max_m == 36e-6);   // by cycles: 5 before 120000
+    CHECK(rows[0].wear_depth_relative_sd == 0.08);
+    CHECK_FALSE(rows[1].wear_depth_max_m.has_value());
+  }
   CHECK(run("query alerts --db " + (dir / "none.db").string()).status != 0);  // no such database
 }
 

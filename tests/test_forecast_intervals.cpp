@@ -204,7 +204,7 @@ TEST_CASE("forecast intervals: before the second inspection, one inspection and 
     REQUIRE(truth.run_until(cycles));
     const double density = summarise(truth.state()).mean_pitting_density;
     truth_density[cycles] = density;
-    if (cycles == 6e5) inspections.push_back({1, cycles, density, {}});
+    if (cycles == 6e5) inspections.push_back({1, cycles, density, {}, {}, {}});
     const ModelRunReport r = model.observe(observation(cycles, 20, 20, std::nullopt, 0.01 + 40 * density * density), inspections);
     INFO(cycles << " cycles: " << r.detail);
     if (cycles >= 6e5) {

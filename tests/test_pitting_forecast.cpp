@@ -95,7 +95,7 @@ TEST_CASE("pitting forecast: calibrated on two inspections of a closed-form law,
   INFO("closed-form crossing " << n_limit << " cycles, tolerance " << tol * n_limit << " cycles");
   CHECK(tol < 0.02);
   TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
-  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}}, {2, 7e5, truth.mean(7e5), {}}};
+  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
   int checked = 0;
   for (double n = 5e4; n <= 1.8e6; n += 5e4) {
     const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(n)), inspections);
@@ -122,7 +122,7 @@ TEST_CASE("pitting forecast: the model's density at the limit while ICS2 reads h
   const ModelSettings s = small_density_settings();
   const ClosedFormPitting truth = truth_for(s);
   TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
-  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}}, {2, 7e5, truth.mean(7e5), {}}};
+  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
   // The ICS2 scale from the inspections is D = (ICS2 − 0.01) / 100 (under the saturation level
   // 0.118 throughout, so every reading is an estimate); from 1.4 M cycles ICS2 holds at
   // a density of 1e-4 (half the limit), so its trend and latest value are both 1e-4.
@@ -195,7 +195,7 @@ TEST_CASE("pitting forecast: a saturated ICS2 reading bounds the density from be
   const ModelSettings s = small_density_settings();
   const ClosedFormPitting truth = truth_for(s);
   TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
-  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}}, {2, 7e5, truth.mean(7e5), {}}};
+  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
   const double n = 1e6;
   for (double c = 5e4; c <= n; c += 5e4) model.observe(observation(c, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(c)), inspections);
   REQUIRE(model.memory().pitting_calibrated);

@@ -272,10 +272,14 @@ TEST_CASE("prognosis bench: two campaigns through the binary, scores recomputed 
     REQUIRE(c["records_trace"].size() == 6);
     check_depth_scores(c);
     check_pitting_scores(c);
-    // The inspection rule on the trace's truth: first stop past 1 %, first later stop past 4 %.
-    std::vector<double> density;
-    for (const auto& t : c["records_trace"]) density.push_back(t["truth"]["pitting_density"]);
-    CHECK(c["inspections"] == inspection_stops(density, {0.01, 0.04}).size());
+    // The inspection rule on the trace's truth: first stop past 1 %, first later stop past 4 %
+    // pitting, and the first stops whose deepest point passes 1/4 and 1/2 of the wear limit; a stop once.
+    std::vector<double> density, deepest;
+    for (const auto& t : c["records_trace"]) density.push_back(t["truth"]["pitting_density"]), deepest.push_back(t["truth"]["max_depth_m"]);
+    std::vector<std::size_t> stops = inspection_stops(density, {0.01, 0.04});
+    for (const std::size_t s : inspection_stops(deepest, {0.25e-4, 0.5e-4}))
+      if (std::find(stops.begin(), stops.end(), s) == stops.end()) stops.push_back(s);
+    CHECK(c["inspections"] == stops.size());
   }
   // Random campaigns (rig::random_campaign): the truth's crossing of the pitting limit agrees with
   // the trace's truth, a stop whose truth is below the limit lies before it, one at or above after.

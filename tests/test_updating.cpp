@@ -65,7 +65,7 @@ double advance_pitting_truth(BlueLoop& truth, int i, std::vector<Inspection>& in
   }
   REQUIRE(truth.run_until(cycles));
   const double density = summarise(truth.state()).mean_pitting_density;
-  if (cycles == 2e5 || cycles == 4e5) inspections.push_back({static_cast<std::int64_t>(i), cycles, density, {}});
+  if (cycles == 2e5 || cycles == 4e5) inspections.push_back({static_cast<std::int64_t>(i), cycles, density, {}, {}, {}});
   return density;
 }
 
@@ -933,13 +933,13 @@ TEST_CASE("prognosis #1: an inspection that calibrates K_pitting at a record lea
   const double half = 0.5 * twin.cycles;
   const double measured = twin.rms(k_true);
   TwinModel model(twin::GearboxParameters{}, s, twin.simulator());
-  std::vector<Inspection> inspections{{1, half, 0.01, {}}};
+  std::vector<Inspection> inspections{{1, half, 0.01, {}, {}, {}}};
   // At half the cycles the model's depth is that of K0 / 2 over the full stretch.
   const ModelRunReport first = model.observe(observation(half, 10, 20, twin.rms(0.5 * k0)), inspections);
   INFO(first.detail);
   REQUIRE(first.updates.empty());
   REQUIRE(model.memory().wear_anchor.state.cycles == 0.0);
-  inspections.push_back({2, twin.cycles, 0.02, {}});
+  inspections.push_back({2, twin.cycles, 0.02, {}, {}, {}});
   const ModelRunReport r = model.observe(observation(twin.cycles, 10, 20, measured), inspections);
   INFO(r.detail);
   REQUIRE(r.updates.size() == 2);

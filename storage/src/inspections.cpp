@@ -8,17 +8,20 @@
 namespace gearwatch::storage {
 namespace {
 
-// gear_pair came with a later schema: an older database's inspections all belong to the first pair.
+// gear_pair and the deepest point came with later schemas: an older database's inspections all
+// belong to the first pair and have no deepest point.
 std::string inspection_select(Database& db) {
   const char* pair = detail::has_column(db, "inspections", "gear_pair") ? "coalesce(gear_pair, 0)" : "0";
-  return std::string("SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note, ") + pair + " FROM inspections";
+  const char* deepest = detail::has_column(db, "inspections", "wear_depth_max_m") ? "wear_depth_max_m, wear_depth_relative_sd" : "NULL, NULL";
+  return std::string("SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note, ") + pair + ", " + deepest +
+         " FROM inspections";
 }
 
 std::vector<StoredInspection> read_inspections(Statement& s) {
   std::vector<StoredInspection> out;
   while (s.step())
     out.push_back({s.get_int(0), s.get_text(1), s.get_double(2), detail::optional_double(s, 3), detail::optional_double(s, 4),
-                   detail::text_or_empty(s, 5), s.get_int(6)});
+                   detail::text_or_empty(s, 5), s.get_int(6), detail::optional_double(s, 7), detail::optional_double(s, 8)});
   return out;
 }
 
@@ -31,8 +34,7 @@ std::vector<StoredInspection> load_inspections(Database& db) {
 }
 
 std::vector<StoredInspection> load_gear_pair_inspections(Database& db, std::int64_t gear_pair) {
-  Statement s(db, "SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note, coalesce(gear_pair, 0) FROM inspections"
-                  " WHERE coalesce(gear_pair, 0) = ? ORDER BY id");
+  Statement s(db, inspection_select(db) + " WHERE coalesce(gear_pair, 0) = ? ORDER BY id");
   s.bind(1, gear_pair);
   return read_inspections(s);
 }
@@ -57,11 +59,13 @@ GearPairPosition load_gear_pair_position(Database& db) {
 }
 
 std::int64_t insert_inspection(Database& db, const NewInspection& inspection) {
-  Statement s(db, "INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note, gear_pair) VALUES (?, ?, ?, ?, ?)");
+  Statement s(db,
+              "INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note, gear_pair, wear_depth_max_m,"
+              " wear_depth_relative_sd) VALUES (?, ?, ?, ?, ?, ?, ?)");
   s.bind(1, inspection.cycles).bind(2, inspection.pitted_area_fraction).bind(3, inspection.wear_depth_m);
   if (inspection.note.empty()) s.bind_null(4);
   else s.bind(4, inspection.note);
-  s.bind(5, inspection.gear_pair);
+  s.bind(5, inspection.gear_pair).bind(6, inspection.wear_depth_max_m).bind(7, inspection.wear_depth_relative_sd);
   s.run();
   return db.last_insert_rowid();
 }

@@ -16,7 +16,7 @@ namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 16> kMigrations{
+constexpr std::array<const char*, 17> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -662,6 +662,12 @@ CREATE VIEW predictions AS
          m.forecast_evidence, m.wear_mean_low_m, m.wear_mean_high_m,
          m.wear_mean_estimate_m, m.wear_depth_ratio, m.wear_depth_ratio_log_sd, m.wear_depth_inspections
   FROM model_runs m WHERE m.advanced = 1;
+)SQL",
+    // 16 -> 17: an inspection's deepest wear point (the mould's profile) and its depths' own relative
+    // SD (docs/model.md, "Deepest point"); NULL: not measured, or the configured SD.
+    R"SQL(
+ALTER TABLE inspections ADD COLUMN wear_depth_max_m REAL;
+ALTER TABLE inspections ADD COLUMN wear_depth_relative_sd REAL;
 )SQL",
 };
 

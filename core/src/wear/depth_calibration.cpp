@@ -58,4 +58,32 @@ double model_mean_at(double cycles, double prev_cycles, double prev_mean, double
   return prev_cycles > 0 ? prev_mean * cycles / prev_cycles : 0.0;
 }
 
+DepthRatioMeasurement peak_ratio_measurement(std::int64_t id, double cycles, double deepest_m, double mean_m,
+                                             double relative_sd) {
+  return {id, cycles, std::log(deepest_m / mean_m), 2.0 * log_relative_variance(relative_sd)};
+}
+
+LogPosterior peak_ratio_prior(double model_peak, double shape_peak, double coverage, double fallback_sd) {
+  LogPosterior p;
+  p.valid = true;
+  const double a = std::log(model_peak);
+  if (!(shape_peak > 0) || std::abs(std::log(shape_peak) - a) < 1e-9) {
+    p.mean = a;
+    p.var = fallback_sd * fallback_sd;
+    return p;
+  }
+  const double b = std::log(shape_peak), z = normal_quantile(0.5 + coverage / 2.0);
+  p.mean = (a + b) / 2.0;
+  const double sd = std::abs(b - a) / (2.0 * z);
+  p.var = sd * sd;
+  return p;
+}
+
+DeepestFactor deepest_point_factor(const LogPosterior& log_rho, const LogPosterior& log_peak, double model_peak, double coverage) {
+  const double z = normal_quantile(0.5 + coverage / 2.0);
+  const double mu = log_rho.mean + log_peak.mean - std::log(model_peak);
+  const double sd = std::sqrt(std::max(0.0, log_rho.var) + std::max(0.0, log_peak.var));
+  return {std::exp(mu), std::exp(mu - z * sd), std::exp(mu + z * sd)};
+}
+
 }  // namespace gearwatch::wear

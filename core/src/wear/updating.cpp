@@ -1151,8 +1151,42 @@ void TwinModel::read_depth_inspections(const std::vector<Inspection>& inspection
                        ": wear depth not used for the depth calibration (measured or model depth not positive)";
       continue;
     }
-    points.push_back(depth_ratio_measurement(i.id, i.cycles, *i.wear_depth_m, model, settings_.inspection_depth_relative_sd));
+    points.push_back(depth_ratio_measurement(i.id, i.cycles, *i.wear_depth_m, model, inspection_depth_sd(i)));
   }
+  read_peak_inspections(inspections, prev_cycles, now, report);
+}
+
+void TwinModel::read_peak_inspections(const std::vector<Inspection>& inspections, double since, double now, ModelRunReport& report) {
+  auto& peaks = memory_.peak_ratio_points;
+  peaks.clear();
+  for (const Inspection& i : inspections) {
+    if (!i.wear_depth_max_m || i.cycles > now) continue;
+    const bool usable = i.wear_depth_m && *i.wear_depth_m > 0 && std::isfinite(*i.wear_depth_m) && *i.wear_depth_max_m > 0 &&
+                        std::isfinite(*i.wear_depth_max_m);
+    if (!usable) {
+      // The deepest point is read against the same mould's mean: without both there is no ratio.
+      // Said once: at the first record at or after the inspection.
+      if (i.cycles > since)
+        report.detail += (report.detail.empty() ? "" : "\n") + fmt("inspection %.0f", static_cast<double>(i.id)) +
+                         ": deepest wear point not used (it needs a positive mean wear depth from the same inspection)";
+      continue;
+    }
+    peaks.push_back(peak_ratio_measurement(i.id, i.cycles, *i.wear_depth_max_m, *i.wear_depth_m, inspection_depth_sd(i)));
+  }
+}
+
+double TwinModel::inspection_depth_sd(const Inspection& i) const {
+  const bool own = i.wear_depth_relative_sd && std::isfinite(*i.wear_depth_relative_sd) && *i.wear_depth_relative_sd > 0 &&
+                   *i.wear_depth_relative_sd < 1;
+  return own ? *i.wear_depth_relative_sd : settings_.inspection_depth_relative_sd;
+}
+
+LogPosterior TwinModel::peak_ratio_now(double model_peak) const {
+  if (memory_.peak_ratio_points.empty() || !(model_peak > 0)) return {};
+  // The prior spans the profile-shape term's range: the model's own peak ratio to the
+  // concentrated shape's (profile_shape.hpp).
+  const LogPosterior prior = peak_ratio_prior(model_peak, memory_.shape_peak_ratio, kNominalCoverage, settings_.prior_log_k_wear_sd);
+  return depth_ratio_posterior(prior, memory_.peak_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
 }
 
 LogPosterior TwinModel::depth_ratio_now() const {
@@ -1188,14 +1222,32 @@ bool TwinModel::apply_depth_calibration(Forecast& f, const WearLoopOptions& o) c
   auto crossing = [&](double kw, double kp, double factor) {
     return run_forecast(memory_.current, kw, kp, deep, nullptr, limit / factor).wear;
   };
-  f.wear.cycles_left = crossing(memory_.k_wear_si, memory_.k_pitting, d.ratio);
-  f.wear.cycles_left_low = crossing(f.k_wear_high, f.k_pitting_high, d.ratio_high * std::max(1.0, c));
-  f.wear.cycles_left_high = crossing(f.k_wear_low, f.k_pitting_low, d.ratio_low * std::min(1.0, c));
+  const LogPosterior peak = peak_ratio_now(model_peak);
+  if (peak.valid) {
+    // Inspected profiles: the deepest point is ρ P times the model's mean, i.e. the model's deepest
+    // times ρ P / its own peak ratio (held at today's along the path).
+    const DeepestFactor k = deepest_point_factor(p, peak, model_peak, kNominalCoverage);
+    f.peak_inspections = static_cast<int>(memory_.peak_ratio_points.size());
+    f.peak_ratio = std::exp(peak.mean);
+    f.peak_ratio_log_sd = std::sqrt(peak.var);
+    f.wear.cycles_left = crossing(memory_.k_wear_si, memory_.k_pitting, k.nominal);
+    f.wear.cycles_left_low = crossing(f.k_wear_high, f.k_pitting_high, k.high);
+    f.wear.cycles_left_high = crossing(f.k_wear_low, f.k_pitting_low, k.low);
+  } else {
+    f.wear.cycles_left = crossing(memory_.k_wear_si, memory_.k_pitting, d.ratio);
+    f.wear.cycles_left_low = crossing(f.k_wear_high, f.k_pitting_high, d.ratio_high * std::max(1.0, c));
+    f.wear.cycles_left_high = crossing(f.k_wear_low, f.k_pitting_low, d.ratio_low * std::min(1.0, c));
+  }
   char b[400];
   std::snprintf(b, sizeof b, "depth calibration: %zu inspected wear depths give rho %.4g (ln SD %.3g; prior from the shape range, rho_s %.3g): depth %.4g um, interval %.4g to %.4g um; wear crossings at limit / rho (ends: deepest point x %.3g of the model's shape)",
                 memory_.depth_ratio_points.size(), d.ratio, f.depth_ratio_log_sd, memory_.shape_depth_ratio, 1e6 * d.estimate_m,
                 1e6 * d.low_m, 1e6 * d.high_m, c);
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+  if (peak.valid) {
+    std::snprintf(b, sizeof b, "%zu inspected deepest points give deepest / mean %.3g (ln SD %.3g; the model's %.3g): wear crossings at limit / (rho x that / the model's)",
+                  memory_.peak_ratio_points.size(), f.peak_ratio, f.peak_ratio_log_sd, model_peak);
+    f.evidence += "; " + std::string(b);
+  }
   return true;
 }
 

@@ -56,4 +56,25 @@ CalibratedDepth calibrated_depth(double model_mean_m, const LogPosterior& log_ra
 /// linear from the unworn start (0, 0) to it. Returns ≤ 0 when nothing is known.
 double model_mean_at(double cycles, double prev_cycles, double prev_mean, double now_cycles, double now_mean);
 
+/// One inspection's reading of the deepest point over the mean, ln P = ln(deepest / mean), both
+/// read off the same mould: each carries the relative SD independently, so var = 2 ln(1 + s²).
+DepthRatioMeasurement peak_ratio_measurement(std::int64_t id, double cycles, double deepest_m, double mean_m,
+                                             double relative_sd);
+
+/// The prior of ln P from the profile-shape term's range: the normal whose central `coverage`
+/// interval is [ln min(a, b), ln max(a, b)] of the model's own peak ratio `model_peak` and the
+/// concentrated shape's `shape_peak`. Without a concentrated shape (shape_peak ≤ 0) or a range of
+/// no width: N(ln model_peak, fallback_sd²). `valid` is set; `cycles` is left at 0.
+LogPosterior peak_ratio_prior(double model_peak, double shape_peak, double coverage, double fallback_sd);
+
+/// The factor the model's deepest point is multiplied by to give the true one: ρ P / model_peak
+/// (true deepest = P × true mean = P ρ × model mean = ρ P / model_peak × model deepest), at the
+/// posterior medians and at the ends of the central `coverage` interval of ln ρ + ln P. The two
+/// posteriors are taken as independent: a shared error in the inspected mean moves ln ρ and ln P
+/// in opposite directions, so the sum's true variance is at most the sum of the variances.
+struct DeepestFactor {
+  double nominal = 1, low = 1, high = 1;
+};
+DeepestFactor deepest_point_factor(const LogPosterior& log_rho, const LogPosterior& log_peak, double model_peak, double coverage);
+
 }  // namespace gearwatch::wear

@@ -156,6 +156,8 @@ struct Inspection {
   double cycles = 0;
   std::optional<double> pitted_area;       ///< fraction of the flank area
   std::optional<double> wear_depth_m;
+  std::optional<double> wear_depth_max_m;        ///< the deepest flank point (the mould's profile)
+  std::optional<double> wear_depth_relative_sd;  ///< this inspection's depths' relative SD (else the setting)
 };
 
 /// A blue-loop state with the step its controller tries next (enough to continue exactly).
@@ -228,6 +230,9 @@ struct ModelMemory {
   /// The inspected wear depths as readings of ln ρ = ln(measured / model combined mean depth) at
   /// their cycles, taken when each inspection was first seen (depth_calibration.hpp).
   std::vector<DepthRatioMeasurement> depth_ratio_points;
+  /// The inspections' deepest point over their mean, ln P = ln(deepest / mean) at their cycles. It
+  /// depends on the inspections alone, so it is rebuilt from them at every record, not stored.
+  std::vector<DepthRatioMeasurement> peak_ratio_points;
   std::uint64_t records_used = 0, k_wear_updates = 0, k_pitting_updates = 0;
 };
 
@@ -372,7 +377,15 @@ class TwinModel {
   void read_depth_inspections(const std::vector<Inspection>& inspections, double prev_cycles, double prev_mean,
                               ModelRunReport& report);
   /// The posterior of ln ρ now (valid false without depth inspections).
+  /// Inspections with both a mean and a deepest wear depth: each a reading of ln P (rebuilt); an
+  /// unusable one is said at the first record after `since`.
+  void read_peak_inspections(const std::vector<Inspection>& inspections, double since, double now, ModelRunReport& report);
   LogPosterior depth_ratio_now() const;
+  /// The posterior of ln P, the true deepest point over the true mean, now (valid false without
+  /// inspections that give both).
+  LogPosterior peak_ratio_now(double model_peak) const;
+  /// An inspection's relative SD of its depths: its own where stated, the setting otherwise.
+  double inspection_depth_sd(const Inspection& i) const;
   /// With depth inspections: the depth estimate and interval and the wear forecast's nominal and
   /// ends from the calibrated ρ (the model's crossing of limit / ρ); false (nothing changed) without.
   bool apply_depth_calibration(Forecast& f, const WearLoopOptions& o) const;

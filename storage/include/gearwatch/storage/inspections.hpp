@@ -23,6 +23,8 @@ struct NewInspection {
   std::optional<double> pitted_area_fraction, wear_depth_m;
   std::string note;                   ///< "" is stored as NULL
   std::int64_t gear_pair = 0;
+  std::optional<double> wear_depth_max_m;        ///< the deepest flank point
+  std::optional<double> wear_depth_relative_sd;  ///< the depths' relative SD (none: the configured one)
 };
 /// An inspection as stored (table inspections).
 struct StoredInspection {
@@ -32,6 +34,7 @@ struct StoredInspection {
   std::optional<double> pitted_area_fraction, wear_depth_m;
   std::string note;                   ///< "" when none was stored
   std::int64_t gear_pair = 0;         ///< NULL (a row from before gear pairs were stored) reads as 0
+  std::optional<double> wear_depth_max_m, wear_depth_relative_sd;  ///< none before schema 17
 };
 /// Every inspection, by cycles (then id). Empty when the database has no inspections table.
 std::vector<StoredInspection> load_inspections(Database& db);
