@@ -26,19 +26,6 @@ namespace {
 
 constexpr double kZ90 = 1.6448536269514722;   // the normal's 95 % point: a central 90 %
 
-ModelSettings deepest_case_settings() {
-  ModelSettings s;
-  s.loop.k_wear_si = 2e-15;
-  s.loop.profile_points = 21;
-  s.update_k_wear = false;
-  s.update_k_pitting = false;
-  s.wear_limit_m = 40e-6;
-  s.forecast_horizon_cycles = 2e7;
-  return s;
-}
-
-double deepest_case_rms(const WearState&, const twin::OperatingPoint&) { return 1.0; }
-
 }  // namespace
 
 TEST_CASE("deepest point: a reading of ln P carries both depths' relative variance", "[model][deepest_point]") {
@@ -127,9 +114,9 @@ TEST_CASE("deepest point: the 90 % intervals hold truths drawn from the model's 
 }
 
 TEST_CASE("deepest point: the model's wear crossing follows the inspected deepest point", "[model][deepest_point]") {
-  const ModelSettings s = deepest_case_settings();
+  const ModelSettings s = testing::calibration_case_settings();
   const auto obs = testing::observation(4e5, 20, 20);
-  TwinModel plain(twin::GearboxParameters{}, s, deepest_case_rms);
+  TwinModel plain(twin::GearboxParameters{}, s, testing::calibration_case_rms);
   const ModelRunReport r0 = plain.observe(obs, {});
   const double mean = r0.summary.combined_mean_depth_m, model_peak = r0.max_depth_m / mean;
   REQUIRE(mean > 0);
@@ -141,7 +128,7 @@ TEST_CASE("deepest point: the model's wear crossing follows the inspected deepes
   in.wear_depth_m = 1.5 * mean;
   in.wear_depth_max_m = 1.5 * mean * 3.0;
   in.wear_depth_relative_sd = 0.1;   // this inspection's own, not the setting's
-  TwinModel calibrated(twin::GearboxParameters{}, s, deepest_case_rms);
+  TwinModel calibrated(twin::GearboxParameters{}, s, testing::calibration_case_rms);
   const ModelRunReport r1 = calibrated.observe(obs, {in});
   REQUIRE(r1.forecast.valid);
   // ρ: prior N(0, fallback²) (no shape read), one reading of ln 1.5 with variance ln(1.01).
@@ -157,7 +144,7 @@ TEST_CASE("deepest point: the model's wear crossing follows the inspected deepes
   // The nominal crossing is the model's deepest point crossing limit / (ρ P / model_peak).
   ModelSettings scaled = s;
   scaled.wear_limit_m = s.wear_limit_m / (std::exp(mr) * std::exp(mp) / model_peak);
-  TwinModel reference(twin::GearboxParameters{}, scaled, deepest_case_rms);
+  TwinModel reference(twin::GearboxParameters{}, scaled, testing::calibration_case_rms);
   const ModelRunReport r2 = reference.observe(obs, {});
   REQUIRE(r1.forecast.wear.cycles_left);
   REQUIRE(r2.forecast.wear.cycles_left);
@@ -172,7 +159,7 @@ TEST_CASE("deepest point: the model's wear crossing follows the inspected deepes
   alone.id = 6;
   alone.cycles = 4e5;
   alone.wear_depth_max_m = 50e-6;
-  TwinModel without(twin::GearboxParameters{}, s, deepest_case_rms);
+  TwinModel without(twin::GearboxParameters{}, s, testing::calibration_case_rms);
   const ModelRunReport r3 = without.observe(obs, {alone});
   CHECK(r3.forecast.peak_inspections == 0);
   CHECK(r3.forecast.depth_inspections == 0);

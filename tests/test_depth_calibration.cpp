@@ -24,24 +24,6 @@ namespace test_depth_calibration {  // this file's own: the test files compile t
 using namespace gearwatch;
 using namespace gearwatch::wear;
 
-namespace {
-
-// The model's settings for the TwinModel cases: no updates (no twin needed), one profile resolution.
-ModelSettings depth_case_settings() {
-  ModelSettings s;
-  s.loop.k_wear_si = 2e-15;
-  s.loop.profile_points = 21;
-  s.update_k_wear = false;
-  s.update_k_pitting = false;
-  s.wear_limit_m = 40e-6;
-  s.forecast_horizon_cycles = 2e7;
-  return s;
-}
-
-double depth_case_rms(const WearState&, const twin::OperatingPoint&) { return 1.0; }
-
-}  // namespace
-
 TEST_CASE("depth calibration: the log variance of a relative error is ln(1 + s^2)", "[model][depth_calibration]") {
   CHECK(log_relative_variance(0.05) == Approx(std::log(1.0025)).epsilon(1e-12));
   const DepthRatioMeasurement m = depth_ratio_measurement(7, 1e6, 30e-6, 20e-6, 0.1);
@@ -146,9 +128,9 @@ TEST_CASE("depth calibration: the 90 % interval holds a truth drawn from the mod
 
 TEST_CASE("depth calibration: the model's depth and wear crossing follow the inspected depth",
           "[model][depth_calibration]") {
-  const ModelSettings s = depth_case_settings();
+  const ModelSettings s = testing::calibration_case_settings();
   const auto obs = testing::observation(4e5, 20, 20);
-  TwinModel plain(twin::GearboxParameters{}, s, depth_case_rms);
+  TwinModel plain(twin::GearboxParameters{}, s, testing::calibration_case_rms);
   const ModelRunReport r0 = plain.observe(obs, {});
   REQUIRE(r0.forecast.valid);
   const double mean = r0.summary.combined_mean_depth_m;
@@ -160,7 +142,7 @@ TEST_CASE("depth calibration: the model's depth and wear crossing follow the ins
   in.id = 3;
   in.cycles = 4e5;
   in.wear_depth_m = 1.5 * mean;
-  TwinModel calibrated(twin::GearboxParameters{}, s, depth_case_rms);
+  TwinModel calibrated(twin::GearboxParameters{}, s, testing::calibration_case_rms);
   const ModelRunReport r1 = calibrated.observe(obs, {in});
   REQUIRE(r1.forecast.valid);
   // No K_wear update read a shape: the prior is N(0, prior_log_k_wear_sd²).
@@ -174,7 +156,7 @@ TEST_CASE("depth calibration: the model's depth and wear crossing follow the ins
   // The nominal wear crossing is the model's crossing of limit / ρ: a model whose limit is that.
   ModelSettings scaled = s;
   scaled.wear_limit_m = s.wear_limit_m / r1.forecast.depth_ratio;
-  TwinModel reference(twin::GearboxParameters{}, scaled, depth_case_rms);
+  TwinModel reference(twin::GearboxParameters{}, scaled, testing::calibration_case_rms);
   const ModelRunReport r2 = reference.observe(obs, {});
   REQUIRE(r2.forecast.wear.cycles_left);
   REQUIRE(r1.forecast.wear.cycles_left);

@@ -26,6 +26,21 @@ constexpr double kMaxToneReachOrders = 12;
 
 double ratio_db(double measured, double model, double floor) { return 10.0 * std::log10((measured + floor) / (model + floor)); }
 
+// Cells a level-and-slope law in dB acts on: position x (a log frequency or order), the twin's power,
+// the measured g and the comparison's floor.
+using FloorPoint = std::tuple<double, double, double, double>;
+
+// The squared misfit in g of the law level + slope·x applied to the twin, read through the same
+// floor as the comparison (so cells the law takes toward the floor are compressed alike).
+double rss_through_floor(const std::vector<FloorPoint>& points, double level, double slope) {
+  double sum = 0;
+  for (const auto& [x, twin, g, floor] : points) {
+    const double d = g - ratio_db(twin * std::pow(10.0, (level + slope * x) / 10), twin, floor);
+    sum += d * d;
+  }
+  return sum;
+}
+
 /// The minimum of a unimodal f on [lo, hi] by the shared golden-section search, with `iterations`
 /// shrinking steps after the first two points; f there goes to `value` when given.
 double golden_min(const std::function<double(double)>& f, double lo, double hi, int iterations = 40,
@@ -319,7 +334,7 @@ FeatureDescriber::Fit FeatureDescriber::floor_change() const {
   auto [level, slope] = line_fit(x, y);
   // The comparison's floor compresses g where the twin's bins sit near it: the line's least squares
   // over the bins clear of it starts, then the RSS in g itself over every bin above the floor.
-  std::vector<std::tuple<double, double, double, double>> bins;  // log10(f/1 kHz), twin, g, floor
+  std::vector<FloorPoint> bins;  // log10(f/1 kHz), twin, g, floor
   for (const auto& r : records_)
     for (const auto& c : r.cells)
       if (c.kind == CellKind::broadband && c.twin >= r.floor && c.hz > 0)
@@ -329,14 +344,7 @@ FeatureDescriber::Fit FeatureDescriber::floor_change() const {
     for (const auto& [lx, t, g, fl] : bins) x.push_back(lx), y.push_back(g);
     std::tie(level, slope) = line_fit(x, y);
   }
-  auto rss = [&](double l, double s) {
-    double sum = 0;
-    for (const auto& [lx, t, g, fl] : bins) {
-      const double d = g - ratio_db(t * std::pow(10.0, (l + s * lx) / 10), t, fl);
-      sum += d * d;
-    }
-    return sum;
-  };
+  auto rss = [&](double l, double s) { return rss_through_floor(bins, l, s); };
   for (int round = 0; round < 6 && !bins.empty(); ++round) {
     const double span = 4.0 / (1 << round);
     level = golden_min([&](double l) { return rss(l, slope); }, level - span, level + span, 30);
@@ -357,7 +365,7 @@ FeatureDescriber::Fit FeatureDescriber::floor_change() const {
 FeatureDescriber::Fit FeatureDescriber::path_tilt() const {
   std::vector<double> x, y;
   // Mesh harmonics above the comparison's floor: log2(harmonic), twin, g, floor.
-  std::vector<std::tuple<double, double, double, double>> lines;
+  std::vector<FloorPoint> lines;
   for (const auto& r : records_)
     for (const auto& c : r.cells)
       if (c.kind == CellKind::input_line && (c.index + 1) % static_cast<std::size_t>(gears_.pinion_teeth) == 0 &&
@@ -370,14 +378,7 @@ FeatureDescriber::Fit FeatureDescriber::path_tilt() const {
   // the high harmonics, 10 dB over the floor: −12 dB reads about −8), so the line through g reads
   // the tilt flat. As for the floor's fit: the line starts, then the RSS in g of the tilt through
   // the same floor.
-  auto rss = [&](double l, double t) {
-    double sum = 0;
-    for (const auto& [o, twin, g, fl] : lines) {
-      const double d = g - ratio_db(twin * std::pow(10.0, (l + t * o) / 10), twin, fl);
-      sum += d * d;
-    }
-    return sum;
-  };
+  auto rss = [&](double l, double t) { return rss_through_floor(lines, l, t); };
   // Level and tilt trade off over harmonics all on one side of the first (log2 n from 0 to 4 or
   // more), so one at a time creeps: the tilt by golden section, the best level for each.
   if (lines.size() >= 2) {
