@@ -64,6 +64,13 @@ std::string out_of_range_text(const ModelObservation& obs, const ModelSettings& 
   return speed + torque;
 }
 
+// One line of the report's detail about an inspection that was not used, and why.
+void note_unused_inspection(ModelRunReport& report, std::int64_t id, const char* why) {
+  if (!report.detail.empty()) report.detail += '\n';
+  report.detail += fmt("inspection %.0f", static_cast<double>(id));
+  report.detail += why;
+}
+
 }  // namespace
 
 RmsSaSimulator twin_rms_sa_simulator(twin::GearboxParameters params, const GearboxSpec& rig,
@@ -1147,8 +1154,7 @@ void TwinModel::read_depth_inspections(const std::vector<Inspection>& inspection
     const double model = model_mean_at(i.cycles, prev_cycles, prev_mean, now, now_mean);
     if (!(*i.wear_depth_m > 0) || !std::isfinite(*i.wear_depth_m) || !(model > 0)) {
       // Never a reading: a depth of 0 (or a model without wear there) gives no ratio.
-      report.detail += (report.detail.empty() ? "" : "\n") + fmt("inspection %.0f", static_cast<double>(i.id)) +
-                       ": wear depth not used for the depth calibration (measured or model depth not positive)";
+      note_unused_inspection(report, i.id, ": wear depth not used for the depth calibration (measured or model depth not positive)");
       continue;
     }
     points.push_back(depth_ratio_measurement(i.id, i.cycles, *i.wear_depth_m, model, inspection_depth_sd(i)));
@@ -1167,8 +1173,7 @@ void TwinModel::read_peak_inspections(const std::vector<Inspection>& inspections
       // The deepest point is read against the same mould's mean: without both there is no ratio.
       // Said once: at the first record at or after the inspection.
       if (i.cycles > since)
-        report.detail += (report.detail.empty() ? "" : "\n") + fmt("inspection %.0f", static_cast<double>(i.id)) +
-                         ": deepest wear point not used (it needs a positive mean wear depth from the same inspection)";
+        note_unused_inspection(report, i.id, ": deepest wear point not used (it needs a positive mean wear depth from the same inspection)");
       continue;
     }
     peaks.push_back(peak_ratio_measurement(i.id, i.cycles, *i.wear_depth_max_m, *i.wear_depth_m, inspection_depth_sd(i)));
