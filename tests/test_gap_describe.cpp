@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <functional>
 #include <complex>
 #include <numbers>
 #include <random>
@@ -549,22 +550,29 @@ TEST_CASE("gap describe: a broadband floor change is described with its level an
   CHECK(d.parameter("slope_db_per_decade") == Approx(slope).margin(0.1));
 }
 
-TEST_CASE("gap describe: a transfer-path tilt is described in dB per octave over the mesh harmonics", "[gap][gap_describe]") {
-  // Every line and bin × 10^(3·log2(f/f_mesh)/10): +3 dB per octave from the first mesh harmonic.
-  const double fs = 20000, tilt = 3;
-  std::mt19937_64 rng(355);
+// The fourth mesh harmonic's feature described on records whose every line and bin is scaled by
+// 10^(tilt·log2(f/f_mesh)/10), after `shape_twin` has set the twin's own lines.
+FeatureDescription describe_tilted(double tilt, unsigned seed, const std::function<void(Pair&)>& shape_twin) {
+  const double fs = 20000;
+  std::mt19937_64 rng(seed);
   std::vector<Pair> pairs;
   for (double speed : kSpeeds) {
     Pair p = twin_pair(fs, speed);
+    shape_twin(p);
     const double mesh = kZ1 * speed;
     scale_cells(p, [&](double hz) { return std::pow(10.0, tilt * std::log2(hz / mesh) / 10); });
     finish_measurement(p, rng);
     pairs.push_back(std::move(p));
   }
   const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  // The fourth mesh harmonic, +6 dB.
   const auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 75.5, 76.5, 75.5 * kSpeeds.front(), 76.5 * kSpeeds.back());
-  const auto d = describer.describe(f);
+  return describer.describe(f);
+}
+
+TEST_CASE("gap describe: a transfer-path tilt is described in dB per octave over the mesh harmonics", "[gap][gap_describe]") {
+  // +3 dB per octave from the first mesh harmonic: the fourth, +6 dB.
+  const double tilt = 3;
+  const auto d = describe_tilted(tilt, 355, [](Pair&) {});
   INFO(text_of(d));
   REQUIRE(d.kind == DescriptionKind::path_tilt);
   // The mesh harmonics up to 0.45·fs (15–26 of them per record), 0.2 dB each: within 0.1 dB/octave
@@ -574,30 +582,19 @@ TEST_CASE("gap describe: a transfer-path tilt is described in dB per octave over
 }
 
 TEST_CASE("gap describe: a falling tilt that takes the high mesh harmonics to the comparison's floor is read whole", "[gap][gap_describe]") {
-  // Every line and bin × 10^(−3·log2(f/f_mesh)/10), on a twin whose mesh harmonics fall as 1/n⁴ in
+  // −3 dB per octave (the fourth mesh harmonic −6 dB), on a twin whose mesh harmonics fall as 1/n⁴ in
   // power: the 17th stands 10.5 dB over the comparison's floor in the twin and the tilt takes it
   // 12.3 dB down, under the floor, where g reads −8.7 dB. A line through g reads the tilt flat
   // (about −2.5 dB/octave here); the form's power, through the same floor, does not.
-  const double fs = 20000, tilt = -3;
-  std::mt19937_64 rng(358);
-  std::vector<Pair> pairs;
-  for (double speed : kSpeeds) {
-    Pair p = twin_pair(fs, speed);
+  const double tilt = -3;
+  const auto d = describe_tilted(tilt, 358, [](Pair& p) {
     for (std::size_t k = kZ1 - 1; k < p.twin_input.size(); k += kZ1) {
       const double n = static_cast<double>(k + 1) / kZ1;
       p.twin_input[k] = std::polar(1.0 / (n * n), std::arg(p.twin_input[k]));
       p.twin.input_lines[k] = std::norm(p.twin_input[k]);
     }
     p.measured = p.twin, p.measured_input = p.twin_input;
-    const double mesh = kZ1 * speed;
-    scale_cells(p, [&](double hz) { return std::pow(10.0, tilt * std::log2(hz / mesh) / 10); });
-    finish_measurement(p, rng);
-    pairs.push_back(std::move(p));
-  }
-  const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  // The fourth mesh harmonic, −6 dB.
-  const auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 75.5, 76.5, 75.5 * kSpeeds.front(), 76.5 * kSpeeds.back());
-  const auto d = describer.describe(f);
+  });
   INFO(text_of(d));
   REQUIRE(d.kind == DescriptionKind::path_tilt);
   // The harmonics 10 dB or more over the floor in the twin (1-17 in every record), 0.2 dB each: the

@@ -5,6 +5,21 @@
 
 namespace gearwatch::wear {
 
+namespace {
+
+// The normal whose central `coverage` interval is [low, high].
+LogPosterior normal_spanning(double low, double high, double coverage) {
+  LogPosterior p;
+  p.valid = true;
+  const double z = normal_quantile(0.5 + coverage / 2.0);
+  p.mean = (low + high) / 2.0;
+  const double sd = (high - low) / (2.0 * z);
+  p.var = sd * sd;
+  return p;
+}
+
+}  // namespace
+
 double log_relative_variance(double relative_sd) { return std::log1p(relative_sd * relative_sd); }
 
 DepthRatioMeasurement depth_ratio_measurement(std::int64_t id, double cycles, double measured_m, double model_m,
@@ -21,11 +36,7 @@ LogPosterior shape_range_prior(double shape_ratio, double log_sd, double coverag
   }
   const double z = normal_quantile(0.5 + coverage / 2.0);
   const double s = std::max(0.0, log_sd), l = std::log(shape_ratio);
-  const double low = std::min(0.0, l) - z * s, high = std::max(0.0, l) + z * s;
-  p.mean = (low + high) / 2.0;
-  const double sd = (high - low) / (2.0 * z);
-  p.var = sd * sd;
-  return p;
+  return normal_spanning(std::min(0.0, l) - z * s, std::max(0.0, l) + z * s, coverage);
 }
 
 LogPosterior depth_ratio_posterior(const LogPosterior& prior, std::vector<DepthRatioMeasurement> measurements, double q_per_cycle,
@@ -72,11 +83,8 @@ LogPosterior peak_ratio_prior(double model_peak, double shape_peak, double cover
     p.var = fallback_sd * fallback_sd;
     return p;
   }
-  const double b = std::log(shape_peak), z = normal_quantile(0.5 + coverage / 2.0);
-  p.mean = (a + b) / 2.0;
-  const double sd = std::abs(b - a) / (2.0 * z);
-  p.var = sd * sd;
-  return p;
+  const double b = std::log(shape_peak);
+  return normal_spanning(std::min(a, b), std::max(a, b), coverage);
 }
 
 DeepestFactor deepest_point_factor(const LogPosterior& log_rho, const LogPosterior& log_peak, double model_peak, double coverage) {
