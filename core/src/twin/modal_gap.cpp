@@ -573,7 +573,7 @@ class ModalGapAnalysis {
   // Applies an option's candidates to the current model and scores it; its row goes to the report.
   ScoredOption score_option(const std::vector<std::size_t>& option, int step) {
     ScoredOption o{{}, model_, current_knobs_};
-    CandidateScore cs;
+    StructuralOptionScore cs;
     for (std::size_t c : option) {
       candidates_[c].apply(o.model, o.knobs);
       cs.name += (cs.name.empty() ? "" : " + ") + candidates_[c].name;

@@ -196,8 +196,9 @@ struct ModalGapMode {
   double fitted_hz_after = 0;                 ///< the full fit with the adopted effects
 };
 
-/// One option scored at a greedy step: a candidate, or two joined by " + ".
-struct CandidateScore {
+/// One option of structural candidates scored at a greedy step: a candidate, or two joined by " + "
+/// (not gap::CandidateScore, the gap diagnosis's candidate effect scored on held-out records).
+struct StructuralOptionScore {
   std::string name, description;
   int added_knobs = 0;
   int step = 0;                      ///< greedy step at which it was scored (1, 2, …)
@@ -227,7 +228,7 @@ struct ModalGapReport {
   std::vector<double> measured_hz;
   std::vector<ModalKnob> baseline_knobs;
   LeaveOutScore baseline;            ///< the grouped twin
-  std::vector<CandidateScore> candidates;  ///< in the order scored
+  std::vector<StructuralOptionScore> candidates;  ///< in the order scored
   std::vector<std::string> adopted;  ///< in the order adopted
   std::vector<ModalKnob> final_knobs;
   LeaveOutScore final_score;         ///< with the adopted effects
