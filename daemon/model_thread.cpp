@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <set>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
@@ -20,9 +22,11 @@
 #include "gearwatch/storage/gap_kept_records.hpp"
 #include "gearwatch/storage/inspections.hpp"
 #include "gearwatch/storage/model_history.hpp"
+#include "gearwatch/storage/processing_history.hpp"
 #include "gearwatch/storage/resume.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/types/gear_pair_boundary.hpp"
 #include "gearwatch/types/indicator.hpp"
 #include "gearwatch/types/log_rate.hpp"
 
@@ -126,9 +130,15 @@ ModelInput model_input(const storage::RecordResult& record, const config::Gearwa
 std::deque<ModelInput> stored_backlog(const std::string& database_path, const config::GearwatchConfig& config) {
   storage::Database db(database_path, storage::Database::Mode::read_only);
   std::deque<ModelInput> backlog;
+  const storage::GearPairInputs pair_inputs = storage::load_gear_pair_inputs(db);
+  const GearPairHistory pairs = decide_gear_pairs(pair_inputs.records, pair_inputs.resets);
+  std::set<std::int64_t> after_reset;  // the records a recorded reset came just before
+  for (std::size_t i = 0; i < pairs.boundaries.size(); ++i)
+    if (pairs.boundaries[i] == PairBoundary::life_counter_reset) after_reset.insert(pair_inputs.record_ids[i]);
   for (const auto& stored : storage::load_records_after_newest_model_run(db, model_channel(config))) {
     ModelInput in = model_input(stored.record, config);
     in.stored_record_id = stored.record_id;
+    in.life_counter_reset_before = after_reset.count(stored.record_id) > 0;
     in.sample_rate_hz = stored.sample_rate_hz;  // as the processing thread gives it for a live record
     backlog.push_back(std::move(in));
   }
@@ -468,9 +478,15 @@ std::string ModelThread::place_on_pair(wear::ModelObservation& obs, storage::Mod
   if (!std::isfinite(obs.cycles) || obs.cycles < 0) return {};  // the model reports it as missing_cycles
   const wear::ModelMemory& m = model_->memory();
   const double counter = obs.cycles;
-  if (!pending_pair_ && m.started && counter < pair_.origin_cycles + m.current.state.cycles) {
+  // The previous count is the record the model last advanced to, on the counter's axis.
+  const std::optional<double> previous = m.started ? std::optional(pair_.origin_cycles + m.current.state.cycles) : std::nullopt;
+  const PairBoundary boundary = pair_boundary({previous, counter, std::exchange(reset_recorded_, false)});
+  if (!pending_pair_ && boundary != PairBoundary::none) {
     char b[160];
-    std::snprintf(b, sizeof b, "the life counter went backwards from %.0f to %.0f", pair_.origin_cycles + m.current.state.cycles, counter);
+    if (previous && counter < *previous)
+      std::snprintf(b, sizeof b, "the life counter went backwards from %.0f to %.0f", *previous, counter);
+    else
+      std::snprintf(b, sizeof b, "a life-counter reset was recorded before this record (life counter %.0f)", counter);
     pending_pair_ = PendingPair{b, true, true};
   }
   std::string note;
@@ -504,6 +520,7 @@ void ModelThread::submit(ModelInput input) {
     } else {
       // Behind: coalesce to the newest record; the dropped ones are named in the next stored run.
       for (const auto& q : queue_) {
+        input.life_counter_reset_before = input.life_counter_reset_before || q.life_counter_reset_before;  // the reset stays
         ++pending_skipped_;
         if (!pending_skipped_ids_.empty()) pending_skipped_ids_ += ",";
         pending_skipped_ids_ += std::to_string(q.stream_sequence) + ":" + std::to_string(q.start_index);
@@ -569,6 +586,7 @@ void ModelThread::run() {
 void ModelThread::handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids) {
   storage::ModelRunResult msg;
   wear::ModelObservation observation = input.observation;
+  reset_recorded_ = reset_recorded_ || input.life_counter_reset_before;
   const std::string pair_note = place_on_pair(observation, msg);
   const std::vector<wear::Inspection> inspections = read_inspections();
   msg.stream_sequence = input.stream_sequence;

@@ -41,6 +41,8 @@ struct ModelInput {
   std::shared_ptr<const Record> samples;
   /// Set for a record an earlier process stored and the model had not handled (read back at start).
   std::optional<std::int64_t> stored_record_id;
+  /// A life-counter reset was recorded since the record before it (the gear-pair rule's authoritative sign).
+  bool life_counter_reset_before = false;
 };
 
 /// The accelerometer channel feeding the model: model.channel, else the first configured one.
@@ -141,8 +143,9 @@ class ModelThread {
   /// Decides at start whether the next usable record begins a new gear pair (no stored state,
   /// a stored state that cannot be used, or a stored pair that is not the configured one).
   void plan_pair_start(const StoredModel& stored);
-  /// The record's cycles on the pair's axis; begins a new pair first when one is due (planned,
-  /// or the life counter went backwards). Returns what the record's run says about it ("" = nothing).
+  /// The record's cycles on the pair's axis; begins a new pair first when one is due (planned, or
+  /// by the gear-pair rule: a recorded reset, or the life counter went backwards). Returns what the
+  /// record's run says about it ("" = nothing).
   std::string place_on_pair(wear::ModelObservation& obs, storage::ModelRunResult& msg);
   void handle(const ModelInput& input, std::uint64_t skipped, const std::string& skipped_ids);
   std::vector<wear::Inspection> read_inspections() const;
@@ -175,6 +178,8 @@ class ModelThread {
     bool new_number = true;                ///< false for a database's first pair (it keeps its number)
   };
   std::optional<PendingPair> pending_pair_;
+  /// A life-counter reset recorded since the last record with a count (it begins the next such record's pair).
+  bool reset_recorded_ = false;
   double record_rate_hz_ = 0;  ///< sample rate of the record being handled (model thread only)
   AlertTracker alerts_;
   GapHooks gap_;

@@ -18,6 +18,7 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <utility>
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
@@ -290,6 +291,7 @@ class Pipeline {
   std::optional<RecordProcessor> processor_;
   std::uint64_t current_sequence_ = 0;
   std::uint16_t current_stream_id_ = 0;
+  bool model_reset_pending_ = false;  ///< a life-counter reset was recorded since the model's last record
   std::atomic<std::uint64_t> records_total_{0}, records_analysed_{0}, records_already_stored_{0};
   RecordsWithoutIndicators records_without_indicators_;
   acq::AssemblerCounters assembler_snapshot_;
@@ -607,6 +609,7 @@ void Pipeline::on_record(Record&& r, bool analysable) {
   if (model_ && analysable) {
     model_in = model_input(result, config_);
     model_in->sample_rate_hz = r.sample_rate_hz;  // the twin's counterpart at the stream's rate
+    model_in->life_counter_reset_before = std::exchange(model_reset_pending_, false);
     if (config_.gap.enabled) model_in->samples = std::make_shared<const Record>(std::move(r));
   }
   if (analysable) records_without_indicators_.count(result);
@@ -639,6 +642,7 @@ void Pipeline::on_dropout(const acq::DropoutInfo& g) {
 void Pipeline::on_life_counter(const acq::LifeCounterReset& l) {
   if (resume_.before_resume_point(current_sequence_, current_stream_id_, l.index)) return;
   writer_->submit(storage::LifeCounterEvent{current_sequence_, l.index, l.previous_revolutions, l.revolutions});
+  model_reset_pending_ = true;  // the next record the model gets begins a new gear pair
   writer_->submit(processor_->life_counter_reset(l.previous_revolutions, l.revolutions));
 }
 

@@ -492,4 +492,35 @@ TEST_CASE("report: configured channel names, skip reasons with their records and
   }
 }
 
+TEST_CASE("report: the current gear pair follows the gear-pair rule (a recorded reset and a count going back)", "[report][gear_pair]") {
+  gearwatch::testing::TempDir dir("report-gear-pair");
+  gearwatch::storage::Database db((dir / "pairs.db").string());
+  gearwatch::storage::open_and_migrate(db);
+  db.exec("INSERT INTO runs(id, kind, source) VALUES (1, 'replay', 'test.log')");
+  db.exec("INSERT INTO streams(id, run_id, sequence, stream_id, sample_rate_hz, channel_count) VALUES (1, 1, 1, 7, 25600, 1)");
+  auto add_record = [&](int id, double revolutions) {
+    db.exec("INSERT INTO records(id, stream_key, start_index, sample_count, duration_s, end_reason, analysed, input_revolutions, created_at)"
+            " VALUES (" + std::to_string(id) + ", 1, " + std::to_string(id * 1000) + ", 1000, 1.0, 'complete', 1, " +
+            std::to_string(revolutions) + ", '2026-01-0" + std::to_string(id) + "T00:00:00Z')");
+  };
+  for (int id = 1; id <= 3; ++id) add_record(id, 100.0 * id);
+  ReportData one = load_report_data(db, "pairs.db", "now");
+  CHECK(one.gear_pair_number == 1);
+  CHECK(one.records.size() == 3);
+  // A reset inside record 2 with the counts still rising: record 3 begins pair 2.
+  db.exec("INSERT INTO life_counter_events(stream_key, sample_index, previous_revolutions, revolutions) VALUES (1, 2500, 250, 0)");
+  ReportData reset = load_report_data(db, "pairs.db", "now");
+  CHECK(reset.gear_pair_number == 2);
+  REQUIRE(reset.records.size() == 1);
+  CHECK(reset.records.front().id == 3);
+  CHECK(reset.gear_pair_started_at == std::string("2026-01-03T00:00:00Z"));
+  // Record 4's count below record 3's with no reset recorded: pair 3, its only record.
+  add_record(4, 50.0);
+  ReportData back = load_report_data(db, "pairs.db", "now");
+  CHECK(back.gear_pair_number == 3);
+  REQUIRE(back.records.size() == 1);
+  CHECK(back.records.front().id == 4);
+  CHECK(back.total_records == 4);
+}
+
 }  // namespace test_report

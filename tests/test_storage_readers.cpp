@@ -335,4 +335,26 @@ TEST_CASE("storage readers: a new file has no tables and no gap reports table", 
   CHECK(count_gap_reports(db) == 0);
 }
 
+TEST_CASE("storage readers: the current gear pair's first record by the gear-pair rule", "[storage][readers][gear_pair]") {
+  ReaderDb h("pair-start");
+  for (int r = 1; r <= 5; ++r) h.record(r, "2026-01-01T00:00:00Z", std::to_string(100 * r).c_str());
+  CHECK(current_gear_pair_first_record(h.db) == 1);  // neither: one pair
+  // A reset inside record 3 (samples 3000-3999), the counts still rising: record 4 begins the pair.
+  h.db.exec("INSERT INTO life_counter_events(stream_key, sample_index, previous_revolutions, revolutions) VALUES (1, 3500, 350, 0)");
+  const GearPairInputs in = load_gear_pair_inputs(h.db);
+  REQUIRE(in.record_ids.size() == 5);
+  CHECK(in.records[2].count == 300.0);
+  CHECK(in.records[2].start.index == 3000);
+  REQUIRE(in.resets.size() == 1);
+  CHECK(in.resets[0].index == 3500);
+  CHECK(current_gear_pair_first_record(h.db) == 4);
+  // Record 6's count below record 5's with no reset recorded: record 6 begins the pair.
+  h.record(6, "2026-01-02T00:00:00Z", "20");
+  CHECK(current_gear_pair_first_record(h.db) == 6);
+  // A reset after the newest record: the installed pair has no records yet.
+  h.db.exec("INSERT INTO life_counter_events(stream_key, sample_index, previous_revolutions, revolutions) VALUES (1, 7000, 30, 0)");
+  CHECK(current_gear_pair_first_record(h.db) == 7);
+  CHECK(load_gear_pair_indicator_values(h.db).empty());
+}
+
 }  // namespace test_storage_readers

@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "gearwatch/storage/processing_history.hpp"
+#include "gearwatch/types/gear_pair_boundary.hpp"
 #include "gearwatch/types/indicator.hpp"
 
 namespace gearwatch::report {
@@ -74,24 +76,19 @@ std::string utc_now_iso8601() {
 
 namespace {
 
-/// The records of the current gear pair; a cycle count going backwards is a life-counter reset: a
-/// new gear pair.
+/// The records of the current gear pair, by the one gear-pair rule (gearwatch/types/gear_pair_boundary.hpp).
 void load_current_pair_records(Database& db, ReportData& d) {
   std::vector<RecordRow> all;
   for (auto& r : storage::load_record_summaries(db))
     all.push_back({r.id, r.input_revolutions, std::move(r.created_at), r.analysed, r.end_reason, r.speed_source});
   d.total_records = static_cast<std::int64_t>(all.size());
-  std::size_t pair_start = 0;
-  std::optional<double> previous;
-  for (std::size_t i = 0; i < all.size(); ++i) {
-    if (!all[i].cycles) continue;
-    if (previous && *all[i].cycles < *previous) {
-      pair_start = i;
-      ++d.gear_pair_number;
-    }
-    previous = all[i].cycles;
-  }
-  d.records.assign(all.begin() + static_cast<std::ptrdiff_t>(pair_start), all.end());
+  const storage::GearPairInputs inputs = storage::load_gear_pair_inputs(db);
+  const GearPairHistory pairs = decide_gear_pairs(inputs.records, inputs.resets);
+  d.gear_pair_number += static_cast<int>(pairs.current_pair);
+  const bool has_records = pairs.current_pair_first < inputs.record_ids.size();
+  const std::int64_t first = has_records ? inputs.record_ids[pairs.current_pair_first] : std::numeric_limits<std::int64_t>::max();
+  for (auto& r : all)
+    if (r.id >= first) d.records.push_back(std::move(r));
   if (!d.records.empty()) d.gear_pair_started_at = d.records.front().created_at;
 }
 

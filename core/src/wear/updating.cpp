@@ -10,6 +10,7 @@
 #include "gearwatch/dsp/record_analyzer.hpp"
 #include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/twin/errors.hpp"
+#include "gearwatch/types/gear_pair_boundary.hpp"
 #include "gearwatch/wear/profile_shape.hpp"
 
 namespace gearwatch::wear {
@@ -419,8 +420,8 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
     finish();
     return report;
   }
-  if (memory_.started && obs.cycles < memory_.current.state.cycles) {
-    // The life counter went backwards: a new gear pair (or a front-end fault; never merged).
+  if (memory_.started && pair_boundary({memory_.current.state.cycles, obs.cycles}) == PairBoundary::count_went_backwards) {
+    // The life counter went backwards: a new gear pair by the gear-pair rule (or a front-end fault; never merged).
     start_new_pair();
     report.new_gear_pair = true;
   } else if (memory_.started && obs.cycles == memory_.current.state.cycles) {

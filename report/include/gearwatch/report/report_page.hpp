@@ -51,7 +51,7 @@ struct ReportData {
   int schema_version = 0;
 
   std::int64_t total_records = 0;      ///< in the whole database
-  int gear_pair_number = 1;            ///< 1 + the times the cycle count went backwards
+  int gear_pair_number = 1;            ///< 1 + the pairs begun before the current one (the gear-pair rule)
   std::vector<RecordRow> records;      ///< of the current gear pair, by id
   std::optional<std::string> gear_pair_started_at;  ///< created_at of its first record
 

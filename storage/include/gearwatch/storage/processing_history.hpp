@@ -1,16 +1,29 @@
 #pragma once
 // Typed readers of what the processing thread needs back at start-up (docs/storage.md): the
 // current gear pair's ICS2 history per channel (for the wear-mechanism verdict) and its indicator
-// values (for the alert baselines). "The current gear pair" is every analysed record made at or
-// after the newest life-counter reset.
+// values (for the alert baselines), and what decides the gear pair (gearwatch/types/gear_pair_boundary.hpp).
+// "The current gear pair" is every record from the current pair's first, by that rule.
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "gearwatch/storage/sqlite.hpp"
+#include "gearwatch/types/gear_pair_boundary.hpp"
 
 namespace gearwatch::storage {
+
+/// What the gear-pair rule reads: every stored record (storage order) and every recorded
+/// life-counter reset, each where it was in the acquired data.
+struct GearPairInputs {
+  std::vector<std::int64_t> record_ids;  ///< ids of `records`, in the same order
+  std::vector<PairRecord> records;
+  std::vector<StreamPosition> resets;
+};
+GearPairInputs load_gear_pair_inputs(Database& db);
+/// The id of the current gear pair's first record (decide_gear_pairs over the stored history);
+/// past the newest record when a reset follows it (the installed pair has no records yet).
+std::int64_t current_gear_pair_first_record(Database& db);
 
 /// One analysed record's ICS2 bands on one channel.
 struct StoredIcs2Point {
