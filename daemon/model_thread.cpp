@@ -35,6 +35,11 @@ namespace {
 
 using nlohmann::json;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+/// The model thread's nice value when processing is lowered at all: the lowest priority Linux
+/// gives, since the model is the least urgent work in the daemon.
+constexpr int kModelThreadNice = 19;
+/// Coalesced records are logged when their running count crosses a multiple of this (and the first time).
+constexpr std::uint64_t kCoalescedLogEvery = 100;
 
 json snapshot_json(const wear::LoopSnapshot& s) {
   return {{"cycles", s.state.cycles},
@@ -526,7 +531,7 @@ void ModelThread::submit(ModelInput input) {
         pending_skipped_ids_ += std::to_string(q.stream_sequence) + ":" + std::to_string(q.start_index);
       }
       const auto dropped = counters_.coalesced.fetch_add(queue_.size()) + queue_.size();
-      if (dropped == queue_.size() || dropped % 100 < queue_.size())
+      if (dropped == queue_.size() || dropped % kCoalescedLogEvery < queue_.size())
         spdlog::warn("model: behind the records; {} coalesced to the newest so far", dropped);
       queue_.clear();
     }
@@ -556,7 +561,7 @@ void ModelThread::stop() {
 
 void ModelThread::run() {
   // The model is the least urgent work in the daemon: it must never take the CPU from acquisition.
-  if (config_.daemon.processing_nice > 0 && ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), 19) != 0)
+  if (config_.daemon.processing_nice > 0 && ::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kModelThreadNice) != 0)
     spdlog::warn("model: could not lower the model thread's priority");
   // The stored backlog first, in storage order: it precedes everything submitted.
   for (; !backlog_.empty(); backlog_.pop_front()) {
@@ -658,7 +663,7 @@ wear::ModelRunReport ModelThread::observe(const ModelInput& input, const wear::M
 void ModelThread::log_report(const wear::ModelRunReport& r, double cycles) {
   for (const auto issue : r.issues) {
     const auto n = ++issue_counts_[issue];  // each kind logged once, then every 1000th
-    if (n == 1 || n % 1000 == 0) spdlog::warn("model: {} (record at {:.6g} cycles; {} so far): {}", wear::to_string(issue), cycles, n, r.detail);
+    if (log_first_occurrence(n)) spdlog::warn("model: {} (record at {:.6g} cycles; {} so far): {}", wear::to_string(issue), cycles, n, r.detail);
   }
   for (const auto& u : r.updates)
     spdlog::info("model: {} {} ({}): {}", wear::to_string(u.kind), wear::to_string(u.outcome), wear::to_string(u.trigger), u.evidence);

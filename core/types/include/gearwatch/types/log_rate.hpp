@@ -16,4 +16,8 @@ constexpr bool log_occurrence(std::uint64_t n) noexcept {
   return n <= kLogFirstOccurrences || n % kLogEveryOccurrences == 0;
 }
 
+/// The same thinning for a problem whose later occurrences add nothing (each is the same kind of
+/// record issue): only the first, then every thousandth.
+constexpr bool log_first_occurrence(std::uint64_t n) noexcept { return n == 1 || n % kLogEveryOccurrences == 0; }
+
 }  // namespace gearwatch
