@@ -231,6 +231,10 @@ class TwinStateCommand {
       std::printf("  calibrated by %s inspected wear depths: rho %s (ln SD %s), combined mean depth %s um (the interval above is rho's)\n",
                   num(pr["wear_depth_inspections"], "%.0f").c_str(), num(pr["wear_depth_ratio"], "%.4g").c_str(),
                   num(pr["wear_depth_ratio_log_sd"], "%.3g").c_str(), num(pr["wear_mean_estimate_m"], "%.3f", 1e6).c_str());
+    if (!pr.value("wear_peak_ratio", json()).is_null())
+      std::printf("  %s inspected deepest points: deepest / mean %s (ln P mean %s, SD %s)\n", num(pr["wear_peak_inspections"], "%.0f").c_str(),
+                  num(pr["wear_peak_ratio"], "%.4g").c_str(), num(pr["wear_peak_ratio_log_mean"], "%.4g").c_str(),
+                  num(pr["wear_peak_ratio_log_sd"], "%.3g").c_str());
     std::printf("  wear depth %s mm limit: %s cycles left [%s, %s]\n", num(pr["wear_limit_m"], "%.3f", 1e3).c_str(),
                 num(pr["wear_cycles_left"], "%.4g").c_str(), num(pr["wear_cycles_left_low"], "%.4g").c_str(),
                 num(pr["wear_cycles_left_high"], "%.4g").c_str());

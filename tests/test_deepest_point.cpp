@@ -7,9 +7,14 @@
 #include <random>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include <catch2/catch.hpp>
 
+#include "command_runner.hpp"
 #include "gearwatch/storage/inspections.hpp"
+#include "gearwatch/storage/model_history.hpp"
+#include "gearwatch/storage/writer.hpp"
 #include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/wear/depth_calibration.hpp"
@@ -172,8 +177,8 @@ TEST_CASE("deepest point: the model's wear crossing follows the inspected deepes
 TEST_CASE("deepest point: the inspections table stores the deepest point and the depths' SD", "[storage][deepest_point]") {
   testing::TempDir dir("deepest-point");
   storage::Database db((dir / "h.db").string());
-  // A database at the schema before the columns: its inspections read without a deepest point.
-  storage::migrate_to_version(db, storage::current_schema_version() - 1);
+  // A database at the schema before the columns (16): its inspections read without a deepest point.
+  storage::migrate_to_version(db, 16);
   db.exec("INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note, gear_pair) VALUES (1e6, NULL, 12e-6, NULL, 0)");
   auto old_rows = storage::load_inspections(db);
   REQUIRE(old_rows.size() == 1);
@@ -192,6 +197,120 @@ TEST_CASE("deepest point: the inspections table stores the deepest point and the
   CHECK_FALSE(rows[0].wear_depth_relative_sd.has_value());
   CHECK(rows[1].wear_depth_max_m == 71e-6);
   CHECK(rows[1].wear_depth_relative_sd == 0.07);
+}
+
+namespace {
+
+gearwatch::testing::CommandResult deepest_point_cli(const std::string& args) {
+  return gearwatch::testing::run_command(std::string(GEARWATCH_BINARY) + " " + args);
+}
+
+// A model run with ρ and P posteriors set to known numbers (or none), as the model thread submits it.
+storage::ModelRunResult deepest_point_run(double cycles, int depth_inspections, int peak_inspections) {
+  storage::ModelRunResult m;
+  m.has_record = false;
+  m.gear_pair = 0;
+  m.report.advanced = true;
+  m.report.observation = testing::observation(cycles, 20, 20);
+  Forecast& f = m.report.forecast;
+  f.valid = true;
+  f.depth_mean_m = 24e-6, f.depth_low_m = 20e-6, f.depth_high_m = 29e-6;
+  f.depth_inspections = depth_inspections, f.depth_ratio = 1.2, f.depth_ratio_log_sd = 0.05;
+  f.peak_inspections = peak_inspections, f.peak_ratio_log_mean = std::log(3.25), f.peak_ratio_log_sd = 0.11;
+  f.peak_ratio = std::exp(f.peak_ratio_log_mean);
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("deepest point: each model run stores ln P's posterior beside rho's and query shows both", "[storage][deepest_point][cli]") {
+  testing::TempDir dir("deepest-point-runs");
+  const std::string db = (dir / "h.db").string();
+  {
+    storage::StorageWriter writer(storage::WriterOptions{db, 5000, 256, 512, 200, 30000, 60.0, {}, std::nullopt});
+    writer.start();
+    writer.submit(deepest_point_run(1e6, 2, 2));
+    writer.submit(deepest_point_run(2e6, 1, 0));   // ρ without an inspected deepest point
+    writer.stop();
+  }
+  {
+    storage::Database d(db, storage::Database::Mode::read_only);
+    const auto c = storage::load_run_calibration(d, 1);
+    REQUIRE(c);
+    CHECK(c->depth_ratio == 1.2);
+    CHECK(c->depth_inspections == 2);
+    CHECK(c->peak_ratio_log_mean == std::log(3.25));
+    CHECK(c->peak_ratio_log_sd == 0.11);
+    REQUIRE(c->peak_ratio);
+    CHECK(*c->peak_ratio == Approx(3.25).epsilon(1e-12));   // exp of ln P's mean
+    CHECK(c->peak_inspections == 2);
+    const auto plain = storage::load_run_calibration(d, 2);
+    REQUIRE(plain);
+    CHECK(plain->depth_ratio == 1.2);
+    CHECK_FALSE(plain->peak_ratio.has_value());
+    CHECK_FALSE(plain->peak_ratio_log_mean.has_value());
+    CHECK_FALSE(plain->peak_inspections.has_value());
+    CHECK_FALSE(storage::load_run_calibration(d, 3).has_value());
+  }
+  // Through the binary: `query predictions` lists ρ's and P's columns after the old ones.
+  const auto q = deepest_point_cli("query predictions --db " + db + " --format json");
+  REQUIRE(q.status == 0);
+  const auto rows = nlohmann::json::parse(q.out);
+  REQUIRE(rows.size() == 2);
+  CHECK(rows[0]["wear_depth_ratio"] == 1.2);
+  CHECK(rows[0]["wear_depth_ratio_log_sd"] == 0.05);
+  CHECK(rows[0]["wear_depth_inspections"] == 2);
+  CHECK(rows[0]["wear_peak_ratio_log_mean"].get<double>() == Approx(std::log(3.25)).epsilon(1e-12));
+  CHECK(rows[0]["wear_peak_ratio_log_sd"] == 0.11);
+  CHECK(rows[0]["wear_peak_ratio"].get<double>() == Approx(3.25).epsilon(1e-12));
+  CHECK(rows[0]["wear_peak_inspections"] == 2);
+  CHECK(rows[1]["wear_peak_ratio"].is_null());
+  CHECK(rows[1]["wear_peak_inspections"].is_null());
+  const auto csv = deepest_point_cli("query predictions --db " + db + " --format csv");
+  REQUIRE(csv.status == 0);
+  const std::string header = csv.out.substr(0, csv.out.find('\n'));
+  CHECK(header.find("forecast_evidence,wear_mean_estimate_m,wear_depth_ratio,wear_depth_ratio_log_sd,wear_depth_inspections,"
+                    "wear_peak_ratio_log_mean,wear_peak_ratio_log_sd,wear_peak_ratio,wear_peak_inspections") != std::string::npos);
+}
+
+TEST_CASE("deepest point: query lists the new columns and reads older databases with them empty", "[storage][deepest_point][cli]") {
+  testing::TempDir dir("deepest-point-query");
+  const std::string db = (dir / "h.db").string();
+  {
+    storage::Database d(db);   // `inspect` writes into an existing history only (no records: at 0 cycles)
+    storage::open_and_migrate(d);
+  }
+  const auto ins = deepest_point_cli("inspect --db " + db + " --cycles 0 --wear-depth 21e-6 --wear-depth-max 68e-6 --depth-sd 0.06");
+  INFO(ins.err);
+  REQUIRE(ins.status == 0);
+  const auto q = deepest_point_cli("query inspections --db " + db + " --format json");
+  REQUIRE(q.status == 0);
+  const auto rows = nlohmann::json::parse(q.out);
+  REQUIRE(rows.size() == 1);
+  CHECK(rows[0]["wear_depth_m"] == 21e-6);
+  CHECK(rows[0]["wear_depth_max_m"] == 68e-6);
+  CHECK(rows[0]["wear_depth_relative_sd"] == 0.06);
+  // A database left at schema 16 (opened read-only, never migrated): both views still answer,
+  // the columns a later schema added read as empty.
+  const std::string old_db = (dir / "old.db").string();
+  {
+    storage::Database d(old_db);
+    storage::migrate_to_version(d, 16);
+    d.exec("INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note, gear_pair) VALUES (1e6, NULL, 12e-6, NULL, 0)");
+    d.exec("INSERT INTO model_runs(gear_pair, cycles, advanced, interval_coverage, wear_depth_ratio) VALUES (0, 1e6, 1, 0.9, 1.1)");
+  }
+  const auto qi = deepest_point_cli("query inspections --db " + old_db + " --format json");
+  REQUIRE(qi.status == 0);
+  const auto old_rows = nlohmann::json::parse(qi.out);
+  REQUIRE(old_rows.size() == 1);
+  CHECK(old_rows[0]["wear_depth_m"] == 12e-6);
+  CHECK(old_rows[0]["wear_depth_max_m"].is_null());
+  const auto qp = deepest_point_cli("query predictions --db " + old_db + " --format json");
+  REQUIRE(qp.status == 0);
+  const auto old_pred = nlohmann::json::parse(qp.out);
+  REQUIRE(old_pred.size() == 1);
+  CHECK(old_pred[0]["wear_depth_ratio"] == 1.1);
+  CHECK(old_pred[0]["wear_peak_ratio"].is_null());
 }
 
 }  // namespace test_deepest_point

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "model_run_columns.hpp"
 #include "stored_rows.hpp"
 #include "stored_tokens.hpp"
 
@@ -12,7 +13,7 @@ namespace {
 // belong to the first pair and have no deepest point.
 std::string inspection_select(Database& db) {
   const char* pair = detail::has_column(db, "inspections", "gear_pair") ? "coalesce(gear_pair, 0)" : "0";
-  const char* deepest = detail::has_column(db, "inspections", "wear_depth_max_m") ? "wear_depth_max_m, wear_depth_relative_sd" : "NULL, NULL";
+  const char* deepest = detail::has_column(db, "inspections", GW_COL_INSPECTION_DEPTH_MAX) ? GW_INSPECTION_DEEPEST_COLUMNS : "NULL, NULL";
   return std::string("SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note, ") + pair + ", " + deepest +
          " FROM inspections";
 }
@@ -60,8 +61,8 @@ GearPairPosition load_gear_pair_position(Database& db) {
 
 std::int64_t insert_inspection(Database& db, const NewInspection& inspection) {
   Statement s(db,
-              "INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note, gear_pair, wear_depth_max_m,"
-              " wear_depth_relative_sd) VALUES (?, ?, ?, ?, ?, ?, ?)");
+              "INSERT INTO inspections(cycles, pitted_area_fraction, wear_depth_m, note, gear_pair, " GW_INSPECTION_DEEPEST_COLUMNS ")"
+              " VALUES (?, ?, ?, ?, ?, ?, ?)");
   s.bind(1, inspection.cycles).bind(2, inspection.pitted_area_fraction).bind(3, inspection.wear_depth_m);
   if (inspection.note.empty()) s.bind_null(4);
   else s.bind(4, inspection.note);

@@ -1,5 +1,6 @@
 #include "gearwatch/storage/model_history.hpp"
 
+#include "model_run_columns.hpp"
 #include "stored_rows.hpp"
 #include "stored_tokens.hpp"
 
@@ -50,6 +51,25 @@ std::optional<std::string> load_forecast_curve(Database& db, std::int64_t run_id
   s.bind(1, run_id);
   if (!s.step() || s.is_null(0)) return std::nullopt;
   return s.get_text(0);
+}
+
+std::optional<StoredRunCalibration> load_run_calibration(Database& db, std::int64_t run_id) {
+  const bool has_rho = detail::has_column(db, "model_runs", GW_COL_DEPTH_RATIO);
+  const bool has_peak = detail::has_column(db, "model_runs", GW_COL_PEAK_RATIO);
+  Statement s(db, std::string("SELECT ") + (has_rho ? GW_DEPTH_RATIO_COLUMNS : "NULL, NULL, NULL, NULL") + ", " +
+                      (has_peak ? GW_PEAK_RATIO_COLUMNS : "NULL, NULL, NULL, NULL") + " FROM model_runs WHERE id = ?");
+  s.bind(1, run_id);
+  if (!s.step()) return std::nullopt;
+  StoredRunCalibration c;
+  c.depth_estimate_m = detail::optional_double(s, 0);
+  c.depth_ratio = detail::optional_double(s, 1);
+  c.depth_ratio_log_sd = detail::optional_double(s, 2);
+  c.depth_inspections = detail::optional_int(s, 3);
+  c.peak_ratio_log_mean = detail::optional_double(s, 4);
+  c.peak_ratio_log_sd = detail::optional_double(s, 5);
+  c.peak_ratio = detail::optional_double(s, 6);
+  c.peak_inspections = detail::optional_int(s, 7);
+  return c;
 }
 
 std::vector<PredictionPoint> load_predictions_nearest(Database& db, std::int64_t gear_pair, double cycles, int n) {

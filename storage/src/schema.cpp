@@ -11,12 +11,13 @@
 #include "gearwatch/types/skip_reason.hpp"
 #include "gearwatch/types/speed_source.hpp"
 #include "gearwatch/types/wear_mechanism.hpp"
+#include "model_run_columns.hpp"
 
 namespace gearwatch::storage {
 namespace {
 
 // Each entry moves the schema from version i to i+1. Never edit a released step: add one.
-constexpr std::array<const char*, 17> kMigrations{
+constexpr std::array<const char*, 18> kMigrations{
     // 0 -> 1: acquisition, records, indicators, staff views.
     R"SQL(
 CREATE TABLE runs (
@@ -668,6 +669,28 @@ CREATE VIEW predictions AS
     R"SQL(
 ALTER TABLE inspections ADD COLUMN wear_depth_max_m REAL;
 ALTER TABLE inspections ADD COLUMN wear_depth_relative_sd REAL;
+)SQL",
+    // 17 -> 18: the deepest-point posterior beside ρ's (docs/model.md, "Deepest point"): the mean and
+    // SD of ln P, deepest / mean, and the inspections it rests on; NULL without inspected deepest points.
+    "ALTER TABLE model_runs ADD COLUMN " GW_COL_PEAK_LOG_MEAN " REAL;\n"
+    "ALTER TABLE model_runs ADD COLUMN " GW_COL_PEAK_LOG_SD " REAL;\n"
+    "ALTER TABLE model_runs ADD COLUMN " GW_COL_PEAK_RATIO " REAL;\n"
+    "ALTER TABLE model_runs ADD COLUMN " GW_COL_PEAK_INSPECTIONS " INTEGER;\n"
+    R"SQL(
+DROP VIEW predictions;
+CREATE VIEW predictions AS
+  SELECT m.id AS run_id, m.created_at, m.record_id, m.gear_pair, m.cycles, m.speed_hz, m.torque_nm,
+         m.k_wear, m.k_pitting, m.rms_sa_measured, m.rms_sa_simulated, m.ics2_low, m.ics2_density_estimate,
+         m.wear_mean_m, m.wear_max_m, m.pitting_mean, m.pitting_max,
+         m.wear_limit_m, m.wear_cycles_left, m.wear_cycles_left_low, m.wear_cycles_left_high,
+         m.pitting_limit, m.pitting_cycles_left, m.pitting_cycles_left_low, m.pitting_cycles_left_high,
+         m.forecast_speed_hz, m.forecast_torque_nm, m.forecast_failure,
+         (SELECT group_concat(i.issue, ',') FROM model_run_issues i WHERE i.run_id = m.id) AS issues, m.detail,
+         m.interval_coverage,
+         (SELECT group_concat(f.flag, ',') FROM model_run_forecast_flags f WHERE f.run_id = m.id) AS forecast_flags,
+         m.forecast_evidence, m.wear_mean_low_m, m.wear_mean_high_m,
+         )SQL" GW_DEPTH_RATIO_COLUMNS ", " GW_PEAK_RATIO_COLUMNS R"SQL(
+  FROM model_runs m WHERE m.advanced = 1;
 )SQL",
 };
 

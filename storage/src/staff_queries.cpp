@@ -3,6 +3,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "model_run_columns.hpp"
 #include "stored_rows.hpp"
 #include "stored_tokens.hpp"
 
@@ -25,7 +26,7 @@ Source source_of(QueryView view) {
     case QueryView::indicators:
       return {"SELECT record_id, created_at, cycles, speed_hz, torque_nm, channel, name, value FROM indicators", "created_at", "channel"};
     case QueryView::health: return {"SELECT * FROM acquisition_health", "taken_at"};
-    case QueryView::inspections: return {"SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note FROM inspections", "entered_at"};
+    case QueryView::inspections: break;  // source_of(db, ...): columns by schema version
     case QueryView::records: return {"SELECT * FROM record_status", "created_at"};
     case QueryView::gaps:
       return {"SELECT g.id, g.detected_at, s.run_id, s.stream_id, g.channel, g.first_missing_index, g.missing_samples, g.cause"
@@ -37,15 +38,44 @@ Source source_of(QueryView view) {
               " iterations, measured, simulated_before, simulated_after, correlation_before, correlation_after, record_id, evidence"
               " FROM k_updates",
               "created_at"};
-    case QueryView::predictions:
-      return {"SELECT run_id, created_at, record_id, gear_pair, cycles, speed_hz, torque_nm, k_wear, k_pitting, rms_sa_measured,"
-              " rms_sa_simulated, ics2_low, ics2_density_estimate, wear_mean_m, wear_max_m, pitting_mean, pitting_max, wear_limit_m,"
-              " wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit, pitting_cycles_left,"
-              " pitting_cycles_left_low, pitting_cycles_left_high, interval_coverage, forecast_flags, issues, detail, forecast_evidence"
-              " FROM predictions",
-              "created_at"};
+    case QueryView::predictions: break;
   }
   throw std::logic_error("query view without a source");
+}
+
+// `columns` (a comma-separated list) as `object` has them, each missing one (a database from before
+// the schema that added it) read as NULL under its name: the old views keep working.
+std::string columns_or_null(Database& db, const char* object, const std::string& columns) {
+  std::string out, name;
+  auto flush = [&] {
+    const auto b = name.find_first_not_of(' '), e = name.find_last_not_of(' ');
+    const std::string n = name.substr(b, e - b + 1);
+    out += ", " + (detail::has_column(db, object, n) ? n : "NULL AS " + n);
+    name.clear();
+  };
+  for (char c : columns) {
+    if (c == ',') flush();
+    else name += c;
+  }
+  flush();
+  return out;
+}
+
+Source source_of(Database& db, QueryView view, std::string& sql) {
+  switch (view) {
+    case QueryView::inspections:
+      sql = "SELECT id, entered_at, cycles, pitted_area_fraction, wear_depth_m, note" +
+            columns_or_null(db, "inspections", GW_INSPECTION_DEEPEST_COLUMNS) + " FROM inspections";
+      return {sql.c_str(), "entered_at"};
+    case QueryView::predictions:
+      sql = "SELECT run_id, created_at, record_id, gear_pair, cycles, speed_hz, torque_nm, k_wear, k_pitting, rms_sa_measured,"
+            " rms_sa_simulated, ics2_low, ics2_density_estimate, wear_mean_m, wear_max_m, pitting_mean, pitting_max, wear_limit_m,"
+            " wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit, pitting_cycles_left,"
+            " pitting_cycles_left_low, pitting_cycles_left_high, interval_coverage, forecast_flags, issues, detail, forecast_evidence" +
+            columns_or_null(db, "predictions", GW_DEPTH_RATIO_COLUMNS ", " GW_PEAK_RATIO_COLUMNS) + " FROM predictions";
+      return {sql.c_str(), "created_at"};
+    default: return source_of(view);
+  }
 }
 
 }  // namespace
@@ -91,7 +121,8 @@ QueryViewAvailability query_view_availability(Database& db, QueryView view) {
 }
 
 StoredTable query_view(Database& db, QueryView view, const QueryFilter& filter) {
-  const Source source = source_of(view);
+  std::string view_sql;
+  const Source source = source_of(db, view, view_sql);
   const std::string time_col = source.time_col;
   std::string sql = source.sql;
   std::vector<std::string> bind;

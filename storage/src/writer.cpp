@@ -13,6 +13,7 @@
 #include "gearwatch/storage/schema.hpp"
 #include "gearwatch/storage/sqlite.hpp"
 #include "gearwatch/types/log_rate.hpp"
+#include "model_run_columns.hpp"
 
 namespace gearwatch::storage {
 namespace {
@@ -147,10 +148,9 @@ class BatchWriter {
                 " pinion_wear_mean_m, gear_wear_mean_m, pitting_mean, pitting_max, pitting_max_fraction, forecast_speed_hz,"
                 " forecast_torque_nm, wear_limit_m, wear_cycles_left, wear_cycles_left_low, wear_cycles_left_high, pitting_limit,"
                 " pitting_cycles_left, pitting_cycles_left_low, pitting_cycles_left_high, forecast_failure, profile, forecast_curve, detail,"
-                " interval_coverage, forecast_evidence, wear_mean_low_m, wear_mean_high_m, wear_mean_estimate_m, wear_depth_ratio,"
-                " wear_depth_ratio_log_sd, wear_depth_inspections)"
+                " interval_coverage, forecast_evidence, wear_mean_low_m, wear_mean_high_m, " GW_DEPTH_RATIO_COLUMNS ", " GW_PEAK_RATIO_COLUMNS ")"
                 " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?,"
-                " ?, ?, ?, ?)");
+                " ?, ?, ?, ?, ?, ?, ?, ?)");
     s.bind(1, record_id).bind(2, m.gear_pair).bind(3, r.observation.cycles).bind(4, r.observation.speed_hz)
         .bind(5, r.observation.torque_nm).bind(6, advanced ? 1 : 0).bind(7, m.skipped_records);
     if (m.skipped_record_ids.empty()) s.bind_null(8);
@@ -179,6 +179,10 @@ class BatchWriter {
     s.bind(40, opt(calibrated, f.depth_mean_m)).bind(41, opt(calibrated, f.depth_ratio)).bind(42, opt(calibrated, f.depth_ratio_log_sd));
     if (calibrated) s.bind(43, static_cast<std::int64_t>(f.depth_inspections));
     else s.bind_null(43);
+    const bool peaked = f.valid && f.peak_inspections > 0;
+    s.bind(44, opt(peaked, f.peak_ratio_log_mean)).bind(45, opt(peaked, f.peak_ratio_log_sd)).bind(46, opt(peaked, f.peak_ratio));
+    if (peaked) s.bind(47, static_cast<std::int64_t>(f.peak_inspections));
+    else s.bind_null(47);
     s.run();
     const std::int64_t run_id = db_.last_insert_rowid();
     if (m.store_state) {

@@ -1234,6 +1234,7 @@ bool TwinModel::apply_depth_calibration(Forecast& f, const WearLoopOptions& o) c
     // times ρ P / its own peak ratio (held at today's along the path).
     const DeepestFactor k = deepest_point_factor(p, peak, model_peak, kNominalCoverage);
     f.peak_inspections = static_cast<int>(memory_.peak_ratio_points.size());
+    f.peak_ratio_log_mean = peak.mean;
     f.peak_ratio = std::exp(peak.mean);
     f.peak_ratio_log_sd = std::sqrt(peak.var);
     f.wear.cycles_left = crossing(memory_.k_wear_si, memory_.k_pitting, k.nominal);

@@ -38,6 +38,17 @@ StoredTable load_newest_prediction(Database& db, std::int64_t gear_pair);
 /// The forecast curve (JSON) stored with model run `run_id`, nullopt when it has none.
 std::optional<std::string> load_forecast_curve(Database& db, std::int64_t run_id);
 
+/// The depth calibration model run `run_id` stored: ρ (schema 16) and the deepest point P
+/// (schema 18); each none where the run had no such inspections or the schema predates it.
+struct StoredRunCalibration {
+  std::optional<double> depth_estimate_m, depth_ratio, depth_ratio_log_sd;
+  std::optional<std::int64_t> depth_inspections;
+  std::optional<double> peak_ratio_log_mean, peak_ratio_log_sd, peak_ratio;
+  std::optional<std::int64_t> peak_inspections;
+};
+/// nullopt when there is no such run.
+std::optional<StoredRunCalibration> load_run_calibration(Database& db, std::int64_t run_id);
+
 /// The predicted means of a run at its cycles.
 struct PredictionPoint {
   double cycles = 0, wear_mean_m = 0, pitting_mean = 0;

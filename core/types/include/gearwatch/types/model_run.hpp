@@ -150,10 +150,10 @@ struct Forecast {
   int depth_inspections = 0;
   double depth_ratio = 0, depth_ratio_log_sd = 0;
   /// The deepest point over the mean from inspected profiles (0 inspections: none): the posterior
-  /// median of P and the SD of ln P. With it, the wear crossings are at limit over ρ P / the model's
-  /// own peak ratio.
+  /// mean and SD of ln P, and P's posterior median exp(mean). With it, the wear crossings are at
+  /// limit over ρ P / the model's own peak ratio.
   int peak_inspections = 0;
-  double peak_ratio = 0, peak_ratio_log_sd = 0;
+  double peak_ratio_log_mean = 0, peak_ratio_log_sd = 0, peak_ratio = 0;
   std::vector<ForecastFlag> flags;         ///< why the interval is wider or nearer than the posterior alone
   std::string evidence;                    ///< one line: the numbers behind the flags
   std::vector<ForecastPoint> curve;        ///< at the nominal K
