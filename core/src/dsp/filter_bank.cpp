@@ -6,6 +6,7 @@
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
+#include <utility>
 
 namespace gearwatch::dsp {
 
@@ -370,23 +371,67 @@ void OneThirdBinaryFilterBank::visit(int depth, int band, std::span<const Comple
   visit(depth + 1, 2 * band + 1, d_span, half);
 }
 
+namespace {
+
+// Sums over a node in four independent chains (a single running sum waits on each addition's
+// latency at every sample); the order differs from a running sum only by rounding.
+Complex node_sum(std::span<const Complex> c) {
+  double re[2] = {0.0, 0.0}, im[2] = {0.0, 0.0};
+  std::size_t i = 0;
+  for (; i + 2 <= c.size(); i += 2)
+    for (std::size_t j = 0; j < 2; ++j) {
+      re[j] += c[i + j].real();
+      im[j] += c[i + j].imag();
+    }
+  if (i < c.size()) {
+    re[0] += c[i].real();
+    im[0] += c[i].imag();
+  }
+  return {re[0] + re[1], im[0] + im[1]};
+}
+
+// (sum |c - mean|^2, sum |c - mean|^4) in four chains each.
+std::pair<double, double> central_moment_sums(std::span<const Complex> c, Complex mean) {
+  double m2[4] = {}, m4[4] = {};
+  std::size_t i = 0;
+  for (; i + 4 <= c.size(); i += 4)
+    for (std::size_t j = 0; j < 4; ++j) {
+      const double dr = c[i + j].real() - mean.real(), di = c[i + j].imag() - mean.imag();
+      const double p = dr * dr + di * di;
+      m2[j] += p;
+      m4[j] += p * p;
+    }
+  for (; i < c.size(); ++i) {
+    const double dr = c[i].real() - mean.real(), di = c[i].imag() - mean.imag();
+    const double p = dr * dr + di * di;
+    m2[0] += p;
+    m4[0] += p * p;
+  }
+  return {(m2[0] + m2[1]) + (m2[2] + m2[3]), (m4[0] + m4[1]) + (m4[2] + m4[3])};
+}
+
+// sum |c|^2 in four chains.
+double power_sum(std::span<const Complex> c) {
+  double acc[4] = {};
+  std::size_t i = 0;
+  for (; i + 2 <= c.size(); i += 2) {
+    acc[0] += c[i].real() * c[i].real();
+    acc[1] += c[i].imag() * c[i].imag();
+    acc[2] += c[i + 1].real() * c[i + 1].real();
+    acc[3] += c[i + 1].imag() * c[i + 1].imag();
+  }
+  if (i < c.size()) acc[0] += std::norm(c[i]);
+  return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+}
+
+}  // namespace
+
 double KurtosisCriterion::evaluate(const FilterBankNode& node) {
   const auto c = node.samples;
   if (c.empty()) return 0.0;
-  Complex mean{};
-  bool all_zero = true;
-  for (const Complex& v : c) {
-    mean += v;
-    if (v != Complex{}) all_zero = false;
-  }
-  if (all_zero) return 0.0;
-  mean /= static_cast<double>(c.size());
-  double m2 = 0.0, m4 = 0.0;
-  for (const Complex& v : c) {
-    const double p = std::norm(v - mean);
-    m2 += p;
-    m4 += p * p;
-  }
+  // An all-zero node has m2 = 0 and returns 0 below.
+  const Complex mean = node_sum(c) / static_cast<double>(c.size());
+  auto [m2, m4] = central_moment_sums(c, mean);
   m2 /= static_cast<double>(c.size());
   m4 /= static_cast<double>(c.size());
   if (m2 < std::numeric_limits<double>::epsilon()) return 0.0;
@@ -395,9 +440,7 @@ double KurtosisCriterion::evaluate(const FilterBankNode& node) {
 
 double BandPowerCriterion::evaluate(const FilterBankNode& node) {
   if (node.samples.empty()) return 0.0;
-  double sum = 0.0;
-  for (const Complex& v : node.samples) sum += std::norm(v);
-  return (node.real ? 1.0 : 2.0) * sum / static_cast<double>(node.samples.size());
+  return (node.real ? 1.0 : 2.0) * power_sum(node.samples) / static_cast<double>(node.samples.size());
 }
 
 double Ics2Criterion::evaluate(const FilterBankNode& node) {
