@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <deque>
 #include <functional>
 #include <limits>
 #include <map>
@@ -19,6 +20,7 @@ namespace gearwatch::gap {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kUnitToneSamplesPerCycle = 20;  // the angular resampler's interpolation stays exact for a tone this oversampled
 constexpr int kMaxTones = 8;  // tones one feature fixed in Hz may hold (a supply's harmonics, a fan's)
 // A tone's leakage is followed at most this many input orders each side (a window wider than that
 // holds several tones, each followed over its own neighbourhood).
@@ -230,27 +232,37 @@ double band_pass(double hz, double fn, double zeta) {
   return b * b / (a * a + b * b);
 }
 
-/// A record of a unit-amplitude tone at input order `order` alone, at the speed and whole
-/// revolutions of `like` (constant speed, one tacho edge a revolution), reduced as any record is.
-/// Sampled at a rate that keeps `top_order` and resamples it as finely as the acquisitions do (the
-/// reduction works in orders: the rate only sets how far up the spectra go).
-SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears) {
-  constexpr double kSamplesPerCycle = 20;  // the angular resampler's interpolation stays exact for a tone this oversampled
+}  // namespace
+
+SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
+                                  double samples_per_cycle) {
   const double speed = like.speed_hz;
-  const double fs = std::min(like.sample_rate_hz, kSamplesPerCycle * (top_order + 4) * speed);
+  const double fs = std::min(like.sample_rate_hz, samples_per_cycle * (top_order + 4) * speed);
   const std::size_t revs = like.input_revolutions;
   Record r;
   r.sample_rate_hz = fs;
   r.speed_hz = speed;
   r.torque_nm = like.torque_nm;
   const auto n = static_cast<std::size_t>((static_cast<double>(revs) + 0.5) * fs / speed);
+  // The cosine by a rotating phasor, set exactly every kExact samples: one std::cos a sample costs as
+  // much as the reduction's resampling, and the rotation's rounding over kExact steps stays orders
+  // under the float the sample is stored in.
+  constexpr std::size_t kExact = 256;
+  const double step = 2 * std::numbers::pi * order * speed / fs;
+  const std::complex<double> rotation = std::polar(1.0, step);
   std::vector<float> x(n);
-  for (std::size_t i = 0; i < n; ++i) x[i] = static_cast<float>(std::cos(2 * std::numbers::pi * order * speed * static_cast<double>(i) / fs));
+  std::complex<double> z;
+  for (std::size_t i = 0; i < n; ++i) {
+    z = i % kExact == 0 ? std::polar(1.0, step * static_cast<double>(i)) : z * rotation;
+    x[i] = static_cast<float>(z.real());
+  }
   r.channels = {std::move(x)};
   r.channel_numbers = {0};
   for (std::size_t k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(static_cast<double>(k) * fs / speed);
   return RecordSpectra(r, 0, gears).summary();
 }
+
+namespace {
 
 // The description of the tones found, ordered by place (input orders for a ghost, Hz for tones
 // fixed in Hz): each tone's place and power (m²/s⁴); the first names the feature.
@@ -527,7 +539,42 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
   return out;
 }
 
+namespace {
+/// unit_tone_spectra shared between records alike in what it reads of them. In samples its record
+/// is the same at any speed (the rate follows the speed, up to the record's own): records with the
+/// same whole revolutions and samples a revolution (to kSameRate) reduce it alike, so the twin's
+/// records at one speed and several loads (speeds a few parts in 1e9 apart) share one reduction.
+class SharedUnitTones {
+ public:
+  explicit SharedUnitTones(const GearPairSpec& gears) : gears_(gears) {}
+  const SpectralSummary& of(double order, double top_order, const SpectralSummary& like) {
+    const double per_rev = samples_per_revolution(top_order, like);
+    for (const auto& [key, unit] : done_)
+      if (key.top_order == top_order && key.revolutions == like.input_revolutions &&
+          std::abs(key.samples_per_revolution - per_rev) <= kSameRate * per_rev)
+        return unit;
+    done_.emplace_back(Key{top_order, like.input_revolutions, per_rev},
+                       unit_tone_spectra(order, top_order, like, gears_, kUnitToneSamplesPerCycle));
+    return done_.back().second;
+  }
+
+ private:
+  static constexpr double kSameRate = 1e-6;
+  struct Key {
+    double top_order;
+    std::size_t revolutions;
+    double samples_per_revolution;
+  };
+  static double samples_per_revolution(double top_order, const SpectralSummary& like) {
+    return std::min(like.sample_rate_hz / like.speed_hz, kUnitToneSamplesPerCycle * (top_order + 4));
+  }
+  const GearPairSpec& gears_;
+  std::deque<std::pair<Key, SpectralSummary>> done_;  // stable references
+};
+}  // namespace
+
 std::vector<double> FeatureDescriber::tone_as_measured(double order, const Window& w) const {
+  SharedUnitTones shared(gears_);
   std::vector<double> out(w.size(), 0.0);
   std::size_t e = 0;
   while (e < w.size()) {
@@ -535,7 +582,7 @@ std::vector<double> FeatureDescriber::tone_as_measured(double order, const Windo
     std::size_t end = e;
     double top = order;
     for (; end < w.size() && w[end].first == r; ++end) top = std::max(top, records_[r].cells[w[end].second].order);
-    const SpectralSummary unit = unit_tone_spectra(order, top + 1, *records_[r].source->twin, gears_);
+    const SpectralSummary& unit = shared.of(order, top + 1, *records_[r].source->twin);
     for (; e < end; ++e) {
       const Cell& c = records_[r].cells[w[e].second];
       const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;

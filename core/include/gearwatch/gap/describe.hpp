@@ -128,6 +128,15 @@ class FeatureDescriber {
   std::vector<FloorComparison> floors_;  ///< each record's broadband floors (compare_floors)
 };
 
+/// A record of a unit-amplitude tone at input order `order` alone, at the speed and whole
+/// revolutions of `like` (constant speed, one tacho edge a revolution), reduced as any record is
+/// (RecordSpectra): what the measurement makes of a non-synchronous tone. Sampled at
+/// `samples_per_cycle` samples a cycle of order `top_order` + 4 (at most like's rate): the reduction
+/// works in orders, the rate only sets how far up the spectra go and how closely the angular
+/// resampler's interpolation follows the tone.
+SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
+                                  double samples_per_cycle);
+
 /// The candidate that explains a feature: noise_floor for a floor change a white PSD explains on its
 /// own bands (`white_psd_m2_s4_per_hz`, describe_floor); else the first chosen candidate in
 /// report.chosen whose families hold the family the feature's place belongs to (fixed in Hz:
