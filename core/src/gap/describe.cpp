@@ -542,8 +542,8 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
 namespace {
 /// unit_tone_spectra shared between records alike in what it reads of them. In samples its record
 /// is the same at any speed (the rate follows the speed, up to the record's own): records with the
-/// same whole revolutions and samples a revolution (to kSameRate) reduce it alike, so the twin's
-/// records at one speed and several loads (speeds a few parts in 1e9 apart) share one reduction.
+/// same whole revolutions, samples a revolution and order (each to kSame) reduce it alike, so the
+/// twin's records at one speed and several loads (speeds a few parts in 1e9 apart) share one reduction.
 class SharedUnitTones {
  public:
   explicit SharedUnitTones(const GearPairSpec& gears) : gears_(gears) {}
@@ -551,17 +551,17 @@ class SharedUnitTones {
     const double per_rev = samples_per_revolution(top_order, like);
     for (const auto& [key, unit] : done_)
       if (key.top_order == top_order && key.revolutions == like.input_revolutions &&
-          std::abs(key.samples_per_revolution - per_rev) <= kSameRate * per_rev)
+          std::abs(key.samples_per_revolution - per_rev) <= kSame * per_rev && std::abs(key.order - order) <= kSame * order)
         return unit;
-    done_.emplace_back(Key{top_order, like.input_revolutions, per_rev},
+    done_.emplace_back(Key{order, top_order, like.input_revolutions, per_rev},
                        unit_tone_spectra(order, top_order, like, gears_, kUnitToneSamplesPerCycle));
     return done_.back().second;
   }
 
  private:
-  static constexpr double kSameRate = 1e-6;
+  static constexpr double kSame = 1e-6;
   struct Key {
-    double top_order;
+    double order, top_order;
     std::size_t revolutions;
     double samples_per_revolution;
   };
@@ -573,12 +573,13 @@ class SharedUnitTones {
 };
 }  // namespace
 
-std::vector<double> FeatureDescriber::tone_as_measured(double order, const Window& w) const {
+std::vector<double> FeatureDescriber::tone_as_measured(double place, bool in_hz, const Window& w) const {
   SharedUnitTones shared(gears_);
   std::vector<double> out(w.size(), 0.0);
   std::size_t e = 0;
   while (e < w.size()) {
     const std::size_t r = w[e].first;
+    const double order = in_hz ? place / records_[r].speed_hz : place;
     std::size_t end = e;
     double top = order;
     for (; end < w.size() && w[end].first == r; ++end) top = std::max(top, records_[r].cells[w[end].second].order);
@@ -624,6 +625,10 @@ class FeatureDescriber::ToneSearch {
   Tone as_measured_at(double place) const;
   double interpolated_place(double near) const;
   void ghost_as_measured();
+  void tones_as_measured();
+  void move_over_weaker(Tone& best, double place, std::size_t from);
+  void joint_powers();
+  void drop_tones_that_do_not_pay();
 
   const FeatureDescriber& d_;
   const GapFeature& f_;
@@ -795,7 +800,7 @@ void FeatureDescriber::ToneSearch::run(int max_tones) {
 /// excess would be the cross term of the two, not the tone's.
 FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::as_measured_at(double place) const {
   Tone t;
-  t.place = place, t.unit = d_.tone_as_measured(place, w_);
+  t.place = place, t.unit = d_.tone_as_measured(place, fixed_in_hz_, w_);
   double excess = 0, share = 0;
   for (std::size_t e = 0; e < n_; ++e) {
     const auto [r, i] = w_[e];
@@ -819,6 +824,7 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
   for (const auto& rec : d_.records_) {
     const SpectralSummary& m = *rec.source->measured;
     const SpectralSummary& t = *rec.source->twin;
+    const double to_place = fixed_in_hz_ ? rec.speed_hz : 1.0;  // a place per input order
     for (const bool input : {true, false}) {
       const double per = input ? 1.0 : ratio_;  // input orders per order of this shaft
       const auto& lm = input ? m.input_lines : m.output_lines;
@@ -829,7 +835,7 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
         const double pm = lm[static_cast<std::size_t>(k - 1)], pt = lt[static_cast<std::size_t>(k - 1)];
         return pm >= 2 * pt ? pm - pt : 0.0;
       };
-      const long k0 = static_cast<long>(std::floor(near / per));
+      const long k0 = static_cast<long>(std::floor(near / to_place / per));
       long k = k0;
       for (long j = k0 - 1; j <= k0 + 2; ++j)
         if (excess(j) > excess(k)) k = j;
@@ -837,7 +843,7 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
       if (!(a > 0) || !(std::max(below, above) > 0)) continue;
       const double rho = std::sqrt(std::max(below, above) / a);
       const double delta = rho / (1 + rho);
-      sum += (a + std::max(below, above)) * (static_cast<double>(k) + (above >= below ? delta : -delta)) * per;
+      sum += (a + std::max(below, above)) * (static_cast<double>(k) + (above >= below ? delta : -delta)) * per * to_place;
       weight += a + std::max(below, above);
     }
   }
@@ -865,8 +871,106 @@ void FeatureDescriber::ToneSearch::ghost_as_measured() {
   found_.push_back(std::move(t));
 }
 
+/// Tones fixed in Hz as the measurement reduces them (as the ghost's, above): each tone's place
+/// refined and its power taken from the lines' and bins' excess with the others in the base, twice
+/// round (their leakage overlaps). A strong tone's record leaves a pedestal orders wide where the
+/// output shaft's averages, subtracted in input angle, held its leakage: the search's model leaves
+/// it out, so the search placed a tone where the pedestal sits and pulled its neighbours toward it.
+/// Then the tones that no longer pay for themselves with the pedestal explained are dropped.
+void FeatureDescriber::ToneSearch::tones_as_measured() {
+  if (!fixed_in_hz_ || found_.empty()) return;
+  std::sort(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.power > b.power; });
+  for (int pass = 0; pass < 2; ++pass, joint_powers())
+    for (std::size_t i = 0; i < found_.size(); ++i) {
+      add_to_base(found_[i], -1);
+      Tone t = std::move(found_[i]);
+      found_.erase(found_.begin() + static_cast<std::ptrdiff_t>(i));  // free_place then ignores it
+      Tone best = as_measured_at(t.place);
+      if (const double at = interpolated_place(t.place); std::isfinite(at) && std::abs(at - t.place) <= separation_ / 2)
+        move_over_weaker(best, at, i);
+      for (double s = step_ / 2; s > step_ / 128; s /= 2)
+        for (double place : {best.place - s, best.place + s})
+          if (free_place(place))
+            if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
+      if (best.power > 0) t = std::move(best);
+      add_to_base(t, 1);
+      found_.insert(found_.begin() + static_cast<std::ptrdiff_t>(i), std::move(t));
+    }
+  drop_tones_that_do_not_pay();
+}
+
+/// The tones' powers together, as the measurement adds them: least squares of the lines' and bins'
+/// excess over the twin (the cells as_measured_at sums) on the tones' responses, powers ≥ 0
+/// (coordinate descent). Each tone's power alone from the excess over the whole window counts its
+/// neighbours' misfit with it, which for tones tens of dB over the twin outweighs its own.
+void FeatureDescriber::ToneSearch::joint_powers() {
+  if (found_.size() < 2) return;
+  std::vector<double> y(n_, 0.0);
+  for (std::size_t e = 0; e < n_; ++e) {
+    const Cell& c = d_.records_[w_[e].first].cells[w_[e].second];
+    if (c.kind == CellKind::broadband || c.measured >= 2 * c.twin) y[e] = c.measured - c.twin;
+  }
+  auto used = [&](std::size_t e) { return y[e] != 0.0; };
+  for (auto& t : found_) add_to_base(t, -1);
+  for (int sweep = 0; sweep < 50; ++sweep)
+    for (std::size_t i = 0; i < found_.size(); ++i) {
+      double num = 0, den = 0;
+      for (std::size_t e = 0; e < n_; ++e) {
+        if (!used(e)) continue;
+        double others = 0;
+        for (std::size_t j = 0; j < found_.size(); ++j)
+          if (j != i) others += found_[j].power * found_[j].unit[e];
+        num += found_[i].unit[e] * (y[e] - others), den += found_[i].unit[e] * found_[i].unit[e];
+      }
+      found_[i].power = den > 0 ? std::max(0.0, num / den) : 0.0;
+    }
+  for (auto& t : found_) add_to_base(t, 1);
+  for (auto& t : found_) t.rss = rss_with_base();
+}
+
+/// `best` moved to `place` where that fits the window better. Weaker tones (found_ from `from` on,
+/// strongest first) within the separation of `place` go with the move: the search placed them where
+/// the stronger tone's misplaced leakage was unexplained.
+void FeatureDescriber::ToneSearch::move_over_weaker(Tone& best, double place, std::size_t from) {
+  if (on_a_line(place) || !(place > 0)) return;
+  std::vector<Tone> blockers;
+  for (std::size_t j = 0; j < found_.size();) {
+    if (std::abs(found_[j].place - place) >= separation_) { ++j; continue; }
+    if (j < from) {  // a stronger tone is there
+      for (auto& b : blockers) add_to_base(b, 1), found_.push_back(std::move(b));
+      return;
+    }
+    add_to_base(found_[j], -1);
+    blockers.push_back(std::move(found_[j]));
+    found_.erase(found_.begin() + static_cast<std::ptrdiff_t>(j));
+  }
+  if (Tone moved = as_measured_at(place); moved.rss < best.rss) {
+    best = std::move(moved);
+    return;
+  }
+  for (auto& b : blockers) add_to_base(b, 1), found_.push_back(std::move(b));
+}
+
+/// The weakest tone dropped while the others explain the window as well by the BIC (the search's
+/// criterion), or while it changes no cell by the practical minimum; the others' powers stay.
+void FeatureDescriber::ToneSearch::drop_tones_that_do_not_pay() {
+  while (found_.size() > 1) {
+    const auto weakest = std::min_element(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.power < b.power; });
+    const double with = rss_with_base();
+    add_to_base(*weakest, -1);
+    const double without = rss_with_base();
+    if (bic(without, found_.size() - 1) <= bic(with, found_.size()) || largest_change(*weakest) < d_.settings_.min_feature_db) {
+      found_.erase(weakest);
+      continue;
+    }
+    add_to_base(*weakest, 1);
+    break;
+  }
+}
+
 FeatureDescriber::Fit FeatureDescriber::ToneSearch::result() {
   ghost_as_measured();
+  tones_as_measured();
   std::sort(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
   Fit fit;
   fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found_.size()));

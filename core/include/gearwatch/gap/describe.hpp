@@ -113,10 +113,11 @@ class FeatureDescriber {
   Fit tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const;
   /// Unit-power responses of a tone at `place` (input order, or Hz in every record) on the window's cells.
   std::vector<double> tone_response(double place, bool in_hz, const Window& w) const;
-  /// Unit-power responses of a tone fixed at input order `order`, through the measurement itself:
-  /// a record of that tone alone at each record's speed and revolutions, reduced by RecordSpectra.
-  /// Unlike tone_response it holds what the averages' subtraction leaves in the broadband blocks.
-  std::vector<double> tone_as_measured(double order, const Window& w) const;
+  /// Unit-power responses of a tone at `place` (input order, or Hz in every record), through the
+  /// measurement itself: a record of that tone alone at each record's speed and revolutions, reduced
+  /// by RecordSpectra. Unlike tone_response it holds what the averages' subtraction leaves in the
+  /// broadband blocks.
+  std::vector<double> tone_as_measured(double place, bool in_hz, const Window& w) const;
   class ToneSearch;
   /// A prediction of `predicted[record][cell]` where that is finite, the twin's power elsewhere.
   Prediction twin_elsewhere(std::vector<std::vector<double>> predicted) const;
