@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <deque>
 #include <functional>
 #include <limits>
 #include <map>
@@ -19,6 +20,7 @@ namespace gearwatch::gap {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kUnitToneSamplesPerCycle = 20;  // the angular resampler's interpolation stays exact for a tone this oversampled
 constexpr int kMaxTones = 8;  // tones one feature fixed in Hz may hold (a supply's harmonics, a fan's)
 // A tone's leakage is followed at most this many input orders each side (a window wider than that
 // holds several tones, each followed over its own neighbourhood).
@@ -230,27 +232,37 @@ double band_pass(double hz, double fn, double zeta) {
   return b * b / (a * a + b * b);
 }
 
-/// A record of a unit-amplitude tone at input order `order` alone, at the speed and whole
-/// revolutions of `like` (constant speed, one tacho edge a revolution), reduced as any record is.
-/// Sampled at a rate that keeps `top_order` and resamples it as finely as the acquisitions do (the
-/// reduction works in orders: the rate only sets how far up the spectra go).
-SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears) {
-  constexpr double kSamplesPerCycle = 20;  // the angular resampler's interpolation stays exact for a tone this oversampled
+}  // namespace
+
+SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
+                                  double samples_per_cycle) {
   const double speed = like.speed_hz;
-  const double fs = std::min(like.sample_rate_hz, kSamplesPerCycle * (top_order + 4) * speed);
+  const double fs = std::min(like.sample_rate_hz, samples_per_cycle * (top_order + 4) * speed);
   const std::size_t revs = like.input_revolutions;
   Record r;
   r.sample_rate_hz = fs;
   r.speed_hz = speed;
   r.torque_nm = like.torque_nm;
   const auto n = static_cast<std::size_t>((static_cast<double>(revs) + 0.5) * fs / speed);
+  // The cosine by a rotating phasor, set exactly every kExact samples: one std::cos a sample costs as
+  // much as the reduction's resampling, and the rotation's rounding over kExact steps stays orders
+  // under the float the sample is stored in.
+  constexpr std::size_t kExact = 256;
+  const double step = 2 * std::numbers::pi * order * speed / fs;
+  const std::complex<double> rotation = std::polar(1.0, step);
   std::vector<float> x(n);
-  for (std::size_t i = 0; i < n; ++i) x[i] = static_cast<float>(std::cos(2 * std::numbers::pi * order * speed * static_cast<double>(i) / fs));
+  std::complex<double> z;
+  for (std::size_t i = 0; i < n; ++i) {
+    z = i % kExact == 0 ? std::polar(1.0, step * static_cast<double>(i)) : z * rotation;
+    x[i] = static_cast<float>(z.real());
+  }
   r.channels = {std::move(x)};
   r.channel_numbers = {0};
   for (std::size_t k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(static_cast<double>(k) * fs / speed);
   return RecordSpectra(r, 0, gears).summary();
 }
+
+namespace {
 
 // The description of the tones found, ordered by place (input orders for a ghost, Hz for tones
 // fixed in Hz): each tone's place and power (m²/s⁴); the first names the feature.
@@ -527,15 +539,51 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
   return out;
 }
 
-std::vector<double> FeatureDescriber::tone_as_measured(double order, const Window& w) const {
+namespace {
+/// unit_tone_spectra shared between records alike in what it reads of them. In samples its record
+/// is the same at any speed (the rate follows the speed, up to the record's own): records with the
+/// same whole revolutions, samples a revolution and order (each to kSame) reduce it alike, so the
+/// twin's records at one speed and several loads (speeds a few parts in 1e9 apart) share one reduction.
+class SharedUnitTones {
+ public:
+  explicit SharedUnitTones(const GearPairSpec& gears) : gears_(gears) {}
+  const SpectralSummary& of(double order, double top_order, const SpectralSummary& like) {
+    const double per_rev = samples_per_revolution(top_order, like);
+    for (const auto& [key, unit] : done_)
+      if (key.top_order == top_order && key.revolutions == like.input_revolutions &&
+          std::abs(key.samples_per_revolution - per_rev) <= kSame * per_rev && std::abs(key.order - order) <= kSame * order)
+        return unit;
+    done_.emplace_back(Key{order, top_order, like.input_revolutions, per_rev},
+                       unit_tone_spectra(order, top_order, like, gears_, kUnitToneSamplesPerCycle));
+    return done_.back().second;
+  }
+
+ private:
+  static constexpr double kSame = 1e-6;
+  struct Key {
+    double order, top_order;
+    std::size_t revolutions;
+    double samples_per_revolution;
+  };
+  static double samples_per_revolution(double top_order, const SpectralSummary& like) {
+    return std::min(like.sample_rate_hz / like.speed_hz, kUnitToneSamplesPerCycle * (top_order + 4));
+  }
+  const GearPairSpec& gears_;
+  std::deque<std::pair<Key, SpectralSummary>> done_;  // stable references
+};
+}  // namespace
+
+std::vector<double> FeatureDescriber::tone_as_measured(double place, bool in_hz, const Window& w) const {
+  SharedUnitTones shared(gears_);
   std::vector<double> out(w.size(), 0.0);
   std::size_t e = 0;
   while (e < w.size()) {
     const std::size_t r = w[e].first;
+    const double order = in_hz ? place / records_[r].speed_hz : place;
     std::size_t end = e;
     double top = order;
     for (; end < w.size() && w[end].first == r; ++end) top = std::max(top, records_[r].cells[w[end].second].order);
-    const SpectralSummary unit = unit_tone_spectra(order, top + 1, *records_[r].source->twin, gears_);
+    const SpectralSummary& unit = shared.of(order, top + 1, *records_[r].source->twin);
     for (; e < end; ++e) {
       const Cell& c = records_[r].cells[w[e].second];
       const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;
@@ -577,6 +625,10 @@ class FeatureDescriber::ToneSearch {
   Tone as_measured_at(double place) const;
   double interpolated_place(double near) const;
   void ghost_as_measured();
+  void tones_as_measured();
+  void move_over_weaker(Tone& best, double place, std::size_t from);
+  void joint_powers();
+  void drop_tones_that_do_not_pay();
 
   const FeatureDescriber& d_;
   const GapFeature& f_;
@@ -748,7 +800,7 @@ void FeatureDescriber::ToneSearch::run(int max_tones) {
 /// excess would be the cross term of the two, not the tone's.
 FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::as_measured_at(double place) const {
   Tone t;
-  t.place = place, t.unit = d_.tone_as_measured(place, w_);
+  t.place = place, t.unit = d_.tone_as_measured(place, fixed_in_hz_, w_);
   double excess = 0, share = 0;
   for (std::size_t e = 0; e < n_; ++e) {
     const auto [r, i] = w_[e];
@@ -772,6 +824,7 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
   for (const auto& rec : d_.records_) {
     const SpectralSummary& m = *rec.source->measured;
     const SpectralSummary& t = *rec.source->twin;
+    const double to_place = fixed_in_hz_ ? rec.speed_hz : 1.0;  // a place per input order
     for (const bool input : {true, false}) {
       const double per = input ? 1.0 : ratio_;  // input orders per order of this shaft
       const auto& lm = input ? m.input_lines : m.output_lines;
@@ -782,7 +835,7 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
         const double pm = lm[static_cast<std::size_t>(k - 1)], pt = lt[static_cast<std::size_t>(k - 1)];
         return pm >= 2 * pt ? pm - pt : 0.0;
       };
-      const long k0 = static_cast<long>(std::floor(near / per));
+      const long k0 = static_cast<long>(std::floor(near / to_place / per));
       long k = k0;
       for (long j = k0 - 1; j <= k0 + 2; ++j)
         if (excess(j) > excess(k)) k = j;
@@ -790,7 +843,7 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
       if (!(a > 0) || !(std::max(below, above) > 0)) continue;
       const double rho = std::sqrt(std::max(below, above) / a);
       const double delta = rho / (1 + rho);
-      sum += (a + std::max(below, above)) * (static_cast<double>(k) + (above >= below ? delta : -delta)) * per;
+      sum += (a + std::max(below, above)) * (static_cast<double>(k) + (above >= below ? delta : -delta)) * per * to_place;
       weight += a + std::max(below, above);
     }
   }
@@ -818,8 +871,106 @@ void FeatureDescriber::ToneSearch::ghost_as_measured() {
   found_.push_back(std::move(t));
 }
 
+/// Tones fixed in Hz as the measurement reduces them (as the ghost's, above): each tone's place
+/// refined and its power taken from the lines' and bins' excess with the others in the base, twice
+/// round (their leakage overlaps). A strong tone's record leaves a pedestal orders wide where the
+/// output shaft's averages, subtracted in input angle, held its leakage: the search's model leaves
+/// it out, so the search placed a tone where the pedestal sits and pulled its neighbours toward it.
+/// Then the tones that no longer pay for themselves with the pedestal explained are dropped.
+void FeatureDescriber::ToneSearch::tones_as_measured() {
+  if (!fixed_in_hz_ || found_.empty()) return;
+  std::sort(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.power > b.power; });
+  for (int pass = 0; pass < 2; ++pass, joint_powers())
+    for (std::size_t i = 0; i < found_.size(); ++i) {
+      add_to_base(found_[i], -1);
+      Tone t = std::move(found_[i]);
+      found_.erase(found_.begin() + static_cast<std::ptrdiff_t>(i));  // free_place then ignores it
+      Tone best = as_measured_at(t.place);
+      if (const double at = interpolated_place(t.place); std::isfinite(at) && std::abs(at - t.place) <= separation_ / 2)
+        move_over_weaker(best, at, i);
+      for (double s = step_ / 2; s > step_ / 128; s /= 2)
+        for (double place : {best.place - s, best.place + s})
+          if (free_place(place))
+            if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
+      if (best.power > 0) t = std::move(best);
+      add_to_base(t, 1);
+      found_.insert(found_.begin() + static_cast<std::ptrdiff_t>(i), std::move(t));
+    }
+  drop_tones_that_do_not_pay();
+}
+
+/// The tones' powers together, as the measurement adds them: least squares of the lines' and bins'
+/// excess over the twin (the cells as_measured_at sums) on the tones' responses, powers ≥ 0
+/// (coordinate descent). Each tone's power alone from the excess over the whole window counts its
+/// neighbours' misfit with it, which for tones tens of dB over the twin outweighs its own.
+void FeatureDescriber::ToneSearch::joint_powers() {
+  if (found_.size() < 2) return;
+  std::vector<double> y(n_, 0.0);
+  for (std::size_t e = 0; e < n_; ++e) {
+    const Cell& c = d_.records_[w_[e].first].cells[w_[e].second];
+    if (c.kind == CellKind::broadband || c.measured >= 2 * c.twin) y[e] = c.measured - c.twin;
+  }
+  auto used = [&](std::size_t e) { return y[e] != 0.0; };
+  for (auto& t : found_) add_to_base(t, -1);
+  for (int sweep = 0; sweep < 50; ++sweep)
+    for (std::size_t i = 0; i < found_.size(); ++i) {
+      double num = 0, den = 0;
+      for (std::size_t e = 0; e < n_; ++e) {
+        if (!used(e)) continue;
+        double others = 0;
+        for (std::size_t j = 0; j < found_.size(); ++j)
+          if (j != i) others += found_[j].power * found_[j].unit[e];
+        num += found_[i].unit[e] * (y[e] - others), den += found_[i].unit[e] * found_[i].unit[e];
+      }
+      found_[i].power = den > 0 ? std::max(0.0, num / den) : 0.0;
+    }
+  for (auto& t : found_) add_to_base(t, 1);
+  for (auto& t : found_) t.rss = rss_with_base();
+}
+
+/// `best` moved to `place` where that fits the window better. Weaker tones (found_ from `from` on,
+/// strongest first) within the separation of `place` go with the move: the search placed them where
+/// the stronger tone's misplaced leakage was unexplained.
+void FeatureDescriber::ToneSearch::move_over_weaker(Tone& best, double place, std::size_t from) {
+  if (on_a_line(place) || !(place > 0)) return;
+  std::vector<Tone> blockers;
+  for (std::size_t j = 0; j < found_.size();) {
+    if (std::abs(found_[j].place - place) >= separation_) { ++j; continue; }
+    if (j < from) {  // a stronger tone is there
+      for (auto& b : blockers) add_to_base(b, 1), found_.push_back(std::move(b));
+      return;
+    }
+    add_to_base(found_[j], -1);
+    blockers.push_back(std::move(found_[j]));
+    found_.erase(found_.begin() + static_cast<std::ptrdiff_t>(j));
+  }
+  if (Tone moved = as_measured_at(place); moved.rss < best.rss) {
+    best = std::move(moved);
+    return;
+  }
+  for (auto& b : blockers) add_to_base(b, 1), found_.push_back(std::move(b));
+}
+
+/// The weakest tone dropped while the others explain the window as well by the BIC (the search's
+/// criterion), or while it changes no cell by the practical minimum; the others' powers stay.
+void FeatureDescriber::ToneSearch::drop_tones_that_do_not_pay() {
+  while (found_.size() > 1) {
+    const auto weakest = std::min_element(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.power < b.power; });
+    const double with = rss_with_base();
+    add_to_base(*weakest, -1);
+    const double without = rss_with_base();
+    if (bic(without, found_.size() - 1) <= bic(with, found_.size()) || largest_change(*weakest) < d_.settings_.min_feature_db) {
+      found_.erase(weakest);
+      continue;
+    }
+    add_to_base(*weakest, 1);
+    break;
+  }
+}
+
 FeatureDescriber::Fit FeatureDescriber::ToneSearch::result() {
   ghost_as_measured();
+  tones_as_measured();
   std::sort(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
   Fit fit;
   fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found_.size()));

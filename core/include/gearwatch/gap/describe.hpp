@@ -113,10 +113,11 @@ class FeatureDescriber {
   Fit tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const;
   /// Unit-power responses of a tone at `place` (input order, or Hz in every record) on the window's cells.
   std::vector<double> tone_response(double place, bool in_hz, const Window& w) const;
-  /// Unit-power responses of a tone fixed at input order `order`, through the measurement itself:
-  /// a record of that tone alone at each record's speed and revolutions, reduced by RecordSpectra.
-  /// Unlike tone_response it holds what the averages' subtraction leaves in the broadband blocks.
-  std::vector<double> tone_as_measured(double order, const Window& w) const;
+  /// Unit-power responses of a tone at `place` (input order, or Hz in every record), through the
+  /// measurement itself: a record of that tone alone at each record's speed and revolutions, reduced
+  /// by RecordSpectra. Unlike tone_response it holds what the averages' subtraction leaves in the
+  /// broadband blocks.
+  std::vector<double> tone_as_measured(double place, bool in_hz, const Window& w) const;
   class ToneSearch;
   /// A prediction of `predicted[record][cell]` where that is finite, the twin's power elsewhere.
   Prediction twin_elsewhere(std::vector<std::vector<double>> predicted) const;
@@ -127,6 +128,15 @@ class FeatureDescriber {
   Fit floor_, tilt_, modulation_input_, modulation_output_;
   std::vector<FloorComparison> floors_;  ///< each record's broadband floors (compare_floors)
 };
+
+/// A record of a unit-amplitude tone at input order `order` alone, at the speed and whole
+/// revolutions of `like` (constant speed, one tacho edge a revolution), reduced as any record is
+/// (RecordSpectra): what the measurement makes of a non-synchronous tone. Sampled at
+/// `samples_per_cycle` samples a cycle of order `top_order` + 4 (at most like's rate): the reduction
+/// works in orders, the rate only sets how far up the spectra go and how closely the angular
+/// resampler's interpolation follows the tone.
+SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
+                                  double samples_per_cycle);
 
 /// The candidate that explains a feature: noise_floor for a floor change a white PSD explains on its
 /// own bands (`white_psd_m2_s4_per_hz`, describe_floor); else the first chosen candidate in

@@ -1,0 +1,80 @@
+// The ghost form's unit tone as the measurement reduces it (unit_tone_spectra): the synthesis by a
+// rotating phasor against a cosine evaluated a sample at a time, and the reduction shared between
+// records that differ only in what it does not read (a speed a few parts in 1e9 apart).
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "constant_speed_record.hpp"
+#include "gearwatch/gap/describe.hpp"
+#include "gearwatch/gap/spectra.hpp"
+
+namespace test_gap_unit_tone {  // this file's own: the test files compile together (unity build)
+
+using namespace gearwatch;
+using namespace gearwatch::gap;
+
+namespace {
+
+SpectralSummary unit_tone_like(double speed, std::size_t revs, double sample_rate) {
+  SpectralSummary like;
+  like.speed_hz = speed;
+  like.input_revolutions = revs;
+  like.sample_rate_hz = sample_rate;
+  like.torque_nm = 20;
+  return like;
+}
+
+/// The reference: the same record with std::cos a sample (the closed form), reduced alike.
+SpectralSummary unit_tone_by_cosine(double order, double top_order, const SpectralSummary& like, double samples_per_cycle) {
+  const double speed = like.speed_hz;
+  const double fs = std::min(like.sample_rate_hz, samples_per_cycle * (top_order + 4) * speed);
+  const Record r = test::constant_speed_record(fs, speed, static_cast<int>(like.input_revolutions), [&](double t) {
+    return std::cos(2 * std::numbers::pi * order * speed * t);
+  });
+  return RecordSpectra(r, 0, GearPairSpec{}).summary();
+}
+
+/// The largest difference over every line and bin, over the largest of either.
+double unit_tone_largest_difference(const SpectralSummary& a, const SpectralSummary& b) {
+  double largest = 0, peak = 0;
+  auto over = [&](const std::vector<double>& x, const std::vector<double>& y) {
+    REQUIRE(x.size() == y.size());
+    for (std::size_t k = 0; k < x.size(); ++k) largest = std::max(largest, std::abs(x[k] - y[k])), peak = std::max({peak, x[k], y[k]});
+  };
+  over(a.input_lines, b.input_lines);
+  over(a.output_lines, b.output_lines);
+  over(a.broadband, b.broadband);
+  return largest / peak;
+}
+
+}  // namespace
+
+TEST_CASE("gap unit tone: the phasor synthesis reduces as the cosine a sample does", "[gap_describe][unit_tone]") {
+  // Orders off the lines, near one and high; below and at the record's own rate (the cap).
+  for (const double order : {4.582, 2.0031, 37.75}) {
+    for (const double rate : {50000.0, 2000.0}) {
+      const SpectralSummary like = unit_tone_like(9.0, 19, rate);
+      const double top = order + 3;
+      const double d = unit_tone_largest_difference(unit_tone_spectra(order, top, like, GearPairSpec{}, 20),
+                                                    unit_tone_by_cosine(order, top, like, 20));
+      INFO("order " << order << " rate " << rate);
+      CHECK(d < 1e-7);  // a float sample's rounding (6e-8) is the scale
+    }
+  }
+}
+
+TEST_CASE("gap unit tone: records a few parts in 1e9 apart in speed reduce it alike", "[gap_describe][unit_tone]") {
+  for (const double rate : {50000.0, 2000.0}) {  // uncapped: the same samples; capped: the rate fixed
+    const SpectralSummary a = unit_tone_like(13.499999905770864, 26, rate), b = unit_tone_like(13.499999976479366, 26, rate);
+    const double d = unit_tone_largest_difference(unit_tone_spectra(6.37, 12, a, GearPairSpec{}, 20),
+                                                  unit_tone_spectra(6.37, 12, b, GearPairSpec{}, 20));
+    INFO("rate " << rate);
+    CHECK(d < 1e-6);
+  }
+}
+
+}  // namespace test_gap_unit_tone
