@@ -135,9 +135,8 @@ class BatchWriter {
     if (outbox_) outbox_->record(record_id, m);
     write_alerts(m.alerts, m.alert_states, record_id, context);
   }
-  void write(const ModelRunResult& m) {
-    const std::optional<std::int64_t> record_id =
-        m.stored_record_id ? m.stored_record_id : find_record(m.has_record, m.stream_sequence, m.start_index);
+  // The model run's own row: its observation, state, forecast and calibrations, one column each.
+  std::int64_t insert_model_run_row(const ModelRunResult& m, std::optional<std::int64_t> record_id) {
     const wear::ModelRunReport& r = m.report;
     const wear::Forecast& f = r.forecast;
     const bool advanced = r.advanced;
@@ -184,7 +183,14 @@ class BatchWriter {
     if (peaked) s.bind(47, static_cast<std::int64_t>(f.peak_inspections));
     else s.bind_null(47);
     s.run();
-    const std::int64_t run_id = db_.last_insert_rowid();
+    return db_.last_insert_rowid();
+  }
+  void write(const ModelRunResult& m) {
+    const std::optional<std::int64_t> record_id =
+        m.stored_record_id ? m.stored_record_id : find_record(m.has_record, m.stream_sequence, m.start_index);
+    const wear::ModelRunReport& r = m.report;
+    const wear::Forecast& f = r.forecast;
+    const std::int64_t run_id = insert_model_run_row(m, record_id);
     if (m.store_state) {
       Statement st(db_, "INSERT OR REPLACE INTO model_state(gear_pair, updated_at, record_id, cycles, k_wear, k_pitting, state)"
                         " VALUES (?, strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), ?, ?, ?, ?, ?)");
