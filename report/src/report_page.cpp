@@ -10,7 +10,6 @@
 #include <tuple>
 
 #include "gearwatch/storage/processing_history.hpp"
-#include "gearwatch/types/gear_pair_boundary.hpp"
 #include "gearwatch/types/indicator.hpp"
 
 namespace gearwatch::report {
@@ -82,13 +81,10 @@ void load_current_pair_records(Database& db, ReportData& d) {
   for (auto& r : storage::load_record_summaries(db))
     all.push_back({r.id, r.input_revolutions, std::move(r.created_at), r.analysed, r.end_reason, r.speed_source});
   d.total_records = static_cast<std::int64_t>(all.size());
-  const storage::GearPairInputs inputs = storage::load_gear_pair_inputs(db);
-  const GearPairHistory pairs = decide_gear_pairs(inputs.records, inputs.resets);
-  d.gear_pair_number += static_cast<int>(pairs.current_pair);
-  const bool has_records = pairs.current_pair_first < inputs.record_ids.size();
-  const std::int64_t first = has_records ? inputs.record_ids[pairs.current_pair_first] : std::numeric_limits<std::int64_t>::max();
+  const storage::CurrentGearPair pair = storage::current_gear_pair(db);
+  d.gear_pair_number += static_cast<int>(pair.pairs_before);
   for (auto& r : all)
-    if (r.id >= first) d.records.push_back(std::move(r));
+    if (r.id >= pair.first_record_id) d.records.push_back(std::move(r));
   if (!d.records.empty()) d.gear_pair_started_at = d.records.front().created_at;
 }
 

@@ -19,12 +19,16 @@ GearPairInputs load_gear_pair_inputs(Database& db) {
   return in;
 }
 
-std::int64_t current_gear_pair_first_record(Database& db) {
+CurrentGearPair current_gear_pair(Database& db) {
   const GearPairInputs in = load_gear_pair_inputs(db);
   const GearPairHistory pairs = decide_gear_pairs(in.records, in.resets);
-  if (pairs.current_pair_first < in.record_ids.size()) return in.record_ids[pairs.current_pair_first];
-  return in.record_ids.empty() ? 0 : in.record_ids.back() + 1;
+  CurrentGearPair c{pairs.current_pair, 0};
+  if (pairs.current_pair_first < in.record_ids.size()) c.first_record_id = in.record_ids[pairs.current_pair_first];
+  else c.first_record_id = in.record_ids.empty() ? 0 : in.record_ids.back() + 1;
+  return c;
 }
+
+std::int64_t current_gear_pair_first_record(Database& db) { return current_gear_pair(db).first_record_id; }
 
 std::vector<StoredIcs2Point> load_gear_pair_ics2_history(Database& db) {
   Statement s(db, R"SQL(

@@ -3,6 +3,7 @@
 // current gear pair's ICS2 history per channel (for the wear-mechanism verdict) and its indicator
 // values (for the alert baselines), and what decides the gear pair (gearwatch/types/gear_pair_boundary.hpp).
 // "The current gear pair" is every record from the current pair's first, by that rule.
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -21,8 +22,15 @@ struct GearPairInputs {
   std::vector<StreamPosition> resets;
 };
 GearPairInputs load_gear_pair_inputs(Database& db);
-/// The id of the current gear pair's first record (decide_gear_pairs over the stored history);
-/// past the newest record when a reset follows it (the installed pair has no records yet).
+/// The installed gear pair by decide_gear_pairs over the stored history: how many pairs began
+/// before it, and the id of its first record (past the newest record when a reset follows it: the
+/// installed pair has no records yet).
+struct CurrentGearPair {
+  std::size_t pairs_before = 0;
+  std::int64_t first_record_id = 0;
+};
+CurrentGearPair current_gear_pair(Database& db);
+/// current_gear_pair(db).first_record_id.
 std::int64_t current_gear_pair_first_record(Database& db);
 
 /// One analysed record's ICS2 bands on one channel.
