@@ -165,9 +165,26 @@ DrawScore score_draw(const json& truth, const gap::GapReport& report, double top
   json families = json::array();
   for (const auto& g : report.before)
     if (g.significant) families.push_back(gap::to_string(g.family));
+  json unexplained = json::array();
+  for (auto f : report.unexplained) unexplained.push_back(gap::to_string(f));
+  // Each candidate's held-out score, so a draw's attribution can be traced from the bench's output.
+  json candidates = json::array();
+  for (const auto& c : report.candidates) {
+    json params = json::object(), bounds = json::array();
+    for (const auto& [k, v] : c.parameters) params[k] = v;
+    for (const auto& b : c.at_bounds) bounds.push_back(b.name + (b.upper ? " > " : " < ") + std::to_string(b.bound));
+    candidates.push_back({{"effect", gap::to_string(c.effect)}, {"ic", c.information_criterion}, {"shrinkage", c.shrinkage},
+                          {"worsens_other_family", c.worsens_other_family}, {"at_bounds", bounds}, {"parameters", params}});
+  }
+  json before = json::object(), after = json::object();
+  for (const auto& g : report.before) before[gap::to_string(g.family)] = g.distance_db;
+  for (const auto& g : report.after) after[gap::to_string(g.family)] = g.distance_db;
   s.detail = {{"seed", truth["seed"]}, {"form", s.form},  {"parameters", truth["parameters"]}, {"localised", s.localised},
               {"described", s.described}, {"attribution_applies", s.attribution_applies}, {"attributed", s.attributed},
-              {"any_finding", s.any_finding}, {"significant_families", families}, {"chosen", chosen}, {"features", features}};
+              {"any_finding", s.any_finding}, {"significant_families", families}, {"chosen", chosen},
+              {"unexplained", unexplained},
+              {"distance_db_before", before}, {"distance_db_after", after}, {"candidates", candidates},
+              {"features", features}};
   return s;
 }
 
