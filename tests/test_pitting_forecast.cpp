@@ -188,29 +188,40 @@ double mean_from(const ClosedFormPitting& truth, double shape_k, double n, doubl
   }
   return sum / static_cast<double>(truth.terms.size());
 }
+
+/// The model's memory after the records up to `n` cycles, calibrated by the two inspections.
+/// Catch2 runs a test case's body once per SECTION and both sections below start from this state:
+/// it is computed once per process (the same settings and truth each time), not once per section.
+const ModelMemory& memory_calibrated_to(const ModelSettings& s, const ClosedFormPitting& truth, double n) {
+  static const ModelMemory memory = [&] {
+    TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
+    const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
+    for (double c = 5e4; c <= n; c += 5e4) model.observe(observation(c, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(c)), inspections);
+    return model.memory();
+  }();
+  return memory;
+}
 }  // namespace
 
 TEST_CASE("pitting forecast: a saturated ICS2 reading bounds the density from below: near end 0, nominal from the model, far end from the bound",
           "[model][pitting_forecast]") {
   const ModelSettings s = small_density_settings();
   const ClosedFormPitting truth = truth_for(s);
-  TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
-  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
   const double n = 1e6;
-  for (double c = 5e4; c <= n; c += 5e4) model.observe(observation(c, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(c)), inspections);
-  REQUIRE(model.memory().pitting_calibrated);
-  const double k = model.memory().k_pitting;
-  const double d_model = std::accumulate(model.memory().current.state.pinion_pitting.begin(), model.memory().current.state.pinion_pitting.end(), 0.0) /
-                         static_cast<double>(model.memory().current.state.pinion_pitting.size());
+  const ModelMemory& calibrated = memory_calibrated_to(s, truth, n);
+  REQUIRE(calibrated.pitting_calibrated);
+  const double k = calibrated.k_pitting;
+  const double d_model = std::accumulate(calibrated.current.state.pinion_pitting.begin(), calibrated.current.state.pinion_pitting.end(), 0.0) /
+                         static_cast<double>(calibrated.current.state.pinion_pitting.size());
   // The same state without ICS2 evidence: the model's own interval.
-  ModelMemory none = model.memory();
+  ModelMemory none = calibrated;
   none.ics2_scale_valid = false;
   const Forecast own = TwinModel(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) { return 1.0; }, none).forecast();
   REQUIRE(own.valid);
   REQUIRE(own.pitting.cycles_left);
   // A flat ICS2 of 0.15 (above 17/144) read through a one-inspection scale as `bound`, SD 10 % of it.
   auto saturated = [&](double bound) {
-    ModelMemory m = model.memory();
+    ModelMemory m = calibrated;
     m.ics2_scale_valid = true;
     m.ics2_scale_inspections = 1;
     m.ics2_scale_ics2 = 0.15;
