@@ -454,19 +454,25 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
   // RSS of g over the window for (f_n, ζ, G dB). The search evaluates it thousands of times: the
   // measured side's g is fixed, and the band-pass depends on (f_n, ζ) alone, so both are computed
   // once (per window, per (f_n, ζ)) and each evaluation is the same sum on the same values.
-  std::vector<double> g_measured(w.size()), pass(w.size());
-  for (std::size_t e = 0; e < w.size(); ++e) g_measured[e] = g_of(w[e].first, w[e].second, records_[w[e].first].cells[w[e].second].measured);
+  // The cells' twin power, floor, twin + floor and Hz are laid out side by side for that sum (the
+  // same operations as g_of on the model's power, so the same values).
+  std::vector<double> g_measured(w.size()), pass(w.size()), twin(w.size()), floor(w.size()), below(w.size()), hz(w.size());
+  for (std::size_t e = 0; e < w.size(); ++e) {
+    const auto [r, i] = w[e];
+    const Cell& c = records_[r].cells[i];
+    g_measured[e] = g_of(r, i, c.measured);
+    twin[e] = c.twin, floor[e] = records_[r].floor, below[e] = c.twin + records_[r].floor, hz[e] = c.hz;
+  }
   double pass_fn = kNaN, pass_zeta = kNaN;
   auto rss = [&](double fn, double zeta, double gain_db) {
     if (!(fn == pass_fn && zeta == pass_zeta)) {
-      for (std::size_t e = 0; e < w.size(); ++e) pass[e] = band_pass(records_[w[e].first].cells[w[e].second].hz, fn, zeta);
+      for (std::size_t e = 0; e < w.size(); ++e) pass[e] = band_pass(hz[e], fn, zeta);
       pass_fn = fn, pass_zeta = zeta;
     }
     const double gm1 = std::pow(10.0, gain_db / 10) - 1;
     double s = 0;
     for (std::size_t e = 0; e < w.size(); ++e) {
-      const auto [r, i] = w[e];
-      const double d = g_measured[e] - g_of(r, i, records_[r].cells[i].twin * (1 + gm1 * pass[e]));
+      const double d = g_measured[e] - 10.0 * std::log10((twin[e] * (1 + gm1 * pass[e]) + floor[e]) / below[e]);
       s += d * d;
     }
     return s;
