@@ -218,17 +218,15 @@ class FormFit {
   }
 
   /// Each training record's two input lines with the largest measured-over-model power ratio (above
-  /// 1) among those above both neighbours, in Hz, the four strongest over the records, frequencies
-  /// within 2 % of one another once. A mode a few tens of Hz wide lifts only the lines beside it:
-  /// between grid cells a ratio of frequencies apart, the grid's starts miss it and the descent sees
-  /// no slope towards it.
+  /// 1) among those above both neighbours, in Hz, frequencies within 2 % of one another once. A mode a few tens of Hz wide lifts
+  /// only the lines beside it: between grid cells a ratio of frequencies apart, the grid's starts
+  /// miss it and the descent sees no slope towards it.
   std::vector<double> strongest_gap_hz() const {
-    constexpr std::size_t kPerRecord = 2, kMost = 4;
+    constexpr std::size_t kPerRecord = 2;
+    std::vector<double> hz;
     auto near = [](const std::vector<double>& list, double f) {
       return std::any_of(list.begin(), list.end(), [&](double h) { return std::abs(h - f) < 0.02 * h; });
     };
-    auto stronger = [](const auto& a, const auto& b) { return a.first > b.first; };
-    std::vector<std::pair<double, double>> peaks;  // ratio, Hz
     for (const auto& p : training_) {
       const auto model = apply_effects(base_, p.twin, gears_);
       const auto& m = p.measured.input_lines;
@@ -241,17 +239,15 @@ class FormFit {
       for (std::size_t k = 0; k < n; ++k)
         if ((k == 0 || ratio[k] >= ratio[k - 1]) && (k + 1 == n || ratio[k] >= ratio[k + 1]))
           lines.emplace_back(ratio[k], static_cast<double>(k + 1) * p.measured.speed_hz);
-      std::sort(lines.begin(), lines.end(), stronger);
+      std::sort(lines.begin(), lines.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
       std::vector<double> own;
-      for (const auto& [r, f] : lines) {
-        if (r <= 1 || own.size() == kPerRecord) break;
-        if (!near(own, f)) own.push_back(f), peaks.emplace_back(r, f);
+      for (const auto& [ratio, f] : lines) {
+        if (ratio <= 1 || own.size() == kPerRecord) break;
+        if (!near(own, f)) own.push_back(f);
       }
+      for (double f : own)
+        if (!near(hz, f)) hz.push_back(f);
     }
-    std::stable_sort(peaks.begin(), peaks.end(), stronger);
-    std::vector<double> hz;
-    for (const auto& [r, f] : peaks)
-      if (hz.size() < kMost && !near(hz, f)) hz.push_back(f);
     return hz;
   }
 
