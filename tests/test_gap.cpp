@@ -702,20 +702,6 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
   }
 }
 
-TEST_CASE("gap: casing_mode fitted on two narrow modes between mesh harmonics recovers them", "[gap]") {
-  // Modes 20 Hz wide at 10.5 and 15.5 times the mesh frequency of an 11 Hz shaft (19 teeth): each
-  // lifts only the few lines beside it, a twentieth of the grid's cell apart in frequency.
-  const std::vector<double> truth{10.5 * 19 * 11, 15.5 * 19 * 11, 20.0 / (2 * 10.5 * 19 * 11), 5};
-  const auto pairs = generated(CandidateEffect::casing_mode, truth);
-  const auto fitted = fit_candidate(CandidateEffect::casing_mode, {}, pairs, GearPairSpec{});
-  REQUIRE(fitted.size() == truth.size());
-  CHECK(fitted[0] == Approx(truth[0]).epsilon(0.01));
-  CHECK(fitted[1] == Approx(truth[1]).epsilon(0.01));
-  CHECK(fitted[2] == Approx(truth[2]).epsilon(0.05));
-  CHECK(training_cost(pairs, {{CandidateEffect::casing_mode, fitted}}, GearPairSpec{}) <
-        1e-3 * training_cost(pairs, {}, GearPairSpec{}));
-}
-
 namespace {
 
 /// A record of mesh-like tones locked to the angle of a shaft whose speed ripples by `depth` at

@@ -1,7 +1,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-#include <optional>
 #include <stdexcept>
 
 #include "gearwatch/gap/candidates.hpp"
@@ -79,23 +78,10 @@ class FormFit {
     std::sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     std::vector<double> best_u = starts.front().second;
     double best = starts.front().first;
-    auto descend = [&](const Start& start, const std::vector<double>& steps) {
-      const Simplex simplex = nelder_mead(start, steps);
+    for (const std::size_t s : descent_starts(starts)) {
+      const Simplex simplex = nelder_mead(starts[s]);
       const auto it = std::min_element(simplex.values.begin(), simplex.values.end());
       if (*it < best) best = *it, best_u = simplex.points[static_cast<std::size_t>(it - simplex.values.begin())];
-    };
-    for (const std::size_t s : descent_starts(starts)) descend(starts[s], cell_steps());
-    // A resonance form also descends from its best start at the strongest gaps' frequencies, with
-    // steps of 1 % there: a narrow mode's basin is narrower than a grid cell's step.
-    // A pair of modes descends from its best start with one frequency there and from its best with
-    // both (one mode's start ranks above both's while the other mode is a grid cell off).
-    for (int held = 1; held <= (form_.interchangeable_pair ? 2 : 1); ++held) {
-      const auto peaks = peak_starts(held);
-      if (peaks.empty()) continue;
-      const auto it = std::min_element(peaks.begin(), peaks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-      auto steps = cell_steps();
-      for (int i = 0; i < held; ++i) steps[i] = unit_of(i, form_.parameters[i].low * 1.01);
-      descend(*it, steps);
     }
     auto v = to_value(best_u);
     if (form_.interchangeable_pair && v[0] > v[1]) std::swap(v[0], v[1]);
@@ -135,13 +121,6 @@ class FormFit {
 
   int grid(std::size_t i) const { return std::max(1, form_.parameters[i].grid); }
 
-  /// Half a grid cell per parameter: the first simplex's steps from a grid start.
-  std::vector<double> cell_steps() const {
-    std::vector<double> steps(d_);
-    for (std::size_t i = 0; i < d_; ++i) steps[i] = 0.5 / grid(i);
-    return steps;
-  }
-
   /// Separable in the log domain: each harmonic's gain is the mean log ratio there (floors make
   /// it approximate). Harmonics no training record holds stay at 0 dB.
   std::vector<double> tip_relief_gains() const {
@@ -166,89 +145,19 @@ class FormFit {
   /// once), in the grid's order.
   std::vector<Start> start_grid() const {
     std::vector<Start> starts;
-    add_grid_starts(starts, std::nullopt, std::nullopt);
-    return starts;
-  }
-
-  /// For a resonance form, the grid with its first frequency (held 1) or its pair of modes (held 2)
-  /// at the strongest-gap lines' frequencies (strongest_gap_hz); none for the other forms.
-  std::vector<Start> peak_starts(int held) const {
-    std::vector<Start> starts;
-    if (!is_resonance_form()) return starts;
-    const auto hz = strongest_gap_hz();
-    for (std::size_t a = 0; a < hz.size(); ++a) {
-      if (held == 1) add_grid_starts(starts, unit_of(0, hz[a]), std::nullopt);
-      else
-        for (std::size_t b = a + 1; b < hz.size(); ++b) add_grid_starts(starts, unit_of(0, hz[a]), unit_of(1, hz[b]));
-    }
-    return starts;
-  }
-
-  /// The grid's cell centres; with `first` (and `second`) the first (and second) parameter held
-  /// there instead.
-  void add_grid_starts(std::vector<Start>& starts, std::optional<double> first, std::optional<double> second) const {
     std::vector<int> idx(d_, 0);
     while (true) {
       std::vector<double> u(d_);
       for (std::size_t i = 0; i < d_; ++i) u[i] = grid(i) == 1 ? 0.5 : (idx[i] + 0.5) / grid(i);
-      if (first) u[0] = *first;
-      if (second) u[1] = *second;
-      const bool mirrored = !first && form_.interchangeable_pair && idx[0] > idx[1];
-      const bool repeated = (first && idx[0] > 0) || (second && idx[1] > 0);
-      if (!mirrored && !repeated) starts.emplace_back(cost(u), u);
+      const bool mirrored = form_.interchangeable_pair && idx[0] > idx[1];
+      if (!mirrored) starts.emplace_back(cost(u), u);
       std::size_t i = 0;
       for (; i < d_; ++i) {
         if (++idx[i] < grid(i)) break;
         idx[i] = 0;
       }
-      if (i == d_) return;
+      if (i == d_) return starts;
     }
-  }
-
-  bool is_resonance_form() const {
-    return form_.effect == CandidateEffect::casing_mode || form_.effect == CandidateEffect::mount_resonance;
-  }
-
-  /// Parameter i's value as a coordinate of the unit box (clamped to it).
-  double unit_of(std::size_t i, double value) const {
-    const auto& p = form_.parameters[i];
-    const double t = p.log_scale ? (std::log(value) - std::log(p.low)) / (std::log(p.high) - std::log(p.low))
-                                 : (value - p.low) / (p.high - p.low);
-    return std::clamp(t, 0.0, 1.0);
-  }
-
-  /// Each training record's two input lines with the largest measured-over-model power ratio (above
-  /// 1) among those above both neighbours, in Hz, frequencies within 2 % of one another once. A mode a few tens of Hz wide lifts
-  /// only the lines beside it: between grid cells a ratio of frequencies apart, the grid's starts
-  /// miss it and the descent sees no slope towards it.
-  std::vector<double> strongest_gap_hz() const {
-    constexpr std::size_t kPerRecord = 2;
-    std::vector<double> hz;
-    auto near = [](const std::vector<double>& list, double f) {
-      return std::any_of(list.begin(), list.end(), [&](double h) { return std::abs(h - f) < 0.02 * h; });
-    };
-    for (const auto& p : training_) {
-      const auto model = apply_effects(base_, p.twin, gears_);
-      const auto& m = p.measured.input_lines;
-      const auto& q = model.input_lines;
-      const std::size_t n = std::min(m.size(), q.size());
-      std::vector<double> ratio(n);
-      for (std::size_t k = 0; k < n; ++k) ratio[k] = (m[k] + p.floor) / (q[k] + p.floor);
-      // Only the lines above both neighbours: a sharp mode's flanks would otherwise take the places.
-      std::vector<std::pair<double, double>> lines;  // ratio, Hz
-      for (std::size_t k = 0; k < n; ++k)
-        if ((k == 0 || ratio[k] >= ratio[k - 1]) && (k + 1 == n || ratio[k] >= ratio[k + 1]))
-          lines.emplace_back(ratio[k], static_cast<double>(k + 1) * p.measured.speed_hz);
-      std::sort(lines.begin(), lines.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-      std::vector<double> own;
-      for (const auto& [ratio, f] : lines) {
-        if (ratio <= 1 || own.size() == kPerRecord) break;
-        if (!near(own, f)) own.push_back(f);
-      }
-      for (double f : own)
-        if (!near(hz, f)) hz.push_back(f);
-    }
-    return hz;
   }
 
   /// Descents from the two best starts; for an interchangeable pair, the two best with different
@@ -268,22 +177,22 @@ class FormFit {
     return descents;
   }
 
-  /// The first simplex: the start and, for each parameter, the start moved by its step
+  /// The first simplex: the start and, for each parameter, the start moved half a grid cell
   /// towards the box's middle.
-  Simplex initial_simplex(const Start& start, const std::vector<double>& steps) const {
+  Simplex initial_simplex(const Start& start) const {
     Simplex simplex{{start.second}, {start.first}};
     for (std::size_t i = 0; i < d_; ++i) {
       auto u = start.second;
-      u[i] = std::clamp(u[i] + steps[i] * (u[i] > 0.5 ? -1 : 1), 0.0, 1.0);
+      u[i] = std::clamp(u[i] + 0.5 / grid(i) * (u[i] > 0.5 ? -1 : 1), 0.0, 1.0);
       simplex.points.push_back(u);
       simplex.values.push_back(cost(u));
     }
     return simplex;
   }
 
-  /// Nelder–Mead on the unit box (clamped), first steps `steps`.
-  Simplex nelder_mead(const Start& start, const std::vector<double>& steps) const {
-    Simplex simplex = initial_simplex(start, steps);
+  /// Nelder–Mead on the unit box (clamped), step a grid cell.
+  Simplex nelder_mead(const Start& start) const {
+    Simplex simplex = initial_simplex(start);
     for (int it = 0; it < 60 * static_cast<int>(d_); ++it)
       if (!nelder_mead_step(simplex)) break;
     return simplex;
