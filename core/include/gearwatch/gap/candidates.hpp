@@ -177,8 +177,7 @@ struct SummaryPair {
 };
 
 /// Fits a candidate on top of `base` (fixed) to the training pairs: the sum over the line/bin
-/// families of the mean squared log ratio, families weighted alike. Grid over each parameter
-/// (with the strongest-gap lines' frequencies as extra starts of the resonance searches), then
+/// families of the mean squared log ratio, families weighted alike. Grid over each parameter, then
 /// Nelder–Mead from the two best starts. Returns the values in the form's order.
 std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<AppliedEffect>& base,
                                   const std::vector<SummaryPair>& training, const GearPairSpec& gears);
