@@ -282,7 +282,7 @@ void IndicatorBench::time_stages_outside_tree() {
          spectrum.resize(n / 2 + 1);
          plans.real(n).forward(tapered, spectrum);
        }, {}},
-      {"full-band envelope ICS2", [&] { envelope.full_band_ics2(spectrum, n, spectral_revs, ics2); }, {}},
+      {"full-band envelope ICS2", [&] { envelope.full_band_ics2(tapered, spectrum, spectral_revs, ics2); }, {}},
       {"fixed-band envelopes ICS2", [&] {
          for (const auto& band : {settings.pitting_band, settings.abrasion_band}) {
            const auto [lo, hi] = bins(band);
