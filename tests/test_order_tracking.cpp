@@ -6,6 +6,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <random>
 #include <stdexcept>
 #include <vector>
 
@@ -300,6 +301,40 @@ TEST_CASE("Tracking residual share: all of a deviation at the shaft's own order 
     INFO("x = " << x << ": sidebands say " << measured << ", tracking_residual_share " << tracking_residual_share(x));
     CHECK(measured == Approx(tracking_residual_share(x)).epsilon(0.005));  // measured: within 6e-5
   }
+}
+
+TEST_CASE("Order tracking in blocks: positions and interpolated values bit-identical to one call per sample", "[dsp][order_tracking]") {
+  // The block paths (ShaftAngle::times_at, BandLimitedInterpolator::interpolate) must give the
+  // very numbers of the per-sample calls, at the record's edges (zeros outside) and inside, for the
+  // full-band kernel and a widened (lowered-cutoff) one.
+  std::mt19937_64 rng(38);
+  std::normal_distribution<double> normal;
+  std::vector<float> x(4000);
+  for (auto& v : x) v = static_cast<float>(normal(rng));
+  std::uniform_real_distribution<double> position(-30.0, 4030.0);
+  std::vector<double> t(1001);  // not a multiple of the four lanes
+  for (auto& v : t) v = position(rng);
+  t[0] = 0.0, t[1] = 15.0, t[2] = 3999.0, t[3] = 2000.5;
+  for (double cutoff : {1.0, 0.5, 0.34375}) {
+    BandLimitedInterpolator interpolator;
+    interpolator.set_cutoff(cutoff);
+    std::vector<double> block(t.size());
+    interpolator.interpolate(x, t, block);
+    std::size_t differing = 0;
+    for (std::size_t k = 0; k < t.size(); ++k) differing += block[k] != interpolator(x, t[k]);
+    INFO("cutoff " << cutoff << ", taps " << interpolator.taps());
+    CHECK(differing == 0);
+  }
+  std::vector<double> edges;
+  for (int m = 0; m <= 40; ++m) edges.push_back(100.0 + 250.0 * m + 20.0 * std::sin(0.7 * m));
+  ShaftAngle angle;
+  REQUIRE(angle.assign(edges, 2, 1.0).ok());  // knot spacing 1/2: the division by it is kept
+  const double step = 19.0 / 52.0 / 64.0;
+  std::vector<double> times(500);
+  angle.times_at(step, 123, times);
+  std::size_t differing = 0;
+  for (std::size_t k = 0; k < times.size(); ++k) differing += times[k] != angle.time_at(static_cast<double>(123 + k) * step);
+  CHECK(differing == 0);
 }
 
 }  // namespace test_order_tracking

@@ -107,22 +107,30 @@ Ics2Result SquaredEnvelopeAnalyzer::band_ics2(std::span<const Complex> spectrum,
   return ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);
 }
 
-Ics2Result SquaredEnvelopeAnalyzer::full_band_ics2(std::span<const Complex> spectrum, std::size_t n,
+Ics2Result SquaredEnvelopeAnalyzer::full_band_ics2(std::span<const double> signal, std::span<const Complex> spectrum,
                                                    std::size_t revolutions, const Ics2Parameters& p) {
+  const std::size_t n = signal.size();
   if (revolutions == 0 || n < 4 || spectrum.size() < n / 2 + 1)
     throw std::invalid_argument("full_band_ics2: bad sizes");
   const RealFft& fft = plans_->real(n);
-  // In-phase part without DC/Nyquist, and the quadrature (Hilbert) part: X[k] -> -j X[k].
-  baseband_.assign(fft.spectrum_size(), Complex{});
-  for (std::size_t k = 1; 2 * k < n; ++k) baseband_[k] = spectrum[k];
-  in_phase_.resize(n);
-  fft.inverse(baseband_, in_phase_);
-  baseband_.assign(fft.spectrum_size(), Complex{});
+  // The quadrature (Hilbert) part: X[k] -> -j X[k], DC and Nyquist dropped; unnormalised like
+  // the c2r transform (n times the signal's scale).
+  baseband_.resize(fft.spectrum_size());
+  baseband_[0] = Complex{};
   for (std::size_t k = 1; 2 * k < n; ++k) baseband_[k] = Complex(spectrum[k].imag(), -spectrum[k].real());
+  if (n % 2 == 0) baseband_[n / 2] = Complex{};
   quadrature_.resize(n);
   fft.inverse(baseband_, quadrature_);
+  // The in-phase part on the same scale: n x[i] less the DC bin and, for an even n, the Nyquist
+  // bin X[n/2] (-1)^i, which is what the inverse of the spectrum without those two bins gives.
+  const double dc = spectrum[0].real();
+  const double nyquist = n % 2 == 0 ? spectrum[n / 2].real() : 0.0;
+  const double scale = static_cast<double>(n);
   envelope_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) envelope_[i] = in_phase_[i] * in_phase_[i] + quadrature_[i] * quadrature_[i];
+  for (std::size_t i = 0; i < n; ++i) {
+    const double in_phase = scale * signal[i] - dc - (i % 2 == 0 ? nyquist : -nyquist);
+    envelope_[i] = in_phase * in_phase + quadrature_[i] * quadrature_[i];
+  }
   return ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);
 }
 

@@ -465,7 +465,7 @@ double Ics2Criterion::evaluate(const FilterBankNode& node) {
     apply_tukey_taper(real_, kEnvelopeTaperFraction);
     spectrum_.resize(fft.spectrum_size());
     fft.forward(real_, spectrum_);
-    return envelope_->full_band_ics2(spectrum_, n, static_cast<std::size_t>(revolutions), parameters_).value;
+    return envelope_->full_band_ics2(real_, spectrum_, static_cast<std::size_t>(revolutions), parameters_).value;
   }
   return envelope_->complex_ics2(node.samples.subspan(0, n), revolutions, parameters_).value;
 }

@@ -89,6 +89,21 @@ double ShaftAngle::time_at(double revs) const {
          ((a * a * a - a) * second_deriv_[i] + (b * b * b - b) * second_deriv_[i + 1]) * h * h / 6.0;
 }
 
+void ShaftAngle::times_at(double step, std::size_t first, std::span<double> out) const {
+  if (times_.empty()) throw std::logic_error("ShaftAngle::times_at before a successful assign()");
+  const double h = knot_spacing_;
+  const std::size_t last_interval = times_.size() - 2;
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    const double u = static_cast<double>(first + k) * step / h;
+    std::size_t i = u <= 0.0 ? 0 : static_cast<std::size_t>(u);
+    if (i >= last_interval + 1) i = last_interval;
+    const double b = (u - static_cast<double>(i));
+    const double a = 1.0 - b;
+    out[k] = a * times_[i] + b * times_[i + 1] +
+             ((a * a * a - a) * second_deriv_[i] + (b * b * b - b) * second_deriv_[i + 1]) * h * h / 6.0;
+  }
+}
+
 void ShaftAngle::speed_per_revolution(double sample_rate_hz, std::vector<double>& out) const {
   out.clear();
   const auto revs = static_cast<std::size_t>(std::floor(total_revs_ + 1e-9));
@@ -216,6 +231,54 @@ double BandLimitedInterpolator::operator()(std::span<const float> x, double t) c
   return acc0 + w * (acc1 - acc0);
 }
 
+void BandLimitedInterpolator::interpolate(std::span<const float> x, std::span<const double> t, std::span<double> out) const {
+  if (out.size() < t.size()) throw std::invalid_argument("BandLimitedInterpolator: output too small");
+  constexpr std::size_t kLanes = 4;  // positions at a time
+  using v4f = float __attribute__((vector_size(16)));
+  const auto n = static_cast<std::ptrdiff_t>(x.size());
+  const float* table = table_->data();
+  std::size_t k = 0;
+  for (; k + kLanes <= t.size(); k += kLanes) {
+    std::array<const float*, kLanes> row0{}, xs{};
+    std::array<double, kLanes> w{};
+    bool interior = true;
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      // The same position arithmetic as operator().
+      const double floor_t = std::floor(t[k + l]);
+      const auto base = static_cast<std::ptrdiff_t>(floor_t);
+      const double phase_pos = (t[k + l] - floor_t) * phases_;
+      auto p = static_cast<int>(phase_pos);
+      if (p >= phases_) p = phases_ - 1;
+      w[l] = phase_pos - p;
+      row0[l] = table + static_cast<std::size_t>(p) * taps_;
+      const std::ptrdiff_t first = base - taps_ / 2 + 1;
+      interior = interior && first >= 0 && first + taps_ <= n;
+      xs[l] = interior ? x.data() + first : nullptr;
+    }
+    if (!interior) {
+      for (std::size_t l = 0; l < kLanes; ++l) out[k + l] = (*this)(x, t[k + l]);
+      continue;
+    }
+    std::array<v4f, kLanes> a0{}, a1{};
+    for (int m = 0; m < taps_; m += 4) {
+      for (std::size_t l = 0; l < kLanes; ++l) {
+        v4f xv, r0, r1;
+        __builtin_memcpy(&xv, xs[l] + m, sizeof xv);
+        __builtin_memcpy(&r0, row0[l] + m, sizeof r0);
+        __builtin_memcpy(&r1, row0[l] + taps_ + m, sizeof r1);
+        a0[l] += r0 * xv;
+        a1[l] += r1 * xv;
+      }
+    }
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const double acc0 = static_cast<double>(a0[l][0]) + a0[l][1] + a0[l][2] + a0[l][3];
+      const double acc1 = static_cast<double>(a1[l][0]) + a1[l][1] + a1[l][2] + a1[l][3];
+      out[k + l] = acc0 + w[l] * (acc1 - acc0);
+    }
+  }
+  for (; k < t.size(); ++k) out[k] = (*this)(x, t[k]);
+}
+
 void AngularResampler::resample(std::span<const float> x, const ShaftAngle& angle, std::size_t samples_per_rev,
                                 std::size_t revolutions, std::span<double> out, double angle_revs_per_rev) {
   const std::size_t count = samples_per_rev * revolutions;
@@ -233,7 +296,14 @@ void AngularResampler::resample(std::span<const float> x, const ShaftAngle& angl
   const double cutoff = spacing <= 1.0 ? 1.0 : std::floor(64.0 / spacing) / 64.0;
   interpolator_.set_cutoff(std::max(cutoff, 1.0 / 64.0));
   const double step = angle_revs_per_rev / static_cast<double>(samples_per_rev);
-  for (std::size_t j = 0; j < count; ++j) out[j] = interpolator_(x, angle.time_at(static_cast<double>(j) * step));
+  constexpr std::size_t kBlock = 1024;  // positions computed, then interpolated, a block at a time
+  times_.resize(kBlock);
+  for (std::size_t j = 0; j < count; j += kBlock) {
+    const std::size_t m = std::min(kBlock, count - j);
+    const std::span<double> t(times_.data(), m);
+    angle.times_at(step, j, t);
+    interpolator_.interpolate(x, t, out.subspan(j, m));
+  }
 }
 
 double tracking_residual_share(double ratio) {

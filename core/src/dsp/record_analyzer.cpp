@@ -399,7 +399,7 @@ struct RecordAnalyzer::Context {
 
   /// Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier bands.
   void envelope_indicators() {
-    full_band = a.envelope_.full_band_ics2(a.residual_spectrum_, spectral_length, spectral_revs, ics2).value;
+    full_band = a.envelope_.full_band_ics2(a.tapered_residual_, a.residual_spectrum_, spectral_revs, ics2).value;
     add(to_string(Indicator::ics2_full_band), full_band);
     band_ics2(a.settings_.pitting_band, to_string(Indicator::ics2_low_band));
     band_ics2(a.settings_.abrasion_band, to_string(Indicator::ics2_high_band));

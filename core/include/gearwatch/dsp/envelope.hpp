@@ -53,10 +53,12 @@ class SquaredEnvelopeAnalyzer {
   Ics2Result band_ics2(std::span<const Complex> spectrum, std::size_t signal_size, std::size_t revolutions,
                        std::size_t first_bin, std::size_t last_bin, const Ics2Parameters& p);
 
-  /// ICS2 of the whole band of a real signal (its r2c spectrum given), via the Hilbert transform:
-  /// |x + jH(x)|^2 = x^2 + H(x)^2 with one c2r and one r2c transform instead of a complex one.
-  /// Equals band_ics2 over bins 1..n/2-1 (DC and Nyquist bins excluded from the analytic signal).
-  Ics2Result full_band_ics2(std::span<const Complex> spectrum, std::size_t signal_size, std::size_t revolutions,
+  /// ICS2 of the whole band of a real signal (the signal and its r2c spectrum given), via the
+  /// Hilbert transform: |x + jH(x)|^2 = x^2 + H(x)^2 with one c2r (the quadrature) and one r2c
+  /// transform (the SES) instead of a complex one. The in-phase part is the signal itself less its
+  /// DC and Nyquist bins, taken in the time domain (no transform). Equals band_ics2 over bins
+  /// 1..n/2-1 (DC and Nyquist bins excluded from the analytic signal).
+  Ics2Result full_band_ics2(std::span<const double> signal, std::span<const Complex> spectrum, std::size_t revolutions,
                             const Ics2Parameters& p);
 
   /// ICS2 of a complex (one-sided, e.g. filter-bank) signal whose length spans `revolutions`:
@@ -69,7 +71,7 @@ class SquaredEnvelopeAnalyzer {
  private:
   FftPlanCache* plans_;
   ComplexBuffer baseband_, analytic_, ses_spectrum_;
-  RealBuffer envelope_, quadrature_, in_phase_;
+  RealBuffer envelope_, quadrature_;
   std::vector<double> ses_magnitude_;
 };
 

@@ -41,6 +41,8 @@ class ShaftAngle {
   double total_revolutions() const noexcept { return total_revs_; }
   /// Sample position of the given angle (revolutions since the first edge), 0 <= revs <= total.
   double time_at(double revs) const;
+  /// out[k] = time_at((first + k) * step) for every k, the same arithmetic without a call per sample.
+  void times_at(double step, std::size_t first, std::span<double> out) const;
   /// Speed (revolutions per second) averaged over each whole revolution.
   void speed_per_revolution(double sample_rate_hz, std::vector<double>& out) const;
 
@@ -80,6 +82,9 @@ class BandLimitedInterpolator {
   int taps() const noexcept { return taps_; }
   /// Value at fractional sample position t; samples outside [0, n) count as zero.
   double operator()(std::span<const float> x, double t) const;
+  /// out[k] = (*this)(x, t[k]): the same arithmetic (the same products, summed in the same
+  /// order), four positions at a time so their sums run side by side.
+  void interpolate(std::span<const float> x, std::span<const double> t, std::span<double> out) const;
 
  private:
   int zero_crossings_;
@@ -107,6 +112,7 @@ class AngularResampler {
 
  private:
   BandLimitedInterpolator interpolator_;
+  std::vector<double> times_;  // one block of output positions
 };
 
 }  // namespace gearwatch::dsp
