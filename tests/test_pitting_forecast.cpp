@@ -57,6 +57,7 @@ ModelSettings small_density_settings() {
   s.pitting_limit = 2e-4;              // small densities: Eq. 7.12's width feedback stays below 1 % (see the tolerance)
   s.forecast_horizon_cycles = 1e7;
   s.pitting_interval_cycles = 1e12;    // no correlation step: the calibration alone is tested
+  s.pitting_growth_law = false;        // Eq. 7.8's own forecast and flags (the growth law: its own test below)
   return s;
 }
 
@@ -115,6 +116,34 @@ TEST_CASE("pitting forecast: calibrated on two inspections of a closed-form law,
   CHECK(checked == 23);
   // The calibrated K is the truth's (the bisection's 1e-4 in ln K, and the feedback at 1e-4).
   CHECK(model.memory().k_pitting == Approx(truth.k).epsilon(0.01));
+}
+
+TEST_CASE("pitting forecast: with the growth law on a closed-form Lundberg-Palmgren truth the interval holds its cycles to the limit",
+          "[model][pitting_forecast]") {
+  // The truth D ∝ N^m at small D is the law dD/dN = a D^b with b = (m − 1)/m, inside the family:
+  // the fit's interval must hold the closed form's cycles to the limit at every record after the
+  // second inspection, and the evidence must name the law.
+  ModelSettings s = small_density_settings();
+  s.pitting_growth_law = true;
+  s.pitting_interval_cycles = 1e5;
+  const ClosedFormPitting truth = truth_for(s);
+  const double n_limit = solve_increasing([&](double n) { return truth.mean(n); }, s.pitting_limit, 1e5, 1e8);
+  TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
+  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
+  int checked = 0;
+  for (double n = 5e4; n <= 1.8e6; n += 5e4) {
+    const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(n)), inspections);
+    if (n < 7e5) continue;
+    INFO(n << " cycles: " << r.forecast.evidence);
+    REQUIRE(r.forecast.valid);
+    CHECK(r.forecast.evidence.find("pitting growth law") != std::string::npos);
+    const double expected = n_limit - n;
+    REQUIRE(r.forecast.pitting.cycles_left_low);
+    CHECK(*r.forecast.pitting.cycles_left_low <= expected);
+    if (r.forecast.pitting.cycles_left_high) CHECK(*r.forecast.pitting.cycles_left_high >= expected);
+    ++checked;
+  }
+  CHECK(checked == 23);
 }
 
 TEST_CASE("pitting forecast: the model's density at the limit while ICS2 reads half of it gives no 0 left but the closed form from the measured density, flagged",

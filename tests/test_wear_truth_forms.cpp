@@ -369,6 +369,40 @@ TEST_CASE("wear truth forms: the Weibull pitting's mean density over many seeds 
     INFO("expected " << expected << " sd " << sd);
     CHECK(std::abs(sum / seeds - expected) < 4 * sd);
   }
+  SECTION("power growth: E[density] = n/A ∫ min(a_max, a0 (1 + g(N−t)/p)^p) dF(t)") {
+    s.initial_area_m2 = 0.01e-6;
+    s.max_area_m2 = 0.4e-6;
+    s.growth = rig::PitGrowthForm::power;
+    s.growth_power = 1.7;
+    const double full = 1.7 * (std::pow(40.0, 1.0 / 1.7) - 1.0);   // the age at a_max
+    s.growth_per_cycle = full / 6e5;
+    const double n = 1.5e6;
+    double m1 = 0, m2 = 0;
+    const int steps = 200000;
+    const double dt = (n - s.location_cycles) / steps;
+    for (int i = 0; i < steps; ++i) {
+      const double t = s.location_cycles + (i + 0.5) * dt;
+      const double x = (t - s.location_cycles) / s.characteristic_life_cycles;
+      const double pdf = s.shape / s.characteristic_life_cycles * std::pow(x, s.shape - 1) * std::exp(-std::pow(x, s.shape));
+      const double a = std::min(s.max_area_m2, s.initial_area_m2 * std::pow(1.0 + s.growth_per_cycle * (n - t) / 1.7, 1.7));
+      m1 += a * pdf * dt;
+      m2 += a * a * pdf * dt;
+    }
+    double sum = 0;
+    for (int k = 0; k < seeds; ++k) {
+      s.seed = 7000 + static_cast<std::uint64_t>(k);
+      sum += rig::WeibullPitting(s, area, constant_torque(20), {}).density(n);
+    }
+    const double expected = s.sites * m1 / area;
+    const double sd = std::sqrt(s.sites * (m2 - m1 * m1) / seeds) / area;
+    INFO("expected " << expected << " sd " << sd);
+    CHECK(std::abs(sum / seeds - expected) < 4 * sd);
+    // One pit's area in closed form: a0 (1 + x/p)^p, a_max from the full age on.
+    const rig::WeibullPitting one(s, area, constant_torque(20), {});
+    CHECK(one.pit_area(1.0) == Approx(0.01e-6 * std::pow(1.0 + 1.0 / 1.7, 1.7)).epsilon(1e-12));
+    CHECK(one.full_growth_age() == Approx(full).epsilon(1e-12));
+    CHECK(one.pit_area(full * 1.01) == s.max_area_m2);
+  }
   SECTION("contamination multiplies the growth rate from N_c on") {
     s.initial_area_m2 = 0.01e-6;
     s.max_area_m2 = 10e-6;
@@ -435,6 +469,7 @@ TEST_CASE("random campaigns: deterministic per seed, different between seeds, in
     ++seen[rig::to_string(f.pitting)];
     if (f.contamination.on()) ++seen["contamination"];
     if (c.load_change_cycles >= 0) ++seen["load change"];
+    if (f.pitting == rig::PittingForm::weibull) ++seen[std::string("pit growth ") + rig::to_string(f.weibull.growth)];
     // The ranges of docs/rig-simulator.md, "Random campaigns".
     CHECK(c.measurement_speeds_hz == std::vector<double>{10.0});
     CHECK(c.pitting_gain_m_s2 == 20.0);
@@ -474,7 +509,13 @@ TEST_CASE("random campaigns: deterministic per seed, different between seeds, in
       CHECK((w.max_area_m2 >= 0.1e-6 && w.max_area_m2 <= 0.5e-6));
       CHECK((w.load_life_exponent >= 10.0 / 3.0 && w.load_life_exponent <= 6.6));
       CHECK((c.random.pit_growth_cycles >= 0.1 * c.max_cycles && c.random.pit_growth_cycles <= 0.5 * c.max_cycles));
-      CHECK(w.growth_per_cycle == Approx(std::log(w.max_area_m2 / w.initial_area_m2) / c.random.pit_growth_cycles));
+      const double ratio = w.max_area_m2 / w.initial_area_m2;
+      if (w.growth == rig::PitGrowthForm::power) {
+        CHECK((w.growth_power >= 1.0 && w.growth_power <= 3.0));
+        CHECK(w.growth_per_cycle == Approx(w.growth_power * (std::pow(ratio, 1.0 / w.growth_power) - 1.0) / c.random.pit_growth_cycles));
+      } else {
+        CHECK(w.growth_per_cycle == Approx(std::log(ratio) / c.random.pit_growth_cycles));
+      }
       CHECK((c.random.final_density_target >= 0.12 && c.random.final_density_target <= 0.28));
       CHECK((c.random.pit_site_oversupply >= 1.5 && c.random.pit_site_oversupply <= 3.0));
       CHECK(w.sites == static_cast<int>(std::ceil(c.random.pit_site_oversupply * c.random.final_density_target * area / w.max_area_m2)));
@@ -504,7 +545,8 @@ TEST_CASE("random campaigns: deterministic per seed, different between seeds, in
   }
   CHECK(k0s.size() == 200);   // every seed a different campaign
   // Every option occurs (each is drawn with probability ≥ 1/6 per lubricated-like seed).
-  for (const char* key : {"lubricated-like", "dry-like", "regime", "constant", "weibull", "none", "contamination", "load change"})
+  for (const char* key : {"lubricated-like", "dry-like", "regime", "constant", "weibull", "none", "contamination", "load change",
+                          "pit growth exponential", "pit growth power"})
     CHECK(seen[key] >= 10);
 }
 

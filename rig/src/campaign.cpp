@@ -485,6 +485,8 @@ nlohmann::json truth_forms_json(const CampaignSpec& c) {
                     {"initial_area_mm2", w.initial_area_m2 * 1e6},
                     {"max_area_mm2", w.max_area_m2 * 1e6},
                     {"growth_per_cycle", w.growth_per_cycle},
+                    {"pit_growth", to_string(w.growth)},
+                    {"pit_growth_power", w.growth_power},
                     {"reference_torque_nm", w.reference_torque_nm},
                     {"load_life_exponent", w.load_life_exponent},
                     {"max_density", w.max_density},

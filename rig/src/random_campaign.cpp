@@ -71,7 +71,6 @@ void draw_pitting(detail::Random& rng, CampaignSpec& c, double area_m2) {
   w.initial_area_m2 = rng.uniform(0.005, 0.02) * 1e-6;   // 0.005–0.02 mm²
   w.max_area_m2 = rng.uniform(0.1, 0.5) * 1e-6;          // 0.1–0.5 mm² (Fig. 7.10's pits)
   c.random.pit_growth_cycles = rng.uniform(0.1, 0.5) * c.max_cycles;
-  w.growth_per_cycle = std::log(w.max_area_m2 / w.initial_area_m2) / c.random.pit_growth_cycles;
   w.load_life_exponent = rng.uniform(10.0 / 3.0, 6.6);
   w.reference_torque_nm = c.torque_nm;
   w.max_density = 0.3;
@@ -79,6 +78,13 @@ void draw_pitting(detail::Random& rng, CampaignSpec& c, double area_m2) {
   c.random.pit_site_oversupply = rng.uniform(1.5, 3.0);
   w.sites = static_cast<int>(std::ceil(c.random.pit_site_oversupply * c.random.final_density_target * area_m2 / w.max_area_m2));
   w.seed = c.random.seed * 0x9E3779B97F4A7C15ull + 0x51735ull;
+  // Drawn last, so the draws above stay those of a campaign from before the power form. Half the
+  // campaigns' pits grow as a power of their age, p in [1, 3] (1: linear in cycles).
+  w.growth = rng.uniform() < 0.5 ? PitGrowthForm::exponential : PitGrowthForm::power;
+  w.growth_power = w.growth == PitGrowthForm::power ? rng.uniform(1.0, 3.0) : 2.0;
+  const double ratio = w.max_area_m2 / w.initial_area_m2;
+  const double full = w.growth == PitGrowthForm::power ? w.growth_power * (std::pow(ratio, 1.0 / w.growth_power) - 1.0) : std::log(ratio);
+  w.growth_per_cycle = full / c.random.pit_growth_cycles;
 }
 
 /// η such that the realised pits reach the density target at max_cycles: the density there falls

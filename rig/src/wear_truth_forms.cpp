@@ -103,6 +103,7 @@ void validate(const WeibullPittingSettings& s) {
   require(std::isfinite(s.max_area_m2) && s.max_area_m2 >= s.initial_area_m2,
           "weibull pitting: max_area_m2 must be >= initial_area_m2");
   require(finite_nonnegative(s.growth_per_cycle), "weibull pitting: growth_per_cycle must be >= 0");
+  require(std::isfinite(s.growth_power) && s.growth_power > 0, "weibull pitting: growth_power must be > 0");
   require(std::isfinite(s.reference_torque_nm) && s.reference_torque_nm > 0, "weibull pitting: reference_torque_nm must be > 0");
   require(finite_nonnegative(s.load_life_exponent), "weibull pitting: load_life_exponent must be >= 0");
   require(s.max_density >= 0 && s.max_density <= 1, "weibull pitting: max_density must be 0 .. 1");
@@ -139,6 +140,14 @@ const char* to_string(WearCoefficientForm form) {
   switch (form) {
     case WearCoefficientForm::constant: return "constant";
     case WearCoefficientForm::regime: return "regime";
+  }
+  return "?";
+}
+
+const char* to_string(PitGrowthForm form) {
+  switch (form) {
+    case PitGrowthForm::exponential: return "exponential";
+    case PitGrowthForm::power: return "power";
   }
   return "?";
 }
@@ -237,15 +246,23 @@ double WeibullPitting::growth_rate(double cycles) const {
   return s_.growth_per_cycle * (contamination_.active(cycles) ? contamination_.pitting_growth_factor : 1.0);
 }
 
+double WeibullPitting::full_growth_age() const {
+  const double ratio = s_.max_area_m2 / s_.initial_area_m2;
+  if (s_.growth == PitGrowthForm::power) return s_.growth_power * (std::pow(ratio, 1.0 / s_.growth_power) - 1.0);
+  return std::log(ratio);
+}
+
+double WeibullPitting::pit_area(double age) const {
+  if (age >= full_growth_age()) return s_.max_area_m2;
+  if (s_.growth == PitGrowthForm::power) return s_.initial_area_m2 * std::pow(1.0 + age / s_.growth_power, s_.growth_power);
+  return s_.initial_area_m2 * std::exp(age);
+}
+
 double WeibullPitting::density(double cycles) const {
   const auto end = std::upper_bound(initiation_.begin(), initiation_.end(), cycles);
-  const double full = std::log(s_.max_area_m2 / s_.initial_area_m2);
   const double g_now = growth_exponent(cycles);
   double area = 0;
-  for (auto it = initiation_.begin(); it != end; ++it) {
-    const double e = g_now - growth_exponent(*it);
-    area += e >= full ? s_.max_area_m2 : s_.initial_area_m2 * std::exp(e);
-  }
+  for (auto it = initiation_.begin(); it != end; ++it) area += pit_area(g_now - growth_exponent(*it));
   return std::min(s_.max_density, area / area_m2_);
 }
 

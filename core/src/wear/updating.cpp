@@ -463,6 +463,7 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
     accept_calibrated_state();
     read_depth_inspections(inspections, prev_cycles, prev_mean, report);
   }
+  read_pitted_area_inspections(inspections, memory_.current.state.cycles);
   prune_intervals();
   report.forecast = forecast();
   finish();
@@ -2051,6 +2052,74 @@ void TwinModel::apply_ics2_lower_bound(Forecast& f, const WearLoopOptions& o, co
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
 }
 
+void TwinModel::read_pitted_area_inspections(const std::vector<Inspection>& inspections, double now) {
+  auto& points = memory_.pitted_area_points;
+  points.clear();
+  for (const Inspection& i : inspections)
+    if (i.pitted_area && std::isfinite(*i.pitted_area) && *i.pitted_area > 0 && *i.pitted_area <= 1 && std::isfinite(i.cycles) &&
+        i.cycles <= now)
+      points.push_back({i.cycles, *i.pitted_area});
+  std::sort(points.begin(), points.end());
+}
+
+std::vector<DensityReading> TwinModel::growth_law_readings() const {
+  const double s = settings_.inspection_area_relative_sd;
+  std::vector<DensityReading> r;
+  for (const auto& p : memory_.pitted_area_points) r.push_back({p[0], p[1], s});
+  if (!memory_.ics2_scale_valid) return r;
+  // One reading per pitting interval: the records' ICS2 scatter is not independent evidence of the
+  // curve's shape at the records' own spacing. Saturated readings are lower bounds only: left out.
+  const Ics2Scale scale = ics2_scale();
+  const double width = settings_.pitting_interval_cycles;
+  std::vector<std::array<double, 2>> bin;
+  auto flush = [&] {
+    if (bin.empty()) return;
+    std::vector<double> n, v;
+    for (const auto& x : bin) n.push_back(x[0]), v.push_back(x[1]);
+    std::sort(n.begin(), n.end());
+    std::sort(v.begin(), v.end());
+    const double cycles = n[n.size() / 2], ics2 = v[v.size() / 2];
+    bin.clear();
+    if (ics2 >= settings_.ics2_saturation) return;
+    const double d = scale.density_at(ics2);
+    if (!(d > 0) || !std::isfinite(d)) return;
+    r.push_back({cycles, d, std::max(s, ics2_density_sd(d) / d)});
+  };
+  double bin_end = -1;
+  for (const auto& p : memory_.ics2_series) {
+    if (p[0] > bin_end) {
+      flush();
+      bin_end = p[0] + width;
+    }
+    bin.push_back(p);
+  }
+  flush();
+  return r;
+}
+
+void TwinModel::apply_growth_law(Forecast& f) const {
+  if (!settings_.pitting_growth_law || memory_.pitted_area_points.size() < 2) return;   // Lundberg–Palmgren alone (calibrated or not)
+  const auto readings = growth_law_readings();
+  GrowthLawSettings gs;
+  gs.b_prior_mean = (settings_.loop.material.m - 1.0) / settings_.loop.material.m;   // Eq. 7.8 at small D: D ∝ N^m
+  gs.coverage = kNominalCoverage;
+  const double now = memory_.current.state.cycles, horizon = settings_.forecast_horizon_cycles;
+  const GrowthLawFit fit = fit_growth_law(readings, settings_.pitting_limit, now, gs);
+  if (!fit.valid) return;
+  // A near end a measurement set to 0 (the limit reached or not ruled out) stays 0.
+  const bool near_zero = f.pitting.cycles_left_low && *f.pitting.cycles_left_low == 0.0;
+  auto within = [horizon](double c) { return std::isfinite(c) && c <= horizon ? std::optional<double>(c) : std::nullopt; };
+  f.pitting.cycles_left = within(fit.cycles_left);
+  f.pitting.cycles_left_low = near_zero ? 0.0 : std::min(fit.cycles_left_low, horizon);
+  f.pitting.cycles_left_high = within(fit.cycles_left_high);
+  hold_nominal(f);
+  char b[400];
+  std::snprintf(b, sizeof b, "pitting growth law dD/dN = a D^b fitted to %d readings (%zu inspections, unsaturated ICS2): b = %.3g (SD %.2g; prior %.3g from Eq. 7.8's m), density now %.4g; cycles left %.4g (%.4g .. %.4g) replace Eq. 7.8's",
+                fit.readings, memory_.pitted_area_points.size(), fit.b_mean, fit.b_sd, gs.b_prior_mean, fit.density_now, fit.cycles_left,
+                fit.cycles_left_low, fit.cycles_left_high);
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+}
+
 Forecast TwinModel::forecast() const {
   Forecast f;
   if (!memory_.started || memory_.recent_operating_points.empty()) {
@@ -2081,6 +2150,7 @@ Forecast TwinModel::forecast() const {
     check_model_past_pitting_limit(f, o, ev);
     check_ics2_trend(f, ev);
     apply_ics2_lower_bound(f, o, ev);
+    apply_growth_law(f);
     f.valid = true;
   } catch (const std::exception& e) {
     f.failure = e.what();

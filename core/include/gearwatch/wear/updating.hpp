@@ -35,6 +35,7 @@
 #include "gearwatch/types/model_run.hpp"
 #include "gearwatch/wear/depth_calibration.hpp"
 #include "gearwatch/wear/forecast_intervals.hpp"
+#include "gearwatch/wear/pitting_growth.hpp"
 #include "gearwatch/wear/k_wear_rule.hpp"
 #include "gearwatch/wear/wear_loop.hpp"
 
@@ -87,6 +88,9 @@ struct ModelSettings {
   WearLoopOptions loop;                    ///< K values here are the initial ones (SI); operating point ignored
   bool update_k_wear = true;
   bool update_k_pitting = true;
+  /// With ≥ 2 pitted-area inspections the pitting forecast follows the fitted growth law
+  /// dD/dN = a D^b (pitting_growth.hpp); false: Eq. 7.8's path alone (the thesis's).
+  bool pitting_growth_law = true;
   double rms_threshold = 0.05;             ///< relative RMS_SA error that triggers a K_wear update (thesis: 5 %)
   double convergence_tolerance = 0.01;     ///< an update iterates until this (≤ threshold), so it does not sit at the edge
   int max_wear_iterations = 16;            ///< twin re-runs per K_wear update (the root-find's sensitivity read included)
@@ -233,6 +237,9 @@ struct ModelMemory {
   /// The inspections' deepest point over their mean, ln P = ln(deepest / mean) at their cycles. It
   /// depends on the inspections alone, so it is rebuilt from them at every record, not stored.
   std::vector<DepthRatioMeasurement> peak_ratio_points;
+  /// The pitted-area inspections (cycles, area) at or before the newest record: the growth law's
+  /// readings (pitting_growth.hpp). Rebuilt from the inspections at every record, not stored.
+  std::vector<std::array<double, 2>> pitted_area_points;
   std::uint64_t records_used = 0, k_wear_updates = 0, k_pitting_updates = 0;
 };
 
@@ -492,6 +499,14 @@ class TwinModel {
   /// near end and the nominal from the model's own state (from the lower bound where the model lies
   /// below it), the far end from the lower bound less its SD at the interval's level, flagged.
   void apply_ics2_lower_bound(Forecast& f, const WearLoopOptions& o, const Ics2Evidence& ev) const;
+  /// The pitted-area inspections up to `now` into memory_.pitted_area_points.
+  void read_pitted_area_inspections(const std::vector<Inspection>& inspections, double now);
+  /// The growth law's readings: the inspections and the unsaturated ICS2-derived densities, one
+  /// per `pitting_interval_cycles` (the median of its records).
+  std::vector<DensityReading> growth_law_readings() const;
+  /// With two or more inspections and three or more reading cycles the pitting forecast follows the
+  /// fitted growth law dD/dN = a D^b; its near end stays 0 where a measurement put it there.
+  void apply_growth_law(Forecast& f) const;
   /// The ICS2-derived density of the newest ICS2 values of the pair, (cycles, density).
   std::vector<std::array<double, 2>> ics2_density_series(std::size_t newest) const;
   void remember_k(std::vector<double>& recent, double k) const;

@@ -72,6 +72,11 @@ struct Contamination {
 /// (TorqueSchedule::equivalent_cycles). A pit initiated at N_i has the area
 /// a(N) = min(a_max, a0 exp(G(N) − G(N_i))), G the integral of the growth rate g (times the
 /// contamination's factor once it is on). Density = min(max_density, Σ a / active flank area).
+/// How a pit's area grows with its growth age x = G(N) − G(N_i): exponential a0 e^x, or a power
+/// of the age a0 (1 + x/p)^p (the same initial rate; polynomial, not exponential, in cycles).
+enum class PitGrowthForm { exponential, power };
+const char* to_string(PitGrowthForm form);
+
 struct WeibullPittingSettings {
   double shape = 1.5;                       ///< β
   double characteristic_life_cycles = 2e6;  ///< η, at the reference torque
@@ -80,6 +85,8 @@ struct WeibullPittingSettings {
   double initial_area_m2 = 1e-8;            ///< a0
   double max_area_m2 = 3e-7;                ///< a_max ≥ a0 (a0 = a_max: a pit appears at its full size)
   double growth_per_cycle = 5e-6;           ///< g
+  PitGrowthForm growth = PitGrowthForm::exponential;
+  double growth_power = 2;                  ///< p of the power form, > 0
   double reference_torque_nm = 20;
   double load_life_exponent = 4;            ///< p in life ∝ T^−p
   double max_density = 0.3;
@@ -124,6 +131,10 @@ class WeibullPitting {
                  const Contamination& contamination);
   double density(double cycles) const;
   double growth_rate(double cycles) const;
+  /// A pit's area at growth age x (a_max from the age it reaches it on).
+  double pit_area(double age) const;
+  /// The growth age at which a pit reaches a_max: ln(a_max/a0), or p((a_max/a0)^(1/p) − 1).
+  double full_growth_age() const;
   /// Cycle counts at which the sites initiate, ascending (∞ for a site that never does).
   const std::vector<double>& initiation_cycles() const { return initiation_; }
 
