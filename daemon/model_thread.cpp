@@ -167,6 +167,7 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   s.convergence_tolerance = m.convergence_tolerance;
   s.max_wear_iterations = m.max_wear_iterations;
   s.k_wear_update = m.k_wear_update;
+  s.pitting_growth_law = m.pitting_growth_law;
   s.min_wear_elasticity = m.min_wear_elasticity;
   s.commissioning_records = m.commissioning_records;
   s.pitting_reference_torque_nm = m.pitting_reference_torque_nm;

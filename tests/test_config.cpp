@@ -195,6 +195,11 @@ TEST_CASE("config: [model] keys, and the errors that name them", "[config][model
   CHECK_THROWS_WITH(parse_config("[model]\nwear_limit_fraction = 0.5\n", "m.toml"), Catch::Contains("model.wear_limit_fraction"));
   CHECK_THROWS_WITH(parse_config("[model]\nforce_model = \"fast\"\n", "m.toml"), Catch::Contains("model.force_model"));
   CHECK_THROWS_WITH(parse_config("[model]\nupdate_treshold = 0.05\n", "m.toml"), Catch::Contains("unknown key"));
+  // The pitting growth law is opt-in: off unless the file says true.
+  CHECK_FALSE(parse_config("", "m.toml").model.pitting_growth_law);
+  CHECK(parse_config("[model]\npitting_growth_law = true\n", "m.toml").model.pitting_growth_law);
+  CHECK_THROWS_WITH(parse_config("[model]\npitting_growth_law = 1\n", "m.toml"),
+                    "m.toml:2: key 'model.pitting_growth_law': expected true or false");
 }
 
 TEST_CASE("config: logging.sink and model.force_model are read once into their enums", "[config]") {

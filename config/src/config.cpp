@@ -359,11 +359,7 @@ void read_processing(const toml::table& root, const std::string& file, Gearwatch
   if (const toml::node* n = t.node("pitting_band_hz")) p.pitting_band = read_band(*n, "pitting_band_hz", "expected [low_hz, high_hz]");
   if (const toml::node* n = t.node("abrasion_band_hz")) p.abrasion_band = read_band(*n, "abrasion_band_hz", "expected [low_hz, high_hz]");
   t.integer("filter_bank_levels", p.filter_bank_levels, 1, 12);
-  if (const toml::node* n = t.node("kurtogram_band_selection")) {
-    auto b = n->value_exact<bool>();
-    if (!b) t.fail(n, "kurtogram_band_selection", "expected true or false");
-    p.kurtogram_band_selection = *b;
-  }
+  t.boolean("kurtogram_band_selection", p.kurtogram_band_selection);
   if (const toml::node* n = t.node("mean_carrier_ranges_hz")) {
     const toml::array* a = n->as_array();
     if (!a || a->empty()) t.fail(n, "mean_carrier_ranges_hz", "expected a list of [low_hz, high_hz] pairs");
@@ -394,11 +390,7 @@ void read_processing(const toml::table& root, const std::string& file, Gearwatch
 void read_model(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
   TableReader t(sub_table(root, "model", file), "model.", file);
   auto& m = cfg.model;
-  if (const toml::node* n = t.node("enabled")) {
-    auto b = n->value_exact<bool>();
-    if (!b) t.fail(n, "enabled", "expected true or false");
-    m.enabled = *b;
-  }
+  t.boolean("enabled", m.enabled);
   t.integer("channel", m.channel, -1, 7);
   if (m.channel >= 0 && std::none_of(cfg.rig.channels.begin(), cfg.rig.channels.end(),
                                      [&](const ChannelSpec& c) { return c.number == m.channel; }))
@@ -411,6 +403,7 @@ void read_model(const toml::table& root, const std::string& file, GearwatchConfi
     t.fail(t.node("convergence_tolerance"), "convergence_tolerance", "must not exceed update_threshold");
   t.integer("max_wear_iterations", m.max_wear_iterations, 1, 100);
   t.token("k_wear_update", m.k_wear_update, wear::kAllKWearUpdateRules, "expected \"root_find\" or \"proportional\"");
+  t.boolean("pitting_growth_law", m.pitting_growth_law);
   t.number("min_wear_elasticity", m.min_wear_elasticity, 0.0, 0.99);
   t.integer("commissioning_records", m.commissioning_records, 0, 100);
   t.number("pitting_reference_torque_nm", m.pitting_reference_torque_nm, 1e-3, 1e5);
@@ -443,11 +436,7 @@ void read_model(const toml::table& root, const std::string& file, GearwatchConfi
 void read_gap(const toml::table& root, const std::string& file, GearwatchConfig& cfg) {
   TableReader t(sub_table(root, "gap", file), "gap.", file);
   auto& g = cfg.gap;
-  if (const toml::node* n = t.node("enabled")) {
-    auto b = n->value_exact<bool>();
-    if (!b) t.fail(n, "enabled", "expected true or false");
-    g.enabled = *b;
-  }
+  t.boolean("enabled", g.enabled);
   t.integer("every_records", g.every_records, 1, 1000000);
   t.integer("training_records", g.training_records, 1, 64);
   t.integer("held_out_records", g.held_out_records, 1, 64);
@@ -457,11 +446,7 @@ void read_gap(const toml::table& root, const std::string& file, GearwatchConfig&
     t.fail(t.node("channel"), "channel", "channel " + std::to_string(g.channel) + " is not a configured [[channels]] entry");
   t.integer("bootstrap_resamples", g.bootstrap_resamples, 20, 100000);
   t.integer("seed", g.seed, 0, std::numeric_limits<std::int64_t>::max());
-  if (const toml::node* n = t.node("rerun_twin")) {
-    auto b = n->value_exact<bool>();
-    if (!b) t.fail(n, "rerun_twin", "expected true or false");
-    g.rerun_twin = *b;
-  }
+  t.boolean("rerun_twin", g.rerun_twin);
   t.integer("drift_raise_after_reports", g.drift_raise_after_reports, 1, 1000);
   t.integer("drift_clear_after_reports", g.drift_clear_after_reports, 1, 1000);
   if (g.enabled && !cfg.model.enabled)
