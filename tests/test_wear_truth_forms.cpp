@@ -322,30 +322,20 @@ TEST_CASE("wear truth forms: the Weibull pitting's mean density over many seeds 
   s.reference_torque_nm = 20;
   auto weibull_cdf = [&](double n) { return n <= s.location_cycles ? 0.0 : 1 - std::exp(-std::pow((n - s.location_cycles) / s.characteristic_life_cycles, s.shape)); };
   const int seeds = 400;
-  SECTION("growth as a step: E[density] = a n F(N) / A") {
-    s.initial_area_m2 = s.max_area_m2 = 2e-6;   // each pit appears at its full 2 mm²
-    for (double n : {3e5, 1e6, 2.5e6}) {
-      double sum = 0;
-      for (int k = 0; k < seeds; ++k) {
-        s.seed = 1000 + static_cast<std::uint64_t>(k);
-        sum += rig::WeibullPitting(s, area, constant_torque(20), {}).density(n);
-      }
-      const double f = weibull_cdf(n);
-      const double expected = s.max_area_m2 * s.sites * f / area;
-      // The initiated count is binomial(n_sites, F): the mean over the seeds has the SD
-      // a/A · sqrt(n F (1 − F) / seeds); 4 SD leaves a false failure at 6e-5 per check.
-      const double sd = s.max_area_m2 / area * std::sqrt(s.sites * f * (1 - f) / seeds);
-      INFO("N " << n << " expected " << expected << " sd " << sd);
-      CHECK(std::abs(sum / seeds - expected) < 4 * sd);
+  // The mean density over `seeds` campaigns drawn from first_seed on.
+  auto mean_density_over_seeds = [&](double n, std::uint64_t first_seed) {
+    double sum = 0;
+    for (int k = 0; k < seeds; ++k) {
+      s.seed = first_seed + static_cast<std::uint64_t>(k);
+      sum += rig::WeibullPitting(s, area, constant_torque(20), {}).density(n);
     }
-  }
-  SECTION("exponential growth: E[density] = n/A ∫ min(a_max, a0 e^{g(N−t)}) dF(t)") {
-    s.initial_area_m2 = 0.01e-6;
-    s.max_area_m2 = 0.4e-6;
-    s.growth_per_cycle = std::log(40.0) / 6e5;
-    const double n = 1.5e6;
-    // The expectation and the second moment by the midpoint rule on 200 000 steps of the
-    // Weibull density (an independent integration of the same law).
+    return sum / seeds;
+  };
+  // E[density] at n and the SD of that mean over the seeds, for a pit whose area at age x is
+  // area_of_age(x): the expectation and second moment by the midpoint rule on 200 000 steps of
+  // the Weibull density (an independent integration of the same law). Sites are independent: a
+  // campaign's density has the variance sites Var(a)/A².
+  auto expected_density = [&](double n, const auto& area_of_age) {
     double m1 = 0, m2 = 0;
     const int steps = 200000;
     const double dt = (n - s.location_cycles) / steps;
@@ -353,21 +343,35 @@ TEST_CASE("wear truth forms: the Weibull pitting's mean density over many seeds 
       const double t = s.location_cycles + (i + 0.5) * dt;
       const double x = (t - s.location_cycles) / s.characteristic_life_cycles;
       const double pdf = s.shape / s.characteristic_life_cycles * std::pow(x, s.shape - 1) * std::exp(-std::pow(x, s.shape));
-      const double a = std::min(s.max_area_m2, s.initial_area_m2 * std::exp(s.growth_per_cycle * (n - t)));
+      const double a = std::min(s.max_area_m2, area_of_age(n - t));
       m1 += a * pdf * dt;
       m2 += a * a * pdf * dt;
     }
-    double sum = 0;
-    for (int k = 0; k < seeds; ++k) {
-      s.seed = 5000 + static_cast<std::uint64_t>(k);
-      sum += rig::WeibullPitting(s, area, constant_torque(20), {}).density(n);
+    return std::pair{s.sites * m1 / area, std::sqrt(s.sites * (m2 - m1 * m1) / seeds) / area};
+  };
+  SECTION("growth as a step: E[density] = a n F(N) / A") {
+    s.initial_area_m2 = s.max_area_m2 = 2e-6;   // each pit appears at its full 2 mm²
+    for (double n : {3e5, 1e6, 2.5e6}) {
+      const double mean = mean_density_over_seeds(n, 1000);
+      const double f = weibull_cdf(n);
+      const double expected = s.max_area_m2 * s.sites * f / area;
+      // The initiated count is binomial(n_sites, F): the mean over the seeds has the SD
+      // a/A · sqrt(n F (1 − F) / seeds); 4 SD leaves a false failure at 6e-5 per check.
+      const double sd = s.max_area_m2 / area * std::sqrt(s.sites * f * (1 - f) / seeds);
+      INFO("N " << n << " expected " << expected << " sd " << sd);
+      CHECK(std::abs(mean - expected) < 4 * sd);
     }
-    const double expected = s.sites * m1 / area;
-    // Sites are independent: a campaign's density has the variance n Var(a)/A²; the mean over the
-    // seeds its square root over sqrt(seeds); 4 SD as above.
-    const double sd = std::sqrt(s.sites * (m2 - m1 * m1) / seeds) / area;
+  }
+  SECTION("exponential growth: E[density] = n/A ∫ min(a_max, a0 e^{g(N−t)}) dF(t)") {
+    s.initial_area_m2 = 0.01e-6;
+    s.max_area_m2 = 0.4e-6;
+    s.growth_per_cycle = std::log(40.0) / 6e5;
+    const double n = 1.5e6;
+    const auto [expected, sd] = expected_density(n, [&](double age) { return s.initial_area_m2 * std::exp(s.growth_per_cycle * age); });
+    const double mean = mean_density_over_seeds(n, 5000);
+    // The mean over the seeds has the campaign's SD over sqrt(seeds); 4 SD as above.
     INFO("expected " << expected << " sd " << sd);
-    CHECK(std::abs(sum / seeds - expected) < 4 * sd);
+    CHECK(std::abs(mean - expected) < 4 * sd);
   }
   SECTION("power growth: E[density] = n/A ∫ min(a_max, a0 (1 + g(N−t)/p)^p) dF(t)") {
     s.initial_area_m2 = 0.01e-6;
@@ -377,26 +381,11 @@ TEST_CASE("wear truth forms: the Weibull pitting's mean density over many seeds 
     const double full = 1.7 * (std::pow(40.0, 1.0 / 1.7) - 1.0);   // the age at a_max
     s.growth_per_cycle = full / 6e5;
     const double n = 1.5e6;
-    double m1 = 0, m2 = 0;
-    const int steps = 200000;
-    const double dt = (n - s.location_cycles) / steps;
-    for (int i = 0; i < steps; ++i) {
-      const double t = s.location_cycles + (i + 0.5) * dt;
-      const double x = (t - s.location_cycles) / s.characteristic_life_cycles;
-      const double pdf = s.shape / s.characteristic_life_cycles * std::pow(x, s.shape - 1) * std::exp(-std::pow(x, s.shape));
-      const double a = std::min(s.max_area_m2, s.initial_area_m2 * std::pow(1.0 + s.growth_per_cycle * (n - t) / 1.7, 1.7));
-      m1 += a * pdf * dt;
-      m2 += a * a * pdf * dt;
-    }
-    double sum = 0;
-    for (int k = 0; k < seeds; ++k) {
-      s.seed = 7000 + static_cast<std::uint64_t>(k);
-      sum += rig::WeibullPitting(s, area, constant_torque(20), {}).density(n);
-    }
-    const double expected = s.sites * m1 / area;
-    const double sd = std::sqrt(s.sites * (m2 - m1 * m1) / seeds) / area;
+    const auto [expected, sd] =
+        expected_density(n, [&](double age) { return s.initial_area_m2 * std::pow(1.0 + s.growth_per_cycle * age / 1.7, 1.7); });
+    const double mean = mean_density_over_seeds(n, 7000);
     INFO("expected " << expected << " sd " << sd);
-    CHECK(std::abs(sum / seeds - expected) < 4 * sd);
+    CHECK(std::abs(mean - expected) < 4 * sd);
     // One pit's area in closed form: a0 (1 + x/p)^p, a_max from the full age on.
     const rig::WeibullPitting one(s, area, constant_torque(20), {});
     CHECK(one.pit_area(1.0) == Approx(0.01e-6 * std::pow(1.0 + 1.0 / 1.7, 1.7)).epsilon(1e-12));

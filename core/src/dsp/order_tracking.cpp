@@ -77,9 +77,7 @@ TachoCheck ShaftAngle::assign(std::span<const double> edges, int edges_per_rev,
   return {};
 }
 
-double ShaftAngle::time_at(double revs) const {
-  if (times_.empty()) throw std::logic_error("ShaftAngle::time_at before a successful assign()");
-  const double u = revs / knot_spacing_;
+inline double ShaftAngle::spline_at(double u) const {
   std::size_t i = u <= 0.0 ? 0 : static_cast<std::size_t>(u);
   if (i >= times_.size() - 1) i = times_.size() - 2;
   const double h = knot_spacing_;
@@ -89,19 +87,14 @@ double ShaftAngle::time_at(double revs) const {
          ((a * a * a - a) * second_deriv_[i] + (b * b * b - b) * second_deriv_[i + 1]) * h * h / 6.0;
 }
 
+double ShaftAngle::time_at(double revs) const {
+  if (times_.empty()) throw std::logic_error("ShaftAngle::time_at before a successful assign()");
+  return spline_at(revs / knot_spacing_);
+}
+
 void ShaftAngle::times_at(double step, std::size_t first, std::span<double> out) const {
   if (times_.empty()) throw std::logic_error("ShaftAngle::times_at before a successful assign()");
-  const double h = knot_spacing_;
-  const std::size_t last_interval = times_.size() - 2;
-  for (std::size_t k = 0; k < out.size(); ++k) {
-    const double u = static_cast<double>(first + k) * step / h;
-    std::size_t i = u <= 0.0 ? 0 : static_cast<std::size_t>(u);
-    if (i >= last_interval + 1) i = last_interval;
-    const double b = (u - static_cast<double>(i));
-    const double a = 1.0 - b;
-    out[k] = a * times_[i] + b * times_[i + 1] +
-             ((a * a * a - a) * second_deriv_[i] + (b * b * b - b) * second_deriv_[i + 1]) * h * h / 6.0;
-  }
+  for (std::size_t k = 0; k < out.size(); ++k) out[k] = spline_at(static_cast<double>(first + k) * step / knot_spacing_);
 }
 
 void ShaftAngle::speed_per_revolution(double sample_rate_hz, std::vector<double>& out) const {
@@ -194,16 +187,18 @@ void BandLimitedInterpolator::set_cutoff(double cutoff) {
   table_ = shared_kaiser_sinc_table(zero_crossings_, phases_, beta_, cutoff, half);
 }
 
-double BandLimitedInterpolator::operator()(std::span<const float> x, double t) const {
+inline BandLimitedInterpolator::Position BandLimitedInterpolator::locate(double t) const {
   const double floor_t = std::floor(t);
   const auto base = static_cast<std::ptrdiff_t>(floor_t);
   const double phase_pos = (t - floor_t) * phases_;
   auto p = static_cast<int>(phase_pos);
   if (p >= phases_) p = phases_ - 1;
-  const double w = phase_pos - p;
-  const float* row0 = &(*table_)[static_cast<std::size_t>(p) * taps_];
+  return {base - taps_ / 2 + 1, table_->data() + static_cast<std::size_t>(p) * taps_, phase_pos - p};
+}
+
+double BandLimitedInterpolator::operator()(std::span<const float> x, double t) const {
+  const auto [first, row0, w] = locate(t);
   const float* row1 = row0 + taps_;
-  const std::ptrdiff_t first = base - taps_ / 2 + 1;
   const auto n = static_cast<std::ptrdiff_t>(x.size());
   double acc0 = 0.0, acc1 = 0.0;
   if (first >= 0 && first + taps_ <= n) {
@@ -236,24 +231,17 @@ void BandLimitedInterpolator::interpolate(std::span<const float> x, std::span<co
   constexpr std::size_t kLanes = 4;  // positions at a time
   using v4f = float __attribute__((vector_size(16)));
   const auto n = static_cast<std::ptrdiff_t>(x.size());
-  const float* table = table_->data();
   std::size_t k = 0;
   for (; k + kLanes <= t.size(); k += kLanes) {
     std::array<const float*, kLanes> row0{}, xs{};
     std::array<double, kLanes> w{};
     bool interior = true;
     for (std::size_t l = 0; l < kLanes; ++l) {
-      // The same position arithmetic as operator().
-      const double floor_t = std::floor(t[k + l]);
-      const auto base = static_cast<std::ptrdiff_t>(floor_t);
-      const double phase_pos = (t[k + l] - floor_t) * phases_;
-      auto p = static_cast<int>(phase_pos);
-      if (p >= phases_) p = phases_ - 1;
-      w[l] = phase_pos - p;
-      row0[l] = table + static_cast<std::size_t>(p) * taps_;
-      const std::ptrdiff_t first = base - taps_ / 2 + 1;
-      interior = interior && first >= 0 && first + taps_ <= n;
-      xs[l] = interior ? x.data() + first : nullptr;
+      const Position at = locate(t[k + l]);
+      w[l] = at.w;
+      row0[l] = at.row0;
+      interior = interior && at.first >= 0 && at.first + taps_ <= n;
+      xs[l] = interior ? x.data() + at.first : nullptr;
     }
     if (!interior) {
       for (std::size_t l = 0; l < kLanes; ++l) out[k + l] = (*this)(x, t[k + l]);

@@ -47,6 +47,9 @@ class ShaftAngle {
   void speed_per_revolution(double sample_rate_hz, std::vector<double>& out) const;
 
  private:
+  /// The spline at u knot intervals from the first knot (time_at's and times_at's one evaluation).
+  double spline_at(double u) const;
+
   std::vector<double> times_;        // knot values (sample positions)
   std::vector<double> second_deriv_; // spline second derivatives at the knots
   std::vector<double> scratch_;
@@ -87,6 +90,15 @@ class BandLimitedInterpolator {
   void interpolate(std::span<const float> x, std::span<const double> t, std::span<double> out) const;
 
  private:
+  /// Where position t reads: the first of its taps_ samples, the table's lower phase row and the
+  /// weight between it and the next (operator()'s and interpolate()'s one position arithmetic).
+  struct Position {
+    std::ptrdiff_t first = 0;
+    const float* row0 = nullptr;
+    double w = 0;
+  };
+  Position locate(double t) const;
+
   int zero_crossings_;
   int phases_;
   double beta_;
