@@ -215,9 +215,14 @@ def draw_parameters(form, rng, ctx):
         return {"shaft": str(rng.choice(["input", "output"])), "index_rad": rng.uniform(0.1, 0.8),
                 "phase_rad": rng.uniform(0, 2 * np.pi)}
     if form == "floor_step":
+        # The step is the rise of the written capture's floor above the corner over its floor below
+        # it. Below the corner that floor is two roundings: the twin's capture was rounded once, and
+        # rounding it again with the noise added (white over the whole band, however the noise is
+        # filtered) adds a second; so the noise's PSD is (10^(step/10) - 1) times both.
         step = rng.uniform(10, 30)
+        written_floor = 2 * ctx["floor_psd_m2_s4_per_hz"]
         return {"corner_hz": rng.uniform(0.1, 0.4) * nyq, "step_db": step,
-                "psd_m2_s4_per_hz": ctx["floor_psd_m2_s4_per_hz"] * 10 ** (step / 10),
+                "psd_m2_s4_per_hz": written_floor * (10 ** (step / 10) - 1),
                 "noise_seed": int(rng.integers(1, 2**31))}
     raise GeneratorError(f"unknown form '{form}'")
 
@@ -325,8 +330,31 @@ def self_test():
     f, psd = signal.welch(y, fs, nperseg=4096)
     check("floor level", float(np.mean(psd[(f > 12000) & (f < 24000)])) / 1e-4, 1.0, 0.03)
     check("floor below", float(np.mean(psd[(f > 1000) & (f < 8000)])) / 1e-4, 0.0, 1e-3)
+    self_test_floor_step_as_written()
     self_test_capture_round_trip()
     print("gap_effects self-test: all checks passed")
+
+
+def self_test_floor_step_as_written():
+    """The drawn step_db is what the written capture shows: a capture rounded once (a mesh tone, no
+    floor but its rounding), the step drawn and added, rounded again as generate() does; the floor
+    above the corner over the floor below it (Welch, median of its segments' bins, the tones' bins
+    away) is step_db within 0.3 dB, and each floor is its roundings' closed form within 5 %."""
+    fs, n, scale = 50000, 400000, 0.01
+    t = np.arange(n) / fs
+    rounded = np.round(200 * np.cos(2 * np.pi * 190 * t) + 57 * np.cos(2 * np.pi * 3800 * t + 1))
+    q = scale**2 / 12 / (fs / 2)
+    ctx = {"fs": fs, "floor_psd_m2_s4_per_hz": q, "rms_m_s2": 1.0}
+    p = draw_parameters("floor_step", np.random.default_rng(11), ctx)
+    p["corner_hz"] = 12000.0
+    y, _ = quantise(apply_effect("floor_step", p, rounded * scale, fs, None, ctx), scale)
+    clean = (200 * np.cos(2 * np.pi * 190 * t) + 57 * np.cos(2 * np.pi * 3800 * t + 1)) * scale
+    f, psd = signal.welch(y * scale - clean, fs, nperseg=4096, average="median")
+    below = float(np.mean(psd[(f > 5000) & (f < 11000)]))
+    above = float(np.mean(psd[(f > 13000) & (f < 24000)]))
+    check("floor step as written", 10 * math.log10(above / below), p["step_db"], 0.3)
+    check("floor below as written", below / (2 * q), 1.0, 0.05)
+    check("floor above as written", above / (2 * q + p["psd_m2_s4_per_hz"]), 1.0, 0.05)
 
 
 def self_test_capture_round_trip():
