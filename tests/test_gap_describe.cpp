@@ -503,6 +503,29 @@ TEST_CASE("gap describe: a ghost tone over the mesh line it sits beside is a gho
   CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.05));
 }
 
+TEST_CASE("gap describe: a strong ghost whose leakage spreads over many orders is a ghost line whatever its movement", "[gap][gap_describe]") {
+  // Input order 11.15 at 0.5 m/s² peak, 11 dB under the twin's total line power, between the gear
+  // shaft's lines 30 and 31: its leakage stands over the practical minimum orders away, so the
+  // finder reported such a tone on the independent bench as one feature over output orders
+  // 0.5-49.5, peaking on an output line (the gear shaft's), centred 0.3 input order off the tone,
+  // and moving with neither (the leakage's |g|-weighted centre shifts with speed). A tone's
+  // leakage is as wide as the tone is strong, so the ghost form must be tried on such a feature.
+  const double fs = 10240, order = 11.15, amplitude = 0.5;
+  const auto pairs = pairs_from_records(fs, {{order, amplitude}});
+  const FeatureDescriber describer(described(pairs), GearPairSpec{});
+  auto f = feature_at(FeatureMovement::neither, FeatureShaft::output, 0.5, 49.5, 0.5 * kRatio * kSpeeds.front(),
+                      49.5 * kRatio * kSpeeds.back());
+  f.order = (order - 0.3) / kRatio;
+  const auto d = describer.describe(f);
+  INFO(text_of(d));
+  REQUIRE(d.kind == DescriptionKind::ghost_line);
+  // The order in the feature's shaft's orders (the gear's), within 0.05 input order as for the
+  // other ghosts (16 revolutions, half-order broadband bins, the lines' interpolation); the
+  // amplitude within 5 % (the tone's excess over a unit tone's share of the same cells).
+  CHECK(d.parameter("order") * kRatio == Approx(order).margin(0.05));
+  CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.05));
+}
+
 TEST_CASE("gap describe: a mesh harmonic changed in every record is not a ghost line", "[gap][gap_describe]") {
   // The second mesh harmonic (input order 38) 3.2 times its amplitude (+10 dB), the records made
   // sample by sample: a change on a synchronous line, which a tone off the integer orders cannot be.

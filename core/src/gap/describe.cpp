@@ -1093,16 +1093,16 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   if (core == 0) return none;
   std::vector<Fit> fits{floor_, tilt_, modulation_input_, modulation_output_};
   // The local forms where they can be the one cause: a resonance within an octave (the forms' ζ
-  // ≤ 0.3 keeps its 3 dB band there for gains up to 10 dB), a tone within four input orders (its
-  // leakage reaches three lines each side).
+  // ≤ 0.3 keeps its 3 dB band there for gains up to 10 dB), a tone fixed in Hz within four input
+  // orders (a weak one's leakage reaches three lines each side).
   double top_speed = 0;
   for (const auto& r : records_) top_speed = std::max(top_speed, r.speed_hz);
-  const double to_input = f.shaft == FeatureShaft::output ? static_cast<double>(gears_.pinion_teeth) / gears_.gear_teeth : 1.0;
   if (f.hz_high <= 2 * f.hz_low) fits.push_back(resonance(f, w));
-  // A ghost where the feature stays at one order however wide its leakage spreads it (searched
-  // about its centre, below); else within four orders as a tone.
-  if (f.movement == FeatureMovement::fixed_in_orders || (f.movement != FeatureMovement::fixed_in_hz && (f.order_high - f.order_low) * to_input <= 4))
-    fits.push_back(tones(f, w, false, 1));
+  // A ghost (searched about the feature's centre, below) on every feature not fixed in Hz: a tone's
+  // leakage stands over the practical minimum as far as the tone stands over the twin, so a strong
+  // one spreads a feature over tens of orders, and its |g|-weighted centre, shifting with speed as
+  // the leakage's skew does, can make it move with neither.
+  if (f.movement != FeatureMovement::fixed_in_hz) fits.push_back(tones(f, w, false, 1));
   // Tones fixed in Hz: up to kMaxTones in a feature fixed in Hz (supply pick-up and its harmonics
   // join into one band), each within four input orders of the next; else one.
   const double hz_width = f.hz_high - f.hz_low;
