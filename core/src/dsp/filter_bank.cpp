@@ -277,6 +277,7 @@ void OneThirdBinaryFilterBank::analyse(std::span<const double> x, int levels, st
   criteria_ = criteria;
   maps_ = maps;
   gate_ = gate;
+  moments_read_ = std::any_of(criteria.begin(), criteria.end(), [](const BandCriterion* c) { return c->reads_moments(); });
   const std::size_t columns = static_cast<std::size_t>(3) << levels;
   for (std::size_t i = 0; i < criteria.size(); ++i) {
     maps[i].levels = levels;
@@ -311,6 +312,10 @@ void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int d
   node.real = real;
   node.samples = trimmed;
   if (criteria_.empty()) return;
+  if (moments_read_) {
+    moments_ = node_moments(trimmed);
+    node.moments = &moments_;
+  }
   const std::size_t columns = static_cast<std::size_t>(3) << levels_;
   const std::size_t span = columns / static_cast<std::size_t>(band_count);
   const std::size_t first_column = static_cast<std::size_t>(band) * span;
@@ -373,24 +378,56 @@ void OneThirdBinaryFilterBank::visit(int depth, int band, std::span<const Comple
 
 namespace {
 
-// Sums over a node in four independent chains (a single running sum waits on each addition's
-// latency at every sample); the order differs from a running sum only by rounding.
-Complex node_sum(std::span<const Complex> c) {
-  double re[2] = {0.0, 0.0}, im[2] = {0.0, 0.0};
-  std::size_t i = 0;
-  for (; i + 2 <= c.size(); i += 2)
-    for (std::size_t j = 0; j < 2; ++j) {
-      re[j] += c[i + j].real();
-      im[j] += c[i + j].imag();
-    }
-  if (i < c.size()) {
-    re[0] += c[i].real();
-    im[0] += c[i].imag();
-  }
-  return {re[0] + re[1], im[0] + im[1]};
+// The raw sums of two samples (re, im, re', im') into lane accumulators: |c|^2 is formed in both
+// lanes of its sample, so every product stays lane-wise.
+using v4i = long long __attribute__((vector_size(32)));
+struct MomentLanes {
+  v4d sum, squares, cross, sum4, sum2c;  // c; (re^2, im^2); re im; |c|^4; |c|^2 c
+};
+
+__attribute__((always_inline)) inline void accumulate_moments(const Complex* two, MomentLanes& m) {
+  v4d x;
+  __builtin_memcpy(&x, two, sizeof x);
+  const v4i swap{1, 0, 3, 2};
+  const v4d squares = x * x;
+  const v4d norm = squares + __builtin_shuffle(squares, swap);
+  m.sum += x;
+  m.squares += squares;
+  m.cross += x * __builtin_shuffle(x, swap);
+  m.sum4 += norm * norm;
+  m.sum2c += norm * x;
 }
 
-// (sum |c - mean|^2, sum |c - mean|^4) in four chains each.
+// Two sets of lane accumulators (independent chains); a tail of fewer than four samples is padded
+// with zeros, which add nothing to any sum. Compiled twice like the filters, same arithmetic.
+__attribute__((target_clones("avx2", "default"))) NodeMoments moments_body(const Complex* c, std::size_t n) {
+  MomentLanes lanes[2] = {};
+  std::size_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    accumulate_moments(c + i, lanes[0]);
+    accumulate_moments(c + i + 2, lanes[1]);
+  }
+  if (i < n) {
+    Complex rest[4] = {};
+    for (std::size_t k = 0; i + k < n; ++k) rest[k] = c[i + k];
+    accumulate_moments(rest, lanes[0]);
+    accumulate_moments(rest + 2, lanes[1]);
+  }
+  const v4d sum = lanes[0].sum + lanes[1].sum, squares = lanes[0].squares + lanes[1].squares;
+  const v4d cross = lanes[0].cross + lanes[1].cross, sum4 = lanes[0].sum4 + lanes[1].sum4;
+  const v4d sum2c = lanes[0].sum2c + lanes[1].sum2c;
+  NodeMoments m;
+  m.count = n;
+  m.sum = Complex(sum[0] + sum[2], sum[1] + sum[3]);
+  const double re2 = squares[0] + squares[2], im2 = squares[1] + squares[3];
+  m.sum2 = re2 + im2;
+  m.sum_sq = Complex(re2 - im2, 2.0 * (cross[0] + cross[2]));
+  m.sum4 = sum4[0] + sum4[2];
+  m.sum2c = Complex(sum2c[0] + sum2c[2], sum2c[1] + sum2c[3]);
+  return m;
+}
+
+// (sum |c - mean|^2, sum |c - mean|^4) in four chains: the second pass where the mean is large.
 std::pair<double, double> central_moment_sums(std::span<const Complex> c, Complex mean) {
   double m2[4] = {}, m4[4] = {};
   std::size_t i = 0;
@@ -410,37 +447,50 @@ std::pair<double, double> central_moment_sums(std::span<const Complex> c, Comple
   return {(m2[0] + m2[1]) + (m2[2] + m2[3]), (m4[0] + m4[1]) + (m4[2] + m4[3])};
 }
 
-// sum |c|^2 in four chains.
-double power_sum(std::span<const Complex> c) {
-  double acc[4] = {};
-  std::size_t i = 0;
-  for (; i + 2 <= c.size(); i += 2) {
-    acc[0] += c[i].real() * c[i].real();
-    acc[1] += c[i].imag() * c[i].imag();
-    acc[2] += c[i + 1].real() * c[i + 1].real();
-    acc[3] += c[i + 1].imag() * c[i + 1].imag();
-  }
-  if (i < c.size()) acc[0] += std::norm(c[i]);
-  return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+// Above this |mean|^2 / mean|c|^2 the central moments are taken about the mean in a second pass:
+// below it the raw-sum expansion's terms stay within a few times sum |c - mean|^4, so it loses no
+// more than a few roundings.
+constexpr double kRawMomentMeanRatio = 1e-2;
+
+// sum |c - mu|^4 = S4 - 4 Re(T mu*) + 4 |mu|^2 S2 + 2 Re(U mu*^2) - 3 n |mu|^4, with
+// S2 = sum |c|^2, S4 = sum |c|^4, T = sum |c|^2 c, U = sum c^2 (expanding |c - mu|^2 =
+// |c|^2 - 2 Re(c mu*) + |mu|^2 and Re(z)^2 = (|z|^2 + Re(z^2)) / 2).
+double central_sum4(const NodeMoments& m, Complex mean) {
+  const double mean2 = std::norm(mean), n = static_cast<double>(m.count);
+  const double t = m.sum2c.real() * mean.real() + m.sum2c.imag() * mean.imag();  // Re(T mu*)
+  const double mr2 = mean.real() * mean.real() - mean.imag() * mean.imag(), mi2 = 2.0 * mean.real() * mean.imag();
+  const double u = m.sum_sq.real() * mr2 + m.sum_sq.imag() * mi2;  // Re(U mu*^2)
+  return m.sum4 - 4.0 * t + 4.0 * mean2 * m.sum2 + 2.0 * u - 3.0 * n * mean2 * mean2;
 }
 
 }  // namespace
 
+NodeMoments node_moments(std::span<const Complex> c) { return moments_body(c.data(), c.size()); }
+
 double KurtosisCriterion::evaluate(const FilterBankNode& node) {
   const auto c = node.samples;
   if (c.empty()) return 0.0;
-  // An all-zero node has m2 = 0 and returns 0 below.
-  const Complex mean = node_sum(c) / static_cast<double>(c.size());
-  auto [m2, m4] = central_moment_sums(c, mean);
-  m2 /= static_cast<double>(c.size());
-  m4 /= static_cast<double>(c.size());
+  const NodeMoments m = node.moments != nullptr ? *node.moments : node_moments(c);
+  const double n = static_cast<double>(c.size());
+  const Complex mean = m.sum / n;
+  double m2 = 0.0, m4 = 0.0;
+  if (std::norm(mean) <= kRawMomentMeanRatio * (m.sum2 / n)) {
+    m2 = m.sum2 / n - std::norm(mean);
+    m4 = central_sum4(m, mean) / n;
+  } else {
+    const auto [s2, s4] = central_moment_sums(c, mean);
+    m2 = s2 / n;
+    m4 = s4 / n;
+  }
+  // An all-zero node has m2 = 0 and returns 0 here.
   if (m2 < std::numeric_limits<double>::epsilon()) return 0.0;
   return m4 / (m2 * m2) - (node.real ? 3.0 : 2.0);
 }
 
 double BandPowerCriterion::evaluate(const FilterBankNode& node) {
   if (node.samples.empty()) return 0.0;
-  return (node.real ? 1.0 : 2.0) * power_sum(node.samples) / static_cast<double>(node.samples.size());
+  const double sum2 = node.moments != nullptr ? node.moments->sum2 : node_moments(node.samples).sum2;
+  return (node.real ? 1.0 : 2.0) * sum2 / static_cast<double>(node.samples.size());
 }
 
 double Ics2Criterion::evaluate(const FilterBankNode& node) {
