@@ -34,177 +34,215 @@ double filter_bank_row_level(int row) {
 
 namespace {
 
-// out[m] = sum_i taps[i] * c[factor*m + phase - i] (causal filter, zero initial state, keeping
-// every factor-th output from `phase`): MATLAB filter() followed by x(phase+1:factor:end).
-// Several filters of at most kMaxTaps taps run over the same input in one pass (each input
-// sample is loaded once). The reductions are written with explicit two-lane vectors because the
-// compiler may not reorder floating-point sums on its own; complex products are formed as
-// x * (re, re) and x * (im, im) accumulated separately and combined once per output.
+// The tree's filters are modulated real prototypes: binary h[k] = p[k] w^k and
+// g[k] = p[15-k] w^(3(k+1)) (w = e^{j pi/4}; the reference's g[k] = h[15-k] (-1)^(k+1)), ternary
+// t_t[i] = q[i] v^i e^{2 pi j i t/6} (v = e^{j pi/6}). With the node modulated once,
+// y[i] = w^-i c[i] (z[i] = v^-i c[i]), every product is a real tap times a complex sample, half
+// the arithmetic of the complex taps, and the modulation is put back once per output:
+//   a[m] = w^n sum_k p[k] y[n-k],  (-1)^(m+1) d[m] = (-j)^m sum_k p[15-k] j^k y[n-k]  (n = 2m+1),
+//   out_t[m] = v^n sum_r e^{2 pi j r t/6} Q_r,  Q_r = sum_{i = r mod 6} q[i] z[n-i]   (n = 3m+2).
+// Outputs are those of MATLAB filter() (causal, zero initial state) kept at x(n+1:factor:end);
+// windows reaching before the node's first sample read zeros. The sums are written with explicit
+// vectors (the compiler may not reorder floating-point sums), lane-wise, so the AVX2 and baseline
+// builds give the same results.
 using v4d = double __attribute__((vector_size(32)));
-constexpr std::size_t kMaxTaps = 26;  // even: taps are consumed two complex samples at a time
-
-template <std::size_t Filters>
-struct FusedTaps {
-  std::size_t taps = 0;  // common even length (shorter filters zero-padded at the oldest end)
-  // Pair p holds taps for input offsets 2p and 2p+1 (oldest first): (re, re, re', re') etc.
-  v4d re[Filters][kMaxTaps / 2], im[Filters][kMaxTaps / 2];
-};
-
-template <std::size_t Filters>
-FusedTaps<Filters> fuse(const std::array<std::span<const Complex>, Filters>& filters) {
-  FusedTaps<Filters> f{};
-  for (const auto& h : filters) f.taps = std::max(f.taps, h.size());
-  f.taps += f.taps % 2;
-  for (std::size_t k = 0; k < Filters; ++k)
-    for (std::size_t i = 0; i < f.taps; i += 2) {
-      auto tap = [&](std::size_t offset) {  // input offset (oldest first) meets tap taps-1-offset
-        const std::size_t t = f.taps - 1 - offset;
-        return t < filters[k].size() ? filters[k][t] : Complex{};
-      };
-      const Complex t0 = tap(i), t1 = tap(i + 1);
-      f.re[k][i / 2] = v4d{t0.real(), t0.real(), t1.real(), t1.real()};
-      f.im[k][i / 2] = v4d{t0.imag(), t0.imag(), t1.imag(), t1.imag()};
-    }
-  return f;
-}
-
-// The vector loop for the steady-state outputs [first, end). Compiled twice (AVX2 and the
-// baseline) and chosen at run time: the arithmetic and its order are the same in both, so
-// results do not depend on the machine.
-template <std::size_t Filters>
-__attribute__((always_inline)) inline void fir_body(const Complex* c, const FusedTaps<Filters>& f, std::size_t factor,
-                                                    std::size_t phase, Complex* const* out, std::size_t first,
-                                                    std::size_t end) {
-  const std::size_t pairs = f.taps / 2;
-  for (std::size_t m = first; m < end; ++m) {
-    const double* x = reinterpret_cast<const double*>(c + (factor * m + phase + 1 - f.taps));
-    v4d acc_re[Filters], acc_im[Filters];
-    for (std::size_t k = 0; k < Filters; ++k) acc_re[k] = acc_im[k] = v4d{0.0, 0.0, 0.0, 0.0};
-    for (std::size_t p = 0; p < pairs; ++p) {
-      v4d xv;
-      __builtin_memcpy(&xv, x + 4 * p, sizeof xv);
-      for (std::size_t k = 0; k < Filters; ++k) {
-        acc_re[k] += xv * f.re[k][p];
-        acc_im[k] += xv * f.im[k][p];
-      }
-    }
-    for (std::size_t k = 0; k < Filters; ++k) {
-      const double rr = acc_re[k][0] + acc_re[k][2], ri = acc_re[k][1] + acc_re[k][3];
-      const double ir = acc_im[k][0] + acc_im[k][2], ii = acc_im[k][1] + acc_im[k][3];
-      out[k][m] = Complex(rr - ii, ri + ir);
-    }
-  }
-}
-
-__attribute__((target_clones("avx2", "default"))) void fir_body_2(const Complex* c, const FusedTaps<2>& f,
-                                                                   std::size_t factor, std::size_t phase,
-                                                                   Complex* const* out, std::size_t first,
-                                                                   std::size_t end) {
-  fir_body<2>(c, f, factor, phase, out, first, end);
-}
-
-// out[k][m] = sum_i filters[k][i] * c[factor*m + phase - i] (causal filter, zero initial state,
-// keeping every factor-th output from `phase`): MATLAB filter() followed by x(phase+1:factor:end).
-// The filters run fused over the same input (each sample loaded once). The reductions are
-// written with explicit vectors because the compiler may not reorder floating-point sums itself;
-// complex products are accumulated as x * (re, re) and x * (im, im) and combined per output.
-template <std::size_t Filters>
-void decimating_fir(std::span<const Complex> c, const FusedTaps<Filters>& f,
-                    const std::array<std::span<const Complex>, Filters>& filters, std::size_t factor,
-                    std::size_t phase, const std::array<Complex*, Filters>& out, std::size_t out_length) {
-  // Start-up outputs: part of the (padded) filter still sees the zero initial state.
-  std::size_t first = 0;
-  while (first < out_length && factor * first + phase + 1 < f.taps) {
-    const std::size_t last = factor * first + phase;
-    for (std::size_t k = 0; k < Filters; ++k) {
-      Complex acc{};
-      for (std::size_t i = 0; i <= last && i < filters[k].size(); ++i) acc += filters[k][i] * c[last - i];
-      out[k][first] = acc;
-    }
-    ++first;
-  }
-  static_assert(Filters == 2, "the ternary split has its own polyphase form (ternary_fir)");
-  fir_body_2(c.data(), f, factor, phase, out.data(), first, out_length);
-}
-
-// The ternary split's three filters are one prototype u[i] = q[i] e^{2 pi j i/12} modulated by
-// w^{i t}, w = e^{2 pi j/6}, t = 0, 1, 2. Grouping the taps by i mod 6 gives six partial sums
-// P_r = sum_{i = r mod 6} u[i] c[3m+2-i] (25 complex products instead of 75), and
-// out_t = sum_r w^{r t} P_r, a three-point transform of A_r = P_r + P_{r+3} (t = 0, 2) and
-// B_r = P_r - P_{r+3} (t = 1).
-using v2d = double __attribute__((vector_size(16)));
+constexpr std::size_t kBinaryPairs = 9;    // 17 taps padded to 18, two samples a vector
 constexpr std::size_t kTernaryTaps = 25;
+constexpr std::size_t kBlockOutputs = 256;  // outputs per modulated block (the block stays in L1)
 
-struct TernaryPolyphase {
-  v2d re[kTernaryTaps], im[kTernaryTaps];  // u[i] as (re, re) and (im, im)
+// e^{j pi k/4} and e^{j pi k/6} with the quarter turns exact.
+const std::array<Complex, 8>& eighth_turns() {
+  static const double h = std::sqrt(0.5);
+  static const std::array<Complex, 8> t{Complex(1, 0),  Complex(h, h),   Complex(0, 1),  Complex(-h, h),
+                                        Complex(-1, 0), Complex(-h, -h), Complex(0, -1), Complex(h, -h)};
+  return t;
+}
+const std::array<Complex, 12>& twelfth_turns() {
+  static const double c = std::sqrt(3.0) / 2.0;
+  static const std::array<Complex, 12> t{Complex(1, 0),   Complex(c, 0.5),   Complex(0.5, c),  Complex(0, 1),
+                                         Complex(-0.5, c), Complex(-c, 0.5),  Complex(-1, 0),   Complex(-c, -0.5),
+                                         Complex(-0.5, -c), Complex(0, -1),   Complex(0.5, -c), Complex(c, -0.5)};
+  return t;
+}
+
+// a b written out (std::complex's operator* checks for infinities and NaN through a library call).
+inline Complex times(const Complex& a, const Complex& b) {
+  return Complex(a.real() * b.real() - a.imag() * b.imag(), a.real() * b.imag() + a.imag() * b.real());
+}
+
+// out[t] = conj(turns[(first + t) mod P]) c[first + t] for t < count, zero before c's first sample.
+// Two samples a vector: (a, b) (cr - j ci) = x (cr, cr) + swap(x) (ci, -ci), the products and sums
+// of the scalar form in the same order.
+template <std::size_t P>
+struct TurnPairs {
+  v4d re[P], im[P];  // for the pair whose first sample has phase ph
 };
 
-TernaryPolyphase ternary_polyphase(std::span<const Complex> first_filter) {
-  TernaryPolyphase f{};
-  for (std::size_t i = 0; i < kTernaryTaps; ++i) {
-    f.re[i] = v2d{first_filter[i].real(), first_filter[i].real()};
-    f.im[i] = v2d{first_filter[i].imag(), first_filter[i].imag()};
+template <std::size_t P>
+TurnPairs<P> turn_pairs(const std::array<Complex, P>& turns) {
+  TurnPairs<P> t{};
+  for (std::size_t ph = 0; ph < P; ++ph) {
+    const Complex u = std::conj(turns[ph]), v = std::conj(turns[(ph + 1) % P]);
+    t.re[ph] = v4d{u.real(), u.real(), v.real(), v.real()};
+    t.im[ph] = v4d{-u.imag(), u.imag(), -v.imag(), v.imag()};
+  }
+  return t;
+}
+
+template <std::size_t P>
+__attribute__((always_inline)) inline void modulate_pairs(const Complex* x, std::size_t pairs, std::size_t phase,
+                                                          const TurnPairs<P>& t, Complex* out) {
+  using v4i = long long __attribute__((vector_size(32)));
+  const v4i swap{1, 0, 3, 2};
+  for (std::size_t j = 0; j < pairs; ++j) {
+    v4d v;
+    __builtin_memcpy(&v, x + 2 * j, sizeof v);
+    const v4d y = v * t.re[phase] + __builtin_shuffle(v, swap) * t.im[phase];
+    __builtin_memcpy(reinterpret_cast<double*>(out + 2 * j), &y, sizeof y);
+    phase = phase + 2 >= P ? phase + 2 - P : phase + 2;
+  }
+}
+
+__attribute__((target_clones("avx2", "default"))) void modulate_pairs_8(const Complex* x, std::size_t pairs,
+                                                                        std::size_t phase, const TurnPairs<8>& t,
+                                                                        Complex* out) {
+  modulate_pairs(x, pairs, phase, t, out);
+}
+__attribute__((target_clones("avx2", "default"))) void modulate_pairs_12(const Complex* x, std::size_t pairs,
+                                                                         std::size_t phase, const TurnPairs<12>& t,
+                                                                         Complex* out) {
+  modulate_pairs(x, pairs, phase, t, out);
+}
+
+template <std::size_t P>
+void modulate(std::span<const Complex> c, std::ptrdiff_t first, std::size_t count, const std::array<Complex, P>& turns,
+              Complex* out) {
+  static const TurnPairs<P> pairs = turn_pairs(turns);
+  std::size_t t = 0;
+  for (; t < count && first + static_cast<std::ptrdiff_t>(t) < 0; ++t) out[t] = Complex{};
+  if (t == count) return;
+  const auto start = static_cast<std::size_t>(first + static_cast<std::ptrdiff_t>(t));
+  const std::size_t phase = start % P, n = (count - t) / 2;
+  if constexpr (P == 8) modulate_pairs_8(c.data() + start, n, phase, pairs, out + t);
+  else modulate_pairs_12(c.data() + start, n, phase, pairs, out + t);
+  for (std::size_t k = t + 2 * n; k < count; ++k) out[k] = times(c[start + (k - t)], std::conj(turns[(start + k - t) % P]));
+}
+
+struct BinaryTaps {
+  // Pair p meets window offsets 2p, 2p+1 (oldest first), i.e. k = 17-2p and 16-2p: (t, t, t', t').
+  v4d low[kBinaryPairs], high[kBinaryPairs];
+};
+
+// low: p[k]; high: p[15-k] with j^k's sign (its odd-k terms, lanes 0-1, are imaginary).
+BinaryTaps binary_taps(std::span<const double> p) {
+  auto low = [&](std::size_t k) { return k < p.size() ? p[k] : 0.0; };
+  auto high = [&](std::size_t k) {
+    if (k > 15) return 0.0;
+    const double sign = ((k % 2 == 0 ? k : k - 1) / 2) % 2 == 0 ? 1.0 : -1.0;
+    return sign * p[15 - k];
+  };
+  BinaryTaps f{};
+  for (std::size_t i = 0; i < kBinaryPairs; ++i) {
+    const std::size_t k = 17 - 2 * i;
+    f.low[i] = v4d{low(k), low(k), low(k - 1), low(k - 1)};
+    f.high[i] = v4d{high(k), high(k), high(k - 1), high(k - 1)};
   }
   return f;
 }
 
-template <std::size_t R>
-__attribute__((always_inline)) inline void ternary_phase(const double* newest, const TernaryPolyphase& f, v2d& re,
-                                                         v2d& im) {
-  for (std::size_t i = R; i < kTernaryTaps; i += 6) {
-    v2d x;
-    __builtin_memcpy(&x, newest - 2 * i, sizeof x);  // c[3m+2-i]
-    re += x * f.re[i];
-    im += x * f.im[i];
-  }
-}
-
-__attribute__((always_inline)) inline Complex ternary_sum(v2d re, v2d im) { return Complex(re[0] - im[1], re[1] + im[0]); }
-
-__attribute__((target_clones("avx2", "default"))) void ternary_body(const Complex* c, const TernaryPolyphase& f,
-                                                                     Complex* const* out, std::size_t first,
-                                                                     std::size_t end) {
-  // w^1, w^2 and w^4 as (cos, sin); products written out (std::complex's operator* checks for
-  // infinities and NaN through a library call).
-  const double h = std::sqrt(3.0) / 2.0;
-  auto times = [](const Complex& a, double cr, double ci) {
-    return Complex(a.real() * cr - a.imag() * ci, a.real() * ci + a.imag() * cr);
-  };
-  for (std::size_t m = first; m < end; ++m) {
-    const double* newest = reinterpret_cast<const double*>(c + 3 * m + 2);
-    v2d re[6] = {}, im[6] = {};
-    ternary_phase<0>(newest, f, re[0], im[0]);
-    ternary_phase<1>(newest, f, re[1], im[1]);
-    ternary_phase<2>(newest, f, re[2], im[2]);
-    ternary_phase<3>(newest, f, re[3], im[3]);
-    ternary_phase<4>(newest, f, re[4], im[4]);
-    ternary_phase<5>(newest, f, re[5], im[5]);
-    Complex p[6];
-    for (std::size_t r = 0; r < 6; ++r) p[r] = ternary_sum(re[r], im[r]);
-    const Complex a0 = p[0] + p[3], a1 = p[1] + p[4], a2 = p[2] + p[5];
-    const Complex b0 = p[0] - p[3], b1 = p[1] - p[4], b2 = p[2] - p[5];
-    out[0][m] = a0 + a1 + a2;
-    out[1][m] = b0 + times(b1, 0.5, h) + times(b2, -0.5, h);
-    out[2][m] = a0 + times(a1, -0.5, h) + times(a2, -0.5, -h);
-  }
-}
-
-// The ternary split (factor 3, phase 2) through the polyphase form; the start-up outputs, whose
-// window reaches before the node's first sample, directly.
-void ternary_fir(std::span<const Complex> c, const TernaryPolyphase& f,
-                 const std::array<std::span<const Complex>, 3>& filters, const std::array<Complex*, 3>& out,
-                 std::size_t out_length) {
-  std::size_t first = 0;
-  while (first < out_length && 3 * first + 2 + 1 < kTernaryTaps) {
-    const std::size_t last = 3 * first + 2;
-    for (std::size_t k = 0; k < 3; ++k) {
-      Complex acc{};
-      for (std::size_t i = 0; i <= last && i < filters[k].size(); ++i) acc += filters[k][i] * c[last - i];
-      out[k][first] = acc;
+// Outputs [m0, m0 + count) of both halves; y holds the modulated node from index 2 m0 - 16.
+__attribute__((target_clones("avx2", "default"))) void binary_block(const Complex* y, const BinaryTaps& f,
+                                                                    std::size_t m0, std::size_t count, Complex* a,
+                                                                    Complex* d) {
+  const auto& w = eighth_turns();
+  for (std::size_t j = 0; j < count; ++j) {
+    const double* x = reinterpret_cast<const double*>(y + 2 * j);
+    v4d lo = {0.0, 0.0, 0.0, 0.0}, hi = {0.0, 0.0, 0.0, 0.0};
+    for (std::size_t i = 0; i < kBinaryPairs; ++i) {
+      v4d xv;
+      __builtin_memcpy(&xv, x + 4 * i, sizeof xv);
+      lo += xv * f.low[i];
+      hi += xv * f.high[i];
     }
-    ++first;
+    const std::size_t m = m0 + j;
+    a[m] = times(Complex(lo[0] + lo[2], lo[1] + lo[3]), w[(2 * m + 1) % 8]);
+    const Complex s(hi[2] - hi[1], hi[3] + hi[0]);  // even-k part + j odd-k part
+    switch (m % 4) {                                 // (-j)^m, exact
+      case 0: d[m] = s; break;
+      case 1: d[m] = Complex(s.imag(), -s.real()); break;
+      case 2: d[m] = -s; break;
+      default: d[m] = Complex(-s.imag(), s.real()); break;
+    }
   }
-  ternary_body(c.data(), f, out.data(), first, out_length);
+}
+
+// The binary split (factor 2, phase 1), the high half already back at baseband ((-1)^(m+1)).
+void binary_split(std::span<const Complex> c, Complex* a, Complex* d, std::size_t out_length) {
+  static const BinaryTaps taps = binary_taps(firwin_lowpass(17, 0.4));
+  std::array<Complex, 2 * kBlockOutputs + 16> scratch;
+  for (std::size_t m0 = 0; m0 < out_length; m0 += kBlockOutputs) {
+    const std::size_t count = std::min(kBlockOutputs, out_length - m0);
+    modulate(c, 2 * static_cast<std::ptrdiff_t>(m0) - 16, 2 * count + 16, eighth_turns(), scratch.data());
+    binary_block(scratch.data(), taps, m0, count, a, d);
+  }
+}
+
+struct TernaryTaps {
+  // Group pairs (1, 0), (3, 2), (5, 4): the sample pair (z[n-i-1], z[n-i]) for taps i + 1 and i.
+  v4d pair01[5], pair23[4], pair45[4];
+};
+
+TernaryTaps ternary_taps(std::span<const double> q) {
+  auto tap = [&](std::size_t i) { return i < q.size() ? q[i] : 0.0; };
+  TernaryTaps f{};
+  for (std::size_t g = 0; g < 5; ++g) f.pair01[g] = v4d{tap(6 * g + 1), tap(6 * g + 1), tap(6 * g), tap(6 * g)};
+  for (std::size_t g = 0; g < 4; ++g) {
+    f.pair23[g] = v4d{tap(6 * g + 3), tap(6 * g + 3), tap(6 * g + 2), tap(6 * g + 2)};
+    f.pair45[g] = v4d{tap(6 * g + 5), tap(6 * g + 5), tap(6 * g + 4), tap(6 * g + 4)};
+  }
+  return f;
+}
+
+// Outputs [m0, m0 + count) of the three bands; z holds the modulated node from index 3 m0 - 23.
+__attribute__((target_clones("avx2", "default"))) void ternary_block(const Complex* z, const TernaryTaps& f,
+                                                                     std::size_t m0, std::size_t count,
+                                                                     Complex* const* out) {
+  const auto& v = twelfth_turns();
+  const Complex w1 = v[2], w2 = v[4], w4 = v[8];  // e^{2 pi j/6} to the 1st, 2nd and 4th
+  for (std::size_t j = 0; j < count; ++j) {
+    const Complex* newest = z + 24 + 3 * j;  // z[n - 1]: (z[n-i-1], z[n-i]) starts at newest - i
+    v4d s01 = {0.0, 0.0, 0.0, 0.0}, s23 = s01, s45 = s01, x;
+    for (std::size_t g = 0; g < 5; ++g) {
+      __builtin_memcpy(&x, newest - 6 * g, sizeof x);
+      s01 += x * f.pair01[g];
+    }
+    for (std::size_t g = 0; g < 4; ++g) {
+      __builtin_memcpy(&x, newest - 6 * g - 2, sizeof x);
+      s23 += x * f.pair23[g];
+      __builtin_memcpy(&x, newest - 6 * g - 4, sizeof x);
+      s45 += x * f.pair45[g];
+    }
+    const Complex q0(s01[2], s01[3]), q1(s01[0], s01[1]), q2(s23[2], s23[3]), q3(s23[0], s23[1]);
+    const Complex q4(s45[2], s45[3]), q5(s45[0], s45[1]);
+    const Complex a0 = q0 + q3, a1 = q1 + q4, a2 = q2 + q5;
+    const Complex b0 = q0 - q3, b1 = q1 - q4, b2 = q2 - q5;
+    const std::size_t m = m0 + j;
+    const Complex turn = v[(3 * m + 2) % 12];
+    out[0][m] = times(a0 + a1 + a2, turn);
+    out[1][m] = times(b0 + times(b1, w1) + times(b2, w2), turn);
+    out[2][m] = times(a0 + times(a1, w2) + times(a2, w4), turn);
+  }
+}
+
+// The ternary split (factor 3, phase 2).
+void ternary_fir(std::span<const Complex> c, const std::array<Complex*, 3>& out, std::size_t out_length) {
+  static const TernaryTaps taps = ternary_taps(firwin_lowpass(25, 0.4 * 2.0 / 3.0));
+  std::array<Complex, 3 * kBlockOutputs + 23> scratch;
+  for (std::size_t m0 = 0; m0 < out_length; m0 += kBlockOutputs) {
+    const std::size_t count = std::min(kBlockOutputs, out_length - m0);
+    modulate(c, 3 * static_cast<std::ptrdiff_t>(m0) - 23, 3 * count + 23, twelfth_turns(), scratch.data());
+    ternary_block(scratch.data(), taps, m0, count, out.data());
+  }
 }
 
 // BandMap::optimum's eligibility, one rule for the optimum and for the gate that skips the bands it
@@ -343,11 +381,9 @@ void OneThirdBinaryFilterBank::ternary_split(int depth, int band, std::span<cons
   const int row = 2 * (depth + 1);
   const int band_count = 3 << depth;
   const int decimation = 3 << depth;
-  const std::array<std::span<const Complex>, 3> filters{ternary_[0], ternary_[1], ternary_[2]};
-  static const auto polyphase = ternary_polyphase(ternary_[0]);
   const std::array<Complex*, 3> out{ternary_scratch_.data(), ternary_scratch_.data() + out_length,
                                     ternary_scratch_.data() + 2 * out_length};
-  ternary_fir(node, polyphase, filters, out, out_length);
+  ternary_fir(node, out, out_length);
   for (int t = 0; t < 3; ++t) {
     const std::size_t trim = std::min<std::size_t>(16, out_length);  // len(h) - 1, as the reference
     evaluate(row, 3 * band + t, band_count, decimation, false,
@@ -362,10 +398,7 @@ void OneThirdBinaryFilterBank::visit(int depth, int band, std::span<const Comple
   auto& d = high_children_[child_depth];
   const std::size_t half = node.size() / 2;
   std::span<Complex> a_span(a.data(), half), d_span(d.data(), half);
-  const std::array<std::span<const Complex>, 2> filters{low_, high_};
-  static const auto fused = fuse<2>(filters);
-  decimating_fir<2>(node, fused, filters, 2, 1, {a.data(), d.data()}, half);
-  for (std::size_t m = 0; m < half; m += 2) d_span[m] = -d_span[m];  // (-1)^(m+1): back to baseband
+  binary_split(node, a.data(), d.data(), half);
   const int row = 2 * depth + 1;
   const int band_count = 2 << depth;
   const int decimation = 2 << depth;
