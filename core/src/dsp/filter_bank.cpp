@@ -176,17 +176,6 @@ __attribute__((target_clones("avx2", "default"))) void binary_block(const Comple
   }
 }
 
-// The binary split (factor 2, phase 1), the high half already back at baseband ((-1)^(m+1)).
-void binary_split(std::span<const Complex> c, Complex* a, Complex* d, std::size_t out_length) {
-  static const BinaryTaps taps = binary_taps(firwin_lowpass(17, 0.4));
-  std::array<Complex, 2 * kBlockOutputs + 16> scratch;
-  for (std::size_t m0 = 0; m0 < out_length; m0 += kBlockOutputs) {
-    const std::size_t count = std::min(kBlockOutputs, out_length - m0);
-    modulate(c, 2 * static_cast<std::ptrdiff_t>(m0) - 16, 2 * count + 16, eighth_turns(), scratch.data());
-    binary_block(scratch.data(), taps, m0, count, a, d);
-  }
-}
-
 struct TernaryTaps {
   // Group pairs (1, 0), (3, 2), (5, 4): the sample pair (z[n-i-1], z[n-i]) for taps i + 1 and i.
   v4d pair01[5], pair23[4], pair45[4];
@@ -234,14 +223,107 @@ __attribute__((target_clones("avx2", "default"))) void ternary_block(const Compl
   }
 }
 
-// The ternary split (factor 3, phase 2).
-void ternary_fir(std::span<const Complex> c, const std::array<Complex*, 3>& out, std::size_t out_length) {
-  static const TernaryTaps taps = ternary_taps(firwin_lowpass(25, 0.4 * 2.0 / 3.0));
+// The raw sums of two samples (re, im, re', im') into lane accumulators: |c|^2 is formed in both
+// lanes of its sample, so every product stays lane-wise.
+using v4i = long long __attribute__((vector_size(32)));
+struct MomentLanes {
+  v4d sum, squares, cross, sum4, sum2c;  // c; (re^2, im^2); re im; |c|^4; |c|^2 c
+};
+struct MomentSums {
+  MomentLanes lanes[2];  // two independent chains
+  std::size_t count;
+};
+
+__attribute__((always_inline)) inline void accumulate_moments(const Complex* two, MomentLanes& m) {
+  v4d x;
+  __builtin_memcpy(&x, two, sizeof x);
+  const v4i swap{1, 0, 3, 2};
+  const v4d squares = x * x;
+  const v4d norm = squares + __builtin_shuffle(squares, swap);
+  m.sum += x;
+  m.squares += squares;
+  m.cross += x * __builtin_shuffle(x, swap);
+  m.sum4 += norm * norm;
+  m.sum2c += norm * x;
+}
+
+// Adds n samples to the sums; a tail of fewer than four is padded with zeros, which add nothing
+// to any sum. Compiled twice like the filters, same arithmetic.
+__attribute__((target_clones("avx2", "default"))) void add_moments(const Complex* c, std::size_t n, MomentSums& s) {
+  std::size_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    accumulate_moments(c + i, s.lanes[0]);
+    accumulate_moments(c + i + 2, s.lanes[1]);
+  }
+  if (i < n) {
+    Complex rest[4] = {};
+    for (std::size_t k = 0; i + k < n; ++k) rest[k] = c[i + k];
+    accumulate_moments(rest, s.lanes[0]);
+    accumulate_moments(rest + 2, s.lanes[1]);
+  }
+  s.count += n;
+}
+
+NodeMoments moments_of(const MomentSums& s) {
+  const MomentLanes& l0 = s.lanes[0];
+  const MomentLanes& l1 = s.lanes[1];
+  const v4d sum = l0.sum + l1.sum, squares = l0.squares + l1.squares;
+  const v4d cross = l0.cross + l1.cross, sum4 = l0.sum4 + l1.sum4, sum2c = l0.sum2c + l1.sum2c;
+  NodeMoments m;
+  m.count = s.count;
+  m.sum = Complex(sum[0] + sum[2], sum[1] + sum[3]);
+  const double re2 = squares[0] + squares[2], im2 = squares[1] + squares[3];
+  m.sum2 = re2 + im2;
+  m.sum_sq = Complex(re2 - im2, 2.0 * (cross[0] + cross[2]));
+  m.sum4 = sum4[0] + sum4[2];
+  m.sum2c = Complex(sum2c[0] + sum2c[2], sum2c[1] + sum2c[3]);
+  return m;
+}
+
+// Where one node's split writes: the two binary halves (the high one already back at baseband,
+// (-1)^(m+1)) and, when `third[0]` is set, the three ternary bands; with `sums`, the moments of
+// the five bands after their trims (16, 15, 16, 16, 16 samples, as the reference).
+struct SplitTargets {
+  Complex* low = nullptr;
+  Complex* high = nullptr;
+  std::size_t half = 0;
+  std::array<Complex*, 3> third{};
+  std::size_t third_length = 0;
+  std::array<MomentSums, 5>* sums = nullptr;
+};
+
+std::size_t band_trim(std::size_t band, std::size_t length) { return std::min<std::size_t>(band == 1 ? 15 : 16, length); }
+
+// The moments of outputs [m0, m0 + count) of a band, from its trim on, while the block is in cache.
+void add_block_moments(const SplitTargets& t, std::size_t band, const Complex* out, std::size_t length, std::size_t m0,
+                       std::size_t count) {
+  const std::size_t from = std::max(m0, band_trim(band, length));
+  if (t.sums != nullptr && from < m0 + count) add_moments(out + from, m0 + count - from, (*t.sums)[band]);
+}
+
+// One pass over the node for both splits: chunks of 6 blocks' inputs feed 3 binary and 2 ternary
+// blocks, so the node is read from memory once and every band's moments are taken from cache.
+void split_node(std::span<const Complex> c, const SplitTargets& t) {
+  static const BinaryTaps binary = binary_taps(firwin_lowpass(17, 0.4));
+  static const TernaryTaps ternary = ternary_taps(firwin_lowpass(25, 0.4 * 2.0 / 3.0));
   std::array<Complex, 3 * kBlockOutputs + 23> scratch;
-  for (std::size_t m0 = 0; m0 < out_length; m0 += kBlockOutputs) {
-    const std::size_t count = std::min(kBlockOutputs, out_length - m0);
-    modulate(c, 3 * static_cast<std::ptrdiff_t>(m0) - 23, 3 * count + 23, twelfth_turns(), scratch.data());
-    ternary_block(scratch.data(), taps, m0, count, out.data());
+  for (std::size_t chunk = 0; 6 * kBlockOutputs * chunk < c.size(); ++chunk) {
+    for (std::size_t m0 = 3 * kBlockOutputs * chunk; m0 < std::min(3 * kBlockOutputs * (chunk + 1), t.half);
+         m0 += kBlockOutputs) {
+      const std::size_t count = std::min(kBlockOutputs, t.half - m0);
+      modulate(c, 2 * static_cast<std::ptrdiff_t>(m0) - 16, 2 * count + 16, eighth_turns(), scratch.data());
+      binary_block(scratch.data(), binary, m0, count, t.low, t.high);
+      add_block_moments(t, 0, t.low, t.half, m0, count);
+      add_block_moments(t, 1, t.high, t.half, m0, count);
+    }
+    if (t.third[0] == nullptr) continue;
+    for (std::size_t m0 = 2 * kBlockOutputs * chunk; m0 < std::min(2 * kBlockOutputs * (chunk + 1), t.third_length);
+         m0 += kBlockOutputs) {
+      const std::size_t count = std::min(kBlockOutputs, t.third_length - m0);
+      modulate(c, 3 * static_cast<std::ptrdiff_t>(m0) - 23, 3 * count + 23, twelfth_turns(), scratch.data());
+      ternary_block(scratch.data(), ternary, m0, count, t.third.data());
+      for (std::size_t k = 0; k < 3; ++k) add_block_moments(t, 2 + k, t.third[k], t.third_length, m0, count);
+    }
   }
 }
 
@@ -335,12 +417,12 @@ void OneThirdBinaryFilterBank::analyse(std::span<const double> x, int levels, st
   }
   ternary_scratch_.resize(x.size() / 3 * 3);
 
-  evaluate(0, 0, 1, 1, true, root_);
+  evaluate(0, 0, 1, 1, true, root_, nullptr);
   visit(0, 0, root_, x.size());
 }
 
 void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int decimation, bool real,
-                                        std::span<const Complex> trimmed) {
+                                        std::span<const Complex> trimmed, const NodeMoments* moments) {
   FilterBankNode node;
   node.row = row;
   node.level = filter_bank_row_level(row);
@@ -350,10 +432,12 @@ void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int d
   node.real = real;
   node.samples = trimmed;
   if (criteria_.empty()) return;
-  if (moments_read_) {
-    moments_ = node_moments(trimmed);
-    node.moments = &moments_;
+  NodeMoments own;
+  if (moments_read_ && moments == nullptr) {
+    own = node_moments(trimmed);
+    moments = &own;
   }
+  node.moments = moments;
   const std::size_t columns = static_cast<std::size_t>(3) << levels_;
   const std::size_t span = columns / static_cast<std::size_t>(band_count);
   const std::size_t first_column = static_cast<std::size_t>(band) * span;
@@ -376,89 +460,41 @@ void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int d
     if (i != p) store(i, eligible ? criteria_[i]->evaluate(node) : std::numeric_limits<double>::quiet_NaN());
 }
 
-void OneThirdBinaryFilterBank::ternary_split(int depth, int band, std::span<const Complex> node) {
-  const std::size_t out_length = node.size() / 3;
-  const int row = 2 * (depth + 1);
-  const int band_count = 3 << depth;
-  const int decimation = 3 << depth;
-  const std::array<Complex*, 3> out{ternary_scratch_.data(), ternary_scratch_.data() + out_length,
-                                    ternary_scratch_.data() + 2 * out_length};
-  ternary_fir(node, out, out_length);
-  for (int t = 0; t < 3; ++t) {
-    const std::size_t trim = std::min<std::size_t>(16, out_length);  // len(h) - 1, as the reference
-    evaluate(row, 3 * band + t, band_count, decimation, false,
-             std::span<const Complex>(out[static_cast<std::size_t>(t)], out_length).subspan(trim));
-  }
-}
-
 void OneThirdBinaryFilterBank::visit(int depth, int band, std::span<const Complex> node, std::size_t) {
   if (depth >= levels_) return;
   const auto child_depth = static_cast<std::size_t>(depth + 1);
-  auto& a = low_children_[child_depth];
-  auto& d = high_children_[child_depth];
-  const std::size_t half = node.size() / 2;
-  std::span<Complex> a_span(a.data(), half), d_span(d.data(), half);
-  binary_split(node, a.data(), d.data(), half);
+  SplitTargets targets;
+  targets.low = low_children_[child_depth].data();
+  targets.high = high_children_[child_depth].data();
+  targets.half = node.size() / 2;
+  const bool ternary = depth <= levels_ - 2;
+  if (ternary) {
+    targets.third_length = node.size() / 3;
+    for (std::size_t t = 0; t < 3; ++t) targets.third[t] = ternary_scratch_.data() + t * targets.third_length;
+  }
+  std::array<MomentSums, 5> sums{};
+  if (moments_read_) targets.sums = &sums;
+  split_node(node, targets);
+  std::array<NodeMoments, 5> moments;
+  for (std::size_t b = 0; b < 5; ++b) moments[b] = moments_of(sums[b]);
+  const NodeMoments* given = moments_read_ ? moments.data() : nullptr;
+  auto band_samples = [&](const Complex* out, std::size_t length, std::size_t b) {
+    return std::span<const Complex>(out, length).subspan(band_trim(b, length));
+  };
   const int row = 2 * depth + 1;
-  const int band_count = 2 << depth;
-  const int decimation = 2 << depth;
-  evaluate(row, 2 * band, band_count, decimation, false, std::span<const Complex>(a_span).subspan(std::min<std::size_t>(16, half)));
-  evaluate(row, 2 * band + 1, band_count, decimation, false, std::span<const Complex>(d_span).subspan(std::min<std::size_t>(15, half)));
-  if (depth <= levels_ - 2) ternary_split(depth, band, node);
-  visit(depth + 1, 2 * band, a_span, half);
-  visit(depth + 1, 2 * band + 1, d_span, half);
+  for (std::size_t b = 0; b < 2; ++b)
+    evaluate(row, 2 * band + static_cast<int>(b), 2 << depth, 2 << depth, false,
+             band_samples(b == 0 ? targets.low : targets.high, targets.half, b), given ? given + b : nullptr);
+  if (ternary)
+    for (std::size_t t = 0; t < 3; ++t)
+      evaluate(row + 1, 3 * band + static_cast<int>(t), 3 << depth, 3 << depth, false,
+               band_samples(targets.third[t], targets.third_length, 2 + t), given ? given + 2 + t : nullptr);
+  const std::span<const Complex> a(targets.low, targets.half), d(targets.high, targets.half);
+  visit(depth + 1, 2 * band, a, targets.half);
+  visit(depth + 1, 2 * band + 1, d, targets.half);
 }
 
 namespace {
-
-// The raw sums of two samples (re, im, re', im') into lane accumulators: |c|^2 is formed in both
-// lanes of its sample, so every product stays lane-wise.
-using v4i = long long __attribute__((vector_size(32)));
-struct MomentLanes {
-  v4d sum, squares, cross, sum4, sum2c;  // c; (re^2, im^2); re im; |c|^4; |c|^2 c
-};
-
-__attribute__((always_inline)) inline void accumulate_moments(const Complex* two, MomentLanes& m) {
-  v4d x;
-  __builtin_memcpy(&x, two, sizeof x);
-  const v4i swap{1, 0, 3, 2};
-  const v4d squares = x * x;
-  const v4d norm = squares + __builtin_shuffle(squares, swap);
-  m.sum += x;
-  m.squares += squares;
-  m.cross += x * __builtin_shuffle(x, swap);
-  m.sum4 += norm * norm;
-  m.sum2c += norm * x;
-}
-
-// Two sets of lane accumulators (independent chains); a tail of fewer than four samples is padded
-// with zeros, which add nothing to any sum. Compiled twice like the filters, same arithmetic.
-__attribute__((target_clones("avx2", "default"))) NodeMoments moments_body(const Complex* c, std::size_t n) {
-  MomentLanes lanes[2] = {};
-  std::size_t i = 0;
-  for (; i + 4 <= n; i += 4) {
-    accumulate_moments(c + i, lanes[0]);
-    accumulate_moments(c + i + 2, lanes[1]);
-  }
-  if (i < n) {
-    Complex rest[4] = {};
-    for (std::size_t k = 0; i + k < n; ++k) rest[k] = c[i + k];
-    accumulate_moments(rest, lanes[0]);
-    accumulate_moments(rest + 2, lanes[1]);
-  }
-  const v4d sum = lanes[0].sum + lanes[1].sum, squares = lanes[0].squares + lanes[1].squares;
-  const v4d cross = lanes[0].cross + lanes[1].cross, sum4 = lanes[0].sum4 + lanes[1].sum4;
-  const v4d sum2c = lanes[0].sum2c + lanes[1].sum2c;
-  NodeMoments m;
-  m.count = n;
-  m.sum = Complex(sum[0] + sum[2], sum[1] + sum[3]);
-  const double re2 = squares[0] + squares[2], im2 = squares[1] + squares[3];
-  m.sum2 = re2 + im2;
-  m.sum_sq = Complex(re2 - im2, 2.0 * (cross[0] + cross[2]));
-  m.sum4 = sum4[0] + sum4[2];
-  m.sum2c = Complex(sum2c[0] + sum2c[2], sum2c[1] + sum2c[3]);
-  return m;
-}
 
 // (sum |c - mean|^2, sum |c - mean|^4) in four chains: the second pass where the mean is large.
 std::pair<double, double> central_moment_sums(std::span<const Complex> c, Complex mean) {
@@ -498,7 +534,11 @@ double central_sum4(const NodeMoments& m, Complex mean) {
 
 }  // namespace
 
-NodeMoments node_moments(std::span<const Complex> c) { return moments_body(c.data(), c.size()); }
+NodeMoments node_moments(std::span<const Complex> c) {
+  MomentSums sums{};
+  add_moments(c.data(), c.size(), sums);
+  return moments_of(sums);
+}
 
 double KurtosisCriterion::evaluate(const FilterBankNode& node) {
   const auto c = node.samples;

@@ -161,8 +161,9 @@ class OneThirdBinaryFilterBank {
 
  private:
   void visit(int depth, int band, std::span<const Complex> node, std::size_t depth_length);
-  void evaluate(int row, int band, int band_count, int decimation, bool real, std::span<const Complex> trimmed);
-  void ternary_split(int depth, int band, std::span<const Complex> node);
+  /// Evaluates the criteria on one band; `moments` are its NodeMoments when the split took them.
+  void evaluate(int row, int band, int band_count, int decimation, bool real, std::span<const Complex> trimmed,
+                const NodeMoments* moments);
 
   std::vector<Complex> low_, high_;
   std::array<std::vector<Complex>, 3> ternary_;
@@ -175,7 +176,6 @@ class OneThirdBinaryFilterBank {
   std::vector<ComplexBuffer> low_children_, high_children_;
   ComplexBuffer ternary_scratch_;
   bool moments_read_ = false;
-  NodeMoments moments_;
 };
 
 /// scipy.signal.firwin(taps, cutoff) for a low-pass with the default Hamming window and unit DC
