@@ -150,29 +150,69 @@ BinaryTaps binary_taps(std::span<const double> p) {
   return f;
 }
 
-// Outputs [m0, m0 + count) of both halves; y holds the modulated node from index 2 m0 - 16.
-__attribute__((target_clones("avx2", "default"))) void binary_block(const Complex* y, const BinaryTaps& f,
-                                                                    std::size_t m0, std::size_t count, Complex* a,
-                                                                    Complex* d) {
+__attribute__((always_inline)) inline void binary_sums(const Complex* y, const BinaryTaps& f, v4d& lo, v4d& hi) {
+  const double* x = reinterpret_cast<const double*>(y);
+  lo = hi = v4d{0.0, 0.0, 0.0, 0.0};
+  for (std::size_t i = 0; i < kBinaryPairs; ++i) {
+    v4d xv;
+    __builtin_memcpy(&xv, x + 4 * i, sizeof xv);
+    lo += xv * f.low[i];
+    hi += xv * f.high[i];
+  }
+}
+
+// The rotations of outputs m and m + 1 as pair tables indexed by m mod 4: w^(2m+1) for the low
+// half, (-j)^m (exact) for the high one.
+struct BinaryTurns {
+  v4d low_re[4], low_im[4], high_re[4], high_im[4];
+};
+
+BinaryTurns binary_turns() {
   const auto& w = eighth_turns();
-  for (std::size_t j = 0; j < count; ++j) {
-    const double* x = reinterpret_cast<const double*>(y + 2 * j);
-    v4d lo = {0.0, 0.0, 0.0, 0.0}, hi = {0.0, 0.0, 0.0, 0.0};
-    for (std::size_t i = 0; i < kBinaryPairs; ++i) {
-      v4d xv;
-      __builtin_memcpy(&xv, x + 4 * i, sizeof xv);
-      lo += xv * f.low[i];
-      hi += xv * f.high[i];
-    }
-    const std::size_t m = m0 + j;
-    a[m] = times(Complex(lo[0] + lo[2], lo[1] + lo[3]), w[(2 * m + 1) % 8]);
-    const Complex s(hi[2] - hi[1], hi[3] + hi[0]);  // even-k part + j odd-k part
-    switch (m % 4) {                                 // (-j)^m, exact
-      case 0: d[m] = s; break;
-      case 1: d[m] = Complex(s.imag(), -s.real()); break;
-      case 2: d[m] = -s; break;
-      default: d[m] = Complex(-s.imag(), s.real()); break;
-    }
+  const std::array<Complex, 4> minus_j{Complex(1, 0), Complex(0, -1), Complex(-1, 0), Complex(0, 1)};
+  BinaryTurns t{};
+  for (std::size_t m = 0; m < 4; ++m) {
+    const Complex a = w[(2 * m + 1) % 8], b = w[(2 * m + 3) % 8], c = minus_j[m], d = minus_j[(m + 1) % 4];
+    t.low_re[m] = v4d{a.real(), a.real(), b.real(), b.real()};
+    t.low_im[m] = v4d{-a.imag(), a.imag(), -b.imag(), b.imag()};
+    t.high_re[m] = v4d{c.real(), c.real(), d.real(), d.real()};
+    t.high_im[m] = v4d{-c.imag(), c.imag(), -d.imag(), d.imag()};
+  }
+  return t;
+}
+
+// Outputs [m0, m0 + count) of both halves; y holds the modulated node from index 2 m0 - 16. Two
+// outputs at a time, so their sums, rotations and stores are vector operations (the same
+// products and sums as one output at a time: s (cr + j ci) = s (cr, cr) + swap(s) (-ci, ci)).
+__attribute__((target_clones("avx2", "default"))) void binary_block(const Complex* y, const BinaryTaps& f,
+                                                                    const BinaryTurns& turns, std::size_t m0,
+                                                                    std::size_t count, Complex* a, Complex* d) {
+  using v4i = long long __attribute__((vector_size(32)));
+  const v4i swap{1, 0, 3, 2};
+  std::size_t j = 0;
+  for (; j + 2 <= count; j += 2) {
+    v4d lo0, hi0, lo1, hi1;
+    binary_sums(y + 2 * j, f, lo0, hi0);
+    binary_sums(y + 2 * j + 2, f, lo1, hi1);
+    const v4d low = __builtin_shuffle(lo0, lo1, v4i{0, 1, 4, 5}) + __builtin_shuffle(lo0, lo1, v4i{2, 3, 6, 7});
+    // even-k part + j odd-k part: (hi[2] - hi[1], hi[3] + hi[0]) of each
+    const v4d high = __builtin_shuffle(hi0, hi1, v4i{2, 3, 6, 7}) +
+                     __builtin_shuffle(hi0, hi1, v4i{1, 0, 5, 4}) * v4d{-1.0, 1.0, -1.0, 1.0};
+    const std::size_t m = m0 + j, phase = m % 4;
+    const v4d low_out = low * turns.low_re[phase] + __builtin_shuffle(low, swap) * turns.low_im[phase];
+    const v4d high_out = high * turns.high_re[phase] + __builtin_shuffle(high, swap) * turns.high_im[phase];
+    __builtin_memcpy(reinterpret_cast<double*>(a + m), &low_out, sizeof low_out);
+    __builtin_memcpy(reinterpret_cast<double*>(d + m), &high_out, sizeof high_out);
+  }
+  if (j < count) {  // an odd last output
+    v4d lo, hi;
+    binary_sums(y + 2 * j, f, lo, hi);
+    const std::size_t m = m0 + j, phase = m % 4;
+    const Complex low(lo[0] + lo[2], lo[1] + lo[3]), high(hi[2] - hi[1], hi[3] + hi[0]);
+    a[m] = Complex(low.real() * turns.low_re[phase][0] + low.imag() * turns.low_im[phase][0],
+                   low.imag() * turns.low_re[phase][1] + low.real() * turns.low_im[phase][1]);
+    d[m] = Complex(high.real() * turns.high_re[phase][0] + high.imag() * turns.high_im[phase][0],
+                   high.imag() * turns.high_re[phase][1] + high.real() * turns.high_im[phase][1]);
   }
 }
 
@@ -305,6 +345,7 @@ void add_block_moments(const SplitTargets& t, std::size_t band, const Complex* o
 // blocks, so the node is read from memory once and every band's moments are taken from cache.
 void split_node(std::span<const Complex> c, const SplitTargets& t) {
   static const BinaryTaps binary = binary_taps(firwin_lowpass(17, 0.4));
+  static const BinaryTurns binary_rotations = binary_turns();
   static const TernaryTaps ternary = ternary_taps(firwin_lowpass(25, 0.4 * 2.0 / 3.0));
   std::array<Complex, 3 * kBlockOutputs + 23> scratch;
   for (std::size_t chunk = 0; 6 * kBlockOutputs * chunk < c.size(); ++chunk) {
@@ -312,7 +353,7 @@ void split_node(std::span<const Complex> c, const SplitTargets& t) {
          m0 += kBlockOutputs) {
       const std::size_t count = std::min(kBlockOutputs, t.half - m0);
       modulate(c, 2 * static_cast<std::ptrdiff_t>(m0) - 16, 2 * count + 16, eighth_turns(), scratch.data());
-      binary_block(scratch.data(), binary, m0, count, t.low, t.high);
+      binary_block(scratch.data(), binary, binary_rotations, m0, count, t.low, t.high);
       add_block_moments(t, 0, t.low, t.half, m0, count);
       add_block_moments(t, 1, t.high, t.half, m0, count);
     }
