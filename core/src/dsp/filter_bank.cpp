@@ -232,34 +232,96 @@ TernaryTaps ternary_taps(std::span<const double> q) {
   return f;
 }
 
-// Outputs [m0, m0 + count) of the three bands; z holds the modulated node from index 3 m0 - 23.
-__attribute__((target_clones("avx2", "default"))) void ternary_block(const Complex* z, const TernaryTaps& f,
-                                                                     std::size_t m0, std::size_t count,
-                                                                     Complex* const* out) {
+__attribute__((always_inline)) inline void ternary_sums(const Complex* z, const TernaryTaps& f, std::size_t j, v4d& s01,
+                                                        v4d& s23, v4d& s45) {
+  const Complex* newest = z + 24 + 3 * j;  // z[n - 1]: (z[n-i-1], z[n-i]) starts at newest - i
+  v4d x;
+  s01 = s23 = s45 = v4d{0.0, 0.0, 0.0, 0.0};
+  for (std::size_t g = 0; g < 5; ++g) {
+    __builtin_memcpy(&x, newest - 6 * g, sizeof x);
+    s01 += x * f.pair01[g];
+  }
+  for (std::size_t g = 0; g < 4; ++g) {
+    __builtin_memcpy(&x, newest - 6 * g - 2, sizeof x);
+    s23 += x * f.pair23[g];
+    __builtin_memcpy(&x, newest - 6 * g - 4, sizeof x);
+    s45 += x * f.pair45[g];
+  }
+}
+
+// A complex rotation of two outputs (s (cr + j ci) = s (cr, cr) + swap(s) (-ci, ci): the products and
+// sums of the scalar form), and the pair tables of the ternary split: the three-point transform's
+// constants and v^(3m+2) for outputs m and m + 1, by m mod 4.
+struct PairTurn {
+  v4d re, im;
+};
+PairTurn pair_turn(const Complex& a, const Complex& b) {
+  return {v4d{a.real(), a.real(), b.real(), b.real()}, v4d{-a.imag(), a.imag(), -b.imag(), b.imag()}};
+}
+struct TernaryTurns {
+  PairTurn w1, w2, w4, out[4];
+};
+TernaryTurns ternary_turns() {
   const auto& v = twelfth_turns();
-  const Complex w1 = v[2], w2 = v[4], w4 = v[8];  // e^{2 pi j/6} to the 1st, 2nd and 4th
-  for (std::size_t j = 0; j < count; ++j) {
-    const Complex* newest = z + 24 + 3 * j;  // z[n - 1]: (z[n-i-1], z[n-i]) starts at newest - i
-    v4d s01 = {0.0, 0.0, 0.0, 0.0}, s23 = s01, s45 = s01, x;
-    for (std::size_t g = 0; g < 5; ++g) {
-      __builtin_memcpy(&x, newest - 6 * g, sizeof x);
-      s01 += x * f.pair01[g];
-    }
-    for (std::size_t g = 0; g < 4; ++g) {
-      __builtin_memcpy(&x, newest - 6 * g - 2, sizeof x);
-      s23 += x * f.pair23[g];
-      __builtin_memcpy(&x, newest - 6 * g - 4, sizeof x);
-      s45 += x * f.pair45[g];
-    }
-    const Complex q0(s01[2], s01[3]), q1(s01[0], s01[1]), q2(s23[2], s23[3]), q3(s23[0], s23[1]);
-    const Complex q4(s45[2], s45[3]), q5(s45[0], s45[1]);
-    const Complex a0 = q0 + q3, a1 = q1 + q4, a2 = q2 + q5;
-    const Complex b0 = q0 - q3, b1 = q1 - q4, b2 = q2 - q5;
+  TernaryTurns t{};
+  t.w1 = pair_turn(v[2], v[2]);
+  t.w2 = pair_turn(v[4], v[4]);
+  t.w4 = pair_turn(v[8], v[8]);
+  for (std::size_t m = 0; m < 4; ++m) t.out[m] = pair_turn(v[(3 * m + 2) % 12], v[(3 * m + 5) % 12]);
+  return t;
+}
+
+__attribute__((always_inline)) inline void rotate(const v4d& s, const PairTurn& t, v4d& r) {
+  using v4i = long long __attribute__((vector_size(32)));
+  r = s * t.re + __builtin_shuffle(s, v4i{1, 0, 3, 2}) * t.im;
+}
+
+// The three bands of outputs m (lanes 0-1) and m + 1 (lanes 2-3) from the partial sums Q_0..Q_5:
+// the three-point transform of A_r = Q_r + Q_r+3 and B_r = Q_r - Q_r+3, then v^(3m+2).
+__attribute__((always_inline)) inline void ternary_outputs(const v4d (&q)[6], const TernaryTurns& turns,
+                                                           const PairTurn& turn, v4d (&o)[3]) {
+  const v4d a0 = q[0] + q[3], a1 = q[1] + q[4], a2 = q[2] + q[5];
+  const v4d b0 = q[0] - q[3], b1 = q[1] - q[4], b2 = q[2] - q[5];
+  v4d r1, r2;
+  rotate(a0 + a1 + a2, turn, o[0]);
+  rotate(b1, turns.w1, r1);
+  rotate(b2, turns.w2, r2);
+  rotate(b0 + r1 + r2, turn, o[1]);
+  rotate(a1, turns.w2, r1);
+  rotate(a2, turns.w4, r2);
+  rotate(a0 + r1 + r2, turn, o[2]);
+}
+
+// Outputs [m0, m0 + count) of the three bands; z holds the modulated node from index 3 m0 - 23.
+// Two outputs at a time: lanes 0-1 output m, lanes 2-3 output m + 1.
+__attribute__((target_clones("avx2", "default"))) void ternary_block(const Complex* z, const TernaryTaps& f,
+                                                                     const TernaryTurns& turns, std::size_t m0,
+                                                                     std::size_t count, Complex* const* out) {
+  using v4i = long long __attribute__((vector_size(32)));
+  const v4i upper{2, 3, 6, 7}, lower{0, 1, 4, 5};  // the even-tap group's lanes, the odd one's
+  std::size_t j = 0;
+  for (; j + 2 <= count; j += 2) {
+    v4d s01a, s23a, s45a, s01b, s23b, s45b;
+    ternary_sums(z, f, j, s01a, s23a, s45a);
+    ternary_sums(z, f, j + 1, s01b, s23b, s45b);
+    const v4d q[6] = {__builtin_shuffle(s01a, s01b, upper), __builtin_shuffle(s01a, s01b, lower),
+                      __builtin_shuffle(s23a, s23b, upper), __builtin_shuffle(s23a, s23b, lower),
+                      __builtin_shuffle(s45a, s45b, upper), __builtin_shuffle(s45a, s45b, lower)};
     const std::size_t m = m0 + j;
-    const Complex turn = v[(3 * m + 2) % 12];
-    out[0][m] = times(a0 + a1 + a2, turn);
-    out[1][m] = times(b0 + times(b1, w1) + times(b2, w2), turn);
-    out[2][m] = times(a0 + times(a1, w2) + times(a2, w4), turn);
+    v4d o[3];
+    ternary_outputs(q, turns, turns.out[m % 4], o);
+    for (std::size_t k = 0; k < 3; ++k) __builtin_memcpy(reinterpret_cast<double*>(out[k] + m), &o[k], sizeof o[k]);
+  }
+  if (j < count) {  // an odd last output: the same arithmetic in the first lanes
+    v4d s01, s23, s45;
+    ternary_sums(z, f, j, s01, s23, s45);
+    const v4d q[6] = {__builtin_shuffle(s01, s01, upper), __builtin_shuffle(s01, s01, lower),
+                      __builtin_shuffle(s23, s23, upper), __builtin_shuffle(s23, s23, lower),
+                      __builtin_shuffle(s45, s45, upper), __builtin_shuffle(s45, s45, lower)};
+    const std::size_t m = m0 + j;
+    v4d o[3];
+    ternary_outputs(q, turns, turns.out[m % 4], o);
+    for (std::size_t k = 0; k < 3; ++k) out[k][m] = Complex(o[k][0], o[k][1]);
   }
 }
 
@@ -347,6 +409,7 @@ void split_node(std::span<const Complex> c, const SplitTargets& t) {
   static const BinaryTaps binary = binary_taps(firwin_lowpass(17, 0.4));
   static const BinaryTurns binary_rotations = binary_turns();
   static const TernaryTaps ternary = ternary_taps(firwin_lowpass(25, 0.4 * 2.0 / 3.0));
+  static const TernaryTurns ternary_rotations = ternary_turns();
   std::array<Complex, 3 * kBlockOutputs + 23> scratch;
   for (std::size_t chunk = 0; 6 * kBlockOutputs * chunk < c.size(); ++chunk) {
     for (std::size_t m0 = 3 * kBlockOutputs * chunk; m0 < std::min(3 * kBlockOutputs * (chunk + 1), t.half);
@@ -362,7 +425,7 @@ void split_node(std::span<const Complex> c, const SplitTargets& t) {
          m0 += kBlockOutputs) {
       const std::size_t count = std::min(kBlockOutputs, t.third_length - m0);
       modulate(c, 3 * static_cast<std::ptrdiff_t>(m0) - 23, 3 * count + 23, twelfth_turns(), scratch.data());
-      ternary_block(scratch.data(), ternary, m0, count, t.third.data());
+      ternary_block(scratch.data(), ternary, ternary_rotations, m0, count, t.third.data());
       for (std::size_t k = 0; k < 3; ++k) add_block_moments(t, 2 + k, t.third[k], t.third_length, m0, count);
     }
   }
