@@ -34,177 +34,401 @@ double filter_bank_row_level(int row) {
 
 namespace {
 
-// out[m] = sum_i taps[i] * c[factor*m + phase - i] (causal filter, zero initial state, keeping
-// every factor-th output from `phase`): MATLAB filter() followed by x(phase+1:factor:end).
-// Several filters of at most kMaxTaps taps run over the same input in one pass (each input
-// sample is loaded once). The reductions are written with explicit two-lane vectors because the
-// compiler may not reorder floating-point sums on its own; complex products are formed as
-// x * (re, re) and x * (im, im) accumulated separately and combined once per output.
+// The tree's filters are modulated real prototypes: binary h[k] = p[k] w^k and
+// g[k] = p[15-k] w^(3(k+1)) (w = e^{j pi/4}; the reference's g[k] = h[15-k] (-1)^(k+1)), ternary
+// t_t[i] = q[i] v^i e^{2 pi j i t/6} (v = e^{j pi/6}). With the node modulated once,
+// y[i] = w^-i c[i] (z[i] = v^-i c[i]), every product is a real tap times a complex sample, half
+// the arithmetic of the complex taps, and the modulation is put back once per output:
+//   a[m] = w^n sum_k p[k] y[n-k],  (-1)^(m+1) d[m] = (-j)^m sum_k p[15-k] j^k y[n-k]  (n = 2m+1),
+//   out_t[m] = v^n sum_r e^{2 pi j r t/6} Q_r,  Q_r = sum_{i = r mod 6} q[i] z[n-i]   (n = 3m+2).
+// Outputs are those of MATLAB filter() (causal, zero initial state) kept at x(n+1:factor:end);
+// windows reaching before the node's first sample read zeros. The sums are written with explicit
+// vectors (the compiler may not reorder floating-point sums), lane-wise, so the AVX2 and baseline
+// builds give the same results.
 using v4d = double __attribute__((vector_size(32)));
-constexpr std::size_t kMaxTaps = 26;  // even: taps are consumed two complex samples at a time
-
-template <std::size_t Filters>
-struct FusedTaps {
-  std::size_t taps = 0;  // common even length (shorter filters zero-padded at the oldest end)
-  // Pair p holds taps for input offsets 2p and 2p+1 (oldest first): (re, re, re', re') etc.
-  v4d re[Filters][kMaxTaps / 2], im[Filters][kMaxTaps / 2];
-};
-
-template <std::size_t Filters>
-FusedTaps<Filters> fuse(const std::array<std::span<const Complex>, Filters>& filters) {
-  FusedTaps<Filters> f{};
-  for (const auto& h : filters) f.taps = std::max(f.taps, h.size());
-  f.taps += f.taps % 2;
-  for (std::size_t k = 0; k < Filters; ++k)
-    for (std::size_t i = 0; i < f.taps; i += 2) {
-      auto tap = [&](std::size_t offset) {  // input offset (oldest first) meets tap taps-1-offset
-        const std::size_t t = f.taps - 1 - offset;
-        return t < filters[k].size() ? filters[k][t] : Complex{};
-      };
-      const Complex t0 = tap(i), t1 = tap(i + 1);
-      f.re[k][i / 2] = v4d{t0.real(), t0.real(), t1.real(), t1.real()};
-      f.im[k][i / 2] = v4d{t0.imag(), t0.imag(), t1.imag(), t1.imag()};
-    }
-  return f;
-}
-
-// The vector loop for the steady-state outputs [first, end). Compiled twice (AVX2 and the
-// baseline) and chosen at run time: the arithmetic and its order are the same in both, so
-// results do not depend on the machine.
-template <std::size_t Filters>
-__attribute__((always_inline)) inline void fir_body(const Complex* c, const FusedTaps<Filters>& f, std::size_t factor,
-                                                    std::size_t phase, Complex* const* out, std::size_t first,
-                                                    std::size_t end) {
-  const std::size_t pairs = f.taps / 2;
-  for (std::size_t m = first; m < end; ++m) {
-    const double* x = reinterpret_cast<const double*>(c + (factor * m + phase + 1 - f.taps));
-    v4d acc_re[Filters], acc_im[Filters];
-    for (std::size_t k = 0; k < Filters; ++k) acc_re[k] = acc_im[k] = v4d{0.0, 0.0, 0.0, 0.0};
-    for (std::size_t p = 0; p < pairs; ++p) {
-      v4d xv;
-      __builtin_memcpy(&xv, x + 4 * p, sizeof xv);
-      for (std::size_t k = 0; k < Filters; ++k) {
-        acc_re[k] += xv * f.re[k][p];
-        acc_im[k] += xv * f.im[k][p];
-      }
-    }
-    for (std::size_t k = 0; k < Filters; ++k) {
-      const double rr = acc_re[k][0] + acc_re[k][2], ri = acc_re[k][1] + acc_re[k][3];
-      const double ir = acc_im[k][0] + acc_im[k][2], ii = acc_im[k][1] + acc_im[k][3];
-      out[k][m] = Complex(rr - ii, ri + ir);
-    }
-  }
-}
-
-__attribute__((target_clones("avx2", "default"))) void fir_body_2(const Complex* c, const FusedTaps<2>& f,
-                                                                   std::size_t factor, std::size_t phase,
-                                                                   Complex* const* out, std::size_t first,
-                                                                   std::size_t end) {
-  fir_body<2>(c, f, factor, phase, out, first, end);
-}
-
-// out[k][m] = sum_i filters[k][i] * c[factor*m + phase - i] (causal filter, zero initial state,
-// keeping every factor-th output from `phase`): MATLAB filter() followed by x(phase+1:factor:end).
-// The filters run fused over the same input (each sample loaded once). The reductions are
-// written with explicit vectors because the compiler may not reorder floating-point sums itself;
-// complex products are accumulated as x * (re, re) and x * (im, im) and combined per output.
-template <std::size_t Filters>
-void decimating_fir(std::span<const Complex> c, const FusedTaps<Filters>& f,
-                    const std::array<std::span<const Complex>, Filters>& filters, std::size_t factor,
-                    std::size_t phase, const std::array<Complex*, Filters>& out, std::size_t out_length) {
-  // Start-up outputs: part of the (padded) filter still sees the zero initial state.
-  std::size_t first = 0;
-  while (first < out_length && factor * first + phase + 1 < f.taps) {
-    const std::size_t last = factor * first + phase;
-    for (std::size_t k = 0; k < Filters; ++k) {
-      Complex acc{};
-      for (std::size_t i = 0; i <= last && i < filters[k].size(); ++i) acc += filters[k][i] * c[last - i];
-      out[k][first] = acc;
-    }
-    ++first;
-  }
-  static_assert(Filters == 2, "the ternary split has its own polyphase form (ternary_fir)");
-  fir_body_2(c.data(), f, factor, phase, out.data(), first, out_length);
-}
-
-// The ternary split's three filters are one prototype u[i] = q[i] e^{2 pi j i/12} modulated by
-// w^{i t}, w = e^{2 pi j/6}, t = 0, 1, 2. Grouping the taps by i mod 6 gives six partial sums
-// P_r = sum_{i = r mod 6} u[i] c[3m+2-i] (25 complex products instead of 75), and
-// out_t = sum_r w^{r t} P_r, a three-point transform of A_r = P_r + P_{r+3} (t = 0, 2) and
-// B_r = P_r - P_{r+3} (t = 1).
-using v2d = double __attribute__((vector_size(16)));
+constexpr std::size_t kBinaryPairs = 9;    // 17 taps padded to 18, two samples a vector
 constexpr std::size_t kTernaryTaps = 25;
+constexpr std::size_t kBlockOutputs = 256;  // outputs per modulated block (the block stays in L1)
 
-struct TernaryPolyphase {
-  v2d re[kTernaryTaps], im[kTernaryTaps];  // u[i] as (re, re) and (im, im)
+// e^{j pi k/4} and e^{j pi k/6} with the quarter turns exact.
+const std::array<Complex, 8>& eighth_turns() {
+  static const double h = std::sqrt(0.5);
+  static const std::array<Complex, 8> t{Complex(1, 0),  Complex(h, h),   Complex(0, 1),  Complex(-h, h),
+                                        Complex(-1, 0), Complex(-h, -h), Complex(0, -1), Complex(h, -h)};
+  return t;
+}
+const std::array<Complex, 12>& twelfth_turns() {
+  static const double c = std::sqrt(3.0) / 2.0;
+  static const std::array<Complex, 12> t{Complex(1, 0),   Complex(c, 0.5),   Complex(0.5, c),  Complex(0, 1),
+                                         Complex(-0.5, c), Complex(-c, 0.5),  Complex(-1, 0),   Complex(-c, -0.5),
+                                         Complex(-0.5, -c), Complex(0, -1),   Complex(0.5, -c), Complex(c, -0.5)};
+  return t;
+}
+
+// a b written out (std::complex's operator* checks for infinities and NaN through a library call).
+inline Complex times(const Complex& a, const Complex& b) {
+  return Complex(a.real() * b.real() - a.imag() * b.imag(), a.real() * b.imag() + a.imag() * b.real());
+}
+
+// out[t] = conj(turns[(first + t) mod P]) c[first + t] for t < count, zero before c's first sample.
+// Two samples a vector: (a, b) (cr - j ci) = x (cr, cr) + swap(x) (ci, -ci), the products and sums
+// of the scalar form in the same order.
+template <std::size_t P>
+struct TurnPairs {
+  v4d re[P], im[P];  // for the pair whose first sample has phase ph
 };
 
-TernaryPolyphase ternary_polyphase(std::span<const Complex> first_filter) {
-  TernaryPolyphase f{};
-  for (std::size_t i = 0; i < kTernaryTaps; ++i) {
-    f.re[i] = v2d{first_filter[i].real(), first_filter[i].real()};
-    f.im[i] = v2d{first_filter[i].imag(), first_filter[i].imag()};
+template <std::size_t P>
+TurnPairs<P> turn_pairs(const std::array<Complex, P>& turns) {
+  TurnPairs<P> t{};
+  for (std::size_t ph = 0; ph < P; ++ph) {
+    const Complex u = std::conj(turns[ph]), v = std::conj(turns[(ph + 1) % P]);
+    t.re[ph] = v4d{u.real(), u.real(), v.real(), v.real()};
+    t.im[ph] = v4d{-u.imag(), u.imag(), -v.imag(), v.imag()};
+  }
+  return t;
+}
+
+template <std::size_t P>
+__attribute__((always_inline)) inline void modulate_pairs(const Complex* x, std::size_t pairs, std::size_t phase,
+                                                          const TurnPairs<P>& t, Complex* out) {
+  using v4i = long long __attribute__((vector_size(32)));
+  const v4i swap{1, 0, 3, 2};
+  for (std::size_t j = 0; j < pairs; ++j) {
+    v4d v;
+    __builtin_memcpy(&v, x + 2 * j, sizeof v);
+    const v4d y = v * t.re[phase] + __builtin_shuffle(v, swap) * t.im[phase];
+    __builtin_memcpy(reinterpret_cast<double*>(out + 2 * j), &y, sizeof y);
+    phase = phase + 2 >= P ? phase + 2 - P : phase + 2;
+  }
+}
+
+__attribute__((target_clones("avx2", "default"))) void modulate_pairs_8(const Complex* x, std::size_t pairs,
+                                                                        std::size_t phase, const TurnPairs<8>& t,
+                                                                        Complex* out) {
+  modulate_pairs(x, pairs, phase, t, out);
+}
+__attribute__((target_clones("avx2", "default"))) void modulate_pairs_12(const Complex* x, std::size_t pairs,
+                                                                         std::size_t phase, const TurnPairs<12>& t,
+                                                                         Complex* out) {
+  modulate_pairs(x, pairs, phase, t, out);
+}
+
+template <std::size_t P>
+void modulate(std::span<const Complex> c, std::ptrdiff_t first, std::size_t count, const std::array<Complex, P>& turns,
+              Complex* out) {
+  static const TurnPairs<P> pairs = turn_pairs(turns);
+  std::size_t t = 0;
+  for (; t < count && first + static_cast<std::ptrdiff_t>(t) < 0; ++t) out[t] = Complex{};
+  if (t == count) return;
+  const auto start = static_cast<std::size_t>(first + static_cast<std::ptrdiff_t>(t));
+  const std::size_t phase = start % P, n = (count - t) / 2;
+  if constexpr (P == 8) modulate_pairs_8(c.data() + start, n, phase, pairs, out + t);
+  else modulate_pairs_12(c.data() + start, n, phase, pairs, out + t);
+  for (std::size_t k = t + 2 * n; k < count; ++k) out[k] = times(c[start + (k - t)], std::conj(turns[(start + k - t) % P]));
+}
+
+struct BinaryTaps {
+  // Pair p meets window offsets 2p, 2p+1 (oldest first), i.e. k = 17-2p and 16-2p: (t, t, t', t').
+  v4d low[kBinaryPairs], high[kBinaryPairs];
+};
+
+// low: p[k]; high: p[15-k] with j^k's sign (its odd-k terms, lanes 0-1, are imaginary).
+BinaryTaps binary_taps(std::span<const double> p) {
+  auto low = [&](std::size_t k) { return k < p.size() ? p[k] : 0.0; };
+  auto high = [&](std::size_t k) {
+    if (k > 15) return 0.0;
+    const double sign = ((k % 2 == 0 ? k : k - 1) / 2) % 2 == 0 ? 1.0 : -1.0;
+    return sign * p[15 - k];
+  };
+  BinaryTaps f{};
+  for (std::size_t i = 0; i < kBinaryPairs; ++i) {
+    const std::size_t k = 17 - 2 * i;
+    f.low[i] = v4d{low(k), low(k), low(k - 1), low(k - 1)};
+    f.high[i] = v4d{high(k), high(k), high(k - 1), high(k - 1)};
   }
   return f;
 }
 
-template <std::size_t R>
-__attribute__((always_inline)) inline void ternary_phase(const double* newest, const TernaryPolyphase& f, v2d& re,
-                                                         v2d& im) {
-  for (std::size_t i = R; i < kTernaryTaps; i += 6) {
-    v2d x;
-    __builtin_memcpy(&x, newest - 2 * i, sizeof x);  // c[3m+2-i]
-    re += x * f.re[i];
-    im += x * f.im[i];
+__attribute__((always_inline)) inline void binary_sums(const Complex* y, const BinaryTaps& f, v4d& lo, v4d& hi) {
+  const double* x = reinterpret_cast<const double*>(y);
+  lo = hi = v4d{0.0, 0.0, 0.0, 0.0};
+  for (std::size_t i = 0; i < kBinaryPairs; ++i) {
+    v4d xv;
+    __builtin_memcpy(&xv, x + 4 * i, sizeof xv);
+    lo += xv * f.low[i];
+    hi += xv * f.high[i];
   }
 }
 
-__attribute__((always_inline)) inline Complex ternary_sum(v2d re, v2d im) { return Complex(re[0] - im[1], re[1] + im[0]); }
+// The rotations of outputs m and m + 1 as pair tables indexed by m mod 4: w^(2m+1) for the low
+// half, (-j)^m (exact) for the high one.
+struct BinaryTurns {
+  v4d low_re[4], low_im[4], high_re[4], high_im[4];
+};
 
-__attribute__((target_clones("avx2", "default"))) void ternary_body(const Complex* c, const TernaryPolyphase& f,
-                                                                     Complex* const* out, std::size_t first,
-                                                                     std::size_t end) {
-  // w^1, w^2 and w^4 as (cos, sin); products written out (std::complex's operator* checks for
-  // infinities and NaN through a library call).
-  const double h = std::sqrt(3.0) / 2.0;
-  auto times = [](const Complex& a, double cr, double ci) {
-    return Complex(a.real() * cr - a.imag() * ci, a.real() * ci + a.imag() * cr);
-  };
-  for (std::size_t m = first; m < end; ++m) {
-    const double* newest = reinterpret_cast<const double*>(c + 3 * m + 2);
-    v2d re[6] = {}, im[6] = {};
-    ternary_phase<0>(newest, f, re[0], im[0]);
-    ternary_phase<1>(newest, f, re[1], im[1]);
-    ternary_phase<2>(newest, f, re[2], im[2]);
-    ternary_phase<3>(newest, f, re[3], im[3]);
-    ternary_phase<4>(newest, f, re[4], im[4]);
-    ternary_phase<5>(newest, f, re[5], im[5]);
-    Complex p[6];
-    for (std::size_t r = 0; r < 6; ++r) p[r] = ternary_sum(re[r], im[r]);
-    const Complex a0 = p[0] + p[3], a1 = p[1] + p[4], a2 = p[2] + p[5];
-    const Complex b0 = p[0] - p[3], b1 = p[1] - p[4], b2 = p[2] - p[5];
-    out[0][m] = a0 + a1 + a2;
-    out[1][m] = b0 + times(b1, 0.5, h) + times(b2, -0.5, h);
-    out[2][m] = a0 + times(a1, -0.5, h) + times(a2, -0.5, -h);
+BinaryTurns binary_turns() {
+  const auto& w = eighth_turns();
+  const std::array<Complex, 4> minus_j{Complex(1, 0), Complex(0, -1), Complex(-1, 0), Complex(0, 1)};
+  BinaryTurns t{};
+  for (std::size_t m = 0; m < 4; ++m) {
+    const Complex a = w[(2 * m + 1) % 8], b = w[(2 * m + 3) % 8], c = minus_j[m], d = minus_j[(m + 1) % 4];
+    t.low_re[m] = v4d{a.real(), a.real(), b.real(), b.real()};
+    t.low_im[m] = v4d{-a.imag(), a.imag(), -b.imag(), b.imag()};
+    t.high_re[m] = v4d{c.real(), c.real(), d.real(), d.real()};
+    t.high_im[m] = v4d{-c.imag(), c.imag(), -d.imag(), d.imag()};
+  }
+  return t;
+}
+
+// Outputs [m0, m0 + count) of both halves; y holds the modulated node from index 2 m0 - 16. Two
+// outputs at a time, so their sums, rotations and stores are vector operations (the same
+// products and sums as one output at a time: s (cr + j ci) = s (cr, cr) + swap(s) (-ci, ci)).
+__attribute__((target_clones("avx2", "default"))) void binary_block(const Complex* y, const BinaryTaps& f,
+                                                                    const BinaryTurns& turns, std::size_t m0,
+                                                                    std::size_t count, Complex* a, Complex* d) {
+  using v4i = long long __attribute__((vector_size(32)));
+  const v4i swap{1, 0, 3, 2};
+  std::size_t j = 0;
+  for (; j + 2 <= count; j += 2) {
+    v4d lo0, hi0, lo1, hi1;
+    binary_sums(y + 2 * j, f, lo0, hi0);
+    binary_sums(y + 2 * j + 2, f, lo1, hi1);
+    const v4d low = __builtin_shuffle(lo0, lo1, v4i{0, 1, 4, 5}) + __builtin_shuffle(lo0, lo1, v4i{2, 3, 6, 7});
+    // even-k part + j odd-k part: (hi[2] - hi[1], hi[3] + hi[0]) of each
+    const v4d high = __builtin_shuffle(hi0, hi1, v4i{2, 3, 6, 7}) +
+                     __builtin_shuffle(hi0, hi1, v4i{1, 0, 5, 4}) * v4d{-1.0, 1.0, -1.0, 1.0};
+    const std::size_t m = m0 + j, phase = m % 4;
+    const v4d low_out = low * turns.low_re[phase] + __builtin_shuffle(low, swap) * turns.low_im[phase];
+    const v4d high_out = high * turns.high_re[phase] + __builtin_shuffle(high, swap) * turns.high_im[phase];
+    __builtin_memcpy(reinterpret_cast<double*>(a + m), &low_out, sizeof low_out);
+    __builtin_memcpy(reinterpret_cast<double*>(d + m), &high_out, sizeof high_out);
+  }
+  if (j < count) {  // an odd last output
+    v4d lo, hi;
+    binary_sums(y + 2 * j, f, lo, hi);
+    const std::size_t m = m0 + j, phase = m % 4;
+    const Complex low(lo[0] + lo[2], lo[1] + lo[3]), high(hi[2] - hi[1], hi[3] + hi[0]);
+    a[m] = Complex(low.real() * turns.low_re[phase][0] + low.imag() * turns.low_im[phase][0],
+                   low.imag() * turns.low_re[phase][1] + low.real() * turns.low_im[phase][1]);
+    d[m] = Complex(high.real() * turns.high_re[phase][0] + high.imag() * turns.high_im[phase][0],
+                   high.imag() * turns.high_re[phase][1] + high.real() * turns.high_im[phase][1]);
   }
 }
 
-// The ternary split (factor 3, phase 2) through the polyphase form; the start-up outputs, whose
-// window reaches before the node's first sample, directly.
-void ternary_fir(std::span<const Complex> c, const TernaryPolyphase& f,
-                 const std::array<std::span<const Complex>, 3>& filters, const std::array<Complex*, 3>& out,
-                 std::size_t out_length) {
-  std::size_t first = 0;
-  while (first < out_length && 3 * first + 2 + 1 < kTernaryTaps) {
-    const std::size_t last = 3 * first + 2;
-    for (std::size_t k = 0; k < 3; ++k) {
-      Complex acc{};
-      for (std::size_t i = 0; i <= last && i < filters[k].size(); ++i) acc += filters[k][i] * c[last - i];
-      out[k][first] = acc;
+struct TernaryTaps {
+  // Group pairs (1, 0), (3, 2), (5, 4): the sample pair (z[n-i-1], z[n-i]) for taps i + 1 and i.
+  v4d pair01[5], pair23[4], pair45[4];
+};
+
+TernaryTaps ternary_taps(std::span<const double> q) {
+  auto tap = [&](std::size_t i) { return i < q.size() ? q[i] : 0.0; };
+  TernaryTaps f{};
+  for (std::size_t g = 0; g < 5; ++g) f.pair01[g] = v4d{tap(6 * g + 1), tap(6 * g + 1), tap(6 * g), tap(6 * g)};
+  for (std::size_t g = 0; g < 4; ++g) {
+    f.pair23[g] = v4d{tap(6 * g + 3), tap(6 * g + 3), tap(6 * g + 2), tap(6 * g + 2)};
+    f.pair45[g] = v4d{tap(6 * g + 5), tap(6 * g + 5), tap(6 * g + 4), tap(6 * g + 4)};
+  }
+  return f;
+}
+
+__attribute__((always_inline)) inline void ternary_sums(const Complex* z, const TernaryTaps& f, std::size_t j, v4d& s01,
+                                                        v4d& s23, v4d& s45) {
+  const Complex* newest = z + 24 + 3 * j;  // z[n - 1]: (z[n-i-1], z[n-i]) starts at newest - i
+  v4d x;
+  s01 = s23 = s45 = v4d{0.0, 0.0, 0.0, 0.0};
+  for (std::size_t g = 0; g < 5; ++g) {
+    __builtin_memcpy(&x, newest - 6 * g, sizeof x);
+    s01 += x * f.pair01[g];
+  }
+  for (std::size_t g = 0; g < 4; ++g) {
+    __builtin_memcpy(&x, newest - 6 * g - 2, sizeof x);
+    s23 += x * f.pair23[g];
+    __builtin_memcpy(&x, newest - 6 * g - 4, sizeof x);
+    s45 += x * f.pair45[g];
+  }
+}
+
+// A complex rotation of two outputs (s (cr + j ci) = s (cr, cr) + swap(s) (-ci, ci): the products and
+// sums of the scalar form), and the pair tables of the ternary split: the three-point transform's
+// constants and v^(3m+2) for outputs m and m + 1, by m mod 4.
+struct PairTurn {
+  v4d re, im;
+};
+PairTurn pair_turn(const Complex& a, const Complex& b) {
+  return {v4d{a.real(), a.real(), b.real(), b.real()}, v4d{-a.imag(), a.imag(), -b.imag(), b.imag()}};
+}
+struct TernaryTurns {
+  PairTurn w1, w2, w4, out[4];
+};
+TernaryTurns ternary_turns() {
+  const auto& v = twelfth_turns();
+  TernaryTurns t{};
+  t.w1 = pair_turn(v[2], v[2]);
+  t.w2 = pair_turn(v[4], v[4]);
+  t.w4 = pair_turn(v[8], v[8]);
+  for (std::size_t m = 0; m < 4; ++m) t.out[m] = pair_turn(v[(3 * m + 2) % 12], v[(3 * m + 5) % 12]);
+  return t;
+}
+
+__attribute__((always_inline)) inline void rotate(const v4d& s, const PairTurn& t, v4d& r) {
+  using v4i = long long __attribute__((vector_size(32)));
+  r = s * t.re + __builtin_shuffle(s, v4i{1, 0, 3, 2}) * t.im;
+}
+
+// The three bands of outputs m (lanes 0-1) and m + 1 (lanes 2-3) from the partial sums Q_0..Q_5:
+// the three-point transform of A_r = Q_r + Q_r+3 and B_r = Q_r - Q_r+3, then v^(3m+2).
+__attribute__((always_inline)) inline void ternary_outputs(const v4d (&q)[6], const TernaryTurns& turns,
+                                                           const PairTurn& turn, v4d (&o)[3]) {
+  const v4d a0 = q[0] + q[3], a1 = q[1] + q[4], a2 = q[2] + q[5];
+  const v4d b0 = q[0] - q[3], b1 = q[1] - q[4], b2 = q[2] - q[5];
+  v4d r1, r2;
+  rotate(a0 + a1 + a2, turn, o[0]);
+  rotate(b1, turns.w1, r1);
+  rotate(b2, turns.w2, r2);
+  rotate(b0 + r1 + r2, turn, o[1]);
+  rotate(a1, turns.w2, r1);
+  rotate(a2, turns.w4, r2);
+  rotate(a0 + r1 + r2, turn, o[2]);
+}
+
+// Outputs [m0, m0 + count) of the three bands; z holds the modulated node from index 3 m0 - 23.
+// Two outputs at a time: lanes 0-1 output m, lanes 2-3 output m + 1.
+__attribute__((target_clones("avx2", "default"))) void ternary_block(const Complex* z, const TernaryTaps& f,
+                                                                     const TernaryTurns& turns, std::size_t m0,
+                                                                     std::size_t count, Complex* const* out) {
+  using v4i = long long __attribute__((vector_size(32)));
+  const v4i upper{2, 3, 6, 7}, lower{0, 1, 4, 5};  // the even-tap group's lanes, the odd one's
+  std::size_t j = 0;
+  for (; j + 2 <= count; j += 2) {
+    v4d s01a, s23a, s45a, s01b, s23b, s45b;
+    ternary_sums(z, f, j, s01a, s23a, s45a);
+    ternary_sums(z, f, j + 1, s01b, s23b, s45b);
+    const v4d q[6] = {__builtin_shuffle(s01a, s01b, upper), __builtin_shuffle(s01a, s01b, lower),
+                      __builtin_shuffle(s23a, s23b, upper), __builtin_shuffle(s23a, s23b, lower),
+                      __builtin_shuffle(s45a, s45b, upper), __builtin_shuffle(s45a, s45b, lower)};
+    const std::size_t m = m0 + j;
+    v4d o[3];
+    ternary_outputs(q, turns, turns.out[m % 4], o);
+    for (std::size_t k = 0; k < 3; ++k) __builtin_memcpy(reinterpret_cast<double*>(out[k] + m), &o[k], sizeof o[k]);
+  }
+  if (j < count) {  // an odd last output: the same arithmetic in the first lanes
+    v4d s01, s23, s45;
+    ternary_sums(z, f, j, s01, s23, s45);
+    const v4d q[6] = {__builtin_shuffle(s01, s01, upper), __builtin_shuffle(s01, s01, lower),
+                      __builtin_shuffle(s23, s23, upper), __builtin_shuffle(s23, s23, lower),
+                      __builtin_shuffle(s45, s45, upper), __builtin_shuffle(s45, s45, lower)};
+    const std::size_t m = m0 + j;
+    v4d o[3];
+    ternary_outputs(q, turns, turns.out[m % 4], o);
+    for (std::size_t k = 0; k < 3; ++k) out[k][m] = Complex(o[k][0], o[k][1]);
+  }
+}
+
+// The raw sums of two samples (re, im, re', im') into lane accumulators: |c|^2 is formed in both
+// lanes of its sample, so every product stays lane-wise.
+using v4i = long long __attribute__((vector_size(32)));
+struct MomentLanes {
+  v4d sum, squares, cross, sum4, sum2c;  // c; (re^2, im^2); re im; |c|^4; |c|^2 c
+};
+struct MomentSums {
+  MomentLanes lanes[2];  // two independent chains
+  std::size_t count;
+};
+
+__attribute__((always_inline)) inline void accumulate_moments(const Complex* two, MomentLanes& m) {
+  v4d x;
+  __builtin_memcpy(&x, two, sizeof x);
+  const v4i swap{1, 0, 3, 2};
+  const v4d squares = x * x;
+  const v4d norm = squares + __builtin_shuffle(squares, swap);
+  m.sum += x;
+  m.squares += squares;
+  m.cross += x * __builtin_shuffle(x, swap);
+  m.sum4 += norm * norm;
+  m.sum2c += norm * x;
+}
+
+// Adds n samples to the sums; a tail of fewer than four is padded with zeros, which add nothing
+// to any sum. Compiled twice like the filters, same arithmetic.
+__attribute__((target_clones("avx2", "default"))) void add_moments(const Complex* c, std::size_t n, MomentSums& s) {
+  std::size_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    accumulate_moments(c + i, s.lanes[0]);
+    accumulate_moments(c + i + 2, s.lanes[1]);
+  }
+  if (i < n) {
+    Complex rest[4] = {};
+    for (std::size_t k = 0; i + k < n; ++k) rest[k] = c[i + k];
+    accumulate_moments(rest, s.lanes[0]);
+    accumulate_moments(rest + 2, s.lanes[1]);
+  }
+  s.count += n;
+}
+
+NodeMoments moments_of(const MomentSums& s) {
+  const MomentLanes& l0 = s.lanes[0];
+  const MomentLanes& l1 = s.lanes[1];
+  const v4d sum = l0.sum + l1.sum, squares = l0.squares + l1.squares;
+  const v4d cross = l0.cross + l1.cross, sum4 = l0.sum4 + l1.sum4, sum2c = l0.sum2c + l1.sum2c;
+  NodeMoments m;
+  m.count = s.count;
+  m.sum = Complex(sum[0] + sum[2], sum[1] + sum[3]);
+  const double re2 = squares[0] + squares[2], im2 = squares[1] + squares[3];
+  m.sum2 = re2 + im2;
+  m.sum_sq = Complex(re2 - im2, 2.0 * (cross[0] + cross[2]));
+  m.sum4 = sum4[0] + sum4[2];
+  m.sum2c = Complex(sum2c[0] + sum2c[2], sum2c[1] + sum2c[3]);
+  return m;
+}
+
+// Where one node's split writes: the two binary halves (the high one already back at baseband,
+// (-1)^(m+1)) and, when `third[0]` is set, the three ternary bands; with `sums`, the moments of
+// the five bands after their trims (16, 15, 16, 16, 16 samples, as the reference).
+struct SplitTargets {
+  Complex* low = nullptr;
+  Complex* high = nullptr;
+  std::size_t half = 0;
+  std::array<Complex*, 3> third{};
+  std::size_t third_length = 0;
+  std::array<MomentSums, 5>* sums = nullptr;
+};
+
+std::size_t band_trim(std::size_t band, std::size_t length) { return std::min<std::size_t>(band == 1 ? 15 : 16, length); }
+
+// The moments of outputs [m0, m0 + count) of a band, from its trim on, while the block is in cache.
+void add_block_moments(const SplitTargets& t, std::size_t band, const Complex* out, std::size_t length, std::size_t m0,
+                       std::size_t count) {
+  const std::size_t from = std::max(m0, band_trim(band, length));
+  if (t.sums != nullptr && from < m0 + count) add_moments(out + from, m0 + count - from, (*t.sums)[band]);
+}
+
+// One pass over the node for both splits: chunks of 6 blocks' inputs feed 3 binary and 2 ternary
+// blocks, so the node is read from memory once and every band's moments are taken from cache.
+void split_node(std::span<const Complex> c, const SplitTargets& t) {
+  static const BinaryTaps binary = binary_taps(firwin_lowpass(17, 0.4));
+  static const BinaryTurns binary_rotations = binary_turns();
+  static const TernaryTaps ternary = ternary_taps(firwin_lowpass(25, 0.4 * 2.0 / 3.0));
+  static const TernaryTurns ternary_rotations = ternary_turns();
+  std::array<Complex, 3 * kBlockOutputs + 23> scratch;
+  for (std::size_t chunk = 0; 6 * kBlockOutputs * chunk < c.size(); ++chunk) {
+    for (std::size_t m0 = 3 * kBlockOutputs * chunk; m0 < std::min(3 * kBlockOutputs * (chunk + 1), t.half);
+         m0 += kBlockOutputs) {
+      const std::size_t count = std::min(kBlockOutputs, t.half - m0);
+      modulate(c, 2 * static_cast<std::ptrdiff_t>(m0) - 16, 2 * count + 16, eighth_turns(), scratch.data());
+      binary_block(scratch.data(), binary, binary_rotations, m0, count, t.low, t.high);
+      add_block_moments(t, 0, t.low, t.half, m0, count);
+      add_block_moments(t, 1, t.high, t.half, m0, count);
     }
-    ++first;
+    if (t.third[0] == nullptr) continue;
+    for (std::size_t m0 = 2 * kBlockOutputs * chunk; m0 < std::min(2 * kBlockOutputs * (chunk + 1), t.third_length);
+         m0 += kBlockOutputs) {
+      const std::size_t count = std::min(kBlockOutputs, t.third_length - m0);
+      modulate(c, 3 * static_cast<std::ptrdiff_t>(m0) - 23, 3 * count + 23, twelfth_turns(), scratch.data());
+      ternary_block(scratch.data(), ternary, ternary_rotations, m0, count, t.third.data());
+      for (std::size_t k = 0; k < 3; ++k) add_block_moments(t, 2 + k, t.third[k], t.third_length, m0, count);
+    }
   }
-  ternary_body(c.data(), f, out.data(), first, out_length);
 }
 
 // BandMap::optimum's eligibility, one rule for the optimum and for the gate that skips the bands it
@@ -277,6 +501,7 @@ void OneThirdBinaryFilterBank::analyse(std::span<const double> x, int levels, st
   criteria_ = criteria;
   maps_ = maps;
   gate_ = gate;
+  moments_read_ = std::any_of(criteria.begin(), criteria.end(), [](const BandCriterion* c) { return c->reads_moments(); });
   const std::size_t columns = static_cast<std::size_t>(3) << levels;
   for (std::size_t i = 0; i < criteria.size(); ++i) {
     maps[i].levels = levels;
@@ -296,12 +521,12 @@ void OneThirdBinaryFilterBank::analyse(std::span<const double> x, int levels, st
   }
   ternary_scratch_.resize(x.size() / 3 * 3);
 
-  evaluate(0, 0, 1, 1, true, root_);
+  evaluate(0, 0, 1, 1, true, root_, nullptr);
   visit(0, 0, root_, x.size());
 }
 
 void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int decimation, bool real,
-                                        std::span<const Complex> trimmed) {
+                                        std::span<const Complex> trimmed, const NodeMoments* moments) {
   FilterBankNode node;
   node.row = row;
   node.level = filter_bank_row_level(row);
@@ -311,6 +536,12 @@ void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int d
   node.real = real;
   node.samples = trimmed;
   if (criteria_.empty()) return;
+  NodeMoments own;
+  if (moments_read_ && moments == nullptr) {
+    own = node_moments(trimmed);
+    moments = &own;
+  }
+  node.moments = moments;
   const std::size_t columns = static_cast<std::size_t>(3) << levels_;
   const std::size_t span = columns / static_cast<std::size_t>(band_count);
   const std::size_t first_column = static_cast<std::size_t>(band) * span;
@@ -333,64 +564,43 @@ void OneThirdBinaryFilterBank::evaluate(int row, int band, int band_count, int d
     if (i != p) store(i, eligible ? criteria_[i]->evaluate(node) : std::numeric_limits<double>::quiet_NaN());
 }
 
-void OneThirdBinaryFilterBank::ternary_split(int depth, int band, std::span<const Complex> node) {
-  const std::size_t out_length = node.size() / 3;
-  const int row = 2 * (depth + 1);
-  const int band_count = 3 << depth;
-  const int decimation = 3 << depth;
-  const std::array<std::span<const Complex>, 3> filters{ternary_[0], ternary_[1], ternary_[2]};
-  static const auto polyphase = ternary_polyphase(ternary_[0]);
-  const std::array<Complex*, 3> out{ternary_scratch_.data(), ternary_scratch_.data() + out_length,
-                                    ternary_scratch_.data() + 2 * out_length};
-  ternary_fir(node, polyphase, filters, out, out_length);
-  for (int t = 0; t < 3; ++t) {
-    const std::size_t trim = std::min<std::size_t>(16, out_length);  // len(h) - 1, as the reference
-    evaluate(row, 3 * band + t, band_count, decimation, false,
-             std::span<const Complex>(out[static_cast<std::size_t>(t)], out_length).subspan(trim));
-  }
-}
-
 void OneThirdBinaryFilterBank::visit(int depth, int band, std::span<const Complex> node, std::size_t) {
   if (depth >= levels_) return;
   const auto child_depth = static_cast<std::size_t>(depth + 1);
-  auto& a = low_children_[child_depth];
-  auto& d = high_children_[child_depth];
-  const std::size_t half = node.size() / 2;
-  std::span<Complex> a_span(a.data(), half), d_span(d.data(), half);
-  const std::array<std::span<const Complex>, 2> filters{low_, high_};
-  static const auto fused = fuse<2>(filters);
-  decimating_fir<2>(node, fused, filters, 2, 1, {a.data(), d.data()}, half);
-  for (std::size_t m = 0; m < half; m += 2) d_span[m] = -d_span[m];  // (-1)^(m+1): back to baseband
+  SplitTargets targets;
+  targets.low = low_children_[child_depth].data();
+  targets.high = high_children_[child_depth].data();
+  targets.half = node.size() / 2;
+  const bool ternary = depth <= levels_ - 2;
+  if (ternary) {
+    targets.third_length = node.size() / 3;
+    for (std::size_t t = 0; t < 3; ++t) targets.third[t] = ternary_scratch_.data() + t * targets.third_length;
+  }
+  std::array<MomentSums, 5> sums{};
+  if (moments_read_) targets.sums = &sums;
+  split_node(node, targets);
+  std::array<NodeMoments, 5> moments;
+  for (std::size_t b = 0; b < 5; ++b) moments[b] = moments_of(sums[b]);
+  const NodeMoments* given = moments_read_ ? moments.data() : nullptr;
+  auto band_samples = [&](const Complex* out, std::size_t length, std::size_t b) {
+    return std::span<const Complex>(out, length).subspan(band_trim(b, length));
+  };
   const int row = 2 * depth + 1;
-  const int band_count = 2 << depth;
-  const int decimation = 2 << depth;
-  evaluate(row, 2 * band, band_count, decimation, false, std::span<const Complex>(a_span).subspan(std::min<std::size_t>(16, half)));
-  evaluate(row, 2 * band + 1, band_count, decimation, false, std::span<const Complex>(d_span).subspan(std::min<std::size_t>(15, half)));
-  if (depth <= levels_ - 2) ternary_split(depth, band, node);
-  visit(depth + 1, 2 * band, a_span, half);
-  visit(depth + 1, 2 * band + 1, d_span, half);
+  for (std::size_t b = 0; b < 2; ++b)
+    evaluate(row, 2 * band + static_cast<int>(b), 2 << depth, 2 << depth, false,
+             band_samples(b == 0 ? targets.low : targets.high, targets.half, b), given ? given + b : nullptr);
+  if (ternary)
+    for (std::size_t t = 0; t < 3; ++t)
+      evaluate(row + 1, 3 * band + static_cast<int>(t), 3 << depth, 3 << depth, false,
+               band_samples(targets.third[t], targets.third_length, 2 + t), given ? given + 2 + t : nullptr);
+  const std::span<const Complex> a(targets.low, targets.half), d(targets.high, targets.half);
+  visit(depth + 1, 2 * band, a, targets.half);
+  visit(depth + 1, 2 * band + 1, d, targets.half);
 }
 
 namespace {
 
-// Sums over a node in four independent chains (a single running sum waits on each addition's
-// latency at every sample); the order differs from a running sum only by rounding.
-Complex node_sum(std::span<const Complex> c) {
-  double re[2] = {0.0, 0.0}, im[2] = {0.0, 0.0};
-  std::size_t i = 0;
-  for (; i + 2 <= c.size(); i += 2)
-    for (std::size_t j = 0; j < 2; ++j) {
-      re[j] += c[i + j].real();
-      im[j] += c[i + j].imag();
-    }
-  if (i < c.size()) {
-    re[0] += c[i].real();
-    im[0] += c[i].imag();
-  }
-  return {re[0] + re[1], im[0] + im[1]};
-}
-
-// (sum |c - mean|^2, sum |c - mean|^4) in four chains each.
+// (sum |c - mean|^2, sum |c - mean|^4) in four chains: the second pass where the mean is large.
 std::pair<double, double> central_moment_sums(std::span<const Complex> c, Complex mean) {
   double m2[4] = {}, m4[4] = {};
   std::size_t i = 0;
@@ -410,37 +620,54 @@ std::pair<double, double> central_moment_sums(std::span<const Complex> c, Comple
   return {(m2[0] + m2[1]) + (m2[2] + m2[3]), (m4[0] + m4[1]) + (m4[2] + m4[3])};
 }
 
-// sum |c|^2 in four chains.
-double power_sum(std::span<const Complex> c) {
-  double acc[4] = {};
-  std::size_t i = 0;
-  for (; i + 2 <= c.size(); i += 2) {
-    acc[0] += c[i].real() * c[i].real();
-    acc[1] += c[i].imag() * c[i].imag();
-    acc[2] += c[i + 1].real() * c[i + 1].real();
-    acc[3] += c[i + 1].imag() * c[i + 1].imag();
-  }
-  if (i < c.size()) acc[0] += std::norm(c[i]);
-  return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+// Above this |mean|^2 / mean|c|^2 the central moments are taken about the mean in a second pass:
+// below it the raw-sum expansion's terms stay within a few times sum |c - mean|^4, so it loses no
+// more than a few roundings.
+constexpr double kRawMomentMeanRatio = 1e-2;
+
+// sum |c - mu|^4 = S4 - 4 Re(T mu*) + 4 |mu|^2 S2 + 2 Re(U mu*^2) - 3 n |mu|^4, with
+// S2 = sum |c|^2, S4 = sum |c|^4, T = sum |c|^2 c, U = sum c^2 (expanding |c - mu|^2 =
+// |c|^2 - 2 Re(c mu*) + |mu|^2 and Re(z)^2 = (|z|^2 + Re(z^2)) / 2).
+double central_sum4(const NodeMoments& m, Complex mean) {
+  const double mean2 = std::norm(mean), n = static_cast<double>(m.count);
+  const double t = m.sum2c.real() * mean.real() + m.sum2c.imag() * mean.imag();  // Re(T mu*)
+  const double mr2 = mean.real() * mean.real() - mean.imag() * mean.imag(), mi2 = 2.0 * mean.real() * mean.imag();
+  const double u = m.sum_sq.real() * mr2 + m.sum_sq.imag() * mi2;  // Re(U mu*^2)
+  return m.sum4 - 4.0 * t + 4.0 * mean2 * m.sum2 + 2.0 * u - 3.0 * n * mean2 * mean2;
 }
 
 }  // namespace
 
+NodeMoments node_moments(std::span<const Complex> c) {
+  MomentSums sums{};
+  add_moments(c.data(), c.size(), sums);
+  return moments_of(sums);
+}
+
 double KurtosisCriterion::evaluate(const FilterBankNode& node) {
   const auto c = node.samples;
   if (c.empty()) return 0.0;
-  // An all-zero node has m2 = 0 and returns 0 below.
-  const Complex mean = node_sum(c) / static_cast<double>(c.size());
-  auto [m2, m4] = central_moment_sums(c, mean);
-  m2 /= static_cast<double>(c.size());
-  m4 /= static_cast<double>(c.size());
+  const NodeMoments m = node.moments != nullptr ? *node.moments : node_moments(c);
+  const double n = static_cast<double>(c.size());
+  const Complex mean = m.sum / n;
+  double m2 = 0.0, m4 = 0.0;
+  if (std::norm(mean) <= kRawMomentMeanRatio * (m.sum2 / n)) {
+    m2 = m.sum2 / n - std::norm(mean);
+    m4 = central_sum4(m, mean) / n;
+  } else {
+    const auto [s2, s4] = central_moment_sums(c, mean);
+    m2 = s2 / n;
+    m4 = s4 / n;
+  }
+  // An all-zero node has m2 = 0 and returns 0 here.
   if (m2 < std::numeric_limits<double>::epsilon()) return 0.0;
   return m4 / (m2 * m2) - (node.real ? 3.0 : 2.0);
 }
 
 double BandPowerCriterion::evaluate(const FilterBankNode& node) {
   if (node.samples.empty()) return 0.0;
-  return (node.real ? 1.0 : 2.0) * power_sum(node.samples) / static_cast<double>(node.samples.size());
+  const double sum2 = node.moments != nullptr ? node.moments->sum2 : node_moments(node.samples).sum2;
+  return (node.real ? 1.0 : 2.0) * sum2 / static_cast<double>(node.samples.size());
 }
 
 double Ics2Criterion::evaluate(const FilterBankNode& node) {

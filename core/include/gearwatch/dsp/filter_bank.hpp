@@ -17,6 +17,20 @@
 
 namespace gearwatch::dsp {
 
+/// Raw sums over a node's samples c (after the trim), taken by the bank in one pass for the
+/// criteria that read them (band power and kurtosis), so that neither passes over the band again.
+struct NodeMoments {
+  std::size_t count = 0;
+  Complex sum{};        ///< sum c
+  double sum2 = 0.0;    ///< sum |c|^2
+  double sum4 = 0.0;    ///< sum |c|^4
+  Complex sum2c{};      ///< sum |c|^2 c
+  Complex sum_sq{};     ///< sum c^2
+};
+
+/// The sums of NodeMoments over c in one pass (vectorised, several independent chains).
+NodeMoments node_moments(std::span<const Complex> c);
+
 /// One band of the tree as seen by a criterion.
 struct FilterBankNode {
   int row = 0;                 ///< 0 whole signal; 2k-1 binary depth k; 2k ternary split of depth k-1
@@ -26,6 +40,7 @@ struct FilterBankNode {
   int decimation = 1;          ///< input samples per node sample
   bool real = false;           ///< only row 0: the raw (mean-removed) real signal
   std::span<const Complex> samples;  ///< after the transient trim (real parts only when `real`)
+  const NodeMoments* moments = nullptr;  ///< node_moments(samples), when a criterion reads them
 };
 
 /// Which bands a selection may pick (BandMap::optimum's rule, applied while the tree runs): the
@@ -42,14 +57,19 @@ class BandCriterion {
   virtual ~BandCriterion() = default;
   virtual const char* name() const noexcept = 0;
   virtual double evaluate(const FilterBankNode& node) = 0;
+  /// True when evaluate reads node.moments (the bank then takes them once per node).
+  virtual bool reads_moments() const noexcept { return false; }
 };
 
 /// Antoni's kurt2: K = mean|c|^4 / (mean|c|^2)^2 - 2 (- 3 for a real signal), after removing the
-/// complex mean; 0 for an all-zero or sub-epsilon-power segment.
+/// complex mean; 0 for an all-zero or sub-epsilon-power segment. The central moments come from
+/// the node's raw sums (node.moments, or its samples when none are given); where the mean is not
+/// small against the spread, from a second pass about the mean instead (the raw sums would cancel).
 class KurtosisCriterion final : public BandCriterion {
  public:
   const char* name() const noexcept override { return to_string(BandSelectionCriterion::kurtosis); }
   double evaluate(const FilterBankNode& node) override;
+  bool reads_moments() const noexcept override { return true; }
 };
 
 /// Power of the real signal within the band: mean x^2 for row 0 (mean removed by the bank),
@@ -60,6 +80,7 @@ class BandPowerCriterion final : public BandCriterion {
  public:
   const char* name() const noexcept override { return "power"; }
   double evaluate(const FilterBankNode& node) override;
+  bool reads_moments() const noexcept override { return true; }
 };
 
 /// ICS2 of the band's squared envelope, on the largest whole-revolution stretch of the trimmed
@@ -140,8 +161,9 @@ class OneThirdBinaryFilterBank {
 
  private:
   void visit(int depth, int band, std::span<const Complex> node, std::size_t depth_length);
-  void evaluate(int row, int band, int band_count, int decimation, bool real, std::span<const Complex> trimmed);
-  void ternary_split(int depth, int band, std::span<const Complex> node);
+  /// Evaluates the criteria on one band; `moments` are its NodeMoments when the split took them.
+  void evaluate(int row, int band, int band_count, int decimation, bool real, std::span<const Complex> trimmed,
+                const NodeMoments* moments);
 
   std::vector<Complex> low_, high_;
   std::array<std::vector<Complex>, 3> ternary_;
@@ -153,6 +175,7 @@ class OneThirdBinaryFilterBank {
   ComplexBuffer root_;
   std::vector<ComplexBuffer> low_children_, high_children_;
   ComplexBuffer ternary_scratch_;
+  bool moments_read_ = false;
 };
 
 /// scipy.signal.firwin(taps, cutoff) for a low-pass with the default Hamming window and unit DC
