@@ -1,9 +1,11 @@
 // Simulated seconds of the 21-DOF twin per second of this thread's CPU on one core, at 20 N m and
-// 10 Hz and 20 Hz input, output at 100 kHz (simulate(): every state signal kept), for the default
-// (the full integration, SimulationOptions::reference()), the opt-in periodic path (the record read
-// off the steady state's template, SimulationOptions::periodic_path()) and the fast integration
-// (SimulationOptions::fast()) in the same run. Targets: >= 10x real time at 10 Hz and >= 5x at 20 Hz, for the default. CPU time, not
-// wall time, so that a shared machine's other work does not count; the wall figure is printed too.
+// 10 Hz and 20 Hz input, output at 100 kHz (simulate(): every state signal kept), in the same run:
+// the default (the full integration until the start-up transient has died out, then the
+// template of one input period tiled), the full integration (SimulationOptions::reference()), the
+// opt-in periodic path (every sample read off the steady state's template,
+// SimulationOptions::periodic_path()) and the fast integration (SimulationOptions::fast()).
+// Targets: >= 10x real time at 10 Hz and >= 5x at 20 Hz, for the default. CPU time, not wall
+// time, so that a shared machine's other work does not count; the wall figure is printed too.
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -55,15 +57,19 @@ int main() {
   for (const auto& t : targets) {
     const Speed periodic = run(t.hz, SimulationOptions::periodic_path(), duration);
     const Speed fast = run(t.hz, SimulationOptions::fast(), duration);
-    const Speed full = run(t.hz, SimulationOptions{}, duration);  // the default: the full integration
-    std::printf("twin 21-DOF, %.0f Hz / 20 N m, %.0f s at 100 kHz: periodic path (opt-in, %s, template from %.3f s) %.2f x "
-                "real time (CPU; wall %.2f x, %.0f RHS/s); default (full integration) %.2f x (CPU; wall %.2f x, %.0f RHS/s); fast "
-                "%.2f x (CPU; wall %.2f x, %.0f RHS/s); periodic / default %.2f\n",
-                t.hz, duration, periodic.tiled ? "tiled" : "not tiled", periodic.template_start_s, periodic.cpu, periodic.wall,
-                static_cast<double>(periodic.rhs) / duration, full.cpu, full.wall, static_cast<double>(full.rhs) / duration, fast.cpu,
-                fast.wall, static_cast<double>(fast.rhs) / duration, periodic.cpu / full.cpu);
-    std::printf("BENCH name=%s figure=%.2f unit=x_real_time target=%.0f cmp=ge met=%d\n", t.name, full.cpu, t.target,
-                full.cpu >= t.target ? 1 : 0);
+    const Speed full = run(t.hz, SimulationOptions::reference(), duration);
+    const Speed deflt = run(t.hz, SimulationOptions{}, duration);
+    std::printf("twin 21-DOF, %.0f Hz / 20 N m, %.0f s at 100 kHz: default (%s, template from %.3f s) %.2f x real time (CPU; "
+                "wall %.2f x, %.0f RHS/s); full integration %.2f x (CPU; wall %.2f x, %.0f RHS/s); periodic path (opt-in, %s, "
+                "template from %.3f s) %.2f x (CPU; wall %.2f x); fast %.2f x (CPU; wall %.2f x); default / full %.2f\n",
+                t.hz, duration, deflt.tiled ? "tiled after the transient" : "not tiled", deflt.template_start_s, deflt.cpu, deflt.wall,
+                static_cast<double>(deflt.rhs) / duration, full.cpu, full.wall, static_cast<double>(full.rhs) / duration,
+                periodic.tiled ? "tiled" : "not tiled", periodic.template_start_s, periodic.cpu, periodic.wall, fast.cpu, fast.wall,
+                deflt.cpu / full.cpu);
+    std::printf("BENCH name=%s figure=%.2f unit=x_real_time target=%.0f cmp=ge met=%d\n", t.name, deflt.cpu, t.target,
+                deflt.cpu >= t.target ? 1 : 0);
+    std::printf("BENCH name=%s_full_integration figure=%.2f unit=x_real_time target=%.0f cmp=ge met=%d\n", t.name, full.cpu,
+                t.target, full.cpu >= t.target ? 1 : 0);
     std::printf("BENCH name=%s_periodic_opt_in figure=%.2f unit=x_real_time target=%.0f cmp=ge met=%d\n", t.name, periodic.cpu,
                 t.target, periodic.cpu >= t.target ? 1 : 0);
   }

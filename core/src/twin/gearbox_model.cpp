@@ -117,6 +117,7 @@ GearboxDynamics::GearboxDynamics(const GearboxMatrices& matrices, std::shared_pt
   if ((m_.mass.array() <= 0).any() || !m_.mass.allFinite()) throw TwinParameterError("masses must be positive");
   inverse_mass_ = m_.mass.cwiseInverse();
   structural_ = StructuralRows(m_.stiffness, m_.damping);
+  blocks_ = StructuralBlocks(m_.stiffness, m_.damping);
   const GearGeometry& g = mesh_stiffness_->geometry();
   omega_ = 2.0 * std::numbers::pi * input_speed_hz;
   // Balanced torques: the brake holds T r_b2 / r_b1 so the nominal speed is steady (a rigid-body
@@ -138,6 +139,65 @@ GearboxDynamics::StructuralRows::StructuralRows(const Matrix21& stiffness, const
       if (damping(r, c) != 0.0) entries_.push_back({kDofCount + c, damping(r, c)});
   }
   row_start_[kDofCount] = entries_.size();
+}
+
+GearboxDynamics::StructuralBlocks::StructuralBlocks(const Matrix21& stiffness, const Matrix21& damping) {
+  auto part_of = [](int dof) {
+    int p = 0;
+    while (dof >= kPartStart[static_cast<std::size_t>(p + 1)]) ++p;
+    return p;
+  };
+  for (int r = 0; r < kDofCount; ++r)
+    for (int c = 0; c < kDofCount; ++c)
+      if (part_of(r) != part_of(c) && (stiffness(r, c) != 0.0 || damping(r, c) != 0.0)) return;
+  for (std::size_t p = 0; p < kParts; ++p) {
+    offset_[p] = columns_.size();
+    const int start = kPartStart[p], size = kPartStart[p + 1] - start;
+    for (const Matrix21* matrix : {&stiffness, &damping})
+      for (int c = start; c < start + size; ++c) {
+        std::array<double, kPaddedRows> column{};
+        for (int r = start; r < start + size; ++r) column[static_cast<std::size_t>(r - start)] = (*matrix)(r, c);
+        columns_.push_back(column);
+      }
+  }
+  offset_[kParts] = columns_.size();
+  fits_ = true;
+}
+
+namespace {
+
+// One part's rows: acc[r] −= Σ_c column_c[r] x_c over the part's q columns, then its v columns.
+template <int Rows>
+void subtract_part(const std::array<double, 6>* columns, int size, const double* q, const double* v, double* load) {
+  double acc[Rows];
+  for (int r = 0; r < Rows; ++r) acc[r] = load[r];
+  for (int c = 0; c < size; ++c)
+    for (int r = 0; r < Rows; ++r) acc[r] -= columns[c][static_cast<std::size_t>(r)] * q[c];
+  for (int c = 0; c < size; ++c)
+    for (int r = 0; r < Rows; ++r) acc[r] -= columns[size + c][static_cast<std::size_t>(r)] * v[c];
+  for (int r = 0; r < size; ++r) load[r] = acc[r];
+}
+
+}  // namespace
+
+void GearboxDynamics::StructuralBlocks::subtract_products(const State& x, Vector21& load) const {
+  // The padded rows read past a part's end into the next part's load, and are never written back.
+  std::array<double, kDofCount + kPaddedRows> padded{};
+  for (int r = 0; r < kDofCount; ++r) padded[static_cast<std::size_t>(r)] = load[r];
+  for (std::size_t p = 0; p < kParts; ++p) {
+    const int start = kPartStart[p], size = kPartStart[p + 1] - start;
+    const double* q = x.data() + start;
+    const double* v = x.data() + kDofCount + start;
+    double* rows = padded.data() + start;
+    const std::array<double, kPaddedRows>* columns = columns_.data() + offset_[p];
+    if (size > 4)
+      subtract_part<6>(columns, size, q, v, rows);
+    else if (size > 2)
+      subtract_part<4>(columns, size, q, v, rows);
+    else
+      subtract_part<2>(columns, size, q, v, rows);
+  }
+  for (int r = 0; r < kDofCount; ++r) load[r] = padded[static_cast<std::size_t>(r)];
 }
 
 void GearboxDynamics::set_face_misalignment(double separation_m) {
@@ -233,7 +293,12 @@ void GearboxDynamics::operator()(const State& x, State& dxdt, double t) const {
   const Eigen::Map<const Vector21> v(x.data() + kDofCount);
   const double f = mesh_force(q, v, t, nullptr);
   Vector21 load;
-  for (int r = 0; r < kDofCount; ++r) load[r] = structural_.subtract_row_product(r, x, external_[r] - m_.mesh[r] * f);
+  if (blocks_.fits()) {
+    for (int r = 0; r < kDofCount; ++r) load[r] = external_[r] - m_.mesh[r] * f;
+    blocks_.subtract_products(x, load);
+  } else {
+    for (int r = 0; r < kDofCount; ++r) load[r] = structural_.subtract_row_product(r, x, external_[r] - m_.mesh[r] * f);
+  }
   if (harmonic_.frequency_hz > 0) load += harmonic_.amplitude * std::sin(2.0 * std::numbers::pi * harmonic_.frequency_hz * t);
   Eigen::Map<Vector21>(dxdt.data()) = v;
   Eigen::Map<Vector21>(dxdt.data() + kDofCount) = inverse_mass_.cwiseProduct(load);

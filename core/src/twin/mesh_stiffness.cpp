@@ -107,26 +107,6 @@ GearMeshStiffness::GearMeshStiffness(const GearGeometry& geometry, MeshStiffness
   mean_ = sum / kMeanPoints;
 }
 
-double GearMeshStiffness::pair_stiffness(double s) const {
-  const double u = (s - geometry_.contact_start) / geometry_.active_length();
-  if (u < 0.0 || u > 1.0) return 0.0;
-  const double pos = u * static_cast<double>(table_.size() - 1);
-  const std::size_t i = std::min(static_cast<std::size_t>(pos), table_.size() - 2);
-  const double f = pos - static_cast<double>(i);
-  return table_[i] + f * (table_[i + 1] - table_[i]);
-}
-
-int GearMeshStiffness::pairs_in_contact(double phase, double positions[3]) const {
-  phase -= std::floor(phase);
-  int n = 0;
-  for (int j = 0; j < 3; ++j) {
-    const double s = geometry_.contact_start + (phase + j) * geometry_.base_pitch;
-    if (s > geometry_.contact_end) break;
-    positions[n++] = s;
-  }
-  return n;
-}
-
 double GearMeshStiffness::mesh_stiffness(double phase) const {
   double positions[3];
   const int n = pairs_in_contact(phase, positions);

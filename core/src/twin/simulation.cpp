@@ -232,7 +232,8 @@ PeriodicTiling periodic_tiling(const GearboxParameters& p, const ToothProfileDev
   tiling.period_s = periodic_inputs_period_s(p, deviation, op, options);
   const double watch_s = 0.5 / slowest_elastic_mode_hz(matrices);
   tiling.agreeing_periods = static_cast<std::size_t>(std::ceil(watch_s / tiling.period_s)) + 1;
-  tiling.search_s = options.periodic_search_s;
+  tiling.search_s = options.periodic_keeps_transient ? 0.0 : options.periodic_search_s;  // kept: every sample integrated
+  tiling.keep_transient = options.periodic_keeps_transient;
   tiling.watch = [&check](const State& x, double t) { check.watch(x, t); };
   tiling.agrees = [&check](const State& earlier, const State& later, double b) { return check.agrees(earlier, later, b); };
   tiling.ready = [&recorder] { return recorder.profile_done(); };

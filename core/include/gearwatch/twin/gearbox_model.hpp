@@ -180,6 +180,32 @@ class GearboxDynamics {
     std::array<std::size_t, kDofCount + 1> row_start_{};  // entries_[row_start_[r] .. row_start_[r + 1]) are row r's
   };
   StructuralRows structural_;
+  /// The same products by parts: the structure without the mesh falls apart into uncoupled parts
+  /// that are contiguous in the DOF order (the input chain θ1–θ7, the output chain θ8–θ13, and the
+  /// y and x bearing–shaft chains of each shaft), so [K C] is block diagonal. Each part's block is
+  /// stored column by column, padded to an even number of rows, so that one column's product is
+  /// two rows at a time. Every row sums the same terms in the same order as StructuralRows (the
+  /// zeros a block adds change nothing), so operator() and acceleration() agree to the last bit.
+  /// Used only when every entry outside the parts is exactly 0.
+  class StructuralBlocks {
+   public:
+    static constexpr int kParts = 6;
+    static constexpr std::array<int, kParts + 1> kPartStart = {theta1, theta8, y4, y9, x4, x9, kDofCount};
+    static constexpr int kPaddedRows = 6;  // the largest part (5 DOFs), even
+    StructuralBlocks() = default;
+    /// Empty (fits() false) when some entry couples two parts.
+    StructuralBlocks(const Matrix21& stiffness, const Matrix21& damping);
+    bool fits() const { return fits_; }
+    /// load[r] − Σ_j [K C](r, j) x[j] for every row, in StructuralRows' order.
+    void subtract_products(const State& x, Vector21& load) const;
+
+   private:
+    // columns_[offset_[p] + c][r]: part p's column c (its q columns, then its v columns), row r.
+    std::vector<std::array<double, kPaddedRows>> columns_;
+    std::array<std::size_t, kParts + 1> offset_{};
+    bool fits_ = false;
+  };
+  StructuralBlocks blocks_;
   std::shared_ptr<const GearMeshStiffness> mesh_stiffness_;
   double face_separation_ = 0;  // m: flank separation across the face (0 = aligned)
   ShaftRunOut run_out_;

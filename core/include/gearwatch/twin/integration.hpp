@@ -90,6 +90,9 @@ struct PeriodicTiling {
   /// ready(): the check can still agree once the record's own samples are over (false: the search
   /// stops at the record's end).
   std::function<bool()> ready;
+  /// The samples before the template's start keep their integrated values (the start-up
+  /// transient stays in the record); only the later ones are read off the template.
+  bool keep_transient = false;
 };
 
 struct SampledRun {
@@ -244,7 +247,10 @@ class PeriodicSampler {
     templating_ = true;
     template_start_ = start;
     repeats_.clear();
-    for (std::size_t i = 0; i < count_;) {
+    std::size_t first = 0;
+    if (tiling_.keep_transient)
+      while (first < count_ && repeat_of(time_of(first), start) < 0) ++first;
+    for (std::size_t i = first; i < count_;) {
       const long long k = repeat_of(time_of(i), start);
       std::size_t end = i + 1;
       while (end < count_ && repeat_of(time_of(end), start) == k) ++end;

@@ -7,6 +7,9 @@
 // base circle to the contact point; the Hertz stiffness is the constant of Eq. 5.11. One pair:
 // 1/k = 1/k_h + Σ_{pinion,gear} (1/k_b + 1/k_s + 1/k_a) (Eq. 5.12). The mesh stiffness is the sum
 // over the pairs in contact, which alternate between one and two with the contact ratio.
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <vector>
 
 #include "gearwatch/twin/gear_geometry.hpp"
@@ -71,6 +74,27 @@ class GearMeshStiffness {
   std::vector<double> table_;   ///< scaled single-pair stiffness on a uniform grid over the active line
   double mean_ = 0;
 };
+
+// Inline: the equations of motion evaluate both for every pair at every right-hand side.
+inline double GearMeshStiffness::pair_stiffness(double s) const {
+  const double u = (s - geometry_.contact_start) / geometry_.active_length();
+  if (u < 0.0 || u > 1.0) return 0.0;
+  const double pos = u * static_cast<double>(table_.size() - 1);
+  const std::size_t i = std::min(static_cast<std::size_t>(pos), table_.size() - 2);
+  const double f = pos - static_cast<double>(i);
+  return table_[i] + f * (table_[i + 1] - table_[i]);
+}
+
+inline int GearMeshStiffness::pairs_in_contact(double phase, double positions[3]) const {
+  phase -= std::floor(phase);
+  int n = 0;
+  for (int j = 0; j < 3; ++j) {
+    const double s = geometry_.contact_start + (phase + j) * geometry_.base_pitch;
+    if (s > geometry_.contact_end) break;
+    positions[n++] = s;
+  }
+  return n;
+}
 
 /// Mesh damping of Eqs. 5.13–5.16: c_m = μ k_m with μ = c_ave / k_ave and
 /// c_ave = 2 ζ sqrt(k_ave m5 m10 / (m5 + m10)). Returns μ (s).

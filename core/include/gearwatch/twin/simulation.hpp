@@ -40,21 +40,26 @@ struct SimulationOptions {
   /// the band. simulate() always samples directly.
   int front_end_oversampling = 0;
 
-  /// The periodic path (opt-in, periodic_path()): every input the twin takes
-  /// (constant speed and torque, the tooth profiles, misalignment, run-out) repeats with the period
-  /// periodic_inputs_period_s() gives, so once the start-up transient has died out the state
-  /// repeats with it. The run is integrated until consecutive period boundaries agree
-  /// (periodic_tolerance), past the record's end if need be (periodic_search_s); one more period
-  /// is integrated as the template, and every sample of the record, from the first, is read off
-  /// the template's dense output at its own time shifted by whole periods. The record is the
-  /// steady state: no start-up transient, and its content does not depend on its length (the gap
-  /// diagnosis compares records with twin counterparts of other lengths). A run that never agrees
-  /// is the full integration. Off by default: the gap diagnosis's records (the rig's) hold the
-  /// start-up transient, which a steady-state counterpart lacks (docs/twin.md, Periodic path).
-  bool periodic = false;
-  /// How far past the record's start the search for the steady state may integrate when the record
-  /// is shorter (s): after a worn start the lowest torsional mode rings for about a second.
+  /// Tiling by the inputs' period: every input the twin takes (constant speed and torque, the
+  /// tooth profiles, misalignment, run-out) repeats with the period periodic_inputs_period_s()
+  /// gives, so once the start-up transient has died out the state repeats with it. The run is
+  /// integrated until consecutive period boundaries agree (periodic_tolerance); one more period is
+  /// integrated as the template, and samples are read off the template's dense output at their
+  /// own time shifted by whole periods. A run that never agrees is the full integration.
+  /// The default (periodic_keeps_transient): the record is the full integration up to the
+  /// template's end and the template tiled after it, so the start-up transient the rig's records
+  /// hold stays in the record; the search ends with the record. periodic_path() (opt-in): every
+  /// sample, from the first, is read off the template, searched past the record's end if need be
+  /// (periodic_search_s): the steady state, no start-up transient, its content independent of the
+  /// record's length (docs/twin.md, Periodic path). reference() turns tiling off.
+  bool periodic = true;
+  /// How far past the record's start periodic_path()'s search for the steady state may integrate
+  /// when the record is shorter (s): after a worn start the lowest torsional mode rings for about
+  /// a second. Not used while periodic_keeps_transient.
   double periodic_search_s = 3.0;
+  /// With `periodic`: the samples up to the template's end are the full integration's (the
+  /// start-up transient stays in the record), only the later ones are read off the template.
+  bool periodic_keeps_transient = true;
   /// The periodicity check between period boundaries: the casing acceleration within this fraction
   /// of its RMS over a period, the same bound as fast()'s on the whole record's difference, and the
   /// whole state's difference in the energy norm within its square of the vibration's kinetic energy.
@@ -74,6 +79,7 @@ struct SimulationOptions {
   static SimulationOptions periodic_path() {
     SimulationOptions o;
     o.periodic = true;
+    o.periodic_keeps_transient = false;
     return o;
   }
   /// The fast integration: the reference's dopri5 at a relative tolerance of 1e-4, fewer than half
