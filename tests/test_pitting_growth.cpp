@@ -115,7 +115,8 @@ TEST_CASE("growth line by generalised least squares equals an explicit random-ef
   Eigen::VectorXd y = Eigen::VectorXd::Zero(n + 2), w = Eigen::VectorXd::Ones(n + 2);
   for (int i = 0; i < n; ++i) {
     const auto& x = r[static_cast<std::size_t>(i)];
-    const double jac = growth_log_slope(x.density, b);
+    // The slope at the line's density there (the fit's fixed point), as the fit takes it.
+    const double jac = growth_log_slope(growth_inverse(l.alpha + l.beta * (x.cycles - l.centre), b), b);
     a(i, 0) = 1;
     a(i, 1) = x.cycles - l.centre;
     a(i, 2) = jac * x.shared[0];

@@ -174,12 +174,17 @@ GrowthLine growth_line_fit(const std::vector<DensityReading>& r, double b) {
   std::vector<double> at(r.size());
   for (std::size_t i = 0; i < r.size(); ++i) at[i] = r[i].density;
   GrowthLine l;
-  for (int pass = 0; pass < 4; ++pass) {
+  for (int pass = 0; pass < 12; ++pass) {
     const GrowthLine next = solve_line(r, b, at, centre, span);
     if (!next.valid) return pass == 0 ? next : l;
     l = next;
-    for (std::size_t i = 0; i < r.size(); ++i)
-      at[i] = std::clamp(growth_inverse(l.alpha + l.beta * (r[i].cycles - centre), b), 1e-9, 1.0 - 1e-9);
+    double moved = 0;
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const double d = std::clamp(growth_inverse(l.alpha + l.beta * (r[i].cycles - centre), b), 1e-9, 1.0 - 1e-9);
+      moved = std::max(moved, std::abs(std::log(d / at[i])));
+      at[i] = d;
+    }
+    if (moved < 1e-10) break;
   }
   return l;
 }
