@@ -177,7 +177,7 @@ TEST_CASE("growth law interval covers truths drawn from the law near its nominal
   CHECK(coverage == Approx(0.90).margin(0.03));
 }
 
-// Not met yet (tagged mayfail, so the suite reports it without failing): 77.7 % was measured; the
+// Not met yet (tagged mayfail, so the suite reports it without failing; figure in docs/model.md): the
 // interval stays too short when the scale's two inspections are close and the ICS2 readings
 // extrapolate it (docs/model.md, "Pitting growth law").
 TEST_CASE("growth law interval covers truths read through a scale with common inspection errors near 90 percent",
