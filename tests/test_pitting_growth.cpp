@@ -1,14 +1,17 @@
-// The pitting growth law dD/dN = a D^b with b estimated (docs/model.md, "Pitting growth law"),
-// against closed forms: a linear truth D = D0 + c N (b = 0) and an exponential one D = D0 2^(N/T)
-// (b = 1) each recovered from near-exact readings (SD 0.1 % in ln D) with the cycles to 17 % their
-// closed form; and the interval's coverage on
-// data drawn from the law itself (b from its prior, lognormal reading errors) near its nominal 90 %.
+// The pitting growth law dD/dN = a D^b (1 − D) with b estimated (docs/model.md, "Pitting growth
+// law"), against closed forms: the transform's b = 0 and b = 1 integrals; a b = 0 truth
+// D = 1 − (1 − D0) e^(−aN) and a logistic one D/(1 − D) = D0/(1 − D0) e^(aN) each recovered from
+// near-exact readings with the cycles to 17 % their closed form; the generalised least squares line
+// against compound symmetry's closed form and against an independent random-effect fit; and the
+// interval's coverage on data drawn from the law itself, with independent errors and with an ICS2
+// scale's common inspection errors, near its nominal 90 %.
 #include "gearwatch/wear/pitting_growth.hpp"
 
 #include <cmath>
 #include <random>
 #include <vector>
 
+#include <Eigen/Dense>
 #include <catch2/catch.hpp>
 
 namespace test_pitting_growth {  // this file's own: the test files compile together (unity build)
@@ -17,52 +20,142 @@ using namespace gearwatch::wear;
 
 std::vector<DensityReading> growth_readings_of(double (*truth)(double), const std::vector<double>& cycles, double log_sd) {
   std::vector<DensityReading> r;
-  for (double n : cycles) r.push_back({n, truth(n), log_sd});
+  for (double n : cycles) r.push_back({n, truth(n), log_sd, {}});
   return r;
 }
 
-double linear_growth_truth(double n) { return 0.01 + 0.05e-6 * n; }
-double exponential_growth_truth(double n) { return 0.01 * std::exp2(n / 0.25e6); }
-
-TEST_CASE("growth law transform and inverse round trip", "[pitting_growth]") {
-  for (double lambda : {-0.5, 0.0, 0.3, 1.0})
-    for (double d : {0.01, 0.05, 0.17}) CHECK(growth_inverse(growth_transform(d, lambda), lambda) == Approx(d).epsilon(1e-12));
-  CHECK(growth_transform(0.17, 1.0) == Approx(0.17 - 1.0));
-  CHECK(growth_transform(0.17, 0.0) == Approx(std::log(0.17)));
+// b = 0: dD/dN = a (1 − D), a = 0.1 per Mcycle, D0 = 1 %.
+double unpitted_rate_truth(double n) { return 1.0 - 0.99 * std::exp(-0.1e-6 * n); }
+// b = 1: the logistic, D/(1 − D) doubling every 0.25 M cycles from 1/99 at N = 0.
+double logistic_truth(double n) {
+  const double odds = (0.01 / 0.99) * std::exp2(n / 0.25e6);
+  return odds / (1.0 + odds);
 }
 
-TEST_CASE("growth law recovers a linear truth and its cycles to 17 percent", "[pitting_growth]") {
-  // D = 0.01 + 0.05 per Mcycle reaches 0.17 at 3.2 M cycles: 2.0 M after the last reading at 1.2 M.
-  const auto r = growth_readings_of(linear_growth_truth, {0.2e6, 0.4e6, 0.6e6, 0.8e6, 1.0e6, 1.2e6}, 0.001);
+TEST_CASE("growth law transform against its closed forms and its inverse", "[pitting_growth]") {
+  for (double d : {1e-4, 0.01, 0.17, 0.6, 0.95}) {
+    CHECK(growth_transform(d, 0.0) == Approx(-1.0 - std::log1p(-d)).epsilon(1e-12));
+    CHECK(growth_transform(d, 1.0) == Approx(std::log(d / (1.0 - d))).epsilon(1e-12));
+    // d g / d ln D = D^(1 − b) / (1 − D) by a central difference in ln D, at b = 0.4.
+    const double h = 1e-5;
+    const double slope = (growth_transform(d * std::exp(h), 0.4) - growth_transform(d * std::exp(-h), 0.4)) / (2 * h);
+    CHECK(slope == Approx(growth_log_slope(d, 0.4)).epsilon(1e-6));
+    for (double b : {0.0, 0.3, 0.7, 1.0}) CHECK(growth_inverse(growth_transform(d, b), b) == Approx(d).epsilon(1e-9));
+  }
+  // No finite-cycle blow-up: however far along the line, the density stays below 1.
+  for (double b : {0.0, 0.5, 1.0}) {
+    CHECK(growth_inverse(1e3, b) < 1.0);
+    CHECK(growth_inverse(1e3, b) > 0.999);
+  }
+}
+
+TEST_CASE("growth law recovers a b equal 0 truth and its cycles to 17 percent", "[pitting_growth]") {
+  // 1 − D = 0.99 e^(−0.1 N/M) reaches 0.83 at N = 10 ln(0.99/0.83) M = 1.7629 M: 0.5629 M after 1.2 M.
+  const auto r = growth_readings_of(unpitted_rate_truth, {0.2e6, 0.4e6, 0.6e6, 0.8e6, 1.0e6, 1.2e6}, 0.001);
   const GrowthLawFit f = fit_growth_law(r, 0.17, 1.2e6);
   REQUIRE(f.valid);
+  const double truth = 10e6 * std::log(0.99 / 0.83) - 1.2e6;
   CHECK(f.b_mean == Approx(0.0).margin(0.05));
-  CHECK(f.cycles_left == Approx(2.0e6).epsilon(0.03));
-  CHECK(f.cycles_left_low <= 2.0e6);
-  CHECK(f.cycles_left_high >= 2.0e6);
-  CHECK(f.density_now == Approx(linear_growth_truth(1.2e6)).epsilon(0.02));
+  CHECK(f.cycles_left == Approx(truth).epsilon(0.03));
+  CHECK(f.cycles_left_low <= truth);
+  CHECK(f.cycles_left_high >= truth);
+  CHECK(f.density_now == Approx(unpitted_rate_truth(1.2e6)).epsilon(0.02));
 }
 
-TEST_CASE("growth law recovers an exponential truth and its cycles to 17 percent", "[pitting_growth]") {
-  // D = 0.01 · 2^(N / 0.25 M) reaches 0.17 at 0.25 M · log2(17) = 1.0219 M: 0.5219 M after 0.5 M.
-  const auto r = growth_readings_of(exponential_growth_truth, {0.0, 0.1e6, 0.2e6, 0.3e6, 0.4e6, 0.5e6}, 0.001);
+TEST_CASE("growth law recovers a logistic truth and its cycles to 17 percent", "[pitting_growth]") {
+  // Odds 0.17/0.83 = (1/99) 2^(N / 0.25 M) at N = 0.25 M log2(99 · 17/83).
+  const auto r = growth_readings_of(logistic_truth, {0.0, 0.1e6, 0.2e6, 0.3e6, 0.4e6, 0.5e6}, 0.001);
   const GrowthLawFit f = fit_growth_law(r, 0.17, 0.5e6);
   REQUIRE(f.valid);
-  const double truth = 0.25e6 * std::log2(17.0) - 0.5e6;
+  const double truth = 0.25e6 * std::log2(99.0 * 17.0 / 83.0) - 0.5e6;
   CHECK(f.b_mean == Approx(1.0).margin(0.05));
+  CHECK(f.bound == GrowthExponentBound::at_upper);
   CHECK(f.cycles_left == Approx(truth).epsilon(0.03));
   CHECK(f.cycles_left_low <= truth);
   CHECK(f.cycles_left_high >= truth);
 }
 
 TEST_CASE("growth law needs three distinct cycles", "[pitting_growth]") {
-  const auto r = growth_readings_of(linear_growth_truth, {0.2e6, 0.2e6, 0.4e6}, 0.1);
+  const auto r = growth_readings_of(unpitted_rate_truth, {0.2e6, 0.2e6, 0.4e6}, 0.1);
   CHECK_FALSE(fit_growth_law(r, 0.17, 0.4e6).valid);
 }
 
+TEST_CASE("growth line with one common error has compound symmetry's closed form", "[pitting_growth]") {
+  // Ten readings of a constant D = 5 %, own SD σ = 0.1 and one common error τ = 0.1 in ln D: the
+  // covariance J²(σ² I + τ² 11ᵀ) holds the constant in its span, so GLS is ordinary least squares
+  // with var α = J²(σ²/n + τ²) (averaging cannot remove the common error), var β = J² σ²/Sxx.
+  std::vector<DensityReading> r;
+  double sxx = 0;
+  for (int i = 0; i < 10; ++i) {
+    r.push_back({1e5 * i, 0.05, 0.1, {0.1, 0.0}});
+    sxx += std::pow(1e5 * (i - 4.5), 2);
+  }
+  const double b = 0.3, j = growth_log_slope(0.05, b);
+  const GrowthLine l = growth_line_fit(r, b);
+  REQUIRE(l.valid);
+  CHECK(l.alpha == Approx(growth_transform(0.05, b)).epsilon(1e-10));
+  CHECK(l.beta == Approx(0.0).margin(1e-15));
+  CHECK(l.var_alpha == Approx(j * j * (0.01 / 10 + 0.01)).epsilon(1e-9));
+  CHECK(l.var_beta == Approx(j * j * 0.01 / sxx).epsilon(1e-9));
+  CHECK(l.chi2 == Approx(0.0).margin(1e-12));
+}
+
+TEST_CASE("growth line by generalised least squares equals an explicit random-effect fit", "[pitting_growth]") {
+  // The reference: weighted least squares on (α, β, δ0, δ1) with each reading
+  // g_i = α + β (N_i − c) + J_i Σ_j s_ij δ_j + e_i, e_i ~ N(0, (J_i σ_i)²), and two pseudo-readings
+  // δ_j = 0 ± 1: its (α, β) block, estimates and minimum equal the marginal GLS fit.
+  const std::vector<DensityReading> r{{3e5, 0.012, 0.02, {0.1, 0.0}},   {5e5, 0.031, 0.03, {0.0, 0.1}},
+                                      {6e5, 0.043, 0.1, {0.06, 0.05}}, {7e5, 0.060, 0.1, {0.04, 0.07}},
+                                      {8e5, 0.071, 0.1, {0.02, 0.09}}, {9e5, 0.095, 0.1, {0.01, 0.11}}};
+  const double b = 0.6;
+  const GrowthLine l = growth_line_fit(r, b);
+  REQUIRE(l.valid);
+  const int n = static_cast<int>(r.size());
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n + 2, 4);
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(n + 2), w = Eigen::VectorXd::Ones(n + 2);
+  for (int i = 0; i < n; ++i) {
+    const auto& x = r[static_cast<std::size_t>(i)];
+    // The slope at the line's density there (the fit's fixed point), as the fit takes it.
+    const double jac = growth_log_slope(growth_inverse(l.alpha + l.beta * (x.cycles - l.centre), b), b);
+    a(i, 0) = 1;
+    a(i, 1) = x.cycles - l.centre;
+    a(i, 2) = jac * x.shared[0];
+    a(i, 3) = jac * x.shared[1];
+    y(i) = growth_transform(x.density, b);
+    w(i) = 1.0 / std::pow(jac * x.log_sd, 2);
+  }
+  a(n, 2) = 1;
+  a(n + 1, 3) = 1;
+  const Eigen::MatrixXd normal = a.transpose() * w.asDiagonal() * a;
+  const Eigen::MatrixXd cov = normal.inverse();
+  const Eigen::VectorXd theta = cov * (a.transpose() * w.asDiagonal() * y);
+  const Eigen::VectorXd e = y - a * theta;
+  CHECK(l.alpha == Approx(theta(0)).epsilon(1e-9));
+  CHECK(l.beta == Approx(theta(1)).epsilon(1e-9));
+  CHECK(l.var_alpha == Approx(cov(0, 0)).epsilon(1e-8));
+  CHECK(l.var_beta == Approx(cov(1, 1)).epsilon(1e-8));
+  CHECK(l.cov_alpha_beta == Approx(cov(0, 1)).epsilon(1e-7));
+  CHECK(l.chi2 == Approx(e.dot(w.asDiagonal() * e)).epsilon(1e-8));
+}
+
+/// A truth of the law: D = 1 % at N = 0 reaching 17 % at `cross`, exponent b.
+struct GrowthLawTruth {
+  double b = 0, g0 = 0, slope = 0;
+  double at(double n) const { return growth_inverse(g0 + slope * n, b); }
+};
+GrowthLawTruth draw_growth_truth(std::mt19937_64& rng, const GrowthLawSettings& s, double cross) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  GrowthLawTruth t;
+  t.b = -1;
+  while (t.b < s.b_min || t.b > s.b_max) t.b = s.b_prior_mean + s.b_prior_sd * normal(rng);
+  t.g0 = growth_transform(0.01, t.b);
+  t.slope = (growth_transform(0.17, t.b) - t.g0) / cross;
+  return t;
+}
+
 TEST_CASE("growth law interval covers truths drawn from the law near its nominal 90 percent", "[pitting_growth]") {
-  // b from the fit's own prior (truncated to its range), D = 1 % at N = 0 reaching 17 % at N* drawn
-  // in [1.5, 3] M; five readings 0.25 … 1.25 M with lognormal errors of SD 0.1 in ln D.
+  // b from the fit's own prior (truncated to its range), N* in [1.5, 3] M; five readings
+  // 0.25 … 1.25 M with independent lognormal errors of SD 0.1 in ln D.
   const GrowthLawSettings s;
   std::mt19937_64 rng(20261130);
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -70,21 +163,56 @@ TEST_CASE("growth law interval covers truths drawn from the law near its nominal
   const int trials = 1000;
   int held = 0;
   for (int t = 0; t < trials; ++t) {
-    double b = -1;
-    while (b < s.b_min || b > s.b_max) b = s.b_prior_mean + s.b_prior_sd * normal(rng);
-    const double lambda = 1.0 - b, cross = uniform(rng);
-    const double g0 = growth_transform(0.01, lambda), slope = (growth_transform(0.17, lambda) - g0) / cross;
+    const double cross = uniform(rng);
+    const GrowthLawTruth truth = draw_growth_truth(rng, s, cross);
     std::vector<DensityReading> r;
-    for (double n : {0.25e6, 0.5e6, 0.75e6, 1.0e6, 1.25e6})
-      r.push_back({n, growth_inverse(g0 + slope * n, lambda) * std::exp(0.1 * normal(rng)), 0.1});
+    for (double n : {0.25e6, 0.5e6, 0.75e6, 1.0e6, 1.25e6}) r.push_back({n, truth.at(n) * std::exp(0.1 * normal(rng)), 0.1, {}});
     const GrowthLawFit f = fit_growth_law(r, 0.17, 1.25e6);
     REQUIRE(f.valid);
-    const double truth = cross - 1.25e6;
-    if (f.cycles_left_low <= truth && truth <= f.cycles_left_high) ++held;
+    if (f.cycles_left_low <= cross - 1.25e6 && cross - 1.25e6 <= f.cycles_left_high) ++held;
   }
   const double coverage = static_cast<double>(held) / trials;
   INFO("coverage " << coverage);
   // Binomial SD at 90 % over 1000 draws: 0.95 %; three SDs either side.
+  CHECK(coverage == Approx(0.90).margin(0.03));
+}
+
+// Not met yet (tagged mayfail, so the suite reports it without failing; figure in docs/model.md): the
+// interval stays too short when the scale's two inspections are close and the ICS2 readings
+// extrapolate it (docs/model.md, "Pitting growth law").
+TEST_CASE("growth law interval covers truths read through a scale with common inspection errors near 90 percent",
+          "[pitting_growth][!mayfail]") {
+  // Inspections at 0.3 and 0.6 M with relative errors ε0, ε1 (SD 0.1); six ICS2 readings 0.7 … 1.2 M
+  // through the straight scale drawn through the two inspected values, so each carries
+  // (1 − t) A0 ε0 + t A1 ε1 (t its place along the scale) and its own SD 0.1 in ln D. Loadings as
+  // the model computes them, from the read values.
+  const GrowthLawSettings s;
+  std::mt19937_64 rng(20261201);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(1.5e6, 3.0e6);
+  const int trials = 1000;
+  int held = 0;
+  for (int t = 0; t < trials; ++t) {
+    const double cross = uniform(rng);
+    const GrowthLawTruth truth = draw_growth_truth(rng, s, cross);
+    const double e0 = 0.1 * normal(rng), e1 = 0.1 * normal(rng);
+    const double a0 = truth.at(0.3e6) * std::exp(e0), a1 = truth.at(0.6e6) * std::exp(e1);
+    const double t0 = truth.at(0.3e6), t1 = truth.at(0.6e6);
+    std::vector<DensityReading> r{{0.3e6, a0, 0.0, {0.1, 0.0}}, {0.6e6, a1, 0.0, {0.0, 0.1}}};
+    for (double n = 0.7e6; n <= 1.2e6 + 1; n += 1e5) {
+      // The scale maps the truth's own place between the true areas onto the read ones.
+      const double u = (truth.at(n) - t0) / (t1 - t0);
+      const double d = ((1.0 - u) * a0 + u * a1) * std::exp(0.1 * normal(rng));
+      const double tr = (d - a0) / (a1 - a0);
+      if (!(d > 0 && d < 1)) continue;
+      r.push_back({n, d, 0.1, {0.1 * (1.0 - tr) * a0 / d, 0.1 * tr * a1 / d}});
+    }
+    const GrowthLawFit f = fit_growth_law(r, 0.17, 1.2e6);
+    REQUIRE(f.valid);
+    if (f.cycles_left_low <= cross - 1.2e6 && cross - 1.2e6 <= f.cycles_left_high) ++held;
+  }
+  const double coverage = static_cast<double>(held) / trials;
+  INFO("coverage " << coverage);
   CHECK(coverage == Approx(0.90).margin(0.03));
 }
 

@@ -2064,9 +2064,24 @@ void TwinModel::read_pitted_area_inspections(const std::vector<Inspection>& insp
 
 std::vector<DensityReading> TwinModel::growth_law_readings() const {
   const double s = settings_.inspection_area_relative_sd;
+  // The ICS2 scale goes through one or two inspections: their errors are common to every ICS2
+  // reading and to the inspections' own readings (one error each, not two independent ones).
+  const bool scale_valid = memory_.ics2_scale_valid;
+  const bool two = scale_valid && memory_.ics2_scale_inspections == 2 && memory_.ics2_scale_density_1 > memory_.ics2_scale_density;
+  const double a0 = memory_.ics2_scale_density, a1 = two ? memory_.ics2_scale_density_1 : -1.0;
   std::vector<DensityReading> r;
-  for (const auto& p : memory_.pitted_area_points) r.push_back({p[0], p[1], s});
-  if (!memory_.ics2_scale_valid) return r;
+  std::array<bool, kGrowthSharedErrors> taken{};
+  for (const auto& p : memory_.pitted_area_points) {
+    DensityReading x{p[0], p[1], s, {}};
+    const int j = !scale_valid ? -1 : (p[1] == a0 && !taken[0]) ? 0 : (p[1] == a1 && !taken[1]) ? 1 : -1;
+    if (j >= 0) {
+      taken[static_cast<std::size_t>(j)] = true;
+      x.log_sd = 0.0;
+      x.shared[static_cast<std::size_t>(j)] = s;
+    }
+    r.push_back(x);
+  }
+  if (!scale_valid) return r;
   // One reading per pitting interval: the records' ICS2 scatter is not independent evidence of the
   // curve's shape at the records' own spacing. Saturated readings are lower bounds only: left out.
   const Ics2Scale scale = ics2_scale();
@@ -2082,8 +2097,17 @@ std::vector<DensityReading> TwinModel::growth_law_readings() const {
     bin.clear();
     if (ics2 >= settings_.ics2_saturation) return;
     const double d = scale.density_at(ics2);
-    if (!(d > 0) || !std::isfinite(d)) return;
-    r.push_back({cycles, d, std::max(s, ics2_density_sd(d) / d)});
+    if (!(d > 0 && d < 1)) return;
+    // Own error: the ICS2 scatter through the scale, no smaller than an inspection's (ICS2 ∝ area is
+    // itself an assumption, thesis Ch. 4). Common: D's change with each scale inspection's error.
+    DensityReading x{cycles, d, std::max(s, scale.density_noise(d, memory_.ics2_scale_baseline_sd) / d), {}};
+    if (two) {
+      const double t = (d - a0) / (a1 - a0);
+      x.shared = {s * (1.0 - t) * a0 / d, s * t * a1 / d};
+    } else {
+      x.shared = {s, 0.0};   // one inspection: D = A0 sqrt(…), A0's relative error scales D
+    }
+    r.push_back(x);
   };
   double bin_end = -1;
   for (const auto& p : memory_.ics2_series) {
@@ -2109,14 +2133,25 @@ void TwinModel::apply_growth_law(Forecast& f) const {
   // A near end a measurement set to 0 (the limit reached or not ruled out) stays 0.
   const bool near_zero = f.pitting.cycles_left_low && *f.pitting.cycles_left_low == 0.0;
   auto within = [horizon](double c) { return std::isfinite(c) && c <= horizon ? std::optional<double>(c) : std::nullopt; };
+  // b's posterior at a range end: the readings ask for a form the law lacks, so its interval is not
+  // the whole uncertainty: the interval spans the law's and Eq. 7.8's (the twin's other form).
+  const bool at_bound = fit.bound != GrowthExponentBound::inside;
+  double low = fit.cycles_left_low, high = fit.cycles_left_high;
+  if (at_bound) {
+    low = std::min(low, f.pitting.cycles_left_low.value_or(low));
+    high = std::max(high, f.pitting.cycles_left_high.value_or(std::numeric_limits<double>::infinity()));
+  }
   f.pitting.cycles_left = within(fit.cycles_left);
-  f.pitting.cycles_left_low = near_zero ? 0.0 : std::min(fit.cycles_left_low, horizon);
-  f.pitting.cycles_left_high = within(fit.cycles_left_high);
+  f.pitting.cycles_left_low = near_zero ? 0.0 : std::min(low, horizon);
+  f.pitting.cycles_left_high = within(high);
   hold_nominal(f);
-  char b[400];
-  std::snprintf(b, sizeof b, "pitting growth law dD/dN = a D^b fitted to %d readings (%zu inspections, unsaturated ICS2): b = %.3g (SD %.2g; prior %.3g from Eq. 7.8's m), density now %.4g; cycles left %.4g (%.4g .. %.4g) replace Eq. 7.8's",
-                fit.readings, memory_.pitted_area_points.size(), fit.b_mean, fit.b_sd, gs.b_prior_mean, fit.density_now, fit.cycles_left,
-                fit.cycles_left_low, fit.cycles_left_high);
+  char b[480];
+  std::snprintf(b, sizeof b, "pitting growth law dD/dN = a D^b (1 - D) fitted to %d readings (%zu inspections, unsaturated ICS2, the scale's inspection errors common): b = %.3g (SD %.2g; prior %.3g from Eq. 7.8's m)%s, density now %.4g; cycles left %.4g (%.4g .. %.4g) replace Eq. 7.8's",
+                fit.readings, memory_.pitted_area_points.size(), fit.b_mean, fit.b_sd, gs.b_prior_mean,
+                at_bound ? (fit.bound == GrowthExponentBound::at_upper ? ", piled at its upper bound 1: form not identified, interval joined with Eq. 7.8's"
+                                                                        : ", piled at its lower bound 0: form not identified, interval joined with Eq. 7.8's")
+                         : "",
+                fit.density_now, fit.cycles_left, low, high);
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
 }
 
