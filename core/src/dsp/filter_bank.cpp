@@ -46,6 +46,8 @@ namespace {
 // vectors (the compiler may not reorder floating-point sums), lane-wise, so the AVX2 and baseline
 // builds give the same results.
 using v4d = double __attribute__((vector_size(32)));
+// swap(x) below is __builtin_shufflevector(x, x, 1, 0, 3, 2): each of two complex samples' real and
+// imaginary parts swapped (that builtin, not __builtin_shuffle, is understood by GCC and Clang alike).
 constexpr std::size_t kBinaryPairs = 9;    // 17 taps padded to 18, two samples a vector
 constexpr std::size_t kTernaryTaps = 25;
 constexpr std::size_t kBlockOutputs = 256;  // outputs per modulated block (the block stays in L1)
@@ -92,12 +94,10 @@ TurnPairs<P> turn_pairs(const std::array<Complex, P>& turns) {
 template <std::size_t P>
 __attribute__((always_inline)) inline void modulate_pairs(const Complex* x, std::size_t pairs, std::size_t phase,
                                                           const TurnPairs<P>& t, Complex* out) {
-  using v4i = long long __attribute__((vector_size(32)));
-  const v4i swap{1, 0, 3, 2};
   for (std::size_t j = 0; j < pairs; ++j) {
     v4d v;
     __builtin_memcpy(&v, x + 2 * j, sizeof v);
-    const v4d y = v * t.re[phase] + __builtin_shuffle(v, swap) * t.im[phase];
+    const v4d y = v * t.re[phase] + __builtin_shufflevector(v, v, 1, 0, 3, 2) * t.im[phase];
     __builtin_memcpy(reinterpret_cast<double*>(out + 2 * j), &y, sizeof y);
     phase = phase + 2 >= P ? phase + 2 - P : phase + 2;
   }
@@ -187,20 +187,18 @@ BinaryTurns binary_turns() {
 __attribute__((target_clones("avx2", "default"))) void binary_block(const Complex* y, const BinaryTaps& f,
                                                                     const BinaryTurns& turns, std::size_t m0,
                                                                     std::size_t count, Complex* a, Complex* d) {
-  using v4i = long long __attribute__((vector_size(32)));
-  const v4i swap{1, 0, 3, 2};
   std::size_t j = 0;
   for (; j + 2 <= count; j += 2) {
     v4d lo0, hi0, lo1, hi1;
     binary_sums(y + 2 * j, f, lo0, hi0);
     binary_sums(y + 2 * j + 2, f, lo1, hi1);
-    const v4d low = __builtin_shuffle(lo0, lo1, v4i{0, 1, 4, 5}) + __builtin_shuffle(lo0, lo1, v4i{2, 3, 6, 7});
+    const v4d low = __builtin_shufflevector(lo0, lo1, 0, 1, 4, 5) + __builtin_shufflevector(lo0, lo1, 2, 3, 6, 7);
     // even-k part + j odd-k part: (hi[2] - hi[1], hi[3] + hi[0]) of each
-    const v4d high = __builtin_shuffle(hi0, hi1, v4i{2, 3, 6, 7}) +
-                     __builtin_shuffle(hi0, hi1, v4i{1, 0, 5, 4}) * v4d{-1.0, 1.0, -1.0, 1.0};
+    const v4d high = __builtin_shufflevector(hi0, hi1, 2, 3, 6, 7) +
+                     __builtin_shufflevector(hi0, hi1, 1, 0, 5, 4) * v4d{-1.0, 1.0, -1.0, 1.0};
     const std::size_t m = m0 + j, phase = m % 4;
-    const v4d low_out = low * turns.low_re[phase] + __builtin_shuffle(low, swap) * turns.low_im[phase];
-    const v4d high_out = high * turns.high_re[phase] + __builtin_shuffle(high, swap) * turns.high_im[phase];
+    const v4d low_out = low * turns.low_re[phase] + __builtin_shufflevector(low, low, 1, 0, 3, 2) * turns.low_im[phase];
+    const v4d high_out = high * turns.high_re[phase] + __builtin_shufflevector(high, high, 1, 0, 3, 2) * turns.high_im[phase];
     __builtin_memcpy(reinterpret_cast<double*>(a + m), &low_out, sizeof low_out);
     __builtin_memcpy(reinterpret_cast<double*>(d + m), &high_out, sizeof high_out);
   }
@@ -272,8 +270,7 @@ TernaryTurns ternary_turns() {
 }
 
 __attribute__((always_inline)) inline void rotate(const v4d& s, const PairTurn& t, v4d& r) {
-  using v4i = long long __attribute__((vector_size(32)));
-  r = s * t.re + __builtin_shuffle(s, v4i{1, 0, 3, 2}) * t.im;
+  r = s * t.re + __builtin_shufflevector(s, s, 1, 0, 3, 2) * t.im;
 }
 
 // The three bands of outputs m (lanes 0-1) and m + 1 (lanes 2-3) from the partial sums Q_0..Q_5:
@@ -297,16 +294,15 @@ __attribute__((always_inline)) inline void ternary_outputs(const v4d (&q)[6], co
 __attribute__((target_clones("avx2", "default"))) void ternary_block(const Complex* z, const TernaryTaps& f,
                                                                      const TernaryTurns& turns, std::size_t m0,
                                                                      std::size_t count, Complex* const* out) {
-  using v4i = long long __attribute__((vector_size(32)));
-  const v4i upper{2, 3, 6, 7}, lower{0, 1, 4, 5};  // the even-tap group's lanes, the odd one's
+  // Lanes 2, 3, 6, 7: the even-tap group's; 0, 1, 4, 5: the odd one's.
   std::size_t j = 0;
   for (; j + 2 <= count; j += 2) {
     v4d s01a, s23a, s45a, s01b, s23b, s45b;
     ternary_sums(z, f, j, s01a, s23a, s45a);
     ternary_sums(z, f, j + 1, s01b, s23b, s45b);
-    const v4d q[6] = {__builtin_shuffle(s01a, s01b, upper), __builtin_shuffle(s01a, s01b, lower),
-                      __builtin_shuffle(s23a, s23b, upper), __builtin_shuffle(s23a, s23b, lower),
-                      __builtin_shuffle(s45a, s45b, upper), __builtin_shuffle(s45a, s45b, lower)};
+    const v4d q[6] = {__builtin_shufflevector(s01a, s01b, 2, 3, 6, 7), __builtin_shufflevector(s01a, s01b, 0, 1, 4, 5),
+                      __builtin_shufflevector(s23a, s23b, 2, 3, 6, 7), __builtin_shufflevector(s23a, s23b, 0, 1, 4, 5),
+                      __builtin_shufflevector(s45a, s45b, 2, 3, 6, 7), __builtin_shufflevector(s45a, s45b, 0, 1, 4, 5)};
     const std::size_t m = m0 + j;
     v4d o[3];
     ternary_outputs(q, turns, turns.out[m % 4], o);
@@ -315,9 +311,9 @@ __attribute__((target_clones("avx2", "default"))) void ternary_block(const Compl
   if (j < count) {  // an odd last output: the same arithmetic in the first lanes
     v4d s01, s23, s45;
     ternary_sums(z, f, j, s01, s23, s45);
-    const v4d q[6] = {__builtin_shuffle(s01, s01, upper), __builtin_shuffle(s01, s01, lower),
-                      __builtin_shuffle(s23, s23, upper), __builtin_shuffle(s23, s23, lower),
-                      __builtin_shuffle(s45, s45, upper), __builtin_shuffle(s45, s45, lower)};
+    const v4d q[6] = {__builtin_shufflevector(s01, s01, 2, 3, 6, 7), __builtin_shufflevector(s01, s01, 0, 1, 4, 5),
+                      __builtin_shufflevector(s23, s23, 2, 3, 6, 7), __builtin_shufflevector(s23, s23, 0, 1, 4, 5),
+                      __builtin_shufflevector(s45, s45, 2, 3, 6, 7), __builtin_shufflevector(s45, s45, 0, 1, 4, 5)};
     const std::size_t m = m0 + j;
     v4d o[3];
     ternary_outputs(q, turns, turns.out[m % 4], o);
@@ -327,7 +323,6 @@ __attribute__((target_clones("avx2", "default"))) void ternary_block(const Compl
 
 // The raw sums of two samples (re, im, re', im') into lane accumulators: |c|^2 is formed in both
 // lanes of its sample, so every product stays lane-wise.
-using v4i = long long __attribute__((vector_size(32)));
 struct MomentLanes {
   v4d sum, squares, cross, sum4, sum2c;  // c; (re^2, im^2); re im; |c|^4; |c|^2 c
 };
@@ -339,12 +334,11 @@ struct MomentSums {
 __attribute__((always_inline)) inline void accumulate_moments(const Complex* two, MomentLanes& m) {
   v4d x;
   __builtin_memcpy(&x, two, sizeof x);
-  const v4i swap{1, 0, 3, 2};
   const v4d squares = x * x;
-  const v4d norm = squares + __builtin_shuffle(squares, swap);
+  const v4d norm = squares + __builtin_shufflevector(squares, squares, 1, 0, 3, 2);
   m.sum += x;
   m.squares += squares;
-  m.cross += x * __builtin_shuffle(x, swap);
+  m.cross += x * __builtin_shufflevector(x, x, 1, 0, 3, 2);
   m.sum4 += norm * norm;
   m.sum2c += norm * x;
 }
