@@ -29,16 +29,7 @@ using namespace gearwatch::testing;
 namespace {
 
 constexpr double kRelative = 1e-3;
-constexpr double kLargest = 1e-2;
-constexpr double kEdgeSamples = 1e-2;
 
-
-// 10 µm at the pinion's root falling to 0 at the tip, as the RMS_SA test wears it.
-ToothProfileDeviation periodic_wear() {
-  ToothProfileDeviation wear;
-  for (int i = 0; i <= 20; ++i) wear.pinion.push_back(10e-6 * std::pow(1.0 - i / 20.0, 2));
-  return wear;
-}
 
 // Pits on two pinion teeth: 5 µm deep over the middle fifth of the profile (pitting at the pitch
 // line), every other tooth ideal; so the inputs repeat with a pinion turn, not a mesh period.
@@ -78,33 +69,8 @@ void compare_periodic_with_reference(double speed_hz, const ToothProfileDeviatio
   const auto first = static_cast<std::size_t>(std::ceil(from_s * fs));
   REQUIRE(first + static_cast<std::size_t>(0.25 * fs) <= full_r.acceleration.size());  // a quarter second at least
   const CasingSignal a = periodic_tail(full_a, first), r = periodic_tail(full_r, first);
-  const double r_rms = signal_rms(r.acceleration);
-  double diff = 0, largest = 0;
-  for (std::size_t i = 0; i < r.acceleration.size(); ++i) {
-    const double d = static_cast<double>(a.acceleration[i]) - r.acceleration[i];
-    diff += d * d;
-    largest = std::max(largest, std::abs(d));
-  }
-  CHECK(std::sqrt(diff / static_cast<double>(r.acceleration.size())) <= kRelative * r_rms);
-  CHECK(largest <= kLargest * r_rms);
-  CHECK(signal_rms(a.acceleration) == Approx(r_rms).epsilon(kRelative));
-  const std::vector<double> a64(a.acceleration.begin(), a.acceleration.end());
-  const std::vector<double> r64(r.acceleration.begin(), r.acceleration.end());
-  CHECK(lowpass_rms(a64, fs, 2000.0) == Approx(lowpass_rms(r64, fs, 2000.0)).epsilon(kRelative));
-  const double mesh_hz = speed_hz * p.gears.pinion_teeth;
-  int lines = 0;
-  for (int h = 1; h <= 3; ++h) {
-    const double ref_amplitude = mesh_harmonic_amplitude(r.acceleration, fs, mesh_hz, h);
-    if (ref_amplitude <= 1e-3 * r_rms) continue;  // compared only where a line is there, not the floor
-    ++lines;
-    CHECK(mesh_harmonic_amplitude(a.acceleration, fs, mesh_hz, h) == Approx(ref_amplitude).epsilon(kRelative));
-  }
-  CHECK(lines >= 1);
-  REQUIRE(a.tacho_edges.size() == r.tacho_edges.size());
-  double worst_edge = 0;
-  for (std::size_t i = 0; i < r.tacho_edges.size(); ++i) worst_edge = std::max(worst_edge, std::abs(a.tacho_edges[i] - r.tacho_edges[i]));
-  CHECK(worst_edge <= kEdgeSamples);
-  CHECK(simulated_signal_rms_sa(a) == Approx(simulated_signal_rms_sa(r)).epsilon(kRelative));
+  check_record_agrees(a, r, RecordAgreement{kRelative, 1e-2, 1e-2});
+  CHECK(check_lines_agree(a, r, speed_hz * p.gears.pinion_teeth, 3, kRelative) >= 1);
 }
 
 // The same parameters through simulate() at the record's rate: the periodic path is taken for them.
@@ -123,7 +89,7 @@ TEST_CASE("The period every twin input repeats with: a mesh period - a shaft tur
   REQUIRE(p.gears.gear_teeth == 52);
   const OperatingPoint op{10.0, 20.0};
   SimulationOptions o;
-  CHECK(periodic_inputs_period_s(p, periodic_wear(), op, o) == Approx(1.0 / 190.0).epsilon(1e-15));
+  CHECK(periodic_inputs_period_s(p, root_to_tip_wear(), op, o) == Approx(1.0 / 190.0).epsilon(1e-15));
   CHECK(periodic_inputs_period_s(p, periodic_pitting(19), op, o) == Approx(0.1).epsilon(1e-15));
   o.face_misalignment_rad = 1e-4;  // a flank separation: the same on every pair
   CHECK(periodic_inputs_period_s(p, {}, op, o) == Approx(1.0 / 190.0).epsilon(1e-15));
@@ -136,20 +102,20 @@ TEST_CASE("The period every twin input repeats with: a mesh period - a shaft tur
 TEST_CASE("The periodic twin gives the full integration's record at 10 Hz with wear", "[twin][twin-periodic]") {
   // 3 s: after a worn start the 22 Hz torsional mode rings for over a second (docs/twin.md), and
   // the check waits until the whole state has settled (PeriodicCheck's energy norm).
-  const SimulationResult run = periodic_run(10.0, periodic_wear(), 3.0);
+  const SimulationResult run = periodic_run(10.0, root_to_tip_wear(), 3.0);
   REQUIRE(run.tiled);
-  compare_periodic_with_reference(10.0, periodic_wear(), 3.0, run.template_start_s);
+  compare_periodic_with_reference(10.0, root_to_tip_wear(), 3.0, run.template_start_s);
 }
 
 TEST_CASE("The periodic twin gives the full integration's record at 20 Hz with wear", "[twin][twin-periodic]") {
-  const SimulationResult run = periodic_run(20.0, periodic_wear(), 2.5);
+  const SimulationResult run = periodic_run(20.0, root_to_tip_wear(), 2.5);
   REQUIRE(run.tiled);
-  compare_periodic_with_reference(20.0, periodic_wear(), 2.5, run.template_start_s);
+  compare_periodic_with_reference(20.0, root_to_tip_wear(), 2.5, run.template_start_s);
 }
 
 TEST_CASE("The periodic twin gives the full integration's record of pitted pinion teeth at 10 and 20 Hz", "[twin][twin-periodic]") {
   ToothProfileDeviation worn_and_pitted = periodic_pitting(19);
-  worn_and_pitted.gear = periodic_wear().pinion;  // and a worn gear on every tooth
+  worn_and_pitted.gear = root_to_tip_wear().pinion;  // and a worn gear on every tooth
   for (double speed_hz : {10.0, 20.0}) {
     INFO("input speed " << speed_hz << " Hz");
     // 3.5 s: the part after the template's start holds enough turns at 10 Hz for RMS_SA.
@@ -199,8 +165,8 @@ TEST_CASE("The periodic twin's record does not depend on its length: a short rec
   // Both read off the same steady-state template from their first sample: the short one's search
   // goes past its end to where the long one's check agrees, with the same steps, so the samples
   // they share are the same numbers.
-  const SimulationResult long_run = periodic_run(10.0, periodic_wear(), 2.0);
-  const SimulationResult short_run = periodic_run(10.0, periodic_wear(), 0.3);
+  const SimulationResult long_run = periodic_run(10.0, root_to_tip_wear(), 2.0);
+  const SimulationResult short_run = periodic_run(10.0, root_to_tip_wear(), 0.3);
   REQUIRE(long_run.tiled);
   REQUIRE(short_run.tiled);
   CHECK(short_run.template_start_s == long_run.template_start_s);
