@@ -327,16 +327,23 @@ TEST_CASE("gap bounded fits: a run-out the form's range cannot reach is reported
   CHECK_FALSE(bottom[0].upper);
 }
 
-TEST_CASE("gap bounded fits: the diagnosis reports a candidate fitted at its bound with that bound", "[gap][gap_features]") {
-  // Every mesh harmonic of the measurement 50 dB above the twin's: misalignment's spectral form (one
-  // gain on all mesh harmonics, −40 to +40 dB, without a twin rerun) fits at +40 dB and says so.
-  const double fs = 10240, gain = std::pow(10.0, 50.0 / 20);
+// Five mesh harmonics (19 teeth) of the measurement 50 dB over the twin's, three other lines equal.
+std::pair<std::vector<std::pair<double, double>>, std::vector<std::pair<double, double>>> mesh_harmonics_raised_50_db() {
+  const double gain = std::pow(10.0, 50.0 / 20);
   std::vector<std::pair<double, double>> twin_lines, measured_lines;
   for (int n = 1; n <= 5; ++n) {
     twin_lines.push_back({19.0 * n, 1e-3 / n});
     measured_lines.push_back({19.0 * n, 1e-3 / n * gain});
   }
   for (double o : {3.0, 20.0, 5.0 * kRatio}) twin_lines.push_back({o, 0.05}), measured_lines.push_back({o, 0.05});
+  return {twin_lines, measured_lines};
+}
+
+TEST_CASE("gap bounded fits: the diagnosis reports a candidate fitted at its bound with that bound", "[gap][gap_features]") {
+  // Every mesh harmonic of the measurement 50 dB above the twin's: misalignment's spectral form (one
+  // gain on all mesh harmonics, −40 to +40 dB, without a twin rerun) fits at +40 dB and says so.
+  const double fs = 10240;
+  const auto [twin_lines, measured_lines] = mesh_harmonics_raised_50_db();
   std::vector<DiagnosisInput> training, held_out;
   for (double speed : {8.0, 12.0}) training.push_back({tone_record(fs, speed, 16, measured_lines), tone_record(fs, speed, 16, twin_lines)});
   for (double speed : {10.0, 14.0}) held_out.push_back({tone_record(fs, speed, 16, measured_lines), tone_record(fs, speed, 16, twin_lines)});
@@ -596,13 +603,8 @@ TEST_CASE("gap attribution by feature: mesh harmonics 50 dB up are the chosen me
   // mesh-gain forms (tip_relief's per-harmonic gains, misalignment's one gain, which stops at its
   // +40 dB bound) each remove at least 40 of the 50 dB of every harmonic's feature, held out; the
   // feature goes to the chosen one. The same lines in both records: nothing found, nothing chosen.
-  const double fs = 10240, gain = std::pow(10.0, 50.0 / 20);
-  std::vector<std::pair<double, double>> twin_lines, measured_lines;
-  for (int n = 1; n <= 5; ++n) {
-    twin_lines.push_back({19.0 * n, 1e-3 / n});
-    measured_lines.push_back({19.0 * n, 1e-3 / n * gain});
-  }
-  for (double o : {3.0, 20.0, 5.0 * kRatio}) twin_lines.push_back({o, 0.05}), measured_lines.push_back({o, 0.05});
+  const double fs = 10240;
+  const auto [twin_lines, measured_lines] = mesh_harmonics_raised_50_db();
   DiagnosisSettings settings;
   settings.bootstrap_resamples = 20;
   settings.candidate_bootstrap_resamples = 10;
