@@ -28,7 +28,6 @@
 //    the same test; floor bands cluster and join among themselves (floor_features()).
 #include <cstddef>
 #include <cstdint>
-#include <limits>
 #include <utility>
 #include <vector>
 
@@ -154,34 +153,5 @@ class FeatureFinder {
 /// The Benjamini–Hochberg rejections at level q of the given p-values (step-up: the largest k with
 /// p_(k) ≤ q·k/m, and every p at or below it).
 std::vector<char> benjamini_hochberg(const std::vector<double>& p, double q);
-
-/// One held-out record a feature's gap is measured on: the measured spectra, the twin alone and a
-/// model (the twin with candidate effects), compared above the record's floor.
-struct FeatureGapRecord {
-  const SpectralSummary* measured = nullptr;
-  const SpectralSummary* twin = nullptr;
-  const SpectralSummary* model = nullptr;
-  double floor = 0;
-};
-/// A feature's gap against the twin alone and against the model, in the held-out records it was
-/// seen in (its sightings; `records` indexed as the diagnosis's held-out set): the RMS of g over
-/// each such record's cells inside the feature's window (its Hz extent for a feature fixed in Hz,
-/// else its order extent) whose |g| against the twin alone reaches the practical minimum, its core
-/// there. A floor change's cells are its records' floor bands (compare_floors) in its Hz extent.
-/// NaN for both when no held-out record has such a cell: a feature seen in training only has no
-/// held-out gap to reduce.
-struct FeatureGapChange {
-  double before_db = std::numeric_limits<double>::quiet_NaN();
-  double after_db = std::numeric_limits<double>::quiet_NaN();
-  std::size_t cells = 0;
-};
-FeatureGapChange feature_gap_change(const GapFeature& feature, const std::vector<FeatureGapRecord>& records,
-                                    const GearPairSpec& gears, const FeatureSettings& settings = {});
-/// The model reduces the feature's held-out gap significantly: by more than the half-width of the
-/// feature's own size interval and by at least `min_share` of the gap (the families' minimum
-/// shrinkage), whatever its family does.
-bool reduces_feature(const FeatureGapChange& change, const GapFeature& feature, double min_share) noexcept;
-/// The model raises the feature's held-out gap by more than that half-width.
-bool worsens_feature(const FeatureGapChange& change, const GapFeature& feature) noexcept;
 
 }  // namespace gearwatch::gap
