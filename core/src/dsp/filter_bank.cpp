@@ -289,20 +289,27 @@ __attribute__((always_inline)) inline void ternary_outputs(const v4d (&q)[6], co
   rotate(a0 + r1 + r2, turn, o[2]);
 }
 
+// The six tap groups' sums of output a (lanes 0-1) and output b (lanes 2-3): of each pair of sums,
+// lanes 2, 3, 6, 7 are the even-tap group's, lanes 0, 1, 4, 5 the odd one's.
+__attribute__((always_inline)) inline void ternary_groups(const v4d& a01, const v4d& a23, const v4d& a45, const v4d& b01,
+                                                          const v4d& b23, const v4d& b45, v4d q[6]) {
+  q[0] = __builtin_shufflevector(a01, b01, 2, 3, 6, 7), q[1] = __builtin_shufflevector(a01, b01, 0, 1, 4, 5);
+  q[2] = __builtin_shufflevector(a23, b23, 2, 3, 6, 7), q[3] = __builtin_shufflevector(a23, b23, 0, 1, 4, 5);
+  q[4] = __builtin_shufflevector(a45, b45, 2, 3, 6, 7), q[5] = __builtin_shufflevector(a45, b45, 0, 1, 4, 5);
+}
+
 // Outputs [m0, m0 + count) of the three bands; z holds the modulated node from index 3 m0 - 23.
 // Two outputs at a time: lanes 0-1 output m, lanes 2-3 output m + 1.
 __attribute__((target_clones("avx2", "default"))) void ternary_block(const Complex* z, const TernaryTaps& f,
                                                                      const TernaryTurns& turns, std::size_t m0,
                                                                      std::size_t count, Complex* const* out) {
-  // Lanes 2, 3, 6, 7: the even-tap group's; 0, 1, 4, 5: the odd one's.
   std::size_t j = 0;
   for (; j + 2 <= count; j += 2) {
     v4d s01a, s23a, s45a, s01b, s23b, s45b;
     ternary_sums(z, f, j, s01a, s23a, s45a);
     ternary_sums(z, f, j + 1, s01b, s23b, s45b);
-    const v4d q[6] = {__builtin_shufflevector(s01a, s01b, 2, 3, 6, 7), __builtin_shufflevector(s01a, s01b, 0, 1, 4, 5),
-                      __builtin_shufflevector(s23a, s23b, 2, 3, 6, 7), __builtin_shufflevector(s23a, s23b, 0, 1, 4, 5),
-                      __builtin_shufflevector(s45a, s45b, 2, 3, 6, 7), __builtin_shufflevector(s45a, s45b, 0, 1, 4, 5)};
+    v4d q[6];
+    ternary_groups(s01a, s23a, s45a, s01b, s23b, s45b, q);
     const std::size_t m = m0 + j;
     v4d o[3];
     ternary_outputs(q, turns, turns.out[m % 4], o);
@@ -311,9 +318,8 @@ __attribute__((target_clones("avx2", "default"))) void ternary_block(const Compl
   if (j < count) {  // an odd last output: the same arithmetic in the first lanes
     v4d s01, s23, s45;
     ternary_sums(z, f, j, s01, s23, s45);
-    const v4d q[6] = {__builtin_shufflevector(s01, s01, 2, 3, 6, 7), __builtin_shufflevector(s01, s01, 0, 1, 4, 5),
-                      __builtin_shufflevector(s23, s23, 2, 3, 6, 7), __builtin_shufflevector(s23, s23, 0, 1, 4, 5),
-                      __builtin_shufflevector(s45, s45, 2, 3, 6, 7), __builtin_shufflevector(s45, s45, 0, 1, 4, 5)};
+    v4d q[6];
+    ternary_groups(s01, s23, s45, s01, s23, s45, q);
     const std::size_t m = m0 + j;
     v4d o[3];
     ternary_outputs(q, turns, turns.out[m % 4], o);

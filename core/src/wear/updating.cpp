@@ -2145,12 +2145,14 @@ void TwinModel::apply_growth_law(Forecast& f) const {
   f.pitting.cycles_left_low = near_zero ? 0.0 : std::min(low, horizon);
   f.pitting.cycles_left_high = within(high);
   hold_nominal(f);
+  const std::string pile_note =
+      at_bound ? std::string(", piled at its ") + (fit.bound == GrowthExponentBound::at_upper ? "upper bound 1" : "lower bound 0") +
+                     ": form not identified, interval joined with Eq. 7.8's"
+               : "";
   char b[480];
   std::snprintf(b, sizeof b, "pitting growth law dD/dN = a D^b (1 - D) fitted to %d readings (%zu inspections, unsaturated ICS2, the scale's inspection errors common): b = %.3g (SD %.2g; prior %.3g from Eq. 7.8's m)%s, density now %.4g; cycles left %.4g (%.4g .. %.4g) replace Eq. 7.8's",
                 fit.readings, memory_.pitted_area_points.size(), fit.b_mean, fit.b_sd, gs.b_prior_mean,
-                at_bound ? (fit.bound == GrowthExponentBound::at_upper ? ", piled at its upper bound 1: form not identified, interval joined with Eq. 7.8's"
-                                                                        : ", piled at its lower bound 0: form not identified, interval joined with Eq. 7.8's")
-                         : "",
+                pile_note.c_str(),
                 fit.density_now, fit.cycles_left, low, high);
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
 }
