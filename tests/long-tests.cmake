@@ -26,7 +26,7 @@ gearwatch_long_test(34 "defects #1: kill -9 while the model lags the committed r
 gearwatch_long_test(45 "gap: candidates fitted by re-running the twin are named, with their values, and close the gap")
 gearwatch_long_test(65 "daemon's gap diagnosis end to end: rig tooth errors withheld from the twin are found, stored and raise twin drift")
 gearwatch_long_test(55 "rig end to end: defects #7: a dry campaign is identified as abrasive wear on both channels and never pitting")
-gearwatch_long_test(55 "gap: each parametric candidate fitted on data made with its own form recovers its parameters")
+gearwatch_long_test(20 "gap: each parametric candidate fitted on data made with its own form recovers its parameters")
 gearwatch_long_test(40 "gap: gap bench's scenario 21 (casing at 151 and 396 Hz, 67 kg): its casing candidate recovers all four values")
 gearwatch_long_test(40 "rig end to end: K_wear follows the truth's coefficient and the predicted wear depth stays within 5 %")
 gearwatch_long_test(40 "gap independent: the bench on a no-effect draw, a narrow resonance and a ghost tone")
