@@ -25,6 +25,7 @@ gearwatch_long_test(75 "gap: eccentricity fitted on the rig's records recovers t
 gearwatch_long_test(34 "defects #1: kill -9 while the model lags the committed records, then resume: the model's history equals the uninterrupted one")
 gearwatch_long_test(45 "gap: candidates fitted by re-running the twin are named, with their values, and close the gap")
 gearwatch_long_test(65 "daemon's gap diagnosis end to end: rig tooth errors withheld from the twin are found, stored and raise twin drift")
+gearwatch_long_test(85 "daemon's gap diagnosis end to end: the rig without effects gives a report with no significant family and no alert")
 gearwatch_long_test(55 "rig end to end: defects #7: a dry campaign is identified as abrasive wear on both channels and never pitting")
 gearwatch_long_test(20 "gap: each parametric candidate fitted on data made with its own form recovers its parameters")
 gearwatch_long_test(40 "gap: gap bench's scenario 21 (casing at 151 and 396 Hz, 67 kg): its casing candidate recovers all four values")
