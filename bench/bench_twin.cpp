@@ -1,7 +1,7 @@
 // Simulated seconds of the 21-DOF twin per second of this thread's CPU on one core, at 20 N m and
 // 10 Hz and 20 Hz input, output at 100 kHz (simulate(): every state signal kept), in the same run:
-// the default (the full integration until the start-up transient has died out, then the
-// template of one input period tiled), the full integration (SimulationOptions::reference()), the
+// the default (the full integration until the faster modes of the start-up transient have died
+// out, then the template of one input period tiled with the slow modes' decay carried), the full integration (SimulationOptions::reference()), the
 // opt-in periodic path (every sample read off the steady state's template,
 // SimulationOptions::periodic_path()) and the fast integration (SimulationOptions::fast()).
 // Targets: >= 10x real time at 10 Hz and >= 5x at 20 Hz, for the default. CPU time, not wall

@@ -9,6 +9,7 @@
 #include "gearwatch/dsp/decimation.hpp"
 #include "gearwatch/twin/integration.hpp"
 #include "gearwatch/twin/modal_analysis.hpp"
+#include "gearwatch/twin/slow_modes.hpp"
 
 namespace gearwatch::twin {
 
@@ -177,13 +178,49 @@ class PeriodicCheck {
     ++samples_;
   }
 
-  bool agrees(const State& earlier, const State& later, double b) {
+  /// Carry the slow modes' free decay (nullptr: none): the anchor moved on by it is what a later
+  /// boundary must agree with.
+  void carry(const SlowModes* slow, double omega) {
+    slow_ = slow != nullptr && !slow->empty() ? slow : nullptr;
+    omega_ = omega;
+  }
+
+  /// The anchor at t_anchor against the state at b. With slow modes, the first boundary after a
+  /// new anchor gives their amplitudes.
+  bool agrees(const State& anchor, double t_anchor, const State& later, double b) {
     const double kinetic_mean = samples_ > 0 ? kinetic_sum_ / static_cast<double>(samples_) : 0.0;
     const double rms = take_period_rms();
     if (!recorder_.profile_done()) return false;
+    State earlier = anchor;
+    if (slow_ != nullptr) {
+      if (t_anchor != anchor_time_) {
+        anchor_time_ = t_anchor;
+        amplitudes_ = slow_->amplitudes(anchor, later, b - t_anchor);
+      }
+      slow_->advance(earlier, amplitudes_, 0.0, b - t_anchor);
+      // The anchor's state at the mesh phase the later one has (retime(), to first order).
+      const double shift = retime(t_anchor, b) - t_anchor;
+      State rate;
+      dynamics_(anchor, rate, t_anchor);
+      for (std::size_t i = 0; i < earlier.size(); ++i) earlier[i] += rate[i] * shift;
+    }
     const double da = path_gain_ * (dynamics_.acceleration(later, b, y6) - dynamics_.acceleration(earlier, b, y6));
     return rms > 0 && std::abs(da) <= tolerance_ * rms && std::abs(later[theta1] - earlier[theta1]) <= angle_tolerance_ &&
            difference_energy(earlier, later) <= tolerance_ * tolerance_ * kinetic_mean;
+  }
+
+  /// The template's state at its time made the state at t: the slow modes' decay from the one to
+  /// the other added (the amplitudes of the anchor the template agreed with).
+  void correct(State& x, double template_t, double t) const {
+    if (slow_ != nullptr) slow_->advance(x, amplitudes_, template_t - anchor_time_, t - anchor_time_);
+  }
+
+  /// The template time with the mesh phase of the sample at t: the mesh phase follows Ω t + q5, so
+  /// the pinion's slow turn Δq5 between the template time and t moves it by Δq5 / Ω.
+  double retime(double template_t, double t) const {
+    if (slow_ == nullptr) return template_t;
+    const double dq = slow_->coordinate(amplitudes_, theta5, t - anchor_time_) - slow_->coordinate(amplitudes_, theta5, template_t - anchor_time_);
+    return template_t + dq / omega_;
   }
 
  private:
@@ -219,6 +256,10 @@ class PeriodicCheck {
   const SampleRecorder& recorder_;
   const double path_gain_, tolerance_, angle_tolerance_;
   const Matrix21 stiffness_;
+  const SlowModes* slow_ = nullptr;
+  double omega_ = 1.0;  // the input shaft's nominal speed (rad/s)
+  double anchor_time_ = -1.0;  // the amplitudes' anchor (none yet)
+  SlowModes::Amplitudes amplitudes_;
   double square_sum_ = 0, kinetic_sum_ = 0;
   std::size_t samples_ = 0;
 };
@@ -235,7 +276,13 @@ PeriodicTiling periodic_tiling(const GearboxParameters& p, const ToothProfileDev
   tiling.search_s = options.periodic_keeps_transient ? 0.0 : options.periodic_search_s;  // kept: every sample integrated
   tiling.keep_transient = options.periodic_keeps_transient;
   tiling.watch = [&check](const State& x, double t) { check.watch(x, t); };
-  tiling.agrees = [&check](const State& earlier, const State& later, double b) { return check.agrees(earlier, later, b); };
+  tiling.agrees = [&check](const State& anchor, double t_anchor, const State& later, double b) {
+    return check.agrees(anchor, t_anchor, later, b);
+  };
+  if (options.periodic_keeps_transient) {
+    tiling.correct = [&check](State& x, double template_t, double t) { check.correct(x, template_t, t); };
+    tiling.retime = [&check](double template_t, double t) { return check.retime(template_t, t); };
+  }
   tiling.ready = [&recorder] { return recorder.profile_done(); };
   return tiling;
 }
@@ -248,6 +295,9 @@ void sample_periodic(const GearboxParameters& p, const ToothProfileDeviation& de
   const double angle_tolerance =
       options.periodic_tacho_tolerance_samples * 2.0 * std::numbers::pi * op.input_speed_hz / options.sample_rate_hz;
   PeriodicCheck check(dynamics, recorder, p.casing_path_gain, options.periodic_tolerance, angle_tolerance);
+  // Only where the record keeps its transient: the steady-state path's template must hold none.
+  const SlowModes slow(matrices, options.periodic_keeps_transient ? op.input_speed_hz * p.gears.pinion_teeth : 0.0);
+  check.carry(&slow, 2.0 * std::numbers::pi * op.input_speed_hz);
   const PeriodicTiling tiling = periodic_tiling(p, deviation, op, options, matrices, check, recorder);
   const State initial = state;
   const SampledRun run = integrate_sampled_periodic(dynamics, state, t0, options.sample_rate_hz, count, options, tiling, recorder);

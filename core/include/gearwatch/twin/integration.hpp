@@ -84,9 +84,17 @@ struct PeriodicTiling {
   /// watch(state, t): every sample time of the search and the template, in order, also past the
   /// record's end (the check's measure over a period is taken from these).
   std::function<void(const State&, double)> watch;
-  /// agrees(anchor state, state at b, b): the periodicity check between the first boundary of a run
-  /// of agreeing ones and a later one.
-  std::function<bool(const State&, const State&, double)> agrees;
+  /// agrees(anchor state, anchor's time, state at b, b): the periodicity check between the first
+  /// boundary of a run of agreeing ones and a later one.
+  std::function<bool(const State&, double, const State&, double)> agrees;
+  /// correct(x, template time, t): the template's state at its own time made the state at t, the
+  /// sample time it stands for (a transient still decaying at the template, carried on); empty:
+  /// the template's state as it is.
+  std::function<void(State&, double, double)> correct;
+  /// retime(template time, t): the template time whose mesh phase is the one the sample at t has
+  /// (a slow transient turns the pinion a little further or less far than the template had); empty:
+  /// the template time as it is. Taken modulo the period into the template.
+  std::function<double(double, double)> retime;
   /// ready(): the check can still agree once the record's own samples are over (false: the search
   /// stops at the record's end).
   std::function<bool()> ready;
@@ -110,7 +118,8 @@ struct SampledRun {
 /// be (PeriodicTiling::search_s). Once `agreeing_periods` boundaries in a row agree with the first
 /// of them, the next period [b, b + T] is integrated as the template and every sample i of the
 /// record, from the first, is read off its dense output at t_i − kT with the k that puts it in
-/// [b, b + T) (the state repeats with T), observer(x, t_i, i, false): the record holds no
+/// [b, b + T) (the state repeats with T; with PeriodicTiling::retime and ::correct, at the time of
+/// the same mesh phase and with a slow transient's decay added), observer(x, t_i, i, false): the record holds no
 /// start-up transient and its content does not depend on its length. A search that never agrees
 /// leaves the full integration (sample for sample when the search stays inside the record: the
 /// same steps). The calc_state calls the checks add do not change the steps (dense output is
@@ -158,8 +167,7 @@ class PeriodicSampler {
   using Stepper = decltype(boost::numeric::odeint::make_dense_output(
       1.0, 1.0, boost::numeric::odeint::runge_kutta_dopri5<State>()));
   struct Repeat {
-    std::size_t next, end;  // the samples [next, end) read off the template shifted by `shift`
-    double shift;
+    std::size_t next, end;  // the samples [next, end) read off the template at template_time_
   };
 
   double time_of(std::size_t i) const { return t0_ + static_cast<double>(i) / rate_; }
@@ -179,6 +187,7 @@ class PeriodicSampler {
     if (tiling_.watch) tiling_.watch(state, t0_);
     observer_(state, t0_, std::size_t{0}, true);
     boundary_state_ = state;
+    boundary_time_ = t0_;
   }
 
   // One dopri5 step; while the search ends with the record, the last one is shortened to end on
@@ -221,11 +230,12 @@ class PeriodicSampler {
     while (!templating_ && leq(t0_ + static_cast<double>(boundary_) * period_, now, dt)) {
       const double b = t0_ + static_cast<double>(boundary_) * period_;
       stepper_.calc_state(b, x_);
-      if (tiling_.agrees && tiling_.agrees(boundary_state_, x_, b)) {
+      if (tiling_.agrees && tiling_.agrees(boundary_state_, boundary_time_, x_, b)) {
         ++agreeing_;
       } else {
         agreeing_ = 0;
         boundary_state_ = x_;
+        boundary_time_ = b;
       }
       ++boundary_;
       // The template must start inside this step (its dense output is read from here on).
@@ -250,20 +260,33 @@ class PeriodicSampler {
     std::size_t first = 0;
     if (tiling_.keep_transient)
       while (first < count_ && repeat_of(time_of(first), start) < 0) ++first;
+    template_time_.assign(count_, 0.0);
+    for (std::size_t i = first; i < count_; ++i) {
+      const double t = time_of(i);
+      const long long k = repeat_of(t, start);
+      double at = t - static_cast<double>(k) * period_;
+      if (k != 0 && tiling_.retime) {
+        at = tiling_.retime(at, t);
+        while (at < start) at += period_;
+        while (at >= start + period_) at -= period_;
+      }
+      template_time_[i] = at;
+    }
+    // One cursor per run of samples whose template times increase.
     for (std::size_t i = first; i < count_;) {
-      const long long k = repeat_of(time_of(i), start);
       std::size_t end = i + 1;
-      while (end < count_ && repeat_of(time_of(end), start) == k) ++end;
-      repeats_.push_back({i, end, static_cast<double>(k) * period_});
+      while (end < count_ && template_time_[end] > template_time_[end - 1]) ++end;
+      repeats_.push_back({i, end});
       i = end;
     }
   }
 
   void emit_template(double now, double dt) {
     for (Repeat& r : repeats_)
-      for (; r.next < r.end && leq(time_of(r.next) - r.shift, now, dt); ++r.next) {
-        const double t = time_of(r.next);
-        stepper_.calc_state(t - r.shift, x_);
+      for (; r.next < r.end && leq(template_time_[r.next], now, dt); ++r.next) {
+        const double t = time_of(r.next), at = template_time_[r.next];
+        stepper_.calc_state(at, x_);
+        if (tiling_.correct && at != t) tiling_.correct(x_, at, t);
         detail::check_sample(dynamics_.matrices().mesh, options_, x_, t);
         observer_(static_cast<const State&>(x_), t, r.next, false);
       }
@@ -273,7 +296,7 @@ class PeriodicSampler {
   // when the template's end agrees with the anchor.
   bool template_closes() {
     stepper_.calc_state(template_start_ + period_, x_);
-    if (!(tiling_.agrees && tiling_.agrees(boundary_state_, x_, template_start_ + period_))) return false;
+    if (!(tiling_.agrees && tiling_.agrees(boundary_state_, boundary_time_, x_, template_start_ + period_))) return false;
     run_.tiled = true;
     run_.template_start_s = template_start_;
     return true;
@@ -286,6 +309,7 @@ class PeriodicSampler {
     discarded_ = true;
     agreeing_ = 0;
     boundary_state_ = x_;
+    boundary_time_ = template_start_ + period_;
     boundary_ = static_cast<std::size_t>(std::llround((template_start_ + period_ - t0_) / period_)) + 1;
   }
 
@@ -299,6 +323,7 @@ class PeriodicSampler {
   Stepper stepper_;
   SampledRun run_;
   State x_{}, boundary_state_{};
+  double boundary_time_ = 0;       // the anchor's time
   double search_end_ = 0;          // the search stops here (the record's last sample or later)
   std::size_t next_ = 1;           // the next sample time in order (past count_ after the record)
   int steps_since_output_ = 0;
@@ -308,6 +333,7 @@ class PeriodicSampler {
   bool discarded_ = false;
   double template_start_ = 0;
   std::vector<Repeat> repeats_;
+  std::vector<double> template_time_;  // each tiled sample's time in the template
 };
 
 template <class Observer>

@@ -1,0 +1,80 @@
+#include "gearwatch/twin/slow_modes.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "gearwatch/twin/errors.hpp"
+#include "gearwatch/twin/modal_analysis.hpp"
+
+namespace gearwatch::twin {
+
+SlowModes::SlowModes(const GearboxMatrices& m, double below_hz) {
+  if (!(below_hz > 0)) return;
+  Eigen::VectorXd frequencies;
+  Eigen::MatrixXd shapes;
+  solve_modes(m.mass, m.linearised_stiffness(), frequencies, shapes);
+  const double rigid_below = 1e-3 * frequencies.maxCoeff();  // the free rotation solves to ~0 Hz
+  std::vector<Eigen::Index> elastic;
+  for (Eigen::Index i = 0; i < frequencies.size(); ++i)
+    if (frequencies[i] > rigid_below) elastic.push_back(i);
+  const auto n = static_cast<Eigen::Index>(elastic.size());
+  Eigen::MatrixXd phi(kDofCount, n);  // mass-normalised elastic shapes
+  for (Eigen::Index j = 0; j < n; ++j) phi.col(j) = shapes.col(elastic[static_cast<std::size_t>(j)]);
+  const Matrix21 damping = m.damping + m.mesh_damping_time_constant * m.mean_mesh_stiffness * m.mesh * m.mesh.transpose();
+  // The elastic modal coordinates' first-order system: the rigid rotation left out (no stiffness,
+  // no damping: a double zero eigenvalue would make the eigenvectors singular).
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+  a.topRightCorner(n, n).setIdentity();
+  a.bottomLeftCorner(n, n) = -(phi.transpose() * m.linearised_stiffness() * phi);
+  a.bottomRightCorner(n, n) = -(phi.transpose() * damping * phi);
+  Eigen::EigenSolver<Eigen::MatrixXd> eig(a);
+  if (eig.info() != Eigen::Success) throw TwinParameterError("slow modes: eigenproblem failed");
+  const Eigen::MatrixXcd v = eig.eigenvectors();
+  const Eigen::MatrixXcd v_inv = v.inverse();
+  const Eigen::MatrixXd to_modal = phi.transpose() * m.mass.asDiagonal();  // η = Φᵀ M q
+  for (Eigen::Index j = 0; j < 2 * n; ++j) {
+    const Complex lambda = eig.eigenvalues()[j];
+    if (!(lambda.imag() > 0) || lambda.imag() >= 2.0 * std::numbers::pi * below_hz) continue;
+    Mode mode;
+    mode.lambda = lambda;
+    const Eigen::VectorXcd row = v_inv.row(j).transpose();
+    mode.left.head(kDofCount) = to_modal.transpose() * row.head(n);
+    mode.left.tail(kDofCount) = to_modal.transpose() * row.tail(n);
+    mode.right.head(kDofCount) = phi * v.col(j).head(n);
+    mode.right.tail(kDofCount) = phi * v.col(j).tail(n);
+    modes_.push_back(mode);
+  }
+}
+
+SlowModes::Amplitudes SlowModes::project(const State& x) const {
+  const Eigen::Map<const Eigen::Matrix<double, 2 * kDofCount, 1>> d(x.data());
+  Amplitudes c(modes_.size());
+  for (std::size_t j = 0; j < modes_.size(); ++j) c[j] = modes_[j].left.cwiseProduct(d.cast<Complex>()).sum();
+  return c;
+}
+
+SlowModes::Amplitudes SlowModes::amplitudes(const State& anchor, const State& later, double period_s) const {
+  State d;
+  for (std::size_t i = 0; i < d.size(); ++i) d[i] = later[i] - anchor[i];
+  Amplitudes c = project(d);
+  for (std::size_t j = 0; j < modes_.size(); ++j) {
+    const Complex gain = std::exp(modes_[j].lambda * period_s) - 1.0;
+    c[j] = std::abs(gain) > 1e-2 ? c[j] / gain : Complex{};
+  }
+  return c;
+}
+
+void SlowModes::advance(State& x, const Amplitudes& c, double from_s, double to_s) const {
+  for (std::size_t j = 0; j < modes_.size(); ++j) {
+    const Complex w = c[j] * (std::exp(modes_[j].lambda * to_s) - std::exp(modes_[j].lambda * from_s));
+    for (int i = 0; i < 2 * kDofCount; ++i) x[static_cast<std::size_t>(i)] += 2.0 * (modes_[j].right[i] * w).real();
+  }
+}
+
+double SlowModes::coordinate(const Amplitudes& c, int index, double s) const {
+  double sum = 0;
+  for (std::size_t j = 0; j < modes_.size(); ++j) sum += 2.0 * (modes_[j].right[index] * c[j] * std::exp(modes_[j].lambda * s)).real();
+  return sum;
+}
+
+}  // namespace gearwatch::twin
