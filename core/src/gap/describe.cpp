@@ -203,12 +203,12 @@ std::complex<double> modulated_line(int k, double x, std::complex<double> a, std
 
 /// The predicted powers of a record with modulation `p` on the cells of `kind` (and the carriers,
 /// input lines) it changes. With the phases, every line of each harmonic's modulated spectrum: the
-/// carrier the twin's times |c_0|² (a PM of index x leaves it J0(x)², which for the mesh's higher
-/// harmonics is most of its gap), the lines k ≠ 0 the unmodulated carrier C·c_k plus the twin's own
-/// line there, out to where J_k(x) is negligible and short of halfway to the next harmonic. C has
-/// the twin's carrier's size and the measured carrier's phase over c_0 (the record's own zero
-/// angle). Lines several harmonics reach hold the sum. Without phases, the first sidebands from the
-/// one index (m²/4 of the carrier each).
+/// unmodulated carrier C times c_k, out to where J_k(x) is negligible (|k| > x + 4), plus the twin's
+/// own line there (the carrier thus the twin's times |c_0|²: a PM of index x leaves it J0(x)², which
+/// for the mesh's higher harmonics is most of its gap). C has the twin's carrier's size and the
+/// measured carrier's phase over c_0 (the record's own zero angle). A line several harmonics reach
+/// (a PM whose index passes half the teeth, as a re-timed record's high harmonics) holds their
+/// complex sum. Without phases, the first sidebands from the one index (m²/4 of the carrier each).
 std::vector<std::pair<std::size_t, double>> predicted_sideband_powers(const std::vector<ModulatedHarmonic>& hs,
                                                                       const ShaftSpectra& s, int z, const RecordModulation& p,
                                                                       const std::vector<FeatureDescriber::Cell>& cells,
@@ -225,19 +225,20 @@ std::vector<std::pair<std::size_t, double>> predicted_sideband_powers(const std:
       const Complex c0 = modulated_line(0, x, p.a, unit_psi);
       const Complex phase = std::abs(c0) > 0 ? h.carrier_m / c0 : h.carrier_m;
       const Complex carrier = std::abs(phase) > 0 ? std::sqrt(h.twin_carrier_power) * phase / std::abs(phase) : Complex{};
-      const int reach = std::min((z - 1) / 2, static_cast<int>(std::ceil(x)) + 4);
+      const int reach = static_cast<int>(std::ceil(x)) + 4;
+      const bool on_shaft = z == zp;  // the carrier is one of this shaft's lines (input shaft)
       for (int k = -reach; k <= reach; ++k) {
-        if (k == 0) continue;
+        if (k == 0 && !on_shaft) continue;
         const long at = static_cast<long>(h.n) * z + k - 1;
         if (at < 0 || at >= static_cast<long>(s.lines_m.size())) continue;
         const auto i = static_cast<std::size_t>(at);
         modulated[i] += carrier * modulated_line(k, x, p.a, unit_psi);
         if (std::abs(k) < nearest[i]) {  // the twin's own line, once, in the nearest harmonic's phase
           nearest[i] = std::abs(k);
-          own[i] = std::abs(h.twin_carrier) > 0 && i < s.ct.size() ? s.ct[i] / h.twin_carrier * carrier : Complex{};
+          own[i] = k != 0 && std::abs(h.twin_carrier) > 0 && i < s.ct.size() ? s.ct[i] / h.twin_carrier * carrier : Complex{};
         }
       }
-      carrier_power.push_back(h.twin_carrier_power * std::norm(c0));
+      if (!on_shaft) carrier_power.push_back(h.twin_carrier_power * std::norm(c0));
     }
     for (std::size_t i = 0; i < power.size(); ++i)
       if (nearest[i] != std::numeric_limits<int>::max()) power[i] = std::norm(modulated[i] + own[i]);
