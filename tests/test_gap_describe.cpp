@@ -726,4 +726,131 @@ TEST_CASE("gap describe: supply tones 1 to 30 times stronger are read at their f
   }
 }
 
+
+// The generator's phase modulation re-times the whole record (tests/capture_gen/gap_effects.py): the
+// vibration is read at the angle θ + β/(2π·z1)·sin(2π·θ + ψ) of the input shaft, so every input line
+// k (complex C_k) spreads to orders k + j as C_k·J_j(k·β/z1)·e^{ijψ}: mesh harmonic n at index n·β,
+// with its carrier's J0(nβ) loss and sidebands beyond the first. Made here in closed form on the
+// line set of twin_pair, against the same line set without it.
+std::vector<Pair> retimed_pm_pairs(double beta, double psi, unsigned seed) {
+  const double fs = 20000;
+  std::mt19937_64 rng(seed);
+  std::vector<Pair> pairs;
+  for (double speed : kSpeeds) {
+    Pair p = twin_pair(fs, speed);
+    const long size = static_cast<long>(p.twin_input.size());
+    std::vector<Complex> lines(p.twin_input.size());
+    for (long k = 1; k <= size; ++k) {
+      const double x = static_cast<double>(k) * beta / kZ1;
+      for (long j = -30; j <= 30; ++j) {
+        const long at = k + j;
+        if (at < 1 || at > size) continue;
+        const double jj = (j < 0 && (-j) % 2 == 1 ? -1.0 : 1.0) * std::cyl_bessel_j(static_cast<double>(std::abs(j)), x);
+        lines[static_cast<std::size_t>(at - 1)] += p.twin_input[static_cast<std::size_t>(k - 1)] * jj * std::polar(1.0, static_cast<double>(j) * psi);
+      }
+    }
+    p.measured_input = lines;
+    // The gear shaft's lines under the comparison's floor, as a twin without errors holds them:
+    // the re-timing moves what it takes off them between the lines, unseen.
+    for (auto* v : {&p.twin_output, &p.measured_output})
+      for (auto& c : *v) c = std::polar(std::sqrt(1e-9), std::arg(c));
+    for (std::size_t m = 0; m < p.twin.output_lines.size(); ++m) p.twin.output_lines[m] = std::norm(p.twin_output[m]);
+    finish_measurement(p, rng);
+    pairs.push_back(std::move(p));
+  }
+  return pairs;
+}
+
+TEST_CASE("gap describe: a pure PM re-timing every line is a PM with its index, sidebands beyond the first and the carrier's loss predicted",
+          "[gap][gap_describe]") {
+  for (const double beta : {0.2, 0.5, 0.8}) {
+    const auto pairs = retimed_pm_pairs(beta, 1.1, 360);
+    const FeatureDescriber describer(described(pairs), GearPairSpec{});
+    // Each mesh harmonic's feature where the finder puts it: the lines around it at or beyond the
+    // practical minimum (3 dB) in the first record.
+    for (int n = 1; n <= 2; ++n) {
+      INFO("beta " << beta << ", mesh harmonic " << n);
+      const auto& p = pairs.front();
+      int reach = 1;
+      for (int k = 1; k < kZ1 / 2; ++k)
+        for (int sign : {-1, 1}) {
+          const auto i = static_cast<std::size_t>(n * kZ1 + sign * k - 1);
+          const double fl = floor_of(p.twin);
+          const double g = 10 * std::log10((p.measured.input_lines[i] + fl) / (p.twin.input_lines[i] + fl));
+          if (std::abs(g) >= 3) reach = std::max(reach, k);
+        }
+      const double lo = n * kZ1 - reach - 0.5, hi = n * kZ1 + reach + 0.5;
+      const auto d = describer.describe(feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, lo, hi, lo * kSpeeds.front(), hi * kSpeeds.back()));
+      INFO("feature over input orders " << lo << "-" << hi << ": " << text_of(d));
+      REQUIRE(d.kind == DescriptionKind::modulation);
+      CHECK(d.shaft == FeatureShaft::input);
+      // Stated before the run: β within 10 % (the bench's rule), AM under a tenth of β. The twin's
+      // own lines beside the carriers (1e-3 of the first carrier) and the noise's 2.3 % per
+      // sideband stay far under that.
+      CHECK(d.parameter("pm_index_rad") == Approx(beta).epsilon(0.10));
+      CHECK(d.parameter("am_index") < 0.1 * beta);
+    }
+  }
+}
+
+/// Records as the generator writes them: the twin's record rounded to `lsb` once (the twin's
+/// capture), then with `extra(t)` added rounded again; the twin's own record stays float, as the
+/// diagnosis's twin counterpart is.
+std::vector<Pair> rounded_pairs(double fs, double lsb, const std::function<std::vector<double>(double speed, std::size_t n)>& extra) {
+  std::vector<Pair> out;
+  for (double speed : kSpeeds) {
+    const auto tones = twin_tones();
+    const Record twin_record = tone_record(fs, speed, 16, tones);
+    Record measured = twin_record;
+    auto& x = measured.channels.front();
+    const auto add = extra(speed, x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const double once = std::round(static_cast<double>(x[i]) / lsb) * lsb;
+      x[i] = static_cast<float>(std::round((once + add[i]) / lsb) * lsb);
+    }
+    const RecordSpectra twin(twin_record, 0, GearPairSpec{});
+    const RecordSpectra meas(measured, 0, GearPairSpec{});
+    out.push_back({meas.summary(), twin.summary(), meas.input_line_means(), meas.output_line_means(), twin.input_line_means(),
+                   twin.output_line_means()});
+  }
+  return out;
+}
+
+TEST_CASE("gap describe: supply tones as the generator draws them, on a rounded capture, are supply pick-up at 50 Hz",
+          "[gap][gap_describe]") {
+  // 50, 100, 150 Hz of amplitude A·d^(h−1), A the generator's level under the twin's RMS (its middle,
+  // −22.5 dB, and its top, −15 dB), d = 0.5, on records rounded twice to 0.01 m/s² as the captures.
+  const double fs = 10240, lsb = 0.01;
+  double rms2 = 0;
+  for (const auto& t : twin_tones()) rms2 += t.amplitude * t.amplitude / 2;
+  for (const double level_db : {-22.5, -15.0}) {
+    const double a = std::sqrt(2 * rms2) * std::pow(10.0, level_db / 20);
+    const std::vector<Tone> tones{{50, a, true}, {100, a / 2, true}, {150, a / 4, true}};
+    const auto pairs = rounded_pairs(fs, lsb, [&](double, std::size_t n) {
+      std::vector<double> v(n);
+      for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t h = 0; h < tones.size(); ++h)
+          v[i] += tones[h].amplitude * std::cos(2 * std::numbers::pi * tones[h].at * static_cast<double>(i) / fs + 0.7 * static_cast<double>(h + 1));
+      return v;
+    });
+    const FeatureDescriber describer(described(pairs), GearPairSpec{});
+    const double lo = 42, hi = 158;
+    std::vector<GapFeature> features{feature_at(FeatureMovement::fixed_in_hz, FeatureShaft::input, lo / kSpeeds.back(), hi / kSpeeds.front(), lo, hi)};
+    describer.describe_all(features);
+    const auto& d = features[0].description;
+    INFO("level " << level_db << " dB re RMS, 50 Hz at " << a << " m/s²: " << text_of(d));
+    // Stated before the run: supply at 50 Hz, every tone within 0.5 Hz (half the coarsest record's
+    // resolution, 16 revolutions at 16 Hz) and 10 % in amplitude, harmonics 1, 2, 3.
+    REQUIRE(d.kind == DescriptionKind::fixed_tone);
+    CHECK(d.parameter("supply_hz") == 50);
+    REQUIRE(d.parameter("tones") == 3);
+    for (std::size_t i = 0; i < tones.size(); ++i) {
+      const std::string name = "tone_" + std::to_string(i + 1);
+      CHECK(d.parameter(name + "_hz") == Approx(tones[i].at).margin(0.5));
+      CHECK(d.parameter(name + "_amplitude_m_s2") == Approx(tones[i].amplitude).epsilon(0.10));
+      CHECK(d.parameter(name + "_harmonic") == static_cast<double>(i + 1));
+    }
+  }
+}
+
 }  // namespace test_gap_describe

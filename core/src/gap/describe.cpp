@@ -91,6 +91,8 @@ struct ModulatedHarmonic {
   int n;
   std::complex<double> carrier_m, u_m, l_m, u_t, l_t;
   double carrier_power, excess;  ///< measured carrier power; the sidebands' excess power over the twin's
+  double twin_carrier_power = 0;
+  std::complex<double> twin_carrier;  ///< the twin's carrier (complex, where phases are known)
 };
 
 /// The modulation read off the sidebands' phases, the twin's own subtracted: per harmonic
@@ -150,11 +152,12 @@ std::vector<ModulatedHarmonic> modulated_harmonics(const DescribedRecord& src, c
       break;
     const double pc = m.input_lines[carrier];
     if (!(pc > 100 * src.floor)) continue;
-    ModulatedHarmonic h{n, {}, {}, {}, {}, {}, pc, s.lines_m[upper] + s.lines_m[lower] - s.lines_t[upper] - s.lines_t[lower]};
+    ModulatedHarmonic h{n, {}, {}, {}, {}, {}, pc, s.lines_m[upper] + s.lines_m[lower] - s.lines_t[upper] - s.lines_t[lower],
+                        t.input_lines[carrier], {}};
     if (s.with_phase) {
       const Complex cmc = src.measured_input[carrier], ctc = src.twin_input[carrier];
       if (std::abs(cmc) == 0 || std::abs(ctc) == 0) continue;
-      h.carrier_m = cmc, h.u_m = s.cm[upper] / cmc, h.l_m = s.cm[lower] / cmc, h.u_t = s.ct[upper] / ctc, h.l_t = s.ct[lower] / ctc;
+      h.carrier_m = cmc, h.twin_carrier = ctc, h.u_m = s.cm[upper] / cmc, h.l_m = s.cm[lower] / cmc, h.u_t = s.ct[upper] / ctc, h.l_t = s.ct[lower] / ctc;
     }
     hs.push_back(h);
   }
@@ -186,30 +189,73 @@ bool read_record_modulation(const std::vector<ModulatedHarmonic>& hs, bool with_
   return true;
 }
 
-/// The predicted sideband powers of a record with modulation `p`, on the cells of `kind` they fall in.
+/// Line k of a mesh harmonic modulated in amplitude by a = m·e^{iφ} and in phase by x·e^{iψ}
+/// (x = n·β on harmonic n), over its unmodulated carrier: (1 + m·cos(θ + φ))·e^{i·x·sin(θ + ψ)} =
+/// Σ_k c_k·e^{ikθ}, c_k = J_k(x)·e^{ikψ} + a/2·J_{k−1}(x)·e^{i(k−1)ψ} + conj(a)/2·J_{k+1}(x)·e^{i(k+1)ψ}
+/// (Jacobi–Anger, J_{−k} = (−1)^k·J_k).
+std::complex<double> modulated_line(int k, double x, std::complex<double> a, std::complex<double> unit_psi) {
+  auto term = [&](int j) {
+    const double jj = (j < 0 && (-j) % 2 == 1 ? -1.0 : 1.0) * std::cyl_bessel_j(static_cast<double>(std::abs(j)), x);
+    return jj * std::pow(unit_psi, j);
+  };
+  return term(k) + a / 2.0 * term(k - 1) + std::conj(a) / 2.0 * term(k + 1);
+}
+
+/// The predicted powers of a record with modulation `p` on the cells of `kind` (and the carriers,
+/// input lines) it changes. With the phases, every line of each harmonic's modulated spectrum: the
+/// unmodulated carrier C times c_k, out to where J_k(x) is negligible (|k| > x + 4), plus the twin's
+/// own line there (the carrier thus the twin's times |c_0|²: a PM of index x leaves it J0(x)², which
+/// for the mesh's higher harmonics is most of its gap). C has the twin's carrier's size and the
+/// measured carrier's phase over c_0 (the record's own zero angle). A line several harmonics reach
+/// (a PM whose index passes half the teeth, as a re-timed record's high harmonics) holds their
+/// complex sum. Without phases, the first sidebands from the one index (m²/4 of the carrier each).
 std::vector<std::pair<std::size_t, double>> predicted_sideband_powers(const std::vector<ModulatedHarmonic>& hs,
                                                                       const ShaftSpectra& s, int z, const RecordModulation& p,
                                                                       const std::vector<FeatureDescriber::Cell>& cells,
-                                                                      FeatureDescriber::CellKind kind) {
+                                                                      FeatureDescriber::CellKind kind, int zp) {
   using Complex = std::complex<double>;
-  std::vector<std::pair<std::size_t, double>> out;
-  for (const auto& h : hs) {
-    const std::size_t upper = static_cast<std::size_t>(h.n * z), lower = upper - 2;
-    double pu, pl;
-    if (s.with_phase) {
-      // PM of index n·β on harmonic n: 2·J1/J0 of the (measured, J0-scaled) carrier, held under
-      // J0's first zero, where the first sidebands alone no longer describe it.
-      const double x = std::min(static_cast<double>(h.n) * std::abs(p.b), kMaxHarmonicPmIndex);
-      const Complex pm = std::abs(p.b) > 0 ? pm_sideband_ratio(x) * p.b / std::abs(p.b) : Complex{};
-      pu = std::norm(h.carrier_m * (h.u_t + (p.a + pm) / 2.0));
-      pl = std::norm(h.carrier_m * (h.l_t + std::conj((p.a - pm) / 2.0)));
-    } else {
-      pu = s.lines_t[upper] + p.am * p.am / 4 * h.carrier_power;
-      pl = s.lines_t[lower] + p.am * p.am / 4 * h.carrier_power;
+  std::vector<double> power(s.lines_m.size(), kNaN), carrier_power;
+  if (s.with_phase) {
+    std::vector<Complex> modulated(s.lines_m.size()), own(s.lines_m.size());
+    std::vector<int> nearest(s.lines_m.size(), std::numeric_limits<int>::max());
+    const double beta = std::abs(p.b);
+    const Complex unit_psi = beta > 0 ? p.b / beta : Complex{1.0, 0.0};
+    for (const auto& h : hs) {
+      const double x = static_cast<double>(h.n) * beta;
+      const Complex c0 = modulated_line(0, x, p.a, unit_psi);
+      const Complex phase = std::abs(c0) > 0 ? h.carrier_m / c0 : h.carrier_m;
+      const Complex carrier = std::abs(phase) > 0 ? std::sqrt(h.twin_carrier_power) * phase / std::abs(phase) : Complex{};
+      const int reach = static_cast<int>(std::ceil(x)) + 4;
+      const bool on_shaft = z == zp;  // the carrier is one of this shaft's lines (input shaft)
+      for (int k = -reach; k <= reach; ++k) {
+        if (k == 0 && !on_shaft) continue;
+        const long at = static_cast<long>(h.n) * z + k - 1;
+        if (at < 0 || at >= static_cast<long>(s.lines_m.size())) continue;
+        const auto i = static_cast<std::size_t>(at);
+        modulated[i] += carrier * modulated_line(k, x, p.a, unit_psi);
+        if (std::abs(k) < nearest[i]) {  // the twin's own line, once, in the nearest harmonic's phase
+          nearest[i] = std::abs(k);
+          own[i] = k != 0 && std::abs(h.twin_carrier) > 0 && i < s.ct.size() ? s.ct[i] / h.twin_carrier * carrier : Complex{};
+        }
+      }
+      if (!on_shaft) carrier_power.push_back(h.twin_carrier_power * std::norm(c0));
     }
-    for (std::size_t i = 0; i < cells.size(); ++i)
-      if (cells[i].kind == kind && (cells[i].index == upper || cells[i].index == lower))
-        out.emplace_back(i, cells[i].index == upper ? pu : pl);
+    for (std::size_t i = 0; i < power.size(); ++i)
+      if (nearest[i] != std::numeric_limits<int>::max()) power[i] = std::norm(modulated[i] + own[i]);
+  } else {
+    for (const auto& h : hs) {
+      const std::size_t upper = static_cast<std::size_t>(h.n * z), lower = upper - 2;
+      power[upper] = s.lines_t[upper] + p.am * p.am / 4 * h.carrier_power;
+      power[lower] = s.lines_t[lower] + p.am * p.am / 4 * h.carrier_power;
+    }
+  }
+  std::vector<std::pair<std::size_t, double>> out;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    if (cells[i].kind == kind && cells[i].index < power.size() && std::isfinite(power[cells[i].index]))
+      out.emplace_back(i, power[cells[i].index]);
+    if (cells[i].kind == FeatureDescriber::CellKind::input_line && !carrier_power.empty())
+      for (std::size_t j = 0; j < hs.size(); ++j)
+        if (cells[i].index == static_cast<std::size_t>(hs[j].n * zp) - 1) out.emplace_back(i, carrier_power[j]);
   }
   return out;
 }
@@ -425,7 +471,7 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
     const std::vector<ModulatedHarmonic> hs = modulated_harmonics(src, s, zp, z);
     RecordModulation& p = per[r];
     if (!read_record_modulation(hs, s.with_phase, p)) continue;
-    p.sideband_power = predicted_sideband_powers(hs, s, z, p, records_[r].cells, kind);
+    p.sideband_power = predicted_sideband_powers(hs, s, z, p, records_[r].cells, kind, zp);
     am_sum += p.weight * p.am, pm_sum += p.weight * (s.with_phase ? p.pm : 0.0), weight_sum += p.weight;
   }
   Fit fit;

@@ -10,8 +10,10 @@
 //    the lines' phases, per mesh harmonic n relative to its carrier, u + conj(l) = m·e^{iφ} (AM) and
 //    u − conj(l) = n·β·e^{iψ} (PM of the mesh, n·β on harmonic n), the twin's own subtracted; m and β
 //    are the carrier-power-weighted means over the harmonics (per record, then over records: a
-//    record's zero angle of the gear is its own). Without phases: one index from the sidebands'
-//    excess power (m²/4 of the carrier each), AM or PM undecided;
+//    record's zero angle of the gear is its own). Predicted with phases: every line of each
+//    harmonic's modulated spectrum (Jacobi–Anger, the carrier's J0 loss and PM's lines beyond the
+//    first). Without phases: one index from the sidebands' excess power (m²/4 of the carrier
+//    each), AM or PM undecided;
 //  - ghost line at a non-integer order / tone fixed in Hz: a non-synchronous tone as RecordSpectra
 //    sees it (add_non_synchronous_tone), at one order (ghost) or one frequency (tone) in every
 //    record, one amplitude; a ghost's order then refined from the lines beside it (the rectangular
