@@ -360,4 +360,74 @@ GapFeature FeatureFinder::feature_of(const std::vector<Cluster>& clusters, const
   return f;
 }
 
+namespace {
+/// The feature's window in a record at `speed_hz`, in input orders.
+std::pair<double, double> feature_window(const GapFeature& f, double speed_hz, const GearPairSpec& gears) {
+  if (f.movement == FeatureMovement::fixed_in_hz) return {f.hz_low / speed_hz, f.hz_high / speed_hz};
+  const double to_input = f.shaft == FeatureShaft::output ? static_cast<double>(gears.pinion_teeth) / gears.gear_teeth : 1.0;
+  return {f.order_low * to_input, f.order_high * to_input};
+}
+}  // namespace
+
+FeatureGapChange feature_gap_change(const GapFeature& f, const std::vector<FeatureGapRecord>& records,
+                                    const GearPairSpec& gears, const FeatureSettings& s) {
+  const double ratio = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;
+  double before = 0, after = 0;
+  std::size_t n = 0;
+  auto add = [&](double g_twin, double g_model) {
+    if (!(std::abs(g_twin) >= s.min_feature_db) || !std::isfinite(g_model)) return;
+    before += g_twin * g_twin, after += g_model * g_model, ++n;
+  };
+  std::vector<std::size_t> seen;
+  for (const auto& sighting : f.seen_in)
+    if (sighting.held_out && sighting.record < records.size() &&
+        std::find(seen.begin(), seen.end(), sighting.record) == seen.end())
+      seen.push_back(sighting.record);
+  for (std::size_t r : seen) {
+    const auto& rec = records[r];
+    if (!rec.measured || !rec.twin || !rec.model || !(rec.measured->speed_hz > 0)) continue;
+    const auto& m = *rec.measured;
+    const auto& t = *rec.twin;
+    const auto& q = *rec.model;
+    if (f.description.kind == DescriptionKind::floor_change) {
+      const FloorComparison alone = compare_floors(m, t, s.floor), with = compare_floors(m, q, s.floor);
+      for (std::size_t b = 0; b < alone.bands.size() && b < with.bands.size(); ++b)
+        if (alone.bands[b].hz_low < f.hz_high && alone.bands[b].hz_high > f.hz_low) add(alone.gap_db(b), with.gap_db(b));
+      continue;
+    }
+    const auto [lo, hi] = feature_window(f, m.speed_hz, gears);
+    auto lines = [&](const std::vector<double>& a, const std::vector<double>& b, const std::vector<double>& c, double step,
+                     bool skip_mesh) {
+      for (std::size_t k = 1; k <= std::min({a.size(), b.size(), c.size()}); ++k) {
+        if (skip_mesh && output_line_is_mesh(static_cast<int>(k), gears.gear_teeth)) continue;
+        const double o = static_cast<double>(k) * step;
+        if (o + 0.5 * step <= lo || o - 0.5 * step >= hi) continue;
+        add(ratio_db(a[k - 1], b[k - 1], rec.floor), ratio_db(a[k - 1], c[k - 1], rec.floor));
+      }
+    };
+    lines(m.input_lines, t.input_lines, q.input_lines, 1.0, false);
+    lines(m.output_lines, t.output_lines, q.output_lines, ratio, true);
+    for (std::size_t k = 1; k <= std::min({m.broadband.size(), t.broadband.size(), q.broadband.size()}); ++k) {
+      const double o = static_cast<double>(k);
+      if (o + 1 <= lo || o >= hi) continue;
+      add(ratio_db(m.broadband[k - 1], t.broadband[k - 1], rec.floor), ratio_db(m.broadband[k - 1], q.broadband[k - 1], rec.floor));
+    }
+  }
+  FeatureGapChange out;
+  out.cells = n;
+  if (n > 0) out.before_db = std::sqrt(before / static_cast<double>(n)), out.after_db = std::sqrt(after / static_cast<double>(n));
+  return out;
+}
+
+bool reduces_feature(const FeatureGapChange& c, const GapFeature& f, double share) noexcept {
+  const double half = 0.5 * (f.size_interval_db.high - f.size_interval_db.low);
+  const double drop = c.before_db - c.after_db;
+  return c.cells > 0 && drop > half && drop > share * c.before_db;
+}
+
+bool worsens_feature(const FeatureGapChange& c, const GapFeature& f) noexcept {
+  const double half = 0.5 * (f.size_interval_db.high - f.size_interval_db.low);
+  return c.cells > 0 && c.after_db - c.before_db > half;
+}
+
 }  // namespace gearwatch::gap
