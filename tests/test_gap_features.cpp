@@ -327,23 +327,16 @@ TEST_CASE("gap bounded fits: a run-out the form's range cannot reach is reported
   CHECK_FALSE(bottom[0].upper);
 }
 
-// Five mesh harmonics (19 teeth) of the measurement 50 dB over the twin's, three other lines equal.
-std::pair<std::vector<std::pair<double, double>>, std::vector<std::pair<double, double>>> mesh_harmonics_raised_50_db() {
-  const double gain = std::pow(10.0, 50.0 / 20);
+TEST_CASE("gap bounded fits: the diagnosis reports a candidate fitted at its bound with that bound", "[gap][gap_features]") {
+  // Every mesh harmonic of the measurement 50 dB above the twin's: misalignment's spectral form (one
+  // gain on all mesh harmonics, −40 to +40 dB, without a twin rerun) fits at +40 dB and says so.
+  const double fs = 10240, gain = std::pow(10.0, 50.0 / 20);
   std::vector<std::pair<double, double>> twin_lines, measured_lines;
   for (int n = 1; n <= 5; ++n) {
     twin_lines.push_back({19.0 * n, 1e-3 / n});
     measured_lines.push_back({19.0 * n, 1e-3 / n * gain});
   }
   for (double o : {3.0, 20.0, 5.0 * kRatio}) twin_lines.push_back({o, 0.05}), measured_lines.push_back({o, 0.05});
-  return {twin_lines, measured_lines};
-}
-
-TEST_CASE("gap bounded fits: the diagnosis reports a candidate fitted at its bound with that bound", "[gap][gap_features]") {
-  // Every mesh harmonic of the measurement 50 dB above the twin's: misalignment's spectral form (one
-  // gain on all mesh harmonics, −40 to +40 dB, without a twin rerun) fits at +40 dB and says so.
-  const double fs = 10240;
-  const auto [twin_lines, measured_lines] = mesh_harmonics_raised_50_db();
   std::vector<DiagnosisInput> training, held_out;
   for (double speed : {8.0, 12.0}) training.push_back({tone_record(fs, speed, 16, measured_lines), tone_record(fs, speed, 16, twin_lines)});
   for (double speed : {10.0, 14.0}) held_out.push_back({tone_record(fs, speed, 16, measured_lines), tone_record(fs, speed, 16, twin_lines)});
@@ -542,132 +535,6 @@ TEST_CASE("gap features: a floor change white noise cannot explain is not attrib
   f.description.kind = DescriptionKind::floor_change;
   f.description.parameters = {{"level_db", 5.0}, {"slope_db_per_decade", 0.0}};
   CHECK_FALSE(explaining_candidate(GapReport{}, f, GearPairSpec{}).has_value());
-}
-
-TEST_CASE("gap attribution by feature: a model that removes most of a feature's held-out gap reduces it and one that does not never does",
-          "[gap][gap_features]") {
-  // Two held-out records at 9 and 13 Hz, the third mesh harmonic (input order 57) 12 dB above the
-  // twin's in both: the feature's core is that line alone (every other cell 0 dB), so its gap
-  // against the twin is 12 dB, and against a model that lifts the line by x dB it is 12 − x.
-  const double fs = 20000;
-  const double share = FeatureSettings{}.attribution_share;  // most of it: more than half
-  REQUIRE(share == 0.5);
-  std::vector<SpectralSummary> measured, twin;
-  for (double speed : {9.0, 13.0}) {
-    twin.push_back(twin_spectra(fs, speed));
-    measured.push_back(twin.back());
-    measured.back().input_lines[56] *= std::pow(10.0, 1.2);
-  }
-  GapFeature f;
-  f.movement = FeatureMovement::fixed_in_orders;
-  f.order = 57, f.order_low = 56.5, f.order_high = 57.5;
-  f.size_db = 12, f.size_interval_db = {11.5, 12.5};  // half-width 0.5 dB
-  f.seen_in = {{true, 0, 9, 20, 57, 513, 12}, {true, 1, 13, 20, 57, 741, 12}};
-  auto change_with = [&](double lift_db, const GapFeature& feature) {
-    std::vector<SpectralSummary> models = twin;
-    for (auto& m : models) m.input_lines[56] *= std::pow(10.0, lift_db / 10);
-    std::vector<FeatureGapRecord> records;
-    for (std::size_t i = 0; i < twin.size(); ++i) records.push_back({&measured[i], &twin[i], &models[i], floor_of(twin[i])});
-    return feature_gap_change(feature, records, GearPairSpec{});
-  };
-  const auto full = change_with(12, f);
-  CHECK(full.cells == 2);
-  CHECK(full.before_db == Approx(10 * std::log10((std::pow(10.0, 1.2) * twin[0].input_lines[56] + floor_of(twin[0])) /
-                                                 (twin[0].input_lines[56] + floor_of(twin[0]))))
-                              .margin(0.01));
-  CHECK(full.after_db == Approx(0).margin(1e-9));
-  CHECK(reduces_feature(full, f, share));
-  CHECK_FALSE(worsens_feature(full, f));
-  // A candidate that does nothing there, or lifts the line by less than the feature's interval.
-  const auto none = change_with(0, f);
-  CHECK(none.after_db == Approx(none.before_db));
-  CHECK_FALSE(reduces_feature(none, f, share));
-  CHECK_FALSE(reduces_feature(change_with(0.4, f), f, share));
-  // Part of it: 5 of 12 dB is not most of it (a lift that takes a little off every line of a
-  // family does this), 7 of 12 dB is.
-  const auto part = change_with(5, f), most = change_with(7, f);
-  CHECK(part.before_db - part.after_db == Approx(5).margin(0.01));
-  CHECK_FALSE(reduces_feature(part, f, share));
-  CHECK(most.before_db - most.after_db == Approx(7).margin(0.01));
-  CHECK(reduces_feature(most, f, share));
-  // One that lowers the line: the gap grows; it is worse, never a reduction.
-  const auto lowered = change_with(-6, f);
-  CHECK(lowered.after_db == Approx(lowered.before_db + 6).margin(0.01));
-  CHECK(worsens_feature(lowered, f));
-  CHECK_FALSE(reduces_feature(lowered, f, share));
-  // Seen in training only: no held-out gap, nothing to reduce.
-  GapFeature training_only = f;
-  for (auto& s : training_only.seen_in) s.held_out = false;
-  const auto unseen = change_with(12, training_only);
-  CHECK(unseen.cells == 0);
-  CHECK(std::isnan(unseen.before_db));
-  CHECK_FALSE(reduces_feature(unseen, training_only, share));
-}
-
-TEST_CASE("gap attribution by feature: mesh harmonics 50 dB up are the chosen mesh-gain candidate's and records without an effect are silent",
-          "[gap][gap_features]") {
-  // The bounded-fit case above: every mesh harmonic of the measurement 50 dB over the twin's. The
-  // mesh-gain forms (tip_relief's per-harmonic gains, misalignment's one gain, which stops at its
-  // +40 dB bound) each remove at least 40 of the 50 dB of every harmonic's feature, held out; the
-  // feature goes to the chosen one. The same lines in both records: nothing found, nothing chosen.
-  const double fs = 10240;
-  const auto [twin_lines, measured_lines] = mesh_harmonics_raised_50_db();
-  DiagnosisSettings settings;
-  settings.bootstrap_resamples = 20;
-  settings.candidate_bootstrap_resamples = 10;
-  auto run = [&](const std::vector<std::pair<double, double>>& measured) {
-    std::vector<DiagnosisInput> training, held_out;
-    for (double speed : {8.0, 12.0}) training.push_back({tone_record(fs, speed, 16, measured), tone_record(fs, speed, 16, twin_lines)});
-    for (double speed : {10.0, 14.0}) held_out.push_back({tone_record(fs, speed, 16, measured), tone_record(fs, speed, 16, twin_lines)});
-    return diagnose(training, held_out, GearPairSpec{}, settings);
-  };
-  const auto report = run(measured_lines);
-  REQUIRE_FALSE(report.chosen.empty());
-  std::size_t attributed = 0;
-  for (const auto& f : report.features) {
-    if (!(f.movement == FeatureMovement::fixed_in_orders && std::abs(std::fmod(f.order + 0.5, 19.0) - 0.5) < 0.01)) continue;
-    INFO(describe(f));
-    REQUIRE(f.explained_by.has_value());
-    CHECK(std::find(report.chosen.begin(), report.chosen.end(), *f.explained_by) != report.chosen.end());
-    CHECK((*f.explained_by == CandidateEffect::tip_relief || *f.explained_by == CandidateEffect::misalignment));
-    ++attributed;
-  }
-  CHECK(attributed == 5);
-  const auto silent = run(twin_lines);
-  CHECK(silent.features.empty());
-  CHECK(silent.chosen.empty());
-}
-
-TEST_CASE("gap attribution by feature: tones the twin lacks between its lines, which no candidate's form makes, stay unattributed",
-          "[gap][gap_features]") {
-  // The measurement is the twin's lines plus two tones at input orders 47.3 and 85.3 (9.3 orders
-  // above mesh harmonics 2 and 4, as a fixed-step integrator's error, sampled at its step rate,
-  // puts tones at mesh harmonics plus the step rate's remainder; docs/gap.md, "The rig without
-  // effects"), in every record. No candidate's form puts power at a non-integer order alone: the
-  // noise floor and the tooth errors' residual lift every broadband bin, and a fit on the training
-  // records, whose other bins match the twin, lifts them little. The tones are features; none is
-  // attributed, and nothing is chosen.
-  const double fs = 10240;
-  const auto [twin_lines, raised] = mesh_harmonics_raised_50_db();
-  auto measured_lines = twin_lines;
-  for (double order : {47.3, 85.3}) measured_lines.push_back({order, 3e-4});
-  DiagnosisSettings settings;
-  settings.bootstrap_resamples = 20;
-  settings.candidate_bootstrap_resamples = 10;
-  std::vector<DiagnosisInput> training, held_out;
-  for (double speed : {8.0, 12.0}) training.push_back({tone_record(fs, speed, 16, measured_lines), tone_record(fs, speed, 16, twin_lines)});
-  for (double speed : {10.0, 14.0}) held_out.push_back({tone_record(fs, speed, 16, measured_lines), tone_record(fs, speed, 16, twin_lines)});
-  const auto report = diagnose(training, held_out, GearPairSpec{}, settings);
-  for (const auto& g : report.before) INFO(to_string(g.family) << " " << g.distance_db << " dB, significant " << g.significant);
-  std::size_t tones = 0;
-  for (const auto& f : report.features) {
-    INFO(describe(f) << "; " << statement(f));
-    CHECK_FALSE(f.explained_by.has_value());
-    for (double order : {47.3, 85.3})
-      if (f.movement != FeatureMovement::fixed_in_hz && f.order_low <= order && f.order_high >= order) ++tones;
-  }
-  CHECK(tones >= 2);
-  CHECK(report.chosen.empty());
 }
 
 TEST_CASE("gap features: white noise the twin lacks, over the whole band, is the capture's own floor: no floor feature",

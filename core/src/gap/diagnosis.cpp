@@ -426,9 +426,8 @@ class Diagnosis {
 
   /// Candidates that change the twin's dynamics: the twin re-run over their grid, when the caller
   /// can re-run it. Only when some family is significant: the reruns cost a twin simulation per
-  /// record and grid value, and without a significant family the greedy choice chooses nothing and
-  /// the choice by feature takes spectral forms only (the ranking then scores such a candidate by
-  /// its spectral form).
+  /// record and grid value, and without a significant family nothing is chosen (the ranking then
+  /// scores such a candidate by its spectral form).
   void build_reruns() {
     if (!settings_.attribute || !settings_.rerun_twin || !any_significant_) return;
     for (CandidateEffect c : kAllCandidateEffects) {
@@ -556,21 +555,10 @@ class Diagnosis {
     return fit;
   }
 
-  /// Where the largest features sit in Hz (their centres), for the resonance forms' starts: the
-  /// first kResonanceStarts (largest |size| first), each start costing a pass over the grid's other
-  /// cells.
-  std::vector<double> feature_hz() const {
-    constexpr std::size_t kResonanceStarts = 4;
-    std::vector<double> hz;
-    for (const auto& f : report_.features)
-      if (hz.size() < kResonanceStarts && f.description.kind != DescriptionKind::floor_change) hz.push_back(f.hz);
-    return hz;
-  }
-
   /// A spectral candidate alone: its form fitted to the training records.
   AloneFit fit_spectral_alone(CandidateEffect c, const CandidateForm& form, CandidateScore& score) {
     AloneFit fit;
-    fit.values = fit_candidate(c, {}, train_pairs_, gears_, feature_hz());
+    fit.values = fit_candidate(c, {}, train_pairs_, gears_);
     alone_[c] = fit.values;
     fit.held_out = assess(test_, {{c, fit.values}}, gears_, settings_.candidate_bootstrap_resamples, evaluator_, bootstrap_);
     const auto names = parameter_names(form, fit.values);
@@ -634,8 +622,8 @@ class Diagnosis {
   void attribute() {
     ic_current_ = ic_before_;
     current_gaps_ = report_.before;
-    if (!settings_.attribute) return;
-    for (int round = 0; any_significant_ && round < settings_.max_effects; ++round) {
+    if (!any_significant_ || !settings_.attribute) return;
+    for (int round = 0; round < settings_.max_effects; ++round) {
       auto best = best_addition(round);
       if (!best || best->ic > ic_current_ - settings_.accept_ic_drop || best->shrink < settings_.min_shrinkage ||
           best->worsens)
@@ -643,87 +631,6 @@ class Diagnosis {
       accept(std::move(*best));
       if (!any_significant(current_gaps_)) break;
     }
-    attribute_features();
-  }
-
-  /// The held-out records against the twin with candidate `c` alone, as fitted alone (a rerun
-  /// candidate's twin at its grid point).
-  std::vector<SpectralSummary> alone_models(CandidateEffect c) {
-    if (const auto r = reruns_.find(c); r != reruns_.end()) return models_of(rerun_test(r->second, alone_grid_[c]), {}, gears_);
-    return models_of(test_, {{c, alone_[c]}}, gears_);
-  }
-
-  /// Feature `f`'s held-out gap against the twin alone and against `models`.
-  FeatureGapChange feature_change(const GapFeature& f, const std::vector<SpectralSummary>& models) const {
-    std::vector<FeatureGapRecord> records;
-    for (std::size_t i = 0; i < test_.size(); ++i)
-      records.push_back({&test_[i].measured_all, &test_[i].twin_all, &models[i], test_[i].floor});
-    return feature_gap_change(f, records, gears_, settings_.features);
-  }
-
-  /// Features drive attribution as families do: while effects may be added, the spectral candidate
-  /// (fitted alone) that removes most of the gap of the most features no chosen effect reduces yet
-  /// (then the largest summed reduction) is added, unless it raises some feature's gap or another
-  /// family (its alone score's flag). A feature is what a person points at; its family's RMS may
-  /// stay significant, or never be, whatever the candidate does to the feature.
-  void attribute_features() {
-    if (report_.features.empty()) return;
-    std::vector<char> reduced(report_.features.size(), 0);
-    for (CandidateEffect c : report_.chosen) mark_reduced(alone_models(c), reduced);
-    while (static_cast<int>(report_.chosen.size()) < settings_.max_effects) {
-      std::optional<CandidateEffect> best;
-      std::size_t best_count = 0;
-      double best_drop = 0;
-      for (const auto& score : report_.candidates) {
-        const CandidateEffect c = score.effect;
-        if (reruns_.count(c) || score.worsens_other_family ||
-            std::find(report_.chosen.begin(), report_.chosen.end(), c) != report_.chosen.end())
-          continue;
-        const auto models = alone_models(c);
-        std::size_t count = 0;
-        double drop = 0;
-        bool worsens = false;
-        for (std::size_t k = 0; k < report_.features.size(); ++k) {
-          const auto change = feature_change(report_.features[k], models);
-          worsens = worsens || worsens_feature(change, report_.features[k]);
-          if (!reduced[k] && reduces_feature(change, report_.features[k], settings_.features.attribution_share))
-            ++count, drop += change.before_db - change.after_db;
-        }
-        if (!worsens && count > 0 && (count > best_count || (count == best_count && drop > best_drop)))
-          best = c, best_count = count, best_drop = drop;
-      }
-      if (!best) break;
-      auto values = chosen_.empty() && !rerun_chosen_ ? alone_[*best] : fit_candidate(*best, chosen_, *train_base_, gears_);
-      report_.chosen.push_back(*best);
-      chosen_.push_back({*best, std::move(values)});
-      mark_reduced(alone_models(*best), reduced);
-    }
-  }
-
-  void mark_reduced(const std::vector<SpectralSummary>& models, std::vector<char>& reduced) const {
-    for (std::size_t k = 0; k < report_.features.size(); ++k)
-      if (reduces_feature(feature_change(report_.features[k], models), report_.features[k], settings_.features.attribution_share))
-        reduced[k] = 1;
-  }
-
-  /// The first chosen effect whose fit (alone) removes most of the feature's held-out gap,
-  /// whether or not its family stays significant; else a floor change the noise floor's white PSD
-  /// explains on its bands (explaining_candidate's rule); else none. A feature whose gap no chosen
-  /// effect reduces is never attributed.
-  std::optional<CandidateEffect> feature_candidate(const GapFeature& f) {
-    for (CandidateEffect c : report_.chosen)
-      if (reduces_feature(feature_change(f, alone_models(c)), f, settings_.features.attribution_share)) return c;
-    // The family rule (explaining_candidate: a chosen candidate whose families hold the feature's,
-    // that family explained, or the noise floor's white PSD on a floor change) where that candidate
-    // lowers the feature's held-out gap at all: a feature seen in training only, or one a fit on
-    // the training records reaches only in part, is still its family's; one it leaves as large or
-    // larger is not.
-    const auto by = explaining_candidate(report_, f, gears_);
-    if (!by) return std::nullopt;
-    if (std::find(report_.chosen.begin(), report_.chosen.end(), *by) == report_.chosen.end()) return by;  // the floor rule
-    const auto change = feature_change(f, alone_models(*by));
-    if (change.cells == 0 || change.after_db < change.before_db) return by;
-    return std::nullopt;
   }
 
   /// The lowest held-out IC among the candidates that act on a significant family is the
@@ -815,7 +722,7 @@ class Diagnosis {
     report_.after = family_gaps(after, noise_, settings_, fixed_reason_);
     for (const auto& g : report_.after)
       if (g.significant) report_.unexplained.push_back(g.family);
-    for (auto& f : report_.features) f.explained_by = feature_candidate(f);
+    for (auto& f : report_.features) f.explained_by = explaining_candidate(report_, f, gears_);
   }
 
   /// K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the

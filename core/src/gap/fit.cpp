@@ -37,16 +37,14 @@ namespace {
 /// The fit of a form's own parameters on training records (of one load, for a per-load form): a
 /// grid over each parameter's range (log where marked), then Nelder–Mead from the best starts.
 std::vector<double> fit_values(const CandidateForm& form, const std::vector<AppliedEffect>& base,
-                               const std::vector<SummaryPair>& training, const GearPairSpec& gears,
-                               const std::vector<double>& start_hz);
+                               const std::vector<SummaryPair>& training, const GearPairSpec& gears);
 }  // namespace
 
 std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<AppliedEffect>& base,
-                                  const std::vector<SummaryPair>& training, const GearPairSpec& gears,
-                                  const std::vector<double>& start_hz) {
+                                  const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
   if (training.empty()) throw std::invalid_argument("fit_candidate: no training records");
   CandidateForm form = candidate_form(effect, training.front().measured.sample_rate_hz);
-  if (!form.per_load) return fit_values(form, base, training, gears, start_hz);
+  if (!form.per_load) return fit_values(form, base, training, gears);
   // One group per training load: its load, then the form's parameters fitted on that load's records.
   std::vector<double> loads;
   for (const auto& p : training)
@@ -58,7 +56,7 @@ std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<Appl
     for (const auto& p : training)
       if (load_key(p.measured.torque_nm) == load) subset.push_back(p);
     values.push_back(load);
-    const auto v = fit_values(form, base, subset, gears, start_hz);
+    const auto v = fit_values(form, base, subset, gears);
     values.insert(values.end(), v.begin(), v.end());
   }
   return values;
@@ -71,9 +69,8 @@ namespace {
 class FormFit {
  public:
   FormFit(const CandidateForm& form, const std::vector<AppliedEffect>& base, const std::vector<SummaryPair>& training,
-          const GearPairSpec& gears, const std::vector<double>& start_hz)
-      : form_(form), base_(base), training_(training), gears_(gears), evaluator_(gears), d_(form.parameters.size()),
-        start_hz_(start_hz) {}
+          const GearPairSpec& gears)
+      : form_(form), base_(base), training_(training), gears_(gears), evaluator_(gears), d_(form.parameters.size()) {}
 
   std::vector<double> run() const {
     if (form_.effect == CandidateEffect::tip_relief) return tip_relief_gains();
@@ -81,15 +78,8 @@ class FormFit {
     std::sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     std::vector<double> best_u = starts.front().second;
     double best = starts.front().first;
-    std::vector<Start> descents;
-    for (const std::size_t s : descent_starts(starts)) descents.push_back(starts[s]);
-    if (auto at = feature_starts(); !at.empty()) {
-      std::sort(at.begin(), at.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-      descents.push_back(at.front());
-      if (at.front().first < best) best = at.front().first, best_u = at.front().second;
-    }
-    for (const Start& start : descents) {
-      const Simplex simplex = nelder_mead(start);
+    for (const std::size_t s : descent_starts(starts)) {
+      const Simplex simplex = nelder_mead(starts[s]);
       const auto it = std::min_element(simplex.values.begin(), simplex.values.end());
       if (*it < best) best = *it, best_u = simplex.points[static_cast<std::size_t>(it - simplex.values.begin())];
     }
@@ -130,34 +120,6 @@ class FormFit {
   }
 
   int grid(std::size_t i) const { return std::max(1, form_.parameters[i].grid); }
-
-  /// A resonance form's starts with its (first) mode at each of start_hz_ inside its range, over
-  /// the grid's cells of its other parameters; casing_mode's second mode at the top of its range.
-  std::vector<Start> feature_starts() const {
-    const bool casing = form_.effect == CandidateEffect::casing_mode;
-    if (!casing && form_.effect != CandidateEffect::mount_resonance) return {};
-    const auto& f = form_.parameters[0];
-    const std::size_t rest = casing ? 2 : 1;  // the parameters after the mode frequencies
-    std::vector<Start> out;
-    for (double hz : start_hz_) {
-      if (!(hz > f.low && hz < f.high)) continue;
-      std::vector<double> u(d_, 0.5);
-      u[0] = std::log(hz / f.low) / std::log(f.high / f.low);
-      if (casing) u[1] = 1.0;
-      std::vector<int> idx(d_, 0);
-      while (true) {
-        for (std::size_t i = rest; i < d_; ++i) u[i] = grid(i) == 1 ? 0.5 : (idx[i] + 0.5) / grid(i);
-        out.emplace_back(cost(u), u);
-        std::size_t i = rest;
-        for (; i < d_; ++i) {
-          if (++idx[i] < grid(i)) break;
-          idx[i] = 0;
-        }
-        if (i == d_) break;
-      }
-    }
-    return out;
-  }
 
   /// Separable in the log domain: each harmonic's gain is the mean log ratio there (floors make
   /// it approximate). Harmonics no training record holds stay at 0 dB.
@@ -292,13 +254,11 @@ class FormFit {
   const GearPairSpec& gears_;
   const GapEvaluator evaluator_;
   const std::size_t d_;
-  const std::vector<double>& start_hz_;
 };
 
 std::vector<double> fit_values(const CandidateForm& form, const std::vector<AppliedEffect>& base,
-                               const std::vector<SummaryPair>& training, const GearPairSpec& gears,
-                               const std::vector<double>& start_hz) {
-  return FormFit(form, base, training, gears, start_hz).run();
+                               const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
+  return FormFit(form, base, training, gears).run();
 }
 
 }  // namespace

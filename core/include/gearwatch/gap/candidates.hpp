@@ -178,13 +178,9 @@ struct SummaryPair {
 
 /// Fits a candidate on top of `base` (fixed) to the training pairs: the sum over the line/bin
 /// families of the mean squared log ratio, families weighted alike. Grid over each parameter, then
-/// Nelder–Mead from the two best starts. A resonance form (casing_mode, mount_resonance) also
-/// descends from the best of its starts with a mode at one of `start_hz` (where significant
-/// features sit; casing_mode's other mode at the top of its range, away from it, so no second mode
-/// starts beside the first). Returns the values in the form's order.
+/// Nelder–Mead from the two best starts. Returns the values in the form's order.
 std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<AppliedEffect>& base,
-                                  const std::vector<SummaryPair>& training, const GearPairSpec& gears,
-                                  const std::vector<double>& start_hz = {});
+                                  const std::vector<SummaryPair>& training, const GearPairSpec& gears);
 
 /// That training cost (for tests and for comparing fits).
 double training_cost(const std::vector<SummaryPair>& training, const std::vector<AppliedEffect>& effects,

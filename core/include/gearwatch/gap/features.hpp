@@ -28,7 +28,6 @@
 //    the same test; floor bands cluster and join among themselves (floor_features()).
 #include <cstddef>
 #include <cstdint>
-#include <limits>
 #include <utility>
 #include <vector>
 
@@ -82,10 +81,6 @@ struct FeatureSettings {
   double min_feature_db = 3.0;
   double min_speed_ratio = 1.05;       ///< sightings at speeds this far apart can tell orders from Hz
   double coverage = 0.90;              ///< of the size's interval
-  /// A candidate explains a feature when its fit removes more than this share of the feature's
-  /// held-out gap (reduces_feature): most of it. A form that lifts a whole family a little, as a
-  /// fit to many lines at 0 dB does, takes a small share off every gap in it without making any.
-  double attribution_share = 0.5;
   FloorSettings floor;                 ///< the broadband floors' bands (floor features)
 };
 
@@ -158,34 +153,5 @@ class FeatureFinder {
 /// The Benjamini–Hochberg rejections at level q of the given p-values (step-up: the largest k with
 /// p_(k) ≤ q·k/m, and every p at or below it).
 std::vector<char> benjamini_hochberg(const std::vector<double>& p, double q);
-
-/// One held-out record a feature's gap is measured on: the measured spectra, the twin alone and a
-/// model (the twin with candidate effects), compared above the record's floor.
-struct FeatureGapRecord {
-  const SpectralSummary* measured = nullptr;
-  const SpectralSummary* twin = nullptr;
-  const SpectralSummary* model = nullptr;
-  double floor = 0;
-};
-/// A feature's gap against the twin alone and against the model, in the held-out records it was
-/// seen in (its sightings; `records` indexed as the diagnosis's held-out set): the RMS of g over
-/// each such record's cells inside the feature's window (its Hz extent for a feature fixed in Hz,
-/// else its order extent) whose |g| against the twin alone reaches the practical minimum, its core
-/// there. A floor change's cells are its records' floor bands (compare_floors) in its Hz extent.
-/// NaN for both when no held-out record has such a cell: a feature seen in training only has no
-/// held-out gap to reduce.
-struct FeatureGapChange {
-  double before_db = std::numeric_limits<double>::quiet_NaN();
-  double after_db = std::numeric_limits<double>::quiet_NaN();
-  std::size_t cells = 0;
-};
-FeatureGapChange feature_gap_change(const GapFeature& feature, const std::vector<FeatureGapRecord>& records,
-                                    const GearPairSpec& gears, const FeatureSettings& settings = {});
-/// The model removes most of the feature's held-out gap: more than `share` of it
-/// (FeatureSettings::attribution_share), and by more than the half-width of the feature's own size
-/// interval (a drop inside the feature's estimation noise is none), whatever its family does.
-bool reduces_feature(const FeatureGapChange& change, const GapFeature& feature, double share) noexcept;
-/// The model raises the feature's held-out gap by more than that half-width.
-bool worsens_feature(const FeatureGapChange& change, const GapFeature& feature) noexcept;
 
 }  // namespace gearwatch::gap
