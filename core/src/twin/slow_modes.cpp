@@ -12,7 +12,8 @@ SlowModes::SlowModes(const GearboxMatrices& m, double below_hz) {
   if (!(below_hz > 0)) return;
   Eigen::VectorXd frequencies;
   Eigen::MatrixXd shapes;
-  solve_modes(m.mass, m.linearised_stiffness(), frequencies, shapes);
+  const Matrix21 stiffness = m.linearised_stiffness();
+  solve_modes(m.mass, stiffness, frequencies, shapes);
   const double rigid_below = 1e-3 * frequencies.maxCoeff();  // the free rotation solves to ~0 Hz
   std::vector<Eigen::Index> elastic;
   for (Eigen::Index i = 0; i < frequencies.size(); ++i)
@@ -25,7 +26,7 @@ SlowModes::SlowModes(const GearboxMatrices& m, double below_hz) {
   // no damping: a double zero eigenvalue would make the eigenvectors singular).
   Eigen::MatrixXd a = Eigen::MatrixXd::Zero(2 * n, 2 * n);
   a.topRightCorner(n, n).setIdentity();
-  a.bottomLeftCorner(n, n) = -(phi.transpose() * m.linearised_stiffness() * phi);
+  a.bottomLeftCorner(n, n) = -(phi.transpose() * stiffness * phi);
   a.bottomRightCorner(n, n) = -(phi.transpose() * damping * phi);
   Eigen::EigenSolver<Eigen::MatrixXd> eig(a);
   if (eig.info() != Eigen::Success) throw TwinParameterError("slow modes: eigenproblem failed");
