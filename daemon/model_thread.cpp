@@ -252,7 +252,7 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
   for (const auto& r : m.rms_sa_reference_records) reference_records.push_back({r[0], r[1]});
   json depth_points = json::array();
   for (const auto& d : m.depth_ratio_points)
-    depth_points.push_back({{"inspection_id", d.inspection_id}, {"cycles", d.cycles}, {"log_ratio", d.log_ratio}, {"var", d.var}});
+    depth_points.push_back({{"inspection_id", d.inspection_id}, {"cycles", d.cycles}, {"log_ratio", d.log_ratio}, {"var", d.var}, {"model_m", d.model_m}});
   for (const auto& r : m.rms_residuals) residuals.push_back({r[0], r[1]});
   json j{{"format", 1},
                {"started", m.started},
@@ -340,7 +340,8 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     // Added with the depth calibration: an older state has read no inspected depth.
     for (const json& d : j.value("depth_ratio_points", json::array()))
       m.depth_ratio_points.push_back({d.at("inspection_id").get<std::int64_t>(), d.at("cycles").get<double>(),
-                                      d.at("log_ratio").get<double>(), d.at("var").get<double>()});
+                                      d.at("log_ratio").get<double>(), d.at("var").get<double>(),
+                                      d.value("model_m", 0.0)});   // added with the rate reading: older states read no rate
     // Added with the commissioning ratio: an older state has none (1, closed: its pair is past commissioning).
     if (j.contains("rms_sa_reference")) {
       const json& ref = j.at("rms_sa_reference");

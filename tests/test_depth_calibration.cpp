@@ -5,6 +5,7 @@
 // it: the depth estimate and the wear crossing at limit / ρ.
 #include "gearwatch/wear/depth_calibration.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <random>
@@ -206,6 +207,117 @@ TEST_CASE("depth calibration: the calibrated depth is stored in the predictions 
     for (int c = 0; c < 4; ++c) CHECK(s.is_null(c));
   }
   std::filesystem::remove(db);
+}
+
+// The rate read from two inspections' increments (docs/model.md, "Depth calibration"). A truth
+// that is the model's path scaled by a trending ratio: D_t = c D_m + b (ρ = c + b / D_m trends from
+// below towards c), D_m = a N^p. The increments give c exactly, and the crossing follows.
+TEST_CASE("depth calibration: the rate from two inspections gives a trending truth's crossing exactly",
+          "[model][depth_calibration]") {
+  const double a = 2e-10, p = 0.8, c = 2.6, b = -12e-6, limit = 100e-6;
+  auto model = [&](double n) { return a * std::pow(n, p); };
+  auto truth = [&](double n) { return c * model(n) + b; };
+  const double n1 = 0.8e6, n2 = 1.6e6, now = 2.2e6;
+  const DepthRatioMeasurement m1 = depth_ratio_measurement(1, n1, truth(n1), model(n1), 0.05);
+  const DepthRatioMeasurement m2 = depth_ratio_measurement(2, n2, truth(n2), model(n2), 0.05);
+  REQUIRE(std::exp(m2.log_ratio) - std::exp(m1.log_ratio) > 0.1);   // ρ trends: "ρ constant" fails
+  const RateReading r = depth_rate_reading(m1, m2);
+  REQUIRE(r.valid);
+  CHECK(std::exp(r.log_mean) == Approx(c).epsilon(1e-12));
+  // Its variance from the two relative errors, and its derivatives in the readings.
+  const double d1 = truth(n1), d2 = truth(n2), dd = d2 - d1, s2 = 0.05 * 0.05;
+  CHECK(r.var == Approx(std::log1p(s2 * (d1 * d1 + d2 * d2) / (dd * dd))).epsilon(1e-9));
+  CHECK(r.dk_dz_to == Approx(d2 / dd).epsilon(1e-12));
+  CHECK(r.dk_dz_from == Approx(-d1 / dd).epsilon(1e-12));
+  // The level now read exactly, the rate exactly: the model's depth at which the truth crosses is
+  // (limit − b) / c, and the model reaches it at the truth's crossing.
+  const LevelRate exact{std::log(truth(now) / model(now)), 0, r.log_mean, 0, 0};
+  const double t = truth_crossing_threshold(exact, model(now), limit, 0.5);
+  const double crossing = std::pow(t / a, 1.0 / p), truth_crossing = std::pow((limit - b) / c / a, 1.0 / p);
+  CHECK(crossing == Approx(truth_crossing).epsilon(1e-12));
+  // The level alone (the model's path times ρ now) crosses later: at limit / ρ(now).
+  const double level_only = std::pow(limit * model(now) / truth(now) / a, 1.0 / p);
+  CHECK(level_only > truth_crossing * 1.05);
+  // Past the limit: the crossing is now.
+  CHECK(truth_crossing_threshold(LevelRate{std::log(2.0 * limit / model(now)), 0, 0, 0, 0}, model(now), limit, 0.5) == model(now));
+}
+
+TEST_CASE("depth calibration: the newest inspection pairs with the partner of the smallest variance",
+          "[model][depth_calibration]") {
+  const std::vector<DepthRatioMeasurement> pts{depth_ratio_measurement(1, 0.5e6, 10e-6, 8e-6, 0.05),
+                                               depth_ratio_measurement(2, 1.0e6, 20e-6, 12e-6, 0.05),
+                                               depth_ratio_measurement(3, 2.0e6, 50e-6, 20e-6, 0.05),
+                                               depth_ratio_measurement(4, 1.8e6, 45e-6, 18e-6, 0.05)};
+  const RateReading r = newest_rate_reading(pts);
+  REQUIRE(r.valid);
+  CHECK(r.to_id == 3);
+  CHECK(r.from_id == 1);   // the longest increment: (50 − 10) / (20 − 8)
+  CHECK(std::exp(r.log_mean) == Approx(40.0 / 12.0).epsilon(1e-12));
+  // An increment the errors reversed gives no reading; an old state's reading (no model depth) neither.
+  CHECK_FALSE(depth_rate_reading(pts[0], depth_ratio_measurement(5, 1e6, 9e-6, 12e-6, 0.05)).valid);
+  DepthRatioMeasurement old = pts[0];
+  old.model_m = 0;
+  CHECK_FALSE(depth_rate_reading(old, pts[2]).valid);
+  // The level's weight on a reading: one reading after a broad prior, walked on: v0 / (v0 + r).
+  const LogPosterior prior = shape_range_prior(0, 0, 0.9, 3.0);
+  const double rv = log_relative_variance(0.05);
+  CHECK(posterior_weight(prior, {pts[2]}, 1e-12, 2.5e6, 3) == Approx(9.0 / (9.0 + rv)).epsilon(1e-6));
+  CHECK(posterior_weight(prior, {pts[2]}, 1e-12, 2.5e6, 7) == 0.0);
+}
+
+TEST_CASE("depth calibration: the crossing threshold's quantiles against a direct sampling", "[model][depth_calibration]") {
+  // An independent reference: T = now + max(0, limit − e^x now) / e^y over draws of a correlated (x, y).
+  const LevelRate j{std::log(1.6), 0.02, std::log(2.4), 0.05, 0.015};
+  const double now = 40e-6, limit = 100e-6;
+  std::mt19937_64 rng(41);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::vector<double> ts;
+  const double sx = std::sqrt(j.x_var), slope = j.cov / j.x_var, sy = std::sqrt(j.y_var - slope * j.cov);
+  for (int k = 0; k < 200000; ++k) {
+    const double u = n01(rng), x = j.x_mean + sx * u, y = j.y_mean + slope * sx * u + sy * n01(rng);
+    ts.push_back(now + std::max(0.0, limit - std::exp(x) * now) / std::exp(y));
+  }
+  std::sort(ts.begin(), ts.end());
+  for (double q : {0.05, 0.5, 0.95}) {
+    const double sampled = ts[static_cast<std::size_t>(q * ts.size())];
+    CHECK(truth_crossing_threshold(j, now, limit, q) == Approx(sampled).epsilon(0.005));
+  }
+  // Where 30 % of the truths are past the limit, the 5 % and 25 % quantiles are now.
+  const LevelRate past{std::log(limit / now) - 0.5244 * 0.3, 0.09, 0.0, 0.01, 0.0};
+  CHECK(truth_crossing_threshold(past, now, limit, 0.25) == now);
+  CHECK(truth_crossing_threshold(past, now, limit, 0.35) > now);
+}
+
+TEST_CASE("depth calibration: the rate's crossing interval holds a truth drawn from the model's own assumptions",
+          "[model][depth_calibration]") {
+  // Truths D_t = c D_m + b with c and b drawn, two inspections reading the truth times (1 + ε), ε
+  // normal with the stated SD; the forecast at the second: the level from its reading, the rate
+  // from the increment, their covariance from the shared reading. Covered: the truth's crossing
+  // depth (limit − b) / c inside the 90 % interval of the threshold.
+  std::mt19937_64 rng(20261);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::uniform_real_distribution<double> uc(1.2, 3.0), ub(-8e-6, 5e-6);
+  const double a = 2e-10, p = 0.8, sd = 0.05, limit = 100e-6, n1 = 0.8e6, n2 = 1.6e6;
+  auto model = [&](double n) { return a * std::pow(n, p); };
+  const LogPosterior prior = shape_range_prior(0, 0, 0.9, 10.0);
+  const int trials = 4000;
+  int covered = 0;
+  for (int t = 0; t < trials; ++t) {
+    const double c = uc(rng), b = ub(rng);
+    const DepthRatioMeasurement m1 = depth_ratio_measurement(1, n1, (c * model(n1) + b) * (1.0 + sd * n01(rng)), model(n1), sd);
+    const DepthRatioMeasurement m2 = depth_ratio_measurement(2, n2, (c * model(n2) + b) * (1.0 + sd * n01(rng)), model(n2), sd);
+    const RateReading r = depth_rate_reading(m1, m2);
+    REQUIRE(r.valid);
+    const std::vector<DepthRatioMeasurement> level_points{m2};
+    const LogPosterior level = depth_ratio_posterior(prior, level_points, 0.0, n2);
+    const double cov = posterior_weight(prior, level_points, 0.0, n2, 2) * m2.var * r.dk_dz_to;
+    const LevelRate j{level.mean, level.var, r.log_mean, r.var, cov};
+    const double truth = (limit - b) / c;
+    if (truth_crossing_threshold(j, model(n2), limit, 0.05) <= truth && truth <= truth_crossing_threshold(j, model(n2), limit, 0.95))
+      ++covered;
+  }
+  // Binomial SD at 4000 trials: 0.47 %; ±1.5 % is over three SDs.
+  CHECK(static_cast<double>(covered) / trials == Approx(0.90).margin(0.015));
 }
 
 }  // namespace test_depth_calibration

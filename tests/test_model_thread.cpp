@@ -106,13 +106,24 @@ TEST_CASE("model thread: the stored state round-trips every double exactly", "[m
   m.calibration_inspection_id = 123456789012345;
   m.shape_depth_ratio = 1.0 / 3.0 + 1.0, m.shape_peak_ratio = 0.1 + 3.4, m.shape_depth_elasticity = std::nextafter(0.9, 1.0);
   m.shape_cycles = 2.0 / 3.0 * 1e6;
-  m.depth_ratio_points = {{987654321012, 1.0 / 7.0 * 1e6, std::log(1.0 / 3.0), std::log1p(0.05 * 0.05)}};
+  m.depth_ratio_points = {{987654321012, 1.0 / 7.0 * 1e6, std::log(1.0 / 3.0), std::log1p(0.05 * 0.05), 1.0 / 3.0 * 1e-5}};
   const wear::ModelMemory back = daemon::memory_from_json(daemon::memory_to_json(m));
   REQUIRE(back.depth_ratio_points.size() == 1);
   CHECK(back.depth_ratio_points[0].inspection_id == 987654321012);
   CHECK(back.depth_ratio_points[0].cycles == 1.0 / 7.0 * 1e6);
   CHECK(back.depth_ratio_points[0].log_ratio == std::log(1.0 / 3.0));
   CHECK(back.depth_ratio_points[0].var == std::log1p(0.05 * 0.05));
+  CHECK(back.depth_ratio_points[0].model_m == 1.0 / 3.0 * 1e-5);
+  {
+    // A state written before the rate reading has no model depth: read as 0 (no rate from it).
+    std::string old = daemon::memory_to_json(m);
+    const std::string key = "\"model_m\":";
+    const std::size_t at = old.find(key);
+    REQUIRE(at != std::string::npos);
+    const std::size_t end = old.find_first_of(",}", at);
+    old.erase(old[end] == ',' ? at : at - 1, end - at + 1);
+    CHECK(daemon::memory_from_json(old).depth_ratio_points.at(0).model_m == 0.0);
+  }
   CHECK(back.shape_depth_ratio == 1.0 / 3.0 + 1.0);
   CHECK(back.shape_peak_ratio == 0.1 + 3.4);
   CHECK(back.shape_depth_elasticity == std::nextafter(0.9, 1.0));

@@ -24,7 +24,7 @@ double log_relative_variance(double relative_sd) { return std::log1p(relative_sd
 
 DepthRatioMeasurement depth_ratio_measurement(std::int64_t id, double cycles, double measured_m, double model_m,
                                               double relative_sd) {
-  return {id, cycles, std::log(measured_m / model_m), log_relative_variance(relative_sd)};
+  return {id, cycles, std::log(measured_m / model_m), log_relative_variance(relative_sd), model_m};
 }
 
 LogPosterior shape_range_prior(double shape_ratio, double log_sd, double coverage, double fallback_sd) {
@@ -92,6 +92,93 @@ DeepestFactor deepest_point_factor(const LogPosterior& log_rho, const LogPosteri
   const double mu = log_rho.mean + log_peak.mean - std::log(model_peak);
   const double sd = std::sqrt(std::max(0.0, log_rho.var) + std::max(0.0, log_peak.var));
   return {std::exp(mu), std::exp(mu - z * sd), std::exp(mu + z * sd)};
+}
+
+RateReading depth_rate_reading(const DepthRatioMeasurement& a, const DepthRatioMeasurement& b) {
+  RateReading r;
+  if (!(a.model_m > 0) || !(b.model_m > 0) || !(b.cycles > a.cycles)) return r;
+  const double da = a.model_m * std::exp(a.log_ratio), db = b.model_m * std::exp(b.log_ratio);
+  const double dd = db - da, dm = b.model_m - a.model_m;
+  if (!(dd > 0) || !(dm > 0)) return r;
+  const double sa = da * std::sqrt(std::expm1(a.var)), sb = db * std::sqrt(std::expm1(b.var));
+  r.valid = true;
+  r.log_mean = std::log(dd / dm);
+  r.var = std::log1p((sa * sa + sb * sb) / (dd * dd));
+  r.from_id = a.inspection_id, r.to_id = b.inspection_id;
+  r.from_cycles = a.cycles, r.to_cycles = b.cycles;
+  r.dk_dz_from = -da / dd, r.dk_dz_to = db / dd;
+  return r;
+}
+
+RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points) {
+  const DepthRatioMeasurement* newest = nullptr;
+  for (const DepthRatioMeasurement& m : points)
+    if (m.model_m > 0 && (!newest || m.cycles > newest->cycles)) newest = &m;
+  RateReading best;
+  if (!newest) return best;
+  for (const DepthRatioMeasurement& m : points) {
+    const RateReading r = depth_rate_reading(m, *newest);
+    if (r.valid && (!best.valid || r.var < best.var)) best = r;
+  }
+  return best;
+}
+
+double posterior_weight(const LogPosterior& prior, const std::vector<DepthRatioMeasurement>& points, double q_per_cycle,
+                        double now, std::int64_t inspection_id) {
+  std::vector<DepthRatioMeasurement> moved = points;
+  bool found = false;
+  const double h = 1e-3;
+  for (DepthRatioMeasurement& m : moved)
+    if (m.inspection_id == inspection_id) m.log_ratio += h, found = true;
+  if (!found) return 0.0;
+  return (depth_ratio_posterior(prior, moved, q_per_cycle, now).mean - depth_ratio_posterior(prior, points, q_per_cycle, now).mean) / h;
+}
+
+namespace {
+
+double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+// P(T ≤ model_now + e^log_u): over x by Simpson's rule on ±8 SD, y given x in closed form
+// (T ≤ now + u ⇔ y ≥ ln(limit − e^x model_now) − ln u; certain once the truth is past the limit).
+double threshold_cdf(const LevelRate& j, double model_now, double limit, double log_u) {
+  const double sx = std::sqrt(std::max(0.0, j.x_var));
+  const double slope = sx > 0 ? j.cov / j.x_var : 0.0;
+  const double vy = std::max(0.0, j.y_var - slope * j.cov);
+  auto given = [&](double x) {
+    const double rest = limit - std::exp(x) * model_now;
+    if (rest <= 0) return 1.0;
+    const double my = j.y_mean + slope * (x - j.x_mean), b = std::log(rest) - log_u;
+    if (vy <= 0) return my >= b ? 1.0 : 0.0;
+    return 1.0 - normal_cdf((b - my) / std::sqrt(vy));
+  };
+  if (sx <= 0) return given(j.x_mean);
+  constexpr int n = 800;
+  const double h = 16.0 * sx / n;
+  double sum = 0;
+  for (int i = 0; i <= n; ++i) {
+    const double x = j.x_mean - 8.0 * sx + i * h, w = (i == 0 || i == n) ? 1.0 : (i % 2 ? 4.0 : 2.0);
+    const double u = (x - j.x_mean) / sx;
+    sum += w * std::exp(-0.5 * u * u) * given(x);
+  }
+  return sum * h / 3.0 / (sx * 2.5066282746310002);
+}
+
+}  // namespace
+
+double truth_crossing_threshold(const LevelRate& j, double model_now, double limit, double q) {
+  if (!(j.x_var > 0) && !(j.y_var > 0))
+    return model_now + std::max(0.0, limit - std::exp(j.x_mean) * model_now) / std::exp(j.y_mean);
+  // The share of truths already past the limit: T = model_now for them.
+  const double past = model_now > 0 && j.x_var > 0
+                          ? 1.0 - normal_cdf((std::log(limit / model_now) - j.x_mean) / std::sqrt(j.x_var))
+                          : (std::exp(j.x_mean) * model_now >= limit ? 1.0 : 0.0);
+  if (q <= past) return model_now;
+  double lo = std::log(limit) - 40.0, hi = std::log(limit) + 40.0;
+  for (int k = 0; k < 80; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (threshold_cdf(j, model_now, limit, mid) < q ? lo : hi) = mid;
+  }
+  return model_now + std::exp(0.5 * (lo + hi));
 }
 
 }  // namespace gearwatch::wear

@@ -1196,13 +1196,65 @@ LogPosterior TwinModel::peak_ratio_now(double model_peak) const {
   return depth_ratio_posterior(prior, memory_.peak_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
 }
 
+LogPosterior TwinModel::depth_ratio_prior() const {
+  // The shape range the depth interval spans without inspections (profile_shape.hpp); without a
+  // shape reading the depth is as unknown as K_wear (depth ∝ K along a path).
+  const double log_sd = rms_scatter_sd() / std::max(std::abs(memory_.shape_depth_elasticity), settings_.min_wear_elasticity);
+  return shape_range_prior(memory_.shape_depth_ratio, log_sd, kNominalCoverage, settings_.prior_log_k_wear_sd);
+}
+
 LogPosterior TwinModel::depth_ratio_now() const {
   if (memory_.depth_ratio_points.empty()) return {};
-  // The prior: the shape range the depth interval spans without inspections (profile_shape.hpp);
-  // without a shape reading the depth is as unknown as K_wear (depth ∝ K along a path).
-  const double log_sd = rms_scatter_sd() / std::max(std::abs(memory_.shape_depth_elasticity), settings_.min_wear_elasticity);
-  const LogPosterior prior = shape_range_prior(memory_.shape_depth_ratio, log_sd, kNominalCoverage, settings_.prior_log_k_wear_sd);
-  return depth_ratio_posterior(prior, memory_.depth_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
+  return depth_ratio_posterior(depth_ratio_prior(), memory_.depth_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
+}
+
+std::optional<LevelRate> TwinModel::level_and_rate(const LogPosterior& p, const LogPosterior& peak, double model_peak,
+                                                   RateReading& rate) const {
+  const auto& points = memory_.depth_ratio_points;
+  rate = newest_rate_reading(points);
+  if (!rate.valid) return std::nullopt;
+  // The level's posterior mean and the rate reading share the two inspections' errors: the
+  // covariance is Σ (the level's weight on z_i) var_i (∂κ/∂z_i).
+  const LogPosterior prior = depth_ratio_prior();
+  const double q = settings_.log_k_q_per_cycle(), now = memory_.current.state.cycles;
+  double cov = 0;
+  for (const DepthRatioMeasurement& m : points) {
+    const double dk = m.inspection_id == rate.to_id ? rate.dk_dz_to : m.inspection_id == rate.from_id ? rate.dk_dz_from : 0.0;
+    if (dk != 0.0) cov += posterior_weight(prior, points, q, now, m.inspection_id) * m.var * dk;
+  }
+  LevelRate j{p.mean, p.var, rate.log_mean, rate.var, cov};
+  if (peak.valid) {
+    // The deepest point: the truth's is ρ P times the model's mean, its increments ρ_rate P times
+    // the model's mean increments; both over the model's own deepest / mean. P is shared.
+    const double shift = peak.mean - std::log(model_peak);
+    j = {j.x_mean + shift, j.x_var + peak.var, j.y_mean + shift, j.y_var + peak.var, j.cov + peak.var};
+  }
+  return j;
+}
+
+bool TwinModel::wear_crossings_by_rate(Forecast& f, const LogPosterior& p, const LogPosterior& peak, double model_peak,
+                                       const WearLoopOptions& deep) const {
+  RateReading rate;
+  const std::optional<LevelRate> j = level_and_rate(p, peak, model_peak, rate);
+  if (!j) return false;
+  // The model's path paces the wear from now on, its increments scaled by the rate read from the
+  // inspections, its level now the calibrated one: the truth crosses where the model's deepest
+  // point reaches T (truth_crossing_threshold). The rate reading measures the model's increments
+  // against the truth's, so K_wear's own uncertainty is in it: the path keeps today's K_wear.
+  const double d_now = max_depth(memory_.current.state), limit = settings_.wear_limit_m, tail = (1.0 - kNominalCoverage) / 2.0;
+  auto crossing = [&](double kp, double q) {
+    return run_forecast(memory_.current, memory_.k_wear_si, kp, deep, nullptr, truth_crossing_threshold(*j, d_now, limit, q)).wear;
+  };
+  f.wear.cycles_left = crossing(memory_.k_pitting, 0.5);
+  f.wear.cycles_left_low = crossing(f.k_pitting_high, tail);
+  f.wear.cycles_left_high = crossing(f.k_pitting_low, 1.0 - tail);
+  char b[400];
+  std::snprintf(b, sizeof b, "wear rate: inspections %lld and %lld (%.4g to %.4g cycles) grew %.4g times the model's depth increment (ln SD %.3g, covariance with the level %.3g): wear crossings where the model's deepest point reaches %.4g um (ends %.4g to %.4g um)",
+                static_cast<long long>(rate.from_id), static_cast<long long>(rate.to_id), rate.from_cycles, rate.to_cycles,
+                std::exp(rate.log_mean), std::sqrt(rate.var), j->cov, 1e6 * truth_crossing_threshold(*j, d_now, limit, 0.5),
+                1e6 * truth_crossing_threshold(*j, d_now, limit, tail), 1e6 * truth_crossing_threshold(*j, d_now, limit, 1.0 - tail));
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+  return true;
 }
 
 bool TwinModel::apply_depth_calibration(Forecast& f, const WearLoopOptions& o) const {
@@ -1231,25 +1283,29 @@ bool TwinModel::apply_depth_calibration(Forecast& f, const WearLoopOptions& o) c
   };
   const LogPosterior peak = peak_ratio_now(model_peak);
   if (peak.valid) {
-    // Inspected profiles: the deepest point is ρ P times the model's mean, i.e. the model's deepest
-    // times ρ P / its own peak ratio (held at today's along the path).
-    const DeepestFactor k = deepest_point_factor(p, peak, model_peak, kNominalCoverage);
     f.peak_inspections = static_cast<int>(memory_.peak_ratio_points.size());
     f.peak_ratio_log_mean = peak.mean;
     f.peak_ratio = std::exp(peak.mean);
     f.peak_ratio_log_sd = std::sqrt(peak.var);
+  }
+  // Two inspected depths read the rate; one reads the level only ("ρ constant along the path").
+  const bool by_rate = wear_crossings_by_rate(f, p, peak, model_peak, deep);
+  if (!by_rate && peak.valid) {
+    // Inspected profiles: the deepest point is ρ P times the model's mean, i.e. the model's deepest
+    // times ρ P / its own peak ratio (held at today's along the path).
+    const DeepestFactor k = deepest_point_factor(p, peak, model_peak, kNominalCoverage);
     f.wear.cycles_left = crossing(memory_.k_wear_si, memory_.k_pitting, k.nominal);
     f.wear.cycles_left_low = crossing(f.k_wear_high, f.k_pitting_high, k.high);
     f.wear.cycles_left_high = crossing(f.k_wear_low, f.k_pitting_low, k.low);
-  } else {
+  } else if (!by_rate) {
     f.wear.cycles_left = crossing(memory_.k_wear_si, memory_.k_pitting, d.ratio);
     f.wear.cycles_left_low = crossing(f.k_wear_high, f.k_pitting_high, d.ratio_high * std::max(1.0, c));
     f.wear.cycles_left_high = crossing(f.k_wear_low, f.k_pitting_low, d.ratio_low * std::min(1.0, c));
   }
   char b[400];
-  std::snprintf(b, sizeof b, "depth calibration: %zu inspected wear depths give rho %.4g (ln SD %.3g; prior from the shape range, rho_s %.3g): depth %.4g um, interval %.4g to %.4g um; wear crossings at limit / rho (ends: deepest point x %.3g of the model's shape)",
+  std::snprintf(b, sizeof b, "depth calibration: %zu inspected wear depths give rho %.4g (ln SD %.3g; prior from the shape range, rho_s %.3g): depth %.4g um, interval %.4g to %.4g um%s (ends: deepest point x %.3g of the model's shape)",
                 memory_.depth_ratio_points.size(), d.ratio, f.depth_ratio_log_sd, memory_.shape_depth_ratio, 1e6 * d.estimate_m,
-                1e6 * d.low_m, 1e6 * d.high_m, c);
+                1e6 * d.low_m, 1e6 * d.high_m, by_rate ? "" : "; wear crossings at limit / rho", c);
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
   if (peak.valid) {
     std::snprintf(b, sizeof b, "%zu inspected deepest points give deepest / mean %.3g (ln SD %.3g; the model's %.3g): wear crossings at limit / (rho x that / the model's)",

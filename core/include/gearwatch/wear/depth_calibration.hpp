@@ -20,6 +20,7 @@ struct DepthRatioMeasurement {
   double cycles = 0;
   double log_ratio = 0;
   double var = 0;
+  double model_m = 0;   ///< the model's depth it was read against (0: not kept; no rate reading)
 };
 
 /// The variance of ln(1 + ε) for a relative error ε of SD `relative_sd`, as a lognormal with the
@@ -76,5 +77,41 @@ struct DeepestFactor {
   double nominal = 1, low = 1, high = 1;
 };
 DeepestFactor deepest_point_factor(const LogPosterior& log_rho, const LogPosterior& log_peak, double model_peak, double coverage);
+
+/// The rate ratio read from two inspections' increments (docs/model.md, "Depth calibration"):
+/// κ = ln((D_b − D_a) / (m_b − m_a)), the truth's depth increment between the inspections over the
+/// model's between the same cycles (D = m e^z, each with its stated relative SD s, s² = e^var − 1).
+/// var = ln(1 + ((s_a D_a)² + (s_b D_b)²) / (D_b − D_a)²); dk_dz_* = ∂κ/∂z_* (= D_b/ΔD, −D_a/ΔD).
+/// Not valid unless both model depths were kept and both increments are positive.
+struct RateReading {
+  bool valid = false;
+  double log_mean = 0, var = 0;
+  std::int64_t from_id = 0, to_id = 0;
+  double from_cycles = 0, to_cycles = 0;
+  double dk_dz_from = 0, dk_dz_to = 0;
+};
+RateReading depth_rate_reading(const DepthRatioMeasurement& a, const DepthRatioMeasurement& b);
+
+/// The rate reading of the newest inspection (largest cycles) paired with the earlier one that
+/// gives the smallest variance: the newest carries the rate the truth has now, the partner the
+/// longest increment the errors allow. Not valid with fewer than two usable readings.
+RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points);
+
+/// ∂μ/∂z_i of depth_ratio_posterior's mean at `now` for the reading with `inspection_id` (the
+/// posterior mean is linear in the readings: the weight the level gives that reading).
+double posterior_weight(const LogPosterior& prior, const std::vector<DepthRatioMeasurement>& points, double q_per_cycle,
+                        double now, std::int64_t inspection_id);
+
+/// The truth's level and rate against the model's path, jointly normal: x = ln(truth / model) of
+/// the depth now, y = ln of the factor the truth's future increments are the model's times.
+struct LevelRate {
+  double x_mean = 0, x_var = 0, y_mean = 0, y_var = 0, cov = 0;
+};
+
+/// The model's depth at which the truth reaches `limit`, the truth being e^x model_now now and
+/// growing e^y times the model's from now on: T = model_now + max(0, limit − e^x model_now) / e^y
+/// (the path is continuous at now; T = model_now: the truth is past the limit). Its q-quantile
+/// under LevelRate's normal (x, y); T falls in x and y. Zero variances: T at the means.
+double truth_crossing_threshold(const LevelRate& j, double model_now, double limit, double q);
 
 }  // namespace gearwatch::wear

@@ -390,6 +390,13 @@ class TwinModel {
   /// unusable one is said at the first record after `since`.
   void read_peak_inspections(const std::vector<Inspection>& inspections, double since, double now, ModelRunReport& report);
   LogPosterior depth_ratio_now() const;
+  LogPosterior depth_ratio_prior() const;
+  /// The level (ln ρ now, ln P) and the rate read from the inspections' increments, jointly
+  /// (depth_calibration.hpp); nullopt without a rate reading.
+  std::optional<LevelRate> level_and_rate(const LogPosterior& p, const LogPosterior& peak, double model_peak, RateReading& rate) const;
+  /// The wear crossings from the level and the rate; false (nothing set) without a rate reading.
+  bool wear_crossings_by_rate(Forecast& f, const LogPosterior& p, const LogPosterior& peak, double model_peak,
+                              const WearLoopOptions& deep) const;
   /// The posterior of ln P, the true deepest point over the true mean, now (valid false without
   /// inspections that give both).
   LogPosterior peak_ratio_now(double model_peak) const;
