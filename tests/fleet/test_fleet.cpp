@@ -136,6 +136,7 @@ struct Fleet {
   }
   // One gearbox's capture: `simulate` with its seed and the given options.
   void simulate_gearbox(const std::string& name, int seed, const std::string& options) {
+    step("simulate " + name);
     const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (dir / (name + ".log")).string() + " " + options +
                                " --channels 1 --seed " + std::to_string(seed));
     INFO(r.err);
@@ -169,10 +170,12 @@ struct Fleet {
   }
   fs::path db(const std::string& name) const { return dir / (name + ".db"); }
   pid_t replay(const std::string& name) {
+    step("replay " + name);
     return spawn({"replay", (dir / (name + ".log")).string(), "--db", db(name).string(), "--config", (dir / (name + ".toml")).string()},
                  dir / ("out-" + name), dir / ("err-" + name));
   }
   pid_t consumer(const std::string& tag, const std::vector<std::string>& extra = {}) {
+    step("consumer " + tag);
     std::vector<std::string> args{"fleet", "ingest", "--broker", "mqtt://127.0.0.1:" + std::to_string(broker.port()), "--database", uri,
                                   "--prefix", "gw", "--client-id", "fleet-test", "--password-file", (dir / "credentials").string(),
                                   "--gearbox", "plant1/gbA", "--gearbox", "plant1/gbB"};
