@@ -54,8 +54,8 @@ inline bool reap_within(pid_t pid, int& status, std::chrono::milliseconds timeou
   for (;;) {
     const pid_t r = ::waitpid(pid, &status, WNOHANG);
     if (r == pid) return true;
-    if (r < 0 && errno == ECHILD) {  // reaped already: nothing to wait for, nothing to signal
-      status = 0;
+    if (r < 0 && errno == ECHILD) {  // reaped elsewhere: nothing to signal, and no exit status known
+      status = -1;
       return true;
     }
     if (std::chrono::steady_clock::now() > deadline) return false;
@@ -63,7 +63,11 @@ inline bool reap_within(pid_t pid, int& status, std::chrono::milliseconds timeou
   }
 }
 
-inline int exit_code(int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status); }
+/// The exit code of a raw status (128 + signal); -1 for a child reaped elsewhere.
+inline int exit_code(int status) {
+  if (status == -1) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
 
 // The children started by spawn() and not yet reaped, so that a test ending early (a failed
 // REQUIRE throws past its waits) still ends them (ChildrenGuard).
@@ -189,7 +193,7 @@ inline int wait_exit(pid_t pid) {
 }
 
 /// Waits up to `timeout` for `pid`: its exit status (128 + signal); -1 when it had not exited by
-/// then, after which it is killed (SIGKILL) and reaped.
+/// then, after which it is killed (SIGKILL) and reaped, or when something else reaped it.
 inline int wait_bounded(pid_t pid, std::chrono::milliseconds timeout) {
   int st = 0;
   if (detail::reap_within(pid, st, timeout)) {

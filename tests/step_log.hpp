@@ -87,6 +87,7 @@ class StepLog {
       pids.insert(pids.end(), server_pids().begin(), server_pids().end());
     }
     for (const pid_t pid : pids) ::kill(pid, SIGKILL);
+    std::fflush(nullptr);  // what Catch has reported so far (std::cout goes through C's stdout)
     std::_Exit(1);
   }
 
