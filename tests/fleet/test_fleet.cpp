@@ -26,6 +26,7 @@
 #include "gearwatch/storage/sqlite.hpp"
 #include "mqtt/mqtt_broker.hpp"
 #include "mqtt/test_ca.hpp"
+#include "step_log.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -69,6 +70,7 @@ Rows sqlite_rows(const fs::path& db, const std::string& sql) {
 Rows pg_rows(const std::string& uri, const std::string& sql) {
   pqxx::connection c(uri);
   pqxx::nontransaction n(c);
+  n.exec("SET statement_timeout = '60s'");  // a query that waits on a lock fails instead of hanging the test
   Rows rows;
   for (const auto& r : n.exec(sql)) {
     std::string row;
@@ -96,16 +98,6 @@ Rows sorted(Rows r) {
   return r;
 }
 
-int wait_bounded(pid_t pid, std::chrono::seconds timeout) {
-  int status = 0;
-  if (!wait_until([&] { return ::waitpid(pid, &status, WNOHANG) == pid; }, timeout)) {
-    ::kill(pid, SIGKILL);
-    ::waitpid(pid, &status, 0);
-    return -1;
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
 std::string read_all(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), {}};
@@ -118,6 +110,8 @@ std::size_t occurrences(const std::string& text, const std::string& what) {
 
 // Broker, database server and captures of one test; everything under one temporary directory.
 struct Fleet {
+  // Each step on stderr at once; the watchdog ends the test before its CTest TIMEOUT (300 s).
+  StepLog step{Catch::getResultCapture().getCurrentTestName(), std::chrono::seconds(285)};
   TempDir dir{"fleet"};
   std::optional<fs::path> pg_bin = postgres_bin_dir();
   MosquittoBroker broker{dir / "broker", kUser, kPassword};
@@ -126,16 +120,23 @@ struct Fleet {
 
   bool start() {
     if (!pg_bin) return false;
+    // libpq (the test's connections, psql, the consumers) gives up a connection after 30 s.
+    ::setenv("PGCONNECT_TIMEOUT", "30", 1);
+    step("initdb");
     pg.emplace(dir / "pg", *pg_bin);
+    step("PostgreSQL start");
     pg->start();
     pg->create_database("fleet");
     uri = pg->uri("fleet");
+    step("mosquitto start");
     broker.start();
+    step("servers up: PostgreSQL on " + std::to_string(pg->port()) + ", mosquitto on " + std::to_string(broker.port()));
     std::ofstream(dir / "credentials") << kUser << ":" << kPassword << "\n";
     return true;
   }
   // One gearbox's capture: `simulate` with its seed and the given options.
   void simulate_gearbox(const std::string& name, int seed, const std::string& options) {
+    step("simulate " + name);
     const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + (dir / (name + ".log")).string() + " " + options +
                                " --channels 1 --seed " + std::to_string(seed));
     INFO(r.err);
@@ -169,10 +170,12 @@ struct Fleet {
   }
   fs::path db(const std::string& name) const { return dir / (name + ".db"); }
   pid_t replay(const std::string& name) {
+    step("replay " + name);
     return spawn({"replay", (dir / (name + ".log")).string(), "--db", db(name).string(), "--config", (dir / (name + ".toml")).string()},
                  dir / ("out-" + name), dir / ("err-" + name));
   }
   pid_t consumer(const std::string& tag, const std::vector<std::string>& extra = {}) {
+    step("consumer " + tag);
     std::vector<std::string> args{"fleet", "ingest", "--broker", "mqtt://127.0.0.1:" + std::to_string(broker.port()), "--database", uri,
                                   "--prefix", "gw", "--client-id", "fleet-test", "--password-file", (dir / "credentials").string(),
                                   "--gearbox", "plant1/gbA", "--gearbox", "plant1/gbB"};
@@ -191,7 +194,10 @@ struct Fleet {
   }
   // Waits until the consumer has made the schema and its session is subscribed (its first log line
   // after the subscription is the connection count at stop; the schema is the visible part).
-  void wait_ready() { REQUIRE(wait_until([&] { return pg_count(uri, "SELECT count(*) FROM fleet.gearboxes") >= 0; }, 30s)); }
+  void wait_ready() {
+    step("waiting for the consumer's schema");
+    REQUIRE(wait_until([&] { return pg_count(uri, "SELECT count(*) FROM fleet.gearboxes") >= 0; }, 30s));
+  }
   std::string err(const std::string& tag) { return read_all(dir / ("err-" + tag)); }
   // A consumer started and subscribed: the schema made, "ingesting" logged, then time for the SUBACK.
   pid_t subscribed_consumer(const std::string& tag) {
@@ -205,6 +211,9 @@ struct Fleet {
   long long fleet_messages(const std::string& name) const {
     return pg_count(uri, "SELECT count(*) FROM fleet.messages m JOIN fleet.gearboxes g ON g.id = m.gearbox_id WHERE g.name = '" + name + "'");
   }
+  // Last member: destroyed first, so a test that ends early stops its consumers and daemons
+  // before the servers under them.
+  ChildrenGuard children;
 };
 
 bool skipped_without_postgres(const Fleet& f) {
@@ -527,14 +536,18 @@ TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gea
   Fleet f;
   if (skipped_without_postgres(f)) return;
   REQUIRE(f.start());
+  f.step("stopping the plain broker");
   f.broker.stop();  // this test's broker speaks TLS and has an ACL
+  f.step("test CA and certificates (openssl)");
   MosquittoBroker tls(f.dir / "tls-broker", "fleet", "fleet-pw");
   const auto certs = make_test_certificates(f.dir / "tls-broker" / "ca");
   tls.add_user("gbA", "gbA-pw");
   // Each gearbox writes under its own topics only; the consumer reads everything under the prefix.
   tls.use_tls_and_acl(certs.ca, certs.server_cert, certs.server_key,
                       "user fleet\ntopic read gw/#\n\nuser gbA\ntopic readwrite gw/plant1/gbA/#\n");
+  f.step("TLS broker start");
   tls.start();
+  f.step("TLS broker on " + std::to_string(tls.port()) + "; simulating gbA and gbX");
   std::ofstream(f.dir / "gbA-credentials") << "gbA:gbA-pw\n";
   std::ofstream(f.dir / "fleet-credentials") << "fleet:fleet-pw\n";
   const std::string tls_keys = "ca_file = \"" + certs.ca.string() + "\"\ncert_file = \"" + certs.client_cert.string() + "\"\nkey_file = \"" +
@@ -564,26 +577,32 @@ TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gea
     return spawn(args, f.dir / ("out-" + tag), f.dir / ("err-" + tag));
   };
   // Without a client certificate the broker refuses the TLS session: nothing is subscribed.
+  f.step("consumer without a client certificate");
   const pid_t no_cert = consumer_args("nocert", false);
   f.wait_ready();
   std::this_thread::sleep_for(2s);
+  f.step("stopping the consumer without a certificate");
   ::kill(no_cert, SIGTERM);
   REQUIRE(wait_bounded(no_cert, 30s) == 0);
   CHECK(read_all(f.dir / "err-nocert").find("over TLS") != std::string::npos);
   CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.messages") == 0);
 
+  f.step("consumer with a client certificate, waiting for 'ingesting'");
   const pid_t consumer = consumer_args("tls", true);
   REQUIRE(wait_until([&] { return occurrences(read_all(f.dir / "err-tls"), "ingesting") == 1; }, 30s));
   std::this_thread::sleep_for(1s);
+  f.step("replay gbA over TLS");
   const pid_t a = spawn({"replay", (f.dir / "gbA.log").string(), "--db", f.db("gbA").string(), "--config", (f.dir / "gbA.toml").string()},
                         f.dir / "out-gbA", f.dir / "err-gbA");
   REQUIRE(wait_bounded(a, 120s) == 0);
+  f.step("replay gbX over TLS (refused by the ACL)");
   const pid_t x = spawn({"replay", (f.dir / "gbX.log").string(), "--db", f.db("gbX").string(), "--config", (f.dir / "gbX.toml").string()},
                         f.dir / "out-gbX", f.dir / "err-gbX");
   REQUIRE(wait_bounded(x, 120s) == 0);
   // The broker refused every one of gbX's messages (MQTT 5 PUBACK 0x87): each outbox row is marked
   // refused with that reason, none delivered, none waiting; the run counted each once, said so in
   // one line, and raised one alert (its own message refused too, so counted among them).
+  f.step("checking gbX's outbox");
   const auto gbx_count = [&](const std::string& sql) { return std::stoll(sqlite_rows(f.db("gbX"), sql).at(0)); };
   const long long gbx_messages = gbx_count("SELECT count(*) FROM outbox");
   CHECK(gbx_count("SELECT count(*) FROM outbox WHERE topic = 'record'") == gbx_count("SELECT count(*) FROM records"));
@@ -602,16 +621,20 @@ TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gea
   CHECK(std::stoll(sqlite_rows(f.db("gbA"), "SELECT count(*) FROM outbox WHERE refused_at IS NOT NULL").at(0)) == 0);
   CHECK(std::stoll(sqlite_rows(f.db("gbA"), "SELECT count(*) FROM alert_events WHERE kind = 'mqtt_publish_refused'").at(0)) == 0);
   const long long expected = f.outbox_rows("gbA");
+  f.step("waiting for gbA's " + std::to_string(expected) + " messages in the fleet database");
   REQUIRE(wait_until([&] { return f.fleet_messages("gbA") == expected; }, 60s));
   // A hole made by the test (a message four ids beyond the newest): the consumer asks for the ids
   // between, and the broker refuses the request (its ACL gives the consumer read only): counted and
   // said in one line, the consumer goes on.
   const std::string beyond = std::to_string(expected + 5);
+  f.step("a hole made by the test; waiting for the refused resend request");
   pg_rows(f.uri, "INSERT INTO fleet.messages (gearbox_id, message_id, topic, record_time) SELECT id, " + beyond +
                      ", 'health', now() FROM fleet.gearboxes WHERE name = 'gbA' RETURNING message_id");
   REQUIRE(wait_until([&] { return f.err("tls").find("the broker refused a resend request: Not authorized") != std::string::npos; }, 30s));
+  f.step("stopping the consumer");
   ::kill(consumer, SIGTERM);
   REQUIRE(wait_bounded(consumer, 30s) == 0);
+  f.step("comparing gbA with its own database");
   pg_rows(f.uri, "DELETE FROM fleet.messages WHERE message_id = " + beyond + " RETURNING message_id");
   INFO(f.err("tls"));
   // Every request refused (the same hole is asked again after ten intervals, so one or two).
@@ -626,6 +649,7 @@ TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gea
   check_same_as_local(f, "gbA");
   CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.gearboxes WHERE name = 'gbX'") == 0);
   CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.rejects") == 0);
+  f.step("done");
 }
 
 // --- The fleet page (docs/fleet.md, "Fleet page") -------------------------------------------------

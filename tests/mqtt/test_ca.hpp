@@ -30,7 +30,7 @@ inline TestCertificates make_test_certificates(const std::filesystem::path& dir)
           p("client.crt") + " -days 2",
   };
   for (const auto& step : steps) {
-    const auto r = run_command(step + " 2>&1");
+    const auto r = run_command(step + " 2>&1", std::chrono::seconds(60));
     if (r.status != 0) throw std::runtime_error("openssl failed: " + step + ": " + r.out + r.err);
   }
   return {dir / "ca.crt", dir / "server.crt", dir / "server.key", dir / "client.crt", dir / "client.key"};

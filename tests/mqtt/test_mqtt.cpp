@@ -77,11 +77,16 @@ std::int64_t scalar_when_ready(const fs::path& db, const std::string& sql) {
 // Two configured accelerometers, a capture with one: every run raises sensor_missing for channel 1,
 // so the alert topic carries real alerts beside the records.
 struct Setup {
+  // Each step on stderr at once; the watchdog ends the test before its CTest TIMEOUT (600 s).
+  StepLog step{Catch::getResultCapture().getCurrentTestName(), std::chrono::seconds(585)};
   TempDir dir{"mqtt"};
   MosquittoBroker broker{dir / "broker", kUser, kPassword};
   fs::path capture = dir / "cap.log", db = dir / "gw.db", config = dir / "gw.toml";
+  // Destroyed first: a test that ends early stops its daemons before the broker.
+  ChildrenGuard children;
 
   explicit Setup(const std::string& password = kPassword, double drain_timeout_s = 60.0, int capture_s = 8) {
+    step("simulate");
     const auto r = run_command(std::string(GEARWATCH_BINARY) + " simulate --out " + capture.string() +
                                " --duration " + std::to_string(capture_s) + " --channels 1 --seed 11");
     INFO(r.err);
@@ -97,6 +102,7 @@ struct Setup {
                           << "drain_timeout_s = " << drain_timeout_s << "\n";
   }
   pid_t start_replay(const std::string& tag) {
+    step("replay " + tag);
     return spawn({"replay", capture.string(), "--db", db.string(), "--config", config.string()}, dir / ("out-" + tag),
                  dir / ("err-" + tag));
   }
@@ -105,18 +111,6 @@ struct Setup {
     return {std::istreambuf_iterator<char>(in), {}};
   }
 };
-
-// Waits (bounded) for the child to exit; kills it if it does not.
-int wait_bounded(pid_t pid, std::chrono::seconds timeout) {
-  int status = 0;
-  const bool exited = wait_until([&] { return ::waitpid(pid, &status, WNOHANG) == pid; }, timeout);
-  if (!exited) {
-    ::kill(pid, SIGKILL);
-    ::waitpid(pid, &status, 0);
-    return -1;
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
 
 // The first arrival of each message id, in arrival order (QoS 1 may repeat a message; the
 // consumer removes repeats by message_id), without the retained status messages.
