@@ -105,8 +105,9 @@ inline int terminate_child(pid_t pid, std::chrono::milliseconds grace = std::chr
 
 /// Runs `command_line` with sh, standard input from /dev/null; its output, error output and exit
 /// status. A command still running after `timeout` is ended with its process group (status 124,
-/// the error output says so).
-inline CommandResult run_command(const std::string& command_line, std::chrono::seconds timeout = std::chrono::seconds(600)) {
+/// the error output says so). The default is longer than any test's CTest TIMEOUT (900 s for the
+/// long tests), so only a caller's own shorter bound ever ends a command early.
+inline CommandResult run_command(const std::string& command_line, std::chrono::seconds timeout = std::chrono::seconds(1200)) {
   static int n = 0;
   const auto err_path = std::filesystem::temp_directory_path() /
                         ("gearwatch-cmd-err-" + std::to_string(::getpid()) + "-" + std::to_string(n++));
