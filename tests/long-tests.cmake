@@ -34,3 +34,15 @@ gearwatch_long_test(40 "gap independent: the bench on a no-effect draw, a narrow
 gearwatch_long_test(35 "prognosis bench: two campaigns through the binary, scores recomputed from the trace")
 gearwatch_long_test(23 "model thread: a campaign replayed one file per process ends in the state of one long replay")
 gearwatch_long_test(35 "prognosis #3: a saturated ICS2 in the correlation triple leaves K_pitting as the inspections set it")
+# The daemon's end-to-end gap diagnoses allocate and free large buffers again and again on the
+# model thread (its describer reduces a unit tone like a measured record per trial). glibc serves
+# them by mmap or trims them off the top of the thread's arena when freed, so their pages are
+# faulted in and zeroed afresh each time. A fixed mmap threshold (glibc's ceiling) and a trim
+# threshold above the tests' peak keep the freed memory for the next allocation; the arithmetic,
+# and so every value the tests read, is the same (docs/ci.md).
+foreach(name
+    "daemon's gap diagnosis end to end: the rig without effects gives a report with no significant family and no alert"
+    "daemon's gap diagnosis end to end: rig tooth errors withheld from the twin are found, stored and raise twin drift")
+  set_tests_properties("${name}" PROPERTIES ENVIRONMENT
+                       "GLIBC_TUNABLES=glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824")
+endforeach()
