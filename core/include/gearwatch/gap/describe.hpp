@@ -140,6 +140,17 @@ class FeatureDescriber {
 SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
                                   double samples_per_cycle);
 
+/// The complex synchronous lines (peak amplitude, phased on the tacho) a unit cosine and a unit sine
+/// at input order `order` leave in a record made as unit_tone_spectra makes it, and the cosine's
+/// summary: a tone a·cos(2π·order·θ) + b·sin(2π·order·θ) adds a·cos_k + b·sin_k to line k (the
+/// reduction is linear in the record).
+struct UnitTonePhasors {
+  std::vector<std::complex<double>> cos_input, cos_output, sin_input, sin_output;
+  SpectralSummary summary;
+};
+UnitTonePhasors unit_tone_phasors(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
+                                  double samples_per_cycle);
+
 /// The candidate that explains a feature: noise_floor for a floor change a white PSD explains on its
 /// own bands (`white_psd_m2_s4_per_hz`, describe_floor); else the first chosen candidate in
 /// report.chosen whose families hold the family the feature's place belongs to (fixed in Hz:
