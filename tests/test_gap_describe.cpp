@@ -755,12 +755,11 @@ TEST_CASE("gap describe: supply tones 10 and 30 times stronger, whose far leakag
   // the cross term (their phases), which the tones' complex amplitudes per record carry. The records
   // made in closed form through RecordSpectra (pairs_from_records). Stated before the run: supply at
   // 50 Hz, 3 tones, each within 0.1 Hz and 1 % in amplitude (a linear model of the lines, exact up to
-  // the record's float samples), harmonics 1-3, and the window's g left under 1 dB RMS. The same
-  // whether the feature is fixed in Hz or moves with neither: the bench's strong supply tones came
-  // as features over 11-288 Hz moving with neither (their leakage's |g|-weighted centre shifts with
-  // speed), where the tones' form was not tried.
+  // the record's float samples), harmonics 1-3, and the window's g left under 1 dB RMS, for a
+  // feature fixed in Hz. (In the orders' window of a feature moving with neither the 150 Hz tone
+  // came 3.9 % low at 10 times, outside the 1 % stated before the run: that case is not claimed.)
   const double fs = 10240;
-  for (const auto movement : {FeatureMovement::fixed_in_hz, FeatureMovement::neither})
+  const auto movement = FeatureMovement::fixed_in_hz;
   for (double scale : {10.0, 30.0}) {
     const std::vector<Tone> tones{{50, 0.03 * scale, true}, {100, 0.02 * scale, true}, {150, 0.01 * scale, true}};
     const auto pairs = pairs_from_records(fs, tones);
@@ -776,9 +775,7 @@ TEST_CASE("gap describe: supply tones 10 and 30 times stronger, whose far leakag
     for (std::size_t i = 0; i < tones.size(); ++i) {
       const std::string name = "tone_" + std::to_string(i + 1);
       CHECK(d.parameter(name + "_hz") == Approx(tones[i].at).margin(0.1));
-      // The amplitude's 1 % holds for the window in Hz; in the orders' window of a feature moving
-      // with neither the 150 Hz tone came 3.9 % low at 10 times (0.0961 for 0.1): not asserted there.
-      if (movement == FeatureMovement::fixed_in_hz) CHECK(d.parameter(name + "_amplitude_m_s2") == Approx(tones[i].amplitude).epsilon(0.01));
+      CHECK(d.parameter(name + "_amplitude_m_s2") == Approx(tones[i].amplitude).epsilon(0.01));
       CHECK(d.parameter(name + "_harmonic") == static_cast<double>(i + 1));
     }
     CHECK(d.residual_db < 1.0);
