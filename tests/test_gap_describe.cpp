@@ -526,27 +526,6 @@ TEST_CASE("gap describe: a strong ghost whose leakage spreads over many orders i
   CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.05));
 }
 
-TEST_CASE("gap describe: a ghost stronger than the mesh line, whose leakage meets the twin's lines, is read with its phases",
-          "[gap][gap_describe]") {
-  // Input order 31.7 at 1.5 m/s² peak, over the first mesh harmonic (1 m/s²), as the generator draws
-  // its ghosts (10-25 dB under the records' RMS): its leakage on the mesh lines 19 and 38 and the
-  // shaft orders is comparable to them, so it adds there in amplitude, with its phase. The feature as
-  // the finder reports such a tone: fixed in orders over 24-40, centred 0.2 order off it. Stated
-  // before the run: a ghost line, the order within 0.05 and the amplitude within 5 % (as the weaker
-  // ghosts), the window's g left under 1 dB RMS.
-  const double fs = 10240, order = 31.7, amplitude = 1.5;
-  const auto pairs = pairs_from_records(fs, {{order, amplitude}});
-  const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 24, 40, 24 * kSpeeds.front(), 40 * kSpeeds.back());
-  f.order = 31.9;
-  const auto d = describer.describe(f);
-  INFO(text_of(d));
-  REQUIRE(d.kind == DescriptionKind::ghost_line);
-  CHECK(d.parameter("order") == Approx(order).margin(0.05));
-  CHECK(d.parameter("amplitude_m_s2") == Approx(amplitude).epsilon(0.05));
-  CHECK(d.residual_db < 1.0);
-}
-
 TEST_CASE("gap describe: a mesh harmonic changed in every record is not a ghost line", "[gap][gap_describe]") {
   // The second mesh harmonic (input order 38) 3.2 times its amplitude (+10 dB), the records made
   // sample by sample: a change on a synchronous line, which a tone off the integer orders cannot be.
@@ -747,40 +726,6 @@ TEST_CASE("gap describe: supply tones 1 to 30 times stronger are read at their f
   }
 }
 
-
-TEST_CASE("gap describe: supply tones 10 and 30 times stronger, whose far leakage meets the twin's lines, are read with their phases",
-          "[gap][gap_describe]") {
-  // 50, 100 and 150 Hz at 0.3/0.2/0.1 and 0.9/0.6/0.3 m/s² (the mesh line 1 m/s²): far from each
-  // tone its leakage meets lines the twin holds at a comparable amplitude, so powers added are off by
-  // the cross term (their phases), which the tones' complex amplitudes per record carry. The records
-  // made in closed form through RecordSpectra (pairs_from_records). Stated before the run: supply at
-  // 50 Hz, 3 tones, each within 0.1 Hz and 1 % in amplitude (a linear model of the lines, exact up to
-  // the record's float samples), harmonics 1-3, and the window's g left under 1 dB RMS, for a
-  // feature fixed in Hz. (In the orders' window of a feature moving with neither the 150 Hz tone
-  // came 3.9 % low at 10 times, outside the 1 % stated before the run: that case is not claimed.)
-  const double fs = 10240;
-  const auto movement = FeatureMovement::fixed_in_hz;
-  for (double scale : {10.0, 30.0}) {
-    const std::vector<Tone> tones{{50, 0.03 * scale, true}, {100, 0.02 * scale, true}, {150, 0.01 * scale, true}};
-    const auto pairs = pairs_from_records(fs, tones);
-    const FeatureDescriber describer(described(pairs), GearPairSpec{});
-    const double lo = 42, hi = 158;
-    std::vector<GapFeature> features{feature_at(movement, FeatureShaft::input, lo / kSpeeds.back(), hi / kSpeeds.front(), lo, hi)};
-    describer.describe_all(features);
-    const auto& d = features[0].description;
-    INFO("scale " << scale << ", movement " << to_string(movement) << ": " << text_of(d));
-    REQUIRE(d.kind == DescriptionKind::fixed_tone);
-    CHECK(d.parameter("supply_hz") == 50);
-    REQUIRE(d.parameter("tones") == 3);
-    for (std::size_t i = 0; i < tones.size(); ++i) {
-      const std::string name = "tone_" + std::to_string(i + 1);
-      CHECK(d.parameter(name + "_hz") == Approx(tones[i].at).margin(0.1));
-      CHECK(d.parameter(name + "_amplitude_m_s2") == Approx(tones[i].amplitude).epsilon(0.01));
-      CHECK(d.parameter(name + "_harmonic") == static_cast<double>(i + 1));
-    }
-    CHECK(d.residual_db < 1.0);
-  }
-}
 
 // The generator's phase modulation re-times the whole record (tests/capture_gen/gap_effects.py): the
 // vibration is read at the angle θ + β/(2π·z1)·sin(2π·θ + ψ) of the input shaft, so every input line

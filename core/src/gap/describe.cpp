@@ -3,8 +3,6 @@
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/numeric/line_search.hpp"
 
-#include <Eigen/Dense>
-
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -282,9 +280,8 @@ double band_pass(double hz, double fn, double zeta) {
 
 }  // namespace
 
-namespace {
-/// The record unit_tone_spectra reduces: cos(2π·order·θ + phase), θ in input revolutions from the first edge.
-Record unit_tone_record(double order, double top_order, const SpectralSummary& like, double samples_per_cycle, double phase) {
+SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
+                                  double samples_per_cycle) {
   const double speed = like.speed_hz;
   const double fs = std::min(like.sample_rate_hz, samples_per_cycle * (top_order + 4) * speed);
   const std::size_t revs = like.input_revolutions;
@@ -302,30 +299,13 @@ Record unit_tone_record(double order, double top_order, const SpectralSummary& l
   std::vector<float> x(n);
   std::complex<double> z;
   for (std::size_t i = 0; i < n; ++i) {
-    z = i % kExact == 0 ? std::polar(1.0, step * static_cast<double>(i) + phase) : z * rotation;
+    z = i % kExact == 0 ? std::polar(1.0, step * static_cast<double>(i)) : z * rotation;
     x[i] = static_cast<float>(z.real());
   }
   r.channels = {std::move(x)};
   r.channel_numbers = {0};
   for (std::size_t k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(static_cast<double>(k) * fs / speed);
-  return r;
-}
-}  // namespace
-
-SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
-                                  double samples_per_cycle) {
-  return RecordSpectra(unit_tone_record(order, top_order, like, samples_per_cycle, 0.0), 0, gears).summary();
-}
-
-UnitTonePhasors unit_tone_phasors(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
-                                  double samples_per_cycle) {
-  UnitTonePhasors out;
-  const RecordSpectra cosine(unit_tone_record(order, top_order, like, samples_per_cycle, 0.0), 0, gears);
-  const RecordSpectra sine(unit_tone_record(order, top_order, like, samples_per_cycle, -std::numbers::pi / 2), 0, gears);
-  out.cos_input = cosine.input_line_means(), out.cos_output = cosine.output_line_means();
-  out.sin_input = sine.input_line_means(), out.sin_output = sine.output_line_means();
-  out.summary = cosine.summary();
-  return out;
+  return RecordSpectra(r, 0, gears).summary();
 }
 
 namespace {
@@ -701,12 +681,6 @@ class FeatureDescriber::ToneSearch {
   void move_over_weaker(Tone& best, double place, std::size_t from);
   void joint_powers();
   void drop_tones_that_do_not_pay();
-  void with_phases();
-  struct Phasors;
-  void unit_phasors(Phasors& ph, std::size_t j, double place) const;
-  static std::vector<double> phased_least_squares(const Phasors& ph, const std::vector<std::vector<std::complex<double>>>& basis,
-                                                  std::size_t from, std::size_t to, double* misfit);
-  double fit_phases(Phasors& ph) const;
 
   const FeatureDescriber& d_;
   const GapFeature& f_;
@@ -1046,174 +1020,9 @@ void FeatureDescriber::ToneSearch::drop_tones_that_do_not_pay() {
   }
 }
 
-/// The tones with their phases (with_phases): per tone and window cell the unit cosine's and sine's
-/// complex line (0 on bins) and the cosine's bin power; per cell the lines' complex excess over the
-/// twin, the twin's line and the weight; the window's spans of one record each.
-struct FeatureDescriber::ToneSearch::Phasors {
-  using Complex = std::complex<double>;
-  std::vector<std::vector<Complex>> uc, us, phased;
-  std::vector<std::vector<double>> bins;
-  std::vector<Complex> excess, twin;
-  std::vector<double> weight;
-  std::vector<std::pair<std::size_t, std::size_t>> spans;
-};
-
-/// Tone j's unit responses at `place` on the window's cells.
-void FeatureDescriber::ToneSearch::unit_phasors(Phasors& ph, std::size_t j, double place) const {
-  for (const auto& [from, to] : ph.spans) {
-    const std::size_t r = w_[from].first;
-    double top = 0;
-    for (std::size_t x = from; x < to; ++x) top = std::max(top, d_.records_[r].cells[w_[x].second].order);
-    const double order = fixed_in_hz_ ? place / d_.records_[r].speed_hz : place;
-    const UnitTonePhasors unit = unit_tone_phasors(order, std::max(top, order) + 1, *d_.records_[r].source->twin, d_.gears_, kUnitToneSamplesPerCycle);
-    for (std::size_t x = from; x < to; ++x) {
-      const Cell& c = d_.records_[r].cells[w_[x].second];
-      ph.uc[j][x] = ph.us[j][x] = {}, ph.bins[j][x] = 0;
-      if (c.kind == CellKind::broadband) {
-        ph.bins[j][x] = c.index < unit.summary.broadband.size() ? unit.summary.broadband[c.index] : 0.0;
-        continue;
-      }
-      const bool in = c.kind == CellKind::input_line;
-      const auto& vc = in ? unit.cos_input : unit.cos_output;
-      const auto& vs = in ? unit.sin_input : unit.sin_output;
-      if (c.index < vc.size()) ph.uc[j][x] = vc[c.index];
-      if (c.index < vs.size()) ph.us[j][x] = vs[c.index];
-    }
-  }
-}
-
-/// Least squares of Σ_e w_e·|excess_e − Σ_p x_p·basis_p(e)|² over real x_p on cells [from, to);
-/// the weighted misfit left is added to `misfit` when given.
-std::vector<double> FeatureDescriber::ToneSearch::phased_least_squares(const Phasors& ph, const std::vector<std::vector<std::complex<double>>>& basis,
-                                                                      std::size_t from, std::size_t to, double* misfit) {
-  const auto k = static_cast<Eigen::Index>(basis.size());
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(k, k);
-  Eigen::VectorXd b = Eigen::VectorXd::Zero(k);
-  for (std::size_t e = from; e < to; ++e) {
-    if (!(ph.weight[e] > 0)) continue;
-    for (Eigen::Index p = 0; p < k; ++p) {
-      const auto& bp = basis[static_cast<std::size_t>(p)][e];
-      b(p) += ph.weight[e] * std::real(std::conj(bp) * ph.excess[e]);
-      for (Eigen::Index q = 0; q < k; ++q) a(p, q) += ph.weight[e] * std::real(std::conj(bp) * basis[static_cast<std::size_t>(q)][e]);
-    }
-  }
-  const Eigen::VectorXd x = a.ldlt().solve(b);
-  std::vector<double> out(basis.size(), 0.0);
-  for (Eigen::Index p = 0; p < k; ++p) out[static_cast<std::size_t>(p)] = std::isfinite(x(p)) ? x(p) : 0.0;
-  if (misfit)
-    for (std::size_t e = from; e < to; ++e) {
-      if (!(ph.weight[e] > 0)) continue;
-      std::complex<double> fit;
-      for (std::size_t p = 0; p < basis.size(); ++p) fit += out[p] * basis[p][e];
-      *misfit += ph.weight[e] * std::norm(ph.excess[e] - fit);
-    }
-  return out;
-}
-
-/// Per record the tones' (a, b) of a·cos + b·sin; each tone's phasor of unit size kept in
-/// ph.phased. Returns the weighted misfit over all records.
-double FeatureDescriber::ToneSearch::fit_phases(Phasors& ph) const {
-  const std::size_t tones = ph.uc.size();
-  double misfit = 0;
-  for (const auto& [from, to] : ph.spans) {
-    std::vector<std::vector<std::complex<double>>> basis;
-    for (std::size_t j = 0; j < tones; ++j) basis.push_back(ph.uc[j]), basis.push_back(ph.us[j]);
-    const auto ab = phased_least_squares(ph, basis, from, to, &misfit);
-    for (std::size_t j = 0; j < tones; ++j) {
-      const double a = ab[2 * j], b = ab[2 * j + 1], size = std::hypot(a, b);
-      for (std::size_t e = from; e < to; ++e) ph.phased[j][e] = size > 0 ? (a * ph.uc[j][e] + b * ph.us[j][e]) / size : 0.0;
-    }
-  }
-  return misfit;
-}
-
-/// The tones with their phases, where every record's complex lines are known. A tone adds to a
-/// line in amplitude, with its phase against the line's: where its leakage (far from it, or a
-/// ghost's beside a line) is near a line the twin holds, powers added are off by up to the cross
-/// term (±3 dB at equal powers, more toward cancelling). Each tone at its place, in each record, is
-/// a·cos + b·sin of the unit tone (unit_tone_phasors; the reduction is linear): per record the
-/// tones' (a, b) by least squares on the lines' complex excess over the twin, each line weighted by
-/// the inverse of its power (the rule judges g, a log ratio); each tone's place refined by halving
-/// steps on that misfit (a strong tone's place from powers sits where its neighbours' leakage pulled
-/// it); then each tone's phase per record kept and one amplitude per tone over all records by the
-/// same least squares. The broadband bins take each tone's power over the unit tone's. Adopted when
-/// it lowers the BIC with one phase per tone and record counted.
-void FeatureDescriber::ToneSearch::with_phases() {
-  using Complex = std::complex<double>;
-  const std::size_t tones = found_.size();
-  if (tones == 0) return;
-  for (const auto& rec : d_.records_)
-    if (rec.source->measured_input.empty() || rec.source->twin_input.empty() || rec.source->measured_output.empty() ||
-        rec.source->twin_output.empty())
-      return;
-  Phasors ph;
-  ph.uc.assign(tones, std::vector<Complex>(n_)), ph.us = ph.uc, ph.phased = ph.uc;
-  ph.bins.assign(tones, std::vector<double>(n_, 0.0));
-  ph.excess.assign(n_, {}), ph.twin.assign(n_, {}), ph.weight.assign(n_, 0.0);
-  for (std::size_t e = 0; e < n_;) {
-    const std::size_t r = w_[e].first;
-    std::size_t end = e;
-    while (end < n_ && w_[end].first == r) ++end;
-    ph.spans.emplace_back(e, end);
-    const DescribedRecord& src = *d_.records_[r].source;
-    for (; e < end; ++e) {
-      const Cell& c = d_.records_[r].cells[w_[e].second];
-      if (c.kind == CellKind::broadband) continue;
-      const auto& m = c.kind == CellKind::input_line ? src.measured_input : src.measured_output;
-      const auto& t = c.kind == CellKind::input_line ? src.twin_input : src.twin_output;
-      if (c.index >= m.size() || c.index >= t.size()) continue;
-      ph.excess[e] = m[c.index] - t[c.index], ph.twin[e] = t[c.index];
-      ph.weight[e] = 1.0 / (c.twin + c.measured + d_.records_[r].floor);
-    }
-  }
-  std::vector<double> places;
-  for (std::size_t j = 0; j < tones; ++j) places.push_back(found_[j].place), unit_phasors(ph, j, places[j]);
-  double misfit = fit_phases(ph);
-  // Places, strongest tone first (found_ is ordered so after tones_as_measured), by halving steps.
-  auto free_of_others = [&](std::size_t j, double place) {
-    if (on_a_line(place) || !(place > 0)) return false;
-    for (std::size_t i = 0; i < tones; ++i)
-      if (i != j && std::abs(places[i] - place) < separation_) return false;
-    return true;
-  };
-  for (std::size_t j = 0; j < tones; ++j)
-    for (double s = 4 * step_; s > step_ / 64; s /= 2)
-      for (const double place : {places[j] - s, places[j] + s}) {
-        if (!free_of_others(j, place)) continue;
-        Phasors trial = ph;
-        unit_phasors(trial, j, place);
-        if (const double m = fit_phases(trial); m < misfit) ph = std::move(trial), misfit = m, places[j] = place;
-      }
-  fit_phases(ph);
-  const auto amplitude = phased_least_squares(ph, ph.phased, 0, n_, nullptr);
-  std::vector<double> base(n_);
-  for (std::size_t e = 0; e < n_; ++e) {
-    const Cell& c = d_.records_[w_[e].first].cells[w_[e].second];
-    if (c.kind == CellKind::broadband) {
-      base[e] = c.twin;
-      for (std::size_t j = 0; j < tones; ++j) base[e] += amplitude[j] * amplitude[j] * ph.bins[j][e];
-      continue;
-    }
-    Complex line = ph.twin[e];
-    for (std::size_t j = 0; j < tones; ++j) line += amplitude[j] * ph.phased[j][e];
-    base[e] = ph.weight[e] > 0 ? std::norm(line) : c.twin;
-  }
-  double rss = 0;
-  for (std::size_t e = 0; e < n_; ++e) rss += std::pow(g_[e] - g_of(e, base[e]), 2);
-  // Parameters: with phases each tone's place, amplitude and a phase per record; without, place and power.
-  const double nn = static_cast<double>(n_), res2 = d_.settings_.resolution_db * d_.settings_.resolution_db;
-  auto criterion = [&](double sum, std::size_t parameters) {
-    return nn * std::log(std::max(sum / nn, res2)) + static_cast<double>(parameters) * std::log(nn);
-  };
-  if (!(criterion(rss, tones * (2 + ph.spans.size())) < criterion(rss_with_base(), 2 * tones))) return;
-  base_ = std::move(base);
-  for (std::size_t j = 0; j < tones; ++j) found_[j].place = places[j], found_[j].power = amplitude[j] * amplitude[j], found_[j].rss = rss;
-}
-
 FeatureDescriber::Fit FeatureDescriber::ToneSearch::result() {
   ghost_as_measured();
   tones_as_measured();
-  with_phases();
   std::sort(found_.begin(), found_.end(), [](const Tone& a, const Tone& b) { return a.place < b.place; });
   Fit fit;
   fit.complexity = 2 * static_cast<int>(std::max<std::size_t>(1, found_.size()));
@@ -1340,13 +1149,11 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   // one spreads a feature over tens of orders, and its |g|-weighted centre, shifting with speed as
   // the leakage's skew does, can make it move with neither.
   if (f.movement != FeatureMovement::fixed_in_hz) fits.push_back(tones(f, w, false, 1));
-  // Tones fixed in Hz: up to kMaxTones in a feature not fixed in orders (supply pick-up and its
-  // harmonics join into one band), each within four input orders of the next. Not only on a feature
-  // fixed in Hz: strong tones' leakage stands over the practical minimum orders away, and the
-  // feature's |g|-weighted centre, shifting with speed as the leakage's skew does, can make it move
-  // with neither (as for the ghost, above).
+  // Tones fixed in Hz: up to kMaxTones in a feature fixed in Hz (supply pick-up and its harmonics
+  // join into one band), each within four input orders of the next; else one.
   const double hz_width = f.hz_high - f.hz_low;
-  if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
+  if (f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
+  else if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
   FeatureDescription best = none;
   double best_bic = std::numeric_limits<double>::infinity();
   for (const auto& fit : fits) {

@@ -18,12 +18,8 @@
 //    sees it (add_non_synchronous_tone), at one order (ghost) or one frequency (tone) in every
 //    record, one amplitude; a ghost's order then refined from the lines beside it (the rectangular
 //    window's interpolation) and a unit tone's record reduced by RecordSpectra, its power the
-//    excess summed over the window against that unit's share (tone_as_measured); where the records'
-//    complex lines are known, the tones with their phases (a tone adds to a line in amplitude): per
-//    record a·cos + b·sin of unit tones (unit_tone_phasors) on the lines' complex excess, places
-//    refined, one amplitude per tone, adopted when the BIC says so; a tone within
-//    `supply_tolerance_orders` of a harmonic of 50 or 60 Hz is supply pick-up, and tones at integer
-//    multiples of the lowest tone are its harmonics;
+//    excess summed over the window against that unit's share (tone_as_measured); a tone within `supply_tolerance_orders` of a harmonic of 50 or 60 Hz is
+//    supply pick-up, and tones at integer multiples of the lowest tone are its harmonics;
 //  - floor change: the broadband bins × 10^((L + S·log10(f/1 kHz))/10), least squares over every
 //    broadband bin above the comparison's floor; for a feature of the broadband floors
 //    (FeatureFinder::floor_features) the same line fitted to the floors' g (compare_floors) over
@@ -142,17 +138,6 @@ class FeatureDescriber {
 /// works in orders, the rate only sets how far up the spectra go and how closely the angular
 /// resampler's interpolation follows the tone.
 SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
-                                  double samples_per_cycle);
-
-/// The complex synchronous lines (peak amplitude, phased on the tacho) a unit cosine and a unit sine
-/// at input order `order` leave in a record made as unit_tone_spectra makes it, and the cosine's
-/// summary: a tone a·cos(2π·order·θ) + b·sin(2π·order·θ) adds a·cos_k + b·sin_k to line k (the
-/// reduction is linear in the record).
-struct UnitTonePhasors {
-  std::vector<std::complex<double>> cos_input, cos_output, sin_input, sin_output;
-  SpectralSummary summary;
-};
-UnitTonePhasors unit_tone_phasors(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
                                   double samples_per_cycle);
 
 /// The candidate that explains a feature: noise_floor for a floor change a white PSD explains on its
