@@ -1242,17 +1242,19 @@ bool TwinModel::wear_crossings_by_rate(Forecast& f, const LogPosterior& p, const
   // point reaches T (truth_crossing_threshold). The rate reading measures the model's increments
   // against the truth's, so K_wear's own uncertainty is in it: the path keeps today's K_wear.
   const double d_now = max_depth(memory_.current.state), limit = settings_.wear_limit_m, tail = (1.0 - kNominalCoverage) / 2.0;
-  auto crossing = [&](double kp, double q) {
-    return run_forecast(memory_.current, memory_.k_wear_si, kp, deep, nullptr, truth_crossing_threshold(*j, d_now, limit, q)).wear;
+  // Each threshold is a quantile found by bisection over a numerical integral: computed once.
+  const double t_mid = truth_crossing_threshold(*j, d_now, limit, 0.5), t_low = truth_crossing_threshold(*j, d_now, limit, tail),
+               t_high = truth_crossing_threshold(*j, d_now, limit, 1.0 - tail);
+  auto crossing = [&](double kp, double threshold) {
+    return run_forecast(memory_.current, memory_.k_wear_si, kp, deep, nullptr, threshold).wear;
   };
-  f.wear.cycles_left = crossing(memory_.k_pitting, 0.5);
-  f.wear.cycles_left_low = crossing(f.k_pitting_high, tail);
-  f.wear.cycles_left_high = crossing(f.k_pitting_low, 1.0 - tail);
+  f.wear.cycles_left = crossing(memory_.k_pitting, t_mid);
+  f.wear.cycles_left_low = crossing(f.k_pitting_high, t_low);
+  f.wear.cycles_left_high = crossing(f.k_pitting_low, t_high);
   char b[400];
   std::snprintf(b, sizeof b, "wear rate: inspections %lld and %lld (%.4g to %.4g cycles) grew %.4g times the model's depth increment (ln SD %.3g, covariance with the level %.3g): wear crossings where the model's deepest point reaches %.4g um (ends %.4g to %.4g um)",
                 static_cast<long long>(rate.from_id), static_cast<long long>(rate.to_id), rate.from_cycles, rate.to_cycles,
-                std::exp(rate.log_mean), std::sqrt(rate.var), j->cov, 1e6 * truth_crossing_threshold(*j, d_now, limit, 0.5),
-                1e6 * truth_crossing_threshold(*j, d_now, limit, tail), 1e6 * truth_crossing_threshold(*j, d_now, limit, 1.0 - tail));
+                std::exp(rate.log_mean), std::sqrt(rate.var), j->cov, 1e6 * t_mid, 1e6 * t_low, 1e6 * t_high);
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
   return true;
 }
