@@ -69,20 +69,34 @@ inline int exit_code(int status) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+// A mutex-guarded list of process ids a test must end if it stops early.
+class PidRegistry {
+ public:
+  void add(pid_t pid) {
+    std::lock_guard lock(mutex_);
+    pids_.push_back(pid);
+  }
+  void remove(pid_t pid) {
+    std::lock_guard lock(mutex_);
+    std::erase(pids_, pid);
+  }
+  std::vector<pid_t> snapshot() const {
+    std::lock_guard lock(mutex_);
+    return pids_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<pid_t> pids_;
+};
+
 // The children started by spawn() and not yet reaped, so that a test ending early (a failed
 // REQUIRE throws past its waits) still ends them (ChildrenGuard).
-inline std::mutex& children_mutex() {
-  static std::mutex m;
-  return m;
+inline PidRegistry& children() {
+  static PidRegistry registry;
+  return registry;
 }
-inline std::vector<pid_t>& children() {
-  static std::vector<pid_t> c;
-  return c;
-}
-inline void forget_child(pid_t pid) {
-  std::lock_guard lock(children_mutex());
-  std::erase(children(), pid);
-}
+inline void forget_child(pid_t pid) { children().remove(pid); }
 
 }  // namespace detail
 
@@ -166,10 +180,7 @@ inline pid_t spawn(const std::vector<std::string>& args, const std::filesystem::
                    uid_t as_user = 0, const std::string& binary = GEARWATCH_BINARY) {
   const pid_t pid = ::fork();
   if (pid != 0) {
-    if (pid > 0) {
-      std::lock_guard lock(detail::children_mutex());
-      detail::children().push_back(pid);
-    }
+    if (pid > 0) detail::children().add(pid);
     return pid;
   }
   const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -183,14 +194,6 @@ inline pid_t spawn(const std::vector<std::string>& args, const std::filesystem::
   argv.push_back(nullptr);
   ::execv(binary.c_str(), argv.data());
   ::_exit(127);
-}
-
-/// Waits for `pid`: its exit status, or 128 + the signal that ended it.
-inline int wait_exit(pid_t pid) {
-  int st = 0;
-  ::waitpid(pid, &st, 0);
-  detail::forget_child(pid);
-  return detail::exit_code(st);
 }
 
 /// Waits up to `timeout` for `pid`: its exit status (128 + signal); -1 when it had not exited by
@@ -208,6 +211,10 @@ inline int wait_bounded(pid_t pid, std::chrono::milliseconds timeout) {
   return -1;
 }
 
+/// Waits for `pid` as long as a command may run (run_command's default deadline): its exit status,
+/// or 128 + the signal that ended it; -1 when it outlived that and was killed.
+inline int wait_exit(pid_t pid) { return wait_bounded(pid, std::chrono::seconds(1200)); }
+
 /// Ends, when it goes out of scope, every child spawn() started and nobody reaped: a test that
 /// stops early (a failed REQUIRE) leaves no consumer or daemon running.
 class ChildrenGuard {
@@ -216,12 +223,7 @@ class ChildrenGuard {
   ChildrenGuard(const ChildrenGuard&) = delete;
   ChildrenGuard& operator=(const ChildrenGuard&) = delete;
   ~ChildrenGuard() {
-    std::vector<pid_t> left;
-    {
-      std::lock_guard lock(detail::children_mutex());
-      left = detail::children();
-    }
-    for (const pid_t pid : left) {
+    for (const pid_t pid : detail::children().snapshot()) {
       const int code = terminate_child(pid);
       std::cerr << "test ended with child " << pid << " still running: ended it (exit " << code << ")" << std::endl;
     }

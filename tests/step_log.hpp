@@ -21,22 +21,12 @@ namespace gearwatch::testing {
 
 /// Processes the watchdog kills besides spawn()'s children: servers a test started (a broker, a
 /// postmaster), registered while they run.
-inline std::mutex& server_pids_mutex() {
-  static std::mutex m;
-  return m;
+inline detail::PidRegistry& servers() {
+  static detail::PidRegistry registry;
+  return registry;
 }
-inline std::vector<pid_t>& server_pids() {
-  static std::vector<pid_t> p;
-  return p;
-}
-inline void register_server(pid_t pid) {
-  std::lock_guard lock(server_pids_mutex());
-  server_pids().push_back(pid);
-}
-inline void unregister_server(pid_t pid) {
-  std::lock_guard lock(server_pids_mutex());
-  std::erase(server_pids(), pid);
-}
+inline void register_server(pid_t pid) { servers().add(pid); }
+inline void unregister_server(pid_t pid) { servers().remove(pid); }
 
 class StepLog {
  public:
@@ -77,15 +67,9 @@ class StepLog {
     std::cerr << line("watchdog: still running after " + std::to_string(limit.count()) + " s, in the step begun at +" + format(step_at_) +
                       " s: " + step_ + "; ending its children and servers")
               << std::flush;
-    std::vector<pid_t> pids;
-    {
-      std::lock_guard c(detail::children_mutex());
-      pids = detail::children();
-    }
-    {
-      std::lock_guard s(server_pids_mutex());
-      pids.insert(pids.end(), server_pids().begin(), server_pids().end());
-    }
+    std::vector<pid_t> pids = detail::children().snapshot();
+    const std::vector<pid_t> server_list = servers().snapshot();
+    pids.insert(pids.end(), server_list.begin(), server_list.end());
     for (const pid_t pid : pids) ::kill(pid, SIGKILL);
     std::fflush(nullptr);  // what Catch has reported so far (std::cout goes through C's stdout)
     std::_Exit(1);
