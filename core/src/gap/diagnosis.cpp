@@ -15,6 +15,7 @@
 #include <tuple>
 #include <utility>
 
+#include "gearwatch/gap/attribution.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/evaluation.hpp"
 #include "gearwatch/gap/describe.hpp"
@@ -687,6 +688,8 @@ class Diagnosis {
       chosen_.push_back(best.effect);
     ic_current_ = best.ic;
     current_gaps_ = std::move(best.gaps);
+    // The held-out models with the effects chosen so far, for the features' attribution.
+    step_models_.push_back(models_of(*test_base_, chosen_, gears_));
   }
 
   /// A chosen rerun candidate, refined; the later candidates act on its twin.
@@ -722,7 +725,19 @@ class Diagnosis {
     report_.after = family_gaps(after, noise_, settings_, fixed_reason_);
     for (const auto& g : report_.after)
       if (g.significant) report_.unexplained.push_back(g.family);
-    for (auto& f : report_.features) f.explained_by = explaining_candidate(report_, f, gears_);
+    attribute_features();
+  }
+
+  /// Each feature's candidate (attribution.hpp): the chosen one whose addition removes its held-out gap.
+  void attribute_features() {
+    std::vector<HeldOutModels> held_out;
+    for (std::size_t i = 0; i < test_.size(); ++i) {
+      HeldOutModels h{&test_[i].measured_all, &test_[i].twin_all, {}, test_[i].floor};
+      for (const auto& step : step_models_) h.with_chosen.push_back(&step[i]);
+      held_out.push_back(std::move(h));
+    }
+    for (auto& f : report_.features)
+      f.explained_by = explaining_candidate(f, held_out, report_.chosen, gears_, settings_.features.min_feature_db);
   }
 
   /// K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the
@@ -820,6 +835,7 @@ class Diagnosis {
   bool rerun_chosen_ = false;
   double ic_current_ = 0;
   std::vector<FamilyGap> current_gaps_;
+  std::vector<std::vector<SpectralSummary>> step_models_;  // [step][held-out record]: twin + the first step + 1 chosen
 };
 
 }  // namespace

@@ -1,0 +1,45 @@
+#pragma once
+// Which chosen candidate explains a feature (features.hpp): the one whose addition removes the
+// feature's own gap on the held-out records, by the rule that says a description removes it
+// (describe.hpp). Pure computation, no I/O.
+//
+// Rule (docs/gap.md, "Attribution"): a floor feature a white PSD explains on its own bands
+// (`white_psd_m2_s4_per_hz`) is the noise floor's, chosen or not. Any other feature's held-out cells
+// are the lines and bins of each held-out record it was seen in, inside its extent (in Hz for a
+// feature fixed in Hz, else in orders), whose |g| against the twin alone is at least the practical
+// minimum. With the twin plus the first k chosen effects (in the order they were chosen), the RMS of
+// g over those cells; the candidate whose addition first brings it under the practical minimum
+// explains the feature. A candidate that lowers a feature's gap only part way does not: a flexible
+// form (per-line gains) lowers many gaps it does not make. No held-out cell: nothing explains it
+// (the candidates are fitted on the training records, which are no evidence).
+#include <cstddef>
+#include <optional>
+#include <vector>
+
+#include "gearwatch/gap/spectra.hpp"
+#include "gearwatch/gearbox_spec.hpp"
+#include "gearwatch/types/gap_report.hpp"
+
+namespace gearwatch::gap {
+
+/// One held-out record: the measured spectra, the twin's alone, and the twin with the first k + 1
+/// chosen effects for each k (`with_chosen[k]`), all with the comparison's floor F.
+struct HeldOutModels {
+  const SpectralSummary* measured = nullptr;
+  const SpectralSummary* twin = nullptr;
+  std::vector<const SpectralSummary*> with_chosen;
+  double floor = 0;
+};
+
+/// The RMS of g = 10·log10((P_meas + F)/(P_model + F)) over the feature's held-out cells, with the
+/// model `with_chosen[step]` (step −1: the twin alone). NaN when the feature has no held-out cell.
+double held_out_feature_gap_db(const GapFeature& feature, const std::vector<HeldOutModels>& held_out, int step,
+                               const GearPairSpec& gears, double min_feature_db);
+
+/// The candidate that explains a feature (the rule above); `chosen` in the order chosen, one entry
+/// per step of every record's `with_chosen`. None: no candidate does.
+std::optional<CandidateEffect> explaining_candidate(const GapFeature& feature, const std::vector<HeldOutModels>& held_out,
+                                                    const std::vector<CandidateEffect>& chosen, const GearPairSpec& gears,
+                                                    double min_feature_db);
+
+}  // namespace gearwatch::gap
