@@ -13,7 +13,9 @@
 // form (per-line gains) lowers many gaps it does not make. A feature the held-out records do not
 // show (a narrow resonance between the held-out speed's lines) is judged on its training cells the
 // same way: the candidate was chosen on the held-out families, and where the feature is seen is the
-// only evidence of whether that candidate makes it.
+// only evidence of whether that candidate makes it. When the cells name none, the family evidence
+// (family_explaining_candidate) is asked; alone it named nothing for a feature whose own gap a
+// chosen candidate removes while its family stays significant elsewhere.
 #include <cstddef>
 #include <optional>
 #include <vector>
