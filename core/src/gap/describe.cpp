@@ -1242,26 +1242,4 @@ void FeatureDescriber::describe_all(std::vector<GapFeature>& features) const {
   }
 }
 
-std::optional<CandidateEffect> explaining_candidate(const GapReport& report, const GapFeature& f, const GearPairSpec& gears) {
-  // A floor change that added white noise explains on its own bands (white_floor_psd) is the noise
-  // floor's, chosen or not: its family's RMS over the whole band rarely reaches significance.
-  if (f.description.kind == DescriptionKind::floor_change && std::isfinite(f.description.parameter("white_psd_m2_s4_per_hz")))
-    return CandidateEffect::noise_floor;
-  FamilyKind family = FamilyKind::broadband;
-  const double nearest = std::round(f.order);
-  if (f.description.kind == DescriptionKind::floor_change) family = FamilyKind::broadband;
-  // A modulation's gap is in its shaft's first sidebands n·z ± 1; a feature holding a pair of them
-  // has its centre on the carrier between them, a mesh order, whose family is not the sidebands'.
-  else if (f.description.kind == DescriptionKind::modulation)
-    family = f.description.shaft == FeatureShaft::output ? FamilyKind::output_sidebands : FamilyKind::input_sidebands;
-  else if (f.movement == FeatureMovement::fixed_in_hz) family = FamilyKind::fixed_frequency;
-  else if (f.shaft == FeatureShaft::output && nearest >= 1) family = output_line_family(static_cast<int>(nearest), gears.gear_teeth);
-  else if (std::abs(f.order - nearest) <= 0.25 && nearest >= 1) family = input_line_family(static_cast<int>(nearest), gears.pinion_teeth);
-  if (std::find(report.unexplained.begin(), report.unexplained.end(), family) != report.unexplained.end()) return std::nullopt;
-  for (const CandidateEffect effect : report.chosen)
-    for (const auto& c : report.candidates)
-      if (c.effect == effect && std::find(c.explains.begin(), c.explains.end(), family) != c.explains.end()) return effect;
-  return std::nullopt;
-}
-
 }  // namespace gearwatch::gap

@@ -15,6 +15,7 @@
 #include <tuple>
 #include <utility>
 
+#include "gearwatch/gap/attribution.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/evaluation.hpp"
 #include "gearwatch/gap/describe.hpp"
@@ -687,6 +688,11 @@ class Diagnosis {
       chosen_.push_back(best.effect);
     ic_current_ = best.ic;
     current_gaps_ = std::move(best.gaps);
+    // The held-out models with the effects chosen so far, for the features' attribution.
+    step_models_.push_back(models_of(*test_base_, chosen_, gears_));
+    std::vector<SpectralSummary> train_models;
+    for (const auto& p : *train_base_) train_models.push_back(apply_effects(chosen_, p.twin, gears_));
+    step_train_models_.push_back(std::move(train_models));
   }
 
   /// A chosen rerun candidate, refined; the later candidates act on its twin.
@@ -722,7 +728,26 @@ class Diagnosis {
     report_.after = family_gaps(after, noise_, settings_, fixed_reason_);
     for (const auto& g : report_.after)
       if (g.significant) report_.unexplained.push_back(g.family);
-    for (auto& f : report_.features) f.explained_by = explaining_candidate(report_, f, gears_);
+    attribute_features();
+  }
+
+  /// Each feature's candidate (attribution.hpp): the chosen one whose addition removes its held-out gap.
+  void attribute_features() {
+    std::vector<RecordModels> held_out, training;
+    for (std::size_t i = 0; i < test_.size(); ++i) {
+      RecordModels h{&test_[i].measured_all, &test_[i].twin_all, {}, test_[i].floor};
+      for (const auto& step : step_models_) h.with_chosen.push_back(&step[i]);
+      held_out.push_back(std::move(h));
+    }
+    for (std::size_t i = 0; i < train_.size(); ++i) {
+      RecordModels t{&train_[i].measured_all, &train_[i].twin_all, {}, train_[i].floor};
+      for (const auto& step : step_train_models_) t.with_chosen.push_back(&step[i]);
+      training.push_back(std::move(t));
+    }
+    for (auto& f : report_.features) {
+      f.explained_by = explaining_candidate(f, held_out, training, report_.chosen, gears_, settings_.features.min_feature_db);
+      if (!f.explained_by) f.explained_by = family_explaining_candidate(report_, f, gears_);
+    }
   }
 
   /// K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the
@@ -820,6 +845,8 @@ class Diagnosis {
   bool rerun_chosen_ = false;
   double ic_current_ = 0;
   std::vector<FamilyGap> current_gaps_;
+  std::vector<std::vector<SpectralSummary>> step_models_;  // [step][held-out record]: twin + the first step + 1 chosen
+  std::vector<std::vector<SpectralSummary>> step_train_models_;  // the same for the training records
 };
 
 }  // namespace

@@ -140,11 +140,4 @@ class FeatureDescriber {
 SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
                                   double samples_per_cycle);
 
-/// The candidate that explains a feature: noise_floor for a floor change a white PSD explains on its
-/// own bands (`white_psd_m2_s4_per_hz`, describe_floor); else the first chosen candidate in
-/// report.chosen whose families hold the family the feature's place belongs to (fixed in Hz:
-/// fixed_frequency; else its line's family, or broadband off the integer orders), unless that family
-/// stays unexplained. None: no candidate does.
-std::optional<CandidateEffect> explaining_candidate(const GapReport& report, const GapFeature& feature, const GearPairSpec& gears);
-
 }  // namespace gearwatch::gap

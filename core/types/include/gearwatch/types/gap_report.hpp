@@ -134,7 +134,7 @@ struct GapFeature {
   double p_value = 1;              ///< the smallest per-bin p-value among its lines/bins (before BH)
   std::vector<FeatureSighting> seen_in;
   FeatureDescription description;  ///< what form it has (describe.hpp), explained or not
-  /// The chosen candidate that explains it (describe.hpp: explaining_candidate); none: no physical
+  /// The chosen candidate that explains it (attribution.hpp: explaining_candidate); none: no physical
   /// candidate does.
   std::optional<CandidateEffect> explained_by;
 };

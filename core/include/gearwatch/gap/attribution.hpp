@@ -1,0 +1,58 @@
+#pragma once
+// Which chosen candidate explains a feature (features.hpp): the one whose addition removes the
+// feature's own gap on the held-out records, by the rule that says a description removes it
+// (describe.hpp). Pure computation, no I/O.
+//
+// Rule (docs/gap.md, "Attribution"): a floor feature a white PSD explains on its own bands
+// (`white_psd_m2_s4_per_hz`) is the noise floor's, chosen or not. Any other feature's held-out cells
+// are the lines and bins of each held-out record it was seen in, inside its extent (in Hz for a
+// feature fixed in Hz, else in orders), whose |g| against the twin alone is at least the practical
+// minimum. With the twin plus the first k chosen effects (in the order they were chosen), the RMS of
+// g over those cells; the candidate whose addition first brings it under the practical minimum
+// explains the feature. A candidate that lowers a feature's gap only part way does not: a flexible
+// form (per-line gains) lowers many gaps it does not make. A feature the held-out records do not
+// show (a narrow resonance between the held-out speed's lines) is judged on its training cells the
+// same way: the candidate was chosen on the held-out families, and where the feature is seen is the
+// only evidence of whether that candidate makes it. When the cells name none, the family evidence
+// (family_explaining_candidate) is asked; alone it named nothing for a feature whose own gap a
+// chosen candidate removes while its family stays significant elsewhere.
+#include <cstddef>
+#include <optional>
+#include <vector>
+
+#include "gearwatch/gap/spectra.hpp"
+#include "gearwatch/gearbox_spec.hpp"
+#include "gearwatch/types/gap_report.hpp"
+
+namespace gearwatch::gap {
+
+/// One record (held out or training): the measured spectra, the twin's alone, and the twin with the
+/// first k + 1 chosen effects for each k (`with_chosen[k]`), all with the comparison's floor F.
+struct RecordModels {
+  const SpectralSummary* measured = nullptr;
+  const SpectralSummary* twin = nullptr;
+  std::vector<const SpectralSummary*> with_chosen;
+  double floor = 0;
+};
+
+/// The RMS of g = 10·log10((P_meas + F)/(P_model + F)) over the feature's cells in `records` (the
+/// held-out set when `held_out`, else the training set: the sightings' records), with the model
+/// `with_chosen[step]` (step −1: the twin alone). NaN when the feature has no cell there.
+double feature_gap_db(const GapFeature& feature, const std::vector<RecordModels>& records, bool held_out, int step,
+                      const GearPairSpec& gears, double min_feature_db);
+
+/// The candidate that explains a feature (the rule above); `chosen` in the order chosen, one entry
+/// per step of every record's `with_chosen`. None: no candidate does.
+std::optional<CandidateEffect> explaining_candidate(const GapFeature& feature, const std::vector<RecordModels>& held_out,
+                                                    const std::vector<RecordModels>& training,
+                                                    const std::vector<CandidateEffect>& chosen, const GearPairSpec& gears,
+                                                    double min_feature_db);
+
+/// The family evidence, asked when the feature's own cells name none: the first chosen candidate in
+/// report.chosen whose families hold the family the feature's place belongs to (a modulation's: its
+/// shaft's sidebands; fixed in Hz: fixed_frequency; else its line's, or broadband off the integer
+/// orders), unless that family stays significant after the choice. None: no candidate does.
+std::optional<CandidateEffect> family_explaining_candidate(const GapReport& report, const GapFeature& feature,
+                                                           const GearPairSpec& gears);
+
+}  // namespace gearwatch::gap
