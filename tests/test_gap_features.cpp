@@ -274,6 +274,70 @@ TEST_CASE("gap features: the speed-movement rule and the merging of adjacent bin
   for (const auto& f : features_of(one, rng)) CHECK(f.movement == FeatureMovement::undetermined);
 }
 
+TEST_CASE("gap features: a narrow resonance seen on one mesh harmonic's flank at each of two speeds is one feature fixed in Hz",
+          "[gap][gap_features][gap_describe]") {
+  // A structural resonance on the path, power × (1 + (G − 1)·L(f)), L = (2ζr)²/((1 − r²)² + (2ζr)²),
+  // r = f/f0: f0 = 50.5 mesh harmonics at 12.5 Hz (11 993.75 Hz), 30 Hz between its half-power points,
+  // G = +12 dB. The twin holds only its mesh harmonics above the comparison's floor (every other line
+  // and bin 60 dB under it), so the resonance shows only where a mesh harmonic falls on it: harmonic
+  // 70 at 9 Hz (11 970 Hz, 23.75 Hz under f0) and harmonic 55 at 11.5 Hz (12 017.5 Hz, 23.75 Hz
+  // over); at 13.5 Hz the nearest is 61.75 Hz off, at 16 Hz 137.75 Hz. Each flank line is one cell
+  // in one record, 47.5 Hz apart: further than the finder's joining in Hz (half a bin each side).
+  const double fs = 50000, f0 = 11993.75, zeta = 30.0 / (2 * f0), gain_db = 12;
+  auto gain = [&](double hz) {
+    const double x = 2 * zeta * hz / f0, d = 1 - (hz / f0) * (hz / f0);
+    return 1 + (std::pow(10.0, gain_db / 10) - 1) * x * x / (d * d + x * x);
+  };
+  const std::vector<double> speeds{9.0, 11.5, 13.5, 16.0};
+  std::mt19937_64 rng(3501);
+  Records r, none;
+  double largest_line_db = 0;
+  for (double speed : speeds) {
+    auto twin = twin_spectra(fs, speed);
+    twin.input_revolutions = 16, twin.output_revolutions = 5;  // what a tone's record is made over (describe.hpp)
+    for (std::size_t k = 1; k <= twin.input_lines.size(); ++k)
+      if (k % kZ1 != 0) twin.input_lines[k - 1] *= 1e-9;
+    for (auto& p : twin.output_lines) p *= 1e-9;
+    for (auto& p : twin.broadband) p *= 1e-9;
+    auto measured = twin;
+    for_each_cell(measured, [&](double& p, double hz) { p *= gain(hz); });
+    const double floor = floor_of(twin);
+    for (std::size_t k = kZ1; k <= twin.input_lines.size(); k += kZ1)
+      largest_line_db = std::max(largest_line_db, 10 * std::log10((measured.input_lines[k - 1] + floor) / (twin.input_lines[k - 1] + floor)));
+    r.measured.push_back(with_noise(measured, rng));
+    r.twin.push_back(twin);
+    none.measured.push_back(with_noise(twin, rng));
+    none.twin.push_back(twin);
+  }
+  // The flank lines: 1 + (G − 1)·L at 23.75 Hz from f0 with a 15 Hz half-width, about 7.2 dB.
+  REQUIRE(largest_line_db > 6.5);
+  REQUIRE(largest_line_db < 8.0);
+  auto described_features = [&](const Records& rec) {
+    auto features = features_of(rec, rng);
+    std::vector<DescribedRecord> d;
+    for (std::size_t i = 0; i < rec.measured.size(); ++i) d.push_back({&rec.measured[i], &rec.twin[i], floor_of(rec.twin[i]), {}, {}, {}, {}});
+    FeatureDescriber(d, GearPairSpec{}).describe_all(features);
+    return features;
+  };
+  const auto features = described_features(r);
+  INFO(descriptions(features));
+  REQUIRE(features.size() == 1);
+  const auto& f = features.front();
+  CHECK(f.seen_in.size() == 2);
+  CHECK(f.movement == FeatureMovement::fixed_in_hz);
+  // Localised: f0 within its band in Hz (the flank lines' cells, 11 965.5 to 12 023.25 Hz).
+  CHECK(f.hz_low <= f0);
+  CHECK(f.hz_high >= f0);
+  REQUIRE(f.description.kind == DescriptionKind::resonance);
+  // Two lines carry three parameters: f_n lies between them (within the half-power bandwidth of
+  // f0), and the peak gain is at least what the flank lines show less three noise SDs; ζ and the
+  // gain alone are not determined (a wider, lower resonance gives both lines the same).
+  CHECK(std::abs(f.description.parameter("frequency_hz") - f0) <= 30.0);
+  CHECK(f.description.parameter("gain_db") >= largest_line_db - 3 * kNoiseDb);
+  // No effect: the same twin against itself with the same noise is silent.
+  CHECK(described_features(none).empty());
+}
+
 namespace {
 
 /// A constant-speed record of tones at input orders, exactly `revs` revolutions (plus half, so the

@@ -1121,12 +1121,9 @@ double FeatureDescriber::white_floor_psd(const GapFeature& f) const {
   return std::pow(10.0, lp);
 }
 
-FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
-  const Window w = window_of(f);
+FeatureDescription FeatureDescriber::chosen_form(const std::vector<Fit>& fits, const Window& w) const {
   FeatureDescription none;
   if (w.empty()) return none;
-  // The gap first: a window without a cell at the practical minimum is described by no form, so
-  // the local forms' searches are not run for it.
   double gap_sq = 0;
   std::size_t core = 0;
   for (const auto& [r, i] : w) {
@@ -1137,23 +1134,6 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   const double n = static_cast<double>(w.size());
   none.gap_db = std::sqrt(gap_sq / n);
   if (core == 0) return none;
-  std::vector<Fit> fits{floor_, tilt_, modulation_input_, modulation_output_};
-  // The local forms where they can be the one cause: a resonance within an octave (the forms' ζ
-  // ≤ 0.3 keeps its 3 dB band there for gains up to 10 dB), a tone fixed in Hz within four input
-  // orders (a weak one's leakage reaches three lines each side).
-  double top_speed = 0;
-  for (const auto& r : records_) top_speed = std::max(top_speed, r.speed_hz);
-  if (f.hz_high <= 2 * f.hz_low) fits.push_back(resonance(f, w));
-  // A ghost (searched about the feature's centre, below) on every feature not fixed in Hz: a tone's
-  // leakage stands over the practical minimum as far as the tone stands over the twin, so a strong
-  // one spreads a feature over tens of orders, and its |g|-weighted centre, shifting with speed as
-  // the leakage's skew does, can make it move with neither.
-  if (f.movement != FeatureMovement::fixed_in_hz) fits.push_back(tones(f, w, false, 1));
-  // Tones fixed in Hz: up to kMaxTones in a feature fixed in Hz (supply pick-up and its harmonics
-  // join into one band), each within four input orders of the next; else one.
-  const double hz_width = f.hz_high - f.hz_low;
-  if (f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
-  else if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
   FeatureDescription best = none;
   double best_bic = std::numeric_limits<double>::infinity();
   for (const auto& fit : fits) {
@@ -1176,6 +1156,75 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   return best;
 }
 
+FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
+  const Window w = window_of(f);
+  // The gap first: a window without a cell at the practical minimum is described by no form, so
+  // the local forms' searches are not run for it.
+  const FeatureDescription none = chosen_form({}, w);
+  bool core = false;
+  for (const auto& [r, i] : w) core = core || std::abs(g_of(r, i, records_[r].cells[i].measured)) >= settings_.min_feature_db;
+  if (!core) return none;
+  std::vector<Fit> fits{floor_, tilt_, modulation_input_, modulation_output_};
+  // The local forms where they can be the one cause: a resonance within an octave (the forms' ζ
+  // ≤ 0.3 keeps its 3 dB band there for gains up to 10 dB), a tone fixed in Hz within four input
+  // orders (a weak one's leakage reaches three lines each side).
+  double top_speed = 0;
+  for (const auto& r : records_) top_speed = std::max(top_speed, r.speed_hz);
+  if (f.hz_high <= 2 * f.hz_low) fits.push_back(resonance(f, w));
+  // A ghost (searched about the feature's centre, below) on every feature not fixed in Hz: a tone's
+  // leakage stands over the practical minimum as far as the tone stands over the twin, so a strong
+  // one spreads a feature over tens of orders, and its |g|-weighted centre, shifting with speed as
+  // the leakage's skew does, can make it move with neither.
+  if (f.movement != FeatureMovement::fixed_in_hz) fits.push_back(tones(f, w, false, 1));
+  // Tones fixed in Hz: up to kMaxTones in a feature fixed in Hz (supply pick-up and its harmonics
+  // join into one band), each within four input orders of the next; else one.
+  const double hz_width = f.hz_high - f.hz_low;
+  if (f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
+  else if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
+  return chosen_form(fits, w);
+}
+
+void FeatureDescriber::join_resonance_flanks(std::vector<GapFeature>& features) const {
+  auto shares_a_speed = [](const GapFeature& a, const GapFeature& b) {
+    for (const auto& x : a.seen_in)
+      for (const auto& y : b.seen_in)
+        if (std::abs(x.speed_hz - y.speed_hz) <= 1e-9 * std::max(x.speed_hz, y.speed_hz)) return true;
+    return false;
+  };
+  auto resonant = [](const GapFeature& f) { return f.description.kind == DescriptionKind::resonance; };
+  // A flank seen at one speed only may as well be described as a tone there (one line's excess):
+  // such features are offered too, the joint window deciding.
+  auto one_speed = [](const GapFeature& f) {
+    for (const auto& s : f.seen_in)
+      if (std::abs(s.speed_hz - f.seen_in.front().speed_hz) > 1e-9 * s.speed_hz) return false;
+    return !f.seen_in.empty();
+  };
+  auto offered = [&](const GapFeature& f) { return resonant(f) || one_speed(f); };
+  for (bool joined = true; joined;) {
+    joined = false;
+    for (std::size_t i = 0; i < features.size() && !joined; ++i)
+      for (std::size_t j = i + 1; j < features.size() && !joined; ++j) {
+        if (!offered(features[i]) || !offered(features[j]) || shares_a_speed(features[i], features[j])) continue;
+        GapFeature u = joined_features(features[i], features[j], gears_, settings_.min_speed_ratio);
+        if (!(u.hz_high <= 2 * u.hz_low)) continue;
+        // The joint sightings are read in Hz (a resonance is fixed there); their spread in Hz is
+        // the resonance's width, which the movement rule's one bin does not hold.
+        double slow = std::numeric_limits<double>::infinity(), fast = 0;
+        for (const auto& s : u.seen_in) slow = std::min(slow, s.speed_hz), fast = std::max(fast, s.speed_hz);
+        u.movement = fast >= slow * settings_.min_speed_ratio ? FeatureMovement::fixed_in_hz : FeatureMovement::undetermined;
+        const GapFeature in_hz = [&] { GapFeature h = u; h.movement = FeatureMovement::fixed_in_hz; return h; }();
+        const Window w = window_of(in_hz);
+        u.description = chosen_form({floor_, tilt_, modulation_input_, modulation_output_, resonance(in_hz, w)}, w);
+        if (!resonant(u)) continue;
+        features[i] = std::move(u);
+        features.erase(features.begin() + static_cast<std::ptrdiff_t>(j));
+        joined = true;
+      }
+  }
+  std::stable_sort(features.begin(), features.end(),
+                   [](const GapFeature& a, const GapFeature& b) { return std::abs(a.size_db) > std::abs(b.size_db); });
+}
+
 namespace {
 /// The frequencies of a fixed-tone description's tones (tone_k_hz; frequency_hz for a single one).
 std::vector<double> tone_frequencies(const FeatureDescription& d) {
@@ -1193,6 +1242,7 @@ void set_parameter(FeatureDescription& d, const std::string& name, double v) {
 
 void FeatureDescriber::describe_all(std::vector<GapFeature>& features) const {
   for (auto& f : features) f.description = describe(f);
+  join_resonance_flanks(features);
   // Tones: supply pick-up when near a harmonic of 50 or 60 Hz (the base more of them sit on), else
   // harmonics of the lowest tone they are integer multiples of; counted over every tone of every
   // feature (a supply's harmonics may sit in one feature or several).

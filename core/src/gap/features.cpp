@@ -360,4 +360,29 @@ GapFeature FeatureFinder::feature_of(const std::vector<Cluster>& clusters, const
   return f;
 }
 
+GapFeature joined_features(const GapFeature& a, const GapFeature& b, const GearPairSpec& gears, double min_speed_ratio) {
+  const double ratio = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;  // input orders per output order
+  auto to_input = [&](const GapFeature& f) { return f.shaft == FeatureShaft::output ? ratio : 1.0; };
+  GapFeature u;
+  u.shaft = std::abs(a.size_db) >= std::abs(b.size_db) ? a.shaft : b.shaft;
+  const double from_input = 1.0 / to_input(u);
+  u.order_low = std::min(a.order_low * to_input(a), b.order_low * to_input(b)) * from_input;
+  u.order_high = std::max(a.order_high * to_input(a), b.order_high * to_input(b)) * from_input;
+  u.hz_low = std::min(a.hz_low, b.hz_low), u.hz_high = std::max(a.hz_high, b.hz_high);
+  u.p_value = std::min(a.p_value, b.p_value);
+  u.seen_in = a.seen_in;
+  u.seen_in.insert(u.seen_in.end(), b.seen_in.begin(), b.seen_in.end());
+  const double n = static_cast<double>(u.seen_in.size());
+  for (const auto& s : u.seen_in) u.order += s.order / n, u.hz += s.hz / n, u.size_db += s.size_db / n;
+  u.order *= from_input;
+  // Each interval's half-width is z·sqrt(Σ var)/n over its own sightings: the variances add.
+  auto spread = [](const GapFeature& f) {
+    return (f.size_interval_db.high - f.size_interval_db.low) / 2 * static_cast<double>(f.seen_in.size());
+  };
+  const double half = std::hypot(spread(a), spread(b)) / n;
+  u.size_interval_db = {u.size_db - half, u.size_db + half};
+  u.movement = movement_of(u.seen_in, min_speed_ratio);
+  return u;
+}
+
 }  // namespace gearwatch::gap

@@ -60,6 +60,7 @@ struct DescriptionSettings {
   double supply_tolerance_orders = 0.1; ///< a tone this near k·50/60 Hz (in input orders at the top speed) is supply
   int max_supply_harmonic = 40;
   FloorSettings floor;                  ///< the broadband floors' bands, as the finder's (floor features)
+  double min_speed_ratio = 1.05;        ///< as the finder's: joined resonance flanks at speeds this far apart are fixed in Hz
 };
 
 class FeatureDescriber {
@@ -68,7 +69,9 @@ class FeatureDescriber {
   FeatureDescriber(const std::vector<DescribedRecord>& records, const GearPairSpec& gears, DescriptionSettings settings = {});
   /// The form the rule chooses for one feature (kind none: no form removes its gap).
   FeatureDescription describe(const GapFeature& feature) const;
-  /// Every feature's description, then the tones' harmonics and supply pick-up over all of them.
+  /// Every feature's description; features described as resonances seen at no common speed joined
+  /// when one resonance over their joint window removes the gap there (join_resonance_flanks); then
+  /// the tones' harmonics and supply pick-up over all of them.
   void describe_all(std::vector<GapFeature>& features) const;
   /// A feature of the broadband floors (FeatureFinder::floor_features): a floor change (level at
   /// 1 kHz, slope per decade) fitted to the floors' g over the bands whose centre lies in its extent
@@ -108,6 +111,17 @@ class FeatureDescriber {
   };
   using Window = std::vector<std::pair<std::size_t, std::size_t>>;  // (record, cell)
   Window window_of(const GapFeature& f) const;
+  /// The window's gap (RMS of g; none when no cell reaches the practical minimum) and, of `fits`,
+  /// the one the rule chooses (least BIC among those that bring the cells at the minimum under it).
+  FeatureDescription chosen_form(const std::vector<Fit>& fits, const Window& w) const;
+  /// A narrow resonance fixed in Hz between the mesh harmonics shows, at each speed, only on the
+  /// few lines that fall on it (a mesh harmonic on one flank at one speed, on the other flank at
+  /// another), further apart in Hz than the finder's joining reaches. Two features, each described as
+  /// a resonance or seen at one speed only (a flank line alone may read as a tone), seen at no common
+  /// speed and within an octave together, become one feature (fixed
+  /// in Hz when its speeds are min_speed_ratio apart) when, over their joint window in Hz, the rule
+  /// chooses one resonance among the resonance and the global forms; repeated while a pair joins.
+  void join_resonance_flanks(std::vector<GapFeature>& features) const;
   double g_of(std::size_t r, std::size_t c, double measured) const;
   Fit resonance(const GapFeature& f, const Window& w) const;
   /// Up to max_tones non-synchronous tones (one place and power each), found one at a time where the

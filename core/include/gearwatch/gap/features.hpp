@@ -150,6 +150,12 @@ class FeatureFinder {
   FeatureSettings settings_;
 };
 
+/// Two features as one (describe.hpp joins a resonance's flanks seen at different speeds): the
+/// sightings of both, the extents' union, the smaller p-value, the size the mean over all sightings
+/// with its interval from both intervals' spreads (records independent), the shaft of the larger
+/// feature; the movement as the movement rule reads the joint sightings.
+GapFeature joined_features(const GapFeature& a, const GapFeature& b, const GearPairSpec& gears, double min_speed_ratio);
+
 /// The Benjamini–Hochberg rejections at level q of the given p-values (step-up: the largest k with
 /// p_(k) ≤ q·k/m, and every p at or below it).
 std::vector<char> benjamini_hochberg(const std::vector<double>& p, double q);
