@@ -320,4 +320,89 @@ TEST_CASE("depth calibration: the rate's crossing interval holds a truth drawn f
   CHECK(static_cast<double>(covered) / trials == Approx(0.90).margin(0.015));
 }
 
+TEST_CASE("depth calibration: a path read again and a rate read at another pace, in closed form", "[model][depth_calibration]") {
+  // Along a path 0 → 2 µm over 0 → 1 M cycles: linear between the points.
+  const std::vector<PathPoint> path{{0.0, 0.0}, {0.5e6, 1e-6}, {1e6, 2e-6}};
+  CHECK(path_mean_at(path, 0.25e6) == Approx(0.5e-6).epsilon(1e-12));
+  CHECK(path_mean_at(path, 1e6) == 2e-6);
+  CHECK(path_mean_at(path, 1.1e6) < 0);
+  // Read against 4 µm, 6 µm measured; against 3 µm the measured 6 µm gives z = ln 2, same variance.
+  const DepthRatioMeasurement m = depth_ratio_measurement(5, 1e6, 6e-6, 4e-6, 0.05);
+  const DepthRatioMeasurement r = reread(m, 3e-6);
+  CHECK(r.log_ratio == Approx(std::log(2.0)).epsilon(1e-12));
+  CHECK(r.var == m.var);
+  CHECK(r.model_m == 3e-6);
+  CHECK(reread(m, 0.0).log_ratio == m.log_ratio);
+  // K 1 over (0, 1 M], 3 over (1 M, 2 M]: over [0.5 M, 1.5 M] the mean is 2; past the last stretch its K.
+  const std::vector<KStretch> k{{1e6, 1.0}, {2e6, 3.0}};
+  CHECK(cycle_mean_k(k, 0.5e6, 1.5e6) == Approx(2.0).epsilon(1e-12));
+  CHECK(cycle_mean_k(k, 1.5e6, 2.5e6) == Approx(3.0).epsilon(1e-12));
+  // The truth's increment 3 times the model's at K 2: at K 3 the model's increment is 1.5 times as
+  // large, the truth's 2 times that.
+  RateReading rate;
+  rate.valid = true, rate.log_mean = std::log(3.0), rate.var = 0.01;
+  const RateReading at = rate_at_pace(rate, 2.0, 3.0);
+  CHECK(std::exp(at.log_mean) == Approx(2.0).epsilon(1e-12));
+  CHECK(at.var == rate.var);
+}
+
+// The model's readings of inspected depths after K_wear updates (docs/model.md, "Depth
+// calibration"). The twin's RMS_SA is a stand-in, 1 + mean depth / scale, so RMS_SA picks the
+// model's depth and a K_wear update re-runs the path. Two inspections, then an update re-running
+// from the pair's start: both readings are read against the new path, which is the path of a model
+// run at the new K from the start (same loop, same steps: equal to rounding). Then an update whose
+// re-run starts after them: the readings stay, the rate is read against today's pace, κ − ln(K2/K1).
+TEST_CASE("depth calibration: inspected depths read against the model's path and pace after K_wear updates",
+          "[model][depth_calibration]") {
+  ModelSettings s = testing::calibration_case_settings();
+  s.update_k_wear = true;
+  s.commissioning_records = 0;
+  const double n_a = 4e5, n_b = 8e5, n_3 = 1e6, n_4 = 1.4e6;
+  auto mean_at = [&](double k, std::vector<double> at) {
+    ModelSettings fixed = testing::calibration_case_settings();
+    fixed.loop.k_wear_si = k;
+    TwinModel m(twin::GearboxParameters{}, fixed, testing::calibration_case_rms);
+    std::vector<double> means;
+    for (const double n : at) means.push_back(m.observe(testing::observation(n, 20, 20), {}).summary.combined_mean_depth_m);
+    return means;
+  };
+  const std::vector<double> m0 = mean_at(s.loop.k_wear_si, {n_a, n_b, n_3});
+  const double scale = m0[2];
+  REQUIRE(scale > 0);
+  auto rms = [scale](const WearState& st, const twin::OperatingPoint&) { return 1.0 + summarise(st).combined_mean_depth_m / scale; };
+  TwinModel model(twin::GearboxParameters{}, s, rms);
+  Inspection a, b;
+  a.id = 1, a.cycles = n_a, a.wear_depth_m = 2.0 * m0[0];
+  b.id = 2, b.cycles = n_b, b.wear_depth_m = 2.0 * m0[1] + 0.4 * (m0[1] - m0[0]);   // the truth's increment 2.4 x the model's
+  model.observe(testing::observation(n_a, 20, 20), {a});
+  model.observe(testing::observation(n_b, 20, 20), {a, b});
+  // Against the path at K0: as read.
+  REQUIRE(model.memory().depth_ratio_points.size() == 2);
+  CHECK(model.memory().depth_ratio_points[1].model_m == Approx(m0[1]).epsilon(1e-12));
+  // At n_3 RMS_SA says half the model's depth: K_wear falls, re-run from the start.
+  const ModelRunReport r3 = model.observe(testing::observation(n_3, 20, 20, 1.5), {a, b});
+  const double k1 = model.memory().k_wear_si;
+  REQUIRE(k1 < 0.7 * s.loop.k_wear_si);
+  REQUIRE(std::abs(r3.summary.combined_mean_depth_m / m0[2] - 0.5) < 0.05);
+  const std::vector<double> m1 = mean_at(k1, {n_a, n_b, n_3, n_4});
+  const auto& p = model.memory().depth_ratio_points;
+  REQUIRE(p.size() == 2);
+  CHECK(p[0].model_m == Approx(m1[0]).epsilon(1e-9));
+  CHECK(p[1].model_m == Approx(m1[1]).epsilon(1e-9));
+  CHECK(p[0].log_ratio == Approx(std::log(*a.wear_depth_m / m1[0])).epsilon(1e-9));
+  CHECK(p[1].log_ratio == Approx(std::log(*b.wear_depth_m / m1[1])).epsilon(1e-9));
+  const double kappa1 = std::log((*b.wear_depth_m - *a.wear_depth_m) / (m1[1] - m1[0]));
+  RateReading rate = model.wear_rate_reading();
+  REQUIRE(rate.valid);
+  CHECK(rate.log_mean == Approx(kappa1).epsilon(1e-9));
+  // At n_4 RMS_SA says 1.5 x the model's depth there: K_wear rises, re-run from n_3 (after both).
+  model.observe(testing::observation(n_4, 20, 20, 1.0 + 1.5 * m1[3] / scale), {a, b});
+  const double k2 = model.memory().k_wear_si;
+  REQUIRE(k2 > 1.3 * k1);
+  CHECK(model.memory().depth_ratio_points[1].model_m == Approx(m1[1]).epsilon(1e-9));   // not re-run there
+  rate = model.wear_rate_reading();
+  REQUIRE(rate.valid);
+  CHECK(rate.log_mean == Approx(kappa1 - std::log(k2 / k1)).epsilon(1e-9));
+}
+
 }  // namespace test_depth_calibration

@@ -123,6 +123,40 @@ RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points
   return best;
 }
 
+double path_mean_at(const std::vector<PathPoint>& path, double cycles) {
+  if (path.empty() || cycles < path.front().cycles || cycles > path.back().cycles) return -1.0;
+  const auto hi = std::lower_bound(path.begin(), path.end(), cycles,
+                                   [](const PathPoint& p, double c) { return p.cycles < c; });
+  if (hi->cycles == cycles || hi == path.begin()) return hi->mean_m;
+  const auto lo = hi - 1;
+  return lo->mean_m + (cycles - lo->cycles) / (hi->cycles - lo->cycles) * (hi->mean_m - lo->mean_m);
+}
+
+DepthRatioMeasurement reread(const DepthRatioMeasurement& m, double model_m) {
+  if (!(m.model_m > 0) || !(model_m > 0)) return m;
+  DepthRatioMeasurement r = m;
+  r.log_ratio = m.log_ratio + std::log(m.model_m / model_m);   // ln(m e^z / m2)
+  r.model_m = model_m;
+  return r;
+}
+
+double cycle_mean_k(const std::vector<KStretch>& stretches, double from, double to) {
+  if (stretches.empty() || !(to > from)) return -1.0;
+  double start = 0, sum = 0;
+  for (const KStretch& s : stretches) {
+    const double overlap = std::min(to, s.end_cycles) - std::max(from, start);
+    if (overlap > 0) sum += overlap * s.k;
+    start = s.end_cycles;
+  }
+  if (to > start) sum += (to - std::max(from, start)) * stretches.back().k;
+  return sum / (to - from);
+}
+
+RateReading rate_at_pace(RateReading r, double k_path, double k_now) {
+  if (r.valid && k_path > 0 && k_now > 0) r.log_mean -= std::log(k_now / k_path);
+  return r;
+}
+
 double posterior_weight(const LogPosterior& prior, const std::vector<DepthRatioMeasurement>& points, double q_per_cycle,
                         double now, std::int64_t inspection_id) {
   std::vector<DepthRatioMeasurement> moved = points;

@@ -272,6 +272,8 @@ bool TwinModel::rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot&
     if (recapture_anchors && anchor.state.cycles > from.state.cycles && loop.state().cycles == anchor.state.cycles)
       anchor = LoopSnapshot{loop.state(), loop.next_step_cycles()};
   };
+  // The re-run's path at the records, for the inspected depths read against the path it replaces.
+  std::vector<PathPoint> path{{from.state.cycles, summarise(from.state).combined_mean_depth_m}};
   for (const LifeInterval& in : memory_.intervals) {
     if (in.end_cycles <= from.state.cycles) continue;
     if (in.speed_hz != last_speed || in.torque_nm != last_torque) {
@@ -288,9 +290,23 @@ bool TwinModel::rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot&
     }
     capture(memory_.wear_anchor);
     capture(memory_.pitting_anchor);
+    if (recapture_anchors) path.push_back({loop.state().cycles, summarise(loop.state()).combined_mean_depth_m});
   }
   out = LoopSnapshot{loop.state(), loop.next_step_cycles()};
+  if (ok && recapture_anchors) reread_depth_points(path);
   return ok;
+}
+
+void TwinModel::reread_depth_points(const std::vector<PathPoint>& path) {
+  // An inspected depth is a reading of the truth against the model's depth at its cycles. A re-run
+  // from before it replaces the model's path there (a new K_wear from its anchor): ρ read against
+  // the replaced path, applied to the new depth now, would count the re-run's change on top of the
+  // measured depth (and the rate reading's increments would be the old path's).
+  for (DepthRatioMeasurement& m : memory_.depth_ratio_points) {
+    if (!(m.cycles > path.front().cycles)) continue;
+    const double model = path_mean_at(path, m.cycles);
+    if (model > 0) m = reread(m, model);
+  }
 }
 
 void TwinModel::apply_k(bool wear, double value, double from_cycles) {
@@ -1208,10 +1224,22 @@ LogPosterior TwinModel::depth_ratio_now() const {
   return depth_ratio_posterior(depth_ratio_prior(), memory_.depth_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
 }
 
+RateReading TwinModel::wear_rate_reading() const {
+  const RateReading r = newest_rate_reading(memory_.depth_ratio_points);
+  if (!r.valid) return r;
+  // The readings are on the model's current path, whose increments between them ran at the K_wear
+  // of their stretches; the forecast runs at today's: read against today's pace (a later K_wear
+  // whose re-run started after the inspections would otherwise be counted twice, once in the
+  // path's new pace, once in the ratio read against the old).
+  std::vector<KStretch> stretches;
+  for (const LifeInterval& in : memory_.intervals) stretches.push_back({in.end_cycles, in.k_wear_si});
+  return rate_at_pace(r, cycle_mean_k(stretches, r.from_cycles, r.to_cycles), memory_.k_wear_si);
+}
+
 std::optional<LevelRate> TwinModel::level_and_rate(const LogPosterior& p, const LogPosterior& peak, double model_peak,
                                                    RateReading& rate) const {
   const auto& points = memory_.depth_ratio_points;
-  rate = newest_rate_reading(points);
+  rate = wear_rate_reading();
   if (!rate.valid) return std::nullopt;
   // The level's posterior mean and the rate reading share the two inspections' errors: the
   // covariance is Σ (the level's weight on z_i) var_i (∂κ/∂z_i).

@@ -92,6 +92,32 @@ struct RateReading {
 };
 RateReading depth_rate_reading(const DepthRatioMeasurement& a, const DepthRatioMeasurement& b);
 
+/// The model's combined mean depth along a path given at points (cycles ascending), linear between
+/// them; outside the points' span: -1 (not on the path).
+struct PathPoint {
+  double cycles = 0, mean_m = 0;
+};
+double path_mean_at(const std::vector<PathPoint>& path, double cycles);
+
+/// A reading taken against the model's depth m, read again against the model's depth m2 at the same
+/// cycles (a re-run changed the model's path there): the measured depth m e^z is kept, z becomes
+/// ln(m e^z / m2), the variance (the measurement's) stays. Unchanged when m or m2 is not positive.
+DepthRatioMeasurement reread(const DepthRatioMeasurement& m, double model_m);
+
+/// One stretch of the model's K_wear history: (previous end, end_cycles] at K `k` (the first from 0).
+struct KStretch {
+  double end_cycles = 0, k = 0;
+};
+/// The cycle-weighted mean K over [from, to] (from < to) of stretches in ascending order; cycles
+/// beyond the last stretch count at its K. Not positive when nothing is known.
+double cycle_mean_k(const std::vector<KStretch>& stretches, double from, double to);
+
+/// A rate reading taken against the model's increments at (cycle-weighted mean) K k_path, read
+/// against the model's pace at K k_now: Archard's depth increment is proportional to K, so
+/// κ' = κ − ln(k_now / k_path); the variance and the derivatives in the readings are unchanged.
+/// Unchanged when either K is not positive.
+RateReading rate_at_pace(RateReading r, double k_path, double k_now);
+
 /// The rate reading of the newest inspection (largest cycles) paired with the earlier one that
 /// gives the smallest variance: the newest carries the rate the truth has now, the partner the
 /// longest increment the errors allow. Not valid with fewer than two usable readings.

@@ -278,17 +278,24 @@ class TwinModel {
   const PittingScale& pitting_scale() const noexcept { return pitting_scale_; }
   /// Forecast from the current state (what observe() adds to its report).
   Forecast forecast() const;
+  /// The wear rate read from the two inspected depths (depth_calibration.hpp: newest_rate_reading) on
+  /// the model's current path, against the model's pace at today's K_wear; not valid without one.
+  RateReading wear_rate_reading() const;
 
  private:
   BlueLoop loop_at(const LoopSnapshot& from) const;
   /// Replays the stored intervals after `from` up to `until`, with optional overrides of K_wear
   /// or K_pitting for cycles > override_from. Returns false if the depth limit stopped it.
-  /// Snapshots at the anchors' cycles replace them when `recapture` is set.
+  /// Snapshots at the anchors' cycles replace them when `recapture` is set; the inspected depths
+  /// after `from` are then read against the re-run's path.
   struct Override {
     std::optional<double> k_wear, k_pitting;
     double from_cycles = 0;
   };
   bool rerun(const LoopSnapshot& from, const Override& o, LoopSnapshot& out, bool recapture_anchors);
+  /// The inspected depths after the path's start read again against the re-run's path (`path`: the
+  /// start and the records' ends, linear between).
+  void reread_depth_points(const std::vector<PathPoint>& path);
   void check_k_wear(const ModelObservation& obs, ModelRunReport& report);
   /// A K_wear trial's state at a record where a K_pitting calibration set the pitting profile:
   /// that profile, and the pitting anchor (recaptured by the re-run) on it.
