@@ -164,4 +164,39 @@ TEST_CASE("Tukey taper: weights and the end-discontinuity click it removes", "[d
   CHECK(carrier_tapered == Approx(carrier_raw).epsilon(1e-3));
 }
 
+TEST_CASE("Full-band ICS2: the very number of the per-sample squared envelope, even and odd lengths", "[dsp][envelope]") {
+  // The reference builds the squared envelope sample by sample (in-phase part n x[i] less the DC
+  // bin and the alternating Nyquist bin, quadrature part the c2r of -j X) and takes ICS2 of its
+  // spectrum through ses() and ics2_from_ses.
+  FftPlanCache plans;
+  for (std::size_t n : {std::size_t{4200}, std::size_t{4199}}) {
+    std::mt19937_64 rng(38 + n);
+    std::normal_distribution<double> normal;
+    RealBuffer x(n);
+    for (std::size_t i = 0; i < n; ++i)
+      x[i] = (1.0 + 0.5 * std::cos(2 * std::numbers::pi * 19.0 * double(i) / double(n) * 20.0)) * normal(rng) + 0.2;
+    const RealFft& fft = plans.real(n);
+    ComplexBuffer spectrum(fft.spectrum_size()), rotated(fft.spectrum_size());
+    fft.forward(x, spectrum);
+    rotated[0] = Complex{};
+    for (std::size_t k = 1; 2 * k < n; ++k) rotated[k] = Complex(spectrum[k].imag(), -spectrum[k].real());
+    if (n % 2 == 0) rotated[n / 2] = Complex{};
+    RealBuffer quadrature(n);
+    fft.inverse(rotated, quadrature);
+    const double dc = spectrum[0].real(), nyquist = n % 2 == 0 ? spectrum[n / 2].real() : 0.0;
+    std::vector<double> envelope(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double in_phase = double(n) * x[i] - dc - (i % 2 == 0 ? nyquist : -nyquist);
+      envelope[i] = in_phase * in_phase + quadrature[i] * quadrature[i];
+    }
+    const Ics2Parameters p{19.0, 3, 3};
+    SquaredEnvelopeAnalyzer reference(plans), analyzer(plans);
+    const auto ses = reference.ses(envelope);
+    const double expected = ics2_from_ses(std::vector<double>(ses.begin(), ses.end()), 20.0, p).value;
+    INFO("n " << n);
+    CHECK(expected > 0.0);
+    CHECK(analyzer.full_band_ics2(x, spectrum, 20, p).value == expected);
+  }
+}
+
 }  // namespace test_envelope

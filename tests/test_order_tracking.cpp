@@ -335,6 +335,15 @@ TEST_CASE("Order tracking in blocks: positions and interpolated values bit-ident
   std::size_t differing = 0;
   for (std::size_t k = 0; k < times.size(); ++k) differing += times[k] != angle.time_at(static_cast<double>(123 + k) * step);
   CHECK(differing == 0);
+  // Up to the last knot (20 revolutions) and past it, where the last interval's cubic goes on.
+  const auto near_end = static_cast<std::size_t>(19.0 / step);
+  std::vector<double> end_times(700);
+  angle.times_at(step, near_end, end_times);
+  REQUIRE(static_cast<double>(near_end + end_times.size()) * step > angle.total_revolutions() + 1.0);
+  differing = 0;
+  for (std::size_t k = 0; k < end_times.size(); ++k)
+    differing += end_times[k] != angle.time_at(static_cast<double>(near_end + k) * step);
+  CHECK(differing == 0);
 }
 
 }  // namespace test_order_tracking

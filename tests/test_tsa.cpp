@@ -126,4 +126,32 @@ TEST_CASE("Two-shaft separation removes both shafts' synchronous parts without d
   CHECK(rms(residual) == Approx(sigma).epsilon(bound / sigma + 4.0 / std::sqrt(2.0 * residual.size())));
 }
 
+TEST_CASE("Two-shaft separation's residual: the very numbers of the per-sample reference", "[dsp][tsa]") {
+  // The residual computed directly from the two TSAs the separation exposes: input minus the input
+  // TSA at j mod spr minus the output TSA (its shared orders, DC and Nyquist dropped) upsampled by
+  // an inverse FFT onto the input-angle grid, read every z1/g-th sample.
+  const int z1 = 19, z2 = 52;
+  const std::size_t spr = 160, input_revs = 105, output_revs = input_revs * z1 / z2;
+  std::mt19937_64 rng(38);
+  std::normal_distribution<double> normal;
+  RealBuffer input(input_revs * spr), output(output_revs * spr), residual(input_revs * spr);
+  for (auto& v : input) v = normal(rng);
+  for (auto& v : output) v = normal(rng);
+  FftPlanCache plans;
+  SynchronousSeparation separation;
+  const auto result = separation.separate(input, output, spr, z1, z2, plans, residual);
+  REQUIRE(result.input_averages == input_revs);
+  const std::size_t shared = z2, step = z1, upsampled = spr * shared;  // gcd(19, 52) = 1
+  RealBuffer output_tsa(separation.output_tsa().begin(), separation.output_tsa().end()), up(upsampled);
+  ComplexBuffer spectrum(spr / 2 + 1), padded(upsampled / 2 + 1, Complex{});
+  plans.real(spr).forward(output_tsa, spectrum);
+  for (std::size_t k = 1; 2 * k < spr; ++k)
+    if (k % shared != 0) padded[k] = spectrum[k] / static_cast<double>(spr);
+  plans.real(upsampled).inverse(padded, up);
+  std::size_t differing = 0;
+  for (std::size_t j = 0; j < input_revs * spr; ++j)
+    differing += residual[j] != input[j] - separation.input_tsa()[j % spr] - up[(j * step) % upsampled];
+  CHECK(differing == 0);
+}
+
 }  // namespace test_tsa

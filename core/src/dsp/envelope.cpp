@@ -127,8 +127,17 @@ Ics2Result SquaredEnvelopeAnalyzer::full_band_ics2(std::span<const double> signa
   const double nyquist = n % 2 == 0 ? spectrum[n / 2].real() : 0.0;
   const double scale = static_cast<double>(n);
   envelope_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double in_phase = scale * signal[i] - dc - (i % 2 == 0 ? nyquist : -nyquist);
+  // Even and odd samples in pairs (the Nyquist bin's sign alternates), so the loop vectorises.
+  const double odd_nyquist = -nyquist;
+  std::size_t i = 0;
+  for (; i + 1 < n; i += 2) {
+    const double even_phase = scale * signal[i] - dc - nyquist;
+    const double odd_phase = scale * signal[i + 1] - dc - odd_nyquist;
+    envelope_[i] = even_phase * even_phase + quadrature_[i] * quadrature_[i];
+    envelope_[i + 1] = odd_phase * odd_phase + quadrature_[i + 1] * quadrature_[i + 1];
+  }
+  if (i < n) {
+    const double in_phase = scale * signal[i] - dc - nyquist;  // i even
     envelope_[i] = in_phase * in_phase + quadrature_[i] * quadrature_[i];
   }
   return ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);

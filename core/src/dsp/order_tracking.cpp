@@ -94,7 +94,29 @@ double ShaftAngle::time_at(double revs) const {
 
 void ShaftAngle::times_at(double step, std::size_t first, std::span<double> out) const {
   if (times_.empty()) throw std::logic_error("ShaftAngle::times_at before a successful assign()");
-  for (std::size_t k = 0; k < out.size(); ++k) out[k] = spline_at(static_cast<double>(first + k) * step / knot_spacing_);
+  // spline_at for each position, its knot interval's constants hoisted: the positions rise with
+  // k, so they fall in runs on one interval, and a run's loop has no lookups (it vectorises).
+  const std::size_t m = out.size(), last = times_.size() - 2;
+  for (std::size_t k = 0; k < m; ++k) out[k] = static_cast<double>(first + k) * step / knot_spacing_;
+  const double h = knot_spacing_;
+  for (std::size_t k = 0; k < m;) {
+    std::size_t i = out[k] <= 0.0 ? 0 : static_cast<std::size_t>(out[k]);
+    std::size_t end = k + 1;
+    if (i >= last) {
+      i = last;
+      end = m;
+    } else {
+      while (end < m && out[end] < static_cast<double>(i + 1)) ++end;
+    }
+    const double t0 = times_[i], t1 = times_[i + 1], m0 = second_deriv_[i], m1 = second_deriv_[i + 1];
+    const double base = static_cast<double>(i);
+    for (std::size_t j = k; j < end; ++j) {
+      const double b = out[j] - base;
+      const double a = 1.0 - b;
+      out[j] = a * t0 + b * t1 + ((a * a * a - a) * m0 + (b * b * b - b) * m1) * h * h / 6.0;
+    }
+    k = end;
+  }
 }
 
 void ShaftAngle::speed_per_revolution(double sample_rate_hz, std::vector<double>& out) const {

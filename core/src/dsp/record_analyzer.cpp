@@ -389,12 +389,11 @@ struct RecordAnalyzer::Context {
   }
 
   /// The residual's random part (SignalProcessingSettings::remove_residual_lines); a stretch too
-  /// short for the remover's blocks is left whole.
+  /// short for the remover's blocks is left whole. In place: the stretch is read only through
+  /// `residual` from here on (its moments are taken).
   void remove_discrete_lines() {
     if (!a.settings_.remove_residual_lines || spectral_length < a.line_remover_.min_length()) return;
-    a.random_residual_.assign(residual.begin(), residual.end());
-    a.line_remover_.remove(a.random_residual_, a.plans_);
-    residual = std::span<const double>(a.random_residual_.data(), spectral_length);
+    a.line_remover_.remove(std::span<double>(a.residual_.data(), spectral_length), a.plans_);
   }
 
   /// Squared-envelope ICS2 with cyclic orders of the input shaft: full band and fixed carrier bands.

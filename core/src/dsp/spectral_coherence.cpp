@@ -35,7 +35,15 @@ std::size_t CyclicCoherenceEstimator::estimate(std::span<const double> x, std::s
     const double theta = static_cast<double>(start) / static_cast<double>(nw);
     const Complex rotate = std::polar(1.0, -2.0 * std::numbers::pi * static_cast<double>(alpha) * theta);
     for (std::size_t k = 0; k < bins; ++k) power_[k] += std::norm(spectrum_[k]);
-    for (std::size_t k = alpha; k < bins; ++k) cross_[k] += spectrum_[k] * std::conj(spectrum_[k - alpha]) * rotate;
+    // S[k] conj(S[k - alpha]) rotate in real arithmetic: the products and sums std::complex forms
+    // for finite operands, without its NaN recovery call, which keeps the loop from vectorising.
+    const double rr = rotate.real(), ri = rotate.imag();
+    for (std::size_t k = alpha; k < bins; ++k) {
+      const double ar = spectrum_[k].real(), ai = spectrum_[k].imag();
+      const double br = spectrum_[k - alpha].real(), bi = -spectrum_[k - alpha].imag();
+      const double pr = ar * br - ai * bi, pi = ar * bi + ai * br;
+      cross_[k] += Complex(pr * rr - pi * ri, pr * ri + pi * rr);
+    }
   }
   coherence_.assign(bins, 0.0);
   for (std::size_t k = alpha; k < bins; ++k) {

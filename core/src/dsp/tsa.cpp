@@ -106,12 +106,15 @@ SynchronousSeparation::Result SynchronousSeparation::separate(std::span<const do
   upsampled_.resize(upsampled);
   large.inverse(padded_, upsampled_);
 
-  const std::size_t n = result.input_averages * spr;
+  // Revolution by revolution: the TSA's index is the position within the revolution, without a
+  // division per sample.
   std::size_t out_index = 0;
-  for (std::size_t j = 0; j < n; ++j) {
-    residual[j] = input_angle[j] - input_tsa_[j % spr] - upsampled_[out_index];
-    out_index += step;
-    if (out_index >= upsampled) out_index -= upsampled;
+  for (std::size_t r = 0, j = 0; r < result.input_averages; ++r) {
+    for (std::size_t k = 0; k < spr; ++k, ++j) {
+      residual[j] = input_angle[j] - input_tsa_[k] - upsampled_[out_index];
+      out_index += step;
+      if (out_index >= upsampled) out_index -= upsampled;
+    }
   }
   return result;
 }

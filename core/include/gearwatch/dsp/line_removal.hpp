@@ -40,10 +40,10 @@ class DiscreteLineRemover {
   LineRemovalResult remove(std::span<double> x, FftPlanCache& plans);
 
  private:
-  void local_levels(std::size_t bins);
+  void mark_lines(std::size_t bins, double factor);
   std::size_t block_bins_;
   ComplexBuffer spectrum_;
-  RealBuffer power_, level_, block_;
+  RealBuffer power_, block_;
   std::vector<unsigned char> is_line_;  ///< per bin, reused: no allocation per record
 };
 

@@ -160,7 +160,7 @@ class RecordAnalyzer {
   KurtosisCriterion kurtosis_criterion_;
   BandPowerCriterion power_criterion_;
   DiscreteLineRemover line_remover_;
-  RealBuffer input_angle_, output_angle_, residual_, random_residual_, tapered_residual_;
+  RealBuffer input_angle_, output_angle_, residual_, tapered_residual_;
   std::vector<double> speed_scratch_;
   ComplexBuffer residual_spectrum_;
   std::vector<double> gmf_amplitudes_;
