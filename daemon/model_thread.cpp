@@ -168,6 +168,7 @@ wear::ModelSettings model_settings(const config::GearwatchConfig& config) {
   s.max_wear_iterations = m.max_wear_iterations;
   s.k_wear_update = m.k_wear_update;
   s.pitting_growth_law = m.pitting_growth_law;
+  s.pitting_exponent_from_inspections = m.pitting_exponent_from_inspections;
   s.min_wear_elasticity = m.min_wear_elasticity;
   s.commissioning_records = m.commissioning_records;
   s.pitting_reference_torque_nm = m.pitting_reference_torque_nm;

@@ -198,6 +198,8 @@ TEST_CASE("config: [model] keys, and the errors that name them", "[config][model
   // The pitting growth law is opt-in: off unless the file says true.
   CHECK_FALSE(parse_config("", "m.toml").model.pitting_growth_law);
   CHECK(parse_config("[model]\npitting_growth_law = true\n", "m.toml").model.pitting_growth_law);
+  CHECK(parse_config("", "m.toml").model.pitting_exponent_from_inspections);
+  CHECK_FALSE(parse_config("[model]\npitting_exponent_from_inspections = false\n", "m.toml").model.pitting_exponent_from_inspections);
   CHECK_THROWS_WITH(parse_config("[model]\npitting_growth_law = 1\n", "m.toml"),
                     "m.toml:2: key 'model.pitting_growth_law': expected true or false");
 }

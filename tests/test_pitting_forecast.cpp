@@ -58,6 +58,7 @@ ModelSettings small_density_settings() {
   s.forecast_horizon_cycles = 1e7;
   s.pitting_interval_cycles = 1e12;    // no correlation step: the calibration alone is tested
   s.pitting_growth_law = false;        // Eq. 7.8's own forecast and flags (the growth law: its own test below)
+  s.pitting_exponent_from_inspections = false;   // the same (the exponent reading: its own test below)
   return s;
 }
 
@@ -116,6 +117,36 @@ TEST_CASE("pitting forecast: calibrated on two inspections of a closed-form law,
   CHECK(checked == 23);
   // The calibrated K is the truth's (the bisection's 1e-4 in ln K, and the feedback at 1e-4).
   CHECK(model.memory().k_pitting == Approx(truth.k).epsilon(0.01));
+}
+
+TEST_CASE("pitting forecast: the exponent read from two inspections of a closed-form Eq. 7.8 truth gives its cycles to the limit, inside the interval",
+          "[model][pitting_forecast][pitting_exponent]") {
+  // At small D the inspected mean density is k T̄ N^m: the Weibull plot's slope between the two
+  // inspections is m, and the crossing the closed form's within the same tolerance as the path's.
+  ModelSettings s = small_density_settings();
+  s.pitting_exponent_from_inspections = true;
+  const ClosedFormPitting truth = truth_for(s);
+  const double n_limit = solve_increasing([&](double n) { return truth.mean(n); }, s.pitting_limit, 1e5, 1e8);
+  const double tol = cycles_tolerance(truth, n_limit);
+  TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
+  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
+  int checked = 0;
+  for (double n = 5e4; n <= 1.8e6; n += 5e4) {
+    const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(n)), inspections);
+    if (n < 7e5) continue;
+    INFO(n << " cycles: " << r.forecast.evidence);
+    REQUIRE(r.forecast.valid);
+    CHECK(r.forecast.evidence.find("give Eq. 7.8's exponent") != std::string::npos);
+    REQUIRE(r.forecast.pitting.cycles_left);
+    const double expected = n_limit - n;
+    CHECK(std::abs(*r.forecast.pitting.cycles_left - expected) <= tol * n_limit);
+    REQUIRE(r.forecast.pitting.cycles_left_low);
+    REQUIRE(r.forecast.pitting.cycles_left_high);
+    CHECK(*r.forecast.pitting.cycles_left_low <= expected);
+    CHECK(*r.forecast.pitting.cycles_left_high >= expected);
+    ++checked;
+  }
+  CHECK(checked == 23);
 }
 
 TEST_CASE("pitting forecast: with the growth law on a closed-form Lundberg-Palmgren truth the interval holds its cycles to the limit",

@@ -404,6 +404,7 @@ void read_model(const toml::table& root, const std::string& file, GearwatchConfi
   t.integer("max_wear_iterations", m.max_wear_iterations, 1, 100);
   t.token("k_wear_update", m.k_wear_update, wear::kAllKWearUpdateRules, "expected \"root_find\" or \"proportional\"");
   t.boolean("pitting_growth_law", m.pitting_growth_law);
+  t.boolean("pitting_exponent_from_inspections", m.pitting_exponent_from_inspections);
   t.number("min_wear_elasticity", m.min_wear_elasticity, 0.0, 0.99);
   t.integer("commissioning_records", m.commissioning_records, 0, 100);
   t.number("pitting_reference_torque_nm", m.pitting_reference_torque_nm, 1e-3, 1e5);

@@ -8,6 +8,8 @@
 
 #include <Eigen/Dense>
 
+#include "gearwatch/wear/forecast_intervals.hpp"
+
 namespace gearwatch::wear {
 namespace {
 
@@ -242,6 +244,31 @@ GrowthLawFit fit_growth_law(const std::vector<DensityReading>& readings, double 
   fit.cycles_left_high = quantile_sorted(left, 0.5 + s.coverage / 2);
   fit.valid = true;
   return fit;
+}
+
+
+ExponentCrossing inspection_exponent_crossing(double n0, double d0, double n1, double d1, double log_sd0, double log_sd1,
+                                              double limit, double now, double coverage) {
+  ExponentCrossing x;
+  const bool ordered = n0 > 0 && n1 > n0 && d0 > 0 && d1 > d0 && d1 < 1 && limit > 0 && limit < 1;
+  const bool sds = std::isfinite(log_sd0) && std::isfinite(log_sd1) && log_sd0 >= 0 && log_sd1 >= 0;
+  if (!ordered || !sds || !std::isfinite(now) || !(coverage > 0 && coverage < 1)) return x;
+  const double h0 = -std::log1p(-d0), h1 = -std::log1p(-d1), hl = -std::log1p(-limit);
+  const double span = std::log(n1 / n0), v = std::log(h1 / h0), u = std::log(hl / h1);
+  x.exponent = v / span;
+  // A reading's error in ln D moves ln H by d ln H / d ln D = D / ((1 − D) H).
+  const double s0 = log_sd0 * d0 / ((1 - d0) * h0), s1 = log_sd1 * d1 / ((1 - d1) * h1);
+  x.exponent_sd = std::hypot(s0, s1) / span;
+  // ln N_L = ln n1 + span u / v: its derivatives in ln H1 and ln H0 (delta method).
+  const double g1 = -span * (u + v) / (v * v), g0 = span * u / (v * v);
+  x.log_sd = std::hypot(g1 * s1, g0 * s0);
+  x.crossing_cycles = n1 * std::exp(span * u / v);
+  const double z = normal_quantile(0.5 + coverage / 2);
+  x.cycles_left = std::max(0.0, x.crossing_cycles - now);
+  x.cycles_left_low = std::max(0.0, x.crossing_cycles * std::exp(-z * x.log_sd) - now);
+  x.cycles_left_high = std::max(0.0, x.crossing_cycles * std::exp(z * x.log_sd) - now);
+  x.valid = std::isfinite(x.crossing_cycles);
+  return x;
 }
 
 }  // namespace gearwatch::wear

@@ -2243,6 +2243,42 @@ void TwinModel::apply_growth_law(Forecast& f) const {
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
 }
 
+void TwinModel::apply_inspection_exponent(Forecast& f) const {
+  const auto& points = memory_.pitted_area_points;   // sorted by cycles
+  if (!settings_.pitting_exponent_from_inspections || points.size() < 2) return;
+  // The two newest at distinct cycles.
+  const std::array<double, 2> second = points.back();
+  const std::array<double, 2>* first = nullptr;
+  for (auto it = points.rbegin() + 1; it != points.rend(); ++it)
+    if ((*it)[0] < second[0]) {
+      first = &*it;
+      break;
+    }
+  if (!first) return;
+  const double s = settings_.inspection_area_relative_sd, now = memory_.current.state.cycles;
+  const ExponentCrossing x = inspection_exponent_crossing((*first)[0], (*first)[1], second[0], second[1], s, s,
+                                                          settings_.pitting_limit, now, kNominalCoverage);
+  if (!x.valid) return;
+  // Eq. 7.8 with the material's m runs on at the inspections' chord; a density that accelerates
+  // (pits initiating over a Weibull life and growing) shows as a larger slope on the Weibull plot.
+  // The nominal follows the readings' line; the twin's path is another form of the same law, so
+  // the interval spans both (a near end a measurement set to 0 stays 0).
+  const double horizon = settings_.forecast_horizon_cycles;
+  auto within = [horizon](double c) { return std::isfinite(c) && c <= horizon ? std::optional<double>(c) : std::nullopt; };
+  const bool near_zero = f.pitting.cycles_left_low && *f.pitting.cycles_left_low == 0.0;
+  const double low = std::min(x.cycles_left_low, f.pitting.cycles_left_low.value_or(x.cycles_left_low));
+  const double high = std::max(x.cycles_left_high, f.pitting.cycles_left_high.value_or(std::numeric_limits<double>::infinity()));
+  f.pitting.cycles_left = within(x.cycles_left);
+  f.pitting.cycles_left_low = near_zero ? 0.0 : std::min(low, horizon);
+  f.pitting.cycles_left_high = within(high);
+  hold_nominal(f);
+  char b[480];
+  std::snprintf(b, sizeof b, "pitting: inspections %.4g at %.6g and %.4g at %.6g cycles give Eq. 7.8's exponent %.3g (SD %.2g; the material's %.3g): the limit %.4g at %.6g cycles (ln SD %.3g from the inspections), %.4g left (%.4g .. %.4g) replace the path's; interval joined with it",
+                (*first)[1], (*first)[0], second[1], second[0], x.exponent, x.exponent_sd, settings_.loop.material.m,
+                settings_.pitting_limit, x.crossing_cycles, x.log_sd, x.cycles_left, x.cycles_left_low, x.cycles_left_high);
+  f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
+}
+
 Forecast TwinModel::forecast() const {
   Forecast f;
   if (!memory_.started || memory_.recent_operating_points.empty()) {
@@ -2273,6 +2309,7 @@ Forecast TwinModel::forecast() const {
     check_model_past_pitting_limit(f, o, ev);
     check_ics2_trend(f, ev);
     apply_ics2_lower_bound(f, o, ev);
+    apply_inspection_exponent(f);
     apply_growth_law(f);
     f.valid = true;
   } catch (const std::exception& e) {

@@ -169,6 +169,7 @@ struct ModelConfig {
   int max_wear_iterations = 16;                     ///< twin re-runs per K_wear update
   wear::KWearUpdateRule k_wear_update = wear::KWearUpdateRule::root_find;   ///< root_find | proportional (Eq. 7.13)
   bool pitting_growth_law = false;                  ///< pitting forecast by the fitted dD/dN = a D^b (opt-in; docs/model.md)
+  bool pitting_exponent_from_inspections = true;    ///< Eq. 7.8's exponent read from two pitted-area inspections (docs/model.md)
   double min_wear_elasticity = 0.02;                ///< root_find: below this |d ln RMS_SA / d ln K_wear| no update (docs/model.md)
   int commissioning_records = 3;                    ///< first records whose median ln(meas/sim) is the RMS_SA commissioning ratio; 0: none
   double pitting_reference_torque_nm = 20.0;        ///< torque of K_pitting's readable scale (docs/model.md)

@@ -77,4 +77,24 @@ GrowthLine growth_line_fit(const std::vector<DensityReading>& readings, double b
 GrowthLawFit fit_growth_law(const std::vector<DensityReading>& readings, double limit, double now,
                             const GrowthLawSettings& settings = {});
 
+/// Eq. 7.8's form D = 1 − exp(−A N^m) through two pitted-area readings (n0, d0), (n1, d1), the
+/// exponent read from them instead of the material's m: on a Weibull plot (ln H against ln N,
+/// H = −ln(1 − D)) m̂ = ln(H1 / H0) / ln(n1 / n0), and A from H1. The limit's crossing is then
+/// N_L = n1 (H_L / H1)^(1/m̂). Assumptions: the two readings' relative errors in D are independent
+/// normal with the given SDs (in ln D); the density goes on along the same Weibull line (the
+/// operating point and the mechanism as between the readings). The interval is the delta method's
+/// on ln N_L from the two readings' errors alone: no term for a line that bends (the caller's).
+struct ExponentCrossing {
+  bool valid = false;
+  double exponent = 0, exponent_sd = 0;   ///< m̂ and its SD from the readings' errors
+  double crossing_cycles = 0;             ///< N_L, absolute cycles
+  double log_sd = 0;                      ///< SD of ln N_L
+  /// Cycles from `now` to the limit: median and the central `coverage` interval (0: past it).
+  double cycles_left = 0, cycles_left_low = 0, cycles_left_high = 0;
+};
+
+/// Invalid unless 0 < n0 < n1, 0 < d0 < d1 < 1, 0 < limit < 1 and the SDs are finite and ≥ 0.
+ExponentCrossing inspection_exponent_crossing(double n0, double d0, double n1, double d1, double log_sd0, double log_sd1,
+                                              double limit, double now, double coverage);
+
 }  // namespace gearwatch::wear

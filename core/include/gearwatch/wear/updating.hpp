@@ -93,6 +93,10 @@ struct ModelSettings {
   /// Opt-in: on fresh random campaigns its interval held the truth less often than Eq. 7.8's
   /// (docs/model.md), so it does not replace it until that is understood.
   bool pitting_growth_law = false;
+  /// With ≥ 2 pitted-area inspections the pitting forecast's nominal is Eq. 7.8's form with its
+  /// exponent read from the two newest (inspection_exponent_crossing), its interval joined with
+  /// the twin's path's; false: Eq. 7.8 with the material's m alone (the thesis's).
+  bool pitting_exponent_from_inspections = true;
   double rms_threshold = 0.05;             ///< relative RMS_SA error that triggers a K_wear update (thesis: 5 %)
   double convergence_tolerance = 0.01;     ///< an update iterates until this (≤ threshold), so it does not sit at the edge
   int max_wear_iterations = 16;            ///< twin re-runs per K_wear update (the root-find's sensitivity read included)
@@ -523,6 +527,9 @@ class TwinModel {
   /// With two or more inspections and three or more reading cycles the pitting forecast follows the
   /// fitted growth law dD/dN = a D^b; its near end stays 0 where a measurement put it there.
   void apply_growth_law(Forecast& f) const;
+  /// Eq. 7.8's form through the two newest pitted-area inspections, its exponent read from them
+  /// (pitting_exponent_from_inspections): the nominal replaced, the interval joined with the path's.
+  void apply_inspection_exponent(Forecast& f) const;
   /// The ICS2-derived density of the newest ICS2 values of the pair, (cycles, density).
   std::vector<std::array<double, 2>> ics2_density_series(std::size_t newest) const;
   void remember_k(std::vector<double>& recent, double k) const;
