@@ -86,21 +86,39 @@ double cycles_tolerance(const ClosedFormPitting& t, double n_limit) {
 
 bool has_flag(const Forecast& f, ForecastFlag flag) { return std::find(f.flags.begin(), f.flags.end(), flag) != f.flags.end(); }
 
+/// The closed-form truth's cycles to the pitting limit.
+double closed_form_crossing(const ClosedFormPitting& truth, const ModelSettings& s) {
+  return solve_increasing([&](double n) { return truth.mean(n); }, s.pitting_limit, 1e5, 1e8);
+}
+
+/// The two inspections the closed-form cases calibrate on, at 0.4 and 0.7 M cycles, exact.
+std::vector<Inspection> two_exact_inspections(const ClosedFormPitting& truth) {
+  return {{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
+}
+
+/// The model with an RMS_SA that does not move (the pitting path alone), fed the truth's ICS2 at n.
+TwinModel pitting_only_model(const ModelSettings& s) {
+  return TwinModel(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
+}
+ModelRunReport observe_truth(TwinModel& model, const ClosedFormPitting& truth, double n, const std::vector<Inspection>& inspections) {
+  return model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(n)), inspections);
+}
+
 }  // namespace
 
 TEST_CASE("pitting forecast: calibrated on two inspections of a closed-form law, the cycles to the limit are the closed form's, inside the interval",
           "[model][pitting_forecast]") {
   const ModelSettings s = small_density_settings();
   const ClosedFormPitting truth = truth_for(s);
-  const double n_limit = solve_increasing([&](double n) { return truth.mean(n); }, s.pitting_limit, 1e5, 1e8);
+  const double n_limit = closed_form_crossing(truth, s);
   const double tol = cycles_tolerance(truth, n_limit);
   INFO("closed-form crossing " << n_limit << " cycles, tolerance " << tol * n_limit << " cycles");
   CHECK(tol < 0.02);
-  TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
-  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
+  TwinModel model = pitting_only_model(s);
+  const std::vector<Inspection> inspections = two_exact_inspections(truth);
   int checked = 0;
   for (double n = 5e4; n <= 1.8e6; n += 5e4) {
-    const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(n)), inspections);
+    const ModelRunReport r = observe_truth(model, truth, n, inspections);
     if (n < 7e5) continue;
     INFO(n << " cycles: " << r.forecast.evidence);
     REQUIRE(r.forecast.valid);
@@ -126,13 +144,13 @@ TEST_CASE("pitting forecast: the exponent read from two inspections of a closed-
   ModelSettings s = small_density_settings();
   s.pitting_exponent_from_inspections = true;
   const ClosedFormPitting truth = truth_for(s);
-  const double n_limit = solve_increasing([&](double n) { return truth.mean(n); }, s.pitting_limit, 1e5, 1e8);
+  const double n_limit = closed_form_crossing(truth, s);
   const double tol = cycles_tolerance(truth, n_limit);
-  TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
-  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
+  TwinModel model = pitting_only_model(s);
+  const std::vector<Inspection> inspections = two_exact_inspections(truth);
   int checked = 0;
   for (double n = 5e4; n <= 1.8e6; n += 5e4) {
-    const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(n)), inspections);
+    const ModelRunReport r = observe_truth(model, truth, n, inspections);
     if (n < 7e5) continue;
     INFO(n << " cycles: " << r.forecast.evidence);
     REQUIRE(r.forecast.valid);
@@ -158,12 +176,12 @@ TEST_CASE("pitting forecast: with the growth law on a closed-form Lundberg-Palmg
   s.pitting_growth_law = true;
   s.pitting_interval_cycles = 1e5;
   const ClosedFormPitting truth = truth_for(s);
-  const double n_limit = solve_increasing([&](double n) { return truth.mean(n); }, s.pitting_limit, 1e5, 1e8);
-  TwinModel model(twin::GearboxParameters{}, s, [](const WearState&, const twin::OperatingPoint&) -> double { return 1.0; });
-  const std::vector<Inspection> inspections{{1, 4e5, truth.mean(4e5), {}, {}, {}}, {2, 7e5, truth.mean(7e5), {}, {}, {}}};
+  const double n_limit = closed_form_crossing(truth, s);
+  TwinModel model = pitting_only_model(s);
+  const std::vector<Inspection> inspections = two_exact_inspections(truth);
   int checked = 0;
   for (double n = 5e4; n <= 1.8e6; n += 5e4) {
-    const ModelRunReport r = model.observe(observation(n, kSpeedHz, kTorqueNm, std::nullopt, 0.01 + 100 * truth.mean(n)), inspections);
+    const ModelRunReport r = observe_truth(model, truth, n, inspections);
     if (n < 7e5) continue;
     INFO(n << " cycles: " << r.forecast.evidence);
     REQUIRE(r.forecast.valid);

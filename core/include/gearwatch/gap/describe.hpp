@@ -60,7 +60,7 @@ struct DescriptionSettings {
   double supply_tolerance_orders = 0.1; ///< a tone this near k·50/60 Hz (in input orders at the top speed) is supply
   int max_supply_harmonic = 40;
   FloorSettings floor;                  ///< the broadband floors' bands, as the finder's (floor features)
-  double min_speed_ratio = 1.05;        ///< as the finder's: joined resonance flanks at speeds this far apart are fixed in Hz
+  double min_speed_ratio = 1.05;        ///< the finder's (the diagnosis copies it): joined resonance flanks at speeds this far apart are fixed in Hz
 };
 
 class FeatureDescriber {
