@@ -570,7 +570,9 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
   std::size_t e = 0;
   while (e < w.size()) {
     const std::size_t r = w[e].first;
-    const SpectralSummary& t = *records_[r].source->twin;
+    // The tone sits in the measured record: its share of each line turns on that record's whole
+    // revolutions (sinc(R·Δ)), which the twin's record, simulated for its own length, need not share.
+    const SpectralSummary& t = *records_[r].source->measured;
     SpectralSummary unit;
     unit.speed_hz = t.speed_hz, unit.input_revolutions = t.input_revolutions, unit.output_revolutions = t.output_revolutions;
     unit.input_lines.assign(t.input_lines.size(), 0.0);
@@ -635,7 +637,7 @@ std::vector<double> FeatureDescriber::tone_as_measured(double place, bool in_hz,
     std::size_t end = e;
     double top = order;
     for (; end < w.size() && w[end].first == r; ++end) top = std::max(top, records_[r].cells[w[end].second].order);
-    const SpectralSummary& unit = shared.of(order, top + 1, *records_[r].source->twin);
+    const SpectralSummary& unit = shared.of(order, top + 1, *records_[r].source->measured);  // the measured record's revolutions
     for (; e < end; ++e) {
       const Cell& c = records_[r].cells[w[e].second];
       const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;
@@ -688,6 +690,7 @@ class FeatureDescriber::ToneSearch {
   const bool fixed_in_hz_;
   const std::size_t n_;
   double ratio_ = 0, to_input_ = 0, top_ = 0, lo_ = 0, hi_ = 0, step_ = 0, separation_ = 0;
+  double resolved_hz_ = std::numeric_limits<double>::infinity();  // 1/T of the longest record (whole revolutions)
   double input_revolutions_ = 0, output_revolutions_ = 0;  // the longest record's
   std::vector<double> g_, base_;  // measured g; the twin's power with the tones found so far
   std::vector<Tone> found_;
@@ -701,9 +704,11 @@ FeatureDescriber::ToneSearch::ToneSearch(const FeatureDescriber& d, const GapFea
   double total = 0, top_speed = 0;
   for (const auto& r : d.records_) {
     const SpectralSummary& t = *r.source->twin;
+    const SpectralSummary& m = *r.source->measured;  // the record the tone is in
     total = std::max(total, total_input_line_power(t)), top_speed = std::max(top_speed, r.speed_hz);
-    input_revolutions_ = std::max(input_revolutions_, static_cast<double>(t.input_revolutions));
-    output_revolutions_ = std::max(output_revolutions_, static_cast<double>(t.output_revolutions));
+    input_revolutions_ = std::max(input_revolutions_, static_cast<double>(m.input_revolutions));
+    if (m.input_revolutions > 0) resolved_hz_ = std::min(resolved_hz_, r.speed_hz / static_cast<double>(m.input_revolutions));
+    output_revolutions_ = std::max(output_revolutions_, static_cast<double>(m.output_revolutions));
   }
   top_ = std::log10(std::max(total, 1e-300));
   // Places: input orders (a ghost) or Hz (a tone) across the feature's extent, 0.05 input orders apart
@@ -891,8 +896,19 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
       long k = k0;
       for (long j = k0 - 1; j <= k0 + 2; ++j)
         if (excess(j) > excess(k)) k = j;
+      // The twin's power on line k where the tone's share there cannot be read (infinite: a gear
+      // mesh line, which the output average does not keep).
+      auto held = [&](long line) {
+        if (line < 1 || line > static_cast<long>(std::min(lm.size(), lt.size()))) return 0.0;
+        if (!input && output_line_is_mesh(static_cast<int>(line), d_.gears_.gear_teeth)) return std::numeric_limits<double>::infinity();
+        return excess(line) > 0 ? 0.0 : lt[static_cast<std::size_t>(line - 1)];
+      };
       const double a = excess(k), below = excess(k - 1), above = excess(k + 1);
       if (!(a > 0) || !(std::max(below, above) > 0)) continue;
+      // The tone's side of line k is the side of the larger neighbour (its share falls as 1/distance).
+      // A neighbour the twin's line outweighs may hide the larger share (a ghost beside a mesh
+      // harmonic): the side is then not told by these lines, and they give no reading.
+      if ((below == 0 && held(k - 1) >= above) || (above == 0 && held(k + 1) >= below)) continue;
       const double rho = std::sqrt(std::max(below, above) / a);
       const double delta = rho / (1 + rho);
       sum += (a + std::max(below, above)) * (static_cast<double>(k) + (above >= below ? delta : -delta)) * per * to_place;
@@ -938,9 +954,20 @@ void FeatureDescriber::ToneSearch::tones_as_measured() {
       Tone t = std::move(found_[i]);
       found_.erase(found_.begin() + static_cast<std::ptrdiff_t>(i));  // free_place then ignores it
       Tone best = as_measured_at(t.place);
-      if (const double at = interpolated_place(t.place); std::isfinite(at) && std::abs(at - t.place) <= separation_ / 2)
-        move_over_weaker(best, at, i);
-      for (double s = step_ / 2; s > step_ / 128; s /= 2)
+      const double at = interpolated_place(t.place);
+      const bool read = std::isfinite(at) && std::abs(at - t.place) <= separation_ / 2;
+      if (read) move_over_weaker(best, at, i);
+      // A line's share of the tone, sinc(R·Δ), swings from one zero to the next as the tone moves by
+      // 1/T Hz (T the record's whole revolutions): the misfit over the window has a minimum every
+      // 1/T or so, and halving steps settle in whichever is nearest. The lines' reading is off by
+      // the other tones' leakage on them, a fraction of 1/T: so on the first round the places within
+      // half a grid step of it are scanned at a quarter of the longest record's 1/T (each minimum's
+      // basin sampled) before the halving.
+      if (read && pass == 0 && std::isfinite(resolved_hz_) && resolved_hz_ > 0)
+        for (double place = at - step_ / 2; place <= at + step_ / 2; place += resolved_hz_ / 4)
+          if (free_place(place))
+            if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
+      for (double s = std::min(step_ / 2, resolved_hz_ / 8); s > step_ / 128; s /= 2)
         for (double place : {best.place - s, best.place + s})
           if (free_place(place))
             if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
