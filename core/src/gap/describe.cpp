@@ -962,11 +962,10 @@ void FeatureDescriber::ToneSearch::tones_as_measured() {
       // 1/T or so, and halving steps settle in whichever is nearest. The lines' reading is off by
       // the other tones' leakage on them, a fraction of 1/T: so on the first round the places within
       // half a grid step of it are scanned at a quarter of the longest record's 1/T (each minimum's
-      // basin sampled) before the halving.
+      // basin sampled) before the halving; weaker tones in the way go with the move (the search put
+      // them where this tone's misplaced leakage was unexplained).
       if (read && pass == 0 && std::isfinite(resolved_hz_) && resolved_hz_ > 0)
-        for (double place = at - step_ / 2; place <= at + step_ / 2; place += resolved_hz_ / 4)
-          if (free_place(place))
-            if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
+        for (double place = at - step_ / 2; place <= at + step_ / 2; place += resolved_hz_ / 4) move_over_weaker(best, place, i);
       for (double s = std::min(step_ / 2, resolved_hz_ / 8); s > step_ / 128; s /= 2)
         for (double place : {best.place - s, best.place + s})
           if (free_place(place))
