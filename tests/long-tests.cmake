@@ -39,10 +39,14 @@ gearwatch_long_test(35 "prognosis #3: a saturated ICS2 in the correlation triple
 # them by mmap or trims them off the top of the thread's arena when freed, so their pages are
 # faulted in and zeroed afresh each time. A fixed mmap threshold (glibc's ceiling) and a trim
 # threshold above the tests' peak keep the freed memory for the next allocation; the arithmetic,
-# and so every value the tests read, is the same (docs/ci.md).
+# and so every value the tests read, is the same (docs/ci.md). The gap bench test's `gearwatch gap
+# bench` (a child process: it inherits the variable) and the eccentricity fit across speeds (twin
+# re-runs in the test's own process) fault their large buffers in afresh alike.
 foreach(name
     "daemon's gap diagnosis end to end: the rig without effects gives a report with no significant family and no alert"
-    "daemon's gap diagnosis end to end: rig tooth errors withheld from the twin are found, stored and raise twin drift")
+    "daemon's gap diagnosis end to end: rig tooth errors withheld from the twin are found, stored and raise twin drift"
+    "gap: gap bench with a few seeds writes the scores as JSON"
+    "gap: eccentricity fitted on the rig's records recovers the run-outs the rig was given, across speeds")
   set_tests_properties("${name}" PROPERTIES ENVIRONMENT
                        "GLIBC_TUNABLES=glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824")
 endforeach()

@@ -2,12 +2,13 @@
 """Replays a ctest -jN run on N slots from the per-test times in its log (tools/test.sh's output)
 to predict the tests phase under other COST / RUN_SERIAL / RESOURCE_LOCK settings (docs/ci.md).
 
-Usage: tools/ctest-schedule.py CI_LOG [--jobs 2] [--vm-lock | --vm-serial] [--vm-slowdown F]
+Usage: tools/ctest-schedule.py CI_LOG [--jobs 2] [--vm-lock | --vm-serial] [--vm-slowdown F] [--no-costs]
 The COSTs, RUN_SERIAL and RESOURCE_LOCKs are read from tests/long-tests.cmake and
 tests/CMakeLists.txt (--vm-lock / --vm-serial override them for the VM tests). The model: a free slot
 takes the first ready test in decreasing COST (ties in test-number order), a RUN_SERIAL test waits
 for an empty machine and runs alone, a test whose RESOURCE_LOCK is held is passed over, and the
-fuzz runs wait for fuzz_build (their fixture)."""
+fuzz runs wait for fuzz_build (their fixture). --no-costs replays the order a fresh clone would get
+without the COSTs (every cost 0: test-number order)."""
 import argparse
 import pathlib
 import re
@@ -91,9 +92,10 @@ def main():
     p.add_argument("--vm-serial", action="store_true", help="all VM tests RUN_SERIAL (as before the lock)")
     p.add_argument("--vm-slowdown", type=float, default=1.0, help="VM tests this much slower beside another test")
     p.add_argument("--vm-cost", type=int, nargs=3, default=[300, 260, 20], metavar=("E2E", "SYSTEMD", "UNITS"))
+    p.add_argument("--no-costs", action="store_true", help="every COST 0, as a fresh clone without them")
     a = p.parse_args()
     times, numbers = read_log(a.log)
-    costs = read_costs()
+    costs = {} if a.no_costs else read_costs()
     after = {n: "fuzz_build" for n in times if n.startswith("fuzz_") and n != "fuzz_build"}
     vm = [n for n in VM_TESTS if n in times]
     serial, locks = read_serial_and_locks()
