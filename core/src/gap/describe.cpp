@@ -98,21 +98,51 @@ struct ModulatedHarmonic {
 /// The modulation read off the sidebands' phases, the twin's own subtracted: per harmonic
 /// u + conj(l) = m·e^{iφ} (AM) and u − conj(l) = 2·J1(nβ)/J0(nβ)·e^{iψ} (PM of the mesh, nβ on
 /// harmonic n), so `am` = m·e^{iφ} and `pm` = β·e^{iψ}, carrier-power-weighted means over the
-/// harmonics in order while n·β stays under kMaxHarmonicPmIndex (β as read so far). Returns the
-/// weight used (0: none).
-double read_modulation_with_phases(const std::vector<ModulatedHarmonic>& hs, std::complex<double>& am, std::complex<double>& pm) {
+/// harmonics in order while n·β stays under kMaxHarmonicPmIndex, β the larger of the one read so far
+/// and `carrier_beta` (the carriers' loss, pm_index_from_carriers: a record whose lowest harmonics
+/// are under the floor would otherwise start beyond J0's zero, where the ratio's inverse reads a
+/// small index). Returns the weight used (0: none).
+double read_modulation_with_phases(const std::vector<ModulatedHarmonic>& hs, double carrier_beta, std::complex<double>& am,
+                                   std::complex<double>& pm) {
   using Complex = std::complex<double>;
   Complex sum_a, sum_b;
   double w = 0;
   for (const auto& h : hs) {
     const double n = static_cast<double>(h.n);
-    if (w > 0 && n * std::abs(sum_b) / w > kMaxHarmonicPmIndex) break;
+    if (n * carrier_beta > kMaxHarmonicPmIndex || (w > 0 && n * std::abs(sum_b) / w > kMaxHarmonicPmIndex)) break;
     const Complex a = (h.u_m + std::conj(h.l_m)) - (h.u_t + std::conj(h.l_t));
     const Complex b = (h.u_m - std::conj(h.l_m)) - (h.u_t - std::conj(h.l_t));
     const Complex beta = std::abs(b) > 0 ? pm_index_of_ratio(std::abs(b)) / n * b / std::abs(b) : Complex{};
     sum_a += h.carrier_power * a, sum_b += h.carrier_power * beta, w += h.carrier_power;
   }
   if (w > 0) am = sum_a / w, pm = sum_b / w;
+  return w;
+}
+
+/// Harmonics whose index n·β is at most this hold only their own lines near their carrier: the
+/// neighbours' sidebands z orders away (J_z(x) at x ≤ 8, z ≥ 19) are under 1e-4 of them.
+constexpr double kMaxCarrierIndex = 8.0;
+/// Beside J0's zeros the ratio J1/J0 is ill-conditioned: a phase is read only where |J0(nβ)| is over this.
+constexpr double kMinCarrierShare = 0.1;
+
+/// With β known (the carriers' loss) and no harmonic under kMaxHarmonicPmIndex to invert, each
+/// harmonic n up to kMaxCarrierIndex still gives the PM's phase: u − conj(l) = 2·J1(nβ)/J0(nβ)·e^{iψ},
+/// its sign known; and the AM's u + conj(l) = m·e^{iφ} holds at any index. `pm` = β·e^{iψ}, `am` the
+/// carrier-power-weighted mean. Returns the weight used (0: none).
+double read_phase_with_known_index(const std::vector<ModulatedHarmonic>& hs, double beta, std::complex<double>& am,
+                                   std::complex<double>& pm) {
+  using Complex = std::complex<double>;
+  Complex sum_a, sum_b;
+  double w = 0;
+  for (const auto& h : hs) {
+    const double x = static_cast<double>(h.n) * beta;
+    if (x > kMaxCarrierIndex) break;
+    if (std::abs(std::cyl_bessel_j(0.0, x)) < kMinCarrierShare) continue;
+    const Complex a = (h.u_m + std::conj(h.l_m)) - (h.u_t + std::conj(h.l_t));
+    const Complex b = (h.u_m - std::conj(h.l_m)) - (h.u_t - std::conj(h.l_t));
+    sum_a += h.carrier_power * a, sum_b += h.carrier_power * (pm_sideband_ratio(x) < 0 ? -b : b), w += h.carrier_power;
+  }
+  if (w > 0) am = sum_a / w, pm = std::abs(sum_b) > 0 ? beta * sum_b / std::abs(sum_b) : Complex{beta, 0.0};
   return w;
 }
 
@@ -138,7 +168,7 @@ ShaftSpectra shaft_spectra(const DescribedRecord& src, bool input) {
   return {lines_m, lines_t, cm, ct, with_phase};
 }
 
-/// The mesh harmonics n (carrier at input order n·zp) whose carrier stands above the floor and
+/// The mesh harmonics n (carrier at input order n·zp) whose carriers (measured and twin's) stand above the floor and
 /// whose first sidebands (orders n·z ± 1 of the shaft with z teeth) exist in both records.
 std::vector<ModulatedHarmonic> modulated_harmonics(const DescribedRecord& src, const ShaftSpectra& s, int zp, int z) {
   using Complex = std::complex<double>;
@@ -150,8 +180,10 @@ std::vector<ModulatedHarmonic> modulated_harmonics(const DescribedRecord& src, c
     if (carrier >= m.input_lines.size() || carrier >= t.input_lines.size() || upper >= s.lines_m.size() ||
         upper >= s.lines_t.size())
       break;
+    // Both carriers over the floor: each record's sidebands are read over its own carrier, and a
+    // twin's carrier at the floor makes its own ratios (subtracted) meaningless.
     const double pc = m.input_lines[carrier];
-    if (!(pc > 100 * src.floor)) continue;
+    if (!(pc > 100 * src.floor) || !(t.input_lines[carrier] > 100 * src.floor)) continue;
     ModulatedHarmonic h{n, {}, {}, {}, {}, {}, pc, s.lines_m[upper] + s.lines_m[lower] - s.lines_t[upper] - s.lines_t[lower],
                         t.input_lines[carrier], {}};
     if (s.with_phase) {
@@ -174,8 +206,9 @@ struct RecordModulation {
 
 /// Reads a record's modulation off its harmonics (with the phases where known, else from the
 /// sidebands' excess power). False: the record holds none to read.
-bool read_record_modulation(const std::vector<ModulatedHarmonic>& hs, bool with_phase, RecordModulation& p) {
-  const double w = with_phase ? read_modulation_with_phases(hs, p.a, p.b) : 0.0;
+bool read_record_modulation(const std::vector<ModulatedHarmonic>& hs, bool with_phase, double carrier_beta, RecordModulation& p) {
+  double w = with_phase ? read_modulation_with_phases(hs, carrier_beta, p.a, p.b) : 0.0;
+  if (with_phase && w <= 0 && carrier_beta > 0) w = read_phase_with_known_index(hs, carrier_beta, p.a, p.b);
   double w_all = 0, excess = 0;
   for (const auto& h : hs) w_all += h.carrier_power, excess += h.excess;
   if (w_all <= 0 || (with_phase && w <= 0)) return false;
@@ -258,6 +291,66 @@ std::vector<std::pair<std::size_t, double>> predicted_sideband_powers(const std:
         if (cells[i].index == static_cast<std::size_t>(hs[j].n * zp) - 1) out.emplace_back(i, carrier_power[j]);
   }
   return out;
+}
+
+/// J0(x) on [0, kMaxCarrierIndex] from a table at 1e-3 steps, linearly interpolated (error under
+/// 2e-7): the carriers' fit asks for it at every harmonic of every record at every trial β, and
+/// the library's Bessel function is slow.
+double j0_tabled(double x) {
+  constexpr double kStep = 1e-3;
+  static const std::vector<double> table = [] {
+    std::vector<double> t(static_cast<std::size_t>(kMaxCarrierIndex / kStep) + 2);
+    for (std::size_t i = 0; i < t.size(); ++i) t[i] = std::cyl_bessel_j(0.0, static_cast<double>(i) * kStep);
+    return t;
+  }();
+  const double u = x / kStep;
+  const auto i = std::min(static_cast<std::size_t>(u), table.size() - 2);
+  const double f = u - static_cast<double>(i);
+  return table[i] + f * (table[i + 1] - table[i]);
+}
+
+/// The PM index β of the mesh fundamental that the mesh carriers' loss shows: under a PM of the mesh
+/// harmonic n keeps J0(nβ)² of its power (an AM leaves it whole). Least squares of the measured over
+/// the twin's carrier power (the comparison's floor added to both) against J0(nβ)², over every
+/// record's harmonics whose twin carrier stands 100 times over the floor and whose index nβ is at
+/// most kMaxCarrierIndex (a mean over them: the set shrinks as β grows); on a grid in log β, then
+/// refined. 0 when no β fits better than none does.
+double pm_index_from_carriers(const std::vector<DescribedRecord>& sources, int zp) {
+  struct Carrier {
+    double n, ratio, floor_share;  // measured/twin with the floor; the floor over twin + floor
+  };
+  std::vector<Carrier> carriers;
+  for (const auto& src : sources) {
+    const auto& m = src.measured->input_lines;
+    const auto& t = src.twin->input_lines;
+    for (std::size_t n = 1; n * static_cast<std::size_t>(zp) <= std::min(m.size(), t.size()); ++n) {
+      const double pt = t[n * static_cast<std::size_t>(zp) - 1], pm = m[n * static_cast<std::size_t>(zp) - 1];
+      if (pt > 100 * src.floor) carriers.push_back({static_cast<double>(n), (pm + src.floor) / (pt + src.floor), src.floor / (pt + src.floor)});
+    }
+  }
+  auto cost = [&](double beta) {
+    double sum = 0;
+    std::size_t count = 0;
+    for (const auto& c : carriers) {
+      const double x = c.n * beta;
+      if (x > kMaxCarrierIndex) continue;
+      const double j0 = j0_tabled(x);
+      const double d = c.ratio - (j0 * j0 * (1 - c.floor_share) + c.floor_share);
+      sum += d * d, ++count;
+    }
+    return count >= 2 ? sum / static_cast<double>(count) : std::numeric_limits<double>::infinity();
+  };
+  constexpr double kLowest = 0.005, kHighest = 3.0;
+  constexpr int kSteps = 240;
+  double best = 0, best_cost = cost(0.0);
+  for (int i = 0; i <= kSteps; ++i) {
+    const double beta = kLowest * std::pow(kHighest / kLowest, static_cast<double>(i) / kSteps);
+    const double c = cost(beta);
+    if (c < best_cost) best_cost = c, best = beta;
+  }
+  if (best <= 0) return 0.0;
+  const double step = std::pow(kHighest / kLowest, 1.0 / kSteps);
+  return golden_min(cost, best / step, best * step);
 }
 
 /// The modulation form's description: the AM and PM indices and the AM's share of the first
@@ -358,6 +451,7 @@ FeatureDescriber::FeatureDescriber(const std::vector<DescribedRecord>& records, 
   for (const auto& src : sources_) floors_.push_back(compare_floors(*src.measured, *src.twin, settings_.floor));
   floor_ = floor_change();
   tilt_ = path_tilt();
+  carrier_pm_index_ = pm_index_from_carriers(sources_, gears_.pinion_teeth);
   modulation_input_ = modulation(FeatureShaft::input);
   modulation_output_ = modulation(FeatureShaft::output);
 }
@@ -470,7 +564,7 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
     phases = phases && s.with_phase;
     const std::vector<ModulatedHarmonic> hs = modulated_harmonics(src, s, zp, z);
     RecordModulation& p = per[r];
-    if (!read_record_modulation(hs, s.with_phase, p)) continue;
+    if (!read_record_modulation(hs, s.with_phase, carrier_pm_index_, p)) continue;
     p.sideband_power = predicted_sideband_powers(hs, s, z, p, records_[r].cells, kind, zp);
     am_sum += p.weight * p.am, pm_sum += p.weight * (s.with_phase ? p.pm : 0.0), weight_sum += p.weight;
   }

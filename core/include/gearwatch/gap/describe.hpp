@@ -142,6 +142,7 @@ class FeatureDescriber {
   GearPairSpec gears_;
   DescriptionSettings settings_;
   Fit floor_, tilt_, modulation_input_, modulation_output_;
+  double carrier_pm_index_ = 0;  ///< the PM index the mesh carriers' loss shows (bounds where the sidebands are read)
   std::vector<FloorComparison> floors_;  ///< each record's broadband floors (compare_floors)
 };
 
