@@ -483,7 +483,10 @@ FeatureDescriber::Fit FeatureDescriber::floor_change() const {
     for (const auto& c : r.cells)
       if (c.kind == CellKind::broadband && c.twin >= 10 * r.floor && c.measured > 0 && c.hz > 0)
         x.push_back(std::log10(c.hz / 1000.0)), y.push_back(ratio_db(c.measured, c.twin, r.floor));
-  auto [level, slope] = line_fit(x, y);
+  // Plain variables, not a structured binding: the lambdas below capture them (C++20 allows
+  // capturing a binding, clang 14 does not).
+  double level = 0, slope = 0;
+  std::tie(level, slope) = line_fit(x, y);
   // The comparison's floor compresses g where the twin's bins sit near it: the line's least squares
   // over the bins clear of it starts, then the RSS in g itself over every bin above the floor.
   std::vector<FloorPoint> bins;  // log10(f/1 kHz), twin, g, floor
@@ -525,7 +528,8 @@ FeatureDescriber::Fit FeatureDescriber::path_tilt() const {
         const double octaves = std::log2((c.index + 1.0) / gears_.pinion_teeth), g = ratio_db(c.measured, c.twin, r.floor);
         x.push_back(octaves), y.push_back(g), lines.emplace_back(octaves, c.twin, g, r.floor);
       }
-  auto [level, tilt] = line_fit(x, y);
+  double level = 0, tilt = 0;  // captured below: not a structured binding (see floor_change)
+  std::tie(level, tilt) = line_fit(x, y);
   // The comparison's floor compresses g where a tilt takes a harmonic toward it (a falling tilt on
   // the high harmonics, 10 dB over the floor: −12 dB reads about −8), so the line through g reads
   // the tilt flat. As for the floor's fit: the line starts, then the RSS in g of the tilt through
