@@ -1310,14 +1310,9 @@ std::optional<LevelRate> TwinModel::level_and_rate(const LogPosterior& p, const 
     const double dk = m.inspection_id == rate.to_id ? rate.dk_dz_to : m.inspection_id == rate.from_id ? rate.dk_dz_from : 0.0;
     if (dk != 0.0) cov += posterior_weight(prior, points, q, now, m.inspection_id) * m.var * dk;
   }
+  // The level stays ρ's on the model's path, not the depth carried by the rate: a rate read over a
+  // short baseline between two inspections would then move every crossing with its noise.
   LevelRate j{p.mean, p.var, rate.log_mean, rate.var, cov};
-  // Past the newest inspection the level is the depth carried from it by the rate (the path is
-  // continuous at now); its covariance with the rate is the carried depth's.
-  if (const CarriedDepth c = carried_depth_now(); c.valid) {
-    j.x_mean = std::log(c.estimate_m / summarise(memory_.current.state).combined_mean_depth_m);
-    j.x_var = c.log_var;
-    j.cov = c.cov_with_rate;
-  }
   if (peak.valid) {
     // The deepest point: the truth's is ρ P times the model's mean, its increments ρ_rate P times
     // the model's mean increments; both over the model's own deepest / mean. P is shared.
