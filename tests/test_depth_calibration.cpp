@@ -242,6 +242,43 @@ TEST_CASE("depth calibration: the rate from two inspections gives a trending tru
   CHECK(truth_crossing_threshold(LevelRate{std::log(2.0 * limit / model(now)), 0, 0, 0, 0}, model(now), limit, 0.5) == model(now));
 }
 
+// The depth now carried from the newest inspection by the rate (docs/model.md, "Depth calibration"):
+// on a truth c m + b (ρ trending) with exact readings the carried depth is the truth's at every later
+// cycle, while ρ held from the newest inspection on the model's path misses it; the delta method's
+// variance and covariance in closed form.
+TEST_CASE("depth calibration: the depth carried by the rate follows a trending truth exactly", "[model][depth_calibration]") {
+  const double a = 2e-10, p = 0.8, c = 2.6, b = -12e-6;
+  auto model = [&](double n) { return a * std::pow(n, p); };
+  auto truth = [&](double n) { return c * model(n) + b; };
+  const double n1 = 0.8e6, n2 = 1.6e6;
+  const DepthRatioMeasurement m1 = depth_ratio_measurement(1, n1, truth(n1), model(n1), 0.05);
+  const DepthRatioMeasurement m2 = depth_ratio_measurement(2, n2, truth(n2), model(n2), 0.05);
+  const RateReading r = depth_rate_reading(m1, m2);
+  REQUIRE(r.valid);
+  for (double now : {1.6e6, 2.2e6, 3.0e6}) {
+    const CarriedDepth d = rate_carried_depth(m2.model_m, m2.log_ratio, 0, r.log_mean, 0, 0, 0, model(now), 0.9);
+    REQUIRE(d.valid);
+    CHECK(d.estimate_m == Approx(truth(now)).epsilon(1e-12));
+    CHECK(d.low_m == Approx(d.estimate_m).epsilon(1e-12));
+    CHECK(d.high_m == Approx(d.estimate_m).epsilon(1e-12));
+  }
+  // ρ held at its newest reading on the model's path: 6 % or more short by 3 M cycles.
+  CHECK(std::exp(m2.log_ratio) * model(3.0e6) < 0.94 * truth(3.0e6));
+  // Closed form: level 1.5 × 10, increment 2 × (14 − 10): D = 23, w_x = 15/23, w_y = 8/23.
+  const CarriedDepth d = rate_carried_depth(10.0, std::log(1.5), 0.01, std::log(2.0), 0.04, 0.005, 0.02, 14.0, 0.9);
+  REQUIRE(d.valid);
+  const double wx = 15.0 / 23.0, wy = 8.0 / 23.0;
+  const double var = wx * wx * 0.01 + wy * wy * (0.04 + 0.02) + 2.0 * wx * wy * 0.005;
+  CHECK(d.estimate_m == Approx(23.0).epsilon(1e-12));
+  CHECK(d.log_var == Approx(var).epsilon(1e-12));
+  CHECK(d.cov_with_rate == Approx(wx * 0.005 + wy * 0.04).epsilon(1e-12));
+  CHECK(d.low_m == Approx(23.0 * std::exp(-1.6448536269514722 * std::sqrt(var))).epsilon(1e-9));
+  CHECK(d.high_m == Approx(23.0 * std::exp(1.6448536269514722 * std::sqrt(var))).epsilon(1e-9));
+  // The model's depth below the newest inspection's, or none there: not carried.
+  CHECK_FALSE(rate_carried_depth(10.0, 0, 0, 0, 0, 0, 0, 9.0, 0.9).valid);
+  CHECK_FALSE(rate_carried_depth(0.0, 0, 0, 0, 0, 0, 0, 9.0, 0.9).valid);
+}
+
 TEST_CASE("depth calibration: the newest inspection pairs with the partner of the smallest variance",
           "[model][depth_calibration]") {
   const std::vector<DepthRatioMeasurement> pts{depth_ratio_measurement(1, 0.5e6, 10e-6, 8e-6, 0.05),

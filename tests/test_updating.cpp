@@ -7,6 +7,7 @@
 #include "model_observation.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -94,6 +95,34 @@ TEST_CASE("updating: Pearson's C of three pairs (Eq. 7.15) and the golden-sectio
   CHECK(r.x == Approx(1.3).margin(1e-6));
   // Each evaluation shrinks the bracket by 0.618: 20 / 0.618^n < 1e-6 needs n = 35 (+2 to start).
   CHECK(r.evaluations <= 40);
+}
+
+// The forecast's operating point: the mean since the newest load step (step 10 %, 4 standard errors).
+TEST_CASE("updating: the forecast's operating point is the mean since the last load step", "[model][updating]") {
+  using Points = std::vector<std::array<double, 2>>;
+  auto at = [](const Points& p) { return forecast_operating_point(p, 0.1, 4.0); };
+  // No step: the mean of all.
+  CHECK(at(Points{{10, 20}, {10, 20}, {12, 20}})[0] == Approx(32.0 / 3.0).epsilon(1e-12));
+  CHECK(at(Points{{10, 20}, {10, 20}, {12, 20}})[1] == Approx(20.0).epsilon(1e-12));
+  // One exact step 20 → 30 N·m after six records: the three after it.
+  Points step(6, {10.0, 20.0});
+  for (int i = 0; i < 3; ++i) step.push_back({10.0, 30.0});
+  CHECK(at(step)[1] == Approx(30.0).epsilon(1e-12));
+  // Two steps (20, 30, 15): the last segment.
+  Points two{{10, 20}, {10, 20}, {10, 20}, {10, 20}, {10, 30}, {10, 30}, {10, 30}, {10, 15}, {10, 15}, {10, 15}};
+  CHECK(at(two)[1] == Approx(15.0).epsilon(1e-12));
+  // A step with scatter ±0.5 N·m: after it 30 ± 0.5 alternating over four records, mean 30.
+  Points noisy{{10, 19.5}, {10, 20.5}, {10, 19.5}, {10, 20.5}, {10, 19.5}, {10, 20.5}, {10, 29.5}, {10, 30.5}, {10, 29.5}, {10, 30.5}};
+  CHECK(at(noisy)[1] == Approx(30.0).epsilon(1e-12));
+  // A load scattered 18 / 22 N·m with no step: the largest split difference (2.2 N·m, one record
+  // against nine) is below 4 standard errors (σ = 1.4826 × 4 / √2 = 4.19 N·m; 4 σ sqrt(1 + 1/9) =
+  // 17.7 N·m): averaged, mean 20.
+  Points scattered;
+  for (int i = 0; i < 10; ++i) scattered.push_back({10.0, i % 2 ? 22.0 : 18.0});
+  CHECK(at(scattered)[1] == Approx(20.0).epsilon(1e-12));
+  // A step below 10 %: averaged.
+  CHECK(at(Points{{10, 20}, {10, 20}, {10, 21}, {10, 21}})[1] == Approx(20.5).epsilon(1e-12));
+  CHECK(at(Points{})[1] == 0.0);
 }
 
 TEST_CASE("updating: Eq. 7.13 iterates K <- K meas/sim exactly, and says why when it does not converge",

@@ -157,6 +157,23 @@ RateReading rate_at_pace(RateReading r, double k_path, double k_now) {
   return r;
 }
 
+CarriedDepth rate_carried_depth(double model_at_b, double x_b_mean, double x_b_var, double y_mean, double y_var, double cov_xy,
+                                double walk_var, double model_now, double coverage) {
+  CarriedDepth c;
+  if (!(model_at_b > 0) || !(model_now >= model_at_b) || !std::isfinite(x_b_mean) || !std::isfinite(y_mean)) return c;
+  const double level = std::exp(x_b_mean) * model_at_b, growth = std::exp(y_mean) * (model_now - model_at_b);
+  const double d = level + growth;
+  const double wx = level / d, wy = growth / d;
+  c.valid = true;
+  c.estimate_m = d;
+  c.log_var = std::max(0.0, wx * wx * x_b_var + wy * wy * (y_var + std::max(0.0, walk_var)) + 2.0 * wx * wy * cov_xy);
+  c.cov_with_rate = wx * cov_xy + wy * y_var;
+  const double z = normal_quantile(0.5 + 0.5 * coverage) * std::sqrt(c.log_var);
+  c.low_m = d * std::exp(-z);
+  c.high_m = d * std::exp(z);
+  return c;
+}
+
 double posterior_weight(const LogPosterior& prior, const std::vector<DepthRatioMeasurement>& points, double q_per_cycle,
                         double now, std::int64_t inspection_id) {
   std::vector<DepthRatioMeasurement> moved = points;

@@ -399,6 +399,41 @@ double TwinModel::ics2_at(double cycles) const {
   return lo[1] + (cycles - lo[0]) / (hi[0] - lo[0]) * (hi[1] - lo[1]);
 }
 
+std::array<double, 2> forecast_operating_point(const std::vector<std::array<double, 2>>& points, double step_fraction,
+                                               double step_standard_errors) {
+  const std::size_t n = points.size();
+  if (n == 0) return {0.0, 0.0};
+  auto mean = [&](std::size_t a, std::size_t b, int i) {
+    double sum = 0;
+    for (std::size_t k = a; k < b; ++k) sum += points[k][i];
+    return sum / static_cast<double>(b - a);
+  };
+  // The record-to-record scatter from successive differences (a step moves one of them only):
+  // σ = 1.4826 median |ΔT| / √2.
+  std::vector<double> diffs;
+  for (std::size_t k = 1; k < n; ++k) diffs.push_back(std::abs(points[k][1] - points[k - 1][1]));
+  double sigma = 0;
+  if (!diffs.empty()) {
+    std::nth_element(diffs.begin(), diffs.begin() + static_cast<std::ptrdiff_t>(diffs.size() / 2), diffs.end());
+    sigma = 1.4826 * diffs[diffs.size() / 2] / std::sqrt(2.0);
+  }
+  std::size_t from = 0;
+  for (;;) {
+    // The split of [from, n) whose sides' mean torques differ most.
+    std::size_t best = 0;
+    double best_d = 0;
+    for (std::size_t k = from + 1; k < n; ++k) {
+      const double d = std::abs(mean(k, n, 1) - mean(from, k, 1));
+      if (d > best_d) best = k, best_d = d;
+    }
+    if (best == 0) break;
+    const double se = sigma * std::sqrt(1.0 / static_cast<double>(best - from) + 1.0 / static_cast<double>(n - best));
+    if (!(best_d >= step_fraction * std::abs(mean(best, n, 1)) && best_d >= step_standard_errors * se)) break;
+    from = best;
+  }
+  return {mean(from, n, 0), mean(from, n, 1)};
+}
+
 namespace {
 // The forecast's operating point is read from the newest `window` records (operating_window_records).
 void remember_operating_point(std::vector<std::array<double, 2>>& points, const ModelObservation& obs, std::size_t window) {
@@ -1236,6 +1271,31 @@ RateReading TwinModel::wear_rate_reading() const {
   return rate_at_pace(r, cycle_mean_k(stretches, r.from_cycles, r.to_cycles), memory_.k_wear_si);
 }
 
+CarriedDepth TwinModel::carried_depth_now() const {
+  const auto& points = memory_.depth_ratio_points;
+  const RateReading raw = newest_rate_reading(points);
+  const double now = memory_.current.state.cycles;
+  if (!raw.valid || !(now > raw.to_cycles)) return {};
+  const auto b = std::find_if(points.begin(), points.end(), [&](const DepthRatioMeasurement& m) { return m.inspection_id == raw.to_id; });
+  if (b == points.end()) return {};
+  // Between b and now the model's path ran at its stretches' K_wear there; the reading is against
+  // the path's pace between the two inspections (Archard's increment ∝ K).
+  std::vector<KStretch> stretches;
+  for (const LifeInterval& in : memory_.intervals) stretches.push_back({in.end_cycles, in.k_wear_si});
+  const RateReading y = rate_at_pace(raw, cycle_mean_k(stretches, raw.from_cycles, raw.to_cycles), cycle_mean_k(stretches, b->cycles, now));
+  const LogPosterior prior = depth_ratio_prior();
+  const double q = settings_.log_k_q_per_cycle();
+  const LogPosterior x_b = depth_ratio_posterior(prior, points, q, b->cycles);
+  double cov = 0;
+  for (const DepthRatioMeasurement& m : points) {
+    const double dk = m.inspection_id == raw.to_id ? raw.dk_dz_to : m.inspection_id == raw.from_id ? raw.dk_dz_from : 0.0;
+    if (dk != 0.0) cov += posterior_weight(prior, points, q, b->cycles, m.inspection_id) * m.var * dk;
+  }
+  // The rate walks as ln K does from the newest inspection on (the level's own walk, docs/model.md).
+  return rate_carried_depth(b->model_m, x_b.mean, x_b.var, y.log_mean, y.var, cov, q * (now - b->cycles),
+                            summarise(memory_.current.state).combined_mean_depth_m, kNominalCoverage);
+}
+
 std::optional<LevelRate> TwinModel::level_and_rate(const LogPosterior& p, const LogPosterior& peak, double model_peak,
                                                    RateReading& rate) const {
   const auto& points = memory_.depth_ratio_points;
@@ -1250,6 +1310,8 @@ std::optional<LevelRate> TwinModel::level_and_rate(const LogPosterior& p, const 
     const double dk = m.inspection_id == rate.to_id ? rate.dk_dz_to : m.inspection_id == rate.from_id ? rate.dk_dz_from : 0.0;
     if (dk != 0.0) cov += posterior_weight(prior, points, q, now, m.inspection_id) * m.var * dk;
   }
+  // The level stays ρ's on the model's path, not the depth carried by the rate: a rate read over a
+  // short baseline between two inspections would then move every crossing with its noise.
   LevelRate j{p.mean, p.var, rate.log_mean, rate.var, cov};
   if (peak.valid) {
     // The deepest point: the truth's is ρ P times the model's mean, its increments ρ_rate P times
@@ -1299,6 +1361,16 @@ bool TwinModel::apply_depth_calibration(Forecast& f, const WearLoopOptions& o) c
   f.depth_inspections = static_cast<int>(memory_.depth_ratio_points.size());
   f.depth_ratio = d.ratio;
   f.depth_ratio_log_sd = std::sqrt(p.var);
+  // Two inspected depths read the rate: past the newest the depth is carried from it by that rate,
+  // not held at ρ on the model's path (which paces the truth only where their rates agree).
+  const CarriedDepth carried = mean > 0 ? carried_depth_now() : CarriedDepth{};
+  if (carried.valid) {
+    f.depth_mean_m = carried.estimate_m;
+    f.depth_low_m = carried.low_m;
+    f.depth_high_m = carried.high_m;
+    f.depth_ratio = carried.estimate_m / mean;
+    f.depth_ratio_log_sd = std::sqrt(carried.log_var);
+  }
   // The inspection measures the mean; the deepest point over the mean is still the shape's: the
   // model's own now, and the concentrated shape's where it was read (the ends take the farther).
   const double model_peak = mean > 0 ? max_depth(now) / mean : 1.0;
@@ -1332,10 +1404,11 @@ bool TwinModel::apply_depth_calibration(Forecast& f, const WearLoopOptions& o) c
     f.wear.cycles_left_low = crossing(f.k_wear_high, f.k_pitting_high, d.ratio_high * std::max(1.0, c));
     f.wear.cycles_left_high = crossing(f.k_wear_low, f.k_pitting_low, d.ratio_low * std::min(1.0, c));
   }
-  char b[400];
-  std::snprintf(b, sizeof b, "depth calibration: %zu inspected wear depths give rho %.4g (ln SD %.3g; prior from the shape range, rho_s %.3g): depth %.4g um, interval %.4g to %.4g um%s (ends: deepest point x %.3g of the model's shape)",
-                memory_.depth_ratio_points.size(), d.ratio, f.depth_ratio_log_sd, memory_.shape_depth_ratio, 1e6 * d.estimate_m,
-                1e6 * d.low_m, 1e6 * d.high_m, by_rate ? "" : "; wear crossings at limit / rho", c);
+  char b[480];
+  std::snprintf(b, sizeof b, "depth calibration: %zu inspected wear depths give rho %.4g (ln SD %.3g; prior from the shape range, rho_s %.3g): depth %.4g um, interval %.4g to %.4g um%s%s (ends: deepest point x %.3g of the model's shape)",
+                memory_.depth_ratio_points.size(), f.depth_ratio, f.depth_ratio_log_sd, memory_.shape_depth_ratio, 1e6 * f.depth_mean_m,
+                1e6 * f.depth_low_m, 1e6 * f.depth_high_m, carried.valid ? ", carried from the newest inspection by the rate" : "",
+                by_rate ? "" : "; wear crossings at limit / rho", c);
   f.evidence += (f.evidence.empty() ? "" : "; ") + std::string(b);
   if (peak.valid) {
     std::snprintf(b, sizeof b, "%zu inspected deepest points give deepest / mean %.3g (ln SD %.3g; the model's %.3g): wear crossings at limit / (rho x that / the model's)",
@@ -2285,10 +2358,12 @@ Forecast TwinModel::forecast() const {
     f.failure = "no record yet";
     return f;
   }
-  double speed = 0, torque = 0;
-  for (const auto& p : memory_.recent_operating_points) speed += p[0], torque += p[1];
-  speed /= static_cast<double>(memory_.recent_operating_points.size());
-  torque /= static_cast<double>(memory_.recent_operating_points.size());
+  // The newest records' mean since their last load step: the wear and pitting rates go as powers of
+  // the torque, so a mean across a step would pace the future at a load the pair no longer runs at.
+  // A step of 10 % moves an Archard rate by 10 % (more for Eq. 7.8's); 4 standard errors keep a
+  // scattered load from being cut.
+  const std::array<double, 2> point = forecast_operating_point(memory_.recent_operating_points, 0.1, 4.0);
+  const double speed = point[0], torque = point[1];
   f.speed_hz = speed;
   f.torque_nm = torque;
   f.wear.limit = settings_.wear_limit_m;

@@ -134,6 +134,22 @@ struct LevelRate {
   double x_mean = 0, x_var = 0, y_mean = 0, y_var = 0, cov = 0;
 };
 
+/// The depth now carried from the newest inspection b by the rate (docs/model.md, "Depth calibration"):
+/// the truth at b is e^x_b m_b (ln ρ's posterior at b), its increment since b e^y (m_now − m_b), y the
+/// rate reading at the pace the model's path ran between b and now. D = e^x_b m_b + e^y (m_now − m_b);
+/// ln D is taken as normal by the delta method: var = w_x² var_x + w_y² (var_y + walk) + 2 w_x w_y cov,
+/// w_x = e^x_b m_b / D, w_y = 1 − w_x, walk the rate's own random walk since b (independent of the
+/// readings). The level for the rate's crossing is ln(D / m_now) with that variance and the
+/// covariance cov(ln D, y) = w_x cov + w_y var_y. Not valid unless m_b > 0 and m_now ≥ m_b.
+struct CarriedDepth {
+  bool valid = false;
+  double estimate_m = 0, low_m = 0, high_m = 0;
+  double log_var = 0;        ///< var ln D
+  double cov_with_rate = 0;  ///< cov(ln D, y)
+};
+CarriedDepth rate_carried_depth(double model_at_b, double x_b_mean, double x_b_var, double y_mean, double y_var, double cov_xy,
+                                double walk_var, double model_now, double coverage);
+
 /// The model's depth at which the truth reaches `limit`, the truth being e^x model_now now and
 /// growing e^y times the model's from now on: T = model_now + max(0, limit − e^x model_now) / e^y
 /// (the path is continuous at now; T = model_now: the truth is past the limit). Its q-quantile

@@ -249,6 +249,15 @@ struct ModelMemory {
   std::uint64_t records_used = 0, k_wear_updates = 0, k_pitting_updates = 0;
 };
 
+/// The forecast's operating point (speed, torque) from the newest records' (oldest first): their mean
+/// since the last load step. A step splits the records where the two sides' mean torques differ most;
+/// it counts when that difference is at least `step_fraction` of the newer side's mean and
+/// `step_standard_errors` standard errors, the records' scatter read from their successive
+/// differences (robust to the steps; a scattered load is averaged, not cut); the newer side is
+/// searched again. Empty input: {0, 0}.
+std::array<double, 2> forecast_operating_point(const std::vector<std::array<double, 2>>& points, double step_fraction,
+                                               double step_standard_errors);
+
 /// Pearson's correlation coefficient of two triples (Eq. 7.15); NaN when either has no spread.
 double pearson3(const std::array<double, 3>& x, const std::array<double, 3>& y);
 
@@ -405,6 +414,9 @@ class TwinModel {
   /// The level (ln ρ now, ln P) and the rate read from the inspections' increments, jointly
   /// (depth_calibration.hpp); nullopt without a rate reading.
   std::optional<LevelRate> level_and_rate(const LogPosterior& p, const LogPosterior& peak, double model_peak, RateReading& rate) const;
+  /// The depth now carried from the newest inspected depth by the rate read from two (depth_calibration.hpp:
+  /// rate_carried_depth); not valid without a rate reading or before any record past the newest inspection.
+  CarriedDepth carried_depth_now() const;
   /// The wear crossings from the level and the rate; false (nothing set) without a rate reading.
   bool wear_crossings_by_rate(Forecast& f, const LogPosterior& p, const LogPosterior& peak, double model_peak,
                               const WearLoopOptions& deep) const;
