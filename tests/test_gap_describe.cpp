@@ -727,6 +727,31 @@ TEST_CASE("gap describe: supply tones 1 to 30 times stronger are read at their f
 }
 
 
+// Every input line k (complex C_k) spread to orders k + j as C_k·J_j(k·β/z1)·e^{ijψ}, |j| up to
+// reach(k·β/z1): the measured input lines of a PM re-timing the record. The gear shaft's lines go
+// under the comparison's floor, as a twin without errors holds them: the re-timing moves what it
+// takes off them between the lines, unseen.
+template <class Reach>
+void retime_by_pm(Pair& p, double beta, double psi, Reach reach, std::mt19937_64& rng) {
+  const long size = static_cast<long>(p.twin_input.size());
+  std::vector<Complex> lines(p.twin_input.size());
+  for (long k = 1; k <= size; ++k) {
+    const double x = static_cast<double>(k) * beta / kZ1;
+    const long r = reach(x);
+    for (long j = -r; j <= r; ++j) {
+      const long at = k + j;
+      if (at < 1 || at > size) continue;
+      const double jj = (j < 0 && (-j) % 2 == 1 ? -1.0 : 1.0) * std::cyl_bessel_j(static_cast<double>(std::abs(j)), x);
+      lines[static_cast<std::size_t>(at - 1)] += p.twin_input[static_cast<std::size_t>(k - 1)] * jj * std::polar(1.0, static_cast<double>(j) * psi);
+    }
+  }
+  p.measured_input = lines;
+  for (auto* v : {&p.twin_output, &p.measured_output})
+    for (auto& c : *v) c = std::polar(std::sqrt(1e-9), std::arg(c));
+  for (std::size_t m = 0; m < p.twin.output_lines.size(); ++m) p.twin.output_lines[m] = std::norm(p.twin_output[m]);
+  finish_measurement(p, rng);
+}
+
 // The generator's phase modulation re-times the whole record (tests/capture_gen/gap_effects.py): the
 // vibration is read at the angle θ + β/(2π·z1)·sin(2π·θ + ψ) of the input shaft, so every input line
 // k (complex C_k) spreads to orders k + j as C_k·J_j(k·β/z1)·e^{ijψ}: mesh harmonic n at index n·β,
@@ -738,24 +763,7 @@ std::vector<Pair> retimed_pm_pairs(double beta, double psi, unsigned seed) {
   std::vector<Pair> pairs;
   for (double speed : kSpeeds) {
     Pair p = twin_pair(fs, speed);
-    const long size = static_cast<long>(p.twin_input.size());
-    std::vector<Complex> lines(p.twin_input.size());
-    for (long k = 1; k <= size; ++k) {
-      const double x = static_cast<double>(k) * beta / kZ1;
-      for (long j = -30; j <= 30; ++j) {
-        const long at = k + j;
-        if (at < 1 || at > size) continue;
-        const double jj = (j < 0 && (-j) % 2 == 1 ? -1.0 : 1.0) * std::cyl_bessel_j(static_cast<double>(std::abs(j)), x);
-        lines[static_cast<std::size_t>(at - 1)] += p.twin_input[static_cast<std::size_t>(k - 1)] * jj * std::polar(1.0, static_cast<double>(j) * psi);
-      }
-    }
-    p.measured_input = lines;
-    // The gear shaft's lines under the comparison's floor, as a twin without errors holds them:
-    // the re-timing moves what it takes off them between the lines, unseen.
-    for (auto* v : {&p.twin_output, &p.measured_output})
-      for (auto& c : *v) c = std::polar(std::sqrt(1e-9), std::arg(c));
-    for (std::size_t m = 0; m < p.twin.output_lines.size(); ++m) p.twin.output_lines[m] = std::norm(p.twin_output[m]);
-    finish_measurement(p, rng);
+    retime_by_pm(p, beta, psi, [](double) { return 30L; }, rng);
     pairs.push_back(std::move(p));
   }
   return pairs;
@@ -815,23 +823,7 @@ std::vector<Pair> retimed_pm_pairs_weak_low(double beta, double psi, int weak, u
       for (std::size_t k = 0; k < p.twin_input.size(); ++k) p.twin.input_lines[k] = std::norm(p.twin_input[k]);
       p.measured = p.twin;
     }
-    const long size = static_cast<long>(p.twin_input.size());
-    std::vector<Complex> lines(p.twin_input.size());
-    for (long k = 1; k <= size; ++k) {
-      const double x = static_cast<double>(k) * beta / kZ1;
-      const long reach = static_cast<long>(std::ceil(x)) + 12;
-      for (long j = -reach; j <= reach; ++j) {
-        const long at = k + j;
-        if (at < 1 || at > size) continue;
-        const double jj = (j < 0 && (-j) % 2 == 1 ? -1.0 : 1.0) * std::cyl_bessel_j(static_cast<double>(std::abs(j)), x);
-        lines[static_cast<std::size_t>(at - 1)] += p.twin_input[static_cast<std::size_t>(k - 1)] * jj * std::polar(1.0, static_cast<double>(j) * psi);
-      }
-    }
-    p.measured_input = lines;
-    for (auto* v : {&p.twin_output, &p.measured_output})
-      for (auto& c : *v) c = std::polar(std::sqrt(1e-9), std::arg(c));
-    for (std::size_t m = 0; m < p.twin.output_lines.size(); ++m) p.twin.output_lines[m] = std::norm(p.twin_output[m]);
-    finish_measurement(p, rng);
+    retime_by_pm(p, beta, psi, [](double x) { return static_cast<long>(std::ceil(x)) + 12; }, rng);
     pairs.push_back(std::move(p));
   }
   return pairs;
