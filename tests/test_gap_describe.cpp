@@ -111,6 +111,12 @@ GapFeature feature_at(FeatureMovement movement, FeatureShaft shaft, double order
   return f;
 }
 
+/// A feature fixed in input orders over [order_low, order_high], its Hz extent spanning the records' speeds.
+GapFeature input_orders_feature(double order_low, double order_high) {
+  return feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, order_low, order_high, order_low * kSpeeds.front(),
+                    order_high * kSpeeds.back());
+}
+
 /// Every cell's frequency, for effects written in Hz: input lines k·speed, output lines m·speed·z1/z2,
 /// broadband bins [k, k+1) at their centre.
 template <class F>
@@ -369,7 +375,7 @@ TEST_CASE("gap describe: a ghost tone at input order 37.3 is a ghost line with i
   const double fs = 10240, order = 37.3, amplitude = 0.05;
   const auto pairs = pairs_from_records(fs, {{order, amplitude}});
   const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  const auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 36.5, 38.5, 36.5 * kSpeeds.front(), 38.5 * kSpeeds.back());
+  const auto f = input_orders_feature(36.5, 38.5);
   const auto d = describer.describe(f);
   INFO(text_of(d));
   REQUIRE(d.kind == DescriptionKind::ghost_line);
@@ -471,7 +477,7 @@ TEST_CASE("gap describe: a strong ghost tone far over the comparison's floor is 
   const double fs = 10240, order = 26.43, amplitude = 0.17;
   const auto pairs = pairs_from_records(fs, {{order, amplitude}});
   const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  const auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 25.5, 27.5, 25.5 * kSpeeds.front(), 27.5 * kSpeeds.back());
+  const auto f = input_orders_feature(25.5, 27.5);
   const auto d = describer.describe(f);
   INFO(text_of(d));
   REQUIRE(d.kind == DescriptionKind::ghost_line);
@@ -491,7 +497,7 @@ TEST_CASE("gap describe: a ghost tone over the mesh line it sits beside is a gho
   const double fs = 10240, order = 19.41, amplitude = 0.1;
   const auto pairs = pairs_from_records(fs, {{order, amplitude}});
   const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 16, 22.5, 16 * kSpeeds.front(), 22.5 * kSpeeds.back());
+  auto f = input_orders_feature(16, 22.5);
   f.order = 19.65;
   const auto d = describer.describe(f);
   INFO(text_of(d));
@@ -588,7 +594,7 @@ FeatureDescription describe_tilted(double tilt, unsigned seed, const std::functi
     pairs.push_back(std::move(p));
   }
   const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  const auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 75.5, 76.5, 75.5 * kSpeeds.front(), 76.5 * kSpeeds.back());
+  const auto f = input_orders_feature(75.5, 76.5);
   return describer.describe(f);
 }
 
@@ -788,7 +794,7 @@ TEST_CASE("gap describe: a pure PM re-timing every line is a PM with its index, 
           if (std::abs(g) >= 3) reach = std::max(reach, k);
         }
       const double lo = n * kZ1 - reach - 0.5, hi = n * kZ1 + reach + 0.5;
-      const auto d = describer.describe(feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, lo, hi, lo * kSpeeds.front(), hi * kSpeeds.back()));
+      const auto d = describer.describe(input_orders_feature(lo, hi));
       INFO("feature over input orders " << lo << "-" << hi << ": " << text_of(d));
       REQUIRE(d.kind == DescriptionKind::modulation);
       CHECK(d.shaft == FeatureShaft::input);
@@ -852,7 +858,7 @@ TEST_CASE("gap describe: a PM read where the lowest mesh harmonics are under the
   const auto quiet = retimed_pm_pairs_weak_low(0.0, 1.1, 4, 362);
   const FeatureDescriber describer(described(quiet), GearPairSpec{});
   CHECK(describer.modulation(FeatureShaft::input).description.parameter("pm_index_rad") < 0.02);
-  const auto d = describer.describe(feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 16.5, 21.5, 16.5 * kSpeeds.front(), 21.5 * kSpeeds.back()));
+  const auto d = describer.describe(input_orders_feature(16.5, 21.5));
   CHECK(d.kind == DescriptionKind::none);
 }
 
@@ -934,7 +940,7 @@ TEST_CASE("gap describe: a strong ghost beside a mesh harmonic, on a rounded cap
     return v;
   });
   const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 33, 43, 33 * kSpeeds.front(), 43 * kSpeeds.back());
+  auto f = input_orders_feature(33, 43);
   f.order = 37.555;
   const auto d = describer.describe(f);
   INFO("ghost at " << amplitude << " m/s²: " << text_of(d));
@@ -999,7 +1005,7 @@ TEST_CASE("gap describe: strong tones in a record longer than the twin's are rea
     const double order = 37.37;
     const auto pairs = pairs_of_lengths(fs, 2.4, 1.95, {{order, a}});
     const FeatureDescriber describer(described(pairs), GearPairSpec{});
-    auto f = feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 33, 43, 33 * kSpeeds.front(), 43 * kSpeeds.back());
+    auto f = input_orders_feature(33, 43);
     f.order = 37.555;
     const auto d = describer.describe(f);
     INFO(text_of(d));
@@ -1016,7 +1022,7 @@ TEST_CASE("gap describe: no added tone, records longer than the twin's, is descr
   const auto pairs = pairs_of_lengths(10240, 2.4, 1.95, {});
   const FeatureDescriber describer(described(pairs), GearPairSpec{});
   std::vector<GapFeature> features{feature_at(FeatureMovement::fixed_in_hz, FeatureShaft::input, 9 / kSpeeds.back(), 180 / kSpeeds.front(), 9, 180),
-                                   feature_at(FeatureMovement::fixed_in_orders, FeatureShaft::input, 33, 43, 33 * kSpeeds.front(), 43 * kSpeeds.back())};
+                                   input_orders_feature(33, 43)};
   describer.describe_all(features);
   for (const auto& f : features) {
     INFO(text_of(f.description));

@@ -1259,6 +1259,27 @@ LogPosterior TwinModel::depth_ratio_now() const {
   return depth_ratio_posterior(depth_ratio_prior(), memory_.depth_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
 }
 
+namespace {
+// The model's K_wear stretches (each interval's end and its K_wear), as cycle_mean_k reads them.
+std::vector<KStretch> k_wear_stretches(const std::vector<LifeInterval>& intervals) {
+  std::vector<KStretch> stretches;
+  for (const LifeInterval& in : intervals) stretches.push_back({in.end_cycles, in.k_wear_si});
+  return stretches;
+}
+
+// The level's posterior at `at` and the rate reading share the two inspections' errors: the
+// covariance is Σ (the level's weight on z_i) var_i (∂κ/∂z_i).
+double level_rate_covariance(const LogPosterior& prior, const std::vector<DepthRatioMeasurement>& points, double q,
+                             double at, const RateReading& rate) {
+  double cov = 0;
+  for (const DepthRatioMeasurement& m : points) {
+    const double dk = m.inspection_id == rate.to_id ? rate.dk_dz_to : m.inspection_id == rate.from_id ? rate.dk_dz_from : 0.0;
+    if (dk != 0.0) cov += posterior_weight(prior, points, q, at, m.inspection_id) * m.var * dk;
+  }
+  return cov;
+}
+}  // namespace
+
 RateReading TwinModel::wear_rate_reading() const {
   const RateReading r = newest_rate_reading(memory_.depth_ratio_points);
   if (!r.valid) return r;
@@ -1266,8 +1287,7 @@ RateReading TwinModel::wear_rate_reading() const {
   // of their stretches; the forecast runs at today's: read against today's pace (a later K_wear
   // whose re-run started after the inspections would otherwise be counted twice, once in the
   // path's new pace, once in the ratio read against the old).
-  std::vector<KStretch> stretches;
-  for (const LifeInterval& in : memory_.intervals) stretches.push_back({in.end_cycles, in.k_wear_si});
+  const std::vector<KStretch> stretches = k_wear_stretches(memory_.intervals);
   return rate_at_pace(r, cycle_mean_k(stretches, r.from_cycles, r.to_cycles), memory_.k_wear_si);
 }
 
@@ -1280,17 +1300,12 @@ CarriedDepth TwinModel::carried_depth_now() const {
   if (b == points.end()) return {};
   // Between b and now the model's path ran at its stretches' K_wear there; the reading is against
   // the path's pace between the two inspections (Archard's increment ∝ K).
-  std::vector<KStretch> stretches;
-  for (const LifeInterval& in : memory_.intervals) stretches.push_back({in.end_cycles, in.k_wear_si});
+  const std::vector<KStretch> stretches = k_wear_stretches(memory_.intervals);
   const RateReading y = rate_at_pace(raw, cycle_mean_k(stretches, raw.from_cycles, raw.to_cycles), cycle_mean_k(stretches, b->cycles, now));
   const LogPosterior prior = depth_ratio_prior();
   const double q = settings_.log_k_q_per_cycle();
   const LogPosterior x_b = depth_ratio_posterior(prior, points, q, b->cycles);
-  double cov = 0;
-  for (const DepthRatioMeasurement& m : points) {
-    const double dk = m.inspection_id == raw.to_id ? raw.dk_dz_to : m.inspection_id == raw.from_id ? raw.dk_dz_from : 0.0;
-    if (dk != 0.0) cov += posterior_weight(prior, points, q, b->cycles, m.inspection_id) * m.var * dk;
-  }
+  const double cov = level_rate_covariance(prior, points, q, b->cycles, raw);
   // The rate walks as ln K does from the newest inspection on (the level's own walk, docs/model.md).
   return rate_carried_depth(b->model_m, x_b.mean, x_b.var, y.log_mean, y.var, cov, q * (now - b->cycles),
                             summarise(memory_.current.state).combined_mean_depth_m, kNominalCoverage);
@@ -1301,15 +1316,9 @@ std::optional<LevelRate> TwinModel::level_and_rate(const LogPosterior& p, const 
   const auto& points = memory_.depth_ratio_points;
   rate = wear_rate_reading();
   if (!rate.valid) return std::nullopt;
-  // The level's posterior mean and the rate reading share the two inspections' errors: the
-  // covariance is Σ (the level's weight on z_i) var_i (∂κ/∂z_i).
   const LogPosterior prior = depth_ratio_prior();
   const double q = settings_.log_k_q_per_cycle(), now = memory_.current.state.cycles;
-  double cov = 0;
-  for (const DepthRatioMeasurement& m : points) {
-    const double dk = m.inspection_id == rate.to_id ? rate.dk_dz_to : m.inspection_id == rate.from_id ? rate.dk_dz_from : 0.0;
-    if (dk != 0.0) cov += posterior_weight(prior, points, q, now, m.inspection_id) * m.var * dk;
-  }
+  const double cov = level_rate_covariance(prior, points, q, now, rate);
   // The level stays ρ's on the model's path, not the depth carried by the rate: a rate read over a
   // short baseline between two inspections would then move every crossing with its noise.
   LevelRate j{p.mean, p.var, rate.log_mean, rate.var, cov};
