@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <random>
 #include <string>
@@ -19,6 +20,7 @@
 #include "gearwatch/gap/describe.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/gap/evaluation.hpp"
+#include "gearwatch/twin/gearbox_model.hpp"
 #include "constant_speed_record.hpp"
 
 namespace test_gap_features {  // this file's own: the test files compile together (unity build)
@@ -706,6 +708,105 @@ TEST_CASE("gap features: white noise the twin lacks, over the whole band, is the
     CHECK(floors.acquisition > expected / 2);
     CHECK(floors.acquisition < expected * 2);
   }
+}
+
+
+namespace {
+
+/// The power gain of a single-degree-of-freedom resonance added to the path, in the textbook form
+/// H = 1 + (G − 1)·B, B = j2ζr/(1 − r² + j2ζr) (|H| = G at f_n): not casing_mode's form, which
+/// drives its mode through the twin's bearing forces.
+double sdof_power_gain(double hz, double fn, double zeta, double peak_db) {
+  const double r = hz / fn;
+  const std::complex<double> b = std::complex<double>(0, 2 * zeta * r) / std::complex<double>(1 - r * r, 2 * zeta * r);
+  return std::norm(1.0 + (std::pow(10.0, peak_db / 20) - 1) * b);
+}
+
+struct ResonanceSet {
+  std::vector<SpectralSummary> train_measured, train_twin, test_measured, test_twin;
+};
+
+/// Training at 9, 11 and 16 Hz, held out at 13.5 Hz: the closed-form twin with the shipped twin's
+/// bearing-force path, the measurement that twin times the resonance's gain (none when peak_db is 0)
+/// and the cells' noise.
+ResonanceSet resonance_set(double fs, double fn, double zeta, double peak_db, std::mt19937_64& rng) {
+  static const auto path = bearing_force_path(twin::assemble(twin::GearboxParameters{}), 0.5 * fs);
+  ResonanceSet r;
+  for (double speed : kSpeeds) {
+    auto twin = twin_spectra(fs, speed);
+    twin.bearing_force_path = path;
+    auto measured = twin;
+    if (peak_db != 0) for_each_cell(measured, [&](double& p, double hz) { p *= sdof_power_gain(hz, fn, zeta, peak_db); });
+    measured = with_noise(measured, rng);
+    const bool held_out = speed == 13.5;
+    (held_out ? r.test_measured : r.train_measured).push_back(measured);
+    (held_out ? r.test_twin : r.train_twin).push_back(twin);
+  }
+  return r;
+}
+
+std::vector<GapFeature> resonance_features(const ResonanceSet& r, std::mt19937_64& rng) {
+  std::vector<FeaturePair> pairs;
+  for (std::size_t i = 0; i < r.train_measured.size(); ++i)
+    pairs.push_back({&r.train_measured[i], &r.train_twin[i], floor_of(r.train_twin[i]), false, i});
+  for (std::size_t i = 0; i < r.test_measured.size(); ++i)
+    pairs.push_back({&r.test_measured[i], &r.test_twin[i], floor_of(r.test_twin[i]), true, i});
+  FeatureFinder finder(pairs, GearPairSpec{}, FeatureSettings{});
+  for (int d = 0; d < kDraws; ++d)
+    for (std::size_t i = 0; i < pairs.size(); ++i) finder.add_draw(i, with_noise(*pairs[i].measured, rng), *pairs[i].model);
+  return finder.features();
+}
+
+std::vector<RecordModels> models_of_set(const std::vector<SpectralSummary>& measured, const std::vector<SpectralSummary>& twin) {
+  std::vector<RecordModels> out;
+  for (std::size_t i = 0; i < measured.size(); ++i) out.push_back({&measured[i], &twin[i], {}, floor_of(twin[i])});
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("gap attribution: a narrow resonance no family shows is casing_mode's, its mode fitted on its own cells",
+          "[gap][gap_features]") {
+  // Narrow modes between the mesh harmonics, half-power bands 2ζf_n of 24-41 Hz (2-4 broadband bins
+  // of 9-16 Hz, at most one line of any record): a few cells, which no family RMS shows and the
+  // greedy choice therefore never reaches. Tolerances chosen before running: the mode within 1 % of
+  // f_n; the held-out gap under the 3 dB practical minimum (the attribution rule).
+  const double fs = 50000;
+  struct Case {
+    double fn, zeta, peak_db;
+  };
+  for (const Case c : {Case{7006.0, 0.0026, 15.9}, Case{8194.0, 0.0022, 13.4}, Case{4150.0, 0.005, 10.0}}) {
+    INFO("f_n " << c.fn << " Hz, zeta " << c.zeta << ", " << c.peak_db << " dB");
+    std::mt19937_64 rng(static_cast<std::uint64_t>(c.fn));
+    const auto set = resonance_set(fs, c.fn, c.zeta, c.peak_db, rng);
+    auto features = resonance_features(set, rng);
+    INFO(descriptions(features));
+    const auto at = std::find_if(features.begin(), features.end(), [&](const GapFeature& f) {
+      return f.hz_low - kSpeeds.back() <= c.fn && f.hz_high + kSpeeds.back() >= c.fn;
+    });
+    REQUIRE(at != features.end());
+    GapFeature f = *at;
+    // Described as a resonance at the feature's centre (the describer has its own tests); no damping read.
+    f.description.kind = DescriptionKind::resonance;
+    f.description.parameters = {{"frequency_hz", f.hz}};
+    const auto held_out = models_of_set(set.test_measured, set.test_twin);
+    const auto training = models_of_set(set.train_measured, set.train_twin);
+    // Nothing chosen: the chosen-candidate rule names nothing (what the bench saw on such draws).
+    CHECK_FALSE(explaining_candidate(f, held_out, training, {}, GearPairSpec{}, 3.0).has_value());
+    const auto fit = casing_mode_for_resonance(f, held_out, training, GearPairSpec{}, 3.0);
+    REQUIRE(fit.has_value());
+    INFO("mode " << fit->mode_hz << " Hz, zeta " << fit->damping_ratio << ", " << fit->modal_mass_kg << " kg; held-out gap "
+                 << fit->gap_before_db << " -> " << fit->gap_after_db << " dB");
+    CHECK(fit->held_out);
+    CHECK(std::abs(fit->mode_hz - c.fn) <= 0.01 * c.fn);
+    CHECK(fit->gap_before_db >= 3.0);
+    CHECK(fit->gap_after_db < 3.0);
+    CHECK(fit->explains);
+  }
+  // No effect: no feature, so nothing to attribute.
+  std::mt19937_64 rng(9);
+  const auto none = resonance_set(fs, 8194.0, 0.0022, 0.0, rng);
+  CHECK(resonance_features(none, rng).empty());
 }
 
 }  // namespace test_gap_features

@@ -1,8 +1,12 @@
 #include "gearwatch/gap/attribution.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <complex>
 #include <limits>
+
+#include "gearwatch/gap/candidates.hpp"
 
 namespace gearwatch::gap {
 namespace {
@@ -93,6 +97,175 @@ std::optional<CandidateEffect> explaining_candidate(const GapFeature& f, const s
   for (std::size_t k = 0; k < chosen.size() && !cells.empty(); ++k)
     if (rms_gap_db(cells, records, static_cast<int>(k)) < min_feature_db) return chosen[k];
   return std::nullopt;
+}
+
+namespace {
+
+/// One line or bin near a resonance feature: its frequency, the measured and twin powers, the floor
+/// F and the bearing-force path there (what casing_mode's gain needs).
+struct WindowCell {
+  double hz, measured, twin, floor;
+  std::complex<double> path;
+};
+
+/// Every line and bin of `records` between lo_hz and hi_hz (output mesh lines counted on the input side).
+std::vector<WindowCell> window_cells(const std::vector<RecordModels>& records, double lo_hz, double hi_hz, const GearPairSpec& gears) {
+  const double per_output = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;
+  std::vector<WindowCell> cells;
+  for (const auto& rec : records) {
+    const BearingForcePath* path = rec.twin->bearing_force_path.get();
+    if (path == nullptr) continue;
+    const double speed = rec.measured->speed_hz;
+    auto add = [&](Spectrum which, std::size_t i, double order) {
+      const double hz = order * speed;
+      const auto& m = spectrum_of(*rec.measured, which);
+      const auto& t = spectrum_of(*rec.twin, which);
+      if (hz >= lo_hz && hz <= hi_hz && i < m.size() && i < t.size()) cells.push_back({hz, m[i], t[i], rec.floor, path->at(hz)});
+    };
+    for (std::size_t i = 0; i < rec.measured->input_lines.size(); ++i) add(Spectrum::input_lines, i, i + 1.0);
+    for (std::size_t i = 0; i < rec.measured->broadband.size(); ++i) add(Spectrum::broadband, i, i + 1.5);
+    for (std::size_t i = 0; i < rec.measured->output_lines.size(); ++i)
+      if (!output_line_is_mesh(static_cast<int>(i + 1), gears.gear_teeth)) add(Spectrum::output_lines, i, (i + 1.0) * per_output);
+  }
+  return cells;
+}
+
+/// One casing mode (f_n, ζ, modal mass m): casing_mode's form with both its modes at f_n, which is
+/// one mode of half their mass.
+struct OneMode {
+  double hz, zeta, mass;
+  double gain(const WindowCell& c) const { return casing_modes_gain(c.path, c.hz, hz, hz, zeta, 2.0 * mass); }
+};
+
+double misfit(const std::vector<WindowCell>& cells, const OneMode& mode) {
+  double sum = 0;
+  for (const auto& c : cells) {
+    const double g = ratio_db(c.measured, c.twin * mode.gain(c), c.floor);
+    sum += g * g;
+  }
+  return sum;
+}
+
+/// A compass search in the logs of f_n, ζ and m from `start`, halving its steps.
+OneMode compass(const std::vector<WindowCell>& cells, OneMode best, std::array<double, 3> step, double lo_hz, double hi_hz,
+                const CandidateForm& form) {
+  const auto& zeta_range = form.parameters[2];
+  const auto& mass_range = form.parameters[3];
+  double best_cost = misfit(cells, best);
+  for (int halving = 0; halving < 24; ++halving) {
+    bool moved = true;
+    while (moved) {
+      moved = false;
+      for (std::size_t k = 0; k < 3; ++k)
+        for (double sign : {-1.0, 1.0}) {
+          OneMode m = best;
+          double& v = k == 0 ? m.hz : k == 1 ? m.zeta : m.mass;
+          v *= std::exp(sign * step[k]);
+          m.hz = std::clamp(m.hz, lo_hz, hi_hz);
+          m.zeta = std::clamp(m.zeta, zeta_range.low, zeta_range.high);
+          m.mass = std::clamp(m.mass, mass_range.low, mass_range.high);
+          const double c = misfit(cells, m);
+          if (c < best_cost - 1e-12 * (1 + best_cost)) best_cost = c, best = m, moved = true;
+        }
+    }
+    for (double& x : step) x /= 2;
+  }
+  return best;
+}
+
+/// The least-squares mode on `cells`: a grid (f_n every `hz_step` over [lo, hi], ζ and m log-spaced
+/// over casing_mode's ranges), then a compass search from the grid's best point at every ζ: a narrow
+/// mode's basin is narrower than a grid cell in m and f_n, so the grid's best point overall is
+/// often a broad mode that fits everything a little.
+OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double hi_hz, double hz_step, const CandidateForm& form) {
+  const auto& zeta_range = form.parameters[2];
+  const auto& mass_range = form.parameters[3];
+  constexpr int kZeta = 13, kMass = 41;
+  auto log_point = [](const CandidateParameter& p, int i, int n) { return p.low * std::pow(p.high / p.low, i / (n - 1.0)); };
+  std::vector<std::pair<double, OneMode>> best_at_zeta;
+  for (int i = 0; i < kZeta; ++i) {
+    std::pair<double, OneMode> best{std::numeric_limits<double>::infinity(), {lo_hz, log_point(zeta_range, i, kZeta), mass_range.high}};
+    for (double hz = lo_hz; hz <= hi_hz; hz += hz_step)
+      for (int j = 0; j < kMass; ++j) {
+        const OneMode m{hz, log_point(zeta_range, i, kZeta), log_point(mass_range, j, kMass)};
+        const double c = misfit(cells, m);
+        if (c < best.first) best = {c, m};
+      }
+    best_at_zeta.push_back(best);
+  }
+  OneMode best = best_at_zeta.front().second;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const auto& [cost, start] : best_at_zeta) {
+    const std::array<double, 3> step = {std::log1p(hz_step / start.hz), std::log(zeta_range.high / zeta_range.low) / (kZeta - 1),
+                                        std::log(mass_range.high / mass_range.low) / (kMass - 1)};
+    const OneMode m = compass(cells, start, step, lo_hz, hi_hz, form);
+    const double c = misfit(cells, m);
+    if (c < best_cost) best_cost = c, best = m;
+  }
+  return best;
+}
+
+double rms_with(const std::vector<FeatureCell>& cells, const std::vector<RecordModels>& records, const OneMode* mode,
+                const GearPairSpec& gears) {
+  const double per_output = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;
+  double sum = 0;
+  for (const auto& c : cells) {
+    const auto& rec = records[c.record];
+    const double order = c.spectrum == Spectrum::input_lines ? c.index + 1.0
+                         : c.spectrum == Spectrum::broadband ? c.index + 1.5
+                                                             : (c.index + 1.0) * per_output;
+    const double hz = order * rec.measured->speed_hz;
+    double model = spectrum_of(*rec.twin, c.spectrum)[c.index];
+    if (mode != nullptr && rec.twin->bearing_force_path)
+      model *= mode->gain({hz, 0, 0, 0, rec.twin->bearing_force_path->at(hz)});
+    const double g = ratio_db(spectrum_of(*rec.measured, c.spectrum)[c.index], model, rec.floor);
+    sum += g * g;
+  }
+  return cells.empty() ? std::numeric_limits<double>::quiet_NaN() : std::sqrt(sum / static_cast<double>(cells.size()));
+}
+
+double rms_window(const std::vector<WindowCell>& cells, const OneMode* mode) {
+  if (cells.empty()) return 0.0;
+  double sum = 0;
+  for (const auto& c : cells) {
+    const double g = ratio_db(c.measured, mode ? c.twin * mode->gain(c) : c.twin, c.floor);
+    sum += g * g;
+  }
+  return std::sqrt(sum / static_cast<double>(cells.size()));
+}
+
+}  // namespace
+
+std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& f, const std::vector<RecordModels>& held_out,
+                                                       const std::vector<RecordModels>& training, const GearPairSpec& gears,
+                                                       double min_feature_db) {
+  if (training.empty()) return std::nullopt;
+  const CandidateForm form = candidate_form(CandidateEffect::casing_mode, training.front().measured->sample_rate_hz);
+  const double zeta_low = form.parameters[2].low;
+  double top_speed = 0;
+  for (const auto* set : {&held_out, &training})
+    for (const auto& r : *set) top_speed = std::max(top_speed, r.measured->speed_hz);
+  // The feature's extent (every cell the mode lifted by the practical minimum or more) and two bins
+  // of the fastest record each side: cells that did not move, which pin the mode's flanks. Not
+  // wider: casing_mode's mode is driven through the bearing forces' phase, an antiresonance beside
+  // its peak that a resonance in the path lacks, and far cells would weigh that difference.
+  const double margin = 2 * top_speed;
+  const double lo = std::max(1.0, f.hz_low - margin), hi = f.hz_high + margin, centre = 0.5 * (f.hz_low + f.hz_high);
+  const auto fit_cells = window_cells(training, lo, hi, gears);
+  if (fit_cells.empty()) return std::nullopt;
+  // A quarter of the narrowest half-power band the form allows, so no mode in its range falls between two grid points.
+  const OneMode mode = fit_one_mode(fit_cells, lo, hi, 0.5 * zeta_low * centre, form);
+  CasingModeFit out{mode.hz, mode.zeta, mode.mass, 0, 0, true, false};
+  auto judged = cells_of(f, held_out, true, gears, min_feature_db);
+  const auto* records = &held_out;
+  if (judged.empty()) judged = cells_of(f, training, false, gears, min_feature_db), records = &training, out.held_out = false;
+  if (judged.empty()) return out;
+  out.gap_before_db = rms_with(judged, *records, nullptr, gears);
+  out.gap_after_db = rms_with(judged, *records, &mode, gears);
+  // Held out, the mode must not make the window worse, whether or not those records show the feature.
+  const auto window = window_cells(held_out.empty() ? training : held_out, lo, hi, gears);
+  out.explains = out.gap_after_db < min_feature_db && rms_window(window, &mode) <= rms_window(window, nullptr);
+  return out;
 }
 
 std::optional<CandidateEffect> family_explaining_candidate(const GapReport& report, const GapFeature& f, const GearPairSpec& gears) {

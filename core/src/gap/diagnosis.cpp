@@ -748,7 +748,23 @@ class Diagnosis {
     for (auto& f : report_.features) {
       f.explained_by = explaining_candidate(f, held_out, training, report_.chosen, gears_, settings_.features.min_feature_db);
       if (!f.explained_by) f.explained_by = family_explaining_candidate(report_, f, gears_);
+      if (!f.explained_by && settings_.attribute) explain_by_casing_mode(f, held_out, training);
     }
+  }
+
+  /// A resonance fixed in Hz (or seen at one speed) that no chosen candidate explains: one casing
+  /// mode fitted on its own training cells, judged on its held-out ones (attribution.hpp). Its
+  /// parameters join the description, so the report says which mode.
+  void explain_by_casing_mode(GapFeature& f, const std::vector<RecordModels>& held_out, const std::vector<RecordModels>& training) {
+    if (f.description.kind != DescriptionKind::resonance ||
+        (f.movement != FeatureMovement::fixed_in_hz && f.movement != FeatureMovement::undetermined))
+      return;
+    const auto fit = casing_mode_for_resonance(f, held_out, training, gears_, settings_.features.min_feature_db);
+    if (!fit || !fit->explains) return;
+    f.explained_by = CandidateEffect::casing_mode;
+    f.description.parameters.emplace_back("casing_mode_hz", fit->mode_hz);
+    f.description.parameters.emplace_back("casing_damping_ratio", fit->damping_ratio);
+    f.description.parameters.emplace_back("casing_modal_mass_kg", fit->modal_mass_kg);
   }
 
   /// K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the

@@ -48,6 +48,33 @@ std::optional<CandidateEffect> explaining_candidate(const GapFeature& feature, c
                                                     const std::vector<CandidateEffect>& chosen, const GearPairSpec& gears,
                                                     double min_feature_db);
 
+/// A structural resonance's casing mode, fitted on a feature's own cells (`casing_mode_for_resonance`).
+struct CasingModeFit {
+  double mode_hz = 0, damping_ratio = 0, modal_mass_kg = 0;  ///< one mode of casing_mode's form
+  double gap_before_db = 0, gap_after_db = 0;  ///< RMS of g over the judged cells, twin alone / with the mode
+  bool held_out = true;                        ///< judged on held-out cells (else on the training cells)
+  bool explains = false;                       ///< gap_after_db under the practical minimum, its window not made worse
+};
+
+/// A feature described as a resonance (fixed in Hz or seen at one speed) that no chosen candidate
+/// explains is casing_mode's when one casing mode fitted on the training records' cells about it
+/// removes its gap. A narrow mode (half-power band 2ζf_n of a few tens of Hz) lifts one line of a
+/// record at most, often none, and the residual's bins under its band where they stand above F: a
+/// few cells among thousands, which no family RMS shows, so the greedy choice (asked only when a
+/// family is significant) never reaches it, and casing_mode's own fit, over every family's mean
+/// square, spends its second mode elsewhere. The mode is fitted where its evidence is: every line
+/// and bin of every training record within the feature's extent and two bins of the fastest record
+/// each side, cells that did not move pinning its flanks; f_n on a grid a quarter of the narrowest
+/// half-power band casing_mode's ζ range allows (a grid coarser than the band can step over the
+/// mode), ζ and the modal mass in casing_mode's ranges, then a compass search in the logs from the
+/// grid's best point at each ζ. Judged as explaining_candidate judges: the feature's
+/// held-out cells with |g| at the practical minimum (its training cells when no held-out record shows
+/// it), RMS under the minimum with the mode; and the RMS over the held-out records' window not made
+/// worse. Needs the twin's bearing-force path on the twin's spectra (none: nullopt).
+std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& feature, const std::vector<RecordModels>& held_out,
+                                                       const std::vector<RecordModels>& training, const GearPairSpec& gears,
+                                                       double min_feature_db);
+
 /// The family evidence, asked when the feature's own cells name none: the first chosen candidate in
 /// report.chosen whose families hold the family the feature's place belongs to (a modulation's: its
 /// shaft's sidebands; fixed in Hz: fixed_frequency; else its line's, or broadband off the integer
