@@ -192,12 +192,12 @@ void run_modes(const ModesOptions& o) {
   if (!o.skip_cv) print_cross_validation(r.cv, measured);
 }
 
-struct SimulateOptions {
+struct TwinSimulateOptions {
   std::string config, out;
   double speed = 10, torque = 20, revs = 1, sample_rate = 100000;
 };
 
-void run_simulate(const SimulateOptions& o) {
+void run_simulate(const TwinSimulateOptions& o) {
   const twin::GearboxParameters p = load_parameters(o.config);
   if (!(o.speed > 0) || !(o.revs > 0) || !(o.torque >= 0)) throw CommandError("twin simulate: speed and revs must be positive, torque non-negative");
   twin::SimulationOptions so;
@@ -495,7 +495,7 @@ void register_twin(CLI::App& app) {
   modes->add_flag("--skip-cv", mo->skip_cv, "Leave out the 28-fold cross-validation (a few seconds)");
   modes->callback([mo] { run_modes(*mo); });
 
-  auto so = std::make_shared<SimulateOptions>();
+  auto so = std::make_shared<TwinSimulateOptions>();
   auto* sim = twin->add_subcommand("simulate", "Steady-state simulated signals as CSV (docs/twin.md)");
   sim->add_option("--speed", so->speed, "Input shaft speed (Hz)")->required();
   sim->add_option("--torque", so->torque, "Motor torque (N m)")->required();

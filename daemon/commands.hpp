@@ -1,7 +1,15 @@
 #pragma once
 // Subcommand registration. Each subcommand lives in its own cmd_<name>.cpp and adds itself
 // to the application here; main.cpp only calls these in order.
-#include <CLI/CLI.hpp>
+#include <stdexcept>
+#include <string>
+
+// CLI11 is one of the costliest headers to compile (its validators are objects built in every file
+// that includes it), so this header names CLI::App only: the files that build or run subcommands
+// include <CLI/CLI.hpp> (cli_common.hpp does), the ones that only need CommandError do not.
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace gearwatch::cli {
 

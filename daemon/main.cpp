@@ -4,6 +4,7 @@
 #include <exception>
 #include <string>
 
+#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"

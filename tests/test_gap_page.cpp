@@ -5,6 +5,7 @@
 #include <regex>
 #include <sstream>
 
+#include <CLI/CLI.hpp>
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
