@@ -1,8 +1,13 @@
 // gearwatch: vibration-based gear wear monitoring daemon and its tools.
 // The command forms are a stable contract (docs/cli.md).
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <string>
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -30,9 +35,23 @@ std::string one_line(std::string text) {
   return text;
 }
 
+// The gap diagnosis allocates and frees buffers of megabytes again and again (twin records, a unit
+// tone reduced like a record per describer trial). By default glibc serves them by mmap, or trims
+// them off the top of the arena when freed, so their pages are faulted in and zeroed afresh each
+// time. A fixed mmap threshold (glibc's ceiling) and a trim threshold of a gibibyte keep the freed
+// memory for the next allocation; the arithmetic is the same. GLIBC_TUNABLES may still set them.
+void keep_freed_memory() {
+#if defined(__GLIBC__)
+  if (std::getenv("GLIBC_TUNABLES") != nullptr) return;
+  mallopt(M_MMAP_THRESHOLD, 32 * 1024 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 1024 * 1024 * 1024);
+#endif
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  keep_freed_memory();
   CLI::App app{"gearwatch: vibration-based gear wear monitoring"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Show help for every subcommand");

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <thread>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -74,6 +75,35 @@ TEST_CASE("gap unit tone: records a few parts in 1e9 apart in speed reduce it al
                                                   unit_tone_spectra(6.37, 12, b, GearPairSpec{}, 20));
     INFO("rate " << rate);
     CHECK(d < 1e-6);
+  }
+}
+
+TEST_CASE("gap spectra: a record reduced with the thread's planned transforms equals one reduced with fresh plans",
+          "[gap_describe][unit_tone]") {
+  // Two records of different lengths and rates (different transform sizes), each reduced on a new
+  // thread (its plan cache empty: every plan made afresh) and then twice on this one, between the
+  // other's reductions (the second time from the cached plans): every line and bin the same double.
+  const auto tones = [](double speed) {
+    return [speed](double t) {
+      return std::cos(2 * std::numbers::pi * 25 * speed * t) + 0.3 * std::sin(2 * std::numbers::pi * 4.37 * speed * t) +
+             0.01 * std::cos(2 * std::numbers::pi * 1234.5 * t);
+    };
+  };
+  const Record a = test::constant_speed_record(20000.0, 13.5, 24, tones(13.5));
+  const Record b = test::constant_speed_record(12800.0, 8.25, 17, tones(8.25));
+  for (const Record* r : {&a, &b}) {
+    SpectralSummary fresh;
+    std::thread([&] { fresh = RecordSpectra(*r, 0, GearPairSpec{}).summary(); }).join();
+    for (int round = 0; round < 2; ++round) {
+      const SpectralSummary again = RecordSpectra(*r, 0, GearPairSpec{}).summary();
+      (void)RecordSpectra(r == &a ? b : a, 0, GearPairSpec{}).summary();
+      INFO("record " << (r == &a ? "a" : "b") << ", round " << round);
+      REQUIRE(!fresh.input_lines.empty());
+      CHECK(again.input_lines == fresh.input_lines);
+      CHECK(again.output_lines == fresh.output_lines);
+      CHECK(again.broadband == fresh.broadband);
+      CHECK(again.input_line_averages == fresh.input_line_averages);
+    }
   }
 }
 

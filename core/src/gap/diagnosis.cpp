@@ -379,6 +379,9 @@ class Diagnosis {
     double ic = 0, shrink = 0;
     bool worsens = false;
     std::vector<FamilyGap> gaps;
+    // The held-out models it was scored with (the twin it acts on, the chosen effects and it): what
+    // accept() keeps for the features' attribution, not computed a second time.
+    std::vector<SpectralSummary> models;
   };
   /// A candidate alone, fitted on training, with its held-out assessment.
   struct AloneFit {
@@ -656,8 +659,8 @@ class Diagnosis {
 
   /// Candidate `c` on top of the chosen ones: fitted on training, scored held out.
   Addition try_addition(CandidateEffect c, const CandidateForm& form, int round) {
-    Addition a{{c, {}}, std::nullopt, 0, 0, false, {}};
-    std::vector<SpectralSummary> models;
+    Addition a{{c, {}}, std::nullopt, 0, 0, false, {}, {}};
+    auto& models = a.models;
     if (const auto r = reruns_.find(c); r != reruns_.end()) {
       a.grid = chosen_.empty() ? alone_grid_[c] : best_rerun(r->second, chosen_);
       a.effect.values = r->second.values[*a.grid];
@@ -689,8 +692,9 @@ class Diagnosis {
       chosen_.push_back(best.effect);
     ic_current_ = best.ic;
     current_gaps_ = std::move(best.gaps);
-    // The held-out models with the effects chosen so far, for the features' attribution.
-    step_models_.push_back(models_of(*test_base_, chosen_, gears_));
+    // The held-out models with the effects chosen so far, for the features' attribution: the ones
+    // the addition was scored with (on the twin it now acts on, with the same effects).
+    step_models_.push_back(std::move(best.models));
     std::vector<SpectralSummary> train_models;
     for (const auto& p : *train_base_) train_models.push_back(apply_effects(chosen_, p.twin, gears_));
     step_train_models_.push_back(std::move(train_models));
@@ -703,7 +707,8 @@ class Diagnosis {
     if (refined != *best.grid) {
       best.grid = refined;
       const auto& refined_test = rerun_test(set, refined);
-      const auto e = evaluator_.evaluate(views(refined_test, models_of(refined_test, chosen_, gears_)), true);
+      best.models = models_of(refined_test, chosen_, gears_);
+      const auto e = evaluator_.evaluate(views(refined_test, best.models), true);
       best.ic = information_criterion(e, noise_, fitted_count(set.values[refined]), settings_);
       best.gaps = point_gaps(e);
       update_parameters(best.effect.effect, set.values[refined]);

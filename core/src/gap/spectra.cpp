@@ -38,6 +38,8 @@ std::vector<std::size_t> every_revolution(std::size_t n) {
 // Lines above this fraction of the sample rate sit in the anti-alias roll-off of any front-end
 // and of the resampler's kernel; they are left out rather than compared.
 constexpr double kUsableBandFraction = 0.45;
+// Transform sizes a thread keeps planned before it plans afresh (a diagnosis uses a handful).
+constexpr std::size_t kMaxCachedPlans = 64;
 
 void per_revolution_dft(const dsp::RealBuffer& angle, std::size_t spr, std::size_t revs, std::size_t lines,
                         const dsp::RealFft& fft, std::vector<std::complex<double>>& out) {
@@ -205,7 +207,13 @@ RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSp
   const AngleResolution a = angle_resolution(angle, sample_rate_hz_, speed_hz_, ratio);
   k_in_ = a.k_in;
   k_out_ = a.k_out;
-  dsp::FftPlanCache plans;
+  // The plans of the sizes this thread has reduced before: a diagnosis reduces hundreds of records
+  // (the describer a unit tone per trial) at a handful of sizes, and FFTW_ESTIMATE gives the same plan,
+  // so the same arithmetic, for a size however often it is planned. Per thread: FFTW's plans may be
+  // executed from any thread, but the cache's map is not shared. Bounded: records of many lengths
+  // (a daemon's months) would otherwise keep a plan of each.
+  thread_local dsp::FftPlanCache plans;
+  if (plans.size() > kMaxCachedPlans) plans.clear();
   const ShaftParts parts = separate_shafts(x, angle, a, revs, ratio, gears, plans);
   per_revolution_dft(parts.input_only, a.spr, in_revs_, k_in_, plans.real(a.spr), in_dft_);
   per_revolution_dft(parts.output_only, a.spr_out, out_revs_, k_out_, plans.real(a.spr_out), out_dft_);

@@ -111,6 +111,13 @@ class FftPlanCache {
  public:
   const RealFft& real(std::size_t n);
   const ComplexFft& complex(std::size_t n);
+  /// Sizes planned (real and complex).
+  std::size_t size() const noexcept { return real_.size() + complex_.size(); }
+  /// Drops every plan (references handed out before are left dangling).
+  void clear() noexcept {
+    real_.clear();
+    complex_.clear();
+  }
 
  private:
   std::map<std::size_t, std::unique_ptr<RealFft>> real_;
