@@ -690,8 +690,8 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
       {CandidateEffect::eccentricity, {20e-6, 8e-6}, 0.02},  // pinion and gear run-out, m
       {CandidateEffect::tooth_errors, {20, 1e-3, 2e-3, 5e-4}, 0.02},  // per load: the records' 20 N·m, then its gains
       // depth, f_m (x = 0.375 and 0.21 of the shaft speed: 12 % and 0.7 % of the angle left by the
-      // tacho), AM share
-      {CandidateEffect::speed_fluctuation, {0.01, 3.0, 0.02}, 0.03, 50000},
+      // tacho), AM share; the fourth value 0: fixed in Hz, not locked to a shaft's order
+      {CandidateEffect::speed_fluctuation, {0.01, 3.0, 0.02, 0.0}, 0.03, 50000},
       {CandidateEffect::load_fluctuation, {0.002, 5.0}, 0.03, 20000},
       {CandidateEffect::misalignment, {-3.0}, 0.02},
       {CandidateEffect::backlash, {0.5}, 0.02},
@@ -788,6 +788,101 @@ TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per
       CHECK(model.input_lines[static_cast<std::size_t>(k - 1)] == Approx(kept).epsilon(1e-6));
     }
   }
+}
+
+TEST_CASE("gap: a once-per-revolution speed ripple is fitted locked to the shaft's order, at three speeds", "[gap]") {
+  // A ripple at the input shaft's own order (f_m = f0 at every speed) turns the shaft d rad ahead and
+  // back; one tacho edge per revolution meets it at one phase, so all of it stays: line k is phase-
+  // modulated with index k·d and holds J_j(k·d)² of its power at k ± j (Jacobi–Anger). Known answers
+  // from std::cyl_bessel_j; tolerances chosen before running: the records' lines within 2e-3 of the
+  // closed form (the order tracking's own error, 1e-4 in the test above), the form within 1e-6, the
+  // fitted depth within 3 %.
+  const double fs = 20000, d = 0.01;
+  const std::vector<int> orders{19, 57, 95, 190};
+  auto twin_of = [&](const SpectralSummary& measured) {
+    SpectralSummary twin = measured;
+    std::fill(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
+    std::fill(twin.output_lines.begin(), twin.output_lines.end(), 0.0);
+    std::fill(twin.broadband.begin(), twin.broadband.end(), 0.0);
+    for (int k : orders) twin.input_lines[static_cast<std::size_t>(k - 1)] = 1.0;
+    return twin;
+  };
+  auto pairs_at = [&](double depth) {
+    std::vector<SummaryPair> pairs;
+    for (double f0 : {8.0, 11.0, 14.0}) {
+      const auto measured = RecordSpectra(rippling_shaft_record(fs, f0, 40, depth, f0, orders), 0, GearPairSpec{}).summary();
+      pairs.push_back({measured, twin_of(measured), 1e-6 * static_cast<double>(orders.size())});
+    }
+    return pairs;
+  };
+  const auto pairs = pairs_at(d);
+  for (const auto& p : pairs) {
+    CAPTURE(p.measured.speed_hz);
+    const auto model = apply_effects({{CandidateEffect::speed_fluctuation, {d, 0.0, 0.0, 1.0}}}, p.twin, GearPairSpec{});
+    for (int k : orders)
+      for (int j = -4; j <= 4; ++j) {
+        CAPTURE(k, j);
+        const double want = std::pow(std::cyl_bessel_j(std::abs(j), k * d), 2);
+        const auto line = static_cast<std::size_t>(k + j - 1);
+        CHECK(p.measured.input_lines[line] == Approx(want).margin(2e-3));
+        CHECK(model.input_lines[line] == Approx(want).margin(1e-6));
+      }
+  }
+  // One depth serves every speed, locked to the input shaft (order 1); a ripple fixed in Hz cannot.
+  const auto fitted = fit_candidate(CandidateEffect::speed_fluctuation, {}, pairs, GearPairSpec{});
+  REQUIRE(fitted.size() == 4);
+  CHECK(speed_fluctuation_input_order(fitted) == 1.0);
+  CHECK(fitted[0] == Approx(d).epsilon(0.03));
+  CHECK(training_cost(pairs, {{CandidateEffect::speed_fluctuation, fitted}}, GearPairSpec{}) <
+        1e-2 * training_cost(pairs, {}, GearPairSpec{}));
+  // Without a ripple the fit changes no line by 0.1 dB (whatever mode it lands in).
+  const auto still = pairs_at(0.0);
+  const auto none = fit_candidate(CandidateEffect::speed_fluctuation, {}, still, GearPairSpec{});
+  for (const auto& p : still) {
+    const auto model = apply_effects({{CandidateEffect::speed_fluctuation, none}}, p.twin, GearPairSpec{});
+    for (int k : orders)
+      CHECK(std::abs(10 * std::log10((model.input_lines[static_cast<std::size_t>(k - 1)] + p.floor) / (1.0 + p.floor))) < 0.1);
+  }
+}
+
+TEST_CASE("gap: the eccentricity form spreads a run-out's modulation over the sidebands by Jacobi-Anger", "[gap]") {
+  // One mesh harmonic (order 19, power 1) of a 10 Hz record; a run-out's PM index x = b·e at it and
+  // AM index a·e. Closed form over the AM's phase (the line powers cannot tell it): the carrier keeps
+  // J0(x)² + (a·e)²J1(x)²/2 and sideband 19 ± j gets J_j(x)² + (a·e/2)²(J_{j−1}(x)² + J_{j+1}(x)²);
+  // the gear's run-out puts its sidebands on the output orders 52 ± j and lowers the same carrier.
+  // Known answers from std::cyl_bessel_j at x = 0.3, 1 and 2, to 1e-9 (the form's series).
+  SpectralSummary twin;
+  twin.speed_hz = 10;
+  twin.sample_rate_hz = 20000;
+  twin.input_lines.assign(200, 0.0);
+  twin.output_lines.assign(500, 0.0);
+  twin.broadband.assign(200, 0.0);
+  twin.input_lines[18] = 1.0;
+  const double b = 1000.0;  // rad per metre at harmonic 1
+  auto jsq = [](int j, double x) { return std::pow(std::cyl_bessel_j(std::abs(j), x), 2); };
+  for (double x : {0.3, 1.0, 2.0})
+    for (double am : {0.0, 0.2}) {
+      CAPTURE(x, am);
+      const double e = x / b;
+      auto share = [&](int j) { return jsq(j, x) + am * am / 4 * (jsq(j - 1, x) + jsq(j + 1, x)); };
+      SpectralSummary pinion_twin = twin;
+      pinion_twin.pinion_run_out = {am / e, b};
+      const auto p = apply_effects({{CandidateEffect::eccentricity, {e, 0.0}}}, pinion_twin, GearPairSpec{});
+      for (int j = -5; j <= 5; ++j) {
+        CAPTURE(j);
+        CHECK(p.input_lines[static_cast<std::size_t>(18 + j)] == Approx(share(j)).margin(1e-9));
+      }
+      SpectralSummary gear_twin = twin;
+      gear_twin.gear_run_out = {am / e, b};
+      const auto g = apply_effects({{CandidateEffect::eccentricity, {0.0, e}}}, gear_twin, GearPairSpec{});
+      CHECK(g.input_lines[18] == Approx(share(0)).margin(1e-9));
+      CHECK(g.input_lines[17] == 0.0);
+      for (int j = 1; j <= 5; ++j) {
+        CAPTURE(j);
+        CHECK(g.output_lines[static_cast<std::size_t>(52 - j - 1)] == Approx(share(j)).margin(1e-9));
+        CHECK(g.output_lines[static_cast<std::size_t>(52 + j - 1)] == Approx(share(j)).margin(1e-9));
+      }
+    }
 }
 
 TEST_CASE("gap: the run-out sensitivity is the twin's response to a transmission error, kept as the order tracking keeps it",

@@ -59,6 +59,29 @@ double bessel_j0(double z) {
   return std::cyl_bessel_j(0.0, z);
 }
 
+/// J_0(z) … J_K(z). Up to z = 4 by the power series Σ_m (−1)^m (z/2)^{2m+k}/(m!(m+k)!) (its terms stay
+/// under e^z, so double keeps 1e-13; 40 terms reach 1e-30): the forms ask at every line of every
+/// record at every trial value, where the library's is slow. Beyond, the library's.
+std::vector<double> bessel_j_up_to(int k_max, double z) {
+  std::vector<double> j(static_cast<std::size_t>(std::max(k_max, 0)) + 1, 0.0);
+  if (std::abs(z) > 4.0) {
+    for (int k = 0; k <= k_max; ++k) j[static_cast<std::size_t>(k)] = std::cyl_bessel_j(static_cast<double>(k), z);
+    return j;
+  }
+  const double h = z / 2.0, q = -h * h;
+  double lead = 1.0;  // (z/2)^k / k!
+  for (int k = 0; k <= k_max; ++k) {
+    if (k > 0) lead *= h / k;
+    double term = lead, sum = lead;
+    for (int m = 1; m < 40 && std::abs(term) > 1e-17 * std::abs(sum); ++m) {
+      term *= q / (m * static_cast<double>(m + k));
+      sum += term;
+    }
+    j[static_cast<std::size_t>(k)] = sum;
+  }
+  return j;
+}
+
 /// dsp::tracking_residual_share read off a table in log x: each call simulates 400 revolutions of
 /// tacho edges (3 ms), and the speed-fluctuation form asks at every record and trial frequency.
 /// Below the table it falls as x⁴ (the cubic spline's error for a slow deviation); above x = 2 the
@@ -80,6 +103,14 @@ double tracking_residual(double x) {
   const double w = u - static_cast<double>(i);
   return std::exp((1 - w) * log_share[i] + w * log_share[i + 1]);
 }
+
+}  // namespace
+
+double speed_fluctuation_input_order(const std::vector<double>& values) noexcept {
+  return values.size() > 3 && values[3] > 0 && std::isfinite(values[3]) ? values[3] : 0.0;
+}
+
+namespace {
 
 /// One effect's form applied to the spectra `s`, starting from `twin` (the twin's spectra with the
 /// effects of the earlier stages): a step per family of forms.
@@ -176,27 +207,52 @@ class EffectApplier {
     }
   }
 
-  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM, the
-  /// same share at every harmonic) and turns the pinion against the tacho (PM of index n·b at
-  /// harmonic n, as the mesh phase is n·z1 times the pinion's angle). The mean of a modulated
-  /// line's two first sidebands is ((a² + (n·b)²)/4)·P(n·GMF), whatever the phase between them.
-  static double run_out_sideband_share(const RunOutSensitivity& r, double run_out_m, std::size_t n) {
-    const double am = r.am_per_m * run_out_m, pm = r.pm_per_harmonic_per_m * run_out_m * static_cast<double>(n);
-    return (am * am + pm * pm) / 4.0;
+  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM of index
+  /// a·e, the same at every harmonic) and turns the pinion against the tacho (PM of index x = n·b·e at
+  /// harmonic n, as the mesh phase is n·z1 times the pinion's angle). By Jacobi–Anger a line
+  /// (1 + a·cos(θ + φ))·e^{i(nΩt + x·sin θ)} holds at the shaft's order j from its carrier
+  /// c_j = J_j(x) + (a/2)(J_{j−1}(x)e^{−iφ} + J_{j+1}(x)e^{iφ}); the line powers cannot tell φ, so the
+  /// form takes the power over it, |c_j|² = J_j² + (a/2)²(J_{j−1}² + J_{j+1}²): the carrier keeps
+  /// J0² + a²J1²/2, and for small x the first sidebands gain (a² + x²)/4 of it. Assumptions: the
+  /// harmonics' own phases are independent of the run-out's, the two shafts' modulations are
+  /// incommensurate (each shaft's sidebands keep the other's carrier share; their products fall
+  /// between both shafts' orders and are left out).
+  /// |c_j|² for j = 0 … reach (the form's sidebands are even in j): beyond |j| = x + 4, J_j(x) falls
+  /// faster than x^j/j!, and a share under 1e-12 of the carrier stays far under the comparison's floor.
+  static std::vector<double> run_out_line_shares(const RunOutSensitivity& r, double run_out_m, std::size_t n) {
+    const double am = r.am_per_m * run_out_m, x = r.pm_per_harmonic_per_m * run_out_m * static_cast<double>(n);
+    const int reach = 1 + static_cast<int>(std::min(std::abs(x) + 3.0, 64.0));
+    const auto jn = bessel_j_up_to(reach + 1, x);
+    auto sq = [&](int k) { return jn[static_cast<std::size_t>(std::abs(k))] * jn[static_cast<std::size_t>(std::abs(k))]; };
+    std::vector<double> shares;
+    for (int j = 0; j <= reach; ++j) {
+      const double share = sq(j) + am * am / 4.0 * (sq(j - 1) + sq(j + 1));
+      if (j > 1 && share < 1e-12) break;
+      shares.push_back(share);
+    }
+    return shares;
   }
 
   void run_out_sidebands() {
     for (std::size_t n = 1; n * z1_ <= twin_.input_lines.size(); ++n) {
       const double mesh_power = twin_.input_lines[n * z1_ - 1];
-      const double ai = run_out_sideband_share(twin_.pinion_run_out, v_[0], n);
-      const double ao = run_out_sideband_share(twin_.gear_run_out, v_[1], n);
-      for (int side : {-1, 1}) {
-        const auto ki = static_cast<std::ptrdiff_t>(n * z1_) + side;
-        if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s_.input_lines.size())) s_.input_lines[ki - 1] += ai * mesh_power;
-        const auto ko = static_cast<std::ptrdiff_t>(n * z2_) + side;
-        if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s_.output_lines.size())) s_.output_lines[ko - 1] += ao * mesh_power;
-      }
+      const auto pinion = run_out_line_shares(twin_.pinion_run_out, v_[0], n);
+      const auto gear = run_out_line_shares(twin_.gear_run_out, v_[1], n);
+      // Harmonic n's carrier is an input line; the pinion's sidebands are input orders, the gear's
+      // output orders (mesh orders are counted on the input side only).
+      s_.input_lines[n * z1_ - 1] += (pinion[0] * gear[0] - 1.0) * mesh_power;
+      add_run_out_sidebands(s_.input_lines, z1_, n, pinion, gear[0] * mesh_power);
+      add_run_out_sidebands(s_.output_lines, z2_, n, gear, pinion[0] * mesh_power);
     }
+  }
+
+  static void add_run_out_sidebands(std::vector<double>& lines, int teeth, std::size_t n, const std::vector<double>& shares,
+                                    double carrier_power) {
+    for (std::size_t j = 1; j < shares.size(); ++j)
+      for (int side : {-1, 1}) {
+        const auto k = static_cast<std::ptrdiff_t>(n) * teeth + side * static_cast<std::ptrdiff_t>(j);
+        if (k >= 1 && k <= static_cast<std::ptrdiff_t>(lines.size())) lines[static_cast<std::size_t>(k - 1)] += shares[j] * carrier_power;
+      }
   }
 
   void tooth_errors() {
@@ -233,8 +289,9 @@ class EffectApplier {
   };
 
   void fluctuation() {
-    const double x = v_[1] / s_.speed_hz;
     const bool speed = e_.effect == CandidateEffect::speed_fluctuation;
+    const double locked_order = speed ? speed_fluctuation_input_order(v_) : 0.0;
+    const double x = locked_order > 0 ? locked_order : v_[1] / s_.speed_hz;
     const ModulatedShare share{speed, speed ? v_[0] / x * tracking_residual(x) : 0.0, v_};
     // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
     // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
@@ -243,8 +300,39 @@ class EffectApplier {
     // A line 90 dB below the total cannot move a bin: all of it in one bin at the floor (60 dB
     // down) is 0.004 dB. The twin has no noise, so most of its lines are that far down.
     const MoveThresholds limits{1e-9 * total, 1e-7 * total};
+    if (locked_order > 0) {
+      spread_over_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share.pm_per_order, x, limits);
+      spread_over_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share.pm_per_order, x, limits);
+      return;
+    }
     move_to_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share, x, limits);
     move_to_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share, x, limits);
+  }
+
+  /// A ripple locked to a shaft's order (once per revolution of that shaft, whatever the speed):
+  /// line k of order o is phase-modulated with index m = o·(d/x)·r(x), and by Jacobi–Anger holds
+  /// J_j(m)² of its power j·x orders away (x the ripple's input order, r(x) what the tacho's edges
+  /// leave of it; for the input shaft x = 1, which one edge per revolution meets at one phase, r = 1).
+  /// The AM share μ sends μ/2 to each first sideband. The sidebands are whole orders of the shaft the
+  /// ripple follows, so they land on that shaft's lines. Assumption: the line's phase and the
+  /// ripple's are independent (powers add where sidebands of neighbouring lines meet).
+  void spread_over_sidebands(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
+                             double pm_per_order, double x, const MoveThresholds& limits) {
+    const double mu = v_[2];
+    for (std::size_t k = 1; k <= lines.size(); ++k) {
+      const double power = twin_lines[k - 1];
+      if (!(power > limits.too_small_to_move)) continue;
+      const double order = static_cast<double>(k) * num / den;
+      const double index = pm_per_order * order;
+      const auto jn = bessel_j_up_to(1 + static_cast<int>(std::min(index + 3.0, 64.0)), index);
+      lines[k - 1] -= power * (1.0 - (1.0 - mu) * jn[0] * jn[0]);
+      for (std::size_t j = 1; j < jn.size(); ++j) {
+        const double p = power * ((1.0 - mu) * jn[j] * jn[j] + (j == 1 ? mu / 2 : 0.0));
+        if (j > 1 && p < limits.negligible * 1e-3) break;
+        add_non_synchronous_tone(s_, order - static_cast<double>(j) * x, p, gears_, limits.negligible);
+        add_non_synchronous_tone(s_, order + static_cast<double>(j) * x, p, gears_, limits.negligible);
+      }
+    }
   }
 
   /// The modulated share leaves line k (order k·num/den) for sidebands f_m away (in orders: f_m /
@@ -358,7 +446,9 @@ std::vector<std::string> parameter_names(const CandidateForm& form, const std::v
     return names;
   }
   for (std::size_t i = 0; i < values.size(); ++i)
-    names.push_back(i < form.parameters.size() ? form.parameters[i].name : "value_" + std::to_string(i));
+    names.push_back(i < form.parameters.size()                                  ? form.parameters[i].name
+                    : form.effect == CandidateEffect::speed_fluctuation && i == 3 ? "modulation_input_order"
+                                                                                  : "value_" + std::to_string(i));
   return names;
 }
 

@@ -14,8 +14,10 @@
 //   eccentricity      a run-out of each shaft along the line of action (m): a transmission error at that
 //                     shaft's frequency, which the twin's linearised model turns into a modulation of
 //                     the mesh force (AM) and a turning of the pinion that one tacho edge per revolution
-//                     cannot follow (PM growing with the harmonic): first sidebands n·z ± 1 of each
-//                     shaft gain ((a·e)² + (n·b·e)²)/4 · P(n·GMF), a and b from run_out_sensitivity()
+//                     cannot follow (PM of index x = n·b·e at harmonic n): by Jacobi–Anger, over the
+//                     AM's phase, the carrier keeps J0(x)² + (a·e)²J1(x)²/2 and sideband n·z ± j of each
+//                     shaft gets J_j(x)² + (a·e/2)²(J_{j−1}(x)² + J_{j+1}(x)²) of P(n·GMF) (small x:
+//                     ((a·e)² + x²)/4 on the first), a and b from run_out_sensitivity()
 //                     at each record's speed and torque, so one run-out serves every speed and load.
 //                     With the twin's run-out response on its spectra (RunOutResponse, from twin
 //                     reruns; the diagnosis reads it when this form ranks among the two best) every
@@ -32,7 +34,10 @@
 //                     (x = f_m / shaft speed); the one-edge tacho follows all but r(x) of it
 //                     (dsp::tracking_residual_share): line k keeps J0²(k·(d/x)·r); the transfer path
 //                     in Hz does not follow the speed, so a share μ of every line is amplitude-
-//                     modulated too; what leaves a line goes to sidebands f_m away
+//                     modulated too; what leaves a line goes to sidebands f_m away. Or the ripple is
+//                     locked to a shaft's order (once per revolution of either shaft, a fourth value:
+//                     speed_fluctuation_input_order()): line k keeps (1 − μ)·J0(m)², sideband j·x
+//                     away gets (1 − μ)·J_j(m)² (+ μ/2 on the first), m = k·(d/x)·r(x)
 //   load_fluctuation  brake torque ripple twists the train between the encoder and the mesh: phase
 //                     modulation in the encoder's angle; a share 1 − exp(−(β·k)²) of line k leaves
 //                     it for sidebands f_m away (grows with order, the high mesh harmonics lose most)
@@ -171,6 +176,12 @@ SpectralSummary apply_effects(const std::vector<AppliedEffect>& effects, const S
                               const GearPairSpec& gears);
 
 /// Measured and twin spectra of one record, and the floor they are compared above.
+/// A speed-fluctuation candidate's ripple locked to a shaft's order: its values are {depth,
+/// modulation_frequency_hz, am_share, modulation_input_order}; a fourth value > 0 is the ripple's order
+/// in input orders (1: once per input revolution, z1/z2: once per output revolution) and the frequency
+/// in Hz is unused (0); three values, or a fourth of 0, a ripple fixed in Hz.
+double speed_fluctuation_input_order(const std::vector<double>& values) noexcept;
+
 struct SummaryPair {
   SpectralSummary measured, twin;
   double floor = 0;
