@@ -845,46 +845,6 @@ TEST_CASE("gap: a once-per-revolution speed ripple is fitted locked to the shaft
   }
 }
 
-TEST_CASE("gap: the eccentricity form spreads a run-out's modulation over the sidebands by Jacobi-Anger", "[gap]") {
-  // One mesh harmonic (order 19, power 1) of a 10 Hz record; a run-out's PM index x = b·e at it and
-  // AM index a·e. Closed form over the AM's phase (the line powers cannot tell it): the carrier keeps
-  // J0(x)² + (a·e)²J1(x)²/2 and sideband 19 ± j gets J_j(x)² + (a·e/2)²(J_{j−1}(x)² + J_{j+1}(x)²);
-  // the gear's run-out puts its sidebands on the output orders 52 ± j and lowers the same carrier.
-  // Known answers from std::cyl_bessel_j at x = 0.3, 1 and 2, to 1e-9 (the form's series).
-  SpectralSummary twin;
-  twin.speed_hz = 10;
-  twin.sample_rate_hz = 20000;
-  twin.input_lines.assign(200, 0.0);
-  twin.output_lines.assign(500, 0.0);
-  twin.broadband.assign(200, 0.0);
-  twin.input_lines[18] = 1.0;
-  const double b = 1000.0;  // rad per metre at harmonic 1
-  auto jsq = [](int j, double x) { return std::pow(std::cyl_bessel_j(std::abs(j), x), 2); };
-  for (double x : {0.3, 1.0, 2.0})
-    for (double am : {0.0, 0.2}) {
-      CAPTURE(x, am);
-      const double e = x / b;
-      auto share = [&](int j) { return jsq(j, x) + am * am / 4 * (jsq(j - 1, x) + jsq(j + 1, x)); };
-      SpectralSummary pinion_twin = twin;
-      pinion_twin.pinion_run_out = {am / e, b};
-      const auto p = apply_effects({{CandidateEffect::eccentricity, {e, 0.0}}}, pinion_twin, GearPairSpec{});
-      for (int j = -5; j <= 5; ++j) {
-        CAPTURE(j);
-        CHECK(p.input_lines[static_cast<std::size_t>(18 + j)] == Approx(share(j)).margin(1e-9));
-      }
-      SpectralSummary gear_twin = twin;
-      gear_twin.gear_run_out = {am / e, b};
-      const auto g = apply_effects({{CandidateEffect::eccentricity, {0.0, e}}}, gear_twin, GearPairSpec{});
-      CHECK(g.input_lines[18] == Approx(share(0)).margin(1e-9));
-      CHECK(g.input_lines[17] == 0.0);
-      for (int j = 1; j <= 5; ++j) {
-        CAPTURE(j);
-        CHECK(g.output_lines[static_cast<std::size_t>(52 - j - 1)] == Approx(share(j)).margin(1e-9));
-        CHECK(g.output_lines[static_cast<std::size_t>(52 + j - 1)] == Approx(share(j)).margin(1e-9));
-      }
-    }
-}
-
 TEST_CASE("gap: the run-out sensitivity is the twin's response to a transmission error, kept as the order tracking keeps it",
           "[gap]") {
   const auto matrices = twin::assemble(twin::GearboxParameters{});

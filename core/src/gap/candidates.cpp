@@ -207,52 +207,27 @@ class EffectApplier {
     }
   }
 
-  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM of index
-  /// a·e, the same at every harmonic) and turns the pinion against the tacho (PM of index x = n·b·e at
-  /// harmonic n, as the mesh phase is n·z1 times the pinion's angle). By Jacobi–Anger a line
-  /// (1 + a·cos(θ + φ))·e^{i(nΩt + x·sin θ)} holds at the shaft's order j from its carrier
-  /// c_j = J_j(x) + (a/2)(J_{j−1}(x)e^{−iφ} + J_{j+1}(x)e^{iφ}); the line powers cannot tell φ, so the
-  /// form takes the power over it, |c_j|² = J_j² + (a/2)²(J_{j−1}² + J_{j+1}²): the carrier keeps
-  /// J0² + a²J1²/2, and for small x the first sidebands gain (a² + x²)/4 of it. Assumptions: the
-  /// harmonics' own phases are independent of the run-out's, the two shafts' modulations are
-  /// incommensurate (each shaft's sidebands keep the other's carrier share; their products fall
-  /// between both shafts' orders and are left out).
-  /// |c_j|² for j = 0 … reach (the form's sidebands are even in j): beyond |j| = x + 4, J_j(x) falls
-  /// faster than x^j/j!, and a share under 1e-12 of the carrier stays far under the comparison's floor.
-  static std::vector<double> run_out_line_shares(const RunOutSensitivity& r, double run_out_m, std::size_t n) {
-    const double am = r.am_per_m * run_out_m, x = r.pm_per_harmonic_per_m * run_out_m * static_cast<double>(n);
-    const int reach = 1 + static_cast<int>(std::min(std::abs(x) + 3.0, 64.0));
-    const auto jn = bessel_j_up_to(reach + 1, x);
-    auto sq = [&](int k) { return jn[static_cast<std::size_t>(std::abs(k))] * jn[static_cast<std::size_t>(std::abs(k))]; };
-    std::vector<double> shares;
-    for (int j = 0; j <= reach; ++j) {
-      const double share = sq(j) + am * am / 4.0 * (sq(j - 1) + sq(j + 1));
-      if (j > 1 && share < 1e-12) break;
-      shares.push_back(share);
-    }
-    return shares;
+  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM, the
+  /// same share at every harmonic) and turns the pinion against the tacho (PM of index n·b at
+  /// harmonic n, as the mesh phase is n·z1 times the pinion's angle). The mean of a modulated
+  /// line's two first sidebands is ((a² + (n·b)²)/4)·P(n·GMF), whatever the phase between them.
+  static double run_out_sideband_share(const RunOutSensitivity& r, double run_out_m, std::size_t n) {
+    const double am = r.am_per_m * run_out_m, pm = r.pm_per_harmonic_per_m * run_out_m * static_cast<double>(n);
+    return (am * am + pm * pm) / 4.0;
   }
 
   void run_out_sidebands() {
     for (std::size_t n = 1; n * z1_ <= twin_.input_lines.size(); ++n) {
       const double mesh_power = twin_.input_lines[n * z1_ - 1];
-      const auto pinion = run_out_line_shares(twin_.pinion_run_out, v_[0], n);
-      const auto gear = run_out_line_shares(twin_.gear_run_out, v_[1], n);
-      // Harmonic n's carrier is an input line; the pinion's sidebands are input orders, the gear's
-      // output orders (mesh orders are counted on the input side only).
-      s_.input_lines[n * z1_ - 1] += (pinion[0] * gear[0] - 1.0) * mesh_power;
-      add_run_out_sidebands(s_.input_lines, z1_, n, pinion, gear[0] * mesh_power);
-      add_run_out_sidebands(s_.output_lines, z2_, n, gear, pinion[0] * mesh_power);
-    }
-  }
-
-  static void add_run_out_sidebands(std::vector<double>& lines, int teeth, std::size_t n, const std::vector<double>& shares,
-                                    double carrier_power) {
-    for (std::size_t j = 1; j < shares.size(); ++j)
+      const double ai = run_out_sideband_share(twin_.pinion_run_out, v_[0], n);
+      const double ao = run_out_sideband_share(twin_.gear_run_out, v_[1], n);
       for (int side : {-1, 1}) {
-        const auto k = static_cast<std::ptrdiff_t>(n) * teeth + side * static_cast<std::ptrdiff_t>(j);
-        if (k >= 1 && k <= static_cast<std::ptrdiff_t>(lines.size())) lines[static_cast<std::size_t>(k - 1)] += shares[j] * carrier_power;
+        const auto ki = static_cast<std::ptrdiff_t>(n * z1_) + side;
+        if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s_.input_lines.size())) s_.input_lines[ki - 1] += ai * mesh_power;
+        const auto ko = static_cast<std::ptrdiff_t>(n * z2_) + side;
+        if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s_.output_lines.size())) s_.output_lines[ko - 1] += ao * mesh_power;
       }
+    }
   }
 
   void tooth_errors() {
@@ -301,8 +276,9 @@ class EffectApplier {
     // down) is 0.004 dB. The twin has no noise, so most of its lines are that far down.
     const MoveThresholds limits{1e-9 * total, 1e-7 * total};
     if (locked_order > 0) {
-      spread_over_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share.pm_per_order, x, limits);
-      spread_over_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share.pm_per_order, x, limits);
+      const bool input_locked = std::abs(x - 1.0) < 1e-12;
+      spread_over_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share.pm_per_order, x, limits, input_locked);
+      spread_over_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share.pm_per_order, x, limits, !input_locked);
       return;
     }
     move_to_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share, x, limits);
@@ -317,7 +293,7 @@ class EffectApplier {
   /// ripple follows, so they land on that shaft's lines. Assumption: the line's phase and the
   /// ripple's are independent (powers add where sidebands of neighbouring lines meet).
   void spread_over_sidebands(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
-                             double pm_per_order, double x, const MoveThresholds& limits) {
+                             double pm_per_order, double x, const MoveThresholds& limits, bool own_shaft) {
     const double mu = v_[2];
     for (std::size_t k = 1; k <= lines.size(); ++k) {
       const double power = twin_lines[k - 1];
@@ -329,8 +305,15 @@ class EffectApplier {
       for (std::size_t j = 1; j < jn.size(); ++j) {
         const double p = power * ((1.0 - mu) * jn[j] * jn[j] + (j == 1 ? mu / 2 : 0.0));
         if (j > 1 && p < limits.negligible * 1e-3) break;
-        add_non_synchronous_tone(s_, order - static_cast<double>(j) * x, p, gears_, limits.negligible);
-        add_non_synchronous_tone(s_, order + static_cast<double>(j) * x, p, gears_, limits.negligible);
+        for (int side : {-1, 1}) {
+          // On a whole order of the shaft the ripple follows, the tone is that shaft's line (its
+          // synchronous average takes all of it; an output order a multiple of z2 is read on the
+          // input side; the input average's share of an output order, under 1/(π·R·Δ)², is left
+          // out); elsewhere it is followed through both averages.
+          const auto m = static_cast<std::ptrdiff_t>(k) + side * static_cast<std::ptrdiff_t>(j);
+          if (own_shaft) add_to_line(num == den, m, p);
+          else add_non_synchronous_tone(s_, order + side * static_cast<double>(j) * x, p, gears_, limits.negligible);
+        }
       }
     }
   }
@@ -350,6 +333,14 @@ class EffectApplier {
       add_non_synchronous_tone(s_, order - x, moved / 2, gears_, limits.negligible);
       add_non_synchronous_tone(s_, order + x, moved / 2, gears_, limits.negligible);
     }
+  }
+
+  /// Power on whole order m of the input (or output) shaft's lines; nothing at or below order 0.
+  void add_to_line(bool input, std::ptrdiff_t m, double power) {
+    if (m < 1) return;
+    if (!input && m % z2_ == 0) return add_to_line(true, m / z2_ * z1_, power);
+    auto& lines = input ? s_.input_lines : s_.output_lines;
+    if (m <= static_cast<std::ptrdiff_t>(lines.size())) lines[static_cast<std::size_t>(m - 1)] += power;
   }
 
   const AppliedEffect& e_;
@@ -476,6 +467,7 @@ std::vector<ParameterBound> parameters_at_bounds(CandidateEffect effect, const s
   // it (the fit's starts lie at least 1/44 of it inside).
   constexpr double kAtEnd = 1e-3;
   for (std::size_t i = 0; i < values.size() && group > 0; ++i) {
+    if (!form.per_load && i >= group) break;  // values past the form's (a locked ripple's order) have no range
     const std::size_t within = i % group;
     if (form.per_load && within == 0) continue;
     const std::size_t k = form.per_load ? within - 1 : within;

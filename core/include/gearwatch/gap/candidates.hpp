@@ -14,10 +14,8 @@
 //   eccentricity      a run-out of each shaft along the line of action (m): a transmission error at that
 //                     shaft's frequency, which the twin's linearised model turns into a modulation of
 //                     the mesh force (AM) and a turning of the pinion that one tacho edge per revolution
-//                     cannot follow (PM of index x = n·b·e at harmonic n): by Jacobi–Anger, over the
-//                     AM's phase, the carrier keeps J0(x)² + (a·e)²J1(x)²/2 and sideband n·z ± j of each
-//                     shaft gets J_j(x)² + (a·e/2)²(J_{j−1}(x)² + J_{j+1}(x)²) of P(n·GMF) (small x:
-//                     ((a·e)² + x²)/4 on the first), a and b from run_out_sensitivity()
+//                     cannot follow (PM growing with the harmonic): first sidebands n·z ± 1 of each
+//                     shaft gain ((a·e)² + (n·b·e)²)/4 · P(n·GMF), a and b from run_out_sensitivity()
 //                     at each record's speed and torque, so one run-out serves every speed and load.
 //                     With the twin's run-out response on its spectra (RunOutResponse, from twin
 //                     reruns; the diagnosis reads it when this form ranks among the two best) every
