@@ -690,8 +690,8 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
       {CandidateEffect::eccentricity, {20e-6, 8e-6}, 0.02},  // pinion and gear run-out, m
       {CandidateEffect::tooth_errors, {20, 1e-3, 2e-3, 5e-4}, 0.02},  // per load: the records' 20 N·m, then its gains
       // depth, f_m (x = 0.375 and 0.21 of the shaft speed: 12 % and 0.7 % of the angle left by the
-      // tacho), AM share
-      {CandidateEffect::speed_fluctuation, {0.01, 3.0, 0.02}, 0.03, 50000},
+      // tacho), AM share; the fourth value 0: fixed in Hz, not locked to a shaft's order
+      {CandidateEffect::speed_fluctuation, {0.01, 3.0, 0.02, 0.0}, 0.03, 50000},
       {CandidateEffect::load_fluctuation, {0.002, 5.0}, 0.03, 20000},
       {CandidateEffect::misalignment, {-3.0}, 0.02},
       {CandidateEffect::backlash, {0.5}, 0.02},
@@ -787,6 +787,61 @@ TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per
       CHECK(measured.input_lines[static_cast<std::size_t>(k - 1)] == Approx(kept).epsilon(1e-3));
       CHECK(model.input_lines[static_cast<std::size_t>(k - 1)] == Approx(kept).epsilon(1e-6));
     }
+  }
+}
+
+TEST_CASE("gap: a once-per-revolution speed ripple is fitted locked to the shaft's order, at three speeds", "[gap]") {
+  // A ripple at the input shaft's own order (f_m = f0 at every speed) turns the shaft d rad ahead and
+  // back; one tacho edge per revolution meets it at one phase, so all of it stays: line k is phase-
+  // modulated with index k·d and holds J_j(k·d)² of its power at k ± j (Jacobi–Anger). Known answers
+  // from std::cyl_bessel_j; tolerances chosen before running: the records' lines within 2e-3 of the
+  // closed form (the order tracking's own error, 1e-4 in the test above), the form within 1e-6, the
+  // fitted depth within 3 %.
+  const double fs = 20000, d = 0.01;
+  const std::vector<int> orders{19, 57, 95, 190};
+  auto twin_of = [&](const SpectralSummary& measured) {
+    SpectralSummary twin = measured;
+    std::fill(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
+    std::fill(twin.output_lines.begin(), twin.output_lines.end(), 0.0);
+    std::fill(twin.broadband.begin(), twin.broadband.end(), 0.0);
+    for (int k : orders) twin.input_lines[static_cast<std::size_t>(k - 1)] = 1.0;
+    return twin;
+  };
+  auto pairs_at = [&](double depth) {
+    std::vector<SummaryPair> pairs;
+    for (double f0 : {8.0, 11.0, 14.0}) {
+      const auto measured = RecordSpectra(rippling_shaft_record(fs, f0, 40, depth, f0, orders), 0, GearPairSpec{}).summary();
+      pairs.push_back({measured, twin_of(measured), 1e-6 * static_cast<double>(orders.size())});
+    }
+    return pairs;
+  };
+  const auto pairs = pairs_at(d);
+  for (const auto& p : pairs) {
+    CAPTURE(p.measured.speed_hz);
+    const auto model = apply_effects({{CandidateEffect::speed_fluctuation, {d, 0.0, 0.0, 1.0}}}, p.twin, GearPairSpec{});
+    for (int k : orders)
+      for (int j = -4; j <= 4; ++j) {
+        CAPTURE(k, j);
+        const double want = std::pow(std::cyl_bessel_j(std::abs(j), k * d), 2);
+        const auto line = static_cast<std::size_t>(k + j - 1);
+        CHECK(p.measured.input_lines[line] == Approx(want).margin(2e-3));
+        CHECK(model.input_lines[line] == Approx(want).margin(1e-6));
+      }
+  }
+  // One depth serves every speed, locked to the input shaft (order 1); a ripple fixed in Hz cannot.
+  const auto fitted = fit_candidate(CandidateEffect::speed_fluctuation, {}, pairs, GearPairSpec{});
+  REQUIRE(fitted.size() == 4);
+  CHECK(speed_fluctuation_input_order(fitted) == 1.0);
+  CHECK(fitted[0] == Approx(d).epsilon(0.03));
+  CHECK(training_cost(pairs, {{CandidateEffect::speed_fluctuation, fitted}}, GearPairSpec{}) <
+        1e-2 * training_cost(pairs, {}, GearPairSpec{}));
+  // Without a ripple the fit changes no line by 0.1 dB (whatever mode it lands in).
+  const auto still = pairs_at(0.0);
+  const auto none = fit_candidate(CandidateEffect::speed_fluctuation, {}, still, GearPairSpec{});
+  for (const auto& p : still) {
+    const auto model = apply_effects({{CandidateEffect::speed_fluctuation, none}}, p.twin, GearPairSpec{});
+    for (int k : orders)
+      CHECK(std::abs(10 * std::log10((model.input_lines[static_cast<std::size_t>(k - 1)] + p.floor) / (1.0 + p.floor))) < 0.1);
   }
 }
 

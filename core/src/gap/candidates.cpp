@@ -59,6 +59,29 @@ double bessel_j0(double z) {
   return std::cyl_bessel_j(0.0, z);
 }
 
+/// J_0(z) … J_K(z). Up to z = 4 by the power series Σ_m (−1)^m (z/2)^{2m+k}/(m!(m+k)!) (its terms stay
+/// under e^z, so double keeps 1e-13; 40 terms reach 1e-30): the forms ask at every line of every
+/// record at every trial value, where the library's is slow. Beyond, the library's.
+std::vector<double> bessel_j_up_to(int k_max, double z) {
+  std::vector<double> j(static_cast<std::size_t>(std::max(k_max, 0)) + 1, 0.0);
+  if (std::abs(z) > 4.0) {
+    for (int k = 0; k <= k_max; ++k) j[static_cast<std::size_t>(k)] = std::cyl_bessel_j(static_cast<double>(k), z);
+    return j;
+  }
+  const double h = z / 2.0, q = -h * h;
+  double lead = 1.0;  // (z/2)^k / k!
+  for (int k = 0; k <= k_max; ++k) {
+    if (k > 0) lead *= h / k;
+    double term = lead, sum = lead;
+    for (int m = 1; m < 40 && std::abs(term) > 1e-17 * std::abs(sum); ++m) {
+      term *= q / (m * static_cast<double>(m + k));
+      sum += term;
+    }
+    j[static_cast<std::size_t>(k)] = sum;
+  }
+  return j;
+}
+
 /// dsp::tracking_residual_share read off a table in log x: each call simulates 400 revolutions of
 /// tacho edges (3 ms), and the speed-fluctuation form asks at every record and trial frequency.
 /// Below the table it falls as x⁴ (the cubic spline's error for a slow deviation); above x = 2 the
@@ -80,6 +103,14 @@ double tracking_residual(double x) {
   const double w = u - static_cast<double>(i);
   return std::exp((1 - w) * log_share[i] + w * log_share[i + 1]);
 }
+
+}  // namespace
+
+double speed_fluctuation_input_order(const std::vector<double>& values) noexcept {
+  return values.size() > 3 && values[3] > 0 && std::isfinite(values[3]) ? values[3] : 0.0;
+}
+
+namespace {
 
 /// One effect's form applied to the spectra `s`, starting from `twin` (the twin's spectra with the
 /// effects of the earlier stages): a step per family of forms.
@@ -233,8 +264,9 @@ class EffectApplier {
   };
 
   void fluctuation() {
-    const double x = v_[1] / s_.speed_hz;
     const bool speed = e_.effect == CandidateEffect::speed_fluctuation;
+    const double locked_order = speed ? speed_fluctuation_input_order(v_) : 0.0;
+    const double x = locked_order > 0 ? locked_order : v_[1] / s_.speed_hz;
     const ModulatedShare share{speed, speed ? v_[0] / x * tracking_residual(x) : 0.0, v_};
     // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
     // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
@@ -243,8 +275,47 @@ class EffectApplier {
     // A line 90 dB below the total cannot move a bin: all of it in one bin at the floor (60 dB
     // down) is 0.004 dB. The twin has no noise, so most of its lines are that far down.
     const MoveThresholds limits{1e-9 * total, 1e-7 * total};
+    if (locked_order > 0) {
+      const bool input_locked = std::abs(x - 1.0) < 1e-12;
+      spread_over_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share.pm_per_order, x, limits, input_locked);
+      spread_over_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share.pm_per_order, x, limits, !input_locked);
+      return;
+    }
     move_to_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share, x, limits);
     move_to_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share, x, limits);
+  }
+
+  /// A ripple locked to a shaft's order (once per revolution of that shaft, whatever the speed):
+  /// line k of order o is phase-modulated with index m = o·(d/x)·r(x), and by Jacobi–Anger holds
+  /// J_j(m)² of its power j·x orders away (x the ripple's input order, r(x) what the tacho's edges
+  /// leave of it; for the input shaft x = 1, which one edge per revolution meets at one phase, r = 1).
+  /// The AM share μ sends μ/2 to each first sideband. The sidebands are whole orders of the shaft the
+  /// ripple follows, so they land on that shaft's lines. Assumption: the line's phase and the
+  /// ripple's are independent (powers add where sidebands of neighbouring lines meet).
+  void spread_over_sidebands(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
+                             double pm_per_order, double x, const MoveThresholds& limits, bool own_shaft) {
+    const double mu = v_[2];
+    for (std::size_t k = 1; k <= lines.size(); ++k) {
+      const double power = twin_lines[k - 1];
+      if (!(power > limits.too_small_to_move)) continue;
+      const double order = static_cast<double>(k) * num / den;
+      const double index = pm_per_order * order;
+      const auto jn = bessel_j_up_to(1 + static_cast<int>(std::min(index + 3.0, 64.0)), index);
+      lines[k - 1] -= power * (1.0 - (1.0 - mu) * jn[0] * jn[0]);
+      for (std::size_t j = 1; j < jn.size(); ++j) {
+        const double p = power * ((1.0 - mu) * jn[j] * jn[j] + (j == 1 ? mu / 2 : 0.0));
+        if (j > 1 && p < limits.negligible * 1e-3) break;
+        for (int side : {-1, 1}) {
+          // On a whole order of the shaft the ripple follows, the tone is that shaft's line (its
+          // synchronous average takes all of it; an output order a multiple of z2 is read on the
+          // input side; the input average's share of an output order, under 1/(π·R·Δ)², is left
+          // out); elsewhere it is followed through both averages.
+          const auto m = static_cast<std::ptrdiff_t>(k) + side * static_cast<std::ptrdiff_t>(j);
+          if (own_shaft) add_to_line(num == den, m, p);
+          else add_non_synchronous_tone(s_, order + side * static_cast<double>(j) * x, p, gears_, limits.negligible);
+        }
+      }
+    }
   }
 
   /// The modulated share leaves line k (order k·num/den) for sidebands f_m away (in orders: f_m /
@@ -262,6 +333,14 @@ class EffectApplier {
       add_non_synchronous_tone(s_, order - x, moved / 2, gears_, limits.negligible);
       add_non_synchronous_tone(s_, order + x, moved / 2, gears_, limits.negligible);
     }
+  }
+
+  /// Power on whole order m of the input (or output) shaft's lines; nothing at or below order 0.
+  void add_to_line(bool input, std::ptrdiff_t m, double power) {
+    if (m < 1) return;
+    if (!input && m % z2_ == 0) return add_to_line(true, m / z2_ * z1_, power);
+    auto& lines = input ? s_.input_lines : s_.output_lines;
+    if (m <= static_cast<std::ptrdiff_t>(lines.size())) lines[static_cast<std::size_t>(m - 1)] += power;
   }
 
   const AppliedEffect& e_;
@@ -358,7 +437,9 @@ std::vector<std::string> parameter_names(const CandidateForm& form, const std::v
     return names;
   }
   for (std::size_t i = 0; i < values.size(); ++i)
-    names.push_back(i < form.parameters.size() ? form.parameters[i].name : "value_" + std::to_string(i));
+    names.push_back(i < form.parameters.size()                                  ? form.parameters[i].name
+                    : form.effect == CandidateEffect::speed_fluctuation && i == 3 ? "modulation_input_order"
+                                                                                  : "value_" + std::to_string(i));
   return names;
 }
 
@@ -386,6 +467,7 @@ std::vector<ParameterBound> parameters_at_bounds(CandidateEffect effect, const s
   // it (the fit's starts lie at least 1/44 of it inside).
   constexpr double kAtEnd = 1e-3;
   for (std::size_t i = 0; i < values.size() && group > 0; ++i) {
+    if (!form.per_load && i >= group) break;  // values past the form's (a locked ripple's order) have no range
     const std::size_t within = i % group;
     if (form.per_load && within == 0) continue;
     const std::size_t k = form.per_load ? within - 1 : within;

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <stdexcept>
 
@@ -34,16 +35,46 @@ double training_cost(const std::vector<SummaryPair>& training, const std::vector
 }
 
 namespace {
+/// The values a form's fitted parameters stand for (a sub-form's: the full form's values).
+using Expansion = std::function<std::vector<double>(const std::vector<double>&)>;
+
 /// The fit of a form's own parameters on training records (of one load, for a per-load form): a
 /// grid over each parameter's range (log where marked), then Nelder–Mead from the best starts.
 std::vector<double> fit_values(const CandidateForm& form, const std::vector<AppliedEffect>& base,
-                               const std::vector<SummaryPair>& training, const GearPairSpec& gears);
+                               const std::vector<SummaryPair>& training, const GearPairSpec& gears,
+                               const Expansion& expand = {});
+
+/// A speed ripple is either fixed in Hz (a drive's ripple: {depth, f_m, μ}) or locked to a shaft's
+/// order (once per revolution of the input or the output shaft: a bent shaft, a coupling's
+/// misalignment, whatever the speed). The three are fitted apart (a locked ripple has no frequency
+/// to fit: depth and μ only) and the lowest training cost is kept, as {depth, f_m or 0, μ, order or 0}.
+std::vector<double> fit_speed_fluctuation(const CandidateForm& form, const std::vector<AppliedEffect>& base,
+                                          const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
+  auto with_cost = [&](std::vector<double> v) {
+    auto fx = base;
+    fx.push_back({form.effect, v});
+    return std::make_pair(training_cost(training, fx, gears), std::move(v));
+  };
+  auto hz = fit_values(form, base, training, gears);
+  hz.push_back(0.0);
+  auto best = with_cost(std::move(hz));
+  CandidateForm locked = form;
+  locked.parameters = {form.parameters[0], form.parameters[2]};
+  locked.parameters[1].grid = 1;  // μ: one start; the descent moves it
+  for (double order : {1.0, static_cast<double>(gears.pinion_teeth) / gears.gear_teeth}) {
+    const Expansion expand = [order](const std::vector<double>& u) { return std::vector<double>{u[0], 0.0, u[1], order}; };
+    auto candidate = with_cost(expand(fit_values(locked, base, training, gears, expand)));
+    if (candidate.first < best.first) best = std::move(candidate);
+  }
+  return best.second;
+}
 }  // namespace
 
 std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<AppliedEffect>& base,
                                   const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
   if (training.empty()) throw std::invalid_argument("fit_candidate: no training records");
   CandidateForm form = candidate_form(effect, training.front().measured.sample_rate_hz);
+  if (effect == CandidateEffect::speed_fluctuation) return fit_speed_fluctuation(form, base, training, gears);
   if (!form.per_load) return fit_values(form, base, training, gears);
   // One group per training load: its load, then the form's parameters fitted on that load's records.
   std::vector<double> loads;
@@ -69,8 +100,9 @@ namespace {
 class FormFit {
  public:
   FormFit(const CandidateForm& form, const std::vector<AppliedEffect>& base, const std::vector<SummaryPair>& training,
-          const GearPairSpec& gears)
-      : form_(form), base_(base), training_(training), gears_(gears), evaluator_(gears), d_(form.parameters.size()) {}
+          const GearPairSpec& gears, const Expansion& expand)
+      : form_(form), base_(base), training_(training), gears_(gears), evaluator_(gears), d_(form.parameters.size()),
+        expand_(expand) {}
 
   std::vector<double> run() const {
     if (form_.effect == CandidateEffect::tip_relief) return tip_relief_gains();
@@ -109,6 +141,7 @@ class FormFit {
 
   /// A per-load form is applied with its group's load in front (every record here has that load).
   std::vector<double> applied(std::vector<double> v) const {
+    if (expand_) v = expand_(v);
     if (form_.per_load) v.insert(v.begin(), load_key(training_.front().measured.torque_nm));
     return v;
   }
@@ -254,11 +287,12 @@ class FormFit {
   const GearPairSpec& gears_;
   const GapEvaluator evaluator_;
   const std::size_t d_;
+  const Expansion& expand_;
 };
 
 std::vector<double> fit_values(const CandidateForm& form, const std::vector<AppliedEffect>& base,
-                               const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
-  return FormFit(form, base, training, gears).run();
+                               const std::vector<SummaryPair>& training, const GearPairSpec& gears, const Expansion& expand) {
+  return FormFit(form, base, training, gears, expand).run();
 }
 
 }  // namespace

@@ -32,7 +32,10 @@
 //                     (x = f_m / shaft speed); the one-edge tacho follows all but r(x) of it
 //                     (dsp::tracking_residual_share): line k keeps J0²(k·(d/x)·r); the transfer path
 //                     in Hz does not follow the speed, so a share μ of every line is amplitude-
-//                     modulated too; what leaves a line goes to sidebands f_m away
+//                     modulated too; what leaves a line goes to sidebands f_m away. Or the ripple is
+//                     locked to a shaft's order (once per revolution of either shaft, a fourth value:
+//                     speed_fluctuation_input_order()): line k keeps (1 − μ)·J0(m)², sideband j·x
+//                     away gets (1 − μ)·J_j(m)² (+ μ/2 on the first), m = k·(d/x)·r(x)
 //   load_fluctuation  brake torque ripple twists the train between the encoder and the mesh: phase
 //                     modulation in the encoder's angle; a share 1 − exp(−(β·k)²) of line k leaves
 //                     it for sidebands f_m away (grows with order, the high mesh harmonics lose most)
@@ -171,6 +174,12 @@ SpectralSummary apply_effects(const std::vector<AppliedEffect>& effects, const S
                               const GearPairSpec& gears);
 
 /// Measured and twin spectra of one record, and the floor they are compared above.
+/// A speed-fluctuation candidate's ripple locked to a shaft's order: its values are {depth,
+/// modulation_frequency_hz, am_share, modulation_input_order}; a fourth value > 0 is the ripple's order
+/// in input orders (1: once per input revolution, z1/z2: once per output revolution) and the frequency
+/// in Hz is unused (0); three values, or a fourth of 0, a ripple fixed in Hz.
+double speed_fluctuation_input_order(const std::vector<double>& values) noexcept;
+
 struct SummaryPair {
   SpectralSummary measured, twin;
   double floor = 0;
