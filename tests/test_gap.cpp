@@ -741,6 +741,17 @@ Record rippling_shaft_record(double fs, double f0, int revs, double depth, doubl
   return r;
 }
 
+// A twin for the ripple tests: the measured summary's layout with unit input lines at `orders`
+// and nothing else.
+SpectralSummary unit_lines_twin(const SpectralSummary& measured, const std::vector<int>& orders) {
+  SpectralSummary twin = measured;
+  std::fill(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
+  std::fill(twin.output_lines.begin(), twin.output_lines.end(), 0.0);
+  std::fill(twin.broadband.begin(), twin.broadband.end(), 0.0);
+  for (int k : orders) twin.input_lines[static_cast<std::size_t>(k - 1)] = 1.0;
+  return twin;
+}
+
 }  // namespace
 
 TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per revolution leaves of the ripple", "[gap]") {
@@ -748,14 +759,7 @@ TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per
   // follows all but r(x) of that angle, so a line at order k keeps J0²(k·(d/x)·r(x)) of its power.
   const double fs = 20000, f0 = 10;
   const std::vector<int> orders{19, 57, 95, 133, 190};
-  auto twin_of = [&](const SpectralSummary& measured) {
-    SpectralSummary twin = measured;
-    std::fill(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
-    std::fill(twin.output_lines.begin(), twin.output_lines.end(), 0.0);
-    std::fill(twin.broadband.begin(), twin.broadband.end(), 0.0);
-    for (int k : orders) twin.input_lines[static_cast<std::size_t>(k - 1)] = 1.0;
-    return twin;
-  };
+  auto twin_of = [&](const SpectralSummary& measured) { return unit_lines_twin(measured, orders); };
   // The form against its closed form, with r from dsp::tracking_residual_share (the form reads it
   // off a table; measured within 7e-5): x = 0.25 and 0.3, depth 2 %.
   for (double f_m : {2.5, 3.0}) {
@@ -799,14 +803,7 @@ TEST_CASE("gap: a once-per-revolution speed ripple is fitted locked to the shaft
   // fitted depth within 3 %.
   const double fs = 20000, d = 0.01;
   const std::vector<int> orders{19, 57, 95, 190};
-  auto twin_of = [&](const SpectralSummary& measured) {
-    SpectralSummary twin = measured;
-    std::fill(twin.input_lines.begin(), twin.input_lines.end(), 0.0);
-    std::fill(twin.output_lines.begin(), twin.output_lines.end(), 0.0);
-    std::fill(twin.broadband.begin(), twin.broadband.end(), 0.0);
-    for (int k : orders) twin.input_lines[static_cast<std::size_t>(k - 1)] = 1.0;
-    return twin;
-  };
+  auto twin_of = [&](const SpectralSummary& measured) { return unit_lines_twin(measured, orders); };
   auto pairs_at = [&](double depth) {
     std::vector<SummaryPair> pairs;
     for (double f0 : {8.0, 11.0, 14.0}) {
