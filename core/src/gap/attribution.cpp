@@ -24,6 +24,26 @@ const std::vector<double>& spectrum_of(const SpectralSummary& s, Spectrum which)
   return which == Spectrum::input_lines ? s.input_lines : which == Spectrum::output_lines ? s.output_lines : s.broadband;
 }
 
+/// A cell's place in input orders, as the finder placed it: line k at k, broadband bin [k, k+1) at
+/// k + ½, output line j at j·z1/z2.
+double cell_order(Spectrum which, std::size_t index, const GearPairSpec& gears) {
+  const double k = static_cast<double>(index);
+  return which == Spectrum::input_lines ? k + 1.0
+         : which == Spectrum::broadband ? k + 1.5
+                                        : (k + 1.0) * (static_cast<double>(gears.pinion_teeth) / gears.gear_teeth);
+}
+
+/// Calls visit(spectrum, index, order) for every cell of a record's summary, the output shaft's mesh
+/// orders left to the input side.
+template <class Visit>
+void for_each_cell(const SpectralSummary& s, const GearPairSpec& gears, Visit&& visit) {
+  for (std::size_t i = 0; i < s.input_lines.size(); ++i) visit(Spectrum::input_lines, i, cell_order(Spectrum::input_lines, i, gears));
+  for (std::size_t i = 0; i < s.broadband.size(); ++i) visit(Spectrum::broadband, i, cell_order(Spectrum::broadband, i, gears));
+  for (std::size_t i = 0; i < s.output_lines.size(); ++i)
+    if (!output_line_is_mesh(static_cast<int>(i + 1), gears.gear_teeth))
+      visit(Spectrum::output_lines, i, cell_order(Spectrum::output_lines, i, gears));
+}
+
 bool seen_in(const GapFeature& f, bool held_out, std::size_t record) {
   return std::any_of(f.seen_in.begin(), f.seen_in.end(),
                      [&](const FeatureSighting& s) { return s.held_out == held_out && s.record == record; });
@@ -53,10 +73,7 @@ std::vector<FeatureCell> cells_of(const GapFeature& f, const std::vector<RecordM
       if (i < m.size() && i < t.size() && inside(order) && std::abs(ratio_db(m[i], t[i], rec.floor)) >= min_feature_db)
         cells.push_back({r, which, i});
     };
-    for (std::size_t i = 0; i < rec.measured->input_lines.size(); ++i) add(Spectrum::input_lines, i, i + 1.0);
-    for (std::size_t i = 0; i < rec.measured->broadband.size(); ++i) add(Spectrum::broadband, i, i + 1.5);
-    for (std::size_t i = 0; i < rec.measured->output_lines.size(); ++i)
-      if (!output_line_is_mesh(static_cast<int>(i + 1), gears.gear_teeth)) add(Spectrum::output_lines, i, (i + 1.0) * per_output);
+    for_each_cell(*rec.measured, gears, add);
   }
   return cells;
 }
@@ -110,7 +127,6 @@ struct WindowCell {
 
 /// Every line and bin of `records` between lo_hz and hi_hz (output mesh lines counted on the input side).
 std::vector<WindowCell> window_cells(const std::vector<RecordModels>& records, double lo_hz, double hi_hz, const GearPairSpec& gears) {
-  const double per_output = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;
   std::vector<WindowCell> cells;
   for (const auto& rec : records) {
     const BearingForcePath* path = rec.twin->bearing_force_path.get();
@@ -122,10 +138,7 @@ std::vector<WindowCell> window_cells(const std::vector<RecordModels>& records, d
       const auto& t = spectrum_of(*rec.twin, which);
       if (hz >= lo_hz && hz <= hi_hz && i < m.size() && i < t.size()) cells.push_back({hz, m[i], t[i], rec.floor, path->at(hz)});
     };
-    for (std::size_t i = 0; i < rec.measured->input_lines.size(); ++i) add(Spectrum::input_lines, i, i + 1.0);
-    for (std::size_t i = 0; i < rec.measured->broadband.size(); ++i) add(Spectrum::broadband, i, i + 1.5);
-    for (std::size_t i = 0; i < rec.measured->output_lines.size(); ++i)
-      if (!output_line_is_mesh(static_cast<int>(i + 1), gears.gear_teeth)) add(Spectrum::output_lines, i, (i + 1.0) * per_output);
+    for_each_cell(*rec.measured, gears, add);
   }
   return cells;
 }
@@ -207,14 +220,10 @@ OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double 
 
 double rms_with(const std::vector<FeatureCell>& cells, const std::vector<RecordModels>& records, const OneMode* mode,
                 const GearPairSpec& gears) {
-  const double per_output = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;
   double sum = 0;
   for (const auto& c : cells) {
     const auto& rec = records[c.record];
-    const double order = c.spectrum == Spectrum::input_lines ? c.index + 1.0
-                         : c.spectrum == Spectrum::broadband ? c.index + 1.5
-                                                             : (c.index + 1.0) * per_output;
-    const double hz = order * rec.measured->speed_hz;
+    const double hz = cell_order(c.spectrum, c.index, gears) * rec.measured->speed_hz;
     double model = spectrum_of(*rec.twin, c.spectrum)[c.index];
     if (mode != nullptr && rec.twin->bearing_force_path)
       model *= mode->gain({hz, 0, 0, 0, rec.twin->bearing_force_path->at(hz)});
