@@ -61,12 +61,13 @@ double bessel_j0(double z) {
 
 /// J_0(z) … J_K(z). Up to z = 4 by the power series Σ_m (−1)^m (z/2)^{2m+k}/(m!(m+k)!) (its terms stay
 /// under e^z, so double keeps 1e-13; 40 terms reach 1e-30): the forms ask at every line of every
-/// record at every trial value, where the library's is slow. Beyond, the library's.
-std::vector<double> bessel_j_up_to(int k_max, double z) {
-  std::vector<double> j(static_cast<std::size_t>(std::max(k_max, 0)) + 1, 0.0);
+/// record at every trial value, where the library's is slow. Beyond, the library's. Written into the
+/// caller's `j` (resized), so the per-line calls allocate nothing once it has grown.
+void bessel_j_up_to(int k_max, double z, std::vector<double>& j) {
+  j.assign(static_cast<std::size_t>(std::max(k_max, 0)) + 1, 0.0);
   if (std::abs(z) > 4.0) {
     for (int k = 0; k <= k_max; ++k) j[static_cast<std::size_t>(k)] = std::cyl_bessel_j(static_cast<double>(k), z);
-    return j;
+    return;
   }
   const double h = z / 2.0, q = -h * h;
   double lead = 1.0;  // (z/2)^k / k!
@@ -79,7 +80,6 @@ std::vector<double> bessel_j_up_to(int k_max, double z) {
     }
     j[static_cast<std::size_t>(k)] = sum;
   }
-  return j;
 }
 
 /// dsp::tracking_residual_share read off a table in log x: each call simulates 400 revolutions of
@@ -295,12 +295,13 @@ class EffectApplier {
   void spread_over_sidebands(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
                              double pm_per_order, double x, const MoveThresholds& limits, bool own_shaft) {
     const double mu = v_[2];
+    std::vector<double> jn;  // J_0 … J_K of the line at hand, reused from line to line
     for (std::size_t k = 1; k <= lines.size(); ++k) {
       const double power = twin_lines[k - 1];
       if (!(power > limits.too_small_to_move)) continue;
       const double order = static_cast<double>(k) * num / den;
       const double index = pm_per_order * order;
-      const auto jn = bessel_j_up_to(1 + static_cast<int>(std::min(index + 3.0, 64.0)), index);
+      bessel_j_up_to(1 + static_cast<int>(std::min(index + 3.0, 64.0)), index, jn);
       lines[k - 1] -= power * (1.0 - (1.0 - mu) * jn[0] * jn[0]);
       for (std::size_t j = 1; j < jn.size(); ++j) {
         const double p = power * ((1.0 - mu) * jn[j] * jn[j] + (j == 1 ? mu / 2 : 0.0));
