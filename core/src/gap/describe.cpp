@@ -4,6 +4,7 @@
 #include "gearwatch/numeric/line_search.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <deque>
@@ -630,12 +631,22 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
   // A grid over f_n in the feature's band and ζ from 0.002 to 0.3 (log), the gain by golden section;
   // then a pattern search around the best.
   double bf = f.hz, bz = 0.02, bg = 0, best = std::numeric_limits<double>::infinity();
+  // A pattern step back lands on the point just left (or on a grid point), whose (f_n, ζ) give the
+  // same gain and RSS: those already searched are looked up (the same numbers, exact keys).
+  std::vector<std::array<double, 4>> searched;  // f_n, ζ, gain, RSS
+  auto best_gain_once = [&](double fn, double zeta, double& v) {
+    for (const auto& s : searched)
+      if (s[0] == fn && s[1] == zeta) return v = s[3], s[2];
+    const double g = best_gain(fn, zeta, v);
+    searched.push_back({fn, zeta, g, v});
+    return g;
+  };
   constexpr int kF = 24, kZeta = 12;
   for (int i = 0; i <= kF; ++i)
     for (int j = 0; j <= kZeta; ++j) {
       const double fn = lo + (hi - lo) * i / kF, zeta = 0.002 * std::pow(150.0, static_cast<double>(j) / kZeta);
       double v = 0;
-      const double g = best_gain(fn, zeta, v);
+      const double g = best_gain_once(fn, zeta, v);
       if (v < best) best = v, bf = fn, bz = zeta, bg = g;
     }
   double step_f = (hi - lo) / kF, step_lz = std::log(150.0) / kZeta;
@@ -645,7 +656,7 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
       const double fn = bf + df * step_f, zeta = bz * std::exp(dlz * step_lz);
       if (!(fn > 0) || zeta < 1e-4 || zeta > 1) continue;
       double v = 0;
-      const double g = best_gain(fn, zeta, v);
+      const double g = best_gain_once(fn, zeta, v);
       if (v < best) best = v, bf = fn, bz = zeta, bg = g, moved = true;
     }
     if (!moved) step_f /= 2, step_lz /= 2;
@@ -791,8 +802,16 @@ class FeatureDescriber::ToneSearch {
   double resolved_hz_ = std::numeric_limits<double>::infinity();  // 1/T of the longest record (whole revolutions)
   double input_revolutions_ = 0, output_revolutions_ = 0;  // the longest record's
   std::vector<double> g_, base_;  // measured g; the twin's power with the tones found so far
+  // Each cell's squared misfit with the base alone: a trial tone leaves most cells' power as it is
+  // (bitwise: its leakage there under the base's last digit), and those cells' terms are then the
+  // same numbers without a logarithm each (rss_of).
+  std::vector<double> base_sq_;
+  void set_base_sq();
   std::vector<Tone> found_;
   mutable std::map<double, std::vector<double>> responses_;  // tone_response by place (unit_response)
+  // tone_as_measured by place: the rounds over the tones and the halving steps come back to places
+  // already reduced (a tone's own place each round), and each reduction resamples a record.
+  mutable std::map<double, std::vector<double>> measured_responses_;
 };
 
 FeatureDescriber::ToneSearch::ToneSearch(const FeatureDescriber& d, const GapFeature& f, const Window& w, bool fixed_in_hz)
@@ -822,12 +841,26 @@ FeatureDescriber::ToneSearch::ToneSearch(const FeatureDescriber& d, const GapFea
     const auto [r, i] = w[e];
     g_[e] = d.g_of(r, i, d.records_[r].cells[i].measured), base_[e] = d.records_[r].cells[i].twin;
   }
+  set_base_sq();
+}
+
+void FeatureDescriber::ToneSearch::set_base_sq() {
+  base_sq_.resize(n_);
+  for (std::size_t e = 0; e < n_; ++e) {
+    const double dg = g_[e] - g_of(e, base_[e]);
+    base_sq_[e] = dg * dg;
+  }
 }
 
 double FeatureDescriber::ToneSearch::rss_of(const std::vector<double>& unit, double power) const {
   double s = 0;
   for (std::size_t e = 0; e < n_; ++e) {
-    const double dg = g_[e] - g_of(e, base_[e] + power * unit[e]);
+    const double model = base_[e] + power * unit[e];
+    if (model == base_[e]) {
+      s += base_sq_[e];
+      continue;
+    }
+    const double dg = g_[e] - g_of(e, model);
     s += dg * dg;
   }
   return s;
@@ -906,6 +939,7 @@ double FeatureDescriber::ToneSearch::largest_change(const Tone& t) const {
 
 void FeatureDescriber::ToneSearch::add_to_base(const Tone& t, double sign) {
   for (std::size_t e = 0; e < n_; ++e) base_[e] += sign * t.power * t.unit[e];
+  set_base_sq();
 }
 
 /// The powers again, each with the others in place (their leakage overlaps); and the places: a
@@ -955,7 +989,9 @@ void FeatureDescriber::ToneSearch::run(int max_tones) {
 /// excess would be the cross term of the two, not the tone's.
 FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::as_measured_at(double place) const {
   Tone t;
-  t.place = place, t.unit = d_.tone_as_measured(place, fixed_in_hz_, w_);
+  auto it = measured_responses_.find(place);
+  if (it == measured_responses_.end()) it = measured_responses_.emplace(place, d_.tone_as_measured(place, fixed_in_hz_, w_)).first;
+  t.place = place, t.unit = it->second;
   double excess = 0, share = 0;
   for (std::size_t e = 0; e < n_; ++e) {
     const auto [r, i] = w_[e];
@@ -1324,6 +1360,10 @@ void FeatureDescriber::join_resonance_flanks(std::vector<GapFeature>& features) 
     return !f.seen_in.empty();
   };
   auto offered = [&](const GapFeature& f) { return resonant(f) || one_speed(f); };
+  // After each join the pairs are tried again from the first: a pair neither of whose features
+  // changed gives the same joint band and window, whose description (a function of those alone) is
+  // kept rather than fitted again.
+  std::map<std::tuple<double, double, double, Window>, FeatureDescription> described;
   for (bool joined = true; joined;) {
     joined = false;
     for (std::size_t i = 0; i < features.size() && !joined; ++i)
@@ -1338,7 +1378,15 @@ void FeatureDescriber::join_resonance_flanks(std::vector<GapFeature>& features) 
         u.movement = fast >= slow * settings_.min_speed_ratio ? FeatureMovement::fixed_in_hz : FeatureMovement::undetermined;
         const GapFeature in_hz = [&] { GapFeature h = u; h.movement = FeatureMovement::fixed_in_hz; return h; }();
         const Window w = window_of(in_hz);
-        u.description = chosen_form({floor_, tilt_, modulation_input_, modulation_output_, resonance(in_hz, w)}, w);
+        auto joint = [&] { return chosen_form({floor_, tilt_, modulation_input_, modulation_output_, resonance(in_hz, w)}, w); };
+        if (std::isfinite(in_hz.hz_low) && std::isfinite(in_hz.hz_high) && std::isfinite(in_hz.hz)) {  // an ordered key
+          auto key = std::make_tuple(in_hz.hz_low, in_hz.hz_high, in_hz.hz, w);
+          auto it = described.find(key);
+          if (it == described.end()) it = described.emplace(std::move(key), joint()).first;
+          u.description = it->second;
+        } else {
+          u.description = joint();
+        }
         if (!resonant(u)) continue;
         features[i] = std::move(u);
         features.erase(features.begin() + static_cast<std::ptrdiff_t>(j));
