@@ -27,6 +27,9 @@ constexpr int kMaxTones = 8;  // tones one feature fixed in Hz may hold (a suppl
 // holds several tones, each followed over its own neighbourhood).
 constexpr double kMaxToneReachOrders = 12;
 
+// 10·log10(x) = (10 / ln 10)·ln(x): the searches' inner sums take ln, log10 being ln and more.
+constexpr double kDbPerNeper = 10.0 / std::numbers::ln10;
+
 double ratio_db(double measured, double model, double floor) { return 10.0 * std::log10((measured + floor) / (model + floor)); }
 
 // Cells a level-and-slope law in dB acts on: position x (a log frequency or order), the twin's power,
@@ -609,22 +612,46 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
     twin[e] = c.twin, floor[e] = records_[r].floor, below[e] = c.twin + records_[r].floor, hz[e] = c.hz;
   }
   double pass_fn = kNaN, pass_zeta = kNaN;
-  auto rss = [&](double fn, double zeta, double gain_db) {
+  auto set_pass = [&](double fn, double zeta) {
     if (!(fn == pass_fn && zeta == pass_zeta)) {
       for (std::size_t e = 0; e < w.size(); ++e) pass[e] = band_pass(hz[e], fn, zeta);
       pass_fn = fn, pass_zeta = zeta;
     }
+  };
+  // The cell's modelled g for a gain's 10^(G/10) − 1: rising with it (the band-pass is ≥ 0).
+  auto g_model = [&](std::size_t e, double gm1) { return kDbPerNeper * std::log((twin[e] * (1 + gm1 * pass[e]) + floor[e]) / below[e]); };
+  constexpr double kGainLow = -30, kGainHigh = 40;
+  auto rss = [&](double fn, double zeta, double gain_db) {
+    set_pass(fn, zeta);
     const double gm1 = std::pow(10.0, gain_db / 10) - 1;
     double s = 0;
     for (std::size_t e = 0; e < w.size(); ++e) {
-      const double d = g_measured[e] - 10.0 * std::log10((twin[e] * (1 + gm1 * pass[e]) + floor[e]) / below[e]);
+      const double d = g_measured[e] - g_model(e, gm1);
       s += d * d;
     }
     return s;
   };
   // The best gain at (f_n, ζ) and the RSS there (the search's own evaluation of it).
   auto best_gain = [&](double fn, double zeta, double& v) {
-    return golden_min([&](double g) { return rss(fn, zeta, g); }, -30, 40, 20, &v);
+    return golden_min([&](double g) { return rss(fn, zeta, g); }, kGainLow, kGainHigh, 20, &v);
+  };
+  // Whether no gain in the search's range can bring (f_n, ζ) under `bound`: each cell's modelled g
+  // rises with the gain, so its misfit is at least its distance to the range the gains' ends give
+  // it, and the sum of those is under every RSS the gain's search could evaluate. A point that
+  // cannot beat the best so far changes nothing in the search, and its gain's search is skipped.
+  // The margin keeps the rounding of the two sums (1e-16 relative) from deciding.
+  auto cannot_beat = [&](double fn, double zeta, double bound) {
+    if (!std::isfinite(bound)) return false;
+    set_pass(fn, zeta);
+    const double low = std::pow(10.0, kGainLow / 10) - 1, high = std::pow(10.0, kGainHigh / 10) - 1;
+    double least = 0;
+    for (std::size_t e = 0; e < w.size(); ++e) {
+      const double gm = g_measured[e], below_end = g_model(e, low), above_end = g_model(e, high);
+      const double d = gm < below_end ? below_end - gm : gm > above_end ? gm - above_end : 0.0;
+      least += d * d;
+      if (least * (1 - 1e-9) > bound) return true;
+    }
+    return false;
   };
   double lo = f.hz_low, hi = f.hz_high;
   if (!(hi > lo) || !(lo > 0)) lo = std::max(1.0, f.hz * 0.9), hi = f.hz * 1.1;
@@ -637,6 +664,7 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
   auto best_gain_once = [&](double fn, double zeta, double& v) {
     for (const auto& s : searched)
       if (s[0] == fn && s[1] == zeta) return v = s[3], s[2];
+    if (cannot_beat(fn, zeta, best)) return v = std::numeric_limits<double>::infinity(), 0.0;
     const double g = best_gain(fn, zeta, v);
     searched.push_back({fn, zeta, g, v});
     return g;
