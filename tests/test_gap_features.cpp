@@ -710,6 +710,33 @@ TEST_CASE("gap attribution: the family evidence, when the feature's own cells na
   }
 }
 
+TEST_CASE("gap features: a 25 dB floor step is described with its level though the bands astride its corner read the floor below",
+          "[gap][gap_features]") {
+  // The step of the case above 25 dB high (PSD × (10^2.5 − 1) above 1500 Hz). A band's floor is
+  // the median of its bins: a band holding the corner with fewer than half of its bins above it
+  // reads the floor below, nearly 25 dB under a line through the bands above.
+  const double fs = 10240, corner = 1500, step_db = 25;
+  auto c = floor_case(fs, 1e-3, std::sqrt(std::pow(10.0, step_db / 10) - 1), corner, fs, 362);
+  const auto floors = c.finders[0].floor_features();
+  INFO("floors:\n" << descriptions(floors));
+  REQUIRE(floors.size() == 1);
+  const auto& f = floors.front();
+  std::vector<DescribedRecord> described;
+  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+  const auto d = FeatureDescriber(described, GearPairSpec{}).describe_floor(f);
+  INFO(to_string(d.kind) << ": " << describe(d));
+  REQUIRE(d.kind == DescriptionKind::floor_change);
+  // Stated before the run: the level at the feature's centre within 1 dB of the step, as the 10 dB
+  // step's; when a corner is fitted, within a band (1/6 octave, 12 %) and one bin of the fastest
+  // record of the step's.
+  const double at_centre = d.parameter("level_db") + d.parameter("slope_db_per_decade") * std::log10(f.hz / 1000);
+  CHECK(at_centre == Approx(step_db).margin(1.0));
+  if (const double at = d.parameter("corner_hz"); std::isfinite(at)) {
+    CHECK(at >= corner / 1.13 - kSpeeds.back());
+    CHECK(at <= corner * 1.13 + kSpeeds.back());
+  }
+}
+
 TEST_CASE("gap features: a floor change white noise cannot explain is not attributed to the noise floor", "[gap][gap_features]") {
   // The same step, the feature taken to start an octave under the corner: its bands there stay at
   // the twin's plus the acquisition's (g ≈ 0) while those above rise 10 dB. One white PSD added to
