@@ -276,6 +276,47 @@ TEST_CASE("gap features: the speed-movement rule and the merging of adjacent bin
   for (const auto& f : features_of(one, rng)) CHECK(f.movement == FeatureMovement::undetermined);
 }
 
+TEST_CASE("gap features: supply tones joined with their leakage into one feature are fixed in Hz, though its centre moves",
+          "[gap][gap_features]") {
+  // Tones at 60, 120 and 180 Hz of power P, P/4, P/16 (amplitudes A·d^(h−1), d = 0.5), P = 0.01,
+  // 30 dB over the twin's broadband bins. A tone between the lines is in the broadband bins about
+  // it, bin [k, k+1) holding P/(1 + (2·(k + ½ − f/v))²)² (it falls away with the distance in
+  // orders); a tone at an integer order is that input line's (180 Hz at 9 Hz: order 20, beside mesh
+  // harmonic 19), with nothing in the bins. With no effect: nothing.
+  const double fs = 10000;
+  std::mt19937_64 rng(65);
+  Records r, none;
+  for (double speed : kSpeeds) {
+    auto twin = twin_spectra(fs, speed);
+    auto measured = twin;
+    for (const auto& [hz, power] : {std::pair{60.0, 0.01}, std::pair{120.0, 0.0025}, std::pair{180.0, 0.000625}}) {
+      const double order = hz / speed;
+      if (std::abs(order - std::round(order)) < 1e-9) {
+        measured.input_lines[static_cast<std::size_t>(std::round(order)) - 1] += power;
+        continue;
+      }
+      for (std::size_t k = 1; k <= measured.broadband.size(); ++k) {
+        const double d = 2 * (static_cast<double>(k) + 0.5 - order);
+        measured.broadband[k - 1] += power / ((1 + d * d) * (1 + d * d));
+      }
+    }
+    r.measured.push_back(with_noise(measured, rng));
+    r.twin.push_back(twin);
+    none.measured.push_back(with_noise(twin, rng));
+    none.twin.push_back(twin);
+  }
+  const auto features = features_of(r, rng);
+  INFO(descriptions(features));
+  // Stated before the run: one feature over the three, fixed in Hz, from under 60 Hz to over 180 Hz.
+  REQUIRE(features.size() == 1);
+  const auto& f = features.front();
+  CHECK(f.movement == FeatureMovement::fixed_in_hz);
+  CHECK(f.hz_low < 60);
+  CHECK(f.hz_high > 180);
+  CHECK(f.seen_in.size() == kSpeeds.size());
+  CHECK(features_of(none, rng).empty());
+}
+
 TEST_CASE("gap features: a narrow resonance seen on one mesh harmonic's flank at each of two speeds is one feature fixed in Hz",
           "[gap][gap_features][gap_describe]") {
   // A structural resonance on the path, power × (1 + (G − 1)·L(f)), L = (2ζr)²/((1 − r²)² + (2ζr)²),
@@ -666,6 +707,33 @@ TEST_CASE("gap attribution: the family evidence, when the feature's own cells na
     // Described otherwise, the same place is the carrier's family, which eccentricity does not act on.
     f.description.kind = DescriptionKind::none;
     CHECK_FALSE(family_explaining_candidate(report, f, GearPairSpec{}).has_value());
+  }
+}
+
+TEST_CASE("gap features: a 25 dB floor step is described with its level though the bands astride its corner read the floor below",
+          "[gap][gap_features]") {
+  // The step of the case above 25 dB high (PSD × (10^2.5 − 1) above 1500 Hz). A band's floor is
+  // the median of its bins: a band holding the corner with fewer than half of its bins above it
+  // reads the floor below, nearly 25 dB under a line through the bands above.
+  const double fs = 10240, corner = 1500, step_db = 25;
+  auto c = floor_case(fs, 1e-3, std::sqrt(std::pow(10.0, step_db / 10) - 1), corner, fs, 362);
+  const auto floors = c.finders[0].floor_features();
+  INFO("floors:\n" << descriptions(floors));
+  REQUIRE(floors.size() == 1);
+  const auto& f = floors.front();
+  std::vector<DescribedRecord> described;
+  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+  const auto d = FeatureDescriber(described, GearPairSpec{}).describe_floor(f);
+  INFO(to_string(d.kind) << ": " << describe(d));
+  REQUIRE(d.kind == DescriptionKind::floor_change);
+  // Stated before the run: the level at the feature's centre within 1 dB of the step, as the 10 dB
+  // step's; when a corner is fitted, within a band (1/6 octave, 12 %) and one bin of the fastest
+  // record of the step's.
+  const double at_centre = d.parameter("level_db") + d.parameter("slope_db_per_decade") * std::log10(f.hz / 1000);
+  CHECK(at_centre == Approx(step_db).margin(1.0));
+  if (const double at = d.parameter("corner_hz"); std::isfinite(at)) {
+    CHECK(at >= corner / 1.13 - kSpeeds.back());
+    CHECK(at <= corner * 1.13 + kSpeeds.back());
   }
 }
 

@@ -1232,36 +1232,70 @@ FeatureDescriber::Fit FeatureDescriber::tones(const GapFeature& f, const Window&
 }
 
 FeatureDescription FeatureDescriber::describe_floor(const GapFeature& f) const {
-  std::vector<double> x, y;  // log10(band centre / 1 kHz), g
+  struct Band {
+    double x, y, middle;  // log10(geometric centre / 1 kHz), g, arithmetic centre (its median bin), Hz
+  };
+  std::vector<Band> bands;
   for (const auto& floors : floors_)
     for (std::size_t b = 0; b < floors.bands.size(); ++b) {
       const double centre = std::sqrt(floors.bands[b].hz_low * floors.bands[b].hz_high);
-      if (centre >= f.hz_low && centre <= f.hz_high) x.push_back(std::log10(centre / 1000.0)), y.push_back(floors.gap_db(b));
+      if (centre >= f.hz_low && centre <= f.hz_high)
+        bands.push_back({std::log10(centre / 1000.0), floors.gap_db(b), 0.5 * (floors.bands[b].hz_low + floors.bands[b].hz_high)});
     }
   FeatureDescription none;
-  if (x.empty()) return none;
-  // A slope needs a span: over less than an octave it trades off with the level (a single band's
-  // line would be any line), so there the change is a level alone.
-  const double span = *std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end());
-  auto [level, slope] = line_fit(x, y);
-  if (span < std::log10(2.0)) level = std::accumulate(y.begin(), y.end(), 0.0) / static_cast<double>(y.size()), slope = 0;
-  double gap_sq = 0, rss = 0, core_sq = 0;
+  if (bands.empty()) return none;
+  // A change that begins at a corner inside the extent (a step): a band's floor is the median of
+  // its bins, so a band reads the change when its median bin (its middle in Hz) lies above the
+  // corner, and hardly at all when under it, whatever share of its upper bins the change covers.
+  // The corner is tried under each band's middle, lowest first (under all of them: the change over
+  // the whole extent); the bands under it are predicted unchanged.
+  std::sort(bands.begin(), bands.end(), [](const Band& a, const Band& b) { return a.middle < b.middle; });
+  struct Line {
+    double level = 0, slope = 0, rss = std::numeric_limits<double>::infinity();
+    std::size_t from = 0;  // the first band the change covers
+  };
+  auto line_from = [&](std::size_t from) {
+    std::vector<double> x, y;
+    for (std::size_t i = from; i < bands.size(); ++i) x.push_back(bands[i].x), y.push_back(bands[i].y);
+    // A slope needs a span: over less than an octave it trades off with the level (a single band's
+    // line would be any line), so there the change is a level alone.
+    const double span = *std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end());
+    Line l;
+    l.from = from;
+    std::tie(l.level, l.slope) = line_fit(x, y);
+    if (span < std::log10(2.0)) l.level = std::accumulate(y.begin(), y.end(), 0.0) / static_cast<double>(y.size()), l.slope = 0;
+    l.rss = 0;
+    for (std::size_t i = 0; i < bands.size(); ++i) {
+      const double d = bands[i].y - (i < from ? 0.0 : l.level + l.slope * bands[i].x);
+      l.rss += d * d;
+    }
+    return l;
+  };
+  // A corner is one more parameter: kept when it lowers the BIC (as the rule of the forms counts it).
+  const double n = static_cast<double>(bands.size()), res2 = settings_.resolution_db * settings_.resolution_db;
+  auto bic = [&](const Line& l) { return n * std::log(std::max(l.rss / n, res2)) + (l.from > 0 ? 3.0 : 2.0) * std::log(n); };
+  Line best = line_from(0);
+  for (std::size_t from = 1; from < bands.size(); ++from)
+    if (bands[from].middle > bands[from - 1].middle)
+      if (Line l = line_from(from); bic(l) < bic(best)) best = l;
+  double gap_sq = 0, core_sq = 0;
   std::size_t core = 0;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    const double d = y[i] - (level + slope * x[i]);
-    gap_sq += y[i] * y[i], rss += d * d;
-    if (std::abs(y[i]) >= settings_.min_feature_db) core_sq += d * d, ++core;
+  for (std::size_t i = 0; i < bands.size(); ++i) {
+    const double d = bands[i].y - (i < best.from ? 0.0 : best.level + best.slope * bands[i].x);
+    gap_sq += bands[i].y * bands[i].y;
+    if (std::abs(bands[i].y) >= settings_.min_feature_db) core_sq += d * d, ++core;
   }
-  const double n = static_cast<double>(x.size());
   none.gap_db = std::sqrt(gap_sq / n);
   // The rule as for the other forms: the line must bring the bands at the practical minimum under it.
   if (core == 0 || !(std::sqrt(core_sq / static_cast<double>(core)) < settings_.min_feature_db)) return none;
   FeatureDescription d;
   d.kind = DescriptionKind::floor_change;
-  d.parameters = {{"level_db", level}, {"slope_db_per_decade", slope}};
+  d.parameters = {{"level_db", best.level}, {"slope_db_per_decade", best.slope}};
+  // The corner lies between the middles of the last band under it and the first over it.
+  if (best.from > 0) d.parameters.emplace_back("corner_hz", std::sqrt(bands[best.from - 1].middle * bands[best.from].middle));
   if (const double psd = white_floor_psd(f); std::isfinite(psd)) d.parameters.emplace_back("white_psd_m2_s4_per_hz", psd);
   d.gap_db = none.gap_db;
-  d.residual_db = std::sqrt(rss / n);
+  d.residual_db = std::sqrt(best.rss / n);
   return d;
 }
 

@@ -225,6 +225,33 @@ FeatureMovement movement_of(const std::vector<FeatureSighting>& seen, double min
   return orders_hold ? FeatureMovement::undetermined : FeatureMovement::neither;
 }
 
+/// The movement of a feature of several pieces (pieces_of: its peaks in each record), such as tones
+/// at 60, 120 and 180 Hz, each with its leakage, joined where one's leakage comes within a bin of
+/// the next one's. Its |g|-weighted centre follows whichever piece weighs most at each speed (a
+/// tone that falls on a line at one speed has no leakage there), so movement_of reads it as moving
+/// with neither. Each piece stands where its own cause is: when every piece has a piece within one
+/// bin in Hz (one input order at the faster speed) in every sighting at a speed min_speed_ratio
+/// apart, and not so within one order, the pieces are fixed in Hz; and the converse.
+FeatureMovement movement_of_pieces(const std::vector<FeatureFinder::Piece>& pieces, double min_speed_ratio) {
+  bool hz_holds = true, orders_hold = true, compared = false;
+  for (const auto& a : pieces)
+    for (const auto& b : pieces) {
+      if (std::max(a.speed_hz, b.speed_hz) < min_speed_ratio * std::min(a.speed_hz, b.speed_hz)) continue;
+      bool in_hz = false, in_orders = false;  // a has a piece of b's sighting beside it
+      for (const auto& c : pieces) {
+        if (c.speed_hz != b.speed_hz) continue;
+        in_hz = in_hz || std::abs(c.hz - a.hz) <= std::max(a.speed_hz, c.speed_hz);
+        in_orders = in_orders || std::abs(c.order - a.order) <= 1.0;
+      }
+      hz_holds = hz_holds && in_hz, orders_hold = orders_hold && in_orders, compared = true;
+      if (!hz_holds && !orders_hold) return FeatureMovement::neither;  // a broad feature's many peaks: at once
+    }
+  if (!compared) return FeatureMovement::undetermined;
+  if (hz_holds && !orders_hold) return FeatureMovement::fixed_in_hz;
+  if (orders_hold && !hz_holds) return FeatureMovement::fixed_in_orders;
+  return FeatureMovement::neither;
+}
+
 }  // namespace
 
 std::vector<std::vector<std::size_t>> FeatureFinder::join_clusters(const std::vector<Cluster>& clusters) const {
@@ -317,6 +344,28 @@ std::vector<GapFeature> FeatureFinder::layer_features(bool floor_layer) const {
   return out;
 }
 
+std::vector<FeatureFinder::Piece> FeatureFinder::pieces_of(const std::vector<Cluster>& clusters, const std::vector<std::size_t>& group) const {
+  std::vector<Piece> out;
+  for (std::size_t r = 0; r < records_.size(); ++r) {
+    std::vector<const Cell*> cells;
+    for (std::size_t b : group)
+      if (clusters[b].record == r)
+        for (std::size_t c : clusters[b].cells) cells.push_back(&records_[r].cells[c]);
+    std::sort(cells.begin(), cells.end(), [](const Cell* a, const Cell* b) { return a->centre < b->centre; });
+    // A peak: no cell of the feature within one order of it stands higher (the bins a tone's
+    // leakage spreads over fall away from it on both sides).
+    std::size_t lo = 0;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+      while (cells[lo]->centre < cells[i]->centre - 1.0) ++lo;
+      bool peak = true;
+      for (std::size_t j = lo; j < cells.size() && cells[j]->centre <= cells[i]->centre + 1.0 && peak; ++j)
+        peak = j == i || std::abs(cells[j]->g) <= std::abs(cells[i]->g);
+      if (peak) out.push_back({records_[r].speed_hz, cells[i]->centre, cells[i]->centre * records_[r].speed_hz});
+    }
+  }
+  return out;
+}
+
 GapFeature FeatureFinder::feature_of(const std::vector<Cluster>& clusters, const std::vector<std::size_t>& group,
                                      const std::vector<std::vector<double>>& cell_p) const {
   const double z = normal_quantile(settings_.coverage);
@@ -353,6 +402,11 @@ GapFeature FeatureFinder::feature_of(const std::vector<Cluster>& clusters, const
   const double half = z * std::sqrt(variance) / n;
   f.size_interval_db = {f.size_db - half, f.size_db + half};
   f.movement = movement_of(f.seen_in, settings_.min_speed_ratio);
+  // A feature of several pieces is read piece by piece when its centres move with neither.
+  if (f.movement == FeatureMovement::neither) {
+    const auto pieces = pieces_of(clusters, group);
+    if (pieces.size() > f.seen_in.size()) f.movement = movement_of_pieces(pieces, settings_.min_speed_ratio);
+  }
   f.shaft = peak_kind == CellKind::output_line ? FeatureShaft::output : FeatureShaft::input;
   const double to_shaft = f.shaft == FeatureShaft::output ? 1.0 / ratio : 1.0;
   f.order *= to_shaft;

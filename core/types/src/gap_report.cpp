@@ -190,7 +190,8 @@ std::string describe(const FeatureDescription& d) {
     case DescriptionKind::fixed_tone: return tone_words(d);
     case DescriptionKind::floor_change:
       return format("a broadband floor change of %+.1f dB at 1 kHz, %+.1f dB/decade", d.parameter("level_db"),
-                    d.parameter("slope_db_per_decade"));
+                    d.parameter("slope_db_per_decade")) +
+             (std::isfinite(d.parameter("corner_hz")) ? format(" above %.0f Hz", d.parameter("corner_hz")) : std::string());
     case DescriptionKind::path_tilt:
       return format("a transfer-path tilt of %+.2f dB/octave over the mesh harmonics (%+.1f dB at the first)",
                     d.parameter("tilt_db_per_octave"), d.parameter("level_db"));

@@ -110,6 +110,11 @@ class FeatureFinder {
   /// Cells rejected by Benjamini–Hochberg (before the practical minimum), for tests.
   std::size_t rejected_cells() const;
 
+  /// A peak of a feature in one record (a cell no cell of the feature within one order of it
+  /// stands over), where it stands: a piece of the feature's movement (movement_of_pieces).
+  struct Piece {
+    double speed_hz, order, hz;
+  };
   enum class CellKind : std::uint8_t { input_line, output_line, broadband, floor_band };
   struct Cell {
     CellKind kind;
@@ -135,6 +140,7 @@ class FeatureFinder {
     double low, high;
   };
   std::vector<GapFeature> layer_features(bool floor_bands) const;
+  std::vector<Piece> pieces_of(const std::vector<Cluster>& clusters, const std::vector<std::size_t>& group) const;
   GapFeature feature_of(const std::vector<Cluster>& clusters, const std::vector<std::size_t>& group,
                         const std::vector<std::vector<double>>& cell_p) const;
   /// The clusters joined into features: repeatedly, of the groups of clusters whose extents overlap
