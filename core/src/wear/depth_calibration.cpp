@@ -40,14 +40,14 @@ LogPosterior shape_range_prior(double shape_ratio, double log_sd, double coverag
 }
 
 LogPosterior depth_ratio_posterior(const LogPosterior& prior, std::vector<DepthRatioMeasurement> measurements, double q_per_cycle,
-                                   double now) {
+                                   double now, double gate_sd) {
   if (measurements.empty()) return {};
   std::stable_sort(measurements.begin(), measurements.end(),
                    [](const DepthRatioMeasurement& a, const DepthRatioMeasurement& b) { return a.cycles < b.cycles; });
   LogPosterior p = prior;
   p.valid = true;
   p.cycles = measurements.front().cycles;
-  for (const DepthRatioMeasurement& m : measurements) p = conjugate_update(predict(p, m.cycles, q_per_cycle), m.log_ratio, m.var);
+  for (const DepthRatioMeasurement& m : measurements) p = filter_update(predict(p, m.cycles, q_per_cycle), m.log_ratio, m.var, gate_sd).posterior;
   return predict(p, now, q_per_cycle);
 }
 
@@ -175,14 +175,14 @@ CarriedDepth rate_carried_depth(double model_at_b, double x_b_mean, double x_b_v
 }
 
 double posterior_weight(const LogPosterior& prior, const std::vector<DepthRatioMeasurement>& points, double q_per_cycle,
-                        double now, std::int64_t inspection_id) {
+                        double now, std::int64_t inspection_id, double gate_sd) {
   std::vector<DepthRatioMeasurement> moved = points;
   bool found = false;
   const double h = 1e-3;
   for (DepthRatioMeasurement& m : moved)
     if (m.inspection_id == inspection_id) m.log_ratio += h, found = true;
   if (!found) return 0.0;
-  return (depth_ratio_posterior(prior, moved, q_per_cycle, now).mean - depth_ratio_posterior(prior, points, q_per_cycle, now).mean) / h;
+  return (depth_ratio_posterior(prior, moved, q_per_cycle, now, gate_sd).mean - depth_ratio_posterior(prior, points, q_per_cycle, now, gate_sd).mean) / h;
 }
 
 namespace {

@@ -1244,7 +1244,8 @@ LogPosterior TwinModel::peak_ratio_now(double model_peak) const {
   // The prior spans the profile-shape term's range: the model's own peak ratio to the
   // concentrated shape's (profile_shape.hpp).
   const LogPosterior prior = peak_ratio_prior(model_peak, memory_.shape_peak_ratio, kNominalCoverage, settings_.prior_log_k_wear_sd);
-  return depth_ratio_posterior(prior, memory_.peak_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
+  return depth_ratio_posterior(prior, memory_.peak_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles,
+                               settings_.innovation_gate_sd);
 }
 
 LogPosterior TwinModel::depth_ratio_prior() const {
@@ -1256,7 +1257,11 @@ LogPosterior TwinModel::depth_ratio_prior() const {
 
 LogPosterior TwinModel::depth_ratio_now() const {
   if (memory_.depth_ratio_points.empty()) return {};
-  return depth_ratio_posterior(depth_ratio_prior(), memory_.depth_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles);
+  // The prior is the shape range, a range and not a distribution of the truth: an inspection far
+  // outside it widens it by the innovation rule (depth_ratio_posterior's gate) instead of being
+  // pulled back toward the model's RMS_SA-derived depth.
+  return depth_ratio_posterior(depth_ratio_prior(), memory_.depth_ratio_points, settings_.log_k_q_per_cycle(), memory_.current.state.cycles,
+                               settings_.innovation_gate_sd);
 }
 
 namespace {
@@ -1270,11 +1275,11 @@ std::vector<KStretch> k_wear_stretches(const std::vector<LifeInterval>& interval
 // The level's posterior at `at` and the rate reading share the two inspections' errors: the
 // covariance is Σ (the level's weight on z_i) var_i (∂κ/∂z_i).
 double level_rate_covariance(const LogPosterior& prior, const std::vector<DepthRatioMeasurement>& points, double q,
-                             double at, const RateReading& rate) {
+                             double at, const RateReading& rate, double gate_sd) {
   double cov = 0;
   for (const DepthRatioMeasurement& m : points) {
     const double dk = m.inspection_id == rate.to_id ? rate.dk_dz_to : m.inspection_id == rate.from_id ? rate.dk_dz_from : 0.0;
-    if (dk != 0.0) cov += posterior_weight(prior, points, q, at, m.inspection_id) * m.var * dk;
+    if (dk != 0.0) cov += posterior_weight(prior, points, q, at, m.inspection_id, gate_sd) * m.var * dk;
   }
   return cov;
 }
@@ -1304,8 +1309,9 @@ CarriedDepth TwinModel::carried_depth_now() const {
   const RateReading y = rate_at_pace(raw, cycle_mean_k(stretches, raw.from_cycles, raw.to_cycles), cycle_mean_k(stretches, b->cycles, now));
   const LogPosterior prior = depth_ratio_prior();
   const double q = settings_.log_k_q_per_cycle();
-  const LogPosterior x_b = depth_ratio_posterior(prior, points, q, b->cycles);
-  const double cov = level_rate_covariance(prior, points, q, b->cycles, raw);
+  const double gate = settings_.innovation_gate_sd;
+  const LogPosterior x_b = depth_ratio_posterior(prior, points, q, b->cycles, gate);
+  const double cov = level_rate_covariance(prior, points, q, b->cycles, raw, gate);
   // The rate walks as ln K does from the newest inspection on (the level's own walk, docs/model.md).
   return rate_carried_depth(b->model_m, x_b.mean, x_b.var, y.log_mean, y.var, cov, q * (now - b->cycles),
                             summarise(memory_.current.state).combined_mean_depth_m, kNominalCoverage);
@@ -1318,7 +1324,7 @@ std::optional<LevelRate> TwinModel::level_and_rate(const LogPosterior& p, const 
   if (!rate.valid) return std::nullopt;
   const LogPosterior prior = depth_ratio_prior();
   const double q = settings_.log_k_q_per_cycle(), now = memory_.current.state.cycles;
-  const double cov = level_rate_covariance(prior, points, q, now, rate);
+  const double cov = level_rate_covariance(prior, points, q, now, rate, settings_.innovation_gate_sd);
   // The level stays ρ's on the model's path, not the depth carried by the rate: a rate read over a
   // short baseline between two inspections would then move every crossing with its noise.
   LevelRate j{p.mean, p.var, rate.log_mean, rate.var, cov};

@@ -8,6 +8,7 @@
 // relative SD, and ln ρ walks randomly between them (the model's depth path between inspections
 // follows its K_wear, whose random walk is the one of ln K). Pure functions on numbers.
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "gearwatch/wear/forecast_intervals.hpp"
@@ -41,8 +42,11 @@ LogPosterior shape_range_prior(double shape_ratio, double log_sd, double coverag
 /// The posterior of ln ρ at `now`: from the prior (taken at the first measurement's cycles), each
 /// measurement in cycle order by the conjugate update after the random walk to its cycles, then
 /// the walk to `now` (q: variance per cycle). No measurements: the prior unchanged (valid false).
+/// `gate_sd` (finite): a reading whose innovation lies beyond that many SDs of var + r says the
+/// prior misplaced ln ρ (the shape range is a range, not a distribution): its variance is raised
+/// to the innovation² − r first (filter_update, the rule K_wear's belief uses).
 LogPosterior depth_ratio_posterior(const LogPosterior& prior, std::vector<DepthRatioMeasurement> measurements, double q_per_cycle,
-                                   double now);
+                                   double now, double gate_sd = std::numeric_limits<double>::infinity());
 
 /// The combined mean depth's estimate and interval from the model's mean and the posterior of
 /// ln ρ: the median mean e^μ, the interval mean e^(μ ± z sd) at `coverage`.
@@ -124,9 +128,9 @@ RateReading rate_at_pace(RateReading r, double k_path, double k_now);
 RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points);
 
 /// ∂μ/∂z_i of depth_ratio_posterior's mean at `now` for the reading with `inspection_id` (the
-/// posterior mean is linear in the readings: the weight the level gives that reading).
+/// posterior mean is linear in the readings inside the gate: the weight the level gives that reading).
 double posterior_weight(const LogPosterior& prior, const std::vector<DepthRatioMeasurement>& points, double q_per_cycle,
-                        double now, std::int64_t inspection_id);
+                        double now, std::int64_t inspection_id, double gate_sd = std::numeric_limits<double>::infinity());
 
 /// The truth's level and rate against the model's path, jointly normal: x = ln(truth / model) of
 /// the depth now, y = ln of the factor the truth's future increments are the model's times.
