@@ -598,97 +598,129 @@ FeatureDescriber::Prediction FeatureDescriber::twin_elsewhere(std::vector<std::v
   };
 }
 
-FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Window& w) const {
-  // RSS of g over the window for (f_n, ζ, G dB). The search evaluates it thousands of times: the
-  // measured side's g is fixed, and the band-pass depends on (f_n, ζ) alone, so both are computed
-  // once (per window, per (f_n, ζ)) and each evaluation is the same sum on the same values.
-  // The cells' twin power, floor, twin + floor and Hz are laid out side by side for that sum (the
-  // same operations as g_of on the model's power, so the same values).
-  std::vector<double> g_measured(w.size()), pass(w.size()), twin(w.size()), floor(w.size()), below(w.size()), hz(w.size());
-  for (std::size_t e = 0; e < w.size(); ++e) {
-    const auto [r, i] = w[e];
-    const Cell& c = records_[r].cells[i];
-    g_measured[e] = g_of(r, i, c.measured);
-    twin[e] = c.twin, floor[e] = records_[r].floor, below[e] = c.twin + records_[r].floor, hz[e] = c.hz;
-  }
-  double pass_fn = kNaN, pass_zeta = kNaN;
-  auto set_pass = [&](double fn, double zeta) {
-    if (!(fn == pass_fn && zeta == pass_zeta)) {
-      for (std::size_t e = 0; e < w.size(); ++e) pass[e] = band_pass(hz[e], fn, zeta);
-      pass_fn = fn, pass_zeta = zeta;
-    }
+namespace {
+
+/// The resonance form's search over (f_n, ζ, G dB) on a window's cells: a grid over f_n in the
+/// feature's band and ζ from 0.002 to 0.3 (log), the gain by golden section at each point, then a
+/// pattern search around the best. The RSS of g is evaluated thousands of times: the measured side's
+/// g is fixed and the band-pass depends on (f_n, ζ) alone, so both are computed once (per window,
+/// per (f_n, ζ)) and each evaluation is the same sum on the same values. The cells' twin power,
+/// floor, twin + floor and Hz are laid out side by side for that sum (the same operations as g_of
+/// on the model's power, so the same values).
+class ResonanceSearch {
+ public:
+  struct Cells {
+    std::vector<double> g_measured, twin, floor, hz;
   };
+  struct Best {
+    double fn, zeta, gain_db;
+  };
+  explicit ResonanceSearch(Cells cells) : c_(std::move(cells)), pass_(c_.hz.size()), below_(c_.hz.size()) {
+    for (std::size_t e = 0; e < below_.size(); ++e) below_[e] = c_.twin[e] + c_.floor[e];
+  }
+
+  Best run(double lo, double hi, double start_fn) {
+    bf_ = start_fn;
+    constexpr int kF = 24, kZeta = 12;
+    for (int i = 0; i <= kF; ++i)
+      for (int j = 0; j <= kZeta; ++j)
+        try_point(lo + (hi - lo) * i / kF, 0.002 * std::pow(150.0, static_cast<double>(j) / kZeta));
+    double step_f = (hi - lo) / kF, step_lz = std::log(150.0) / kZeta;
+    for (int it = 0; it < 30; ++it) {
+      bool moved = false;
+      for (const auto& [df, dlz] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}}) {
+        // Each step from the best as it stands when the step is taken (the best moves within a round).
+        const double fn = bf_ + df * step_f, zeta = bz_ * std::exp(dlz * step_lz);
+        if (!(fn > 0) || zeta < 1e-4 || zeta > 1) continue;
+        moved = try_point(fn, zeta) || moved;
+      }
+      if (!moved) step_f /= 2, step_lz /= 2;
+    }
+    return {bf_, bz_, bg_};
+  }
+
+ private:
+  static constexpr double kGainLow = -30, kGainHigh = 40;
+
+  // Whether (f_n, ζ) beats the best so far; it then becomes the best.
+  bool try_point(double fn, double zeta) {
+    double v = 0;
+    const double g = best_gain_once(fn, zeta, v);
+    if (!(v < best_)) return false;
+    best_ = v, bf_ = fn, bz_ = zeta, bg_ = g;
+    return true;
+  }
+  void set_pass(double fn, double zeta) {
+    if (fn == pass_fn_ && zeta == pass_zeta_) return;
+    for (std::size_t e = 0; e < pass_.size(); ++e) pass_[e] = band_pass(c_.hz[e], fn, zeta);
+    pass_fn_ = fn, pass_zeta_ = zeta;
+  }
   // The cell's modelled g for a gain's 10^(G/10) − 1: rising with it (the band-pass is ≥ 0).
-  auto g_model = [&](std::size_t e, double gm1) { return kDbPerNeper * std::log((twin[e] * (1 + gm1 * pass[e]) + floor[e]) / below[e]); };
-  constexpr double kGainLow = -30, kGainHigh = 40;
-  auto rss = [&](double fn, double zeta, double gain_db) {
+  double g_model(std::size_t e, double gm1) const {
+    return kDbPerNeper * std::log((c_.twin[e] * (1 + gm1 * pass_[e]) + c_.floor[e]) / below_[e]);
+  }
+  double rss(double fn, double zeta, double gain_db) {
     set_pass(fn, zeta);
     const double gm1 = std::pow(10.0, gain_db / 10) - 1;
     double s = 0;
-    for (std::size_t e = 0; e < w.size(); ++e) {
-      const double d = g_measured[e] - g_model(e, gm1);
+    for (std::size_t e = 0; e < pass_.size(); ++e) {
+      const double d = c_.g_measured[e] - g_model(e, gm1);
       s += d * d;
     }
     return s;
-  };
+  }
   // The best gain at (f_n, ζ) and the RSS there (the search's own evaluation of it).
-  auto best_gain = [&](double fn, double zeta, double& v) {
+  double best_gain(double fn, double zeta, double& v) {
     return golden_min([&](double g) { return rss(fn, zeta, g); }, kGainLow, kGainHigh, 20, &v);
-  };
+  }
   // Whether no gain in the search's range can bring (f_n, ζ) under `bound`: each cell's modelled g
   // rises with the gain, so its misfit is at least its distance to the range the gains' ends give
   // it, and the sum of those is under every RSS the gain's search could evaluate. A point that
   // cannot beat the best so far changes nothing in the search, and its gain's search is skipped.
   // The margin keeps the rounding of the two sums (1e-16 relative) from deciding.
-  auto cannot_beat = [&](double fn, double zeta, double bound) {
+  bool cannot_beat(double fn, double zeta, double bound) {
     if (!std::isfinite(bound)) return false;
     set_pass(fn, zeta);
     const double low = std::pow(10.0, kGainLow / 10) - 1, high = std::pow(10.0, kGainHigh / 10) - 1;
     double least = 0;
-    for (std::size_t e = 0; e < w.size(); ++e) {
-      const double gm = g_measured[e], below_end = g_model(e, low), above_end = g_model(e, high);
+    for (std::size_t e = 0; e < pass_.size(); ++e) {
+      const double gm = c_.g_measured[e], below_end = g_model(e, low), above_end = g_model(e, high);
       const double d = gm < below_end ? below_end - gm : gm > above_end ? gm - above_end : 0.0;
       least += d * d;
       if (least * (1 - 1e-9) > bound) return true;
     }
     return false;
-  };
-  double lo = f.hz_low, hi = f.hz_high;
-  if (!(hi > lo) || !(lo > 0)) lo = std::max(1.0, f.hz * 0.9), hi = f.hz * 1.1;
-  // A grid over f_n in the feature's band and ζ from 0.002 to 0.3 (log), the gain by golden section;
-  // then a pattern search around the best.
-  double bf = f.hz, bz = 0.02, bg = 0, best = std::numeric_limits<double>::infinity();
+  }
   // A pattern step back lands on the point just left (or on a grid point), whose (f_n, ζ) give the
   // same gain and RSS: those already searched are looked up (the same numbers, exact keys).
-  std::vector<std::array<double, 4>> searched;  // f_n, ζ, gain, RSS
-  auto best_gain_once = [&](double fn, double zeta, double& v) {
-    for (const auto& s : searched)
+  double best_gain_once(double fn, double zeta, double& v) {
+    for (const auto& s : searched_)
       if (s[0] == fn && s[1] == zeta) return v = s[3], s[2];
-    if (cannot_beat(fn, zeta, best)) return v = std::numeric_limits<double>::infinity(), 0.0;
+    if (cannot_beat(fn, zeta, best_)) return v = std::numeric_limits<double>::infinity(), 0.0;
     const double g = best_gain(fn, zeta, v);
-    searched.push_back({fn, zeta, g, v});
+    searched_.push_back({fn, zeta, g, v});
     return g;
-  };
-  constexpr int kF = 24, kZeta = 12;
-  for (int i = 0; i <= kF; ++i)
-    for (int j = 0; j <= kZeta; ++j) {
-      const double fn = lo + (hi - lo) * i / kF, zeta = 0.002 * std::pow(150.0, static_cast<double>(j) / kZeta);
-      double v = 0;
-      const double g = best_gain_once(fn, zeta, v);
-      if (v < best) best = v, bf = fn, bz = zeta, bg = g;
-    }
-  double step_f = (hi - lo) / kF, step_lz = std::log(150.0) / kZeta;
-  for (int it = 0; it < 30; ++it) {
-    bool moved = false;
-    for (const auto& [df, dlz] : {std::pair{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}}) {
-      const double fn = bf + df * step_f, zeta = bz * std::exp(dlz * step_lz);
-      if (!(fn > 0) || zeta < 1e-4 || zeta > 1) continue;
-      double v = 0;
-      const double g = best_gain_once(fn, zeta, v);
-      if (v < best) best = v, bf = fn, bz = zeta, bg = g, moved = true;
-    }
-    if (!moved) step_f /= 2, step_lz /= 2;
   }
+
+  Cells c_;
+  std::vector<double> pass_, below_;
+  double pass_fn_ = kNaN, pass_zeta_ = kNaN;
+  std::vector<std::array<double, 4>> searched_;  // f_n, ζ, gain, RSS
+  double bf_ = 0, bz_ = 0.02, bg_ = 0, best_ = std::numeric_limits<double>::infinity();
+};
+
+}  // namespace
+
+FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Window& w) const {
+  ResonanceSearch::Cells cells;
+  for (const auto& [r, i] : w) {
+    const Cell& c = records_[r].cells[i];
+    cells.g_measured.push_back(g_of(r, i, c.measured));
+    cells.twin.push_back(c.twin), cells.floor.push_back(records_[r].floor), cells.hz.push_back(c.hz);
+  }
+  double lo = f.hz_low, hi = f.hz_high;
+  if (!(hi > lo) || !(lo > 0)) lo = std::max(1.0, f.hz * 0.9), hi = f.hz * 1.1;
+  const auto [bf, bz, bg] = ResonanceSearch(std::move(cells)).run(lo, hi, f.hz);
   Fit fit;
   fit.description.kind = DescriptionKind::resonance;
   fit.description.parameters = {{"frequency_hz", bf}, {"damping_ratio", bz}, {"gain_db", bg}};
