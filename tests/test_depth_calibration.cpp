@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <random>
 #include <unistd.h>
 #include <vector>
@@ -97,20 +98,19 @@ TEST_CASE("depth calibration: the model's mean at an inspection between records"
   CHECK(model_mean_at(0.5e6, 0.0, 0.0, 2e6, 14e-6) == Approx(3.5e-6).epsilon(1e-12));
 }
 
-TEST_CASE("depth calibration: the 90 % interval holds a truth drawn from the model's own assumptions",
-          "[model][depth_calibration]") {
-  // The truth is the model itself: ln ρ drawn from the prior, walking with q between the readings
-  // and on to now, each reading the true depth times (1 + ε), ε normal with the stated SD.
-  std::mt19937_64 rng(20260);
+namespace {
+// Coverage of the 90 % interval at `now` over `trials` truths whose ln ρ is `start(rng, n01)` and
+// walks with q between the inspections `at` and on to now, each inspection reading the true depth
+// times (1 + ε), ε normal with relative SD 5 %; the posterior gated at `gate` (infinite: no gate).
+template <class Start>
+double ratio_coverage(const LogPosterior& prior, Start start, double gate, int trials, std::uint64_t seed,
+                      const std::vector<double>& at, double now) {
+  std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
-  const double q = std::pow(std::log(2.0), 2) / 1e6, sd = 0.05;
-  const LogPosterior prior = shape_range_prior(1.6, 0.03, 0.90, 4.6);
-  const std::vector<double> at{0.8e6, 1.6e6};
-  const double now = 2.5e6, model_mean = 20e-6;
-  const int trials = 4000;
+  const double q = std::pow(std::log(2.0), 2) / 1e6, sd = 0.05, model_mean = 20e-6;
   int covered = 0;
   for (int t = 0; t < trials; ++t) {
-    double log_rho = prior.mean + std::sqrt(prior.var) * n01(rng), last = at.front();
+    double log_rho = start(rng, n01), last = at.front();
     std::vector<DepthRatioMeasurement> ms;
     for (std::size_t k = 0; k < at.size(); ++k) {
       log_rho += std::sqrt(q * (at[k] - last)) * n01(rng);
@@ -119,12 +119,25 @@ TEST_CASE("depth calibration: the 90 % interval holds a truth drawn from the mod
       ms.push_back(depth_ratio_measurement(static_cast<std::int64_t>(k + 1), at[k], measured, model_mean, sd));
     }
     log_rho += std::sqrt(q * (now - last)) * n01(rng);
-    const CalibratedDepth d = calibrated_depth(model_mean, depth_ratio_posterior(prior, ms, q, now), 0.90);
+    const CalibratedDepth d = calibrated_depth(model_mean, depth_ratio_posterior(prior, ms, q, now, gate), 0.90);
     const double truth = model_mean * std::exp(log_rho);
     if (d.low_m <= truth && truth <= d.high_m) ++covered;
   }
+  return static_cast<double>(covered) / trials;
+}
+}  // namespace
+
+TEST_CASE("depth calibration: the 90 % interval holds a truth drawn from the model's own assumptions",
+          "[model][depth_calibration]") {
+  // The truth is the model itself: ln ρ drawn from the prior, walking with q between the readings
+  // and on to now, each reading the true depth times (1 + ε), ε normal with the stated SD.
+  const LogPosterior prior = shape_range_prior(1.6, 0.03, 0.90, 4.6);
+  const auto from_prior = [&](std::mt19937_64& rng, std::normal_distribution<double>& n01) {
+    return prior.mean + std::sqrt(prior.var) * n01(rng);
+  };
+  const double covered = ratio_coverage(prior, from_prior, std::numeric_limits<double>::infinity(), 4000, 20260, {0.8e6, 1.6e6}, 2.5e6);
   // Binomial SD at 4000 trials: 0.47 %; ±1.5 % is over three SDs.
-  CHECK(static_cast<double>(covered) / trials == Approx(0.90).margin(0.015));
+  CHECK(covered == Approx(0.90).margin(0.015));
 }
 
 TEST_CASE("depth calibration: a reading far outside the prior widens it by the innovation rule",
@@ -148,33 +161,6 @@ TEST_CASE("depth calibration: a reading far outside the prior widens it by the i
   CHECK(depth_ratio_posterior(prior, near, 0.0, 1e6, 3.0).mean == Approx(depth_ratio_posterior(prior, near, 0.0, 1e6).mean).epsilon(1e-15));
 }
 
-namespace {
-// Coverage of the 90 % interval at the record of one inspection (where the prior weighs most) over
-// `trials` truths whose ln ρ is `start(rng)`, read with relative SD 5 %; the posterior gated at `gate`.
-template <class Start>
-double ratio_coverage(const LogPosterior& prior, Start start, double gate, int trials, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> n01(0.0, 1.0);
-  const double q = std::pow(std::log(2.0), 2) / 1e6, sd = 0.05, now = 0.8e6, model_mean = 20e-6;
-  const std::vector<double> at{0.8e6};
-  int covered = 0;
-  for (int t = 0; t < trials; ++t) {
-    double log_rho = start(rng, n01), last = at.front();
-    std::vector<DepthRatioMeasurement> ms;
-    for (std::size_t k = 0; k < at.size(); ++k) {
-      log_rho += std::sqrt(q * (at[k] - last)) * n01(rng);
-      last = at[k];
-      const double measured = model_mean * std::exp(log_rho) * (1.0 + sd * n01(rng));
-      ms.push_back(depth_ratio_measurement(static_cast<std::int64_t>(k + 1), at[k], measured, model_mean, sd));
-    }
-    log_rho += std::sqrt(q * (now - last)) * n01(rng);
-    const CalibratedDepth d = calibrated_depth(model_mean, depth_ratio_posterior(prior, ms, q, now, gate), 0.90);
-    const double truth = model_mean * std::exp(log_rho);
-    if (d.low_m <= truth && truth <= d.high_m) ++covered;
-  }
-  return static_cast<double>(covered) / trials;
-}
-}  // namespace
 
 TEST_CASE("depth calibration: the gated posterior's coverage, truth from the prior and far outside it",
           "[model][depth_calibration]") {
@@ -182,15 +168,15 @@ TEST_CASE("depth calibration: the gated posterior's coverage, truth from the pri
   const double psd = std::sqrt(prior.var);
   // Truth = the model: the gate fires in 0.27 % of readings, coverage stays nominal (±1.5 %: over
   // three binomial SDs at 4000 trials).
-  CHECK(ratio_coverage(prior, [&](std::mt19937_64& g, std::normal_distribution<double>& n) { return psd * n(g); }, 3.0, 4000, 20261) ==
+  CHECK(ratio_coverage(prior, [&](std::mt19937_64& g, std::normal_distribution<double>& n) { return psd * n(g); }, 3.0, 4000, 20261, {0.8e6}, 0.8e6) ==
         Approx(0.90).margin(0.015));
   // The truth's ln ρ 10 prior SDs off (a model form outside the shape range): the gated reading
   // carries the interval; the shrink r / innovation² ≤ 1/9 of the reading's variance costs at most a
   // few points of coverage, so 90 % ± 5 % (ungated: the prior's narrow interval holds none).
   const double far = 10.0 * psd;
-  CHECK(ratio_coverage(prior, [&](std::mt19937_64&, std::normal_distribution<double>&) { return far; }, 3.0, 4000, 20262) ==
+  CHECK(ratio_coverage(prior, [&](std::mt19937_64&, std::normal_distribution<double>&) { return far; }, 3.0, 4000, 20262, {0.8e6}, 0.8e6) ==
         Approx(0.90).margin(0.05));
-  CHECK(ratio_coverage(prior, [&](std::mt19937_64&, std::normal_distribution<double>&) { return -far; }, 3.0, 4000, 20263) ==
+  CHECK(ratio_coverage(prior, [&](std::mt19937_64&, std::normal_distribution<double>&) { return -far; }, 3.0, 4000, 20263, {0.8e6}, 0.8e6) ==
         Approx(0.90).margin(0.05));
 }
 

@@ -544,6 +544,13 @@ FloorCase floor_case(double fs, double sigma, double band_sigma, double band_low
   return c;
 }
 
+/// The case's records as the describer takes them (no windows, no twin re-runs).
+std::vector<DescribedRecord> described_records(const FloorCase& c) {
+  std::vector<DescribedRecord> described;
+  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+  return described;
+}
+
 }  // namespace
 
 TEST_CASE("gap features: a broadband floor step under the comparison's floor is a floor feature described with its level",
@@ -572,8 +579,7 @@ TEST_CASE("gap features: a broadband floor step under the comparison's floor is 
   CHECK(f.size_db >= step_db - 1.0);
   // Described: a floor change, its level at the feature's centre within 1 dB of the step (the bands
   // astride the corner pull the line by a fraction of a dB), nearly flat.
-  std::vector<DescribedRecord> described;
-  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+  const std::vector<DescribedRecord> described = described_records(c);
   const auto d = FeatureDescriber(described, GearPairSpec{}).describe_floor(f);
   INFO(to_string(d.kind) << ": " << describe(d));
   REQUIRE(d.kind == DescriptionKind::floor_change);
@@ -721,8 +727,7 @@ TEST_CASE("gap features: a 25 dB floor step is described with its level though t
   INFO("floors:\n" << descriptions(floors));
   REQUIRE(floors.size() == 1);
   const auto& f = floors.front();
-  std::vector<DescribedRecord> described;
-  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+  const std::vector<DescribedRecord> described = described_records(c);
   const auto d = FeatureDescriber(described, GearPairSpec{}).describe_floor(f);
   INFO(to_string(d.kind) << ": " << describe(d));
   REQUIRE(d.kind == DescriptionKind::floor_change);
@@ -748,8 +753,7 @@ TEST_CASE("gap features: a floor change white noise cannot explain is not attrib
   REQUIRE(floors.size() == 1);
   GapFeature f = floors.front();
   f.hz_low = corner / 2;
-  std::vector<DescribedRecord> described;
-  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+  const std::vector<DescribedRecord> described = described_records(c);
   const FeatureDescriber describer(described, GearPairSpec{});
   CHECK(std::isnan(describer.white_floor_psd(f)));
   f.description.kind = DescriptionKind::floor_change;
