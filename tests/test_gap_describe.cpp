@@ -154,6 +154,12 @@ Record tone_record(double fs, double speed, int revs, const std::vector<Tone>& t
 
 /// The twin's lines in a record: mesh harmonics 1, 0.5, 0.33 and shaft orders 1-3 at 0.05.
 std::vector<Tone> twin_tones() { return {{19, 1.0}, {38, 0.5}, {57, 0.33}, {1, 0.05}, {2, 0.05}, {3, 0.05}}; }
+/// The amplitude of a tone `db` under the twin's RMS (the generator's level for its tones).
+double amplitude_under_twin_rms(double db) {
+  double rms2 = 0;
+  for (const auto& t : twin_tones()) rms2 += t.amplitude * t.amplitude / 2;
+  return std::sqrt(2 * rms2) * std::pow(10.0, db / 20);
+}
 
 /// Record pairs through RecordSpectra (the measurement pipeline), summaries and complex lines.
 std::vector<Pair> pairs_from_records(double fs, const std::vector<Tone>& extra) {
@@ -932,9 +938,7 @@ TEST_CASE("gap describe: a strong ghost beside a mesh harmonic, on a rounded cap
   // twin holds: the tone's larger share there cannot be read, and the input lines alone read the
   // tone on the wrong side of line 37 (36.79); the gear shaft's lines beside it (37.27, 37.63) read it.
   const double fs = 10240, lsb = 0.01, order = 37.37;
-  double rms2 = 0;
-  for (const auto& t : twin_tones()) rms2 += t.amplitude * t.amplitude / 2;
-  const double amplitude = std::sqrt(2 * rms2) * std::pow(10.0, -15.0 / 20);
+  const double amplitude = amplitude_under_twin_rms(-15.0);
   const auto pairs = rounded_pairs(fs, lsb, [&](double speed, std::size_t n) {
     std::vector<double> v(n);
     for (std::size_t i = 0; i < n; ++i) v[i] = amplitude * std::cos(2 * std::numbers::pi * order * speed * static_cast<double>(i) / fs + 1.1);
@@ -979,9 +983,7 @@ TEST_CASE("gap describe: strong tones in a record longer than the twin's are rea
   // independent bench (one feature fixed in Hz over 9–180 Hz), and a ghost at input order 37.37
   // beside the second mesh harmonic (a feature fixed in orders over 33–43, centred 37.555).
   const double fs = 10240;
-  double rms2 = 0;
-  for (const auto& t : twin_tones()) rms2 += t.amplitude * t.amplitude / 2;
-  const double a = std::sqrt(2 * rms2) * std::pow(10.0, -15.0 / 20);
+  const double a = amplitude_under_twin_rms(-15.0);
   SECTION("supply tones") {
     const std::vector<Tone> tones{{50, a, true}, {100, a / 2, true}, {150, a / 4, true}};
     const auto pairs = pairs_of_lengths(fs, 2.4, 1.95, tones);
@@ -1050,9 +1052,7 @@ TEST_CASE("gap describe: supply tones found by the finder at four speeds are sup
   // a bin in Hz of the next one's and the finder joins the three into one feature, whose |g|-weighted
   // centre follows whichever tone weighs most at each speed.
   const double fs = 10240;
-  double rms2 = 0;
-  for (const auto& t : twin_tones()) rms2 += t.amplitude * t.amplitude / 2;
-  const double a = std::sqrt(2 * rms2) * std::pow(10.0, -20.0 / 20);
+  const double a = amplitude_under_twin_rms(-20.0);
   for (const double supply : {60.0, 50.0}) {
     const std::vector<Tone> tones{{supply, a, true}, {2 * supply, a / 2, true}, {3 * supply, a / 4, true}};
     std::mt19937_64 rng(65);

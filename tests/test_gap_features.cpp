@@ -544,6 +544,19 @@ FloorCase floor_case(double fs, double sigma, double band_sigma, double band_low
   return c;
 }
 
+/// The floor feature's description, which must be a floor change.
+FeatureDescription floor_description(const std::vector<DescribedRecord>& described, const GapFeature& f) {
+  const auto d = FeatureDescriber(described, GearPairSpec{}).describe_floor(f);
+  INFO(to_string(d.kind) << ": " << describe(d));
+  REQUIRE(d.kind == DescriptionKind::floor_change);
+  return d;
+}
+
+/// A floor change's level at `hz`: its level at 1 kHz plus its slope per decade.
+double level_at(const FeatureDescription& d, double hz) {
+  return d.parameter("level_db") + d.parameter("slope_db_per_decade") * std::log10(hz / 1000);
+}
+
 /// The case's records as the describer takes them (no windows, no twin re-runs).
 std::vector<DescribedRecord> described_records(const FloorCase& c) {
   std::vector<DescribedRecord> described;
@@ -580,10 +593,8 @@ TEST_CASE("gap features: a broadband floor step under the comparison's floor is 
   // Described: a floor change, its level at the feature's centre within 1 dB of the step (the bands
   // astride the corner pull the line by a fraction of a dB), nearly flat.
   const std::vector<DescribedRecord> described = described_records(c);
-  const auto d = FeatureDescriber(described, GearPairSpec{}).describe_floor(f);
-  INFO(to_string(d.kind) << ": " << describe(d));
-  REQUIRE(d.kind == DescriptionKind::floor_change);
-  const double at_centre = d.parameter("level_db") + d.parameter("slope_db_per_decade") * std::log10(f.hz / 1000);
+  const auto d = floor_description(described, f);
+  const double at_centre = level_at(d, f.hz);
   CHECK(at_centre == Approx(step_db).margin(1.0));
   CHECK(std::abs(d.parameter("slope_db_per_decade")) < 3.0);  // under 1.5 dB across the half decade the step spans
   // Attributed from the feature itself: white noise added over its bands (the noise_floor
@@ -728,13 +739,11 @@ TEST_CASE("gap features: a 25 dB floor step is described with its level though t
   REQUIRE(floors.size() == 1);
   const auto& f = floors.front();
   const std::vector<DescribedRecord> described = described_records(c);
-  const auto d = FeatureDescriber(described, GearPairSpec{}).describe_floor(f);
-  INFO(to_string(d.kind) << ": " << describe(d));
-  REQUIRE(d.kind == DescriptionKind::floor_change);
+  const auto d = floor_description(described, f);
   // Stated before the run: the level at the feature's centre within 1 dB of the step, as the 10 dB
   // step's; when a corner is fitted, within a band (1/6 octave, 12 %) and one bin of the fastest
   // record of the step's.
-  const double at_centre = d.parameter("level_db") + d.parameter("slope_db_per_decade") * std::log10(f.hz / 1000);
+  const double at_centre = level_at(d, f.hz);
   CHECK(at_centre == Approx(step_db).margin(1.0));
   if (const double at = d.parameter("corner_hz"); std::isfinite(at)) {
     CHECK(at >= corner / 1.13 - kSpeeds.back());
