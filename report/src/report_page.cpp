@@ -27,7 +27,7 @@ std::string format_number(double v, int significant = 4) {
 }
 
 // Cycle counts are integers in practice; keep them whole and grouped for reading.
-std::string format_cycles(double cycles) {
+std::string grouped_cycles(double cycles) {
   if (!std::isfinite(cycles)) return "—";
   if (std::abs(cycles) >= 1e15 || cycles != std::floor(cycles)) return format_number(cycles, 8);
   std::string digits = std::to_string(static_cast<long long>(cycles));
@@ -306,7 +306,7 @@ bool inspection_in_gear_pair(const ReportData& data, const InspectionRow& i) {
 }
 
 std::string inspection_title(const InspectionRow& i) {
-  std::string t = "inspection " + std::to_string(i.id) + " at " + format_cycles(i.cycles) + " input revolutions";
+  std::string t = "inspection " + std::to_string(i.id) + " at " + grouped_cycles(i.cycles) + " input revolutions";
   if (i.pitted_area_fraction) t += ", pitted area " + format_number(*i.pitted_area_fraction * 100, 3) + " %";
   if (i.wear_depth_m) t += ", wear depth " + format_number(*i.wear_depth_m * 1e6, 3) + " µm";
   if (!i.note.empty()) t += " — " + i.note;
@@ -328,7 +328,7 @@ std::optional<SvgPlot> make_trend_plot(const ReportData& data, const PlotFamily&
       const auto v = found->second.find(r.id);
       PlotPoint p{*r.cycles, v == found->second.end() ? kNaN : v->second, {}};
       if (v != found->second.end()) {
-        p.title = "record " + std::to_string(r.id) + " · " + r.created_at + " · " + format_cycles(*r.cycles) + " input revolutions · " +
+        p.title = "record " + std::to_string(r.id) + " · " + r.created_at + " · " + grouped_cycles(*r.cycles) + " input revolutions · " +
                   name + " = " + format_number(v->second, 5);
         ys.push_back(v->second);
       }
@@ -480,7 +480,7 @@ void render_header(const ReportData& d, std::string& h) {
       if (r.cycles) newest_with_cycles = &r;
     h += "#" + std::to_string(d.gear_pair_number) + " since the database began";
     if (newest_with_cycles)
-      h += " — <strong>" + html_escape(format_cycles(*newest_with_cycles->cycles)) + " input revolutions</strong> now (record " +
+      h += " — <strong>" + html_escape(grouped_cycles(*newest_with_cycles->cycles)) + " input revolutions</strong> now (record " +
            std::to_string(newest_with_cycles->id) + ", " + html_escape(newest_with_cycles->created_at) + ")";
     else
       h += " — no cycle count (no life counter in the stream)";
@@ -498,7 +498,7 @@ void render_header(const ReportData& d, std::string& h) {
     h += "<span class=\"badge verdict-" + mechanism + "\" title=\"" + html_escape(v.evidence) + "\">" +
          html_escape(channel_label(d, v.channel)) + ": <strong>" + mechanism + "</strong> <span class=\"muted\">(" +
          std::to_string(v.points) + " points, record " + std::to_string(v.record_id) +
-         (v.cycles ? ", " + html_escape(format_cycles(*v.cycles)) + " rev" : std::string{}) + ")</span></span>";
+         (v.cycles ? ", " + html_escape(grouped_cycles(*v.cycles)) + " rev" : std::string{}) + ")</span></span>";
   }
   h += "</div>\n";
   render_cannot_see(d, h);
@@ -695,7 +695,7 @@ void render_inspections(const ReportData& d, std::string& h) {
   h += "<table class=\"inspections\">\n<thead><tr><th>entered (UTC)</th><th>input revolutions</th><th>pitted area</th>"
        "<th>wear depth</th><th>note</th></tr></thead>\n<tbody>\n";
   for (const auto& i : d.inspections) {
-    h += "<tr class=\"inspection-row\">" + td(i.entered_at, "time") + td(format_cycles(i.cycles), "num") +
+    h += "<tr class=\"inspection-row\">" + td(i.entered_at, "time") + td(grouped_cycles(i.cycles), "num") +
          td(i.pitted_area_fraction ? format_number(*i.pitted_area_fraction * 100, 3) + " %" : "—", "num") +
          td(i.wear_depth_m ? format_number(*i.wear_depth_m * 1e6, 3) + " µm" : "—", "num") + td(i.note) + "</tr>\n";
   }

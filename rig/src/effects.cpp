@@ -2,13 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <sstream>
 
 #include "random.hpp"
 
 namespace gearwatch::rig {
 namespace {
-constexpr double kTwoPi = 6.283185307179586;
+// A phase spans one turn.
+constexpr double kFullTurnRad = 2.0 * std::numbers::pi;
 
 std::string format_value(double v) {
   std::ostringstream o;
@@ -64,10 +66,10 @@ const std::vector<EffectParameter>& effect_parameter_table() {
        "RMS of the per-tooth profile slope deviation (tip relative to root), both gears"},
       {E::eccentricity, "eccentricity.pinion_um", "um", 0, 40, 10, false,
        "eccentricity of the pinion (input) shaft: run-out along the line of action"},
-      {E::eccentricity, "eccentricity.pinion_phase_rad", "rad", 0, kTwoPi, 0, false,
+      {E::eccentricity, "eccentricity.pinion_phase_rad", "rad", 0, kFullTurnRad, 0, false,
        "angle of the pinion's eccentricity at zero input angle"},
       {E::eccentricity, "eccentricity.gear_um", "um", 0, 40, 8, false, "eccentricity of the gear (output) shaft"},
-      {E::eccentricity, "eccentricity.gear_phase_rad", "rad", 0, kTwoPi, 0, false,
+      {E::eccentricity, "eccentricity.gear_phase_rad", "rad", 0, kFullTurnRad, 0, false,
        "angle of the gear's eccentricity at zero output angle"},
       {E::tip_relief, "tip_relief.amount_um", "um", 1, 30, 8, false,
        "linear tip relief at the tip of both gears (material removed at the tip)"},
@@ -76,7 +78,7 @@ const std::vector<EffectParameter>& effect_parameter_table() {
       {E::speed_fluctuation, "speed_fluctuation.depth", "-", 0.001, 0.05, 0.01, true,
        "relative amplitude of the VFD's input speed ripple"},
       {E::speed_fluctuation, "speed_fluctuation.frequency_hz", "Hz", 0.2, 5, 1, true, "frequency of the speed ripple"},
-      {E::speed_fluctuation, "speed_fluctuation.phase_rad", "rad", 0, kTwoPi, 0, false, "phase of the speed ripple at t = 0"},
+      {E::speed_fluctuation, "speed_fluctuation.phase_rad", "rad", 0, kFullTurnRad, 0, false, "phase of the speed ripple at t = 0"},
       {E::load_fluctuation, "load_fluctuation.depth", "-", 0.01, 0.3, 0.05, true,
        "relative amplitude of the brake torque ripple"},
       {E::load_fluctuation, "load_fluctuation.frequency_hz", "Hz", 0.2, 15, 2, true, "frequency of the brake torque ripple"},

@@ -8,11 +8,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "json_numbers.hpp"
+
 namespace gearwatch::storage {
 namespace {
 
 using nlohmann::json;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using detail::kNaN;
 
 // Samples as little-endian IEEE float32, whatever the host's byte order: the float the record held.
 std::string samples_blob(const std::vector<float>& x) {
@@ -39,29 +41,20 @@ std::vector<float> samples_from(const std::string& blob, std::uint64_t expected,
 }
 
 // JSON numbers are written with round-trip precision; JSON has no NaN, so it goes as null.
-json numbers(const std::vector<double>& values) {
-  json a = json::array();
-  for (double v : values) a.push_back(std::isfinite(v) ? json(v) : json(nullptr));
-  return a;
-}
-std::vector<double> numbers_from(const json& j) {
-  std::vector<double> out;
-  out.reserve(j.size());
-  for (const auto& v : j) out.push_back(v.is_null() ? kNaN : v.get<double>());
-  return out;
-}
+using detail::json_numbers;
+using detail::numbers_from_json;
 
 std::string edges_json(const Record& r) {
   json a = json::array();
-  for (const auto& shaft : r.tacho_edges) a.push_back(numbers(shaft));
+  for (const auto& shaft : r.tacho_edges) a.push_back(json_numbers(shaft));
   return a.dump();
 }
 
 std::string state_json(const wear::WearState& s) {
   return json{{"cycles", std::isfinite(s.cycles) ? json(s.cycles) : json(nullptr)},
-              {"pinion_depth_m", numbers(s.pinion_depth_m)},
-              {"gear_depth_m", numbers(s.gear_depth_m)},
-              {"pinion_pitting", numbers(s.pinion_pitting)}}
+              {"pinion_depth_m", json_numbers(s.pinion_depth_m)},
+              {"gear_depth_m", json_numbers(s.gear_depth_m)},
+              {"pinion_pitting", json_numbers(s.pinion_pitting)}}
       .dump();
 }
 
@@ -69,12 +62,12 @@ void read_json_columns(const std::string& edges, const std::string& state, KeptG
   try {
     const json e = json::parse(edges);
     if (!e.is_array() || e.size() != k.record.tacho_edges.size()) throw std::runtime_error("not one array per shaft");
-    for (std::size_t s = 0; s < e.size(); ++s) k.record.tacho_edges[s] = numbers_from(e[s]);
+    for (std::size_t s = 0; s < e.size(); ++s) k.record.tacho_edges[s] = numbers_from_json(e[s]);
     const json w = json::parse(state);
     k.state.cycles = w.at("cycles").is_null() ? kNaN : w.at("cycles").get<double>();
-    k.state.pinion_depth_m = numbers_from(w.at("pinion_depth_m"));
-    k.state.gear_depth_m = numbers_from(w.at("gear_depth_m"));
-    k.state.pinion_pitting = numbers_from(w.at("pinion_pitting"));
+    k.state.pinion_depth_m = numbers_from_json(w.at("pinion_depth_m"));
+    k.state.gear_depth_m = numbers_from_json(w.at("gear_depth_m"));
+    k.state.pinion_pitting = numbers_from_json(w.at("pinion_pitting"));
   } catch (const std::exception& ex) {
     throw std::runtime_error("gap kept record " + std::to_string(row) + " cannot be read: " + ex.what());
   }

@@ -9,13 +9,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "json_numbers.hpp"
 #include "stored_tokens.hpp"
 
 namespace gearwatch::storage {
 namespace {
 
 using nlohmann::json;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using detail::kNaN;
 
 template <class Enum, std::size_t N>
 Enum token_to_enum(const std::array<Enum, N>& all, const std::string& token, const char* domain, std::int64_t report_id) {
@@ -30,29 +31,20 @@ gap::CandidateEffect effect_of(const std::string& token, std::int64_t id) {
 }
 
 // JSON has no NaN or infinity: they are written as null and read back as NaN.
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-double number_from(const json& j) { return j.is_null() ? kNaN : j.get<double>(); }
+using detail::json_number;
+using detail::number_from_json;
+using detail::json_numbers;
+using detail::numbers_from_json;
 
-json numbers(const std::vector<double>& values) {
-  json a = json::array();
-  for (double v : values) a.push_back(number(v));
-  return a;
-}
-std::vector<double> numbers_from(const json& j) {
-  std::vector<double> out;
-  out.reserve(j.size());
-  for (const auto& v : j) out.push_back(number_from(v));
-  return out;
-}
 
 json bands(const std::vector<std::pair<gap::FamilyKind, gap::Interval>>& list) {
   json a = json::array();
-  for (const auto& [family, interval] : list) a.push_back({gap::to_string(family), number(interval.low), number(interval.high)});
+  for (const auto& [family, interval] : list) a.push_back({gap::to_string(family), json_number(interval.low), json_number(interval.high)});
   return a;
 }
 std::vector<std::pair<gap::FamilyKind, gap::Interval>> bands_from(const json& j, std::int64_t id) {
   std::vector<std::pair<gap::FamilyKind, gap::Interval>> out;
-  for (const auto& b : j) out.emplace_back(family_of(b.at(0).get<std::string>(), id), gap::Interval{number_from(b.at(1)), number_from(b.at(2))});
+  for (const auto& b : j) out.emplace_back(family_of(b.at(0).get<std::string>(), id), gap::Interval{number_from_json(b.at(1)), number_from_json(b.at(2))});
   return out;
 }
 
@@ -65,18 +57,18 @@ gap::FeatureShaft shaft_of(const std::string& token, std::int64_t id) {
 
 json description_json(const gap::FeatureDescription& d) {
   json parameters = json::array();
-  for (const auto& [name, value] : d.parameters) parameters.push_back({name, number(value)});
+  for (const auto& [name, value] : d.parameters) parameters.push_back({name, json_number(value)});
   return {{"kind", gap::to_string(d.kind)}, {"shaft", gap::to_string(d.shaft)}, {"parameters", parameters},
-          {"gap_db", number(d.gap_db)}, {"residual_db", number(d.residual_db)}};
+          {"gap_db", json_number(d.gap_db)}, {"residual_db", json_number(d.residual_db)}};
 }
 
 gap::FeatureDescription description_from(const json& j, std::int64_t id) {
   gap::FeatureDescription d;
   d.kind = token_to_enum(gap::kAllDescriptionKinds, j.at("kind").get<std::string>(), "feature description", id);
   d.shaft = shaft_of(j.at("shaft").get<std::string>(), id);
-  for (const auto& p : j.at("parameters")) d.parameters.emplace_back(p.at(0).get<std::string>(), number_from(p.at(1)));
-  d.gap_db = number_from(j.at("gap_db"));
-  d.residual_db = number_from(j.at("residual_db"));
+  for (const auto& p : j.at("parameters")) d.parameters.emplace_back(p.at(0).get<std::string>(), number_from_json(p.at(1)));
+  d.gap_db = number_from_json(j.at("gap_db"));
+  d.residual_db = number_from_json(j.at("residual_db"));
   return d;
 }
 
@@ -97,14 +89,14 @@ json features_json(const std::vector<gap::GapFeature>& features) {
   for (const auto& f : features) {
     json seen = json::array();
     for (const auto& s : f.seen_in)
-      seen.push_back({{"held_out", s.held_out}, {"record", s.record}, {"speed_hz", number(s.speed_hz)},
-                      {"torque_nm", number(s.torque_nm)}, {"order", number(s.order)}, {"hz", number(s.hz)},
-                      {"size_db", number(s.size_db)}});
+      seen.push_back({{"held_out", s.held_out}, {"record", s.record}, {"speed_hz", json_number(s.speed_hz)},
+                      {"torque_nm", json_number(s.torque_nm)}, {"order", json_number(s.order)}, {"hz", json_number(s.hz)},
+                      {"size_db", json_number(s.size_db)}});
     json feature = {{"movement", gap::to_string(f.movement)}, {"shaft", gap::to_string(f.shaft)},
-                    {"size_interval_db", {number(f.size_interval_db.low), number(f.size_interval_db.high)}},
+                    {"size_interval_db", {json_number(f.size_interval_db.low), json_number(f.size_interval_db.high)}},
                     {"seen_in", seen}, {"description", description_json(f.description)},
                     {"explained_by", f.explained_by ? json(gap::to_string(*f.explained_by)) : json(nullptr)}};
-    for (const auto& [name, member] : kFeatureNumbers) feature[name] = number(f.*member);
+    for (const auto& [name, member] : kFeatureNumbers) feature[name] = json_number(f.*member);
     a.push_back(std::move(feature));
   }
   return a;
@@ -116,12 +108,12 @@ std::vector<gap::GapFeature> features_from(const json& a, std::int64_t id) {
     gap::GapFeature f;
     f.movement = movement_of(j.at("movement").get<std::string>(), id);
     f.shaft = shaft_of(j.at("shaft").get<std::string>(), id);
-    for (const auto& [name, member] : kFeatureNumbers) f.*member = number_from(j.at(name));
-    f.size_interval_db = {number_from(j.at("size_interval_db").at(0)), number_from(j.at("size_interval_db").at(1))};
+    for (const auto& [name, member] : kFeatureNumbers) f.*member = number_from_json(j.at(name));
+    f.size_interval_db = {number_from_json(j.at("size_interval_db").at(0)), number_from_json(j.at("size_interval_db").at(1))};
     for (const auto& s : j.at("seen_in"))
-      f.seen_in.push_back({s.at("held_out").get<bool>(), s.at("record").get<std::size_t>(), number_from(s.at("speed_hz")),
-                           number_from(s.at("torque_nm")), number_from(s.at("order")), number_from(s.at("hz")),
-                           number_from(s.at("size_db"))});
+      f.seen_in.push_back({s.at("held_out").get<bool>(), s.at("record").get<std::size_t>(), number_from_json(s.at("speed_hz")),
+                           number_from_json(s.at("torque_nm")), number_from_json(s.at("order")), number_from_json(s.at("hz")),
+                           number_from_json(s.at("size_db"))});
     // Features stored before descriptions were fitted carry none.
     if (const auto d = j.find("description"); d != j.end()) f.description = description_from(*d, id);
     if (const auto e = j.find("explained_by"); e != j.end() && !e->is_null()) f.explained_by = effect_of(e->get<std::string>(), id);
@@ -144,14 +136,14 @@ constexpr std::array<std::pair<const char*, std::vector<double> gap::GapReport::
 
 std::string plot_json(const gap::GapReport& r) {
   json plot{{"order_bands", bands(r.order_bands)}, {"hz_bands", bands(r.hz_bands)}, {"features", features_json(r.features)}};
-  for (const auto& [name, member] : kPlotSpectra) plot[name] = numbers(r.*member);
+  for (const auto& [name, member] : kPlotSpectra) plot[name] = json_numbers(r.*member);
   return plot.dump();
 }
 
 void plot_from(const std::string& text, gap::GapReport& r, std::int64_t id) {
   try {
     const json j = json::parse(text);
-    for (const auto& [name, member] : kPlotSpectra) r.*member = numbers_from(j.at(name));
+    for (const auto& [name, member] : kPlotSpectra) r.*member = numbers_from_json(j.at(name));
     r.order_bands = bands_from(j.at("order_bands"), id);
     r.hz_bands = bands_from(j.at("hz_bands"), id);
     // Reports stored before features were found carry none.
@@ -169,11 +161,11 @@ std::string parameters_json(const std::vector<std::pair<std::string, double>>& p
   json a = json::array();
   std::vector<char> used(bounds.size(), 0);
   for (const auto& [name, value] : parameters) {
-    json entry = {name, number(value)};
+    json entry = {name, json_number(value)};
     for (std::size_t b = 0; b < bounds.size(); ++b)
       if (!used[b] && bounds[b].name == name) {
         entry.push_back(bounds[b].upper ? "upper" : "lower");
-        entry.push_back(number(bounds[b].bound));
+        entry.push_back(json_number(bounds[b].bound));
         used[b] = 1;
         break;
       }
@@ -185,8 +177,8 @@ std::string parameters_json(const std::vector<std::pair<std::string, double>>& p
 void parameters_from(const std::string& text, std::int64_t id, gap::CandidateScore& c) {
   try {
     for (const auto& p : json::parse(text)) {
-      c.parameters.emplace_back(p.at(0).get<std::string>(), number_from(p.at(1)));
-      if (p.size() >= 4) c.at_bounds.push_back({p.at(0).get<std::string>(), number_from(p.at(3)), p.at(2).get<std::string>() == "upper"});
+      c.parameters.emplace_back(p.at(0).get<std::string>(), number_from_json(p.at(1)));
+      if (p.size() >= 4) c.at_bounds.push_back({p.at(0).get<std::string>(), number_from_json(p.at(3)), p.at(2).get<std::string>() == "upper"});
     }
   } catch (const json::exception& e) {
     throw std::runtime_error("gap report " + std::to_string(id) + ": candidate parameters are not readable: " + e.what());
@@ -236,7 +228,7 @@ std::int64_t count_gap_reports(Database& db) {
 
 std::int64_t insert_gap_report(Database& db, const gap::GapReport& r, const GapReportContext& context) {
   json speeds = json::array();
-  for (double v : r.speeds_hz) speeds.push_back(number(v));
+  for (double v : r.speeds_hz) speeds.push_back(json_number(v));
   Statement run(db, "INSERT INTO gap_report_runs(record_id, gear_pair, input_revolutions, speeds_hz, training_records,"
                     " held_out_records, k_wear_before, k_wear_after, plot) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)");
   run.bind(1, context.record_id).bind(2, context.gear_pair).bind(3, r.input_revolutions).bind(4, speeds.dump())
@@ -321,7 +313,7 @@ std::vector<StoredGapReport> load_gap_report_runs(Database& db, std::optional<st
     gap::GapReport& r = g.report;
     r.input_revolutions = double_or_nan(s, 4);
     try {
-      r.speeds_hz = numbers_from(json::parse(s.get_text(5)));
+      r.speeds_hz = numbers_from_json(json::parse(s.get_text(5)));
     } catch (const json::exception& e) {
       throw std::runtime_error("gap report " + std::to_string(g.id) + ": speeds are not readable: " + e.what());
     }
