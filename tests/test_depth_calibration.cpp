@@ -496,3 +496,31 @@ TEST_CASE("depth calibration: inspected depths read against the model's path and
 }
 
 }  // namespace test_depth_calibration
+
+namespace test_depth_calibration {
+
+TEST_CASE("depth calibration: the K_wear history from the pair's start, split at an update's anchor", "[model][depth_calibration]") {
+  std::vector<KStretch> h;
+  extend_k_history(h, 1e6, 1.0);
+  extend_k_history(h, 2e6, 1.0);   // the same K: one stretch
+  extend_k_history(h, 3e6, 2.0);
+  REQUIRE(h.size() == 2);
+  CHECK(h[0].end_cycles == 2e6);
+  CHECK(h[1].end_cycles == 3e6);
+  // An update of 4 from 1.5 M on: (0, 1.5 M] at 1, (1.5 M, 3 M] at 4.
+  set_k_from(h, 1.5e6, 4.0);
+  REQUIRE(h.size() == 2);
+  CHECK(h[0].end_cycles == 1.5e6);
+  CHECK(h[0].k == 1.0);
+  CHECK(h[1].end_cycles == 3e6);
+  CHECK(h[1].k == 4.0);
+  // Over [1 M, 2 M]: half at 1, half at 4.
+  CHECK(cycle_mean_k(h, 1e6, 2e6) == Approx(2.5).epsilon(1e-12));
+  // An update at a stretch's end splits nothing; one back to the older K joins the neighbours.
+  set_k_from(h, 1.5e6, 1.0);
+  REQUIRE(h.size() == 1);
+  CHECK(h[0].end_cycles == 3e6);
+  CHECK(h[0].k == 1.0);
+}
+
+}  // namespace test_depth_calibration
