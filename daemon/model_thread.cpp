@@ -244,6 +244,8 @@ PairStart pair_start_from_json(const std::string& text) {
 std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
   json intervals = json::array();
   for (const auto& i : m.intervals) intervals.push_back({i.end_cycles, i.speed_hz, i.torque_nm, i.k_wear_si, i.k_pitting});
+  json k_history = json::array();
+  for (const auto& h : m.k_wear_history) k_history.push_back({h.end_cycles, h.k});
   json points = json::array();
   for (const auto& p : m.pitting_points) points.push_back({p.cycles, p.ics2, p.density});
   json ops = json::array();
@@ -263,6 +265,7 @@ std::string memory_to_json(const wear::ModelMemory& m, const PairStart* pair) {
                {"k_wear_si", m.k_wear_si},
                {"k_pitting", m.k_pitting},
                {"intervals", intervals},
+               {"k_wear_history", k_history},
                {"pitting_points", points},
                {"pitting_calibrated", m.pitting_calibrated},
                {"calibration_inspection_id", m.calibration_inspection_id},
@@ -309,6 +312,8 @@ wear::ModelMemory memory_from_json(const std::string& text) {
     m.k_pitting = j.at("k_pitting").get<double>();
     for (const auto& i : j.at("intervals"))
       m.intervals.push_back({i.at(0).get<double>(), i.at(1).get<double>(), i.at(2).get<double>(), i.at(3).get<double>(), i.at(4).get<double>()});
+    // Added with the K_wear history: an older state has the intervals since the older anchor only.
+    for (const auto& h : j.value("k_wear_history", json::array())) m.k_wear_history.push_back({h.at(0).get<double>(), h.at(1).get<double>()});
     for (const auto& p : j.at("pitting_points")) m.pitting_points.push_back({p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>()});
     m.pitting_calibrated = j.at("pitting_calibrated").get<bool>();
     m.calibration_inspection_id = j.at("calibration_inspection_id").get<std::int64_t>();

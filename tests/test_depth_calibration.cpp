@@ -496,3 +496,80 @@ TEST_CASE("depth calibration: inspected depths read against the model's path and
 }
 
 }  // namespace test_depth_calibration
+
+namespace test_depth_calibration {
+
+TEST_CASE("depth calibration: the K_wear history from the pair's start, split at an update's anchor", "[model][depth_calibration]") {
+  std::vector<KStretch> h;
+  extend_k_history(h, 1e6, 1.0);
+  extend_k_history(h, 2e6, 1.0);   // the same K: one stretch
+  extend_k_history(h, 3e6, 2.0);
+  REQUIRE(h.size() == 2);
+  CHECK(h[0].end_cycles == 2e6);
+  CHECK(h[1].end_cycles == 3e6);
+  // An update of 4 from 1.5 M on: (0, 1.5 M] at 1, (1.5 M, 3 M] at 4.
+  set_k_from(h, 1.5e6, 4.0);
+  REQUIRE(h.size() == 2);
+  CHECK(h[0].end_cycles == 1.5e6);
+  CHECK(h[0].k == 1.0);
+  CHECK(h[1].end_cycles == 3e6);
+  CHECK(h[1].k == 4.0);
+  // Over [1 M, 2 M]: half at 1, half at 4.
+  CHECK(cycle_mean_k(h, 1e6, 2e6) == Approx(2.5).epsilon(1e-12));
+  // An update at a stretch's end splits nothing; one back to the older K joins the neighbours.
+  set_k_from(h, 1.5e6, 1.0);
+  REQUIRE(h.size() == 1);
+  CHECK(h[0].end_cycles == 3e6);
+  CHECK(h[0].k == 1.0);
+}
+
+// As the case above, but a pitting calibration from two pitted-area inspections at n_3 moves both
+// anchors there (as the bench's 4 % inspection does), so the intervals before them are pruned: the
+// pace the rate was read at is still the K its path ran at between the inspections, κ − ln(K2/K1).
+TEST_CASE("depth calibration: the rate is read at today's pace after the intervals before both anchors are pruned",
+          "[model][depth_calibration]") {
+  ModelSettings s = testing::calibration_case_settings();
+  s.update_k_wear = true;
+  s.update_k_pitting = true;
+  s.commissioning_records = 0;
+  const double n_a = 4e5, n_b = 8e5, n_3 = 1e6, n_4 = 1.4e6;
+  auto mean_at = [&](double k, std::vector<double> at) {
+    ModelSettings fixed = testing::calibration_case_settings();
+    fixed.loop.k_wear_si = k;
+    TwinModel m(twin::GearboxParameters{}, fixed, testing::calibration_case_rms);
+    std::vector<double> means;
+    for (const double n : at) means.push_back(m.observe(testing::observation(n, 20, 20), {}).summary.combined_mean_depth_m);
+    return means;
+  };
+  const std::vector<double> m0 = mean_at(s.loop.k_wear_si, {n_a, n_b, n_3});
+  const double scale = m0[2];
+  REQUIRE(scale > 0);
+  auto rms = [scale](const WearState& st, const twin::OperatingPoint&) { return 1.0 + summarise(st).combined_mean_depth_m / scale; };
+  TwinModel model(twin::GearboxParameters{}, s, rms);
+  Inspection a, b;
+  a.id = 1, a.cycles = n_a, a.wear_depth_m = 2.0 * m0[0];
+  b.id = 2, b.cycles = n_b, b.wear_depth_m = 2.0 * m0[1] + 0.4 * (m0[1] - m0[0]);
+  Inspection p1, p2;
+  p1.id = 3, p1.cycles = n_a, p1.pitted_area = 0.01;
+  p2.id = 4, p2.cycles = n_3, p2.pitted_area = 0.04;
+  model.observe(testing::observation(n_a, 20, 20, {}, 0.004), {a, p1});
+  model.observe(testing::observation(n_b, 20, 20, {}, 0.01), {a, b, p1});
+  model.observe(testing::observation(n_3, 20, 20, 1.5, 0.02), {a, b, p1, p2});
+  const double k1 = model.memory().k_wear_si;
+  REQUIRE(k1 < 0.7 * s.loop.k_wear_si);
+  const std::vector<double> m1 = mean_at(k1, {n_a, n_b, n_3, n_4});
+  const double kappa1 = std::log((*b.wear_depth_m - *a.wear_depth_m) / (m1[1] - m1[0]));
+  REQUIRE(model.wear_rate_reading().log_mean == Approx(kappa1).epsilon(1e-9));
+  model.observe(testing::observation(n_4, 20, 20, 1.0 + 1.5 * m1[3] / scale, 0.03), {a, b, p1, p2});
+  const double k2 = model.memory().k_wear_si;
+  REQUIRE(k2 > 1.3 * k1);
+  // The case this is about: both anchors past the inspections, the intervals between them gone.
+  REQUIRE(model.memory().wear_anchor.state.cycles >= n_3);
+  REQUIRE(model.memory().pitting_anchor.state.cycles >= n_3);
+  REQUIRE((model.memory().intervals.empty() || model.memory().intervals.front().end_cycles > n_b));
+  const RateReading rate = model.wear_rate_reading();
+  REQUIRE(rate.valid);
+  CHECK(rate.log_mean == Approx(kappa1 - std::log(k2 / k1)).epsilon(1e-9));
+}
+
+}  // namespace test_depth_calibration

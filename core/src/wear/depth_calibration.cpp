@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace gearwatch::wear {
 
@@ -150,6 +151,29 @@ double cycle_mean_k(const std::vector<KStretch>& stretches, double from, double 
   }
   if (to > start) sum += (to - std::max(from, start)) * stretches.back().k;
   return sum / (to - from);
+}
+
+void extend_k_history(std::vector<KStretch>& history, double end_cycles, double k) {
+  if (!history.empty() && !(end_cycles > history.back().end_cycles)) return;
+  if (!history.empty() && history.back().k == k)
+    history.back().end_cycles = end_cycles;
+  else
+    history.push_back({end_cycles, k});
+}
+
+void set_k_from(std::vector<KStretch>& history, double from_cycles, double k) {
+  std::vector<KStretch> out;
+  double start = 0;
+  for (const KStretch& s : history) {
+    if (s.end_cycles <= from_cycles) {
+      extend_k_history(out, s.end_cycles, s.k);
+    } else {
+      if (start < from_cycles) extend_k_history(out, from_cycles, s.k);   // the part before the anchor keeps its K
+      extend_k_history(out, s.end_cycles, k);
+    }
+    start = s.end_cycles;
+  }
+  history = std::move(out);
 }
 
 RateReading rate_at_pace(RateReading r, double k_path, double k_now) {

@@ -312,6 +312,7 @@ void TwinModel::reread_depth_points(const std::vector<PathPoint>& path) {
 void TwinModel::apply_k(bool wear, double value, double from_cycles) {
   for (LifeInterval& in : memory_.intervals)
     if (in.end_cycles > from_cycles) (wear ? in.k_wear_si : in.k_pitting) = value;
+  if (wear) set_k_from(memory_.k_wear_history, from_cycles, value);
   (wear ? memory_.k_wear_si : memory_.k_pitting) = value;
   remember_k(wear ? memory_.recent_k_wear : memory_.recent_k_pitting, value);
 }
@@ -492,6 +493,7 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
 
   // --- blue loop to the record, at its speed and torque, with the current coefficients
   memory_.intervals.push_back({obs.cycles, obs.speed_hz, obs.torque_nm, memory_.k_wear_si, memory_.k_pitting});
+  extend_k_history(memory_.k_wear_history, obs.cycles, memory_.k_wear_si);
   loop_.set_operating_point(op);
   loop_.set_coefficients(memory_.k_wear_si, memory_.k_pitting);
   bool within_limit = loop_.run_until(obs.cycles);
@@ -502,6 +504,7 @@ ModelRunReport TwinModel::observe(const ModelObservation& obs, const std::vector
                   fmt("%.3g", settings_.loop.depth_limit_m * 1e3) + " mm; the state is held there");
     // Keep the intervals consistent with the state the loop reached.
     memory_.intervals.back().end_cycles = loop_.state().cycles;
+    memory_.k_wear_history.back().end_cycles = loop_.state().cycles;
   }
 
   // --- purple loop: K_pitting first (its re-run starts at the last pitting point), then K_wear
@@ -1265,10 +1268,12 @@ LogPosterior TwinModel::depth_ratio_now() const {
 }
 
 namespace {
-// The model's K_wear stretches (each interval's end and its K_wear), as cycle_mean_k reads them.
-std::vector<KStretch> k_wear_stretches(const std::vector<LifeInterval>& intervals) {
+// The model's K_wear stretches, as cycle_mean_k reads them: the history from the pair's start; a
+// state stored before it has only the intervals since the older anchor.
+std::vector<KStretch> k_wear_stretches(const ModelMemory& memory) {
+  if (!memory.k_wear_history.empty()) return memory.k_wear_history;
   std::vector<KStretch> stretches;
-  for (const LifeInterval& in : intervals) stretches.push_back({in.end_cycles, in.k_wear_si});
+  for (const LifeInterval& in : memory.intervals) stretches.push_back({in.end_cycles, in.k_wear_si});
   return stretches;
 }
 
@@ -1292,7 +1297,7 @@ RateReading TwinModel::wear_rate_reading() const {
   // of their stretches; the forecast runs at today's: read against today's pace (a later K_wear
   // whose re-run started after the inspections would otherwise be counted twice, once in the
   // path's new pace, once in the ratio read against the old).
-  const std::vector<KStretch> stretches = k_wear_stretches(memory_.intervals);
+  const std::vector<KStretch> stretches = k_wear_stretches(memory_);
   return rate_at_pace(r, cycle_mean_k(stretches, r.from_cycles, r.to_cycles), memory_.k_wear_si);
 }
 
@@ -1305,7 +1310,7 @@ CarriedDepth TwinModel::carried_depth_now() const {
   if (b == points.end()) return {};
   // Between b and now the model's path ran at its stretches' K_wear there; the reading is against
   // the path's pace between the two inspections (Archard's increment ∝ K).
-  const std::vector<KStretch> stretches = k_wear_stretches(memory_.intervals);
+  const std::vector<KStretch> stretches = k_wear_stretches(memory_);
   const RateReading y = rate_at_pace(raw, cycle_mean_k(stretches, raw.from_cycles, raw.to_cycles), cycle_mean_k(stretches, b->cycles, now));
   const LogPosterior prior = depth_ratio_prior();
   const double q = settings_.log_k_q_per_cycle();

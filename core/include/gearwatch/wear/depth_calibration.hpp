@@ -116,6 +116,13 @@ struct KStretch {
 /// beyond the last stretch count at its K. Not positive when nothing is known.
 double cycle_mean_k(const std::vector<KStretch>& stretches, double from, double to);
 
+/// The model's K history from the pair's start, as cycle_mean_k reads it: the life ran at `k` up to
+/// `end_cycles` (past the last end). A stretch at the last one's K extends it.
+void extend_k_history(std::vector<KStretch>& history, double end_cycles, double k);
+/// An update's K from `from_cycles` on (a re-run from its anchor): the stretch holding `from_cycles`
+/// is split there, every later one takes `k`, and neighbours at one K become one stretch.
+void set_k_from(std::vector<KStretch>& history, double from_cycles, double k);
+
 /// A rate reading taken against the model's increments at (cycle-weighted mean) K k_path, read
 /// against the model's pace at K k_now: Archard's depth increment is proportional to K, so
 /// κ' = κ − ln(k_now / k_path); the variance and the derivatives in the readings are unchanged.

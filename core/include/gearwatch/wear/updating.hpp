@@ -196,6 +196,10 @@ struct ModelMemory {
   LoopSnapshot current, wear_anchor, pitting_anchor;
   double k_wear_si = 0, k_pitting = 0;
   std::vector<LifeInterval> intervals;     ///< since the older anchor
+  /// K_wear's stretches from the pair's start (depth_calibration.hpp), kept past the anchors: a rate
+  /// read between two inspections is put at today's pace with the K its path ran at there, which the
+  /// intervals, pruned to the older anchor, no longer hold once both anchors have passed them.
+  std::vector<KStretch> k_wear_history;
   std::vector<PittingPoint> pitting_points;   ///< the last three
   bool pitting_calibrated = false;
   std::int64_t calibration_inspection_id = 0; ///< the newer inspection of the last calibration
