@@ -207,27 +207,24 @@ class EffectApplier {
     }
   }
 
-  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM, the
-  /// same share at every harmonic) and turns the pinion against the tacho (PM of index n·b at
-  /// harmonic n, as the mesh phase is n·z1 times the pinion's angle). The mean of a modulated
-  /// line's two first sidebands is ((a² + (n·b)²)/4)·P(n·GMF), whatever the phase between them.
-  static double run_out_sideband_share(const RunOutSensitivity& r, double run_out_m, std::size_t n) {
-    const double am = r.am_per_m * run_out_m, pm = r.pm_per_harmonic_per_m * run_out_m * static_cast<double>(n);
-    return (am * am + pm * pm) / 4.0;
-  }
-
+  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force, and with
+  /// it every line the mesh makes (AM of index a·e, the same share at every line) and turns the
+  /// shaft against the tacho (PM of index n·b·e at mesh harmonic n, so (o/z1)·b·e at order o, as
+  /// the mesh phase is z1 times the pinion's angle): the shaft-locked spread (Jacobi–Anger) with
+  /// those indices, the pinion's about its input orders, then the gear's about its output orders.
   void run_out_sidebands() {
-    for (std::size_t n = 1; n * z1_ <= twin_.input_lines.size(); ++n) {
-      const double mesh_power = twin_.input_lines[n * z1_ - 1];
-      const double ai = run_out_sideband_share(twin_.pinion_run_out, v_[0], n);
-      const double ao = run_out_sideband_share(twin_.gear_run_out, v_[1], n);
-      for (int side : {-1, 1}) {
-        const auto ki = static_cast<std::ptrdiff_t>(n * z1_) + side;
-        if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s_.input_lines.size())) s_.input_lines[ki - 1] += ai * mesh_power;
-        const auto ko = static_cast<std::ptrdiff_t>(n * z2_) + side;
-        if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s_.output_lines.size())) s_.output_lines[ko - 1] += ao * mesh_power;
-      }
-    }
+    const double total = total_input_line_power(twin_);
+    const MoveThresholds limits{1e-9 * total, 1e-7 * total};
+    auto spread = [&](const SpectralSummary& from, const RunOutSensitivity& r, double run_out_m, bool pinion) {
+      const double am = r.am_per_m * run_out_m;
+      const LockedModulation mod{r.pm_per_harmonic_per_m * run_out_m / z1_, std::min(0.99, am * am / 2.0),
+                                 pinion ? 1.0 : static_cast<double>(z1_) / z2_};
+      spread_over_sidebands(s_.input_lines, from.input_lines, 1, 1, mod, limits, pinion);
+      spread_over_sidebands(s_.output_lines, from.output_lines, z1_, z2_, mod, limits, !pinion);
+    };
+    spread(twin_, twin_.pinion_run_out, v_[0], true);
+    const SpectralSummary after_pinion = s_;
+    spread(after_pinion, twin_.gear_run_out, v_[1], false);
   }
 
   void tooth_errors() {
@@ -244,18 +241,37 @@ class EffectApplier {
 
   /// A speed ripple of depth d at f_m turns the shaft d/x rad ahead and back (x = f_m over the
   /// shaft's speed); the one-edge tacho follows all but the share r(x) of that angle, which stays
-  /// in the tracked signal as a phase modulation of index order·(d/x)·r(x). On top, the transfer
-  /// path in Hz sees the speed change: a share μ of every line is amplitude-modulated. The load
-  /// ripple's form is one phase modulation growing with order, a share 1 − exp(−(β·order)²).
+  /// in the tracked signal as a phase modulation of index order·(d/x)·r(x). On top, a share μ of
+  /// every line is amplitude-modulated (ripple_am_share). The load ripple's form is one phase
+  /// modulation growing with order, a share 1 − exp(−(β·order)²).
   struct ModulatedShare {
     bool speed;
-    double pm_per_order;
+    double pm_per_order, mu;
     const std::vector<double>& v;
     double operator()(double order) const {
       if (!speed) return 1.0 - std::exp(-(v[0] * order) * (v[0] * order));
       const double carrier = bessel_j0(pm_per_order * order);
-      return 1.0 - (1.0 - v[2]) * carrier * carrier;
+      return 1.0 - (1.0 - mu) * carrier * carrier;
     }
+  };
+
+  /// The AM a speed ripple brings is tied to its phase part: through the transfer path in Hz a line
+  /// whose frequency moves by the share d changes by S·d (S the path's log-slope there), and the
+  /// torque that drives the inertias ahead and back is as tied. The phase index the ripple leaves
+  /// the mesh's first harmonic, z1·(d/x)·r(x), is what tells a speed ripple from any other AM: the
+  /// AM index is κ times it (the third value), κ ≤ 1 (for the input shaft, x = r = 1, S ≤ z1 at
+  /// every line: no steeper than a mode damped at ζ ≈ 1/(2·z1) at each). A pure AM, with no phase
+  /// part, is then no speed ripple. The share μ of a line in its first sidebands is half the AM
+  /// index squared.
+  double ripple_am_share(double pm_per_order) const {
+    const double am = (v_.size() > 2 ? v_[2] : 0.0) * z1_ * pm_per_order;
+    return std::min(0.99, am * am / 2.0);
+  }
+
+  /// A modulation locked to a shaft's order x (in input orders): PM index pm_per_order·order, and a
+  /// share am_share of each line amplitude-modulated.
+  struct LockedModulation {
+    double pm_per_order, am_share, input_order;
   };
 
   /// The powers below which a line is left alone and a moved tone is dropped.
@@ -267,7 +283,8 @@ class EffectApplier {
     const bool speed = e_.effect == CandidateEffect::speed_fluctuation;
     const double locked_order = speed ? speed_fluctuation_input_order(v_) : 0.0;
     const double x = locked_order > 0 ? locked_order : v_[1] / s_.speed_hz;
-    const ModulatedShare share{speed, speed ? v_[0] / x * tracking_residual(x) : 0.0, v_};
+    const double pm_per_order = speed ? v_[0] / x * tracking_residual(x) : 0.0;
+    const ModulatedShare share{speed, pm_per_order, speed ? ripple_am_share(pm_per_order) : 0.0, v_};
     // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
     // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
     // following a tone through both averages is most of this form's cost.
@@ -277,8 +294,9 @@ class EffectApplier {
     const MoveThresholds limits{1e-9 * total, 1e-7 * total};
     if (locked_order > 0) {
       const bool input_locked = std::abs(x - 1.0) < 1e-12;
-      spread_over_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share.pm_per_order, x, limits, input_locked);
-      spread_over_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share.pm_per_order, x, limits, !input_locked);
+      spread_over_sidebands(s_.input_lines, twin_.input_lines, 1, 1, {share.pm_per_order, share.mu, x}, limits, input_locked);
+      spread_over_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, {share.pm_per_order, share.mu, x}, limits,
+                            !input_locked);
       return;
     }
     move_to_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share, x, limits);
@@ -293,8 +311,8 @@ class EffectApplier {
   /// ripple follows, so they land on that shaft's lines. Assumption: the line's phase and the
   /// ripple's are independent (powers add where sidebands of neighbouring lines meet).
   void spread_over_sidebands(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
-                             double pm_per_order, double x, const MoveThresholds& limits, bool own_shaft) {
-    const double mu = v_[2];
+                             const LockedModulation& mod, const MoveThresholds& limits, bool own_shaft) {
+    const double pm_per_order = mod.pm_per_order, mu = mod.am_share, x = mod.input_order;
     std::vector<double> jn;  // J_0 … J_K of the line at hand, reused from line to line
     for (std::size_t k = 1; k <= lines.size(); ++k) {
       const double power = twin_lines[k - 1];
@@ -579,7 +597,7 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
               true};
     case CandidateEffect::speed_fluctuation:
       return {effect,
-              {{"depth", 1e-4, 0.1, true, 8}, {"modulation_frequency_hz", 0.1, 20, true, 16}, {"am_share", 1e-5, 0.99, true, 2}},
+              {{"depth", 1e-4, 0.1, true, 8}, {"modulation_frequency_hz", 0.1, 20, true, 16}, {"am_per_mesh_pm", 1e-3, 1.0, true, 2}},
               {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
     case CandidateEffect::load_fluctuation:
       return {effect, {{"phase_deviation_per_order_rad", 1e-5, 0.5, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 16}},
