@@ -951,7 +951,7 @@ bool chose(const GapReport& r, CandidateEffect e) { return std::find(r.chosen.be
 
 }  // namespace
 
-TEST_CASE("gap attribution: a pure once-per-revolution AM is eccentricity's, a PM the shaft-locked speed ripple's, none silent",
+TEST_CASE("gap attribution: a pure once-per-revolution AM is not the speed ripple's but eccentricity's fit (at its bound), a PM the ripple's, none silent",
           "[gap][gap_features]") {
   // Closed forms. A pure AM x(t)·(1 + m·cos(2π·θ_gear)) keeps every carrier and gives every line
   // the same sidebands, m²/4 each: no phase part, so no speed ripple (its AM comes with its PM);

@@ -207,24 +207,27 @@ class EffectApplier {
     }
   }
 
-  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force, and with
-  /// it every line the mesh makes (AM of index a·e, the same share at every line) and turns the
-  /// shaft against the tacho (PM of index n·b·e at mesh harmonic n, so (o/z1)·b·e at order o, as
-  /// the mesh phase is z1 times the pinion's angle): the shaft-locked spread (Jacobi–Anger) with
-  /// those indices, the pinion's about its input orders, then the gear's about its output orders.
+  /// A run-out is a once-per-revolution transmission error: it modulates the mesh force (AM, the
+  /// same share at every harmonic) and turns the pinion against the tacho (PM of index n·b at
+  /// harmonic n, as the mesh phase is n·z1 times the pinion's angle). The mean of a modulated
+  /// line's two first sidebands is ((a² + (n·b)²)/4)·P(n·GMF), whatever the phase between them.
+  static double run_out_sideband_share(const RunOutSensitivity& r, double run_out_m, std::size_t n) {
+    const double am = r.am_per_m * run_out_m, pm = r.pm_per_harmonic_per_m * run_out_m * static_cast<double>(n);
+    return (am * am + pm * pm) / 4.0;
+  }
+
   void run_out_sidebands() {
-    const double total = total_input_line_power(twin_);
-    const MoveThresholds limits{1e-9 * total, 1e-7 * total};
-    auto spread = [&](const SpectralSummary& from, const RunOutSensitivity& r, double run_out_m, bool pinion) {
-      const double am = r.am_per_m * run_out_m;
-      const LockedModulation mod{r.pm_per_harmonic_per_m * run_out_m / z1_, std::min(0.99, am * am / 2.0),
-                                 pinion ? 1.0 : static_cast<double>(z1_) / z2_};
-      spread_over_sidebands(s_.input_lines, from.input_lines, 1, 1, mod, limits, pinion);
-      spread_over_sidebands(s_.output_lines, from.output_lines, z1_, z2_, mod, limits, !pinion);
-    };
-    spread(twin_, twin_.pinion_run_out, v_[0], true);
-    const SpectralSummary after_pinion = s_;
-    spread(after_pinion, twin_.gear_run_out, v_[1], false);
+    for (std::size_t n = 1; n * z1_ <= twin_.input_lines.size(); ++n) {
+      const double mesh_power = twin_.input_lines[n * z1_ - 1];
+      const double ai = run_out_sideband_share(twin_.pinion_run_out, v_[0], n);
+      const double ao = run_out_sideband_share(twin_.gear_run_out, v_[1], n);
+      for (int side : {-1, 1}) {
+        const auto ki = static_cast<std::ptrdiff_t>(n * z1_) + side;
+        if (ki >= 1 && ki <= static_cast<std::ptrdiff_t>(s_.input_lines.size())) s_.input_lines[ki - 1] += ai * mesh_power;
+        const auto ko = static_cast<std::ptrdiff_t>(n * z2_) + side;
+        if (ko >= 1 && ko <= static_cast<std::ptrdiff_t>(s_.output_lines.size())) s_.output_lines[ko - 1] += ao * mesh_power;
+      }
+    }
   }
 
   void tooth_errors() {
