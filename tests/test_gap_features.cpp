@@ -951,47 +951,34 @@ bool chose(const GapReport& r, CandidateEffect e) { return std::find(r.chosen.be
 
 }  // namespace
 
-TEST_CASE("gap attribution: a pure once-per-revolution AM is not the speed ripple's but eccentricity's fit (at its bound), a PM the ripple's, none silent",
+TEST_CASE("gap attribution: a pure once-per-revolution AM is the shaft-order load ripple's, with its index and shaft; a PM the speed ripple's; none silent",
           "[gap][gap_features]") {
   // Closed forms. A pure AM x(t)·(1 + m·cos(2π·θ_gear)) keeps every carrier and gives every line
-  // the same sidebands, m²/4 each: no phase part, so no speed ripple (its AM comes with its PM);
-  // the run-out's AM a·e does it with a PM (o/z1)·b·e the gear's small b keeps under the AM. The
-  // gear run-out is then m/a at each speed (a from run_out_sensitivity at 20 N·m). Asserted before
-  // running: the ripple not chosen; eccentricity chosen with its gear run-out within the range of
-  // m/a over the training speeds widened by 10 %, and features explained by it. After the first
-  // run (a 10 % AM; the fit at the range's 0.3 mm, shrinkage 0.29, the ripple chosen): m is the
-  // generator's least, 5 %; where m/a lies beyond 0.3 mm the run-out is reported at that bound.
-  const double m = 0.05, two_pi = 2 * std::numbers::pi;
-  const auto matrices = twin::assemble(twin::GearboxParameters{});
-  double low = 1, high = 0;
-  for (double speed : {8.0, 11.0, 14.0}) {
-    const double e = m / run_out_sensitivity(matrices, GearPairSpec{}, true, speed, 20.0).am_per_m;
-    low = std::min(low, e), high = std::max(high, e);
-  }
-  INFO("m/a " << low << " to " << high << " m");
+  // the same sidebands, m²/4 each, and no phase part: no speed ripple (its AM comes with its PM),
+  // and a run-out's AM per metre is too small to carry it. It is the mesh force rising and falling
+  // once a gear revolution: load_fluctuation locked to the gear shaft's order. Asserted before
+  // running: that candidate chosen, the speed ripple not, its AM index within 10 % of m, its order
+  // the gear's (z1/z2 input orders), and a feature explained by it.
+  const double m = 0.15, two_pi = 2 * std::numbers::pi;
   const auto am = modulation_case(
       [&](double speed) { return [=](double t) { return 1.0 + m * std::cos(two_pi * kRatio * speed * t + 0.7); }; },
       [](double) { return [](double, double) { return 0.0; }; });
   const auto am_report = diagnose_case(am);
   INFO(scores(am_report));
   CHECK_FALSE(chose(am_report, CandidateEffect::speed_fluctuation));
-  const auto ecc = std::find_if(am_report.candidates.begin(), am_report.candidates.end(),
-                                [](const auto& c) { return c.effect == CandidateEffect::eccentricity; });
-  REQUIRE(ecc != am_report.candidates.end());
-  double gear = 0;
-  for (const auto& [name, value] : ecc->parameters)
-    if (name == "gear_run_out_m") gear = value;
-  if (high <= 3e-4) {
-    CHECK(chose(am_report, CandidateEffect::eccentricity));
-    CHECK(gear >= 0.9 * low);
-    CHECK(gear <= 1.1 * high);
-    CHECK(std::any_of(am_report.features.begin(), am_report.features.end(),
-                      [](const GapFeature& f) { return f.explained_by == CandidateEffect::eccentricity; }));
-  } else if (low > 3e-4) {
-    CHECK(gear == Approx(3e-4));
-    CHECK(std::any_of(ecc->at_bounds.begin(), ecc->at_bounds.end(),
-                      [](const ParameterBound& b) { return b.name == "gear_run_out_m" && b.upper; }));
+  CHECK(chose(am_report, CandidateEffect::load_fluctuation));
+  const auto load = std::find_if(am_report.candidates.begin(), am_report.candidates.end(),
+                                 [](const auto& c) { return c.effect == CandidateEffect::load_fluctuation; });
+  REQUIRE(load != am_report.candidates.end());
+  double index = 0, order = 0;
+  for (const auto& [name, value] : load->parameters) {
+    if (name == "am_index") index = value;
+    if (name == "modulation_input_order") order = value;
   }
+  CHECK(index == Approx(m).epsilon(0.1));
+  CHECK(order == Approx(kRatio).epsilon(1e-12));
+  CHECK(std::any_of(am_report.features.begin(), am_report.features.end(),
+                    [](const GapFeature& f) { return f.explained_by == CandidateEffect::load_fluctuation; }));
   // A PM of index β at the input shaft's order on mesh harmonic 1 (n·β on harmonic n, the record
   // re-timed once a revolution): the shaft turning ahead and back, a speed ripple locked to order 1.
   const double beta = 0.3;
