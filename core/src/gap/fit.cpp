@@ -55,17 +55,9 @@ std::vector<double> fit_speed_fluctuation(const CandidateForm& form, const std::
     fx.push_back({form.effect, v});
     return std::make_pair(training_cost(training, fx, gears), std::move(v));
   };
-  // Fixed in Hz the fit runs over (d, f_m, κ·d): the AM index the ripple brings is κ·d times a
-  // factor of the speed, so the many lines a record's AM shows pin κ·d alone, and in (d, κ) the
-  // least cost lies along a narrow valley of κ·d constant that the descent, starting from two points,
-  // left at κ's end. κ is κ·d over d, held to its range.
-  const auto& am = form.parameters[2];
-  CandidateForm in_hz = form;
-  in_hz.parameters[2] = {"am_depth", am.low * form.parameters[0].low, am.high * form.parameters[0].high, true, am.grid};
-  const Expansion hz_values = [am](const std::vector<double>& u) {
-    return std::vector<double>{u[0], u[1], std::clamp(u[2] / u[0], am.low, am.high), 0.0};
-  };
-  auto best = with_cost(hz_values(fit_values(in_hz, base, training, gears, hz_values)));
+  auto hz = fit_values(form, base, training, gears);
+  hz.push_back(0.0);
+  auto best = with_cost(std::move(hz));
   CandidateForm locked = form;
   locked.parameters = {form.parameters[0], form.parameters[2]};
   locked.parameters[1].grid = 1;  // μ: one start; the descent moves it
