@@ -689,10 +689,9 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
       {CandidateEffect::noise_floor, {1e-4}, 0.02},
       {CandidateEffect::eccentricity, {20e-6, 8e-6}, 0.02},  // pinion and gear run-out, m
       {CandidateEffect::tooth_errors, {20, 1e-3, 2e-3, 5e-4}, 0.02},  // per load: the records' 20 N·m, then its gains
-      // depth, f_m (x = 1.5 and 0.86 of the shaft speed: the tacho leaves the PM there, so the AM
-      // tied to it, κ = 0.5 of mesh harmonic 1's PM index, shows beside it), κ; the fourth value 0:
-      // fixed in Hz, not locked to a shaft's order
-      {CandidateEffect::speed_fluctuation, {0.01, 12.0, 0.5, 0.0}, 0.03, 50000},
+      // depth, f_m (x = 0.375 and 0.21 of the shaft speed: 12 % and 0.7 % of the angle left by the
+      // tacho), AM share; the fourth value 0: fixed in Hz, not locked to a shaft's order
+      {CandidateEffect::speed_fluctuation, {0.01, 3.0, 0.02, 0.0}, 0.03, 50000},
       // β, f_m; the third value (a locked ripple's AM index) and the fourth 0: fixed in Hz
       {CandidateEffect::load_fluctuation, {0.002, 5.0, 0.0, 0.0}, 0.03, 20000},
       {CandidateEffect::misalignment, {-3.0}, 0.02},

@@ -258,18 +258,10 @@ class EffectApplier {
     }
   };
 
-  /// The AM a speed ripple brings is tied to its phase part: through the transfer path in Hz a line
-  /// whose frequency moves by the share d changes by S·d (S the path's log-slope there), and the
-  /// torque that drives the inertias ahead and back is as tied. The phase index the ripple leaves
-  /// the mesh's first harmonic, z1·(d/x)·r(x), is what tells a speed ripple from any other AM: the
-  /// AM index is κ times it (the third value), κ ≤ 1 (for the input shaft, x = r = 1, S ≤ z1 at
-  /// every line: no steeper than a mode damped at ζ ≈ 1/(2·z1) at each). A pure AM, with no phase
-  /// part, is then no speed ripple. The share μ of a line in its first sidebands is half the AM
-  /// index squared.
-  double ripple_am_share(double pm_per_order) const {
-    const double am = (v_.size() > 2 ? v_[2] : 0.0) * z1_ * pm_per_order;
-    return std::min(0.99, am * am / 2.0);
-  }
+  /// The share μ of every line a speed ripple amplitude-modulates (the third value): the transfer
+  /// path in Hz sees the speed change. A ripple whose phase part is nil is no speed ripple (the
+  /// choice rule in diagnosis.cpp): a pure AM is the shaft-order load ripple's.
+  double ripple_am_share() const { return v_.size() > 2 ? v_[2] : 0.0; }
 
   /// A modulation locked to a shaft's order x (in input orders): PM index pm_per_order·order, and a
   /// share am_share of each line amplitude-modulated.
@@ -288,7 +280,7 @@ class EffectApplier {
     if (!speed && locked_order > 0) return load_ripple_at_shaft_order(locked_order);
     const double x = locked_order > 0 ? locked_order : v_[1] / s_.speed_hz;
     const double pm_per_order = speed ? v_[0] / x * tracking_residual(x) : 0.0;
-    const ModulatedShare share{speed, pm_per_order, speed ? ripple_am_share(pm_per_order) : 0.0, v_};
+    const ModulatedShare share{speed, pm_per_order, speed ? ripple_am_share() : 0.0, v_};
     // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
     // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
     // following a tone through both averages is most of this form's cost.
@@ -630,7 +622,7 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
               true};
     case CandidateEffect::speed_fluctuation:
       return {effect,
-              {{"depth", 1e-4, 0.1, true, 8}, {"modulation_frequency_hz", 0.1, 20, true, 16}, {"am_per_mesh_pm", 1e-3, 1.0, true, 2}},
+              {{"depth", 1e-4, 0.1, true, 8}, {"modulation_frequency_hz", 0.1, 20, true, 16}, {"am_share", 1e-5, 0.99, true, 2}},
               {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
     case CandidateEffect::load_fluctuation:
       // The AM index of a load ripple locked to a shaft's order (the third value; the first two then

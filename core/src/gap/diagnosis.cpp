@@ -39,13 +39,14 @@ struct PairSpectra {
   double floor = 0;
 };
 
-/// A speed ripple whose AM sits at the most its phase part allows (am_per_mesh_pm at the top of its
-/// range) was fitted to more AM than a speed ripple brings: what it fitted is not a speed ripple.
-/// It stays among the candidates with that bound, and is not chosen.
+/// A speed ripple whose depth sits at the bottom of its range has no phase part: whatever it fitted
+/// (its AM share alone: a pure AM) is not a speed ripple, which turns the shaft ahead and back and
+/// so modulates the phase of every line. It stays among the candidates with that bound, and is not
+/// chosen.
 bool fitted_beyond_its_physics(CandidateEffect effect, const std::vector<double>& values, double sample_rate_hz) {
   if (effect != CandidateEffect::speed_fluctuation) return false;
   const auto bounds = parameters_at_bounds(effect, values, sample_rate_hz, false);
-  return std::any_of(bounds.begin(), bounds.end(), [](const ParameterBound& b) { return b.name == "am_per_mesh_pm" && b.upper; });
+  return std::any_of(bounds.begin(), bounds.end(), [](const ParameterBound& b) { return b.name == "depth" && !b.upper; });
 }
 
 std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const GearPairSpec& gears,

@@ -175,7 +175,7 @@ SpectralSummary apply_effects(const std::vector<AppliedEffect>& effects, const S
 
 /// Measured and twin spectra of one record, and the floor they are compared above.
 /// A speed-fluctuation candidate's ripple locked to a shaft's order: its values are {depth,
-/// modulation_frequency_hz, am_per_mesh_pm, modulation_input_order}; a fourth value > 0 is the ripple's order
+/// modulation_frequency_hz, am_share, modulation_input_order}; a fourth value > 0 is the ripple's order
 /// in input orders (1: once per input revolution, z1/z2: once per output revolution) and the frequency
 /// in Hz is unused (0); three values, or a fourth of 0, a ripple fixed in Hz.
 double speed_fluctuation_input_order(const std::vector<double>& values) noexcept;
