@@ -120,7 +120,9 @@ std::vector<CandidateEffect> physical_candidates(const std::string& form) {
   if (form == "structural_resonance") return {CandidateEffect::casing_mode};
   if (form == "mount_resonance") return {CandidateEffect::mount_resonance};
   if (form == "floor_step") return {CandidateEffect::noise_floor};
-  if (form == "amplitude_modulation") return {CandidateEffect::eccentricity};
+  // A pure AM at a shaft's order is the mesh force rising and falling once a revolution: the load
+  // ripple locked to that shaft's order (load_fluctuation), or a run-out whose AM a·e carries it.
+  if (form == "amplitude_modulation") return {CandidateEffect::eccentricity, CandidateEffect::load_fluctuation};
   if (form == "phase_modulation") return {CandidateEffect::eccentricity, CandidateEffect::speed_fluctuation};
   return {};
 }

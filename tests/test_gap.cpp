@@ -692,7 +692,8 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
       // depth, f_m (x = 0.375 and 0.21 of the shaft speed: 12 % and 0.7 % of the angle left by the
       // tacho), AM share; the fourth value 0: fixed in Hz, not locked to a shaft's order
       {CandidateEffect::speed_fluctuation, {0.01, 3.0, 0.02, 0.0}, 0.03, 50000},
-      {CandidateEffect::load_fluctuation, {0.002, 5.0}, 0.03, 20000},
+      // β, f_m; the third value (a locked ripple's AM index) and the fourth 0: fixed in Hz
+      {CandidateEffect::load_fluctuation, {0.002, 5.0, 0.0, 0.0}, 0.03, 20000},
       {CandidateEffect::misalignment, {-3.0}, 0.02},
       {CandidateEffect::backlash, {0.5}, 0.02},
       // Modes at 300 and 700 Hz, ζ = 0.03, 5 kg: reported in rising frequency.
@@ -706,6 +707,32 @@ TEST_CASE("gap: each parametric candidate fitted on data made with its own form 
       for (std::size_t i = 0; i < fitted.size(); ++i) CHECK(fitted[i] == Approx(c.values[i]).epsilon(c.tolerance));
       CHECK(training_cost(pairs, {{c.effect, fitted}}, GearPairSpec{}) < 1e-3 * training_cost(pairs, {}, GearPairSpec{}));
     }
+  }
+}
+
+TEST_CASE("gap: a load ripple locked to a shaft's order, fitted on data made with its form, recovers its AM index and shaft",
+          "[gap]") {
+  // Known answer: the form's own records (speeds 8 and 14 Hz), a 10 % AM once per output and once
+  // per input revolution; the fit returns {0, 0, m, order} with m within the round-trip tolerance
+  // of the other forms (3 %) and the shaft's order exactly. Each sideband gains m²/4 of its
+  // carrier (a line's gain is its neighbours' m²/4 each, its own power kept): checked on mesh
+  // harmonic 1 and its upper sideband (input shaft) in closed form.
+  for (double order : {static_cast<double>(kZ1) / kZ2, 1.0}) {
+    CAPTURE(order);
+    const std::vector<double> truth{0.0, 0.0, 0.1, order};
+    const auto pairs = generated(CandidateEffect::load_fluctuation, truth, 20000);
+    if (order == 1.0) {
+      const auto& t = pairs.front().twin.input_lines;
+      const auto& m = pairs.front().measured.input_lines;
+      CHECK(m[kZ1 - 1] - t[kZ1 - 1] == Approx(0.01 / 4 * t[kZ1 - 2] + 0.01 / 4 * t[kZ1]).epsilon(1e-9));
+      CHECK(m[kZ1] - t[kZ1] == Approx(0.01 / 4 * t[kZ1 - 1] + 0.01 / 4 * t[kZ1 + 1]).epsilon(1e-9));
+    }
+    const auto fitted = fit_candidate(CandidateEffect::load_fluctuation, {}, pairs, GearPairSpec{});
+    REQUIRE(fitted.size() == 4);
+    CHECK(fitted[0] == 0.0);
+    CHECK(fitted[1] == 0.0);
+    CHECK(fitted[2] == Approx(0.1).epsilon(0.03));
+    CHECK(fitted[3] == order);
   }
 }
 

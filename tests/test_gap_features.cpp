@@ -11,6 +11,7 @@
 #include <complex>
 #include <numbers>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -890,4 +891,110 @@ TEST_CASE("gap attribution: a narrow resonance no family shows is casing_mode's,
   CHECK(resonance_features(none, rng).empty());
 }
 
+namespace {
+
+/// Mesh harmonics 19n (n = 1…8, amplitude 1/n) and a few shaft orders of a constant-speed record,
+/// each at order o carried by the phase 2π·o·(speed·t) + pm(o, t), the sum multiplied by am(t).
+template <class Am, class Pm>
+Record modulated_record(double fs, double speed, int revs, Am&& am, Pm&& pm) {
+  return test::constant_speed_record(fs, speed, revs, [&](double t) {
+    double v = 0;
+    auto add = [&](double order, double amplitude) {
+      v += amplitude * std::cos(2 * std::numbers::pi * order * speed * t + 0.3 * order + pm(order, t));
+    };
+    for (int n = 1; n <= 8; ++n) add(19.0 * n, 1.0 / n);
+    for (double o : {1.0, 2.0, 3.0}) add(o, 0.05);
+    for (double m : {1.0, 2.0}) add(m * kRatio, 0.05);
+    return am(t) * v;
+  });
+}
+
+struct ModulationCase {
+  std::vector<DiagnosisInput> training, held_out;
+};
+
+/// The same records with and without the modulation, training at 8, 11 and 14 Hz, held out at
+/// 9.5 and 12.5 Hz; 52 input revolutions are 19 whole output revolutions.
+template <class Am, class Pm>
+ModulationCase modulation_case(Am&& am_of_speed, Pm&& pm_of_speed) {
+  const double fs = 10240;
+  ModulationCase c;
+  auto none = [](double) { return 1.0; };
+  auto still = [](double, double) { return 0.0; };
+  for (double speed : {8.0, 11.0, 14.0, 9.5, 12.5}) {
+    DiagnosisInput in{modulated_record(fs, speed, 52, am_of_speed(speed), pm_of_speed(speed)),
+                      modulated_record(fs, speed, 52, none, still)};
+    (speed == 9.5 || speed == 12.5 ? c.held_out : c.training).push_back(std::move(in));
+  }
+  return c;
+}
+
+GapReport diagnose_case(const ModulationCase& c) {
+  DiagnosisSettings settings;
+  settings.bootstrap_resamples = 20;
+  settings.candidate_bootstrap_resamples = 10;
+  return diagnose(c.training, c.held_out, GearPairSpec{}, settings);
+}
+
+/// Each candidate's score, for the failure messages.
+std::string scores(const GapReport& r) {
+  std::ostringstream out;
+  for (const auto& c : r.candidates) {
+    out << to_string(c.effect) << ": IC " << c.information_criterion << ", shrinkage " << c.shrinkage;
+    for (const auto& [name, value] : c.parameters) out << ", " << name << " " << value;
+    out << (c.at_bounds.empty() ? "" : " (at a bound)") << "\n";
+  }
+  return out.str();
+}
+
+bool chose(const GapReport& r, CandidateEffect e) { return std::find(r.chosen.begin(), r.chosen.end(), e) != r.chosen.end(); }
+
+}  // namespace
+
+TEST_CASE("gap attribution: a pure once-per-revolution AM is the shaft-order load ripple's, with its index and shaft; a PM the speed ripple's; none silent",
+          "[gap][gap_features]") {
+  // Closed forms. A pure AM x(t)·(1 + m·cos(2π·θ_gear)) keeps every carrier and gives every line
+  // the same sidebands, m²/4 each, and no phase part: no speed ripple (its AM comes with its PM),
+  // and a run-out's AM per metre is too small to carry it. It is the mesh force rising and falling
+  // once a gear revolution: load_fluctuation locked to the gear shaft's order. Asserted before
+  // running: that candidate chosen, the speed ripple not, its AM index within 10 % of m, its order
+  // the gear's (z1/z2 input orders), and a feature explained by it.
+  const double m = 0.15, two_pi = 2 * std::numbers::pi;
+  const auto am = modulation_case(
+      [&](double speed) { return [=](double t) { return 1.0 + m * std::cos(two_pi * kRatio * speed * t + 0.7); }; },
+      [](double) { return [](double, double) { return 0.0; }; });
+  const auto am_report = diagnose_case(am);
+  INFO(scores(am_report));
+  CHECK_FALSE(chose(am_report, CandidateEffect::speed_fluctuation));
+  CHECK(chose(am_report, CandidateEffect::load_fluctuation));
+  const auto load = std::find_if(am_report.candidates.begin(), am_report.candidates.end(),
+                                 [](const auto& c) { return c.effect == CandidateEffect::load_fluctuation; });
+  REQUIRE(load != am_report.candidates.end());
+  double index = 0, order = 0;
+  for (const auto& [name, value] : load->parameters) {
+    if (name == "am_index") index = value;
+    if (name == "modulation_input_order") order = value;
+  }
+  CHECK(index == Approx(m).epsilon(0.1));
+  CHECK(order == Approx(kRatio).epsilon(1e-12));
+  CHECK(std::any_of(am_report.features.begin(), am_report.features.end(),
+                    [](const GapFeature& f) { return f.explained_by == CandidateEffect::load_fluctuation; }));
+  // A PM of index β at the input shaft's order on mesh harmonic 1 (n·β on harmonic n, the record
+  // re-timed once a revolution): the shaft turning ahead and back, a speed ripple locked to order 1.
+  const double beta = 0.3;
+  const auto pm = modulation_case([](double) { return [](double) { return 1.0; }; },
+                                  [&](double speed) {
+                                    return [=](double order, double t) { return order / kZ1 * beta * std::sin(two_pi * speed * t); };
+                                  });
+  const auto pm_report = diagnose_case(pm);
+  INFO(scores(pm_report));
+  REQUIRE_FALSE(pm_report.chosen.empty());
+  CHECK(pm_report.chosen.front() == CandidateEffect::speed_fluctuation);
+  // No effect: the twin's records against themselves.
+  const auto none = modulation_case([](double) { return [](double) { return 1.0; }; },
+                                    [](double) { return [](double, double) { return 0.0; }; });
+  const auto none_report = diagnose_case(none);
+  CHECK(none_report.chosen.empty());
+  CHECK(none_report.features.empty());
+}
 }  // namespace test_gap_features

@@ -244,18 +244,29 @@ class EffectApplier {
 
   /// A speed ripple of depth d at f_m turns the shaft d/x rad ahead and back (x = f_m over the
   /// shaft's speed); the one-edge tacho follows all but the share r(x) of that angle, which stays
-  /// in the tracked signal as a phase modulation of index order·(d/x)·r(x). On top, the transfer
-  /// path in Hz sees the speed change: a share μ of every line is amplitude-modulated. The load
-  /// ripple's form is one phase modulation growing with order, a share 1 − exp(−(β·order)²).
+  /// in the tracked signal as a phase modulation of index order·(d/x)·r(x). On top, a share μ of
+  /// every line is amplitude-modulated (ripple_am_share). The load ripple's form is one phase
+  /// modulation growing with order, a share 1 − exp(−(β·order)²).
   struct ModulatedShare {
     bool speed;
-    double pm_per_order;
+    double pm_per_order, mu;
     const std::vector<double>& v;
     double operator()(double order) const {
       if (!speed) return 1.0 - std::exp(-(v[0] * order) * (v[0] * order));
       const double carrier = bessel_j0(pm_per_order * order);
-      return 1.0 - (1.0 - v[2]) * carrier * carrier;
+      return 1.0 - (1.0 - mu) * carrier * carrier;
     }
+  };
+
+  /// The share μ of every line a speed ripple amplitude-modulates (the third value): the transfer
+  /// path in Hz sees the speed change. A ripple whose phase part is nil is no speed ripple (the
+  /// choice rule in diagnosis.cpp): a pure AM is the shaft-order load ripple's.
+  double ripple_am_share() const { return v_.size() > 2 ? v_[2] : 0.0; }
+
+  /// A modulation locked to a shaft's order x (in input orders): PM index pm_per_order·order, and a
+  /// share am_share of each line amplitude-modulated.
+  struct LockedModulation {
+    double pm_per_order, am_share, input_order;
   };
 
   /// The powers below which a line is left alone and a moved tone is dropped.
@@ -265,9 +276,11 @@ class EffectApplier {
 
   void fluctuation() {
     const bool speed = e_.effect == CandidateEffect::speed_fluctuation;
-    const double locked_order = speed ? speed_fluctuation_input_order(v_) : 0.0;
+    const double locked_order = speed_fluctuation_input_order(v_);
+    if (!speed && locked_order > 0) return load_ripple_at_shaft_order(locked_order);
     const double x = locked_order > 0 ? locked_order : v_[1] / s_.speed_hz;
-    const ModulatedShare share{speed, speed ? v_[0] / x * tracking_residual(x) : 0.0, v_};
+    const double pm_per_order = speed ? v_[0] / x * tracking_residual(x) : 0.0;
+    const ModulatedShare share{speed, pm_per_order, speed ? ripple_am_share() : 0.0, v_};
     // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
     // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
     // following a tone through both averages is most of this form's cost.
@@ -277,8 +290,9 @@ class EffectApplier {
     const MoveThresholds limits{1e-9 * total, 1e-7 * total};
     if (locked_order > 0) {
       const bool input_locked = std::abs(x - 1.0) < 1e-12;
-      spread_over_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share.pm_per_order, x, limits, input_locked);
-      spread_over_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share.pm_per_order, x, limits, !input_locked);
+      spread_over_sidebands(s_.input_lines, twin_.input_lines, 1, 1, {share.pm_per_order, share.mu, x}, limits, input_locked);
+      spread_over_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, {share.pm_per_order, share.mu, x}, limits,
+                            !input_locked);
       return;
     }
     move_to_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share, x, limits);
@@ -293,8 +307,8 @@ class EffectApplier {
   /// ripple follows, so they land on that shaft's lines. Assumption: the line's phase and the
   /// ripple's are independent (powers add where sidebands of neighbouring lines meet).
   void spread_over_sidebands(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
-                             double pm_per_order, double x, const MoveThresholds& limits, bool own_shaft) {
-    const double mu = v_[2];
+                             const LockedModulation& mod, const MoveThresholds& limits, bool own_shaft) {
+    const double pm_per_order = mod.pm_per_order, mu = mod.am_share, x = mod.input_order;
     std::vector<double> jn;  // J_0 … J_K of the line at hand, reused from line to line
     for (std::size_t k = 1; k <= lines.size(); ++k) {
       const double power = twin_lines[k - 1];
@@ -334,6 +348,34 @@ class EffectApplier {
       add_non_synchronous_tone(s_, order - x, moved / 2, gears_, limits.negligible);
       add_non_synchronous_tone(s_, order + x, moved / 2, gears_, limits.negligible);
     }
+  }
+
+  /// A load ripple locked to a shaft's order x (in input orders): once a revolution of that shaft the
+  /// mesh force rises and falls by the share m (a bent shaft, a misaligned coupling, an eccentric
+  /// load). The twin's vibration is the mesh's response, in proportion to its force, so every line
+  /// is x(t)·(1 + m·cos(2π·x·θ)): the carrier stays, each first sideband x away gets m²/4 of its
+  /// power, and no phase part (the encoder's angle is the shaft's). Broadband bins, smooth over the
+  /// orders a sideband moves them, keep their place and gain m²/2.
+  void load_ripple_at_shaft_order(double x) {
+    const double m = v_.size() > 2 ? v_[2] : 0.0, side_share = m * m / 4.0;
+    const bool input_locked = std::abs(x - 1.0) < 1e-12;
+    const double total = total_input_line_power(twin_);
+    const MoveThresholds limits{1e-9 * total, 1e-7 * total};
+    auto sidebands = [&](const std::vector<double>& twin_lines, int num, int den, bool own_shaft) {
+      for (std::size_t k = 1; k <= twin_lines.size(); ++k) {
+        if (!(twin_lines[k - 1] > limits.too_small_to_move)) continue;
+        const double p = twin_lines[k - 1] * side_share;
+        const double order = static_cast<double>(k) * num / den;
+        for (int side : {-1, 1}) {
+          if (own_shaft) add_to_line(num == den, static_cast<std::ptrdiff_t>(k) + side, p);
+          else add_non_synchronous_tone(s_, order + side * x, p, gears_, limits.negligible);
+        }
+      }
+    };
+    sidebands(twin_.input_lines, 1, 1, input_locked);
+    sidebands(twin_.output_lines, z1_, z2_, !input_locked);
+    for (std::size_t k = 0; k < s_.broadband.size() && k < twin_.broadband.size(); ++k)
+      s_.broadband[k] += twin_.broadband[k] * 2 * side_share;
   }
 
   /// Power on whole order m of the input (or output) shaft's lines; nothing at or below order 0.
@@ -439,7 +481,8 @@ std::vector<std::string> parameter_names(const CandidateForm& form, const std::v
   }
   for (std::size_t i = 0; i < values.size(); ++i)
     names.push_back(i < form.parameters.size()                                  ? form.parameters[i].name
-                    : form.effect == CandidateEffect::speed_fluctuation && i == 3 ? "modulation_input_order"
+                    : i == 3 && (form.effect == CandidateEffect::speed_fluctuation ||
+                                 form.effect == CandidateEffect::load_fluctuation)      ? "modulation_input_order"
                                                                                   : "value_" + std::to_string(i));
   return names;
 }
@@ -582,7 +625,12 @@ CandidateForm candidate_form(CandidateEffect effect, double sample_rate_hz) {
               {{"depth", 1e-4, 0.1, true, 8}, {"modulation_frequency_hz", 0.1, 20, true, 16}, {"am_share", 1e-5, 0.99, true, 2}},
               {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
     case CandidateEffect::load_fluctuation:
-      return {effect, {{"phase_deviation_per_order_rad", 1e-5, 0.5, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 16}},
+      // The AM index of a load ripple locked to a shaft's order (the third value; the first two then
+      // 0): from half a percent of the mean mesh force, under what a line comparison shows, to half
+      // of it, beyond which the teeth near unloading once a revolution (contact loss: backlash's).
+      return {effect,
+              {{"phase_deviation_per_order_rad", 1e-5, 0.5, true, 12}, {"modulation_frequency_hz", 0.1, 20, true, 16},
+               {"am_index", 5e-3, 0.5, true, 6}},
               {FK::broadband, FK::mesh_harmonics, FK::input_sidebands, FK::output_sidebands}, 1};
     case CandidateEffect::tip_relief: {
       // One gain per mesh harmonic the band holds at the slowest speed the diagnosis accepts

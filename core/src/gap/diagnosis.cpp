@@ -39,6 +39,16 @@ struct PairSpectra {
   double floor = 0;
 };
 
+/// A speed ripple whose depth sits at the bottom of its range has no phase part: whatever it fitted
+/// (its AM share alone: a pure AM) is not a speed ripple, which turns the shaft ahead and back and
+/// so modulates the phase of every line. It stays among the candidates with that bound, and is not
+/// chosen.
+bool fitted_beyond_its_physics(CandidateEffect effect, const std::vector<double>& values, double sample_rate_hz) {
+  if (effect != CandidateEffect::speed_fluctuation) return false;
+  const auto bounds = parameters_at_bounds(effect, values, sample_rate_hz, false);
+  return std::any_of(bounds.begin(), bounds.end(), [](const ParameterBound& b) { return b.name == "depth" && !b.upper; });
+}
+
 std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const GearPairSpec& gears,
                                 const DiagnosisSettings& s, const twin::GearboxMatrices& twin_matrices,
                                 const std::shared_ptr<const BearingForcePath>& bearing_path, const char* which) {
@@ -649,7 +659,7 @@ class Diagnosis {
       if (reruns_.count(c) && rerun_chosen_) continue;
       Addition a = try_addition(c, form, round);
       const double best_ic = best ? best->ic : std::numeric_limits<double>::infinity();
-      if (explains_significant(form.explains) && a.ic < best_ic) {
+      if (explains_significant(form.explains) && a.ic < best_ic && !fitted_beyond_its_physics(c, a.effect.values, fs_)) {
         a.worsens = worsens_other_family(a.gaps, form.explains);
         best = std::move(a);
       }

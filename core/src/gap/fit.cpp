@@ -68,6 +68,31 @@ std::vector<double> fit_speed_fluctuation(const CandidateForm& form, const std::
   }
   return best.second;
 }
+
+/// A load ripple is either fixed in Hz (the brake's torque ripple twisting the train: {β, f_m}) or
+/// locked to a shaft's order (the mesh force rising and falling once a revolution of the input or
+/// the output shaft: an AM index m and no phase part). The three are fitted apart and the lowest
+/// training cost is kept, as {β, f_m, 0, 0} or {0, 0, m, order}.
+std::vector<double> fit_load_fluctuation(const CandidateForm& form, const std::vector<AppliedEffect>& base,
+                                         const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
+  auto with_cost = [&](std::vector<double> v) {
+    auto fx = base;
+    fx.push_back({form.effect, v});
+    return std::make_pair(training_cost(training, fx, gears), std::move(v));
+  };
+  CandidateForm in_hz = form;
+  in_hz.parameters = {form.parameters[0], form.parameters[1]};
+  const Expansion hz_values = [](const std::vector<double>& u) { return std::vector<double>{u[0], u[1], 0.0, 0.0}; };
+  auto best = with_cost(hz_values(fit_values(in_hz, base, training, gears, hz_values)));
+  CandidateForm locked = form;
+  locked.parameters = {form.parameters[2]};
+  for (double order : {1.0, static_cast<double>(gears.pinion_teeth) / gears.gear_teeth}) {
+    const Expansion expand = [order](const std::vector<double>& u) { return std::vector<double>{0.0, 0.0, u[0], order}; };
+    auto candidate = with_cost(expand(fit_values(locked, base, training, gears, expand)));
+    if (candidate.first < best.first) best = std::move(candidate);
+  }
+  return best.second;
+}
 }  // namespace
 
 std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<AppliedEffect>& base,
@@ -75,6 +100,7 @@ std::vector<double> fit_candidate(CandidateEffect effect, const std::vector<Appl
   if (training.empty()) throw std::invalid_argument("fit_candidate: no training records");
   CandidateForm form = candidate_form(effect, training.front().measured.sample_rate_hz);
   if (effect == CandidateEffect::speed_fluctuation) return fit_speed_fluctuation(form, base, training, gears);
+  if (effect == CandidateEffect::load_fluctuation) return fit_load_fluctuation(form, base, training, gears);
   if (!form.per_load) return fit_values(form, base, training, gears);
   // One group per training load: its load, then the form's parameters fitted on that load's records.
   std::vector<double> loads;
