@@ -436,6 +436,18 @@ TEST_CASE("depth calibration: a path read again and a rate read at another pace,
   CHECK(at.var == rate.var);
 }
 
+namespace {
+/// The combined mean depth of a model run at a fixed K_wear from the pair's start, at each of `at`.
+std::vector<double> model_means_at(double k, const std::vector<double>& at) {
+  ModelSettings fixed = testing::calibration_case_settings();
+  fixed.loop.k_wear_si = k;
+  TwinModel m(twin::GearboxParameters{}, fixed, testing::calibration_case_rms);
+  std::vector<double> means;
+  for (const double n : at) means.push_back(m.observe(testing::observation(n, 20, 20), {}).summary.combined_mean_depth_m);
+  return means;
+}
+}  // namespace
+
 // The model's readings of inspected depths after K_wear updates (docs/model.md, "Depth
 // calibration"). The twin's RMS_SA is a stand-in, 1 + mean depth / scale, so RMS_SA picks the
 // model's depth and a K_wear update re-runs the path. Two inspections, then an update re-running
@@ -448,15 +460,7 @@ TEST_CASE("depth calibration: inspected depths read against the model's path and
   s.update_k_wear = true;
   s.commissioning_records = 0;
   const double n_a = 4e5, n_b = 8e5, n_3 = 1e6, n_4 = 1.4e6;
-  auto mean_at = [&](double k, std::vector<double> at) {
-    ModelSettings fixed = testing::calibration_case_settings();
-    fixed.loop.k_wear_si = k;
-    TwinModel m(twin::GearboxParameters{}, fixed, testing::calibration_case_rms);
-    std::vector<double> means;
-    for (const double n : at) means.push_back(m.observe(testing::observation(n, 20, 20), {}).summary.combined_mean_depth_m);
-    return means;
-  };
-  const std::vector<double> m0 = mean_at(s.loop.k_wear_si, {n_a, n_b, n_3});
+  const std::vector<double> m0 = model_means_at(s.loop.k_wear_si, {n_a, n_b, n_3});
   const double scale = m0[2];
   REQUIRE(scale > 0);
   auto rms = [scale](const WearState& st, const twin::OperatingPoint&) { return 1.0 + summarise(st).combined_mean_depth_m / scale; };
@@ -474,7 +478,7 @@ TEST_CASE("depth calibration: inspected depths read against the model's path and
   const double k1 = model.memory().k_wear_si;
   REQUIRE(k1 < 0.7 * s.loop.k_wear_si);
   REQUIRE(std::abs(r3.summary.combined_mean_depth_m / m0[2] - 0.5) < 0.05);
-  const std::vector<double> m1 = mean_at(k1, {n_a, n_b, n_3, n_4});
+  const std::vector<double> m1 = model_means_at(k1, {n_a, n_b, n_3, n_4});
   const auto& p = model.memory().depth_ratio_points;
   REQUIRE(p.size() == 2);
   CHECK(p[0].model_m == Approx(m1[0]).epsilon(1e-9));
@@ -533,15 +537,7 @@ TEST_CASE("depth calibration: the rate is read at today's pace after the interva
   s.update_k_pitting = true;
   s.commissioning_records = 0;
   const double n_a = 4e5, n_b = 8e5, n_3 = 1e6, n_4 = 1.4e6;
-  auto mean_at = [&](double k, std::vector<double> at) {
-    ModelSettings fixed = testing::calibration_case_settings();
-    fixed.loop.k_wear_si = k;
-    TwinModel m(twin::GearboxParameters{}, fixed, testing::calibration_case_rms);
-    std::vector<double> means;
-    for (const double n : at) means.push_back(m.observe(testing::observation(n, 20, 20), {}).summary.combined_mean_depth_m);
-    return means;
-  };
-  const std::vector<double> m0 = mean_at(s.loop.k_wear_si, {n_a, n_b, n_3});
+  const std::vector<double> m0 = model_means_at(s.loop.k_wear_si, {n_a, n_b, n_3});
   const double scale = m0[2];
   REQUIRE(scale > 0);
   auto rms = [scale](const WearState& st, const twin::OperatingPoint&) { return 1.0 + summarise(st).combined_mean_depth_m / scale; };
@@ -557,7 +553,7 @@ TEST_CASE("depth calibration: the rate is read at today's pace after the interva
   model.observe(testing::observation(n_3, 20, 20, 1.5, 0.02), {a, b, p1, p2});
   const double k1 = model.memory().k_wear_si;
   REQUIRE(k1 < 0.7 * s.loop.k_wear_si);
-  const std::vector<double> m1 = mean_at(k1, {n_a, n_b, n_3, n_4});
+  const std::vector<double> m1 = model_means_at(k1, {n_a, n_b, n_3, n_4});
   const double kappa1 = std::log((*b.wear_depth_m - *a.wear_depth_m) / (m1[1] - m1[0]));
   REQUIRE(model.wear_rate_reading().log_mean == Approx(kappa1).epsilon(1e-9));
   model.observe(testing::observation(n_4, 20, 20, 1.0 + 1.5 * m1[3] / scale, 0.03), {a, b, p1, p2});
