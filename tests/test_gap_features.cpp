@@ -951,7 +951,7 @@ bool chose(const GapReport& r, CandidateEffect e) { return std::find(r.chosen.be
 
 }  // namespace
 
-TEST_CASE("gap attribution: a pure once-per-revolution AM is the shaft-order load ripple's, with its index and shaft; a PM the speed ripple's; none silent",
+TEST_CASE("gap attribution: a pure once-per-revolution AM is the shaft-order load ripple's, with its index and shaft, a PM the speed ripple's, and no effect silent",
           "[gap][gap_features]") {
   // Closed forms. A pure AM x(t)·(1 + m·cos(2π·θ_gear)) keeps every carrier and gives every line
   // the same sidebands, m²/4 each, and no phase part: no speed ripple (its AM comes with its PM),
