@@ -44,17 +44,22 @@ std::vector<double> fit_values(const CandidateForm& form, const std::vector<Appl
                                const std::vector<SummaryPair>& training, const GearPairSpec& gears,
                                const Expansion& expand = {});
 
+/// A form's values with their training cost, the base effects beneath them.
+std::pair<double, std::vector<double>> costed(CandidateEffect effect, const std::vector<AppliedEffect>& base,
+                                              const std::vector<SummaryPair>& training, const GearPairSpec& gears,
+                                              std::vector<double> values) {
+  auto fx = base;
+  fx.push_back({effect, values});
+  return {training_cost(training, fx, gears), std::move(values)};
+}
+
 /// A speed ripple is either fixed in Hz (a drive's ripple: {depth, f_m, μ}) or locked to a shaft's
 /// order (once per revolution of the input or the output shaft: a bent shaft, a coupling's
 /// misalignment, whatever the speed). The three are fitted apart (a locked ripple has no frequency
 /// to fit: depth and μ only) and the lowest training cost is kept, as {depth, f_m or 0, μ, order or 0}.
 std::vector<double> fit_speed_fluctuation(const CandidateForm& form, const std::vector<AppliedEffect>& base,
                                           const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
-  auto with_cost = [&](std::vector<double> v) {
-    auto fx = base;
-    fx.push_back({form.effect, v});
-    return std::make_pair(training_cost(training, fx, gears), std::move(v));
-  };
+  auto with_cost = [&](std::vector<double> v) { return costed(form.effect, base, training, gears, std::move(v)); };
   auto hz = fit_values(form, base, training, gears);
   hz.push_back(0.0);
   auto best = with_cost(std::move(hz));
@@ -75,11 +80,7 @@ std::vector<double> fit_speed_fluctuation(const CandidateForm& form, const std::
 /// training cost is kept, as {β, f_m, 0, 0} or {0, 0, m, order}.
 std::vector<double> fit_load_fluctuation(const CandidateForm& form, const std::vector<AppliedEffect>& base,
                                          const std::vector<SummaryPair>& training, const GearPairSpec& gears) {
-  auto with_cost = [&](std::vector<double> v) {
-    auto fx = base;
-    fx.push_back({form.effect, v});
-    return std::make_pair(training_cost(training, fx, gears), std::move(v));
-  };
+  auto with_cost = [&](std::vector<double> v) { return costed(form.effect, base, training, gears, std::move(v)); };
   CandidateForm in_hz = form;
   in_hz.parameters = {form.parameters[0], form.parameters[1]};
   const Expansion hz_values = [](const std::vector<double>& u) { return std::vector<double>{u[0], u[1], 0.0, 0.0}; };
