@@ -645,7 +645,7 @@ TEST_CASE("fleet: over TLS with client certificates and a per-gearbox ACL, a gea
   CHECK(asked >= 1);
   CHECK(tls_err.find("resend requests " + std::to_string(asked) + " (refused " + std::to_string(asked) + "), lost 0 messages in 0 ranges") !=
         std::string::npos);
-  CHECK(occurrences(tls_err, "the broker refused a resend request") <= asked);  // rate-limited: one line per 10 s
+  CHECK(static_cast<long long>(occurrences(tls_err, "the broker refused a resend request")) <= asked);  // rate-limited: one line per 10 s
   check_same_as_local(f, "gbA");
   CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.gearboxes WHERE name = 'gbX'") == 0);
   CHECK(pg_count(f.uri, "SELECT count(*) FROM fleet.rejects") == 0);
