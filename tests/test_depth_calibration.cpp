@@ -338,11 +338,20 @@ TEST_CASE("depth calibration: the newest inspection pairs with the partner of th
                                                depth_ratio_measurement(2, 1.0e6, 20e-6, 12e-6, 0.05),
                                                depth_ratio_measurement(3, 2.0e6, 50e-6, 20e-6, 0.05),
                                                depth_ratio_measurement(4, 1.8e6, 45e-6, 18e-6, 0.05)};
+  // Without the window (no rate change ever significant) the longest increment: (50 − 10) / (20 − 8).
+  const RateReading widest = newest_rate_reading(pts, std::numeric_limits<double>::infinity());
+  REQUIRE(widest.valid);
+  CHECK(widest.to_id == 3);
+  CHECK(widest.from_id == 1);
+  CHECK(std::exp(widest.log_mean) == Approx(40.0 / 12.0).epsilon(1e-12));
+  // With it: [2, 4] (25/6) against [4, 3] (5/2) differs by 0.69 SD and joins; [1, 2] (10/4) against
+  // [2, 3] (30/8) by ln 1.5 = 0.405 over an SD of 0.0025 (1 + (20 (1/10 + 1/30))² + (50/30)²), 0.165:
+  // 2.46 SDs, a change: the window starts at 2.
   const RateReading r = newest_rate_reading(pts);
   REQUIRE(r.valid);
   CHECK(r.to_id == 3);
-  CHECK(r.from_id == 1);   // the longest increment: (50 − 10) / (20 − 8)
-  CHECK(std::exp(r.log_mean) == Approx(40.0 / 12.0).epsilon(1e-12));
+  CHECK(r.from_id == 2);
+  CHECK(std::exp(r.log_mean) == Approx(30.0 / 8.0).epsilon(1e-12));
   // An increment the errors reversed gives no reading; an old state's reading (no model depth) neither.
   CHECK_FALSE(depth_rate_reading(pts[0], depth_ratio_measurement(5, 1e6, 9e-6, 12e-6, 0.05)).valid);
   DepthRatioMeasurement old = pts[0];
@@ -353,6 +362,45 @@ TEST_CASE("depth calibration: the newest inspection pairs with the partner of th
   const double rv = log_relative_variance(0.05);
   CHECK(posterior_weight(prior, {pts[2]}, 1e-12, 2.5e6, 3) == Approx(9.0 / (9.0 + rv)).epsilon(1e-6));
   CHECK(posterior_weight(prior, {pts[2]}, 1e-12, 2.5e6, 7) == 0.0);
+}
+
+// The rate's window (newest_rate_reading): a truth whose rate over the model's increments steps
+// from 2 to 5 between the second and third inspection reads 5 exactly (the widest pair would read the
+// mixture 60/15 = 4); a truth at one rate reads it from the oldest partner; and on a truth at one rate
+// with independent 2 % readings the change test on three readings cuts the window in 5 % ± 1.5 % of
+// 4000 draws (its nominal two-sided level; the delta method's error at a 10-SD increment is small).
+TEST_CASE("depth calibration: the rate's window stops at a rate change", "[model][depth_calibration]") {
+  auto model = [](double n) { return 10e-6 * n / 1e6; };
+  auto stepped = [&](double n) { return n <= 1e6 ? 2.0 * model(n) : 20e-6 + 5.0 * (model(n) - model(1e6)); };
+  std::vector<DepthRatioMeasurement> pts;
+  for (int k = 1; k <= 4; ++k) pts.push_back(depth_ratio_measurement(k, 0.5e6 * k, stepped(0.5e6 * k), model(0.5e6 * k), 0.05));
+  const RateReading r = newest_rate_reading(pts);
+  REQUIRE(r.valid);
+  CHECK(r.to_id == 4);
+  CHECK(r.from_id == 2);
+  CHECK(r.log_mean == Approx(std::log(5.0)).epsilon(1e-12));
+  CHECK(newest_rate_reading(pts, std::numeric_limits<double>::infinity()).log_mean == Approx(std::log(4.0)).epsilon(1e-12));
+  auto trending = [&](double n) { return 2.6 * model(n) + 3e-6; };
+  std::vector<DepthRatioMeasurement> one_rate;
+  for (int k = 1; k <= 4; ++k) one_rate.push_back(depth_ratio_measurement(k, 0.5e6 * k, trending(0.5e6 * k), model(0.5e6 * k), 0.05));
+  const RateReading u = newest_rate_reading(one_rate);
+  REQUIRE(u.valid);
+  CHECK(u.from_id == 1);
+  CHECK(u.log_mean == Approx(std::log(2.6)).epsilon(1e-12));
+  std::mt19937_64 rng(77);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const double s = 0.02;
+  int cut = 0;
+  const int draws = 4000;
+  for (int k = 0; k < draws; ++k) {
+    std::vector<DepthRatioMeasurement> p;
+    for (int i = 1; i <= 3; ++i) {
+      const double n = 1e6 * i, truth = 2.0 * model(n);
+      p.push_back(depth_ratio_measurement(i, n, truth * (1.0 + s * n01(rng)), model(n), s));
+    }
+    if (newest_rate_reading(p).from_id != 1) ++cut;
+  }
+  CHECK(static_cast<double>(cut) / draws == Approx(0.05).margin(0.015));
 }
 
 TEST_CASE("depth calibration: the crossing threshold's quantiles against a direct sampling", "[model][depth_calibration]") {

@@ -111,14 +111,45 @@ RateReading depth_rate_reading(const DepthRatioMeasurement& a, const DepthRatioM
   return r;
 }
 
-RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points) {
-  const DepthRatioMeasurement* newest = nullptr;
+namespace {
+/// The rate ratio's change between two adjacent segments [a, s] and [s, b] and its SD by the delta
+/// method (the three readings independent, relative variances e^var − 1): d = κ_sb − κ_as with
+/// ∂d/∂z_a = D_a/ΔD_as, ∂d/∂z_s = −D_s (1/ΔD_as + 1/ΔD_sb), ∂d/∂z_b = D_b/ΔD_sb.
+struct RateChange {
+  bool valid = false;
+  double change = 0, sd = 0;
+};
+RateChange rate_change(const DepthRatioMeasurement& a, const DepthRatioMeasurement& s, const DepthRatioMeasurement& b) {
+  const RateReading older = depth_rate_reading(a, s), newer = depth_rate_reading(s, b);
+  if (!older.valid || !newer.valid) return {};
+  const double da = a.model_m * std::exp(a.log_ratio), ds = s.model_m * std::exp(s.log_ratio), db = b.model_m * std::exp(b.log_ratio);
+  const double d_as = ds - da, d_sb = db - ds;
+  const double ga = da / d_as, gs = ds * (1.0 / d_as + 1.0 / d_sb), gb = db / d_sb;
+  const double var = ga * ga * std::expm1(a.var) + gs * gs * std::expm1(s.var) + gb * gb * std::expm1(b.var);
+  return {true, newer.log_mean - older.log_mean, std::sqrt(var)};
+}
+}  // namespace
+
+RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points, double rate_change_z) {
+  std::vector<const DepthRatioMeasurement*> usable;
   for (const DepthRatioMeasurement& m : points)
-    if (m.model_m > 0 && (!newest || m.cycles > newest->cycles)) newest = &m;
+    if (m.model_m > 0) usable.push_back(&m);
+  std::sort(usable.begin(), usable.end(), [](const auto* x, const auto* y) { return x->cycles < y->cycles; });
   RateReading best;
-  if (!newest) return best;
-  for (const DepthRatioMeasurement& m : points) {
-    const RateReading r = depth_rate_reading(m, *newest);
+  if (usable.size() < 2) return best;
+  const DepthRatioMeasurement& newest = *usable.back();
+  // Walk back from the newest: the window [s, newest] takes an older partner a only while the
+  // segment [a, s] runs at the window's rate (within rate_change_z SDs of the change): a rate that
+  // changed (a truth K step, a regime, a load) would otherwise average the old rate into the new.
+  const DepthRatioMeasurement* start = usable[usable.size() - 2];
+  for (std::size_t k = usable.size() - 1; k-- > 0;) {
+    const DepthRatioMeasurement& a = *usable[k];
+    if (&a != start) {
+      const RateChange c = rate_change(a, *start, newest);
+      if (c.valid && std::abs(c.change) > rate_change_z * c.sd) break;
+      if (c.valid) start = &a;
+    }
+    const RateReading r = depth_rate_reading(a, newest);
     if (r.valid && (!best.valid || r.var < best.var)) best = r;
   }
   return best;

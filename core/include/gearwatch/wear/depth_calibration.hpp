@@ -130,9 +130,14 @@ void set_k_from(std::vector<KStretch>& history, double from_cycles, double k);
 RateReading rate_at_pace(RateReading r, double k_path, double k_now);
 
 /// The rate reading of the newest inspection (largest cycles) paired with the earlier one that
-/// gives the smallest variance: the newest carries the rate the truth has now, the partner the
-/// longest increment the errors allow. Not valid with fewer than two usable readings.
-RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points);
+/// gives the smallest variance among those inside the rate's window: the newest carries the rate the
+/// truth has now, the partner the longest increment the errors allow at one rate. The window grows
+/// back from the newest's predecessor s, one reading a at a time, while the segment [a, s] reads the
+/// same rate as [s, newest] (|κ_sb − κ_as| ≤ rate_change_z SDs of the difference, delta method over
+/// the three readings; two-sided 5 % by default); it stops at the first change. Not valid with fewer
+/// than two usable readings.
+constexpr double kRateChangeZ = 1.959963984540054;
+RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points, double rate_change_z = kRateChangeZ);
 
 /// ∂μ/∂z_i of depth_ratio_posterior's mean at `now` for the reading with `inspection_id` (the
 /// posterior mean is linear in the readings inside the gate: the weight the level gives that reading).
