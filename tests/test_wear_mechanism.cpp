@@ -383,6 +383,45 @@ TEST_CASE("False alarms of the change evidence on iid noise stay under Ville's b
   CHECK(ar.first_three_rising == Approx(p3).margin(3 * std::sqrt(p3 * (1 - p3) / 2000)));
 }
 
+TEST_CASE("AR(1) wander of a healthy band's ICS2 below a sixth of the materiality floor stays under Ville's bound",
+          "[dsp][wear_mechanism]") {
+  // Sampling errors of disjoint records are independent, so a correlated history is the gearbox's own
+  // ICS2 wandering: a record's sampling SD cannot see it. The ranks alone then false-alarm beyond
+  // 1/40 (the test above); what bounds the verdict is the materiality floor measured against the
+  // wander. The full verdict on a low band 0.02 + s u_k, u AR(1) of unit variance, s = floor / 6,
+  // high band constant (tied: it never rises). The verdict can only name wear once the low band's
+  // evidence reaches 2/alpha, so it is asked only then (same answers, a fraction of the cost).
+  SignalProcessingSettings settings;
+  const double floor = material_ics2_rise(settings);
+  const double bar = rising_evidence_threshold(settings.trend_significance);
+  constexpr int histories = 2000, length = 100;
+  auto false_alarms = [&](double phi, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    const double s = floor / 6.0;
+    int raised = 0;
+    for (int h = 0; h < histories; ++h) {
+      std::vector<WearHistoryPoint> points;
+      std::vector<double> cycles, low;
+      double u = gauss(rng);
+      bool ever = false;
+      for (int k = 0; k < length && !ever; ++k) {
+        points.push_back({1e5 * k, 0.02 + s * u, 0.03, 8000.0});
+        cycles.push_back(points.back().cycles), low.push_back(points.back().ics2_low);
+        u = phi * u + std::sqrt(1.0 - phi * phi) * gauss(rng);
+        ever = rising_change_evidence(cycles, low) >= bar && is_wear(identify_wear_mechanism(points, settings).mechanism);
+      }
+      raised += ever;
+    }
+    return static_cast<double>(raised) / histories;
+  };
+  const double margin = 3 * std::sqrt(0.025 * 0.975 / histories);  // binomial 3-sigma at the bound
+  const double phi_05 = false_alarms(0.5, 4660), phi_08 = false_alarms(0.8, 4661);
+  INFO("AR(1) 0.5: " << phi_05 << ", AR(1) 0.8: " << phi_08 << " (bound 0.025 + " << margin << ")");
+  CHECK(phi_05 <= 1.0 / 40.0 + margin);
+  CHECK(phi_08 <= 1.0 / 40.0 + margin);
+}
+
 TEST_CASE("Flat then rising: the sequential verdict comes within 3 records of the first rise",
           "[dsp][wear_mechanism]") {
   // The rig's lubricated campaign: one unpitted record, then the low band rises record by record.
