@@ -163,11 +163,13 @@ gap::GapReport diagnose_records(const std::vector<InputRecord>& records, const c
   std::error_code ec;
   const twin::GearboxParameters params =
       fs::is_regular_file(cfg.source_path, ec) ? config::load_twin_parameters(cfg.source_path) : twin::GearboxParameters{};
-  daemon::GapHooks hooks{daemon::make_gap_diagnoser(cfg, params), daemon::make_twin_counterpart(params, cfg),
-                         daemon::make_twin_rerun(params, cfg)};
   std::vector<daemon::GapSample> samples;
   for (std::size_t i = 0; i < records.size(); ++i)
     samples.push_back({std::make_shared<const Record>(records[i].record), basis.state, 0, records[i].record.start_index, i + 1});
+  // Records at one operating point, rate and length share their twin runs (one wear state for all).
+  const auto shared = daemon::share_twin_runs(samples);
+  daemon::GapHooks hooks{daemon::make_gap_diagnoser(cfg, params), daemon::make_twin_counterpart(params, cfg, shared),
+                         daemon::make_twin_rerun(params, cfg, shared)};
   std::vector<const daemon::GapSample*> training, held_out;
   for (std::size_t i = 0; i < records.size(); ++i) (records[i].held_out ? held_out : training).push_back(&samples[i]);
   try {

@@ -1,5 +1,9 @@
 #include "gap_diagnoser.hpp"
 
+#include <map>
+#include <set>
+#include <tuple>
+
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/gap/diagnosis.hpp"
 #include "gearwatch/twin/simulation.hpp"
@@ -40,6 +44,69 @@ GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config, const twi
 
 namespace {
 
+/// The fields of a twin record that come from the measured record it stands for, not from the
+/// simulation (the stream's identity and place, the operating point, the life position).
+void stamp(Record& twin, const Record& measured) {
+  twin.stream_key = measured.stream_key;
+  twin.stream_id = measured.stream_id;
+  twin.start_index = measured.start_index;
+  twin.end = measured.end;
+  twin.torque_nm = measured.torque_nm;
+  twin.speed_hz = measured.speed_hz;
+  twin.input_revolutions = measured.input_revolutions;
+}
+
+/// What a twin run of a record depends on besides the addition: the operating point, the rate,
+/// the record's length (the counterpart's length follows it) and the wear state's profile.
+using TwinBasis = std::tuple<double, double, double, double, std::vector<double>, std::vector<double>,
+                             std::vector<std::vector<double>>, std::vector<std::vector<double>>>;
+
+TwinBasis twin_basis(const Record& measured, const wear::WearState& state) {
+  twin::ToothProfileDeviation d = wear::to_profile_deviation(state);
+  return {measured.speed_hz, measured.torque_nm, measured.sample_rate_hz, measured.duration_s(), std::move(d.pinion),
+          std::move(d.gear), std::move(d.pinion_per_tooth), std::move(d.gear_per_tooth)};
+}
+
+}  // namespace
+
+class SharedTwinRuns {
+ public:
+  explicit SharedTwinRuns(const std::vector<GapSample>& samples) {
+    std::map<TwinBasis, int> count;
+    for (const auto& s : samples)
+      if (s.measured && ++count[twin_basis(*s.measured, s.state)] == 2) shared_.insert(twin_basis(*s.measured, s.state));
+  }
+  /// `run()` for `measured`, or the run made for another record with the same basis, stamped as
+  /// `measured`'s. `effect` is -1 for the counterpart itself.
+  template <class Run>
+  Record get(const Record& measured, const wear::WearState& state, int effect, const std::vector<double>& values,
+             double duration_s, Run&& run) {
+    TwinBasis basis = twin_basis(measured, state);
+    if (!shared_.count(basis)) return run();
+    const Key key{std::move(basis), effect, values, duration_s};
+    auto it = runs_.find(key);
+    if (it == runs_.end()) it = runs_.emplace(key, run()).first;
+    Record out = it->second;
+    stamp(out, measured);
+    return out;
+  }
+
+ std::size_t kept() const { return runs_.size(); }
+
+ private:
+  using Key = std::tuple<TwinBasis, int, std::vector<double>, double>;
+  std::set<TwinBasis> shared_;
+  std::map<Key, Record> runs_;
+};
+
+std::shared_ptr<SharedTwinRuns> share_twin_runs(const std::vector<GapSample>& samples) {
+  return std::make_shared<SharedTwinRuns>(samples);
+}
+
+std::size_t kept_twin_runs(const SharedTwinRuns& shared) { return shared.kept(); }
+
+namespace {
+
 /// The twin at `measured`'s operating point and rate, `duration_s` long (the record's length for
 /// the counterpart itself, shorter for a rerun).
 Record counterpart_record(const Record& measured, int channel, const twin::GearboxParameters& params,
@@ -48,42 +115,43 @@ Record counterpart_record(const Record& measured, int channel, const twin::Gearb
   options.sample_rate_hz = measured.sample_rate_hz;
   const twin::CasingSignal signal = twin::simulate_casing_signal(params, profile, op, duration_s, options);
   Record twin;
-  twin.stream_key = measured.stream_key;
-  twin.stream_id = measured.stream_id;
   twin.sample_rate_hz = signal.sample_rate_hz;
-  twin.start_index = measured.start_index;
-  twin.end = measured.end;
   twin.channels = {signal.acceleration};
   twin.channel_numbers = {channel};
   twin.tacho_edges[0] = signal.tacho_edges;
-  twin.torque_nm = measured.torque_nm;
-  twin.speed_hz = measured.speed_hz;
-  twin.input_revolutions = measured.input_revolutions;
+  stamp(twin, measured);
   return twin;
 }
 
 }  // namespace
 
-TwinCounterpart make_twin_counterpart(const twin::GearboxParameters& params, const config::GearwatchConfig& config) {
+TwinCounterpart make_twin_counterpart(const twin::GearboxParameters& params, const config::GearwatchConfig& config,
+                                      std::shared_ptr<SharedTwinRuns> shared) {
   const int channel = gap_channel(config);
   // The twin repeats itself every revolution: a counterpart as long as the diagnosis's reruns
   // (gap::twin_duration_s) reads the same spectra as one as long as the record, at a fraction of
   // the cost on the model thread.
-  return [params, channel, settings = gap_diagnosis_settings(config)](const Record& measured, const wear::WearState& state) {
-    return counterpart_record(measured, channel, params, wear::to_profile_deviation(state), {},
-                              gap::twin_duration_s(measured, settings));
+  return [params, channel, settings = gap_diagnosis_settings(config), shared](const Record& measured,
+                                                                               const wear::WearState& state) {
+    const double duration_s = gap::twin_duration_s(measured, settings);
+    auto run = [&] { return counterpart_record(measured, channel, params, wear::to_profile_deviation(state), {}, duration_s); };
+    return shared ? shared->get(measured, state, -1, {}, duration_s, run) : run();
   };
 }
 
-TwinRerunCounterpart make_twin_rerun(const twin::GearboxParameters& params, const config::GearwatchConfig& config) {
+TwinRerunCounterpart make_twin_rerun(const twin::GearboxParameters& params, const config::GearwatchConfig& config,
+                                     std::shared_ptr<SharedTwinRuns> shared) {
   if (!config.gap.rerun_twin) return {};
   const int channel = gap_channel(config);
-  return [params, channel](const Record& measured, const wear::WearState& state, gap::CandidateEffect effect,
-                           const std::vector<double>& values, double duration_s) {
-    twin::ToothProfileDeviation profile = wear::to_profile_deviation(state);
-    twin::SimulationOptions options;
-    gap::add_rerun_effect(effect, values, profile, options);
-    return counterpart_record(measured, channel, params, profile, options, duration_s);
+  return [params, channel, shared](const Record& measured, const wear::WearState& state, gap::CandidateEffect effect,
+                                   const std::vector<double>& values, double duration_s) {
+    auto run = [&] {
+      twin::ToothProfileDeviation profile = wear::to_profile_deviation(state);
+      twin::SimulationOptions options;
+      gap::add_rerun_effect(effect, values, profile, options);
+      return counterpart_record(measured, channel, params, profile, options, duration_s);
+    };
+    return shared ? shared->get(measured, state, static_cast<int>(effect), values, duration_s, run) : run();
   };
 }
 

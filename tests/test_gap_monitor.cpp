@@ -422,6 +422,52 @@ TEST_CASE("gap step: the twin counterpart of a record has its length (2 s at mos
   }
 }
 
+TEST_CASE("gap step: records the twin cannot tell apart share their counterpart and reruns, each stamped as its own record",
+          "[twin_drift][daemon]") {
+  const auto cfg = config::parse_config("[model]\nchannel = 1\n", "test");
+  auto record = [](double speed_hz, std::uint64_t start_index, std::uint16_t stream_id) {
+    Record r;
+    r.sample_rate_hz = 20000;
+    r.start_index = start_index;
+    r.stream_id = stream_id;
+    r.channels = {std::vector<float>(4000, 0.0f)};
+    r.channel_numbers = {1};
+    r.speed_hz = speed_hz;
+    r.torque_nm = 15;
+    r.input_revolutions = static_cast<double>(start_index) / 1000;
+    return r;
+  };
+  // Two records at 20 Hz (one steady run), one at 25 Hz; one wear state for all, as gap diagnose has.
+  std::vector<daemon::GapSample> samples;
+  for (const auto& r : {record(20, 1000, 1), record(20, 5000, 2), record(25, 9000, 3)})
+    samples.push_back({std::make_shared<const Record>(r), wear::WearState{}, 0, r.start_index, samples.size() + 1});
+  const auto shared = daemon::share_twin_runs(samples);
+  const auto plain_twin = daemon::make_twin_counterpart(twin::GearboxParameters{}, cfg);
+  const auto plain_rerun = daemon::make_twin_rerun(twin::GearboxParameters{}, cfg);
+  const auto shared_twin = daemon::make_twin_counterpart(twin::GearboxParameters{}, cfg, shared);
+  const auto shared_rerun = daemon::make_twin_rerun(twin::GearboxParameters{}, cfg, shared);
+  // The reference: each record's own simulation, unshared.
+  for (const auto& s : samples) {
+    const Record& m = *s.measured;
+    const Record a = shared_twin(m, s.state), b = plain_twin(m, s.state);
+    CHECK(a.channels == b.channels);
+    CHECK(a.tacho_edges == b.tacho_edges);
+    CHECK(a.start_index == m.start_index);
+    CHECK(a.stream_id == m.stream_id);
+    CHECK(a.input_revolutions == m.input_revolutions);
+    const Record c = shared_rerun(m, s.state, gap::CandidateEffect::misalignment, {1e-4}, 0.1);
+    const Record d = plain_rerun(m, s.state, gap::CandidateEffect::misalignment, {1e-4}, 0.1);
+    CHECK(c.channels == d.channels);
+    CHECK(c.start_index == m.start_index);
+    CHECK(c.stream_id == m.stream_id);
+  }
+  // Kept: the 20 Hz records' counterpart and rerun, once each; the 25 Hz record's runs are not kept.
+  CHECK(daemon::kept_twin_runs(*shared) == 2);
+  // Another addition is a run of its own.
+  (void)shared_rerun(*samples[0].measured, samples[0].state, gap::CandidateEffect::misalignment, {2e-4}, 0.1);
+  CHECK(daemon::kept_twin_runs(*shared) == 3);
+}
+
 TEST_CASE("pipeline: a replay hands each analysed record's samples to the gap step, and each report is tied to its newest record",
           "[twin_drift][daemon][pipeline]") {
   const testing::TempDir dir("gap-pipeline");
