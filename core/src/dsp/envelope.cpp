@@ -1,13 +1,8 @@
 #include "gearwatch/dsp/envelope.hpp"
 
-#include <fftw3.h>
-
 #include <algorithm>
-#include <array>
-#include <cstdint>
 #include <cmath>
 #include <numbers>
-#include <mutex>
 #include <stdexcept>
 
 namespace gearwatch::dsp {
@@ -76,10 +71,10 @@ void ses_spectrum(FftPlanCache& plans, const RealBuffer& envelope, std::size_t n
 // whose overflow protection is not needed at these magnitudes.
 double ses_bin_magnitude(const Complex& bin, double scale) { return std::sqrt(std::norm(bin)) * scale; }
 
-// ICS2 of the squared envelope from its whole transform: the full band and the fixed bands keep
-// it (their values are compared bit for bit with ses() + ics2_from_ses; one transform each).
-Ics2Result whole_ses_ics2(FftPlanCache& plans, const RealBuffer& envelope, ComplexBuffer& spectrum, double bins_per_order,
-                          const Ics2Parameters& p) {
+// ICS2 of the squared envelope in `envelope` (its whole length). Only the bins ICS2 reads (DC and
+// the windows around the harmonics) become magnitudes: the values ses() gives at those bins.
+Ics2Result ses_ics2(FftPlanCache& plans, const RealBuffer& envelope, ComplexBuffer& spectrum, double bins_per_order,
+                    const Ics2Parameters& p) {
   const std::size_t n = envelope.size();
   ses_spectrum(plans, envelope, n, spectrum);
   const double scale = 1.0 / static_cast<double>(n);
@@ -88,80 +83,6 @@ Ics2Result whole_ses_ics2(FftPlanCache& plans, const RealBuffer& envelope, Compl
 }
 
 }  // namespace
-
-namespace {
-
-// The tree's bands (complex_ics2): the SES bins ICS2 reads are a few dozen of n/2 + 1 (DC and 2·tolerance + 1 around each
-// harmonic), so the envelope is not transformed whole. With n = P·Q, sample i = r + P·q:
-//   X[k] = sum_r W_n^(rk) Y_r[k mod Q],  Y_r[j] = sum_q e[r + P q] W_Q^(qj)   (W_m = e^(-2 pi j/m)),
-// the P column transforms (Q points, one batched r2c) cost n log Q against n log n for the whole
-// transform, and each bin read adds P complex products. Q is the divisor of n nearest 64 in
-// [16, 256]; a length without one, or too short to gain, is transformed whole.
-constexpr std::size_t kTargetColumn = 64;
-constexpr std::size_t kTwiddleBlock = 64;  // twiddles exact (sincos) every block, one product between
-
-std::size_t column_length(std::size_t n) {
-  std::size_t best = 0;
-  auto distance = [](std::size_t q) { return std::abs(std::log(static_cast<double>(q) / kTargetColumn)); };
-  for (std::size_t q = 16; q <= 256; ++q)
-    if (n % q == 0 && (best == 0 || distance(q) < distance(best))) best = q;
-  return best != 0 && n >= 64 * best ? best : 0;
-}
-
-// e^(-2 pi j m / n) for 0 <= m < n.
-Complex unit_root(std::uint64_t m, std::size_t n) {
-  const double angle = -2.0 * std::numbers::pi * static_cast<double>(m) / static_cast<double>(n);
-  return {std::cos(angle), std::sin(angle)};
-}
-
-// X[k] from the columns' transforms: Y_r[j] at columns[j P + r] for j <= Q/2 (r2c), the conjugate
-// of Y_r[Q - j] above (a real envelope).
-Complex pruned_bin(const ComplexBuffer& columns, std::size_t n, std::size_t q, std::size_t k) {
-  const std::size_t p = n / q, j = k % q;
-  const bool mirrored = 2 * j > q;
-  const Complex* y = columns.data() + (mirrored ? q - j : j) * p;
-  std::array<Complex, kTwiddleBlock> step;
-  for (std::size_t t = 0; t < kTwiddleBlock; ++t) step[t] = unit_root((static_cast<std::uint64_t>(t) * k) % n, n);
-  double sum_re = 0.0, sum_im = 0.0;
-  for (std::size_t r0 = 0; r0 < p; r0 += kTwiddleBlock) {
-    const Complex base = unit_root((static_cast<std::uint64_t>(r0) * k) % n, n);
-    const double br = base.real(), bi = base.imag();
-    const std::size_t end = std::min(p, r0 + kTwiddleBlock);
-    for (std::size_t r = r0; r < end; ++r) {
-      const Complex& s = step[r - r0];
-      const double wr = br * s.real() - bi * s.imag(), wi = br * s.imag() + bi * s.real();
-      const double yr = y[r].real(), yi = mirrored ? -y[r].imag() : y[r].imag();
-      sum_re += yr * wr - yi * wi;
-      sum_im += yr * wi + yi * wr;
-    }
-  }
-  return {sum_re, sum_im};
-}
-
-}  // namespace
-
-Ics2Result SquaredEnvelopeAnalyzer::ses_ics2(double bins_per_order, const Ics2Parameters& p) {
-  const std::size_t n = envelope_.size();
-  const double scale = 1.0 / static_cast<double>(n);
-  const std::size_t q = column_length(n);
-  if (q == 0) return whole_ses_ics2(*plans_, envelope_, ses_spectrum_, bins_per_order, p);
-  const std::size_t columns = n / q;
-  columns_.resize((q / 2 + 1) * columns);
-  auto& plan = column_plans_[n];
-  if (!plan) {
-    RealBuffer in(n);
-    ComplexBuffer out(columns_.size());
-    const int size = static_cast<int>(q), count = static_cast<int>(columns);
-    std::lock_guard lock(fftw_planner_mutex());
-    plan = FftwPlan(fftw_plan_many_dft_r2c(1, &size, count, in.data(), nullptr, count, 1,
-                                           reinterpret_cast<fftw_complex*>(out.data()), nullptr, count, 1, FFTW_ESTIMATE),
-                    n);
-    if (!plan) throw std::runtime_error("FFTW planning failed");
-  }
-  fftw_execute_dft_r2c(static_cast<fftw_plan>(plan.get()), envelope_.data(), reinterpret_cast<fftw_complex*>(columns_.data()));
-  return ics2_from_magnitudes([&](std::size_t k) { return ses_bin_magnitude(pruned_bin(columns_, n, q, k), scale); },
-                              n / 2 + 1, bins_per_order, p);
-}
 
 Ics2Result SquaredEnvelopeAnalyzer::band_ics2(std::span<const Complex> spectrum, std::size_t signal_size,
                                               std::size_t revolutions, std::size_t first_bin,
@@ -183,7 +104,7 @@ Ics2Result SquaredEnvelopeAnalyzer::band_ics2(std::span<const Complex> spectrum,
   inverse.backward(baseband_, analytic_);
   envelope_.resize(grid);
   for (std::size_t i = 0; i < grid; ++i) envelope_[i] = std::norm(analytic_[i]);
-  return whole_ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);
+  return ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);
 }
 
 Ics2Result SquaredEnvelopeAnalyzer::full_band_ics2(std::span<const double> signal, std::span<const Complex> spectrum,
@@ -219,7 +140,7 @@ Ics2Result SquaredEnvelopeAnalyzer::full_band_ics2(std::span<const double> signa
     const double in_phase = scale * signal[i] - dc - nyquist;  // i even
     envelope_[i] = in_phase * in_phase + quadrature_[i] * quadrature_[i];
   }
-  return whole_ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);
+  return ses_ics2(*plans_, envelope_, ses_spectrum_, static_cast<double>(revolutions), p);
 }
 
 Ics2Result SquaredEnvelopeAnalyzer::complex_ics2(std::span<const Complex> c, double revolutions,
@@ -227,7 +148,7 @@ Ics2Result SquaredEnvelopeAnalyzer::complex_ics2(std::span<const Complex> c, dou
   if (c.size() < 2) return {};
   envelope_.resize(c.size());
   for (std::size_t i = 0; i < c.size(); ++i) envelope_[i] = std::norm(c[i]);
-  return ses_ics2(revolutions, p);
+  return ses_ics2(*plans_, envelope_, ses_spectrum_, revolutions, p);
 }
 
 std::span<const double> SquaredEnvelopeAnalyzer::ses(std::span<const double> squared_envelope) {

@@ -4,7 +4,6 @@
 // Signals are angle-domain (a whole number R of shaft revolutions), so SES bin n is the cyclic
 // order n / R of that shaft and speed changes do not smear the gear-mesh cyclic frequency.
 #include <cstddef>
-#include <map>
 #include <span>
 
 #include "gearwatch/dsp/fft.hpp"
@@ -70,13 +69,8 @@ class SquaredEnvelopeAnalyzer {
   std::span<const double> ses(std::span<const double> squared_envelope);
 
  private:
-  /// ICS2 of the squared envelope in envelope_: only the SES bins ICS2 reads (DC and the windows
-  /// around the harmonics), each a sum over the columns' transforms (see envelope.cpp).
-  Ics2Result ses_ics2(double bins_per_order, const Ics2Parameters& p);
-
   FftPlanCache* plans_;
-  std::map<std::size_t, FftwPlan> column_plans_;  ///< by signal length: Q-point r2c of each of its n/Q columns
-  ComplexBuffer baseband_, analytic_, ses_spectrum_, columns_;
+  ComplexBuffer baseband_, analytic_, ses_spectrum_;
   RealBuffer envelope_, quadrature_;
   std::vector<double> ses_magnitude_;
 };
