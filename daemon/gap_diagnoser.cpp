@@ -74,13 +74,16 @@ class SharedTwinRuns {
   explicit SharedTwinRuns(const std::vector<GapSample>& samples) {
     std::map<TwinBasis, int> count;
     for (const auto& s : samples)
-      if (s.measured && ++count[twin_basis(*s.measured, s.state)] == 2) shared_.insert(twin_basis(*s.measured, s.state));
+      if (s.measured) ++count[twin_basis(*s.measured, s.state)];
+    for (auto& [basis, n] : count)
+      if (n >= 2) shared_.insert(basis);
   }
   /// `run()` for `measured`, or the run made for another record with the same basis, stamped as
   /// `measured`'s. `effect` is -1 for the counterpart itself.
   template <class Run>
   Record get(const Record& measured, const wear::WearState& state, int effect, const std::vector<double>& values,
              double duration_s, Run&& run) {
+    if (shared_.empty()) return run();  // no two records alike: no key worth building
     TwinBasis basis = twin_basis(measured, state);
     if (!shared_.count(basis)) return run();
     const Key key{std::move(basis), effect, values, duration_s};

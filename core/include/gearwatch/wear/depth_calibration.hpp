@@ -129,6 +129,9 @@ void set_k_from(std::vector<KStretch>& history, double from_cycles, double k);
 /// Unchanged when either K is not positive.
 RateReading rate_at_pace(RateReading r, double k_path, double k_now);
 
+/// The two-sided 5 % quantile of the normal: a rate change beyond this many SDs ends the rate's window.
+constexpr double kRateChangeZ = 1.959963984540054;
+
 /// The rate reading of the newest inspection (largest cycles) paired with the earlier one that
 /// gives the smallest variance among those inside the rate's window: the newest carries the rate the
 /// truth has now, the partner the longest increment the errors allow at one rate. The window grows
@@ -136,7 +139,6 @@ RateReading rate_at_pace(RateReading r, double k_path, double k_now);
 /// same rate as [s, newest] (|κ_sb − κ_as| ≤ rate_change_z SDs of the difference, delta method over
 /// the three readings; two-sided 5 % by default); it stops at the first change. Not valid with fewer
 /// than two usable readings.
-constexpr double kRateChangeZ = 1.959963984540054;
 RateReading newest_rate_reading(const std::vector<DepthRatioMeasurement>& points, double rate_change_z = kRateChangeZ);
 
 /// ∂μ/∂z_i of depth_ratio_posterior's mean at `now` for the reading with `inspection_id` (the
