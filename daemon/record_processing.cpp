@@ -50,6 +50,15 @@ std::optional<dsp::CarrierBand> unseen_band(const dsp::ChannelAnalysis& a) {
   return pitting ? dsp::CarrierBand::pitting : dsp::CarrierBand::abrasion;
 }
 
+// Adds `p` to the gear pair's wear baseline unless that is complete: both bands with `wanted`
+// finite values, or `cap` records (a band the records cannot see never fills).
+void extend_wear_baseline(std::vector<dsp::WearHistoryPoint>& base, const dsp::WearHistoryPoint& p, std::size_t wanted,
+                          std::size_t cap) {
+  std::size_t low = 0, high = 0;
+  for (const auto& b : base) low += std::isfinite(b.ics2_low), high += std::isfinite(b.ics2_high);
+  if (wanted > 0 && (low < wanted || high < wanted) && base.size() < cap) base.push_back(p);
+}
+
 }  // namespace
 
 RecordProcessor::RecordProcessor(const config::GearwatchConfig& config, ProcessorMemory memory)
@@ -58,7 +67,13 @@ RecordProcessor::RecordProcessor(const config::GearwatchConfig& config, Processo
       estimator_(speed_estimation_settings(config.rig)),
       history_(std::move(memory.wear_history)),
       alerts_(std::move(memory.alerts)),
-      baselines_(std::move(memory.baselines)) {}
+      baselines_(std::move(memory.baselines)) {
+  // The stored history holds the whole gear pair's life: its first records are the baseline.
+  for (const auto& [channel, points] : history_)
+    for (const auto& p : points)
+      extend_wear_baseline(wear_baseline_[channel], p, static_cast<std::size_t>(config_.processing.wear_baseline_records),
+                           static_cast<std::size_t>(config_.processing.trend_window_records));
+}
 
 void RecordProcessor::check_thresholds(int channel, const dsp::ChannelAnalysis& a, storage::RecordResult& out) {
   const auto& cfg = config_.alerts;
@@ -91,6 +106,7 @@ void RecordProcessor::check_thresholds(int channel, const dsp::ChannelAnalysis& 
 
 storage::AlertUpdate RecordProcessor::life_counter_reset(std::uint64_t previous_revolutions, std::uint64_t revolutions) {
   history_.clear();  // a new gear pair, or a fault: never merge histories
+  wear_baseline_.clear();
   baselines_.clear();
   storage::AlertUpdate u;
   u.alerts = alerts_.clear_all(AlertKind::wear_mechanism, "life counter reset: the wear verdict belonged to the previous gear pair");
@@ -239,8 +255,10 @@ void RecordProcessor::assess_wear(int channel, double cycles, const dsp::Channel
   h.push_back({cycles, value_or_nan(a, dsp::Indicator::ics2_low_band), value_or_nan(a, dsp::Indicator::ics2_high_band), selected_centre(a),
                selected_value(a)});
   const auto window = static_cast<std::size_t>(config_.processing.trend_window_records);
+  auto& base = wear_baseline_[channel];
+  extend_wear_baseline(base, h.back(), static_cast<std::size_t>(config_.processing.wear_baseline_records), window);
   if (h.size() > window) h.erase(h.begin(), h.end() - static_cast<std::ptrdiff_t>(window));
-  const auto verdict = dsp::identify_wear_mechanism(h, config_.processing, unseen_band(a));
+  const auto verdict = dsp::identify_wear_mechanism(h, config_.processing, unseen_band(a), base);
   storage::WearAssessment w;
   w.channel = channel;
   w.mechanism = verdict.mechanism;

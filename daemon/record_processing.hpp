@@ -87,6 +87,10 @@ class RecordProcessor {
   ChannelWorkers channels_;
   dsp::SpeedEstimator estimator_;
   WearHistory history_;
+  /// Per channel: the gear pair's first records, until both bands hold wear_baseline_records finite
+  /// values (at most trend_window_records records): the wear floors' baseline, kept when the
+  /// history's window has moved past it.
+  WearHistory wear_baseline_;
   AlertTracker alerts_;
   IndicatorBaselines baselines_;
 };

@@ -594,3 +594,157 @@ TEST_CASE("defects #7: wear_min_band_share outside [0 1] is refused naming the s
 }
 
 }  // namespace test_wear_mechanism
+
+namespace test_wear_floor {
+
+using namespace gearwatch::dsp;
+
+TEST_CASE("issue 36: the measured floor from a known baseline equals its formula - closed form", "[dsp][wear_mechanism]") {
+  // Chi-square quantiles: dof 2 has the closed form -2 ln(1 - q); dof 10 at 0.05 is 3.940299 (tables).
+  CHECK(chi_square_quantile(0.05, 2.0) == Approx(-2.0 * std::log(0.95)).epsilon(1e-9));
+  CHECK(chi_square_quantile(0.05, 10.0) == Approx(3.940299).epsilon(1e-6));
+  // Independent AR(1) law by dense matrices: M = I - H, R_ij = phi^|i-j|; at phi 0, tr(MR) = n - 2.
+  auto dense_law = [](std::size_t n, double phi) {
+    std::vector<double> m(n * n), r(n * n), mr(n * n, 0.0);
+    const double nn = static_cast<double>(n), mk = (nn - 1) / 2;
+    double skk = 0.0;
+    for (std::size_t k = 0; k < n; ++k) skk += (k - mk) * (k - mk);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = 0; j < n; ++j) {
+        m[i * n + j] = (i == j) - 1.0 / nn - (i - mk) * (j - mk) / skk;
+        r[i * n + j] = std::pow(phi, std::abs(static_cast<double>(i) - static_cast<double>(j)));
+      }
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t k = 0; k < n; ++k)
+        for (std::size_t j = 0; j < n; ++j) mr[i * n + j] += m[i * n + k] * r[k * n + j];
+    double t1 = 0.0, t2 = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      t1 += mr[i * n + i];
+      for (std::size_t j = 0; j < n; ++j) t2 += mr[i * n + j] * mr[j * n + i];
+    }
+    return std::pair{t1, t1 * t1 / t2};
+  };
+  CHECK(ar1_line_residual_law(20, 0.0).mean_factor == Approx(18.0).epsilon(1e-12));
+  CHECK(ar1_line_residual_law(20, 0.0).dof == Approx(18.0).epsilon(1e-12));
+  for (std::size_t n : {10u, 37u, 50u}) {
+    const auto [t1, dof] = dense_law(n, 0.8);
+    CHECK(ar1_line_residual_law(n, 0.8).mean_factor == Approx(t1).epsilon(1e-10));
+    CHECK(ar1_line_residual_law(n, 0.8).dof == Approx(dof).epsilon(1e-10));
+  }
+  // A baseline of 50 points on a line plus +-d about it (d alternating in pairs, so the residual
+  // about the fitted line is computed here independently): floor = max(configured, 6 x bound).
+  SignalProcessingSettings settings;  // wear_baseline_records 50
+  const std::size_t n = 50;
+  std::vector<double> y;
+  for (std::size_t k = 0; k < n; ++k) y.push_back(0.02 + 1e-4 * k + ((k / 2) % 2 ? 0.006 : -0.006));
+  y.push_back(0.5);  // the newest point, judged, not part of the baseline
+  double sy = 0, sky = 0;
+  const double mk = (n - 1) / 2.0;
+  double skk = 0.0;
+  for (std::size_t k = 0; k < n; ++k) sy += y[k], sky += (k - mk) * y[k], skk += (k - mk) * (k - mk);
+  double rss = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double e = y[k] - sy / n - sky / skk * (k - mk);
+    rss += e * e;
+  }
+  const auto [t1, dof] = dense_law(n, kWanderMaxCorrelation);
+  const double bound = std::sqrt(rss * dof / (t1 * chi_square_quantile(1.0 - kWanderBoundConfidence, dof)));
+  const BandFloor f = band_material_floor(y, n, settings);
+  INFO("rss " << rss << " bound " << bound << " floor " << f.floor);
+  CHECK(f.source == FloorSource::baseline);
+  CHECK(f.baseline_points == n);
+  CHECK(f.wander_bound == Approx(bound).epsilon(1e-9));
+  CHECK(f.floor == Approx(std::max(material_ics2_rise(settings), 6.0 * bound)).epsilon(1e-9));
+  CHECK(f.floor > material_ics2_rise(settings));  // this baseline's wander raises the floor
+  // Fewer than 10 earlier values, or the setting off: the configured floor.
+  CHECK(band_material_floor(y, 9, settings).source == FloorSource::baseline_incomplete);
+  CHECK(band_material_floor(y, 9, settings).floor == material_ics2_rise(settings));
+  settings.wear_baseline_records = 0;
+  CHECK(band_material_floor(y, n, settings).source == FloorSource::configured);
+  CHECK(band_material_floor(y, n, settings).floor == material_ics2_rise(settings));
+}
+
+TEST_CASE("issue 36: AR(1) wander of SD floor/3 and floor/2 raises the verdict under Ville's bound with the measured floor",
+          "[dsp][wear_mechanism]") {
+  // As the floor/6 test above, with the wander at a third and a half of the configured floor: the
+  // measured floor must carry the bound (the configured floor alone applies for the first 10 records).
+  SignalProcessingSettings settings;
+  const double floor = material_ics2_rise(settings);
+  const double bar = rising_evidence_threshold(settings.trend_significance);
+  constexpr int histories = 2000, length = 100;
+  auto false_alarms = [&](double k, double phi, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    const double s = floor / k;
+    int raised = 0;
+    for (int h = 0; h < histories; ++h) {
+      std::vector<WearHistoryPoint> points;
+      std::vector<double> cycles, low;
+      double u = gauss(rng);
+      bool ever = false;
+      for (int r = 0; r < length && !ever; ++r) {
+        points.push_back({1e5 * r, 0.02 + s * u, 0.03, 8000.0});
+        cycles.push_back(points.back().cycles), low.push_back(points.back().ics2_low);
+        u = phi * u + std::sqrt(1.0 - phi * phi) * gauss(rng);
+        ever = rising_change_evidence(cycles, low) >= bar && is_wear(identify_wear_mechanism(points, settings).mechanism);
+      }
+      raised += ever;
+    }
+    return static_cast<double>(raised) / histories;
+  };
+  const double margin = 3 * std::sqrt(0.025 * 0.975 / histories);  // binomial 3-sigma at the bound
+  const double a = false_alarms(3, 0.5, 4662), b = false_alarms(3, 0.8, 4663);
+  const double c = false_alarms(2, 0.5, 4664), d = false_alarms(2, 0.8, 4665);
+  INFO("floor/3: phi 0.5 " << a << ", phi 0.8 " << b << "; floor/2: phi 0.5 " << c << ", phi 0.8 " << d
+                           << " (bound 0.025 + " << margin << ")");
+  CHECK(a <= 1.0 / 40.0 + margin);
+  CHECK(b <= 1.0 / 40.0 + margin);
+  CHECK(c <= 1.0 / 40.0 + margin);
+  CHECK(d <= 1.0 / 40.0 + margin);
+}
+
+TEST_CASE("issue 36: a ramp after a wandering baseline is named within the rank rule's records of crossing the measured floor",
+          "[dsp][wear_mechanism]") {
+  // 50 baseline records wandering at SD floor/3 (AR(1) 0.8), then a ramp of 0.3 x the measured
+  // floor per record on top of the same wander (3x the floor after 10 records). Crossing: the first
+  // ramp record whose ramp alone reaches the floor. The rank rule needs
+  // post_change_points_for_evidence(50) = 4 rising records after a baseline of 50; the verdict comes
+  // at the latest 4 records after the crossing.
+  SignalProcessingSettings settings;
+  const double configured = material_ics2_rise(settings), s = configured / 3;
+  const std::size_t needed = post_change_points_for_evidence(50, settings.trend_significance);
+  CHECK(needed == 4);
+  std::mt19937_64 rng(4790);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<WearHistoryPoint> points;
+    double u = gauss(rng);
+    for (int r = 0; r < 50; ++r) {
+      points.push_back({1e5 * r, 0.02 + s * u, 0.03, 8000.0});
+      u = 0.8 * u + 0.6 * gauss(rng);
+    }
+    std::vector<double> base;
+    for (const auto& p : points) base.push_back(p.ics2_low);
+    const BandFloor f = band_material_floor(base, 50, settings);
+    REQUIRE(f.source == FloorSource::baseline);
+    const double slope = 0.3 * f.floor;
+    const int crossing = static_cast<int>(std::ceil(1.0 / 0.3 - 1e-12));  // ramp record reaching the floor
+    int named = -1;
+    for (int r = 1; r <= 10 && named < 0; ++r) {
+      points.push_back({1e5 * (49 + r), 0.02 + s * u + slope * r, 0.03, 8000.0});
+      u = 0.8 * u + 0.6 * gauss(rng);
+      const auto v = identify_wear_mechanism(points, settings);
+      if (is_wear(v.mechanism)) {
+        named = r;
+        CHECK(v.mechanism == WearMechanism::fatigue_pitting);
+        CHECK(v.low_floor.floor == Approx(f.floor).epsilon(1e-12));  // the baseline's floor, not grown
+        CHECK(v.evidence.find("baseline of 50 records") != std::string::npos);
+      }
+    }
+    INFO("trial " << trial << " floor " << f.floor << " named at ramp record " << named);
+    CHECK(named >= 1);
+    CHECK(named <= crossing + static_cast<int>(needed));
+  }
+}
+
+}  // namespace test_wear_floor

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <numeric>
 #include <stdexcept>
+#include <string>
+#include <tuple>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 
@@ -191,7 +193,7 @@ std::vector<double> sequential_rank_scores(const std::vector<double>& y) {
 // log_product[k] = ln prod_{j<=n} of component k's factors; log_started[k] = ln sum over the change
 // points b already started of change_point_prior(b) / prod_{j<=b} (component k's factors), so that
 // component k's part of M_n is weight_k exp(log_product + log_started).
-double log_rising_change_evidence(const std::vector<double>& y) {
+double log_rising_change_evidence(const std::vector<double>& y, std::vector<double>* prefixes = nullptr) {
   const std::vector<double> d = sequential_rank_scores(y);
   std::array<double, kRisingBets.size()> log_product{}, log_started;
   log_started.fill(-INFINITY);
@@ -201,6 +203,12 @@ double log_rising_change_evidence(const std::vector<double>& y) {
         log_started[k] = log_add(log_started[k], std::log(change_point_prior(j)) - log_product[k]);
     for (std::size_t k = 0; k < kRisingBets.size(); ++k)
       log_product[k] += log_bet_factor(kRisingBets[k].lambda, d[j], j + 1);
+    if (prefixes) {  // ln M over the first j + 1 points
+      double log_m = -std::log(static_cast<double>(j + 1));
+      for (std::size_t k = 0; k < kRisingBets.size(); ++k)
+        log_m = log_add(log_m, std::log(kRisingBets[k].weight) + log_product[k] + log_started[k]);
+      prefixes->push_back(log_m);
+    }
   }
   // Change points not yet reached hold their prior weight: sum_{b >= n} 1/(b(b+1)) = 1/n.
   double log_m = y.empty() ? 0.0 : -std::log(static_cast<double>(y.size()));
@@ -258,6 +266,125 @@ double material_ics2_rise(const SignalProcessingSettings& settings) {
   return share * share * am_noise_ics2(kReferenceDepth, settings.ics2_harmonics);
 }
 
+ResidualLaw ar1_line_residual_law(std::size_t n, double phi) {
+  if (n < 3) return {};
+  // MR = R - X B, B = (X'X)^-1 X'R (2 x n), column by column so that memory stays O(n).
+  const double nn = static_cast<double>(n);
+  const double sk = nn * (nn - 1) / 2, skk = (nn - 1) * nn * (2 * nn - 1) / 6;
+  const double det = nn * skk - sk * sk;
+  std::vector<double> power(n, 1.0), b0(n), b1(n);  // power[d] = phi^d
+  for (std::size_t d = 1; d < n; ++d) power[d] = power[d - 1] * phi;
+  auto rho = [&](std::size_t i, std::size_t j) { return power[i > j ? i - j : j - i]; };
+  for (std::size_t j = 0; j < n; ++j) {
+    double r = 0.0, kr = 0.0;
+    for (std::size_t k = 0; k < n; ++k) r += rho(k, j), kr += static_cast<double>(k) * rho(k, j);
+    b0[j] = (skk * r - sk * kr) / det;
+    b1[j] = (nn * kr - sk * r) / det;
+  }
+  auto mr = [&](std::size_t i, std::size_t j) { return rho(i, j) - b0[j] - static_cast<double>(i) * b1[j]; };
+  double trace = 0.0, trace_sq = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    trace += mr(i, i);
+    for (std::size_t j = 0; j < n; ++j) trace_sq += mr(i, j) * mr(j, i);
+  }
+  return {trace, trace * trace / trace_sq};
+}
+
+namespace {
+
+// Regularised lower incomplete gamma P(a, x) by its series (converges for every x; the lower
+// quantiles asked for lie below the mean, where it needs few terms).
+double lower_gamma_p(double a, double x) {
+  if (x <= 0.0) return 0.0;
+  double term = 1.0 / a, sum = term;
+  for (int k = 1; k < 100000 && term > sum * 1e-15; ++k) {
+    term *= x / (a + k);
+    sum += term;
+  }
+  return std::min(1.0, std::exp(a * std::log(x) - x - std::lgamma(a)) * sum);
+}
+
+}  // namespace
+
+double chi_square_quantile(double q, double dof) {
+  if (!(dof > 0.0) || !(q > 0.0 && q < 1.0)) return std::numeric_limits<double>::quiet_NaN();
+  double lo = 0.0, hi = dof + 10.0 * std::sqrt(2.0 * dof) + 50.0;
+  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (lower_gamma_p(dof / 2.0, mid / 2.0) < q ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+namespace {
+
+// Residual sum of squares of `y` about its least-squares line against the record index.
+double line_residual_ss(std::span<const double> y) {
+  const double n = static_cast<double>(y.size());
+  double sy = 0.0, sky = 0.0;
+  for (std::size_t k = 0; k < y.size(); ++k) sy += y[k], sky += static_cast<double>(k) * y[k];
+  const double sk = n * (n - 1) / 2, skk = (n - 1) * n * (2 * n - 1) / 6;
+  const double slope = (n * sky - sk * sy) / (n * skk - sk * sk);
+  const double intercept = (sy - slope * sk) / n;
+  double rss = 0.0;
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    const double e = y[k] - intercept - slope * static_cast<double>(k);
+    rss += e * e;
+  }
+  return rss;
+}
+
+}  // namespace
+
+double wander_sd_upper_bound(std::span<const double> baseline) {
+  if (baseline.size() < 3) return std::numeric_limits<double>::quiet_NaN();
+  const ResidualLaw law = ar1_line_residual_law(baseline.size(), kWanderMaxCorrelation);
+  const double chi2 = chi_square_quantile(1.0 - kWanderBoundConfidence, law.dof);
+  return std::sqrt(line_residual_ss(baseline) * law.dof / (law.mean_factor * chi2));
+}
+
+BandFloor band_material_floor(std::span<const double> values, std::size_t earlier_points,
+                              const SignalProcessingSettings& settings) {
+  BandFloor f;
+  f.floor = material_ics2_rise(settings);
+  const auto wanted = static_cast<std::size_t>(std::max(0, settings.wear_baseline_records));
+  if (wanted == 0 || f.floor <= 0.0) return f;  // off, or materiality off (share 0)
+  // The newest point is the one judged: it never measures its own floor.
+  const std::size_t usable = std::min(wanted, earlier_points);
+  std::vector<double> base;
+  for (double v : values)
+    if (std::isfinite(v) && base.size() < usable) base.push_back(v);
+  f.baseline_points = base.size();
+  f.source = FloorSource::baseline_incomplete;
+  if (base.size() < kMinimumBaselinePoints) return f;
+  // Wear that started inside the baseline and was named at its last record (with the floor that
+  // record had): keeping the verdict matters more than a floor measured on a rise, and under no
+  // wear this is a false alarm already. The floors of the growing baseline, first to last:
+  std::vector<double> log_evidence;
+  log_rising_change_evidence(base, &log_evidence);
+  const double log_bar = std::log(rising_evidence_threshold(settings.trend_significance));
+  const double configured = f.floor;
+  double floor_before = configured;  // the floor of point k - 1 (judged on the first k - 1 values)
+  for (std::size_t k = kMinimumBaselinePoints - 1; k <= base.size(); ++k) {
+    const std::span<const double> first(base.data(), k);
+    const double last_rise = first.back() - *std::min_element(first.begin(), first.end() - 1);
+    const bool named = log_evidence[k - 1] >= log_bar && last_rise >= floor_before;
+    if (k < kMinimumBaselinePoints) {  // point k - 1 had the configured floor; k judges the next
+      floor_before = configured;
+      continue;
+    }
+    f.source = named ? FloorSource::baseline_named_wear : FloorSource::baseline;
+    f.floor = configured;
+    if (!named) {
+      f.residual_sd = std::sqrt(line_residual_ss(first) / static_cast<double>(k - 2));
+      f.wander_bound = wander_sd_upper_bound(first);
+      f.floor = std::max(configured, kWanderFloorMultiple * f.wander_bound);
+    }
+    floor_before = f.floor;
+  }
+  return f;
+}
+
 namespace {
 
 // Newest finite value minus the lowest earlier finite one (in the given order); 0 with < 2 values.
@@ -269,12 +396,37 @@ double rise_over_lowest(const std::vector<double>& values) {
   return finite.back() - *std::min_element(finite.begin(), finite.end() - 1);
 }
 
+// "0.0502 (configured ...)": the floor and where it came from, for the evidence line.
+std::string floor_text(const BandFloor& f, const SignalProcessingSettings& settings) {
+  char text[200];
+  const int wanted = settings.wear_baseline_records;
+  switch (f.source) {
+    case FloorSource::configured:
+      std::snprintf(text, sizeof text, "%.3g (configured)", f.floor);
+      break;
+    case FloorSource::baseline_incomplete:
+      std::snprintf(text, sizeof text, "%.3g (configured: baseline %zu records, measured from %zu, complete at %d)", f.floor,
+                    f.baseline_points, kMinimumBaselinePoints, wanted);
+      break;
+    case FloorSource::baseline_named_wear:
+      std::snprintf(text, sizeof text, "%.3g (configured: wear named at the baseline's last record)", f.floor);
+      break;
+    case FloorSource::baseline:
+      std::snprintf(text, sizeof text, "%.3g (baseline of %zu records: scatter about its line %.3g, wander bound %.3g x %.0f = %.3g%s)",
+                    f.floor, f.baseline_points, f.residual_sd, f.wander_bound, kWanderFloorMultiple,
+                    kWanderFloorMultiple * f.wander_bound, f.floor > kWanderFloorMultiple * f.wander_bound ? ", below the configured" : "");
+      break;
+  }
+  return text;
+}
+
 }  // namespace
 
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings,
-                                             std::optional<CarrierBand> unseen_band) {
-  WearMechanismVerdict v = identify_wear_mechanism(history, settings);
+                                             std::optional<CarrierBand> unseen_band,
+                                             std::span<const WearHistoryPoint> baseline) {
+  WearMechanismVerdict v = identify_wear_mechanism(history, settings, baseline);
   if (!unseen_band) return v;
   v.unseen_band = unseen_band;
   // The seen band alone decides; the unseen band's history (from records at another rate, if any)
@@ -295,7 +447,8 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
 }
 
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
-                                             const SignalProcessingSettings& settings) {
+                                             const SignalProcessingSettings& settings,
+                                             std::span<const WearHistoryPoint> baseline) {
   const double alpha = settings.trend_significance;
   std::vector<WearHistoryPoint> points(history.begin(), history.end());
   std::stable_sort(points.begin(), points.end(), [](const auto& a, const auto& b) { return a.cycles < b.cycles; });
@@ -306,6 +459,21 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
     high.push_back(p.ics2_high);
   }
   WearMechanismVerdict v;
+  auto finite_count = [](const std::vector<double>& y) {
+    return static_cast<std::size_t>(std::count_if(y.begin(), y.end(), [](double x) { return std::isfinite(x); }));
+  };
+  auto earlier = [&](const std::vector<double>& y, const std::vector<double>& base) {
+    return std::max<std::size_t>(std::max(finite_count(y), finite_count(base)), 1) - 1;
+  };
+  std::vector<double> base_low = low, base_high = high;
+  if (!baseline.empty()) {
+    std::vector<WearHistoryPoint> base(baseline.begin(), baseline.end());
+    std::stable_sort(base.begin(), base.end(), [](const auto& a, const auto& b) { return a.cycles < b.cycles; });
+    base_low.clear(), base_high.clear();
+    for (const auto& p : base) base_low.push_back(p.ics2_low), base_high.push_back(p.ics2_high);
+  }
+  v.low_floor = band_material_floor(base_low, earlier(low, base_low), settings);
+  v.high_floor = band_material_floor(base_high, earlier(high, base_high), settings);
   v.low_band = trend_test(cycles, low, alpha);
   v.high_band = trend_test(cycles, high, alpha);
   // The verdict re-decides at every record: Mann-Kendall at a fixed level would, on a stationary
@@ -313,12 +481,11 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
   // evidence keeps that chance below alpha however long the history grows. Significance says
   // nothing of size: a rise must also be material (see the header).
   const double bar = rising_evidence_threshold(alpha);
-  const double material_rise = material_ics2_rise(settings);
-  for (auto [band, values] : {std::pair{&v.low_band, &low}, std::pair{&v.high_band, &high}}) {
+  for (auto [band, values, floor] : {std::tuple{&v.low_band, &low, v.low_floor.floor}, std::tuple{&v.high_band, &high, v.high_floor.floor}}) {
     band->rising_evidence = rising_change_evidence(cycles, *values);
     band->significant_rise = band->rising_evidence >= bar;
     band->rise = rise_over_lowest(*values);
-    band->material = material_rise <= 0.0 || band->rise >= material_rise;  // share 0: materiality off
+    band->material = floor <= 0.0 || band->rise >= floor;  // share 0: materiality off
     band->increasing = band->significant_rise && band->material;
   }
 
@@ -346,13 +513,14 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
   std::snprintf(buffer, sizeof buffer,
                 "low band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f e=%.3g rise=%.3g%s; "
                 "high band: n=%zu S=%.0f Z=%.3f p=%.4g rho=%.3f e=%.3g rise=%.3g%s; "
-                "alpha=%.3g (rising when e >= %.3g and rise >= %.3g, needs >= %zu points); band jumps: %zu",
+                "alpha=%.3g (rising when e >= %.3g and rise >= the band's floor, configured %.3g, needs >= %zu points); band jumps: %zu",
                 v.low_band.points, v.low_band.mann_kendall_s, v.low_band.mann_kendall_z, v.low_band.p_value,
                 v.low_band.spearman_rho, v.low_band.rising_evidence, v.low_band.rise, trend_word(v.low_band),
                 v.high_band.points, v.high_band.mann_kendall_s, v.high_band.mann_kendall_z, v.high_band.p_value,
                 v.high_band.spearman_rho, v.high_band.rising_evidence, v.high_band.rise, trend_word(v.high_band), alpha,
-                bar, material_rise, needed, v.band_jumps.size());
+                bar, material_ics2_rise(settings), needed, v.band_jumps.size());
   v.evidence = buffer;
+  v.evidence += "; floors: low " + floor_text(v.low_floor, settings) + ", high " + floor_text(v.high_floor, settings);
   for (const auto& j : v.band_jumps) {
     std::snprintf(buffer, sizeof buffer, "; jump at %.6g cycles %.0f Hz -> %.0f Hz", j.cycles, j.from_hz, j.to_hz);
     v.evidence += buffer;

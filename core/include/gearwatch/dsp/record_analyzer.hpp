@@ -71,6 +71,10 @@ struct SignalProcessingSettings {
   /// wear vibration must reach before that band's rise names a mechanism; in [0, 1], 0 = the
   /// significance alone decides.
   double wear_min_band_share = 0.5;
+  /// The gear pair's first this many finite records of a carrier band are its healthy baseline:
+  /// the band's materiality floor rises to a multiple of their measured wander
+  /// (dsp::band_material_floor). 0 = off (material_ics2_rise alone); else in [10, 1000].
+  int wear_baseline_records = 50;
   /// The trend tests use the most recent records only: Mann-Kendall is O(n²), and a daemon
   /// recording every 10 min for years must not slow down with age (the thesis's lubricated test
   /// had ~540 records over 3.25 M cycles).

@@ -7,8 +7,9 @@
 //   band's history (rising_change_evidence) reaches 2/alpha, so re-deciding at every new record keeps the chance
 //   that a stationary history ever raises a verdict below the configured significance, however
 //   long the history grows (Ville's inequality);
-// - material: the newest ICS2 stands at least material_ics2_rise() above the lowest earlier value
-//   of the history. A band holding a wear vibration (mesh-modulated with its own ICS2 I_s) and
+// - material: the newest ICS2 stands at least the band's floor above the lowest earlier value
+//   of the history: material_ics2_rise(), raised to a multiple of the wander of the band's own
+//   healthy baseline once that is measured (band_material_floor). A band holding a wear vibration (mesh-modulated with its own ICS2 I_s) and
 //   independent stationary content reads ICS2 = share^2 x I_s, share = the wear vibration's part of
 //   the band's power. A band "carries" a mechanism when that share reaches
 //   settings.wear_min_band_share (default 1/2: the wear vibration is at least as strong as
@@ -55,7 +56,7 @@ struct TrendTest {
   double rising_evidence = 1.0;     ///< e-value of a rise at the newest point
   bool significant_rise = false;    ///< rising_evidence reached rising_evidence_threshold
   double rise = 0.0;                ///< newest ICS2 minus the lowest earlier one (0 with < 2 points)
-  bool material = false;            ///< rise >= material_ics2_rise(settings) (always, when that is 0)
+  bool material = false;            ///< rise >= floor.floor (always, when that is 0)
 };
 
 /// Mann-Kendall and Spearman on (x, y) pairs, ordered by x; pairs with a non-finite y are dropped.
@@ -105,6 +106,66 @@ double am_noise_ics2(double depth, int harmonics);
 /// defaults. 0 when the share is 0 (significance alone decides).
 double material_ics2_rise(const SignalProcessingSettings& settings);
 
+/// Where a band's materiality floor came from (band_material_floor).
+enum class FloorSource {
+  configured,            ///< settings.wear_baseline_records is 0: material_ics2_rise alone
+  baseline_incomplete,   ///< fewer than kMinimumBaselinePoints earlier finite values: the configured floor
+  baseline_named_wear,   ///< the verdict named wear at the baseline's last record: not a healthy baseline
+  baseline,              ///< max(configured, kWanderFloorMultiple x the baseline's wander bound); the
+                         ///< baseline may still be growing (baseline_points < wear_baseline_records)
+};
+
+/// The floor is this many times the healthy band's wander SD: a rise of that size, measured from
+/// the lowest earlier point, is out of reach of the wander for AR(1) correlation up to
+/// kWanderMaxCorrelation (docs/dsp.md, figures: false alarms).
+inline constexpr double kWanderFloorMultiple = 6.0;
+/// The largest lag-one correlation of a healthy band's record-to-record wander the floor allows for.
+inline constexpr double kWanderMaxCorrelation = 0.8;
+/// The wander bound is a one-sided upper confidence bound at this level.
+inline constexpr double kWanderBoundConfidence = 0.95;
+
+/// The law of the residual sum of squares about the least-squares line of n AR(1) points of unit
+/// variance and lag-one correlation phi: RSS = y'My, M = I - X(X'X)^-1 X', X = [1, k], has mean
+/// tr(MR) and variance 2 tr(MRMR), R_ij = phi^|i-j|; Satterthwaite's chi-square has
+/// dof = tr(MR)^2 / tr(MRMR), so RSS ~ s^2 (tr(MR) / dof) chi2_dof.
+struct ResidualLaw {
+  double mean_factor = 0.0;  ///< tr(MR): E RSS / s^2
+  double dof = 0.0;
+};
+ResidualLaw ar1_line_residual_law(std::size_t n, double phi);
+
+/// Lower q-quantile of the chi-square law with dof degrees of freedom (any dof > 0).
+double chi_square_quantile(double q, double dof);
+
+/// Upper confidence bound (kWanderBoundConfidence) on the SD of a band's wander from its baseline:
+/// the scatter about the baseline's own line (a steady rise inside it is removed, not counted as
+/// wander), RSS s.t. s^2 <= RSS dof / (tr(MR) chi2_dof(1 - confidence)) at phi = kWanderMaxCorrelation,
+/// the worst case (a smaller phi leaves more independent records: the bound is larger than needed).
+/// NaN with fewer than 3 values.
+double wander_sd_upper_bound(std::span<const double> baseline);
+
+struct BandFloor {
+  double floor = 0.0;                    ///< the rise a band needs to be material
+  FloorSource source = FloorSource::configured;
+  std::size_t baseline_points = 0;       ///< finite values in the baseline (at most wear_baseline_records)
+  double residual_sd = std::numeric_limits<double>::quiet_NaN();  ///< sqrt(RSS / (n - 2)) of the baseline
+  double wander_bound = std::numeric_limits<double>::quiet_NaN(); ///< wander_sd_upper_bound
+};
+
+/// The fewest baseline values the wander is measured from (below, the configured floor alone).
+inline constexpr std::size_t kMinimumBaselinePoints = 10;
+
+/// A band's floor from its values in record order (the gear pair's history from its first record),
+/// judging a newest point that has `earlier_points` finite values before it: the first
+/// min(settings.wear_baseline_records, earlier_points) finite values are its healthy baseline (it
+/// grows with the history until complete, so the newest point never measures its own floor);
+/// floor = max(material_ics2_rise, kWanderFloorMultiple x wander_sd_upper_bound). With fewer than
+/// kMinimumBaselinePoints, or when the verdict named wear at the baseline's last record (its rank
+/// evidence over the baseline reached the bar and its last value stood material_ics2_rise above
+/// the lowest earlier one: the wear started inside it), the configured floor alone.
+BandFloor band_material_floor(std::span<const double> values, std::size_t earlier_points,
+                              const SignalProcessingSettings& settings);
+
 /// A significant, lasting move of the ICS2-selected carrier band (thesis Figs 4.8, 4.15): the new
 /// centre is an octave or more from the established one, stays within an octave of itself for
 /// settings.band_jump_persistence_records records, and its mean ICS2 over them exceeds the
@@ -126,16 +187,20 @@ struct WearMechanismVerdict {
   /// then about the other band alone, and cannot name this band's mechanism (nullopt = both seen).
   std::optional<CarrierBand> unseen_band;
   TrendTest low_band, high_band;
+  BandFloor low_floor, high_floor;    ///< each band's materiality floor (band_material_floor)
   std::vector<BandJump> band_jumps;   ///< significant moves of the selected band (see BandJump)
   std::string evidence;               ///< one line: statistics, p-values, jumps
 };
 
-/// Uses settings.trend_significance and settings.wear_min_band_share. Points are sorted by cycles
-/// internally. A band is rising when its rising_change_evidence reaches rising_evidence_threshold
-/// and its newest ICS2 is at least material_ics2_rise above the lowest earlier one; Mann-Kendall's
-/// `decreasing` is reported only.
+/// Uses settings.trend_significance, wear_min_band_share and wear_baseline_records. Points are
+/// sorted by cycles internally. A band is rising when its rising_change_evidence reaches
+/// rising_evidence_threshold and its newest ICS2 is at least its band_material_floor above the
+/// lowest earlier one; Mann-Kendall's `decreasing` is reported only. The floors come from
+/// `baseline` (the gear pair's first records, when `history` is a window that no longer holds
+/// them), or from `history` itself when `baseline` is empty.
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
-                                             const SignalProcessingSettings& settings);
+                                             const SignalProcessingSettings& settings,
+                                             std::span<const WearHistoryPoint> baseline = {});
 
 /// The same, when one carrier band cannot be seen at the record's sample rate (it lies above
 /// 0.45·fs, skipped band_above_nyquist): the verdict comes from the other band alone. Its rise names
@@ -144,6 +209,7 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
 /// looked for. nullopt behaves as the two-band overload (so do both bands unseen: no points).
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
                                              const SignalProcessingSettings& settings,
-                                             std::optional<CarrierBand> unseen_band);
+                                             std::optional<CarrierBand> unseen_band,
+                                             std::span<const WearHistoryPoint> baseline = {});
 
 }  // namespace gearwatch::dsp
