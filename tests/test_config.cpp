@@ -142,6 +142,7 @@ TEST_CASE("config: the shipped configuration files parse", "[config]") {
   CHECK(p.trend_window_records == d.trend_window_records);
   CHECK(p.band_jump_persistence_records == d.band_jump_persistence_records);
   CHECK(p.band_jump_sigma == d.band_jump_sigma);
+  CHECK(p.wear_baseline_records == d.wear_baseline_records);
   CHECK(p.flat_line_max_std_lsb == d.flat_line_max_std_lsb);
   CHECK(p.residual_rms_floor == d.residual_rms_floor);
   CHECK(p.band_energy_floor_db == d.band_energy_floor_db);
@@ -249,6 +250,16 @@ trend_significance = 0.01
   CHECK(error_of("[processing]\nabrasion_band_hz = 3\n") == "test.toml:2: key 'processing.abrasion_band_hz': expected [low_hz, high_hz]");
   CHECK(error_of("[processing]\nabrasion_band_hz = [2, \"x\"]\n") ==
         "test.toml:2: key 'processing.abrasion_band_hz': expected [low_hz, high_hz]");
+}
+
+TEST_CASE("config: processing.wear_baseline_records is read, 0 turns it off, and values outside 0 or [10, 1000] are refused",
+          "[config]") {
+  CHECK(parse_config("", "d.toml").processing.wear_baseline_records == 50);
+  CHECK(parse_config("[processing]\nwear_baseline_records = 30\n", "p.toml").processing.wear_baseline_records == 30);
+  CHECK(parse_config("[processing]\nwear_baseline_records = 0\n", "p.toml").processing.wear_baseline_records == 0);
+  CHECK_THAT(error_of("[processing]\nwear_baseline_records = 5\n"), Catch::Contains("wear_baseline_records must be 0 or in [10, 1000]"));
+  CHECK_THAT(error_of("[processing]\nwear_baseline_records = 2000\n"), Catch::Contains("processing.wear_baseline_records"));
+  CHECK_THAT(error_of("[processing]\nwear_baseline_records = 2.5\n"), Catch::Contains("processing.wear_baseline_records"));
 }
 
 // Found by fuzz_config: an integer a double cannot hold exactly (toml++'s value<double>() gives

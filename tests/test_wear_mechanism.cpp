@@ -747,4 +747,28 @@ TEST_CASE("issue 36: a ramp after a wandering baseline is named within the rank 
   }
 }
 
+TEST_CASE("issue 36: a history window past the pair's first records keeps their floor when given them as the baseline",
+          "[dsp][wear_mechanism]") {
+  // The daemon keeps the last trend_window_records records and, apart, the pair's first records:
+  // the verdict on the window with that baseline has the floors of the whole history.
+  SignalProcessingSettings settings;
+  std::mt19937_64 rng(4791);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::vector<WearHistoryPoint> all;
+  for (int r = 0; r < 120; ++r) all.push_back({1e5 * r, 0.02 + 0.01 * gauss(rng), 0.03 + 0.005 * gauss(rng), 8000.0});
+  const auto whole = identify_wear_mechanism(all, settings);
+  REQUIRE(whole.low_floor.source == FloorSource::baseline);
+  REQUIRE(whole.high_floor.source == FloorSource::baseline);
+  const std::span<const WearHistoryPoint> window = std::span<const WearHistoryPoint>(all).last(40);
+  const std::span<const WearHistoryPoint> first = std::span<const WearHistoryPoint>(all).first(50);
+  const auto windowed = identify_wear_mechanism(window, settings, first);
+  CHECK(windowed.low_floor.floor == whole.low_floor.floor);
+  CHECK(windowed.high_floor.floor == whole.high_floor.floor);
+  CHECK(windowed.low_floor.baseline_points == 50);
+  // Without the baseline the window measures its own first 39 records: another floor.
+  CHECK(identify_wear_mechanism(window, settings).low_floor.baseline_points == 39);
+  // The two-band overload with an unseen band passes the baseline on.
+  CHECK(identify_wear_mechanism(window, settings, CarrierBand::abrasion, first).low_floor.floor == whole.low_floor.floor);
+}
+
 }  // namespace test_wear_floor

@@ -420,6 +420,35 @@ std::string floor_text(const BandFloor& f, const SignalProcessingSettings& setti
   return text;
 }
 
+// Both bands' floors, from `baseline` when given (the daemon's window may have moved past the
+// pair's first records), else from the history's own bands (in cycle order).
+std::pair<BandFloor, BandFloor> band_floors(const std::vector<double>& cycles, const std::vector<double>& low,
+                                            const std::vector<double>& high, std::span<const WearHistoryPoint> baseline,
+                                            const SignalProcessingSettings& settings) {
+  std::vector<double> base_cycles = cycles, base_low = low, base_high = high;
+  if (!baseline.empty()) {
+    std::vector<WearHistoryPoint> base(baseline.begin(), baseline.end());
+    std::stable_sort(base.begin(), base.end(), [](const auto& a, const auto& b) { return a.cycles < b.cycles; });
+    base_cycles.clear(), base_low.clear(), base_high.clear();
+    for (const auto& p : base) base_cycles.push_back(p.cycles), base_low.push_back(p.ics2_low), base_high.push_back(p.ics2_high);
+  }
+  // The baseline's finite values before the judged one (the band's newest finite value), which
+  // the baseline holds too while it is still growing.
+  auto earlier = [&](const std::vector<double>& y, const std::vector<double>& base) {
+    double judged = INFINITY;
+    for (std::size_t i = y.size(); i-- > 0;)
+      if (std::isfinite(y[i])) {
+        judged = cycles[i];
+        break;
+      }
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < base.size(); ++i) n += std::isfinite(base[i]) && base_cycles[i] < judged;
+    return n;
+  };
+  return {band_material_floor(base_low, earlier(low, base_low), settings),
+          band_material_floor(base_high, earlier(high, base_high), settings)};
+}
+
 }  // namespace
 
 WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> history,
@@ -459,21 +488,7 @@ WearMechanismVerdict identify_wear_mechanism(std::span<const WearHistoryPoint> h
     high.push_back(p.ics2_high);
   }
   WearMechanismVerdict v;
-  auto finite_count = [](const std::vector<double>& y) {
-    return static_cast<std::size_t>(std::count_if(y.begin(), y.end(), [](double x) { return std::isfinite(x); }));
-  };
-  auto earlier = [&](const std::vector<double>& y, const std::vector<double>& base) {
-    return std::max<std::size_t>(std::max(finite_count(y), finite_count(base)), 1) - 1;
-  };
-  std::vector<double> base_low = low, base_high = high;
-  if (!baseline.empty()) {
-    std::vector<WearHistoryPoint> base(baseline.begin(), baseline.end());
-    std::stable_sort(base.begin(), base.end(), [](const auto& a, const auto& b) { return a.cycles < b.cycles; });
-    base_low.clear(), base_high.clear();
-    for (const auto& p : base) base_low.push_back(p.ics2_low), base_high.push_back(p.ics2_high);
-  }
-  v.low_floor = band_material_floor(base_low, earlier(low, base_low), settings);
-  v.high_floor = band_material_floor(base_high, earlier(high, base_high), settings);
+  std::tie(v.low_floor, v.high_floor) = band_floors(cycles, low, high, baseline, settings);
   v.low_band = trend_test(cycles, low, alpha);
   v.high_band = trend_test(cycles, high, alpha);
   // The verdict re-decides at every record: Mann-Kendall at a fixed level would, on a stationary
