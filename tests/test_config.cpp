@@ -252,13 +252,13 @@ trend_significance = 0.01
         "test.toml:2: key 'processing.abrasion_band_hz': expected [low_hz, high_hz]");
 }
 
-TEST_CASE("config: processing.wear_baseline_records is read, 0 turns it off, and values outside 0 or [10, 1000] are refused",
+TEST_CASE("config: processing.wear_baseline_records is read, 0 turns it off, and values outside 0 or [10, 200] are refused",
           "[config]") {
   CHECK(parse_config("", "d.toml").processing.wear_baseline_records == 50);
   CHECK(parse_config("[processing]\nwear_baseline_records = 30\n", "p.toml").processing.wear_baseline_records == 30);
   CHECK(parse_config("[processing]\nwear_baseline_records = 0\n", "p.toml").processing.wear_baseline_records == 0);
-  CHECK_THAT(error_of("[processing]\nwear_baseline_records = 5\n"), Catch::Contains("wear_baseline_records must be 0 or in [10, 1000]"));
-  CHECK_THAT(error_of("[processing]\nwear_baseline_records = 2000\n"), Catch::Contains("processing.wear_baseline_records"));
+  CHECK_THAT(error_of("[processing]\nwear_baseline_records = 5\n"), Catch::Contains("wear_baseline_records must be 0 or in [10, 200]"));
+  CHECK_THAT(error_of("[processing]\nwear_baseline_records = 500\n"), Catch::Contains("processing.wear_baseline_records"));
   CHECK_THAT(error_of("[processing]\nwear_baseline_records = 2.5\n"), Catch::Contains("processing.wear_baseline_records"));
 }
 

@@ -375,7 +375,7 @@ void read_processing(const toml::table& root, const std::string& file, Gearwatch
   t.number("band_energy_floor_db", p.band_energy_floor_db, -300.0, 0.0);
   t.number("trend_significance", p.trend_significance, 1e-6, 0.5);
   t.number("wear_min_band_share", p.wear_min_band_share, 0.0, 1.0);
-  t.integer("wear_baseline_records", p.wear_baseline_records, 0, 1000);
+  t.integer("wear_baseline_records", p.wear_baseline_records, 0, 200);
   t.integer("trend_window_records", p.trend_window_records, 3, 1000000);
   t.integer("band_jump_persistence_records", p.band_jump_persistence_records, 1, 1000);
   t.number("band_jump_sigma", p.band_jump_sigma, 0.0, 1000.0);

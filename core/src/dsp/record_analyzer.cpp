@@ -106,8 +106,8 @@ void SignalProcessingSettings::validate(const GearboxSpec& rig) const {
   require(band_energy_floor_db >= -300.0 && band_energy_floor_db <= 0.0, "band_energy_floor_db must be in [-300, 0]");
   require(trend_significance > 0.0 && trend_significance <= 0.5, "trend_significance must be in (0, 0.5]");
   require(wear_min_band_share >= 0.0 && wear_min_band_share <= 1.0, "wear_min_band_share must be in [0, 1]");
-  require(wear_baseline_records == 0 || (wear_baseline_records >= 10 && wear_baseline_records <= 1000),
-          "wear_baseline_records must be 0 or in [10, 1000]");
+  require(wear_baseline_records == 0 || (wear_baseline_records >= 10 && wear_baseline_records <= 200),
+          "wear_baseline_records must be 0 or in [10, 200]");
   require(trend_window_records >= 3, "trend_window_records must be at least 3");
   require(band_jump_persistence_records >= 1, "band_jump_persistence_records must be at least 1");
   require(std::isfinite(band_jump_sigma) && band_jump_sigma >= 0.0, "band_jump_sigma must be >= 0");

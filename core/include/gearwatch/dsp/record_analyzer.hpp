@@ -73,7 +73,8 @@ struct SignalProcessingSettings {
   double wear_min_band_share = 0.5;
   /// The gear pair's first this many finite records of a carrier band are its healthy baseline:
   /// the band's materiality floor rises to a multiple of their measured wander
-  /// (dsp::band_material_floor). 0 = off (material_ics2_rise alone); else in [10, 1000].
+  /// (dsp::band_material_floor). 0 = off (material_ics2_rise alone); else in [10, 200] (each verdict
+  /// re-derives the floors of the growing baseline, cubic in its length).
   int wear_baseline_records = 50;
   /// The trend tests use the most recent records only: Mann-Kendall is O(n²), and a daemon
   /// recording every 10 min for years must not slow down with age (the thesis's lubricated test
