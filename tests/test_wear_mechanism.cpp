@@ -1,6 +1,7 @@
 #include "gearwatch/dsp/wear_mechanism.hpp"
 
 #include <catch2/catch.hpp>
+#include <boost/math/distributions/chi_squared.hpp>
 
 #include <algorithm>
 #include <array>
@@ -600,9 +601,6 @@ namespace test_wear_floor {
 using namespace gearwatch::dsp;
 
 TEST_CASE("issue 36: the measured floor from a known baseline equals its formula - closed form", "[dsp][wear_mechanism]") {
-  // Chi-square quantiles: dof 2 has the closed form -2 ln(1 - q); dof 10 at 0.05 is 3.940299 (tables).
-  CHECK(chi_square_quantile(0.05, 2.0) == Approx(-2.0 * std::log(0.95)).epsilon(1e-9));
-  CHECK(chi_square_quantile(0.05, 10.0) == Approx(3.940299).epsilon(1e-6));
   // Independent AR(1) law by dense matrices: M = I - H, R_ij = phi^|i-j|; at phi 0, tr(MR) = n - 2.
   auto dense_law = [](std::size_t n, double phi) {
     std::vector<double> m(n * n), r(n * n), mr(n * n, 0.0);
@@ -648,7 +646,7 @@ TEST_CASE("issue 36: the measured floor from a known baseline equals its formula
     rss += e * e;
   }
   const auto [t1, dof] = dense_law(n, kWanderMaxCorrelation);
-  const double bound = std::sqrt(rss * dof / (t1 * chi_square_quantile(1.0 - kWanderBoundConfidence, dof)));
+  const double bound = std::sqrt(rss * dof / (t1 * boost::math::quantile(boost::math::chi_squared(dof), 1.0 - kWanderBoundConfidence)));
   const BandFloor f = band_material_floor(y, n, settings);
   INFO("rss " << rss << " bound " << bound << " floor " << f.floor);
   CHECK(f.source == FloorSource::baseline);

@@ -9,6 +9,8 @@
 #include <string>
 #include <tuple>
 
+#include <boost/math/distributions/chi_squared.hpp>
+
 #include "gearwatch/dsp/record_analyzer.hpp"
 
 namespace gearwatch::dsp {
@@ -292,32 +294,6 @@ ResidualLaw ar1_line_residual_law(std::size_t n, double phi) {
 
 namespace {
 
-// Regularised lower incomplete gamma P(a, x) by its series (converges for every x; the lower
-// quantiles asked for lie below the mean, where it needs few terms).
-double lower_gamma_p(double a, double x) {
-  if (x <= 0.0) return 0.0;
-  double term = 1.0 / a, sum = term;
-  for (int k = 1; k < 100000 && term > sum * 1e-15; ++k) {
-    term *= x / (a + k);
-    sum += term;
-  }
-  return std::min(1.0, std::exp(a * std::log(x) - x - std::lgamma(a)) * sum);
-}
-
-}  // namespace
-
-double chi_square_quantile(double q, double dof) {
-  if (!(dof > 0.0) || !(q > 0.0 && q < 1.0)) return std::numeric_limits<double>::quiet_NaN();
-  double lo = 0.0, hi = dof + 10.0 * std::sqrt(2.0 * dof) + 50.0;
-  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (lower_gamma_p(dof / 2.0, mid / 2.0) < q ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
-namespace {
-
 // Residual sum of squares of `y` about its least-squares line against the record index.
 double line_residual_ss(std::span<const double> y) {
   const double n = static_cast<double>(y.size());
@@ -339,7 +315,7 @@ double line_residual_ss(std::span<const double> y) {
 double wander_sd_upper_bound(std::span<const double> baseline) {
   if (baseline.size() < 3) return std::numeric_limits<double>::quiet_NaN();
   const ResidualLaw law = ar1_line_residual_law(baseline.size(), kWanderMaxCorrelation);
-  const double chi2 = chi_square_quantile(1.0 - kWanderBoundConfidence, law.dof);
+  const double chi2 = boost::math::quantile(boost::math::chi_squared(law.dof), 1.0 - kWanderBoundConfidence);
   return std::sqrt(line_residual_ss(baseline) * law.dof / (law.mean_factor * chi2));
 }
 

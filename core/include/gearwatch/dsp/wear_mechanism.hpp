@@ -134,9 +134,6 @@ struct ResidualLaw {
 };
 ResidualLaw ar1_line_residual_law(std::size_t n, double phi);
 
-/// Lower q-quantile of the chi-square law with dof degrees of freedom (any dof > 0).
-double chi_square_quantile(double q, double dof);
-
 /// Upper confidence bound (kWanderBoundConfidence) on the SD of a band's wander from its baseline:
 /// the scatter about the baseline's own line (a steady rise inside it is removed, not counted as
 /// wander), RSS s.t. s^2 <= RSS dof / (tr(MR) chi2_dof(1 - confidence)) at phi = kWanderMaxCorrelation,
