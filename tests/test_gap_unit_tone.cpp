@@ -52,6 +52,19 @@ double unit_tone_largest_difference(const SpectralSummary& a, const SpectralSumm
   return largest / peak;
 }
 
+/// Every value within the closed form's bound on its difference from the resampled record (below);
+/// `worst` the largest relative difference seen.
+bool within_kernel_error(const std::vector<double>& a, const std::vector<double>& b, double& worst) {
+  REQUIRE(a.size() == b.size());
+  bool ok = true;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    const double p = std::max(a[k], b[k]), d = std::abs(a[k] - b[k]);
+    ok = ok && d <= 2e-3 * std::sqrt(p) + 1e-6;
+    if (p > 0) worst = std::max(worst, d / p);
+  }
+  return ok;
+}
+
 }  // namespace
 
 TEST_CASE("gap unit tone: the phasor synthesis reduces as the cosine a sample does", "[gap_describe][unit_tone]") {
@@ -60,12 +73,58 @@ TEST_CASE("gap unit tone: the phasor synthesis reduces as the cosine a sample do
     for (const double rate : {50000.0, 2000.0}) {
       const SpectralSummary like = unit_tone_like(9.0, 19, rate);
       const double top = order + 3;
-      const double d = unit_tone_largest_difference(unit_tone_spectra(order, top, like, GearPairSpec{}, 20),
+      const double d = unit_tone_largest_difference(RecordSpectra(unit_tone_record(order, top, like, 20), 0, GearPairSpec{}).summary(),
                                                     unit_tone_by_cosine(order, top, like, 20));
       INFO("order " << order << " rate " << rate);
       CHECK(d < 1e-7);  // a float sample's rounding (6e-8) is the scale
     }
   }
+}
+
+TEST_CASE("gap unit tone: the tone's angle samples in closed form reduce as the resampled record within the kernel's error",
+          "[gap_describe][unit_tone]") {
+  // The closed form differs from the resampler's samples by the kernel's pass-band error on the
+  // tone, at most 1e-4 of its amplitude (order_tracking.hpp: the Kaiser sinc's ripple; the float
+  // table and products add ~1e-6). A line is 2/spr times a revolution's sum, averaged: its complex
+  // amplitude moves by at most 2e-4; a broadband half-order bin by at most 2/sqrt(1.5)·1e-4 < 2e-4,
+  // its power (|b − mean|², two bins an order) by under 4·(2·2e-4)·sqrt(p) + 4·(4e-4)². Hence per value
+  // |Δp| <= 2e-3·sqrt(p) + 1e-6, p the larger of the two.
+  for (const double order : {4.582, 2.0031, 37.75, 0.63}) {
+    for (const double rate : {50000.0, 2000.0}) {
+      for (const std::size_t revs : {std::size_t{19}, std::size_t{26}}) {
+        const SpectralSummary like = unit_tone_like(9.0, revs, rate);
+        const double top = order + 3;
+        const SpectralSummary fast = unit_tone_spectra(order, top, like, GearPairSpec{}, 20);
+        const SpectralSummary resampled = RecordSpectra(unit_tone_record(order, top, like, 20), 0, GearPairSpec{}).summary();
+        double worst = 0;
+        INFO("order " << order << " rate " << rate << " revolutions " << revs);
+        CHECK(within_kernel_error(fast.input_lines, resampled.input_lines, worst));
+        CHECK(within_kernel_error(fast.output_lines, resampled.output_lines, worst));
+        CHECK(within_kernel_error(fast.broadband, resampled.broadband, worst));
+        CHECK(fast.input_revolutions == resampled.input_revolutions);
+        CHECK(fast.output_revolutions == resampled.output_revolutions);
+        WARN("largest relative difference " << worst);
+      }
+    }
+  }
+}
+
+TEST_CASE("gap unit tone: a grid whose kernel reaches the record's end is resampled, within the kernel's error",
+          "[gap_describe][unit_tone]") {
+  // Ten input revolutions an output revolution: the output grid's kernel spans 171 input samples each
+  // side, more than the half revolution (50 samples) after the last edge, which 20 input revolutions
+  // make the output grid's end too.
+  GearPairSpec gears;
+  gears.pinion_teeth = 10, gears.gear_teeth = 100;
+  const SpectralSummary like = unit_tone_like(9.0, 20, 900.0);
+  const Record r = unit_tone_record(1.37, 1.0, like, 20);
+  const SpectralSummary fast = RecordSpectra::of_tone(r, gears, 1.37).summary(), resampled = RecordSpectra(r, 0, gears).summary();
+  // The input grid (17 samples each side) is the cosine's; the output grid is resampled.
+  double worst = 0;
+  CHECK(within_kernel_error(fast.input_lines, resampled.input_lines, worst));
+  CHECK(within_kernel_error(fast.output_lines, resampled.output_lines, worst));
+  CHECK(within_kernel_error(fast.broadband, resampled.broadband, worst));
+  WARN("largest relative difference " << worst);
 }
 
 TEST_CASE("gap unit tone: records a few parts in 1e9 apart in speed reduce it alike", "[gap_describe][unit_tone]") {

@@ -377,8 +377,7 @@ double band_pass(double hz, double fn, double zeta) {
 
 }  // namespace
 
-SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
-                                  double samples_per_cycle) {
+Record unit_tone_record(double order, double top_order, const SpectralSummary& like, double samples_per_cycle) {
   const double speed = like.speed_hz;
   const double fs = std::min(like.sample_rate_hz, samples_per_cycle * (top_order + 4) * speed);
   const std::size_t revs = like.input_revolutions;
@@ -402,7 +401,13 @@ SpectralSummary unit_tone_spectra(double order, double top_order, const Spectral
   r.channels = {std::move(x)};
   r.channel_numbers = {0};
   for (std::size_t k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(static_cast<double>(k) * fs / speed);
-  return RecordSpectra(r, 0, gears).summary();
+  return r;
+}
+
+SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
+                                  double samples_per_cycle) {
+  // The record's tone is known in closed form on the angle grid: the interpolation is skipped.
+  return RecordSpectra::of_tone(unit_tone_record(order, top_order, like, samples_per_cycle), gears, order).summary();
 }
 
 namespace {

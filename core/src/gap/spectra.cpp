@@ -6,6 +6,8 @@
 #include <complex>
 #include <numbers>
 #include <numeric>
+#include <optional>
+#include <span>
 #include <stdexcept>
 
 #include "gearwatch/dsp/fft.hpp"
@@ -125,16 +127,48 @@ struct ShaftParts {
 /// Each shaft's lines are read with the other shaft's synchronous part removed: an input line is
 /// not periodic on the output shaft (and vice versa), so with a few revolutions its leakage
 /// would not average out and a change on one shaft would show on the other.
+/// x on a shaft's angle grid: `revolutions` × spr samples, one revolution `per_rev` input
+/// revolutions. For a record holding cos(2π·order·θ) alone (θ in input revolutions from the first
+/// edge, constant speed: `tone_order`), the samples are that cosine, except where the resampler's
+/// kernel reads past either end of the record (zeros there): the leading revolution, and the
+/// whole grid should the kernel reach the record's end. Those come from the resampler, so the
+/// grid differs from the resampler's only by the kernel's pass-band error on the tone.
+void to_angle(const std::vector<float>& x, const dsp::ShaftAngle& angle, std::size_t spr, std::size_t revolutions,
+              double per_rev, std::optional<double> tone_order, dsp::AngularResampler& resampler, dsp::RealBuffer& out) {
+  if (!tone_order) {
+    resampler.resample(x, angle, spr, revolutions, out, per_rev);
+    return;
+  }
+  resampler.resample(x, angle, spr, 1, std::span<double>(out).first(spr), per_rev);
+  const double reach = resampler.interpolator().taps() / 2.0 + 1;  // input samples the kernel reads each side
+  const bool inside = angle.time_at(per_rev) - angle.time_at(0.0) >= reach &&
+                      angle.time_at(static_cast<double>(revolutions) * per_rev) + reach <= static_cast<double>(x.size());
+  if (!inside) {
+    resampler.resample(x, angle, spr, revolutions, out, per_rev);
+    return;
+  }
+  // A rotating phasor, set exactly every kExact samples (one std::cos a sample would cost about
+  // what the interpolation it replaces does).
+  constexpr std::size_t kExact = 256;
+  const double step = 2 * std::numbers::pi * *tone_order * per_rev / static_cast<double>(spr);
+  const std::complex<double> rotation = std::polar(1.0, step);
+  std::complex<double> z;
+  for (std::size_t j = spr; j < revolutions * spr; ++j) {
+    z = (j - spr) % kExact == 0 ? std::polar(1.0, step * static_cast<double>(j)) : z * rotation;
+    out[j] = z.real();
+  }
+}
+
 ShaftParts separate_shafts(const std::vector<float>& x, const dsp::ShaftAngle& angle, const AngleResolution& a,
                            const WholeRevolutions& revs, double ratio, const GearPairSpec& gears,
-                           dsp::FftPlanCache& plans) {
+                           std::optional<double> tone_order, dsp::FftPlanCache& plans) {
   const std::size_t spr = a.spr;
   dsp::AngularResampler resampler;
   dsp::RealBuffer in_angle(revs.input * spr), out_angle(revs.output * spr);
   ShaftParts parts{dsp::RealBuffer(in_angle.size()), dsp::RealBuffer(revs.output * a.spr_out),
                    dsp::RealBuffer(in_angle.size())};
-  resampler.resample(x, angle, spr, revs.input, in_angle);
-  resampler.resample(x, angle, spr, revs.output, out_angle, ratio);
+  to_angle(x, angle, spr, revs.input, 1.0, tone_order, resampler, in_angle);
+  to_angle(x, angle, spr, revs.output, ratio, tone_order, resampler, out_angle);
   dsp::SynchronousSeparation separation;
   separation.separate(in_angle, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, parts.residual);
   const std::vector<double> tsa_in(separation.input_tsa().begin(), separation.input_tsa().end());
@@ -194,6 +228,14 @@ FamilyKind output_line_family(int order, int gear_teeth) noexcept {
 
 RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSpec& gears,
                              std::size_t min_revolutions, int edges_per_rev)
+    : RecordSpectra(record, channel, gears, min_revolutions, edges_per_rev, std::nullopt) {}
+
+RecordSpectra RecordSpectra::of_tone(const Record& record, const GearPairSpec& gears, double order) {
+  return RecordSpectra(record, 0, gears, 4, 1, order);
+}
+
+RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSpec& gears, std::size_t min_revolutions,
+                             int edges_per_rev, std::optional<double> tone_order)
     : sample_rate_hz_(record.sample_rate_hz), torque_nm_(record.torque_nm), pinion_teeth_(gears.pinion_teeth), gear_teeth_(gears.gear_teeth) {
   const auto& x = checked_channel(record, channel);
   dsp::ShaftAngle angle;
@@ -214,7 +256,7 @@ RecordSpectra::RecordSpectra(const Record& record, int channel, const GearPairSp
   // (a daemon's months) would otherwise keep a plan of each.
   thread_local dsp::FftPlanCache plans;
   if (plans.size() > kMaxCachedPlans) plans.clear();
-  const ShaftParts parts = separate_shafts(x, angle, a, revs, ratio, gears, plans);
+  const ShaftParts parts = separate_shafts(x, angle, a, revs, ratio, gears, tone_order, plans);
   per_revolution_dft(parts.input_only, a.spr, in_revs_, k_in_, plans.real(a.spr), in_dft_);
   per_revolution_dft(parts.output_only, a.spr_out, out_revs_, k_out_, plans.real(a.spr_out), out_dft_);
   blocks_ = in_revs_ - 1;

@@ -147,11 +147,14 @@ class FeatureDescriber {
 };
 
 /// A record of a unit-amplitude tone at input order `order` alone, at the speed and whole
-/// revolutions of `like` (constant speed, one tacho edge a revolution), reduced as any record is
-/// (RecordSpectra): what the measurement makes of a non-synchronous tone. Sampled at
-/// `samples_per_cycle` samples a cycle of order `top_order` + 4 (at most like's rate): the reduction
-/// works in orders, the rate only sets how far up the spectra go and how closely the angular
-/// resampler's interpolation follows the tone.
+/// revolutions of `like` (constant speed, one tacho edge a revolution, half a revolution after the
+/// last), sampled at `samples_per_cycle` samples a cycle of order `top_order` + 4 (at most like's
+/// rate): the reduction works in orders, the rate only sets how far up the spectra go and how
+/// closely the angular resampler's interpolation follows the tone.
+Record unit_tone_record(double order, double top_order, const SpectralSummary& like, double samples_per_cycle);
+
+/// unit_tone_record reduced as any record is (RecordSpectra::of_tone: the tone's angle-domain
+/// samples in closed form): what the measurement makes of a non-synchronous tone.
 SpectralSummary unit_tone_spectra(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
                                   double samples_per_cycle);
 

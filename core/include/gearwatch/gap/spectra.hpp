@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -93,6 +94,12 @@ class RecordSpectra {
   /// fewer than 2 output revolutions, non-finite samples.
   RecordSpectra(const Record& record, int channel, const GearPairSpec& gears, std::size_t min_revolutions = 4,
                 int edges_per_rev = 1);
+  /// As the constructor (channel 0, one edge a revolution, 4 revolutions at least) for a record
+  /// that holds cos(2π·order·θ) alone, θ its input angle in revolutions from the first edge, at
+  /// constant speed: its angle-domain samples are the cosine itself past the leading revolution
+  /// (the resampler's there, where its kernel reads before the record's start), not interpolated.
+  /// They differ from the constructor's by the interpolator's pass-band error on the tone.
+  static RecordSpectra of_tone(const Record& record, const GearPairSpec& gears, double order);
 
   /// The summary over the given revolutions (indices may repeat: a bootstrap draw). Empty lists mean all.
   SpectralSummary summary(const std::vector<std::size_t>& input_revs = {},
@@ -137,6 +144,8 @@ class RecordSpectra {
   std::size_t output_revolutions() const noexcept { return out_revs_; }
 
  private:
+  RecordSpectra(const Record& record, int channel, const GearPairSpec& gears, std::size_t min_revolutions,
+                int edges_per_rev, std::optional<double> tone_order);
   static std::uint64_t next_identity() noexcept;
   std::uint64_t identity_ = next_identity();
   double speed_hz_ = 0, sample_rate_hz_ = 0, torque_nm_ = 0;
