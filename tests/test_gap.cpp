@@ -788,27 +788,24 @@ TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per
   const std::vector<int> orders{19, 57, 95, 133, 190};
   auto twin_of = [&](const SpectralSummary& measured) { return unit_lines_twin(measured, orders); };
   // The form against its closed form, with r from dsp::tracking_residual_share (the form reads it
-  // off a table; measured within 7e-5) and the spline's images at 1 ∓ x, phase modulations of index
-  // (d/x)·η(1 ∓ x) (dsp::cardinal_spline_response): x = 0.25 and 0.3, depth 2 %.
+  // off a table; measured within 7e-5): x = 0.25 and 0.3, depth 2 %.
   for (double f_m : {2.5, 3.0}) {
     CAPTURE(f_m);
     const double d = 0.02, x = f_m / f0, residual_rad = d / x * dsp::tracking_residual_share(x);
-    const double image_rad = d / x * dsp::cardinal_spline_response(1.0 - x);
-    const double upper_image_rad = d / x * dsp::cardinal_spline_response(1.0 + x);
     const auto twin = twin_of(RecordSpectra(rippling_shaft_record(fs, f0, 40, d, f_m, orders), 0, GearPairSpec{}).summary());
     const auto model = apply_effects({{CandidateEffect::speed_fluctuation, {d, f_m, 0.0}}}, twin, GearPairSpec{});
     for (int k : orders) {
       CAPTURE(k);
       CHECK(model.input_lines[static_cast<std::size_t>(k - 1)] ==
-            Approx(std::pow(std::cyl_bessel_j(0.0, k * residual_rad) * std::cyl_bessel_j(0.0, k * image_rad) *
-                             std::cyl_bessel_j(0.0, k * upper_image_rad),
-                         2))
-                .epsilon(1e-3));
+            Approx(std::pow(std::cyl_bessel_j(0.0, k * residual_rad), 2)).epsilon(1e-3));
     }
   }
   // Against the order-tracked record where no tracking is possible: a ripple at the shaft's own
   // order (x = 1) and at twice it meets every edge at the same phase, so all of it stays (r = 1)
-  // and the record's lines keep J0²(k·d/x). Slower ripples: the next test.
+  // and the record's lines keep J0²(k·d/x). Slower ripples leave less, but the spline through the
+  // edges also carries an image of the ripple at 1 − x, a second phase modulation the form leaves
+  // out: at x = 0.3 (160 revolutions) a record's order-190 line keeps 0.80 of its power where the
+  // form says 0.90 (docs/gap-bench.md).
   for (double f_m : {10.0, 20.0}) {
     CAPTURE(f_m);
     const double d = 0.005, x = f_m / f0;
@@ -820,38 +817,6 @@ TEST_CASE("gap: the speed-ripple form keeps at each line what one tacho edge per
       // Measured: the record within 1e-4, the form within 1e-8.
       CHECK(measured.input_lines[static_cast<std::size_t>(k - 1)] == Approx(kept).epsilon(1e-3));
       CHECK(model.input_lines[static_cast<std::size_t>(k - 1)] == Approx(kept).epsilon(1e-6));
-    }
-  }
-}
-
-TEST_CASE("gap: both Hz-fixed ripple forms carry the tracking's image at 1 - x, as an order-tracked rippled record shows it",
-          "[gap][candidates]") {
-  // Known answer: the record itself (rippling_shaft_record: tones locked to a shaft angle that
-  // ripples, one tacho edge per revolution, order-tracked by RecordSpectra), 160 revolutions so that
-  // x and 1 − x make whole cycles. The speed form at the truth's depth and frequency; the load form
-  // at the truth's index left at x, (d/x)·r(x)/√2 (its share 1 − exp(−(β·order)²) is the small-index
-  // 1 − J0²). Tolerances fixed before running: each line's kept power within 1 % of the record's
-  // (plus 1e-4), and the power moved off the lines, summed over the two 1-order broadband bins about
-  // each line, within 5 % of the record's (the record's residual holds what the lines lose).
-  const double fs = 20000, f0 = 10, d = 0.02;
-  const std::vector<int> orders{19, 57, 95, 133, 190};
-  for (double f_m : {2.5, 3.0}) {
-    const double x = f_m / f0;
-    const auto measured = RecordSpectra(rippling_shaft_record(fs, f0, 160, d, f_m, orders), 0, GearPairSpec{}).summary();
-    const auto twin = unit_lines_twin(measured, orders);
-    const double beta = d / x * dsp::tracking_residual_share(x) / std::sqrt(2.0);
-    for (const auto& effect : std::vector<AppliedEffect>{{CandidateEffect::speed_fluctuation, {d, f_m, 0.0}},
-                                                         {CandidateEffect::load_fluctuation, {beta, f_m, 0.0, 0.0}}}) {
-      CAPTURE(f_m, to_string(effect.effect));
-      const auto model = apply_effects({effect}, twin, GearPairSpec{});
-      for (int k : orders) {
-        CAPTURE(k);
-        const auto i = static_cast<std::size_t>(k - 1);
-        CHECK(model.input_lines[i] == Approx(measured.input_lines[i]).margin(0.01 * measured.input_lines[i] + 1e-4));
-        const double model_bins = model.broadband[i - 1] + model.broadband[i];
-        const double record_bins = measured.broadband[i - 1] + measured.broadband[i];
-        CHECK(model_bins == Approx(record_bins).epsilon(0.05));
-      }
     }
   }
 }

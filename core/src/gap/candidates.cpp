@@ -1,14 +1,12 @@
 #include "gearwatch/gap/candidates.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <complex>
 #include <iterator>
 #include <numbers>
 #include <set>
 #include <stdexcept>
-#include <utility>
 #include <string>
 
 #include "gearwatch/dsp/order_tracking.hpp"
@@ -248,31 +246,15 @@ class EffectApplier {
   /// shaft's speed); the one-edge tacho follows all but the share r(x) of that angle, which stays
   /// in the tracked signal as a phase modulation of index order·(d/x)·r(x). On top, a share μ of
   /// every line is amplitude-modulated (ripple_am_share). The load ripple's form is one phase
-  /// modulation growing with order, a share 1 − exp(−(β·order)²), β what the tracking leaves at x.
-  /// Either way the edges sample the angle once a revolution, so the spline also carries the
-  /// ripple's images at |1 − x| and 1 + x (dsp::cardinal_spline_response): two more phase
-  /// modulations of image_pm[i]·order, each taking its share of what the ones before leave of the
-  /// line. Those at 2 ∓ x, under a twentieth of the residual's amplitude up to x = 0.6, are left out.
+  /// modulation growing with order, a share 1 − exp(−(β·order)²).
   struct ModulatedShare {
     bool speed;
     double pm_per_order, mu;
-    std::array<double, 2> image_pm;
     const std::vector<double>& v;
-    /// The shares of a line at `order` that go to the sidebands x away and to each image's.
-    std::array<double, 3> operator()(double order) const {
-      auto kept_after = [&](double index) {
-        if (!speed) return std::exp(-index * index);
-        const double j0 = bessel_j0(index);
-        return j0 * j0;
-      };
-      double kept = speed ? (1.0 - mu) * kept_after(pm_per_order * order) : kept_after(v[0] * order);
-      std::array<double, 3> shares{1.0 - kept, 0.0, 0.0};
-      for (std::size_t i = 0; i < image_pm.size(); ++i) {
-        const double after = kept * kept_after(image_pm[i] * order);
-        shares[i + 1] = kept - after;
-        kept = after;
-      }
-      return shares;
+    double operator()(double order) const {
+      if (!speed) return 1.0 - std::exp(-(v[0] * order) * (v[0] * order));
+      const double carrier = bessel_j0(pm_per_order * order);
+      return 1.0 - (1.0 - mu) * carrier * carrier;
     }
   };
 
@@ -298,17 +280,7 @@ class EffectApplier {
     if (!speed && locked_order > 0) return load_ripple_at_shaft_order(locked_order);
     const double x = locked_order > 0 ? locked_order : v_[1] / s_.speed_hz;
     const double pm_per_order = speed ? v_[0] / x * tracking_residual(x) : 0.0;
-    // The images' indices per order: the angle's d/x (speed) or the index left at x over r(x) (load),
-    // times what the spline carries at |1 − x| and 1 + x. None for a ripple locked to a shaft (read
-    // through the Bessel spread, whose test asks the records), nor at 1 − x when x = 1: a sine
-    // sampled at its own period is nil at every edge.
-    std::array<double, 2> pm_image{};
-    if (locked_order == 0) {
-      const double per_angle = speed ? v_[0] / x : v_[0] / tracking_residual(x);
-      const double below = std::abs(1.0 - x) < 1e-9 ? 0.0 : dsp::cardinal_spline_response(1.0 - x);
-      pm_image = {per_angle * below, per_angle * dsp::cardinal_spline_response(1.0 + x)};
-    }
-    const ModulatedShare share{speed, pm_per_order, speed ? ripple_am_share() : 0.0, pm_image, v_};
+    const ModulatedShare share{speed, pm_per_order, speed ? ripple_am_share() : 0.0, v_};
     // The family comparison floors lines 60 dB below the twin's total (DiagnosisSettings::floor_db);
     // a tone 10 dB below that cannot lift a line off the floor even if all of it landed there, and
     // following a tone through both averages is most of this form's cost.
@@ -367,21 +339,14 @@ class EffectApplier {
   /// mesh harmonic).
   void move_to_sidebands(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
                          const ModulatedShare& share, double x, const MoveThresholds& limits) {
-    // The sidebands' distances from the line, in input orders: the ripple's, then its images'. An
-    // image at no distance (x = 1: every edge meets the ripple at one phase) has no share.
-    const std::array<double, 3> away{x, std::abs(1.0 - x), 1.0 + x};
     for (std::size_t k = 1; k <= lines.size(); ++k) {
       const double power = twin_lines[k - 1];
       if (!(power > limits.too_small_to_move)) continue;
       const double order = static_cast<double>(k) * num / den;
-      const auto shares = share(order);
-      for (std::size_t i = 0; i < away.size(); ++i) {
-        const double moved = power * shares[i];
-        if (i > 0 && !(moved > limits.negligible)) continue;
-        lines[k - 1] -= moved;
-        add_non_synchronous_tone(s_, order - away[i], moved / 2, gears_, limits.negligible);
-        add_non_synchronous_tone(s_, order + away[i], moved / 2, gears_, limits.negligible);
-      }
+      const double moved = power * share(order);
+      lines[k - 1] -= moved;
+      add_non_synchronous_tone(s_, order - x, moved / 2, gears_, limits.negligible);
+      add_non_synchronous_tone(s_, order + x, moved / 2, gears_, limits.negligible);
     }
   }
 
