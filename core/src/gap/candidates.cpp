@@ -6,7 +6,6 @@
 #include <iterator>
 #include <map>
 #include <numbers>
-#include <numeric>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -116,7 +115,7 @@ double tracking_residual(double x) {
 /// depth the fit tries at this x.
 class RippleTracking {
  public:
-  static constexpr int kPhases = 8, kPerRev = 16;
+  static constexpr int kPhases = 8, kPerRev = 8;
   static constexpr double kDepth = 0.02, kTopOffset = 4.0;  // reference depth; farthest sideband kept (orders)
 
   RippleTracking(int revolutions, double x) : revolutions_(revolutions) {
@@ -124,6 +123,7 @@ class RippleTracking {
     for (int p = 0; p < kPhases; ++p)
       dsp::ripple_tracking_error(kDepth, x, 2.0 * std::numbers::pi * p / kPhases, revolutions, kPerRev, e[p]);
     const std::size_t n = static_cast<std::size_t>(revolutions) * kPerRev;  // the record's span [0, N)
+    const auto bins = static_cast<std::size_t>(std::min(kTopOffset * revolutions, n / 2.0 - 1.0));
     for (int p = 0; p < kPhases; ++p) {
       const auto& plus = e[p];
       const auto& minus = e[(p + kPhases / 2) % kPhases];
@@ -133,90 +133,99 @@ class RippleTracking {
         quad[j] = (plus[j] + minus[j]) / (2 * kDepth * kDepth);
       }
       lin_.push_back(lin), quad_.push_back(quad);
+      lin_dft_.push_back(dft(lin, bins)), quad_dft_.push_back(dft(quad, bins));
     }
-    for (int j = 0; j < 2 * kPerRev; ++j) hann_.push_back(std::pow(std::sin(std::numbers::pi * j / (2.0 * kPerRev)), 2));
-  }
-
-  /// The share of a line at `order` its carrier keeps under a ripple of depth d: the mean over the
-  /// phases of |c|², c = mean e^{2πi·order·e} (the record's line is its coherent mean over the
-  /// revolutions).
-  double kept(double d, double order) const {
-    double sum = 0;
-    for (std::size_t p = 0; p < lin_.size(); ++p) sum += std::norm(modulated(p, d, order));
-    return sum / static_cast<double>(lin_.size());
-  }
-
-  /// What the record's broadband estimate reads of a line of power `power` at `order`: its residual
-  /// e^{2πi·order·e} − c through RecordSpectra's own steps, on the record's error: less what the input
-  /// shaft's synchronous average takes (its whole orders, over the R revolutions), less what the
-  /// output shaft's takes of the rest (its whole orders but the shared mesh ones, over its M whole
-  /// revolutions, repeated over the record), through 2-revolution Hann blocks one revolution apart
-  /// (block bin j at j/2 orders, bin [k, k+1) holding j = 2k and 2k + 1), each bin the blocks' spread
-  /// about their mean over B − 1; the mean over the phases. Straight from the record's
-  /// error rather than as tones: the error is not stationary (its ends are larger), the blocks weigh
-  /// the ends less than the lines do, and a short record's output average takes ~1/M of it.
-  void add_broadband(double d, double order, double power, const GearPairSpec& gears,
-                     std::vector<double>& broadband) const {
-    const int block_points = 2 * kPerRev;
-    const int first_bin = std::max(2, static_cast<int>(std::ceil(2.0 * (order - kTopOffset))));
-    const int last_bin = std::min(static_cast<int>(2 * broadband.size() + 1), static_cast<int>(std::floor(2.0 * (order + kTopOffset))));
-    if (last_bin < first_bin || revolutions_ < 2) return;
-    const double blocks = revolutions_ - 1.0, norm = 1.0 / (0.375 * block_points * block_points);
-    const double scale = power * norm / (std::max(1.0, blocks - 1.0) * static_cast<double>(lin_.size()));
-    const double ratio = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;  // output revs per input rev
-    const int shared = gears.gear_teeth / std::gcd(gears.pinion_teeth, gears.gear_teeth);
-    const auto n = static_cast<std::size_t>(revolutions_) * kPerRev;
-    const auto output_points = static_cast<std::size_t>(std::floor(revolutions_ * ratio) / ratio * kPerRev);
-    for (std::size_t p = 0; p < lin_.size(); ++p) {
-      const std::complex<double> c = modulated(p, d, order);  // fills scratch_ with e^{2πi·order·e}
-      for (std::size_t j = 0; j < n; ++j) scratch_[j] -= c;
-      // The synchronous averages' shares, at offsets f (orders) from the line: input orders first.
-      auto remove = [&](double f, std::size_t span) {
-        if (span == 0) return;
-        const std::complex<double> step = std::polar(1.0, 2.0 * std::numbers::pi * f / kPerRev);
-        std::complex<double> sum = 0, twiddle = 1.0;
-        for (std::size_t j = 0; j < span; ++j, twiddle *= step) sum += scratch_[j] * std::conj(twiddle);
-        const std::complex<double> a = sum / static_cast<double>(span);
-        twiddle = 1.0;
-        for (std::size_t j = 0; j < n; ++j, twiddle *= step) scratch_[j] -= a * twiddle;
-      };
-      for (auto q = static_cast<long>(std::ceil(order - kTopOffset)); q <= static_cast<long>(std::floor(order + kTopOffset)); ++q)
-        if (q != 0) remove(static_cast<double>(q) - order, n);
-      if (output_points > 0)
-        for (auto q = static_cast<long>(std::ceil((order - kTopOffset) / ratio)); q * ratio <= order + kTopOffset; ++q)
-          if (q > 0 && q % shared != 0) remove(static_cast<double>(q) * ratio - order, output_points);
-      for (int bin = first_bin; bin <= last_bin; ++bin) {
-        const std::complex<double> step = std::polar(1.0, -2.0 * std::numbers::pi * (bin / 2.0 - order) / kPerRev);
-        // As RecordSpectra reads a bin: the blocks' spread about their mean, over B − 1.
-        block_sums_.clear();
-        std::complex<double> mean = 0;
-        for (int b = 0; b + 2 <= revolutions_; ++b) {
-          std::complex<double> sum = 0, twiddle = 1.0;
-          for (int j = 0; j < block_points; ++j, twiddle *= step)
-            sum += hann_[static_cast<std::size_t>(j)] * scratch_[static_cast<std::size_t>(b * kPerRev + j)] * twiddle;
-          block_sums_.push_back(sum), mean += sum;
-        }
-        mean /= blocks;
-        double read = 0;
-        for (const auto& sum : block_sums_) read += std::norm(sum - mean);
-        broadband[static_cast<std::size_t>(bin / 2 - 1)] += read * scale;
+    // The broadband estimate's weight at each point: Σ over its 2-revolution Hann blocks, one a
+    // revolution (RecordSpectra), of the window's square.
+    block_weight_.assign(n, 0.0);
+    for (std::size_t j = 0; j < n; ++j) {
+      const double theta = static_cast<double>(j) / kPerRev;
+      for (int b = 0; b + 2 <= revolutions; ++b) {
+        const double u = theta - b;
+        if (u < 0 || u >= 2) continue;
+        const double hann = std::pow(std::sin(std::numbers::pi * u / 2), 2);
+        block_weight_[j] += hann * hann;
       }
+      block_weight_sum_ += block_weight_[j];
     }
   }
 
-  /// c = mean e^{2πi·order·e} at phase p, its terms left in scratch_.
-  std::complex<double> modulated(std::size_t p, double d, double order) const {
+  struct Line {
+    double kept;       ///< the share the line keeps
+    double broadband;  ///< what the broadband estimate reads of the lost share, over the lost share
+  };
+  /// A line at `order` under a ripple of depth d: it keeps the mean over the phases of
+  /// |c|², c = mean e^{2πi·order·e} (the record's line is its coherent mean over the revolutions).
+  /// The rest, e^{2πi·order·e} − c, is the residual; the broadband estimate weighs it by its blocks'
+  /// Hann² (W), so the error's ends, where it is largest, count less there than in the lines: the
+  /// ratio of the W-weighted mean of |e^{…} − c|² to the plain one.
+  Line line(double d, double order) const {
     const double w = 2.0 * std::numbers::pi * order;
-    scratch_.resize(lin_[p].size());
-    std::complex<double> c = 0;
-    for (std::size_t j = 0; j < scratch_.size(); ++j) c += scratch_[j] = std::polar(1.0, w * d * (lin_[p][j] + d * quad_[p][j]));
-    return c / static_cast<double>(scratch_.size());
+    double kept = 0, lost = 0, weighted = 0;
+    std::vector<std::complex<double>>& z = scratch_;
+    for (std::size_t p = 0; p < lin_.size(); ++p) {
+      z.resize(lin_[p].size());
+      std::complex<double> c = 0;
+      for (std::size_t j = 0; j < z.size(); ++j) c += z[j] = std::polar(1.0, w * d * (lin_[p][j] + d * quad_[p][j]));
+      c /= static_cast<double>(z.size());
+      kept += std::norm(c), lost += 1.0 - std::norm(c);
+      double sum = 0;
+      for (std::size_t j = 0; j < z.size(); ++j) sum += block_weight_[j] * std::norm(z[j] - c);
+      weighted += sum / block_weight_sum_;
+    }
+    const double phases = static_cast<double>(lin_.size());
+    return {kept / phases, lost > 1e-300 ? weighted / lost : 1.0};
+  }
+
+  struct Sideband {
+    double offset, share;
+  };
+  /// Where a line's lost power goes: the tracked error's spectrum (mean over the phases, its DFT over
+  /// the record, rectangular as the record's lines are), gathered in quarter-order groups at their
+  /// power-weighted offset, each group's share of the whole; a phase modulation of small index puts
+  /// power at ± f in proportion to the error's power at f (Jacobi–Anger's first sidebands).
+  std::vector<Sideband> sidebands(double d) const {
+    std::vector<double> power(lin_dft_.front().size(), 0.0);
+    for (std::size_t p = 0; p < lin_dft_.size(); ++p)
+      for (std::size_t m = 0; m < power.size(); ++m) power[m] += std::norm(d * lin_dft_[p][m] + d * d * quad_dft_[p][m]);
+    std::vector<Sideband> groups;
+    double total = 0;
+    for (double p : power) total += p;
+    if (!(total > 0)) return groups;
+    for (std::size_t m = 0; m < power.size();) {
+      const double edge = std::floor(4.0 * (m + 1.0) / revolutions_) + 1.0;  // this quarter-order group's top
+      double sum = 0, moment = 0;
+      for (; m < power.size() && 4.0 * (m + 1.0) / revolutions_ < edge; ++m) {
+        sum += power[m];
+        moment += power[m] * (m + 1.0) / revolutions_;
+      }
+      // At a whole number of cycles over the record (m/N orders), so none of it leaks into the line.
+      if (sum > 1e-9 * total) groups.push_back({std::max(1.0, std::round(moment / sum * revolutions_)) / revolutions_, sum / total});
+    }
+    return groups;
+  }
+
+ private:
+  /// DFT bins 1 … bins (m/N orders) of a span sampled kPerRev times a revolution.
+  static std::vector<std::complex<double>> dft(const std::vector<double>& v, std::size_t bins) {
+    std::vector<std::complex<double>> out(bins);
+    const double n = static_cast<double>(v.size());
+    for (std::size_t m = 1; m <= bins; ++m) {
+      std::complex<double> sum = 0;
+      const std::complex<double> step = std::polar(1.0, -2.0 * std::numbers::pi * static_cast<double>(m) / n);
+      std::complex<double> twiddle = 1.0;
+      for (double value : v) sum += value * twiddle, twiddle *= step;
+      out[m - 1] = sum / n;
+    }
+    return out;
   }
 
   int revolutions_;
-  std::vector<double> hann_;  // a 2-revolution block's window
-  mutable std::vector<std::complex<double>> scratch_, block_sums_;
+  std::vector<double> block_weight_;
+  double block_weight_sum_ = 0;
+  mutable std::vector<std::complex<double>> scratch_;
   std::vector<std::vector<double>> lin_, quad_;
+  std::vector<std::vector<std::complex<double>>> lin_dft_, quad_dft_;
 };
 
 /// The tracking of a record's length at x, kept per thread: the fit asks at every record for every
@@ -443,18 +452,24 @@ class EffectApplier {
   };
 
   /// A Hz-fixed ripple through the record's tracking: line k keeps (1 − μ)·carrier of its power; the
-  /// AM share μ goes half to each side x away, the phase part's loss to the broadband as the record's
-  /// blocks read it (RippleTracking::add_broadband).
+  /// AM share μ goes half to each side x away, the phase part's loss to ± each offset of the tracked
+  /// error's spectrum in proportion to its power there.
   void move_by_tracking(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
                         const TrackedRipple& r, const MoveThresholds& limits) {
+    const auto sidebands = r.tracking.sidebands(r.depth);
     for (std::size_t k = 1; k <= lines.size(); ++k) {
       const double power = twin_lines[k - 1];
       if (!(power > limits.too_small_to_move)) continue;
       const double order = static_cast<double>(k) * num / den;
-      lines[k - 1] -= power * (r.am_share + (1.0 - r.am_share) * (1.0 - r.tracking.kept(r.depth, order)));
-      r.tracking.add_broadband(r.depth, order, power * (1.0 - r.am_share), gears_, s_.broadband);
-      for (int side : {-1, 1})
+      const auto line = r.tracking.line(r.depth, order);
+      const double phase_loss = power * (1.0 - r.am_share) * (1.0 - line.kept);
+      lines[k - 1] -= power * r.am_share + phase_loss;
+      for (int side : {-1, 1}) {
         add_non_synchronous_tone(s_, order + side * r.x, power * r.am_share / 2, gears_, limits.negligible);
+        for (const auto& b : sidebands)
+          add_non_synchronous_tone(s_, order + side * b.offset, phase_loss * line.broadband * b.share / 2, gears_,
+                                   limits.negligible);
+      }
     }
   }
 
