@@ -366,37 +366,6 @@ double tracking_error_component(double ratio, double at) {
   return tracking_error_at(ratio, at).real();
 }
 
-void ripple_tracking_error(double depth, double ratio, double phase, int revolutions, int per_rev,
-                           std::vector<double>& out) {
-  if (!(ratio > 0 && ratio <= 16) || !(depth >= 0 && depth < 0.5) || revolutions < 2 || per_rev < 1)
-    throw std::invalid_argument("ripple tracking error: ratio, depth or length out of range");
-  // Unit mean speed; the angle integrates the speed from the first edge (angle 0 at t = 0). The
-  // edges are placed on that angle in "samples" of 1/1000 of a revolution's time (ShaftAngle's unit).
-  constexpr double kSamples = 1000;
-  const double w = 2.0 * std::numbers::pi * ratio, a = depth / w;
-  auto angle = [&](double t) { return t - a * (std::cos(w * t + phase) - std::cos(phase)); };
-  auto speed = [&](double t) { return 1.0 + depth * std::sin(w * t + phase); };
-  std::vector<double> edges;
-  edges.reserve(static_cast<std::size_t>(revolutions) + 1);
-  double t = 0;
-  for (int m = 0; m <= revolutions; ++m) {
-    for (int iteration = 0; iteration < 30; ++iteration) {
-      const double step = (angle(t) - m) / speed(t);
-      t -= step;
-      if (std::abs(step) < 1e-14) break;
-    }
-    edges.push_back(t * kSamples);
-  }
-  ShaftAngle tracked;
-  if (!tracked.assign(edges, 1, 1.0).ok()) throw std::invalid_argument("ripple tracking error: edges refused");
-  const auto points = static_cast<std::size_t>(revolutions) * static_cast<std::size_t>(per_rev) + 1;
-  out.resize(points);
-  for (std::size_t j = 0; j < points; ++j) {
-    const double revs = static_cast<double>(j) / per_rev;
-    out[j] = revs - angle(tracked.time_at(std::min(revs, tracked.total_revolutions())) / kSamples);
-  }
-}
-
 double cardinal_spline_response(double order) noexcept {
   if (order == 0.0) return 1.0;
   const double a = std::numbers::pi * order, sinc = std::sin(a) / a;

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <complex>
 #include <iterator>
-#include <map>
 #include <numbers>
 #include <set>
 #include <stdexcept>
@@ -103,140 +102,6 @@ double tracking_residual(double x) {
   const auto i = std::min(static_cast<std::size_t>(u), static_cast<std::size_t>(kPoints - 2));
   const double w = u - static_cast<double>(i);
   return std::exp((1 - w) * log_share[i] + w * log_share[i + 1]);
-}
-
-/// What a speed ripple fixed in Hz leaves in one record's tracked signal, from that record's own
-/// tracking (dsp::ripple_tracking_error: its length in revolutions, its edges placed from the rippled
-/// angle, the spline's not-a-knot ends): one edge a revolution samples the ripple, so the tracked
-/// angle keeps a residual at x, images at k ± x, and the ripple's second harmonic in angle (a sine
-/// in time is not one in angle). The ripple's start phase is unknown, so every figure is averaged
-/// over kPhases of them. The error is d·e1 + d²·e2 to second order in the depth d (e(−d, φ) is
-/// e(d, φ + π), so the pairs of opposite phases give both), so one tracking per phase serves every
-/// depth the fit tries at this x.
-class RippleTracking {
- public:
-  static constexpr int kPhases = 8, kPerRev = 8;
-  static constexpr double kDepth = 0.02, kTopOffset = 4.0;  // reference depth; farthest sideband kept (orders)
-
-  RippleTracking(int revolutions, double x) : revolutions_(revolutions) {
-    std::vector<std::vector<double>> e(kPhases);
-    for (int p = 0; p < kPhases; ++p)
-      dsp::ripple_tracking_error(kDepth, x, 2.0 * std::numbers::pi * p / kPhases, revolutions, kPerRev, e[p]);
-    const std::size_t n = static_cast<std::size_t>(revolutions) * kPerRev;  // the record's span [0, N)
-    const auto bins = static_cast<std::size_t>(std::min(kTopOffset * revolutions, n / 2.0 - 1.0));
-    for (int p = 0; p < kPhases; ++p) {
-      const auto& plus = e[p];
-      const auto& minus = e[(p + kPhases / 2) % kPhases];
-      std::vector<double> lin(n), quad(n);
-      for (std::size_t j = 0; j < n; ++j) {
-        lin[j] = (plus[j] - minus[j]) / (2 * kDepth);
-        quad[j] = (plus[j] + minus[j]) / (2 * kDepth * kDepth);
-      }
-      lin_.push_back(lin), quad_.push_back(quad);
-      lin_dft_.push_back(dft(lin, bins)), quad_dft_.push_back(dft(quad, bins));
-    }
-    // The broadband estimate's weight at each point: Σ over its 2-revolution Hann blocks, one a
-    // revolution (RecordSpectra), of the window's square.
-    block_weight_.assign(n, 0.0);
-    for (std::size_t j = 0; j < n; ++j) {
-      const double theta = static_cast<double>(j) / kPerRev;
-      for (int b = 0; b + 2 <= revolutions; ++b) {
-        const double u = theta - b;
-        if (u < 0 || u >= 2) continue;
-        const double hann = std::pow(std::sin(std::numbers::pi * u / 2), 2);
-        block_weight_[j] += hann * hann;
-      }
-      block_weight_sum_ += block_weight_[j];
-    }
-  }
-
-  struct Line {
-    double kept;       ///< the share the line keeps
-    double broadband;  ///< what the broadband estimate reads of the lost share, over the lost share
-  };
-  /// A line at `order` under a ripple of depth d: it keeps the mean over the phases of
-  /// |c|², c = mean e^{2πi·order·e} (the record's line is its coherent mean over the revolutions).
-  /// The rest, e^{2πi·order·e} − c, is the residual; the broadband estimate weighs it by its blocks'
-  /// Hann² (W), so the error's ends, where it is largest, count less there than in the lines: the
-  /// ratio of the W-weighted mean of |e^{…} − c|² to the plain one.
-  Line line(double d, double order) const {
-    const double w = 2.0 * std::numbers::pi * order;
-    double kept = 0, lost = 0, weighted = 0;
-    std::vector<std::complex<double>>& z = scratch_;
-    for (std::size_t p = 0; p < lin_.size(); ++p) {
-      z.resize(lin_[p].size());
-      std::complex<double> c = 0;
-      for (std::size_t j = 0; j < z.size(); ++j) c += z[j] = std::polar(1.0, w * d * (lin_[p][j] + d * quad_[p][j]));
-      c /= static_cast<double>(z.size());
-      kept += std::norm(c), lost += 1.0 - std::norm(c);
-      double sum = 0;
-      for (std::size_t j = 0; j < z.size(); ++j) sum += block_weight_[j] * std::norm(z[j] - c);
-      weighted += sum / block_weight_sum_;
-    }
-    const double phases = static_cast<double>(lin_.size());
-    return {kept / phases, lost > 1e-300 ? weighted / lost : 1.0};
-  }
-
-  struct Sideband {
-    double offset, share;
-  };
-  /// Where a line's lost power goes: the tracked error's spectrum (mean over the phases, its DFT over
-  /// the record, rectangular as the record's lines are), gathered in quarter-order groups at their
-  /// power-weighted offset, each group's share of the whole; a phase modulation of small index puts
-  /// power at ± f in proportion to the error's power at f (Jacobi–Anger's first sidebands).
-  std::vector<Sideband> sidebands(double d) const {
-    std::vector<double> power(lin_dft_.front().size(), 0.0);
-    for (std::size_t p = 0; p < lin_dft_.size(); ++p)
-      for (std::size_t m = 0; m < power.size(); ++m) power[m] += std::norm(d * lin_dft_[p][m] + d * d * quad_dft_[p][m]);
-    std::vector<Sideband> groups;
-    double total = 0;
-    for (double p : power) total += p;
-    if (!(total > 0)) return groups;
-    for (std::size_t m = 0; m < power.size();) {
-      const double edge = std::floor(4.0 * (m + 1.0) / revolutions_) + 1.0;  // this quarter-order group's top
-      double sum = 0, moment = 0;
-      for (; m < power.size() && 4.0 * (m + 1.0) / revolutions_ < edge; ++m) {
-        sum += power[m];
-        moment += power[m] * (m + 1.0) / revolutions_;
-      }
-      // At a whole number of cycles over the record (m/N orders), so none of it leaks into the line.
-      if (sum > 1e-9 * total) groups.push_back({std::max(1.0, std::round(moment / sum * revolutions_)) / revolutions_, sum / total});
-    }
-    return groups;
-  }
-
- private:
-  /// DFT bins 1 … bins (m/N orders) of a span sampled kPerRev times a revolution.
-  static std::vector<std::complex<double>> dft(const std::vector<double>& v, std::size_t bins) {
-    std::vector<std::complex<double>> out(bins);
-    const double n = static_cast<double>(v.size());
-    for (std::size_t m = 1; m <= bins; ++m) {
-      std::complex<double> sum = 0;
-      const std::complex<double> step = std::polar(1.0, -2.0 * std::numbers::pi * static_cast<double>(m) / n);
-      std::complex<double> twiddle = 1.0;
-      for (double value : v) sum += value * twiddle, twiddle *= step;
-      out[m - 1] = sum / n;
-    }
-    return out;
-  }
-
-  int revolutions_;
-  std::vector<double> block_weight_;
-  double block_weight_sum_ = 0;
-  mutable std::vector<std::complex<double>> scratch_;
-  std::vector<std::vector<double>> lin_, quad_;
-  std::vector<std::vector<std::complex<double>>> lin_dft_, quad_dft_;
-};
-
-/// The tracking of a record's length at x, kept per thread: the fit asks at every record for every
-/// trial value, and x repeats for every depth and AM share it tries.
-const RippleTracking& ripple_tracking(int revolutions, double x) {
-  thread_local std::map<std::pair<int, double>, RippleTracking> cache;
-  if (cache.size() > 512) cache.clear();
-  const auto key = std::make_pair(revolutions, x);
-  auto it = cache.find(key);
-  if (it == cache.end()) it = cache.emplace(key, RippleTracking(revolutions, x)).first;
-  return it->second;
 }
 
 }  // namespace
@@ -430,47 +295,8 @@ class EffectApplier {
                             !input_locked);
       return;
     }
-    // The ripple as this record's own edges and spline leave it; the load form's index is the
-    // interior residual's (d/x)·r(x)/√2, so its ripple is x·√2·β/r(x). Where that is no small ripple
-    // (beyond the speed form's depth bound) or the edges hold only an alias (x > 2, r = 1), the
-    // closed form.
-    const double depth = speed ? v_[0] : x * std::sqrt(2.0) * v_[0] / std::max(tracking_residual(x), 1e-300);
-    const auto revolutions = static_cast<int>(s_.input_revolutions);
-    if (revolutions >= 2 && x <= 2.0 && depth <= 0.1) {
-      const TrackedRipple tracked{ripple_tracking(revolutions, x), depth, speed ? ripple_am_share() : 0.0, x};
-      move_by_tracking(s_.input_lines, twin_.input_lines, 1, 1, tracked, limits);
-      move_by_tracking(s_.output_lines, twin_.output_lines, z1_, z2_, tracked, limits);
-      return;
-    }
     move_to_sidebands(s_.input_lines, twin_.input_lines, 1, 1, share, x, limits);
     move_to_sidebands(s_.output_lines, twin_.output_lines, z1_, z2_, share, x, limits);
-  }
-
-  struct TrackedRipple {
-    const RippleTracking& tracking;
-    double depth, am_share, x;
-  };
-
-  /// A Hz-fixed ripple through the record's tracking: line k keeps (1 − μ)·carrier of its power; the
-  /// AM share μ goes half to each side x away, the phase part's loss to ± each offset of the tracked
-  /// error's spectrum in proportion to its power there.
-  void move_by_tracking(std::vector<double>& lines, const std::vector<double>& twin_lines, int num, int den,
-                        const TrackedRipple& r, const MoveThresholds& limits) {
-    const auto sidebands = r.tracking.sidebands(r.depth);
-    for (std::size_t k = 1; k <= lines.size(); ++k) {
-      const double power = twin_lines[k - 1];
-      if (!(power > limits.too_small_to_move)) continue;
-      const double order = static_cast<double>(k) * num / den;
-      const auto line = r.tracking.line(r.depth, order);
-      const double phase_loss = power * (1.0 - r.am_share) * (1.0 - line.kept);
-      lines[k - 1] -= power * r.am_share + phase_loss;
-      for (int side : {-1, 1}) {
-        add_non_synchronous_tone(s_, order + side * r.x, power * r.am_share / 2, gears_, limits.negligible);
-        for (const auto& b : sidebands)
-          add_non_synchronous_tone(s_, order + side * b.offset, phase_loss * line.broadband * b.share / 2, gears_,
-                                   limits.negligible);
-      }
-    }
   }
 
   /// A ripple locked to a shaft's order (once per revolution of that shaft, whatever the speed):

@@ -76,16 +76,6 @@ double tracking_residual_share(double ratio);
 /// Throws std::invalid_argument for a ratio or `at` outside (0, 16].
 double tracking_error_component(double ratio, double at);
 
-/// The tracked angle's error (tracked angle minus the true one, in revolutions) over a record of
-/// `revolutions` whole revolutions tracked from one edge a revolution (ShaftAngle's spline, its
-/// not-a-knot ends included), for a speed ripple of `depth` at `ratio` times the mean speed: the speed
-/// is 1 + depth·sin(2π·ratio·t + phase) revolutions per unit time at the first edge's time t = 0.
-/// Written into `out` at `per_rev` points a revolution of the tracked angle, from 0 to `revolutions`
-/// (revolutions·per_rev + 1 values). Throws std::invalid_argument for a ratio outside (0, 16], a depth
-/// outside [0, 0.5), fewer than 2 revolutions, or edges ShaftAngle refuses.
-void ripple_tracking_error(double depth, double ratio, double phase, int revolutions, int per_rev,
-                           std::vector<double>& out);
-
 /// The cubic spline through samples once a revolution, as an interpolator: a sampled sin(2π·f·θ)
 /// comes back as Σ_k η(f + k)·sin(2π(f + k)θ), η(f) = sinc⁴(f)·3/(2 + cos 2πf) (the cardinal cubic
 /// spline's response: the B-spline's sinc⁴ over its samples' 1/6, 4/6, 1/6). So a deviation at x
