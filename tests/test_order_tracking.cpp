@@ -8,6 +8,7 @@
 #include <numbers>
 #include <random>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "gearwatch/dsp/fft.hpp"
@@ -300,6 +301,63 @@ TEST_CASE("Tracking residual share: all of a deviation at the shaft's own order 
     const double measured = 2 * sidebands / carrier / (2 * kPi * k * epsilon);
     INFO("x = " << x << ": sidebands say " << measured << ", tracking_residual_share " << tracking_residual_share(x));
     CHECK(measured == Approx(tracking_residual_share(x)).epsilon(0.005));  // measured: within 6e-5
+  }
+}
+
+TEST_CASE("Tracking image: the spline through one edge per revolution leaves a deviation's residual at x and its images "
+          "at 1 - x, 1 + x, 2 - x as the cardinal cubic spline's response says, and the order-tracked tone's sidebands agree",
+          "[dsp][order_tracking]") {
+  // Closed form: a deviation sin(2π·x·θ) sampled once a revolution comes back through the cubic
+  // spline as Σ_k η(x + k)·sin(2π(x + k)θ), η(f) = sinc⁴(f)·3/(2 + cos 2πf); the error keeps
+  // 1 − η(x) at x, +η(k − x) at k − x and −η(k + x) at k + x. Tolerance fixed before running:
+  // 1 % of the closed form plus 2e-5 of the deviation.
+  auto eta = [](double f) { return cardinal_spline_response(f); };
+  for (double x : {0.15, 0.3, 0.42, 0.6, 0.8}) {
+    CAPTURE(x);
+    const std::vector<std::pair<double, double>> components{
+        {x, 1.0 - eta(x)}, {1.0 - x, eta(1.0 - x)}, {1.0 + x, -eta(1.0 + x)}, {2.0 - x, eta(2.0 - x)}};
+    for (const auto& [at, want] : components) {
+      CAPTURE(at, want);
+      CHECK(tracking_error_component(x, at) == Approx(want).margin(0.01 * std::abs(want) + 2e-5));
+    }
+  }
+  CHECK(cardinal_spline_response(0.0) == 1.0);
+  CHECK(std::abs(cardinal_spline_response(1.0)) < 1e-15);
+  CHECK_THROWS_AS(tracking_error_component(0.3, 0.0), std::invalid_argument);
+
+  // Through the whole order tracking: a tone at order k of a shaft whose angle deviates by
+  // ε sin(2π x f0 t) revolutions; the tracked tone's first sidebands at k ± (1 − x) hold
+  // (2π k ε η(1 − x) / 2) of its amplitude (small index). Read over the middle 96 revolutions, where
+  // x and 1 − x make whole cycles. Tolerance fixed before running: 1 %.
+  const double f0 = 10, fs = 20000, epsilon = 2e-4, k = 19;
+  for (double x : {0.25, 0.375}) {
+    const std::size_t revs = 128;
+    const auto n = static_cast<std::size_t>((revs + 2) * fs / f0);
+    auto angle_at = [&](double t) { return f0 * t + epsilon * std::sin(2 * kPi * x * f0 * t); };
+    std::vector<float> signal(n);
+    for (std::size_t i = 0; i < n; ++i) signal[i] = static_cast<float>(std::cos(2 * kPi * k * angle_at(double(i) / fs)));
+    std::vector<double> edges;
+    double t = 0;
+    for (int m = 0; m <= static_cast<int>(revs) + 1; ++m) {
+      for (int iteration = 0; iteration < 30; ++iteration)
+        t -= (angle_at(t) - m) / (f0 * (1 + epsilon * 2 * kPi * x * std::cos(2 * kPi * x * f0 * t)));
+      edges.push_back(t * fs);
+    }
+    ShaftAngle angle;
+    REQUIRE(angle.assign(edges, 1, 1.0).ok());
+    const std::size_t spr = 128;
+    std::vector<double> resampled(revs * spr);
+    AngularResampler resampler;
+    resampler.resample(signal, angle, spr, revs, resampled);
+    auto bin = [&](double order) {
+      std::complex<double> sum = 0;
+      for (std::size_t j = 16 * spr; j < 112 * spr; ++j) sum += resampled[j] * std::polar(1.0, -2 * kPi * order * double(j) / spr);
+      return std::abs(sum);
+    };
+    const double y = 1.0 - x, carrier = bin(k), image = 0.5 * (bin(k - y) + bin(k + y));
+    const double measured = 2 * image / carrier / (2 * kPi * k * epsilon);
+    INFO("x = " << x << ": image sidebands say " << measured << ", closed form " << eta(y));
+    CHECK(measured == Approx(eta(y)).epsilon(0.01));
   }
 }
 

@@ -316,8 +316,12 @@ void AngularResampler::resample(std::span<const float> x, const ShaftAngle& angl
   }
 }
 
-double tracking_residual_share(double ratio) {
-  if (!(ratio > 0 && ratio <= 16)) throw std::invalid_argument("tracking residual: the ratio must lie in (0, 16]");
+namespace {
+
+/// The tracked angle's error for a deviation of `deviation` revolutions at `ratio`, Hann-weighted
+/// over the middle revolutions (the spline's ends are not-a-knot), correlated with e^{−2πi·at·θ}:
+/// the sine's coefficient at `at`, over the deviation.
+std::complex<double> tracking_error_at(double ratio, double at) {
   // Unit speed (one revolution per unit of time), 1000 samples per revolution, a deviation of 1e-3
   // revolutions: small enough that the edges stay regular, large against the spline's rounding.
   constexpr double kSamples = 1000, kDeviation = 1e-3;
@@ -336,15 +340,36 @@ double tracking_residual_share(double ratio) {
   // The error's component at the deviation's frequency, Hann-weighted over the middle revolutions
   // (the spline's ends are not-a-knot, and the aliases at other frequencies must not leak in).
   constexpr double kFirst = 20, kLast = kRevolutions - 20, kStep = 1.0 / 64;
+  const double w_at = 2.0 * std::numbers::pi * at;
   std::complex<double> sum = 0;
   double weights = 0;
   for (double revs = kFirst; revs <= kLast; revs += kStep) {
     const double hann = 0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * (revs - kFirst) / (kLast - kFirst));
     const double error = angle(tracked.time_at(revs) / kSamples) - revs;
-    sum += hann * error * std::polar(1.0, -w * revs);
+    sum += hann * error * std::polar(1.0, -w_at * revs);
     weights += hann;
   }
-  return 2.0 * std::abs(sum) / weights / kDeviation;
+  // e^{iwθ}'s part of sin(wθ) is 1/(2i): the sine's coefficient is 2i·sum/weights.
+  return std::complex<double>(0.0, 2.0) * sum / weights / kDeviation;
+}
+
+}  // namespace
+
+double tracking_residual_share(double ratio) {
+  if (!(ratio > 0 && ratio <= 16)) throw std::invalid_argument("tracking residual: the ratio must lie in (0, 16]");
+  return std::abs(tracking_error_at(ratio, ratio));
+}
+
+double tracking_error_component(double ratio, double at) {
+  if (!(ratio > 0 && ratio <= 16) || !(at > 0 && at <= 16))
+    throw std::invalid_argument("tracking error: the ratio and the order must lie in (0, 16]");
+  return tracking_error_at(ratio, at).real();
+}
+
+double cardinal_spline_response(double order) noexcept {
+  if (order == 0.0) return 1.0;
+  const double a = std::numbers::pi * order, sinc = std::sin(a) / a;
+  return std::pow(sinc, 4) * 3.0 / (2.0 + std::cos(2.0 * a));
 }
 
 }  // namespace gearwatch::dsp

@@ -68,6 +68,21 @@ class ShaftAngle {
 /// for a ratio outside (0, 16].
 double tracking_residual_share(double ratio);
 
+/// The signed component at `at` shaft orders of the tracked angle's error (tracked angle minus the
+/// true one, as tracking_residual_share measures it) for a deviation sin(2π·ratio·θ) of unit
+/// amplitude, measured the same way on synthetic edges: a sine's coefficient, so at `at` = ratio it
+/// is ± tracking_residual_share. One edge a revolution samples the deviation, so the spline also
+/// carries its images at k ± ratio (k whole): the tracked signal is phase-modulated there too.
+/// Throws std::invalid_argument for a ratio or `at` outside (0, 16].
+double tracking_error_component(double ratio, double at);
+
+/// The cubic spline through samples once a revolution, as an interpolator: a sampled sin(2π·f·θ)
+/// comes back as Σ_k η(f + k)·sin(2π(f + k)θ), η(f) = sinc⁴(f)·3/(2 + cos 2πf) (the cardinal cubic
+/// spline's response: the B-spline's sinc⁴ over its samples' 1/6, 4/6, 1/6). So a deviation at x
+/// orders leaves 1 − η(x) of itself at x and an image η(1 − x) at 1 − x with the deviation's sign
+/// (η(k − x) at k − x; −η(k + x) at k + x), away from the not-a-knot ends.
+double cardinal_spline_response(double order) noexcept;
+
 /// Band-limited interpolation of a uniformly sampled signal at arbitrary positions: a Kaiser-windowed
 /// sinc with `zero_crossings` lobes each side, tabulated at `phases` fractional offsets with linear
 /// interpolation between adjacent phase rows. When the output is sparser than the input the
