@@ -731,9 +731,9 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
   fit.description.parameters = {{"frequency_hz", bf}, {"damping_ratio", bz}, {"gain_db", bg}};
   fit.complexity = 3;
   const double gm1 = std::pow(10.0, bg / 10) - 1;
-  fit.predict = [this, bf, bz, gm1](std::size_t r, std::size_t i) {
+  fit.predict = [this, fn = bf, zeta = bz, gm1](std::size_t r, std::size_t i) {
     const Cell& c = records_[r].cells[i];
-    return c.twin * (1 + gm1 * band_pass(c.hz, bf, bz));
+    return c.twin * (1 + gm1 * band_pass(c.hz, fn, zeta));
   };
   return fit;
 }

@@ -124,9 +124,6 @@ struct ShaftParts {
   dsp::RealBuffer input_only, output_only, residual;
 };
 
-/// Each shaft's lines are read with the other shaft's synchronous part removed: an input line is
-/// not periodic on the output shaft (and vice versa), so with a few revolutions its leakage
-/// would not average out and a change on one shaft would show on the other.
 /// x on a shaft's angle grid: `revolutions` × spr samples, one revolution `per_rev` input
 /// revolutions. For a record holding cos(2π·order·θ) alone (θ in input revolutions from the first
 /// edge, constant speed: `tone_order`), the samples are that cosine, except where the resampler's
@@ -159,6 +156,9 @@ void to_angle(const std::vector<float>& x, const dsp::ShaftAngle& angle, std::si
   }
 }
 
+/// Each shaft's lines are read with the other shaft's synchronous part removed: an input line is
+/// not periodic on the output shaft (and vice versa), so with a few revolutions its leakage
+/// would not average out and a change on one shaft would show on the other.
 ShaftParts separate_shafts(const std::vector<float>& x, const dsp::ShaftAngle& angle, const AngleResolution& a,
                            const WholeRevolutions& revs, double ratio, const GearPairSpec& gears,
                            std::optional<double> tone_order, dsp::FftPlanCache& plans) {
