@@ -73,6 +73,41 @@ Synthetic make_angle(const SpeedProfile& p, double fs, std::size_t n, int edges_
   return s;
 }
 
+/// A tone at order k of a 10 Hz shaft whose angle deviates by ε sin(2π x f0 t) revolutions, sampled
+/// at 20 kHz and order-tracked through one edge per revolution (128 revolutions, 128 samples each).
+class RippledToneTracked {
+ public:
+  static constexpr std::size_t kRevolutions = 128, kSpr = 128;
+  RippledToneTracked(double x, double epsilon, double k) : resampled_(kRevolutions * kSpr) {
+    constexpr double f0 = 10, fs = 20000;
+    const auto n = static_cast<std::size_t>((kRevolutions + 2) * fs / f0);
+    auto angle_at = [&](double t) { return f0 * t + epsilon * std::sin(2 * kPi * x * f0 * t); };
+    std::vector<float> signal(n);
+    for (std::size_t i = 0; i < n; ++i) signal[i] = static_cast<float>(std::cos(2 * kPi * k * angle_at(double(i) / fs)));
+    std::vector<double> edges;
+    double t = 0;
+    for (int m = 0; m <= static_cast<int>(kRevolutions) + 1; ++m) {
+      for (int iteration = 0; iteration < 30; ++iteration)
+        t -= (angle_at(t) - m) / (f0 * (1 + epsilon * 2 * kPi * x * std::cos(2 * kPi * x * f0 * t)));
+      edges.push_back(t * fs);
+    }
+    ShaftAngle angle;
+    REQUIRE(angle.assign(edges, 1, 1.0).ok());
+    AngularResampler resampler;
+    resampler.resample(signal, angle, kSpr, kRevolutions, resampled_);
+  }
+  /// |DFT| at `order` over the middle 96 revolutions: the spline's not-a-knot ends bend the first
+  /// and last revolutions' angle.
+  double middle_bin(double order) const {
+    std::complex<double> sum = 0;
+    for (std::size_t j = 16 * kSpr; j < 112 * kSpr; ++j) sum += resampled_[j] * std::polar(1.0, -2 * kPi * order * double(j) / kSpr);
+    return std::abs(sum);
+  }
+
+ private:
+  std::vector<double> resampled_;
+};
+
 }  // namespace
 
 TEST_CASE("Band-limited interpolator reproduces a sampled sinusoid between samples", "[dsp][order_tracking]") {
@@ -270,33 +305,10 @@ TEST_CASE("Tracking residual share: all of a deviation at the shaft's own order 
   // by ε sin(2π x f0 t) revolutions, resampled with the spline through one edge per revolution. The
   // tracked tone is phase-modulated by 2π k ε r at x orders, so each first sideband holds
   // (2π k ε r / 2) of the tone's amplitude (small index), r = tracking_residual_share(x).
-  const double f0 = 10, fs = 20000, epsilon = 2e-4, k = 19;
+  const double epsilon = 2e-4, k = 19;
   for (double x : {0.375, 0.625, 1.0}) {
-    const std::size_t revs = 128;
-    const auto n = static_cast<std::size_t>((revs + 2) * fs / f0);
-    auto angle_at = [&](double t) { return f0 * t + epsilon * std::sin(2 * kPi * x * f0 * t); };
-    std::vector<float> signal(n);
-    for (std::size_t i = 0; i < n; ++i) signal[i] = static_cast<float>(std::cos(2 * kPi * k * angle_at(double(i) / fs)));
-    std::vector<double> edges;
-    double t = 0;
-    for (int m = 0; m <= static_cast<int>(revs) + 1; ++m) {
-      for (int iteration = 0; iteration < 30; ++iteration)
-        t -= (angle_at(t) - m) / (f0 * (1 + epsilon * 2 * kPi * x * std::cos(2 * kPi * x * f0 * t)));
-      edges.push_back(t * fs);
-    }
-    ShaftAngle angle;
-    REQUIRE(angle.assign(edges, 1, 1.0).ok());
-    const std::size_t spr = 128;
-    std::vector<double> resampled(revs * spr);
-    AngularResampler resampler;
-    resampler.resample(signal, angle, spr, revs, resampled);
-    // Read over the middle 96 revolutions (x·96 whole cycles): the spline's not-a-knot ends bend the
-    // first and last revolutions' angle.
-    auto bin = [&](double order) {
-      std::complex<double> sum = 0;
-      for (std::size_t j = 16 * spr; j < 112 * spr; ++j) sum += resampled[j] * std::polar(1.0, -2 * kPi * order * double(j) / spr);
-      return std::abs(sum);
-    };
+    const RippledToneTracked tracked(x, epsilon, k);
+    auto bin = [&](double order) { return tracked.middle_bin(order); };
     const double carrier = bin(k), sidebands = 0.5 * (bin(k - x) + bin(k + x));
     const double measured = 2 * sidebands / carrier / (2 * kPi * k * epsilon);
     INFO("x = " << x << ": sidebands say " << measured << ", tracking_residual_share " << tracking_residual_share(x));
@@ -329,31 +341,10 @@ TEST_CASE("Tracking image: the spline through one edge per revolution leaves a d
   // ε sin(2π x f0 t) revolutions; the tracked tone's first sidebands at k ± (1 − x) hold
   // (2π k ε η(1 − x) / 2) of its amplitude (small index). Read over the middle 96 revolutions, where
   // x and 1 − x make whole cycles. Tolerance fixed before running: 1 %.
-  const double f0 = 10, fs = 20000, epsilon = 2e-4, k = 19;
+  const double epsilon = 2e-4, k = 19;
   for (double x : {0.25, 0.375}) {
-    const std::size_t revs = 128;
-    const auto n = static_cast<std::size_t>((revs + 2) * fs / f0);
-    auto angle_at = [&](double t) { return f0 * t + epsilon * std::sin(2 * kPi * x * f0 * t); };
-    std::vector<float> signal(n);
-    for (std::size_t i = 0; i < n; ++i) signal[i] = static_cast<float>(std::cos(2 * kPi * k * angle_at(double(i) / fs)));
-    std::vector<double> edges;
-    double t = 0;
-    for (int m = 0; m <= static_cast<int>(revs) + 1; ++m) {
-      for (int iteration = 0; iteration < 30; ++iteration)
-        t -= (angle_at(t) - m) / (f0 * (1 + epsilon * 2 * kPi * x * std::cos(2 * kPi * x * f0 * t)));
-      edges.push_back(t * fs);
-    }
-    ShaftAngle angle;
-    REQUIRE(angle.assign(edges, 1, 1.0).ok());
-    const std::size_t spr = 128;
-    std::vector<double> resampled(revs * spr);
-    AngularResampler resampler;
-    resampler.resample(signal, angle, spr, revs, resampled);
-    auto bin = [&](double order) {
-      std::complex<double> sum = 0;
-      for (std::size_t j = 16 * spr; j < 112 * spr; ++j) sum += resampled[j] * std::polar(1.0, -2 * kPi * order * double(j) / spr);
-      return std::abs(sum);
-    };
+    const RippledToneTracked tracked(x, epsilon, k);
+    auto bin = [&](double order) { return tracked.middle_bin(order); };
     const double y = 1.0 - x, carrier = bin(k), image = 0.5 * (bin(k - y) + bin(k + y));
     const double measured = 2 * image / carrier / (2 * kPi * k * epsilon);
     INFO("x = " << x << ": image sidebands say " << measured << ", closed form " << eta(y));

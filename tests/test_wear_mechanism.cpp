@@ -14,6 +14,37 @@
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 
+namespace test_wear_wander {  // shared by the two namespaces below (unity build: a name of its own)
+
+/// A healthy history for the verdict: low band 0.02 + s·u_k, u AR(1) of unit variance (φ), high
+/// band constant (tied: it never rises), a record every 1e5 cycles, grown one record at a time.
+class WanderingHistory {
+ public:
+  WanderingHistory(double s, double phi, std::mt19937_64& rng, std::normal_distribution<double>& gauss)
+      : s_(s), phi_(phi), rng_(rng), gauss_(gauss), u_(gauss(rng)) {}
+  void grow() {
+    points_.push_back({1e5 * static_cast<double>(points_.size()), 0.02 + s_ * u_, 0.03, 8000.0});
+    cycles_.push_back(points_.back().cycles), low_.push_back(points_.back().ics2_low);
+    u_ = phi_ * u_ + std::sqrt(1.0 - phi_ * phi_) * gauss_(rng_);
+  }
+  /// The verdict names wear at the newest record. It can only once the low band's evidence
+  /// reaches `bar`, so it is asked only then (same answers, a fraction of the cost).
+  bool raised(double bar, const gearwatch::dsp::SignalProcessingSettings& settings) const {
+    return gearwatch::dsp::rising_change_evidence(cycles_, low_) >= bar &&
+           gearwatch::dsp::is_wear(gearwatch::dsp::identify_wear_mechanism(points_, settings).mechanism);
+  }
+
+ private:
+  double s_, phi_;
+  std::mt19937_64& rng_;
+  std::normal_distribution<double>& gauss_;
+  double u_;
+  std::vector<gearwatch::dsp::WearHistoryPoint> points_;
+  std::vector<double> cycles_, low_;
+};
+
+}  // namespace test_wear_wander
+
 namespace test_wear_mechanism {  // this file's own: the test files compile together (unity build)
 
 using namespace gearwatch::dsp;
@@ -402,15 +433,11 @@ TEST_CASE("AR(1) wander of a healthy band's ICS2 below a sixth of the materialit
     const double s = floor / 6.0;
     int raised = 0;
     for (int h = 0; h < histories; ++h) {
-      std::vector<WearHistoryPoint> points;
-      std::vector<double> cycles, low;
-      double u = gauss(rng);
+      test_wear_wander::WanderingHistory history(s, phi, rng, gauss);
       bool ever = false;
       for (int k = 0; k < length && !ever; ++k) {
-        points.push_back({1e5 * k, 0.02 + s * u, 0.03, 8000.0});
-        cycles.push_back(points.back().cycles), low.push_back(points.back().ics2_low);
-        u = phi * u + std::sqrt(1.0 - phi * phi) * gauss(rng);
-        ever = rising_change_evidence(cycles, low) >= bar && is_wear(identify_wear_mechanism(points, settings).mechanism);
+        history.grow();
+        ever = history.raised(bar, settings);
       }
       raised += ever;
     }
@@ -683,18 +710,12 @@ TEST_CASE("issue 36: AR(1) wander of SD floor/3 and floor/2 stays under Ville's 
     const double s = floor / k;
     int early = 0, late = 0;
     for (int h = 0; h < histories; ++h) {
-      std::vector<WearHistoryPoint> points;
-      std::vector<double> cycles, low;
-      double u = gauss(rng);
+      test_wear_wander::WanderingHistory history(s, phi, rng, gauss);
       bool raised_early = false, raised_late = false;
       for (int r = 0; r < length && !raised_late; ++r) {
-        points.push_back({1e5 * r, 0.02 + s * u, 0.03, 8000.0});
-        cycles.push_back(points.back().cycles), low.push_back(points.back().ics2_low);
-        u = phi * u + std::sqrt(1.0 - phi * phi) * gauss(rng);
+        history.grow();
         if (r < measured_from && raised_early) continue;
-        const bool raised =
-            rising_change_evidence(cycles, low) >= bar && is_wear(identify_wear_mechanism(points, settings).mechanism);
-        (r < measured_from ? raised_early : raised_late) |= raised;
+        (r < measured_from ? raised_early : raised_late) |= history.raised(bar, settings);
       }
       early += raised_early, late += raised_late;
     }
