@@ -366,10 +366,4 @@ double tracking_error_component(double ratio, double at) {
   return tracking_error_at(ratio, at).real();
 }
 
-double cardinal_spline_response(double order) noexcept {
-  if (order == 0.0) return 1.0;
-  const double a = std::numbers::pi * order, sinc = std::sin(a) / a;
-  return std::pow(sinc, 4) * 3.0 / (2.0 + std::cos(2.0 * a));
-}
-
 }  // namespace gearwatch::dsp

@@ -312,11 +312,31 @@ double line_residual_ss(std::span<const double> y) {
 
 }  // namespace
 
+namespace {
+
+// dof / (tr(MR) chi2_dof(1 - confidence)) for n baseline values: the bound's factor on the RSS.
+double wander_bound_factor_of(std::size_t n) {
+  const ResidualLaw law = ar1_line_residual_law(n, kWanderMaxCorrelation);
+  return law.dof / (law.mean_factor * boost::math::quantile(boost::math::chi_squared(law.dof), 1.0 - kWanderBoundConfidence));
+}
+
+// The factor depends on n alone, and every verdict asks it for each length of its growing baseline
+// (an O(n²) law and a quantile each): tabulated once for the lengths the setting allows.
+double wander_bound_factor(std::size_t n) {
+  constexpr std::size_t kTabulated = 201;  // wear_baseline_records is at most 200
+  static const std::vector<double> table = [] {
+    std::vector<double> t(kTabulated, 0.0);
+    for (std::size_t k = 3; k < kTabulated; ++k) t[k] = wander_bound_factor_of(k);
+    return t;
+  }();
+  return n < kTabulated ? table[n] : wander_bound_factor_of(n);
+}
+
+}  // namespace
+
 double wander_sd_upper_bound(std::span<const double> baseline) {
   if (baseline.size() < 3) return std::numeric_limits<double>::quiet_NaN();
-  const ResidualLaw law = ar1_line_residual_law(baseline.size(), kWanderMaxCorrelation);
-  const double chi2 = boost::math::quantile(boost::math::chi_squared(law.dof), 1.0 - kWanderBoundConfidence);
-  return std::sqrt(line_residual_ss(baseline) * law.dof / (law.mean_factor * chi2));
+  return std::sqrt(line_residual_ss(baseline) * wander_bound_factor(baseline.size()));
 }
 
 BandFloor band_material_floor(std::span<const double> values, std::size_t earlier_points,

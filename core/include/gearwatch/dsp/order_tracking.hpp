@@ -76,13 +76,6 @@ double tracking_residual_share(double ratio);
 /// Throws std::invalid_argument for a ratio or `at` outside (0, 16].
 double tracking_error_component(double ratio, double at);
 
-/// The cubic spline through samples once a revolution, as an interpolator: a sampled sin(2π·f·θ)
-/// comes back as Σ_k η(f + k)·sin(2π(f + k)θ), η(f) = sinc⁴(f)·3/(2 + cos 2πf) (the cardinal cubic
-/// spline's response: the B-spline's sinc⁴ over its samples' 1/6, 4/6, 1/6). So a deviation at x
-/// orders leaves 1 − η(x) of itself at x and an image η(1 − x) at 1 − x with the deviation's sign
-/// (η(k − x) at k − x; −η(k + x) at k + x), away from the not-a-knot ends.
-double cardinal_spline_response(double order) noexcept;
-
 /// Band-limited interpolation of a uniformly sampled signal at arbitrary positions: a Kaiser-windowed
 /// sinc with `zero_crossings` lobes each side, tabulated at `phases` fractional offsets with linear
 /// interpolation between adjacent phase rows. When the output is sparser than the input the
