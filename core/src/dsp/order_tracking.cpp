@@ -191,7 +191,7 @@ std::vector<float> kaiser_sinc_table(int phases, double beta, double cutoff, int
 /// its four parameters, and the resampler quantises the cutoff to 64 values, while the gap
 /// diagnosis builds a resampler per record it reduces (thousands), each rebuilding the same few
 /// tables (hundreds of thousands of Bessel evaluations each) otherwise. Never freed: at most a
-/// few dozen tables of a few hundred kB.
+/// few dozen tables (each its rows plus their row-pair copy).
 std::shared_ptr<const std::vector<float>> shared_kaiser_sinc_table(int zero_crossings, int phases, double beta, double cutoff,
                                                                    int half) {
   using Key = std::tuple<int, int, double, double>;
