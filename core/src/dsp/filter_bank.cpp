@@ -48,7 +48,6 @@ namespace {
 using v4d = double __attribute__((vector_size(32)));
 // swap(x) below is __builtin_shufflevector(x, x, 1, 0, 3, 2): each of two complex samples' real and
 // imaginary parts swapped (that builtin, not __builtin_shuffle, is understood by GCC and Clang alike).
-constexpr std::size_t kBinaryPairs = 9;    // 17 taps padded to 18, two samples a vector
 constexpr std::size_t kTernaryTaps = 25;
 constexpr std::size_t kBlockOutputs = 256;  // outputs per modulated block (the block stays in L1)
 
@@ -128,36 +127,59 @@ void modulate(std::span<const Complex> c, std::ptrdiff_t first, std::size_t coun
   for (std::size_t k = t + 2 * n; k < count; ++k) out[k] = times(c[start + (k - t)], std::conj(turns[(start + k - t) % P]));
 }
 
+// The prototype is linear-phase (p[k] = p[16-k]), so the taps are folded: each product takes the sum
+// of the two samples sharing a tap. Window offset o holds y[n-17+o] (k = 17-o). The low half pairs
+// o with 18-o; the high half's taps p[15-k] j^k pair k with 14-k (o with 20-o), where j^(14-k) is
+// j^k for odd k (lanes 0-1) and -j^k for even k (lanes 2-3), so the mirror's even lanes are negated.
 struct BinaryTaps {
-  // Pair p meets window offsets 2p, 2p+1 (oldest first), i.e. k = 17-2p and 16-2p: (t, t, t', t').
-  v4d low[kBinaryPairs], high[kBinaryPairs];
+  v4d low[5];   // pairs from o = 1, 3, 5, 7 folded with o' = 17, 15, 13, 11 (and 16, 14, 12, 10); o = 9 alone
+  v4d high[5];  // pairs from o = 2, 4, 6, 8 folded with (-, 17), (16, 15), (14, 13), (12, 11); o = 10 alone
 };
 
-// low: p[k]; high: p[15-k] with j^k's sign (its odd-k terms, lanes 0-1, are imaginary).
 BinaryTaps binary_taps(std::span<const double> p) {
-  auto low = [&](std::size_t k) { return k < p.size() ? p[k] : 0.0; };
   auto high = [&](std::size_t k) {
-    if (k > 15) return 0.0;
     const double sign = ((k % 2 == 0 ? k : k - 1) / 2) % 2 == 0 ? 1.0 : -1.0;
     return sign * p[15 - k];
   };
   BinaryTaps f{};
-  for (std::size_t i = 0; i < kBinaryPairs; ++i) {
-    const std::size_t k = 17 - 2 * i;
-    f.low[i] = v4d{low(k), low(k), low(k - 1), low(k - 1)};
-    f.high[i] = v4d{high(k), high(k), high(k - 1), high(k - 1)};
+  for (std::size_t i = 0; i < 4; ++i) {
+    f.low[i] = v4d{p[16 - 2 * i], p[16 - 2 * i], p[15 - 2 * i], p[15 - 2 * i]};
+    f.high[i] = v4d{high(15 - 2 * i), high(15 - 2 * i), high(14 - 2 * i), high(14 - 2 * i)};
   }
+  f.low[4] = v4d{p[8], p[8], 0.0, 0.0};
+  f.high[4] = v4d{high(7), high(7), 0.0, 0.0};
   return f;
 }
 
+// Window offsets o and o + 1 as one vector (an out parameter: returning a vector type warns of the
+// baseline ABI).
+__attribute__((always_inline)) inline void load_pair(const Complex* y, std::size_t o, v4d& v) {
+  __builtin_memcpy(&v, y + o, sizeof v);
+}
+
 __attribute__((always_inline)) inline void binary_sums(const Complex* y, const BinaryTaps& f, v4d& lo, v4d& hi) {
-  const double* x = reinterpret_cast<const double*>(y);
-  lo = hi = v4d{0.0, 0.0, 0.0, 0.0};
-  for (std::size_t i = 0; i < kBinaryPairs; ++i) {
-    v4d xv;
-    __builtin_memcpy(&xv, x + 4 * i, sizeof xv);
-    lo += xv * f.low[i];
-    hi += xv * f.high[i];
+  using v4l = long long __attribute__((vector_size(32)));
+  const v4l negate_even = v4l{0, 0, 1, 1} << 63;  // the sign bits of lanes 2-3 (an exact negation)
+  const v4d zero{0.0, 0.0, 0.0, 0.0};
+  v4d a, m;
+  load_pair(y, 9, a);
+  lo = a * f.low[4];
+  for (std::size_t i = 0; i < 4; ++i) {
+    load_pair(y, 2 * i + 1, a);
+    load_pair(y, 16 - 2 * i, m);
+    lo += (a + __builtin_shufflevector(m, m, 2, 3, 0, 1)) * f.low[i];
+  }
+  load_pair(y, 10, a);
+  hi = a * f.high[4];
+  load_pair(y, 2, a);
+  load_pair(y, 16, m);
+  const v4d last = __builtin_shufflevector(m, zero, 4, 5, 2, 3);  // (0, y[17])
+  hi += (a + reinterpret_cast<v4d>(reinterpret_cast<v4l>(last) ^ negate_even)) * f.high[0];
+  for (std::size_t i = 1; i < 4; ++i) {
+    load_pair(y, 2 * i + 2, a);
+    load_pair(y, 17 - 2 * i, m);
+    const v4d mirror = __builtin_shufflevector(m, m, 2, 3, 0, 1);
+    hi += (a + reinterpret_cast<v4d>(reinterpret_cast<v4l>(mirror) ^ negate_even)) * f.high[i];
   }
 }
 
