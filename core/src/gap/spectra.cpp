@@ -1,6 +1,7 @@
 #include "gearwatch/gap/spectra.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <complex>
@@ -174,22 +175,20 @@ ShaftParts separate_shafts(const std::vector<float>& x, const dsp::ShaftAngle& a
   const std::vector<double> tsa_in(separation.input_tsa().begin(), separation.input_tsa().end());
   dsp::RealBuffer output_part(in_angle.size());
   std::vector<float> output_only(in_angle.size());
-  for (std::size_t j = 0; j < in_angle.size(); ++j) {
-    output_part[j] = in_angle[j] - tsa_in[j % spr];
-    output_only[j] = static_cast<float>(output_part[j]);
-  }
-  // The output-only signal is sampled uniformly in input angle: its "tacho" is every spr samples.
-  std::vector<double> grid_edges(revs.input + 1);
-  for (std::size_t r = 0; r <= revs.input; ++r) grid_edges[r] = static_cast<double>(r * spr);
-  dsp::ShaftAngle grid;
-  grid.assign(grid_edges, 1, 1.0);
-  resampler.resample(output_only, grid, a.spr_out, revs.output, parts.output_only, ratio);
+  // Revolution by revolution: the synchronous average's index without a division per sample.
+  for (std::size_t r = 0, j = 0; r < revs.input; ++r)
+    for (std::size_t i = 0; i < spr; ++i, ++j) {
+      output_part[j] = in_angle[j] - tsa_in[i];
+      output_only[j] = static_cast<float>(output_part[j]);
+    }
+  resample_uniform_angle(output_only, spr, a.spr_out, revs.output, ratio, parts.output_only);
   // Second pass: the output shaft's average taken without the input lines (the first pass took it
   // from the raw signal, where an input line 0.2 output orders from an output line leaks in as 1/R),
   // so that the residual holds neither shaft's lines.
-  resampler.resample(output_only, grid, spr, revs.output, out_angle, ratio);
+  resample_uniform_angle(output_only, spr, spr, revs.output, ratio, out_angle);
   separation.separate(output_part, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, parts.residual);
-  for (std::size_t j = 0; j < in_angle.size(); ++j) parts.input_only[j] = tsa_in[j % spr] + parts.residual[j];
+  for (std::size_t r = 0, j = 0; r < revs.input; ++r)
+    for (std::size_t i = 0; i < spr; ++i, ++j) parts.input_only[j] = tsa_in[i] + parts.residual[j];
   return parts;
 }
 
@@ -214,6 +213,37 @@ void broadband_block_dft(const dsp::RealBuffer& residual, std::size_t spr, std::
   }
 }
 }  // namespace
+
+void resample_uniform_angle(std::span<const float> x, std::size_t spr, std::size_t samples_per_rev,
+                            std::size_t revolutions, double per_rev, std::span<double> out) {
+  if (spr == 0 || samples_per_rev == 0 || !(per_rev > 0)) throw std::invalid_argument("resample_uniform_angle: empty grid");
+  const std::size_t count = samples_per_rev * revolutions;
+  if (out.size() < count) throw std::invalid_argument("resample_uniform_angle: output too small");
+  // The cutoff as the resampler sets it, from a spline of the grid's edges (the same line), so that
+  // the kernel is the one it would use even where the spacing sits on a quantisation step.
+  const std::size_t input_revs = x.size() / spr;
+  std::vector<double> edges(input_revs + 1);
+  for (std::size_t r = 0; r <= input_revs; ++r) edges[r] = static_cast<double>(r * spr);
+  dsp::ShaftAngle grid;
+  if (!grid.assign(edges, 1, 1.0).ok() || static_cast<double>(revolutions) * per_rev > grid.total_revolutions() + 1e-9)
+    throw std::invalid_argument("resample_uniform_angle: more revolutions than the signal holds");
+  double slowest = 0.0;
+  for (std::size_t r = 0; r < revolutions; ++r)
+    slowest = std::max(slowest, grid.time_at(static_cast<double>(r + 1) * per_rev) - grid.time_at(static_cast<double>(r) * per_rev));
+  const double spacing = slowest / static_cast<double>(samples_per_rev);
+  const double cutoff = spacing <= 1.0 ? 1.0 : std::floor(64.0 / spacing) / 64.0;
+  dsp::BandLimitedInterpolator interpolator;  // the resampler's parameters (the kernel tables are shared)
+  interpolator.set_cutoff(std::max(cutoff, 1.0 / 64.0));
+  const double step = per_rev / static_cast<double>(samples_per_rev);
+  const auto per_input_rev = static_cast<double>(spr);
+  constexpr std::size_t kBlock = 1024;
+  std::array<double, kBlock> times{};
+  for (std::size_t j = 0; j < count; j += kBlock) {
+    const std::size_t m = std::min(kBlock, count - j);
+    for (std::size_t k = 0; k < m; ++k) times[k] = static_cast<double>(j + k) * step * per_input_rev;
+    interpolator.interpolate(x, std::span<const double>(times.data(), m), out.subspan(j, m));
+  }
+}
 
 FamilyKind input_line_family(int order, int pinion_teeth) noexcept {
   if (order % pinion_teeth == 0) return FamilyKind::mesh_harmonics;
