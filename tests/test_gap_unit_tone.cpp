@@ -138,11 +138,13 @@ TEST_CASE("gap unit tone: records a few parts in 1e9 apart in speed reduce it al
   }
 }
 
-TEST_CASE("gap spectra: a record reduced with the thread's planned transforms equals one reduced with fresh plans",
+TEST_CASE("gap spectra: a record reduced with the thread's planned transforms, windows and buffers equals one reduced afresh",
           "[gap_describe][unit_tone]") {
   // Two records of different lengths and rates (different transform sizes), each reduced on a new
-  // thread (its plan cache empty: every plan made afresh) and then twice on this one, between the
-  // other's reductions (the second time from the cached plans): every line and bin the same double.
+  // thread (its plan cache empty: every plan made afresh, the Hann windows computed, the separation's
+  // buffers allocated) and then twice on this one, between the other's reductions (the second time
+  // from the cached plans and windows, in buffers the other record's reduction left longer or
+  // shorter): every line and bin the same double.
   const auto tones = [](double speed) {
     return [speed](double t) {
       return std::cos(2 * std::numbers::pi * 25 * speed * t) + 0.3 * std::sin(2 * std::numbers::pi * 4.37 * speed * t) +

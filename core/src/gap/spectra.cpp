@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <complex>
+#include <map>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -157,6 +158,12 @@ void to_angle(const std::vector<float>& x, const dsp::ShaftAngle& angle, std::si
   }
 }
 
+/// separate_shafts' intermediate signals: each shaft's angle grid, and the output shaft's part on the input's.
+struct SeparationScratch {
+  dsp::RealBuffer in_angle, out_angle, output_part;
+  std::vector<float> output_only;
+};
+
 /// Each shaft's lines are read with the other shaft's synchronous part removed: an input line is
 /// not periodic on the output shaft (and vice versa), so with a few revolutions its leakage
 /// would not average out and a change on one shaft would show on the other.
@@ -165,7 +172,12 @@ ShaftParts separate_shafts(const std::vector<float>& x, const dsp::ShaftAngle& a
                            std::optional<double> tone_order, dsp::FftPlanCache& plans) {
   const std::size_t spr = a.spr;
   dsp::AngularResampler resampler;
-  dsp::RealBuffer in_angle(revs.input * spr), out_angle(revs.output * spr);
+  // The intermediate signals, each written whole before it is read: kept by the thread between
+  // records (a diagnosis reduces thousands of unit tones) rather than allocated and zeroed each time.
+  thread_local SeparationScratch scratch;
+  auto& [in_angle, out_angle, output_part, output_only] = scratch;
+  in_angle.resize(revs.input * spr);
+  out_angle.resize(revs.output * spr);
   ShaftParts parts{dsp::RealBuffer(in_angle.size()), dsp::RealBuffer(revs.output * a.spr_out),
                    dsp::RealBuffer(in_angle.size())};
   to_angle(x, angle, spr, revs.input, 1.0, tone_order, resampler, in_angle);
@@ -173,8 +185,8 @@ ShaftParts separate_shafts(const std::vector<float>& x, const dsp::ShaftAngle& a
   dsp::SynchronousSeparation separation;
   separation.separate(in_angle, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, parts.residual);
   const std::vector<double> tsa_in(separation.input_tsa().begin(), separation.input_tsa().end());
-  dsp::RealBuffer output_part(in_angle.size());
-  std::vector<float> output_only(in_angle.size());
+  output_part.resize(in_angle.size());
+  output_only.resize(in_angle.size());
   // Revolution by revolution: the synchronous average's index without a division per sample.
   for (std::size_t r = 0, j = 0; r < revs.input; ++r)
     for (std::size_t i = 0; i < spr; ++i, ++j) {
@@ -199,8 +211,17 @@ void broadband_block_dft(const dsp::RealBuffer& residual, std::size_t spr, std::
   const auto& fft2 = plans.real(n);
   dsp::RealBuffer in(n);
   dsp::ComplexBuffer spectrum(fft2.spectrum_size());
-  std::vector<double> window(n);
-  for (std::size_t i = 0; i < n; ++i) window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / n);
+  // The windows of the block lengths this thread has used (bounded as the plans are): a diagnosis
+  // reduces thousands of unit tones at a handful of lengths, and a cosine a sample is a visible
+  // share of a unit tone's reduction.
+  thread_local std::map<std::size_t, std::vector<double>> windows;
+  if (windows.size() > kMaxCachedPlans) windows.clear();
+  auto [at, fresh] = windows.try_emplace(n);
+  std::vector<double>& window = at->second;
+  if (fresh) {
+    window.resize(n);
+    for (std::size_t i = 0; i < n; ++i) window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / n);
+  }
   // Peak-amplitude scale of a bin-centred tone (2/Σw), and the window's noise bandwidth (1.5
   // bins) so that a tone's power summed over the bins it spreads into counts once.
   const double scale = 4.0 / static_cast<double>(n) / std::sqrt(1.5);
