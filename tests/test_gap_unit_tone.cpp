@@ -10,6 +10,7 @@
 #include <catch2/catch.hpp>
 
 #include "constant_speed_record.hpp"
+#include "gearwatch/dsp/order_tracking.hpp"
 #include "gearwatch/gap/describe.hpp"
 #include "gearwatch/gap/spectra.hpp"
 
@@ -137,11 +138,13 @@ TEST_CASE("gap unit tone: records a few parts in 1e9 apart in speed reduce it al
   }
 }
 
-TEST_CASE("gap spectra: a record reduced with the thread's planned transforms equals one reduced with fresh plans",
+TEST_CASE("gap spectra: a record reduced with the thread's planned transforms, windows and buffers equals one reduced afresh",
           "[gap_describe][unit_tone]") {
   // Two records of different lengths and rates (different transform sizes), each reduced on a new
-  // thread (its plan cache empty: every plan made afresh) and then twice on this one, between the
-  // other's reductions (the second time from the cached plans): every line and bin the same double.
+  // thread (its plan cache empty: every plan made afresh, the Hann windows computed, the separation's
+  // buffers allocated) and then twice on this one, between the other's reductions (the second time
+  // from the cached plans and windows, in buffers the other record's reduction left longer or
+  // shorter): every line and bin the same double.
   const auto tones = [](double speed) {
     return [speed](double t) {
       return std::cos(2 * std::numbers::pi * 25 * speed * t) + 0.3 * std::sin(2 * std::numbers::pi * 4.37 * speed * t) +
@@ -167,3 +170,41 @@ TEST_CASE("gap spectra: a record reduced with the thread's planned transforms eq
 }
 
 }  // namespace test_gap_unit_tone
+
+namespace test_gap_uniform_angle {
+
+using namespace gearwatch;
+
+// The shaft separation's resampling of a signal sampled uniformly in input angle against the
+// resampler with a tacho every spr samples, which it replaces: the same kernel at positions that
+// differ only by the spline's rounding (under 1e-10 samples), so the outputs agree to 1e-9 of the
+// signal's peak (fixed before running). Both the spr_out grid (spacing under 1, full band) and the
+// output shaft's spr grid (spacing z2/z1 > 1, the kernel widened) are checked.
+TEST_CASE("gap spectra: the output shaft's grid resampled from uniform angle samples equals the resampler's",
+          "[gap_describe][unit_tone]") {
+  const std::size_t spr = 1296, revs = 22;
+  const double ratio = 52.0 / 19.0;
+  std::vector<float> x(spr * revs);
+  for (std::size_t j = 0; j < x.size(); ++j) {
+    const double theta = static_cast<double>(j) / static_cast<double>(spr);
+    x[j] = static_cast<float>(std::cos(2 * std::numbers::pi * 7.37 * theta) + 0.5 * std::sin(2 * std::numbers::pi * 131.2 * theta) +
+                              0.25 * std::cos(2 * std::numbers::pi * 400.1 * theta));
+  }
+  std::vector<double> edges(revs + 1);
+  for (std::size_t r = 0; r <= revs; ++r) edges[r] = static_cast<double>(r * spr);
+  dsp::ShaftAngle grid;
+  REQUIRE(grid.assign(edges, 1, 1.0).ok());
+  const auto out_revs = static_cast<std::size_t>(std::floor(static_cast<double>(revs) / ratio));
+  for (std::size_t per_rev : {std::size_t{3600}, spr}) {
+    std::vector<double> direct(per_rev * out_revs), resampled(per_rev * out_revs);
+    gap::resample_uniform_angle(x, spr, per_rev, out_revs, ratio, direct);
+    dsp::AngularResampler resampler;
+    resampler.resample(x, grid, per_rev, out_revs, resampled, ratio);
+    double largest = 0;
+    for (std::size_t j = 0; j < direct.size(); ++j) largest = std::max(largest, std::abs(direct[j] - resampled[j]));
+    INFO("samples per revolution " << per_rev);
+    CHECK(largest <= 1e-9 * 1.75);
+  }
+}
+
+}  // namespace test_gap_uniform_angle

@@ -1,9 +1,11 @@
 #include "gearwatch/gap/spectra.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <complex>
+#include <map>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -156,6 +158,12 @@ void to_angle(const std::vector<float>& x, const dsp::ShaftAngle& angle, std::si
   }
 }
 
+/// separate_shafts' intermediate signals: each shaft's angle grid, and the output shaft's part on the input's.
+struct SeparationScratch {
+  dsp::RealBuffer in_angle, out_angle, output_part;
+  std::vector<float> output_only;
+};
+
 /// Each shaft's lines are read with the other shaft's synchronous part removed: an input line is
 /// not periodic on the output shaft (and vice versa), so with a few revolutions its leakage
 /// would not average out and a change on one shaft would show on the other.
@@ -164,7 +172,12 @@ ShaftParts separate_shafts(const std::vector<float>& x, const dsp::ShaftAngle& a
                            std::optional<double> tone_order, dsp::FftPlanCache& plans) {
   const std::size_t spr = a.spr;
   dsp::AngularResampler resampler;
-  dsp::RealBuffer in_angle(revs.input * spr), out_angle(revs.output * spr);
+  // The intermediate signals, each written whole before it is read: kept by the thread between
+  // records (a diagnosis reduces thousands of unit tones) rather than allocated and zeroed each time.
+  thread_local SeparationScratch scratch;
+  auto& [in_angle, out_angle, output_part, output_only] = scratch;
+  in_angle.resize(revs.input * spr);
+  out_angle.resize(revs.output * spr);
   ShaftParts parts{dsp::RealBuffer(in_angle.size()), dsp::RealBuffer(revs.output * a.spr_out),
                    dsp::RealBuffer(in_angle.size())};
   to_angle(x, angle, spr, revs.input, 1.0, tone_order, resampler, in_angle);
@@ -172,24 +185,22 @@ ShaftParts separate_shafts(const std::vector<float>& x, const dsp::ShaftAngle& a
   dsp::SynchronousSeparation separation;
   separation.separate(in_angle, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, parts.residual);
   const std::vector<double> tsa_in(separation.input_tsa().begin(), separation.input_tsa().end());
-  dsp::RealBuffer output_part(in_angle.size());
-  std::vector<float> output_only(in_angle.size());
-  for (std::size_t j = 0; j < in_angle.size(); ++j) {
-    output_part[j] = in_angle[j] - tsa_in[j % spr];
-    output_only[j] = static_cast<float>(output_part[j]);
-  }
-  // The output-only signal is sampled uniformly in input angle: its "tacho" is every spr samples.
-  std::vector<double> grid_edges(revs.input + 1);
-  for (std::size_t r = 0; r <= revs.input; ++r) grid_edges[r] = static_cast<double>(r * spr);
-  dsp::ShaftAngle grid;
-  grid.assign(grid_edges, 1, 1.0);
-  resampler.resample(output_only, grid, a.spr_out, revs.output, parts.output_only, ratio);
+  output_part.resize(in_angle.size());
+  output_only.resize(in_angle.size());
+  // Revolution by revolution: the synchronous average's index without a division per sample.
+  for (std::size_t r = 0, j = 0; r < revs.input; ++r)
+    for (std::size_t i = 0; i < spr; ++i, ++j) {
+      output_part[j] = in_angle[j] - tsa_in[i];
+      output_only[j] = static_cast<float>(output_part[j]);
+    }
+  resample_uniform_angle(output_only, spr, a.spr_out, revs.output, ratio, parts.output_only);
   // Second pass: the output shaft's average taken without the input lines (the first pass took it
   // from the raw signal, where an input line 0.2 output orders from an output line leaks in as 1/R),
   // so that the residual holds neither shaft's lines.
-  resampler.resample(output_only, grid, spr, revs.output, out_angle, ratio);
+  resample_uniform_angle(output_only, spr, spr, revs.output, ratio, out_angle);
   separation.separate(output_part, out_angle, spr, gears.pinion_teeth, gears.gear_teeth, plans, parts.residual);
-  for (std::size_t j = 0; j < in_angle.size(); ++j) parts.input_only[j] = tsa_in[j % spr] + parts.residual[j];
+  for (std::size_t r = 0, j = 0; r < revs.input; ++r)
+    for (std::size_t i = 0; i < spr; ++i, ++j) parts.input_only[j] = tsa_in[i] + parts.residual[j];
   return parts;
 }
 
@@ -200,8 +211,17 @@ void broadband_block_dft(const dsp::RealBuffer& residual, std::size_t spr, std::
   const auto& fft2 = plans.real(n);
   dsp::RealBuffer in(n);
   dsp::ComplexBuffer spectrum(fft2.spectrum_size());
-  std::vector<double> window(n);
-  for (std::size_t i = 0; i < n; ++i) window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / n);
+  // The windows of the block lengths this thread has used (bounded as the plans are): a diagnosis
+  // reduces thousands of unit tones at a handful of lengths, and a cosine a sample is a visible
+  // share of a unit tone's reduction.
+  thread_local std::map<std::size_t, std::vector<double>> windows;
+  if (windows.size() > kMaxCachedPlans) windows.clear();
+  auto [at, fresh] = windows.try_emplace(n);
+  std::vector<double>& window = at->second;
+  if (fresh) {
+    window.resize(n);
+    for (std::size_t i = 0; i < n; ++i) window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / n);
+  }
   // Peak-amplitude scale of a bin-centred tone (2/Σw), and the window's noise bandwidth (1.5
   // bins) so that a tone's power summed over the bins it spreads into counts once.
   const double scale = 4.0 / static_cast<double>(n) / std::sqrt(1.5);
@@ -214,6 +234,37 @@ void broadband_block_dft(const dsp::RealBuffer& residual, std::size_t spr, std::
   }
 }
 }  // namespace
+
+void resample_uniform_angle(std::span<const float> x, std::size_t spr, std::size_t samples_per_rev,
+                            std::size_t revolutions, double per_rev, std::span<double> out) {
+  if (spr == 0 || samples_per_rev == 0 || !(per_rev > 0)) throw std::invalid_argument("resample_uniform_angle: empty grid");
+  const std::size_t count = samples_per_rev * revolutions;
+  if (out.size() < count) throw std::invalid_argument("resample_uniform_angle: output too small");
+  // The cutoff as the resampler sets it, from a spline of the grid's edges (the same line), so that
+  // the kernel is the one it would use even where the spacing sits on a quantisation step.
+  const std::size_t input_revs = x.size() / spr;
+  std::vector<double> edges(input_revs + 1);
+  for (std::size_t r = 0; r <= input_revs; ++r) edges[r] = static_cast<double>(r * spr);
+  dsp::ShaftAngle grid;
+  if (!grid.assign(edges, 1, 1.0).ok() || static_cast<double>(revolutions) * per_rev > grid.total_revolutions() + 1e-9)
+    throw std::invalid_argument("resample_uniform_angle: more revolutions than the signal holds");
+  double slowest = 0.0;
+  for (std::size_t r = 0; r < revolutions; ++r)
+    slowest = std::max(slowest, grid.time_at(static_cast<double>(r + 1) * per_rev) - grid.time_at(static_cast<double>(r) * per_rev));
+  const double spacing = slowest / static_cast<double>(samples_per_rev);
+  const double cutoff = spacing <= 1.0 ? 1.0 : std::floor(64.0 / spacing) / 64.0;
+  dsp::BandLimitedInterpolator interpolator;  // the resampler's parameters (the kernel tables are shared)
+  interpolator.set_cutoff(std::max(cutoff, 1.0 / 64.0));
+  const double step = per_rev / static_cast<double>(samples_per_rev);
+  const auto per_input_rev = static_cast<double>(spr);
+  constexpr std::size_t kBlock = 1024;
+  std::array<double, kBlock> times{};
+  for (std::size_t j = 0; j < count; j += kBlock) {
+    const std::size_t m = std::min(kBlock, count - j);
+    for (std::size_t k = 0; k < m; ++k) times[k] = static_cast<double>(j + k) * step * per_input_rev;
+    interpolator.interpolate(x, std::span<const double>(times.data(), m), out.subspan(j, m));
+  }
+}
 
 FamilyKind input_line_family(int order, int pinion_teeth) noexcept {
   if (order % pinion_teeth == 0) return FamilyKind::mesh_harmonics;

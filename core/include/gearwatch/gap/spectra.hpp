@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -212,5 +213,13 @@ FamilyKind input_line_family(int order, int pinion_teeth) noexcept;
 /// Output orders that are mesh orders (multiples of z_gear) are counted on the input side only.
 bool output_line_is_mesh(int order, int gear_teeth) noexcept;
 FamilyKind output_line_family(int order, int gear_teeth) noexcept;
+
+/// A signal sampled uniformly in input angle (`spr` samples an input revolution, from angle 0) on a
+/// grid of `samples_per_rev` samples a revolution of a shaft turning once every `per_rev` input
+/// revolutions, `revolutions` of them: what AngularResampler::resample gives with a tacho every
+/// spr samples, its positions computed directly (they are linear in the index). The shaft
+/// separation's resampling of the output-only signal; exposed for its test.
+void resample_uniform_angle(std::span<const float> x, std::size_t spr, std::size_t samples_per_rev,
+                            std::size_t revolutions, double per_rev, std::span<double> out);
 
 }  // namespace gearwatch::gap
