@@ -202,6 +202,16 @@ TEST_CASE("gap independent: the bench's scoring rules on hand-made reports", "[g
   CHECK(cli::score_draw(truth, family, 16, 50000).any_finding);
 }
 
+TEST_CASE("gap bench: --jobs below 1, and above 1 on the rig bench, are refused before anything is simulated", "[gap_bench_jobs]") {
+  const std::string bench = std::string(GEARWATCH_BINARY) + " gap bench --seeds 1 ";
+  const auto zero = gearwatch::testing::run_command(bench + "--generator independent --jobs 0");
+  CHECK(zero.status != 0);
+  CHECK(zero.err.find("--jobs") != std::string::npos);
+  const auto rig = gearwatch::testing::run_command(bench + "--jobs 2");
+  CHECK(rig.status == 1);
+  CHECK(rig.err.find("--jobs applies to --generator independent") != std::string::npos);
+}
+
 TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance and a ghost tone", "[gap_independent]") {
   // Small N for CI: seeds 18-20 draw forms 0-2 (none, structural_resonance, ghost_tone). The twin
   // re-runs are off ([gap] rerun_twin = false): neither form has a re-run candidate to attribute.
