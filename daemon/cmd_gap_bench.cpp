@@ -71,6 +71,7 @@ struct BenchOptions {
   std::string generator_script = IndependentBenchOptions{}.script;
   std::string python;
   std::string config;
+  int jobs = 1;  // independent generator: draws side by side
   bool sample_rate_given = false, seconds_given = false, bootstrap_given = false;
 };
 
@@ -86,6 +87,7 @@ void run_independent(const BenchOptions& o) {
   if (o.seconds_given) io.seconds = o.seconds;
   if (o.bootstrap_given) io.bootstrap = o.bootstrap;
   io.torques_nm = o.torques_nm;
+  io.jobs = o.jobs;
   run_independent_bench(io);
 }
 
@@ -752,6 +754,9 @@ void add_gap_bench_command(CLI::App& app) {
   cmd->add_option("--generator-script", opt->generator_script, "The independent generator (default relative to the source tree)");
   cmd->add_option("--python", opt->python, "Python 3 with numpy and scipy (default $GEARWATCH_PYTHON, /usr/bin/python3, python3)");
   cmd->add_option("--config", opt->config, "Configuration (independent generator: [gap], [records], [twin]; default built-in)");
+  cmd->add_option("--jobs", opt->jobs, "Draws diagnosed in parallel threads (--generator independent)")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
   cmd->add_option("--floor-db", opt->floor_db, "Diagnosis floor, dB re the twin's total line power");
   cmd->add_option("--min-gap-db", opt->min_gap_db, "Smallest line-family gap the diagnosis calls significant, dB");
   cmd->add_option("--min-residual-gap-db", opt->min_residual_gap_db,
@@ -763,6 +768,8 @@ void add_gap_bench_command(CLI::App& app) {
     opt->seconds_given = cmd->count("--seconds") > 0;
     opt->bootstrap_given = cmd->count("--bootstrap") > 0;
     if (opt->generator == "independent") return run_independent(*opt);
+    // The rig bench's twin and rig caches are filled as scenarios go, by one thread.
+    if (opt->jobs != 1) throw CommandError("--jobs applies to --generator independent; the rig bench runs its scenarios one by one");
     RigBench(*opt).run();
   });
 }

@@ -159,7 +159,7 @@ std::vector<InputRecord> read_inputs(const DiagnoseOptions& o, const config::Gea
 }
 
 gap::GapReport diagnose_records(const std::vector<InputRecord>& records, const config::GearwatchConfig& cfg, const WearBasis& basis,
-                                std::string& k_wear_note) {
+                                std::string& k_wear_note, std::shared_ptr<daemon::SharedTwinRuns> twin_runs = {}) {
   std::error_code ec;
   const twin::GearboxParameters params =
       fs::is_regular_file(cfg.source_path, ec) ? config::load_twin_parameters(cfg.source_path) : twin::GearboxParameters{};
@@ -167,7 +167,7 @@ gap::GapReport diagnose_records(const std::vector<InputRecord>& records, const c
   for (std::size_t i = 0; i < records.size(); ++i)
     samples.push_back({std::make_shared<const Record>(records[i].record), basis.state, 0, records[i].record.start_index, i + 1});
   // Records at one operating point, rate and length share their twin runs (one wear state for all).
-  const auto shared = daemon::share_twin_runs(samples);
+  const auto shared = twin_runs ? std::move(twin_runs) : daemon::share_twin_runs(samples);
   daemon::GapHooks hooks{daemon::make_gap_diagnoser(cfg, params), daemon::make_twin_counterpart(params, cfg, shared),
                          daemon::make_twin_rerun(params, cfg, shared)};
   std::vector<const daemon::GapSample*> training, held_out;
@@ -264,7 +264,7 @@ void run_diagnose(const DiagnoseOptions& o) {
 }  // namespace
 
 gap::GapReport diagnose_capture_files(const std::vector<std::string>& training, const std::vector<std::string>& held_out,
-                                      const config::GearwatchConfig& cfg) {
+                                      const config::GearwatchConfig& cfg, std::shared_ptr<daemon::SharedTwinRuns> twin_runs) {
   DiagnoseOptions o;
   o.captures = training;
   o.held_out = held_out;
@@ -273,7 +273,7 @@ gap::GapReport diagnose_capture_files(const std::vector<std::string>& training, 
   split_records(records, held_out.empty() ? 0 : records.size() - std::count_if(records.begin(), records.end(), [](const InputRecord& r) { return !r.held_out; }),
                 cfg.gap.held_out_records);
   std::string k_wear_note;
-  return diagnose_records(records, cfg, wear_basis(""), k_wear_note);
+  return diagnose_records(records, cfg, wear_basis(""), k_wear_note, std::move(twin_runs));
 }
 
 void add_gap_diagnose_command(CLI::App& app) {

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,13 +17,16 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #include "capture_writer.hpp"
 #include "cli_common.hpp"
 #include "decoder_setup.hpp"
 #include "gap_bench_output.hpp"
 #include "gap_diagnose_captures.hpp"
+#include "gap_diagnoser.hpp"
 #include "gearwatch/config/twin_config.hpp"
 #include "gearwatch/twin/simulation.hpp"
 
@@ -282,6 +286,7 @@ class IndependentBench {
   void check_options() const;
   void make_workspace();
   void write_twin_captures();
+  std::vector<DrawScore> run_draws();
   DrawScore run_draw(std::uint64_t seed);
   void print(const std::vector<DrawScore>& scores, double wall) const;
   json document(const std::vector<DrawScore>& scores, const Tallies& t, double wall) const;
@@ -293,10 +298,14 @@ class IndependentBench {
   std::string python_;
   fs::path dir_;
   std::vector<OperatingCapture> twin_;
+  // Every draw rewrites the same captures' samples only, so the twin's counterpart of each record
+  // is the same in every draw: simulated once, by whichever draw asks first.
+  std::shared_ptr<daemon::SharedTwinRuns> twin_runs_ = daemon::share_twin_counterparts_across_diagnoses();
 };
 
 void IndependentBench::check_options() const {
   if (o_.seeds < 1) throw CommandError("--seeds must be at least 1");
+  if (o_.jobs < 1) throw CommandError("--jobs must be at least 1");
   if (o_.speeds_hz.size() < 2 ||
       std::count(o_.speeds_hz.begin(), o_.speeds_hz.end(), o_.held_out_speed_hz) != 1)
     throw CommandError("gap bench --generator independent: the held-out speed must be one of at least two speeds");
@@ -346,7 +355,7 @@ DrawScore IndependentBench::run_draw(std::uint64_t seed) {
   std::vector<std::string> training, held_out;
   for (const auto& r : truth["records"])
     (r["speed_hz"].get<double>() == o_.held_out_speed_hz ? held_out : training).push_back(r["capture"]);
-  const gap::GapReport report = diagnose_capture_files(training, held_out, cfg_);
+  const gap::GapReport report = diagnose_capture_files(training, held_out, cfg_, twin_runs_);
   const double top = *std::max_element(o_.speeds_hz.begin(), o_.speeds_hz.end());
   DrawScore s = score_draw(truth, report, top, o_.sample_rate_hz);
   fs::remove_all(out);
@@ -360,6 +369,7 @@ json IndependentBench::document(const std::vector<DrawScore>& scores, const Tall
   j["speeds_hz"] = o_.speeds_hz;
   j["held_out_speed_hz"] = o_.held_out_speed_hz;
   j["bootstrap_resamples"] = cfg_.gap.bootstrap_resamples;
+  j["jobs"] = o_.jobs;
   j["effect_draws"] = t.effects.draws;
   j["no_effect_draws"] = t.none.draws;
   j["localisation_rate"] = number_or_null(fraction(t.effects.localised, t.effects.draws));
@@ -383,7 +393,7 @@ BenchTable IndependentBench::table(const Tallies& t, double wall) const {
   auto heading = table_stream();
   heading << "gap bench (independent generator): " << o_.seeds << " draws from seed " << o_.first_seed << " ("
           << t.effects.draws << " with an effect, " << t.none.draws << " without); " << o_.sample_rate_hz << " Hz, "
-          << o_.seconds << " s records; " << wall << " s";
+          << o_.seconds << " s records; " << wall << " s on " << o_.jobs << " job(s)";
   table.heading = heading.str();
   table.columns = "form                  draws localised described attribution findings";
   for (const auto& [form, f] : t.per_form) {
@@ -411,6 +421,42 @@ void IndependentBench::print(const std::vector<DrawScore>& scores, double wall) 
   printer_.print(document(scores, t, wall), table(t, wall));
 }
 
+/// The draws on `jobs` threads, each draw on one: a draw's report depends on its seed and captures
+/// alone, so the scores are those of one thread, kept in seed order whatever order they finish in.
+/// The first failure (in seed order) is thrown once the draws under way have finished; no new one starts.
+std::vector<DrawScore> IndependentBench::run_draws() {
+  const auto n = static_cast<std::size_t>(o_.seeds);
+  std::vector<DrawScore> scores(n);
+  std::vector<std::exception_ptr> failures(n);
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::mutex output;
+  auto worker = [&] {
+    for (std::size_t k; !failed && (k = next++) < n;) {
+      const std::uint64_t seed = o_.first_seed + k;
+      const auto t0 = std::chrono::steady_clock::now();
+      try {
+        scores[k] = run_draw(seed);
+      } catch (...) {
+        failures[k] = std::current_exception();
+        failed = true;
+        continue;
+      }
+      std::lock_guard lock(output);
+      printer_.progress(seed, scores[k].form, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      // The draw's scored detail as one line too, so a run stopped early still gives the draws it finished.
+      std::cerr << "draw " << scores[k].detail.dump() << std::endl;
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 1; j < std::min<int>(o_.jobs, o_.seeds); ++j) threads.emplace_back(worker);
+  worker();
+  for (auto& t : threads) t.join();
+  for (const auto& f : failures)
+    if (f) std::rethrow_exception(f);
+  return scores;
+}
+
 void IndependentBench::run() {
   check_options();
   python_ = python_of(o_);
@@ -420,14 +466,7 @@ void IndependentBench::run() {
   std::vector<DrawScore> scores;
   try {
     write_twin_captures();
-    for (int i = 0; i < o_.seeds; ++i) {
-      const std::uint64_t seed = o_.first_seed + static_cast<std::uint64_t>(i);
-      const auto t0 = std::chrono::steady_clock::now();
-      scores.push_back(run_draw(seed));
-      printer_.progress(seed, scores.back().form, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      // The draw's scored detail as one line too, so a run stopped early still gives the draws it finished.
-      std::cerr << "draw " << scores.back().detail.dump() << "\n";
-    }
+    scores = run_draws();
   } catch (...) {
     std::error_code ec;
     fs::remove_all(dir_, ec);

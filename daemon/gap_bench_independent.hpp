@@ -25,6 +25,7 @@ struct IndependentBenchOptions {
   std::string python;                       ///< "" = $GEARWATCH_PYTHON, else /usr/bin/python3, else python3
   std::string script = "tests/capture_gen/gap_effects.py";
   int bootstrap = -1;                       ///< -1 = [gap] bootstrap_resamples
+  int jobs = 1;                             ///< draws diagnosed side by side, each on its own thread
 };
 
 /// The descriptive form a feature of the true effect should get, its main parameter, and the

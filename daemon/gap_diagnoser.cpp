@@ -1,6 +1,8 @@
 #include "gap_diagnoser.hpp"
 
+#include <future>
 #include <map>
+#include <mutex>
 #include <set>
 #include <tuple>
 
@@ -71,6 +73,8 @@ TwinBasis twin_basis(const Record& measured, const wear::WearState& state) {
 
 class SharedTwinRuns {
  public:
+  struct AcrossDiagnoses {};
+  explicit SharedTwinRuns(AcrossDiagnoses) : across_(true) {}
   explicit SharedTwinRuns(const std::vector<GapSample>& samples) {
     std::map<TwinBasis, int> count;
     for (const auto& s : samples)
@@ -83,6 +87,7 @@ class SharedTwinRuns {
   template <class Run>
   Record get(const Record& measured, const wear::WearState& state, int effect, const std::vector<double>& values,
              double duration_s, Run&& run) {
+    if (across_) return effect < 0 ? kept_counterpart(measured, state, duration_s, run) : run();
     if (shared_.empty()) return run();  // no two records alike: no key worth building
     TwinBasis basis = twin_basis(measured, state);
     if (!shared_.count(basis)) return run();
@@ -94,16 +99,55 @@ class SharedTwinRuns {
     return out;
   }
 
- std::size_t kept() const { return runs_.size(); }
+  std::size_t kept() const {
+    std::lock_guard lock(mutex_);
+    return runs_.size() + counterparts_.size();
+  }
 
  private:
   using Key = std::tuple<TwinBasis, int, std::vector<double>, double>;
+
+  /// The counterpart at `measured`'s basis, simulated by the first diagnosis to ask; the others
+  /// wait for it rather than simulate it again.
+  template <class Run>
+  Record kept_counterpart(const Record& measured, const wear::WearState& state, double duration_s, Run& run) {
+    const Key key{twin_basis(measured, state), -1, {}, duration_s};
+    std::promise<Record> made;
+    std::shared_future<Record> ready;
+    bool mine = false;
+    {
+      std::lock_guard lock(mutex_);
+      auto it = counterparts_.find(key);
+      mine = it == counterparts_.end();
+      ready = mine ? counterparts_.emplace(key, made.get_future().share()).first->second : it->second;
+    }
+    if (mine) {
+      try {
+        made.set_value(run());
+      } catch (...) {
+        made.set_exception(std::current_exception());
+        std::lock_guard lock(mutex_);
+        counterparts_.erase(key);  // a failure is not kept: the next diagnosis tries again
+      }
+    }
+    Record out = ready.get();
+    stamp(out, measured);
+    return out;
+  }
+
+  bool across_ = false;
   std::set<TwinBasis> shared_;
   std::map<Key, Record> runs_;
+  mutable std::mutex mutex_;
+  std::map<Key, std::shared_future<Record>> counterparts_;
 };
 
 std::shared_ptr<SharedTwinRuns> share_twin_runs(const std::vector<GapSample>& samples) {
   return std::make_shared<SharedTwinRuns>(samples);
+}
+
+std::shared_ptr<SharedTwinRuns> share_twin_counterparts_across_diagnoses() {
+  return std::make_shared<SharedTwinRuns>(SharedTwinRuns::AcrossDiagnoses{});
 }
 
 std::size_t kept_twin_runs(const SharedTwinRuns& shared) { return shared.kept(); }

@@ -28,6 +28,11 @@ GapDiagnoser make_gap_diagnoser(const config::GearwatchConfig& config, const twi
 /// costs no memory); one diagnosis's worth, dropped with the last hook that holds it.
 class SharedTwinRuns;
 std::shared_ptr<SharedTwinRuns> share_twin_runs(const std::vector<GapSample>& samples);
+/// Counterparts kept across diagnoses (the independent `gap bench`: every draw's records are the same
+/// captures with other samples, so the twin at each is the same). Every counterpart is kept, keyed
+/// as above and simulated once even when diagnoses on several threads ask for it at once; reruns
+/// (which follow each diagnosis's fits) are simulated and not kept.
+std::shared_ptr<SharedTwinRuns> share_twin_counterparts_across_diagnoses();
 /// How many runs `shared` has simulated and kept so far.
 std::size_t kept_twin_runs(const SharedTwinRuns& shared);
 

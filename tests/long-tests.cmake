@@ -30,7 +30,7 @@ gearwatch_long_test(55 "rig end to end: defects #7: a dry campaign is identified
 gearwatch_long_test(20 "gap: each parametric candidate fitted on data made with its own form recovers its parameters")
 gearwatch_long_test(40 "gap: gap bench's scenario 21 (casing at 151 and 396 Hz, 67 kg): its casing candidate recovers all four values")
 gearwatch_long_test(40 "rig end to end: K_wear follows the truth's coefficient and the predicted wear depth stays within 5 %")
-gearwatch_long_test(40 "gap independent: the bench on a no-effect draw, a narrow resonance and a ghost tone")
+gearwatch_long_test(60 "gap independent: the bench on a no-effect draw, a narrow resonance and a ghost tone")
 gearwatch_long_test(35 "prognosis bench: two campaigns through the binary, scores recomputed from the trace")
 gearwatch_long_test(23 "model thread: a campaign replayed one file per process ends in the state of one long replay")
 gearwatch_long_test(35 "prognosis #3: a saturated ICS2 in the correlation triple leaves K_pitting as the inspections set it")

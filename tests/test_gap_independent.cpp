@@ -202,6 +202,16 @@ TEST_CASE("gap independent: the bench's scoring rules on hand-made reports", "[g
   CHECK(cli::score_draw(truth, family, 16, 50000).any_finding);
 }
 
+TEST_CASE("gap bench: --jobs below 1, and above 1 on the rig bench, are refused before anything is simulated", "[gap_bench_jobs]") {
+  const std::string bench = std::string(GEARWATCH_BINARY) + " gap bench --seeds 1 ";
+  const auto zero = gearwatch::testing::run_command(bench + "--generator independent --jobs 0");
+  CHECK(zero.status != 0);
+  CHECK(zero.err.find("--jobs") != std::string::npos);
+  const auto rig = gearwatch::testing::run_command(bench + "--jobs 2");
+  CHECK(rig.status == 1);
+  CHECK(rig.err.find("--jobs applies to --generator independent") != std::string::npos);
+}
+
 TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance and a ghost tone", "[gap_independent]") {
   // Small N for CI: seeds 18-20 draw forms 0-2 (none, structural_resonance, ghost_tone). The twin
   // re-runs are off ([gap] rerun_twin = false): neither form has a re-run candidate to attribute.
@@ -210,10 +220,13 @@ TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance an
     std::ofstream cfg(dir / "bench.toml");
     cfg << "[gap]\nrerun_twin = false\n";
   }
-  const auto r = gearwatch::testing::run_command("cd " + q(GEARWATCH_SOURCE_DIR) + " && " + std::string(GEARWATCH_BINARY) +
-                                                 " gap bench --generator independent --seeds 3 --seed 18 --bootstrap 40 --python " +
-                                                 std::string(GEARWATCH_PYTHON) + " --config " + q(dir / "bench.toml") +
-                                                 " --format json");
+  auto bench = [&](int jobs) {
+    return gearwatch::testing::run_command("cd " + q(GEARWATCH_SOURCE_DIR) + " && " + std::string(GEARWATCH_BINARY) +
+                                           " gap bench --generator independent --seeds 3 --seed 18 --bootstrap 40 --python " +
+                                           std::string(GEARWATCH_PYTHON) + " --config " + q(dir / "bench.toml") +
+                                           " --format json --jobs " + std::to_string(jobs));
+  };
+  const auto r = bench(1);
   INFO(r.err);
   REQUIRE(r.status == 0);
   const json j = json::parse(r.out);
@@ -256,6 +269,24 @@ TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance an
       ghost_order_checked = true;
     }
   CHECK(ghost_order_checked);
+
+  // --jobs 2: the same draws side by side on two threads (the first two start together, the third
+  // when one ends) give the same document, scores and per-draw results in seed order, exactly: each
+  // draw's diagnosis is the same computation whichever thread runs it. Only the wall time and the
+  // jobs setting differ.
+  const auto r2 = bench(2);
+  INFO(r2.err);
+  REQUIRE(r2.status == 0);
+  json j1 = j, j2 = json::parse(r2.out);
+  CHECK(j2["jobs"] == 2);
+  CHECK(j1["jobs"] == 1);
+  for (auto* d : {&j1, &j2}) {
+    d->erase("wall_seconds");
+    d->erase("jobs");
+  }
+  for (std::size_t i = 0; i < 3; ++i) CHECK(j2["draws"][i]["seed"] == 18 + i);
+  CHECK(j2["draws"] == j1["draws"]);
+  CHECK(j2 == j1);
 }
 
 }  // namespace test_gap_independent

@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 #include <numbers>
+#include <thread>
 
 #include <catch2/catch.hpp>
 
@@ -466,6 +467,62 @@ TEST_CASE("gap step: records the twin cannot tell apart share their counterpart 
   // Another addition is a run of its own.
   (void)shared_rerun(*samples[0].measured, samples[0].state, gap::CandidateEffect::misalignment, {2e-4}, 0.1);
   CHECK(daemon::kept_twin_runs(*shared) == 3);
+}
+
+TEST_CASE("gap bench: counterparts kept across diagnoses on several threads are each record's own simulation, stamped as it",
+          "[twin_drift][daemon][gap_bench_jobs]") {
+  const auto cfg = config::parse_config("[model]\nchannel = 1\n", "test");
+  auto record = [](double speed_hz, std::uint64_t start_index, std::uint16_t stream_id) {
+    Record r;
+    r.sample_rate_hz = 20000;
+    r.start_index = start_index;
+    r.stream_id = stream_id;
+    r.channels = {std::vector<float>(4000, 0.0f)};
+    r.channel_numbers = {1};
+    r.speed_hz = speed_hz;
+    r.torque_nm = 15;
+    r.input_revolutions = static_cast<double>(start_index) / 1000;
+    return r;
+  };
+  // Two diagnoses' records at 20 Hz (other stamps, the same basis) and one at 25 Hz.
+  const std::vector<Record> records{record(20, 1000, 1), record(20, 5000, 2), record(25, 9000, 3)};
+  const auto kept = daemon::share_twin_counterparts_across_diagnoses();
+  const auto plain_twin = daemon::make_twin_counterpart(twin::GearboxParameters{}, cfg);
+  const auto kept_twin = daemon::make_twin_counterpart(twin::GearboxParameters{}, cfg, kept);
+  // Four threads ask for every counterpart at once, as draws side by side do.
+  constexpr int kThreads = 4;
+  std::vector<std::vector<Record>> got(kThreads);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t)
+    threads.emplace_back([&, t] {
+      for (const auto& r : records) got[t].push_back(kept_twin(r, wear::WearState{}));
+    });
+  for (auto& t : threads) t.join();
+  // The reference: each record's own simulation, not kept.
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    const Record& m = records[i];
+    const Record reference = plain_twin(m, wear::WearState{});
+    for (int t = 0; t < kThreads; ++t) {
+      const Record& a = got[t][i];
+      CHECK(a.channels == reference.channels);
+      CHECK(a.tacho_edges == reference.tacho_edges);
+      CHECK(a.sample_rate_hz == reference.sample_rate_hz);
+      CHECK(a.start_index == m.start_index);
+      CHECK(a.stream_id == m.stream_id);
+      CHECK(a.speed_hz == m.speed_hz);
+      CHECK(a.input_revolutions == m.input_revolutions);
+    }
+  }
+  // One run per basis (20 Hz, 25 Hz), however many records and threads asked.
+  CHECK(daemon::kept_twin_runs(*kept) == 2);
+  // Reruns follow each diagnosis's fits: simulated as without the store, and not kept.
+  const auto kept_rerun = daemon::make_twin_rerun(twin::GearboxParameters{}, cfg, kept);
+  const auto plain_rerun = daemon::make_twin_rerun(twin::GearboxParameters{}, cfg);
+  const Record c = kept_rerun(records[0], wear::WearState{}, gap::CandidateEffect::misalignment, {1e-4}, 0.1);
+  const Record d = plain_rerun(records[0], wear::WearState{}, gap::CandidateEffect::misalignment, {1e-4}, 0.1);
+  CHECK(c.channels == d.channels);
+  CHECK(c.start_index == records[0].start_index);
+  CHECK(daemon::kept_twin_runs(*kept) == 2);
 }
 
 TEST_CASE("pipeline: a replay hands each analysed record's samples to the gap step, and each report is tied to its newest record",
