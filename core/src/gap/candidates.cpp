@@ -10,6 +10,7 @@
 #include <string>
 
 #include "gearwatch/dsp/order_tracking.hpp"
+#include "gearwatch/gap/bessel.hpp"
 
 namespace gearwatch::gap {
 namespace {
@@ -57,29 +58,6 @@ double bessel_j0(double z) {
   const double q = z * z / 4.0;
   if (q < 0.01) return 1.0 - q + q * q / 4.0 - q * q * q / 36.0;  // next term q⁴/576 < 2e-11
   return std::cyl_bessel_j(0.0, z);
-}
-
-/// J_0(z) … J_K(z). Up to z = 4 by the power series Σ_m (−1)^m (z/2)^{2m+k}/(m!(m+k)!) (its terms stay
-/// under e^z, so double keeps 1e-13; 40 terms reach 1e-30): the forms ask at every line of every
-/// record at every trial value, where the library's is slow. Beyond, the library's. Written into the
-/// caller's `j` (resized), so the per-line calls allocate nothing once it has grown.
-void bessel_j_up_to(int k_max, double z, std::vector<double>& j) {
-  j.assign(static_cast<std::size_t>(std::max(k_max, 0)) + 1, 0.0);
-  if (std::abs(z) > 4.0) {
-    for (int k = 0; k <= k_max; ++k) j[static_cast<std::size_t>(k)] = std::cyl_bessel_j(static_cast<double>(k), z);
-    return;
-  }
-  const double h = z / 2.0, q = -h * h;
-  double lead = 1.0;  // (z/2)^k / k!
-  for (int k = 0; k <= k_max; ++k) {
-    if (k > 0) lead *= h / k;
-    double term = lead, sum = lead;
-    for (int m = 1; m < 40 && std::abs(term) > 1e-17 * std::abs(sum); ++m) {
-      term *= q / (m * static_cast<double>(m + k));
-      sum += term;
-    }
-    j[static_cast<std::size_t>(k)] = sum;
-  }
 }
 
 /// dsp::tracking_residual_share read off a table in log x: each call simulates 400 revolutions of
