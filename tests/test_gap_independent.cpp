@@ -220,13 +220,14 @@ TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance an
     std::ofstream cfg(dir / "bench.toml");
     cfg << "[gap]\nrerun_twin = false\n";
   }
-  auto bench = [&](int jobs) {
+  auto bench = [&](int jobs, int seeds) {
     return gearwatch::testing::run_command("cd " + q(GEARWATCH_SOURCE_DIR) + " && " + std::string(GEARWATCH_BINARY) +
-                                           " gap bench --generator independent --seeds 3 --seed 18 --bootstrap 40 --python " +
+                                           " gap bench --generator independent --seeds " + std::to_string(seeds) +
+                                           " --seed 18 --bootstrap 40 --python " +
                                            std::string(GEARWATCH_PYTHON) + " --config " + q(dir / "bench.toml") +
                                            " --format json --jobs " + std::to_string(jobs));
   };
-  const auto r = bench(1);
+  const auto r = bench(1, 3);
   INFO(r.err);
   REQUIRE(r.status == 0);
   const json j = json::parse(r.out);
@@ -270,23 +271,20 @@ TEST_CASE("gap independent: the bench on a no-effect draw, a narrow resonance an
     }
   CHECK(ghost_order_checked);
 
-  // --jobs 2: the same draws side by side on two threads (the first two start together, the third
-  // when one ends) give the same document, scores and per-draw results in seed order, exactly: each
-  // draw's diagnosis is the same computation whichever thread runs it. Only the wall time and the
-  // jobs setting differ.
-  const auto r2 = bench(2);
+  // --jobs 2: the first two draws side by side on two threads give the same per-draw results,
+  // exactly: each draw's diagnosis is the same computation whichever thread runs it (two draws, not
+  // three, to keep CI's time).
+  const auto r2 = bench(2, 2);
   INFO(r2.err);
   REQUIRE(r2.status == 0);
-  json j1 = j, j2 = json::parse(r2.out);
+  const json j2 = json::parse(r2.out);
   CHECK(j2["jobs"] == 2);
-  CHECK(j1["jobs"] == 1);
-  for (auto* d : {&j1, &j2}) {
-    d->erase("wall_seconds");
-    d->erase("jobs");
+  CHECK(j["jobs"] == 1);
+  REQUIRE(j2["draws"].size() == 2);
+  for (std::size_t i = 0; i < 2; ++i) {
+    CHECK(j2["draws"][i]["seed"] == 18 + i);
+    CHECK(j2["draws"][i] == j["draws"][i]);
   }
-  for (std::size_t i = 0; i < 3; ++i) CHECK(j2["draws"][i]["seed"] == 18 + i);
-  CHECK(j2["draws"] == j1["draws"]);
-  CHECK(j2 == j1);
 }
 
 }  // namespace test_gap_independent
