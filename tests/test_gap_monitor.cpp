@@ -423,24 +423,27 @@ TEST_CASE("gap step: the twin counterpart of a record has its length (2 s at mos
   }
 }
 
+// A silent 0.2 s record at 20 kHz with its own stream stamps: what the twin's runs are keyed on
+// (speed, torque, rate, length) apart from the stamps each copy must carry.
+Record stamped_record(double speed_hz, std::uint64_t start_index, std::uint16_t stream_id) {
+  Record r;
+  r.sample_rate_hz = 20000;
+  r.start_index = start_index;
+  r.stream_id = stream_id;
+  r.channels = {std::vector<float>(4000, 0.0f)};
+  r.channel_numbers = {1};
+  r.speed_hz = speed_hz;
+  r.torque_nm = 15;
+  r.input_revolutions = static_cast<double>(start_index) / 1000;
+  return r;
+}
+
 TEST_CASE("gap step: records the twin cannot tell apart share their counterpart and reruns, each stamped as its own record",
           "[twin_drift][daemon]") {
   const auto cfg = config::parse_config("[model]\nchannel = 1\n", "test");
-  auto record = [](double speed_hz, std::uint64_t start_index, std::uint16_t stream_id) {
-    Record r;
-    r.sample_rate_hz = 20000;
-    r.start_index = start_index;
-    r.stream_id = stream_id;
-    r.channels = {std::vector<float>(4000, 0.0f)};
-    r.channel_numbers = {1};
-    r.speed_hz = speed_hz;
-    r.torque_nm = 15;
-    r.input_revolutions = static_cast<double>(start_index) / 1000;
-    return r;
-  };
   // Two records at 20 Hz (one steady run), one at 25 Hz; one wear state for all, as gap diagnose has.
   std::vector<daemon::GapSample> samples;
-  for (const auto& r : {record(20, 1000, 1), record(20, 5000, 2), record(25, 9000, 3)})
+  for (const auto& r : {stamped_record(20, 1000, 1), stamped_record(20, 5000, 2), stamped_record(25, 9000, 3)})
     samples.push_back({std::make_shared<const Record>(r), wear::WearState{}, 0, r.start_index, samples.size() + 1});
   const auto shared = daemon::share_twin_runs(samples);
   const auto plain_twin = daemon::make_twin_counterpart(twin::GearboxParameters{}, cfg);
@@ -472,20 +475,8 @@ TEST_CASE("gap step: records the twin cannot tell apart share their counterpart 
 TEST_CASE("gap bench: counterparts kept across diagnoses on several threads are each record's own simulation, stamped as it",
           "[twin_drift][daemon][gap_bench_jobs]") {
   const auto cfg = config::parse_config("[model]\nchannel = 1\n", "test");
-  auto record = [](double speed_hz, std::uint64_t start_index, std::uint16_t stream_id) {
-    Record r;
-    r.sample_rate_hz = 20000;
-    r.start_index = start_index;
-    r.stream_id = stream_id;
-    r.channels = {std::vector<float>(4000, 0.0f)};
-    r.channel_numbers = {1};
-    r.speed_hz = speed_hz;
-    r.torque_nm = 15;
-    r.input_revolutions = static_cast<double>(start_index) / 1000;
-    return r;
-  };
   // Two diagnoses' records at 20 Hz (other stamps, the same basis) and one at 25 Hz.
-  const std::vector<Record> records{record(20, 1000, 1), record(20, 5000, 2), record(25, 9000, 3)};
+  const std::vector<Record> records{stamped_record(20, 1000, 1), stamped_record(20, 5000, 2), stamped_record(25, 9000, 3)};
   const auto kept = daemon::share_twin_counterparts_across_diagnoses();
   const auto plain_twin = daemon::make_twin_counterpart(twin::GearboxParameters{}, cfg);
   const auto kept_twin = daemon::make_twin_counterpart(twin::GearboxParameters{}, cfg, kept);
