@@ -357,6 +357,17 @@ TEST_CASE("Tracking image: the spline through one edge per revolution leaves a d
   }
 }
 
+// How many of the block path's values differ (in any bit) from one call per position at `cutoff`.
+std::size_t block_values_differing(std::span<const float> x, std::span<const double> t, double cutoff) {
+  BandLimitedInterpolator interpolator;
+  interpolator.set_cutoff(cutoff);
+  std::vector<double> block(t.size());
+  interpolator.interpolate(x, t, block);
+  std::size_t differing = 0;
+  for (std::size_t k = 0; k < t.size(); ++k) differing += block[k] != interpolator(x, t[k]);
+  return differing;
+}
+
 TEST_CASE("Order tracking in blocks: positions and interpolated values bit-identical to one call per sample", "[dsp][order_tracking]") {
   // The block paths (ShaftAngle::times_at, BandLimitedInterpolator::interpolate) must give the
   // very numbers of the per-sample calls, at the record's edges (zeros outside) and inside, for the
@@ -370,14 +381,8 @@ TEST_CASE("Order tracking in blocks: positions and interpolated values bit-ident
   for (auto& v : t) v = position(rng);
   t[0] = 0.0, t[1] = 15.0, t[2] = 3999.0, t[3] = 2000.5;
   for (double cutoff : {1.0, 0.5, 0.34375}) {
-    BandLimitedInterpolator interpolator;
-    interpolator.set_cutoff(cutoff);
-    std::vector<double> block(t.size());
-    interpolator.interpolate(x, t, block);
-    std::size_t differing = 0;
-    for (std::size_t k = 0; k < t.size(); ++k) differing += block[k] != interpolator(x, t[k]);
-    INFO("cutoff " << cutoff << ", taps " << interpolator.taps());
-    CHECK(differing == 0);
+    INFO("cutoff " << cutoff);
+    CHECK(block_values_differing(x, t, cutoff) == 0);
   }
   std::vector<double> edges;
   for (int m = 0; m <= 40; ++m) edges.push_back(100.0 + 250.0 * m + 20.0 * std::sin(0.7 * m));
@@ -415,14 +420,8 @@ TEST_CASE("Interpolator blocks: the row-pair table gives the per-sample values b
   for (std::size_t p = 0; p < 512; ++p) t[p] = 3000.0 + static_cast<double>(p) / 512.0;
   t[512] = std::nextafter(3001.0, 0.0);
   for (int k : {1, 5, 13, 24, 37, 50, 63}) {
-    BandLimitedInterpolator interpolator;
-    interpolator.set_cutoff(k / 64.0);
-    std::vector<double> block(t.size());
-    interpolator.interpolate(x, t, block);
-    std::size_t differing = 0;
-    for (std::size_t i = 0; i < t.size(); ++i) differing += block[i] != interpolator(x, t[i]);
-    INFO("cutoff " << k << "/64, taps " << interpolator.taps());
-    CHECK(differing == 0);
+    INFO("cutoff " << k << "/64");
+    CHECK(block_values_differing(x, t, k / 64.0) == 0);
   }
 }
 
