@@ -57,7 +57,8 @@ printf '%s\n' "$script" >"$work/etc/vcan-vm-script"
 # 3. Boot. Software emulation (TCG): it needs no KVM and behaves the same on any x86-64 host.
 # no_timer_check: on a busy host the emulated clock can miss the kernel's check of the IO-APIC
 # timer, which then panics at boot (as systemd-vm.sh).
-timeout "$limit" qemu-system-x86_64 -accel tcg -cpu "${GEARWATCH_VCAN_CPU:-max}" -smp "${GEARWATCH_VCAN_SMP:-2}" \
+# -nic none: the tests use vcan and loopback only; no network card (its option ROM, its driver).
+timeout "$limit" qemu-system-x86_64 -accel tcg -cpu "${GEARWATCH_VCAN_CPU:-max}" -smp "${GEARWATCH_VCAN_SMP:-2}" -nic none \
   -m "${GEARWATCH_VCAN_MEM:-2048}" -kernel "$cache/vmlinuz" -initrd "$work.cpio.gz" \
   -append "console=ttyS0 quiet panic=-1 no_timer_check" -nographic -no-reboot -display none </dev/null |
   tee "$out" || true
