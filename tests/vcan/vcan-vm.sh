@@ -39,7 +39,7 @@ cache=${GEARWATCH_VCAN_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/gearwatch-vcan}
 # 2. initramfs: busybox, the modules, the payload and its libraries, and the init script.
 work=$(mktemp -d)
 out=$(mktemp)
-trap 'rm -rf "$work" "$work.cpio.gz" "$out"' EXIT
+trap 'rm -rf "$work" "$work.cpio" "$out"' EXIT
 mkdir -p "$work"/{bin,sbin,proc,sys,dev,tmp,etc,lib/can}
 cp /bin/busybox "$work/bin/"
 cp "$cache"/mods/*.ko "$work/lib/can/"
@@ -52,14 +52,15 @@ done
 cp "$here/vm-init.sh" "$work/init"
 chmod +x "$work/init"
 printf '%s\n' "$script" >"$work/etc/vcan-vm-script"
-(cd "$work" && find . | cpio -o -H newc 2>/dev/null | gzip -1 >"$work.cpio.gz")
+# Not compressed: the emulated kernel inflated it more slowly than it copies the plain archive.
+(cd "$work" && find . | cpio -o -H newc 2>/dev/null >"$work.cpio")
 
 # 3. Boot. Software emulation (TCG): it needs no KVM and behaves the same on any x86-64 host.
 # no_timer_check: on a busy host the emulated clock can miss the kernel's check of the IO-APIC
 # timer, which then panics at boot (as systemd-vm.sh).
 # -nic none: the tests use vcan and loopback only; no network card (its option ROM, its driver).
 timeout "$limit" qemu-system-x86_64 -accel tcg -cpu "${GEARWATCH_VCAN_CPU:-max}" -smp "${GEARWATCH_VCAN_SMP:-2}" -nic none \
-  -m "${GEARWATCH_VCAN_MEM:-2048}" -kernel "$cache/vmlinuz" -initrd "$work.cpio.gz" \
+  -m "${GEARWATCH_VCAN_MEM:-2048}" -kernel "$cache/vmlinuz" -initrd "$work.cpio" \
   -append "console=ttyS0 quiet panic=-1 no_timer_check" -nographic -no-reboot -display none </dev/null |
   tee "$out" || true
 rc=$(sed -n 's/.*VCAN-VM-EXIT \([0-9][0-9]*\).*/\1/p' "$out" | tail -1)
