@@ -1,4 +1,5 @@
 #include "gearwatch/gap/describe.hpp"
+#include "gearwatch/gap/unit_tone.hpp"
 
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/numeric/line_search.hpp"
@@ -16,6 +17,7 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <utility>
 
 namespace gearwatch::gap {
 namespace {
@@ -379,25 +381,14 @@ double band_pass(double hz, double fn, double zeta) {
 
 Record unit_tone_record(double order, double top_order, const SpectralSummary& like, double samples_per_cycle) {
   const double speed = like.speed_hz;
-  const double fs = std::min(like.sample_rate_hz, samples_per_cycle * (top_order + 4) * speed);
+  const double fs = unit_tone_sample_rate(top_order, like, samples_per_cycle);
   const std::size_t revs = like.input_revolutions;
   Record r;
   r.sample_rate_hz = fs;
   r.speed_hz = speed;
   r.torque_nm = like.torque_nm;
-  const auto n = static_cast<std::size_t>((static_cast<double>(revs) + 0.5) * fs / speed);
-  // The cosine by a rotating phasor, set exactly every kExact samples: one std::cos a sample costs as
-  // much as the reduction's resampling, and the rotation's rounding over kExact steps stays orders
-  // under the float the sample is stored in.
-  constexpr std::size_t kExact = 256;
-  const double step = 2 * std::numbers::pi * order * speed / fs;
-  const std::complex<double> rotation = std::polar(1.0, step);
-  std::vector<float> x(n);
-  std::complex<double> z;
-  for (std::size_t i = 0; i < n; ++i) {
-    z = i % kExact == 0 ? std::polar(1.0, step * static_cast<double>(i)) : z * rotation;
-    x[i] = static_cast<float>(z.real());
-  }
+  std::vector<float> x(static_cast<std::size_t>((static_cast<double>(revs) + 0.5) * fs / speed));
+  unit_tone_samples(order, speed, fs, x);
   r.channels = {std::move(x)};
   r.channel_numbers = {0};
   for (std::size_t k = 0; k <= revs; ++k) r.tacho_edges[0].push_back(static_cast<double>(k) * fs / speed);
@@ -768,21 +759,22 @@ std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, co
 }
 
 namespace {
-/// unit_tone_spectra shared between records alike in what it reads of them. In samples its record
-/// is the same at any speed (the rate follows the speed, up to the record's own): records with the
-/// same whole revolutions, samples a revolution and order (each to kSame) reduce it alike, so the
-/// twin's records at one speed and several loads (speeds a few parts in 1e9 apart) share one reduction.
+/// A unit tone's cells (UnitToneCells) shared between records alike in what it reads of them. In
+/// samples its record is the same at any speed (the rate follows the speed, up to the record's own):
+/// records with the same whole revolutions, samples a revolution and order (each to kSame) reduce
+/// it alike, so the twin's records at one speed and several loads (speeds a few parts in 1e9 apart)
+/// share one.
 class SharedUnitTones {
  public:
   explicit SharedUnitTones(const GearPairSpec& gears) : gears_(gears) {}
-  const SpectralSummary& of(double order, double top_order, const SpectralSummary& like) {
+  const UnitToneCells& of(double order, double top_order, const SpectralSummary& like) {
     const double per_rev = samples_per_revolution(top_order, like);
     for (const auto& [key, unit] : done_)
       if (key.top_order == top_order && key.revolutions == like.input_revolutions &&
           std::abs(key.samples_per_revolution - per_rev) <= kSame * per_rev && std::abs(key.order - order) <= kSame * order)
         return unit;
-    done_.emplace_back(Key{order, top_order, like.input_revolutions, per_rev},
-                       unit_tone_spectra(order, top_order, like, gears_, kUnitToneSamplesPerCycle));
+    done_.emplace_back(std::piecewise_construct, std::forward_as_tuple(Key{order, top_order, like.input_revolutions, per_rev}),
+                       std::forward_as_tuple(order, top_order, like, gears_, kUnitToneSamplesPerCycle));
     return done_.back().second;
   }
 
@@ -797,7 +789,7 @@ class SharedUnitTones {
     return std::min(like.sample_rate_hz / like.speed_hz, kUnitToneSamplesPerCycle * (top_order + 4));
   }
   const GearPairSpec& gears_;
-  std::deque<std::pair<Key, SpectralSummary>> done_;  // stable references
+  std::deque<std::pair<Key, UnitToneCells>> done_;  // stable references
 };
 }  // namespace
 
@@ -811,11 +803,12 @@ std::vector<double> FeatureDescriber::tone_as_measured(double place, bool in_hz,
     std::size_t end = e;
     double top = order;
     for (; end < w.size() && w[end].first == r; ++end) top = std::max(top, records_[r].cells[w[end].second].order);
-    const SpectralSummary& unit = shared.of(order, top + 1, *records_[r].source->measured);  // the measured record's revolutions
+    // The measured record's revolutions; only the window's cells are computed.
+    const UnitToneCells& unit = shared.of(order, top + 1, *records_[r].source->measured);
     for (; e < end; ++e) {
       const Cell& c = records_[r].cells[w[e].second];
-      const auto& v = c.kind == CellKind::input_line ? unit.input_lines : c.kind == CellKind::output_line ? unit.output_lines : unit.broadband;
-      out[e] = c.index < v.size() ? v[c.index] : 0.0;
+      out[e] = c.kind == CellKind::input_line ? unit.input_line(c.index)
+               : c.kind == CellKind::output_line ? unit.output_line(c.index) : unit.broadband(c.index);
     }
   }
   return out;

@@ -266,6 +266,17 @@ void resample_uniform_angle(std::span<const float> x, std::size_t spr, std::size
   }
 }
 
+ReductionGrid reduction_grid(std::span<const double> tacho_edges, double sample_rate_hz, const GearPairSpec& gears,
+                             std::size_t min_revolutions) {
+  dsp::ShaftAngle angle;
+  const auto check = angle.assign(tacho_edges, 1, 1.0);
+  if (!check.ok()) throw std::invalid_argument("record's input tacho is unusable: " + check.reason);
+  const double ratio = static_cast<double>(gears.gear_teeth) / gears.pinion_teeth;
+  const WholeRevolutions revs = whole_revolutions(angle, ratio, sample_rate_hz, min_revolutions);
+  const AngleResolution a = angle_resolution(angle, sample_rate_hz, revs.speed_hz, ratio);
+  return {revs.input, revs.output, a.spr, a.spr_out, a.k_in, a.k_out, revs.speed_hz};
+}
+
 FamilyKind input_line_family(int order, int pinion_teeth) noexcept {
   if (order % pinion_teeth == 0) return FamilyKind::mesh_harmonics;
   return is_sideband_order(order, pinion_teeth) ? FamilyKind::input_sidebands : FamilyKind::input_shaft_orders;

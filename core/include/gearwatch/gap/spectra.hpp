@@ -86,6 +86,16 @@ struct SpectralSummary {
   std::shared_ptr<const RunOutResponse> run_out_response;
 };
 
+/// The angle grids RecordSpectra reduces a record on: whole revolutions of each shaft, samples a
+/// revolution of each (spr, spr_out), the lines each keeps and the input's mean speed. Throws as
+/// RecordSpectra's constructor does for an unusable tacho or too few revolutions.
+struct ReductionGrid {
+  std::size_t input_revolutions = 0, output_revolutions = 0, spr = 0, spr_out = 0, k_in = 0, k_out = 0;
+  double speed_hz = 0;
+};
+ReductionGrid reduction_grid(std::span<const double> tacho_edges, double sample_rate_hz, const GearPairSpec& gears,
+                             std::size_t min_revolutions = 4);
+
 /// One record reduced to per-revolution spectra (so a bootstrap can redraw revolutions).
 class RecordSpectra {
  public:
