@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <complex>
 #include <numbers>
 #include <random>
@@ -213,6 +214,71 @@ TEST_CASE("gap features: a ghost tone at a non-integer input order is one featur
   CHECK(f.size_interval_db.low <= expected_size);
   CHECK(f.size_interval_db.high >= expected_size);
   check_families_stay_under_their_minimum(r);
+}
+
+/// The twin of twin_spectra with every line but the mesh harmonics and every broadband bin far under
+/// the comparison's floor (1e-9 and 1e-12 against the floor's 1.6e-6), and its measurement: the
+/// twin plus the capture's own white floor (1e-9 per bin), each line and bin times gain(Hz), with
+/// the cells' noise. Where no mesh harmonic falls, nothing over the floor shows a change.
+Records under_floor_records(const std::function<double(double)>& gain, std::mt19937_64& rng) {
+  Records r;
+  for (double speed : kSpeeds) {
+    auto twin = twin_spectra(20000, speed);
+    for (std::size_t k = 0; k < twin.input_lines.size(); ++k)
+      if ((k + 1) % kZ1 != 0) twin.input_lines[k] = 1e-9;
+    for (auto& p : twin.output_lines) p = p > 0 ? 1e-9 : 0.0;
+    for (auto& b : twin.broadband) b = 1e-12;
+    auto measured = twin;
+    for (auto& b : measured.broadband) b += 1e-9;
+    for_each_cell(measured, [&](double& p, double hz) { p *= gain(hz); });
+    r.measured.push_back(with_noise(measured, rng));
+    r.twin.push_back(twin);
+  }
+  return r;
+}
+
+TEST_CASE("gap features: a narrow resonance under the comparison's floor, between the mesh harmonics, is found at its Hz in its bins' local peaks",
+          "[gap][gap_features]") {
+  // +12 dB at 1100 Hz, 20 Hz between its half-excess points: 1100 Hz is 6.43, 5.26, 4.29 and 3.62
+  // mesh harmonics at the four speeds (19 teeth), at least 50 Hz from any. Every cell near it lies
+  // 30 dB and more under the comparison's floor: its g against the twin is under 0.01 dB there.
+  const double f0 = 1100, width = 20, peak_db = 12;
+  auto gain = [&](double hz) {
+    const double x = (hz - f0) / (width / 2);
+    return 1 + (std::pow(10.0, peak_db / 10) - 1) / (1 + x * x);
+  };
+  std::mt19937_64 rng(38);
+  FeatureSettings local_on;
+  local_on.local.enabled = true;
+  const Records records = under_floor_records(gain, rng);
+  const auto features = finders_of(records, rng, {local_on})[0].features();
+  INFO(descriptions(features));
+  REQUIRE(features.size() == 1);
+  const auto& f = features.front();
+  INFO(describe(f));
+  CHECK(f.movement == FeatureMovement::fixed_in_hz);
+  // Stated before the run: within the resolution, one bin in Hz at the fastest record (16 Hz), and
+  // its extent holds f0; seen at every speed (the peak bin holds ≥ 6 dB of the 12 at 16 Hz).
+  CHECK(std::abs(f.hz - f0) <= kSpeeds.back());
+  CHECK(f.hz_low <= f0);
+  CHECK(f.hz_high >= f0);
+  CHECK(f.seen_in.size() == kSpeeds.size());
+  CHECK(f.size_db > 3.0);
+  // Described as a resonance at its Hz (the bench's rule asks 10 %; stated here: within a tenth of
+  // its half-power band, 2 Hz, as the other resonance cases ask), on the bins against their
+  // neighbourhood: every cell's g against the twin is under the practical minimum.
+  std::vector<DescribedRecord> described;
+  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&records.measured[i], &records.twin[i], floor_of(records.twin[i]), {}, {}, {}, {}});
+  DescriptionSettings describing;
+  describing.local = local_on.local;
+  const auto d = FeatureDescriber(described, GearPairSpec{}, describing).describe(f);
+  INFO(to_string(d.kind) << ": " << describe(d));
+  REQUIRE(d.kind == DescriptionKind::resonance);
+  CHECK(d.parameter("frequency_hz") == Approx(f0).margin(2.0));
+  // The same records without the resonance: nothing.
+  const auto quiet = finders_of(under_floor_records([](double) { return 1.0; }, rng), rng, {local_on})[0].features();
+  INFO(descriptions(quiet));
+  CHECK(quiet.empty());
 }
 
 TEST_CASE("gap features: with no effect, Benjamini-Hochberg finds something in at most 5 % of draws", "[gap][gap_features]") {

@@ -448,7 +448,10 @@ FeatureDescriber::FeatureDescriber(const std::vector<DescribedRecord>& records, 
     }
     records_.push_back(std::move(r));
   }
-  for (const auto& src : sources_) floors_.push_back(compare_floors(*src.measured, *src.twin, settings_.floor));
+  for (const auto& src : sources_) {
+    floors_.push_back(compare_floors(*src.measured, *src.twin, settings_.floor));
+    local_.push_back(local_expectation(*src.measured, *src.twin, floors_.back().acquisition, settings_.local));
+  }
   floor_ = floor_change();
   tilt_ = path_tilt();
   carrier_pm_index_ = pm_index_from_carriers(sources_, gears_.pinion_teeth);
@@ -727,6 +730,42 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
     return c.twin * (1 + gm1 * band_pass(c.hz, fn, zeta));
   };
   return fit;
+}
+
+FeatureDescription FeatureDescriber::local_resonance(const GapFeature& f, const Window& w, const FeatureDescription& none) const {
+  if (!settings_.local.enabled || f.movement == FeatureMovement::fixed_in_orders) return none;
+  ResonanceSearch::Cells cells;
+  double core_before = 0;
+  std::size_t core = 0;
+  for (const auto& [r, i] : w) {
+    const Cell& c = records_[r].cells[i];
+    if (c.kind != CellKind::broadband || c.index >= local_[r].size()) continue;
+    const double expected = local_[r][c.index];
+    if (!(expected > 0) || !(c.measured > 0)) continue;
+    const double g = 10 * std::log10(c.measured / expected);
+    cells.g_measured.push_back(g), cells.twin.push_back(expected), cells.floor.push_back(0.0), cells.hz.push_back(c.hz);
+    if (std::abs(g) >= settings_.min_feature_db) core_before += g * g, ++core;
+  }
+  if (core == 0) return none;
+  double lo = f.hz_low, hi = f.hz_high;
+  if (!(hi > lo) || !(lo > 0)) lo = std::max(1.0, f.hz * 0.9), hi = f.hz * 1.1;
+  const auto g_measured = cells.g_measured;
+  const auto hz = cells.hz;
+  const auto [bf, bz, bg] = ResonanceSearch(std::move(cells)).run(lo, hi, f.hz);
+  const double gm1 = std::pow(10.0, bg / 10) - 1;
+  double rss = 0, core_sq = 0;
+  for (std::size_t e = 0; e < g_measured.size(); ++e) {
+    const double d = g_measured[e] - 10 * std::log10(1 + gm1 * band_pass(hz[e], bf, bz));
+    rss += d * d;
+    if (std::abs(g_measured[e]) >= settings_.min_feature_db) core_sq += d * d;
+  }
+  if (!(std::sqrt(core_sq / static_cast<double>(core)) < settings_.min_feature_db)) return none;  // its gap stays
+  FeatureDescription d;
+  d.kind = DescriptionKind::resonance;
+  d.parameters = {{"frequency_hz", bf}, {"damping_ratio", bz}, {"gain_db", bg}};
+  d.gap_db = std::sqrt(core_before / static_cast<double>(core));
+  d.residual_db = std::sqrt(rss / static_cast<double>(g_measured.size()));
+  return d;
 }
 
 std::vector<double> FeatureDescriber::tone_response(double place, bool in_hz, const Window& w) const {
@@ -1415,7 +1454,7 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   const FeatureDescription none = chosen_form({}, w);
   bool core = false;
   for (const auto& [r, i] : w) core = core || std::abs(g_of(r, i, records_[r].cells[i].measured)) >= settings_.min_feature_db;
-  if (!core) return none;
+  if (!core) return local_resonance(f, w, none);
   std::vector<Fit> fits{floor_, tilt_, modulation_input_, modulation_output_};
   // The local forms where they can be the one cause: a resonance within an octave (the forms' ζ
   // ≤ 0.3 keeps its 3 dB band there for gains up to 10 dB), a tone fixed in Hz within four input

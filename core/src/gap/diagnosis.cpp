@@ -242,6 +242,7 @@ std::vector<GapFeature> find_features(const std::vector<PairSpectra>& train, con
   DescriptionSettings describing;
   describing.min_feature_db = s.features.min_feature_db;
   describing.floor = s.features.floor;
+  describing.local = s.features.local;
   describing.min_speed_ratio = s.features.min_speed_ratio;
   const FeatureDescriber describer(described, gears, describing);
   describer.describe_all(features);

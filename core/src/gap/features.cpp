@@ -34,6 +34,16 @@ double normal_quantile(double coverage) {
 }
 
 
+/// Bins [k − h, k + h] (h = band_bins / 2) against their neighbourhood's expectation
+/// (local_expectation), dB; NaN where any is short or the sums are not positive.
+double peak_db(const std::vector<double>& measured, const std::vector<double>& expected, std::size_t k, std::size_t band_bins) {
+  const std::size_t h = band_bins / 2;
+  if (k < h || k + h >= expected.size() || k + h >= measured.size()) return std::numeric_limits<double>::quiet_NaN();
+  double m = 0, e = 0;
+  for (std::size_t j = k - h; j <= k + h; ++j) m += measured[j], e += expected[j];
+  return m > 0 && e > 0 ? 10.0 * std::log10(m / e) : std::numeric_limits<double>::quiet_NaN();
+}
+
 /// The median of v (reordered).
 double median_of(std::vector<double>& v) {
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
@@ -43,6 +53,31 @@ double median_of(std::vector<double>& v) {
 }
 
 }  // namespace
+
+std::vector<double> local_expectation(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
+                                      const LocalPeakSettings& s) {
+  const std::size_t n = std::min(measured.broadband.size(), twin.broadband.size());
+  std::vector<double> ratio(n, std::numeric_limits<double>::quiet_NaN()), out(n, std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t j = 0; j < n; ++j) {
+    const double below = twin.broadband[j] + acquisition;
+    if (below > 0) ratio[j] = measured.broadband[j] / below;
+  }
+  std::vector<double> left, right;
+  const std::size_t each = std::max<std::size_t>(1, s.min_reference / 2);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double below = twin.broadband[k] + acquisition;
+    if (!(below > 0)) continue;
+    left.clear(), right.clear();
+    for (std::size_t d = s.inner_bins; d <= s.outer_bins; ++d) {
+      if (k >= d && std::isfinite(ratio[k - d])) left.push_back(ratio[k - d]);
+      if (k + d < n && std::isfinite(ratio[k + d])) right.push_back(ratio[k + d]);
+    }
+    if (left.size() < each || right.size() < each) continue;
+    // A peak stands over both sides; a floor's edge over one side only: the higher side's median.
+    out[k] = below * std::max(median_of(left), median_of(right));
+  }
+  return out;
+}
 
 double FloorComparison::gap_db(std::size_t band) const {
   const FloorBand& b = bands.at(band);
@@ -130,6 +165,13 @@ FeatureFinder::FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPa
       const double o = static_cast<double>(k);
       r.cells.push_back({CellKind::broadband, k - 1, o, o + 1, o + 0.5, ratio_db(m.broadband[k - 1], t.broadband[k - 1], p.floor)});
     }
+    const FloorComparison floors = compare_floors(m, t, settings.floor);
+    const auto expected = settings.local.enabled ? local_expectation(m, t, floors.acquisition, settings.local) : std::vector<double>{};
+    for (std::size_t k = 1; k <= expected.size(); ++k) {
+      const double o = static_cast<double>(k), h = static_cast<double>(settings.local.band_bins / 2);
+      const double g = peak_db(m.broadband, expected, k - 1, settings.local.band_bins);
+      if (std::isfinite(g)) r.cells.push_back({CellKind::broadband_peak, k - 1, o - h, o + 1 + h, o + 0.5, g});
+    }
     const std::size_t ko = std::min(m.output_lines.size(), t.output_lines.size());
     for (std::size_t j = 1; j <= ko; ++j) {
       if (output_line_is_mesh(static_cast<int>(j), gears.gear_teeth)) continue;
@@ -137,7 +179,6 @@ FeatureFinder::FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPa
       r.cells.push_back({CellKind::output_line, j - 1, o - 0.5 * ratio, o + 0.5 * ratio, o,
                          ratio_db(m.output_lines[j - 1], t.output_lines[j - 1], p.floor)});
     }
-    const FloorComparison floors = compare_floors(m, t, settings.floor);
     for (std::size_t b = 0; b < floors.bands.size(); ++b) {
       const double lo = floors.bands[b].hz_low / r.speed_hz, hi = floors.bands[b].hz_high / r.speed_hz;
       r.cells.push_back({CellKind::floor_band, b, lo, hi, 0.5 * (lo + hi), floors.gap_db(b)});
@@ -153,6 +194,7 @@ void FeatureFinder::add_draw(std::size_t pair, const SpectralSummary& measured, 
     return i < a.size() && i < b.size() ? ratio_db(a[i], b[i], floor) : std::numeric_limits<double>::quiet_NaN();
   };
   const FloorComparison floors = compare_floors(measured, model, settings_.floor);
+  const auto expected = settings_.local.enabled ? local_expectation(measured, model, floors.acquisition, settings_.local) : std::vector<double>{};
   for (Cell& c : r.cells) {
     double g = 0;
     switch (c.kind) {
@@ -160,6 +202,9 @@ void FeatureFinder::add_draw(std::size_t pair, const SpectralSummary& measured, 
       case CellKind::output_line: g = value(measured.output_lines, model.output_lines, c.index); break;
       case CellKind::broadband: g = value(measured.broadband, model.broadband, c.index); break;
       case CellKind::floor_band: g = c.index < floors.bands.size() ? floors.gap_db(c.index) : std::numeric_limits<double>::quiet_NaN(); break;
+      case CellKind::broadband_peak:
+        g = peak_db(measured.broadband, expected, c.index, settings_.local.band_bins);
+        break;
     }
     if (!std::isfinite(g)) continue;
     c.n += 1;
@@ -176,7 +221,10 @@ std::vector<double> FeatureFinder::p_values(std::vector<std::pair<std::size_t, s
       const Cell& c = records_[r].cells[i];
       const double sd = c.sd();
       double value = 1.0;
-      if (std::isfinite(sd) && sd > 0) value = two_sided_p(c.g / sd, c.n - 1);
+      // A local peak's test is one-sided (rising only, as it is counted): half the tail above t.
+      if (std::isfinite(sd) && sd > 0 && c.kind == CellKind::broadband_peak)
+        value = c.g > 0 ? two_sided_p(c.g / sd, c.n - 1) / 2 : 1.0 - two_sided_p(c.g / sd, c.n - 1) / 2;
+      else if (std::isfinite(sd) && sd > 0) value = two_sided_p(c.g / sd, c.n - 1);
       // No spread over the draws: both spectra are the same in every draw (no noise at all), so any
       // difference is exact; none is no evidence.
       else if (std::isfinite(sd)) value = std::abs(c.g) > 1e-9 ? 0.0 : 1.0;
@@ -194,6 +242,8 @@ std::vector<char> FeatureFinder::counted(std::size_t& rejected) const {
   std::vector<char> out(reject.size(), 0);
   for (std::size_t i = 0; i < reject.size(); ++i) {
     const Cell& c = records_[where[i].first].cells[where[i].second];
+    // A local peak is tested rising only (p_values): a short record's bins scatter further down than
+    // up (the log of a χ²), and no narrow form makes a dip under the capture's own floor.
     out[i] = reject[i] && std::abs(c.g) >= settings_.min_feature_db;
   }
   return out;
@@ -302,11 +352,25 @@ std::vector<std::vector<std::size_t>> FeatureFinder::join_clusters(const std::ve
   return out;
 }
 
-std::vector<GapFeature> FeatureFinder::features() const { return layer_features(false); }
+std::vector<GapFeature> FeatureFinder::features() const {
+  // The bins' local peaks where the lines and bins against the twin show nothing: their own layer,
+  // so that a line or bin feature keeps its extent and sightings.
+  auto out = layer_features(Layer::lines_and_bins);
+  const std::size_t found = out.size();
+  for (auto& f : layer_features(Layer::local_peaks)) {
+    bool overlaps = false;
+    for (std::size_t i = 0; i < found; ++i) overlaps = overlaps || (f.hz_low <= out[i].hz_high && out[i].hz_low <= f.hz_high);
+    if (!overlaps) out.push_back(std::move(f));
+  }
+  return out;
+}
 
-std::vector<GapFeature> FeatureFinder::floor_features() const { return layer_features(true); }
+std::vector<GapFeature> FeatureFinder::floor_features() const { return layer_features(Layer::floor_bands); }
 
-std::vector<GapFeature> FeatureFinder::layer_features(bool floor_layer) const {
+std::vector<GapFeature> FeatureFinder::layer_features(Layer layer) const {
+  auto layer_of = [](CellKind k) {
+    return k == CellKind::floor_band ? Layer::floor_bands : k == CellKind::broadband_peak ? Layer::local_peaks : Layer::lines_and_bins;
+  };
   std::size_t rejected = 0;
   const auto flags = counted(rejected);
   std::vector<std::pair<std::size_t, std::size_t>> where;
@@ -322,7 +386,7 @@ std::vector<GapFeature> FeatureFinder::layer_features(bool floor_layer) const {
     std::vector<Cluster> clusters;
     std::vector<std::vector<std::size_t>> by_record(records_.size());
     for (std::size_t i = 0; i < flags.size(); ++i)
-      if (flags[i] && (records_[where[i].first].cells[where[i].second].kind == CellKind::floor_band) == floor_layer)
+      if (flags[i] && layer_of(records_[where[i].first].cells[where[i].second].kind) == layer)
         by_record[where[i].first].push_back(where[i].second);
     for (std::size_t r = 0; r < records_.size(); ++r) {
       auto& cells = by_record[r];

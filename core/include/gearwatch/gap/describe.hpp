@@ -60,6 +60,7 @@ struct DescriptionSettings {
   double supply_tolerance_orders = 0.1; ///< a tone this near k·50/60 Hz (in input orders at the top speed) is supply
   int max_supply_harmonic = 40;
   FloorSettings floor;                  ///< the broadband floors' bands, as the finder's (floor features)
+  LocalPeakSettings local;              ///< the bins' neighbourhood, as the finder's (local_resonance)
   double min_speed_ratio = 1.05;        ///< the finder's (the diagnosis copies it): joined resonance flanks at speeds this far apart are fixed in Hz
 };
 
@@ -124,6 +125,11 @@ class FeatureDescriber {
   void join_resonance_flanks(std::vector<GapFeature>& features) const;
   double g_of(std::size_t r, std::size_t c, double measured) const;
   Fit resonance(const GapFeature& f, const Window& w) const;
+  /// A feature whose cells all lie under the comparison's floor, found in its bins' local peaks
+  /// (features.hpp): the resonance form fitted to the window's broadband bins against their
+  /// neighbourhood's expectation (local_expectation) with no floor, kept when it brings the bins at
+  /// the practical minimum under it; else none. Not for a feature fixed in orders.
+  FeatureDescription local_resonance(const GapFeature& f, const Window& w, const FeatureDescription& none) const;
   /// Up to max_tones non-synchronous tones (one place and power each), found one at a time where the
   /// window's g is worst explained, each kept only if it lowers the BIC; powers refitted together.
   Fit tones(const GapFeature& f, const Window& w, bool fixed_in_hz, int max_tones) const;
@@ -144,6 +150,7 @@ class FeatureDescriber {
   Fit floor_, tilt_, modulation_input_, modulation_output_;
   double carrier_pm_index_ = 0;  ///< the PM index the mesh carriers' loss shows (bounds where the sidebands are read)
   std::vector<FloorComparison> floors_;  ///< each record's broadband floors (compare_floors)
+  std::vector<std::vector<double>> local_;  ///< each record's broadband expectation from its neighbourhood (local_expectation)
 };
 
 /// A record of a unit-amplitude tone at input order `order` alone, at the speed and whole

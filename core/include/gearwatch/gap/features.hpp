@@ -25,7 +25,10 @@
 //  - size: per sighting the largest |g| with its sign, the mean over sightings; its interval the
 //    normal 90 % interval from the cells' bootstrap spreads (records independent);
 //  - broadband floors: each record's floor per band (compare_floors) is one more cell per band in
-//    the same test; floor bands cluster and join among themselves (floor_features()).
+//    the same test; floor bands cluster and join among themselves (floor_features());
+//  - broadband peaks: each band of band_bins bins once more against its neighbourhood
+//    (local_expectation), g = 10·log10(ΣM / ΣE) without the comparison's floor, in the same test,
+//    one-sided (rising only); their own layer, a feature only where no line or bin feature overlaps it in Hz.
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -73,6 +76,33 @@ struct FloorComparison {
 /// Throws nothing: spectra without broadband bins give no bands.
 FloorComparison compare_floors(const SpectralSummary& measured, const SpectralSummary& twin, const FloorSettings& settings = {});
 
+/// Each broadband bin against its own neighbourhood (local_expectation): a peak a few bins wide
+/// (a narrow resonance between the lines, where no line falls on it) is seen however far under the
+/// comparison's floor it lies, as long as it stands over the capture's own floor beside it.
+struct LocalPeakSettings {
+  /// Off until calibrated on real records: on a spent bench draw the local cells found the
+  /// resonance but also tens of single-record peaks at the 3 dB minimum (docs/gap.md).
+  bool enabled = false;
+  /// The reference bins lie this many bins and more away on either side: a peak whose half-width
+  /// is under it leaves its reference alone; anything broader is a floor change (the floors' bands).
+  std::size_t inner_bins = 4;
+  std::size_t outer_bins = 24;      ///< and at most this many: the neighbourhood stays local
+  std::size_t min_reference = 8;    ///< bins the reference's medians need at least (half each side)
+  /// Bins a local cell sums (centred): a peak a few bins wide falls into it whole, and the sum's χ²
+  /// has this many times one bin's degrees of freedom, so a short record's scatter stays far under
+  /// the practical minimum.
+  std::size_t band_bins = 3;
+};
+
+/// The measured broadband's expectation per bin from its neighbourhood: (T_k + A)·max(median_j r_j
+/// below k, above k), r_j = M_j / (T_j + A) over the bins j at inner_bins..outer_bins from k on each
+/// side (the higher side: a floor's edge is not a peak), A the
+/// capture's acquisition floor (compare_floors): with no effect the measurement is the twin plus
+/// its own floor, and any change smooth over the neighbourhood (a floor step, a tilt) is in the
+/// median. NaN where the reference is short or T_k + A is 0.
+std::vector<double> local_expectation(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
+                                      const LocalPeakSettings& settings);
+
 struct FeatureSettings {
   double false_discovery_rate = 0.05;  ///< Benjamini–Hochberg q over all cells
   /// The practical minimum of a feature's cells, dB: a factor of two in power, the half-power
@@ -82,6 +112,7 @@ struct FeatureSettings {
   double min_speed_ratio = 1.05;       ///< sightings at speeds this far apart can tell orders from Hz
   double coverage = 0.90;              ///< of the size's interval
   FloorSettings floor;                 ///< the broadband floors' bands (floor features)
+  LocalPeakSettings local;             ///< the broadband bins against their neighbourhood (broadband_peak cells)
 };
 
 /// One record pair the features are read from: its spectra over all revolutions and the floor.
@@ -115,7 +146,7 @@ class FeatureFinder {
   struct Piece {
     double speed_hz, order, hz;
   };
-  enum class CellKind : std::uint8_t { input_line, output_line, broadband, floor_band };
+  enum class CellKind : std::uint8_t { input_line, output_line, broadband, floor_band, broadband_peak };
   struct Cell {
     CellKind kind;
     std::size_t index;      // order − 1 (lines), bin − 1 (broadband), band (floor_band)
@@ -139,7 +170,8 @@ class FeatureFinder {
     std::vector<std::size_t> cells;
     double low, high;
   };
-  std::vector<GapFeature> layer_features(bool floor_bands) const;
+  enum class Layer : std::uint8_t { lines_and_bins, floor_bands, local_peaks };
+  std::vector<GapFeature> layer_features(Layer layer) const;
   std::vector<Piece> pieces_of(const std::vector<Cluster>& clusters, const std::vector<std::size_t>& group) const;
   GapFeature feature_of(const std::vector<Cluster>& clusters, const std::vector<std::size_t>& group,
                         const std::vector<std::vector<double>>& cell_p) const;
