@@ -450,7 +450,9 @@ FeatureDescriber::FeatureDescriber(const std::vector<DescribedRecord>& records, 
   }
   for (const auto& src : sources_) {
     floors_.push_back(compare_floors(*src.measured, *src.twin, settings_.floor));
-    local_.push_back(local_expectation(*src.measured, *src.twin, floors_.back().acquisition, settings_.local));
+    // Off by default (not calibrated): no expectation is computed for a diagnosis that does not read it.
+    local_.push_back(settings_.local.enabled ? local_expectation(*src.measured, *src.twin, floors_.back().acquisition, settings_.local)
+                                             : std::vector<double>{});
   }
   floor_ = floor_change();
   tilt_ = path_tilt();

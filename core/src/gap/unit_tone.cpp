@@ -306,24 +306,30 @@ void UnitToneCells::set_lines() {
     out(static_cast<double>(k) * ratio_, -t_[k]), out(-static_cast<double>(k) * ratio_, -std::conj(t_[k]));
 }
 
+namespace {
+/// A line's share of a grid head's correction: `delta` (the resampler's leading samples less the
+/// closed form) through the per-revolution DFT at `order`, averaged over `revolutions`.
+Complex head_correction(const std::vector<double>& delta, double order, std::size_t samples_per_rev, std::size_t revolutions) {
+  const auto spr = static_cast<double>(samples_per_rev);
+  Complex sum;
+  for (std::size_t j = 0; j < delta.size(); ++j)
+    sum += 2.0 / (spr * static_cast<double>(revolutions)) * delta[j] * std::polar(1.0, -2 * kPi * order * static_cast<double>(j) / spr);
+  return sum;
+}
+}  // namespace
+
 double UnitToneCells::input_line(std::size_t index) const {
   if (!exact_) return index < fallback_.input_lines.size() ? fallback_.input_lines[index] : 0.0;
   if (index >= k_in_) return 0.0;
-  const auto k = static_cast<double>(index + 1), spr = static_cast<double>(spr_);
-  Complex line = input_lines_.at_line(k);
-  for (std::size_t j = 0; j < delta_in_.size(); ++j)
-    line += 2.0 / (spr * static_cast<double>(revs_)) * delta_in_[j] * std::polar(1.0, -2 * kPi * k * static_cast<double>(j) / spr);
-  return std::norm(line);
+  const auto k = static_cast<double>(index + 1);
+  return std::norm(input_lines_.at_line(k) + head_correction(delta_in_, k, spr_, revs_));
 }
 
 double UnitToneCells::output_line(std::size_t index) const {
   if (!exact_) return index < fallback_.output_lines.size() ? fallback_.output_lines[index] : 0.0;
   if (index >= k_out_ || output_line_is_mesh(static_cast<int>(index + 1), gears_.gear_teeth)) return 0.0;
-  const auto m = static_cast<double>(index + 1), spr_out = static_cast<double>(spr_out_);
-  Complex line = output_lines_.at_line(m);
-  for (std::size_t i = 0; i < delta_out_.size(); ++i)
-    line += 2.0 / (spr_out * static_cast<double>(out_revs_)) * delta_out_[i] * std::polar(1.0, -2 * kPi * m * static_cast<double>(i) / spr_out);
-  return std::norm(line);
+  const auto m = static_cast<double>(index + 1);
+  return std::norm(output_lines_.at_line(m) + head_correction(delta_out_, m, spr_out_, out_revs_));
 }
 
 double UnitToneCells::half_bin_power(std::size_t j) const {
