@@ -694,10 +694,11 @@ TEST_CASE("issue 36: the measured floor from a known baseline equals its formula
 TEST_CASE("issue 36: AR(1) wander of SD floor/3 and floor/2 stays under Ville's bound once the baseline is measured",
           "[dsp][wear_mechanism]") {
   // As the floor/6 test above, with the wander at a third and a half of the configured floor. Until
-  // kMinimumBaselinePoints earlier values exist the configured floor alone applies, and ten records
-  // of an AR(1) path cannot measure its wander: those records' false alarms are counted and printed,
-  // not bounded (docs/dsp.md). From then on the measured floor must carry the bound: a history counts
-  // when the verdict is raised at any record past the first kMinimumBaselinePoints, whatever came before.
+  // kMinimumBaselinePoints earlier values exist ten records of an AR(1) path cannot measure its
+  // wander: the verdict asks incomplete_baseline_floor (wander up to kEarlyWanderFraction = 1/2 of the
+  // configured floor), and a history counts there when the verdict is raised within the first
+  // kMinimumBaselinePoints records. From then on the measured floor must carry the bound: a history
+  // counts when the verdict is raised at any record past them, whatever came before. Both bounded.
   SignalProcessingSettings settings;
   const double floor = material_ics2_rise(settings);
   const double bar = rising_evidence_threshold(settings.trend_significance);
@@ -734,6 +735,10 @@ TEST_CASE("issue 36: AR(1) wander of SD floor/3 and floor/2 stays under Ville's 
   CHECK(b.once_measured <= 1.0 / 40.0 + margin);
   CHECK(c.once_measured <= 1.0 / 40.0 + margin);
   CHECK(d.once_measured <= 1.0 / 40.0 + margin);
+  CHECK(a.before_measured <= 1.0 / 40.0 + margin);
+  CHECK(b.before_measured <= 1.0 / 40.0 + margin);
+  CHECK(c.before_measured <= 1.0 / 40.0 + margin);
+  CHECK(d.before_measured <= 1.0 / 40.0 + margin);
 }
 
 TEST_CASE("issue 36: a ramp after a wandering baseline is named within the rank rule's records of crossing the measured floor",

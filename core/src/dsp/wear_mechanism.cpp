@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/normal.hpp>
 
 #include "gearwatch/dsp/record_analyzer.hpp"
 
@@ -339,6 +340,14 @@ double wander_sd_upper_bound(std::span<const double> baseline) {
   return std::sqrt(line_residual_ss(baseline) * wander_bound_factor(baseline.size()));
 }
 
+double incomplete_baseline_floor(std::size_t earlier_points, const SignalProcessingSettings& settings) {
+  const double configured = material_ics2_rise(settings);
+  const double tail = settings.trend_significance / (2.0 * static_cast<double>(std::max<std::size_t>(1, earlier_points)));
+  if (configured <= 0.0 || !(tail > 0.0 && tail < 0.5)) return configured;
+  const double z = boost::math::quantile(boost::math::normal(), 1.0 - tail);
+  return std::max(configured, std::sqrt(2.0) * kEarlyWanderFraction * configured * z);
+}
+
 BandFloor band_material_floor(std::span<const double> values, std::size_t earlier_points,
                               const SignalProcessingSettings& settings) {
   BandFloor f;
@@ -401,8 +410,8 @@ std::string floor_text(const BandFloor& f, const SignalProcessingSettings& setti
       std::snprintf(text, sizeof text, "%.3g (configured)", f.floor);
       break;
     case FloorSource::baseline_incomplete:
-      std::snprintf(text, sizeof text, "%.3g (configured: baseline %zu records, measured from %zu, complete at %d)", f.floor,
-                    f.baseline_points, kMinimumBaselinePoints, wanted);
+      std::snprintf(text, sizeof text, "%.3g (first records: wander up to %.2g x the configured %.3g; baseline %zu records, measured from %zu, complete at %d)",
+                    f.floor, kEarlyWanderFraction, material_ics2_rise(settings), f.baseline_points, kMinimumBaselinePoints, wanted);
       break;
     case FloorSource::baseline_named_wear:
       std::snprintf(text, sizeof text, "%.3g (configured: wear named at the baseline's last record)", f.floor);
@@ -441,8 +450,13 @@ std::pair<BandFloor, BandFloor> band_floors(const std::vector<double>& cycles, c
     for (std::size_t i = 0; i < base.size(); ++i) n += std::isfinite(base[i]) && base_cycles[i] < judged;
     return n;
   };
-  return {band_material_floor(base_low, earlier(low, base_low), settings),
-          band_material_floor(base_high, earlier(high, base_high), settings)};
+  // Until the wander is measured the points cannot rule out a wander as large as the early guard.
+  auto floor_of = [&](const std::vector<double>& y, const std::vector<double>& base) {
+    BandFloor f = band_material_floor(base, earlier(y, base), settings);
+    if (f.source == FloorSource::baseline_incomplete) f.floor = std::max(f.floor, incomplete_baseline_floor(f.baseline_points, settings));
+    return f;
+  };
+  return {floor_of(low, base_low), floor_of(high, base_high)};
 }
 
 }  // namespace

@@ -110,6 +110,7 @@ double material_ics2_rise(const SignalProcessingSettings& settings);
 enum class FloorSource {
   configured,            ///< settings.wear_baseline_records is 0: material_ics2_rise alone
   baseline_incomplete,   ///< fewer than kMinimumBaselinePoints earlier finite values: the configured floor
+                         ///< (band_material_floor); the verdict raises it to incomplete_baseline_floor
   baseline_named_wear,   ///< the verdict named wear at the baseline's last record: not a healthy baseline
   baseline,              ///< max(configured, kWanderFloorMultiple x the baseline's wander bound); the
                          ///< baseline may still be growing (baseline_points < wear_baseline_records)
@@ -152,6 +153,20 @@ struct BandFloor {
 /// The fewest baseline values the wander is measured from (below, the configured floor alone).
 inline constexpr std::size_t kMinimumBaselinePoints = 10;
 
+/// Before the wander can be measured, the first records are guarded against a healthy band whose
+/// ICS2 wanders (any AR(1) correlation) with an SD up to this fraction of the configured floor.
+inline constexpr double kEarlyWanderFraction = 0.5;
+
+/// The floor the verdict asks of a band whose baseline is incomplete (FloorSource::baseline_incomplete),
+/// judging a newest point with `earlier_points` earlier finite values: its rise over the lowest of
+/// them is a rise over at least one of them; the difference of two records of a stationary wander of
+/// SD s has SD <= sqrt(2) s whatever their correlation, so with s <= kEarlyWanderFraction x
+/// material_ics2_rise, P(rise >= floor) <= earlier_points x (1 - Phi(floor / (sqrt(2) s))) (Bonferroni),
+/// which is the band's share of the significance, trend_significance / 2, at
+///   floor = sqrt(2) kEarlyWanderFraction material_ics2_rise z(1 - trend_significance / (2 earlier_points)),
+/// never below material_ics2_rise. 0 when materiality is off.
+double incomplete_baseline_floor(std::size_t earlier_points, const SignalProcessingSettings& settings);
+
 /// A band's floor from its values in record order (the gear pair's history from its first record),
 /// judging a newest point that has `earlier_points` finite values before it: the first
 /// min(settings.wear_baseline_records, earlier_points) finite values are its healthy baseline (it
@@ -184,7 +199,8 @@ struct WearMechanismVerdict {
   /// then about the other band alone, and cannot name this band's mechanism (nullopt = both seen).
   std::optional<CarrierBand> unseen_band;
   TrendTest low_band, high_band;
-  BandFloor low_floor, high_floor;    ///< each band's materiality floor (band_material_floor)
+  BandFloor low_floor, high_floor;    ///< each band's materiality floor (band_material_floor; while
+                                      ///< baseline_incomplete, raised to incomplete_baseline_floor)
   std::vector<BandJump> band_jumps;   ///< significant moves of the selected band (see BandJump)
   std::string evidence;               ///< one line: statistics, p-values, jumps
 };
