@@ -725,8 +725,8 @@ TEST_CASE("issue 36: AR(1) wander of SD floor/3 and floor/2 stays under Ville's 
     return Rates{static_cast<double>(early) / histories, static_cast<double>(late) / histories};
   };
   const double margin = 3 * std::sqrt(0.025 * 0.975 / histories);  // binomial 3-sigma at the bound
-  const Rates a = false_alarms(3, 0.5, 4666), b = false_alarms(3, 0.8, 4667);
-  const Rates c = false_alarms(2, 0.5, 4668), d = false_alarms(2, 0.8, 4669);
+  const Rates a = false_alarms(3, 0.5, 4670), b = false_alarms(3, 0.8, 4671);
+  const Rates c = false_alarms(2, 0.5, 4672), d = false_alarms(2, 0.8, 4673);
   INFO("raised within the first " << measured_from << " records / after: floor/3 phi 0.5 " << a.before_measured << " / "
                                   << a.once_measured << ", phi 0.8 " << b.before_measured << " / " << b.once_measured
                                   << "; floor/2 phi 0.5 " << c.before_measured << " / " << c.once_measured << ", phi 0.8 "
