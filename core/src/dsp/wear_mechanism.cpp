@@ -410,7 +410,8 @@ std::string floor_text(const BandFloor& f, const SignalProcessingSettings& setti
       std::snprintf(text, sizeof text, "%.3g (configured)", f.floor);
       break;
     case FloorSource::baseline_incomplete:
-      std::snprintf(text, sizeof text, "%.3g (first records: wander up to %.2g x the configured %.3g; baseline %zu records, measured from %zu, complete at %d)",
+      std::snprintf(text, sizeof text,
+                    "%.3g (first records: wander up to %.2g x the configured %.3g; baseline %zu records, measured from %zu, complete at %d)",
                     f.floor, kEarlyWanderFraction, material_ics2_rise(settings), f.baseline_points, kMinimumBaselinePoints, wanted);
       break;
     case FloorSource::baseline_named_wear:
@@ -453,7 +454,8 @@ std::pair<BandFloor, BandFloor> band_floors(const std::vector<double>& cycles, c
   // Until the wander is measured the points cannot rule out a wander as large as the early guard.
   auto floor_of = [&](const std::vector<double>& y, const std::vector<double>& base) {
     BandFloor f = band_material_floor(base, earlier(y, base), settings);
-    if (f.source == FloorSource::baseline_incomplete) f.floor = std::max(f.floor, incomplete_baseline_floor(f.baseline_points, settings));
+    if (f.source == FloorSource::baseline_incomplete)
+      f.floor = std::max(f.floor, incomplete_baseline_floor(f.baseline_points, settings));
     return f;
   };
   return {floor_of(low, base_low), floor_of(high, base_high)};

@@ -9,9 +9,11 @@
 //   long the history grows (Ville's inequality);
 // - material: the newest ICS2 stands at least the band's floor above the lowest earlier value
 //   of the history: material_ics2_rise(), raised to a multiple of the wander of the band's own
-//   healthy baseline once that is measured (band_material_floor). A band holding a wear vibration (mesh-modulated with its own ICS2 I_s) and
-//   independent stationary content reads ICS2 = share^2 x I_s, share = the wear vibration's part of
-//   the band's power. A band "carries" a mechanism when that share reaches
+//   healthy baseline once that is measured (band_material_floor), before that to the first records'
+//   guard against a wander of up to half the floor (incomplete_baseline_floor). A band holding a
+//   wear vibration (mesh-modulated with its own ICS2 I_s) and independent stationary content reads
+//   ICS2 = share^2 x I_s, share = the wear vibration's part of the band's power. A band "carries" a
+//   mechanism when that share reaches
 //   settings.wear_min_band_share (default 1/2: the wear vibration is at least as strong as
 //   everything else in the band), taking I_s as the ICS2 of noise amplitude-modulated at depth 1/2
 //   (0.2006; a single tooth pair's sliding speed, zero at the pitch point, gives 0.397): 0.050 at
@@ -159,12 +161,13 @@ inline constexpr double kEarlyWanderFraction = 0.5;
 
 /// The floor the verdict asks of a band whose baseline is incomplete (FloorSource::baseline_incomplete),
 /// judging a newest point with `earlier_points` earlier finite values: its rise over the lowest of
-/// them is a rise over at least one of them; the difference of two records of a stationary wander of
-/// SD s has SD <= sqrt(2) s whatever their correlation, so with s <= kEarlyWanderFraction x
+/// them is a rise over at least one of them; the difference of two records of a stationary Gaussian
+/// wander of SD s has SD <= sqrt(2) s whatever their correlation, so with s <= kEarlyWanderFraction x
 /// material_ics2_rise, P(rise >= floor) <= earlier_points x (1 - Phi(floor / (sqrt(2) s))) (Bonferroni),
 /// which is the band's share of the significance, trend_significance / 2, at
 ///   floor = sqrt(2) kEarlyWanderFraction material_ics2_rise z(1 - trend_significance / (2 earlier_points)),
-/// never below material_ics2_rise. 0 when materiality is off.
+/// never below material_ics2_rise (a bound per judged record; the rank evidence must reach its bar
+/// too). 0 when materiality is off.
 double incomplete_baseline_floor(std::size_t earlier_points, const SignalProcessingSettings& settings);
 
 /// A band's floor from its values in record order (the gear pair's history from its first record),
