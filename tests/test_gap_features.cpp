@@ -1063,4 +1063,35 @@ TEST_CASE("gap attribution: a pure once-per-revolution AM is the shaft-order loa
   CHECK(none_report.chosen.empty());
   CHECK(none_report.features.empty());
 }
+TEST_CASE("gap features: the local peaks' chi-square law holds on white noise through RecordSpectra",
+          "[gap][gap_features]") {
+  // The twin's lines alone and its measurement: the same lines plus white Gaussian noise, through
+  // the project's own spectral path. With no peak, a cell's p-value by the law is uniform: the share
+  // of cells at p ≤ α is α. Cells 52 bins apart share no bin (a cell and its reference reach 25
+  // bins each side), and the records' noise is independent: the count is binomial. Tolerance stated
+  // before the run: within 3 binomial σ, at each record length (its blocks set the law's dof), from
+  // the law's shortest record to the bench's longest (2.5 s at 16 Hz).
+  const double fs = 20000, speed = 16;
+  std::mt19937_64 rng(4711);
+  const LocalPeakSettings settings;
+  for (int revs : {static_cast<int>(settings.min_revolutions), 40}) {
+    std::vector<double> p;
+    for (int record = 0; record < 160; ++record) {
+      const RecordSpectra twin(noisy_lines_record(fs, speed, revs, 0.0, 0.0, 0, 0, rng), 0, GearPairSpec{});
+      const RecordSpectra measured(noisy_lines_record(fs, speed, revs, 1e-3, 0.0, 0, 0, rng), 0, GearPairSpec{});
+      const auto m = measured.summary(), t = twin.summary();
+      const auto cells = local_peak_p_values(m, t, compare_floors(m, t).acquisition, settings);
+      for (std::size_t k = 30 + static_cast<std::size_t>(record % 52); k < cells.size(); k += 52)
+        if (std::isfinite(cells[k])) p.push_back(cells[k]);
+    }
+    const double n = static_cast<double>(p.size());
+    REQUIRE(n > 1500);
+    for (double alpha : {0.05, 0.01, 0.001}) {
+      const double under = static_cast<double>(std::count_if(p.begin(), p.end(), [&](double v) { return v <= alpha; }));
+      INFO(revs << " revolutions, alpha " << alpha << ": " << under << " of " << n);
+      CHECK(std::abs(under - alpha * n) <= 3 * std::sqrt(n * alpha * (1 - alpha)));
+    }
+  }
+}
+
 }  // namespace test_gap_features

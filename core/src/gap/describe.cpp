@@ -1474,7 +1474,11 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   const double hz_width = f.hz_high - f.hz_low;
   if (f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
   else if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
-  return chosen_form(fits, w);
+  // A narrow resonance between the lines stands mostly under the comparison's floor, where no form
+  // against the twin can reach it while a line or bin of its window is over the practical minimum:
+  // when none removes the gap, its bins against their neighbourhood are asked.
+  const FeatureDescription chosen = chosen_form(fits, w);
+  return chosen.kind == DescriptionKind::none ? local_resonance(f, w, chosen) : chosen;
 }
 
 void FeatureDescriber::join_resonance_flanks(std::vector<GapFeature>& features) const {

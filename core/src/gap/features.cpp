@@ -6,7 +6,12 @@
 #include <numeric>
 #include <stdexcept>
 
+#include <complex>
+#include <numbers>
+
 #include <boost/math/distributions/students_t.hpp>
+#include <boost/math/special_functions/beta.hpp>
+#include <boost/math/special_functions/gamma.hpp>
 
 namespace gearwatch::gap {
 namespace {
@@ -75,6 +80,90 @@ std::vector<double> local_expectation(const SpectralSummary& measured, const Spe
     if (left.size() < each || right.size() < each) continue;
     // A peak stands over both sides; a floor's edge over one side only: the higher side's median.
     out[k] = below * std::max(median_of(left), median_of(right));
+  }
+  return out;
+}
+
+namespace {
+
+/// |Σ w(t)·w(t − lag·n/2)·e^(−2πi·d·t/n)| / Σ w(t)², w the periodic Hann window of n samples: the
+/// correlation of two half-order bins d apart in blocks `lag` hops apart (white noise).
+double hann_correlation(int lag, int d) {
+  constexpr std::size_t n = 256;  // the ratios are those of the continuous window to well under 1e-3
+  std::complex<double> sum = 0;
+  double norm = 0;
+  auto w = [&](long t) { return t < 0 || t >= static_cast<long>(n) ? 0.0 : 0.5 - 0.5 * std::cos(2 * std::numbers::pi * t / n); };
+  for (long t = 0; t < static_cast<long>(n); ++t) {
+    norm += w(t) * w(t);
+    sum += w(t) * w(t - lag * static_cast<long>(n / 2)) * std::polar(1.0, -2 * std::numbers::pi * d * t / n);
+  }
+  return std::abs(sum) / norm;
+}
+
+/// The covariance of two sums of half-order bins' powers averaged over `blocks` blocks, each bin's
+/// power of unit mean: Σ over pairs of bins and blocks of the squared correlation, over blocks².
+double summed_covariance(std::size_t first_a, std::size_t count_a, std::size_t first_b, std::size_t count_b, double blocks) {
+  double c = 0;
+  for (std::size_t i = first_a; i < first_a + count_a; ++i)
+    for (std::size_t j = first_b; j < first_b + count_b; ++j) {
+      const int d = static_cast<int>(i) - static_cast<int>(j);
+      c += blocks * std::pow(hann_correlation(0, d), 2) + 2 * std::max(0.0, blocks - 1) * std::pow(hann_correlation(1, d), 2);
+    }
+  return c / (blocks * blocks);
+}
+
+}  // namespace
+
+double welch_dof(std::size_t half_bins, double blocks) {
+  if (half_bins == 0 || !(blocks > 0)) return 0;
+  const double mean = static_cast<double>(half_bins);
+  return 2 * mean * mean / summed_covariance(0, half_bins, 0, half_bins, blocks);
+}
+
+LocalPeakLaw local_peak_law(std::size_t input_revolutions, const LocalPeakSettings& s) {
+  LocalPeakLaw law;
+  // B = R − 1 blocks of 2 revolutions, less one for their mean (RecordSpectra).
+  if (input_revolutions < std::max<std::size_t>(3, s.min_revolutions) || s.outer_bins < s.inner_bins) return law;
+  const double blocks = static_cast<double>(input_revolutions) - 2.0;
+  law.cell_dof = welch_dof(2 * s.band_bins, blocks);
+  law.bin_dof = welch_dof(2, blocks);
+  // Adjacent 1-order bins share the window's reach over their touching half-order bins.
+  const double rho = summed_covariance(0, 2, 2, 2, blocks) / summed_covariance(0, 2, 0, 2, blocks);
+  const double side = static_cast<double>(s.outer_bins - s.inner_bins + 1) / (1 + 2 * rho);
+  const double a = (side + 1) / 2;  // the median of `side` values: the order statistic of Beta(a, a)
+  // The larger of two independent sides' medians has CDF G² (G one side's): at probability u each
+  // side's median sits at G⁻¹(√u). A grid in u, geometric towards 0 where the smallest references
+  // (the largest ratios) come from, trapezoid weights.
+  constexpr int points = 160;
+  std::vector<double> u;
+  for (int i = 0; i < points; ++i) u.push_back(std::pow(10.0, -15.0 * (1.0 - static_cast<double>(i) / (points - 1))));
+  const double shape = law.bin_dof / 2;
+  for (int i = 0; i < points; ++i) {
+    const double f = boost::math::ibeta_inv(a, a, std::sqrt(std::min(u[i], 1.0 - 1e-16)));
+    law.reference.push_back(boost::math::gamma_p_inv(shape, f) / shape);
+    const double lo = i > 0 ? u[i - 1] : 0.0, hi = i + 1 < points ? u[i + 1] : 1.0;
+    law.weight.push_back((hi - lo) / 2 + (i == 0 ? u[0] / 2 : 0.0));
+  }
+  return law;
+}
+
+double LocalPeakLaw::p_value(double ratio) const {
+  if (!valid() || !(ratio >= 0)) return std::numeric_limits<double>::quiet_NaN();
+  const double shape = cell_dof / 2;
+  double p = 0;
+  for (std::size_t i = 0; i < reference.size(); ++i) p += weight[i] * boost::math::gamma_q(shape, shape * ratio * reference[i]);
+  return std::clamp(p, 0.0, 1.0);
+}
+
+std::vector<double> local_peak_p_values(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
+                                        const LocalPeakSettings& settings) {
+  const auto expected = local_expectation(measured, twin, acquisition, settings);
+  std::vector<double> out(expected.size(), std::numeric_limits<double>::quiet_NaN());
+  const LocalPeakLaw law = local_peak_law(measured.input_revolutions, settings);
+  if (!law.valid()) return out;
+  for (std::size_t k = 0; k < expected.size(); ++k) {
+    const double g = peak_db(measured.broadband, expected, k, settings.band_bins);
+    if (std::isfinite(g)) out[k] = law.p_value(std::pow(10.0, g / 10));
   }
   return out;
 }
@@ -167,10 +256,16 @@ FeatureFinder::FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPa
     }
     const FloorComparison floors = compare_floors(m, t, settings.floor);
     const auto expected = settings.local.enabled ? local_expectation(m, t, floors.acquisition, settings.local) : std::vector<double>{};
-    for (std::size_t k = 1; k <= expected.size(); ++k) {
+    const LocalPeakLaw law = settings.local.enabled ? local_peak_law(m.input_revolutions, settings.local) : LocalPeakLaw{};
+    // Spectra made in closed form carry no revolutions: their cells are tested on the bootstrap's
+    // spread (p_values); a record too short for the law has no local cells.
+    const bool tested = law.valid() || m.input_revolutions == 0;
+    for (std::size_t k = 1; tested && k <= expected.size(); ++k) {
       const double o = static_cast<double>(k), h = static_cast<double>(settings.local.band_bins / 2);
       const double g = peak_db(m.broadband, expected, k - 1, settings.local.band_bins);
-      if (std::isfinite(g)) r.cells.push_back({CellKind::broadband_peak, k - 1, o - h, o + 1 + h, o + 0.5, g});
+      if (!std::isfinite(g)) continue;
+      r.cells.push_back({CellKind::broadband_peak, k - 1, o - h, o + 1 + h, o + 0.5, g});
+      r.cells.back().law_p = law.p_value(std::pow(10.0, g / 10));
     }
     const std::size_t ko = std::min(m.output_lines.size(), t.output_lines.size());
     for (std::size_t j = 1; j <= ko; ++j) {
@@ -221,8 +316,11 @@ std::vector<double> FeatureFinder::p_values(std::vector<std::pair<std::size_t, s
       const Cell& c = records_[r].cells[i];
       const double sd = c.sd();
       double value = 1.0;
-      // A local peak's test is one-sided (rising only, as it is counted): half the tail above t.
-      if (std::isfinite(sd) && sd > 0 && c.kind == CellKind::broadband_peak)
+      // A local peak's test is one-sided (rising only, as it is counted), by the χ² law of the
+      // record's bins; the bootstrap's spread only where the record's blocks are not known (spectra
+      // made in closed form): over a few revolutions it is narrower than the bins' own scatter.
+      if (c.kind == CellKind::broadband_peak && std::isfinite(c.law_p)) value = c.law_p;
+      else if (std::isfinite(sd) && sd > 0 && c.kind == CellKind::broadband_peak)
         value = c.g > 0 ? two_sided_p(c.g / sd, c.n - 1) / 2 : 1.0 - two_sided_p(c.g / sd, c.n - 1) / 2;
       else if (std::isfinite(sd) && sd > 0) value = two_sided_p(c.g / sd, c.n - 1);
       // No spread over the draws: both spectra are the same in every draw (no noise at all), so any
@@ -358,6 +456,9 @@ std::vector<GapFeature> FeatureFinder::features() const {
   auto out = layer_features(Layer::lines_and_bins);
   const std::size_t found = out.size();
   for (auto& f : layer_features(Layer::local_peaks)) {
+    // Persistence over records (LocalPeakSettings::min_record_share): a chance peak is in few.
+    const double needed = std::max(2.0, std::ceil(settings_.local.min_record_share * static_cast<double>(records_.size()) - 1e-9));
+    if (static_cast<double>(f.seen_in.size()) < needed) continue;
     bool overlaps = false;
     for (std::size_t i = 0; i < found; ++i) overlaps = overlaps || (f.hz_low <= out[i].hz_high && out[i].hz_low <= f.hz_high);
     if (!overlaps) out.push_back(std::move(f));

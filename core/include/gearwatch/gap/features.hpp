@@ -28,9 +28,11 @@
 //    the same test; floor bands cluster and join among themselves (floor_features());
 //  - broadband peaks: each band of band_bins bins once more against its neighbourhood
 //    (local_expectation), g = 10·log10(ΣM / ΣE) without the comparison's floor, in the same test,
-//    one-sided (rising only); their own layer, a feature only where no line or bin feature overlaps it in Hz.
+//    one-sided (rising only), p from the χ² law of the record's Welch bins (LocalPeakLaw); their own
+//    layer, a feature only where seen in half the records and no line or bin feature overlaps it in Hz.
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -80,9 +82,9 @@ FloorComparison compare_floors(const SpectralSummary& measured, const SpectralSu
 /// (a narrow resonance between the lines, where no line falls on it) is seen however far under the
 /// comparison's floor it lies, as long as it stands over the capture's own floor beside it.
 struct LocalPeakSettings {
-  /// Off until calibrated on real records: on a spent bench draw the local cells found the
-  /// resonance but also tens of single-record peaks at the 3 dB minimum (docs/gap.md).
-  bool enabled = false;
+  /// On: the cells' p-values come from the χ² law of the record's Welch bins (local_peak_p_values),
+  /// and a local peak counts only where it persists over records (min_record_share).
+  bool enabled = true;
   /// The reference bins lie this many bins and more away on either side: a peak whose half-width
   /// is under it leaves its reference alone; anything broader is a floor change (the floors' bands).
   std::size_t inner_bins = 4;
@@ -92,6 +94,14 @@ struct LocalPeakSettings {
   /// has this many times one bin's degrees of freedom, so a short record's scatter stays far under
   /// the practical minimum.
   std::size_t band_bins = 3;
+  /// A local peak is a feature only when seen in this share of the records, and in 2 at least: a
+  /// resonance of the machine is in every record whose band holds it, while the chance peaks that
+  /// Benjamini–Hochberg admits (a share q of its rejections, more of them the more a real effect
+  /// rejects) fall at places of their own in each record, two of which can meet by chance.
+  double min_record_share = 0.5;
+  /// The χ² law (local_peak_law) needs this many input revolutions: over fewer blocks the cells'
+  /// tail is heavier than two moments give (gap.md), and a shorter record has no local cells.
+  std::size_t min_revolutions = 20;
 };
 
 /// The measured broadband's expectation per bin from its neighbourhood: (T_k + A)·max(median_j r_j
@@ -102,6 +112,31 @@ struct LocalPeakSettings {
 /// median. NaN where the reference is short or T_k + A is 0.
 std::vector<double> local_expectation(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
                                       const LocalPeakSettings& settings);
+
+/// Equivalent χ² degrees of freedom (Satterthwaite: 2·mean²/variance) of `half_bins` adjacent
+/// half-order bins of the broadband part summed, averaged over `blocks` independent-mean Hann
+/// blocks of 2 revolutions at 50 % overlap, for Gaussian noise flat over them: the power of a
+/// complex Gaussian bin covaries with another's as |their covariance|², which the window sets.
+double welch_dof(std::size_t half_bins, double blocks);
+
+/// The law of a local cell's ratio ΣM/ΣE under no peak (local_expectation): ΣM is its bins' mean
+/// times χ²_ν/ν (ν = welch_dof of the cell's half-order bins over the record's B − 1 blocks); E
+/// is that mean times the larger of two sides' medians of the reference ratios, each ratio
+/// χ²_ν1/ν1 (one bin's ν1), the median's law that of the middle order statistic of the side's
+/// bins (their count divided by 1 + 2ρ, ρ the correlation of adjacent bins' powers). P(ratio ≥ s)
+/// integrates the χ² tail over the medians' law. Empty under min_revolutions.
+struct LocalPeakLaw {
+  double cell_dof = 0, bin_dof = 0;
+  std::vector<double> reference, weight;  ///< the larger median's values and their probability weights
+  bool valid() const { return !reference.empty(); }
+  double p_value(double ratio) const;
+};
+LocalPeakLaw local_peak_law(std::size_t input_revolutions, const LocalPeakSettings& settings);
+
+/// Each local cell's one-sided p-value by that law, [k]: the cell centred on broadband bin k; NaN
+/// where the cell has no expectation or the record is under min_revolutions.
+std::vector<double> local_peak_p_values(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
+                                        const LocalPeakSettings& settings);
 
 struct FeatureSettings {
   double false_discovery_rate = 0.05;  ///< Benjamini–Hochberg q over all cells
@@ -154,6 +189,7 @@ class FeatureFinder {
     double centre;          // input orders
     double g;               // dB
     double n = 0, mean = 0, m2 = 0;  // Welford over the draws
+    double law_p = std::numeric_limits<double>::quiet_NaN();  // a local cell's p from its χ² law
     double sd() const;
   };
 
