@@ -54,26 +54,26 @@ double rms_sa(std::span<const double> gmf_amplitudes, std::size_t harmonics) {
   return std::sqrt(sum);
 }
 
-std::size_t SynchronousSeparation::tapered_average(std::span<const double> x, std::size_t period,
-                                                   std::span<double> out) {
+std::size_t tapered_synchronous_average(std::span<const double> x, std::size_t period, double end_taper_fraction,
+                                        std::span<double> out) {
   const std::size_t periods = time_synchronous_average(x, period, out);
-  if (periods == 0 || !(end_taper_fraction_ > 0.0)) return periods;
+  if (periods == 0 || !(end_taper_fraction > 0.0)) return periods;
   // Only the ramps differ from the plain mean: correct the sums there instead of weighting every
   // sample.
   const std::size_t n = periods * period;
-  const auto ramp = std::min(n / 2, static_cast<std::size_t>(std::ceil(0.5 * end_taper_fraction_ * static_cast<double>(n))));
-  weight_sum_.assign(period, static_cast<double>(periods));
+  const auto ramp = std::min(n / 2, static_cast<std::size_t>(std::ceil(0.5 * end_taper_fraction * static_cast<double>(n))));
+  std::vector<double> weight_sum(period, static_cast<double>(periods));
   for (std::size_t k = 0; k < period; ++k) out[k] *= static_cast<double>(periods);
   auto reweight = [&](std::size_t j) {
-    const double w = tukey_weight(j, n, end_taper_fraction_);
+    const double w = tukey_weight(j, n, end_taper_fraction);
     out[j % period] -= (1.0 - w) * x[j];
-    weight_sum_[j % period] -= 1.0 - w;
+    weight_sum[j % period] -= 1.0 - w;
   };
   for (std::size_t j = 0; j < ramp; ++j) {
     reweight(j);
     if (n - 1 - j != j) reweight(n - 1 - j);
   }
-  for (std::size_t k = 0; k < period; ++k) out[k] /= weight_sum_[k];
+  for (std::size_t k = 0; k < period; ++k) out[k] /= weight_sum[k];
   return periods;
 }
 
@@ -88,8 +88,8 @@ SynchronousSeparation::Result SynchronousSeparation::separate(std::span<const do
   input_tsa_.resize(spr);
   output_tsa_.resize(spr);
   Result result;
-  result.input_averages = tapered_average(input_angle, spr, input_tsa_);
-  result.output_averages = tapered_average(output_angle, spr, output_tsa_);
+  result.input_averages = tapered_synchronous_average(input_angle, spr, end_taper_fraction_, input_tsa_);
+  result.output_averages = tapered_synchronous_average(output_angle, spr, end_taper_fraction_, output_tsa_);
 
   const auto g = static_cast<std::size_t>(std::gcd(pinion_teeth, gear_teeth));
   const std::size_t shared_period = static_cast<std::size_t>(gear_teeth) / g;  // output orders shared

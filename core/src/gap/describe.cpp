@@ -808,14 +808,15 @@ namespace {
 class SharedUnitTones {
  public:
   explicit SharedUnitTones(const GearPairSpec& gears) : gears_(gears) {}
-  const UnitToneCells& of(double order, double top_order, const SpectralSummary& like) {
+  /// `reads`: the cells the caller reads of it, by which it is reduced or taken in closed form.
+  const UnitToneCells& of(double order, double top_order, const SpectralSummary& like, const UnitToneReads& reads) {
     const double per_rev = samples_per_revolution(top_order, like);
     for (const auto& [key, unit] : done_)
       if (key.top_order == top_order && key.revolutions == like.input_revolutions &&
           std::abs(key.samples_per_revolution - per_rev) <= kSame * per_rev && std::abs(key.order - order) <= kSame * order)
         return unit;
     done_.emplace_back(std::piecewise_construct, std::forward_as_tuple(Key{order, top_order, like.input_revolutions, per_rev}),
-                       std::forward_as_tuple(order, top_order, like, gears_, kUnitToneSamplesPerCycle));
+                       std::forward_as_tuple(order, top_order, like, gears_, kUnitToneSamplesPerCycle, reads));
     return done_.back().second;
   }
 
@@ -843,9 +844,14 @@ std::vector<double> FeatureDescriber::tone_as_measured(double place, bool in_hz,
     const double order = in_hz ? place / records_[r].speed_hz : place;
     std::size_t end = e;
     double top = order;
-    for (; end < w.size() && w[end].first == r; ++end) top = std::max(top, records_[r].cells[w[end].second].order);
+    UnitToneReads reads;
+    for (; end < w.size() && w[end].first == r; ++end) {
+      const Cell& c = records_[r].cells[w[end].second];
+      top = std::max(top, c.order);
+      ++(c.kind == CellKind::broadband ? reads.broadband : reads.lines);
+    }
     // The measured record's revolutions; only the window's cells are computed.
-    const UnitToneCells& unit = shared.of(order, top + 1, *records_[r].source->measured);
+    const UnitToneCells& unit = shared.of(order, top + 1, *records_[r].source->measured, reads);
     for (; e < end; ++e) {
       const Cell& c = records_[r].cells[w[e].second];
       out[e] = c.kind == CellKind::input_line ? unit.input_line(c.index)

@@ -10,6 +10,7 @@
 #include "gearwatch/dsp/envelope.hpp"
 #include "gearwatch/dsp/fft.hpp"
 #include "gearwatch/dsp/order_tracking.hpp"
+#include "gearwatch/dsp/tsa.hpp"
 #include "gearwatch/gap/describe.hpp"
 
 namespace gearwatch::gap {
@@ -18,7 +19,7 @@ namespace {
 using Complex = std::complex<double>;
 constexpr double kPi = std::numbers::pi;
 // SynchronousSeparation's end taper (its default): the averages are taken as it takes them.
-constexpr double kEndTaper = 0.02;
+constexpr double kEndTaper = dsp::kSynchronousEndTaperFraction;
 // The output grid's gear-ratio fraction makes a grid of z_pinion/gcd · spr points; beyond this the
 // reduction itself is cheaper.
 constexpr std::size_t kMaxFineGrid = std::size_t{1} << 22;
@@ -34,26 +35,6 @@ Complex geometric(std::size_t count, double x) {
   const Complex turn = std::polar(1.0, kPi * x * (n - 1) / n);
   if (std::abs(s) < 1e-13) return turn * (n * std::cos(kPi * x) / std::cos(kPi * x / n));
   return turn * (std::sin(kPi * x) / s);
-}
-
-/// SynchronousSeparation's tapered average of `x` (whole periods of `period` samples) into `out`.
-void tapered_average(const std::vector<double>& x, std::size_t period, std::vector<double>& out) {
-  const std::size_t periods = x.size() / period, n = periods * period;
-  out.assign(period, 0.0);
-  for (std::size_t r = 0; r < periods; ++r)
-    for (std::size_t k = 0; k < period; ++k) out[k] += x[r * period + k];
-  std::vector<double> weight(period, static_cast<double>(periods));
-  const auto ramp = std::min(n / 2, static_cast<std::size_t>(std::ceil(0.5 * kEndTaper * static_cast<double>(n))));
-  auto reweight = [&](std::size_t j) {
-    const double w = dsp::tukey_weight(j, n, kEndTaper);
-    out[j % period] -= (1.0 - w) * x[j];
-    weight[j % period] -= 1.0 - w;
-  };
-  for (std::size_t j = 0; j < ramp; ++j) {
-    reweight(j);
-    if (n - 1 - j != j) reweight(n - 1 - j);
-  }
-  for (std::size_t k = 0; k < period; ++k) out[k] /= weight[k];
 }
 
 /// Harmonics 0 .. ⌈spr/2⌉ − 1 of one revolution's samples, per sample (spectrum / spr).
@@ -127,13 +108,14 @@ void unit_tone_samples(double order, double speed_hz, double sample_rate_hz, std
 }
 
 UnitToneCells::UnitToneCells(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
-                             double samples_per_cycle)
+                             double samples_per_cycle, std::optional<UnitToneReads> reads)
     : order_(order), gears_(gears) {
-  exact_ = set_up(like, top_order, samples_per_cycle);
+  exact_ = set_up(like, top_order, samples_per_cycle, reads);
   if (!exact_) fallback_ = unit_tone_spectra(order, top_order, like, gears, samples_per_cycle);
 }
 
-bool UnitToneCells::set_up(const SpectralSummary& like, double top_order, double samples_per_cycle) {
+bool UnitToneCells::set_up(const SpectralSummary& like, double top_order, double samples_per_cycle,
+                           const std::optional<UnitToneReads>& reads) {
   if (gears_.pinion_teeth < 1 || gears_.gear_teeth < 1 || !(like.speed_hz > 0)) return false;
   speed_ = like.speed_hz;
   fs_ = unit_tone_sample_rate(top_order, like, samples_per_cycle);
@@ -147,6 +129,10 @@ bool UnitToneCells::set_up(const SpectralSummary& like, double top_order, double
   ratio_ = static_cast<double>(gears_.gear_teeth) / gears_.pinion_teeth;
   if (revs_ < 3 || static_cast<std::size_t>(gears_.pinion_teeth / std::gcd(gears_.pinion_teeth, gears_.gear_teeth)) * spr_ > kMaxFineGrid)
     return false;
+  // Every check that sends the tone to the reduction comes before the closed form's set-up, which
+  // would otherwise be paid on top of the reduction.
+  const std::size_t part_size = std::min(revs_ * spr_, 4 * spr_);
+  if ((reads && !cheaper_than_reduction(*reads)) || !grids_fit(part_size)) return false;
   // The input grid's leading revolution as the resampler makes it (its kernel reads zeros before the
   // record's start): from the record's head only.
   dsp::ShaftAngle angle;
@@ -163,13 +149,24 @@ bool UnitToneCells::set_up(const SpectralSummary& like, double top_order, double
     delta_in_.push_back(head_in[j] - std::cos(2 * kPi * order_ * static_cast<double>(j) / static_cast<double>(spr_)));
   input_average();
   // The output-only signal's head on the input grid (the leading revolution the resampler's, float as stored).
-  std::vector<float> part(std::min(revs_ * spr_, 4 * spr_));
+  std::vector<float> part(part_size);
   for (std::size_t j = 0; j < part.size(); ++j)
     part[j] = static_cast<float>((j < spr_ ? head_in[j] : std::cos(2 * kPi * order_ * static_cast<double>(j) / static_cast<double>(spr_))) -
                                  tsa_in_[j % spr_]);
-  if (!output_average(part)) return false;
+  output_average(part);
   set_lines();
   return true;
+}
+
+bool UnitToneCells::cheaper_than_reduction(const UnitToneReads& reads) const {
+  // Costs in units of the reduction's cost per sample of the record: the set-up resamples a
+  // revolution and transforms the gear ratio's fine grid; a Dirichlet or block term (a sine and a few
+  // complex products) costs a tenth of a reduced sample.
+  constexpr double kSetUp = 0.25, kTerm = 0.1;
+  const auto spr = static_cast<double>(spr_), samples = static_cast<double>(revs_) * spr;
+  const double bin_terms = 2 * static_cast<double>(revs_ - 1) * (kBlockReach * ratio_ + 3);  // two half-order bins
+  const double terms = static_cast<double>(reads.lines) * spr + static_cast<double>(reads.broadband) * bin_terms;
+  return kSetUp * samples + kTerm * terms < samples;
 }
 
 void UnitToneCells::input_average() {
@@ -238,20 +235,26 @@ std::vector<double> UnitToneCells::grid_head(const std::vector<float>& part, std
   return delta;
 }
 
-bool UnitToneCells::output_average(const std::vector<float>& part) {
+bool UnitToneCells::grids_fit(std::size_t part_size) const {
   // Each output grid ends with its kernel inside the output-only signal (else the reduction reads
-  // zeros there, which this does not follow), and the heads' kernels inside `part`.
+  // zeros there, which this does not follow), and the heads' kernels inside the output-only
+  // signal's head (`part_size` samples).
   for (const std::size_t per : {spr_out_, spr_}) {
     const double reach = grid_kernel(ratio_, spr_, per).taps() / 2.0 + 1;
     const double last = static_cast<double>(out_revs_ * per - 1) * (ratio_ / static_cast<double>(per)) * static_cast<double>(spr_);
-    if (last + reach + 1 > static_cast<double>(revs_ * spr_) || 2 * reach + 2 > static_cast<double>(part.size())) return false;
+    if (last + reach + 1 > static_cast<double>(revs_ * spr_) || 2 * reach + 2 > static_cast<double>(part_size)) return false;
   }
-  delta_out_ = grid_head(part, spr_out_, t_.size(), 1.0);
-  // The output shaft's grid (spr a revolution, ratio input revolutions): the kernel's cutoff keeps
-  // the input average's harmonics under cutoff·spr/2, and the tone when it lies there; a tone in
-  // the kernel's transition band is followed by the reduction itself.
+  // The output shaft's grid (spr a revolution, ratio input revolutions): a tone in its kernel's
+  // transition band is followed by the reduction itself.
   const double limit = grid_kernel(ratio_, spr_, spr_).cutoff() * static_cast<double>(spr_) / 2;
-  if (order_ > kTransition * limit && order_ < limit / kTransition) return false;
+  return !(order_ > kTransition * limit && order_ < limit / kTransition);
+}
+
+void UnitToneCells::output_average(const std::vector<float>& part) {
+  delta_out_ = grid_head(part, spr_out_, t_.size(), 1.0);
+  // The output shaft's grid: the kernel's cutoff keeps the input average's harmonics under
+  // cutoff·spr/2, and the tone when it lies there (grids_fit keeps it out of the transition band).
+  const double limit = grid_kernel(ratio_, spr_, spr_).cutoff() * static_cast<double>(spr_) / 2;
   const double tone = order_ < limit ? 1.0 : 0.0;
   const std::size_t kept = std::min(t_.size(), static_cast<std::size_t>(std::ceil(limit)));
   const std::vector<double> delta_lp = grid_head(part, spr_, kept, tone);
@@ -274,11 +277,10 @@ bool UnitToneCells::output_average(const std::vector<float>& part) {
     z = j % kExact == 0 ? std::polar(1.0, step * static_cast<double>(j)) : z * rotation;
     grid[j] = tone * z.real() - average_on_fine[p] + (j < delta_lp.size() ? delta_lp[j] : 0.0);
   }
-  std::vector<double> tsa_out;
-  tapered_average(grid, spr_, tsa_out);
+  std::vector<double> tsa_out(spr_);
+  dsp::tapered_synchronous_average(grid, spr_, kEndTaper, tsa_out);
   o_ = harmonics(tsa_out);
   for (std::size_t m = 0; m < o_.size(); m += p_out) o_[m] = 0;  // DC and the orders both shafts share stay with the input
-  return true;
 }
 
 void UnitToneCells::set_lines() {

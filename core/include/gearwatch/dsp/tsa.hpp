@@ -13,6 +13,15 @@ namespace gearwatch::dsp {
 /// Returns the number of periods averaged (0 when x is shorter than one period).
 std::size_t time_synchronous_average(std::span<const double> x, std::size_t period, std::span<double> out);
 
+/// The end taper SynchronousSeparation takes its averages with by default (see there).
+inline constexpr double kSynchronousEndTaperFraction = 0.02;
+
+/// The mean over the whole periods of x at each position, weighted by a Tukey window of
+/// `end_taper_fraction` over those periods' samples (0: time_synchronous_average), into
+/// out[0 .. period). Returns the number of periods averaged (0 when x is shorter than one period).
+std::size_t tapered_synchronous_average(std::span<const double> x, std::size_t period, double end_taper_fraction,
+                                        std::span<double> out);
+
 /// Peak amplitudes of harmonics of `order` (in orders of the shaft the TSA belongs to) in a TSA
 /// of one revolution: amplitude[h-1] = 2 |DFT(tsa)[h*order]| / size, h = 1..count. Harmonics at
 /// or above the Nyquist order are returned as NaN.
@@ -28,7 +37,7 @@ double rms_sa(std::span<const double> gmf_amplitudes, std::size_t harmonics);
 
 /// Separates an angle-domain record into the synchronous parts of both shafts and the residual.
 /// Each TSA is a weighted mean over the revolutions, the weights a Tukey window over the whole
-/// record (end_taper_fraction, 2 % by default): a plain mean of a record whose last sample does
+/// record (tapered_synchronous_average, kSynchronousEndTaperFraction by default): a plain mean of a record whose last sample does
 /// not join its first carries (x[end] - x[0]) / R as a step at every revolution boundary of the
 /// TSA, and the residual then holds a click train at the shaft period (in a band 60 dB below the
 /// record it reads ICS2 ~ H). The weighted mean is still exact for any periodic content.
@@ -54,10 +63,8 @@ class SynchronousSeparation {
   void set_end_taper_fraction(double fraction) noexcept { end_taper_fraction_ = fraction; }
 
  private:
-  std::size_t tapered_average(std::span<const double> x, std::size_t period, std::span<double> out);
-
-  double end_taper_fraction_ = 0.02;
-  RealBuffer input_tsa_, output_tsa_, upsampled_, weight_sum_;
+  double end_taper_fraction_ = kSynchronousEndTaperFraction;
+  RealBuffer input_tsa_, output_tsa_, upsampled_;
   ComplexBuffer spectrum_, padded_;
 };
 

@@ -5,6 +5,7 @@
 // revolution or a block's Hann window. Only the cells asked for are computed.
 #include <complex>
 #include <cstddef>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -55,11 +56,18 @@ class DirichletSum {
 /// output-only signal (the reduction resamples it; here it is band-limited exactly).
 /// When a grid's kernel would read past the record's end, the tone lies in the coarse output grid's
 /// kernel transition band, or the gear ratio's fraction is too fine, the reduction itself is run
-/// (exact() false) and its summary read.
+/// (exact() false) and its summary read. So it is when the cells to be read are given and the
+/// closed form would cost more on them than the reduction: a line costs a term per component (about
+/// a revolution's samples), a broadband bin a term per block and component in its reach, while the
+/// reduction's cost follows the record's samples.
+struct UnitToneReads {
+  std::size_t lines = 0, broadband = 0;  // input and output lines together; broadband bins
+};
+
 class UnitToneCells {
  public:
   UnitToneCells(double order, double top_order, const SpectralSummary& like, const GearPairSpec& gears,
-                double samples_per_cycle);
+                double samples_per_cycle, std::optional<UnitToneReads> reads = std::nullopt);
   bool exact() const noexcept { return exact_; }
   /// Power of input line `index` + 1, output line `index` + 1 (0 on mesh orders), broadband bin
   /// [index + 1, index + 2); 0 beyond the reduction's lines and bins.
@@ -68,9 +76,11 @@ class UnitToneCells {
   double broadband(std::size_t index) const;
 
  private:
-  bool set_up(const SpectralSummary& like, double top_order, double samples_per_cycle);
+  bool set_up(const SpectralSummary& like, double top_order, double samples_per_cycle, const std::optional<UnitToneReads>& reads);
+  bool grids_fit(std::size_t part_size) const;
+  bool cheaper_than_reduction(const UnitToneReads& reads) const;
   void input_average();
-  bool output_average(const std::vector<float>& part);
+  void output_average(const std::vector<float>& part);
   std::vector<double> grid_head(const std::vector<float>& part, std::size_t samples_per_rev, std::size_t harmonics_kept,
                                 double tone) const;
   double half_bin_power(std::size_t j) const;
