@@ -138,18 +138,6 @@ class TwinCache {
     return reruns_.emplace(key, make_record(s.acceleration, s.tacho_edges, fs_, like.speed_hz, like.torque_nm))
         .first->second;
   }
-  /// A re-run's reduction (the diagnosis's RerunSpectraCache), cached under the re-run's key and the
-  /// reduction's channel and least revolutions: every scenario at these operating points reduces the
-  /// same re-runs alike (the bench diagnoses the default gear pair only).
-  std::shared_ptr<const gap::RecordSpectra> rerun_spectra(gap::CandidateEffect effect, const std::vector<double>& values,
-                                                          const Record& like, double duration_s, int channel,
-                                                          std::size_t min_revolutions, const gap::RerunReduction& reduce) {
-    const auto key = std::make_tuple(static_cast<int>(effect), values, like.speed_hz, like.torque_nm, duration_s, channel,
-                                     min_revolutions);
-    auto it = rerun_spectra_.find(key);
-    if (it != rerun_spectra_.end()) return it->second;
-    return rerun_spectra_.emplace(key, std::make_shared<const gap::RecordSpectra>(reduce())).first->second;
-  }
   /// d ln RMS_SA / d ln K of the twin at the wear state: depth ∝ K (Archard, constant operating
   /// point), read by a central difference in log over wear depths ×0.8 and ×1.25.
   double elasticity(double speed, double torque, int harmonics) {
@@ -166,9 +154,6 @@ class TwinCache {
   twin::ToothProfileDeviation wear_;
   std::map<std::tuple<double, double, double>, Record> cache_;
   std::map<std::tuple<int, std::vector<double>, double, double, double>, Record> reruns_;
-  std::map<std::tuple<int, std::vector<double>, double, double, double, int, std::size_t>,
-           std::shared_ptr<const gap::RecordSpectra>>
-      rerun_spectra_;
   std::map<std::tuple<double, double, int>, double> elasticity_;
 };
 
@@ -265,11 +250,6 @@ gap::DiagnosisSettings scenario_settings(const BenchOptions& o, double k_true, T
   ds.rerun_twin = [&twins](gap::CandidateEffect c, const std::vector<double>& values, const Record& like, double duration_s) {
     return twins.rerun(c, values, like, duration_s);
   };
-  ds.rerun_spectra = [&twins, channel = ds.channel, least = ds.min_revolutions](
-                         gap::CandidateEffect c, const std::vector<double>& values, const Record& like, double duration_s,
-                         const gap::RerunReduction& reduce) {
-    return twins.rerun_spectra(c, values, like, duration_s, channel, least, reduce);
-  };
   // The twin runs at the true wear state, so the K it was simulated with is the truth.
   ds.reference_k_wear = k_true;
   return ds;
@@ -298,7 +278,6 @@ std::vector<std::string> significant_against(const std::vector<gap::DiagnosisInp
   localise.attribute = false;
   localise.reference_k_wear.reset();
   localise.rerun_twin = nullptr;
-  localise.rerun_spectra = nullptr;
   // Only the families' significance before any candidate is read here; the features (found and
   // described after it) would be computed and dropped.
   localise.find_features = false;

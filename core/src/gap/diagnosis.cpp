@@ -81,26 +81,13 @@ std::vector<PairSpectra> reduce(const std::vector<DiagnosisInput>& inputs, const
   return out;
 }
 
-/// A twin re-run's spectra: the caller's kept reduction (DiagnosisSettings::rerun_spectra, copied:
-/// the copy's setters give it an identity of its own), else the re-run reduced here.
-RecordSpectra rerun_spectra(CandidateEffect effect, const std::vector<double>& values, const Record& like,
-                            double duration_s, const GearPairSpec& gears, const DiagnosisSettings& s) {
-  const RerunReduction reduce = [&] {
-    const Record twin = s.rerun_twin(effect, values, like, duration_s);
-    if (twin.channels.empty()) throw std::invalid_argument("the rerun twin record has no channel");
-    const int twin_channel = std::min<int>(s.channel, static_cast<int>(twin.channels.size()) - 1);
-    return RecordSpectra(twin, twin_channel, gears, s.min_revolutions);
-  };
-  if (!s.rerun_spectra) return reduce();
-  const auto kept = s.rerun_spectra(effect, values, like, duration_s, reduce);
-  if (!kept) throw std::invalid_argument("the rerun spectra cache handed back nothing");
-  return *kept;
-}
-
 /// The same measured record against the twin re-run with an addition; the floor stays the one of the
 /// plain twin, so every model is compared above the same level.
-PairSpectra with_rerun_twin(const PairSpectra& p, RecordSpectra twin) {
-  PairSpectra out{p.measured, std::move(twin), p.measured_all, {}, p.floor};
+PairSpectra with_rerun_twin(const PairSpectra& p, const Record& twin, const GearPairSpec& gears,
+                            const DiagnosisSettings& s) {
+  if (twin.channels.empty()) throw std::invalid_argument("the rerun twin record has no channel");
+  const int twin_channel = std::min<int>(s.channel, static_cast<int>(twin.channels.size()) - 1);
+  PairSpectra out{p.measured, RecordSpectra(twin, twin_channel, gears, s.min_revolutions), p.measured_all, {}, p.floor};
   out.twin.set_run_out_sensitivity(p.twin_all.pinion_run_out, p.twin_all.gear_run_out);
   out.twin.set_bearing_force_path(p.twin_all.bearing_force_path);
   out.twin_all = out.twin.summary();
@@ -476,7 +463,8 @@ class Diagnosis {
     std::vector<SummaryPair> tr;
     for (std::size_t i = 0; i < train_.size(); ++i) {
       const Record& like = training_[i].twin;
-      const auto p = with_rerun_twin(train_[i], rerun_spectra(set.effect, v, like, twin_duration_s(like, settings_), gears_, settings_));
+      const auto p = with_rerun_twin(train_[i], settings_.rerun_twin(set.effect, v, like, twin_duration_s(like, settings_)),
+                                     gears_, settings_);
       tr.push_back({p.measured_all, p.twin_all, p.floor});
     }
     set.values.push_back(v);
@@ -492,7 +480,8 @@ class Diagnosis {
       for (std::size_t i = 0; i < test_.size(); ++i) {
         const Record& like = held_out_[i].twin;
         te.push_back(with_rerun_twin(
-            test_[i], rerun_spectra(set.effect, set.values[g], like, twin_duration_s(like, settings_), gears_, settings_)));
+            test_[i], settings_.rerun_twin(set.effect, set.values[g], like, twin_duration_s(like, settings_)), gears_,
+            settings_));
       }
       set.test[g] = std::move(te);
     }
@@ -618,12 +607,14 @@ class Diagnosis {
                                const std::array<std::vector<double>, 5>& runs) const {
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       const Record& like = inputs[i].twin;
+      const int channel = std::min<int>(settings_.channel, static_cast<int>(like.channels.size()) - 1);
       const double duration = twin_duration_s(like, settings_);
       std::vector<RecordSpectra> spectra;
       // The twin without a run-out is the counterpart itself when that is as long as a rerun.
       const bool counterpart_is_base = like.duration_s() <= duration;
       for (std::size_t r = counterpart_is_base ? 1 : 0; r < runs.size(); ++r)
-        spectra.push_back(rerun_spectra(CandidateEffect::eccentricity, runs[r], like, duration, gears_, settings_));
+        spectra.emplace_back(settings_.rerun_twin(CandidateEffect::eccentricity, runs[r], like, duration), channel, gears_,
+                             settings_.min_revolutions);
       const std::size_t u = counterpart_is_base ? 0 : 1;
       const RecordSpectra& base = counterpart_is_base ? pairs[i].twin : spectra[0];
       const auto response =

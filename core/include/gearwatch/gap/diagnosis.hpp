@@ -5,7 +5,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
-#include <memory>
 #include <optional>
 #include <vector>
 
@@ -37,18 +36,6 @@ struct DiagnosisInput {
 using TwinRerun = std::function<Record(CandidateEffect effect, const std::vector<double>& values,
                                        const Record& twin_record, double duration_s)>;
 
-/// The reduction of the twin re-run `rerun_twin` hands back for a call's arguments, as the diagnosis
-/// reduces its twin records (its channel and least revolutions, its gears).
-using RerunReduction = std::function<RecordSpectra()>;
-/// Reductions of twin re-runs kept by the caller between diagnoses (a bench whose scenarios ask for
-/// the same re-runs at the same operating points): for TwinRerun's arguments it hands back the
-/// reduction it keeps for them, `reduce`'s the first time. The caller keys it on those arguments and
-/// on what else the reduction depends on (DiagnosisSettings::channel and min_revolutions, the gears)
-/// and guards it for the threads it shares it between; the diagnosis reads it only.
-using RerunSpectraCache = std::function<std::shared_ptr<const RecordSpectra>(
-    CandidateEffect effect, const std::vector<double>& values, const Record& twin_record, double duration_s,
-    const RerunReduction& reduce)>;
-
 struct DiagnosisSettings {
   int channel = 0;                 ///< measured channel compared with the twin's casing signal
   /// The twin the counterparts were simulated with: its linearised model gives each record's
@@ -79,9 +66,6 @@ struct DiagnosisSettings {
   /// When set, candidates with a rerun grid (rerun_grid()) are fitted by re-running the twin; when
   /// empty they fall back to their spectral forms.
   TwinRerun rerun_twin;
-  /// When set beside rerun_twin, the re-runs' reductions are asked of it (empty: each diagnosis
-  /// reduces the re-runs it asks for).
-  RerunSpectraCache rerun_spectra;
   /// A twin run standing for a record lasts the record's length, but at most the longer of these
   /// two (twin_duration_s()): the diagnosis asks its reruns for that, and a caller may simulate its
   /// counterparts that long too. The twin has no noise and runs at a steady speed, so its lines
