@@ -3,12 +3,14 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <random>
 #include <thread>
 #include <vector>
 
 #include "gearwatch/dsp/envelope.hpp"
+#include "gearwatch/dsp/window.hpp"
 
 namespace test_fft {  // this file's own: the test files compile together (unity build)
 
@@ -61,6 +63,23 @@ TEST_CASE("RealFft forward and inverse match a direct DFT on random input", "[ds
     double err = 0;
     for (std::size_t i = 0; i < n; ++i) err = std::max(err, std::abs(back[i] / double(n) - xc[i].real()));
     CHECK(err < 1e-13);
+  }
+}
+
+TEST_CASE("The periodic Hann window has three DFT bins and sums to one at 50 % overlap", "[dsp][fft]") {
+  // Closed form: 1/2 − 1/2·cos(2πi/n) = 1/2 − 1/4·e^(2πi·i/n) − 1/4·e^(−2πi·i/n), so its DFT is n/2
+  // at bin 0, −n/4 at bins ±1 and 0 elsewhere; and w[i] + w[i + n/2] = 1 (cos changes sign).
+  for (std::size_t n : {8u, 64u, 250u}) {
+    const auto w = periodic_hann(n);
+    REQUIRE(w.size() == n);
+    for (std::size_t k = 0; k < n; ++k) {
+      std::complex<long double> x = 0;
+      for (std::size_t i = 0; i < n; ++i) x += static_cast<long double>(w[i]) * std::polar(1.0L, -2 * std::numbers::pi_v<long double> * k * i / n);
+      const double expected = k == 0 ? n / 2.0 : (k == 1 || k == n - 1) ? -(n / 4.0) : 0.0;
+      CHECK(static_cast<double>(x.real()) == Approx(expected).margin(1e-12 * n));
+      CHECK(static_cast<double>(x.imag()) == Approx(0.0).margin(1e-12 * n));
+    }
+    for (std::size_t i = 0; i < n / 2; ++i) CHECK(w[i] + w[i + n / 2] == Approx(1.0).margin(1e-15));
   }
 }
 

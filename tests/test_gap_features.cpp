@@ -1080,9 +1080,9 @@ TEST_CASE("gap features: the local peaks' chi-square law holds on white noise th
       const RecordSpectra twin(noisy_lines_record(fs, speed, revs, 0.0, 0.0, 0, 0, rng), 0, GearPairSpec{});
       const RecordSpectra measured(noisy_lines_record(fs, speed, revs, 1e-3, 0.0, 0, 0, rng), 0, GearPairSpec{});
       const auto m = measured.summary(), t = twin.summary();
-      const auto cells = local_peak_p_values(m, t, compare_floors(m, t).acquisition, settings);
+      const auto cells = local_peak_cells(m, t, compare_floors(m, t).acquisition, settings, local_peak_law(m.input_revolutions, settings));
       for (std::size_t k = 30 + static_cast<std::size_t>(record % 52); k < cells.size(); k += 52)
-        if (std::isfinite(cells[k])) p.push_back(cells[k]);
+        if (std::isfinite(cells[k].p)) p.push_back(cells[k].p);
     }
     const double n = static_cast<double>(p.size());
     REQUIRE(n > 1500);

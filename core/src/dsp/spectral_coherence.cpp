@@ -1,4 +1,5 @@
 #include "gearwatch/dsp/spectral_coherence.hpp"
+#include "gearwatch/dsp/window.hpp"
 
 #include <cmath>
 #include <limits>
@@ -16,11 +17,7 @@ std::size_t CyclicCoherenceEstimator::estimate(std::span<const double> x, std::s
   const auto alpha = static_cast<std::size_t>(cyclic_order);
   const RealFft& fft = plans_->real(nw);
   const std::size_t bins = fft.spectrum_size();
-  if (window_.size() != nw) {
-    window_.resize(nw);
-    for (std::size_t i = 0; i < nw; ++i)
-      window_[i] = 0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(nw));
-  }
+  if (window_.size() != nw) window_ = periodic_hann(nw);
   segment_.resize(nw);
   spectrum_.resize(bins);
   power_.assign(bins, 0.0);

@@ -1,4 +1,5 @@
 #include "gearwatch/dsp/speed_estimation.hpp"
+#include "gearwatch/dsp/window.hpp"
 
 #include <algorithm>
 #include <array>
@@ -291,11 +292,7 @@ void SpeedEstimator::scan_frames(std::span<const float> x, double fs, std::size_
 void SpeedEstimator::frame_spectrum(std::span<const float> x, std::size_t start, std::size_t length, std::size_t last_bin) {
   // The two passes use two frame lengths: each keeps its Hann window from record to record.
   std::vector<double>& window = windows_[length];
-  if (window.size() != length) {
-    window.resize(length);
-    for (std::size_t i = 0; i < length; ++i)
-      window[i] = 0.5 - 0.5 * std::cos(kTwoPi * static_cast<double>(i) / static_cast<double>(length));
-  }
+  if (window.size() != length) window = periodic_hann(length);
   const RealFft& fft = plans_.real(length);
   frame_.resize(length);
   for (std::size_t i = 0; i < length; ++i) frame_[i] = window[i] * x[start + i];

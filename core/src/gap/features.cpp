@@ -1,8 +1,10 @@
 #include "gearwatch/gap/features.hpp"
+#include "gearwatch/dsp/window.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <stdexcept>
 
@@ -90,9 +92,10 @@ namespace {
 /// correlation of two half-order bins d apart in blocks `lag` hops apart (white noise).
 double hann_correlation(int lag, int d) {
   constexpr std::size_t n = 256;  // the ratios are those of the continuous window to well under 1e-3
+  static const std::vector<double> window = dsp::periodic_hann(n);
+  auto w = [&](long t) { return t < 0 || t >= static_cast<long>(n) ? 0.0 : window[static_cast<std::size_t>(t)]; };
   std::complex<double> sum = 0;
   double norm = 0;
-  auto w = [&](long t) { return t < 0 || t >= static_cast<long>(n) ? 0.0 : 0.5 - 0.5 * std::cos(2 * std::numbers::pi * t / n); };
   for (long t = 0; t < static_cast<long>(n); ++t) {
     norm += w(t) * w(t);
     sum += w(t) * w(t - lag * static_cast<long>(n / 2)) * std::polar(1.0, -2 * std::numbers::pi * d * t / n);
@@ -155,15 +158,14 @@ double LocalPeakLaw::p_value(double ratio) const {
   return std::clamp(p, 0.0, 1.0);
 }
 
-std::vector<double> local_peak_p_values(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
-                                        const LocalPeakSettings& settings) {
+std::vector<LocalPeakCell> local_peak_cells(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
+                                            const LocalPeakSettings& settings, const LocalPeakLaw& law) {
   const auto expected = local_expectation(measured, twin, acquisition, settings);
-  std::vector<double> out(expected.size(), std::numeric_limits<double>::quiet_NaN());
-  const LocalPeakLaw law = local_peak_law(measured.input_revolutions, settings);
-  if (!law.valid()) return out;
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<LocalPeakCell> out(expected.size(), LocalPeakCell{nan, nan});
   for (std::size_t k = 0; k < expected.size(); ++k) {
-    const double g = peak_db(measured.broadband, expected, k, settings.band_bins);
-    if (std::isfinite(g)) out[k] = law.p_value(std::pow(10.0, g / 10));
+    out[k].gain_db = peak_db(measured.broadband, expected, k, settings.band_bins);
+    if (law.valid() && std::isfinite(out[k].gain_db)) out[k].p = law.p_value(std::pow(10.0, out[k].gain_db / 10));
   }
   return out;
 }
@@ -238,6 +240,7 @@ std::vector<char> benjamini_hochberg(const std::vector<double>& p, double q) {
 
 FeatureFinder::FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPairSpec& gears, FeatureSettings settings)
     : gears_(gears), settings_(settings) {
+  std::map<std::size_t, LocalPeakLaw> laws;  // by input revolutions: records of one length share theirs
   const double ratio = static_cast<double>(gears.pinion_teeth) / gears.gear_teeth;  // input orders per output order
   for (const auto& p : pairs) {
     if (!p.measured || !p.model) throw std::invalid_argument("FeatureFinder: a pair without spectra");
@@ -255,18 +258,7 @@ FeatureFinder::FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPa
       r.cells.push_back({CellKind::broadband, k - 1, o, o + 1, o + 0.5, ratio_db(m.broadband[k - 1], t.broadband[k - 1], p.floor)});
     }
     const FloorComparison floors = compare_floors(m, t, settings.floor);
-    const auto expected = settings.local.enabled ? local_expectation(m, t, floors.acquisition, settings.local) : std::vector<double>{};
-    const LocalPeakLaw law = settings.local.enabled ? local_peak_law(m.input_revolutions, settings.local) : LocalPeakLaw{};
-    // Spectra made in closed form carry no revolutions: their cells are tested on the bootstrap's
-    // spread (p_values); a record too short for the law has no local cells.
-    const bool tested = law.valid() || m.input_revolutions == 0;
-    for (std::size_t k = 1; tested && k <= expected.size(); ++k) {
-      const double o = static_cast<double>(k), h = static_cast<double>(settings.local.band_bins / 2);
-      const double g = peak_db(m.broadband, expected, k - 1, settings.local.band_bins);
-      if (!std::isfinite(g)) continue;
-      r.cells.push_back({CellKind::broadband_peak, k - 1, o - h, o + 1 + h, o + 0.5, g});
-      r.cells.back().law_p = law.p_value(std::pow(10.0, g / 10));
-    }
+    if (settings.local.enabled) add_local_cells(r.cells, m, t, floors.acquisition, laws);
     const std::size_t ko = std::min(m.output_lines.size(), t.output_lines.size());
     for (std::size_t j = 1; j <= ko; ++j) {
       if (output_line_is_mesh(static_cast<int>(j), gears.gear_teeth)) continue;
@@ -282,6 +274,23 @@ FeatureFinder::FeatureFinder(const std::vector<FeaturePair>& pairs, const GearPa
   }
 }
 
+void FeatureFinder::add_local_cells(std::vector<Cell>& cells, const SpectralSummary& m, const SpectralSummary& t, double acquisition,
+                                    std::map<std::size_t, LocalPeakLaw>& laws) const {
+  auto law = laws.find(m.input_revolutions);
+  if (law == laws.end()) law = laws.emplace(m.input_revolutions, local_peak_law(m.input_revolutions, settings_.local)).first;
+  // Spectra made in closed form carry no revolutions: their cells are tested on the bootstrap's
+  // spread (p_values); a record too short for the law has no local cells.
+  if (!law->second.valid() && m.input_revolutions != 0) return;
+  const auto local = local_peak_cells(m, t, acquisition, settings_.local, law->second);
+  const double h = static_cast<double>(settings_.local.band_bins / 2);
+  for (std::size_t k = 1; k <= local.size(); ++k) {
+    if (!std::isfinite(local[k - 1].gain_db)) continue;
+    const double o = static_cast<double>(k);
+    cells.push_back({CellKind::broadband_peak, k - 1, o - h, o + 1 + h, o + 0.5, local[k - 1].gain_db});
+    cells.back().law_p = local[k - 1].p;
+  }
+}
+
 void FeatureFinder::add_draw(std::size_t pair, const SpectralSummary& measured, const SpectralSummary& model) {
   RecordCells& r = records_.at(pair);
   const double floor = r.pair.floor;
@@ -289,7 +298,8 @@ void FeatureFinder::add_draw(std::size_t pair, const SpectralSummary& measured, 
     return i < a.size() && i < b.size() ? ratio_db(a[i], b[i], floor) : std::numeric_limits<double>::quiet_NaN();
   };
   const FloorComparison floors = compare_floors(measured, model, settings_.floor);
-  const auto expected = settings_.local.enabled ? local_expectation(measured, model, floors.acquisition, settings_.local) : std::vector<double>{};
+  const auto local = settings_.local.enabled ? local_peak_cells(measured, model, floors.acquisition, settings_.local, LocalPeakLaw{})
+                                             : std::vector<LocalPeakCell>{};
   for (Cell& c : r.cells) {
     double g = 0;
     switch (c.kind) {
@@ -298,7 +308,7 @@ void FeatureFinder::add_draw(std::size_t pair, const SpectralSummary& measured, 
       case CellKind::broadband: g = value(measured.broadband, model.broadband, c.index); break;
       case CellKind::floor_band: g = c.index < floors.bands.size() ? floors.gap_db(c.index) : std::numeric_limits<double>::quiet_NaN(); break;
       case CellKind::broadband_peak:
-        g = peak_db(measured.broadband, expected, c.index, settings_.local.band_bins);
+        g = c.index < local.size() ? local[c.index].gain_db : std::numeric_limits<double>::quiet_NaN();
         break;
     }
     if (!std::isfinite(g)) continue;

@@ -33,6 +33,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <utility>
 #include <vector>
 
@@ -82,7 +83,7 @@ FloorComparison compare_floors(const SpectralSummary& measured, const SpectralSu
 /// (a narrow resonance between the lines, where no line falls on it) is seen however far under the
 /// comparison's floor it lies, as long as it stands over the capture's own floor beside it.
 struct LocalPeakSettings {
-  /// On: the cells' p-values come from the χ² law of the record's Welch bins (local_peak_p_values),
+  /// On: the cells' p-values come from the χ² law of the record's Welch bins (local_peak_cells),
   /// and a local peak counts only where it persists over records (min_record_share).
   bool enabled = true;
   /// The reference bins lie this many bins and more away on either side: a peak whose half-width
@@ -133,10 +134,17 @@ struct LocalPeakLaw {
 };
 LocalPeakLaw local_peak_law(std::size_t input_revolutions, const LocalPeakSettings& settings);
 
-/// Each local cell's one-sided p-value by that law, [k]: the cell centred on broadband bin k; NaN
-/// where the cell has no expectation or the record is under min_revolutions.
-std::vector<double> local_peak_p_values(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
-                                        const LocalPeakSettings& settings);
+/// A local cell centred on one broadband bin: its bins' sum over their expectation
+/// (local_expectation), dB, and its one-sided p-value by the record's LocalPeakLaw; NaN where the
+/// cell has no expectation, p NaN too where the law is empty (under min_revolutions, or not given).
+struct LocalPeakCell {
+  double gain_db;
+  double p;
+};
+/// [k]: the cell centred on broadband bin k. The one computation of a local cell, for the
+/// comparison of the spectra and for each bootstrap draw (there with an empty law).
+std::vector<LocalPeakCell> local_peak_cells(const SpectralSummary& measured, const SpectralSummary& twin, double acquisition,
+                                            const LocalPeakSettings& settings, const LocalPeakLaw& law);
 
 struct FeatureSettings {
   double false_discovery_rate = 0.05;  ///< Benjamini–Hochberg q over all cells
@@ -220,6 +228,9 @@ class FeatureFinder {
   std::vector<double> p_values(std::vector<std::pair<std::size_t, std::size_t>>& where) const;
   std::vector<char> counted(std::size_t& rejected) const;
   std::vector<RecordCells> records_;
+
+  void add_local_cells(std::vector<Cell>& cells, const SpectralSummary& measured, const SpectralSummary& model,
+                       double acquisition, std::map<std::size_t, LocalPeakLaw>& laws) const;
   GearPairSpec gears_;
   FeatureSettings settings_;
 };
