@@ -83,6 +83,23 @@ TEST_CASE("The periodic Hann window has three DFT bins and sums to one at 50 % o
   }
 }
 
+TEST_CASE("The Hann window's power response is that of a long periodic Hann window's DFT between bins", "[dsp][fft]") {
+  // |Σ w(i)·e^(−2πi·ν·i/n)|² / (Σ w)², w the periodic Hann window of n = 4096 samples, against the
+  // continuous form at whole, half and quarter bins; the discrete window differs by O(1/n²).
+  const std::size_t n = 4096;
+  const auto w = periodic_hann(n);
+  for (double nu : {0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 2.75, 4.5}) {
+    std::complex<long double> x = 0;
+    long double sum = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      x += static_cast<long double>(w[i]) * std::polar(1.0L, -2 * std::numbers::pi_v<long double> * nu * i / n);
+      sum += w[i];
+    }
+    INFO("nu " << nu);
+    CHECK(hann_power_response(nu) == Approx(static_cast<double>(std::norm(x) / (sum * sum))).margin(1e-6));
+  }
+}
+
 TEST_CASE("ComplexFft forward and backward match a direct DFT", "[dsp][fft]") {
   std::mt19937_64 rng(7);
   std::normal_distribution<double> normal;

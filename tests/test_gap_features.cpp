@@ -14,6 +14,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "gearwatch/dsp/fft.hpp"
@@ -264,9 +265,11 @@ TEST_CASE("gap features: a narrow resonance under the comparison's floor, betwee
   CHECK(f.hz_high >= f0);
   CHECK(f.seen_in.size() == kSpeeds.size());
   CHECK(f.size_db > 3.0);
-  // Described as a resonance at its Hz (the bench's rule asks 10 %; stated here: within a tenth of
-  // its half-power band, 2 Hz, as the other resonance cases ask), on the bins against their
-  // neighbourhood: every cell's g against the twin is under the practical minimum.
+  // Described as a resonance on the bins against their neighbourhood (every cell's g against the
+  // twin is under the practical minimum). These cells carry the resonance at one point of each bin,
+  // which RecordSpectra's Hann-windowed bins do not, so its Hz is asked within the cells' placement,
+  // one bin at the fastest record, as the localisation above; the describer's accuracy is checked on
+  // records made sample by sample ("a resonance narrower than a bin", below).
   std::vector<DescribedRecord> described;
   for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&records.measured[i], &records.twin[i], floor_of(records.twin[i]), {}, {}, {}, {}});
   DescriptionSettings describing;
@@ -274,7 +277,7 @@ TEST_CASE("gap features: a narrow resonance under the comparison's floor, betwee
   const auto d = FeatureDescriber(described, GearPairSpec{}, describing).describe(f);
   INFO(to_string(d.kind) << ": " << describe(d));
   REQUIRE(d.kind == DescriptionKind::resonance);
-  CHECK(d.parameter("frequency_hz") == Approx(f0).margin(2.0));
+  CHECK(std::abs(d.parameter("frequency_hz") - f0) <= kSpeeds.back());
   // The same records without the resonance: nothing.
   const auto quiet = finders_of(under_floor_records([](double) { return 1.0; }, rng), rng, {local_on})[0].features();
   INFO(descriptions(quiet));
@@ -551,25 +554,21 @@ namespace {
 
 /// Records made sample by sample: the twin's lines (mesh harmonics 19, 38, 57 at 1, 0.5, 0.33 m/s²
 /// peak, shaft orders 1-3 at 0.05) and, for the measurement, the same plus white Gaussian noise of
-/// RMS `sigma` over the whole band and, between `band_low` and `band_high` Hz, band-limited Gaussian
-/// noise of RMS `band_sigma`·sigma·sqrt(band width / (fs/2)) (an ideal band-pass of white noise of
-/// RMS band_sigma·sigma: its PSD in the band band_sigma² times the white part's).
-Record noisy_lines_record(double fs, double speed, int revs, double sigma, double band_sigma, double band_low, double band_high,
-                          std::mt19937_64& rng) {
+/// RMS `sigma` and a second white Gaussian noise of RMS `shaped_sigma` whose DFT is multiplied by
+/// `shape(Hz)` (its PSD shape² times the white part's times (shaped_sigma/sigma)²).
+Record shaped_noise_lines_record(double fs, double speed, int revs, double sigma, double shaped_sigma,
+                                 const std::function<double(double)>& shape, std::mt19937_64& rng) {
   const auto n = static_cast<std::size_t>((revs + 0.5) * fs / speed);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<double> noise(n, 0.0);
   for (auto& v : noise) v = sigma * normal(rng);
-  if (band_sigma > 0) {
+  if (shaped_sigma > 0) {
     dsp::RealFft fft(n);
     dsp::RealBuffer x(n), y(n);
     dsp::ComplexBuffer spectrum(fft.spectrum_size());
-    for (auto& v : x) v = band_sigma * sigma * normal(rng);
+    for (auto& v : x) v = shaped_sigma * normal(rng);
     fft.forward(x, spectrum);
-    for (std::size_t k = 0; k < spectrum.size(); ++k) {
-      const double hz = static_cast<double>(k) * fs / static_cast<double>(n);
-      if (hz < band_low || hz >= band_high) spectrum[k] = 0;
-    }
+    for (std::size_t k = 0; k < spectrum.size(); ++k) spectrum[k] *= shape(static_cast<double>(k) * fs / static_cast<double>(n));
     fft.inverse(spectrum, y);
     for (std::size_t i = 0; i < n; ++i) noise[i] += y[i] / static_cast<double>(n);
   }
@@ -582,20 +581,30 @@ Record noisy_lines_record(double fs, double speed, int revs, double sigma, doubl
   });
 }
 
+/// As shaped_noise_lines_record with, between `band_low` and `band_high` Hz, band-limited Gaussian
+/// noise of RMS `band_sigma`·sigma·sqrt(band width / (fs/2)) (an ideal band-pass of white noise of
+/// RMS band_sigma·sigma: its PSD in the band band_sigma² times the white part's).
+Record noisy_lines_record(double fs, double speed, int revs, double sigma, double band_sigma, double band_low, double band_high,
+                          std::mt19937_64& rng) {
+  return shaped_noise_lines_record(fs, speed, revs, sigma, band_sigma * sigma,
+                                   [&](double hz) { return hz < band_low || hz >= band_high ? 0.0 : 1.0; }, rng);
+}
+
 struct FloorCase {
   std::vector<SpectralSummary> measured, twin;
   std::vector<FeatureFinder> finders;  // one
 };
 
-/// The records at kSpeeds through RecordSpectra, and a finder fed kDraws block-bootstrap draws of
-/// both records of each pair (the diagnosis's draws: blocks of 2 revolutions).
-FloorCase floor_case(double fs, double sigma, double band_sigma, double band_low, double band_high, std::uint64_t seed) {
+/// The records at kSpeeds through RecordSpectra (`make(speed, measured, rng)`, the twin's first),
+/// and a finder fed kDraws block-bootstrap draws of both records of each pair (the diagnosis's
+/// draws: blocks of 2 revolutions).
+FloorCase case_of(const std::function<Record(double, bool, std::mt19937_64&)>& make, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::vector<RecordSpectra> measured, twin;
   FloorCase c;
   for (double speed : kSpeeds) {
-    twin.emplace_back(noisy_lines_record(fs, speed, 16, 0.0, 0.0, 0, 0, rng), 0, GearPairSpec{});
-    measured.emplace_back(noisy_lines_record(fs, speed, 16, sigma, band_sigma, band_low, band_high, rng), 0, GearPairSpec{});
+    twin.emplace_back(make(speed, false, rng), 0, GearPairSpec{});
+    measured.emplace_back(make(speed, true, rng), 0, GearPairSpec{});
     c.measured.push_back(measured.back().summary());
     c.twin.push_back(twin.back().summary());
   }
@@ -609,6 +618,15 @@ FloorCase floor_case(double fs, double sigma, double band_sigma, double band_low
       c.finders[0].add_draw(i, m, t);
     }
   return c;
+}
+
+FloorCase floor_case(double fs, double sigma, double band_sigma, double band_low, double band_high, std::uint64_t seed) {
+  return case_of(
+      [&](double speed, bool measured, std::mt19937_64& rng) {
+        return measured ? noisy_lines_record(fs, speed, 16, sigma, band_sigma, band_low, band_high, rng)
+                        : noisy_lines_record(fs, speed, 16, 0.0, 0.0, 0, 0, rng);
+      },
+      seed);
 }
 
 /// The floor feature's description, which must be a floor change.
@@ -1091,6 +1109,40 @@ TEST_CASE("gap features: the local peaks' chi-square law holds on white noise th
       INFO(revs << " revolutions, alpha " << alpha << ": " << under << " of " << n);
       CHECK(std::abs(under - alpha * n) <= 3 * std::sqrt(n * alpha * (1 - alpha)));
     }
+  }
+}
+
+TEST_CASE("gap describe: a resonance narrower than a bin, in records made sample by sample, is described at its Hz",
+          "[gap][gap_features][gap_describe]") {
+  // A second white noise through the normalised second-order band-pass |H|² = (2ζr)²/((1 − r²)² +
+  // (2ζr)²), r = f/f_n, added to the measurement's white noise: its PSD σ²·(1 + (G − 1)·|H|²);
+  // 40 revolutions at each of kSpeeds, 20 kHz. 3007 Hz, ζ = 0.001 (6 Hz between its half-power
+  // points, narrower than every record's half-order bin, 4.5-8 Hz), +20 dB; and 1100 Hz, 20 Hz
+  // wide, +12 dB. A peak this narrow lands in a bin by its area: read at one point of each bin,
+  // the form misplaces it.
+  const double fs = 20000, sigma = 1e-3;
+  for (const auto& [fn, zeta, gain_db] : {std::tuple{3007.0, 0.001, 20.0}, std::tuple{1100.0, 10.0 / 1100, 12.0}}) {
+    auto shape = [&](double hz) {
+      const double r = hz / fn, a = 1 - r * r, b = 2 * zeta * r;
+      return std::sqrt(b * b / (a * a + b * b));
+    };
+    const double shaped = sigma * std::sqrt(std::pow(10.0, gain_db / 10) - 1);
+    const auto c = case_of(
+        [&](double speed, bool measured, std::mt19937_64& rng) {
+          return shaped_noise_lines_record(fs, speed, 40, measured ? sigma : 0.0, measured ? shaped : 0.0, shape, rng);
+        },
+        363);
+    const auto features = c.finders[0].features();
+    INFO(fn << " Hz: " << descriptions(features));
+    const auto f = std::find_if(features.begin(), features.end(), [&](const GapFeature& g) { return g.hz_low <= fn && g.hz_high >= fn; });
+    REQUIRE(f != features.end());
+    std::vector<DescribedRecord> described;
+    for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&c.measured[i], &c.twin[i], floor_of(c.twin[i]), {}, {}, {}, {}});
+    const auto d = FeatureDescriber(described, GearPairSpec{}).describe(*f);
+    INFO(to_string(d.kind) << ": " << describe(d));
+    REQUIRE(d.kind == DescriptionKind::resonance);
+    // Stated before the run: within a quarter of the slowest record's 1-order bin.
+    CHECK(std::abs(d.parameter("frequency_hz") - fn) <= kSpeeds.front() / 4);
   }
 }
 

@@ -1,6 +1,7 @@
 #include "gearwatch/gap/describe.hpp"
 #include "gearwatch/gap/unit_tone.hpp"
 
+#include "gearwatch/dsp/window.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/numeric/line_search.hpp"
 
@@ -377,6 +378,42 @@ double band_pass(double hz, double fn, double zeta) {
   return b * b / (a * a + b * b);
 }
 
+/// The band-pass as a 1-order broadband bin sees it: the average over frequency of band_pass
+/// weighted by the bin's two half-order Hann bins (centred at `first_hz` and first_hz +
+/// half_bin_hz). A peak narrower than a bin lands in it by its area, wherever in the bin it
+/// stands, which its value at one point in the bin does not give. Trapezoid rule on a grid fine for
+/// the kernel (1/32 of a half-order bin, 4 bins of reach each side: the kernel falls as ν⁻⁶) and
+/// for the peak (a quarter of its half-width ζ·f_n, over 12 half-widths each side); the kernel's
+/// own sum on the same grid normalises it, so a flat band-pass reads exactly its value.
+double binned_band_pass(double first_hz, double half_bin_hz, double fn, double zeta) {
+  struct Point {
+    double nu, kernel;
+    bool operator<(const Point& o) const { return nu < o.nu; }
+  };
+  constexpr double kReach = 4, kStep = 1.0 / 32;
+  auto kernel = [](double nu) { return dsp::hann_power_response(nu) + dsp::hann_power_response(nu - 1); };
+  static const std::vector<Point> coarse = [&] {
+    std::vector<Point> g;
+    for (double v = -kReach; v <= 1 + kReach; v += kStep) g.push_back({v, kernel(v)});
+    return g;
+  }();
+  std::vector<Point> fine;
+  const double width = zeta * fn / half_bin_hz, centre = (fn - first_hz) / half_bin_hz;
+  if (width > 0 && width < 4 * kStep)
+    for (double v = std::max(-kReach, centre - 12 * width); v <= std::min(1 + kReach, centre + 12 * width); v += width / 4)
+      fine.push_back({v, kernel(v)});
+  std::vector<Point> grid(coarse.size() + fine.size());
+  std::merge(coarse.begin(), coarse.end(), fine.begin(), fine.end(), grid.begin());
+  double weighted = 0, total = 0;
+  for (std::size_t i = 1; i < grid.size(); ++i) {
+    const Point &a = grid[i - 1], &b = grid[i];
+    const double h = 0.5 * (b.nu - a.nu);
+    weighted += h * (band_pass(first_hz + a.nu * half_bin_hz, fn, zeta) * a.kernel + band_pass(first_hz + b.nu * half_bin_hz, fn, zeta) * b.kernel);
+    total += h * (a.kernel + b.kernel);
+  }
+  return total > 0 ? weighted / total : 0.0;
+}
+
 }  // namespace
 
 Record unit_tone_record(double order, double top_order, const SpectralSummary& like, double samples_per_cycle) {
@@ -450,7 +487,7 @@ FeatureDescriber::FeatureDescriber(const std::vector<DescribedRecord>& records, 
   }
   for (const auto& src : sources_) {
     floors_.push_back(compare_floors(*src.measured, *src.twin, settings_.floor));
-    // Off by default (not calibrated): no expectation is computed for a diagnosis that does not read it.
+    // No expectation is computed for a diagnosis with the local peaks off: it does not read it.
     local_.push_back(settings_.local.enabled ? local_expectation(*src.measured, *src.twin, floors_.back().acquisition, settings_.local)
                                              : std::vector<double>{});
   }
@@ -612,7 +649,13 @@ class ResonanceSearch {
  public:
   struct Cells {
     std::vector<double> g_measured, twin, floor, hz;
+    /// Empty: each cell sees the band-pass at hz. Else each cell is a 1-order broadband bin whose
+    /// half-order bins sit at hz and hz + half_bin_hz (binned_band_pass).
+    std::vector<double> half_bin_hz;
   };
+  static double pass(const Cells& c, std::size_t e, double fn, double zeta) {
+    return c.half_bin_hz.empty() ? band_pass(c.hz[e], fn, zeta) : binned_band_pass(c.hz[e], c.half_bin_hz[e], fn, zeta);
+  }
   struct Best {
     double fn, zeta, gain_db;
   };
@@ -653,7 +696,7 @@ class ResonanceSearch {
   }
   void set_pass(double fn, double zeta) {
     if (fn == pass_fn_ && zeta == pass_zeta_) return;
-    for (std::size_t e = 0; e < pass_.size(); ++e) pass_[e] = band_pass(c_.hz[e], fn, zeta);
+    for (std::size_t e = 0; e < pass_.size(); ++e) pass_[e] = pass(c_, e, fn, zeta);
     pass_fn_ = fn, pass_zeta_ = zeta;
   }
   // The cell's modelled g for a gain's 10^(G/10) − 1: rising with it (the band-pass is ≥ 0).
@@ -744,20 +787,20 @@ FeatureDescription FeatureDescriber::local_resonance(const GapFeature& f, const 
     if (c.kind != CellKind::broadband || c.index >= local_[r].size()) continue;
     const double expected = local_[r][c.index];
     if (!(expected > 0) || !(c.measured > 0)) continue;
-    const double g = 10 * std::log10(c.measured / expected);
-    cells.g_measured.push_back(g), cells.twin.push_back(expected), cells.floor.push_back(0.0), cells.hz.push_back(c.hz);
+    const double g = 10 * std::log10(c.measured / expected), half_bin = records_[r].speed_hz / 2;
+    cells.g_measured.push_back(g), cells.twin.push_back(expected), cells.floor.push_back(0.0);
+    cells.hz.push_back((c.order - 0.5) * records_[r].speed_hz), cells.half_bin_hz.push_back(half_bin);
     if (std::abs(g) >= settings_.min_feature_db) core_before += g * g, ++core;
   }
   if (core == 0) return none;
   double lo = f.hz_low, hi = f.hz_high;
   if (!(hi > lo) || !(lo > 0)) lo = std::max(1.0, f.hz * 0.9), hi = f.hz * 1.1;
-  const auto g_measured = cells.g_measured;
-  const auto hz = cells.hz;
-  const auto [bf, bz, bg] = ResonanceSearch(std::move(cells)).run(lo, hi, f.hz);
+  const auto [bf, bz, bg] = ResonanceSearch(cells).run(lo, hi, f.hz);
   const double gm1 = std::pow(10.0, bg / 10) - 1;
+  const auto& g_measured = cells.g_measured;
   double rss = 0, core_sq = 0;
   for (std::size_t e = 0; e < g_measured.size(); ++e) {
-    const double d = g_measured[e] - 10 * std::log10(1 + gm1 * band_pass(hz[e], bf, bz));
+    const double d = g_measured[e] - 10 * std::log10(1 + gm1 * ResonanceSearch::pass(cells, e, bf, bz));
     rss += d * d;
     if (std::abs(g_measured[e]) >= settings_.min_feature_db) core_sq += d * d;
   }

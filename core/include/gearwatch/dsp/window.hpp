@@ -16,4 +16,13 @@ inline std::vector<double> periodic_hann(std::size_t n) {
   return w;
 }
 
+/// The periodic Hann window's power response ν bins from a bin's centre (the continuous-time form,
+/// long windows), 1 at 0: (sinc ν / (1 − ν²))²; 1/4 at ν = ±1, 0 at every other integer.
+inline double hann_power_response(double nu) {
+  if (std::abs(nu) < 1e-9) return 1.0;
+  if (std::abs(std::abs(nu) - 1.0) < 1e-9) return 0.25;
+  const double v = std::sin(std::numbers::pi * nu) / (std::numbers::pi * nu) / (1.0 - nu * nu);
+  return v * v;
+}
+
 }  // namespace gearwatch::dsp
