@@ -938,6 +938,7 @@ class FeatureDescriber::ToneSearch {
   void ghost_as_measured();
   void tones_as_measured();
   void move_over_weaker(Tone& best, double place, std::size_t from);
+  void try_supply_harmonic(Tone& best, std::size_t from);
   void joint_powers();
   void drop_tones_that_do_not_pay();
 
@@ -946,7 +947,7 @@ class FeatureDescriber::ToneSearch {
   const Window& w_;
   const bool fixed_in_hz_;
   const std::size_t n_;
-  double ratio_ = 0, to_input_ = 0, top_ = 0, lo_ = 0, hi_ = 0, step_ = 0, separation_ = 0;
+  double ratio_ = 0, to_input_ = 0, top_ = 0, lo_ = 0, hi_ = 0, step_ = 0, separation_ = 0, top_speed_ = 0;
   double resolved_hz_ = std::numeric_limits<double>::infinity();  // 1/T of the longest record (whole revolutions)
   double input_revolutions_ = 0, output_revolutions_ = 0;  // the longest record's
   std::vector<double> g_, base_;  // measured g; the twin's power with the tones found so far
@@ -984,6 +985,7 @@ FeatureDescriber::ToneSearch::ToneSearch(const FeatureDescriber& d, const GapFea
   lo_ = fixed_in_hz ? f.hz_low : f.order_low * to_input_, hi_ = fixed_in_hz ? f.hz_high : f.order_high * to_input_;
   if (!fixed_in_hz) lo_ = std::max(lo_, f.order * to_input_ - 2), hi_ = std::min(hi_, f.order * to_input_ + 2);
   step_ = fixed_in_hz ? 0.05 * top_speed : 0.05, separation_ = fixed_in_hz ? top_speed : 1.0;
+  top_speed_ = top_speed;
   g_.resize(n_), base_.resize(n_);
   for (std::size_t e = 0; e < n_; ++e) {
     const auto [r, i] = w[e];
@@ -1252,6 +1254,7 @@ void FeatureDescriber::ToneSearch::tones_as_measured() {
         for (double place : {best.place - s, best.place + s})
           if (free_place(place))
             if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
+      try_supply_harmonic(best, i);
       if (best.power > 0) t = std::move(best);
       add_to_base(t, 1);
       found_.insert(found_.begin() + static_cast<std::ptrdiff_t>(i), std::move(t));
@@ -1309,6 +1312,20 @@ void FeatureDescriber::ToneSearch::move_over_weaker(Tone& best, double place, st
     return;
   }
   for (auto& b : blockers) add_to_base(b, 1), found_.push_back(std::move(b));
+}
+
+/// `best` tried on the nearest harmonic of a 50 or 60 Hz supply within the supply tolerance: mains
+/// pick-up sits there (a grid holds its frequency to a fraction of a hertz), while the halving
+/// steps stop in whichever of the misfit's minima, about 1/T apart, is nearest, and another tone's
+/// leakage on the lines can put the nearest one off the harmonic. Kept where it fits the window better.
+void FeatureDescriber::ToneSearch::try_supply_harmonic(Tone& best, std::size_t from) {
+  if (!fixed_in_hz_) return;
+  const double tolerance = d_.settings_.supply_tolerance_orders * top_speed_;
+  for (const double supply : {50.0, 60.0}) {
+    const double k = std::round(best.place / supply);
+    if (k >= 1 && k <= d_.settings_.max_supply_harmonic && best.place != k * supply && std::abs(best.place - k * supply) <= tolerance)
+      move_over_weaker(best, k * supply, from);
+  }
 }
 
 /// The weakest tone dropped while the others explain the window as well by the BIC (the search's
