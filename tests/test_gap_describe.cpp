@@ -425,14 +425,16 @@ TEST_CASE("gap describe: tones at 50, 100 and 150 Hz are supply pick-up with the
 TEST_CASE("gap describe: supply tones joined in one feature are one description with every harmonic", "[gap][gap_describe]") {
   // 50, 100 and 150 Hz at 0.03, 0.02, 0.01 m/s² peak as the finder joins them: one feature fixed in
   // Hz over 42–158 Hz. And 60, 120, 180 Hz (0.02, 0.015, 0.01) in one feature: the mains of the other
-  // half of the world.
+  // half of the world. And a strong set, 0.735, 0.328, 0.147 m/s² (spent independent draw 10077's,
+  // where the 100 Hz tone had stopped 0.87 Hz off before the supply's harmonics were tried).
   const double fs = 10240;
   struct Case {
     double supply;
     std::vector<Tone> tones;
   };
   for (const Case& c : {Case{50, {{50, 0.03, true}, {100, 0.02, true}, {150, 0.01, true}}},
-                        Case{60, {{60, 0.02, true}, {120, 0.015, true}, {180, 0.01, true}}}}) {
+                        Case{60, {{60, 0.02, true}, {120, 0.015, true}, {180, 0.01, true}}},
+                        Case{50, {{50, 0.735, true}, {100, 0.328, true}, {150, 0.147, true}}}}) {
     INFO("supply " << c.supply << " Hz");
     const auto pairs = pairs_from_records(fs, c.tones);
     const FeatureDescriber describer(described(pairs), GearPairSpec{});
@@ -455,33 +457,6 @@ TEST_CASE("gap describe: supply tones joined in one feature are one description 
       CHECK(d.parameter(name + "_amplitude_m_s2") == Approx(c.tones[i].amplitude).epsilon(0.05));
     }
     CHECK(describe(d).find("supply pick-up, harmonics 1, 2, 3 of " + std::to_string(static_cast<int>(c.supply)) + " Hz") != std::string::npos);
-  }
-}
-
-TEST_CASE("gap describe: strong supply tones joined in one feature are placed on the supply's harmonics", "[gap][gap_describe]") {
-  // 50, 100 and 150 Hz at 0.735, 0.328 and 0.147 m/s² peak (spent independent draw 10077's, against
-  // this twin's 1 m/s² mesh line). On that draw's records the 100 Hz tone was placed 0.87 Hz off
-  // (the misfit's minima sit about 1/T apart; the neighbours' leakage tilts them); on these it is
-  // placed right with or without the supply's harmonics tried, so this case guards the amplitudes and
-  // places, not that step. Stated before the run: each within a tenth of the records' finest
-  // resolution (0.6 Hz) and 5 % in amplitude.
-  const double fs = 10240;
-  const std::vector<Tone> tones{{50, 0.735, true}, {100, 0.328, true}, {150, 0.147, true}};
-  const auto pairs = pairs_from_records(fs, tones);
-  const FeatureDescriber describer(described(pairs), GearPairSpec{});
-  const double lo = 23, hi = 176;
-  std::vector<GapFeature> features{feature_at(FeatureMovement::fixed_in_hz, FeatureShaft::input, lo / kSpeeds.back(), hi / kSpeeds.front(), lo, hi)};
-  describer.describe_all(features);
-  const auto& d = features[0].description;
-  INFO(text_of(d));
-  REQUIRE(d.kind == DescriptionKind::fixed_tone);
-  REQUIRE(d.parameter("tones") == 3);
-  CHECK(d.parameter("supply_hz") == 50);
-  for (std::size_t i = 0; i < tones.size(); ++i) {
-    const std::string name = "tone_" + std::to_string(i + 1);
-    INFO(name);
-    CHECK(d.parameter(name + "_hz") == Approx(tones[i].at).margin(0.06));
-    CHECK(d.parameter(name + "_amplitude_m_s2") == Approx(tones[i].amplitude).epsilon(0.05));
   }
 }
 
