@@ -1,4 +1,5 @@
 #include "gearwatch/gap/spectra.hpp"
+#include "gearwatch/dsp/window.hpp"
 
 #include <algorithm>
 #include <array>
@@ -218,10 +219,7 @@ void broadband_block_dft(const dsp::RealBuffer& residual, std::size_t spr, std::
   if (windows.size() > kMaxCachedPlans) windows.clear();
   auto [at, fresh] = windows.try_emplace(n);
   std::vector<double>& window = at->second;
-  if (fresh) {
-    window.resize(n);
-    for (std::size_t i = 0; i < n; ++i) window[i] = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / n);
-  }
+  if (fresh) window = dsp::periodic_hann(n);
   // Peak-amplitude scale of a bin-centred tone (2/Σw), and the window's noise bandwidth (1.5
   // bins) so that a tone's power summed over the bins it spreads into counts once.
   const double scale = 4.0 / static_cast<double>(n) / std::sqrt(1.5);
