@@ -959,7 +959,7 @@ TEST_CASE("gap attribution: a narrow resonance no family shows is casing_mode's,
     const auto training = models_of_set(set.train_measured, set.train_twin);
     // Nothing chosen: the chosen-candidate rule names nothing (what the bench saw on such draws).
     CHECK_FALSE(explaining_candidate(f, held_out, training, {}, GearPairSpec{}, 3.0).has_value());
-    const auto fit = casing_mode_for_resonance(f, held_out, training, GearPairSpec{}, 3.0);
+    const auto fit = casing_mode_for_resonance(f, held_out, training, GearPairSpec{}, FeatureSettings{});
     REQUIRE(fit.has_value());
     INFO("mode " << fit->mode_hz << " Hz, zeta " << fit->damping_ratio << ", " << fit->modal_mass_kg << " kg; held-out gap "
                  << fit->gap_before_db << " -> " << fit->gap_after_db << " dB");

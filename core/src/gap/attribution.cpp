@@ -5,7 +5,10 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <tuple>
+#include <utility>
 
+#include "gearwatch/gap/binned.hpp"
 #include "gearwatch/gap/candidates.hpp"
 
 namespace gearwatch::gap {
@@ -119,11 +122,24 @@ std::optional<CandidateEffect> explaining_candidate(const GapFeature& f, const s
 namespace {
 
 /// One line or bin near a resonance feature: its frequency, the measured and twin powers, the floor
-/// F and the bearing-force path there (what casing_mode's gain needs).
+/// F and the bearing-force path (what casing_mode's gain needs). A broadband bin also gives where
+/// its first half-order Hann bin sits and their spacing: it reads the gain averaged over them.
 struct WindowCell {
   double hz, measured, twin, floor;
-  std::complex<double> path;
+  std::complex<double> path;           ///< at hz
+  const BearingForcePath* path_table;  ///< at any Hz, for a bin's average
+  double first_half_bin_hz = 0, half_bin_hz = 0;  ///< a bin's half-order bins; 0: a line
 };
+
+/// A cell of `rec` as a WindowCell (a broadband bin [k, k+1) orders: its half-order bins at k and k + ½).
+WindowCell window_cell(const RecordModels& rec, Spectrum which, std::size_t i, double hz, const BearingForcePath& path) {
+  WindowCell c{hz, spectrum_of(*rec.measured, which)[i], spectrum_of(*rec.twin, which)[i], rec.floor, path.at(hz), &path};
+  if (which == Spectrum::broadband) {
+    const double speed = rec.measured->speed_hz;
+    c.first_half_bin_hz = (static_cast<double>(i) + 1.0) * speed, c.half_bin_hz = 0.5 * speed;
+  }
+  return c;
+}
 
 /// Every line and bin of `records` between lo_hz and hi_hz (output mesh lines counted on the input side).
 std::vector<WindowCell> window_cells(const std::vector<RecordModels>& records, double lo_hz, double hi_hz, const GearPairSpec& gears) {
@@ -136,7 +152,7 @@ std::vector<WindowCell> window_cells(const std::vector<RecordModels>& records, d
       const double hz = order * speed;
       const auto& m = spectrum_of(*rec.measured, which);
       const auto& t = spectrum_of(*rec.twin, which);
-      if (hz >= lo_hz && hz <= hi_hz && i < m.size() && i < t.size()) cells.push_back({hz, m[i], t[i], rec.floor, path->at(hz)});
+      if (hz >= lo_hz && hz <= hi_hz && i < m.size() && i < t.size()) cells.push_back(window_cell(rec, which, i, hz, *path));
     };
     for_each_cell(*rec.measured, gears, add);
   }
@@ -147,24 +163,37 @@ std::vector<WindowCell> window_cells(const std::vector<RecordModels>& records, d
 /// one mode of half their mass.
 struct OneMode {
   double hz, zeta, mass;
-  double gain(const WindowCell& c) const { return casing_modes_gain(c.path, c.hz, hz, hz, zeta, 2.0 * mass); }
+  double gain_at(std::complex<double> path, double f_hz) const { return casing_modes_gain(path, f_hz, hz, hz, zeta, 2.0 * mass); }
+  /// A line's gain at its frequency; a bin's averaged over its half-order bins (binned.hpp).
+  double gain(const WindowCell& c) const {
+    if (c.half_bin_hz == 0) return gain_at(c.path, c.hz);
+    return binned_average(c.first_half_bin_hz, c.half_bin_hz, hz, zeta,
+                          [&](double f) { return gain_at(c.path_table->at(f), f); });
+  }
 };
 
-double misfit(const std::vector<WindowCell>& cells, const OneMode& mode) {
+/// How a fit reads a bin: at its centre (cheap, for a grid's starts) or averaged over its half-order bins.
+enum class BinReading { at_centre, averaged };
+
+double misfit(const std::vector<WindowCell>& cells, const OneMode& mode, BinReading reading) {
   double sum = 0;
   for (const auto& c : cells) {
-    const double g = ratio_db(c.measured, c.twin * mode.gain(c), c.floor);
+    const double gain = reading == BinReading::averaged ? mode.gain(c) : mode.gain_at(c.path, c.hz);
+    const double g = ratio_db(c.measured, c.twin * gain, c.floor);
     sum += g * g;
   }
   return sum;
 }
 
-/// A compass search in the logs of f_n, ζ and m from `start`, halving its steps.
-OneMode compass(const std::vector<WindowCell>& cells, OneMode best, std::array<double, 3> step, double lo_hz, double hi_hz,
-                const CandidateForm& form) {
-  const auto& zeta_range = form.parameters[2];
-  const auto& mass_range = form.parameters[3];
-  double best_cost = misfit(cells, best);
+/// The box a mode is searched in.
+struct ModeBounds {
+  double lo_hz, hi_hz, zeta_low, zeta_high, mass_low, mass_high;
+};
+
+/// A compass search in the logs of f_n, ζ and m from `start`, halving its steps, on cost(mode).
+template <class Cost>
+OneMode compass(Cost&& cost, OneMode best, std::array<double, 3> step, const ModeBounds& box) {
+  double best_cost = cost(best);
   for (int halving = 0; halving < 24; ++halving) {
     bool moved = true;
     while (moved) {
@@ -174,10 +203,10 @@ OneMode compass(const std::vector<WindowCell>& cells, OneMode best, std::array<d
           OneMode m = best;
           double& v = k == 0 ? m.hz : k == 1 ? m.zeta : m.mass;
           v *= std::exp(sign * step[k]);
-          m.hz = std::clamp(m.hz, lo_hz, hi_hz);
-          m.zeta = std::clamp(m.zeta, zeta_range.low, zeta_range.high);
-          m.mass = std::clamp(m.mass, mass_range.low, mass_range.high);
-          const double c = misfit(cells, m);
+          m.hz = std::clamp(m.hz, box.lo_hz, box.hi_hz);
+          m.zeta = std::clamp(m.zeta, box.zeta_low, box.zeta_high);
+          m.mass = std::clamp(m.mass, box.mass_low, box.mass_high);
+          const double c = cost(m);
           if (c < best_cost - 1e-12 * (1 + best_cost)) best_cost = c, best = m, moved = true;
         }
     }
@@ -186,13 +215,14 @@ OneMode compass(const std::vector<WindowCell>& cells, OneMode best, std::array<d
   return best;
 }
 
-/// The least-squares mode on `cells`: a grid (f_n every `hz_step` over [lo, hi], ζ and m log-spaced
-/// over casing_mode's ranges), then a compass search from the grid's best point at every ζ: a narrow
-/// mode's basin is narrower than a grid cell in m and f_n, so the grid's best point overall is
-/// often a broad mode that fits everything a little.
+/// The least-squares mode on `cells` with bins read at their centres: a grid (f_n every `hz_step`
+/// over [lo, hi], ζ and m log-spaced over casing_mode's ranges), then a compass search from the
+/// grid's best point at every ζ: a narrow mode's basin is narrower than a grid cell in m and f_n, so
+/// the grid's best point overall is often a broad mode that fits everything a little.
 OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double hi_hz, double hz_step, const CandidateForm& form) {
   const auto& zeta_range = form.parameters[2];
   const auto& mass_range = form.parameters[3];
+  const ModeBounds box{lo_hz, hi_hz, zeta_range.low, zeta_range.high, mass_range.low, mass_range.high};
   constexpr int kZeta = 13, kMass = 41;
   auto log_point = [](const CandidateParameter& p, int i, int n) { return p.low * std::pow(p.high / p.low, i / (n - 1.0)); };
   std::vector<std::pair<double, OneMode>> best_at_zeta;
@@ -201,7 +231,7 @@ OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double 
     for (double hz = lo_hz; hz <= hi_hz; hz += hz_step)
       for (int j = 0; j < kMass; ++j) {
         const OneMode m{hz, log_point(zeta_range, i, kZeta), log_point(mass_range, j, kMass)};
-        const double c = misfit(cells, m);
+        const double c = misfit(cells, m, BinReading::at_centre);
         if (c < best.first) best = {c, m};
       }
     best_at_zeta.push_back(best);
@@ -211,8 +241,8 @@ OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double 
   for (const auto& [cost, start] : best_at_zeta) {
     const std::array<double, 3> step = {std::log1p(hz_step / start.hz), std::log(zeta_range.high / zeta_range.low) / (kZeta - 1),
                                         std::log(mass_range.high / mass_range.low) / (kMass - 1)};
-    const OneMode m = compass(cells, start, step, lo_hz, hi_hz, form);
-    const double c = misfit(cells, m);
+    const OneMode m = compass([&](const OneMode& x) { return misfit(cells, x, BinReading::at_centre); }, start, step, box);
+    const double c = misfit(cells, m, BinReading::at_centre);
     if (c < best_cost) best_cost = c, best = m;
   }
   return best;
@@ -226,18 +256,111 @@ double rms_with(const std::vector<FeatureCell>& cells, const std::vector<RecordM
     const double hz = cell_order(c.spectrum, c.index, gears) * rec.measured->speed_hz;
     double model = spectrum_of(*rec.twin, c.spectrum)[c.index];
     if (mode != nullptr && rec.twin->bearing_force_path)
-      model *= mode->gain({hz, 0, 0, 0, rec.twin->bearing_force_path->at(hz)});
+      model *= mode->gain_at(rec.twin->bearing_force_path->at(hz), hz);
     const double g = ratio_db(spectrum_of(*rec.measured, c.spectrum)[c.index], model, rec.floor);
     sum += g * g;
   }
   return cells.empty() ? std::numeric_limits<double>::quiet_NaN() : std::sqrt(sum / static_cast<double>(cells.size()));
 }
 
-double rms_window(const std::vector<WindowCell>& cells, const OneMode* mode) {
+/// A local cell (features.hpp: local_peak_cells): one broadband bin's band of bins, their measured
+/// powers and their local expectation E (the twin plus the acquisition's floor, scaled by the
+/// neighbourhood's median ratio), each bin as a WindowCell for a mode's gain.
+struct LocalBand {
+  double hz;  ///< the centre bin's place
+  std::vector<double> measured, expected;
+  std::vector<WindowCell> bins;
+};
+
+/// A record's local cells centred in [lo_hz, hi_hz].
+std::vector<LocalBand> local_bands(const RecordModels& rec, double lo_hz, double hi_hz, const FeatureSettings& settings) {
+  if (!rec.twin->bearing_force_path) return {};
+  const BearingForcePath& path = *rec.twin->bearing_force_path;
+  const double acquisition = compare_floors(*rec.measured, *rec.twin, settings.floor).acquisition;
+  const auto expected = local_expectation(*rec.measured, *rec.twin, acquisition, settings.local);
+  const auto& measured = rec.measured->broadband;
+  const std::size_t h = settings.local.band_bins / 2;
+  const double speed = rec.measured->speed_hz;
+  auto place = [&](std::size_t i) { return cell_order(Spectrum::broadband, i, GearPairSpec{}) * speed; };
+  std::vector<LocalBand> out;
+  for (std::size_t k = h; k + h < expected.size() && k + h < measured.size(); ++k) {
+    if (place(k) < lo_hz || place(k) > hi_hz) continue;
+    LocalBand band{place(k), {}, {}, {}};
+    for (std::size_t j = k - h; j <= k + h && std::isfinite(expected[j]); ++j) {
+      band.measured.push_back(measured[j]), band.expected.push_back(expected[j]);
+      band.bins.push_back(window_cell(rec, Spectrum::broadband, j, place(j), path));
+    }
+    if (band.bins.size() == 2 * h + 1) out.push_back(std::move(band));
+  }
+  return out;
+}
+
+/// A local cell's gain, dB, as the finder reads it (ΣM / ΣE); with a mode, each bin's E times the
+/// mode's gain there: a mode of the structure lifts whatever the neighbourhood shows the floor to be.
+double band_gain_db(const LocalBand& band, const OneMode* mode) {
+  double m = 0, e = 0;
+  for (std::size_t i = 0; i < band.bins.size(); ++i)
+    m += band.measured[i], e += band.expected[i] * (mode != nullptr ? mode->gain(band.bins[i]) : 1.0);
+  return m > 0 && e > 0 ? 10.0 * std::log10(m / e) : std::numeric_limits<double>::quiet_NaN();
+}
+
+/// A peak narrower than a bin, which only the local cells find: the mode fitted on the training
+/// records' local cells about it (sum of squared gains), from the feature's own description (a
+/// resonance's f_n and ζ, fitted by its describer on bins read the same way; the modal mass from a
+/// log grid there). ζ may go below casing_mode's range, to a steel casing's material damping: a
+/// mode lifting less than a bin is as narrow as the structure makes it.
+std::optional<OneMode> local_mode(const std::vector<LocalBand>& bands, const GapFeature& f, double lo_hz, double hi_hz,
+                                  const CandidateForm& form) {
+  constexpr double kLowestDampingRatio = 0.0005;
+  constexpr int kMass = 41;
+  const double fn = f.description.parameter("frequency_hz"), zeta = f.description.parameter("damping_ratio");
+  if (bands.empty() || !std::isfinite(fn) || !std::isfinite(zeta)) return std::nullopt;
+  const auto& zeta_range = form.parameters[2];
+  const auto& mass_range = form.parameters[3];
+  const ModeBounds box{lo_hz, hi_hz, std::min(kLowestDampingRatio, zeta_range.low), zeta_range.high, mass_range.low, mass_range.high};
+  auto cost = [&](const OneMode& m) {
+    double sum = 0;
+    for (const auto& b : bands) {
+      const double g = band_gain_db(b, &m);
+      if (std::isfinite(g)) sum += g * g;
+    }
+    return sum;
+  };
+  OneMode start{std::clamp(fn, lo_hz, hi_hz), std::clamp(zeta, box.zeta_low, box.zeta_high), mass_range.high};
+  double best = std::numeric_limits<double>::infinity();
+  for (int j = 0; j < kMass; ++j) {
+    const OneMode m{start.hz, start.zeta, mass_range.low * std::pow(mass_range.high / mass_range.low, j / (kMass - 1.0))};
+    const double c = cost(m);
+    if (c < best) best = c, start.mass = m.mass;
+  }
+  const std::array<double, 3> step = {std::log1p(0.25 * start.zeta), 0.25, std::log(mass_range.high / mass_range.low) / (kMass - 1)};
+  return compass(cost, start, step, box);
+}
+
+/// RMS gaps (without, with the mode) over the feature's local cells in the records of one set that
+/// show it, centred inside its extent, at the practical minimum or more without. NaN: none.
+std::pair<double, double> local_gap_db(const GapFeature& f, const std::vector<RecordModels>& records, bool held_out,
+                                       const OneMode& mode, const FeatureSettings& settings) {
+  double before = 0, after = 0;
+  std::size_t n = 0;
+  for (std::size_t r = 0; r < records.size(); ++r) {
+    if (!seen_in(f, held_out, r)) continue;
+    for (const auto& band : local_bands(records[r], f.hz_low, f.hz_high, settings)) {
+      const double b = band_gain_db(band, nullptr), a = band_gain_db(band, &mode);
+      if (!(b >= settings.min_feature_db) || !std::isfinite(a)) continue;
+      before += b * b, after += a * a, ++n;
+    }
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  return n == 0 ? std::pair{nan, nan} : std::pair{std::sqrt(before / n), std::sqrt(after / n)};
+}
+
+double rms_window(const std::vector<WindowCell>& cells, const OneMode* mode, BinReading reading) {
   if (cells.empty()) return 0.0;
   double sum = 0;
   for (const auto& c : cells) {
-    const double g = ratio_db(c.measured, mode ? c.twin * mode->gain(c) : c.twin, c.floor);
+    const double gain = mode == nullptr ? 1.0 : reading == BinReading::averaged ? mode->gain(c) : mode->gain_at(c.path, c.hz);
+    const double g = ratio_db(c.measured, c.twin * gain, c.floor);
     sum += g * g;
   }
   return std::sqrt(sum / static_cast<double>(cells.size()));
@@ -247,7 +370,8 @@ double rms_window(const std::vector<WindowCell>& cells, const OneMode* mode) {
 
 std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& f, const std::vector<RecordModels>& held_out,
                                                        const std::vector<RecordModels>& training, const GearPairSpec& gears,
-                                                       double min_feature_db) {
+                                                       const FeatureSettings& settings) {
+  const double min_feature_db = settings.min_feature_db;
   if (training.empty()) return std::nullopt;
   const CandidateForm form = candidate_form(CandidateEffect::casing_mode, training.front().measured->sample_rate_hz);
   const double zeta_low = form.parameters[2].low;
@@ -262,18 +386,38 @@ std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& f, cons
   const double lo = std::max(1.0, f.hz_low - margin), hi = f.hz_high + margin, centre = 0.5 * (f.hz_low + f.hz_high);
   const auto fit_cells = window_cells(training, lo, hi, gears);
   if (fit_cells.empty()) return std::nullopt;
-  // A quarter of the narrowest half-power band the form allows, so no mode in its range falls between two grid points.
-  const OneMode mode = fit_one_mode(fit_cells, lo, hi, 0.5 * zeta_low * centre, form);
-  CasingModeFit out{mode.hz, mode.zeta, mode.mass, 0, 0, true, false};
   auto judged = cells_of(f, held_out, true, gears, min_feature_db);
   const auto* records = &held_out;
-  if (judged.empty()) judged = cells_of(f, training, false, gears, min_feature_db), records = &training, out.held_out = false;
-  if (judged.empty()) return out;
-  out.gap_before_db = rms_with(judged, *records, nullptr, gears);
-  out.gap_after_db = rms_with(judged, *records, &mode, gears);
+  bool held = true;
+  if (judged.empty()) judged = cells_of(f, training, false, gears, min_feature_db), records = &training, held = false;
+  OneMode mode{};
+  CasingModeFit out;
+  BinReading reading = BinReading::at_centre;
+  if (!judged.empty()) {
+    // A quarter of the narrowest half-power band the form allows, so no mode in its range falls between two grid points.
+    mode = fit_one_mode(fit_cells, lo, hi, 0.5 * zeta_low * centre, form);
+    out = {mode.hz, mode.zeta, mode.mass, rms_with(judged, *records, nullptr, gears), rms_with(judged, *records, &mode, gears), held, false};
+  } else {
+    // A peak narrower than a bin: no line or bin reaches the minimum, its local cells do.
+    std::vector<LocalBand> bands;
+    for (const auto& rec : training) {
+      auto b = local_bands(rec, lo, hi, settings);
+      bands.insert(bands.end(), std::make_move_iterator(b.begin()), std::make_move_iterator(b.end()));
+    }
+    const auto fitted = local_mode(bands, f, lo, hi, form);
+    if (!fitted) return std::nullopt;
+    mode = *fitted, reading = BinReading::averaged;
+    out = {mode.hz, mode.zeta, mode.mass, 0, 0, true, false};
+    std::tie(out.gap_before_db, out.gap_after_db) = local_gap_db(f, held_out, true, mode, settings);
+    if (!std::isfinite(out.gap_before_db)) {
+      out.held_out = false;
+      std::tie(out.gap_before_db, out.gap_after_db) = local_gap_db(f, training, false, mode, settings);
+    }
+    if (!std::isfinite(out.gap_before_db)) return out;
+  }
   // Held out, the mode must not make the window worse, whether or not those records show the feature.
   const auto window = window_cells(held_out.empty() ? training : held_out, lo, hi, gears);
-  out.explains = out.gap_after_db < min_feature_db && rms_window(window, &mode) <= rms_window(window, nullptr);
+  out.explains = out.gap_after_db < min_feature_db && rms_window(window, &mode, reading) <= rms_window(window, nullptr, reading);
   return out;
 }
 

@@ -2,6 +2,7 @@
 #include "gearwatch/gap/unit_tone.hpp"
 
 #include "gearwatch/dsp/window.hpp"
+#include "gearwatch/gap/binned.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/numeric/line_search.hpp"
 
@@ -378,45 +379,10 @@ double band_pass(double hz, double fn, double zeta) {
   return b * b / (a * a + b * b);
 }
 
-/// The band-pass as a 1-order broadband bin sees it: the average over frequency of band_pass
-/// weighted by the bin's two half-order Hann bins (centred at `first_hz` and first_hz +
-/// half_bin_hz). A peak narrower than a bin lands in it by its area, wherever in the bin it
-/// stands, which its value at one point in the bin does not give. Trapezoid rule on a grid fine for
-/// the kernel (1/32 of a half-order bin, 4 bins of reach each side: the kernel falls as ν⁻⁶) and
-/// for the peak (a quarter of its half-width ζ·f_n, over 12 half-widths each side); the kernel's
-/// own sum on the same grid normalises it, so a flat band-pass reads exactly its value.
+/// The band-pass as a 1-order broadband bin sees it (binned.hpp): its two half-order Hann bins
+/// centred at `first_hz` and first_hz + half_bin_hz.
 double binned_band_pass(double first_hz, double half_bin_hz, double fn, double zeta) {
-  struct Point {
-    double nu, kernel;
-    bool operator<(const Point& o) const { return nu < o.nu; }
-  };
-  constexpr double kReach = 4, kStep = 1.0 / 32;
-  const double width = zeta * fn / half_bin_hz, centre = (fn - first_hz) / half_bin_hz;
-  // Where the band-pass changes little over the kernel (a peak 8 half-order bins wide and more, or
-  // a bin beyond the kernel's main lobe and 24 half-widths from the peak) its value at the kernel's
-  // centre, half a half-order bin up, is the average to a few per cent of what it lifts there; the
-  // search's windows of thousands of bins then cost one evaluation a bin, not hundreds.
-  if (width > 8 || std::abs(centre - 0.5) > std::max(6.0, 24 * width)) return band_pass(first_hz + 0.5 * half_bin_hz, fn, zeta);
-  auto kernel = [](double nu) { return dsp::hann_power_response(nu) + dsp::hann_power_response(nu - 1); };
-  static const std::vector<Point> coarse = [&] {
-    std::vector<Point> g;
-    for (double v = -kReach; v <= 1 + kReach; v += kStep) g.push_back({v, kernel(v)});
-    return g;
-  }();
-  std::vector<Point> fine;
-  if (width > 0 && width < 4 * kStep)
-    for (double v = std::max(-kReach, centre - 12 * width); v <= std::min(1 + kReach, centre + 12 * width); v += width / 4)
-      fine.push_back({v, kernel(v)});
-  std::vector<Point> grid(coarse.size() + fine.size());
-  std::merge(coarse.begin(), coarse.end(), fine.begin(), fine.end(), grid.begin());
-  double weighted = 0, total = 0;
-  for (std::size_t i = 1; i < grid.size(); ++i) {
-    const Point &a = grid[i - 1], &b = grid[i];
-    const double h = 0.5 * (b.nu - a.nu);
-    weighted += h * (band_pass(first_hz + a.nu * half_bin_hz, fn, zeta) * a.kernel + band_pass(first_hz + b.nu * half_bin_hz, fn, zeta) * b.kernel);
-    total += h * (a.kernel + b.kernel);
-  }
-  return total > 0 ? weighted / total : 0.0;
+  return binned_average(first_hz, half_bin_hz, fn, zeta, [&](double hz) { return band_pass(hz, fn, zeta); });
 }
 
 }  // namespace

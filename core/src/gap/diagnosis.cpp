@@ -775,7 +775,7 @@ class Diagnosis {
     if (f.description.kind != DescriptionKind::resonance ||
         (f.movement != FeatureMovement::fixed_in_hz && f.movement != FeatureMovement::undetermined))
       return;
-    const auto fit = casing_mode_for_resonance(f, held_out, training, gears_, settings_.features.min_feature_db);
+    const auto fit = casing_mode_for_resonance(f, held_out, training, gears_, settings_.features);
     if (!fit || !fit->explains) return;
     f.explained_by = CandidateEffect::casing_mode;
     f.description.parameters.emplace_back("casing_mode_hz", fit->mode_hz);

@@ -20,6 +20,7 @@
 #include <optional>
 #include <vector>
 
+#include "gearwatch/gap/features.hpp"
 #include "gearwatch/gap/spectra.hpp"
 #include "gearwatch/gearbox_spec.hpp"
 #include "gearwatch/types/gap_report.hpp"
@@ -73,7 +74,7 @@ struct CasingModeFit {
 /// worse. Needs the twin's bearing-force path on the twin's spectra (none: nullopt).
 std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& feature, const std::vector<RecordModels>& held_out,
                                                        const std::vector<RecordModels>& training, const GearPairSpec& gears,
-                                                       double min_feature_db);
+                                                       const FeatureSettings& settings);
 
 /// The family evidence, asked when the feature's own cells name none: the first chosen candidate in
 /// report.chosen whose families hold the family the feature's place belongs to (a modulation's: its
