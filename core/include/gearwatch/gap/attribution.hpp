@@ -71,7 +71,11 @@ struct CasingModeFit {
 /// grid's best point at each ζ. Judged as explaining_candidate judges: the feature's
 /// held-out cells with |g| at the practical minimum (its training cells when no held-out record shows
 /// it), RMS under the minimum with the mode; and the RMS over the held-out records' window not made
-/// worse. Needs the twin's bearing-force path on the twin's spectra (none: nullopt).
+/// worse. A resonance narrower than a bin, which no line or bin shows at the minimum, is fitted and
+/// judged on its local cells instead (features.hpp: a bin's band against its local expectation E),
+/// E times the mode's gain averaged over each bin's half-order bins (binned.hpp), from the
+/// description's f_n and ζ, ζ down to a steel casing's material damping. Needs the twin's
+/// bearing-force path on the twin's spectra (none: nullopt).
 std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& feature, const std::vector<RecordModels>& held_out,
                                                        const std::vector<RecordModels>& training, const GearPairSpec& gears,
                                                        const FeatureSettings& settings);
