@@ -694,6 +694,33 @@ TEST_CASE("gap features: a broadband floor step under the comparison's floor is 
   CHECK(*by == CandidateEffect::noise_floor);
 }
 
+TEST_CASE("gap features: a floor feature reaching under its step's corner is white noise above the corner, the noise floor's",
+          "[gap][gap_features]") {
+  // As above, with the band's noise 630 times the capture's PSD from 2500 Hz up (10·log10(631) =
+  // 28 dB), and the feature's extent taken down to 1700 Hz, as the finder takes it when the band
+  // the corner cuts holds a few bins of the step: the bands under the corner are not raised, those
+  // over it 28 dB. White noise everywhere cannot give both (white_floor_psd without a corner: NaN);
+  // the step form finds the corner, and white noise above it explains the bands there. Asserted
+  // before the run: the corner within one band (12 %) of 2500 Hz, the white PSD within 26 % of
+  // 630·σ²/(fs/2) as above, the noise floor explaining the feature.
+  const double fs = 10240, corner = 2500, ratio = 630;
+  auto c = floor_case(fs, 1e-3, std::sqrt(ratio), corner, fs, 361);
+  const auto floors = c.finders[0].floor_features();
+  INFO(descriptions(floors));
+  REQUIRE(floors.size() == 1);
+  GapFeature f = floors.front();
+  f.hz_low = 1700;
+  const auto described = described_records(c);
+  CHECK(std::isnan(FeatureDescriber(described, GearPairSpec{}).white_floor_psd(f)));
+  f.description = floor_description(described, f);
+  INFO(describe(f.description));
+  CHECK(f.description.parameter("corner_hz") == Approx(corner).epsilon(0.12));
+  CHECK(f.description.parameter("white_psd_m2_s4_per_hz") == Approx(ratio * 1e-6 / (fs / 2)).epsilon(0.26));
+  const auto by = explaining_candidate(f, {}, {}, {}, GearPairSpec{}, 3.0);
+  REQUIRE(by.has_value());
+  CHECK(*by == CandidateEffect::noise_floor);
+}
+
 namespace attribution_case {
 // A held-out record at 10 Hz in closed form: every input line and every output line (the mesh
 // orders excepted, which hold 0) of power 1 in the twin, broadband bins 1e-4, the floor F 1e-6. The

@@ -1400,14 +1400,15 @@ FeatureDescription FeatureDescriber::describe_floor(const GapFeature& f) const {
   d.kind = DescriptionKind::floor_change;
   d.parameters = {{"level_db", best.level}, {"slope_db_per_decade", best.slope}};
   // The corner lies between the middles of the last band under it and the first over it.
-  if (best.from > 0) d.parameters.emplace_back("corner_hz", std::sqrt(bands[best.from - 1].middle * bands[best.from].middle));
-  if (const double psd = white_floor_psd(f); std::isfinite(psd)) d.parameters.emplace_back("white_psd_m2_s4_per_hz", psd);
+  const double corner = best.from > 0 ? std::sqrt(bands[best.from - 1].middle * bands[best.from].middle) : 0.0;
+  if (best.from > 0) d.parameters.emplace_back("corner_hz", corner);
+  if (const double psd = white_floor_psd(f, corner); std::isfinite(psd)) d.parameters.emplace_back("white_psd_m2_s4_per_hz", psd);
   d.gap_db = none.gap_db;
   d.residual_db = std::sqrt(best.rss / n);
   return d;
 }
 
-double FeatureDescriber::white_floor_psd(const GapFeature& f) const {
+double FeatureDescriber::white_floor_psd(const GapFeature& f, double corner_hz) const {
   // The noise_floor candidate's form on the floors: each band's measured floor per 1-order bin is
   // the twin's plus the acquisition's plus 2·S·speed (noise_floor_per_order_bin), one S for every
   // record; fitted in the log over the bands centred in the feature's extent, as describe_floor's.
@@ -1419,7 +1420,7 @@ double FeatureDescriber::white_floor_psd(const GapFeature& f) const {
     for (std::size_t b = 0; b < floors_[r].bands.size(); ++b) {
       const FloorBand& band = floors_[r].bands[b];
       const double centre = std::sqrt(band.hz_low * band.hz_high);
-      if (centre >= f.hz_low && centre <= f.hz_high && band.twin + floors_[r].acquisition > 0)
+      if (centre >= std::max(f.hz_low, corner_hz) && centre <= f.hz_high && band.twin + floors_[r].acquisition > 0)
         bands.push_back({band.twin + floors_[r].acquisition, noise_floor_per_order_bin(1.0, records_[r].speed_hz), floors_[r].gap_db(b)});
     }
   if (bands.empty()) return kNaN;

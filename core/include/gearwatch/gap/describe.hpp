@@ -82,7 +82,9 @@ class FeatureDescriber {
   /// it: `white_psd_m2_s4_per_hz` = S, (m/s²)²/Hz.
   FeatureDescription describe_floor(const GapFeature& f) const;
   /// The white PSD that explains a floor feature's bands (the rule of the forms), NaN when none does.
-  double white_floor_psd(const GapFeature& f) const;
+  /// With the step form's corner, its bands above the corner: the band the corner cuts is raised
+  /// only over part of it, which white noise above a corner does, white noise everywhere does not.
+  double white_floor_psd(const GapFeature& f, double corner_hz = 0.0) const;
 
   enum class CellKind : std::uint8_t { input_line, output_line, broadband };
   struct Cell {
