@@ -172,14 +172,11 @@ struct OneMode {
   }
 };
 
-/// How a fit reads a bin: at its centre (cheap, for a grid's starts) or averaged over its half-order bins.
-enum class BinReading { at_centre, averaged };
-
-double misfit(const std::vector<WindowCell>& cells, const OneMode& mode, BinReading reading) {
+/// The sum of squared g over `cells` with the mode, each read at its centre (the grid's fit).
+double misfit(const std::vector<WindowCell>& cells, const OneMode& mode) {
   double sum = 0;
   for (const auto& c : cells) {
-    const double gain = reading == BinReading::averaged ? mode.gain(c) : mode.gain_at(c.path, c.hz);
-    const double g = ratio_db(c.measured, c.twin * gain, c.floor);
+    const double g = ratio_db(c.measured, c.twin * mode.gain_at(c.path, c.hz), c.floor);
     sum += g * g;
   }
   return sum;
@@ -231,7 +228,7 @@ OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double 
     for (double hz = lo_hz; hz <= hi_hz; hz += hz_step)
       for (int j = 0; j < kMass; ++j) {
         const OneMode m{hz, log_point(zeta_range, i, kZeta), log_point(mass_range, j, kMass)};
-        const double c = misfit(cells, m, BinReading::at_centre);
+        const double c = misfit(cells, m);
         if (c < best.first) best = {c, m};
       }
     best_at_zeta.push_back(best);
@@ -241,8 +238,8 @@ OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double 
   for (const auto& [cost, start] : best_at_zeta) {
     const std::array<double, 3> step = {std::log1p(hz_step / start.hz), std::log(zeta_range.high / zeta_range.low) / (kZeta - 1),
                                         std::log(mass_range.high / mass_range.low) / (kMass - 1)};
-    const OneMode m = compass([&](const OneMode& x) { return misfit(cells, x, BinReading::at_centre); }, start, step, box);
-    const double c = misfit(cells, m, BinReading::at_centre);
+    const OneMode m = compass([&](const OneMode& x) { return misfit(cells, x); }, start, step, box);
+    const double c = misfit(cells, m);
     if (c < best_cost) best_cost = c, best = m;
   }
   return best;
@@ -354,6 +351,10 @@ std::pair<double, double> local_gap_db(const GapFeature& f, const std::vector<Re
   const double nan = std::numeric_limits<double>::quiet_NaN();
   return n == 0 ? std::pair{nan, nan} : std::pair{std::sqrt(before / n), std::sqrt(after / n)};
 }
+
+/// How a mode is read on a bin: at its centre (as the lines-and-bins fit reads it) or averaged over
+/// its half-order bins (as the local cells' fit reads it).
+enum class BinReading { at_centre, averaged };
 
 double rms_window(const std::vector<WindowCell>& cells, const OneMode* mode, BinReading reading) {
   if (cells.empty()) return 0.0;
