@@ -20,7 +20,7 @@ import os
 import sys
 
 import numpy as np
-from scipy import interpolate, signal, special
+from scipy import signal, special
 
 VIBRATION_ID = 0x100      # channel 0 (can-protocol.md); channel c is 0x100 + c
 TACHO_ID = 0x180          # the input shaft's tacho edges: u32 index, u32 fraction (/2^32)
@@ -230,6 +230,21 @@ def on_the_path(x, fs, gain_of_f):
 # ----------------------------------------------------------------------------------------------
 # The forms. Each takes (x, fs, theta_in, context, params) and returns the modified x.
 
+def read_between_samples(x, where, half_width=64, kaiser_beta=10.0):
+    """x read at fractional sample positions `where` by band-limited interpolation (the sampling
+    theorem's sinc, Kaiser-windowed over 2*half_width samples): a re-timed record keeps its lines'
+    amplitudes up to near Nyquist, where a cubic spline between samples would lower them by a
+    fraction-dependent amount. Samples beyond the record's ends are taken as its end samples."""
+    base = np.floor(where).astype(np.int64)
+    frac = where - base
+    y = np.zeros(len(where))
+    for k in range(-half_width + 1, half_width + 1):
+        u = frac - k                                     # distance from sample base + k
+        taper = np.i0(kaiser_beta * np.sqrt(np.clip(1 - (u / half_width) ** 2, 0, None))) / np.i0(kaiser_beta)
+        y += x[np.clip(base + k, 0, len(x) - 1)] * np.sinc(u) * taper
+    return y
+
+
 def apply_effect(form, p, x, fs, theta, ctx):
     t = np.arange(len(x)) / fs
     if form == "none":
@@ -255,9 +270,8 @@ def apply_effect(form, p, x, fs, theta, ctx):
         # β / (2π z1) revolutions; the record is read at the sample where the shaft is there.
         shaft = theta * ctx["shaft_ratio"][p["shaft"]]
         delta_revs = p["index_rad"] / (2 * np.pi * ctx["pinion_teeth"]) * np.sin(2 * np.pi * shaft + p["phase_rad"])
-        n = np.arange(len(x), dtype=float)
-        where = np.clip(n + delta_revs * fs / ctx["speed_hz"], 0, len(x) - 1)
-        return interpolate.CubicSpline(n, x)(where)
+        where = np.arange(len(x), dtype=float) + delta_revs * fs / ctx["speed_hz"]
+        return read_between_samples(x, where)
     if form == "floor_step":
         rng = np.random.default_rng(p["noise_seed"])
         noise = rng.standard_normal(len(x)) * math.sqrt(p["psd_m2_s4_per_hz"] * fs / 2)
@@ -420,6 +434,15 @@ def self_test():
     p = {"shaft": "input", "index_rad": 0.5, "phase_rad": 0.0}
     y = apply_effect("phase_modulation", p, carrier, fs, theta, ctx)
     check("PM sideband", amplitude_at(y, fs, 200) / amplitude_at(y, fs, 190), special.jv(1, 0.5) / special.jv(0, 0.5), 1e-4)
+    # The re-timing near Nyquist: a tone at f is delayed as the mesh is, so its index is β·f/f_mesh;
+    # its carrier keeps J0 and each first sideband J1 of that index, at 0.40 and 0.46 of fs alike
+    # (a spline between samples lowers them there by several per cent).
+    p = {"shaft": "input", "index_rad": 0.005, "phase_rad": 0.0}
+    for f in (20000.0, 23000.0):
+        y = apply_effect("phase_modulation", p, np.cos(2 * np.pi * f * t), fs, theta, ctx)
+        x = 0.005 * f / 190.0
+        check(f"PM carrier at {f:.0f} Hz", amplitude_at(y[5000:-5000], fs, f), special.jv(0, x), 1e-3)
+        check(f"PM sideband at {f:.0f} Hz", amplitude_at(y[5000:-5000], fs, f + 10), special.jv(1, x), 1e-3)
     # Floor step: Welch PSD above the corner at the drawn level, below it none.
     p = {"corner_hz": 10000.0, "psd_m2_s4_per_hz": 1e-4, "noise_seed": 3}
     y = apply_effect("floor_step", p, np.zeros(4 * n), fs, np.zeros(4 * n), ctx)

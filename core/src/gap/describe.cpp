@@ -101,7 +101,20 @@ struct ModulatedHarmonic {
   double carrier_power, excess;  ///< measured carrier power; the sidebands' excess power over the twin's
   double twin_carrier_power = 0;
   std::complex<double> twin_carrier;  ///< the twin's carrier (complex, where phases are known)
+  /// The measured carrier too stands over the floor (and, with phases, is not zero): its sidebands
+  /// can be read over it. A harmonic that is not readable still carries a predicted comb: a PM
+  /// whose index n·β passes J0's zeros, or grows large on the high harmonics, takes the measured
+  /// carrier under the floor while its sidebands stand far over the twin's.
+  bool readable = true;
 };
+
+/// The harmonics whose sidebands are read (ModulatedHarmonic::readable).
+std::vector<ModulatedHarmonic> readable_only(const std::vector<ModulatedHarmonic>& hs) {
+  std::vector<ModulatedHarmonic> out;
+  for (const auto& h : hs)
+    if (h.readable) out.push_back(h);
+  return out;
+}
 
 /// The modulation read off the sidebands' phases, the twin's own subtracted: per harmonic
 /// u + conj(l) = m·e^{iφ} (AM) and u − conj(l) = 2·J1(nβ)/J0(nβ)·e^{iψ} (PM of the mesh, nβ on
@@ -176,8 +189,9 @@ ShaftSpectra shaft_spectra(const DescribedRecord& src, bool input) {
   return {lines_m, lines_t, cm, ct, with_phase};
 }
 
-/// The mesh harmonics n (carrier at input order n·zp) whose carriers (measured and twin's) stand above the floor and
-/// whose first sidebands (orders n·z ± 1 of the shaft with z teeth) exist in both records.
+/// The mesh harmonics n (carrier at input order n·zp) whose twin's carrier stands above the floor and
+/// whose first sidebands (orders n·z ± 1 of the shaft with z teeth) exist in both records; readable
+/// where the measured carrier stands above the floor too.
 std::vector<ModulatedHarmonic> modulated_harmonics(const DescribedRecord& src, const ShaftSpectra& s, int zp, int z) {
   using Complex = std::complex<double>;
   const auto& m = *src.measured;
@@ -191,13 +205,16 @@ std::vector<ModulatedHarmonic> modulated_harmonics(const DescribedRecord& src, c
     // Both carriers over the floor: each record's sidebands are read over its own carrier, and a
     // twin's carrier at the floor makes its own ratios (subtracted) meaningless.
     const double pc = m.input_lines[carrier];
-    if (!(pc > 100 * src.floor) || !(t.input_lines[carrier] > 100 * src.floor)) continue;
+    if (!(t.input_lines[carrier] > 100 * src.floor)) continue;
     ModulatedHarmonic h{n, {}, {}, {}, {}, {}, pc, s.lines_m[upper] + s.lines_m[lower] - s.lines_t[upper] - s.lines_t[lower],
                         t.input_lines[carrier], {}};
+    h.readable = pc > 100 * src.floor;
     if (s.with_phase) {
       const Complex cmc = src.measured_input[carrier], ctc = src.twin_input[carrier];
-      if (std::abs(cmc) == 0 || std::abs(ctc) == 0) continue;
-      h.carrier_m = cmc, h.twin_carrier = ctc, h.u_m = s.cm[upper] / cmc, h.l_m = s.cm[lower] / cmc, h.u_t = s.ct[upper] / ctc, h.l_t = s.ct[lower] / ctc;
+      if (std::abs(ctc) == 0) continue;
+      h.readable = h.readable && std::abs(cmc) > 0;
+      h.carrier_m = cmc, h.twin_carrier = ctc, h.u_t = s.ct[upper] / ctc, h.l_t = s.ct[lower] / ctc;
+      if (h.readable) h.u_m = s.cm[upper] / cmc, h.l_m = s.cm[lower] / cmc;
     }
     hs.push_back(h);
   }
@@ -242,6 +259,48 @@ std::complex<double> modulated_line(int k, double x, std::complex<double> a, std
   return term(k) + a / 2.0 * term(k - 1) + std::conj(a) / 2.0 * term(k + 1);
 }
 
+/// A harmonic's measured carrier shows its own modulated carrier C·c0 alone when it stands over the
+/// floor, c0 is not near one of J0's zeros, and no neighbour's comb reaches it (harmonic n + 1's
+/// lines reach (n + 1)·β + 4 orders from its carrier, zp orders away).
+bool carrier_shows_itself(const ModulatedHarmonic& h, std::complex<double> c0, double beta, int zp) {
+  return h.readable && std::abs(c0) >= kMinCarrierShare && static_cast<double>(h.n + 1) * beta + 4 < zp;
+}
+
+/// The record's mesh angle against the twin's, in input revolutions modulo one tooth: the δ whose
+/// rotation 2π·n·zp·δ best aligns the twin's carriers times c0 with the measured carriers that show
+/// themselves (weighted by their power; a grid over the tooth, refined). 0 when none does.
+double record_mesh_offset(const std::vector<ModulatedHarmonic>& hs, double beta, std::complex<double> a,
+                          std::complex<double> unit_psi, int zp) {
+  struct Reading {
+    double n, phase, weight;
+  };
+  std::vector<Reading> readings;
+  for (const auto& h : hs) {
+    const std::complex<double> c0 = modulated_line(0, static_cast<double>(h.n) * beta, a, unit_psi);
+    if (carrier_shows_itself(h, c0, beta, zp) && std::abs(h.twin_carrier) > 0)
+      readings.push_back({static_cast<double>(h.n), std::arg(h.carrier_m / (c0 * h.twin_carrier)), std::norm(h.carrier_m)});
+  }
+  if (readings.empty()) return 0.0;
+  const double tooth = 1.0 / zp;
+  auto misalignment = [&](double delta) {
+    double sum = 0;
+    for (const auto& r : readings) sum -= r.weight * std::cos(r.phase - 2 * std::numbers::pi * r.n * zp * delta);
+    return sum;
+  };
+  constexpr int kSteps = 360;
+  double best = 0, best_value = misalignment(0.0);
+  for (int i = 1; i < kSteps; ++i)
+    if (const double v = misalignment(tooth * i / kSteps); v < best_value) best_value = v, best = tooth * i / kSteps;
+  return golden_min(misalignment, best - tooth / kSteps, best + tooth / kSteps);
+}
+
+/// The phase of a harmonic's unmodulated carrier: the measured carrier over c0 where it shows
+/// itself (carrier_shows_itself), else the twin's carrier rotated by the record's mesh offset.
+std::complex<double> own_carrier_phase(const ModulatedHarmonic& h, std::complex<double> c0, double beta, int zp, double offset) {
+  if (carrier_shows_itself(h, c0, beta, zp)) return std::abs(c0) > 0 ? h.carrier_m / c0 : h.carrier_m;
+  return h.twin_carrier * std::polar(1.0, 2 * std::numbers::pi * static_cast<double>(h.n) * zp * offset);
+}
+
 /// The predicted powers of a record with modulation `p` on the cells of `kind` (and the carriers,
 /// input lines) it changes. With the phases, every line of each harmonic's modulated spectrum: the
 /// unmodulated carrier C times c_k, out to where J_k(x) is negligible (|k| > x + 4), plus the twin's
@@ -261,10 +320,11 @@ std::vector<std::pair<std::size_t, double>> predicted_sideband_powers(const std:
     std::vector<int> nearest(s.lines_m.size(), std::numeric_limits<int>::max());
     const double beta = std::abs(p.b);
     const Complex unit_psi = beta > 0 ? p.b / beta : Complex{1.0, 0.0};
+    const double offset = record_mesh_offset(hs, beta, p.a, unit_psi, zp);
     for (const auto& h : hs) {
       const double x = static_cast<double>(h.n) * beta;
       const Complex c0 = modulated_line(0, x, p.a, unit_psi);
-      const Complex phase = std::abs(c0) > 0 ? h.carrier_m / c0 : h.carrier_m;
+      const Complex phase = own_carrier_phase(h, c0, beta, zp, offset);
       const Complex carrier = std::abs(phase) > 0 ? std::sqrt(h.twin_carrier_power) * phase / std::abs(phase) : Complex{};
       const int reach = static_cast<int>(std::ceil(x)) + 4;
       const bool on_shaft = z == zp;  // the carrier is one of this shaft's lines (input shaft)
@@ -285,6 +345,7 @@ std::vector<std::pair<std::size_t, double>> predicted_sideband_powers(const std:
       if (nearest[i] != std::numeric_limits<int>::max()) power[i] = std::norm(modulated[i] + own[i]);
   } else {
     for (const auto& h : hs) {
+      if (!h.readable) continue;
       const std::size_t upper = static_cast<std::size_t>(h.n * z), lower = upper - 2;
       power[upper] = s.lines_t[upper] + p.am * p.am / 4 * h.carrier_power;
       power[lower] = s.lines_t[lower] + p.am * p.am / 4 * h.carrier_power;
@@ -581,7 +642,7 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
     phases = phases && s.with_phase;
     const std::vector<ModulatedHarmonic> hs = modulated_harmonics(src, s, zp, z);
     RecordModulation& p = per[r];
-    if (!read_record_modulation(hs, s.with_phase, carrier_pm_index_, p)) continue;
+    if (!read_record_modulation(readable_only(hs), s.with_phase, carrier_pm_index_, p)) continue;
     p.sideband_power = predicted_sideband_powers(hs, s, z, p, records_[r].cells, kind, zp);
     am_sum += p.weight * p.am, pm_sum += p.weight * (s.with_phase ? p.pm : 0.0), weight_sum += p.weight;
   }
