@@ -820,24 +820,13 @@ TEST_CASE("gap describe: a re-timing PM whose index reaches J0's zero on a mesh 
           "[gap][gap_describe]") {
   // β = 0.8025: mesh harmonic 3 carries 3β = 2.4075 rad, within 0.003 of J0's first zero (2.4048),
   // so its carrier keeps under 1e-5 of its power (under the comparison's floor, unreadable) while
-  // its sidebands J_k(2.41), k = 1...6, stand up to 27 dB over the twin's lines there. A feature
+  // its sidebands J_k(2.41), k = 1...6, stand up to 27 dB over the twin's lines there; the twin's
+  // own lines beside the carriers (−30 dB of the first) are re-timed too, at index k·β/z1. A feature
   // over harmonics 2 to 4 is the modulation's only where the form predicts the comb of a harmonic
-  // whose carrier it cannot read. Stated before the run: the form chosen, β within 10 % (the
-  // bench's rule).
+  // whose carrier it cannot read and spreads the twin's own lines as the re-timing does. Stated
+  // before the run: the form chosen, β within 10 % (the bench's rule).
   const double beta = 0.8025;
-  // The twin's input lines are its mesh harmonics alone (the others under the comparison's floor,
-  // as a twin without tooth errors holds them): the form spreads the carriers, not the twin's own
-  // lines beside them (docs/gap.md).
-  std::mt19937_64 rng(363);
-  std::vector<Pair> pairs;
-  for (double speed : kSpeeds) {
-    Pair p = twin_pair(20000, speed);
-    for (std::size_t k = 1; k <= p.twin_input.size(); ++k)
-      if (k % kZ1 != 0) p.twin_input[k - 1] = std::polar(std::sqrt(1e-9), std::arg(p.twin_input[k - 1]));
-    for (std::size_t k = 0; k < p.twin_input.size(); ++k) p.twin.input_lines[k] = std::norm(p.twin_input[k]);
-    retime_by_pm(p, beta, 1.1, [](double) { return 30L; }, rng);
-    pairs.push_back(std::move(p));
-  }
+  const auto pairs = retimed_pm_pairs(beta, 1.1, 363);
   const FeatureDescriber describer(described(pairs), GearPairSpec{});
   const auto d = describer.describe(input_orders_feature(1.5 * kZ1, 4.5 * kZ1));
   INFO(text_of(d));

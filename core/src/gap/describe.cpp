@@ -2,6 +2,7 @@
 #include "gearwatch/gap/unit_tone.hpp"
 
 #include "gearwatch/dsp/window.hpp"
+#include "gearwatch/gap/bessel.hpp"
 #include "gearwatch/gap/binned.hpp"
 #include "gearwatch/gap/candidates.hpp"
 #include "gearwatch/numeric/line_search.hpp"
@@ -301,21 +302,83 @@ std::complex<double> own_carrier_phase(const ModulatedHarmonic& h, std::complex<
   return h.twin_carrier * std::polar(1.0, 2 * std::numbers::pi * static_cast<double>(h.n) * zp * offset);
 }
 
+/// The input lines of a record whose input-synchronous vibration is modulated at the input shaft's
+/// order, with phases: every twin line k (its complex value, turned by the record's mesh offset;
+/// a mesh carrier's as own_carrier_phase gives it) spread to k + j by c_j(k·β/zp) (modulated_line:
+/// a PM re-times the line at index k·β/zp, the mesh harmonic n's nβ being the case k = n·zp; an AM
+/// gives it a/2 each side), out to |j| ≤ x + 4, summed. Lines under the floor are kept in place
+/// unspread (their spread is under it). `reached`: the lines some spread line reaches.
+std::vector<std::complex<double>> retimed_input_lines(const std::vector<ModulatedHarmonic>& hs, const ShaftSpectra& s,
+                                                      const RecordModulation& p, int zp, double floor, double offset,
+                                                      std::vector<bool>& reached) {
+  using Complex = std::complex<double>;
+  const std::size_t size = std::min(s.lines_m.size(), s.ct.size());
+  const double beta = std::abs(p.b);
+  const Complex unit_psi = beta > 0 ? p.b / beta : Complex{1.0, 0.0};
+  std::vector<Complex> value(size);
+  std::vector<bool> spread(size, false);
+  for (std::size_t i = 0; i < size; ++i) {
+    value[i] = s.ct[i] * std::polar(1.0, 2 * std::numbers::pi * static_cast<double>(i + 1) * offset);
+    spread[i] = std::norm(s.ct[i]) > floor;
+  }
+  for (const auto& h : hs) {
+    const auto i = static_cast<std::size_t>(h.n * zp) - 1;
+    if (i >= size) continue;
+    const double x = static_cast<double>(h.n) * beta;
+    const Complex phase = own_carrier_phase(h, modulated_line(0, x, p.a, unit_psi), beta, zp, offset);
+    value[i] = std::abs(phase) > 0 ? std::sqrt(h.twin_carrier_power) * phase / std::abs(phase) : Complex{};
+    spread[i] = true;
+  }
+  std::vector<Complex> out(size);
+  reached.assign(size, false);
+  // e^{ikψ} for |k| up to the largest reach + 1, looked up by k + top.
+  const int top = static_cast<int>(std::ceil(static_cast<double>(size) * beta / zp)) + 5;
+  std::vector<Complex> psi_power(static_cast<std::size_t>(2 * top + 1));
+  for (int k = -top; k <= top; ++k) psi_power[static_cast<std::size_t>(k + top)] = std::polar(1.0, k * std::arg(unit_psi));
+  auto psi = [&](int k) { return psi_power[static_cast<std::size_t>(k + top)]; };
+  std::vector<double> j;
+  for (std::size_t i = 0; i < size; ++i) {
+    if (!spread[i]) continue;
+    const double x = static_cast<double>(i + 1) * beta / zp;
+    const int reach = static_cast<int>(std::ceil(x)) + 4;
+    bessel_j_up_to(reach + 1, x, j);
+    auto jk = [&](int k) { return (k < 0 && (-k) % 2 == 1 ? -1.0 : 1.0) * j[static_cast<std::size_t>(std::abs(k))]; };
+    for (int k = -reach; k <= reach; ++k) {
+      const long at = static_cast<long>(i) + k;
+      if (at < 0 || at >= static_cast<long>(size)) continue;
+      const Complex c = jk(k) * psi(k) + p.a / 2.0 * jk(k - 1) * psi(k - 1) + std::conj(p.a) / 2.0 * jk(k + 1) * psi(k + 1);
+      out[static_cast<std::size_t>(at)] += value[i] * c;
+      reached[static_cast<std::size_t>(at)] = true;
+    }
+  }
+  for (std::size_t i = 0; i < size; ++i)
+    if (!spread[i]) out[i] += value[i];
+  return out;
+}
+
 /// The predicted powers of a record with modulation `p` on the cells of `kind` (and the carriers,
-/// input lines) it changes. With the phases, every line of each harmonic's modulated spectrum: the
-/// unmodulated carrier C times c_k, out to where J_k(x) is negligible (|k| > x + 4), plus the twin's
-/// own line there (the carrier thus the twin's times |c_0|²: a PM of index x leaves it J0(x)², which
-/// for the mesh's higher harmonics is most of its gap). C has the twin's carrier's size and the
-/// measured carrier's phase over c_0 (the record's own zero angle). A line several harmonics reach
-/// (a PM whose index passes half the teeth, as a re-timed record's high harmonics) holds their
-/// complex sum. Without phases, the first sidebands from the one index (m²/4 of the carrier each).
+/// input lines) it changes. With the phases, at the input shaft's order: every input line re-timed
+/// (retimed_input_lines; the carriers thus the twin's times |c_0|²: a PM of index x leaves one
+/// J0(x)², which for the mesh's higher harmonics is most of its gap). At the output shaft's order:
+/// every line of each mesh harmonic's modulated spectrum, the unmodulated carrier C times c_k out to
+/// where J_k(x) is negligible (|k| > x + 4), plus the twin's own line there in the nearest
+/// harmonic's phase, C as own_carrier_phase gives it. A line several harmonics reach (a PM whose
+/// index passes half the teeth, as a re-timed record's high harmonics) holds their complex sum.
+/// Without phases, the first sidebands from the one index (m²/4 of the carrier each).
 std::vector<std::pair<std::size_t, double>> predicted_sideband_powers(const std::vector<ModulatedHarmonic>& hs,
                                                                       const ShaftSpectra& s, int z, const RecordModulation& p,
                                                                       const std::vector<FeatureDescriber::Cell>& cells,
-                                                                      FeatureDescriber::CellKind kind, int zp) {
+                                                                      FeatureDescriber::CellKind kind, int zp, double floor) {
   using Complex = std::complex<double>;
   std::vector<double> power(s.lines_m.size(), kNaN), carrier_power;
-  if (s.with_phase) {
+  if (s.with_phase && z == zp) {
+    const double beta = std::abs(p.b);
+    const Complex unit_psi = beta > 0 ? p.b / beta : Complex{1.0, 0.0};
+    std::vector<bool> reached;
+    const auto lines = retimed_input_lines(hs, s, p, zp, floor, record_mesh_offset(hs, beta, p.a, unit_psi, zp), reached);
+    for (std::size_t i = 0; i < lines.size(); ++i)
+      if (reached[i]) power[i] = std::norm(lines[i]);
+  } else if (s.with_phase) {
     std::vector<Complex> modulated(s.lines_m.size()), own(s.lines_m.size());
     std::vector<int> nearest(s.lines_m.size(), std::numeric_limits<int>::max());
     const double beta = std::abs(p.b);
@@ -643,7 +706,7 @@ FeatureDescriber::Fit FeatureDescriber::modulation(FeatureShaft shaft) const {
     const std::vector<ModulatedHarmonic> hs = modulated_harmonics(src, s, zp, z);
     RecordModulation& p = per[r];
     if (!read_record_modulation(readable_only(hs), s.with_phase, carrier_pm_index_, p)) continue;
-    p.sideband_power = predicted_sideband_powers(hs, s, z, p, records_[r].cells, kind, zp);
+    p.sideband_power = predicted_sideband_powers(hs, s, z, p, records_[r].cells, kind, zp, src.floor);
     am_sum += p.weight * p.am, pm_sum += p.weight * (s.with_phase ? p.pm : 0.0), weight_sum += p.weight;
   }
   Fit fit;
