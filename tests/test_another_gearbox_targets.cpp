@@ -408,11 +408,11 @@ std::string joined(const std::vector<std::string>& v) {
 
 // Issue 36's wear target on the 23/46 pair at 33 Hz, where the mesh lines are strong: a campaign
 // without pitting never called pitting, with the rig's encoder and with the speed from the signal,
-// and the pitting named within the campaign, not before the truth's onset, with the encoder and
-// without a tacho (the estimate demodulates the strongest mesh line at a steady speed: the first
-// mesh harmonic, weak where the profile's wear nearly cancels it, wandered with the load and its
-// angle error smeared the mesh lines into the residual). Not asserted, because not met on every
-// seed: the issue's 5 records after the onset (docs/rig-simulator.md).
+// and the pitting named not before the truth's onset and at most 5 records after it (the issue's
+// target), with the encoder and without a tacho (the estimate demodulates the mesh line of the
+// finest angle at a steady speed: the first mesh harmonic is weak where the profile's wear nearly
+// cancels it). The change-point evidence (docs/dsp.md §8) names it 3-5 records after the onset on
+// every fresh seed measured (docs/rig-simulator.md), often at the limit.
 TEST_CASE("another gearbox: the 23/46 pair's pitting verdict at 33 Hz follows the truth - no false call with or without a tacho and pitting named after onset with and without one",
           "[another_gearbox][tacholess][rig][e2e][wear]") {
   const TempDir dir("another-gearbox-pitting");
@@ -432,6 +432,7 @@ TEST_CASE("another gearbox: the 23/46 pair's pitting verdict at 33 Hz follows th
   const auto named = first_pitting_verdict(pitted.mechanisms);
   CHECK(named >= pitted.truth_onset);
   CHECK(named < 8);
+  CHECK(named - pitted.truth_onset <= 5);
   // Once named, the verdict stays (the pitting only grows).
   for (std::size_t i = named < 0 ? pitted.mechanisms.size() : static_cast<std::size_t>(named); i < pitted.mechanisms.size(); ++i)
     CHECK(pitted.mechanisms[i] == "fatigue_pitting");
@@ -441,6 +442,7 @@ TEST_CASE("another gearbox: the 23/46 pair's pitting verdict at 33 Hz follows th
   const auto named_estimated = first_pitting_verdict(estimated.mechanisms);
   CHECK(named_estimated >= estimated.truth_onset);
   CHECK(named_estimated < 8);
+  CHECK(named_estimated - estimated.truth_onset <= 5);
   for (std::size_t i = named_estimated < 0 ? estimated.mechanisms.size() : static_cast<std::size_t>(named_estimated);
        i < estimated.mechanisms.size(); ++i)
     CHECK(estimated.mechanisms[i] == "fatigue_pitting");
