@@ -1029,6 +1029,7 @@ class FeatureDescriber::ToneSearch {
   void add_to_base(const Tone& t, double sign);
   void refit_together();
   Tone as_measured_at(double place) const;
+  Tone refined_by_halving(Tone start) const;
   double interpolated_place(double near) const;
   void ghost_as_measured();
   void tones_as_measured();
@@ -1297,22 +1298,31 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
   return weight > 0 ? sum / weight : kNaN;
 }
 
+/// `start` moved by halving steps from a hundredth of an order while the misfit falls.
+FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::refined_by_halving(Tone start) const {
+  for (double s = 0.01; s > 0.01 / 64; s /= 2)
+    for (double place : {start.place - s, start.place + s})
+      if (free_place(place))
+        if (Tone moved = as_measured_at(place); moved.rss < start.rss) start = std::move(moved);
+  return start;
+}
+
 /// The ghost's place refined and its power taken with the tone as measured (above): how its power
 /// splits between the averages and the blocks turns on the place to a thousandth of an order, which
 /// the search's model does not hold. Started from the lines' interpolation and from the search's
-/// place, each refined by halving steps from a hundredth of an order.
+/// place, each refined by halving steps from a hundredth of an order, the better end kept. Each
+/// start is refined before they are compared: the misfit against the place has a dip every
+/// 1/R order (R the records' revolutions, a tone's share of each line being sinc(R·Δ)), each a
+/// few thousandths wide, so a start a hundredth of an order from the truth can read worse than a
+/// search's place in a wrong dip, and better than it once refined.
 void FeatureDescriber::ToneSearch::ghost_as_measured() {
   if (fixed_in_hz_ || found_.size() != 1) return;
   Tone t = std::move(found_.front());
   found_.clear();  // free_place then ignores it
   add_to_base(t, -1);
-  Tone best = as_measured_at(t.place);
+  Tone best = refined_by_halving(as_measured_at(t.place));
   if (const double at = interpolated_place(t.place); std::isfinite(at) && std::abs(at - t.place) <= 1 && free_place(at))
-    if (Tone moved = as_measured_at(at); moved.rss < best.rss) best = std::move(moved);
-  for (double s = 0.01; s > 0.01 / 64; s /= 2)
-    for (double place : {best.place - s, best.place + s})
-      if (free_place(place))
-        if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
+    if (Tone moved = refined_by_halving(as_measured_at(at)); moved.rss < best.rss) best = std::move(moved);
   if (best.power > 0) t = std::move(best);
   add_to_base(t, 1);
   found_.push_back(std::move(t));
