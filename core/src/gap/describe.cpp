@@ -1029,7 +1029,7 @@ class FeatureDescriber::ToneSearch {
   void add_to_base(const Tone& t, double sign);
   void refit_together();
   Tone as_measured_at(double place) const;
-  Tone refined_by_halving(Tone start) const;
+  Tone refined_on_a_lattice(Tone start) const;
   double interpolated_place(double near) const;
   void ghost_as_measured();
   void tones_as_measured();
@@ -1298,9 +1298,22 @@ double FeatureDescriber::ToneSearch::interpolated_place(double near) const {
   return weight > 0 ? sum / weight : kNaN;
 }
 
-/// `start` moved by halving steps from a hundredth of an order while the misfit falls.
-FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::refined_by_halving(Tone start) const {
-  for (double s = 0.01; s > 0.01 / 64; s /= 2)
+/// A ghost's misfit against its place dips every 1/R order (R the records' revolutions, tens: a
+/// tone's share of each line is sinc(R·Δ)); a start (the search's place, the lines' interpolation)
+/// can stand several dips from the tone's (on closed-form records over input orders 4-7, the
+/// interpolation up to 0.065 order off). So, as for tones fixed in Hz, each start's neighbourhood is
+/// scanned at a quarter of the longest record's 1/R (each dip's basin sampled), here over
+/// kGhostScanSpan, then refined by halving. The lattice is fixed in orders, so two starts near each
+/// other share their places (and the cache of tones as measured).
+constexpr double kGhostScanSpan = 0.075;
+
+FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::refined_on_a_lattice(Tone start) const {
+  const double step = 1 / (4 * std::max(input_revolutions_, 1.0));
+  const long first = std::lround((start.place - kGhostScanSpan) / step), last = std::lround((start.place + kGhostScanSpan) / step);
+  for (long k = first; k <= last; ++k)
+    if (const double place = static_cast<double>(k) * step; free_place(place))
+      if (Tone moved = as_measured_at(place); moved.rss < start.rss) start = std::move(moved);
+  for (double s = step / 2; s > step / 64; s /= 2)
     for (double place : {start.place - s, start.place + s})
       if (free_place(place))
         if (Tone moved = as_measured_at(place); moved.rss < start.rss) start = std::move(moved);
@@ -1310,19 +1323,17 @@ FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::refined_by_halv
 /// The ghost's place refined and its power taken with the tone as measured (above): how its power
 /// splits between the averages and the blocks turns on the place to a thousandth of an order, which
 /// the search's model does not hold. Started from the lines' interpolation and from the search's
-/// place, each refined by halving steps from a hundredth of an order, the better end kept. Each
-/// start is refined before they are compared: the misfit against the place has a dip every
-/// 1/R order (R the records' revolutions, a tone's share of each line being sinc(R·Δ)), each a
-/// few thousandths wide, so a start a hundredth of an order from the truth can read worse than a
-/// search's place in a wrong dip, and better than it once refined.
+/// place, each refined (refined_on_a_lattice), the better end kept. Each start is refined before they
+/// are compared: a start a few hundredths of an order from the tone can read worse than the search's
+/// place in a wrong dip, and better than it once refined.
 void FeatureDescriber::ToneSearch::ghost_as_measured() {
   if (fixed_in_hz_ || found_.size() != 1) return;
   Tone t = std::move(found_.front());
   found_.clear();  // free_place then ignores it
   add_to_base(t, -1);
-  Tone best = refined_by_halving(as_measured_at(t.place));
+  Tone best = refined_on_a_lattice(as_measured_at(t.place));
   if (const double at = interpolated_place(t.place); std::isfinite(at) && std::abs(at - t.place) <= 1 && free_place(at))
-    if (Tone moved = refined_by_halving(as_measured_at(at)); moved.rss < best.rss) best = std::move(moved);
+    if (Tone moved = refined_on_a_lattice(as_measured_at(at)); moved.rss < best.rss) best = std::move(moved);
   if (best.power > 0) t = std::move(best);
   add_to_base(t, 1);
   found_.push_back(std::move(t));
