@@ -1030,6 +1030,7 @@ class FeatureDescriber::ToneSearch {
   void refit_together();
   Tone as_measured_at(double place) const;
   Tone refined_on_a_lattice(Tone start) const;
+  void halve_as_measured(Tone& t, double first_step, double last_step) const;
   double interpolated_place(double near) const;
   void ghost_as_measured();
   void tones_as_measured();
@@ -1313,11 +1314,17 @@ FeatureDescriber::ToneSearch::Tone FeatureDescriber::ToneSearch::refined_on_a_la
   for (long k = first; k <= last; ++k)
     if (const double place = static_cast<double>(k) * step; free_place(place))
       if (Tone moved = as_measured_at(place); moved.rss < start.rss) start = std::move(moved);
-  for (double s = step / 2; s > step / 64; s /= 2)
-    for (double place : {start.place - s, start.place + s})
-      if (free_place(place))
-        if (Tone moved = as_measured_at(place); moved.rss < start.rss) start = std::move(moved);
+  halve_as_measured(start, step / 2, step / 64);
   return start;
+}
+
+/// Moves `t` to a better free place nearby with the tone as measured, by halving steps from
+/// `first_step` while over `last_step` (refine, with as_measured_at for the search's model).
+void FeatureDescriber::ToneSearch::halve_as_measured(Tone& t, double first_step, double last_step) const {
+  for (double s = first_step; s > last_step; s /= 2)
+    for (double place : {t.place - s, t.place + s})
+      if (free_place(place))
+        if (Tone moved = as_measured_at(place); moved.rss < t.rss) t = std::move(moved);
 }
 
 /// The ghost's place refined and its power taken with the tone as measured (above): how its power
@@ -1366,10 +1373,7 @@ void FeatureDescriber::ToneSearch::tones_as_measured() {
       // them where this tone's misplaced leakage was unexplained).
       if (read && pass == 0 && std::isfinite(resolved_hz_) && resolved_hz_ > 0)
         for (double place = at - step_ / 2; place <= at + step_ / 2; place += resolved_hz_ / 4) move_over_weaker(best, place, i);
-      for (double s = std::min(step_ / 2, resolved_hz_ / 8); s > step_ / 128; s /= 2)
-        for (double place : {best.place - s, best.place + s})
-          if (free_place(place))
-            if (Tone moved = as_measured_at(place); moved.rss < best.rss) best = std::move(moved);
+      halve_as_measured(best, std::min(step_ / 2, resolved_hz_ / 8), step_ / 128);
       try_supply_harmonic(best, i);
       if (best.power > 0) t = std::move(best);
       add_to_base(t, 1);
