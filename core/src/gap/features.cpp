@@ -469,9 +469,13 @@ std::vector<GapFeature> FeatureFinder::features() const {
     // Persistence over records (LocalPeakSettings::min_record_share): a chance peak is in few.
     const double needed = std::max(2.0, std::ceil(settings_.local.min_record_share * static_cast<double>(records_.size()) - 1e-9));
     if (static_cast<double>(f.seen_in.size()) < needed) continue;
-    bool overlaps = false;
-    for (std::size_t i = 0; i < found; ++i) overlaps = overlaps || (f.hz_low <= out[i].hz_high && out[i].hz_low <= f.hz_high);
-    if (!overlaps) out.push_back(std::move(f));
+    // The same finding when its centre lies inside a line or bin feature's extent. Overlapping
+    // extents are not enough: a narrow resonance between two mesh harmonics lifts the nearer one on
+    // its skirt, a line feature a few bins from the peak, while the peak itself stands in the local
+    // cells between the lines, which reach over that line.
+    bool same = false;
+    for (std::size_t i = 0; i < found; ++i) same = same || (out[i].hz_low <= f.hz && f.hz <= out[i].hz_high);
+    if (!same) out.push_back(std::move(f));
   }
   return out;
 }
