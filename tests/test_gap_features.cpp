@@ -217,6 +217,20 @@ TEST_CASE("gap features: a ghost tone at a non-integer input order is one featur
   check_families_stay_under_their_minimum(r);
 }
 
+/// A resonance's power gain against Hz: peak_db at f0, `width` Hz between its half-excess points.
+std::function<double(double)> resonance_power_gain(double f0, double width, double peak_db) {
+  return [=](double hz) {
+    const double x = (hz - f0) / (width / 2);
+    return 1 + (std::pow(10.0, peak_db / 10) - 1) / (1 + x * x);
+  };
+}
+
+FeatureSettings local_peaks_on() {
+  FeatureSettings s;
+  s.local.enabled = true;
+  return s;
+}
+
 /// The twin of twin_spectra with every line but the mesh harmonics and every broadband bin far under
 /// the comparison's floor (1e-9 and 1e-12 against the floor's 1.6e-6), and its measurement: the
 /// twin plus the capture's own white floor (1e-9 per bin), each line and bin times gain(Hz), with
@@ -244,13 +258,9 @@ TEST_CASE("gap features: a narrow resonance under the comparison's floor, betwee
   // mesh harmonics at the four speeds (19 teeth), at least 50 Hz from any. Every cell near it lies
   // 30 dB and more under the comparison's floor: its g against the twin is under 0.01 dB there.
   const double f0 = 1100, width = 20, peak_db = 12;
-  auto gain = [&](double hz) {
-    const double x = (hz - f0) / (width / 2);
-    return 1 + (std::pow(10.0, peak_db / 10) - 1) / (1 + x * x);
-  };
+  const auto gain = resonance_power_gain(f0, width, peak_db);
   std::mt19937_64 rng(38);
-  FeatureSettings local_on;
-  local_on.local.enabled = true;
+  const FeatureSettings local_on = local_peaks_on();
   const Records records = under_floor_records(gain, rng);
   const auto features = finders_of(records, rng, {local_on})[0].features();
   INFO(descriptions(features));
@@ -292,13 +302,9 @@ TEST_CASE("gap features: a narrow resonance whose skirt lifts a mesh harmonic be
   // the practical minimum). The peak itself lies between the lines, in the bins' local peaks, whose
   // cells reach over those lines.
   const double f0 = 1240, width = 20, peak_db = 12;
-  auto gain = [&](double hz) {
-    const double x = (hz - f0) / (width / 2);
-    return 1 + (std::pow(10.0, peak_db / 10) - 1) / (1 + x * x);
-  };
+  const auto gain = resonance_power_gain(f0, width, peak_db);
   std::mt19937_64 rng(41);
-  FeatureSettings local_on;
-  local_on.local.enabled = true;
+  const FeatureSettings local_on = local_peaks_on();
   const Records records = under_floor_records(gain, rng);
   const auto features = finders_of(records, rng, {local_on})[0].features();
   INFO(descriptions(features));
