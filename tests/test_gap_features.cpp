@@ -225,11 +225,6 @@ std::function<double(double)> resonance_power_gain(double f0, double width, doub
   };
 }
 
-FeatureSettings local_peaks_on() {
-  FeatureSettings s;
-  s.local.enabled = true;
-  return s;
-}
 
 /// The twin of twin_spectra with every line but the mesh harmonics and every broadband bin far under
 /// the comparison's floor (1e-9 and 1e-12 against the floor's 1.6e-6), and its measurement: the
@@ -252,17 +247,38 @@ Records under_floor_records(const std::function<double(double)>& gain, std::mt19
   return r;
 }
 
+namespace {
+
+FeatureSettings local_peaks_on() {
+  FeatureSettings s;
+  s.local.enabled = true;
+  return s;
+}
+
+/// Records with a resonance of +12 dB, 20 Hz between its half-excess points, at f0
+/// (under_floor_records), and the features the finder with its local peaks on makes of them.
+struct LocalPeakCase {
+  Records records;
+  std::vector<GapFeature> features;
+};
+
+LocalPeakCase local_peak_case(double f0, std::mt19937_64& rng) {
+  LocalPeakCase c{under_floor_records(resonance_power_gain(f0, 20, 12), rng), {}};
+  c.features = finders_of(c.records, rng, {local_peaks_on()})[0].features();
+  return c;
+}
+
+}  // namespace
+
 TEST_CASE("gap features: a narrow resonance under the comparison's floor, between the mesh harmonics, is found at its Hz in its bins' local peaks",
           "[gap][gap_features]") {
   // +12 dB at 1100 Hz, 20 Hz between its half-excess points: 1100 Hz is 6.43, 5.26, 4.29 and 3.62
   // mesh harmonics at the four speeds (19 teeth), at least 50 Hz from any. Every cell near it lies
   // 30 dB and more under the comparison's floor: its g against the twin is under 0.01 dB there.
-  const double f0 = 1100, width = 20, peak_db = 12;
-  const auto gain = resonance_power_gain(f0, width, peak_db);
+  const double f0 = 1100;
   std::mt19937_64 rng(38);
+  const auto [records, features] = local_peak_case(f0, rng);
   const FeatureSettings local_on = local_peaks_on();
-  const Records records = under_floor_records(gain, rng);
-  const auto features = finders_of(records, rng, {local_on})[0].features();
   INFO(descriptions(features));
   REQUIRE(features.size() == 1);
   const auto& f = features.front();
@@ -301,12 +317,9 @@ TEST_CASE("gap features: a narrow resonance whose skirt lifts a mesh harmonic be
   // bin wide that does not hold 1240 Hz; the nearest at 9 and 13.5 Hz are 43 Hz off (+1.6 dB, under
   // the practical minimum). The peak itself lies between the lines, in the bins' local peaks, whose
   // cells reach over those lines.
-  const double f0 = 1240, width = 20, peak_db = 12;
-  const auto gain = resonance_power_gain(f0, width, peak_db);
+  const double f0 = 1240;
   std::mt19937_64 rng(41);
-  const FeatureSettings local_on = local_peaks_on();
-  const Records records = under_floor_records(gain, rng);
-  const auto features = finders_of(records, rng, {local_on})[0].features();
+  const auto features = local_peak_case(f0, rng).features;
   INFO(descriptions(features));
   // The two lines on the skirt, each where its line is.
   for (const double line_hz : {1216.0, 1254.0}) {
