@@ -1641,8 +1641,16 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   // The gap first: a window without a cell at the practical minimum is described by no form, so
   // the local forms' searches are not run for it.
   const FeatureDescription none = chosen_form({}, w);
-  bool core = false;
-  for (const auto& [r, i] : w) core = core || std::abs(g_of(r, i, records_[r].cells[i].measured)) >= settings_.min_feature_db;
+  // A tone adds power to the cells it reaches (the twin's, plus a share that is never negative), so
+  // its predicted gap is never under 0 dB: where no cell rises by the practical minimum, every core
+  // cell stays at least that far from it and no tone form can remove the gap. Their searches, the
+  // costliest of the forms, are not run there (a feature where the measurement falls under the twin).
+  bool core = false, rises = false;
+  for (const auto& [r, i] : w) {
+    const double g = g_of(r, i, records_[r].cells[i].measured);
+    core = core || std::abs(g) >= settings_.min_feature_db;
+    rises = rises || g >= settings_.min_feature_db;
+  }
   if (!core) return local_resonance(f, w, none);
   std::vector<Fit> fits{floor_, tilt_, modulation_input_, modulation_output_};
   // The local forms where they can be the one cause: a resonance within an octave (the forms' ζ
@@ -1651,23 +1659,18 @@ FeatureDescription FeatureDescriber::describe(const GapFeature& f) const {
   double top_speed = 0;
   for (const auto& r : records_) top_speed = std::max(top_speed, r.speed_hz);
   if (f.hz_high <= 2 * f.hz_low) fits.push_back(resonance(f, w));
-  // A tone adds power to the cells it reaches (the twin's, plus a share that is never negative), so
-  // its predicted gap is never under 0 dB: where no cell rises by the practical minimum, every core
-  // cell stays at least that far from it and no tone form can remove the gap. Their searches, the
-  // costliest of the forms, are not run there (a feature where the measurement falls under the twin).
-  bool rises = false;
-  for (const auto& [r, i] : w) rises = rises || g_of(r, i, records_[r].cells[i].measured) >= settings_.min_feature_db;
-  // A ghost (searched about the feature's centre, below) on every feature not fixed in Hz: a tone's
-  // leakage stands over the practical minimum as far as the tone stands over the twin, so a strong
-  // one spreads a feature over tens of orders, and its |g|-weighted centre, shifting with speed as
-  // the leakage's skew does, can make it move with neither.
-  if (rises && f.movement != FeatureMovement::fixed_in_hz) fits.push_back(tones(f, w, false, 1));
-  // Tones fixed in Hz: up to kMaxTones in a feature fixed in Hz (supply pick-up and its harmonics
-  // join into one band), each within four input orders of the next; else one.
-  const double hz_width = f.hz_high - f.hz_low;
-  if (rises && f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed)
-    fits.push_back(tones(f, w, true, kMaxTones));
-  else if (rises && f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
+  if (rises) {
+    // A ghost (searched about the feature's centre, below) on every feature not fixed in Hz: a tone's
+    // leakage stands over the practical minimum as far as the tone stands over the twin, so a strong
+    // one spreads a feature over tens of orders, and its |g|-weighted centre, shifting with speed as
+    // the leakage's skew does, can make it move with neither.
+    if (f.movement != FeatureMovement::fixed_in_hz) fits.push_back(tones(f, w, false, 1));
+    // Tones fixed in Hz: up to kMaxTones in a feature fixed in Hz (supply pick-up and its harmonics
+    // join into one band), each within four input orders of the next; else one.
+    const double hz_width = f.hz_high - f.hz_low;
+    if (f.movement == FeatureMovement::fixed_in_hz && hz_width <= kMaxTones * 4 * top_speed) fits.push_back(tones(f, w, true, kMaxTones));
+    else if (f.movement != FeatureMovement::fixed_in_orders && hz_width <= 4 * top_speed) fits.push_back(tones(f, w, true, 1));
+  }
   // A narrow resonance between the lines stands mostly under the comparison's floor, where no form
   // against the twin can reach it while a line or bin of its window is over the practical minimum:
   // when none removes the gap, its bins against their neighbourhood are asked.

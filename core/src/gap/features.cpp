@@ -473,8 +473,8 @@ std::vector<GapFeature> FeatureFinder::features() const {
     // extents are not enough: a narrow resonance between two mesh harmonics lifts the nearer one on
     // its skirt, a line feature a few bins from the peak, while the peak itself stands in the local
     // cells between the lines, which reach over that line.
-    bool same = false;
-    for (std::size_t i = 0; i < found; ++i) same = same || (out[i].hz_low <= f.hz && f.hz <= out[i].hz_high);
+    const bool same = std::any_of(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(found),
+                                  [&](const GapFeature& g) { return g.hz_low <= f.hz && f.hz <= g.hz_high; });
     if (!same) out.push_back(std::move(f));
   }
   return out;
