@@ -71,6 +71,36 @@ TEST_CASE("A slow mode of the linear model decays as its eigenvalue says", "[twi
   }
 }
 
+TEST_CASE("The sample grid's phasors equal std::exp at every sample index and past the record", "[twin][twin-periodic]") {
+  // A direct reference: e^{λ·i/rate} by std::exp, at a 400 kHz rate over a 2 s record and past its
+  // end (where at() computes it itself).
+  const GearboxParameters p;
+  const GearGeometry g = GearGeometry::from_spec(p.gears);
+  auto mesh = std::make_shared<const GearMeshStiffness>(g);
+  const GearboxMatrices m = assemble(p, *mesh);
+  const SlowModes slow(m, 400.0);
+  REQUIRE(slow.size() >= 1);
+  const double rate = 4e5;
+  const std::size_t count = 800'000;
+  const SampleGridPhasors grid(slow, rate, count);
+  double worst = 0;
+  for (std::size_t j = 0; j < slow.size(); ++j)
+    for (std::size_t i = 0; i < count + 5000; i += 997) {
+      const auto expected = std::exp(slow.eigenvalue(j) * (static_cast<double>(i) / rate));
+      worst = std::max(worst, std::abs(grid.at(j, i) - expected) / std::abs(expected));
+    }
+  CHECK(worst < 1e-12);
+  // add_state() and state_coordinate() make the state advance() and coordinate() make.
+  const SlowModes::Amplitudes c(slow.size(), std::polar(1e-4, 0.7));
+  SlowModes::Amplitudes z(slow.size());
+  for (std::size_t j = 0; j < slow.size(); ++j) z[j] = c[j] * std::exp(slow.eigenvalue(j) * 1.234567);
+  State x{}, y{};
+  slow.advance(x, c, 1e3, 1.234567);
+  slow.add_state(y, z);
+  for (std::size_t i = 0; i < x.size(); ++i) CHECK(y[i] == Approx(x[i]).epsilon(1e-12).margin(1e-30));
+  for (int i : {int{theta5}, int{theta10}}) CHECK(slow.state_coordinate(z, i) == Approx(slow.coordinate(c, i, 1.234567)).epsilon(1e-12));
+}
+
 TEST_CASE("The state carried by the slow modes equals the full integration's long after", "[twin][twin-periodic]") {
   const GearboxParameters p;
   const OperatingPoint op{10.0, 20.0};

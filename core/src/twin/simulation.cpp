@@ -5,6 +5,7 @@
 #include <memory>
 #include <numeric>
 #include <numbers>
+#include <optional>
 
 #include "gearwatch/dsp/decimation.hpp"
 #include "gearwatch/twin/integration.hpp"
@@ -179,10 +180,20 @@ class PeriodicCheck {
   }
 
   /// Carry the slow modes' free decay (nullptr: none): the anchor moved on by it is what a later
-  /// boundary must agree with.
-  void carry(const SlowModes* slow, double omega) {
+  /// boundary must agree with. The record's samples are t0 + i/rate, i < count; the tiling's period.
+  void carry(const SlowModes* slow, double omega, double t0, double rate, std::size_t count, double period_s) {
     slow_ = slow != nullptr && !slow->empty() ? slow : nullptr;
     omega_ = omega;
+    if (slow_ == nullptr) return;
+    grid_.emplace(*slow_, rate, count);
+    t0_ = t0, rate_ = rate, period_ = period_s;
+    // e^{−λkT} for every whole number of periods a sample of the record lies after its template.
+    const auto periods = static_cast<std::size_t>(std::ceil(static_cast<double>(count) / rate / period_s)) + 2;
+    periods_back_.assign(slow_->size(), {});
+    for (std::size_t j = 0; j < slow_->size(); ++j)
+      for (std::size_t k = 0; k < periods; ++k)
+        periods_back_[j].push_back(std::exp(-slow_->eigenvalue(j) * (static_cast<double>(k) * period_s)));
+    change_.resize(slow_->size());
   }
 
   /// The anchor at t_anchor against the state at b. With slow modes, the first boundary after a
@@ -193,13 +204,11 @@ class PeriodicCheck {
     if (!recorder_.profile_done()) return false;
     State earlier = anchor;
     if (slow_ != nullptr) {
-      if (t_anchor != anchor_time_) {
-        anchor_time_ = t_anchor;
-        amplitudes_ = slow_->amplitudes(anchor, later, b - t_anchor);
-      }
+      if (t_anchor != anchor_time_) set_anchor(anchor, t_anchor, later, b);
       slow_->advance(earlier, amplitudes_, 0.0, b - t_anchor);
       // The anchor's state at the mesh phase the later one has (retime(), to first order).
-      const double shift = retime(t_anchor, b) - t_anchor;
+      const double dq = slow_->coordinate(amplitudes_, theta5, b - t_anchor) - slow_->coordinate(amplitudes_, theta5, 0.0);
+      const double shift = dq / omega_;
       State rate;
       dynamics_(anchor, rate, t_anchor);
       for (std::size_t i = 0; i < earlier.size(); ++i) earlier[i] += rate[i] * shift;
@@ -209,18 +218,17 @@ class PeriodicCheck {
            difference_energy(earlier, later) <= tolerance_ * tolerance_ * kinetic_mean;
   }
 
-  /// The template's state at its time made the state at t: the slow modes' decay from the one to
-  /// the other added (the amplitudes of the anchor the template agreed with).
-  void correct(State& x, double template_t, double t) const {
-    if (slow_ != nullptr) slow_->advance(x, amplitudes_, template_t - anchor_time_, t - anchor_time_);
+  /// The template's state at its time made the state at sample i: the slow modes' decay from the
+  /// one to the other added (the amplitudes of the anchor the template agreed with).
+  void correct(State& x, double template_t, std::size_t i) {
+    if (slow_ != nullptr) slow_->add_state(x, change_to_sample(template_t, i));
   }
 
-  /// The template time with the mesh phase of the sample at t: the mesh phase follows Ω t + q5, so
-  /// the pinion's slow turn Δq5 between the template time and t moves it by Δq5 / Ω.
-  double retime(double template_t, double t) const {
+  /// The template time with the mesh phase of sample i: the mesh phase follows Ω t + q5, so the
+  /// pinion's slow turn Δq5 between the template time and the sample's moves it by Δq5 / Ω.
+  double retime(double template_t, std::size_t i) {
     if (slow_ == nullptr) return template_t;
-    const double dq = slow_->coordinate(amplitudes_, theta5, t - anchor_time_) - slow_->coordinate(amplitudes_, theta5, template_t - anchor_time_);
-    return template_t + dq / omega_;
+    return template_t + slow_->state_coordinate(change_to_sample(template_t, i), theta5) / omega_;
   }
 
  private:
@@ -230,6 +238,43 @@ class PeriodicCheck {
     double e = 0;
     for (int i = 0; i < kDofCount; ++i) e += m[i] * x[kDofCount + i] * x[kDofCount + i];
     return e;
+  }
+
+  // The amplitudes from the anchor and the state one period later; times e^{λ(t0 − anchor)}, what
+  // the sample grid's phasors turn into the modal coordinates at a sample.
+  void set_anchor(const State& anchor, double t_anchor, const State& later, double b) {
+    anchor_time_ = t_anchor;
+    amplitudes_ = slow_->amplitudes(anchor, later, b - t_anchor);
+    at_grid_start_.resize(slow_->size());
+    for (std::size_t j = 0; j < slow_->size(); ++j)
+      at_grid_start_[j] = amplitudes_[j] * std::exp(slow_->eigenvalue(j) * (t0_ - t_anchor));
+  }
+
+  // c_j (e^{λ(t_i − a)} − e^{λ(template_t − a)}): the sample's phasor from the grid, the template
+  // time's as that times e^{−λkT} (k whole periods back) and e^{λε} (ε the rest: the retiming's
+  // fraction of a sample, so its series converges at once).
+  const SlowModes::Amplitudes& change_to_sample(double template_t, std::size_t i) {
+    const double t = t0_ + static_cast<double>(i) / rate_;
+    const double k = std::nearbyint((t - template_t) / period_);
+    const double epsilon = template_t - (t - k * period_);
+    for (std::size_t j = 0; j < slow_->size(); ++j) {
+      const SlowModes::Complex lambda = slow_->eigenvalue(j);
+      const SlowModes::Complex at_sample = at_grid_start_[j] * grid_->at(j, i);
+      const bool tabulated = k >= 0 && k < static_cast<double>(periods_back_[j].size());
+      const SlowModes::Complex back =
+          tabulated ? periods_back_[j][static_cast<std::size_t>(k)] : std::exp(-lambda * (k * period_));
+      change_[j] = at_sample * (1.0 - back * small_exp(lambda * epsilon));
+    }
+    return change_;
+  }
+
+  // e^z: its series to z² where |z| < 1e-6 and to z⁴ where |z| < 1e-3 (the rest under 1e-17 of
+  // 1), the library's elsewhere.
+  static SlowModes::Complex small_exp(SlowModes::Complex z) {
+    const double size = std::abs(z.real()) + std::abs(z.imag());
+    if (size < 1e-6) return 1.0 + z * (1.0 + 0.5 * z);
+    if (size < 1e-3) return 1.0 + z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z * (1.0 / 24.0))));
+    return std::exp(z);
   }
 
   // Δqᵀ K Δq + Δvᵀ M Δv between two states (twice the energy of their difference).
@@ -260,6 +305,11 @@ class PeriodicCheck {
   double omega_ = 1.0;  // the input shaft's nominal speed (rad/s)
   double anchor_time_ = -1.0;  // the amplitudes' anchor (none yet)
   SlowModes::Amplitudes amplitudes_;
+  std::optional<SampleGridPhasors> grid_;                  // e^{λ i/rate} at the record's samples
+  double t0_ = 0, rate_ = 1, period_ = 1;                  // the samples' times t0 + i/rate; the tiling's period
+  SlowModes::Amplitudes at_grid_start_;                    // c·e^{λ(t0 − anchor)}
+  std::vector<std::vector<SlowModes::Complex>> periods_back_;  // e^{−λkT}, k = 0, 1, …
+  SlowModes::Amplitudes change_;                           // change_to_sample's result
   double square_sum_ = 0, kinetic_sum_ = 0;
   std::size_t samples_ = 0;
 };
@@ -280,8 +330,8 @@ PeriodicTiling periodic_tiling(const GearboxParameters& p, const ToothProfileDev
     return check.agrees(anchor, t_anchor, later, b);
   };
   if (options.periodic_keeps_transient) {
-    tiling.correct = [&check](State& x, double template_t, double t) { check.correct(x, template_t, t); };
-    tiling.retime = [&check](double template_t, double t) { return check.retime(template_t, t); };
+    tiling.correct = [&check](State& x, double template_t, std::size_t i) { check.correct(x, template_t, i); };
+    tiling.retime = [&check](double template_t, std::size_t i) { return check.retime(template_t, i); };
   }
   tiling.ready = [&recorder] { return recorder.profile_done(); };
   return tiling;
@@ -297,8 +347,8 @@ void sample_periodic(const GearboxParameters& p, const ToothProfileDeviation& de
   PeriodicCheck check(dynamics, recorder, p.casing_path_gain, options.periodic_tolerance, angle_tolerance);
   // Only where the record keeps its transient: the steady-state path's template must hold none.
   const SlowModes slow(matrices, options.periodic_keeps_transient ? op.input_speed_hz * p.gears.pinion_teeth : 0.0);
-  check.carry(&slow, 2.0 * std::numbers::pi * op.input_speed_hz);
   const PeriodicTiling tiling = periodic_tiling(p, deviation, op, options, matrices, check, recorder);
+  check.carry(&slow, 2.0 * std::numbers::pi * op.input_speed_hz, t0, options.sample_rate_hz, count, tiling.period_s);
   const State initial = state;
   const SampledRun run = integrate_sampled_periodic(dynamics, state, t0, options.sample_rate_hz, count, options, tiling, recorder);
   result.rhs_evaluations += run.evaluations;

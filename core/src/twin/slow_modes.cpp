@@ -41,8 +41,11 @@ SlowModes::SlowModes(const GearboxMatrices& m, double below_hz) {
     const Eigen::VectorXcd row = v_inv.row(j).transpose();
     mode.left.head(kDofCount) = to_modal.transpose() * row.head(n);
     mode.left.tail(kDofCount) = to_modal.transpose() * row.tail(n);
-    mode.right.head(kDofCount) = phi * v.col(j).head(n);
-    mode.right.tail(kDofCount) = phi * v.col(j).tail(n);
+    Eigen::Matrix<Complex, 2 * kDofCount, 1> right;
+    right.head(kDofCount) = phi * v.col(j).head(n);
+    right.tail(kDofCount) = phi * v.col(j).tail(n);
+    mode.right_real = right.real();
+    mode.right_imag = right.imag();
     modes_.push_back(mode);
   }
 }
@@ -66,16 +69,48 @@ SlowModes::Amplitudes SlowModes::amplitudes(const State& anchor, const State& la
 }
 
 void SlowModes::advance(State& x, const Amplitudes& c, double from_s, double to_s) const {
-  for (std::size_t j = 0; j < modes_.size(); ++j) {
-    const Complex w = c[j] * (std::exp(modes_[j].lambda * to_s) - std::exp(modes_[j].lambda * from_s));
-    for (int i = 0; i < 2 * kDofCount; ++i) x[static_cast<std::size_t>(i)] += 2.0 * (modes_[j].right[i] * w).real();
-  }
+  Amplitudes z(modes_.size());
+  for (std::size_t j = 0; j < modes_.size(); ++j)
+    z[j] = c[j] * (std::exp(modes_[j].lambda * to_s) - std::exp(modes_[j].lambda * from_s));
+  add_state(x, z);
 }
 
 double SlowModes::coordinate(const Amplitudes& c, int index, double s) const {
+  Amplitudes z(modes_.size());
+  for (std::size_t j = 0; j < modes_.size(); ++j) z[j] = c[j] * std::exp(modes_[j].lambda * s);
+  return state_coordinate(z, index);
+}
+
+void SlowModes::add_state(State& x, const Amplitudes& z) const {
+  Eigen::Map<Eigen::Matrix<double, 2 * kDofCount, 1>> out(x.data());
+  for (std::size_t j = 0; j < modes_.size(); ++j)
+    out += (2.0 * z[j].real()) * modes_[j].right_real - (2.0 * z[j].imag()) * modes_[j].right_imag;
+}
+
+double SlowModes::state_coordinate(const Amplitudes& z, int index) const {
   double sum = 0;
-  for (std::size_t j = 0; j < modes_.size(); ++j) sum += 2.0 * (modes_[j].right[index] * c[j] * std::exp(modes_[j].lambda * s)).real();
+  for (std::size_t j = 0; j < modes_.size(); ++j)
+    sum += 2.0 * (modes_[j].right_real[index] * z[j].real() - modes_[j].right_imag[index] * z[j].imag());
   return sum;
+}
+
+SampleGridPhasors::SampleGridPhasors(const SlowModes& modes, double rate, std::size_t count)
+    : modes_(modes), rate_(rate), fine_(modes.size()), coarse_(modes.size()) {
+  if (!(rate > 0) || !std::isfinite(rate)) throw TwinParameterError("slow modes: sample rate must be positive");
+  const std::size_t coarse_count = count / kFineSteps + 1;
+  for (std::size_t j = 0; j < modes.size(); ++j) {
+    const Complex lambda = modes.eigenvalue(j);
+    fine_[j].resize(kFineSteps);
+    coarse_[j].resize(coarse_count);
+    for (std::size_t n = 0; n < kFineSteps; ++n) fine_[j][n] = std::exp(lambda * (static_cast<double>(n) / rate));
+    for (std::size_t m = 0; m < coarse_count; ++m) coarse_[j][m] = std::exp(lambda * (static_cast<double>(m * kFineSteps) / rate));
+  }
+}
+
+SampleGridPhasors::Complex SampleGridPhasors::at(std::size_t j, std::size_t i) const {
+  const std::size_t m = i / kFineSteps;
+  if (m >= coarse_[j].size()) return std::exp(modes_.eigenvalue(j) * (static_cast<double>(i) / rate_));
+  return coarse_[j][m] * fine_[j][i % kFineSteps];
 }
 
 }  // namespace gearwatch::twin

@@ -87,14 +87,14 @@ struct PeriodicTiling {
   /// agrees(anchor state, anchor's time, state at b, b): the periodicity check between the first
   /// boundary of a run of agreeing ones and a later one.
   std::function<bool(const State&, double, const State&, double)> agrees;
-  /// correct(x, template time, t): the template's state at its own time made the state at t, the
-  /// sample time it stands for (a transient still decaying at the template, carried on); empty:
-  /// the template's state as it is.
-  std::function<void(State&, double, double)> correct;
-  /// retime(template time, t): the template time whose mesh phase is the one the sample at t has
+  /// correct(x, template time, i): the template's state at its own time made the state at the time
+  /// of sample i, t0 + i/rate, which it stands for (a transient still decaying at the template,
+  /// carried on); empty: the template's state as it is.
+  std::function<void(State&, double, std::size_t)> correct;
+  /// retime(template time, i): the template time whose mesh phase is the one sample i has
   /// (a slow transient turns the pinion a little further or less far than the template had); empty:
   /// the template time as it is. Taken modulo the period into the template.
-  std::function<double(double, double)> retime;
+  std::function<double(double, std::size_t)> retime;
   /// ready(): the check can still agree once the record's own samples are over (false: the search
   /// stops at the record's end).
   std::function<bool()> ready;
@@ -266,7 +266,7 @@ class PeriodicSampler {
       const long long k = repeat_of(t, start);
       double at = t - static_cast<double>(k) * period_;
       if (k != 0 && tiling_.retime) {
-        at = tiling_.retime(at, t);
+        at = tiling_.retime(at, i);
         while (at < start) at += period_;
         while (at >= start + period_) at -= period_;
       }
@@ -286,7 +286,7 @@ class PeriodicSampler {
       for (; r.next < r.end && leq(template_time_[r.next], now, dt); ++r.next) {
         const double t = time_of(r.next), at = template_time_[r.next];
         stepper_.calc_state(at, x_);
-        if (tiling_.correct && at != t) tiling_.correct(x_, at, t);
+        if (tiling_.correct && at != t) tiling_.correct(x_, at, r.next);
         detail::check_sample(dynamics_.matrices().mesh, options_, x_, t);
         observer_(static_cast<const State&>(x_), t, r.next, false);
       }

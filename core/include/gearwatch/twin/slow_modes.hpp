@@ -41,12 +41,35 @@ class SlowModes {
   /// x += the slow modes' change from `from_s` to `to_s` after the anchor.
   void advance(State& x, const Amplitudes& c, double from_s, double to_s) const;
 
+  /// x += 2 Re(Σ right_j·z_j): the state the modal coordinates z make.
+  void add_state(State& x, const Amplitudes& z) const;
+  /// Coordinate `index` of that state.
+  double state_coordinate(const Amplitudes& z, int index) const;
+
  private:
   struct Mode {
     Complex lambda;
-    Eigen::Matrix<Complex, 2 * kDofCount, 1> left, right;  // z = leftᵀ x; x = 2 Re(right z)
+    Eigen::Matrix<Complex, 2 * kDofCount, 1> left;                   // z = leftᵀ x
+    Eigen::Matrix<double, 2 * kDofCount, 1> right_real, right_imag;  // x = 2 Re(right z)
   };
   std::vector<Mode> modes_;
+};
+
+/// e^{λ_j·i/rate} of each slow mode at a record's sample indices i: the product of two tabulated
+/// powers (i = m·kFineSteps + n), one complex product where an exponential would be. The tiling
+/// reads the slow modes at every sample of the record; the indices are exact where the times are not.
+class SampleGridPhasors {
+ public:
+  using Complex = SlowModes::Complex;
+  SampleGridPhasors(const SlowModes& modes, double rate, std::size_t count);
+  /// Mode j's e^{λ·i/rate}; past `count` it is computed.
+  Complex at(std::size_t j, std::size_t i) const;
+
+ private:
+  static constexpr std::size_t kFineSteps = 1024;
+  const SlowModes& modes_;
+  double rate_;
+  std::vector<std::vector<Complex>> fine_, coarse_;  // per mode: e^{λn/rate}, n < kFineSteps; e^{λ·m·kFineSteps/rate}
 };
 
 }  // namespace gearwatch::twin
