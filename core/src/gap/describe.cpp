@@ -17,6 +17,7 @@
 #include <map>
 #include <numbers>
 #include <numeric>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -875,6 +876,7 @@ FeatureDescriber::Fit FeatureDescriber::resonance(const GapFeature& f, const Win
 FeatureDescription FeatureDescriber::local_resonance(const GapFeature& f, const Window& w, const FeatureDescription& none) const {
   if (!settings_.local.enabled || f.movement == FeatureMovement::fixed_in_orders) return none;
   ResonanceSearch::Cells cells;
+  std::vector<std::size_t> record_of;
   double core_before = 0;
   std::size_t core = 0;
   for (const auto& [r, i] : w) {
@@ -882,10 +884,12 @@ FeatureDescription FeatureDescriber::local_resonance(const GapFeature& f, const 
     if (c.kind != CellKind::broadband || c.index >= local_[r].size()) continue;
     const double expected = local_[r][c.index];
     if (!(expected > 0) || !(c.measured > 0)) continue;
-    const double g = 10 * std::log10(c.measured / expected), half_bin = records_[r].speed_hz / 2;
+    // One-sided, as the local test: a bin under its neighbourhood says only that nothing lifts it.
+    const double g = std::max(0.0, 10 * std::log10(c.measured / expected)), half_bin = records_[r].speed_hz / 2;
     cells.g_measured.push_back(g), cells.twin.push_back(expected), cells.floor.push_back(0.0);
     cells.hz.push_back((c.order - 0.5) * records_[r].speed_hz), cells.half_bin_hz.push_back(half_bin);
-    if (std::abs(g) >= settings_.min_feature_db) core_before += g * g, ++core;
+    record_of.push_back(r);
+    if (g >= settings_.min_feature_db) core_before += g * g, ++core;
   }
   if (core == 0) return none;
   double lo = f.hz_low, hi = f.hz_high;
@@ -894,12 +898,19 @@ FeatureDescription FeatureDescriber::local_resonance(const GapFeature& f, const 
   const double gm1 = std::pow(10.0, bg / 10) - 1;
   const auto& g_measured = cells.g_measured;
   double rss = 0, core_sq = 0;
+  std::set<std::size_t> lifted;  // records where the resonance lifts a bin that rises
   for (std::size_t e = 0; e < g_measured.size(); ++e) {
-    const double d = g_measured[e] - 10 * std::log10(1 + gm1 * ResonanceSearch::pass(cells, e, bf, bz));
+    const double predicted = 10 * std::log10(1 + gm1 * ResonanceSearch::pass(cells, e, bf, bz)), d = g_measured[e] - predicted;
     rss += d * d;
-    if (std::abs(g_measured[e]) >= settings_.min_feature_db) core_sq += d * d;
+    if (g_measured[e] < settings_.min_feature_db) continue;
+    core_sq += d * d;
+    if (predicted >= settings_.min_feature_db) lifted.insert(record_of[e]);
   }
   if (!(std::sqrt(core_sq / static_cast<double>(core)) < settings_.min_feature_db)) return none;  // its gap stays
+  // A resonance of the machine is in every record whose band holds it: seen in as many as the finder
+  // asks of a local peak (LocalPeakSettings::min_record_share), not in one bin's chance rise.
+  const double needed = std::max(2.0, std::ceil(settings_.local.min_record_share * static_cast<double>(records_.size()) - 1e-9));
+  if (static_cast<double>(lifted.size()) < needed) return none;
   FeatureDescription d;
   d.kind = DescriptionKind::resonance;
   d.parameters = {{"frequency_hz", bf}, {"damping_ratio", bz}, {"gain_db", bg}};

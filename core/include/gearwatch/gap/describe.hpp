@@ -129,8 +129,10 @@ class FeatureDescriber {
   Fit resonance(const GapFeature& f, const Window& w) const;
   /// A feature whose cells all lie under the comparison's floor, found in its bins' local peaks
   /// (features.hpp): the resonance form fitted to the window's broadband bins against their
-  /// neighbourhood's expectation (local_expectation) with no floor, kept when it brings the bins at
-  /// the practical minimum under it; else none. Not for a feature fixed in orders.
+  /// neighbourhood's expectation (local_expectation) with no floor, kept when it brings the bins that
+  /// rise by the practical minimum under it and lifts such bins in as many records as the finder asks
+  /// of a local peak; else none. Only rises: the local test is one-sided, and a bin's dip under its
+  /// neighbourhood is its own scatter, which no form lifts. Not for a feature fixed in orders.
   FeatureDescription local_resonance(const GapFeature& f, const Window& w, const FeatureDescription& none) const;
   /// Up to max_tones non-synchronous tones (one place and power each), found one at a time where the
   /// window's g is worst explained, each kept only if it lowers the BIC; powers refitted together.
