@@ -262,6 +262,16 @@ struct LocalPeakCase {
   std::vector<GapFeature> features;
 };
 
+/// The feature described on the records (the twin's floor, the finder's local peaks' settings).
+FeatureDescription described_with_local_peaks(const Records& records, const GapFeature& f) {
+  std::vector<DescribedRecord> described;
+  for (std::size_t i = 0; i < records.measured.size(); ++i)
+    described.push_back({&records.measured[i], &records.twin[i], floor_of(records.twin[i]), {}, {}, {}, {}});
+  DescriptionSettings describing;
+  describing.local = local_peaks_on().local;
+  return FeatureDescriber(described, GearPairSpec{}, describing).describe(f);
+}
+
 LocalPeakCase local_peak_case(double f0, std::mt19937_64& rng) {
   LocalPeakCase c{under_floor_records(resonance_power_gain(f0, 20, 12), rng), {}};
   c.features = finders_of(c.records, rng, {local_peaks_on()})[0].features();
@@ -296,11 +306,7 @@ TEST_CASE("gap features: a narrow resonance under the comparison's floor, betwee
   // which RecordSpectra's Hann-windowed bins do not, so its Hz is asked within the cells' placement,
   // one bin at the fastest record, as the localisation above; the describer's accuracy is checked on
   // records made sample by sample ("a resonance narrower than a bin", below).
-  std::vector<DescribedRecord> described;
-  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&records.measured[i], &records.twin[i], floor_of(records.twin[i]), {}, {}, {}, {}});
-  DescriptionSettings describing;
-  describing.local = local_on.local;
-  const auto d = FeatureDescriber(described, GearPairSpec{}, describing).describe(f);
+  const auto d = described_with_local_peaks(records, f);
   INFO(to_string(d.kind) << ": " << describe(d));
   REQUIRE(d.kind == DescriptionKind::resonance);
   CHECK(std::abs(d.parameter("frequency_hz") - f0) <= kSpeeds.back());
@@ -337,11 +343,7 @@ TEST_CASE("gap features: a narrow resonance in its bins' local peaks is describe
   REQUIRE(features.size() == 1);
   const auto& f = features.front();
   CHECK(std::abs(f.hz - f0) <= kSpeeds.back());
-  std::vector<DescribedRecord> described;
-  for (std::size_t i = 0; i < kSpeeds.size(); ++i) described.push_back({&records.measured[i], &records.twin[i], floor_of(records.twin[i]), {}, {}, {}, {}});
-  DescriptionSettings describing;
-  describing.local = local_on.local;
-  const auto d = FeatureDescriber(described, GearPairSpec{}, describing).describe(f);
+  const auto d = described_with_local_peaks(records, f);
   INFO(to_string(d.kind) << ": " << describe(d));
   REQUIRE(d.kind == DescriptionKind::resonance);
   // Within the cells' placement, one bin at the fastest record, as the case without dips.
