@@ -225,7 +225,6 @@ std::function<double(double)> resonance_power_gain(double f0, double width, doub
   };
 }
 
-
 /// The twin of twin_spectra with every line but the mesh harmonics and every broadband bin far under
 /// the comparison's floor (1e-9 and 1e-12 against the floor's 1.6e-6), and its measurement: the
 /// twin plus the capture's own white floor (1e-9 per bin), each line and bin times gain(Hz), with
@@ -262,6 +261,12 @@ struct LocalPeakCase {
   std::vector<GapFeature> features;
 };
 
+LocalPeakCase local_peak_case(double f0, std::mt19937_64& rng) {
+  LocalPeakCase c{under_floor_records(resonance_power_gain(f0, 20, 12), rng), {}};
+  c.features = finders_of(c.records, rng, {local_peaks_on()})[0].features();
+  return c;
+}
+
 /// The feature described on the records (the twin's floor, the finder's local peaks' settings).
 FeatureDescription described_with_local_peaks(const Records& records, const GapFeature& f) {
   std::vector<DescribedRecord> described;
@@ -270,12 +275,6 @@ FeatureDescription described_with_local_peaks(const Records& records, const GapF
   DescriptionSettings describing;
   describing.local = local_peaks_on().local;
   return FeatureDescriber(described, GearPairSpec{}, describing).describe(f);
-}
-
-LocalPeakCase local_peak_case(double f0, std::mt19937_64& rng) {
-  LocalPeakCase c{under_floor_records(resonance_power_gain(f0, 20, 12), rng), {}};
-  c.features = finders_of(c.records, rng, {local_peaks_on()})[0].features();
-  return c;
 }
 
 }  // namespace

@@ -909,8 +909,7 @@ FeatureDescription FeatureDescriber::local_resonance(const GapFeature& f, const 
   if (!(std::sqrt(core_sq / static_cast<double>(core)) < settings_.min_feature_db)) return none;  // its gap stays
   // A resonance of the machine is in every record whose band holds it: seen in as many as the finder
   // asks of a local peak (LocalPeakSettings::min_record_share), not in one bin's chance rise.
-  const double needed = std::max(2.0, std::ceil(settings_.local.min_record_share * static_cast<double>(records_.size()) - 1e-9));
-  if (static_cast<double>(lifted.size()) < needed) return none;
+  if (lifted.size() < settings_.local.records_needed(records_.size())) return none;
   FeatureDescription d;
   d.kind = DescriptionKind::resonance;
   d.parameters = {{"frequency_hz", bf}, {"damping_ratio", bz}, {"gain_db", bg}};

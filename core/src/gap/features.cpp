@@ -465,10 +465,10 @@ std::vector<GapFeature> FeatureFinder::features() const {
   // so that a line or bin feature keeps its extent and sightings.
   auto out = layer_features(Layer::lines_and_bins);
   const std::size_t found = out.size();
+  // Persistence over records (LocalPeakSettings::min_record_share): a chance peak is in few.
+  const std::size_t needed = settings_.local.records_needed(records_.size());
   for (auto& f : layer_features(Layer::local_peaks)) {
-    // Persistence over records (LocalPeakSettings::min_record_share): a chance peak is in few.
-    const double needed = std::max(2.0, std::ceil(settings_.local.min_record_share * static_cast<double>(records_.size()) - 1e-9));
-    if (static_cast<double>(f.seen_in.size()) < needed) continue;
+    if (f.seen_in.size() < needed) continue;
     // The same finding when its centre lies inside a line or bin feature's extent. Overlapping
     // extents are not enough: a narrow resonance between two mesh harmonics lifts the nearer one on
     // its skirt, a line feature a few bins from the peak, while the peak itself stands in the local

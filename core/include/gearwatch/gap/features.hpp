@@ -30,6 +30,8 @@
 //    (local_expectation), g = 10·log10(ΣM / ΣE) without the comparison's floor, in the same test,
 //    one-sided (rising only), p from the χ² law of the record's Welch bins (LocalPeakLaw); their own
 //    layer, a feature only where seen in half the records and no line or bin feature overlaps it in Hz.
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -100,6 +102,10 @@ struct LocalPeakSettings {
   /// Benjamini–Hochberg admits (a share q of its rejections, more of them the more a real effect
   /// rejects) fall at places of their own in each record, two of which can meet by chance.
   double min_record_share = 0.5;
+  /// The records of `records` a local peak must be seen in: min_record_share of them, 2 at least.
+  std::size_t records_needed(std::size_t records) const {
+    return std::max<std::size_t>(2, static_cast<std::size_t>(std::ceil(min_record_share * static_cast<double>(records) - 1e-9)));
+  }
   /// The χ² law (local_peak_law) needs this many input revolutions: over fewer blocks the cells'
   /// tail is heavier than two moments give (gap.md), and a shorter record has no local cells.
   std::size_t min_revolutions = 20;
