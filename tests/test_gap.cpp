@@ -1101,6 +1101,24 @@ TEST_CASE("gap: the bearing-force path is the twin's response to a mesh error, r
   CHECK_THROWS_AS(bearing_force_path(m, 0.5), std::invalid_argument);
   // A heavy casing adds nothing; without the path the form refuses.
   CHECK(casing_modes_gain(path->at(500), 500, 300, 700, 0.03, 1e12) == Approx(1.0).epsilon(1e-9));
+  // One mode's term at its own f_n is e^{iφ}(F/y6)/m / (2iζωn²); off it, the equation of motion's
+  // 1/(ωn² − ω² + 2iζωnω); two modes' gain is |1 + both terms|².
+  const std::complex<double> ratio(3.0e7, -1.2e7);
+  const double fn = 2500, zeta = 0.004, mass = 2.5, wn = 2 * std::numbers::pi * fn;
+  for (double phase : {0.0, 1.0, -2.5}) {
+    const CasingModeTerm term(fn, zeta, mass, phase);
+    const std::complex<double> at_fn = std::polar(1.0, phase) * ratio / mass / std::complex<double>(0, 2 * zeta * wn * wn);
+    CHECK(std::abs(term(ratio, fn) - at_fn) < 1e-12 * std::abs(at_fn));
+    const double w = 2 * std::numbers::pi * 2600;
+    const std::complex<double> off = std::polar(1.0, phase) * ratio / mass / std::complex<double>(wn * wn - w * w, 2 * zeta * wn * w);
+    CHECK(std::abs(term(ratio, 2600) - off) < 1e-12 * std::abs(off));
+  }
+  {
+    const double w = 2 * std::numbers::pi * 2600, w1 = 2 * std::numbers::pi * 2400, w2 = 2 * std::numbers::pi * 2700;
+    const std::complex<double> sum = 1.0 / std::complex<double>(w1 * w1 - w * w, 2 * zeta * w1 * w) +
+                                     1.0 / std::complex<double>(w2 * w2 - w * w, 2 * zeta * w2 * w);
+    CHECK(casing_modes_gain(ratio, 2600, 2400, 2700, zeta, mass) == Approx(std::norm(1.0 + ratio / mass * sum)).epsilon(1e-12));
+  }
   SpectralSummary bare;
   bare.speed_hz = 10;
   bare.input_lines.assign(100, 1.0);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <numbers>
 #include <tuple>
 #include <utility>
 
@@ -159,27 +160,52 @@ std::vector<WindowCell> window_cells(const std::vector<RecordModels>& records, d
   return cells;
 }
 
-/// One casing mode (f_n, ζ, modal mass m): casing_mode's form with both its modes at f_n, which is
-/// one mode of half their mass.
+/// One casing mode (f_n, ζ, modal mass m, the phase of its residue at the sensor): casing_mode's
+/// form with both its modes at f_n, which is one mode of half their mass.
 struct OneMode {
-  double hz, zeta, mass;
-  double gain_at(std::complex<double> path, double f_hz) const { return casing_modes_gain(path, f_hz, hz, hz, zeta, 2.0 * mass); }
-  /// A line's gain at its frequency; a bin's averaged over its half-order bins (binned.hpp).
-  double gain(const WindowCell& c) const {
-    if (c.half_bin_hz == 0) return gain_at(c.path, c.hz);
-    return binned_average(c.first_half_bin_hz, c.half_bin_hz, hz, zeta,
-                          [&](double f) { return gain_at(c.path_table->at(f), f); });
-  }
+  double hz, zeta, mass, phase;
 };
 
-/// The sum of squared g over `cells` with the mode, each read at its centre (the grid's fit).
-double misfit(const std::vector<WindowCell>& cells, const OneMode& mode) {
+/// A mode's power gain, its constants computed once per mode.
+class OneModeGain {
+ public:
+  explicit OneModeGain(const OneMode& m) : mode_(m), term_(m.hz, m.zeta, m.mass, m.phase) {}
+  double at(std::complex<double> path, double f_hz) const { return std::norm(1.0 + term_(path, f_hz)); }
+  /// A line's gain at its frequency; a bin's averaged over its half-order bins (binned.hpp).
+  double operator()(const WindowCell& c) const {
+    if (c.half_bin_hz == 0) return at(c.path, c.hz);
+    return binned_average(c.first_half_bin_hz, c.half_bin_hz, mode_.hz, mode_.zeta,
+                          [&](double f) { return at(c.path_table->at(f), f); });
+  }
+
+ private:
+  OneMode mode_;
+  CasingModeTerm term_;
+};
+
+/// How a mode is read on a bin: at the bin's centre (the grid's coarse look) or averaged over its
+/// half-order bins (what the bin holds).
+enum class BinReading { at_centre, averaged };
+
+/// The sum of squared g over `cells` with the mode.
+double misfit(const std::vector<WindowCell>& cells, const OneMode& mode, BinReading reading) {
+  const OneModeGain gain_of(mode);
   double sum = 0;
   for (const auto& c : cells) {
-    const double g = ratio_db(c.measured, c.twin * mode.gain_at(c.path, c.hz), c.floor);
+    const double gain = reading == BinReading::averaged ? gain_of(c) : gain_of.at(c.path, c.hz);
+    const double g = ratio_db(c.measured, c.twin * gain, c.floor);
     sum += g * g;
   }
   return sum;
+}
+
+/// The one mode's damping ratios: casing_mode's range, down to a steel casing's material damping.
+/// A mode whose peak is narrower than its lines' spacing is as narrow as the structure makes it.
+CandidateParameter one_mode_damping(const CandidateForm& form) {
+  constexpr double kLowestDampingRatio = 0.0005;
+  CandidateParameter zeta = form.parameters[2];
+  zeta.low = std::min(kLowestDampingRatio, zeta.low);
+  return zeta;
 }
 
 /// The box a mode is searched in.
@@ -187,24 +213,37 @@ struct ModeBounds {
   double lo_hz, hi_hz, zeta_low, zeta_high, mass_low, mass_high;
 };
 
-/// A compass search in the logs of f_n, ζ and m from `start`, halving its steps, on cost(mode).
+/// Phases of the residue a grid tries: a mode's residue at the sensor is complex where the casing's
+/// damping is not proportional to its mass and stiffness (bolted joints, covers), so its peak need not
+/// stand where the bearing-force path's own phase puts it.
+constexpr int kResiduePhases = 8;
+double residue_phase(int i) { return 2.0 * std::numbers::pi * i / kResiduePhases; }
+
+/// `mode` moved along coordinate k (the logs of f_n, ζ and m; the residue's phase) by `delta`, in its box.
+OneMode moved(OneMode m, std::size_t k, double delta, const ModeBounds& box) {
+  if (k == 3) return m.phase += delta, m;
+  double& v = k == 0 ? m.hz : k == 1 ? m.zeta : m.mass;
+  v *= std::exp(delta);
+  m.hz = std::clamp(m.hz, box.lo_hz, box.hi_hz);
+  m.zeta = std::clamp(m.zeta, box.zeta_low, box.zeta_high);
+  m.mass = std::clamp(m.mass, box.mass_low, box.mass_high);
+  return m;
+}
+
+/// A compass search in the logs of f_n, ζ and m and in the residue's phase from `start`, halving its
+/// steps, on cost(mode).
 template <class Cost>
-OneMode compass(Cost&& cost, OneMode best, std::array<double, 3> step, const ModeBounds& box) {
+OneMode compass(Cost&& cost, OneMode best, std::array<double, 4> step, const ModeBounds& box) {
   double best_cost = cost(best);
   for (int halving = 0; halving < 24; ++halving) {
-    bool moved = true;
-    while (moved) {
-      moved = false;
-      for (std::size_t k = 0; k < 3; ++k)
+    bool moved_once = true;
+    while (moved_once) {
+      moved_once = false;
+      for (std::size_t k = 0; k < step.size(); ++k)
         for (double sign : {-1.0, 1.0}) {
-          OneMode m = best;
-          double& v = k == 0 ? m.hz : k == 1 ? m.zeta : m.mass;
-          v *= std::exp(sign * step[k]);
-          m.hz = std::clamp(m.hz, box.lo_hz, box.hi_hz);
-          m.zeta = std::clamp(m.zeta, box.zeta_low, box.zeta_high);
-          m.mass = std::clamp(m.mass, box.mass_low, box.mass_high);
+          const OneMode m = moved(best, k, sign * step[k], box);
           const double c = cost(m);
-          if (c < best_cost - 1e-12 * (1 + best_cost)) best_cost = c, best = m, moved = true;
+          if (c < best_cost - 1e-12 * (1 + best_cost)) best_cost = c, best = m, moved_once = true;
         }
     }
     for (double& x : step) x /= 2;
@@ -212,40 +251,66 @@ OneMode compass(Cost&& cost, OneMode best, std::array<double, 3> step, const Mod
   return best;
 }
 
-/// The least-squares mode on `cells` with bins read at their centres: a grid (f_n every `hz_step`
-/// over [lo, hi], ζ and m log-spaced over casing_mode's ranges), then a compass search from the
-/// grid's best point at every ζ: a narrow mode's basin is narrower than a grid cell in m and f_n, so
-/// the grid's best point overall is often a broad mode that fits everything a little.
-OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double hi_hz, double hz_step, const CandidateForm& form) {
-  const auto& zeta_range = form.parameters[2];
-  const auto& mass_range = form.parameters[3];
-  const ModeBounds box{lo_hz, hi_hz, zeta_range.low, zeta_range.high, mass_range.low, mass_range.high};
-  constexpr int kZeta = 13, kMass = 41;
-  auto log_point = [](const CandidateParameter& p, int i, int n) { return p.low * std::pow(p.high / p.low, i / (n - 1.0)); };
-  std::vector<std::pair<double, OneMode>> best_at_zeta;
-  for (int i = 0; i < kZeta; ++i) {
-    std::pair<double, OneMode> best{std::numeric_limits<double>::infinity(), {lo_hz, log_point(zeta_range, i, kZeta), mass_range.high}};
-    for (double hz = lo_hz; hz <= hi_hz; hz += hz_step)
-      for (int j = 0; j < kMass; ++j) {
-        const OneMode m{hz, log_point(zeta_range, i, kZeta), log_point(mass_range, j, kMass)};
-        const double c = misfit(cells, m);
-        if (c < best.first) best = {c, m};
-      }
-    best_at_zeta.push_back(best);
-  }
-  OneMode best = best_at_zeta.front().second;
-  double best_cost = std::numeric_limits<double>::infinity();
-  for (const auto& [cost, start] : best_at_zeta) {
-    const std::array<double, 3> step = {std::log1p(hz_step / start.hz), std::log(zeta_range.high / zeta_range.low) / (kZeta - 1),
-                                        std::log(mass_range.high / mass_range.low) / (kMass - 1)};
-    const OneMode m = compass([&](const OneMode& x) { return misfit(cells, x); }, start, step, box);
-    const double c = misfit(cells, m);
-    if (c < best_cost) best_cost = c, best = m;
-  }
+/// Points of the modal-mass grid (log-spaced over casing_mode's range).
+constexpr int kModalMasses = 41;
+
+/// The best (cost, mode) over the modal-mass grid and the residue's phases at `at`'s f_n and ζ.
+template <class Cost>
+std::pair<double, OneMode> best_mass_and_phase(Cost&& cost, OneMode at, const CandidateParameter& mass_range) {
+  std::pair<double, OneMode> best{std::numeric_limits<double>::infinity(), at};
+  for (int j = 0; j < kModalMasses; ++j)
+    for (int q = 0; q < kResiduePhases; ++q) {
+      at.mass = mass_range.low * std::pow(mass_range.high / mass_range.low, j / (kModalMasses - 1.0)), at.phase = residue_phase(q);
+      const double c = cost(at);
+      if (c < best.first) best = {c, at};
+    }
   return best;
 }
 
-double rms_with(const std::vector<FeatureCell>& cells, const std::vector<RecordModels>& records, const OneMode* mode,
+/// The least-squares mode on `cells`: a grid (ζ log-spaced over its range, f_n over [lo, hi] every
+/// quarter of the half-power band of the grid's ζ, 2ζf_n at f_n = `centre_hz`, so that no mode of
+/// that ζ falls between two grid points; at each, the modal masses and the residue's phases), then a
+/// compass search from the grid's best point at every ζ and from the feature's description (its f_n
+/// and ζ): a narrow mode's basin is narrower than a grid cell in m and f_n, so the grid's best point
+/// overall is often a broad mode that fits everything a little.
+OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double hi_hz, double centre_hz, const CandidateForm& form,
+                     std::optional<OneMode> described) {
+  const CandidateParameter zeta_range = one_mode_damping(form);
+  const auto& mass_range = form.parameters[3];
+  const ModeBounds box{lo_hz, hi_hz, zeta_range.low, zeta_range.high, mass_range.low, mass_range.high};
+  constexpr int kZeta = 15;
+  auto on_centres = [&](const OneMode& m) { return misfit(cells, m, BinReading::at_centre); };
+  auto zeta_point = [&](int i) { return zeta_range.low * std::pow(zeta_range.high / zeta_range.low, i / (kZeta - 1.0)); };
+  auto hz_step = [&](double zeta) { return 0.5 * zeta * centre_hz; };
+  std::vector<OneMode> starts;
+  for (int i = 0; i < kZeta; ++i) {
+    std::pair<double, OneMode> best{std::numeric_limits<double>::infinity(), {lo_hz, zeta_point(i), mass_range.high, 0}};
+    for (double hz = lo_hz; hz <= hi_hz; hz += hz_step(zeta_point(i)))
+      best = std::min(best, best_mass_and_phase(on_centres, {hz, zeta_point(i), 0, 0}, mass_range),
+                      [](const auto& a, const auto& b) { return a.first < b.first; });
+    starts.push_back(best.second);
+  }
+  if (described) {
+    const OneMode at{std::clamp(described->hz, lo_hz, hi_hz), std::clamp(described->zeta, box.zeta_low, box.zeta_high), 0, 0};
+    starts.push_back(best_mass_and_phase(on_centres, at, mass_range).second);
+  }
+  auto step_from = [&](const OneMode& start) {
+    return std::array<double, 4>{std::log1p(hz_step(start.zeta) / start.hz), std::log(zeta_range.high / zeta_range.low) / (kZeta - 1),
+                                 std::log(mass_range.high / mass_range.low) / (kModalMasses - 1), residue_phase(1) / 2};
+  };
+  // Each start refined on the bins' centres (cheap), the best of them as the bins hold it; then that
+  // one refined as the bins hold it.
+  OneMode best = starts.front();
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const auto& start : starts) {
+    const OneMode m = compass(on_centres, start, step_from(start), box);
+    const double c = misfit(cells, m, BinReading::averaged);
+    if (c < best_cost) best_cost = c, best = m;
+  }
+  return compass([&](const OneMode& x) { return misfit(cells, x, BinReading::averaged); }, best, step_from(best), box);
+}
+
+double rms_with(const std::vector<FeatureCell>& cells, const std::vector<RecordModels>& records, const OneModeGain* mode,
                 const GearPairSpec& gears) {
   double sum = 0;
   for (const auto& c : cells) {
@@ -253,7 +318,7 @@ double rms_with(const std::vector<FeatureCell>& cells, const std::vector<RecordM
     const double hz = cell_order(c.spectrum, c.index, gears) * rec.measured->speed_hz;
     double model = spectrum_of(*rec.twin, c.spectrum)[c.index];
     if (mode != nullptr && rec.twin->bearing_force_path)
-      model *= mode->gain_at(rec.twin->bearing_force_path->at(hz), hz);
+      model *= (*mode)(window_cell(rec, c.spectrum, c.index, hz, *rec.twin->bearing_force_path));
     const double g = ratio_db(spectrum_of(*rec.measured, c.spectrum)[c.index], model, rec.floor);
     sum += g * g;
   }
@@ -294,11 +359,18 @@ std::vector<LocalBand> local_bands(const RecordModels& rec, double lo_hz, double
 
 /// A local cell's gain, dB, as the finder reads it (ΣM / ΣE); with a mode, each bin's E times the
 /// mode's gain there: a mode of the structure lifts whatever the neighbourhood shows the floor to be.
-double band_gain_db(const LocalBand& band, const OneMode* mode) {
+double band_gain_db(const LocalBand& band, const OneModeGain* mode) {
   double m = 0, e = 0;
   for (std::size_t i = 0; i < band.bins.size(); ++i)
-    m += band.measured[i], e += band.expected[i] * (mode != nullptr ? mode->gain(band.bins[i]) : 1.0);
+    m += band.measured[i], e += band.expected[i] * (mode != nullptr ? (*mode)(band.bins[i]) : 1.0);
   return m > 0 && e > 0 ? 10.0 * std::log10(m / e) : std::numeric_limits<double>::quiet_NaN();
+}
+
+/// The feature's description as a mode (its f_n and ζ; none when it is not a resonance's).
+std::optional<OneMode> described_mode(const GapFeature& f) {
+  const double fn = f.description.parameter("frequency_hz"), zeta = f.description.parameter("damping_ratio");
+  if (!std::isfinite(fn) || !std::isfinite(zeta)) return std::nullopt;
+  return OneMode{fn, zeta, 0, 0};
 }
 
 /// A peak narrower than a bin, which only the local cells find: the mode fitted on the training
@@ -308,29 +380,24 @@ double band_gain_db(const LocalBand& band, const OneMode* mode) {
 /// mode lifting less than a bin is as narrow as the structure makes it.
 std::optional<OneMode> local_mode(const std::vector<LocalBand>& bands, const GapFeature& f, double lo_hz, double hi_hz,
                                   const CandidateForm& form) {
-  constexpr double kLowestDampingRatio = 0.0005;
-  constexpr int kMass = 41;
-  const double fn = f.description.parameter("frequency_hz"), zeta = f.description.parameter("damping_ratio");
-  if (bands.empty() || !std::isfinite(fn) || !std::isfinite(zeta)) return std::nullopt;
-  const auto& zeta_range = form.parameters[2];
+  const auto described = described_mode(f);
+  if (bands.empty() || !described) return std::nullopt;
+  const CandidateParameter zeta_range = one_mode_damping(form);
   const auto& mass_range = form.parameters[3];
-  const ModeBounds box{lo_hz, hi_hz, std::min(kLowestDampingRatio, zeta_range.low), zeta_range.high, mass_range.low, mass_range.high};
+  const ModeBounds box{lo_hz, hi_hz, zeta_range.low, zeta_range.high, mass_range.low, mass_range.high};
   auto cost = [&](const OneMode& m) {
+    const OneModeGain gain(m);
     double sum = 0;
     for (const auto& b : bands) {
-      const double g = band_gain_db(b, &m);
+      const double g = band_gain_db(b, &gain);
       if (std::isfinite(g)) sum += g * g;
     }
     return sum;
   };
-  OneMode start{std::clamp(fn, lo_hz, hi_hz), std::clamp(zeta, box.zeta_low, box.zeta_high), mass_range.high};
-  double best = std::numeric_limits<double>::infinity();
-  for (int j = 0; j < kMass; ++j) {
-    const OneMode m{start.hz, start.zeta, mass_range.low * std::pow(mass_range.high / mass_range.low, j / (kMass - 1.0))};
-    const double c = cost(m);
-    if (c < best) best = c, start.mass = m.mass;
-  }
-  const std::array<double, 3> step = {std::log1p(0.25 * start.zeta), 0.25, std::log(mass_range.high / mass_range.low) / (kMass - 1)};
+  const OneMode at{std::clamp(described->hz, lo_hz, hi_hz), std::clamp(described->zeta, box.zeta_low, box.zeta_high), 0, 0};
+  const OneMode start = best_mass_and_phase(cost, at, mass_range).second;
+  const std::array<double, 4> step = {std::log1p(0.25 * start.zeta), 0.25,
+                                      std::log(mass_range.high / mass_range.low) / (kModalMasses - 1), residue_phase(1) / 2};
   return compass(cost, start, step, box);
 }
 
@@ -338,12 +405,13 @@ std::optional<OneMode> local_mode(const std::vector<LocalBand>& bands, const Gap
 /// show it, centred inside its extent, at the practical minimum or more without. NaN: none.
 std::pair<double, double> local_gap_db(const GapFeature& f, const std::vector<RecordModels>& records, bool held_out,
                                        const OneMode& mode, const FeatureSettings& settings) {
+  const OneModeGain gain(mode);
   double before = 0, after = 0;
   std::size_t n = 0;
   for (std::size_t r = 0; r < records.size(); ++r) {
     if (!seen_in(f, held_out, r)) continue;
     for (const auto& band : local_bands(records[r], f.hz_low, f.hz_high, settings)) {
-      const double b = band_gain_db(band, nullptr), a = band_gain_db(band, &mode);
+      const double b = band_gain_db(band, nullptr), a = band_gain_db(band, &gain);
       if (!(b >= settings.min_feature_db) || !std::isfinite(a)) continue;
       before += b * b, after += a * a, ++n;
     }
@@ -352,16 +420,11 @@ std::pair<double, double> local_gap_db(const GapFeature& f, const std::vector<Re
   return n == 0 ? std::pair{nan, nan} : std::pair{std::sqrt(before / n), std::sqrt(after / n)};
 }
 
-/// How a mode is read on a bin: at its centre (as the lines-and-bins fit reads it) or averaged over
-/// its half-order bins (as the local cells' fit reads it).
-enum class BinReading { at_centre, averaged };
-
-double rms_window(const std::vector<WindowCell>& cells, const OneMode* mode, BinReading reading) {
+double rms_window(const std::vector<WindowCell>& cells, const OneModeGain* mode) {
   if (cells.empty()) return 0.0;
   double sum = 0;
   for (const auto& c : cells) {
-    const double gain = mode == nullptr ? 1.0 : reading == BinReading::averaged ? mode->gain(c) : mode->gain_at(c.path, c.hz);
-    const double g = ratio_db(c.measured, c.twin * gain, c.floor);
+    const double g = ratio_db(c.measured, c.twin * (mode == nullptr ? 1.0 : (*mode)(c)), c.floor);
     sum += g * g;
   }
   return std::sqrt(sum / static_cast<double>(cells.size()));
@@ -375,7 +438,6 @@ std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& f, cons
   const double min_feature_db = settings.min_feature_db;
   if (training.empty()) return std::nullopt;
   const CandidateForm form = candidate_form(CandidateEffect::casing_mode, training.front().measured->sample_rate_hz);
-  const double zeta_low = form.parameters[2].low;
   double top_speed = 0;
   for (const auto* set : {&held_out, &training})
     for (const auto& r : *set) top_speed = std::max(top_speed, r.measured->speed_hz);
@@ -385,21 +447,23 @@ std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& f, cons
   // its peak that a resonance in the path lacks, and far cells would weigh that difference.
   const double margin = 2 * top_speed;
   const double lo = std::max(1.0, f.hz_low - margin), hi = f.hz_high + margin, centre = 0.5 * (f.hz_low + f.hz_high);
-  const auto fit_cells = window_cells(training, lo, hi, gears);
-  if (fit_cells.empty()) return std::nullopt;
-  auto judged = cells_of(f, held_out, true, gears, min_feature_db);
-  const auto* records = &held_out;
-  bool held = true;
-  if (judged.empty()) judged = cells_of(f, training, false, gears, min_feature_db), records = &training, held = false;
   OneMode mode{};
   CasingModeFit out;
-  BinReading reading = BinReading::at_centre;
-  if (!judged.empty()) {
-    // A quarter of the narrowest half-power band the form allows, so no mode in its range falls between two grid points.
-    mode = fit_one_mode(fit_cells, lo, hi, 0.5 * zeta_low * centre, form);
-    out = {mode.hz, mode.zeta, mode.mass, rms_with(judged, *records, nullptr, gears), rms_with(judged, *records, &mode, gears), held, false};
+  // The mode is fitted on what the training records show of it: their lines and bins when any of
+  // them rises by the minimum, else their local cells (a peak narrower than a bin, or one between
+  // the lines each training speed puts near it, shows only there).
+  if (!cells_of(f, training, false, gears, min_feature_db).empty()) {
+    const auto fit_cells = window_cells(training, lo, hi, gears);
+    if (fit_cells.empty()) return std::nullopt;
+    auto judged = cells_of(f, held_out, true, gears, min_feature_db);
+    const auto* records = &held_out;
+    bool held = true;
+    if (judged.empty()) judged = cells_of(f, training, false, gears, min_feature_db), records = &training, held = false;
+    mode = fit_one_mode(fit_cells, lo, hi, centre, form, described_mode(f));
+    const OneModeGain gain(mode);
+    out = {mode.hz, mode.zeta, mode.mass, mode.phase, rms_with(judged, *records, nullptr, gears), rms_with(judged, *records, &gain, gears),
+           held, false};
   } else {
-    // A peak narrower than a bin: no line or bin reaches the minimum, its local cells do.
     std::vector<LocalBand> bands;
     for (const auto& rec : training) {
       auto b = local_bands(rec, lo, hi, settings);
@@ -407,8 +471,8 @@ std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& f, cons
     }
     const auto fitted = local_mode(bands, f, lo, hi, form);
     if (!fitted) return std::nullopt;
-    mode = *fitted, reading = BinReading::averaged;
-    out = {mode.hz, mode.zeta, mode.mass, 0, 0, true, false};
+    mode = *fitted;
+    out = {mode.hz, mode.zeta, mode.mass, mode.phase, 0, 0, true, false};
     std::tie(out.gap_before_db, out.gap_after_db) = local_gap_db(f, held_out, true, mode, settings);
     if (!std::isfinite(out.gap_before_db)) {
       out.held_out = false;
@@ -416,9 +480,11 @@ std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& f, cons
     }
     if (!std::isfinite(out.gap_before_db)) return out;
   }
+  out.residue_phase_rad = std::remainder(mode.phase, 2.0 * std::numbers::pi);
   // Held out, the mode must not make the window worse, whether or not those records show the feature.
   const auto window = window_cells(held_out.empty() ? training : held_out, lo, hi, gears);
-  out.explains = out.gap_after_db < min_feature_db && rms_window(window, &mode, reading) <= rms_window(window, nullptr, reading);
+  const OneModeGain gain(mode);
+  out.explains = out.gap_after_db < min_feature_db && rms_window(window, &gain) <= rms_window(window, nullptr);
   return out;
 }
 

@@ -400,17 +400,24 @@ std::shared_ptr<const BearingForcePath> bearing_force_path(const twin::GearboxMa
   return std::make_shared<const BearingForcePath>(kLowestHz, kPointsPerOctave, std::move(ratio));
 }
 
+CasingModeTerm::CasingModeTerm(double mode_hz, double damping_ratio, double modal_mass_kg, double residue_phase_rad) noexcept
+    : wc2_(std::pow(2.0 * std::numbers::pi * mode_hz, 2)),
+      two_zeta_wc_(2.0 * damping_ratio * 2.0 * std::numbers::pi * mode_hz),
+      residue_(std::polar(1.0 / modal_mass_kg, residue_phase_rad)) {}
+
+std::complex<double> CasingModeTerm::operator()(std::complex<double> bearing_force_ratio, double f_hz) const noexcept {
+  // η̈c + 2ζωc η̇c + ωc² ηc = F/m for the mode, the sensor reading ÿ6 + η̈c: relative to ÿ6 = −ω² y6,
+  // η̈c / ÿ6 = (F/y6)/m · 1/(ωc² − ω² + 2iζωcω), the residue's phase on top.
+  const double w = 2.0 * std::numbers::pi * f_hz;
+  const double re = wc2_ - w * w, im = two_zeta_wc_ * w;
+  const std::complex<double> inverse(re / (re * re + im * im), -im / (re * re + im * im));
+  return residue_ * bearing_force_ratio * inverse;
+}
+
 double casing_modes_gain(std::complex<double> bearing_force_ratio, double f_hz, double mode1_hz, double mode2_hz,
                          double damping_ratio, double modal_mass_kg) noexcept {
-  // η̈c + 2ζωc η̇c + ωc² ηc = F/m for each mode, the sensor reading ÿ6 + Σ η̈c: relative to ÿ6 = −ω² y6,
-  // Σ η̈c / ÿ6 = (F/y6)/m · Σ 1/(ωc² − ω² + 2iζωcω).
-  const double w = 2.0 * std::numbers::pi * f_hz;
-  std::complex<double> modes = 0;
-  for (double fc : {mode1_hz, mode2_hz}) {
-    const double wc = 2.0 * std::numbers::pi * fc;
-    modes += 1.0 / std::complex<double>(wc * wc - w * w, 2.0 * damping_ratio * wc * w);
-  }
-  return std::norm(1.0 + bearing_force_ratio / modal_mass_kg * modes);
+  const CasingModeTerm first(mode1_hz, damping_ratio, modal_mass_kg), second(mode2_hz, damping_ratio, modal_mass_kg);
+  return std::norm(1.0 + first(bearing_force_ratio, f_hz) + second(bearing_force_ratio, f_hz));
 }
 
 RunOutSensitivity run_out_sensitivity(const twin::GearboxMatrices& matrices, const GearPairSpec& gears, bool gear_shaft,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numbers>
 #include <limits>
 #include <deque>
 #include <map>
@@ -781,6 +782,7 @@ class Diagnosis {
     f.description.parameters.emplace_back("casing_mode_hz", fit->mode_hz);
     f.description.parameters.emplace_back("casing_damping_ratio", fit->damping_ratio);
     f.description.parameters.emplace_back("casing_modal_mass_kg", fit->modal_mass_kg);
+    f.description.parameters.emplace_back("casing_residue_phase_deg", fit->residue_phase_rad * 180.0 / std::numbers::pi);
   }
 
   /// K_wear is what makes the twin's RMS_SA equal the measured one, so whatever the twin lacks on the

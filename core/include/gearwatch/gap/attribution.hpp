@@ -52,6 +52,7 @@ std::optional<CandidateEffect> explaining_candidate(const GapFeature& feature, c
 /// A structural resonance's casing mode, fitted on a feature's own cells (`casing_mode_for_resonance`).
 struct CasingModeFit {
   double mode_hz = 0, damping_ratio = 0, modal_mass_kg = 0;  ///< one mode of casing_mode's form
+  double residue_phase_rad = 0;  ///< its residue's phase at the sensor against the bearing-force path's
   double gap_before_db = 0, gap_after_db = 0;  ///< RMS of g over the judged cells, twin alone / with the mode
   bool held_out = true;                        ///< judged on held-out cells (else on the training cells)
   bool explains = false;                       ///< gap_after_db under the practical minimum, its window not made worse

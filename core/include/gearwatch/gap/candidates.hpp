@@ -125,6 +125,21 @@ std::array<std::vector<double>, 5> run_out_response_reruns();
 /// Throws std::invalid_argument for a highest frequency ≤ 1 Hz or not finite.
 std::shared_ptr<const BearingForcePath> bearing_force_path(const twin::GearboxMatrices& matrices, double highest_hz);
 
+/// One casing mode's share of the sensor's reading relative to the twin's, for a bearing-force path
+/// ratio (N/m): e^{iφ}·ratio/m · 1/(ωc² − ω² + 2iζωcω), its constants computed once. φ is the phase
+/// of the mode's residue at the sensor: 0 for a casing whose damping is proportional to its mass and
+/// stiffness (real modes, casing_mode's form); otherwise (bolted joints, covers) the residue is
+/// complex and the peak need not stand where the path's own phase puts it.
+class CasingModeTerm {
+ public:
+  CasingModeTerm(double mode_hz, double damping_ratio, double modal_mass_kg, double residue_phase_rad = 0.0) noexcept;
+  std::complex<double> operator()(std::complex<double> bearing_force_ratio, double f_hz) const noexcept;
+
+ private:
+  double wc2_, two_zeta_wc_;
+  std::complex<double> residue_;  ///< e^{iφ}/m
+};
+
 /// The power gain of casing modes (casing_mode's form) at f for a bearing-force path ratio (N/m):
 /// |1 + ratio/m · Σ_c 1/(ωc² − ω² + 2iζωcω)|².
 double casing_modes_gain(std::complex<double> bearing_force_ratio, double f_hz, double mode1_hz, double mode2_hz,
