@@ -61,22 +61,21 @@ struct CasingModeFit {
 /// A feature described as a resonance (fixed in Hz or seen at one speed) that no chosen candidate
 /// explains is casing_mode's when one casing mode fitted on the training records' cells about it
 /// removes its gap. A narrow mode (half-power band 2ζf_n of a few tens of Hz) lifts one line of a
-/// record at most, often none, and the residual's bins under its band where they stand above F: a
-/// few cells among thousands, which no family RMS shows, so the greedy choice (asked only when a
-/// family is significant) never reaches it, and casing_mode's own fit, over every family's mean
-/// square, spends its second mode elsewhere. The mode is fitted where its evidence is: every line
-/// and bin of every training record within the feature's extent and two bins of the fastest record
-/// each side, cells that did not move pinning its flanks; f_n on a grid a quarter of the narrowest
-/// half-power band casing_mode's ζ range allows (a grid coarser than the band can step over the
-/// mode), ζ and the modal mass in casing_mode's ranges, then a compass search in the logs from the
-/// grid's best point at each ζ. Judged as explaining_candidate judges: the feature's
-/// held-out cells with |g| at the practical minimum (its training cells when no held-out record shows
-/// it), RMS under the minimum with the mode; and the RMS over the held-out records' window not made
-/// worse. A resonance narrower than a bin, which no line or bin shows at the minimum, is fitted and
-/// judged on its local cells instead (features.hpp: a bin's band against its local expectation E),
-/// E times the mode's gain averaged over each bin's half-order bins (binned.hpp), from the
-/// description's f_n and ζ, ζ down to a steel casing's material damping. Needs the twin's
-/// bearing-force path on the twin's spectra (none: nullopt).
+/// record at most, often none, and the residual's bins under its band: a few cells among thousands,
+/// which no family RMS shows, so the greedy choice never reaches it, and casing_mode's own fit spends
+/// its second mode elsewhere. The mode is casing_mode's form with both modes at f_n and a complex
+/// residue (CasingModeTerm: its phase at the sensor), ζ down to a steel casing's material damping,
+/// each bin reading the gain averaged over its half-order bins (binned.hpp). It is fitted where the
+/// training records show it: every line and bin within the feature's extent and two bins of the
+/// fastest record each side when one of the feature's training cells rises by the minimum (a grid
+/// over ζ, f_n, the mass and the phase, then compass searches from each ζ's best and from the
+/// description's f_n and ζ); else their local cells (features.hpp: a bin's band against its local
+/// expectation E, E times the gain), from the description's f_n and ζ. Judged as explaining_candidate
+/// judges, on the cells of the same kind: the feature's held-out cells with |g| at the practical
+/// minimum (its training cells when no held-out record shows it), RMS under the minimum with the
+/// mode; and the RMS over the held-out records' window not made worse. Power cannot tell the mode from
+/// its mirror (same f_n and ζ, another mass and phase, docs/gap.md): the fit reports one of the two.
+/// Needs the twin's bearing-force path on the twin's spectra (none: nullopt).
 std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& feature, const std::vector<RecordModels>& held_out,
                                                        const std::vector<RecordModels>& training, const GearPairSpec& gears,
                                                        const FeatureSettings& settings);
