@@ -11,6 +11,7 @@
 #include <functional>
 #include <complex>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -1056,6 +1057,19 @@ std::vector<RecordModels> models_of_set(const std::vector<SpectralSummary>& meas
   return out;
 }
 
+/// The feature found within a bin of the fastest speed of `fn`, described as a resonance at its
+/// centre (the describer has its own tests; no damping read). None: no feature there.
+std::optional<GapFeature> resonance_feature_near(const std::vector<GapFeature>& features, double fn) {
+  const auto at = std::find_if(features.begin(), features.end(), [&](const GapFeature& f) {
+    return f.hz_low - kSpeeds.back() <= fn && f.hz_high + kSpeeds.back() >= fn;
+  });
+  if (at == features.end()) return std::nullopt;
+  GapFeature f = *at;
+  f.description.kind = DescriptionKind::resonance;
+  f.description.parameters = {{"frequency_hz", f.hz}};
+  return f;
+}
+
 }  // namespace
 
 TEST_CASE("gap attribution: a narrow resonance no family shows is casing_mode's, its mode fitted on its own cells",
@@ -1074,14 +1088,9 @@ TEST_CASE("gap attribution: a narrow resonance no family shows is casing_mode's,
     const auto set = resonance_set(fs, c.fn, c.zeta, c.peak_db, rng);
     auto features = resonance_features(set, rng);
     INFO(descriptions(features));
-    const auto at = std::find_if(features.begin(), features.end(), [&](const GapFeature& f) {
-      return f.hz_low - kSpeeds.back() <= c.fn && f.hz_high + kSpeeds.back() >= c.fn;
-    });
-    REQUIRE(at != features.end());
-    GapFeature f = *at;
-    // Described as a resonance at the feature's centre (the describer has its own tests); no damping read.
-    f.description.kind = DescriptionKind::resonance;
-    f.description.parameters = {{"frequency_hz", f.hz}};
+    const auto found = resonance_feature_near(features, c.fn);
+    REQUIRE(found.has_value());
+    const GapFeature& f = *found;
     const auto held_out = models_of_set(set.test_measured, set.test_twin);
     const auto training = models_of_set(set.train_measured, set.train_twin);
     // Nothing chosen: the chosen-candidate rule names nothing (what the bench saw on such draws).
@@ -1131,13 +1140,9 @@ TEST_CASE("gap attribution: a casing mode whose residue is complex is found at i
     const auto set = resonance_set(fs, gain, rng);
     auto features = resonance_features(set, rng);
     INFO(descriptions(features));
-    const auto at = std::find_if(features.begin(), features.end(), [&](const GapFeature& f) {
-      return f.hz_low - kSpeeds.back() <= c.fn && f.hz_high + kSpeeds.back() >= c.fn;
-    });
-    REQUIRE(at != features.end());
-    GapFeature f = *at;
-    f.description.kind = DescriptionKind::resonance;
-    f.description.parameters = {{"frequency_hz", f.hz}};
+    const auto found = resonance_feature_near(features, c.fn);
+    REQUIRE(found.has_value());
+    const GapFeature& f = *found;
     const auto held_out = models_of_set(set.test_measured, set.test_twin);
     const auto training = models_of_set(set.train_measured, set.train_twin);
     const auto fit = casing_mode_for_resonance(f, held_out, training, GearPairSpec{}, FeatureSettings{});
