@@ -237,7 +237,7 @@ TEST_CASE("gap command: one `gap` parent for every child, in any order of regist
   CHECK(bare.status != 0);
 }
 
-TEST_CASE("gap page: the features are listed with where, movement, size and records, and marked on both spectra",
+TEST_CASE("gap page: the features are listed with where, movement, size, records and what they are, and marked on both spectra",
           "[gap_page][report][gap_features]") {
   const std::string html = report::render_gap_report_html(page_data(testing::known_gap_report()));
   CHECK(count(html, "<tr class=\"feature-row\"") == 2);
@@ -245,13 +245,19 @@ TEST_CASE("gap page: the features are listed with where, movement, size and reco
   CHECK(html.find("<tr class=\"feature-row\" data-movement=\"fixed_in_hz\"><td>F1</td><td>2403.1 Hz</td><td>fixed_in_hz</td>"
                   "<td class=\"num\">240.33 (input)</td><td class=\"num\">2403.1</td><td class=\"num\">2385.0–2425.0</td>"
                   "<td class=\"num\">+11.75 dB</td><td class=\"num\">[11.50, 12.00]</td>"
-                  "<td>held-out 0 (10.00 Hz, +11.5 dB), training 1 (8.00 Hz, +12.0 dB)</td></tr>") != std::string::npos);
+                  "<td>held-out 0 (10.00 Hz, +11.5 dB), training 1 (8.00 Hz, +12.0 dB)</td>"
+                  "<td class=\"what\">explained by casing_mode; described as a resonance at 2403.5 Hz, damping ratio 0.0125, +11.8 dB at "
+                  "its peak</td></tr>") != std::string::npos);
+  // The ghost: no candidate explains it; a 15 % modulation at the gear shaft's order describes it.
+  CHECK(html.find("<td class=\"what\">not explained by a physical candidate; described as a 15 % modulation (AM or PM: no phases) "
+                  "at the gear shaft&#39;s order</td></tr>") != std::string::npos);
   // The ghost line, at an output order, seen in one record (so its movement is undetermined).
   CHECK(html.find("<td>F2</td><td>output order 2.50</td><td>undetermined</td>") != std::string::npos);
   // Marked on each spectrum: the plotted record turns at 10 Hz (7.5 Hz over 0.75 orders), so the band
   // sits at 2403.125 Hz = order 240.3125, the ghost at its 10 Hz sighting (order 0.9125, 9.125 Hz).
   CHECK(count(html, "<line class=\"ev feature\"") == 4);
-  CHECK(html.find("<title>F1: 2403.1 Hz (band 2385.0-2425.0 Hz), fixed in Hz, +11.8 dB [+11.5, +12.0], seen in 2 records</title>") !=
+  CHECK(html.find("<title>F1: 2403.1 Hz (band 2385.0-2425.0 Hz), fixed in Hz, +11.8 dB [+11.5, +12.0], seen in 2 records; "
+                  "explained by casing_mode; described as a resonance at 2403.5 Hz, damping ratio 0.0125, +11.8 dB at its peak</title>") !=
         std::string::npos);
   // A candidate fitted at a bound says what it would need.
   CHECK(html.find("at a bound: mount_resonance would need &gt; 2450 Hz frequency (frequency_hz at the top of its range)") != std::string::npos);

@@ -339,7 +339,7 @@ void render_spectra(const GapReport& r, std::string& h) {
     const double speed = r.hz_axis.front() / r.order_axis.front();
     for (std::size_t i = 0; i < r.features.size(); ++i) {
       const auto [order, hz] = feature_position(r.features[i], speed);
-      const std::string title = feature_label(i) + ": " + gap::describe(r.features[i]);
+      const std::string title = feature_label(i) + ": " + gap::describe(r.features[i]) + "; " + gap::statement(r.features[i]);
       order_marks.emplace_back(order, title);
       hz_marks.emplace_back(hz, title);
     }
@@ -366,9 +366,10 @@ void render_features(const GapReport& r, std::string& h) {
   h += "<p class=\"muted\">Every line and broadband bin of every record (training and held out) against the twin alone; significant "
        "over all of them (Benjamini–Hochberg, false discovery rate 5 %) and at least the practical minimum; adjacent bins merged, "
        "records joined where the feature sits at one order or one Hz. Movement: whether it stays at one order or one frequency "
-       "across the records' speeds. Size: 10·log10(measured/twin) at its largest bin, mean over the records, 90 % interval.</p>\n";
+       "across the records' speeds. Size: 10·log10(measured/twin) at its largest bin, mean over the records, 90 % interval. "
+       "What it is: the physical candidate that explains it (or none), and the form that describes it with its parameters.</p>\n";
   h += "<div class=\"scroll\"><table class=\"features\">\n<thead><tr><th>feature</th><th>where</th><th>movement</th><th>order</th>"
-       "<th>Hz</th><th>band (Hz)</th><th>size</th><th>interval</th><th>seen in</th></tr></thead>\n<tbody>\n";
+       "<th>Hz</th><th>band (Hz)</th><th>size</th><th>interval</th><th>seen in</th><th>what it is</th></tr></thead>\n<tbody>\n";
   for (std::size_t i = 0; i < r.features.size(); ++i) {
     const auto& f = r.features[i];
     std::string seen;
@@ -381,10 +382,11 @@ void render_features(const GapReport& r, std::string& h) {
          gap::to_string(f.movement) + "</td><td class=\"num\">" + fmt("%.2f", f.order) + " (" + gap::to_string(f.shaft) +
          ")</td><td class=\"num\">" + fmt("%.1f", f.hz) + "</td><td class=\"num\">" + fmt("%.1f", f.hz_low) + "–" +
          fmt("%.1f", f.hz_high) + "</td><td class=\"num\">" + fmt("%+.2f dB", f.size_db) + "</td><td class=\"num\">" +
-         interval_text(f.size_interval_db) + "</td><td>" + html_escape(seen) + "</td></tr>\n";
+         interval_text(f.size_interval_db) + "</td><td>" + html_escape(seen) + "</td><td class=\"what\">" + html_escape(gap::statement(f)) +
+         "</td></tr>\n";
   }
   if (r.features.empty())
-    h += "<tr><td colspan=\"9\" class=\"muted\">none: no line or band is off the twin beyond its noise and the practical minimum</td></tr>\n";
+    h += "<tr><td colspan=\"10\" class=\"muted\">none: no line or band is off the twin beyond its noise and the practical minimum</td></tr>\n";
   h += "</tbody></table></div>\n";
 }
 
