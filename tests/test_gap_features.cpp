@@ -1070,6 +1070,20 @@ std::optional<GapFeature> resonance_feature_near(const std::vector<GapFeature>& 
   return f;
 }
 
+/// A set's features, the one near `fn` described as a resonance, and its records as attribution reads them.
+struct ResonanceCase {
+  std::vector<GapFeature> features;
+  std::optional<GapFeature> feature;
+  std::vector<RecordModels> held_out, training;
+};
+
+ResonanceCase resonance_case(const ResonanceSet& set, double fn, std::mt19937_64& rng) {
+  ResonanceCase c{resonance_features(set, rng), std::nullopt, models_of_set(set.test_measured, set.test_twin),
+                  models_of_set(set.train_measured, set.train_twin)};
+  c.feature = resonance_feature_near(c.features, fn);
+  return c;
+}
+
 }  // namespace
 
 TEST_CASE("gap attribution: a narrow resonance no family shows is casing_mode's, its mode fitted on its own cells",
@@ -1086,16 +1100,12 @@ TEST_CASE("gap attribution: a narrow resonance no family shows is casing_mode's,
     INFO("f_n " << c.fn << " Hz, zeta " << c.zeta << ", " << c.peak_db << " dB");
     std::mt19937_64 rng(static_cast<std::uint64_t>(c.fn));
     const auto set = resonance_set(fs, c.fn, c.zeta, c.peak_db, rng);
-    auto features = resonance_features(set, rng);
-    INFO(descriptions(features));
-    const auto found = resonance_feature_near(features, c.fn);
-    REQUIRE(found.has_value());
-    const GapFeature& f = *found;
-    const auto held_out = models_of_set(set.test_measured, set.test_twin);
-    const auto training = models_of_set(set.train_measured, set.train_twin);
+    const auto rc = resonance_case(set, c.fn, rng);
+    INFO(descriptions(rc.features));
+    REQUIRE(rc.feature.has_value());
     // Nothing chosen: the chosen-candidate rule names nothing (what the bench saw on such draws).
-    CHECK_FALSE(explaining_candidate(f, held_out, training, {}, GearPairSpec{}, 3.0).has_value());
-    const auto fit = casing_mode_for_resonance(f, held_out, training, GearPairSpec{}, FeatureSettings{});
+    CHECK_FALSE(explaining_candidate(*rc.feature, rc.held_out, rc.training, {}, GearPairSpec{}, 3.0).has_value());
+    const auto fit = casing_mode_for_resonance(*rc.feature, rc.held_out, rc.training, GearPairSpec{}, FeatureSettings{});
     REQUIRE(fit.has_value());
     INFO("mode " << fit->mode_hz << " Hz, zeta " << fit->damping_ratio << ", " << fit->modal_mass_kg << " kg; held-out gap "
                  << fit->gap_before_db << " -> " << fit->gap_after_db << " dB");
@@ -1138,14 +1148,10 @@ TEST_CASE("gap attribution: a casing mode whose residue is complex is found at i
     };
     std::mt19937_64 rng(static_cast<std::uint64_t>(c.fn) + 1);
     const auto set = resonance_set(fs, gain, rng);
-    auto features = resonance_features(set, rng);
-    INFO(descriptions(features));
-    const auto found = resonance_feature_near(features, c.fn);
-    REQUIRE(found.has_value());
-    const GapFeature& f = *found;
-    const auto held_out = models_of_set(set.test_measured, set.test_twin);
-    const auto training = models_of_set(set.train_measured, set.train_twin);
-    const auto fit = casing_mode_for_resonance(f, held_out, training, GearPairSpec{}, FeatureSettings{});
+    const auto rc = resonance_case(set, c.fn, rng);
+    INFO(descriptions(rc.features));
+    REQUIRE(rc.feature.has_value());
+    const auto fit = casing_mode_for_resonance(*rc.feature, rc.held_out, rc.training, GearPairSpec{}, FeatureSettings{});
     REQUIRE(fit.has_value());
     INFO("mode " << fit->mode_hz << " Hz, zeta " << fit->damping_ratio << ", " << fit->modal_mass_kg << " kg, phase "
                  << fit->residue_phase_rad * 180 / pi << " deg; held-out gap " << fit->gap_before_db << " -> "
