@@ -430,61 +430,88 @@ double rms_window(const std::vector<WindowCell>& cells, const OneModeGain* mode)
   return std::sqrt(sum / static_cast<double>(cells.size()));
 }
 
+/// The window a mode is fitted in: the feature's extent (every cell the mode lifted by the practical
+/// minimum or more) and two bins of the fastest record each side, cells that did not move, which pin
+/// the mode's flanks. Not wider: a mode driven through the bearing forces' phase has an antiresonance
+/// beside its peak that a resonance in the path lacks, and far cells would weigh that difference.
+struct ModeWindow {
+  double lo_hz, hi_hz, centre_hz;
+};
+
+ModeWindow mode_window(const GapFeature& f, const std::vector<RecordModels>& held_out, const std::vector<RecordModels>& training) {
+  double top_speed = 0;
+  for (const auto* set : {&held_out, &training})
+    for (const auto& r : *set) top_speed = std::max(top_speed, r.measured->speed_hz);
+  const double margin = 2 * top_speed;
+  return {std::max(1.0, f.hz_low - margin), f.hz_high + margin, 0.5 * (f.hz_low + f.hz_high)};
+}
+
+/// A mode and how it was judged.
+struct JudgedMode {
+  OneMode mode;
+  CasingModeFit fit;
+};
+
+/// The mode fitted on the training records' lines and bins in the window, judged on the feature's
+/// held-out lines and bins (its training ones when no held-out record shows it).
+std::optional<JudgedMode> mode_from_lines_and_bins(const GapFeature& f, const std::vector<RecordModels>& held_out,
+                                                   const std::vector<RecordModels>& training, const GearPairSpec& gears,
+                                                   const ModeWindow& w, const CandidateForm& form, double min_feature_db) {
+  const auto fit_cells = window_cells(training, w.lo_hz, w.hi_hz, gears);
+  if (fit_cells.empty()) return std::nullopt;
+  auto judged = cells_of(f, held_out, true, gears, min_feature_db);
+  const auto* records = &held_out;
+  bool held = true;
+  if (judged.empty()) judged = cells_of(f, training, false, gears, min_feature_db), records = &training, held = false;
+  const OneMode mode = fit_one_mode(fit_cells, w.lo_hz, w.hi_hz, w.centre_hz, form, described_mode(f));
+  const OneModeGain gain(mode);
+  return JudgedMode{mode, {mode.hz, mode.zeta, mode.mass, mode.phase, rms_with(judged, *records, nullptr, gears),
+                           rms_with(judged, *records, &gain, gears), held, false}};
+}
+
+/// The mode fitted on the training records' local cells in the window, judged on the feature's
+/// held-out local cells (its training ones when no held-out record shows it; NaN gaps: neither does).
+std::optional<JudgedMode> mode_from_local_cells(const GapFeature& f, const std::vector<RecordModels>& held_out,
+                                                const std::vector<RecordModels>& training, const ModeWindow& w,
+                                                const CandidateForm& form, const FeatureSettings& settings) {
+  std::vector<LocalBand> bands;
+  for (const auto& rec : training) {
+    auto b = local_bands(rec, w.lo_hz, w.hi_hz, settings);
+    bands.insert(bands.end(), std::make_move_iterator(b.begin()), std::make_move_iterator(b.end()));
+  }
+  const auto fitted = local_mode(bands, f, w.lo_hz, w.hi_hz, form);
+  if (!fitted) return std::nullopt;
+  JudgedMode out{*fitted, {fitted->hz, fitted->zeta, fitted->mass, fitted->phase, 0, 0, true, false}};
+  std::tie(out.fit.gap_before_db, out.fit.gap_after_db) = local_gap_db(f, held_out, true, out.mode, settings);
+  if (!std::isfinite(out.fit.gap_before_db)) {
+    out.fit.held_out = false;
+    std::tie(out.fit.gap_before_db, out.fit.gap_after_db) = local_gap_db(f, training, false, out.mode, settings);
+  }
+  return out;
+}
+
 }  // namespace
 
 std::optional<CasingModeFit> casing_mode_for_resonance(const GapFeature& f, const std::vector<RecordModels>& held_out,
                                                        const std::vector<RecordModels>& training, const GearPairSpec& gears,
                                                        const FeatureSettings& settings) {
-  const double min_feature_db = settings.min_feature_db;
   if (training.empty()) return std::nullopt;
   const CandidateForm form = candidate_form(CandidateEffect::casing_mode, training.front().measured->sample_rate_hz);
-  double top_speed = 0;
-  for (const auto* set : {&held_out, &training})
-    for (const auto& r : *set) top_speed = std::max(top_speed, r.measured->speed_hz);
-  // The feature's extent (every cell the mode lifted by the practical minimum or more) and two bins
-  // of the fastest record each side: cells that did not move, which pin the mode's flanks. Not
-  // wider: casing_mode's mode is driven through the bearing forces' phase, an antiresonance beside
-  // its peak that a resonance in the path lacks, and far cells would weigh that difference.
-  const double margin = 2 * top_speed;
-  const double lo = std::max(1.0, f.hz_low - margin), hi = f.hz_high + margin, centre = 0.5 * (f.hz_low + f.hz_high);
-  OneMode mode{};
-  CasingModeFit out;
+  const ModeWindow w = mode_window(f, held_out, training);
   // The mode is fitted on what the training records show of it: their lines and bins when any of
   // them rises by the minimum, else their local cells (a peak narrower than a bin, or one between
   // the lines each training speed puts near it, shows only there).
-  if (!cells_of(f, training, false, gears, min_feature_db).empty()) {
-    const auto fit_cells = window_cells(training, lo, hi, gears);
-    if (fit_cells.empty()) return std::nullopt;
-    auto judged = cells_of(f, held_out, true, gears, min_feature_db);
-    const auto* records = &held_out;
-    bool held = true;
-    if (judged.empty()) judged = cells_of(f, training, false, gears, min_feature_db), records = &training, held = false;
-    mode = fit_one_mode(fit_cells, lo, hi, centre, form, described_mode(f));
-    const OneModeGain gain(mode);
-    out = {mode.hz, mode.zeta, mode.mass, mode.phase, rms_with(judged, *records, nullptr, gears), rms_with(judged, *records, &gain, gears),
-           held, false};
-  } else {
-    std::vector<LocalBand> bands;
-    for (const auto& rec : training) {
-      auto b = local_bands(rec, lo, hi, settings);
-      bands.insert(bands.end(), std::make_move_iterator(b.begin()), std::make_move_iterator(b.end()));
-    }
-    const auto fitted = local_mode(bands, f, lo, hi, form);
-    if (!fitted) return std::nullopt;
-    mode = *fitted;
-    out = {mode.hz, mode.zeta, mode.mass, mode.phase, 0, 0, true, false};
-    std::tie(out.gap_before_db, out.gap_after_db) = local_gap_db(f, held_out, true, mode, settings);
-    if (!std::isfinite(out.gap_before_db)) {
-      out.held_out = false;
-      std::tie(out.gap_before_db, out.gap_after_db) = local_gap_db(f, training, false, mode, settings);
-    }
-    if (!std::isfinite(out.gap_before_db)) return out;
-  }
-  out.residue_phase_rad = std::remainder(mode.phase, 2.0 * std::numbers::pi);
+  const auto judged = !cells_of(f, training, false, gears, settings.min_feature_db).empty()
+                          ? mode_from_lines_and_bins(f, held_out, training, gears, w, form, settings.min_feature_db)
+                          : mode_from_local_cells(f, held_out, training, w, form, settings);
+  if (!judged) return std::nullopt;
+  CasingModeFit out = judged->fit;
+  out.residue_phase_rad = std::remainder(judged->mode.phase, 2.0 * std::numbers::pi);
+  if (!std::isfinite(out.gap_before_db)) return out;
   // Held out, the mode must not make the window worse, whether or not those records show the feature.
-  const auto window = window_cells(held_out.empty() ? training : held_out, lo, hi, gears);
-  const OneModeGain gain(mode);
-  out.explains = out.gap_after_db < min_feature_db && rms_window(window, &gain) <= rms_window(window, nullptr);
+  const auto window = window_cells(held_out.empty() ? training : held_out, w.lo_hz, w.hi_hz, gears);
+  const OneModeGain gain(judged->mode);
+  out.explains = out.gap_after_db < settings.min_feature_db && rms_window(window, &gain) <= rms_window(window, nullptr);
   return out;
 }
 
