@@ -187,16 +187,21 @@ class OneModeGain {
 /// half-order bins (what the bin holds).
 enum class BinReading { at_centre, averaged };
 
-/// The sum of squared g over `cells` with the mode.
-double misfit(const std::vector<WindowCell>& cells, const OneMode& mode, BinReading reading) {
-  const OneModeGain gain_of(mode);
+/// The sum of squared g over `cells`, the twin times the mode's gain (none: the twin alone).
+double squared_gaps(const std::vector<WindowCell>& cells, const OneModeGain* mode, BinReading reading) {
   double sum = 0;
   for (const auto& c : cells) {
-    const double gain = reading == BinReading::averaged ? gain_of(c) : gain_of.at(c.path, c.hz);
+    const double gain = mode == nullptr ? 1.0 : reading == BinReading::averaged ? (*mode)(c) : mode->at(c.path, c.hz);
     const double g = ratio_db(c.measured, c.twin * gain, c.floor);
     sum += g * g;
   }
   return sum;
+}
+
+/// The sum of squared g over `cells` with the mode.
+double misfit(const std::vector<WindowCell>& cells, const OneMode& mode, BinReading reading) {
+  const OneModeGain gain(mode);
+  return squared_gaps(cells, &gain, reading);
 }
 
 /// The one mode's damping ratios: casing_mode's range, down to a steel casing's material damping.
@@ -219,15 +224,20 @@ struct ModeBounds {
 constexpr int kResiduePhases = 8;
 double residue_phase(int i) { return 2.0 * std::numbers::pi * i / kResiduePhases; }
 
+/// `m` with f_n, ζ and the mass in the box.
+OneMode clamped(OneMode m, const ModeBounds& box) {
+  m.hz = std::clamp(m.hz, box.lo_hz, box.hi_hz);
+  m.zeta = std::clamp(m.zeta, box.zeta_low, box.zeta_high);
+  m.mass = std::clamp(m.mass, box.mass_low, box.mass_high);
+  return m;
+}
+
 /// `mode` moved along coordinate k (the logs of f_n, ζ and m; the residue's phase) by `delta`, in its box.
 OneMode moved(OneMode m, std::size_t k, double delta, const ModeBounds& box) {
   if (k == 3) return m.phase += delta, m;
   double& v = k == 0 ? m.hz : k == 1 ? m.zeta : m.mass;
   v *= std::exp(delta);
-  m.hz = std::clamp(m.hz, box.lo_hz, box.hi_hz);
-  m.zeta = std::clamp(m.zeta, box.zeta_low, box.zeta_high);
-  m.mass = std::clamp(m.mass, box.mass_low, box.mass_high);
-  return m;
+  return clamped(m, box);
 }
 
 /// A compass search in the logs of f_n, ζ and m and in the residue's phase from `start`, halving its
@@ -291,8 +301,7 @@ OneMode fit_one_mode(const std::vector<WindowCell>& cells, double lo_hz, double 
     starts.push_back(best.second);
   }
   if (described) {
-    const OneMode at{std::clamp(described->hz, lo_hz, hi_hz), std::clamp(described->zeta, box.zeta_low, box.zeta_high), 0, 0};
-    starts.push_back(best_mass_and_phase(on_centres, at, mass_range).second);
+    starts.push_back(best_mass_and_phase(on_centres, clamped(*described, box), mass_range).second);
   }
   auto step_from = [&](const OneMode& start) {
     return std::array<double, 4>{std::log1p(hz_step(start.zeta) / start.hz), std::log(zeta_range.high / zeta_range.low) / (kZeta - 1),
@@ -394,8 +403,7 @@ std::optional<OneMode> local_mode(const std::vector<LocalBand>& bands, const Gap
     }
     return sum;
   };
-  const OneMode at{std::clamp(described->hz, lo_hz, hi_hz), std::clamp(described->zeta, box.zeta_low, box.zeta_high), 0, 0};
-  const OneMode start = best_mass_and_phase(cost, at, mass_range).second;
+  const OneMode start = best_mass_and_phase(cost, clamped(*described, box), mass_range).second;
   const std::array<double, 4> step = {std::log1p(0.25 * start.zeta), 0.25,
                                       std::log(mass_range.high / mass_range.low) / (kModalMasses - 1), residue_phase(1) / 2};
   return compass(cost, start, step, box);
@@ -422,12 +430,7 @@ std::pair<double, double> local_gap_db(const GapFeature& f, const std::vector<Re
 
 double rms_window(const std::vector<WindowCell>& cells, const OneModeGain* mode) {
   if (cells.empty()) return 0.0;
-  double sum = 0;
-  for (const auto& c : cells) {
-    const double g = ratio_db(c.measured, c.twin * (mode == nullptr ? 1.0 : (*mode)(c)), c.floor);
-    sum += g * g;
-  }
-  return std::sqrt(sum / static_cast<double>(cells.size()));
+  return std::sqrt(squared_gaps(cells, mode, BinReading::averaged) / static_cast<double>(cells.size()));
 }
 
 /// The window a mode is fitted in: the feature's extent (every cell the mode lifted by the practical
